@@ -1,0 +1,23 @@
+"""kinematics: the Robot (Pinocchio model + data), FK, Jacobians, singularity measures, SE(3) helpers, errors."""
+
+from . import errors, se3, singularity
+from .errors import (
+    FrameError,
+    InputError,
+    JointLimitError,
+    KinserveError,
+    ModelError,
+    NonFiniteError,
+    RotationError,
+    ShapeError,
+    SingularityError,
+    UnknownRobotError,
+)
+from .robot import TASK_AXES, Robot, axis_rows
+from .validation import as_matrix, as_pose, as_vector
+
+__all__ = [
+    "Robot", "TASK_AXES", "axis_rows", "as_pose", "as_vector", "as_matrix", "errors", "se3", "singularity",
+    "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
+    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError",
+]

@@ -1,0 +1,80 @@
+"""Forward kinematics of one frame for a whole batch of configurations at once.
+
+For the chain of joints ``j_1 ... j_k`` from the root to the frame's parent
+joint, with fixed placements ``M_i = (R_i, p_i)`` (joint in its parent joint)
+and joint motions ``X_i(q)``:
+
+    oMf(q) = M_1 X_1(q) M_2 X_2(q) ... M_k X_k(q) F
+
+where ``F`` is the frame's placement in its parent joint. A revolute joint
+about unit axis ``a`` moves by ``X = (Rot(a, q), 0)`` with Rodrigues'
+formula ``Rot(a, q) = I + sin q [a]x + (1 - cos q) [a]x^2``; a prismatic
+joint by ``X = (I, a q)``. Every product is evaluated for all N
+configurations with NumPy, so the per-configuration cost is a few hundred
+nanoseconds instead of a Python call into Pinocchio per configuration.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import ModelError
+
+_AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
+
+
+def _joint_kind(joint) -> tuple[str, np.ndarray]:
+    """('R' | 'P', unit axis) of a one-DOF Pinocchio joint model."""
+    short = joint.shortname()
+    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+        return "R", _AXES[short[-1]]
+    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
+        return "P", _AXES[short[-1]]
+    if short == "JointModelRevoluteUnaligned":
+        return "R", np.asarray(joint.extract().axis, dtype=float).copy()
+    if short == "JointModelPrismaticUnaligned":
+        return "P", np.asarray(joint.extract().axis, dtype=float).copy()
+    raise ModelError(f"batch FK supports revolute and prismatic joints only, got {short}")
+
+
+class ChainFK:
+    """Vectorised FK of frame ``frame_id`` of ``model``; call with ``Q`` (N, nq)."""
+
+    def __init__(self, model: pin.Model, frame_id: int):
+        frame = model.frames[frame_id]
+        chain = []
+        j = frame.parentJoint
+        while j > 0:
+            chain.append(j)
+            j = model.parents[j]
+        chain.reverse()
+        self.steps = []
+        for j in chain:
+            kind, axis = _joint_kind(model.joints[j])
+            M = model.jointPlacements[j]
+            K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+            self.steps.append((model.joints[j].idx_q, kind, axis, M.rotation.copy(), M.translation.copy(), K, K @ K))
+        F = frame.placement
+        self.frame_R = F.rotation.copy()
+        self.frame_p = F.translation.copy()
+
+    def __call__(self, Q: np.ndarray) -> np.ndarray:
+        N = Q.shape[0]
+        R = np.broadcast_to(np.eye(3), (N, 3, 3))
+        p = np.zeros((N, 3))
+        for iq, kind, axis, MR, Mp, K, K2 in self.steps:
+            p = p + R @ Mp
+            R = R @ MR
+            qi = Q[:, iq]
+            if kind == "R":
+                s = np.sin(qi)[:, None, None]
+                c1 = (1.0 - np.cos(qi))[:, None, None]
+                R = R + s * (R @ K) + c1 * (R @ K2)
+            else:
+                p = p + (R @ axis) * qi[:, None]
+        T = np.zeros((N, 4, 4))
+        T[:, :3, 3] = p + R @ self.frame_p
+        T[:, :3, :3] = R @ self.frame_R
+        T[:, 3, 3] = 1.0
+        return T

@@ -1,0 +1,111 @@
+"""Input checking shared by every public entry point.
+
+The fast path costs well under a microsecond for a correct float64 vector: a
+type/shape test and one dot product (``q·q`` is finite iff every entry is
+finite and not astronomically large). Only when that test fails is the slow
+path taken to say exactly what is wrong.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import JointLimitError, NonFiniteError, RotationError, ShapeError
+
+#: Magnitudes beyond this are rejected as non-physical (metres or radians).
+MAX_ABS = 1e6
+
+#: Tolerance on ||R^T R - I|| (max abs entry) and on |det R - 1| for poses.
+ROTATION_TOL = 1e-6
+
+
+def as_vector(value, n: int, name: str = "q") -> np.ndarray:
+    """Return ``value`` as a finite float64 vector of length ``n`` or raise.
+
+    Accepts any sequence of numbers. Raises :class:`ShapeError` for wrong
+    length/shape or non-numeric entries and :class:`NonFiniteError` for NaN,
+    infinities or entries with magnitude above :data:`MAX_ABS`.
+    """
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,):
+        s = value.dot(value)
+        if math.isfinite(s) and s < MAX_ABS * MAX_ABS:
+            return value
+        _raise_non_finite(value, name)
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ShapeError(
+            f"{name} must be a sequence of {n} numbers, got {_describe(value)}"
+        ) from None
+    if arr.ndim == 2 and 1 in arr.shape and arr.size == n:
+        arr = arr.reshape(n)
+    if arr.shape != (n,):
+        raise ShapeError(f"{name} must have shape ({n},), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > MAX_ABS):
+        _raise_non_finite(arr, name)
+    return arr
+
+
+def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
+    """Return ``value`` as a finite float64 array of exactly ``shape`` (-1 = any)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {_describe(value)}") from None
+    if arr.ndim != len(shape) or any(s != -1 and s != a for s, a in zip(shape, arr.shape)):
+        want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
+        raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > MAX_ABS):
+        _raise_non_finite(arr, name)
+    return arr
+
+
+def as_pose(value, name: str = "target") -> np.ndarray:
+    """Return a homogeneous 4x4 float64 pose, checking the rotation block.
+
+    Accepts a 4x4 array-like or a ``pinocchio.SE3``. The bottom row must be
+    ``[0, 0, 0, 1]`` and the rotation block orthonormal with det +1 (within
+    :data:`ROTATION_TOL`); otherwise :class:`RotationError` / :class:`ShapeError`.
+    """
+    if hasattr(value, "homogeneous") and hasattr(value, "rotation"):
+        value = value.homogeneous
+    T = as_matrix(value, (4, 4), name)
+    if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
+        raise ShapeError(f"{name} must be homogeneous: bottom row [0, 0, 0, 1], got {T[3].tolist()}")
+    check_rotation(T[:3, :3], name)
+    return T
+
+
+def check_rotation(R: np.ndarray, name: str = "rotation") -> None:
+    """Raise :class:`RotationError` unless ``R`` is in SO(3) within tolerance."""
+    err = np.abs(R.T @ R - np.eye(3)).max()
+    det = float(np.linalg.det(R))
+    if err > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
+        raise RotationError(
+            f"{name}: rotation block is not a rotation matrix "
+            f"(max |R^T R - I| = {err:.2e}, det R = {det:.6f}; expected orthonormal with det +1, "
+            f"tolerance {ROTATION_TOL:g})"
+        )
+
+
+def check_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, names, name: str = "q", tol: float = 1e-9) -> None:
+    """Raise :class:`JointLimitError` naming every joint outside [lower, upper]."""
+    bad = np.flatnonzero((q < lower - tol) | (q > upper + tol))
+    if bad.size:
+        parts = [f"{names[i]}={q[i]:.6g} not in [{lower[i]:.6g}, {upper[i]:.6g}]" for i in bad]
+        raise JointLimitError(f"{name} outside the joint limits: " + "; ".join(parts))
+
+
+def _raise_non_finite(arr: np.ndarray, name: str):
+    bad = [i for i, v in enumerate(np.ravel(arr)) if not math.isfinite(v) or abs(v) > MAX_ABS]
+    vals = ", ".join(f"[{i}]={np.ravel(arr)[i]!r}" for i in bad[:5])
+    raise NonFiniteError(
+        f"{name} must hold finite numbers with magnitude <= {MAX_ABS:g}; bad entries: {vals}"
+    )
+
+
+def _describe(value) -> str:
+    text = repr(value)
+    return text if len(text) < 60 else text[:57] + "..."
