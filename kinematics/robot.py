@@ -203,8 +203,16 @@ class Robot:
     def fk(self, q, frame: str | None = None, *, check_limits: bool = False) -> np.ndarray:
         """Pose ``T`` (4x4) of ``frame`` (default: the tool ``tip``) in the world at ``q``."""
         fid = self._tip_id if frame is None else self.frame_id(frame)
-        self._forward(q, check_limits)
-        return pin.updateFramePlacement(self.model, self.data, fid).homogeneous
+        model, data = self.model, self.data
+        if check_limits:
+            q = self.check_q(q, check_limits=True)
+        try:  # fast path, see _forward
+            if not _hypot(*q.tolist()) < MAX_ABS:
+                raise ValueError
+            pin.forwardKinematics(model, data, q)
+        except (AttributeError, TypeError, ValueError):
+            pin.forwardKinematics(model, data, self.check_q(q))
+        return pin.updateFramePlacement(model, data, fid).homogeneous
 
     def fk_all(self, q, *, check_limits: bool = False) -> dict[str, np.ndarray]:
         """Pose of every frame, ``{frame name: 4x4}``."""

@@ -34,6 +34,8 @@ def as_vector(value, n: int, name: str = "q") -> np.ndarray:
             return value
         _raise_non_finite(value, name)
     try:
+        if value is None or isinstance(value, (str, bytes, dict)):
+            raise TypeError
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ShapeError(
@@ -51,6 +53,8 @@ def as_vector(value, n: int, name: str = "q") -> np.ndarray:
 def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a finite float64 array of exactly ``shape`` (-1 = any)."""
     try:
+        if value is None or isinstance(value, (str, bytes, dict)):
+            raise TypeError
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {_describe(value)}") from None
@@ -100,7 +104,8 @@ def check_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, names, nam
 
 def _raise_non_finite(arr: np.ndarray, name: str):
     bad = [i for i, v in enumerate(np.ravel(arr)) if not math.isfinite(v) or abs(v) > MAX_ABS]
-    vals = ", ".join(f"[{i}]={np.ravel(arr)[i]!r}" for i in bad[:5])
+    flat = np.ravel(arr).tolist()
+    vals = ", ".join(f"[{i}]={flat[i]!r}" for i in bad[:5])
     raise NonFiniteError(
         f"{name} must hold finite numbers with magnitude <= {MAX_ABS:g}; bad entries: {vals}"
     )

@@ -1,0 +1,51 @@
+# kinserve: `make demo` and `make test` each work on a fresh machine that has only python3.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+PIP    := $(PY) -m pip
+DEMO_OUT ?= demo-out
+
+.PHONY: demo test bench install install-test browser clean
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) install --quiet --upgrade pip
+
+# Stamp files: reinstall only when pyproject.toml changes.
+$(VENV)/.installed: pyproject.toml | $(PY)
+	$(PIP) install --quiet -e .
+	touch $@
+
+$(VENV)/.installed-test: pyproject.toml | $(PY)
+	$(PIP) install --quiet -e ".[test]"
+	touch $@ $(VENV)/.installed
+
+$(VENV)/.installed-bench: pyproject.toml | $(PY)
+	$(PIP) install --quiet -e ".[test,bench]"
+	touch $@ $(VENV)/.installed-test $(VENV)/.installed
+
+install: $(VENV)/.installed
+install-test: $(VENV)/.installed-test
+
+# Headless Chromium for the browser test (Debian package; needs root or sudo).
+browser:
+	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || { \
+	  SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  echo "installing Debian's chromium for the browser test"; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq chromium fonts-dejavu-core >/dev/null \
+	  || echo "WARNING: could not install chromium; the browser test will be skipped"; }
+
+demo: $(VENV)/.installed
+	$(VENV)/bin/kinserve demo all --out $(DEMO_OUT)
+
+test: $(VENV)/.installed-test browser
+	$(PY) -m pytest -q -n 2 --dist loadfile
+
+bench: $(VENV)/.installed-bench
+	mkdir -p bench-out
+	$(PY) benchmarks/bench_kinematics.py --out bench-out/kinematics.json
+	$(PY) benchmarks/bench_ik.py --out bench-out/ik.json
+	$(PY) benchmarks/bench_planners.py --out bench-out/planners.json
+
+clean:
+	rm -rf $(VENV) $(DEMO_OUT) bench-out .pytest_cache

@@ -1,0 +1,104 @@
+"""Every bad input to the kinematics entry points gets a named, useful error."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinematics import (
+    FrameError,
+    InputError,
+    JointLimitError,
+    NonFiniteError,
+    RotationError,
+    ShapeError,
+    as_pose,
+    as_vector,
+    se3,
+)
+
+
+def test_good_inputs_in_any_numeric_form(panda):
+    q = [0.0, -0.3, 0.0, -2.0, 0.0, 1.5, 0.7]
+    T = panda.fk(np.array(q)).copy()
+    assert np.allclose(panda.fk(q), T)  # list
+    assert np.allclose(panda.fk(tuple(q)), T)  # tuple
+    assert np.allclose(panda.fk(np.array(q, dtype=np.float32)), T, atol=1e-6)  # float32
+    assert np.allclose(panda.fk(np.array(q).reshape(7, 1)), T)  # column vector
+    assert np.allclose(panda.jacobian(q), panda.jacobian(np.array(q)))
+
+
+@pytest.mark.parametrize(
+    "q, error, pattern",
+    [
+        (np.zeros(6), ShapeError, r"q must have shape \(7,\), got shape \(6,\)"),
+        (np.zeros(9), ShapeError, r"shape \(7,\)"),
+        (np.zeros((2, 7)), ShapeError, r"shape \(7,\)"),
+        ("abc", ShapeError, "q must be a sequence of 7 numbers"),
+        ([0, 0, 0, "x", 0, 0, 0], ShapeError, "sequence of 7 numbers"),
+        (None, ShapeError, "sequence of 7 numbers"),
+        ([0, 0, np.nan, 0, 0, 0, 0], NonFiniteError, r"\[2\]=nan"),
+        ([0, 0, 0, 0, 0, np.inf, 0], NonFiniteError, r"\[5\]=inf"),
+        ([0, 0, 0, 0, 0, 0, 1e300], NonFiniteError, "magnitude"),
+    ],
+)
+def test_bad_joint_vectors(panda, q, error, pattern):
+    for call in (panda.fk, panda.jacobian, panda.fk_all, panda.manipulability):
+        with pytest.raises(error, match=pattern):
+            call(q)
+
+
+def test_errors_are_value_errors_for_callers_that_catch_those(panda):
+    with pytest.raises(ValueError):
+        panda.fk([1.0])
+    assert issubclass(NonFiniteError, InputError)
+
+
+def test_unknown_frame_suggests_close_names(panda):
+    with pytest.raises(FrameError, match=r"unknown frame 'panda_link88'.*Did you mean: panda_link8"):
+        panda.fk(np.zeros(7), "panda_link88")
+    with pytest.raises(FrameError):
+        panda.jacobian(np.zeros(7), frame=3)
+
+
+def test_limit_checking_on_request(panda):
+    q = panda.middle()
+    q[3] = 0.5  # panda_joint4 upper limit is about -0.07
+    panda.fk(q)  # FK itself is defined everywhere
+    with pytest.raises(JointLimitError, match=r"panda_joint4=0.5 not in \["):
+        panda.fk(q, check_limits=True)
+    with pytest.raises(JointLimitError):
+        panda.jacobian(q, check_limits=True)
+
+
+def test_bad_reference_name(panda):
+    with pytest.raises(ShapeError, match="reference must be one of"):
+        panda.jacobian(np.zeros(7), reference="globe")
+
+
+def test_as_pose_checks_rotation_and_shape():
+    T = se3.pose(se3.rot_z(0.3), [1, 2, 3])
+    assert np.array_equal(as_pose(T), T)
+    assert np.allclose(as_pose(pin.SE3(T[:3, :3], T[:3, 3])), T)
+    scaled = T.copy()
+    scaled[:3, :3] *= 1.1
+    with pytest.raises(RotationError, match="not a rotation matrix"):
+        as_pose(scaled)
+    mirror = T.copy()
+    mirror[:3, 0] *= -1  # orthonormal but det = -1
+    with pytest.raises(RotationError, match="det R = -1"):
+        as_pose(mirror)
+    with pytest.raises(ShapeError, match=r"shape \(4, 4\)"):
+        as_pose(np.eye(3))
+    bottom = T.copy()
+    bottom[3, 0] = 1
+    with pytest.raises(ShapeError, match="bottom row"):
+        as_pose(bottom)
+    nan = T.copy()
+    nan[0, 3] = np.nan
+    with pytest.raises(NonFiniteError, match="target"):
+        as_pose(nan)
+
+
+def test_as_vector_names_the_argument():
+    with pytest.raises(ShapeError, match=r"^velocity must have shape \(2,\)"):
+        as_vector([1, 2, 3], 2, "velocity")
