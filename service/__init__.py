@@ -1,0 +1,1 @@
+"""service: the `kinserve` command line and the HTTP kinematics service."""

@@ -1,0 +1,181 @@
+"""The ``kinserve`` command line.
+
+Each sub-command parses its arguments, calls the library and prints the
+answer (plain text, or JSON with ``--json``). Library errors
+(:class:`kinematics.errors.KinserveError`) become one ``error: ...`` line on
+stderr and exit status 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+from kinematics.errors import KinserveError, ShapeError
+
+EXIT_USAGE = 2
+
+
+# ----------------------------------------------------------------- helpers
+def parse_vector(values: list[str] | None, name: str = "--q") -> np.ndarray | None:
+    """Numbers from ``--q 0 0.1 0.2`` or ``--q 0,0.1,0.2`` (or a JSON list)."""
+    if not values:
+        return None
+    text = " ".join(values).strip()
+    if text.startswith("["):
+        try:
+            return np.asarray(json.loads(text), dtype=float)
+        except (ValueError, TypeError):
+            raise ShapeError(f"{name}: expected a JSON list of numbers, got {text!r}") from None
+    parts = [p for p in text.replace(",", " ").split() if p]
+    try:
+        return np.array([float(p) for p in parts])
+    except ValueError:
+        raise ShapeError(f"{name}: expected numbers separated by spaces or commas, got {text!r}") from None
+
+
+def parse_params(items: list[str] | None) -> dict:
+    """``--param l1=1.2 --param name=x`` into ``{"l1": 1.2, "name": "x"}`` (numbers parsed)."""
+    params = {}
+    for item in items or []:
+        if "=" not in item:
+            raise ShapeError(f"--param expects KEY=VALUE, got {item!r}")
+        key, value = item.split("=", 1)
+        try:
+            params[key.strip()] = float(value)
+        except ValueError:
+            params[key.strip()] = value
+    return params
+
+
+def load_robot(args):
+    import robots
+
+    return robots.load(args.robot, **parse_params(getattr(args, "param", None)))
+
+
+def robot_q(robot, args) -> np.ndarray:
+    q = parse_vector(args.q)
+    return robot.neutral() if q is None else robot.check_q(q)
+
+
+def fmt_matrix(M: np.ndarray, digits: int = 6) -> str:
+    return "\n".join("  " + " ".join(f"{v: .{digits}f}" for v in row) for row in np.atleast_2d(M))
+
+
+def emit(args, payload: dict, text: str) -> None:
+    print(json.dumps(payload, indent=2) if getattr(args, "json", False) else text)
+
+
+def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
+    p.add_argument("robot", help="built-in robot name (see `kinserve models`), or a .urdf/.xacro path")
+    p.add_argument("--param", action="append", metavar="KEY=VALUE", help="model parameter / xacro arg (repeatable)")
+    if q:
+        p.add_argument("--q", nargs="+", metavar="Q", help="joint values (rad / m), space or comma separated; default: neutral")
+        p.add_argument("--frame", help="frame name (default: the robot's tool frame)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+
+
+# ---------------------------------------------------------------- commands
+def cmd_models(args) -> int:
+    import robots
+
+    models = robots.available()
+    width = max(map(len, models))
+    emit(args, models, "\n".join(f"{name:<{width}}  {desc}" for name, desc in models.items()))
+    return 0
+
+
+def cmd_fk(args) -> int:
+    robot = load_robot(args)
+    q = robot_q(robot, args)
+    frame = args.frame or robot.tip
+    T = robot.fk(q, frame)
+    text = f"{robot.name}  frame {frame}  q = {np.array2string(q, precision=4)}\npose (4x4):\n{fmt_matrix(T)}"
+    emit(args, {"robot": robot.name, "frame": frame, "q": q.tolist(), "pose": T.tolist()}, text)
+    return 0
+
+
+def cmd_jacobian(args) -> int:
+    robot = load_robot(args)
+    q = robot_q(robot, args)
+    frame = args.frame or robot.tip
+    J = robot.jacobian(q, frame, reference=args.reference)
+    sv = robot.singular_values(q, frame)
+    manip = float(np.prod(sv))
+    singular = robot.is_singular(q, frame=frame)
+    text = (
+        f"{robot.name}  frame {frame}  reference {args.reference}  q = {np.array2string(q, precision=4)}\n"
+        f"Jacobian (6x{robot.nq}, rows vx vy vz wx wy wz):\n{fmt_matrix(J)}\n"
+        f"task axes {', '.join(robot.task_axes)}: singular values {np.array2string(sv, precision=5)}, "
+        f"manipulability {manip:.6g}{'  SINGULAR' if singular else ''}"
+    )
+    payload = {
+        "robot": robot.name, "frame": frame, "reference": args.reference, "q": q.tolist(), "jacobian": J.tolist(),
+        "task_axes": list(robot.task_axes), "singular_values": sv.tolist(), "manipulability": manip, "singular": singular,
+    }
+    emit(args, payload, text)
+    return 0
+
+
+COMMANDS: dict[str, tuple] = {}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="kinserve", description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    p = sub.add_parser("models", help="list the built-in robots")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=cmd_models)
+
+    p = sub.add_parser("fk", help="forward kinematics: pose of a frame")
+    add_robot_args(p)
+    p.set_defaults(func=cmd_fk)
+
+    p = sub.add_parser("jacobian", help="geometric Jacobian and singularity measures")
+    add_robot_args(p)
+    p.add_argument("--reference", default="world", choices=["world", "local", "spatial"])
+    p.set_defaults(func=cmd_jacobian)
+
+    for register in _EXTRA_COMMANDS:
+        register(sub)
+    return parser
+
+
+#: Registration hooks of the sub-commands defined in sibling modules (ik, demo, view, serve, reach).
+_EXTRA_COMMANDS: list = []
+
+
+def _load_extra_commands() -> None:
+    import importlib
+
+    for module in ("service.cli_ik", "service.cli_demo", "service.cli_view", "service.cli_serve", "service.cli_reach"):
+        try:
+            mod = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+            continue
+        _EXTRA_COMMANDS.append(mod.register)
+
+
+def main(argv: list[str] | None = None) -> int:
+    _load_extra_commands()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except KinserveError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
