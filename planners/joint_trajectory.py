@@ -1,0 +1,254 @@
+"""``JointTrajectory``: sampled joint positions (and rates) over time, like ROS's message.
+
+Mirrors ``trajectory_msgs/JointTrajectory``: joint names plus points, each
+with ``positions``, ``velocities``, ``accelerations`` and
+``time_from_start`` (seconds). Stored column-wise as arrays: ``times (N,)``,
+``positions (N, nq)`` and optional ``velocities``/``accelerations (N, nq)``.
+
+File formats (both round-trip exactly up to float text precision, ``repr``):
+
+* JSON: ``{"joint_names": [...], "points": [{"positions": [...],
+  "velocities": [...], "accelerations": [...], "time_from_start": t}, ...]}``
+  (``velocities``/``accelerations`` omitted when absent);
+* CSV: header ``time_from_start, position:<joint>..., velocity:<joint>...,
+  acceleration:<joint>...`` then one row per point.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from kinematics.errors import InputError, ShapeError
+from kinematics.validation import as_matrix
+
+
+def finite_difference_velocities(positions, times, *, zero_ends: bool = False) -> np.ndarray:
+    """Velocities ``(N, nq)`` from positions by second-order finite differences.
+
+    Interior points use the non-uniform central difference of
+    ``numpy.gradient``; the ends use one-sided second-order differences (or
+    zero when ``zero_ends``, for a trajectory that starts and ends at rest).
+    Exact for quadratics in ``t``.
+    """
+    Q = np.asarray(positions, dtype=float)
+    t = np.asarray(times, dtype=float)
+    if Q.ndim != 2 or t.shape != (Q.shape[0],):
+        raise ShapeError(f"positions must be (N, nq) and times (N,), got {Q.shape} and {t.shape}")
+    if Q.shape[0] < 2:
+        return np.zeros_like(Q)
+    V = np.gradient(Q, t, axis=0, edge_order=2 if Q.shape[0] >= 3 else 1)
+    if zero_ends:
+        V[0] = 0.0
+        V[-1] = 0.0
+    return V
+
+
+@dataclass
+class JointTrajectory:
+    """Joint names, ``times (N,)`` strictly increasing from >= 0, ``positions (N, nq)``.
+
+    ``velocities`` and ``accelerations`` are optional ``(N, nq)`` arrays.
+    Construction validates shapes, finiteness and the time order.
+    """
+
+    joint_names: list[str]
+    times: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray | None = None
+    accelerations: np.ndarray | None = None
+
+    def __post_init__(self):
+        names = list(self.joint_names)
+        if not all(isinstance(n, str) and n for n in names):
+            raise InputError(f"joint_names must be non-empty strings, got {names!r}")
+        if len(set(names)) != len(names):
+            raise InputError(f"joint_names must be unique, got {names!r}")
+        self.joint_names = names
+        nq = len(names)
+        self.positions = as_matrix(self.positions, (-1, nq), "positions")
+        N = self.positions.shape[0]
+        if N == 0:
+            raise ShapeError("a trajectory needs at least one point")
+        self.times = as_matrix(self.times, (N,), "times")
+        if self.times[0] < 0 or np.any(np.diff(self.times) <= 0):
+            raise InputError("times (time_from_start) must start at >= 0 and be strictly increasing")
+        if self.velocities is not None:
+            self.velocities = as_matrix(self.velocities, (N, nq), "velocities")
+        if self.accelerations is not None:
+            self.accelerations = as_matrix(self.accelerations, (N, nq), "accelerations")
+
+    # ----------------------------------------------------------- constructors
+    @classmethod
+    def from_positions(cls, joint_names, positions, dt: float, *, velocities: str | None = "finite_difference", zero_end_velocities: bool = False):
+        """Points at ``time_from_start = i * dt``; velocities by finite differences unless ``velocities=None``."""
+        if not (isinstance(dt, (int, float)) and np.isfinite(dt) and dt > 0):
+            raise InputError(f"dt must be a finite number > 0, got {dt!r}")
+        Q = as_matrix(positions, (-1, len(list(joint_names))), "positions")
+        t = dt * np.arange(Q.shape[0])
+        V = None
+        if velocities == "finite_difference":
+            V = finite_difference_velocities(Q, t, zero_ends=zero_end_velocities)
+        elif velocities is not None:
+            raise InputError(f"velocities must be 'finite_difference' or None, got {velocities!r}")
+        return cls(list(joint_names), t, Q, V)
+
+    # ------------------------------------------------------------- accessors
+    @property
+    def n_points(self) -> int:
+        return self.positions.shape[0]
+
+    @property
+    def nq(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1])
+
+    def points(self) -> list[dict]:
+        """ROS-like list of points (plain Python lists)."""
+        out = []
+        for i in range(self.n_points):
+            p = {"positions": self.positions[i].tolist()}
+            if self.velocities is not None:
+                p["velocities"] = self.velocities[i].tolist()
+            if self.accelerations is not None:
+                p["accelerations"] = self.accelerations[i].tolist()
+            p["time_from_start"] = float(self.times[i])
+            out.append(p)
+        return out
+
+    def position_at(self, t) -> np.ndarray:
+        """Positions at times ``t`` by linear interpolation between points (clamped at the ends)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        return np.stack([np.interp(t, self.times, self.positions[:, j]) for j in range(self.nq)], axis=-1)
+
+    # ------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict:
+        return {"joint_names": list(self.joint_names), "points": self.points()}
+
+    def to_json(self, path=None, indent: int | None = None) -> str:
+        """JSON text (see the module docstring); also written to ``path`` if given."""
+        text = json.dumps(self.to_dict(), indent=indent)
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "JointTrajectory":
+        if not isinstance(d, dict) or "joint_names" not in d or "points" not in d:
+            raise InputError("a trajectory document needs 'joint_names' and 'points'")
+        pts = d["points"]
+        if not isinstance(pts, list) or not pts:
+            raise InputError("'points' must be a non-empty list")
+        try:
+            t = [float(p["time_from_start"]) for p in pts]
+            Q = [p["positions"] for p in pts]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"every point needs 'positions' and a numeric 'time_from_start' ({exc!r})") from None
+        V = [p["velocities"] for p in pts] if all("velocities" in p for p in pts) else None
+        A = [p["accelerations"] for p in pts] if all("accelerations" in p for p in pts) else None
+        return cls(list(d["joint_names"]), np.array(t), np.array(Q, dtype=float),
+                   None if V is None else np.array(V, dtype=float), None if A is None else np.array(A, dtype=float))
+
+    @classmethod
+    def from_json(cls, source) -> "JointTrajectory":
+        """From JSON text or a path to a ``.json`` file."""
+        text = source
+        if isinstance(source, Path) or (isinstance(source, str) and not source.lstrip().startswith("{")):
+            try:
+                text = Path(source).read_text()
+            except OSError as exc:
+                raise InputError(f"cannot read trajectory file {str(source)!r}: {exc}") from None
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InputError(f"trajectory JSON is malformed: {exc}") from None
+        return cls.from_dict(d)
+
+    # ------------------------------------------------------------------- CSV
+    def to_csv(self, path=None) -> str:
+        """CSV text (see the module docstring); also written to ``path`` if given."""
+        header = ["time_from_start"] + [f"position:{n}" for n in self.joint_names]
+        blocks = [self.times[:, None], self.positions]
+        if self.velocities is not None:
+            header += [f"velocity:{n}" for n in self.joint_names]
+            blocks.append(self.velocities)
+        if self.accelerations is not None:
+            header += [f"acceleration:{n}" for n in self.joint_names]
+            blocks.append(self.accelerations)
+        data = np.hstack(blocks)
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(header)
+        for row in data:
+            w.writerow([repr(float(v)) for v in row])
+        text = buf.getvalue()
+        if path is not None:
+            Path(path).write_text(text)
+        return text
+
+    @classmethod
+    def from_csv(cls, source) -> "JointTrajectory":
+        """From CSV text or a path to a ``.csv`` file."""
+        text = source
+        if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
+            try:
+                text = Path(source).read_text()
+            except OSError as exc:
+                raise InputError(f"cannot read trajectory file {str(source)!r}: {exc}") from None
+        rows = list(csv.reader(io.StringIO(text)))
+        if len(rows) < 2:
+            raise InputError("trajectory CSV needs a header row and at least one data row")
+        header = [h.strip() for h in rows[0]]
+        if header[0] != "time_from_start":
+            raise InputError(f"trajectory CSV must start with a 'time_from_start' column, got {header[0]!r}")
+        try:
+            data = np.array([[float(v) for v in r] for r in rows[1:] if r], dtype=float)
+        except ValueError as exc:
+            raise InputError(f"trajectory CSV holds a non-numeric value: {exc}") from None
+        if data.shape[1] != len(header):
+            raise ShapeError(f"trajectory CSV rows have {data.shape[1]} values for {len(header)} columns")
+        cols = {"position": [], "velocity": [], "acceleration": []}
+        for k, h in enumerate(header[1:], start=1):
+            kind, _, name = h.partition(":")
+            if kind not in cols or not name:
+                raise InputError(f"unknown trajectory CSV column {h!r}; expected position:/velocity:/acceleration:<joint>")
+            cols[kind].append((name, k))
+        names = [n for n, _ in cols["position"]]
+        for kind in ("velocity", "acceleration"):
+            if cols[kind] and [n for n, _ in cols[kind]] != names:
+                raise InputError(f"{kind} columns must name the same joints as the position columns, in order")
+
+        def block(kind):
+            return data[:, [k for _, k in cols[kind]]] if cols[kind] else None
+
+        return cls(names, data[:, 0], block("position"), block("velocity"), block("acceleration"))
+
+    # ------------------------------------------------------------- save/load
+    def save(self, path) -> Path:
+        """Write ``.json`` or ``.csv`` by the file's extension."""
+        path = Path(path)
+        if path.suffix.lower() == ".json":
+            self.to_json(path, indent=1)
+        elif path.suffix.lower() == ".csv":
+            self.to_csv(path)
+        else:
+            raise InputError(f"trajectory file must end in .json or .csv, got {path.name!r}")
+        return path
+
+    @classmethod
+    def load(cls, path) -> "JointTrajectory":
+        """Read a ``.json`` or ``.csv`` file written by :meth:`save` (or by hand)."""
+        path = Path(path)
+        if path.suffix.lower() == ".json":
+            return cls.from_json(path)
+        if path.suffix.lower() == ".csv":
+            return cls.from_csv(path)
+        raise InputError(f"trajectory file must end in .json or .csv, got {path.name!r}")

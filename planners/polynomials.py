@@ -1,0 +1,76 @@
+"""Polynomial boundary-value problems: cubic and quintic Hermite segments.
+
+A segment ``x(t)`` on ``[0, T]`` with prescribed position and velocity at both
+ends is a cubic; adding the accelerations makes it a quintic. Coefficients are
+in the power basis of ``t`` (not normalised), ``x(t) = sum_k c_k t^k``, and may
+be vector valued: every boundary argument broadcasts to a common shape ``S``
+and the coefficient array has shape ``(n + 1,) + S``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinematics.errors import InputError
+
+
+def _duration(T) -> float:
+    T = float(T)
+    if not np.isfinite(T) or T <= 0.0:
+        raise InputError(f"duration T must be a finite number > 0, got {T!r}")
+    return T
+
+
+def cubic_coefficients(T, x0, x1, v0=0.0, v1=0.0) -> np.ndarray:
+    """Coefficients ``(4, ...)`` of the cubic with ``x(0)=x0, x(T)=x1, x'(0)=v0, x'(T)=v1``.
+
+    ``c0 = x0, c1 = v0``,
+    ``c2 = 3 (x1 - x0)/T^2 - (2 v0 + v1)/T``,
+    ``c3 = -2 (x1 - x0)/T^3 + (v0 + v1)/T^2``.
+    """
+    T = _duration(T)
+    x0, x1, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (x0, x1, v0, v1)))
+    dx = x1 - x0
+    return np.stack([x0, v0, 3.0 * dx / T**2 - (2.0 * v0 + v1) / T, -2.0 * dx / T**3 + (v0 + v1) / T**2])
+
+
+def quintic_coefficients(T, x0, x1, v0=0.0, v1=0.0, a0=0.0, a1=0.0) -> np.ndarray:
+    """Coefficients ``(6, ...)`` of the quintic meeting position, velocity, acceleration at both ends.
+
+    ``c0 = x0, c1 = v0, c2 = a0/2``; ``c3..c5`` solve the 3x3 end conditions
+    (closed form, Lynch & Park eq. 9.9 generalised to non-zero boundary rates):
+
+    ``c3 = (20 dx - (8 v1 + 12 v0) T - (3 a0 - a1) T^2) / (2 T^3)``
+    ``c4 = (-30 dx + (14 v1 + 16 v0) T + (3 a0 - 2 a1) T^2) / (2 T^4)``
+    ``c5 = (12 dx - 6 (v1 + v0) T - (a0 - a1) T^2) / (2 T^5)``
+    """
+    T = _duration(T)
+    x0, x1, v0, v1, a0, a1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (x0, x1, v0, v1, a0, a1)))
+    dx = x1 - x0
+    c3 = (20.0 * dx - (8.0 * v1 + 12.0 * v0) * T - (3.0 * a0 - a1) * T**2) / (2.0 * T**3)
+    c4 = (-30.0 * dx + (14.0 * v1 + 16.0 * v0) * T + (3.0 * a0 - 2.0 * a1) * T**2) / (2.0 * T**4)
+    c5 = (12.0 * dx - 6.0 * (v1 + v0) * T - (a0 - a1) * T**2) / (2.0 * T**5)
+    return np.stack([x0, v0, 0.5 * a0, c3, c4, c5])
+
+
+def evaluate(coeffs, t, order: int = 2):
+    """Value and the first ``order`` derivatives of ``sum_k c_k t^k`` at times ``t``.
+
+    ``coeffs`` has shape ``(n + 1,) + S``; ``t`` any shape ``R``. Returns a list of
+    ``order + 1`` arrays of shape ``R + S`` (Horner's scheme on each derivative).
+    """
+    c = np.asarray(coeffs, dtype=float)
+    t = np.asarray(t, dtype=float)
+    tt = t.reshape(t.shape + (1,) * (c.ndim - 1))
+    out = []
+    for _ in range(order + 1):
+        acc = np.zeros(t.shape + c.shape[1:]) + c[-1]
+        for k in range(c.shape[0] - 2, -1, -1):
+            acc = acc * tt + c[k]
+        out.append(acc)
+        n = c.shape[0]
+        if n == 1:
+            c = np.zeros_like(c)
+        else:
+            c = c[1:] * np.arange(1, n).reshape((-1,) + (1,) * (c.ndim - 1))
+    return out

@@ -1,0 +1,158 @@
+"""Trajectories through via points with continuous velocity and acceleration.
+
+Given via points ``q_0 .. q_{K-1}`` (vectors of any length ``n``: joint
+vectors, positions, ...) and times ``t_0 < ... < t_{K-1}``, two constructions:
+
+* ``"cubic_spline"``: the C2 cubic spline through all points with prescribed
+  (default zero) boundary velocities (scipy ``CubicSpline`` with clamped ends).
+  Position, velocity and acceleration are continuous everywhere; the velocities
+  at the interior vias come out of the spline's tridiagonal system.
+* ``"quintic"``: one quintic per segment (Lynch & Park ch. 9.4 with
+  accelerations). The via velocity of each component is the mean of the two
+  adjacent segment slopes when they have the same sign and 0 otherwise (so the
+  motion does not overshoot a via that is a local extremum); via
+  accelerations are 0. Velocity and acceleration are continuous because both
+  segments meeting at a via use the same values there.
+
+When no times are given they are chosen from limits: each segment gets the
+rest-to-rest cubic minimum time under ``v_max``/``a_max`` (per component),
+a conservative heuristic since the vias are passed with non-zero velocity.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from kinematics.errors import InputError, ShapeError
+from kinematics.validation import as_matrix
+
+from . import polynomials
+from .time_scaling import minimum_time
+
+METHODS = ("cubic_spline", "quintic")
+
+
+@dataclass(frozen=True)
+class ViaPointTrajectory:
+    """A C2 trajectory ``q(t)`` through ``points`` at ``times``.
+
+    ``evaluate(t)`` returns ``(q, qd, qdd)``, each of shape ``(len(t), n)``
+    (or ``(n,)`` for a scalar ``t``); times outside ``[t_0, t_end]`` are clamped.
+    """
+
+    times: np.ndarray
+    points: np.ndarray
+    method: str
+    _spline: CubicSpline | None = None
+    _coeffs: np.ndarray | None = None  # (K-1, 6, n) quintic coefficients in local time
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0])
+
+    @property
+    def dim(self) -> int:
+        return self.points.shape[1]
+
+    def evaluate(self, t):
+        scalar = np.ndim(t) == 0
+        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
+        if self._spline is not None:
+            out = [self._spline(t, k) for k in range(3)]
+        else:
+            seg = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(self.times) - 2)
+            tau = t - self.times[seg]
+            c = self._coeffs[seg]  # (N, 6, n)
+            out = [np.zeros((t.size, self.dim)) for _ in range(3)]
+            powers = tau[:, None] ** np.arange(6)[None, :]  # (N, 6)
+            k = np.arange(6)
+            out[0] = np.einsum("nk,nkd->nd", powers, c)
+            d1 = np.zeros_like(powers)
+            d1[:, 1:] = powers[:, :-1] * k[1:]
+            out[1] = np.einsum("nk,nkd->nd", d1, c)
+            d2 = np.zeros_like(powers)
+            d2[:, 2:] = powers[:, :-2] * (k[2:] * (k[2:] - 1))
+            out[2] = np.einsum("nk,nkd->nd", d2, c)
+        if scalar:
+            return tuple(o[0] for o in out)
+        return tuple(out)
+
+    def sample(self, dt: float):
+        """``(t, q, qd, qdd)`` at ``t_0, t_0 + dt, ...`` up to and including the end time."""
+        if not dt > 0:
+            raise InputError(f"dt must be > 0, got {dt!r}")
+        n = int(np.floor(self.duration / dt + 1e-9))
+        t = self.times[0] + dt * np.arange(n + 1)
+        if self.times[-1] - t[-1] > 1e-9 * max(1.0, self.duration):
+            t = np.append(t, self.times[-1])
+        return (t, *self.evaluate(t))
+
+    def to_joint_trajectory(self, dt: float, joint_names):
+        """Sample every ``dt`` into a :class:`planners.joint_trajectory.JointTrajectory`."""
+        from .joint_trajectory import JointTrajectory
+
+        t, q, qd, qdd = self.sample(dt)
+        return JointTrajectory(list(joint_names), t - t[0], q, qd, qdd)
+
+
+def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0, v1) -> np.ndarray:
+    """Via velocities ``(K, n)``: mean of adjacent slopes when they agree in sign, else 0."""
+    slopes = np.diff(points, axis=0) / np.diff(times)[:, None]
+    v = np.zeros_like(points)
+    v[0], v[-1] = v0, v1
+    left, right = slopes[:-1], slopes[1:]
+    v[1:-1] = np.where(np.sign(left) * np.sign(right) > 0, 0.5 * (left + right), 0.0)
+    return v
+
+
+def via_point_trajectory(
+    points,
+    times=None,
+    *,
+    method: str = "cubic_spline",
+    v_max=None,
+    a_max=None,
+    v0=0.0,
+    v1=0.0,
+    t0: float = 0.0,
+) -> ViaPointTrajectory:
+    """Trajectory through ``points`` (shape ``(K, n)``, ``K >= 2``) at ``times`` (shape ``(K,)``).
+
+    Without ``times``, ``v_max`` and ``a_max`` (scalars or per-component) set
+    each segment's duration (see the module docstring); the trajectory starts
+    at ``t0``. ``v0``/``v1`` are the boundary velocities (default rest).
+    """
+    if method not in METHODS:
+        raise InputError(f"method must be one of {METHODS}, got {method!r}")
+    P = np.asarray(points, dtype=float)
+    if P.ndim == 1:
+        P = P[:, None]
+    P = as_matrix(P, (-1, -1), "points")
+    K, n = P.shape
+    if K < 2:
+        raise ShapeError(f"points must hold at least 2 via points, got {K}")
+    if times is None:
+        if v_max is None or a_max is None:
+            raise InputError("give the via times, or v_max and a_max to choose them")
+        seg = [max(minimum_time("cubic", P[k + 1] - P[k], v_max, a_max), 1e-6) for k in range(K - 1)]
+        t = t0 + np.concatenate([[0.0], np.cumsum(seg)])
+    else:
+        t = as_matrix(times, (K,), "times")
+        if np.any(np.diff(t) <= 0):
+            raise InputError(f"times must be strictly increasing, got {t.tolist()}")
+    v0 = np.broadcast_to(np.asarray(v0, dtype=float), (n,))
+    v1 = np.broadcast_to(np.asarray(v1, dtype=float), (n,))
+    if method == "cubic_spline":
+        spline = CubicSpline(t, P, axis=0, bc_type=((1, v0), (1, v1)))
+        return ViaPointTrajectory(t, P, method, _spline=spline)
+    V = heuristic_via_velocities(t, P, v0, v1)
+    coeffs = np.stack(
+        [
+            polynomials.quintic_coefficients(t[k + 1] - t[k], P[k], P[k + 1], V[k], V[k + 1], 0.0, 0.0)
+            for k in range(K - 1)
+        ]
+    )
+    return ViaPointTrajectory(t, P, method, _coeffs=coeffs)
