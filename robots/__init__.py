@@ -1,0 +1,24 @@
+"""robots: URDF / xacro model files, the DH -> URDF builder and the registry (name | path -> Robot).
+
+    import robots
+    robots.available()                    # {name: description}
+    panda = robots.load("panda")          # a kinematics.Robot (fresh Data each call)
+    arm = robots.load("planar4r", l1=1.2) # parametric seed robot (xacro args)
+    r = robots.load("my_arm.urdf.xacro", reach=0.8)
+    dh = robots.from_dh([(0.5, 0, 0, 0), (0.5, 0, 0, 0)], "RR")
+
+``robots`` imports ``kinematics``, never the reverse.
+"""
+
+from .dh import check_dh_table, dh_fk, dh_matrix, dh_to_urdf, from_dh
+from .paths import example_robot_data_dir, example_robot_data_package_dir, models_dir
+from .registry import ENTRIES, available, clear_cache, load, parameters
+from .urdf_loader import CONTINUOUS_LIMIT, load_urdf
+from .xacro_loader import declared_args, load_xacro, process_xacro
+
+__all__ = [
+    "load", "available", "parameters", "clear_cache", "ENTRIES",
+    "load_urdf", "load_xacro", "process_xacro", "declared_args", "CONTINUOUS_LIMIT",
+    "from_dh", "dh_to_urdf", "dh_matrix", "dh_fk", "check_dh_table",
+    "example_robot_data_dir", "example_robot_data_package_dir", "models_dir",
+]

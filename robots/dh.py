@@ -1,0 +1,361 @@
+"""Denavit-Hartenberg tables to URDF and to a :class:`kinematics.Robot`.
+
+Convention: standard (distal) DH. Row ``i`` (1-based) is ``(a_i, alpha_i, d_i, theta_i)`` and
+
+    A_i(q_i) = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)
+
+with the joint variable added to ``theta_i`` for a revolute joint (``R``) and
+to ``d_i`` for a prismatic joint (``P``): the constant ``theta_i`` / ``d_i``
+of the row is the offset at ``q_i = 0``. Joint ``i`` moves about / along the
+``z`` axis of frame ``i-1``. The tool pose is
+
+    T(q) = base * A_1(q_1) ... A_n(q_n) * tool.
+
+Units: metres and radians.
+
+URDF layout written by :func:`dh_to_urdf` (so the DH frames are frames of the model):
+
+* ``world`` --(fixed ``base_joint``, origin ``base``)--> ``link0`` (DH frame 0);
+* for each row: ``link{i-1}`` --(joint ``i``, origin ``Rz(theta_i) Tz(d_i)``,
+  axis ``z``)--> ``joint{i}_link`` --(fixed ``joint{i}_dh``, origin
+  ``Tx(a_i) Rx(alpha_i)``)--> ``link{i}`` (DH frame ``i``). This is exact for
+  both joint types because ``Rz`` and ``Tz`` commute;
+* ``link{n}`` --(fixed ``tool_joint``, origin ``tool``)--> ``tip_name``.
+
+Each link gets simple visual geometry (cylinders along the ``d`` and ``a``
+offsets, a drum for every revolute joint, a block for every prismatic joint,
+a sphere at the tool) so a browser viewer shows the mechanism.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pinocchio as pin
+from lxml import etree
+
+from kinematics.errors import InputError, ModelError
+from kinematics.robot import TASK_AXES, Robot
+from kinematics.validation import as_pose
+
+#: Default limits of a revolute joint when none are given (rad).
+DEFAULT_REVOLUTE_LIMITS = (-math.pi, math.pi)
+
+#: Nominal joint velocity (rad/s or m/s) and effort (N m or N) written into <limit>
+#: (URDF requires them; kinematics does not use them).
+DEFAULT_VELOCITY = 1.0
+DEFAULT_EFFORT = 100.0
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+
+_COLORS = {
+    "kinserve_link": "0.70 0.72 0.76 1",
+    "kinserve_revolute": "0.95 0.55 0.15 1",
+    "kinserve_prismatic": "0.20 0.50 0.90 1",
+    "kinserve_tool": "0.20 0.75 0.30 1",
+}
+
+
+def dh_matrix(a: float, alpha: float, d: float, theta: float) -> np.ndarray:
+    """``A = Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 array."""
+    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+    return np.array(
+        [
+            [ct, -st * ca, st * sa, a * ct],
+            [st, ct * ca, -ct * sa, a * st],
+            [0.0, sa, ca, d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def _vector(value, n: int, name: str, default) -> np.ndarray:
+    if value is None:
+        return np.asarray(default, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"DH table: {name} must be a number or {n} numbers, got {value!r}") from None
+    if arr.ndim == 0:
+        arr = np.full(n, float(arr))
+    if arr.shape != (n,):
+        raise ModelError(f"DH table: {name} must have {n} entries (one per row), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"DH table: {name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def check_dh_rows(rows, joint_types=None) -> tuple[np.ndarray, str]:
+    """Validate the rows ``(n, 4)`` and the ``R``/``P`` letters (default all ``R``)."""
+    try:
+        table = np.asarray(rows, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError("DH table: rows must be numbers (a, alpha, d, theta) per joint") from None
+    if table.ndim == 1 and table.size == 4:
+        table = table.reshape(1, 4)
+    if table.ndim != 2 or table.shape[1] != 4 or table.shape[0] == 0:
+        raise ModelError(f"DH table: rows must have shape (n, 4) with columns (a, alpha, d, theta), got shape {table.shape}")
+    if not np.all(np.isfinite(table)):
+        r, c = np.argwhere(~np.isfinite(table))[0]
+        raise ModelError(f"DH table: entry row {r + 1}, column {'a alpha d theta'.split()[c]} is {table[r, c]}; entries must be finite")
+    n = table.shape[0]
+    if joint_types is None:
+        joint_types = "R" * n
+    if not isinstance(joint_types, str):
+        try:
+            joint_types = "".join(str(t) for t in joint_types)
+        except TypeError:
+            raise ModelError(f"DH table: joint_types must be a string of R/P letters, got {joint_types!r}") from None
+    types = joint_types.upper()
+    if len(types) != n:
+        raise ModelError(f"DH table: joint_types {joint_types!r} has {len(types)} letters for {n} rows")
+    bad = [f"{i + 1}:{c!r}" for i, c in enumerate(types) if c not in "RP"]
+    if bad:
+        raise ModelError(f"DH table: joint_types letters must be R (revolute) or P (prismatic); bad: {', '.join(bad)}")
+    return table, types
+
+
+def check_dh_table(rows, joint_types=None, lower=None, upper=None):
+    """Validate a DH table; return ``(rows (n, 4), joint_types "RP..", lower (n,), upper (n,))``.
+
+    ``joint_types`` defaults to all revolute. Revolute limits default to
+    ``[-pi, pi]``; prismatic joints need explicit limits. Raises
+    :class:`ModelError` naming the problem (shape, non-finite entries, joint
+    type letters, lengths, ``lower > upper``).
+    """
+    table, types = check_dh_rows(rows, joint_types)
+    n = len(types)
+    if lower is None or upper is None:
+        missing = [i + 1 for i, c in enumerate(types) if c == "P"]
+        if missing:
+            raise ModelError(f"DH table: prismatic joint(s) {missing} need explicit lower and upper limits (metres)")
+    lo = _vector(lower, n, "lower", [DEFAULT_REVOLUTE_LIMITS[0]] * n)
+    hi = _vector(upper, n, "upper", [DEFAULT_REVOLUTE_LIMITS[1]] * n)
+    wrong = [i + 1 for i in range(n) if lo[i] > hi[i]]
+    if wrong:
+        raise ModelError(f"DH table: lower > upper for joint(s) {wrong}: lower={lo.tolist()}, upper={hi.tolist()}")
+    return table, types, lo, hi
+
+
+def dh_fk(rows, joint_types, q, base=None, tool=None) -> np.ndarray:
+    """Reference DH product ``base * prod A_i(q_i) * tool`` (4x4) with NumPy."""
+    table, types = check_dh_rows(rows, joint_types)
+    q = np.asarray(q, dtype=float)
+    if q.shape != (len(types),):
+        raise InputError(f"q must have shape ({len(types)},), got shape {q.shape}")
+    T = np.eye(4) if base is None else np.asarray(base, dtype=float).copy()
+    for (a, alpha, d, theta), kind, qi in zip(table, types, q):
+        T = T @ (dh_matrix(a, alpha, d, theta + qi) if kind == "R" else dh_matrix(a, alpha, d + qi, theta))
+    return T if tool is None else T @ np.asarray(tool, dtype=float)
+
+
+# ---------------------------------------------------------------------- URDF writing
+def _num(x: float) -> str:
+    x = float(x)
+    return "0" if x == 0.0 else repr(x)
+
+
+def _nums(xs) -> str:
+    return " ".join(_num(x) for x in xs)
+
+
+def _origin(parent, xyz=(0.0, 0.0, 0.0), rpy=(0.0, 0.0, 0.0)):
+    return etree.SubElement(parent, "origin", xyz=_nums(xyz), rpy=_nums(rpy))
+
+
+def _pose_origin(parent, T: np.ndarray):
+    return _origin(parent, T[:3, 3], pin.rpy.matrixToRpy(T[:3, :3]))
+
+
+def _vnum(x: float) -> str:
+    """Visual-only numbers: 9 significant digits are plenty for a picture."""
+    x = float(x)
+    return "0" if abs(x) < 1e-12 else f"{x:.9g}"
+
+
+def _visual(link, shape: str, material: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **dims):
+    vis = etree.SubElement(link, "visual")
+    etree.SubElement(vis, "origin", xyz=" ".join(map(_vnum, xyz)), rpy=" ".join(map(_vnum, rpy)))
+    geo = etree.SubElement(vis, "geometry")
+    etree.SubElement(geo, shape, **{k: (" ".join(map(_vnum, v)) if isinstance(v, (tuple, list)) else _vnum(v)) for k, v in dims.items()})
+    etree.SubElement(vis, "material", name=material)
+
+
+def _segment(link, p0, p1, radius: float) -> None:
+    """A cylinder from point ``p0`` to ``p1`` (link frame); nothing if they coincide."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    u = p1 - p0
+    length = float(np.linalg.norm(u))
+    if length < 1e-9:
+        return
+    u /= length
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.cross(z, u)
+    s, c = float(np.linalg.norm(axis)), float(z @ u)
+    if s < 1e-12:
+        R = np.eye(3) if c > 0 else pin.rpy.rpyToMatrix(math.pi, 0.0, 0.0)
+    else:
+        R = pin.AngleAxis(math.atan2(s, c), axis / s).matrix()
+    _visual(link, "cylinder", "kinserve_link", 0.5 * (p0 + p1), pin.rpy.matrixToRpy(R), radius=radius, length=length)
+
+
+def _check_name(value: str, what: str) -> str:
+    if not isinstance(value, str) or not _NAME.match(value):
+        raise ModelError(f"DH table: {what} must be a name of letters, digits, '_', '-', '.', got {value!r}")
+    return value
+
+
+def dh_to_urdf(
+    rows,
+    joint_types=None,
+    lower=None,
+    upper=None,
+    name: str = "dh_robot",
+    base=None,
+    tool=None,
+    tip_name: str = "tool",
+    joint_names=None,
+    velocity=DEFAULT_VELOCITY,
+    effort=DEFAULT_EFFORT,
+    radius: float | None = None,
+) -> str:
+    """URDF text of the chain described by a standard DH table (see the module docstring).
+
+    Parameters
+    ----------
+    rows:
+        ``(n, 4)`` table of ``(a, alpha, d, theta)``; ``theta`` (revolute) or
+        ``d`` (prismatic) is the offset at ``q = 0``.
+    joint_types:
+        String of ``R``/``P`` letters (default: all revolute).
+    lower, upper:
+        Joint limits (rad or m), scalars or ``n`` values. Revolute default
+        ``[-pi, pi]``; prismatic joints need them.
+    name:
+        ``<robot name>``.
+    base, tool:
+        Constant 4x4 poses of DH frame 0 in the world and of the tool in DH frame ``n``.
+    tip_name:
+        Name of the tool link.
+    joint_names:
+        Names of the ``n`` joints (default ``joint1..jointn``).
+    velocity, effort:
+        Values for ``<limit velocity= effort=>`` (scalar or ``n`` values).
+    radius:
+        Radius (m) of the visual cylinders; default 3.5 % of the summed ``|a| + |d|``.
+    """
+    table, types, lo, hi = check_dh_table(rows, joint_types, lower, upper)
+    n = len(types)
+    _check_name(name, "name")
+    _check_name(tip_name, "tip_name")
+    base_T = np.eye(4) if base is None else _as_pose(base, "base")
+    tool_T = np.eye(4) if tool is None else _as_pose(tool, "tool")
+    names = [f"joint{i + 1}" for i in range(n)] if joint_names is None else list(joint_names)
+    if len(names) != n:
+        raise ModelError(f"DH table: joint_names has {len(names)} names for {n} rows")
+    for jn in names:
+        _check_name(jn, "joint name")
+    links = ["world"] + [f"link{i}" for i in range(n + 1)] + [f"joint{i + 1}_link" for i in range(n)]
+    all_names = links + names + [f"joint{i + 1}_dh" for i in range(n)] + ["base_joint", "tool_joint"]
+    if tip_name in links:
+        raise ModelError(f"DH table: tip_name {tip_name!r} collides with a generated link name ({', '.join(links)})")
+    if len(set(names)) != n or set(names) & (set(all_names) - set(names)):
+        raise ModelError(f"DH table: joint_names must be unique and differ from the generated names, got {names}")
+    vel = _vector(velocity, n, "velocity", None)
+    eff = _vector(effort, n, "effort", None)
+    if radius is None:
+        reach = float(np.abs(table[:, 0]).sum() + np.abs(table[:, 2]).sum() + np.abs(tool_T[:3, 3]).sum())
+        radius = max(0.035 * reach, 0.005)
+    r = float(radius)
+    if not (math.isfinite(r) and r > 0):
+        raise ModelError(f"DH table: radius must be a positive number, got {radius!r}")
+
+    robot = etree.Element("robot", name=name)
+    robot.append(etree.Comment(
+        " Generated by kinserve robots.dh.dh_to_urdf from a standard DH table: "
+        "A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); link{i} is DH frame i. "
+    ))
+    for mat, rgba in _COLORS.items():
+        m = etree.SubElement(robot, "material", name=mat)
+        etree.SubElement(m, "color", rgba=rgba)
+
+    def link(lname):
+        return etree.SubElement(robot, "link", name=lname)
+
+    def joint(jname, jtype, parent, child, T=None, xyz=(0, 0, 0), rpy=(0, 0, 0)):
+        j = etree.SubElement(robot, "joint", name=jname, type=jtype)
+        if T is not None:
+            _pose_origin(j, T)
+        else:
+            _origin(j, xyz, rpy)
+        etree.SubElement(j, "parent", link=parent)
+        etree.SubElement(j, "child", link=child)
+        return j
+
+    link("world")
+    link0 = link("link0")
+    _visual(link0, "cylinder", "kinserve_link", (0, 0, -0.5 * r), radius=2.2 * r, length=r)
+    joint("base_joint", "fixed", "world", "link0", T=base_T)
+    prev = link0
+    for i, ((a, alpha, d, theta), kind) in enumerate(zip(table, types)):
+        # constant part before the joint: Rz(theta) Tz(d) -> a segment along z of frame i-1
+        _segment(prev, (0, 0, 0), (0, 0, d), r)
+        moving = link(f"joint{i + 1}_link")
+        if kind == "R":
+            _visual(moving, "cylinder", "kinserve_revolute", radius=1.5 * r, length=3.0 * r)
+        else:
+            _visual(moving, "box", "kinserve_prismatic", size=(2.6 * r, 2.6 * r, 3.0 * r))
+        _segment(moving, (0, 0, 0), (a, 0, 0), r)
+        j = joint(names[i], "revolute" if kind == "R" else "prismatic", prev.get("name"), moving.get("name"),
+                  xyz=(0.0, 0.0, d), rpy=(0.0, 0.0, theta))
+        etree.SubElement(j, "axis", xyz="0 0 1")
+        etree.SubElement(j, "limit", lower=_num(lo[i]), upper=_num(hi[i]), effort=_num(eff[i]), velocity=_num(vel[i]))
+        nxt = link(f"link{i + 1}")
+        joint(f"joint{i + 1}_dh", "fixed", moving.get("name"), nxt.get("name"), xyz=(a, 0.0, 0.0), rpy=(alpha, 0.0, 0.0))
+        prev = nxt
+    _segment(prev, (0, 0, 0), tool_T[:3, 3], r)
+    tip = link(tip_name)
+    _visual(tip, "sphere", "kinserve_tool", radius=1.2 * r)
+    joint("tool_joint", "fixed", prev.get("name"), tip_name, T=tool_T)
+    etree.indent(robot, space="  ")
+    return '<?xml version="1.0"?>\n' + etree.tostring(robot, encoding="unicode") + "\n"
+
+
+def _as_pose(value, name: str) -> np.ndarray:
+    try:
+        return as_pose(value, name)
+    except InputError as exc:
+        raise ModelError(f"DH table: {exc}") from None
+
+
+def from_dh(
+    rows,
+    joint_types=None,
+    lower=None,
+    upper=None,
+    name: str = "dh_robot",
+    base=None,
+    tool=None,
+    tip_name: str = "tool",
+    joint_names=None,
+    *,
+    description: str = "",
+    task_axes=TASK_AXES,
+    velocity=DEFAULT_VELOCITY,
+    effort=DEFAULT_EFFORT,
+    radius: float | None = None,
+    geometry: bool = True,
+) -> Robot:
+    """A :class:`Robot` from a standard DH table, built through :func:`dh_to_urdf`.
+
+    ``robot.source`` is the generated URDF, so saving it and loading it again
+    gives the same model. The default tool frame is ``tip_name``; the DH
+    frames are ``link0`` ... ``link{n}``.
+    """
+    from .urdf_loader import load_urdf
+
+    xml = dh_to_urdf(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names,
+                     velocity=velocity, effort=effort, radius=radius)
+    return load_urdf(xml, tip=tip_name, name=name, description=description, task_axes=task_axes, geometry=geometry)
