@@ -1,0 +1,52 @@
+"""viz: meshcat scenes (robots, frames, spheres, paths, maps, animation, static HTML) and matplotlib plots.
+
+``viz`` draws plain data (poses, arrays, paths, maps) and ``kinematics.Robot``
+objects; it never calls a solver.
+
+3-D scenes::
+
+    scene = viz.Scene("pick and place")
+    arm = scene.add_robot(robot, q0)                 # meshes via Pinocchio's MeshcatVisualizer
+    scene.add_frame("target", T_goal, length=0.1)    # triad
+    scene.add_sphere("obstacle", [0.4, -0.7, 0.5], 0.2, color="red", opacity=0.4)
+    scene.add_cylinder("part", radius=0.02, length=0.05, pose=T_part)
+    scene.add_path("tool_path", points)              # (N, 3) polyline
+    anim = viz.Animation(scene, fps=30)
+    anim.robot(arm.name, Q)                          # joint trajectory (N, nq)
+    anim.attach("part", arm.name, grasp=40, release=120)
+    anim.apply()
+    viz.export_html(scene, "scene.html")             # self-contained, opens offline
+    viz.serve(scene)                                 # live meshcat server until Ctrl-C
+
+2-D maps (mobile scenarios) draw flat in 3-D with :meth:`Scene.add_map` and as
+PNG with :func:`map_figure`; plots are ``*_figure`` functions returning
+matplotlib figures, written by :func:`save_png`.
+"""
+
+from . import colors, map2d
+from .animation import Animation
+from .export import export_html, read_html_commands, static_html
+from .live import LiveViewer, serve
+from .map2d import Circle, Grid, Rect
+from .plots import (
+    errors_figure,
+    joints_and_errors_figure,
+    joints_figure,
+    manipulability_figure,
+    map_figure,
+    planar_arm_figure,
+    planar_chain,
+    save_png,
+    series_figure,
+    xy_figure,
+)
+from .scene import Scene, SceneRobot
+from .skeleton import skeleton_geometry
+
+__all__ = [
+    "Scene", "SceneRobot", "Animation", "export_html", "static_html", "read_html_commands",
+    "LiveViewer", "serve", "Rect", "Circle", "Grid", "skeleton_geometry",
+    "save_png", "series_figure", "joints_figure", "errors_figure", "joints_and_errors_figure",
+    "manipulability_figure", "xy_figure", "map_figure", "planar_arm_figure", "planar_chain",
+    "colors", "map2d",
+]
