@@ -1,0 +1,229 @@
+"""Occupancy grids built from shapes, for planning a robot's centre.
+
+The map is the rectangle ``bounds = (x_min, y_min, x_max, y_max)`` (world
+units) sampled on a lattice of spacing ``resolution``: lattice point
+``(i, j)`` (row ``i`` along y, column ``j`` along x) sits at
+``(x_min + j res, y_min + i res)``; both map edges are lattice lines.
+
+A lattice point is *free* when the robot centre may be there:
+
+* its signed distance to every shape is ``>= inflation`` (the shapes are
+  inflated by the robot's radius - half its footprint - so the centre can be
+  planned as a point; touching at exactly ``inflation`` is allowed);
+* its distance to the map border is ``>= border_clearance`` (default: the
+  inflation; the border is a wall).
+
+Anything outside the bounds is blocked.
+
+Between lattice points, :meth:`OccupancyGrid.is_free` uses the raster rule:
+a point is free iff every lattice point at the floor/ceiling of its
+coordinates is free (1, 2 or 4 points). An 8-connected grid path that never
+cuts a blocked corner (a diagonal step needs both orthogonal neighbours free)
+is therefore free at every point along it, and a smoothed path is checked
+with the same rule by dense sampling. :meth:`OccupancyGrid.clearance` gives
+the exact (analytic) clearance for anything finer.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from kinematics.errors import InputError, ShapeError
+
+from .shapes import Circle, Polygon, Rectangle
+
+_TOL = 1e-9
+
+
+@dataclass
+class OccupancyGrid:
+    """A boolean lattice ``free[i, j]`` plus the shapes it was made of (see module docstring)."""
+
+    bounds: tuple[float, float, float, float]
+    resolution: float
+    free: np.ndarray
+    shapes: tuple = ()
+    inflation: float = 0.0
+    border_clearance: float = 0.0
+    _distance: np.ndarray | None = field(default=None, repr=False)
+
+    # ---------------------------------------------------------- construction
+    @classmethod
+    def from_shapes(
+        cls,
+        bounds,
+        shapes=(),
+        *,
+        resolution: float = 1.0,
+        inflation: float = 0.0,
+        border_clearance: float | None = None,
+    ) -> "OccupancyGrid":
+        """Rasterise ``shapes`` inflated by ``inflation`` on a lattice of spacing ``resolution``.
+
+        ``bounds`` is ``(x_min, y_min, x_max, y_max)`` or ``(width, height)``
+        (then the map starts at the origin). Only the lattice points within
+        each shape's inflated bounding box are evaluated.
+        """
+        b = tuple(float(v) for v in bounds)
+        if len(b) == 2:
+            b = (0.0, 0.0, b[0], b[1])
+        if len(b) != 4 or not all(math.isfinite(v) for v in b) or not (b[0] < b[2] and b[1] < b[3]):
+            raise InputError(f"bounds must be (x_min, y_min, x_max, y_max) with min < max, got {bounds!r}")
+        res = float(resolution)
+        if not (math.isfinite(res) and res > 0):
+            raise InputError(f"resolution must be a finite number > 0, got {resolution!r}")
+        r = float(inflation)
+        if not (math.isfinite(r) and r >= 0):
+            raise InputError(f"inflation must be a finite number >= 0, got {inflation!r}")
+        c = r if border_clearance is None else float(border_clearance)
+        if not (math.isfinite(c) and c >= 0):
+            raise InputError(f"border_clearance must be a finite number >= 0, got {border_clearance!r}")
+        for k, s in enumerate(shapes):
+            if not isinstance(s, (Rectangle, Circle, Polygon)):
+                raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, got {type(s).__name__}")
+        nx = int(round((b[2] - b[0]) / res)) + 1
+        ny = int(round((b[3] - b[1]) / res)) + 1
+        if nx * ny > 50_000_000:
+            raise InputError(f"map of {nx} x {ny} lattice points is too large; use a coarser resolution")
+        xs = b[0] + res * np.arange(nx)
+        ys = b[1] + res * np.arange(ny)
+        free = np.ones((ny, nx), dtype=bool)
+        if c > 0:
+            free &= (np.minimum(xs - b[0], b[2] - xs)[None, :] >= c - _TOL)
+            free &= (np.minimum(ys - b[1], b[3] - ys)[:, None] >= c - _TOL)
+        for s in shapes:
+            x0, y0, x1, y1 = s.bounds()
+            j0 = max(0, int(math.floor((x0 - r - b[0]) / res)) - 1)
+            j1 = min(nx, int(math.ceil((x1 + r - b[0]) / res)) + 2)
+            i0 = max(0, int(math.floor((y0 - r - b[1]) / res)) - 1)
+            i1 = min(ny, int(math.ceil((y1 + r - b[1]) / res)) + 2)
+            if j0 >= j1 or i0 >= i1:
+                continue
+            sd = s.signed_distance(xs[None, j0:j1], ys[i0:i1, None])
+            free[i0:i1, j0:j1] &= sd >= r - _TOL
+        return cls(b, res, free, tuple(shapes), r, c)
+
+    # ---------------------------------------------------------------- basics
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(ny, nx)``: lattice rows (y) and columns (x)."""
+        return self.free.shape
+
+    @property
+    def xs(self) -> np.ndarray:
+        return self.bounds[0] + self.resolution * np.arange(self.free.shape[1])
+
+    @property
+    def ys(self) -> np.ndarray:
+        return self.bounds[1] + self.resolution * np.arange(self.free.shape[0])
+
+    @property
+    def free_fraction(self) -> float:
+        return float(self.free.mean())
+
+    def _points(self, points, name="points") -> np.ndarray:
+        P = np.asarray(points, dtype=float)
+        if P.shape == (2,):
+            P = P[None]
+        if P.ndim != 2 or P.shape[1] != 2:
+            raise ShapeError(f"{name} must be an (x, y) point or an (N, 2) array, got shape {P.shape}")
+        if not np.all(np.isfinite(P)):
+            raise InputError(f"{name} must be finite")
+        return P
+
+    def contains(self, points) -> np.ndarray:
+        """True where a point lies within the map bounds (inclusive)."""
+        P = self._points(points)
+        b = self.bounds
+        return (P[:, 0] >= b[0] - _TOL) & (P[:, 0] <= b[2] + _TOL) & (P[:, 1] >= b[1] - _TOL) & (P[:, 1] <= b[3] + _TOL)
+
+    def world_to_index(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest lattice ``(row i, column j)`` of world points (not clipped: check :meth:`contains`)."""
+        P = self._points(points)
+        j = np.rint((P[:, 0] - self.bounds[0]) / self.resolution).astype(np.int64)
+        i = np.rint((P[:, 1] - self.bounds[1]) / self.resolution).astype(np.int64)
+        return i, j
+
+    def index_to_world(self, i, j) -> np.ndarray:
+        """World ``(N, 2)`` coordinates of lattice points ``(i, j)``."""
+        i = np.atleast_1d(np.asarray(i))
+        j = np.atleast_1d(np.asarray(j))
+        return np.stack([self.bounds[0] + self.resolution * j, self.bounds[1] + self.resolution * i], axis=-1).astype(float)
+
+    def on_lattice(self, points, tol: float = 1e-6) -> np.ndarray:
+        """True where a point coincides with a lattice point."""
+        P = self._points(points)
+        i, j = self.world_to_index(P)
+        return np.all(np.abs(self.index_to_world(i, j) - P) <= tol * self.resolution, axis=1)
+
+    def is_free(self, points) -> np.ndarray:
+        """Raster rule: free iff inside the map and every floor/ceil lattice neighbour is free."""
+        P = self._points(points)
+        ny, nx = self.free.shape
+        u = (P[:, 0] - self.bounds[0]) / self.resolution
+        v = (P[:, 1] - self.bounds[1]) / self.resolution
+        # snap values within rounding noise of a lattice line onto it
+        ur, vr = np.rint(u), np.rint(v)
+        u = np.where(np.abs(u - ur) < 1e-9, ur, u)
+        v = np.where(np.abs(v - vr) < 1e-9, vr, v)
+        inside = (u >= 0) & (u <= nx - 1) & (v >= 0) & (v <= ny - 1)
+        j0 = np.clip(np.floor(u).astype(np.int64), 0, nx - 1)
+        j1 = np.clip(np.ceil(u).astype(np.int64), 0, nx - 1)
+        i0 = np.clip(np.floor(v).astype(np.int64), 0, ny - 1)
+        i1 = np.clip(np.ceil(v).astype(np.int64), 0, ny - 1)
+        F = self.free
+        return inside & F[i0, j0] & F[i0, j1] & F[i1, j0] & F[i1, j1]
+
+    def segment_is_free(self, a, b, step: float | None = None) -> bool:
+        """True when points every ``step`` (default ``resolution / 4``) along ``a -> b`` are all free."""
+        a = np.asarray(a, dtype=float)
+        b = np.asarray(b, dtype=float)
+        step = self.resolution / 4.0 if step is None else step
+        n = max(2, int(math.ceil(np.linalg.norm(b - a) / step)) + 1)
+        s = np.linspace(0.0, 1.0, n)[:, None]
+        return bool(np.all(self.is_free(a + s * (b - a))))
+
+    def path_is_free(self, points, step: float | None = None) -> bool:
+        """Every segment of a polyline ``(N, 2)`` is free (dense sampling, raster rule)."""
+        P = self._points(points, "path")
+        step = self.resolution / 4.0 if step is None else step
+        if len(P) == 1:
+            return bool(self.is_free(P)[0])
+        seg = np.diff(P, axis=0)
+        lengths = np.linalg.norm(seg, axis=1)
+        counts = np.maximum(1, np.ceil(lengths / step).astype(int))
+        samples = [P[:1]]
+        for p, d, c in zip(P[:-1], seg, counts):
+            samples.append(p + (np.arange(1, c + 1) / c)[:, None] * d)
+        return bool(np.all(self.is_free(np.concatenate(samples))))
+
+    def clearance(self, points) -> np.ndarray:
+        """Exact margin: ``min(sd_shape - inflation, border distance - border_clearance)`` (>= 0 is free)."""
+        P = self._points(points)
+        b = self.bounds
+        border = np.minimum.reduce([P[:, 0] - b[0], b[2] - P[:, 0], P[:, 1] - b[1], b[3] - P[:, 1]])
+        out = border - self.border_clearance
+        for s in self.shapes:
+            out = np.minimum(out, s.signed_distance(P[:, 0], P[:, 1]) - self.inflation)
+        return out
+
+    def distance_field(self) -> np.ndarray:
+        """Distance (world units) from each lattice point to the nearest blocked one (0 when blocked).
+
+        Euclidean distance transform (``scipy.ndimage.distance_transform_edt``)
+        of the lattice, with the outside of the map counted as blocked.
+        """
+        if self._distance is None:
+            padded = np.pad(self.free, 1, constant_values=False)
+            d = ndimage.distance_transform_edt(padded, sampling=self.resolution)
+            self._distance = d[1:-1, 1:-1]
+        return self._distance
+
+    def first_blocked(self, points) -> int | None:
+        """Index of the first point that is not free, or None."""
+        bad = np.flatnonzero(~self.is_free(points))
+        return int(bad[0]) if bad.size else None

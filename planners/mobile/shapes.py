@@ -1,0 +1,128 @@
+"""Obstacle shapes in world units, each with a vectorised signed distance.
+
+``signed_distance(x, y)`` is negative inside the shape, zero on its boundary
+and the Euclidean distance to the shape outside. A shape inflated by ``r``
+(the robot's radius) is the set ``{p : signed_distance(p) < r}`` (an open
+set: a robot centre exactly ``r`` away from an obstacle only touches it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from kinematics.errors import InputError
+
+
+def _finite(*vals, what: str):
+    for v in vals:
+        if not np.isfinite(v):
+            raise InputError(f"{what}: coordinates must be finite numbers, got {vals}")
+
+
+@dataclass(frozen=True)
+class Rectangle:
+    """Axis-aligned rectangle ``[x_min, x_max] x [y_min, y_max]``."""
+
+    x_min: float
+    y_min: float
+    x_max: float
+    y_max: float
+    name: str = ""
+
+    def __post_init__(self):
+        _finite(self.x_min, self.y_min, self.x_max, self.y_max, what=f"rectangle {self.name!r}")
+        if not (self.x_min < self.x_max and self.y_min < self.y_max):
+            raise InputError(
+                f"rectangle {self.name!r} needs x_min < x_max and y_min < y_max, got ({self.x_min}, {self.y_min})-({self.x_max}, {self.y_max})"
+            )
+
+    def signed_distance(self, x, y):
+        dx = np.maximum(self.x_min - np.asarray(x, dtype=float), np.asarray(x, dtype=float) - self.x_max)
+        dy = np.maximum(self.y_min - np.asarray(y, dtype=float), np.asarray(y, dtype=float) - self.y_max)
+        outside = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
+        return outside + np.minimum(np.maximum(dx, dy), 0.0)
+
+    def bounds(self):
+        return (self.x_min, self.y_min, self.x_max, self.y_max)
+
+    @property
+    def area(self) -> float:
+        return (self.x_max - self.x_min) * (self.y_max - self.y_min)
+
+
+@dataclass(frozen=True)
+class Circle:
+    """Disc of ``radius`` around ``(cx, cy)``."""
+
+    cx: float
+    cy: float
+    radius: float
+    name: str = ""
+
+    def __post_init__(self):
+        _finite(self.cx, self.cy, self.radius, what=f"circle {self.name!r}")
+        if self.radius <= 0:
+            raise InputError(f"circle {self.name!r} needs radius > 0, got {self.radius}")
+
+    def signed_distance(self, x, y):
+        return np.hypot(np.asarray(x, dtype=float) - self.cx, np.asarray(y, dtype=float) - self.cy) - self.radius
+
+    def bounds(self):
+        r = self.radius
+        return (self.cx - r, self.cy - r, self.cx + r, self.cy + r)
+
+    @property
+    def area(self) -> float:
+        return float(np.pi * self.radius**2)
+
+
+@dataclass(frozen=True)
+class Polygon:
+    """Simple polygon with vertices ``(k, 2)`` (either orientation, ``k >= 3``)."""
+
+    vertices: tuple
+    name: str = ""
+    _v: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        V = np.asarray(self.vertices, dtype=float)
+        if V.ndim != 2 or V.shape[1] != 2 or V.shape[0] < 3:
+            raise InputError(f"polygon {self.name!r} needs vertices of shape (k >= 3, 2), got {V.shape}")
+        if not np.all(np.isfinite(V)):
+            raise InputError(f"polygon {self.name!r}: vertices must be finite")
+        object.__setattr__(self, "vertices", tuple(map(tuple, V.tolist())))
+        object.__setattr__(self, "_v", V)
+
+    def signed_distance(self, x, y):
+        x = np.asarray(x, dtype=float)
+        y = np.asarray(y, dtype=float)
+        shape = np.broadcast(x, y).shape
+        px, py = np.broadcast_to(x, shape).ravel(), np.broadcast_to(y, shape).ravel()
+        A = self._v
+        B = np.roll(A, -1, axis=0)
+        ex, ey = (B - A)[:, 0], (B - A)[:, 1]
+        wx = px[:, None] - A[None, :, 0]
+        wy = py[:, None] - A[None, :, 1]
+        t = np.clip((wx * ex + wy * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+        d = np.hypot(wx - t * ex, wy - t * ey).min(axis=1)
+        # even-odd rule: count edges crossed by a ray towards +x
+        ay, by = A[None, :, 1], B[None, :, 1]
+        crosses = (ay > py[:, None]) != (by > py[:, None])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = A[None, :, 0] + (py[:, None] - ay) * (B[None, :, 0] - A[None, :, 0]) / (by - ay)
+        inside = (np.sum(crosses & (px[:, None] < xint), axis=1) % 2) == 1
+        return np.where(inside, -d, d).reshape(shape)
+
+    def bounds(self):
+        V = self._v
+        return (V[:, 0].min(), V[:, 1].min(), V[:, 0].max(), V[:, 1].max())
+
+    @property
+    def area(self) -> float:
+        V = self._v
+        return float(0.5 * abs(np.dot(V[:, 0], np.roll(V[:, 1], -1)) - np.dot(V[:, 1], np.roll(V[:, 0], -1))))
+
+
+Shape = Rectangle | Circle | Polygon
