@@ -41,6 +41,7 @@ from .plots import (
     xy_figure,
 )
 from .scene import Scene, SceneRobot
+from .screenshot import BrowserUnavailable, find_browser, page_status, screenshot
 from .skeleton import skeleton_geometry
 
 __all__ = [
@@ -48,5 +49,5 @@ __all__ = [
     "LiveViewer", "serve", "Rect", "Circle", "Grid", "skeleton_geometry",
     "save_png", "series_figure", "joints_figure", "errors_figure", "joints_and_errors_figure",
     "manipulability_figure", "xy_figure", "map_figure", "planar_arm_figure", "planar_chain",
-    "colors", "map2d",
+    "screenshot", "page_status", "find_browser", "BrowserUnavailable", "colors", "map2d",
 ]

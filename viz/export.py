@@ -12,9 +12,11 @@ them, in order, into ``viewer.handle_command_bytearray``; the animation, if
 any, then starts playing (meshcat's "Animations" panel replays it).
 
 Progress is written into ``<div id="kinserve-status">``: ``data-status`` is
-``loading``, then ``ready`` (with ``data-commands``, the number replayed) or
-``error`` (with ``data-error``); uncaught errors are counted there too, so a
-headless browser's ``--dump-dom`` tells whether the page loaded cleanly.
+``loading``, then ``ready`` (with ``data-commands``, the number replayed, and
+``data-animation-clips`` / ``data-animation-duration``, what meshcat's
+animator loaded) or ``error`` (with ``data-error``); uncaught errors are
+counted in ``data-errors``, so a headless browser's ``--dump-dom`` tells
+whether the page loaded cleanly (:func:`viz.screenshot.page_status`).
 """
 
 from __future__ import annotations
@@ -87,6 +89,9 @@ _TEMPLATE = """<!DOCTYPE html>
       count += 1;
     }}
     status.setAttribute("data-commands", String(count));
+    var animator = viewer.animator;
+    status.setAttribute("data-animation-clips", String(animator ? animator.actions.length : 0));
+    status.setAttribute("data-animation-duration", String(animator ? animator.duration : 0));
     status.setAttribute("data-status", "ready");
   }}
   function fail(err) {{

@@ -20,7 +20,6 @@ import meshcat
 import meshcat.commands
 import meshcat.path
 import meshcat.visualizer
-from meshcat.servers.zmqserver import start_zmq_server_as_subprocess
 
 from kinematics.errors import InputError
 
@@ -37,7 +36,9 @@ class LiveViewer:
     def __init__(self, zmq_url: str | None = None):
         self._proc = None
         if zmq_url is None:
-            self._proc, zmq_url, web_url = start_zmq_server_as_subprocess()
+            from meshcat.servers.zmqserver import start_zmq_server_as_subprocess  # imports tornado: only when serving
+
+            self._proc, zmq_url, _ = start_zmq_server_as_subprocess()
         with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; callers decide
             window = meshcat.visualizer.ViewerWindow(zmq_url=zmq_url, start_server=False, server_args=[])
         self.zmq_url = zmq_url

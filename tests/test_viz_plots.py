@@ -1,0 +1,129 @@
+"""viz plots: figures hold the expected artists and are written as real PNG images."""
+
+import numpy as np
+import pytest
+from matplotlib.image import AxesImage
+from matplotlib.patches import Circle as CirclePatch
+from matplotlib.patches import Rectangle
+from PIL import Image
+
+import robots
+import viz
+from kinematics import InputError, ShapeError
+
+
+def check_png(path, min_colors=3):
+    """A decodable PNG of plausible size that is not a blank canvas."""
+    assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    img = np.asarray(Image.open(path).convert("RGB"))
+    assert img.shape[0] > 200 and img.shape[1] > 200
+    assert len(np.unique(img.reshape(-1, 3), axis=0)) >= min_colors
+    return img
+
+
+def test_joints_figure_one_line_per_joint_plus_limits(tmp_path):
+    t = np.linspace(0, 2, 50)
+    Q = np.c_[np.sin(t), np.cos(t), t, t ** 2]
+    fig = viz.joints_figure(t, Q, ["a", "b", "c", "d"], limits=([-1] * 4, [1] * 4), xlabel="time (s)")
+    ax = fig.axes[0]
+    assert len(ax.lines) == 4 + 8  # joints + a dotted lower/upper line each
+    np.testing.assert_allclose(ax.lines[2].get_ydata(), t)
+    assert [text.get_text() for text in ax.get_legend().get_texts()] == ["a", "b", "c", "d"]
+    assert ax.get_xlabel() == "time (s)"
+    check_png(viz.save_png(fig, tmp_path / "plots" / "joints.png"))
+
+
+def test_errors_figure_log_scale_floors_zeros(tmp_path):
+    e = {"position": np.array([1.0, 0.1, 1e-3, 0.0]), "orientation": np.array([0.5, 0.05, 0.0, 0.0])}
+    fig = viz.errors_figure(None, e, tolerance=1e-6)
+    ax = fig.axes[0]
+    assert ax.get_yscale() == "log"
+    assert len(ax.lines) == 3  # two series + the tolerance line
+    np.testing.assert_allclose(ax.lines[0].get_xdata(), np.arange(4))
+    assert ax.lines[0].get_ydata()[-1] == viz.plots.LOG_FLOOR
+    check_png(viz.save_png(fig, tmp_path / "errors.png"))
+
+
+def test_joints_and_errors_two_panels(tmp_path):
+    it = np.arange(30)
+    Q = np.random.default_rng(0).normal(size=(30, 4)).cumsum(axis=0)
+    E = np.exp(-0.3 * it)[:, None] * np.array([1.0, 2.0, 3.0])
+    fig = viz.joints_and_errors_figure(it, Q, E)
+    top, bottom = fig.axes
+    assert len(top.lines) == 4 and len(bottom.lines) == 3
+    check_png(viz.save_png(fig, tmp_path / "s9.png"))
+
+
+def test_manipulability_threshold_shading(tmp_path):
+    t = np.linspace(0, 1, 101)
+    w = np.abs(np.cos(np.pi * t))
+    fig = viz.manipulability_figure(t, w, threshold=0.1)
+    ax = fig.axes[0]
+    assert len(ax.lines) == 2 and len(ax.collections) == 1  # w, threshold; the shaded band
+    check_png(viz.save_png(fig, tmp_path / "w.png"))
+
+
+def test_series_and_xy_figures(tmp_path):
+    fig = viz.series_figure(np.arange(5), {"a": np.arange(5.0), "b": np.ones(5)}, ylabel="value")
+    assert len(fig.axes[0].lines) == 2
+    th = np.linspace(0, 2 * np.pi, 100)
+    ref = np.c_[1 + 0.2 * np.cos(th), 0.25 + 0.2 * np.sin(th)]
+    fig = viz.xy_figure({"reference": ref, "followed": ref + 0.01}, points={"start": ref[0]})
+    assert len(fig.axes[0].lines) == 3
+    check_png(viz.save_png(fig, tmp_path / "xy.png"))
+
+
+def test_map_figure_artists(tmp_path):
+    obstacles = [viz.Rect(220, 100, 260, 140, "hot-dog 1"), {"rect": [160, 160, 200, 200]}, {"circle": [240, 240, 40]}]
+    mask = np.zeros((48, 48), bool)
+    mask[:10, :20] = True
+    fig = viz.map_figure(obstacles, (0, 0, 480, 480), paths={"leg 1": [[260, 60], [360, 170]], "leg 2": [[360, 170], [150, 70]]},
+                         waypoints={"start": (260, 60), "1": (360, 170)}, coverage=viz.Grid(mask, cell=10.0), inflate=10)
+    ax = fig.axes[0]
+    rects = [p for p in ax.patches if isinstance(p, Rectangle)]
+    circles = [p for p in ax.patches if isinstance(p, CirclePatch)]
+    assert len(rects) == 4 and len(circles) == 2  # obstacles + their inflated outlines
+    assert len(ax.lines) == 2 + 2  # paths + waypoint markers
+    images = [a for a in ax.get_children() if isinstance(a, AxesImage)]
+    assert len(images) == 1 and images[0].get_extent() == [0, 480, 0, 480]
+    assert ax.get_xlim() == (0, 480)
+    img = check_png(viz.save_png(fig, tmp_path / "map.png"))
+    # obstacle brown (#8c564b) is actually painted
+    assert (np.abs(img.astype(int) - [0x8C, 0x56, 0x4B]).sum(axis=2) < 30).sum() > 500
+
+
+def test_planar_chain_matches_the_robot_model(rng):
+    arm = robots.load("planar4r")
+    lengths = [1.0, 0.8, 0.6, 0.4]
+    for _ in range(5):
+        q = arm.random_q(rng)
+        P = viz.planar_chain(lengths, q)
+        assert P.shape == (5, 2)
+        np.testing.assert_allclose(P[-1], arm.fk(q)[:2, 3], atol=1e-9)
+        np.testing.assert_allclose(np.linalg.norm(np.diff(P, axis=0), axis=1), lengths)
+
+
+def test_planar_arm_family_figure(tmp_path):
+    lengths = [1.0, 0.8, 0.6, 0.4]
+    up = np.random.default_rng(1).uniform(-1, 1, size=(40, 4))
+    down = np.random.default_rng(2).uniform(-1, 1, size=(7, 4))
+    fig = viz.planar_arm_figure(lengths, {"elbow up": up, "elbow down": down}, target=(1.2, 0.8, 0.3), max_per_branch=10)
+    ax = fig.axes[0]
+    arms = [ln for ln in ax.lines if len(ln.get_xdata()) == 5]
+    assert len(arms) == 10 + 7
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["elbow up (40)", "elbow down (7)", "target"]
+    check_png(viz.save_png(fig, tmp_path / "family.png"))
+
+
+def test_bad_plot_input():
+    with pytest.raises(ShapeError):
+        viz.joints_figure(np.arange(3), np.zeros((4, 2)))
+    with pytest.raises(ShapeError):
+        viz.joints_figure(None, np.zeros((4, 2)), names=["only one"])
+    with pytest.raises(ShapeError):
+        viz.errors_figure(None, {"a": np.zeros(3), "b": np.zeros(4)})
+    with pytest.raises(InputError, match="png"):
+        viz.save_png(viz.series_figure(None, np.zeros(3)), "plot.jpg")
+    with pytest.raises(InputError):
+        viz.planar_arm_figure([1, 1], {})

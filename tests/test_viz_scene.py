@@ -1,0 +1,274 @@
+"""viz.Scene: recorded nodes and transforms against FK computed independently."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import umsgpack
+
+import robots
+import viz
+from kinematics import InputError, Robot, RotationError, se3
+from viz.scene import CAMERA_FOV_DEG
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda")
+
+
+def expected_geometry_pose(robot: Robot, q, g: pin.GeometryObject) -> np.ndarray:
+    """World pose of a geometry object from ``fk_all``: the parent frame's pose, back to its
+    joint (frame.placement is joint -> frame), then the geometry's joint-relative placement."""
+    frame = robot.model.frames[g.parentFrame]
+    T_frame = robot.fk_all(q)[frame.name]
+    return T_frame @ np.linalg.inv(frame.placement.homogeneous) @ g.placement.homogeneous
+
+
+def floats(ext) -> np.ndarray:
+    """Decode a meshcat packed Float32Array (msgpack Ext)."""
+    return np.frombuffer(ext.data, dtype=np.float32)
+
+
+def test_panda_links_are_drawn_with_meshes_at_fk(panda, rng):
+    scene = viz.Scene()
+    q = panda.random_q(rng)
+    arm = scene.add_robot(panda, q)
+    assert arm.missing == []
+    names = [g.name for g in panda.visual_model.geometryObjects]
+    assert sorted(arm.nodes) == sorted(names)
+    for g in panda.visual_model.geometryObjects:
+        path = arm.nodes[g.name]
+        obj = scene.object(path)
+        assert obj is not None
+        assert obj["object"]["object"]["type"] == "_meshfile_object"
+        assert obj["object"]["object"]["format"] == "dae"
+        scale = np.diag(np.r_[g.meshScale, 1.0])
+        np.testing.assert_allclose(scene.world_transform(path), expected_geometry_pose(panda, q, g) @ scale, atol=1e-9)
+
+
+def test_base_pose_and_set_q_move_every_link(panda, rng):
+    scene = viz.Scene()
+    base = se3.pose(se3.rot_z(0.7) @ se3.rot_x(0.2), [1.0, -0.5, 0.3])
+    arm = scene.add_robot(panda, panda.neutral(), name="arm", base=base)
+    q = panda.random_q(rng)
+    arm.set_q(q)
+    assert arm.root == "/meshcat/arm"
+    np.testing.assert_allclose(scene.transform("arm"), base)
+    for g in panda.visual_model.geometryObjects:
+        expected = base @ expected_geometry_pose(panda, q, g)
+        np.testing.assert_allclose(scene.world_transform(arm.nodes[g.name]), expected, atol=1e-9)
+    # the tool pose helper is base * FK
+    np.testing.assert_allclose(arm.tool_pose(q), base @ panda.fk(q), atol=1e-12)
+    # set_q replaced the transforms: one set_transform per node in the replay
+    paths = [c["path"] for c in scene.commands() if c["type"] == "set_transform"]
+    assert len(paths) == len(set(paths))
+
+
+def test_primitive_visuals_of_seed_robot(rng):
+    arm = robots.load("planar4r")
+    scene = viz.Scene()
+    q = arm.random_q(rng)
+    handle = scene.add_robot(arm, q)
+    kinds = {scene.object(p)["object"]["geometries"][0]["type"] for p in handle.nodes.values()}
+    assert kinds <= {"CylinderGeometry", "BoxGeometry", "SphereGeometry"} and kinds
+    for g in arm.visual_model.geometryObjects:
+        np.testing.assert_allclose(scene.world_transform(handle.nodes[g.name])[:3, 3],
+                                   expected_geometry_pose(arm, q, g)[:3, 3], atol=1e-9)
+
+
+def test_skeleton_for_robot_without_visuals(panda, rng):
+    bare = Robot(panda.model, tip=panda.tip, name="bare")
+    scene = viz.Scene()
+    q = bare.random_q(rng)
+    handle = scene.add_robot(bare, q)
+    data = bare.model.createData()
+    pin.forwardKinematics(bare.model, data, q)
+    for j in range(1, bare.model.njoints):
+        name = bare.model.names[j]
+        ball = scene.world_transform(handle.nodes[f"skeleton_joint_{name}"])
+        np.testing.assert_allclose(ball[:3, 3], data.oMi[j].translation, atol=1e-9)
+        seg = handle.nodes.get(f"skeleton_link_{name}")
+        if seg is None:  # coincident joint origins draw no link
+            assert np.linalg.norm(bare.model.jointPlacements[j].translation) < 1e-6
+            continue
+        T = scene.world_transform(seg)
+        h = scene.object(seg)["object"]["geometries"][0]["height"]
+        ends = {tuple(np.round(T[:3, 3] + s * 0.5 * h * T[:3, 2], 9)) for s in (-1, 1)}
+        parent = data.oMi[bare.model.parents[j]].translation
+        assert any(np.allclose(e, parent, atol=1e-9) for e in ends)
+        assert any(np.allclose(e, data.oMi[j].translation, atol=1e-9) for e in ends)
+    tip = scene.world_transform(handle.nodes[f"skeleton_tip_{bare.tip}"])
+    np.testing.assert_allclose(tip[:3, 3], bare.fk(q)[:3, 3], atol=1e-9)
+
+
+def test_triad_axes_follow_the_pose():
+    scene = viz.Scene()
+    T = se3.pose(se3.rot_z(0.4) @ se3.rot_y(-0.9), [0.3, 0.2, 0.5])
+    path = scene.add_frame("target", T, length=0.2)
+    assert path == "/meshcat/target"
+    np.testing.assert_allclose(scene.world_transform("target"), T)
+    for k, axis in enumerate("xyz"):
+        W = scene.world_transform(f"target/{axis}")
+        # the cylinder's own axis (local z) lies along the frame's axis k, centred half a length out
+        np.testing.assert_allclose(W[:3, 2], T[:3, k], atol=1e-12)
+        np.testing.assert_allclose(W[:3, 3], T[:3, 3] + 0.1 * T[:3, k], atol=1e-12)
+        geom = scene.object(f"target/{axis}")["object"]
+        assert geom["geometries"][0]["type"] == "CylinderGeometry" and geom["geometries"][0]["height"] == pytest.approx(0.2)
+        # the intrinsic matrix turns three.js's y-axis cylinder onto z
+        M = np.array(geom["object"]["matrix"]).reshape(4, 4)
+        np.testing.assert_allclose(M[:3, :3] @ [0, 1, 0], [0, 0, 1], atol=1e-12)
+
+
+def test_sphere_box_cylinder_path_points():
+    scene = viz.Scene()
+    scene.add_sphere("ball", [0.4, -0.7, 0.5], 0.2, color="red", opacity=0.5)
+    obj = scene.object("ball")["object"]
+    assert obj["geometries"][0] == {**obj["geometries"][0], "type": "SphereGeometry", "radius": 0.2}
+    assert obj["materials"][0]["transparent"] is True and obj["materials"][0]["opacity"] == 0.5
+    assert obj["materials"][0]["color"] == viz.colors.NAMED["red"]
+    np.testing.assert_allclose(scene.transform("ball")[:3, 3], [0.4, -0.7, 0.5])
+
+    scene.add_box("box", [0.2, 0.3, 0.4], [0.5, 0.5, 0.1])
+    assert scene.object("box")["object"]["geometries"][0]["width"] == pytest.approx(0.2)
+    np.testing.assert_allclose(scene.transform("box")[:3, 3], [0.5, 0.5, 0.1])
+
+    T = se3.pose(se3.rot_x(0.5), [0.7, 0.1, 0.0])
+    scene.add_cylinder("can", 0.03, 0.05, T)
+    np.testing.assert_allclose(scene.transform("can"), T)
+
+    pts = np.array([[0, 0, 0], [0.1, 0.2, 0.3], [0.5, 0.5, 0.5]])
+    scene.add_path("tool/path", pts, markers=0.01)
+    line = scene.object("tool/path")["object"]
+    assert line["object"]["type"] == "Line"
+    np.testing.assert_allclose(_positions(line), pts, atol=1e-7)
+    assert len([p for p in scene.paths() if p.startswith("/meshcat/tool/path/m")]) == 3
+    # planar points are drawn on z = 0
+    scene.add_path("flat", [[0, 0], [1, 1]])
+    np.testing.assert_allclose(_positions(scene.object("flat")["object"]), [[0, 0, 0], [1, 1, 0]], atol=1e-7)
+    cloud = np.random.default_rng(0).uniform(size=(10, 3))
+    scene.add_points("cloud", cloud, size=0.02)
+    np.testing.assert_allclose(_positions(scene.object("cloud")["object"]), cloud, atol=1e-6)
+
+
+def _positions(obj) -> np.ndarray:
+    """Points of a meshcat BufferGeometry: meshcat packs the (3, N) array column-major."""
+    attr = obj["geometries"][0]["data"]["attributes"]["position"]
+    assert attr["itemSize"] == 3
+    return floats(attr["array"]).reshape(-1, 3)
+
+
+def test_map_is_scaled_and_complete():
+    scene = viz.Scene()
+    obstacles = [viz.Rect(220, 100, 260, 140, "hotdog"), {"circle": [240, 240, 40]}, {"min": [135, 375], "max": [185, 425]}]
+    mask = np.zeros((48, 48), dtype=bool)
+    mask[0, 0:5] = True      # one run
+    mask[3, 2:4] = True      # another
+    mask[3, 10:12] = True    # and a third on the same row
+    root = scene.add_map("mall", obstacles, (0, 0, 480, 480), paths={"leg 1": [[260, 60], [360, 170]]},
+                         waypoints={"start": (260, 60), "end": (230, 430)}, coverage=viz.Grid(mask, (0, 0), 10.0),
+                         inflate=10, scale=0.01)
+    assert root == "/meshcat/mall"
+    np.testing.assert_allclose(scene.transform("mall"), np.diag([0.01, 0.01, 0.01, 1]))
+    assert len([p for p in scene.paths() if p.startswith("/meshcat/mall/obstacles/")]) == 3
+    assert len([p for p in scene.paths() if p.startswith("/meshcat/mall/inflated/")]) == 3
+    # the hot-dog stand: a 40 x 40 box centred at (240, 120) map units = (2.4, 1.2) m
+    np.testing.assert_allclose(scene.world_transform("mall/obstacles/hotdog")[:2, 3], [2.4, 1.2])
+    box = scene.object("mall/obstacles/hotdog")["object"]["geometries"][0]
+    assert (box["width"], box["height"]) == (40, 40)
+    # the circle is a z-axis cylinder of radius 40 (inflated: 50)
+    assert scene.object("mall/obstacles/1")["object"]["geometries"][0]["radiusTop"] == 40
+    assert scene.object("mall/inflated/1")["object"]["geometries"][0]["radiusTop"] == 50
+    # coverage: two triangles per merged row run
+    cov = scene.object("mall/coverage")["object"]["geometries"][0]["data"]
+    assert len(np.frombuffer(cov["index"]["array"].data, np.uint32)) == 3 * 2 * 3  # 3 runs x 2 triangles x 3 indices
+    corners = _positions(scene.object("mall/coverage")["object"])
+    np.testing.assert_allclose(sorted(set(corners[:, 0])), [0, 20, 40, 50, 100, 120])  # runs [0, 50], [20, 40], [100, 120]
+    P = _positions(scene.object("mall/paths/leg 1")["object"])
+    np.testing.assert_allclose(P[:, :2], [[260, 60], [360, 170]])
+    np.testing.assert_allclose(scene.world_transform("mall/waypoints/end")[:2, 3], [2.3, 4.3])
+
+
+def test_grid_rectangles_cover_exactly_the_true_cells():
+    rng = np.random.default_rng(3)
+    mask = rng.uniform(size=(20, 30)) < 0.4
+    grid = viz.Grid(mask, origin=(-5.0, 2.0), cell=0.5)
+    rebuilt = np.zeros_like(mask)
+    for r in grid.rectangles():
+        i = int(round((r.ymin - 2.0) / 0.5))
+        j0, j1 = int(round((r.xmin + 5.0) / 0.5)), int(round((r.xmax + 5.0) / 0.5))
+        assert r.ymax - r.ymin == pytest.approx(0.5)
+        assert not rebuilt[i, j0:j1].any()
+        rebuilt[i, j0:j1] = True
+    assert (rebuilt == mask).all()
+    assert grid.extent == (-5.0, 10.0, 2.0, 12.0)
+
+
+def test_auto_camera_sees_everything(panda):
+    scene = viz.Scene()
+    scene.add_robot(panda, panda.neutral())
+    scene.add_sphere("far", [1.5, -1.0, 0.2], 0.1)
+    eye, target = scene.camera()
+    lo, hi = scene.bounds()
+    view = (target - eye) / np.linalg.norm(target - eye)
+    half = np.radians(CAMERA_FOV_DEG / 2)
+    for corner in np.array(np.meshgrid(*zip(lo, hi))).T.reshape(-1, 3):
+        d = corner - eye
+        angle = np.arccos(np.clip(d @ view / np.linalg.norm(d), -1, 1))
+        assert angle < half
+    # the camera commands put the orbit centre at the target and the camera at the eye
+    cmds = scene.camera_commands()
+    np.testing.assert_allclose(np.array(cmds[0]["matrix"]).reshape(4, 4).T[:3, 3], target)
+    dx, dz, mdy = cmds[1]["value"]
+    Rx = se3.rot_x(np.pi / 2)  # meshcat's y-up "rotated" node
+    np.testing.assert_allclose(target + Rx @ [dx, dz, mdy], eye, atol=1e-12)
+    scene.set_camera([2, 0, 1], [0, 0, 0.5])
+    np.testing.assert_allclose(scene.camera()[0], [2, 0, 1])
+
+
+def test_replay_order_and_delete(panda):
+    scene = viz.Scene(grid=False)
+    scene.add_robot(panda)
+    scene.add_sphere("s", [0, 0, 1], 0.1)
+    cmds = scene.commands()
+    first = {}
+    for i, c in enumerate(cmds):
+        first.setdefault((c["type"], c["path"]), i)
+    for (kind, path), i in first.items():
+        if kind == "set_transform" and ("set_object", path) in first:
+            assert first[("set_object", path)] < i  # a node's object, then its transform
+        parent = path.rsplit("/", 1)[0]
+        if (kind, parent) in first:
+            assert first[(kind, parent)] < i  # parents before children
+    assert cmds[-2]["path"] == "/Cameras/default" and cmds[-1]["property"] == "position"
+    assert {"type": "set_property", "path": "/Grid", "property": "visible", "value": False} in cmds
+    # every command survives msgpack as meshcat's server would send it
+    for c in cmds:
+        umsgpack.packb(c)
+    scene.delete("panda")
+    assert "panda" not in scene.robots and "/meshcat/panda" not in scene
+    assert scene.paths() == ["/meshcat/s"]
+
+
+def test_invalid_input_is_rejected(panda):
+    scene = viz.Scene()
+    with pytest.raises(InputError, match="color"):
+        scene.add_sphere("s", [0, 0, 0], 0.1, color="not-a-colour")
+    with pytest.raises(InputError, match="radius"):
+        scene.add_sphere("s", [0, 0, 0], -1.0)
+    with pytest.raises(InputError, match="opacity"):
+        scene.add_box("b", [1, 1, 1], color="grey", opacity=0.0)
+    with pytest.raises(RotationError):
+        scene.add_frame("f", np.diag([2.0, 1, 1, 1]))
+    with pytest.raises(InputError, match="center"):
+        scene.add_sphere("s", [0, 0], 0.1)
+    with pytest.raises(InputError):
+        scene.add_path("p", np.zeros((3, 4)))
+    scene.add_robot(panda)
+    with pytest.raises(InputError, match="already"):
+        scene.add_robot(panda)
+    with pytest.raises(InputError, match="q"):
+        scene.robots["panda"].set_q(np.zeros(3))
+    with pytest.raises(InputError, match="obstacle"):
+        scene.add_map("m", [object()], (0, 0, 1, 1))
+    with pytest.raises(InputError, match="bounds"):
+        scene.add_map("m", [], None)
