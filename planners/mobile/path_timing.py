@@ -1,0 +1,238 @@
+"""Time scaling along a planar path for a differential-drive robot.
+
+The robot drives forwards along the path with heading = path tangent, so its
+angular velocity is ``omega = kappa(s) v`` (``kappa`` the path curvature). The
+cleaning robot's vacuum sits at the back (SCENARIOS.md S7): sharp turns at
+speed would swing it off the wet track, so ``|omega| <= omega_max`` is
+imposed as a speed cap ``v <= omega_max / |kappa|`` at the turns, together
+with ``v <= v_max`` and ``|dv/dt| <= a_max``.
+
+Construction of the speed profile along one smooth piece of length ``L``:
+
+1. speed cap ``c(s) = min(v_max, omega_max / |kappa(s)|)``, eroded to
+   ``c_e(s) = min over |sigma - s| <= v_max tau of c(sigma)``;
+2. the classic forward/backward pass: the fastest profile under ``c_e`` that
+   starts and ends at rest with ``|dv/dt| <= a_max``
+   (``v_i = min(c_e, sqrt(v_{i-1}^2 + 2 a_max ds))`` both ways);
+3. the resulting ``v(t)`` (piecewise linear in time, its acceleration jumps
+   between ``-a_max, 0, +a_max``) is averaged over a sliding window of
+   ``tau`` seconds (``smoothing_time``). The average of a continuous function
+   over a window is C1, so the acceleration becomes continuous - at the via
+   points (spline knots) and everywhere else - while ``|a| <= a_max`` still
+   holds (an average of accelerations) and the window can move the robot by at
+   most ``v_max tau`` along the path, which the erosion in step 1 already
+   accounted for: ``v(t) <= c(s(t))`` and hence ``|omega| <= omega_max``.
+   The motion starts and ends at rest with zero acceleration.
+
+Where the heading must change without moving (at the start, at a waypoint
+where the next leg leaves in another direction, at the corners of a
+polyline path) the robot turns in place with a quintic time scaling of the
+heading under ``omega_max`` and ``alpha_max``; speed and acceleration are 0
+on both sides of such a junction, so they stay continuous.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from kinematics.errors import InputError
+
+from ..time_scaling import minimum_time, quintic_time_scaling
+from .smoothing import SmoothPath
+
+
+@dataclass
+class DriveTrajectory:
+    """Samples every ``dt`` of a planar drive: pose ``(x, y, heading)``, speed ``v``,
+    tangential acceleration ``a`` and angular velocity ``omega``.
+
+    ``phases`` lists ``(kind, t_start, t_end)`` with kind ``"drive"`` or ``"turn"``.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    heading: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    omega: np.ndarray
+    phases: list = field(default_factory=list)
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def points(self) -> np.ndarray:
+        return np.stack([self.x, self.y], axis=1)
+
+    @property
+    def length(self) -> float:
+        return float(np.sum(np.hypot(np.diff(self.x), np.diff(self.y))))
+
+    def summary(self) -> dict:
+        return {
+            "duration": self.duration,
+            "length": self.length,
+            "max_speed": float(np.abs(self.v).max()),
+            "max_acceleration": float(np.abs(self.a).max()),
+            "max_angular_velocity": float(np.abs(self.omega).max()),
+            "turns_in_place": sum(1 for k, *_ in self.phases if k == "turn"),
+        }
+
+    @staticmethod
+    def concatenate(parts: list["DriveTrajectory"]) -> "DriveTrajectory":
+        """Join trajectories end to start (each next one shifted to begin where the last ended)."""
+        parts = [p for p in parts if p is not None and len(p.t)]
+        if not parts:
+            raise InputError("nothing to concatenate")
+        out = {k: [getattr(parts[0], k)] for k in ("t", "x", "y", "heading", "v", "a", "omega")}
+        phases = list(parts[0].phases)
+        t_end = parts[0].t[-1]
+        for p in parts[1:]:
+            shift = t_end - p.t[0]
+            out["t"].append(p.t[1:] + shift)
+            for k in ("x", "y", "heading", "v", "a", "omega"):
+                out[k].append(getattr(p, k)[1:])
+            phases += [(kind, a + shift, b + shift) for kind, a, b in p.phases]
+            t_end = p.t[-1] + shift
+        cat = {k: np.concatenate(v) for k, v in out.items()}
+        cat["heading"] = np.unwrap(cat["heading"])
+        return DriveTrajectory(phases=phases, **cat)
+
+
+def _positive(v, name):
+    if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+        raise InputError(f"{name} must be a finite number > 0, got {v!r}")
+    return float(v)
+
+
+def turn_in_place(x: float, y: float, heading0: float, heading1: float, *, omega_max: float, alpha_max: float,
+                  dt: float = 0.01) -> DriveTrajectory | None:
+    """Rotate at ``(x, y)`` from ``heading0`` to ``heading1`` (shortest way) with a quintic; None if aligned."""
+    d = (heading1 - heading0 + math.pi) % (2.0 * math.pi) - math.pi
+    if abs(d) < 1e-9:
+        return None
+    T = minimum_time("quintic", abs(d), omega_max, alpha_max)
+    sc = quintic_time_scaling(T)
+    n = max(2, int(math.ceil(T / dt)) + 1)
+    t = np.linspace(0.0, T, n)
+    s, sd, _ = sc.evaluate(t)
+    z = np.zeros(n)
+    return DriveTrajectory(t, np.full(n, float(x)), np.full(n, float(y)), heading0 + d * s, z, z.copy(), d * sd,
+                           [("turn", 0.0, T)])
+
+
+def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max, omega_max, dt, tau) -> DriveTrajectory:
+    L = s_b - s_a
+    n_s = max(50, int(math.ceil(L / 0.05)))
+    n_s = min(n_s, 200_000)
+    ss = np.linspace(s_a, s_b, n_s + 1)
+    ds = L / n_s
+    _, _, _, kappa = path.at(ss)
+    with np.errstate(divide="ignore"):
+        cap = np.minimum(v_max, np.where(np.abs(kappa) > 1e-12, omega_max / np.abs(kappa), np.inf))
+    delta = v_max * tau
+    w = 2 * int(math.ceil(delta / ds)) + 1
+    cap = ndimage.minimum_filter1d(cap, size=w, mode="nearest")
+    v = cap.copy()
+    v[0] = v[-1] = 0.0
+    for i in range(1, len(v)):
+        v[i] = min(v[i], math.sqrt(v[i - 1] ** 2 + 2.0 * a_max * ds))
+    for i in range(len(v) - 2, -1, -1):
+        v[i] = min(v[i], math.sqrt(v[i + 1] ** 2 + 2.0 * a_max * ds))
+    vv = v[1:] + v[:-1]
+    t_nodes = np.concatenate([[0.0], np.cumsum(2.0 * ds / np.where(vv > 0, vv, np.inf))])
+    if not np.isfinite(t_nodes[-1]) or t_nodes[-1] <= 0:
+        raise InputError("speed profile degenerate (zero speed cap inside a path piece)")
+    T = t_nodes[-1]
+    n_t = int(math.ceil(T / dt))
+    tt = np.linspace(0.0, T, n_t + 1)
+    h = T / n_t
+    v_t = np.interp(tt, t_nodes, v)
+    m = max(1, int(round(tau / h)))
+    kernel = np.full(m, 1.0 / m)
+    v_sm = np.convolve(v_t, kernel, mode="full")  # length n_t + m, starts and ends at 0
+    v_sm = np.concatenate([[0.0], v_sm])
+    s_sm = np.concatenate([[0.0], np.cumsum(0.5 * (v_sm[1:] + v_sm[:-1]) * h)])
+    scale = L / s_sm[-1]
+    s_sm *= scale
+    v_sm *= scale
+    a_sm = np.gradient(v_sm, h)
+    t = h * np.arange(len(v_sm))
+    x, y, heading, kap = path.at(s_a + s_sm)
+    return DriveTrajectory(t, x, y, heading, v_sm, a_sm, kap * v_sm, [("drive", 0.0, float(t[-1]))])
+
+
+def time_scale_path(
+    path: SmoothPath,
+    *,
+    v_max: float,
+    a_max: float,
+    omega_max: float,
+    alpha_max: float | None = None,
+    dt: float = 0.01,
+    smoothing_time: float | None = None,
+    initial_heading: float | None = None,
+) -> DriveTrajectory:
+    """Time-scale a :class:`SmoothPath` under ``v_max``, ``a_max`` and the turn cap ``omega_max``.
+
+    ``alpha_max`` (rad/s^2, default ``omega_max / 0.5 s``) limits turns in
+    place; ``smoothing_time`` (s, default ``0.25 v_max / a_max``) is the
+    averaging window that makes the acceleration continuous (jerk
+    ``<= a_max / smoothing_time``). With ``initial_heading`` the robot first
+    turns in place to the path's initial tangent. Polyline corners become
+    turns in place. Output sampled every ``dt`` seconds (or finer).
+    """
+    v_max = _positive(v_max, "v_max")
+    a_max = _positive(a_max, "a_max")
+    omega_max = _positive(omega_max, "omega_max")
+    alpha_max = 2.0 * omega_max if alpha_max is None else _positive(alpha_max, "alpha_max")
+    dt = _positive(dt, "dt")
+    tau = 0.25 * v_max / a_max if smoothing_time is None else _positive(smoothing_time, "smoothing_time")
+    parts: list[DriveTrajectory | None] = []
+    stops = np.asarray(path.stops, dtype=float)
+    heading = initial_heading
+    for s_a, s_b in zip(stops[:-1], stops[1:]):
+        if s_b - s_a <= 1e-9:
+            continue
+        x0, y0, h0, _ = path.at(s_a + 1e-9)
+        if heading is not None:
+            parts.append(turn_in_place(float(x0), float(y0), heading, float(h0), omega_max=omega_max,
+                                       alpha_max=alpha_max, dt=dt))
+        # limits shaved by 1e-6 (relative) so the final length rescaling of the discretised profile
+        # cannot push a sample past them
+        piece = _drive_piece(path, s_a, s_b, v_max * (1 - 1e-6), a_max * (1 - 1e-6), omega_max * (1 - 1e-6), dt, tau)
+        parts.append(piece)
+        heading = float(piece.heading[-1])
+    if not any(p is not None for p in parts):
+        x, y, h, _ = path.at(0.0)
+        z = np.zeros(1)
+        return DriveTrajectory(z, np.atleast_1d(x), np.atleast_1d(y), np.atleast_1d(h), z, z, z, [])
+    return DriveTrajectory.concatenate(parts)
+
+
+def drive_through(
+    paths: list[SmoothPath],
+    *,
+    v_max: float,
+    a_max: float,
+    omega_max: float,
+    alpha_max: float | None = None,
+    dt: float = 0.01,
+    smoothing_time: float | None = None,
+    initial_heading: float | None = None,
+) -> DriveTrajectory:
+    """Drive consecutive paths (e.g. the legs between waypoints), stopping and turning in place between them."""
+    parts = []
+    heading = initial_heading
+    for p in paths:
+        tr = time_scale_path(p, v_max=v_max, a_max=a_max, omega_max=omega_max, alpha_max=alpha_max, dt=dt,
+                             smoothing_time=smoothing_time, initial_heading=heading)
+        parts.append(tr)
+        heading = float(tr.heading[-1])
+    return DriveTrajectory.concatenate(parts)

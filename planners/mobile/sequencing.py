@@ -1,0 +1,118 @@
+"""Visiting waypoints on a grid map: in the given order, or in the best order.
+
+With ``order="given"`` consecutive waypoints are joined by A* paths. With
+``order="optimal"`` the first and last waypoints stay fixed and the
+intermediate ones are reordered to minimise the total A* path cost: the
+pairwise costs ``C[i, j]`` (A* between every pair, ``inf`` when no path) feed
+:func:`planners.checkpoint_order.shortest_order` (exact Held-Karp up to 12
+waypoints). That is the travelling-salesman formulation of SCENARIOS.md S7,
+with obstacle-aware distances instead of straight lines.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from kinematics.errors import InputError
+
+from ..checkpoint_order import shortest_order
+from ..errors import NoPathError
+from .astar import GridPath, astar
+from .maps import OccupancyGrid
+
+
+@dataclass(frozen=True)
+class WaypointPlan:
+    """Waypoints visited in ``order`` (indices into the input), joined by A* ``segments``.
+
+    ``points`` is the whole path (lattice points, each waypoint once);
+    ``waypoint_index[k]`` is the index in ``points`` of the ``k``-th visited waypoint.
+    """
+
+    order: list[int]
+    segments: list[GridPath]
+    cost: float
+    length: float
+    points: np.ndarray
+    waypoint_index: list[int]
+    names: list[str]
+    ordering_method: str
+
+    @property
+    def visited_names(self) -> list[str]:
+        return [self.names[i] for i in self.order]
+
+
+def pairwise_costs(grid: OccupancyGrid, waypoints, **astar_kwargs):
+    """``(C, paths)``: A* cost between every ordered pair (``inf`` if unreachable) and the paths.
+
+    Costs are symmetric for the distance and proximity costs (one search per
+    unordered pair); with a turn penalty both directions are searched.
+    """
+    P = np.asarray(waypoints, dtype=float)
+    n = len(P)
+    C = np.zeros((n, n))
+    paths: dict[tuple[int, int], GridPath] = {}
+    symmetric = not astar_kwargs.get("turn_penalty", 0.0)
+    for i in range(n):
+        for j in range(n):
+            if i == j or (symmetric and j < i):
+                continue
+            try:
+                p = astar(grid, P[i], P[j], **astar_kwargs)
+                C[i, j] = p.cost
+                paths[(i, j)] = p
+            except NoPathError:
+                C[i, j] = math.inf
+            if symmetric:
+                C[j, i] = C[i, j]
+    return C, paths
+
+
+def _reverse(p: GridPath) -> GridPath:
+    return GridPath(p.points[::-1].copy(), p.cells[::-1].copy(), p.cost, p.length, p.expanded, p.method)
+
+
+def plan_waypoints(grid: OccupancyGrid, waypoints, *, order: str = "given", names=None, **astar_kwargs) -> WaypointPlan:
+    """Join ``waypoints`` (``(K, 2)``, world units) by A* paths, in the given or the best order.
+
+    ``order="optimal"`` keeps the first and the last waypoint and reorders the
+    rest (see the module docstring). ``astar_kwargs`` go to :func:`astar`.
+    Raises :class:`NoPathError` when some required leg has no path.
+    """
+    P = np.asarray(waypoints, dtype=float)
+    if P.ndim != 2 or P.shape[1] != 2 or len(P) < 2:
+        raise InputError(f"waypoints must be (K >= 2, 2) world points, got shape {P.shape}")
+    K = len(P)
+    names = [str(i) for i in range(K)] if names is None else [str(n) for n in names]
+    if len(names) != K:
+        raise InputError(f"names must have one entry per waypoint ({K}), got {len(names)}")
+    if order == "given":
+        seq = list(range(K))
+        segs = []
+        for a, b in zip(seq[:-1], seq[1:]):
+            try:
+                segs.append(astar(grid, P[a], P[b], **astar_kwargs))
+            except NoPathError as exc:
+                raise NoPathError(f"leg {names[a]} -> {names[b]}: {exc}") from None
+        method = "given"
+    elif order == "optimal":
+        C, paths = pairwise_costs(grid, P, **astar_kwargs)
+        res = shortest_order(cost=C, start=0, end=K - 1 if K > 1 else None)
+        if not math.isfinite(res.cost):
+            raise NoPathError("no order of the waypoints is connected by collision-free paths")
+        seq = res.order
+        segs = [paths[(a, b)] if (a, b) in paths else _reverse(paths[(b, a)]) for a, b in zip(seq[:-1], seq[1:])]
+        method = res.method
+    else:
+        raise InputError(f"order must be 'given' or 'optimal', got {order!r}")
+    pts = [segs[0].points[:1]]
+    idx = [0]
+    for s in segs:
+        pts.append(s.points[1:])
+        idx.append(idx[-1] + len(s.points) - 1)
+    return WaypointPlan(seq, segs, float(sum(s.cost for s in segs)), float(sum(s.length for s in segs)),
+                        np.concatenate(pts), idx, names, method)
