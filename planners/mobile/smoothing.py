@@ -207,7 +207,10 @@ def relax(grid: OccupancyGrid, P: np.ndarray, fixed: np.ndarray, margin: float, 
         new = P + step
         ok = grid.is_free(new)
         new[~ok] = P[~ok]
+        moved = float(np.abs(new - P).max())
         P = new
+        if moved < 1e-3 * res:
+            break
     return P
 
 

@@ -1,0 +1,108 @@
+"""Three-wheel omnidirectional base (SCENARIOS.md S6).
+
+Geometry (body frame, origin at the centre): wheel ``i`` (``i = 0, 1, 2``)
+sits at ``p_i = D [cos b_i, sin b_i]``, ``b_i = b_0 + i 2 pi / 3``, with its
+axle along the radial direction ``e_i = [cos b_i, sin b_i]`` and its rolling
+direction tangential, ``u_i = [-sin b_i, cos b_i]``; its passive rollers let
+it slide freely along ``e_i``. Wheel speed ``phi_i`` (rad/s) is positive by
+the right-hand rule about the *outward* axle ``e_i``, so a positive
+``phi_i`` drives its contact point backwards along ``u_i`` and pushes the hub
+along ``-u_i``: rolling without slipping gives ``u_i . v_hub = -R phi_i``.
+
+With the body twist ``(xdot, ydot, thetadot)`` in *world* axes and heading
+``theta``, the hub velocity is ``v + thetadot z x (Rot(theta) p_i)``, and
+
+    ``phi_i = -(1/R) [ -sin(theta + b_i) xdot + cos(theta + b_i) ydot + D thetadot ]``
+
+(inverse kinematics, ``phi = H(theta) qdot``). ``H`` depends on the heading
+only - the seed document's matrix, which contains the world position
+``(x, y)``, is wrong: translating the whole base does not change how its
+wheels must turn. Forward kinematics is ``qdot = H(theta)^-1 phi``; ``H`` is
+invertible for three wheels at 120 degrees (``det = -3 sqrt(3) D / (2 R^3)``).
+
+Consequences checked by the tests: equal wheel speeds ``phi`` give a pure
+rotation ``thetadot = -R phi / D`` (opposite to the wheels' sense), and one
+wheel alone gives a constant body twist, i.e. a circle in the world.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from kinematics.errors import InputError
+
+
+@dataclass(frozen=True)
+class OmniBase:
+    """Three omni wheels of ``wheel_radius`` R at distance ``D`` (``center_distance``), 120 degrees apart.
+
+    ``first_wheel_angle`` is ``b_0`` (rad) in the body frame; the seed's figure
+    puts wheel A at 60 degrees, B at 180 degrees and C at 300 degrees (``b_0 = pi/3``).
+    """
+
+    wheel_radius: float
+    center_distance: float
+    first_wheel_angle: float = math.pi / 3.0
+
+    def __post_init__(self):
+        for name in ("wheel_radius", "center_distance"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise InputError(f"{name} must be a finite number > 0, got {v!r}")
+        if not math.isfinite(self.first_wheel_angle):
+            raise InputError("first_wheel_angle must be finite")
+
+    @property
+    def wheel_angles(self) -> np.ndarray:
+        return self.first_wheel_angle + 2.0 * math.pi / 3.0 * np.arange(3)
+
+    def wheel_positions(self, pose=(0.0, 0.0, 0.0)) -> np.ndarray:
+        """World positions ``(3, 2)`` of the wheel contact points at ``pose = (x, y, theta)``."""
+        x, y, th = (float(v) for v in pose)
+        a = self.wheel_angles + th
+        D = self.center_distance
+        return np.stack([x + D * np.cos(a), y + D * np.sin(a)], axis=1)
+
+    def jacobian(self, theta: float) -> np.ndarray:
+        """``H(theta)`` (3x3) with ``phi = H(theta) [xdot, ydot, thetadot]`` (world-frame twist)."""
+        a = self.wheel_angles + float(theta)
+        R, D = self.wheel_radius, self.center_distance
+        return -np.stack([-np.sin(a), np.cos(a), np.full(3, D)], axis=1) / R
+
+    def wheel_speeds(self, twist, theta: float) -> np.ndarray:
+        """Inverse kinematics: wheel speeds (rad/s) for the world twist ``(xdot, ydot, thetadot)``."""
+        t = np.asarray(twist, dtype=float)
+        if t.shape[-1] != 3:
+            raise InputError(f"twist must be (xdot, ydot, thetadot), got shape {t.shape}")
+        return t @ self.jacobian(theta).T
+
+    def twist(self, wheel_speeds, theta: float) -> np.ndarray:
+        """Forward kinematics: world twist ``(xdot, ydot, thetadot)`` from the wheel speeds (rad/s)."""
+        w = np.asarray(wheel_speeds, dtype=float)
+        if w.shape[-1] != 3:
+            raise InputError(f"wheel_speeds must hold 3 values, got shape {w.shape}")
+        return np.linalg.solve(self.jacobian(theta), w.T).T
+
+    def body_twist(self, wheel_speeds) -> np.ndarray:
+        """Twist in the body frame (heading 0): constant for constant wheel speeds."""
+        return self.twist(wheel_speeds, 0.0)
+
+    def simulate(self, wheel_speeds, pose0, t_span, t_eval=None, rtol: float = 1e-10, atol: float = 1e-12):
+        """Integrate the pose ``(x, y, theta)`` under wheel speeds (3 values or a function of ``t``).
+
+        Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp`` (RK45).
+        """
+        f = wheel_speeds if callable(wheel_speeds) else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w)
+        p0 = np.asarray(pose0, dtype=float)
+        if p0.shape != (3,):
+            raise InputError(f"pose0 must be (x, y, theta), got shape {p0.shape}")
+
+        def rhs(t, s):
+            return self.twist(np.asarray(f(t), dtype=float), s[2])
+
+        sol = solve_ivp(rhs, t_span, p0, t_eval=t_eval, rtol=rtol, atol=atol)
+        return sol.t, sol.y.T
