@@ -152,11 +152,24 @@ def _cached(key, build) -> Robot:
     return proto.copy()
 
 
+_args_cache: dict = {}
+
+
+def _declared(path: Path) -> dict:
+    """``declared_args`` of a xacro file, re-read only when the file changes."""
+    st = path.stat()
+    key = (str(path), st.st_mtime_ns, st.st_size)
+    args = _args_cache.get(key)
+    if args is None:
+        args = _args_cache[key] = declared_args(path)
+    return dict(args)
+
+
 def parameters(name: str) -> dict:
     """Parameters of a built-in robot and their defaults (xacro args, or locked joint values)."""
     entry = _entry(name)
     if entry.is_xacro:
-        return {k: _number_or_text(v) for k, v in declared_args(entry.path()).items()}
+        return {k: _number_or_text(v) for k, v in _declared(entry.path()).items()}
     return dict(entry.locked)
 
 
@@ -166,7 +179,7 @@ def available() -> dict[str, str]:
     for name, entry in ENTRIES.items():
         desc = entry.description
         if entry.is_xacro:
-            desc += f" [params: {', '.join(declared_args(entry.path()))}]"
+            desc += f" [params: {', '.join(_declared(entry.path()))}]"
         out[name] = desc
     return out
 

@@ -24,6 +24,11 @@ Pipeline
 5. **Build** the Pinocchio model from the XML string and, when asked, the
    visual and collision ``GeometryModel`` s with the package directories
    that resolve ``package://`` mesh URIs (meshes are cached across loads).
+   Relative and ``file://`` mesh paths are rewritten as absolute paths (a
+   string has no directory of its own to resolve them against later).
+
+``Robot.source`` is the original text when nothing had to change, otherwise
+the normalised XML that was actually built.
 """
 
 from __future__ import annotations
