@@ -115,6 +115,9 @@ class Robot:
         self.joint_names: list[str] = list(model.names)[1:]
         self.lower = np.array(model.lowerPositionLimit, dtype=float)
         self.upper = np.array(model.upperPositionLimit, dtype=float)
+        # Shared by every copy(): read-only so no copy can change another's limits.
+        self.lower.flags.writeable = False
+        self.upper.flags.writeable = False
         if not np.all(np.isfinite(self.lower)) or not np.all(np.isfinite(self.upper)) or np.any(self.lower > self.upper):
             raise ModelError(
                 f"robot {name!r}: every joint needs finite limits lower <= upper; got lower={self.lower}, upper={self.upper}"

@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import time
 
 import numpy as np
 from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
 import ik
@@ -64,6 +66,19 @@ def error_body(loc: list, msg: str, kind: str) -> dict:
     return {"detail": [{"loc": loc, "msg": msg, "type": kind}]}
 
 
+def json_safe(value):
+    """``value`` with NaN/inf floats as strings and unknown objects as ``str``: always JSON-encodable."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else repr(value)
+    if isinstance(value, (str, int, bool)) or value is None:
+        return value
+    if isinstance(value, dict):
+        return {str(k): json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return str(value)
+
+
 def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     app = FastAPI(
         title="kinserve",
@@ -72,6 +87,15 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     )
     pool = RobotPool()
     app.state.pool = pool
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation_error(request: Request, exc: RequestValidationError):
+        # The default handler echoes the offending input, which cannot be JSON-encoded when it is NaN/inf.
+        detail = [
+            {"loc": json_safe(list(e.get("loc", ()))), "msg": str(e.get("msg", "")), "type": str(e.get("type", ""))}
+            for e in exc.errors()
+        ]
+        return JSONResponse({"detail": detail}, status_code=422)
 
     @app.exception_handler(FieldError)
     async def _field_error(request: Request, exc: FieldError):

@@ -54,7 +54,7 @@ def parse_params(items: list[str] | None) -> dict:
 def load_robot(args):
     import robots
 
-    return robots.load(args.robot, **parse_params(getattr(args, "param", None)))
+    return robots.load(args.robot, geometry=getattr(args, "geometry", False), **parse_params(getattr(args, "param", None)))
 
 
 def robot_q(robot, args) -> np.ndarray:

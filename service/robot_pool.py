@@ -44,6 +44,6 @@ class RobotPool:
             with self._lock:
                 base = self._base.get(key)
                 if base is None:
-                    base = self._base[key] = robots.load(name, **params)
+                    base = self._base[key] = robots.load(name, geometry=False, **params)
             robot = cache[key] = base.copy()
         return robot

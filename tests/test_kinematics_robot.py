@@ -190,3 +190,10 @@ def test_continuous_joints_are_rejected_with_a_clear_message():
       <joint name="j" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint></robot>"""
     with pytest.raises(ModelError, match="nq == nv"):
         Robot(pin.buildModelFromXML(urdf))
+
+
+def test_limits_are_read_only_so_copies_cannot_corrupt_each_other(panda):
+    other = panda.copy()
+    with pytest.raises(ValueError):
+        other.lower[0] = 0.0
+    assert panda.lower[0] < 0
