@@ -1,0 +1,54 @@
+"""scenarios: the nine seed systems of SCENARIOS.md, end to end.
+
+Each module has ``run(out: pathlib.Path, **options) -> dict``: it computes the
+scenario with the library, writes its artefacts (PNG plots, ``scene.html``
+for the 3-D ones, data files) into ``out`` and returns its key numbers as
+plain data. :func:`run` adds ``result.json`` (that dict) to the folder.
+
+    kinserve demo NAME [--out DIR]       one scenario into DIR/NAME/
+    kinserve demo all --out DIR          all of them
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from pathlib import Path
+
+from .artefacts import write_json
+
+#: name -> (module, one-line description)
+SCENARIOS: dict[str, tuple[str, str]] = {
+    "planar4r": ("scenarios.planar4r", "S1 redundant 4R planar arm: the one-parameter IK family, both elbow branches, a chooser"),
+    "youbot": ("scenarios.youbot", "S2 KUKA youBot 5-DOF: DH FK = URDF, Jacobian rank, closed-form IK branches, nearest reachable pose"),
+    "youbot-tour": ("scenarios.youbot_tour", "S3 youBot checkpoint tour: shortest order, SE(3) interpolation, position-only IK trajectory"),
+    "pick-place": ("scenarios.pick_place", "S4 Franka Panda pick-and-place: SE(3) quintic screw trajectories, DLS tracking, grasp/release"),
+    "pr-rate": ("scenarios.pr_rate", "S5 PR planar robot: resolved-rate runs, singularity detection, circle following open vs closed loop"),
+    "omni": ("scenarios.omni", "S6 three-wheel omnidirectional base: wheel-speed kinematics and simulated motion"),
+    "mall": ("scenarios.mall", "S7 cleaning robot in a mall: A* between waypoints, best order, smoothing and time scaling"),
+    "coverage": ("scenarios.coverage", "S8 cleaning robot floor coverage: boustrophedon lanes, detours, covered fraction"),
+    "scara": ("scenarios.scara", "S9 SCARA RRPR: Jacobian methods, relaxed phi / z with joint centring and a sphere obstacle"),
+}
+
+
+def available() -> dict[str, str]:
+    """Scenario names with their one-line descriptions."""
+    return {name: desc for name, (_, desc) in SCENARIOS.items()}
+
+
+def run(name: str, out, **options) -> dict:
+    """Run scenario ``name`` into folder ``out`` (created), write ``result.json``, return the result."""
+    from kinematics.errors import InputError, suggest
+
+    if name not in SCENARIOS:
+        raise InputError(f"unknown scenario {name!r}.{suggest(name, SCENARIOS)} Known: {', '.join(SCENARIOS)}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    module = importlib.import_module(SCENARIOS[name][0])
+    t0 = time.perf_counter()
+    result = module.run(out, **options)
+    result = dict(result)
+    result.setdefault("scenario", name)
+    result["elapsed_s"] = round(time.perf_counter() - t0, 3)
+    write_json(out / "result.json", result)
+    return result

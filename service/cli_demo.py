@@ -1,0 +1,52 @@
+"""``kinserve demo NAME|all [--out DIR] [--open]``: run the seed scenarios and write their artefacts."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import webbrowser
+from pathlib import Path
+
+
+def _summary(result: dict) -> str:
+    keys = [k for k, v in result.items() if isinstance(v, (int, float, bool, str)) and k not in ("scenario",)]
+    return ", ".join(f"{k}={result[k]:.6g}" if isinstance(result[k], float) else f"{k}={result[k]}" for k in keys[:8])
+
+
+def cmd_demo(args) -> int:
+    import scenarios
+
+    names = list(scenarios.SCENARIOS) if args.name == "all" else [args.name]
+    out = Path(args.out)
+    results = {}
+    for name in names:
+        folder = out / name
+        result = scenarios.run(name, folder)
+        results[name] = result
+        if args.json:
+            continue
+        print(f"[{name}] {scenarios.SCENARIOS[name][1]}")
+        print(f"    {_summary(result)}")
+        for path in sorted(folder.iterdir()):
+            print(f"    {path}")
+        if args.open and (folder / "scene.html").exists():
+            webbrowser.open((folder / "scene.html").resolve().as_uri())
+    if args.json:
+        from scenarios.artefacts import plain
+
+        print(json.dumps(plain(results), indent=2))
+    else:
+        print(f"\nartefacts in {out.resolve()}  (open */scene.html in a browser, */*.png for plots)")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    import scenarios
+
+    p = sub.add_parser("demo", help="run a seed scenario (or all) and write its results, plots and scenes")
+    p.add_argument("name", choices=[*scenarios.SCENARIOS, "all"], metavar="NAME",
+                   help="one of: " + ", ".join([*scenarios.SCENARIOS, "all"]))
+    p.add_argument("--out", default="demo-out", help="output folder (default ./demo-out)")
+    p.add_argument("--open", action="store_true", help="open each scene.html in the default browser")
+    p.add_argument("--json", action="store_true", help="print all results as JSON")
+    p.set_defaults(func=cmd_demo)
