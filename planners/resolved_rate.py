@@ -19,8 +19,13 @@ Euler integration with step ``dt``:
 with the adaptive damping of Nakamura / Maciejewski: ``lambda = 0`` while the
 smallest singular value ``sigma_min >= sigma_threshold`` and
 ``lambda^2 = (1 - (sigma_min / sigma_threshold)^2) lambda_max^2`` below it,
-so joint rates stay bounded (by ``|xdot| / (2 lambda)``) at a singularity
-instead of exploding. ``damping=0`` gives the plain pseudo-inverse.
+so joint rates stay bounded at a singularity instead of exploding: with
+``lambda_max >= sigma_threshold`` (the defaults, 0.1 and 0.05) the gain
+``sigma / (sigma^2 + lambda^2)`` of every singular direction is at most
+``1 / sigma_threshold``, hence ``|qdot| <= |xdot| / sigma_threshold`` at any
+configuration (an undamped inverse gives ``|xdot| / sigma_min -> inf``); a
+fixed damping ``lambda`` bounds it by ``|xdot| / (2 lambda)``.
+``damping=0`` gives the plain pseudo-inverse.
 
 Singularities are *reported*, not hidden: the result lists an event (with
 the step index) each time ``sigma_min`` drops below ``sigma_threshold``
@@ -31,7 +36,8 @@ undamped inverse needs at the threshold). A step so large that the Jacobian's
 prediction is wrong, ``|x(q_{k+1}) - x(q_k) - J qdot dt| > max_step_error
 |J qdot dt|``, is reported as a ``"large_step"`` event: Euler steps that jump
 across a singularity (or past the workspace boundary) in one go would
-otherwise go unnoticed between two samples.
+otherwise go unnoticed between two samples. Leaving the joint limits (which
+resolved-rate control does not enforce) is reported as ``"joint_limit"``.
 
 Task coordinates supported: ``x, y, z`` (tool position, m) and ``yaw``
 (``atan2(R10, R00)``, rad; meaningful for planar mechanisms, whose angular
@@ -58,8 +64,9 @@ class SingularityEvent:
     """One episode of near-singularity starting at ``step`` (index into the result's arrays).
 
     ``kind`` is ``"low_manipulability"`` (``value`` = sigma_min),
-    ``"joint_rate"`` (``value`` = joint-rate norm) or ``"large_step"``
-    (``value`` = relative linearisation error of that step).
+    ``"joint_rate"`` (``value`` = joint-rate norm), ``"large_step"``
+    (``value`` = relative linearisation error of that step) or
+    ``"joint_limit"`` (a joint left its limits; ``value`` = ``|q|``).
     """
 
     step: int
@@ -234,7 +241,7 @@ def track_reference(
     rates = np.zeros((n, robot.nq))
     lams = np.zeros(n)
     events: list[SingularityEvent] = []
-    low_prev = rate_prev = big_prev = False
+    low_prev = rate_prev = big_prev = limit_prev = False
     predicted = None
     stopped = False
     x_ref, xd_ref = ref(0.0)
@@ -290,12 +297,20 @@ def track_reference(
         lams[k] = lam
         predicted = X[k] + (J @ qdot) * dt
         q = q + qdot * dt
+        outside = not robot.within_limits(q)
+        if outside and not limit_prev:
+            bad = [robot.joint_names[i] for i in np.flatnonzero((q < robot.lower) | (q > robot.upper))]
+            events.append(SingularityEvent(k + 1, float(times[k + 1]), "joint_limit", float(np.linalg.norm(q)),
+                                           f"step {k + 1} (t={times[k + 1]:.4g}s): joint(s) {', '.join(bad)} left their "
+                                           "limits (not enforced by resolved-rate control)"))
+        limit_prev = outside
         if not np.all(np.isfinite(q)):
             events.append(SingularityEvent(k, float(times[k]), "joint_rate", math.inf,
                                            f"step {k}: joint values became non-finite; run stopped"))
             last, stopped = k, True
             break
         x_ref, xd_ref = x_next, xd_next
+    events.sort(key=lambda e: e.step)
     sl = slice(0, last + 1)
     errors = np.linalg.norm(np.array([_wrap_task_error(r - x, yaw_index) for r, x in zip(R[sl], X[sl])]), axis=1)
     return ResolvedRateResult(axes, times[sl], Q[sl], X[sl], R[sl], errors, manip[sl], smin[sl],

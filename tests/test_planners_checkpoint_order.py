@@ -1,0 +1,100 @@
+"""Checkpoint ordering: Held-Karp equals brute force; the heuristic's bound holds; Euclidean, not squared."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from kinematics import se3
+from kinematics.errors import InputError, ShapeError
+from planners.checkpoint_order import euclidean_cost_matrix, path_cost, shortest_order
+
+
+def _brute(C, start=0, end=None, tour=False):
+    n = len(C)
+    mid = [i for i in range(n) if i != start and (end is None or i != end)]
+    best = np.inf
+    for p in itertools.permutations(mid):
+        o = [start, *p] + ([end] if end is not None else [])
+        best = min(best, path_cost(C, o, tour))
+    return best
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_held_karp_equals_brute_force(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 8))
+    pts = rng.uniform(-1, 1, (n, 3))
+    C = euclidean_cost_matrix(pts)
+    r = shortest_order(pts)
+    assert r.optimal and sorted(r.order) == list(range(n)) and r.order[0] == 0
+    assert r.cost == pytest.approx(_brute(C)) and r.cost == pytest.approx(path_cost(C, r.order))
+    if n >= 3:
+        r = shortest_order(pts, start=1, end=n - 1)
+        assert r.order[0] == 1 and r.order[-1] == n - 1
+        assert r.cost == pytest.approx(_brute(C, 1, n - 1))
+    r = shortest_order(pts, return_to_start=True)
+    assert r.cost == pytest.approx(_brute(C, tour=True))
+
+
+def test_asymmetric_user_costs():
+    rng = np.random.default_rng(7)
+    C = rng.uniform(0, 10, (7, 7))
+    np.fill_diagonal(C, 0)
+    r = shortest_order(cost=C, end=3)
+    assert r.cost == pytest.approx(_brute(C, 0, 3))
+
+
+def test_poses_and_cost_function():
+    rng = np.random.default_rng(3)
+    poses = np.array([se3.pose(p=rng.uniform(-1, 1, 3)) for _ in range(6)])
+    r1 = shortest_order(poses)
+    r2 = shortest_order(poses, cost=lambda a, b: float(np.linalg.norm(a[:3, 3] - b[:3, 3])))
+    assert r1.order == r2.order and r1.cost == pytest.approx(r2.cost)
+
+
+def test_euclidean_metric_not_squared():
+    # squared distances prefer many short hops; travelled distance does not
+    pts = np.array([[0.0, 0], [1, 0], [2, 0], [1.5, 0.2], [-2.0, 0]])
+    r = shortest_order(pts)
+    C = euclidean_cost_matrix(pts)
+    sq = shortest_order(cost=C**2)
+    assert r.cost == pytest.approx(_brute(C))
+    assert path_cost(C, r.order) <= path_cost(C, sq.order) + 1e-12
+
+
+@pytest.mark.parametrize("n", [13, 30])
+def test_heuristic_above_the_exact_limit(n):
+    rng = np.random.default_rng(n)
+    pts = rng.uniform(0, 1, (n, 2))
+    r = shortest_order(pts, end=n - 1)
+    assert r.method == "nn+2opt" and sorted(r.order) == list(range(n))
+    assert r.order[0] == 0 and r.order[-1] == n - 1
+    assert r.lower_bound <= r.cost and 1.0 <= r.gap_bound < 2.0
+    # a 2-opt local optimum: no single segment reversal improves it
+    C = euclidean_cost_matrix(pts)
+    for i in range(1, n - 2):
+        for k in range(i + 1, n - 1):
+            cand = r.order[:i] + r.order[i : k + 1][::-1] + r.order[k + 1 :]
+            assert path_cost(C, cand) >= r.cost - 1e-9
+
+
+def test_heuristic_close_to_exact_on_12_points():
+    rng = np.random.default_rng(11)
+    pts = rng.uniform(0, 1, (12, 2))
+    exact = shortest_order(pts)
+    heur = shortest_order(pts, exact_limit=4)
+    assert exact.optimal and not heur.optimal
+    assert exact.cost <= heur.cost <= exact.cost * heur.gap_bound + 1e-12
+    assert heur.lower_bound <= exact.cost + 1e-12
+
+
+def test_bad_inputs():
+    with pytest.raises(ShapeError):
+        shortest_order(cost=np.ones((3, 4)))
+    with pytest.raises(InputError, match="start"):
+        shortest_order(np.zeros((3, 2)), start=5)
+    with pytest.raises(InputError, match="end must differ"):
+        shortest_order(np.zeros((3, 2)), end=0)
+    with pytest.raises(InputError, match=">= 0"):
+        shortest_order(cost=-np.ones((3, 3)))
