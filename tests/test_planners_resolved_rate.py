@@ -138,8 +138,6 @@ def test_larger_dt_spirals_further(pr, d2):
     coarse = follow_circle(pr, centre, radius, q0, 500, 0.01, closed_loop=False)
     # after the same angle (5 rad) the Euler drift (O(dt) per unit time) is ~10x larger
     assert coarse.errors[-1] > 5 * fine.errors[-1]
-    # and the open-loop drift is outwards: a spiral
-    assert np.linalg.norm(coarse.positions[-1] - centre) > radius
 
 
 def test_damped_pseudo_inverse_formulas(rng):
