@@ -134,8 +134,17 @@ def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max, omega_m
     ss = np.linspace(s_a, s_b, n_s + 1)
     ds = L / n_s
     _, _, _, kappa = path.at(ss)
+    # |kappa| is piecewise linear between the path's samples, so its peaks sit at those samples, which
+    # may fall between the grid nodes: each node takes the largest |kappa| of its two adjacent intervals
+    kmax = np.abs(kappa)
+    inside = (path.s > s_a) & (path.s < s_b)
+    if inside.any():
+        seg = np.clip(np.searchsorted(ss, path.s[inside]), 1, n_s)  # sample lies in (ss[seg-1], ss[seg]]
+        ks = np.abs(path.curvature[inside])
+        np.maximum.at(kmax, seg, ks)
+        np.maximum.at(kmax, seg - 1, ks)
     with np.errstate(divide="ignore"):
-        cap = np.minimum(v_max, np.where(np.abs(kappa) > 1e-12, omega_max / np.abs(kappa), np.inf))
+        cap = np.minimum(v_max, np.where(kmax > 1e-12, omega_max / kmax, np.inf))
     delta = v_max * tau
     w = 2 * int(math.ceil(delta / ds)) + 1
     cap = ndimage.minimum_filter1d(cap, size=w, mode="nearest")
