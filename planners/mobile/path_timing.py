@@ -166,11 +166,15 @@ def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max, omega_m
     m = max(1, int(round(tau / h)))
     kernel = np.full(m, 1.0 / m)
     v_sm = np.convolve(v_t, kernel, mode="full")  # length n_t + m, starts and ends at 0
-    v_sm = np.concatenate([[0.0], v_sm])
+    v_sm = np.concatenate([[0.0], v_sm, [0.0]])  # at rest one sample before and after
     s_sm = np.concatenate([[0.0], np.cumsum(0.5 * (v_sm[1:] + v_sm[:-1]) * h)])
+    # match the length exactly without raising any speed: the discretised integral is a hair off
     scale = L / s_sm[-1]
     s_sm *= scale
-    v_sm *= scale
+    if scale >= 1.0:
+        h *= scale  # same speeds, stretched in time (accelerations shrink)
+    else:
+        v_sm *= scale  # same timing, slightly slower
     a_sm = np.gradient(v_sm, h)
     t = h * np.arange(len(v_sm))
     x, y, heading, kap = path.at(s_a + s_sm)
@@ -213,9 +217,7 @@ def time_scale_path(
         if heading is not None:
             parts.append(turn_in_place(float(x0), float(y0), heading, float(h0), omega_max=omega_max,
                                        alpha_max=alpha_max, dt=dt))
-        # limits shaved by 1e-6 (relative) so the final length rescaling of the discretised profile
-        # cannot push a sample past them
-        piece = _drive_piece(path, s_a, s_b, v_max * (1 - 1e-6), a_max * (1 - 1e-6), omega_max * (1 - 1e-6), dt, tau)
+        piece = _drive_piece(path, s_a, s_b, v_max, a_max, omega_max, dt, tau)
         parts.append(piece)
         heading = float(piece.heading[-1])
     if not any(p is not None for p in parts):

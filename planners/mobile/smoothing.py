@@ -126,10 +126,14 @@ def _spline_samples(V: np.ndarray, step: float):
         bc = "not-a-knot" if len(V) > 3 else "natural"
     cs = CubicSpline(u, V, axis=0, bc_type=bc)
     n = max(2, int(math.ceil(u[-1] / step)) + 1)
-    uu = np.linspace(0.0, u[-1], n)
-    # make sure every knot is sampled exactly
-    uu = np.unique(np.concatenate([uu, u]))
-    return u, uu, cs(uu), cs(uu, 1), cs(uu, 2)
+    for _ in range(4):  # samples at most `step` apart along the curve (|r'(u)| may exceed 1)
+        uu = np.unique(np.concatenate([np.linspace(0.0, u[-1], n), u]))  # every knot sampled exactly
+        pts = cs(uu)
+        longest = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).max())
+        if longest <= step:
+            break
+        n = int(math.ceil(n * longest / step * 1.05)) + 1
+    return u, uu, pts, cs(uu, 1), cs(uu, 2)
 
 
 def _geometry(pts, d1, d2):
