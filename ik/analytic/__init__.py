@@ -1,0 +1,76 @@
+"""Closed-form inverse kinematics: planar 2R/3R/4R and SCARA chains (S1, S9), the youBot arm (S2).
+
+:func:`closed_form_solver` finds the solver for a robot and frame by
+*structure*, not by name: each candidate reads its parameters from the
+Pinocchio model and is accepted only if its own closed-form forward
+kinematics matches the robot's at random configurations. Results are cached
+per model and frame.
+
+:func:`branches` turns a solver's raw branches into :class:`ik.Result`
+objects, each verified with the robot's forward kinematics (errors on the
+kept components, ``success`` against the tolerances).
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+
+import numpy as np
+
+from ..result import History, Result
+from .planar import PlanarChain, two_link, wrap_into
+from .youbot import YOUBOT_DH, YouBotArm
+
+__all__ = ["closed_form_solver", "branches", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
+
+_SOLVERS = (PlanarChain, YouBotArm)
+_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def closed_form_solver(robot, frame: str):
+    """The closed-form solver of ``robot`` for ``frame``, or None when there is none."""
+    per_model = _cache.get(robot.model)
+    if per_model is None:
+        per_model = _cache[robot.model] = {}
+    if frame in per_model:
+        return per_model[frame]
+    solver = None
+    for cls in _SOLVERS:
+        try:
+            solver = cls(robot, frame)
+            break
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+    per_model[frame] = solver
+    return solver
+
+
+def branches(robot, solver, target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
+    """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``)."""
+    t0 = time.perf_counter()
+    raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
+    out = []
+    r = robot.copy()
+    seen = []
+    for q, label, free in raw:
+        q = np.clip(np.asarray(q, dtype=float), robot.lower, robot.upper)
+        if any(np.abs(q - s).max() < 1e-9 for s in seen):
+            continue  # branches that coincide (stretched / folded arm)
+        seen.append(q)
+        T = r.fk(q, target.frame)
+        pe, re = target.errors(T[:3, :3], T[:3, 3])
+        ok = pe < tol_pos and re < tol_rot
+        msg = "closed form" + (f"; {note}" if note else "")
+        if not ok and not note:
+            msg += f"; residual {pe:.3g} m / {re:.3g} rad above tolerance"
+        info = {"branch": label, "note": note, **extra}
+        if free is not None:
+            info["free_parameter"] = float(free)
+        hist = History.from_lists([q], [pe], [re], [target.residual(T[:3, :3], T[:3, 3])], target.components)
+        out.append(Result(
+            q=q, success=ok, position_error=pe, orientation_error=re, iterations=0, restarts=0,
+            elapsed=time.perf_counter() - t0, message=msg, history=hist, method="analytic",
+            frame=target.frame, info=info,
+        ))
+    return out

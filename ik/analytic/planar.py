@@ -1,0 +1,335 @@
+"""Closed-form IK of planar chains: 2R / 3R / 4R arms (S1) and SCARA-type arms (S9).
+
+Applies to every serial chain whose joints all turn about, or slide along,
+the world ``z`` axis (axes parallel to ``+-z``). Such a chain is described
+by its geometry at ``q = 0`` (read from the Pinocchio model, then verified
+against its forward kinematics at random configurations):
+
+* revolute joints ``i = 1..k`` with axis sign ``s_i`` (``theta_i = s_i q_i``
+  is the rotation about ``+z``) and link vectors ``v_i`` (from axis ``i`` to
+  axis ``i + 1``, the last one to the tool origin), length ``L_i``, angle
+  ``phi_i`` at ``q = 0``;
+* at most one prismatic joint along ``+-z`` (sign ``s_p``).
+
+With ``Theta_i = theta_1 + ... + theta_i`` the link angles are
+``psi_i = phi_i + Theta_i`` and
+
+    p_xy = c_1 + sum_i L_i (cos psi_i, sin psi_i),   p_z = z_0 + s_p q_p,   R = Rz(Theta_k) R_0.
+
+Revolute joints with ``L_i = 0`` after the last link are *wrist* joints: they
+only turn the tool about ``z`` (a SCARA's ``theta4``). Supported shapes, with
+``alpha`` the target yaw (``R* R_0^T = Rz(alpha)``):
+
+* 2 links (+ at most one wrist): law of cosines on ``(x, y)`` - elbow
+  ``beta = +-acos((|w|^2 - L1^2 - L2^2) / (2 L1 L2))``,
+  ``psi_1 = atan2(w_y, w_x) - atan2(L2 sin beta, L1 + L2 cos beta)``; the wrist
+  takes ``alpha - Theta_2``. SCARA (S9): ``theta1, theta2`` from the 2R
+  solution, ``d3`` from the height, ``theta4`` from ``phi = theta1 + theta2 - theta4``.
+* 3 links: the wrist point ``w = p - L3 (cos psi_3, sin psi_3)`` with
+  ``psi_3 = phi_3 + alpha``, then 2R.
+* 4 links (redundant: 3 task constraints, 4 joints): the solutions form a
+  one-parameter family. The free parameter is ``q1``: for each ``q1`` the
+  remaining 3R problem from the elbow ``c_2(q1)`` has two branches. ``q1`` is
+  feasible when ``|w - c_2(q1)| in [|L2 - L3|, L2 + L3]``, i.e.
+  ``cos(psi_1 - gamma) in [c_min, c_max]`` (``gamma = atan2(w)``) - one or two
+  intervals computed in closed form; the family is sampled uniformly over
+  them (both branches; they coincide at the interval ends, where the arm is
+  stretched or folded).
+
+Relaxed ``yaw`` frees the wrist joint (set to mid-range) on a chain with a
+wrist; relaxed ``z`` frees the prismatic joint (mid-range). Other
+relaxations are not handled in closed form (the solver reports
+``supports() == False`` and ``ik.solve`` falls back to a numerical method).
+All angles come from ``atan2``; joint values are shifted by multiples of
+``2 pi`` into the joint limits, and every combination inside the limits is
+returned.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+_Z = np.array([0.0, 0.0, 1.0])
+_TWO_PI = 2.0 * math.pi
+
+
+def _joint_axis(joint) -> tuple[str, np.ndarray] | None:
+    """('R'|'P', local unit axis) of a one-DOF joint, or None."""
+    short = joint.shortname()
+    axes = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+        return "R", np.array(axes[short[-1]])
+    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
+        return "P", np.array(axes[short[-1]])
+    if short == "JointModelRevoluteUnaligned":
+        return "R", np.asarray(joint.extract().axis, dtype=float).copy()
+    if short == "JointModelPrismaticUnaligned":
+        return "P", np.asarray(joint.extract().axis, dtype=float).copy()
+    return None
+
+
+def wrap_into(value: float, lower: float, upper: float, tol: float = 1e-9) -> list[float]:
+    """Every ``value + 2 pi k`` inside ``[lower, upper]`` (revolute joints)."""
+    k_lo = math.ceil((lower - tol - value) / _TWO_PI)
+    k_hi = math.floor((upper + tol - value) / _TWO_PI)
+    out = []
+    for k in range(k_lo, k_hi + 1):
+        v = value + k * _TWO_PI
+        out.append(min(max(v, lower), upper))
+    return out
+
+
+def two_link(wx: float, wy: float, L1: float, L2: float):
+    """Both solutions ``(psi_1, psi_2, beta)`` of a 2R arm reaching ``(wx, wy)`` from its base.
+
+    ``beta = psi_2 - psi_1`` is the elbow angle. Returns ``(solutions, reachable)``;
+    out of reach, the single stretched / folded configuration pointing at the
+    target is returned with ``reachable = False``.
+    """
+    r2 = wx * wx + wy * wy
+    c = (r2 - L1 * L1 - L2 * L2) / (2.0 * L1 * L2)
+    reachable = -1.0 - 1e-12 <= c <= 1.0 + 1e-12
+    c = min(1.0, max(-1.0, c))
+    gamma = math.atan2(wy, wx)
+    sols = []
+    betas = (math.acos(c), -math.acos(c)) if reachable and abs(c) < 1.0 else (math.acos(c),)
+    for beta in betas:
+        psi1 = gamma - math.atan2(L2 * math.sin(beta), L1 + L2 * math.cos(beta))
+        sols.append((psi1, psi1 + beta, beta))
+    return sols, reachable
+
+
+class PlanarChain:
+    """Geometry of a chain of joints about / along world ``z`` (module docstring) and its closed-form IK."""
+
+    name = "planar"
+
+    def __init__(self, robot, frame: str):
+        model = robot.model
+        fid = robot.frame_id(frame)
+        f = model.frames[fid]
+        chain = []
+        j = f.parentJoint
+        while j > 0:
+            chain.append(j)
+            j = model.parents[j]
+        chain.reverse()
+        if len(chain) != robot.nq:
+            raise ValueError("frame does not depend on every joint")
+        data = model.createData()
+        q0 = np.zeros(model.nq)
+        pin.forwardKinematics(model, data, q0)
+        T0 = pin.updateFramePlacement(model, data, fid)
+        self.robot = robot
+        self.frame = frame
+        self.revolute = []  # (q index, sign, axis xy point)
+        self.prismatic = []  # (q index, sign)
+        for j in chain:
+            info = _joint_axis(model.joints[j])
+            if info is None:
+                raise ValueError("unsupported joint type")
+            kind, axis = info
+            aw = data.oMi[j].rotation @ axis
+            if abs(abs(aw[2]) - 1.0) > 1e-9:
+                raise ValueError("joint axis not parallel to world z")
+            sign = 1.0 if aw[2] > 0 else -1.0
+            iq = model.joints[j].idx_q
+            if kind == "R":
+                self.revolute.append((iq, sign, data.oMi[j].translation[:2].copy()))
+            else:
+                self.prismatic.append((iq, sign))
+        if len(self.prismatic) > 1 or not self.revolute:
+            raise ValueError("needs revolute joints and at most one prismatic joint")
+        self.R0 = T0.rotation.copy()  # any tool tilt is fine: R(q) = Rz(Theta) R0
+        self.z0 = float(T0.translation[2])
+        self.c1 = self.revolute[0][2]
+        pts = [r[2] for r in self.revolute] + [T0.translation[:2].copy()]
+        self.L, self.phi = [], []
+        for a, b in zip(pts[:-1], pts[1:]):
+            v = b - a
+            self.L.append(float(math.hypot(v[0], v[1])))
+            self.phi.append(float(math.atan2(v[1], v[0])))
+        eps = 1e-9
+        nz = [i for i, L in enumerate(self.L) if L > eps]
+        self.n_links = len(nz)
+        if nz != list(range(self.n_links)):
+            raise ValueError("zero-length link before the last link")
+        self.n_wrist = len(self.revolute) - self.n_links
+        if self.n_links not in (2, 3, 4) or self.n_wrist > 1 or (self.n_links > 2 and self.n_wrist):
+            raise ValueError("unsupported planar shape")
+        self.lower, self.upper = robot.lower, robot.upper
+        self._verify(robot, frame)
+
+    # ------------------------------------------------------------------ model
+    def fk(self, q) -> np.ndarray:
+        """Tool pose (4x4) from the closed-form planar model (used to verify it against Pinocchio)."""
+        Theta = 0.0
+        p = self.c1.astype(float).copy()
+        for i, (iq, s, _) in enumerate(self.revolute):
+            Theta += s * q[iq]
+            if i < self.n_links:
+                psi = self.phi[i] + Theta
+                p = p + self.L[i] * np.array([math.cos(psi), math.sin(psi)])
+        z = self.z0 + sum(s * q[iq] for iq, s in self.prismatic)
+        T = np.eye(4)
+        T[:3, :3] = pin.rpy.rpyToMatrix(0.0, 0.0, Theta) @ self.R0
+        T[:3, 3] = (p[0], p[1], z)
+        return T
+
+    def _verify(self, robot, frame):
+        rng = np.random.default_rng(7)
+        r = robot.copy()
+        for q in r.random_q(rng, 5):
+            if np.abs(r.fk(q, frame) - self.fk(q)).max() > 1e-8:
+                raise ValueError("closed-form planar model does not match the robot's forward kinematics")
+
+    # ------------------------------------------------------------------- task
+    def supports(self, relaxed: tuple[int, ...]) -> bool:
+        """Whether the relaxed components (indices into x y z roll pitch yaw) have a closed form here."""
+        rel = set(relaxed)
+        if rel - {2, 3, 4, 5}:
+            return False  # x / y relaxed: a curve of solutions
+        if 5 in rel and self.n_wrist == 0 and self.n_links > 2:
+            return False  # 3R/4R with free yaw: a family, leave it to the numerical solvers
+        return True
+
+    def solve_all(self, T_target: np.ndarray, relaxed=(), samples: int = 24):
+        """``(branches, note, info)``: every branch ``(q, label, free_parameter)`` within the joint limits.
+
+        ``note`` is empty when the target is reachable in closed form, else
+        says why the returned configurations only approach it (out of reach,
+        off the plane). ``free_parameter`` is ``q1`` for the 4-link family.
+        """
+        rel = set(relaxed)
+        p = T_target[:3, 3]
+        M = T_target[:3, :3] @ self.R0.T
+        alpha = math.atan2(M[1, 0], M[0, 0])
+        notes = []
+        n = self.robot.nq
+        base = np.zeros(n)
+        mid = 0.5 * (self.lower + self.upper)
+        # height
+        if self.prismatic:
+            iq, s = self.prismatic[0]
+            if 2 in rel:
+                base[iq] = mid[iq]
+            else:
+                v = s * (p[2] - self.z0)
+                if v < self.lower[iq] - 1e-9 or v > self.upper[iq] + 1e-9:
+                    notes.append(f"height z={p[2]:.6g} needs joint value {v:.6g} outside [{self.lower[iq]:.6g}, {self.upper[iq]:.6g}]")
+                base[iq] = min(max(v, self.lower[iq]), self.upper[iq])
+        elif 2 not in rel and abs(p[2] - self.z0) > 1e-9:
+            notes.append(f"target height z={p[2]:.6g} is off the arm's plane z={self.z0:.6g}")
+        w = np.array([p[0] - self.c1[0], p[1] - self.c1[1]])
+        branches = []
+        reach_ok = True
+        if self.n_links == 2:
+            sols, reach_ok = two_link(w[0], w[1], self.L[0], self.L[1])
+            for psi1, psi2, beta in sols:
+                branches.append(([psi1, psi2], "elbow up" if beta < 0 else "elbow down", None))
+        elif self.n_links == 3:
+            psi3 = self.phi[2] + alpha
+            w3 = w - self.L[2] * np.array([math.cos(psi3), math.sin(psi3)])
+            sols, reach_ok = two_link(w3[0], w3[1], self.L[0], self.L[1])
+            for psi1, psi2, beta in sols:
+                branches.append(([psi1, psi2, psi3], "elbow up" if beta < 0 else "elbow down", None))
+        else:
+            branches, reach_ok = self._four_link_family(w, alpha, samples)
+        if not reach_ok:
+            notes.append("target out of reach (the returned configuration points at it, fully stretched or folded)")
+        out = []
+        for psis, label, free in branches:
+            for q in self._joint_values(psis, alpha, base, rel, mid):
+                out.append((q, label, free))
+        return out, "; ".join(notes), {}
+
+    def _four_link_family(self, w, alpha, samples):
+        """Sampled one-parameter family of a 4-link chain: [(psis, label, q1)], reachable."""
+        L1, L2, L3, L4 = self.L
+        psi4 = self.phi[3] + alpha
+        wp = w - L4 * np.array([math.cos(psi4), math.sin(psi4)])  # wrist point relative to c1
+        r = math.hypot(wp[0], wp[1])
+        gamma = math.atan2(wp[1], wp[0])
+        dmin, dmax = abs(L2 - L3), L2 + L3
+        iq1, s1, _ = self.revolute[0]
+        lo, hi = self.lower[iq1], self.upper[iq1]
+        if r < 1e-12:
+            if not (dmin - 1e-12 <= L1 <= dmax + 1e-12):
+                return [], False
+            intervals = [(-math.pi, math.pi)]
+        else:
+            cmin = (r * r + L1 * L1 - dmax * dmax) / (2 * L1 * r)
+            cmax = (r * r + L1 * L1 - dmin * dmin) / (2 * L1 * r)
+            if cmin > 1.0 + 1e-12 or cmax < -1.0 - 1e-12:
+                return self._four_link_nearest(wp, alpha), False
+            a_in = math.acos(min(1.0, cmax)) if cmax < 1.0 else 0.0  # |psi1 - gamma| >= a_in
+            a_out = math.acos(max(-1.0, cmin)) if cmin > -1.0 else math.pi  # |psi1 - gamma| <= a_out
+            if a_in <= 1e-15:
+                intervals = [(-a_out, a_out)]
+            else:
+                intervals = [(-a_out, -a_in), (a_in, a_out)]
+            intervals = [(gamma + a, gamma + b) for a, b in intervals]
+        # psi1 intervals -> q1 intervals (q1 = s1 (psi1 - phi1)), wrapped into the limits
+        q_int = []
+        for a, b in intervals:
+            qa, qb = sorted((s1 * (a - self.phi[0]), s1 * (b - self.phi[0])))
+            for k in range(-2, 3):
+                lo_k, hi_k = max(qa + k * _TWO_PI, lo), min(qb + k * _TWO_PI, hi)
+                if hi_k >= lo_k:
+                    q_int.append((lo_k, hi_k))
+        total = sum(b - a for a, b in q_int)
+        if not q_int:
+            return [], True
+        values = []
+        for a, b in q_int:
+            m = max(2, int(round(samples * (b - a) / total)) if total > 0 else 1)
+            values.extend(np.linspace(a, b, m).tolist())
+        out = []
+        for q1 in values:
+            psi1 = self.phi[0] + s1 * q1
+            c2 = L1 * np.array([math.cos(psi1), math.sin(psi1)])
+            d = wp - c2
+            sols, ok = two_link(d[0], d[1], L2, L3)
+            if not ok:
+                continue
+            for psi2, psi3, beta in sols:
+                out.append(([psi1, psi2, psi3, psi4], "elbow up" if beta < 0 else "elbow down", q1))
+        return out, True
+
+    def _four_link_nearest(self, wp, alpha):
+        """Out of reach: all links pointing at the target (psi1 = psi2 = psi3 = gamma)."""
+        g = math.atan2(wp[1], wp[0])
+        return [([g, g, g, self.phi[3] + alpha], "stretched", None)]
+
+    def _joint_values(self, psis, alpha, base, rel, mid):
+        """Joint vectors (all 2 pi shifts inside the limits) from absolute link angles."""
+        thetas = []
+        prev = 0.0
+        for i, psi in enumerate(psis):
+            Theta_i = psi - self.phi[i]
+            thetas.append(Theta_i - prev)
+            prev = Theta_i
+        if self.n_wrist:
+            thetas.append(None if 5 in rel else alpha - prev)
+        choices = []
+        for (iq, s, _), th in zip(self.revolute, thetas):
+            if th is None:
+                choices.append((iq, [mid[iq]]))
+                continue
+            vals = wrap_into(s * th, self.lower[iq], self.upper[iq])
+            if not vals:
+                return []
+            choices.append((iq, vals))
+        out = [base.copy()]
+        for iq, vals in choices:
+            nxt = []
+            for q in out:
+                for v in vals:
+                    qq = q.copy()
+                    qq[iq] = v
+                    nxt.append(qq)
+            out = nxt
+        return out

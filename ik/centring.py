@@ -1,0 +1,162 @@
+"""Joint-limit centring: the secondary objective, strictly below the primary task.
+
+Objective (dimensionless)
+
+    h(q) = 1/2 sum_i w_i ((q_i - m_i) / r_i)^2,     m = (lower + upper) / 2,  r = upper - lower
+
+with weights ``w_i >= 0`` (the ``centring`` argument: one number for every
+joint or one per joint). Because the priority is strict, only the *relative*
+weights matter; ``0`` switches a joint (or everything) off.
+
+Strict priority means the secondary step may only move in the freedom the
+primary task leaves, so it never degrades the task:
+
+* Null-space projection (pseudo-inverse / DLS methods): with the primary
+  step ``dq1 = J^+ e`` and an orthonormal basis ``Z`` of the null space of
+  ``J``,
+
+      dq = dq1 + Z z,   z = argmin |dq1 + Z z - (m - q)|_W^2,
+
+  where ``m - q`` is the Newton step of ``h`` (its Hessian is ``W``, so the
+  unconstrained step is simply ``m - q`` on every weighted joint). For equal
+  weights this is the classical ``dq = J^+ e + (I - J^+ J)(m - q)``.
+* Second QP stage (QP method): with the primary step ``dq1`` and an
+  orthonormal basis ``Z`` of the null space of ``J`` (the right singular
+  vectors of its zero singular values), solve for ``z``
+
+      min 1/2 |dq1 + Z z - (m - q)|_W^2 + eps/2 |z|^2
+      s.t. every hard constraint of the primary stage (limits, spheres) at ``dq = dq1 + Z z``
+
+  so ``J dq = J dq1`` exactly: the task velocity of the primary stage is
+  kept and the constraints still hold.
+
+S9 (SCARA, seed 004): relaxing ``yaw`` leaves ``theta4`` free, which goes to
+the middle of its range; relaxing ``z`` leaves ``d3`` free, which goes to
+0.625 m unless the sphere binds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinematics.errors import InputError, NonFiniteError
+
+
+def centring_weights(robot, centring) -> np.ndarray | None:
+    """Per-joint weights ``w / r^2`` (``(nq,)``) or None when centring is off.
+
+    ``centring`` is a number or a sequence of ``nq`` numbers, all finite and ``>= 0``.
+    Joints with a zero range (locked) get weight 0.
+    """
+    if centring is None:
+        return None
+    w = np.asarray(centring, dtype=float) if not isinstance(centring, (int, float)) else np.full(robot.nq, float(centring))
+    if w.ndim == 0:
+        w = np.full(robot.nq, float(w))
+    if w.shape != (robot.nq,):
+        raise InputError(f"centring must be a number or {robot.nq} numbers (one per joint), got shape {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise NonFiniteError(f"centring weights must be finite, got {w.tolist()}")
+    if np.any(w < 0):
+        raise InputError(f"centring weights must be >= 0, got {w.tolist()}")
+    if not np.any(w > 0):
+        return None
+    r = robot.upper - robot.lower
+    out = np.zeros(robot.nq)
+    ok = r > 1e-12
+    out[ok] = w[ok] / r[ok] ** 2
+    return out if np.any(out > 0) else None
+
+
+def centring_objective(robot, q, weights) -> float:
+    """``h(q)`` for weights from :func:`centring_weights` (already divided by ``r^2``)."""
+    d = np.asarray(q, dtype=float) - robot.middle()
+    return 0.5 * float(np.sum(weights * d * d))
+
+
+#: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
+RANK_TOL = 1e-6
+
+
+def null_space_basis(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray:
+    """Orthonormal basis ``(n, n - rank J)`` of the null space of ``J`` (``m x n``), from the SVD.
+
+    Rank-revealing: rows that are identically zero (a planar arm's ``z``,
+    ``roll``, ``pitch`` rows, a SCARA's ``roll`` / ``pitch``) do not use up
+    freedom.
+    """
+    n = J.shape[1]
+    _, s, Vt = np.linalg.svd(J, full_matrices=True)
+    rank = int(np.sum(s > tol * max(1.0, s[0] if s.size else 0.0)))
+    return Vt[rank:].T.copy() if rank < n else np.zeros((n, 0))
+
+
+def null_space_step(J: np.ndarray, J_pinv: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """Projection ``(I - J^+ J) step`` of a joint step onto the null space of ``J``."""
+    return step - J_pinv @ (J @ step)
+
+
+def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarray, eps: float = 1e-9) -> np.ndarray:
+    """``Z z`` minimising ``|Z z - residual|_W^2 + eps |z|^2`` (unconstrained second stage).
+
+    ``residual`` is ``(m - q) - dq1``: what the primary step left of the
+    secondary step. The result lies in ``span(Z)``, the null space of the task.
+    """
+    k = Z.shape[1]
+    if k == 0:
+        return np.zeros(Z.shape[0])
+    ZW = Z.T * weights
+    z = np.linalg.solve(ZW @ Z + eps * np.eye(k), ZW @ residual)
+    return Z @ z
+
+
+def centring_step(robot, q, weights) -> np.ndarray:
+    """The secondary step ``(m - q)`` on weighted joints (0 on joints with weight 0)."""
+    return np.where(weights > 0, robot.middle() - q, 0.0)
+
+
+class CentringStage:
+    """Second QP stage of :mod:`ik.qp_solver` (see the module docstring).
+
+    The null-space dimension ``k = n - rank J`` may change at singular
+    configurations, so the backend is fetched per step from the per-size
+    workspace cache of :func:`ik.qp_backends.make_backend` (built once per size).
+    """
+
+    def __init__(self, robot, weights, k_rows: int, backend: str, max_step: float, eps: float = 1e-9):
+        self.n = robot.nq
+        self.k_rows = k_rows
+        self.weights = weights
+        self.mid = robot.middle()
+        self.max_step = max_step
+        self.eps = eps
+        self.backend_name = backend
+
+    def step(self, q, J_task, dq1, lb, ub, G, l, u):
+        """Secondary correction ``Z z`` to add to ``dq1`` (zeros when there is no freedom or the QP fails)."""
+        from .qp_backends import make_backend
+
+        Z = null_space_basis(J_task)
+        dim = Z.shape[1]
+        if dim == 0:
+            return np.zeros(self.n)
+        W = self.weights
+        target = np.where(W > 0, self.mid - q, 0.0)
+        ZW = Z.T * W
+        P = ZW @ Z + self.eps * np.eye(dim)
+        c = ZW @ (dq1 - target)
+        rows = [Z]
+        lo = [lb - dq1]
+        hi = [ub - dq1]
+        if G is not None and G.shape[0]:
+            rows.append(G @ Z)
+            Gd = G @ dq1
+            lo.append(l - Gd)
+            hi.append(u - Gd)
+        A = np.vstack(rows)
+        backend = make_backend(self.backend_name, dim, A.shape[0], role="secondary")
+        zlim = np.full(dim, self.max_step)
+        z = backend.solve(P, c, A, np.concatenate(lo), np.concatenate(hi), -zlim, zlim)
+        if z is None:
+            return np.zeros(self.n)
+        return Z @ z

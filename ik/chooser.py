@@ -1,0 +1,135 @@
+"""Pick one solution among several (closed-form branches, a sampled family) by named criteria.
+
+Criteria (higher is better after the sign shown):
+
+* ``"joint_limit_distance"``: ``min_i min(q_i - lower_i, upper_i - q_i) / (upper_i - lower_i)``
+  - the normalised distance of the closest joint to its limit (maximised);
+* ``"displacement"``: ``|q - q_current|`` (minimised; needs ``q_current``);
+* ``"manipulability"``: Yoshikawa's ``sqrt(det(J J^T))`` of the robot's task
+  rows at the frame (maximised);
+* ``"no_self_overlap"``: a *filter*, not a score - keeps the solutions whose
+  link segments (see :func:`ik.constraints.robot_segments`) do not touch each
+  other (non-adjacent segments at least ``1e-6`` m apart). Meant for planar
+  arms, whose links can cross in the plane.
+
+``criteria`` is one name or a sequence: filters apply first, then the
+solutions are ranked by the first score, ties (within ``1e-9``) broken by
+the next ones.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinematics.errors import InputError
+
+from .constraints import robot_segments
+
+CRITERIA = ("joint_limit_distance", "displacement", "manipulability", "no_self_overlap")
+FILTERS = ("no_self_overlap",)
+
+#: Minimum distance (m) between non-adjacent link segments for "no_self_overlap".
+OVERLAP_TOL = 1e-6
+
+
+def joint_limit_distance(robot, q) -> float:
+    """Normalised distance of the joint closest to a limit (0 at a limit, 0.5 at mid-range)."""
+    rng = robot.upper - robot.lower
+    rng = np.where(rng > 0, rng, 1.0)
+    return float(np.min(np.minimum(q - robot.lower, robot.upper - q) / rng))
+
+
+def _segment_distance(p1, q1, p2, q2) -> float:
+    """Shortest distance between segments ``[p1, q1]`` and ``[p2, q2]`` (3-D)."""
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    a, e, f = d1 @ d1, d2 @ d2, d2 @ r
+    if a < 1e-18 and e < 1e-18:
+        return float(np.linalg.norm(r))
+    if a < 1e-18:
+        s, t = 0.0, min(max(f / e, 0.0), 1.0)
+    else:
+        c = d1 @ r
+        if e < 1e-18:
+            t, s = 0.0, min(max(-c / a, 0.0), 1.0)
+        else:
+            b = d1 @ d2
+            den = a * e - b * b
+            s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-18 else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                t, s = 0.0, min(max(-c / a, 0.0), 1.0)
+            elif t > 1.0:
+                t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
+    return float(np.linalg.norm((p1 + s * d1) - (p2 + t * d2)))
+
+
+def self_overlap(robot, q, frame: str | None = None) -> bool:
+    """True when two non-adjacent link segments of the arm at ``q`` touch (within :data:`OVERLAP_TOL`)."""
+    frame = robot.tip if frame is None else frame
+    r = robot.copy()
+    r.fk(q, frame)
+    segs = []
+    for seg in robot_segments(r, frame):
+        a = r.data.oMi[seg.ja].act(seg.la) if seg.ja else seg.la
+        b = r.data.oMi[seg.jb].act(seg.lb) if seg.jb else seg.lb
+        if np.linalg.norm(b - a) > 1e-9:
+            segs.append((np.asarray(a), np.asarray(b)))
+    for i in range(len(segs)):
+        for j in range(i + 2, len(segs)):
+            if _segment_distance(*segs[i], *segs[j]) < OVERLAP_TOL:
+                return True
+    return False
+
+
+def _as_q(c):
+    return np.asarray(c.q if hasattr(c, "q") else c, dtype=float)
+
+
+def scores(robot, candidates, criterion: str, q_current=None, frame: str | None = None) -> np.ndarray:
+    """Score of every candidate for one criterion (higher is better; filters give 1 = keep, 0 = drop)."""
+    qs = [_as_q(c) for c in candidates]
+    if criterion == "joint_limit_distance":
+        return np.array([joint_limit_distance(robot, q) for q in qs])
+    if criterion == "displacement":
+        if q_current is None:
+            raise InputError("criterion 'displacement' needs the current configuration (q_current / q0)")
+        qc = robot.check_q(q_current, "q_current")
+        return np.array([-float(np.linalg.norm(q - qc)) for q in qs])
+    if criterion == "manipulability":
+        r = robot.copy()
+        return np.array([r.manipulability(q, frame) for q in qs])
+    if criterion == "no_self_overlap":
+        return np.array([0.0 if self_overlap(robot, q, frame) else 1.0 for q in qs])
+    raise InputError(f"unknown criterion {criterion!r}; expected one of {CRITERIA}")
+
+
+def choose(robot, candidates, criteria=("joint_limit_distance",), q_current=None, frame: str | None = None):
+    """Index of the best candidate (a list of ``Result`` or joint vectors), or None if the filters drop all.
+
+    See the module docstring for the criteria and how they combine.
+    """
+    if isinstance(criteria, str):
+        criteria = (criteria,)
+    criteria = tuple(criteria)
+    if not criteria:
+        raise InputError(f"criteria must name at least one of {CRITERIA}")
+    for c in criteria:
+        if c not in CRITERIA:
+            raise InputError(f"unknown criterion {c!r}; expected one of {CRITERIA}")
+    if not candidates:
+        return None
+    idx = list(range(len(candidates)))
+    for c in criteria:
+        if c in FILTERS:
+            keep = scores(robot, [candidates[i] for i in idx], c, q_current, frame)
+            idx = [i for i, k in zip(idx, keep) if k > 0]
+            if not idx:
+                return None
+    ranking = [c for c in criteria if c not in FILTERS]
+    for c in ranking:
+        s = scores(robot, [candidates[i] for i in idx], c, q_current, frame)
+        best = s.max()
+        idx = [i for i, v in zip(idx, s) if v >= best - 1e-9]
+        if len(idx) == 1:
+            break
+    return idx[0]

@@ -1,0 +1,145 @@
+"""The classical (teaching) iterations of the seed documents, with their convergence histories.
+
+With the task error ``e`` and the task Jacobian ``J`` of :mod:`ik.targets`
+(world axes by default, kept rows only), every method iterates
+``q <- clip(q + dq, lower, upper)`` from ``q0`` until the errors are within
+tolerance:
+
+* ``"jacobian_inverse"``:   ``dq = K J^-1 e``                   (square ``J`` only: as many kept rows as joints)
+* ``"jacobian_transpose"``: ``dq = alpha J^T e``                with ``alpha = K`` if given, otherwise the
+  step that minimises the linearised error along ``J^T e``:
+  ``alpha = <e, J J^T e> / |J J^T e|^2`` (Buss' choice)
+* ``"pseudo_inverse"``:     ``dq = K J^+ e``,  ``J^+ = J^T (J J^T)^-1`` for a wide ``J`` (the SVD pseudo-inverse in general)
+* ``"dls"``:                ``dq = K J^T (J J^T + lambda^2 I)^-1 e``   (damped least squares, damping ``lambda``)
+
+``K`` is the ``gain`` (default 1). For ``pseudo_inverse`` and ``dls`` a
+``centring`` weight adds the null-space term of :mod:`ik.centring`
+(``dq += Z z``, in the null space of ``J``), which is how seed 004 keeps
+``theta4`` (relax phi) or ``d3`` (relax z) mid-range.
+
+These methods run once from ``q0`` (no restarts): their value is the
+history (``Result.history``: joint variables, position/orientation error and
+the signed task error per iteration), as the seed documents plot it. The
+Jacobian inverse stops with a failure at a singular configuration.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pinocchio as pin
+
+from kinematics.errors import InputError
+
+from .centring import null_space_basis, null_space_correction
+from .result import History, Result
+
+METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
+
+#: Default damping ``lambda`` of DLS.
+DLS_DAMPING = 0.05
+#: Default iteration caps (the transpose method converges linearly and slowly).
+MAX_ITER = {"jacobian_inverse": 200, "jacobian_transpose": 5000, "pseudo_inverse": 200, "dls": 500}
+#: ``sigma_min / sigma_max`` below which the Jacobian inverse is declared singular.
+SINGULAR_RCOND = 1e-10
+
+_LWA = pin.LOCAL_WORLD_ALIGNED
+
+
+def solve_classical(
+    robot,
+    target,
+    q0,
+    method: str,
+    *,
+    gain: float | None = None,
+    damping: float = DLS_DAMPING,
+    weights=None,
+    tol_pos: float = 1e-4,
+    tol_rot: float = 1e-3,
+    max_iter: int | None = None,
+    max_time: float | None = None,
+) -> Result:
+    """Run one classical iteration from ``q0`` (validated, required). See the module docstring."""
+    if method not in METHODS:
+        raise InputError(f"classical method must be one of {METHODS}, got {method!r}")
+    if gain is not None and not (isinstance(gain, (int, float)) and math.isfinite(gain) and gain > 0):
+        raise InputError(f"gain must be a positive number, got {gain!r}")
+    if not (isinstance(damping, (int, float)) and math.isfinite(damping) and damping >= 0):
+        raise InputError(f"damping (lambda) must be a number >= 0, got {damping!r}")
+    m = len(target.kept)
+    n = robot.nq
+    if method == "jacobian_inverse" and m != n:
+        raise InputError(
+            f"jacobian_inverse needs a square Jacobian: the task keeps {m} components "
+            f"({', '.join(target.components)}) for {n} joints; relax components or use 'pseudo_inverse' / 'dls'"
+        )
+    if weights is not None and method in ("jacobian_inverse", "jacobian_transpose"):
+        raise InputError(f"centring needs a null-space method ('pseudo_inverse' or 'dls'), not {method!r}")
+    t0 = time.perf_counter()
+    deadline = t0 + (math.inf if max_time is None else max_time)
+    max_iter = MAX_ITER[method] if max_iter is None else int(max_iter)
+    K = 1.0 if gain is None else float(gain)
+    model, data, fid = robot.model, robot.data, target.frame_id
+    lo, hi = robot.lower, robot.upper
+    q = np.clip(np.array(q0, dtype=float), lo, hi)
+    qs, pes, res, tes = [], [], [], []
+    ok = False
+    message = f"iteration limit ({max_iter}) reached"
+    it = 0
+    while True:
+        pin.computeJointJacobians(model, data, q)
+        M = pin.updateFramePlacement(model, data, fid)
+        e6 = target.error6(M.rotation, M.translation)
+        pe, re = target.errors_from6(e6)
+        e = e6[target.kept]
+        qs.append(q)
+        pes.append(pe)
+        res.append(re)
+        tes.append(e)
+        if pe < tol_pos and re < tol_rot:
+            ok, message = True, "converged"
+            break
+        if it >= max_iter:
+            break
+        if time.perf_counter() > deadline:
+            message = "time budget exhausted"
+            break
+        J = target.jacobian(pin.getFrameJacobian(model, data, fid, _LWA))
+        if method == "jacobian_inverse":
+            s = np.linalg.svd(J, compute_uv=False)
+            if s[-1] <= SINGULAR_RCOND * max(s[0], 1e-300):
+                message = f"singular Jacobian at iteration {it} (sigma_min/sigma_max = {s[-1] / max(s[0], 1e-300):.2e})"
+                break
+            dq = K * np.linalg.solve(J, e)
+        elif method == "jacobian_transpose":
+            g = J.T @ e
+            if gain is None:
+                Jg = J @ g
+                denom = float(Jg @ Jg)
+                alpha = float(e @ Jg) / denom if denom > 0 else 0.0
+            else:
+                alpha = K
+            dq = alpha * g
+        elif method == "pseudo_inverse":
+            Jp = np.linalg.pinv(J)
+            dq = K * (Jp @ e)
+        else:  # dls
+            dq = K * (J.T @ np.linalg.solve(J @ J.T + damping * damping * np.eye(m), e))
+        if weights is not None:
+            Z = null_space_basis(J)
+            target_step = np.where(weights > 0, robot.middle() - q, 0.0)
+            dq = dq + null_space_correction(Z, weights, target_step - dq)
+        if not np.all(np.isfinite(dq)):
+            message = f"the step is not finite at iteration {it} (singular configuration)"
+            break
+        q = np.clip(q + dq, lo, hi)
+        it += 1
+    hist = History.from_lists(qs, pes, res, tes, target.components)
+    return Result(
+        q=qs[-1].copy(), success=ok, position_error=float(pes[-1]), orientation_error=float(res[-1]),
+        iterations=it, restarts=0, elapsed=time.perf_counter() - t0, message=message, history=hist,
+        method=method, frame=target.frame, info={"gain": gain, "damping": damping if method == "dls" else None},
+    )

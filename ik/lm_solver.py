@@ -1,0 +1,261 @@
+"""Levenberg-Marquardt inverse kinematics with joint limits (method ``"lm"``).
+
+For problems whose only inequalities are the joint limits. Each iteration
+linearises the task at ``q`` and takes the damped Gauss-Newton step
+
+    (J^T J + lambda I) dq = J^T e,      lambda = 0.1 |e|^2 + lambda_0
+
+(Sugihara's adaptive damping: large far from the target, where the
+linearisation is poor; ``lambda_0`` keeps the system positive definite at
+singular configurations, so the step never explodes).
+
+* Full pose (nothing relaxed): ``e = log6(oMf^-1 oMd)`` is the twist that
+  takes the frame to the target, in the frame's own axes, and ``J`` is the
+  frame Jacobian in the same (LOCAL) axes. The position error is
+  ``|R^T (p* - p)| = |p* - p|`` and the orientation error ``|e_w|`` is the
+  geodesic angle, read off the same quantities at no extra cost.
+* Relaxed components: the world- or target-axis error and Jacobian rows of
+  :mod:`ik.targets`.
+
+Joint limits (projection with an active set): if ``q + dq`` leaves
+``[lower, upper]``, the offending joints are fixed at their bound, their
+motion is removed from the residual (``e <- e - J_fixed dq_fixed``) and the
+step is re-solved for the remaining joints, at most three times; the final
+configuration is clipped into the limits. Plain clipping would stall at a
+bound, this keeps descending along the free joints.
+
+Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
+has not fallen below 0.85 of its best value so far for 2 iterations in a row
+- this also catches oscillations) or after ``max_iter``
+iterations; the next start comes from :func:`ik.seeds.start_sequence`
+(``q0`` / nearest FK samples / seeded random configurations) until a start
+converges or ``max_time`` is spent.
+
+The inner loop calls Pinocchio directly on ``robot.model`` / ``robot.data``
+(``computeJointJacobians``, ``updateFramePlacement``, ``getFrameJacobian``,
+``SE3.actInv``, ``log6``) and LAPACK's Cholesky solver ``posv`` on the
+``nq x nq`` normal equations; nothing is validated inside the loop (inputs
+are validated once by :func:`ik.solve`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pinocchio as pin
+from scipy.linalg import get_lapack_funcs
+
+from .result import History, Result, task_evaluator
+from .seeds import seed_table, start_sequence
+
+#: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
+DAMPING = 1e-5
+#: Gain of the error term of the damping.
+DAMPING_GAIN = 0.1
+#: A start is abandoned when ``|e|^2`` exceeds this fraction of the previous value ...
+STALL_RATIO = 0.85
+#: ... this many iterations in a row.
+STALL_PATIENCE = 2
+#: Iteration cap of one start.
+MAX_ITER = 60
+#: Default time budget of one solve (s).
+MAX_TIME = 0.1
+
+_posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
+_cjj = pin.computeJointJacobians
+_ufp = pin.updateFramePlacement
+_gfj = pin.getFrameJacobian
+_log6 = pin.log6
+_LOCAL = pin.LOCAL
+_LWA = pin.LOCAL_WORLD_ALIGNED
+_now = time.perf_counter
+_sqrt = math.sqrt
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+
+
+def _bounded_step(J, e, lam, q, lo, hi):
+    """``q + dq`` for the damped step, with the active-set handling of the limits (module docstring).
+
+    Masks are float/bool vectors (``J * free`` rather than fancy indexing) and
+    the "did the clip change anything" test compares Python lists: on 7-vectors
+    these are the cheapest operations NumPy offers.
+    """
+    n = q.shape[0]
+    A = J.T.dot(J)
+    A.flat[:: n + 1] += lam
+    qn = q + _posv(A, e.dot(J), overwrite_a=1, overwrite_b=1)[1]
+    qc = _clip(qn, lo, hi)
+    if qc.tolist() == qn.tolist():
+        return qn
+    fixed = qc != qn
+    for _ in range(3):
+        free = 1.0 - fixed
+        dfix = (qc - q) * fixed
+        Jf = J * free
+        A = Jf.T.dot(Jf)
+        A.flat[:: n + 1] += lam
+        dq = _posv(A, (e - J.dot(dfix)).dot(Jf), overwrite_a=1, overwrite_b=1)[1]
+        qn = q + dq * free + dfix
+        qc = _clip(qn, lo, hi)
+        if qc.tolist() == qn.tolist():
+            return qn
+        fixed = fixed | (qc != qn)
+    return qc
+
+
+def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
+    """One LM start on a full-pose target (LOCAL log6 error). Returns (converged, iterations, reason)."""
+    best = math.inf
+    stalls = 0
+    for it in range(max_iter):
+        _cjj(model, data, q)
+        iMd = _ufp(model, data, fid).actInv(Td)
+        e = _log6(iMd).vector
+        t = iMd.translation
+        pe2 = t.dot(t)
+        w = e[3:]
+        re2 = w.dot(w)
+        qs.append(q)
+        pe2s.append(pe2)
+        re2s.append(re2)
+        if pe2 < tp2 and re2 < tr2:
+            return True, it, "converged"
+        E = pe2 + re2
+        if E < STALL_RATIO * best:
+            best = E
+            stalls = 0
+        else:
+            stalls += 1
+            if stalls >= STALL_PATIENCE:
+                return False, it + 1, "stalled"
+        q = _bounded_step(_gfj(model, data, fid, _LOCAL), e, DAMPING_GAIN * E + lam0, q, lo, hi)
+    _cjj(model, data, q)
+    iMd = _ufp(model, data, fid).actInv(Td)
+    e = _log6(iMd).vector
+    t = iMd.translation
+    w = e[3:]
+    qs.append(q)
+    pe2s.append(t.dot(t))
+    re2s.append(w.dot(w))
+    if pe2s[-1] < tp2 and re2s[-1] < tr2:
+        return True, max_iter, "converged"
+    return False, max_iter, "iteration limit"
+
+
+def _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
+    """One LM start on the kept rows of a relaxed target (world/target axes)."""
+    best = math.inf
+    stalls = 0
+    kept = target.kept
+    it = 0
+    while True:
+        _cjj(model, data, q)
+        M = _ufp(model, data, fid)
+        e6 = target.error6(M.rotation, M.translation)
+        pe, re = target.errors_from6(e6)
+        pe2, re2 = pe * pe, re * re
+        qs.append(q)
+        pe2s.append(pe2)
+        re2s.append(re2)
+        if pe2 < tp2 and re2 < tr2:
+            return True, it, "converged"
+        if it >= max_iter:
+            return False, it, "iteration limit"
+        E = pe2 + re2
+        if E < STALL_RATIO * best:
+            best = E
+            stalls = 0
+        else:
+            stalls += 1
+            if stalls >= STALL_PATIENCE:
+                return False, it + 1, "stalled"
+        J = target.jacobian(_gfj(model, data, fid, _LWA))
+        q = _bounded_step(J, e6[kept], DAMPING_GAIN * E + lam0, q, lo, hi)
+        it += 1
+
+
+def solve_lm(
+    robot,
+    target,
+    q0=None,
+    *,
+    tol_pos: float = 1e-4,
+    tol_rot: float = 1e-3,
+    max_time: float | None = None,
+    seed=None,
+    max_iter: int = MAX_ITER,
+    damping: float = DAMPING,
+    max_starts: int | None = None,
+    seed_table_enabled: bool = True,
+    prefer_q0: bool = False,
+) -> Result:
+    """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
+
+    ``q0`` must already be validated (or None). ``max_time`` (s, default
+    :data:`MAX_TIME`) bounds the restarts; ``max_starts`` optionally caps their
+    number (deterministic stopping). ``seed_table_enabled=False`` restarts from
+    ``q0`` and random configurations only; ``prefer_q0`` makes ``q0`` the first
+    start even when a table sample is closer to the target.
+    """
+    t0 = _now()
+    deadline = t0 + (MAX_TIME if max_time is None else max_time)
+    model, data = robot.model, robot.data
+    fid = target.frame_id
+    lo, hi = robot.lower, robot.upper
+    tp2, tr2 = tol_pos * tol_pos, tol_rot * tol_rot
+    full = target.full
+
+    table = seed_table(robot, target.frame) if seed_table_enabled else None
+    f_target = q0_dist = None
+    if q0 is not None:
+        q0 = _clip(q0, lo, hi)
+    if table is not None:
+        f_target = table.features(target._R, target._p)
+        if q0 is not None:
+            pin.forwardKinematics(model, data, q0)
+            M0 = _ufp(model, data, fid)
+            q0_dist = table.distance(f_target, table.features(M0.rotation, M0.translation))
+    starts = start_sequence(robot, table, f_target, q0, 0 if seed is None else seed, q0_distance=q0_dist, prefer_q0=prefer_q0)
+
+    best = None
+    iterations = 0
+    n_starts = 0
+    for q in starts:
+        n_starts += 1
+        qs, pe2s, re2s = [], [], []
+        if full:
+            ok, it, reason = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter, damping, qs, pe2s, re2s)
+        else:
+            ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pe2s, re2s)
+        iterations += it
+        k = len(qs) - 1 if ok else int(np.argmin(np.add(pe2s, re2s)))
+        score = pe2s[k] + re2s[k]
+        if best is None or ok or score < best[0]:
+            best = (score, k, qs, pe2s, re2s, reason)
+        if ok:
+            break
+        if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
+            break
+
+    _, k, qs, pe2s, re2s, reason = best
+    ok = reason == "converged"
+    q = qs[k]
+    pe, re = _sqrt(pe2s[k]), _sqrt(re2s[k])
+    if ok:
+        message = "converged"
+    else:
+        message = (
+            f"no start converged to tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad in {n_starts} starts "
+            f"({iterations} iterations, {'time budget exhausted' if _now() > deadline else 'start limit reached'}); "
+            f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
+        )
+    hist = History.from_lists(
+        qs[: k + 1], np.sqrt(pe2s[: k + 1]), np.sqrt(re2s[: k + 1]),
+        components=target.components, evaluate=task_evaluator(robot, target),
+    )
+    return Result(
+        q=q.copy(), success=ok, position_error=pe, orientation_error=re, iterations=iterations,
+        restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist, method="lm", frame=target.frame,
+    )

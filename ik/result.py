@@ -1,0 +1,155 @@
+"""``Result``: what every IK solver returns, and ``History``, its per-iteration record.
+
+Failing to reach a target is a result, not an exception: ``success`` is False,
+``q`` is the best configuration found (always inside the joint limits) and
+``message`` says why the solver stopped.
+
+Errors are measured on the *kept* (non-relaxed) task components only:
+
+* ``position_error`` (m): norm of the kept components of ``p_target - p``
+  (world or target axes, see :mod:`ik.targets`); for a full pose it is the
+  Euclidean distance between the frame origin and the target position;
+* ``orientation_error`` (rad): norm of the kept components of the rotation
+  vector ``log(R_target R^T)``; for a full pose it is the geodesic angle
+  between the two orientations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+class History:
+    """Per-iteration record of one solver run (the run that produced ``Result.q``).
+
+    ``q`` has shape ``(k, nq)``: the configuration *at* iteration ``i``
+    (``q[0]`` is the start). ``position_error`` and ``orientation_error`` have
+    shape ``(k,)`` and are measured at ``q[i]`` on the kept components.
+    ``task_error`` is ``(k, m)``: the signed error of the ``m`` kept task
+    components (named in ``components``) - the "errors in the operational
+    space" the seed documents plot. Fast solvers do not record it while they
+    iterate: it is evaluated from ``q`` with forward kinematics the first time
+    it is read (and before pickling).
+    """
+
+    __slots__ = ("q", "position_error", "orientation_error", "components", "_task_error", "_evaluate")
+
+    def __init__(self, q, position_error, orientation_error, task_error=None, components=(), evaluate=None):
+        self.q = np.asarray(q, dtype=float)
+        self.position_error = np.asarray(position_error, dtype=float)
+        self.orientation_error = np.asarray(orientation_error, dtype=float)
+        self.components = tuple(components)
+        self._task_error = None if task_error is None else np.asarray(task_error, dtype=float)
+        self._evaluate = evaluate
+
+    @property
+    def task_error(self) -> np.ndarray | None:
+        """Signed kept-component errors ``(k, m)`` (evaluated on first access if needed)."""
+        if self._task_error is None and self._evaluate is not None:
+            m = len(self.components)
+            rows = [self._evaluate(qi) for qi in self.q]
+            self._task_error = np.array(rows, dtype=float).reshape(len(rows), m)
+            self._evaluate = None
+        return self._task_error
+
+    def __len__(self) -> int:
+        return int(self.q.shape[0])
+
+    def __getstate__(self):
+        self.task_error  # materialise: the evaluator holds a robot, which is not pickled
+        return {k: getattr(self, k) for k in self.__slots__ if k != "_evaluate"}
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            setattr(self, k, v)
+        self._evaluate = None
+
+    def __repr__(self) -> str:
+        return f"History({len(self)} iterations, components={self.components})"
+
+    @classmethod
+    def empty(cls, nq: int, components=()) -> "History":
+        """A history with no iteration."""
+        return cls(np.zeros((0, nq)), np.zeros(0), np.zeros(0), np.zeros((0, len(components))), components)
+
+    @classmethod
+    def from_lists(cls, qs, pos, rot, task=None, components=(), evaluate=None) -> "History":
+        """Build from per-iteration lists (``qs`` a list of 1-D arrays)."""
+        nq = len(qs[0]) if len(qs) else 0
+        q = np.array(qs, dtype=float).reshape(len(qs), nq)
+        te = None if task is None else np.array(task, dtype=float).reshape(len(task), len(components))
+        return cls(q, pos, rot, te, components, evaluate)
+
+
+@dataclass
+class Result:
+    """Outcome of an inverse-kinematics solve.
+
+    Attributes
+    ----------
+    q:
+        Joint vector (length ``nq``), inside the joint limits.
+    success:
+        True when both errors are within the requested tolerances (and every
+        hard constraint holds).
+    position_error, orientation_error:
+        Residual errors at ``q`` on the kept components (m, rad).
+    iterations:
+        Total iterations over all starts (0 for closed-form solutions).
+    restarts:
+        Number of starts after the first one.
+    elapsed:
+        Wall time in seconds.
+    message:
+        Why the solver stopped ("converged", "time budget exhausted", "target
+        out of reach", ...).
+    history:
+        :class:`History` of the run that produced ``q``.
+    method:
+        The method that produced the answer (``"lm"``, ``"qp"``, ``"analytic"``, ...).
+    frame:
+        The frame that was placed.
+    info:
+        Solver-specific extras (e.g. ``"branch"`` for a closed-form branch,
+        ``"reached_pose"`` when a 5-DOF arm solved the nearest reachable pose).
+    """
+
+    q: np.ndarray
+    success: bool
+    position_error: float
+    orientation_error: float
+    iterations: int = 0
+    restarts: int = 0
+    elapsed: float = 0.0
+    message: str = ""
+    history: History | None = None
+    method: str = ""
+    frame: str = ""
+    info: dict = field(default_factory=dict)
+
+    def summary(self) -> str:
+        """One line: success, errors, iterations, time and the message."""
+        return (
+            f"{'ok' if self.success else 'FAILED'} [{self.method}] pos {self.position_error:.3g} m, "
+            f"rot {self.orientation_error:.3g} rad, {self.iterations} it, {self.restarts} restarts, "
+            f"{self.elapsed * 1e3:.3g} ms: {self.message}"
+        )
+
+
+def task_evaluator(robot, target):
+    """``q -> kept task error`` (:meth:`ik.targets.Target.residual`) for :attr:`History.task_error`.
+
+    Runs forward kinematics on a private copy of the robot, made on first use.
+    """
+    holder = {}
+
+    def evaluate(q):
+        r = holder.get("robot")
+        if r is None:
+            r = holder["robot"] = robot.copy()
+        T = r.fk(q, target.frame)
+        return target.residual(T[:3, :3], T[:3, 3])
+
+    return evaluate

@@ -1,0 +1,135 @@
+"""Start configurations for the iterative solvers: a table of FK samples and the restart order.
+
+A local solver (Levenberg-Marquardt, QP iterations) converges quickly from a
+start whose pose is already close to the target, and may stall at a joint
+limit or a local minimum from a distant one. The :class:`SeedTable` holds
+``n`` configurations drawn uniformly within the joint limits (fixed RNG seed,
+so it is reproducible) together with the pose of one frame at each. For a
+target ``(R*, p*)`` it ranks them by the pose distance
+
+    D(q_i) = |p_i - p*|^2 + w_R |R_i - R*|_F^2 = |p_i - p*|^2 + w_R (6 - 2 tr(R*^T R_i))
+
+(m^2; ``w_R`` in m^2 weighs orientation against position), computed for all
+samples at once as one matrix-vector product on the stacked features
+``f_i = [p_i, sqrt(w_R) vec(R_i)]`` (``D = |f_i|^2 - 2 f_i . f* + |f*|^2``).
+
+:func:`start_sequence` yields the starts of one solve: the caller's ``q0``
+and the best table sample first (whichever is closer to the target in ``D``
+goes first), then the next table samples in order of ``D``, then uniform
+random configurations from ``numpy.random.default_rng(seed)`` - the same
+sequence for the same ``seed``, so results are reproducible.
+
+Tables are built once per model and frame (a few milliseconds with the
+vectorised :meth:`kinematics.Robot.fk_batch`) and cached.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+
+import numpy as np
+
+#: Default number of samples in a table.
+DEFAULT_SIZE = 2000
+
+#: Weight ``w_R`` (m^2) of the orientation term of the pose distance.
+ROTATION_WEIGHT = 0.05
+
+_TABLE_SEED = 20240611
+
+_tables: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+class SeedTable:
+    """``n`` uniform random configurations and the pose of ``frame`` at each."""
+
+    def __init__(self, robot, frame: str, n: int | None = None, rotation_weight: float | None = None):
+        n = DEFAULT_SIZE if n is None else int(n)
+        rng = np.random.default_rng(_TABLE_SEED)
+        self.Q = robot.random_q(rng, n)
+        T = robot.fk_batch(self.Q, frame)
+        self.weight = float(ROTATION_WEIGHT if rotation_weight is None else rotation_weight)
+        s = math.sqrt(self.weight)
+        self.F = np.hstack([T[:, :3, 3], s * T[:, :3, :3].reshape(n, 9)])
+        self.F_norm2 = np.einsum("ij,ij->i", self.F, self.F)
+        # score_i = |f_i|^2 - 2 f_i . f  as one product G @ [f, 1]
+        self.G = np.ascontiguousarray(np.hstack([-2.0 * self.F, self.F_norm2[:, None]]))
+        self._s = s
+
+    def features(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Stacked feature ``[p, sqrt(w_R) vec(R), 1]`` of one pose (the trailing 1 serves :meth:`scores`)."""
+        f = np.empty(13)
+        f[:3] = p
+        f[3:12] = R.reshape(9)
+        f[3:12] *= self._s
+        f[12] = 1.0
+        return f
+
+    def scores(self, f_target: np.ndarray) -> np.ndarray:
+        """``D_i - |f*|^2`` for every sample (one matrix-vector product)."""
+        return self.G.dot(f_target)
+
+    def distance(self, f_target: np.ndarray, f: np.ndarray) -> float:
+        """Pose distance ``D`` between two feature vectors (m^2)."""
+        d = f[:12] - f_target[:12]
+        return float(d @ d)
+
+    def ranked(self, f_target: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Indices of the ``k`` samples nearest the target (sorted) and their distances ``D``."""
+        score = self.scores(f_target)
+        k = min(k, len(score))
+        if k < len(score):
+            idx = np.argpartition(score, k - 1)[:k]
+        else:
+            idx = np.arange(len(score))
+        idx = idx[np.argsort(score[idx])]
+        return idx, score[idx] + float(f_target[:12] @ f_target[:12])
+
+
+def seed_table(robot, frame: str) -> SeedTable:
+    """The cached :class:`SeedTable` of ``robot`` for ``frame`` (built on first use).
+
+    Cached per Pinocchio model (weakly), so every ``robot.copy()`` - and every
+    ``robots.load`` of the same model - shares one table.
+    """
+    per_robot = _tables.get(robot.model)
+    if per_robot is None:
+        per_robot = _tables[robot.model] = {}
+    table = per_robot.get(frame)
+    if table is None:
+        table = per_robot[frame] = SeedTable(robot, frame)
+    return table
+
+
+def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_table: int = 8, q0_distance=None,
+                   prefer_q0: bool = False):
+    """Generator of start configurations (fresh arrays) for one solve; see the module docstring.
+
+    ``q0_distance`` is ``D`` of ``q0`` (None when ``q0`` is None). With
+    ``prefer_q0`` the caller's ``q0`` always goes first. The table ranking is
+    computed lazily: the nearest sample costs one matrix-vector product, the
+    next ``n_table - 1`` are only ranked when a restart needs them.
+    """
+    if table is not None:
+        score = table.G.dot(f_target)
+        i0 = int(score.argmin())
+        d0 = float(score[i0]) + float(f_target[:12].dot(f_target[:12]))
+        q0_first = q0 is not None and (prefer_q0 or q0_distance is None or q0_distance <= d0)
+        if q0_first:
+            yield np.array(q0, dtype=float)
+        yield table.Q[i0].copy()
+        if q0 is not None and not q0_first:
+            yield np.array(q0, dtype=float)
+        k = min(n_table, len(score))
+        if k > 1:
+            idx = np.argpartition(score, k - 1)[:k]
+            idx = idx[np.argsort(score[idx])]
+            for i in idx:
+                if i != i0:
+                    yield table.Q[i].copy()
+    elif q0 is not None:
+        yield np.array(q0, dtype=float)
+    rng = np.random.default_rng(rng_seed)
+    while True:
+        yield robot.random_q(rng)

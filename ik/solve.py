@@ -1,0 +1,321 @@
+"""``ik.solve`` and ``ik.solve_all``: validate once, pick a method, return a :class:`Result`.
+
+Methods
+-------
+``"auto"`` (default) picks the fastest method that can honour the request:
+
+1. spheres or centring  -> ``"qp"`` (hard inequalities / strict priority need the QP);
+2. a closed-form solver exists for the robot and frame and handles the
+   relaxed components -> ``"analytic"`` (falls back to ``"lm"`` only when the
+   sampled 4R family has no branch inside the limits);
+3. otherwise -> ``"lm"`` (joint limits are the only inequalities).
+
+``"qp"``, ``"lm"``, ``"analytic"`` and the classical ``"jacobian_inverse"``,
+``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"`` can be named
+directly (see :mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.analytic`,
+:mod:`ik.classical`).
+
+Validation (once, before any solver runs; errors from :mod:`kinematics.errors`):
+the target pose (shape, NaN/inf, rotation orthonormal), ``q0`` (shape,
+finite), the frame name, the relaxed component names, tolerances, time
+budget, seed, method, backend, centring weights, and the spheres (radius
+positive, centre finite, frames known, neither the base nor the start
+configuration inside a sphere). Not reaching the target is not an error:
+``Result.success`` is False, ``Result.q`` the best configuration found
+(inside the limits) and ``Result.message`` the reason.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from kinematics.errors import InputError, NonFiniteError
+
+from . import analytic as _analytic
+from .centring import centring_weights
+from .chooser import choose
+from .classical import METHODS as CLASSICAL_METHODS
+from .classical import solve_classical
+from .constraints import SphereSet
+from .lm_solver import solve_lm
+from .qp_backends import available_backends
+from .qp_solver import solve_qp
+from .targets import Target
+
+METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
+
+
+def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise NonFiniteError(f"{name} must be finite, got {value!r}")
+    if v <= 0:
+        raise InputError(f"{name} must be positive, got {value!r}")
+    return v
+
+
+def _check_robot(robot):
+    if not (hasattr(robot, "model") and hasattr(robot, "frame_id") and hasattr(robot, "nq")):
+        raise InputError(f"robot must be a kinematics.Robot (e.g. robots.load('panda')), got {type(robot).__name__}")
+
+
+def _check_seed(seed):
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer or None, got {seed!r}")
+    return int(seed)
+
+
+def _check_backend(backend):
+    if not isinstance(backend, str) or backend.lower() not in available_backends():
+        raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, got {backend!r}")
+    return backend.lower()
+
+
+def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), centring=0.0,
+            method="auto", backend="osqp", tol_pos=1e-4, tol_rot=1e-3, max_time=None, seed=None):
+    """Validate every argument of :func:`solve`; return a dict of checked values.
+
+    Exposed so that batch solving (:mod:`ik.batch`) validates each target once
+    in the parent process.
+    """
+    _check_robot(robot)
+    if method not in METHODS:
+        raise InputError(f"method must be one of {METHODS}, got {method!r}")
+    tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
+    if q0 is not None:
+        q0 = robot.check_q(q0, "q0")
+    tol_pos = _check_positive(tol_pos, "tol_pos")
+    tol_rot = _check_positive(tol_rot, "tol_rot")
+    max_time = _check_positive(max_time, "max_time", allow_none=True)
+    seed = _check_seed(seed)
+    backend = _check_backend(backend)
+    weights = centring_weights(robot, centring)
+    if spheres is None:
+        spheres = ()
+    if isinstance(spheres, (str, bytes)):
+        raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
+    try:
+        spheres = list(spheres)
+    except TypeError:
+        spheres = [spheres]
+    sphere_set = SphereSet(robot, spheres, tgt.frame) if spheres else None
+    if sphere_set is not None and q0 is not None:
+        clear = sphere_set.clearances_at(q0)
+        if clear.size and clear.min() < 0:
+            raise InputError(f"a sphere already contains the start configuration q0: {sphere_set.describe_violation(clear)}")
+    if method in ("lm", "analytic", "jacobian_inverse", "jacobian_transpose") and weights is not None:
+        raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
+    if method in ("lm", "analytic") + CLASSICAL_METHODS and sphere_set is not None:
+        raise InputError(f"method {method!r} cannot honour sphere constraints; use 'qp' or 'auto'")
+    return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                backend=backend, weights=weights, spheres=sphere_set, method=method)
+
+
+def solve(
+    robot,
+    target,
+    q0=None,
+    *,
+    frame: str | None = None,
+    relax=(),
+    relax_frame: str = "world",
+    spheres=(),
+    centring=0.0,
+    method: str = "auto",
+    backend: str = "osqp",
+    tol_pos: float = 1e-4,
+    tol_rot: float = 1e-3,
+    max_time: float | None = None,
+    seed: int | None = None,
+    **options,
+):
+    """Inverse kinematics: a configuration placing ``frame`` at ``target``.
+
+    Parameters
+    ----------
+    robot:
+        A :class:`kinematics.Robot`.
+    target:
+        4x4 homogeneous pose (or ``pinocchio.SE3``) of ``frame`` in the world.
+    q0:
+        Start / current configuration (``nq`` values). The iterative solvers
+        start from ``q0`` or from the nearest sample of a precomputed table of
+        configurations (:mod:`ik.seeds`), whichever is closer to the target;
+        pass ``prefer_q0=True`` to always start from ``q0``. The classical
+        methods start from ``q0`` (default: the neutral configuration).
+    frame:
+        The frame to place (default ``robot.tip``).
+    relax:
+        Components left free, any of ``x y z roll pitch yaw`` (``phi`` =
+        ``yaw``); position-only IK is ``relax=("roll", "pitch", "yaw")``.
+        Relaxed components are expressed in the **world** frame by default
+        (``relax_frame="world"``: relaxing ``z`` frees the height, ``yaw`` the
+        rotation about the world vertical); ``relax_frame="target"`` measures
+        them along the target frame's own axes. See :mod:`ik.targets`.
+    spheres:
+        :class:`ik.Sphere` obstacles: hard constraints on every iterate (QP).
+    centring:
+        Weight(s) of the secondary objective pulling joints to mid-range, in
+        the task's null space only (strict priority; 0 = off). See :mod:`ik.centring`.
+    method:
+        ``"auto"``, ``"qp"``, ``"lm"``, ``"analytic"``, ``"jacobian_inverse"``,
+        ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"``.
+    backend:
+        QP solver of ``"qp"``: ``"osqp"`` (default), ``"daqp"``, ``"proxqp"``, ``"quadprog"``.
+    tol_pos, tol_rot:
+        Success thresholds on the position (m) and orientation (rad) errors of the kept components.
+    max_time:
+        Time budget (s) for restarts (default 0.1 s for ``lm``, 0.5 s for ``qp``).
+    seed:
+        Seed of the random restarts (None = 0): the same seed gives the same answer.
+    options:
+        Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
+        for ``"dls"``), ``gain`` (classical), ``max_step`` (``qp``),
+        ``max_starts`` (``lm``/``qp``), ``prefer_q0``, ``seed_table`` (False
+        disables the table of starts), ``samples`` (4R family),
+        ``choose`` (chooser criteria for ``"analytic"``).
+
+    Returns
+    -------
+    :class:`ik.Result`
+    """
+    p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
+                centring=centring, method=method, backend=backend, tol_pos=tol_pos, tol_rot=tol_rot,
+                max_time=max_time, seed=seed)
+    return solve_prepared(robot, p, **options)
+
+
+_LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
+_QP_OPTIONS = _LM_OPTIONS + ("max_step",)
+_CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
+_ANALYTIC_OPTIONS = ("samples", "choose")
+
+
+def _check_options(method, options, allowed):
+    bad = [k for k in options if k not in allowed]
+    if bad:
+        raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
+
+
+def solve_prepared(robot, p: dict, **options):
+    """Run the solver on arguments already checked by :func:`prepare`."""
+    method = p["method"]
+    tgt = p["target"]
+    if method == "auto":
+        _check_options("auto", options, tuple(dict.fromkeys(_QP_OPTIONS + _ANALYTIC_OPTIONS)))
+        if p["spheres"] is not None or p["weights"] is not None:
+            method = "qp"
+        else:
+            solver = _analytic.closed_form_solver(robot, tgt.frame)
+            if solver is not None and solver.supports(tgt.relaxed):
+                res = _solve_analytic(robot, solver, p, **{k: v for k, v in options.items() if k in _ANALYTIC_OPTIONS})
+                if res is not None:
+                    return res
+            method = "lm"
+        options = {k: v for k, v in options.items() if k in (_QP_OPTIONS if method == "qp" else _LM_OPTIONS)}
+    if method == "lm":
+        _check_options(method, options, _LM_OPTIONS)
+        opts = dict(options)
+        if "seed_table" in opts:
+            opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
+        return solve_lm(robot, tgt, p["q0"], tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
+                        seed=p["seed"], **opts)
+    if method == "qp":
+        _check_options(method, options, _QP_OPTIONS)
+        opts = dict(options)
+        if "seed_table" in opts:
+            opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
+        return solve_qp(robot, tgt, p["q0"], spheres=p["spheres"], weights=p["weights"], backend=p["backend"],
+                        tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
+    if method == "analytic":
+        _check_options(method, options, _ANALYTIC_OPTIONS)
+        solver = _analytic.closed_form_solver(robot, tgt.frame)
+        if solver is None:
+            raise InputError(f"no closed-form solver for robot {robot.name!r} and frame {tgt.frame!r}; use 'auto', 'lm' or 'qp'")
+        if not solver.supports(tgt.relaxed):
+            raise InputError(
+                f"the closed-form solver of {robot.name!r} does not handle relaxing {_names(tgt.relaxed)}; use 'lm' or 'qp'"
+            )
+        res = _solve_analytic(robot, solver, p, fallback=False, **options)
+        return res
+    _check_options(method, options, _CLASSICAL_OPTIONS)
+    q0 = p["q0"] if p["q0"] is not None else robot.neutral()
+    return solve_classical(robot, tgt, q0, method, weights=p["weights"], tol_pos=p["tol_pos"], tol_rot=p["tol_rot"],
+                           max_time=p["max_time"], **options)
+
+
+def _names(rows) -> str:
+    from kinematics.robot import TASK_AXES
+
+    return ", ".join(TASK_AXES[i] for i in rows)
+
+
+def _default_criteria(q0):
+    return ("displacement",) if q0 is not None else ("joint_limit_distance",)
+
+
+def _solve_analytic(robot, solver, p, fallback: bool = True, samples: int = 24, choose=None):
+    """Best closed-form branch (chooser criteria) or, with ``fallback``, None when no branch is usable."""
+    tgt = p["target"]
+    results = _analytic.branches(robot, solver, tgt, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], samples=samples)
+    if not results:
+        if fallback:
+            return None
+        from .result import History, Result
+
+        q = robot.neutral() if p["q0"] is None else np.clip(p["q0"], robot.lower, robot.upper)
+        T = robot.fk(q, tgt.frame)
+        pe, re = tgt.errors(T[:3, :3], T[:3, 3])
+        return Result(q=q, success=False, position_error=pe, orientation_error=re, method="analytic", frame=tgt.frame,
+                      message="no closed-form branch inside the joint limits",
+                      history=History.empty(robot.nq, tgt.components))
+    ok = [r for r in results if r.success]
+    pool = ok if ok else results
+    criteria = choose if choose is not None else _default_criteria(p["q0"])
+    i = _choose_index(robot, pool, criteria, p["q0"], tgt.frame)
+    best = pool[i]
+    best.info["branches"] = len(results)
+    if not best.success and fallback and "out of reach" not in best.message and "off the" not in best.message:
+        return None
+    return best
+
+
+def _choose_index(robot, pool, criteria, q0, frame):
+    i = choose(robot, pool, criteria, q_current=q0, frame=frame)
+    if i is None:  # a filter dropped every branch: rank without the filters
+        rest = tuple(c for c in ((criteria,) if isinstance(criteria, str) else criteria) if c != "no_self_overlap")
+        i = choose(robot, pool, rest or _default_criteria(q0), q_current=q0, frame=frame)
+    return i
+
+
+def solve_all(robot, target, q0=None, *, frame: str | None = None, relax=(), relax_frame: str = "world",
+              tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24):
+    """Every closed-form branch for ``target`` (list of :class:`ik.Result`, each verified by FK).
+
+    Planar 4R arms return their one-parameter family sampled at about
+    ``samples`` values of the free parameter ``q1`` (both elbow branches;
+    ``info["free_parameter"]``); the youBot returns every branch inside the
+    joint limits (front / back, elbow up / down). Only branches inside the
+    joint limits are returned. Robots without a closed form raise
+    :class:`InputError`.
+    """
+    p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, method="analytic",
+                tol_pos=tol_pos, tol_rot=tol_rot)
+    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 2:
+        raise InputError(f"samples must be an integer >= 2, got {samples!r}")
+    tgt = p["target"]
+    solver = _analytic.closed_form_solver(robot, tgt.frame)
+    if solver is None:
+        raise InputError(f"no closed-form solver for robot {robot.name!r} and frame {tgt.frame!r}")
+    if not solver.supports(tgt.relaxed):
+        raise InputError(f"the closed-form solver of {robot.name!r} does not handle relaxing {_names(tgt.relaxed)}")
+    return _analytic.branches(robot, solver, tgt, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], samples=int(samples))
