@@ -248,6 +248,8 @@ def shortest_order(
     for name, v in (("start", start), ("end", end)):
         if v is not None and (int(v) != v or not 0 <= v < n):
             raise InputError(f"{name} must be an index in [0, {n - 1}], got {v!r}")
+    if end is not None and return_to_start:
+        raise InputError("give either end (an open path ending there) or return_to_start (a tour), not both")
     if end is not None and end == start and not return_to_start:
         raise InputError("end must differ from start (use return_to_start=True for a tour)")
     if n <= exact_limit:

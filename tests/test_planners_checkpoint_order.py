@@ -96,5 +96,7 @@ def test_bad_inputs():
         shortest_order(np.zeros((3, 2)), start=5)
     with pytest.raises(InputError, match="end must differ"):
         shortest_order(np.zeros((3, 2)), end=0)
+    with pytest.raises(InputError, match="not both"):
+        shortest_order(np.zeros((3, 2)), end=2, return_to_start=True)
     with pytest.raises(InputError, match=">= 0"):
         shortest_order(cost=-np.ones((3, 3)))

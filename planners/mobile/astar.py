@@ -80,6 +80,7 @@ class _Lattice:
     """Padded flat views of a grid shared by the searches (built once per grid, cached)."""
 
     def __init__(self, grid: OccupancyGrid):
+        self.source = grid.free
         P = np.pad(grid.free, 1, constant_values=False)
         self.H, self.W = P.shape
         self.free = P.tobytes()
@@ -117,10 +118,15 @@ class _Lattice:
 
 
 def _lattice(grid: OccupancyGrid) -> _Lattice:
+    """The search structures of ``grid``, cached on it (rebuilt if ``grid.free`` was replaced).
+
+    Grids are not meant to be edited in place after construction; build a new
+    one (or assign a new ``free`` array) to change the obstacles.
+    """
     lat = getattr(grid, "_astar_lattice", None)
-    if lat is None or lat._P.shape != (grid.free.shape[0] + 2, grid.free.shape[1] + 2):
+    if lat is None or lat.source is not grid.free:
         lat = _Lattice(grid)
-        grid._astar_lattice = lat  # cache on the grid object (the grid is not modified after build)
+        grid._astar_lattice = lat
     return lat
 
 
