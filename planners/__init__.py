@@ -5,6 +5,7 @@ Imports ``kinematics`` (and may import ``ik``); never ``scenarios``, ``service``
 """
 
 from . import mobile
+from .cartesian import CartesianPlan, cartesian_to_joint
 from .checkpoint_order import OrderResult, euclidean_cost_matrix, held_karp, path_cost, shortest_order
 from .errors import BlockedPointError, NoPathError, PlanningError
 from .joint_trajectory import JointTrajectory, finite_difference_velocities

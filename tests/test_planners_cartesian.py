@@ -1,0 +1,101 @@
+"""Cartesian path -> joint trajectory through IK: poses reached, continuity, events, bad input."""
+
+import numpy as np
+import pytest
+
+import robots
+from kinematics import InputError, RotationError, ShapeError, se3
+from planners import cartesian_to_joint
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda", geometry=False)
+
+
+Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+
+
+def line(panda, delta, rot=None):
+    T0 = panda.fk(Q0, "panda_link8").copy()
+    T1 = T0.copy()
+    T1[:3, 3] += delta
+    if rot is not None:
+        T1[:3, :3] = T1[:3, :3] @ rot
+    return T0, T1
+
+
+@pytest.mark.parametrize("interpolation", ["decoupled", "screw"])
+def test_straight_line_is_followed_continuously(panda, interpolation):
+    T0, T1 = line(panda, [0.1, 0.15, -0.1], se3.rot_z(0.4))
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=15, dt=0.05, interpolation=interpolation)
+    assert plan.success and not plan.events
+    Q = plan.trajectory.positions
+    assert Q.shape == (17, 7)
+    assert np.allclose(plan.trajectory.times, 0.05 * np.arange(17))
+    for q, T in zip(Q, plan.poses):
+        p_err, r_err = se3.pose_error(panda.fk(q, "panda_link8"), T)
+        assert p_err < 1e-4 and r_err < 1e-3
+        assert panda.within_limits(q)
+    assert np.max(np.abs(np.diff(Q, axis=0))) < 0.2  # one branch, no jumps
+    P = plan.poses[:, :3, 3]
+    d = (T1[:3, 3] - T0[:3, 3]) / np.linalg.norm(T1[:3, 3] - T0[:3, 3])
+    off = np.abs((P - T0[:3, 3]) - np.outer((P - T0[:3, 3]) @ d, d)).max()
+    if interpolation == "decoupled":  # the origin moves on the straight segment between the ends
+        assert off < 1e-12
+    else:  # a screw motion with rotation sweeps the origin along a helix, off the chord
+        assert off > 1e-3
+    # velocities are the finite differences of the positions
+    V = plan.trajectory.velocities
+    assert np.allclose(V[1:-1], (Q[2:] - Q[:-2]) / 0.1, atol=1e-9)
+
+
+def test_position_only_path_on_a_5dof_arm():
+    youbot = robots.load("youbot", geometry=False)
+    q0 = np.array([0.2, 0.4, -0.8, 0.5, 0.1])
+    T0 = youbot.fk(q0)
+    T1 = youbot.fk(np.array([0.6, 0.2, -0.6, 0.3, 0.1]))
+    T1b = T1.copy()
+    T1b[:3, :3] = T0[:3, :3]  # an orientation the 5-DOF arm cannot hold there: relax it
+    plan = cartesian_to_joint(youbot, [T0, T1b], q0, steps=10, relax=("roll", "pitch", "yaw"))
+    assert plan.success, plan.events
+    for q, T in zip(plan.trajectory.positions, plan.poses):
+        assert np.linalg.norm(youbot.fk(q)[:3, 3] - T[:3, 3]) < 1e-4
+
+
+def test_unreachable_pose_is_reported_not_raised(panda):
+    T0, T1 = line(panda, [2.0, 0.0, 0.0])  # 2 m further: out of reach
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=4, max_time=0.05)
+    assert not plan.success
+    failed = [e["index"] for e in plan.events if e["kind"] == "ik_failed"]
+    assert failed and failed[-1] == 5 and 0 not in failed
+    assert "not reached" in plan.message
+
+
+def test_events_for_jumps_limits_and_singularity(panda):
+    T0, T1 = line(panda, [0.05, 0.0, 0.0])
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, jump_threshold=1e-9,
+                              limit_margin=10.0, singular_tol=10.0)
+    kinds = {k: [e["index"] for e in plan.events if e["kind"] == k] for k in ("joint_jump", "limit_contact", "singular")}
+    assert kinds["joint_jump"] == [1, 2, 3, 4]
+    assert kinds["limit_contact"] == [0, 1, 2, 3, 4] and kinds["singular"] == [0, 1, 2, 3, 4]
+    assert not plan.success  # jumps make the path discontinuous
+    assert plan.manipulability.shape == (5,) and np.all(plan.manipulability > 0)
+
+
+def test_bad_input(panda):
+    T0, T1 = line(panda, [0.1, 0, 0])
+    with pytest.raises(ShapeError, match="at least two"):
+        cartesian_to_joint(panda, [T0])
+    with pytest.raises(InputError, match="steps"):
+        cartesian_to_joint(panda, [T0, T1], steps=0)
+    with pytest.raises(InputError, match="dt"):
+        cartesian_to_joint(panda, [T0, T1], dt=-1)
+    with pytest.raises(InputError, match="interpolation"):
+        cartesian_to_joint(panda, [T0, T1], interpolation="spline")
+    bad = T1.copy()
+    bad[:3, :3] *= 2
+    with pytest.raises(RotationError, match=r"poses\[1\]"):
+        cartesian_to_joint(panda, [T0, bad])
+    with pytest.raises(ShapeError, match="q0"):
+        cartesian_to_joint(panda, [T0, T1], q0=[0, 0])
