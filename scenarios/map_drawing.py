@@ -57,13 +57,18 @@ def resample_motion(t, x, y, heading, fps: float, speedup: float = 1.0) -> np.nd
     return np.c_[np.interp(tf, t, x), np.interp(tf, t, y), np.interp(tf, t, h)]
 
 
-def map_scene(title: str, obstacles, bounds, *, motion=None, fps: float = 30.0, robot_width: float = 20.0,
+def map_scene(title: str, obstacles, bounds, *, zones=(), motion=None, fps: float = 30.0, robot_width: float = 20.0,
               **map_kwargs) -> viz.Scene:
     """A :class:`viz.Scene` of the 2-D map (``viz.Scene.add_map`` arguments in ``map_kwargs``) with a
     square base ``robot_width`` wide - blue body, yellow nose at the front, the dark vacuum bar at the
-    back - keyed along ``motion`` (rows ``(x, y, heading)``, one per frame at ``fps``)."""
+    back - keyed along ``motion`` (rows ``(x, y, heading)``, one per frame at ``fps``).
+
+    ``zones``: rectangles drawn flat and translucent (no-go zones are floor areas, not walls)."""
     scene = viz.Scene(title, grid=False)
     scene.add_map("map", viz_obstacles(obstacles), bounds, scale=SCALE, obstacle_height=15.0, **map_kwargs)
+    for k, z in enumerate(zones):
+        scene.add_box(f"map/zones/zone{k}", [z.x_max - z.x_min, z.y_max - z.y_min, 1.0],
+                      [0.5 * (z.x_min + z.x_max), 0.5 * (z.y_min + z.y_max), 0.5], color="grey", opacity=0.55)
     w = float(robot_width)
     scene.add_box("map/robot/body", [w, w, 0.4 * w], [0.0, 0.0, 0.2 * w], color="blue")
     scene.add_box("map/robot/nose", [0.15 * w, 0.3 * w, 0.1 * w], [0.42 * w, 0.0, 0.45 * w], color="yellow")
