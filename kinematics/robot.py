@@ -140,6 +140,24 @@ class Robot:
         other._chains = dict(self._chains)
         return other
 
+    def __getstate__(self) -> dict:
+        """Pickle the kinematic model only: no ``Data`` workspace, no batch-FK caches, no meshes.
+
+        Meshes (``visual_model``/``collision_model``) can weigh hundreds of MB;
+        a pickled Robot (sent to a worker process or a Ray node) is for
+        kinematics. ``source`` and ``package_dirs`` travel, so a viewer on the
+        other side can rebuild the geometry from them.
+        """
+        state = dict(self.__dict__)
+        for key in ("data", "visual_model", "collision_model"):
+            state[key] = None
+        state["_chains"] = {}
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.data = self.model.createData()
+
     def neutral(self) -> np.ndarray:
         """Mid-range configuration ``(lower + upper) / 2`` clipped to include 0 when 0 is in range."""
         q = pin.neutral(self.model).copy()

@@ -197,3 +197,13 @@ def test_limits_are_read_only_so_copies_cannot_corrupt_each_other(panda):
     with pytest.raises(ValueError):
         other.lower[0] = 0.0
     assert panda.lower[0] < 0
+
+
+def test_pickle_carries_kinematics_not_workspace(panda, rng):
+    import pickle
+
+    q = panda.random_q(rng)
+    clone = pickle.loads(pickle.dumps(panda))
+    assert clone.data is not panda.data and clone.visual_model is None
+    assert np.allclose(clone.fk(q), panda.fk(q)) and np.allclose(clone.jacobian(q), panda.jacobian(q))
+    assert clone.joint_names == panda.joint_names and clone.tip == panda.tip
