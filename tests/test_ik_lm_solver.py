@@ -1,0 +1,99 @@
+"""ik.lm_solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic."""
+
+import numpy as np
+import pytest
+
+import robots
+from ik.lm_solver import _bounded_step, solve_lm
+from ik.targets import Target
+from kinematics import se3
+
+ROBOTS = {"panda": 30, "ur5": 25, "youbot": 20, "scara": 20, "planar4r": 20}
+
+
+def _reachable(robot, rng, n):
+    return [(q, robot.fk(q).copy()) for q in robot.random_q(rng, n)]
+
+
+@pytest.mark.parametrize("name", sorted(ROBOTS))
+def test_random_reachable_targets_converge_within_limits(name):
+    robot = robots.load(name, geometry=False)
+    rng = np.random.default_rng(2024)
+    for q_true, T in _reachable(robot, rng, ROBOTS[name]):
+        q0 = robot.random_q(rng)
+        res = solve_lm(robot, Target(robot, T), q0, max_time=1.0)
+        assert res.success, (name, res.message)
+        assert robot.within_limits(res.q)
+        pe, re = se3.pose_error(robot.fk(res.q), T)
+        assert pe < 1e-4 and re < 1e-3
+        assert res.position_error == pytest.approx(pe, abs=1e-12)
+        assert res.orientation_error == pytest.approx(re, abs=1e-9)
+        assert res.method == "lm" and res.message == "converged"
+
+
+def test_history_records_the_returned_run():
+    robot = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(5)
+    T = robot.fk(robot.random_q(rng)).copy()
+    res = solve_lm(robot, Target(robot, T), robot.random_q(rng))
+    h = res.history
+    assert len(h) == h.q.shape[0] and h.q.shape[1] == robot.nq
+    assert np.allclose(h.q[-1], res.q)
+    # every recorded error is the true error of the recorded configuration
+    for q, pe, re in zip(h.q, h.position_error, h.orientation_error):
+        p_ref, r_ref = se3.pose_error(robot.fk(q), T)
+        assert pe == pytest.approx(p_ref, abs=1e-12) and re == pytest.approx(r_ref, abs=1e-9)
+        assert robot.within_limits(q)
+    # task_error (evaluated lazily) is the signed world-axis error
+    te = h.task_error
+    assert te.shape == (len(h), 6)
+    assert np.allclose(np.linalg.norm(te[:, :3], axis=1), h.position_error, atol=1e-12)
+
+
+def test_deterministic_for_a_seed_and_restarts_counted():
+    robot = robots.load("ur5", geometry=False)
+    rng = np.random.default_rng(9)
+    T = robot.fk(robot.random_q(rng)).copy()
+    q0 = robot.random_q(rng)
+    a = solve_lm(robot, Target(robot, T), q0, seed=3, seed_table_enabled=False)
+    b = solve_lm(robot, Target(robot, T), q0, seed=3, seed_table_enabled=False)
+    assert np.array_equal(a.q, b.q) and a.iterations == b.iterations and a.restarts == b.restarts
+
+
+def test_unreachable_target_is_a_result_with_the_best_q():
+    robot = robots.load("panda", geometry=False)
+    T = np.eye(4)
+    T[:3, 3] = (2.5, 0.0, 0.5)  # far beyond the ~0.9 m reach
+    res = solve_lm(robot, Target(robot, T), robot.neutral(), max_time=0.05)
+    assert not res.success
+    assert "target may be out of reach" in res.message
+    assert robot.within_limits(res.q)
+    assert res.position_error > 1.0
+    assert res.restarts >= 1
+    # the best configuration stretches towards the target: much closer than the start
+    assert res.position_error < se3.pose_error(robot.fk(robot.neutral()), T)[0]
+
+
+def test_position_only_relaxation():
+    robot = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(11)
+    for _ in range(10):
+        T = robot.fk(robot.random_q(rng)).copy()
+        T_other = T.copy()
+        T_other[:3, :3] = se3.rot_x(2.0) @ T[:3, :3]  # orientation that does not matter
+        tgt = Target(robot, T_other, relax=("roll", "pitch", "yaw"))
+        res = solve_lm(robot, tgt, robot.random_q(rng))
+        assert res.success and res.orientation_error == 0.0
+        assert np.linalg.norm(robot.fk(res.q)[:3, 3] - T[:3, 3]) < 1e-4
+
+
+def test_bounded_step_keeps_limits_and_uses_the_free_joints():
+    # a 2x3 Jacobian: joint 0 would overshoot its limit; the re-solve moves the other joints instead
+    J = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    e = np.array([1.0, 0.2])
+    q = np.zeros(3)
+    lo, hi = np.full(3, -1.0), np.array([0.1, 1.0, 1.0])
+    qn = _bounded_step(J, e, 1e-9, q, lo, hi)
+    assert np.all(qn <= hi + 1e-12) and np.all(qn >= lo - 1e-12)
+    assert qn[0] == pytest.approx(0.1)
+    assert J @ qn == pytest.approx(e, abs=1e-6)  # still solves the linearised task exactly

@@ -1,0 +1,114 @@
+"""ik.qp_solver: convergence on random targets for every backend; S9 relaxed tasks with centring and the sphere."""
+
+import numpy as np
+import pytest
+
+import ik
+import robots
+from ik.constraints import SphereSet
+from ik.qp_solver import solve_qp
+from ik.targets import Target
+from kinematics import se3
+
+SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
+
+
+@pytest.fixture(scope="module")
+def scara():
+    return robots.load("scara", geometry=False)
+
+
+@pytest.mark.parametrize("backend", ik.available_backends()[:4])
+@pytest.mark.parametrize("name,n", [("panda", 12), ("ur5", 10), ("youbot", 8), ("planar4r", 8)])
+def test_random_reachable_targets_every_backend(backend, name, n):
+    robot = robots.load(name, geometry=False)
+    rng = np.random.default_rng(77)
+    for q in robot.random_q(rng, n):
+        T = robot.fk(q).copy()
+        res = solve_qp(robot, Target(robot, T), robot.random_q(rng), backend=backend, max_time=2.0)
+        assert res.success, (backend, name, res.message)
+        assert robot.within_limits(res.q)
+        pe, re = se3.pose_error(robot.fk(res.q), T)
+        assert pe < 1e-4 and re < 1e-3
+        assert all(robot.within_limits(qi) for qi in res.history.q)
+
+
+def _tool_distances(robot, history, sphere):
+    c = np.asarray(sphere.center)
+    return np.array([np.linalg.norm(robot.fk(q)[:3, 3] - c) for q in history.q])
+
+
+def test_s9_relax_phi_centres_theta4(scara):
+    q_goal = np.array([0.3, 0.9, 0.5, 2.0])
+    T = scara.fk(q_goal).copy()
+    res = ik.solve(scara, T, np.array([0.0, 0.5, 0.4, 1.0]), relax=("phi",), centring=1.0)
+    assert res.method == "qp" and res.success
+    assert res.position_error < 1e-4 and res.orientation_error < 1e-3
+    p = scara.fk(res.q)[:3, 3]
+    assert np.linalg.norm(p - T[:3, 3]) < 1e-4  # x, y, z kept
+    assert res.q[3] == pytest.approx(0.0, abs=1e-4)  # theta4 at the middle of [-2 pi, 2 pi]
+    # yaw was free: the tool angle phi = theta1 + theta2 - theta4 differs from the target's
+    assert abs((res.q[0] + res.q[1] - res.q[3]) - (q_goal[0] + q_goal[1] - q_goal[3])) > 1.0
+
+
+def test_s9_relax_z_centres_d3_where_the_sphere_does_not_bind(scara):
+    T = scara.fk(np.array([1.0, 0.8, 0.3, 0.4])).copy()
+    res = ik.solve(scara, T, np.array([0.5, 0.5, 0.3, 0.0]), relax=("z",), centring=1.0, spheres=[SPHERE])
+    assert res.success
+    assert res.q[2] == pytest.approx(0.625, abs=1e-4)  # d3 mid-range
+    T_res = scara.fk(res.q)
+    assert np.linalg.norm(T_res[:2, 3] - T[:2, 3]) < 1e-4  # x, y kept
+    assert se3.rotation_angle(T_res[:3, :3], T[:3, :3]) < 1e-3  # phi kept
+    assert _tool_distances(scara, res.history, SPHERE).min() >= SPHERE.radius
+
+
+@pytest.mark.parametrize("backend", ["osqp", "daqp"])
+def test_s9_relax_z_with_the_sphere_binding(scara, backend):
+    # tool above the sphere: centring pulls d3 to 0.625 (tool z 0.375, inside the sphere), the sphere stops it
+    x, y = 0.42, -0.68
+    c2 = (x * x + y * y - 0.5) / 0.5
+    t2 = np.arccos(c2)
+    t1 = np.arctan2(y, x) - np.arctan2(0.5 * np.sin(t2), 0.5 + 0.5 * np.cos(t2))
+    q0 = np.array([t1, t2, 0.25, 0.0])
+    T = scara.fk(q0).copy()
+    res = ik.solve(scara, T, q0, relax=("z",), centring=1.0, spheres=[SPHERE], backend=backend)
+    assert res.success, res.message
+    d = _tool_distances(scara, res.history, SPHERE)
+    assert d.min() >= SPHERE.radius  # on every iterate, not only at the end
+    assert len(res.history) > 3
+    # every link / quill segment stays outside too
+    sset = SphereSet(scara, [SPHERE], "tool")
+    assert min(sset.clearances_at(q).min() for q in res.history.q) >= 0.0
+    # the sphere binds: d3 moved towards 0.625 but stopped at the sphere's top (tool z ~ 0.698)
+    z_top = SPHERE.center[2] + np.sqrt(SPHERE.radius**2 - (x - 0.4) ** 2 - (y + 0.7) ** 2)
+    assert 0.25 < res.q[2] < 0.625
+    assert scara.fk(res.q)[2, 3] == pytest.approx(z_top, abs=5e-3)
+
+
+def test_centring_never_degrades_the_task_on_a_redundant_arm():
+    robot = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(3)
+    mid = robot.middle()
+    rngs = robot.upper - robot.lower
+    for _ in range(5):
+        T = robot.fk(robot.random_q(rng)).copy()
+        q0 = robot.random_q(rng)
+        plain = solve_qp(robot, Target(robot, T), q0, prefer_q0=True, seed_table_enabled=False)
+        centred = ik.solve(robot, T, q0, centring=1.0, prefer_q0=True, seed_table=False)
+        assert plain.success and centred.success
+        assert centred.position_error < 1e-4 and centred.orientation_error < 1e-3
+
+        def h(q):
+            return float(np.sum(((q - mid) / rngs) ** 2))
+
+        assert h(centred.q) <= h(plain.q) + 1e-9
+
+
+def test_infeasible_target_reports_failure(scara):
+    T = scara.fk(np.array([0.0, 0.0, 0.5, 0.0])).copy()
+    T[:3, 3] = (3.0, 0.0, 0.5)  # beyond a1 + a2 = 1 m
+    res = ik.solve(scara, T, np.array([0.1, 0.2, 0.5, 0.0]), method="qp", max_time=0.05)
+    assert not res.success
+    assert "best residual" in res.message
+    assert scara.within_limits(res.q)
+    assert res.position_error == pytest.approx(2.0, abs=1e-3)  # stretched towards it: 3 - (a1 + a2)

@@ -1,0 +1,119 @@
+"""ik.solve: every bad input of the issue raises from kinematics.errors; method "auto" dispatch; Result fields."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import ik
+import robots
+from kinematics.errors import FrameError, InputError, KinserveError, NonFiniteError, RotationError, ShapeError
+
+SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda", geometry=False)
+
+
+@pytest.fixture(scope="module")
+def scara():
+    return robots.load("scara", geometry=False)
+
+
+@pytest.fixture(scope="module")
+def T(panda):
+    return panda.fk(np.array([0.1, -0.3, 0.2, -1.9, 0.1, 1.8, 0.5])).copy()
+
+
+@pytest.mark.parametrize(
+    "kwargs,error,match",
+    [
+        (dict(target="nan"), NonFiniteError, "target"),
+        (dict(target="inf"), NonFiniteError, "target"),
+        (dict(target="skew"), RotationError, "rotation"),
+        (dict(target="3x4"), ShapeError, "shape"),
+        (dict(q0=[0.0] * 6), ShapeError, "q0"),
+        (dict(q0=[np.nan] * 7), NonFiniteError, "q0"),
+        (dict(frame="panda_link99"), FrameError, "panda_link99"),
+        (dict(relax=("x", "wobble")), InputError, "wobble"),
+        (dict(method="newton"), InputError, "method"),
+        (dict(backend="cplex"), InputError, "backend"),
+        (dict(tol_pos=0.0), InputError, "tol_pos"),
+        (dict(tol_rot=np.nan), NonFiniteError, "tol_rot"),
+        (dict(max_time=-1.0), InputError, "max_time"),
+        (dict(seed=-3), InputError, "seed"),
+        (dict(seed=1.5), InputError, "seed"),
+        (dict(centring=-1.0), InputError, "centring"),
+        (dict(spheres=[((0.5, 0.5, 0.5), -0.1)]), InputError, "radius"),
+        (dict(spheres=[((0.0, 0.0, 0.1), 0.2)]), InputError, "base"),
+        (dict(method="lm", spheres=[SPHERE]), InputError, "sphere"),
+        (dict(method="lm", centring=1.0), InputError, "centring"),
+        (dict(method="lm", bogus_option=1), InputError, "bogus_option"),
+    ],
+)
+def test_bad_input_raises_clear_errors(panda, T, kwargs, error, match):
+    kwargs = dict(kwargs)
+    target = T.copy()
+    kind = kwargs.pop("target", None)
+    if kind == "nan":
+        target[1, 3] = np.nan
+    elif kind == "inf":
+        target[0, 0] = np.inf
+    elif kind == "skew":
+        target[:3, :3] = target[:3, :3] @ np.diag([1.0, 1.0, 1.2])
+    elif kind == "3x4":
+        target = target[:3]
+    if kind is None and "q0" not in kwargs:
+        kwargs["q0"] = panda.neutral()
+    with pytest.raises(error, match=match) as info:
+        ik.solve(panda, target, **kwargs)
+    assert isinstance(info.value, KinserveError)
+
+
+def test_sphere_containing_the_start_configuration(panda, T):
+    q0 = panda.neutral()
+    hand = panda.fk(q0)[:3, 3]
+    with pytest.raises(InputError, match="start configuration"):
+        ik.solve(panda, T, q0, spheres=[ik.Sphere(hand, 0.05)])
+
+
+def test_robot_argument_checked(T):
+    with pytest.raises(InputError, match="kinematics.Robot"):
+        ik.solve("panda", T)
+
+
+def test_auto_dispatch(panda, scara, T):
+    assert ik.solve(panda, T).method == "lm"
+    assert ik.solve(panda, T, centring=1.0).method == "qp"
+    Ts = scara.fk(np.array([0.3, 0.6, 0.5, 0.2])).copy()
+    assert ik.solve(scara, Ts).method == "analytic"
+    assert ik.solve(scara, Ts, relax=("yaw",)).method == "analytic"
+    assert ik.solve(scara, Ts, spheres=[SPHERE]).method == "qp"
+    res = ik.solve(scara, Ts, relax=("yaw",))
+    assert res.q[3] == pytest.approx(0.0)  # the closed form centres the free wrist joint too
+    # SE3 targets are accepted
+    assert ik.solve(panda, pin.SE3(T)).success
+
+
+def test_result_fields(panda, T):
+    res = ik.solve(panda, T, seed=4)
+    assert isinstance(res, ik.Result)
+    assert res.success and res.q.shape == (7,) and panda.within_limits(res.q)
+    assert 0 <= res.position_error < 1e-4 and 0 <= res.orientation_error < 1e-3
+    assert res.iterations >= 0 and res.restarts >= 0 and res.elapsed > 0
+    assert res.message == "converged" and res.frame == "panda_hand"
+    assert isinstance(res.history, ik.History) and len(res.history) == res.history.q.shape[0]
+    assert "ok" in res.summary()
+    again = ik.solve(panda, T, seed=4)
+    assert np.array_equal(res.q, again.q)  # deterministic for a seed
+    other_frame = ik.solve(panda, panda.fk(res.q, "panda_link8"), frame="panda_link8")
+    assert other_frame.success and other_frame.frame == "panda_link8"
+
+
+def test_tolerances_are_honoured(panda, T):
+    loose = ik.solve(panda, T, panda.neutral(), tol_pos=1e-2, tol_rot=1e-1, prefer_q0=True, seed_table=False)
+    tight = ik.solve(panda, T, panda.neutral(), tol_pos=1e-9, tol_rot=1e-9, prefer_q0=True, seed_table=False)
+    assert loose.success and tight.success
+    assert loose.position_error < 1e-2 and tight.position_error < 1e-9
+    assert loose.iterations < tight.iterations
