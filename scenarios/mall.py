@@ -103,7 +103,7 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
     ref = np.c_[np.interp(t_check, traj.t, traj.x), np.interp(t_check, traj.t, traj.y)]
     dead_reckoning = float(np.max(np.linalg.norm(X[:, :2] - ref, axis=1)))
     np.savetxt(out / "trajectory.csv", np.c_[traj.t, traj.x, traj.y, traj.heading, traj.v, traj.a, traj.omega, phi],
-               delimiter=",", fmt="%.9g", comments="",
+               delimiter=",", fmt="%.12g", comments="",
                header="t_s,x_u,y_u,heading_rad,v_u_s,a_u_s2,omega_rad_s,phi_left_rad_s,phi_right_rad_s")
 
     # plots

@@ -207,7 +207,7 @@ def run(out: Path, *, center_distance: float = CENTER_DISTANCE, wheel_radius: fl
     T = np.concatenate(T_all)
     X = np.concatenate(X_all)
     PHI = np.concatenate(PHI_all)
-    np.savetxt(out / "trajectory.csv", np.c_[T, X, PHI], delimiter=",", fmt="%.9g",
+    np.savetxt(out / "trajectory.csv", np.c_[T, X, PHI], delimiter=",", fmt="%.12g",
                header="t_s,x_m,y_m,theta_rad,phi_A_rad_s,phi_B_rad_s,phi_C_rad_s", comments="")
     marks: dict[tuple, list[str]] = {}  # commands starting at the same place share one label
     for k, c in enumerate(commands):
