@@ -129,7 +129,7 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
     ax.lines[1].set_linestyle(":")
     ax.lines[1].set_alpha(0.7)
     draw_keep_out(ax, grid, label=keep_out)
-    ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
+    ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
     viz.save_png(fig, out / "best_order.png")
 
     fig = viz.series_figure(traj.t, {"speed v (u/s)": traj.v, "angular velocity ω (rad/s) × 10": 10 * traj.omega,
