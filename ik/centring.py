@@ -48,7 +48,7 @@ def centring_weights(robot, centring) -> np.ndarray | None:
     ``centring`` is a number or a sequence of ``nq`` numbers, all finite and ``>= 0``.
     Joints with a zero range (locked) get weight 0.
     """
-    if centring is None:
+    if centring is None or (type(centring) in (int, float) and centring == 0):
         return None
     w = np.asarray(centring, dtype=float) if not isinstance(centring, (int, float)) else np.full(robot.nq, float(centring))
     if w.ndim == 0:
@@ -123,7 +123,9 @@ class CentringStage:
     workspace cache of :func:`ik.qp_backends.make_backend` (built once per size).
     """
 
-    def __init__(self, robot, weights, k_rows: int, backend: str, max_step: float, eps: float = 1e-9):
+    def __init__(self, robot, weights, k_rows: int, backend: str, max_step: float, eps: float = 1e-9,
+                 shortcut: bool = True):
+        self.shortcut = shortcut
         self.n = robot.nq
         self.k_rows = k_rows
         self.weights = weights
@@ -154,9 +156,15 @@ class CentringStage:
             lo.append(l - Gd)
             hi.append(u - Gd)
         A = np.vstack(rows)
-        backend = make_backend(self.backend_name, dim, A.shape[0], role="secondary")
+        lo, hi = np.concatenate(lo), np.concatenate(hi)
         zlim = np.full(dim, self.max_step)
-        z = backend.solve(P, c, A, np.concatenate(lo), np.concatenate(hi), -zlim, zlim)
+        if self.shortcut:  # exact: a feasible unconstrained minimiser is the QP's solution
+            z = np.linalg.solve(P, -c)
+            Az = A @ z
+            if (Az >= lo).all() and (Az <= hi).all() and (np.abs(z) <= zlim).all():
+                return Z @ z
+        backend = make_backend(self.backend_name, dim, A.shape[0], role="secondary")
+        z = backend.solve(P, c, A, lo, hi, -zlim, zlim)
         if z is None:
             return np.zeros(self.n)
         return Z @ z

@@ -8,7 +8,14 @@ At the current configuration ``q`` with task error ``e`` and task Jacobian
                g_k^T dq >= -xi (d_k - r_k)                      (every sphere / segment pair)
 
 i.e. ``P = J^T J + lambda I``, ``c = -J^T e`` - a Levenberg-Marquardt step
-with hard inequality constraints. With ``centring`` a second QP stage moves
+with hard inequality constraints.
+
+Exact shortcut (``shortcut=True``, default): the QP is convex, so when its
+unconstrained minimiser ``-P^-1 c`` (one Cholesky solve) already satisfies
+every inequality it *is* the QP's solution, and the solver call is skipped;
+otherwise the backend solves the QP. This is what an active-set solver does
+in its first step; it spares ADMM (OSQP) its iterations when nothing is
+active. ``shortcut=False`` calls the QP solver at every step. With ``centring`` a second QP stage moves
 in the null space of ``J`` towards mid-range (:mod:`ik.centring`), so the
 task progress of the first stage is kept exactly.
 
@@ -33,12 +40,18 @@ import time
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg import get_lapack_funcs
 
 from .centring import CentringStage
-from .constraints import DAMPER_GAIN, SphereSet, joint_step_bounds
+from .constraints import DAMPER_GAIN, SphereSet
 from .qp_backends import INF, make_backend
 from .result import History, Result, task_evaluator
 from .seeds import seed_table, start_sequence
+
+_posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_maximum = np.maximum
+_minimum = np.minimum
 
 #: Floor of the Levenberg-Marquardt damping.
 DAMPING = 1e-5
@@ -67,7 +80,8 @@ _LOCAL = pin.LOCAL
 class _QPIteration:
     """Workspace of one solve: kinematics, constraint rows and the (persistent) QP backends."""
 
-    def __init__(self, robot, target, spheres: SphereSet | None, weights, backend: str, max_step: float, damping: float):
+    def __init__(self, robot, target, spheres: SphereSet | None, weights, backend: str, max_step: float, damping: float,
+                 shortcut: bool = True):
         self.robot = robot
         self.model, self.data = robot.model, robot.data
         self.target = target
@@ -77,9 +91,13 @@ class _QPIteration:
         self.n = robot.nq
         self.max_step = max_step
         self.damping = damping
+        self.shortcut = shortcut
+        self.neg_step = np.full(self.n, -max_step)
+        self.pos_step = np.full(self.n, max_step)
         self.qp = make_backend(backend, self.n, self.k)
+        self.qp_calls = 0
         self.centring = (
-            CentringStage(robot, weights, self.k, backend, max_step) if weights is not None else None
+            CentringStage(robot, weights, self.k, backend, max_step, shortcut=shortcut) if weights is not None else None
         )
         self.lower, self.upper = robot.lower, robot.upper
         self.u_inf = np.full(self.k, INF)
@@ -110,18 +128,28 @@ class _QPIteration:
     def step(self, q, e, J):
         """(dq, secondary part of dq, status) - dq is None when the QP failed."""
         n = self.n
-        E = float(e @ e)
-        P = J.T @ J
+        E = e.dot(e)
+        P = J.T.dot(J)
         P.flat[:: n + 1] += DAMPING_GAIN * E + self.damping
-        c = -(J.T @ e)
-        lb, ub = joint_step_bounds(q, self.lower, self.upper, self.max_step)
+        g = e.dot(J)  # -c
+        c = -g
+        # box of joint_step_bounds (q is inside the limits, so lower - q <= 0 <= upper - q exactly)
+        lb = _maximum(self.lower - q, self.neg_step)
+        ub = _minimum(self.upper - q, self.pos_step)
         if self.k:
             clear, G = self.spheres.rows(self.data)
             l = -DAMPER_GAIN * clear
             u = self.u_inf
         else:
             G = l = u = None
-        dq1 = self.qp.solve(P, c, G, l, u, lb, ub)
+        dq1 = None
+        if self.shortcut:
+            x = _posv(P, g)[1]
+            if _clip(x, lb, ub).tolist() == x.tolist() and (G is None or (G.dot(x) >= l).all()):
+                dq1 = x
+        if dq1 is None:
+            self.qp_calls += 1
+            dq1 = self.qp.solve(P, c, G, l, u, lb, ub)
         if dq1 is None:
             return None, None, f"QP failed ({self.qp.name}: {self.qp.status})"
         if self.centring is None:
@@ -131,7 +159,7 @@ class _QPIteration:
 
     def accept(self, q, dq):
         """``q + alpha dq`` with the largest ``alpha in {1, 1/2, 1/4, ...}`` keeping every sphere clearance >= 0."""
-        qn = np.clip(q + dq, self.lower, self.upper)
+        qn = _clip(q + dq, self.lower, self.upper)
         if self.spheres is None:
             return qn, 1.0
         alpha = 1.0
@@ -204,6 +232,7 @@ def solve_qp(
     max_starts: int | None = None,
     seed_table_enabled: bool = True,
     prefer_q0: bool = False,
+    shortcut: bool = True,
 ) -> Result:
     """QP-based IK of ``target`` with hard joint limits, optional spheres and centring, and restarts.
 
@@ -214,7 +243,7 @@ def solve_qp(
     """
     t0 = _now()
     deadline = t0 + (MAX_TIME if max_time is None else max_time)
-    ws = _QPIteration(robot, target, spheres, weights, backend, max_step, damping)
+    ws = _QPIteration(robot, target, spheres, weights, backend, max_step, damping, bool(shortcut))
     lo, hi = robot.lower, robot.upper
     table = seed_table(robot, target.frame) if seed_table_enabled else None
     f_target = q0_dist = None
@@ -271,5 +300,5 @@ def solve_qp(
     return Result(
         q=np.array(qs[k]), success=ok, position_error=float(pes[k]), orientation_error=float(res[k]),
         iterations=iterations, restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist,
-        method="qp", frame=target.frame, info={"backend": ws.qp.name},
+        method="qp", frame=target.frame, info={"backend": ws.qp.name, "qp_calls": ws.qp_calls},
     )

@@ -3,8 +3,10 @@
 A local solver (Levenberg-Marquardt, QP iterations) converges quickly from a
 start whose pose is already close to the target, and may stall at a joint
 limit or a local minimum from a distant one. The :class:`SeedTable` holds
-``n`` configurations drawn uniformly within the joint limits (fixed RNG seed,
-so it is reproducible) together with the pose of one frame at each. For a
+``n`` configurations drawn uniformly from the interior of the joint ranges
+(a margin of :data:`MARGIN` of each range is kept from both limits: starts
+next to a limit tend to stall against it) with a fixed RNG seed, so it is
+reproducible, together with the pose of one frame at each. For a
 target ``(R*, p*)`` it ranks them by the pose distance
 
     D(q_i) = |p_i - p*|^2 + w_R |R_i - R*|_F^2 = |p_i - p*|^2 + w_R (6 - 2 tr(R*^T R_i))
@@ -36,6 +38,9 @@ DEFAULT_SIZE = 2000
 #: Weight ``w_R`` (m^2) of the orientation term of the pose distance.
 ROTATION_WEIGHT = 0.05
 
+#: Fraction of each joint range kept free at both ends when sampling the table.
+MARGIN = 0.1
+
 _TABLE_SEED = 20240611
 
 _tables: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -47,7 +52,8 @@ class SeedTable:
     def __init__(self, robot, frame: str, n: int | None = None, rotation_weight: float | None = None):
         n = DEFAULT_SIZE if n is None else int(n)
         rng = np.random.default_rng(_TABLE_SEED)
-        self.Q = robot.random_q(rng, n)
+        span = robot.upper - robot.lower
+        self.Q = rng.uniform(robot.lower + MARGIN * span, robot.upper - MARGIN * span, size=(n, robot.nq))
         T = robot.fk_batch(self.Q, frame)
         self.weight = float(ROTATION_WEIGHT if rotation_weight is None else rotation_weight)
         s = math.sqrt(self.weight)

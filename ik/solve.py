@@ -46,6 +46,7 @@ from .qp_solver import solve_qp
 from .targets import Target
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
+_METHOD_SET = frozenset(METHODS)
 
 
 def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
@@ -75,6 +76,8 @@ def _check_seed(seed):
 
 
 def _check_backend(backend):
+    if backend == "osqp":
+        return backend
     if not isinstance(backend, str) or backend.lower() not in available_backends():
         raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, got {backend!r}")
     return backend.lower()
@@ -88,26 +91,29 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
     in the parent process.
     """
     _check_robot(robot)
-    if method not in METHODS:
+    if method not in _METHOD_SET:
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
     if q0 is not None:
         q0 = robot.check_q(q0, "q0")
-    tol_pos = _check_positive(tol_pos, "tol_pos")
-    tol_rot = _check_positive(tol_rot, "tol_rot")
-    max_time = _check_positive(max_time, "max_time", allow_none=True)
+    if tol_pos != 1e-4:
+        tol_pos = _check_positive(tol_pos, "tol_pos")
+    if tol_rot != 1e-3:
+        tol_rot = _check_positive(tol_rot, "tol_rot")
+    if max_time is not None:
+        max_time = _check_positive(max_time, "max_time")
     seed = _check_seed(seed)
     backend = _check_backend(backend)
     weights = centring_weights(robot, centring)
-    if spheres is None:
-        spheres = ()
-    if isinstance(spheres, (str, bytes)):
-        raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
-    try:
-        spheres = list(spheres)
-    except TypeError:
-        spheres = [spheres]
-    sphere_set = SphereSet(robot, spheres, tgt.frame) if spheres else None
+    sphere_set = None
+    if spheres is not None and (type(spheres) is not tuple or spheres):
+        if isinstance(spheres, (str, bytes)):
+            raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
+        try:
+            spheres = list(spheres)
+        except TypeError:
+            spheres = [spheres]
+        sphere_set = SphereSet(robot, spheres, tgt.frame) if spheres else None
     if sphere_set is not None and q0 is not None:
         clear = sphere_set.clearances_at(q0)
         if clear.size and clear.min() < 0:
@@ -195,12 +201,15 @@ def solve(
 
 
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
-_QP_OPTIONS = _LM_OPTIONS + ("max_step",)
+_QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut")
 _CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
 _ANALYTIC_OPTIONS = ("samples", "choose")
+_AUTO_OPTIONS = tuple(dict.fromkeys(_QP_OPTIONS + _ANALYTIC_OPTIONS))
 
 
 def _check_options(method, options, allowed):
+    if not options:
+        return
     bad = [k for k in options if k not in allowed]
     if bad:
         raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
@@ -211,7 +220,7 @@ def solve_prepared(robot, p: dict, **options):
     method = p["method"]
     tgt = p["target"]
     if method == "auto":
-        _check_options("auto", options, tuple(dict.fromkeys(_QP_OPTIONS + _ANALYTIC_OPTIONS)))
+        _check_options("auto", options, _AUTO_OPTIONS)
         if p["spheres"] is not None or p["weights"] is not None:
             method = "qp"
         else:
@@ -221,11 +230,13 @@ def solve_prepared(robot, p: dict, **options):
                 if res is not None:
                     return res
             method = "lm"
-        options = {k: v for k, v in options.items() if k in (_QP_OPTIONS if method == "qp" else _LM_OPTIONS)}
+        if options:
+            options = {k: v for k, v in options.items() if k in (_QP_OPTIONS if method == "qp" else _LM_OPTIONS)}
     if method == "lm":
         _check_options(method, options, _LM_OPTIONS)
-        opts = dict(options)
+        opts = options
         if "seed_table" in opts:
+            opts = dict(options)
             opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
         return solve_lm(robot, tgt, p["q0"], tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
                         seed=p["seed"], **opts)

@@ -112,3 +112,18 @@ def test_infeasible_target_reports_failure(scara):
     assert "best residual" in res.message
     assert scara.within_limits(res.q)
     assert res.position_error == pytest.approx(2.0, abs=1e-3)  # stretched towards it: 3 - (a1 + a2)
+
+
+def test_shortcut_is_exact():
+    # a feasible unconstrained minimiser is the QP's solution: same iterates with and without the shortcut
+    robot = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(12)
+    for _ in range(4):
+        T = robot.fk(robot.random_q(rng)).copy()
+        q0 = robot.random_q(rng)
+        kw = dict(prefer_q0=True, seed_table_enabled=False, max_starts=1, backend="daqp")
+        a = solve_qp(robot, Target(robot, T), q0, shortcut=True, **kw)
+        b = solve_qp(robot, Target(robot, T), q0, shortcut=False, **kw)
+        assert len(a.history) == len(b.history)
+        assert np.allclose(a.history.q, b.history.q, atol=1e-8)
+        assert b.info["qp_calls"] == b.iterations >= a.info["qp_calls"]

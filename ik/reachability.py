@@ -1,0 +1,141 @@
+"""Reachability maps: which share of sampled tool poses in each workspace cell IK reaches.
+
+The workspace box is the bounding box of ``fk_batch`` over random
+configurations, padded by 5 %. ``samples`` target positions are drawn
+uniformly in the box (components the mechanism cannot act on - e.g. ``z``
+for a planar arm - are held at their constant value), each with an
+orientation that is
+
+* ``"free"``: not constrained (position-only IK, the classical reachable workspace),
+* ``"random"``: uniformly random on SO(3) (the dexterous workspace),
+* a 3x3 rotation matrix: that fixed tool orientation (e.g. pointing down).
+
+All targets are solved with :func:`ik.solve_many` (local processes or Ray);
+each sample falls in one cell of a ``resolution^3`` grid, and a cell's
+reachability is ``reached / sampled`` (NaN for a cell with no sample).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from kinematics import as_matrix
+from kinematics.errors import InputError
+from kinematics.validation import check_rotation
+
+from .batch import solve_many
+
+_POSITION_AXES = ("x", "y", "z")
+_ROTATION_AXES = ("roll", "pitch", "yaw")
+
+
+@dataclass
+class ReachabilityMap:
+    """Samples and per-cell statistics of a reachability computation (positions in m)."""
+
+    robot: str
+    frame: str
+    orientation: str
+    edges: list  #: three arrays of cell edges along x, y, z
+    positions: np.ndarray  #: (N, 3) sampled target positions
+    reached: np.ndarray  #: (N,) bool
+    counts: np.ndarray  #: (nx, ny, nz) samples per cell
+    hits: np.ndarray  #: (nx, ny, nz) reached samples per cell
+
+    @property
+    def fraction(self) -> np.ndarray:
+        """Per-cell reached / sampled (NaN where a cell has no sample)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(self.counts > 0, self.hits / np.maximum(self.counts, 1), np.nan)
+
+    @property
+    def overall(self) -> float:
+        """Share of all samples reached."""
+        return float(self.reached.mean()) if self.reached.size else 0.0
+
+    def save(self, path) -> Path:
+        """Write a ``.npz`` with every array (and the metadata as 0-d arrays)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(
+            path, robot=self.robot, frame=self.frame, orientation=self.orientation,
+            edges_x=self.edges[0], edges_y=self.edges[1], edges_z=self.edges[2], positions=self.positions,
+            reached=self.reached, counts=self.counts, hits=self.hits, fraction=self.fraction,
+        )
+        return path
+
+
+def workspace_box(robot, frame=None, n: int = 5000, seed: int = 0, pad: float = 0.05) -> np.ndarray:
+    """``(2, 3)`` [min; max] of the frame origin over ``n`` random configurations, padded by ``pad`` of the size."""
+    P = robot.fk_batch(robot.random_q(seed, n=n), frame)[:, :3, 3]
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    span = hi - lo
+    return np.array([lo - pad * span, hi + pad * span])
+
+
+def reachability_map(
+    robot,
+    samples: int = 1000,
+    *,
+    frame: str | None = None,
+    resolution: int = 8,
+    orientation="free",
+    backend: str = "processes",
+    processes: int | None = None,
+    ray_address: str | None = None,
+    max_time: float = 0.05,
+    seed: int = 0,
+    bounds=None,
+    progress: bool | None = None,
+) -> ReachabilityMap:
+    """Sample ``samples`` tool poses in the workspace box and record which ones IK reaches."""
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise InputError(f"samples must be a positive integer, got {samples!r}")
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or not 1 <= resolution <= 100:
+        raise InputError(f"resolution must be an integer in [1, 100], got {resolution!r}")
+    frame = frame or robot.tip
+    robot.frame_id(frame)
+    rng = np.random.default_rng(seed)
+    box = workspace_box(robot, frame, seed=seed) if bounds is None else as_matrix(bounds, (2, 3), "bounds")
+    if np.any(box[1] < box[0]):
+        raise InputError(f"bounds must be [min; max] with min <= max, got {box.tolist()}")
+    acts = [a in robot.task_axes for a in _POSITION_AXES]
+    P = rng.uniform(box[0], box[1], size=(samples, 3))
+    centre = 0.5 * (box[0] + box[1])
+    for k, active in enumerate(acts):
+        if not active:
+            P[:, k] = centre[k]  # the mechanism cannot move along this axis: its constant value
+    relax = tuple(a for a in _POSITION_AXES + _ROTATION_AXES if a not in robot.task_axes)
+    if isinstance(orientation, str) and orientation == "free":
+        relax = tuple(dict.fromkeys(relax + tuple(a for a in _ROTATION_AXES if a in robot.task_axes)))
+        R = np.repeat(np.eye(3)[None], samples, axis=0)
+        label = "free"
+    elif isinstance(orientation, str) and orientation == "random":
+        from scipy.spatial.transform import Rotation
+
+        R = Rotation.random(samples, random_state=rng.integers(1 << 31)).as_matrix()
+        label = "random"
+    elif isinstance(orientation, str):
+        raise InputError(f"orientation must be 'free', 'random' or a 3x3 rotation matrix, got {orientation!r}")
+    else:
+        R0 = as_matrix(orientation, (3, 3), "orientation")
+        check_rotation(R0, "orientation")
+        R = np.repeat(R0[None], samples, axis=0)
+        label = "fixed"
+    targets = np.zeros((samples, 4, 4))
+    targets[:, :3, :3] = R
+    targets[:, :3, 3] = P
+    targets[:, 3, 3] = 1.0
+    extra = {"ray_address": ray_address} if backend == "ray" else {}
+    results = solve_many(robot, targets, frame=frame, relax=relax, backend=backend, processes=processes,
+                         max_time=max_time, seed=seed, progress=progress, **extra)
+    reached = np.array([r.success for r in results], dtype=bool)
+    # an axis the mechanism cannot move along gets one 1 m bin around its constant value
+    edges = [np.linspace(box[0][k], box[1][k], resolution + 1) if acts[k] else centre[k] + np.array([-0.5, 0.5])
+             for k in range(3)]
+    counts, _ = np.histogramdd(P, bins=edges)
+    hits, _ = np.histogramdd(P[reached], bins=edges) if reached.any() else (np.zeros_like(counts), None)
+    return ReachabilityMap(robot.name, frame, label, edges, P, reached, counts.astype(int), hits.astype(int))
