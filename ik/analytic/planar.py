@@ -265,8 +265,8 @@ class PlanarChain:
             cmax = (r * r + L1 * L1 - dmin * dmin) / (2 * L1 * r)
             if cmin > 1.0 + 1e-12 or cmax < -1.0 - 1e-12:
                 return self._four_link_nearest(wp, alpha), False
-            a_in = math.acos(min(1.0, cmax)) if cmax < 1.0 else 0.0  # |psi1 - gamma| >= a_in
-            a_out = math.acos(max(-1.0, cmin)) if cmin > -1.0 else math.pi  # |psi1 - gamma| <= a_out
+            a_in = math.acos(max(-1.0, min(1.0, cmax))) if cmax < 1.0 else 0.0  # |psi1 - gamma| >= a_in
+            a_out = math.acos(min(1.0, max(-1.0, cmin))) if cmin > -1.0 else math.pi  # |psi1 - gamma| <= a_out
             if a_in <= 1e-15:
                 intervals = [(-a_out, a_out)]
             else:
