@@ -4,46 +4,56 @@ Design
 ------
 * Every argument and every target is validated **once, in the calling
   process** (errors name the offending target index), before any work starts.
-* Targets are cut into chunks. A pool of worker processes (``fork`` start
-  method on Linux) is created with an initializer that gives each worker its
-  **own** copy of the robot - once per worker, never per target - and the
-  solve options; the seed table of :mod:`ik.seeds` is built in the parent
-  first, so the workers inherit it.
+* Targets are cut into chunks and solved by a pool of worker processes. The
+  pool is **persistent**: created on first use (``fork`` start method on
+  Linux) and reused by later calls with the same number of processes, so a
+  batch does not pay process start-up again.
+* A call is a *job*: the robot (pickled kinematic model), the solve options
+  and the seed table of :mod:`ik.seeds`, serialised once in the parent and
+  sent with each chunk as bytes under a job id. A worker unpickles a job the
+  first time it sees its id and keeps it (a few jobs, least recently used
+  first out): the robot is rebuilt **once per worker and job, never per
+  target**.
 * A worker solves a whole chunk and sends back compact arrays (joint
   vectors, flags, errors, counters) plus the messages - far cheaper to pickle
-  than one ``Result`` object per target. The parent rebuilds the ``Result``
-  list in the original order. Histories are dropped unless
-  ``keep_history=True`` (they are then pickled per target).
+  than one ``Result`` per target. The parent rebuilds the ``Result`` list in
+  the original order. Histories are dropped unless ``keep_history=True``.
 * A ``tqdm`` progress bar (on stderr) follows the completed chunks of long
   batches.
-* Execution backends are looked up in :data:`BACKENDS` (``"processes"``,
-  ``"serial"``); another backend (e.g. a Ray cluster) is one more function
-  with the same signature.
+* Execution backends live in :data:`BACKENDS` (``"processes"``, ``"serial"``);
+  another one (e.g. a Ray cluster) is one more function with the same
+  signature ``runner(job, chunks, processes, on_done)``.
 """
 
 from __future__ import annotations
 
+import atexit
+import itertools
 import math
 import multiprocessing as mp
 import os
+import pickle
+import threading
+from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
 from kinematics.errors import InputError
 
 from .result import Result
-from .seeds import seed_table
+from .seeds import install_table, seed_table
 from .solve import prepare, solve_prepared
 from .targets import Target
 
 #: Batches at least this long show a progress bar by default.
 PROGRESS_THRESHOLD = 500
 
-_FIELDS = ("q", "success", "position_error", "orientation_error", "iterations", "restarts", "elapsed")
+#: Jobs a worker keeps unpickled.
+WORKER_JOBS = 4
 
-# state of a worker process (set by _init_worker)
-_worker = {}
+_job_ids = itertools.count()
 
 
 def _cpu_count() -> int:
@@ -53,8 +63,36 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
-def _solve_chunk(robot, common: dict, options: dict, keep_history: bool, start: int, poses, q0s):
+class _Job:
+    """Everything a worker needs to solve targets of one ``solve_many`` call."""
+
+    def __init__(self, robot, kwargs: dict, options: dict, keep_history: bool, frame: str):
+        self.id = (os.getpid(), next(_job_ids))
+        self.robot = robot
+        self.kwargs = kwargs
+        self.options = options
+        self.keep_history = keep_history
+        self.frame = frame
+        self._bytes = None
+        self._prepared = None
+
+    def payload(self) -> bytes:
+        """The job as bytes: robot, options and the robot's seed table for the frame."""
+        if self._bytes is None:
+            table = seed_table(self.robot, self.frame)
+            self._bytes = pickle.dumps((self.robot, self.kwargs, self.options, self.keep_history, self.frame, table),
+                                       protocol=pickle.HIGHEST_PROTOCOL)
+        return self._bytes
+
+    def prepared(self):
+        if self._prepared is None:
+            self._prepared = prepare(self.robot, np.eye(4), None, **self.kwargs)
+        return self._prepared
+
+
+def _solve_chunk(job: _Job, start: int, poses, q0s):
     """Solve targets ``start .. start + len(poses)``; return compact arrays (see the module docstring)."""
+    robot = job.robot
     n = len(poses)
     out = {
         "start": start,
@@ -68,16 +106,15 @@ def _solve_chunk(robot, common: dict, options: dict, keep_history: bool, start: 
         "message": [],
         "method": [],
         "info": [],
-        "history": [] if keep_history else None,
+        "history": [] if job.keep_history else None,
     }
-    frame = common["frame"]
-    relaxed = common["relax"]
-    relax_frame = common["relax_frame"]
+    base = job.prepared()
+    relax, relax_frame = job.kwargs["relax"], job.kwargs["relax_frame"]
     for i in range(n):
-        p = dict(common["prepared"])
-        p["target"] = Target(robot, poses[i], frame, relaxed, relax_frame)
+        p = dict(base)
+        p["target"] = Target(robot, poses[i], job.frame, relax, relax_frame)
         p["q0"] = None if q0s is None else q0s[i]
-        r = solve_prepared(robot, p, **options)
+        r = solve_prepared(robot, p, **job.options)
         out["q"][i] = r.q
         out["success"][i] = r.success
         out["position_error"][i] = r.position_error
@@ -88,38 +125,80 @@ def _solve_chunk(robot, common: dict, options: dict, keep_history: bool, start: 
         out["message"].append(r.message)
         out["method"].append(r.method)
         out["info"].append(r.info)
-        if keep_history:
+        if job.keep_history:
             out["history"].append(r.history)
     return out
 
 
-def _init_worker(robot, common, options, keep_history):
-    _worker["robot"] = robot.copy()
-    _worker["args"] = (common, options, keep_history)
+# ----------------------------------------------------------------- worker side
+_worker_jobs: OrderedDict = OrderedDict()
 
 
-def _worker_chunk(start, poses, q0s):
-    common, options, keep_history = _worker["args"]
-    return _solve_chunk(_worker["robot"], common, options, keep_history, start, poses, q0s)
+def _worker_chunk(job_id, payload: bytes, start, poses, q0s):
+    job = _worker_jobs.get(job_id)
+    if job is None:
+        robot, kwargs, options, keep_history, frame, table = pickle.loads(payload)
+        install_table(robot, frame, table)
+        job = _Job(robot, kwargs, options, keep_history, frame)
+        _worker_jobs[job_id] = job
+        while len(_worker_jobs) > WORKER_JOBS:
+            _worker_jobs.popitem(last=False)
+    else:
+        _worker_jobs.move_to_end(job_id)
+    return _solve_chunk(job, start, poses, q0s)
 
 
-def _run_serial(robot, chunks, common, options, keep_history, processes, on_done):
-    r = robot.copy()
+# ----------------------------------------------------------------- parent side
+_pool = None
+_pool_size = 0
+_pool_lock = threading.Lock()
+
+
+def _get_pool(processes: int) -> ProcessPoolExecutor:
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is None or _pool_size != processes:
+            if _pool is not None:
+                _pool.shutdown(wait=False, cancel_futures=True)
+            ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
+            _pool = ProcessPoolExecutor(max_workers=processes, mp_context=ctx)
+            _pool_size = processes
+        return _pool
+
+
+def shutdown_pool() -> None:
+    """Stop the persistent worker processes (they are started again on demand)."""
+    global _pool
+    with _pool_lock:
+        if _pool is not None:
+            _pool.shutdown(wait=True, cancel_futures=True)
+            _pool = None
+
+
+atexit.register(shutdown_pool)
+
+
+def _run_serial(job, chunks, processes, on_done):
     for start, poses, q0s in chunks:
-        res = _solve_chunk(r, common, options, keep_history, start, poses, q0s)
-        on_done(res)
+        on_done(_solve_chunk(job, start, poses, q0s))
 
 
-def _run_processes(robot, chunks, common, options, keep_history, processes, on_done):
-    ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-    with ProcessPoolExecutor(max_workers=processes, mp_context=ctx, initializer=_init_worker,
-                             initargs=(robot, common, options, keep_history)) as pool:
-        futures = [pool.submit(_worker_chunk, start, poses, q0s) for start, poses, q0s in chunks]
-        for fut in as_completed(futures):
-            on_done(fut.result())
+def _run_processes(job, chunks, processes, on_done):
+    payload = job.payload()
+    for attempt in range(2):
+        pool = _get_pool(processes)
+        try:
+            futures = [pool.submit(_worker_chunk, job.id, payload, s, p, q) for s, p, q in chunks]
+            for fut in as_completed(futures):
+                on_done(fut.result())
+            return
+        except BrokenProcessPool:
+            shutdown_pool()  # a worker died (e.g. killed): start a fresh pool once
+            if attempt:
+                raise
 
 
-#: Execution backends: ``name -> runner(robot, chunks, common, options, keep_history, processes, on_done)``.
+#: Execution backends: ``name -> runner(job, chunks, processes, on_done)``.
 BACKENDS = {"processes": _run_processes, "serial": _run_serial}
 
 
@@ -175,9 +254,9 @@ def solve_many(
     progress:
         Show a tqdm bar (default: for batches of at least 500 targets).
     backend:
-        Execution backend, ``"processes"`` (default) or ``"serial"`` (see
-        :data:`BACKENDS`). Not to be confused with ``qp_backend``, the QP
-        solver of method ``"qp"`` (``ik.solve``'s ``backend``).
+        Execution backend, ``"processes"`` (default; a persistent pool, see
+        the module docstring) or ``"serial"``. Not to be confused with
+        ``qp_backend``, the QP solver of method ``"qp"`` (``ik.solve``'s ``backend``).
     keep_history:
         Return each ``Result.history`` (costs pickling time); by default ``history`` is None.
     The remaining keywords are those of :func:`ik.solve`, shared by every target.
@@ -188,11 +267,11 @@ def solve_many(
     n = len(poses)
     if n == 0:
         return []
+    kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, centring=centring,
+                  method=method, backend=qp_backend, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
     # validate the shared arguments once, and every target (fast path, ~4 us each)
-    prepared = prepare(robot, poses[0], None, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
-                       centring=centring, method=method, backend=qp_backend, tol_pos=tol_pos, tol_rot=tol_rot,
-                       max_time=max_time, seed=seed)
-    frame = prepared["target"].frame
+    prepared = prepare(robot, poses[0], None, **kwargs)
+    frame = kwargs["frame"] = prepared["target"].frame
     checked = np.empty((n, 4, 4))
     for i, pose in enumerate(poses):
         try:
@@ -203,8 +282,7 @@ def solve_many(
     if q0 is not None:
         arr = np.asarray(q0, dtype=float) if not isinstance(q0, np.ndarray) else q0
         if arr.ndim == 1:
-            one = robot.check_q(arr, "q0")
-            q0s = np.repeat(one[None, :], n, axis=0)
+            q0s = np.repeat(robot.check_q(arr, "q0")[None, :], n, axis=0)
         else:
             if arr.shape != (n, robot.nq):
                 raise InputError(f"q0 must have shape ({robot.nq},) or ({n}, {robot.nq}), got shape {arr.shape}")
@@ -215,14 +293,9 @@ def solve_many(
                 if c.size and c.min() < 0:
                     raise InputError(f"q0[{i}]: a sphere already contains the start configuration: "
                                      f"{prepared['spheres'].describe_violation(c)}")
-    prepared.pop("target")
-    prepared.pop("q0")
-    common = {"prepared": prepared, "frame": frame, "relax": relax, "relax_frame": relax_frame}
-    # reject bad options now rather than in a worker
-    if options:
+    if options:  # reject bad options now rather than in a worker
         solve_prepared(robot, {**prepared, "target": Target(robot, checked[0], frame, relax, relax_frame),
                                "q0": None if q0s is None else q0s[0]}, **options)
-
     if processes is None:
         processes = _cpu_count()
     if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
@@ -236,7 +309,7 @@ def solve_many(
     runner = BACKENDS[backend]
     if processes == 1 and backend == "processes":
         runner = _run_serial
-    seed_table(robot, frame)  # built once here; forked workers inherit it
+    job = _Job(robot.copy() if runner is _run_serial else robot, kwargs, options, keep_history, frame)
 
     results: list = [None] * n
     bar = None
@@ -261,7 +334,7 @@ def solve_many(
             bar.update(len(res["message"]))
 
     try:
-        runner(robot, chunks, common, options, keep_history, processes, on_done)
+        runner(job, chunks, processes, on_done)
     finally:
         if bar is not None:
             bar.close()

@@ -72,9 +72,13 @@ def solve_classical(
     m = len(target.kept)
     n = robot.nq
     if method == "jacobian_inverse" and m != n:
+        hint = ""
+        extra = [a for a in target.components if a not in robot.task_axes]
+        if len(target.components) - len(extra) == n and extra:
+            hint = f" (this robot acts on {', '.join(robot.task_axes)}: relax={tuple(extra)!r})"
         raise InputError(
             f"jacobian_inverse needs a square Jacobian: the task keeps {m} components "
-            f"({', '.join(target.components)}) for {n} joints; relax components or use 'pseudo_inverse' / 'dls'"
+            f"({', '.join(target.components)}) for {n} joints; relax components{hint} or use 'pseudo_inverse' / 'dls'"
         )
     if weights is not None and method in ("jacobian_inverse", "jacobian_transpose"):
         raise InputError(f"centring needs a null-space method ('pseudo_inverse' or 'dls'), not {method!r}")

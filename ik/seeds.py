@@ -108,6 +108,14 @@ def seed_table(robot, frame: str) -> SeedTable:
     return table
 
 
+def install_table(robot, frame: str, table: SeedTable) -> None:
+    """Register an existing table for ``robot`` (e.g. one shipped to a worker process)."""
+    per_robot = _tables.get(robot.model)
+    if per_robot is None:
+        per_robot = _tables[robot.model] = {}
+    per_robot[frame] = table
+
+
 def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_table: int = 8, q0_distance=None,
                    prefer_q0: bool = False):
     """Generator of start configurations (fresh arrays) for one solve; see the module docstring.

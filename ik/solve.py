@@ -5,9 +5,12 @@ Methods
 ``"auto"`` (default) picks the fastest method that can honour the request:
 
 1. spheres or centring  -> ``"qp"`` (hard inequalities / strict priority need the QP);
-2. a closed-form solver exists for the robot and frame and handles the
-   relaxed components -> ``"analytic"`` (falls back to ``"lm"`` only when the
-   sampled 4R family has no branch inside the limits);
+2. a closed-form solver with finitely many branches exists for the robot and
+   frame and handles the relaxed components -> ``"analytic"`` (2R/3R, SCARA,
+   youBot; it falls back to ``"lm"`` only when no branch is usable). The
+   redundant 4R arm's closed form is a sampled one-parameter family, slower
+   to enumerate than one LM solve, so ``"auto"`` uses ``"lm"`` for it (name
+   ``"analytic"`` or call :func:`solve_all` to get the family);
 3. otherwise -> ``"lm"`` (joint limits are the only inequalities).
 
 ``"qp"``, ``"lm"``, ``"analytic"`` and the classical ``"jacobian_inverse"``,
@@ -225,7 +228,8 @@ def solve_prepared(robot, p: dict, **options):
             method = "qp"
         else:
             solver = _analytic.closed_form_solver(robot, tgt.frame)
-            if solver is not None and solver.supports(tgt.relaxed):
+            # closed forms with finitely many branches; a sampled family (4R) is slower than LM in Python
+            if solver is not None and solver.finite and solver.supports(tgt.relaxed):
                 res = _solve_analytic(robot, solver, p, **{k: v for k, v in options.items() if k in _ANALYTIC_OPTIONS})
                 if res is not None:
                     return res
@@ -275,28 +279,40 @@ def _default_criteria(q0):
 
 
 def _solve_analytic(robot, solver, p, fallback: bool = True, samples: int = 24, choose=None):
-    """Best closed-form branch (chooser criteria) or, with ``fallback``, None when no branch is usable."""
+    """Best closed-form branch by the chooser criteria; with ``fallback``, None when no branch is usable.
+
+    Only the chosen branch is turned into a verified :class:`Result` (FK check);
+    the others are compared as joint vectors.
+    """
+    import time
+
+    from .result import History, Result
+
+    t0 = time.perf_counter()
     tgt = p["target"]
-    results = _analytic.branches(robot, solver, tgt, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], samples=samples)
-    if not results:
+    raw, note, extra = _analytic.raw_branches(robot, solver, tgt, samples)
+    if not raw:
         if fallback:
             return None
-        from .result import History, Result
-
         q = robot.neutral() if p["q0"] is None else np.clip(p["q0"], robot.lower, robot.upper)
         T = robot.fk(q, tgt.frame)
         pe, re = tgt.errors(T[:3, :3], T[:3, 3])
         return Result(q=q, success=False, position_error=pe, orientation_error=re, method="analytic", frame=tgt.frame,
-                      message="no closed-form branch inside the joint limits",
-                      history=History.empty(robot.nq, tgt.components))
-    ok = [r for r in results if r.success]
-    pool = ok if ok else results
+                      message="no closed-form branch inside the joint limits" + (f"; {note}" if note else ""),
+                      history=History.empty(robot.nq, tgt.components), info={"note": note, **extra})
     criteria = choose if choose is not None else _default_criteria(p["q0"])
-    i = _choose_index(robot, pool, criteria, p["q0"], tgt.frame)
-    best = pool[i]
-    best.info["branches"] = len(results)
-    if not best.success and fallback and "out of reach" not in best.message and "off the" not in best.message:
-        return None
+    i = _choose_index(robot, [b[0] for b in raw], criteria, p["q0"], tgt.frame)
+    best = _analytic.branch_result(robot, tgt, raw[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
+    if not best.success and not note:
+        # numerically off (should not happen): choose among the branches that verify
+        results = [_analytic.branch_result(robot, tgt, b, note, extra, p["tol_pos"], p["tol_rot"], t0) for b in raw]
+        ok = [r for r in results if r.success]
+        if ok:
+            best = ok[_choose_index(robot, ok, criteria, p["q0"], tgt.frame)]
+        elif fallback:
+            return None
+    best.info["branches"] = len(raw)
+    best.elapsed = time.perf_counter() - t0
     return best
 
 

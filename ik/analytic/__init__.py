@@ -22,7 +22,7 @@ from ..result import History, Result
 from .planar import PlanarChain, two_link, wrap_into
 from .youbot import YOUBOT_DH, YouBotArm
 
-__all__ = ["closed_form_solver", "branches", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
+__all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
 
 _SOLVERS = (PlanarChain, YouBotArm)
 _cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -46,31 +46,40 @@ def closed_form_solver(robot, frame: str):
     return solver
 
 
+def raw_branches(robot, solver, target, samples: int = 24):
+    """``(branches, note, info)``: distinct joint vectors ``(q, label, free_parameter)`` inside the limits."""
+    raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
+    out = []
+    for q, label, free in raw:
+        q = np.clip(np.asarray(q, dtype=float), robot.lower, robot.upper)
+        if any(np.abs(q - s[0]).max() < 1e-9 for s in out):
+            continue  # branches that coincide (stretched / folded arm)
+        out.append((q, label, free))
+    return out, note, extra
+
+
+def branch_result(robot, target, branch, note: str, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
+    """One closed-form branch as a :class:`Result`, verified with the robot's forward kinematics."""
+    q, label, free = branch
+    T = robot.fk(q, target.frame)
+    pe, re = target.errors(T[:3, :3], T[:3, 3])
+    ok = pe < tol_pos and re < tol_rot
+    msg = "closed form" + (f"; {note}" if note else "")
+    if not ok and not note:
+        msg += f"; residual {pe:.3g} m / {re:.3g} rad above tolerance"
+    info = {"branch": label, "note": note, **extra}
+    if free is not None:
+        info["free_parameter"] = float(free)
+    hist = History.from_lists([q], [pe], [re], [target.residual(T[:3, :3], T[:3, 3])], target.components)
+    return Result(
+        q=q, success=ok, position_error=pe, orientation_error=re, iterations=0, restarts=0,
+        elapsed=time.perf_counter() - t0, message=msg, history=hist, method="analytic",
+        frame=target.frame, info=info,
+    )
+
+
 def branches(robot, solver, target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
     """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``)."""
     t0 = time.perf_counter()
-    raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
-    out = []
-    r = robot.copy()
-    seen = []
-    for q, label, free in raw:
-        q = np.clip(np.asarray(q, dtype=float), robot.lower, robot.upper)
-        if any(np.abs(q - s).max() < 1e-9 for s in seen):
-            continue  # branches that coincide (stretched / folded arm)
-        seen.append(q)
-        T = r.fk(q, target.frame)
-        pe, re = target.errors(T[:3, :3], T[:3, 3])
-        ok = pe < tol_pos and re < tol_rot
-        msg = "closed form" + (f"; {note}" if note else "")
-        if not ok and not note:
-            msg += f"; residual {pe:.3g} m / {re:.3g} rad above tolerance"
-        info = {"branch": label, "note": note, **extra}
-        if free is not None:
-            info["free_parameter"] = float(free)
-        hist = History.from_lists([q], [pe], [re], [target.residual(T[:3, :3], T[:3, 3])], target.components)
-        out.append(Result(
-            q=q, success=ok, position_error=pe, orientation_error=re, iterations=0, restarts=0,
-            elapsed=time.perf_counter() - t0, message=msg, history=hist, method="analytic",
-            frame=target.frame, info=info,
-        ))
-    return out
+    raw, note, extra = raw_branches(robot, solver, target, samples)
+    return [branch_result(robot, target, b, note, extra, tol_pos, tol_rot, t0) for b in raw]

@@ -161,6 +161,7 @@ class PlanarChain:
         if self.n_links not in (2, 3, 4) or self.n_wrist > 1 or (self.n_links > 2 and self.n_wrist):
             raise ValueError("unsupported planar shape")
         self.lower, self.upper = robot.lower, robot.upper
+        self.finite = self.n_links < 4  #: finitely many branches (False: a one-parameter family)
         self._verify(robot, frame)
 
     # ------------------------------------------------------------------ model

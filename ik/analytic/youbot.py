@@ -58,6 +58,7 @@ class YouBotArm:
     """Closed-form solver of a chain with the youBot's DH structure (module docstring)."""
 
     name = "youbot"
+    finite = True
 
     def __init__(self, robot, frame: str, dh=YOUBOT_DH):
         if robot.nq != 5:
@@ -138,9 +139,11 @@ class YouBotArm:
                 notes.add("target out of reach (the returned configuration points at it)")
             x4 = math.cos(Theta) * x1 + math.sin(Theta) * up
             th5 = math.atan2(float(xp @ n), float(xp @ x4))
-            if reached is None and side == "front":
-                Rr = np.column_stack([xp, np.cross(zp, xp), zp])
-                reached = self.base @ np.block([[Rr, p[:, None]], [np.zeros((1, 3)), np.ones((1, 1))]])
+            if reached is None and side == "front" and abs(off) > 1e-9:
+                reached = np.eye(4)
+                reached[:3, :3] = np.column_stack([xp, np.cross(zp, xp), zp])
+                reached[:3, 3] = p
+                reached = self.base @ reached
             for th2, _, th3 in sols:
                 th4 = Theta - th2 - th3
                 label = f"{side}, elbow {'up' if th3 < 0 else 'down'}"
