@@ -215,12 +215,16 @@ def test_auto_camera_sees_everything(panda):
         d = corner - eye
         angle = np.arccos(np.clip(d @ view / np.linalg.norm(d), -1, 1))
         assert angle < half
-    # the camera commands put the orbit centre at the target and the camera at the eye
-    cmds = scene.camera_commands()
-    np.testing.assert_allclose(np.array(cmds[0]["matrix"]).reshape(4, 4).T[:3, 3], target)
-    dx, dz, mdy = cmds[1]["value"]
-    Rx = se3.rot_x(np.pi / 2)  # meshcat's y-up "rotated" node
-    np.testing.assert_allclose(target + Rx @ [dx, dz, mdy], eye, atol=1e-12)
+    # meshcat aims at its world origin: the drawing and the grid are shifted by -target, and the
+    # camera (inside the y-up "rotated" node, Rx(90 deg)) sits at eye - target
+    cmds = {c["path"]: c for c in scene.camera_commands()}
+    for path in ("/meshcat", "/Grid", "/Axes"):
+        np.testing.assert_allclose(np.array(cmds[path]["matrix"]).reshape(4, 4).T, se3.pose(p=-target))
+    np.testing.assert_allclose(np.array(cmds["/Cameras/default"]["matrix"]).reshape(4, 4), np.eye(4))
+    Rx = se3.rot_x(np.pi / 2)
+    shifted_eye = Rx @ cmds["/Cameras/default/rotated/<object>"]["value"]
+    np.testing.assert_allclose(shifted_eye, eye - target, atol=1e-12)
+    assert scene.transform("/meshcat") is not None and np.allclose(scene.transform("/meshcat"), np.eye(4))
     scene.set_camera([2, 0, 1], [0, 0, 0.5])
     np.testing.assert_allclose(scene.camera()[0], [2, 0, 1])
 
@@ -231,7 +235,8 @@ def test_replay_order_and_delete(panda):
     scene.add_sphere("s", [0, 0, 1], 0.1)
     cmds = scene.commands()
     first = {}
-    for i, c in enumerate(cmds):
+    tree = cmds[: len(cmds) - len(scene.camera_commands())]
+    for i, c in enumerate(tree):
         first.setdefault((c["type"], c["path"]), i)
     for (kind, path), i in first.items():
         if kind == "set_transform" and ("set_object", path) in first:
@@ -239,7 +244,7 @@ def test_replay_order_and_delete(panda):
         parent = path.rsplit("/", 1)[0]
         if (kind, parent) in first:
             assert first[(kind, parent)] < i  # parents before children
-    assert cmds[-2]["path"] == "/Cameras/default" and cmds[-1]["property"] == "position"
+    assert cmds[-len(scene.camera_commands()):] == scene.camera_commands()  # camera last (no animation here)
     assert {"type": "set_property", "path": "/Grid", "property": "visible", "value": False} in cmds
     # every command survives msgpack as meshcat's server would send it
     for c in cmds:
@@ -272,3 +277,16 @@ def test_invalid_input_is_rejected(panda):
         scene.add_map("m", [object()], (0, 0, 1, 1))
     with pytest.raises(InputError, match="bounds"):
         scene.add_map("m", [], None)
+
+
+def test_mobile_base_heading_marker_points_forward():
+    scene = viz.Scene()
+    scene.add_map("map", [], (0, 0, 480, 480), scale=0.01)
+    path = scene.add_mobile_base("map/base", size=(20, 16, 8), pose=se3.pose(se3.rot_z(np.pi / 2), [100, 50, 0]))
+    assert path == "/meshcat/map/base"
+    body = scene.world_transform("map/base/body")
+    nose = scene.world_transform("map/base/nose")
+    np.testing.assert_allclose(body[:2, 3], [1.0, 0.5])  # map units scaled to metres
+    heading = nose[:2, 3] - body[:2, 3]
+    np.testing.assert_allclose(heading / np.linalg.norm(heading), [0.0, 1.0], atol=1e-12)  # x forward, turned by 90 deg
+    assert scene.object("map/base/body")["object"]["geometries"][0]["depth"] == 8

@@ -9,7 +9,8 @@ records, gzip-compressed (robot meshes are text ``.dae`` files, which shrink
 about 3x) and base64-encoded into the page. On load, a small script decodes
 them (``DecompressionStream('gzip')``, in every current browser) and replays
 them, in order, into ``viewer.handle_command_bytearray``; the animation, if
-any, then starts playing (meshcat's "Animations" panel replays it).
+any, then starts playing (meshcat's "Animations" panel replays it; open
+``page.html#paused`` to load it without playing, showing the first frame).
 
 Progress is written into ``<div id="kinserve-status">``: ``data-status`` is
 ``loading``, then ``ready`` (with ``data-commands``, the number replayed, and
@@ -90,8 +91,13 @@ _TEMPLATE = """<!DOCTYPE html>
     }}
     status.setAttribute("data-commands", String(count));
     var animator = viewer.animator;
+    if (animator && /(^#|&)paused(&|$)/.test(window.location.hash)) {{
+      animator.pause();  // "page.html#paused": show the first frame, do not play
+      animator.reset();
+    }}
     status.setAttribute("data-animation-clips", String(animator ? animator.actions.length : 0));
     status.setAttribute("data-animation-duration", String(animator ? animator.duration : 0));
+    status.setAttribute("data-animation-playing", String(Boolean(animator && animator.playing)));
     status.setAttribute("data-status", "ready");
   }}
   function fail(err) {{

@@ -354,16 +354,26 @@ class Scene:
         return c + dist * d / np.linalg.norm(d), c
 
     def camera_commands(self) -> list[dict]:
-        """meshcat commands placing the camera (see meshcat's README, "Camera Control").
+        """meshcat commands placing the camera at ``eye`` looking at ``target``.
 
-        ``/Cameras/default`` is moved to the target (the orbit centre) and the
-        camera object inside the y-up ``rotated`` node is offset by
-        ``eye - target`` expressed in y-up axes: ``(dx, dz, -dy)``.
+        meshcat's orbit controls always aim the camera at the *viewer's* world
+        origin (three.js ``lookAt`` takes world coordinates), whatever the
+        transform of ``/Cameras/default``. So the view is centred by shifting
+        the drawing instead: ``/meshcat`` (everything the scene draws), the
+        ground ``/Grid`` and the ``/Axes`` are translated by ``-target``, and
+        the camera sits at ``eye - target`` from the origin, expressed in the
+        y-up axes of its ``rotated`` node: ``(dx, dz, -dy)``. Orbiting then
+        turns about ``target``. Scene transforms (:meth:`transform`) are not
+        affected: the shift exists only in the replayed commands.
         """
         eye, target = self.camera()
         d = eye - target
+        shift = list(_translation(-target).T.flatten())
         return [
-            {"type": "set_transform", "path": "/Cameras/default", "matrix": list(_translation(target).T.flatten())},
+            {"type": "set_transform", "path": ROOT, "matrix": shift},
+            {"type": "set_transform", "path": "/Grid", "matrix": shift},
+            {"type": "set_transform", "path": "/Axes", "matrix": shift},
+            {"type": "set_transform", "path": "/Cameras/default", "matrix": list(np.eye(4).flatten())},
             {"type": "set_property", "path": "/Cameras/default/rotated/<object>", "property": "position",
              "value": [float(d[0]), float(d[2]), float(-d[1])]},
         ]
@@ -596,6 +606,23 @@ class Scene:
             self._draw(f"{root}/waypoints/{label}", mg.Mesh(_ZCylinder(lift, radius), _material("orange", kind=mg.MeshPhongMaterial)), A)
         self._note_points(root, [np.array([scale * x, scale * y, float(z) + scale * hz]) for x in (x0, x1) for y in (y0, y1) for hz in (0.0, h)])
         return root
+
+    def add_mobile_base(self, name: str, size=(20.0, 20.0, 8.0), color="sky", pose=None) -> str:
+        """A mobile base: a box body ``size = (length, width, height)`` with a dark nose on its
+        front (+x) face, so the heading shows. The node ``name`` is the base frame (body
+        centre on the floor, x forward); its children are drawn relative to it. Under a map
+        node the units are map units, and :meth:`viz.Animation.planar` moves it.
+        """
+        L, W, H = (float(v) for v in as_vector(size, 3, "size"))
+        if min(L, W, H) <= 0:
+            raise InputError(f"mobile base size must be positive, got {size}")
+        path = self.path(name)
+        T = self._pose_or_point(pose)
+        self[path].set_transform(T)
+        self._draw(f"{path}/body", mg.Mesh(mg.Box([L, W, H]), _material(color)), _translation([0.0, 0.0, 0.5 * H]))
+        self._draw(f"{path}/nose", mg.Mesh(mg.Box([0.2 * L, 0.4 * W, 0.5 * H]), _material("darkgrey")),
+                   _translation([0.5 * L, 0.0, 0.75 * H]))
+        return path
 
     def _draw_shape(self, path: str, s, height: float, color, opacity: float) -> None:
         if isinstance(s, Rect):

@@ -3,19 +3,32 @@
 Needs a Chromium binary (Debian's ``chromium`` package; ``chromium-browser``
 or ``google-chrome`` also work, or set ``KINSERVE_CHROMIUM``). WebGL is
 rendered in software by SwiftShader (``--use-angle=swiftshader
---enable-unsafe-swiftshader``), so no GPU and no display are needed; the
-network stays off (``file://`` page, no background services). Virtual time
-(``--virtual-time-budget``) lets the page finish loading and animating
-before the capture, independently of the machine's speed.
+--enable-unsafe-swiftshader``), so neither a GPU nor a display is needed,
+and the network stays off (``file://`` page, no background services).
+
+The browser is driven over the DevTools protocol on a pipe
+(``--remote-debugging-pipe``: JSON messages ending in a NUL byte, written to
+file descriptor 3 and read from 4) rather than with ``--screenshot`` and a
+virtual-time budget, which stalls now and then on a busy machine. The page
+is loaded, the exported page's status element is polled until it says
+``ready`` (the scene replayed, see :mod:`viz.export`), two animation frames are
+awaited so the WebGL canvas holds the scene, and the capture is taken.
+Uncaught exceptions and console errors are collected on the way.
 """
 
 from __future__ import annotations
 
+import base64
+import contextlib
+import json
 import os
-import re
+import select
 import shutil
+import signal
 import subprocess
 import tempfile
+import time
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from kinematics.errors import KinserveError
@@ -41,6 +54,16 @@ FLAGS = (
     "--mute-audio",
 )
 
+_STATUS_JS = """(() => {
+  const el = document.getElementById("kinserve-status");
+  if (!el) return null;
+  const out = {};
+  for (const a of el.attributes) if (a.name.startsWith("data-")) out[a.name.slice(5)] = a.value;
+  return out;
+})()"""
+
+_TWO_FRAMES_JS = "new Promise(r => requestAnimationFrame(() => requestAnimationFrame(() => r(true))))"
+
 
 class BrowserUnavailable(KinserveError):
     """No Chromium binary was found (install Debian's ``chromium`` package)."""
@@ -58,56 +81,182 @@ def find_browser() -> str | None:
     return None
 
 
-def _run(args: list[str], timeout: float) -> subprocess.CompletedProcess:
+@dataclass
+class PageResult:
+    """What :func:`render` saw: the status attributes, errors, and the PNG bytes (if captured)."""
+
+    status: dict[str, str] | None
+    errors: list[str] = field(default_factory=list)
+    png: bytes | None = None
+
+
+class _DevTools:
+    """A Chromium process and a DevTools-protocol session with its page, over a pipe."""
+
+    def __init__(self, browser: str, size: tuple[int, int], timeout: float):
+        self.deadline = time.monotonic() + timeout
+        self._profile = tempfile.TemporaryDirectory(prefix="kinserve-chromium-")
+        to_browser_r, self._to_browser = os.pipe()
+        self._from_browser, from_browser_w = os.pipe()
+        w, h = size
+        cmd = [browser, *FLAGS, f"--user-data-dir={self._profile.name}", f"--window-size={w},{h}",
+               "--remote-debugging-pipe", "about:blank"]
+        # the browser reads commands on fd 3 and writes replies on fd 4: hand it our pipe ends
+        # as stdin/stdout of a shell that moves them there before exec'ing Chromium
+        shell = 'exec "$@" 3<&0 4>&1 </dev/null >/dev/null'
+        self.proc = subprocess.Popen(["/bin/sh", "-c", shell, "sh", *cmd], stdin=to_browser_r, stdout=from_browser_w,
+                                     stderr=subprocess.DEVNULL, start_new_session=True)
+        os.close(to_browser_r)
+        os.close(from_browser_w)
+        self._buf = b""
+        self._id = 0
+        self.events: list[dict] = []
+        self.session = None
+
+    def _remaining(self) -> float:
+        left = self.deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError("chromium did not answer in time")
+        return left
+
+    def _read_message(self) -> dict:
+        while b"\0" not in self._buf:
+            ready, _, _ = select.select([self._from_browser], [], [], self._remaining())
+            if not ready:
+                continue
+            chunk = os.read(self._from_browser, 1 << 20)
+            if not chunk:
+                raise RuntimeError(f"chromium closed the DevTools pipe (exit code {self.proc.poll()})")
+            self._buf += chunk
+        raw, self._buf = self._buf.split(b"\0", 1)
+        return json.loads(raw)
+
+    def call(self, method: str, params: dict | None = None, session: bool = True) -> dict:
+        self._id += 1
+        msg = {"id": self._id, "method": method, "params": params or {}}
+        if session and self.session:
+            msg["sessionId"] = self.session
+        os.write(self._to_browser, json.dumps(msg).encode() + b"\0")
+        while True:
+            reply = self._read_message()
+            if reply.get("id") == self._id:
+                if "error" in reply:
+                    raise RuntimeError(f"DevTools {method} failed: {reply['error']}")
+                return reply.get("result", {})
+            self.events.append(reply)
+
+    def attach_page(self) -> None:
+        targets = self.call("Target.getTargets", session=False)["targetInfos"]
+        page = next((t for t in targets if t["type"] == "page"), None)
+        if page is None:
+            page = {"targetId": self.call("Target.createTarget", {"url": "about:blank"}, session=False)["targetId"]}
+        self.session = self.call("Target.attachToTarget", {"targetId": page["targetId"], "flatten": True}, session=False)["sessionId"]
+
+    def evaluate(self, expression: str, await_promise: bool = False):
+        res = self.call("Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": await_promise})
+        if "exceptionDetails" in res:
+            raise RuntimeError(f"page script failed: {res['exceptionDetails'].get('text')}")
+        return res["result"].get("value")
+
+    def errors(self) -> list[str]:
+        out = []
+        for ev in self.events:
+            method, p = ev.get("method"), ev.get("params", {})
+            if method == "Runtime.exceptionThrown":
+                d = p.get("exceptionDetails", {})
+                out.append(str(d.get("exception", {}).get("description") or d.get("text")))
+            elif method == "Runtime.consoleAPICalled" and p.get("type") == "error":
+                out.append(" ".join(str(a.get("value", a.get("description", ""))) for a in p.get("args", [])))
+            elif method == "Log.entryAdded" and p.get("entry", {}).get("level") == "error":
+                out.append(str(p["entry"].get("text")))
+        return out
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            os.write(self._to_browser, json.dumps({"id": 0, "method": "Browser.close"}).encode() + b"\0")
+        with contextlib.suppress(Exception):
+            self.proc.wait(timeout=5)
+        with contextlib.suppress(ProcessLookupError):  # the whole group: renderer, GPU, zygote
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        with contextlib.suppress(Exception):
+            self.proc.wait(timeout=5)
+        for fd in (self._to_browser, self._from_browser):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        self._profile.cleanup()
+
+
+def render(html_path, *, size=(800, 600), capture: bool = True, play: bool = False, settle_ms: int = 0,
+           timeout: float = 60.0) -> PageResult:
+    """Open an exported page headless, wait until its scene is replayed, and optionally capture it.
+
+    ``play=False`` opens ``page.html#paused`` (the animation is loaded, not
+    played: the first frame). ``settle_ms`` waits that long (real time) after
+    the scene is ready, e.g. to let an animation run. Raises
+    :class:`BrowserUnavailable` without Chromium, ``TimeoutError`` when the
+    page is not ready within ``timeout`` seconds.
+    """
     browser = find_browser()
     if browser is None:
         raise BrowserUnavailable("no Chromium found (tried $KINSERVE_CHROMIUM, " + ", ".join(CANDIDATES)
                                  + "); on Debian: apt-get install chromium")
-    with tempfile.TemporaryDirectory(prefix="kinserve-chromium-") as profile:
-        cmd = [browser, *FLAGS, f"--user-data-dir={profile}", *args]
-        return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, stdin=subprocess.DEVNULL)
-
-
-def _url(html_path) -> str:
     path = Path(html_path).resolve()
     if not path.is_file():
         raise FileNotFoundError(f"no such HTML file: {path}")
-    return path.as_uri()
-
-
-def screenshot(html_path, png_path, *, size=(800, 600), budget_ms: int = 4000, timeout: float = 120.0) -> Path:
-    """Render ``html_path`` headless and write a ``size = (width, height)`` PNG at ``png_path``.
-
-    ``budget_ms`` is the virtual time the page gets before the capture.
-    """
-    png = Path(png_path).resolve()
-    png.parent.mkdir(parents=True, exist_ok=True)
-    if png.exists():
-        png.unlink()
+    url = path.as_uri() + ("" if play else "#paused")
     w, h = (int(v) for v in size)
-    proc = _run([f"--window-size={w},{h}", f"--virtual-time-budget={int(budget_ms)}", f"--screenshot={png}", _url(html_path)], timeout)
-    if not png.is_file() or png.stat().st_size == 0:
-        tail = "\n".join(proc.stderr.strip().splitlines()[-8:])
-        raise RuntimeError(f"chromium wrote no screenshot (exit {proc.returncode}):\n{tail}")
+    dt = _DevTools(browser, (w, h), timeout)
+    try:
+        dt.attach_page()
+        dt.call("Emulation.setDeviceMetricsOverride", {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False})
+        for domain in ("Page", "Runtime", "Log"):
+            dt.call(f"{domain}.enable")
+        dt.call("Page.navigate", {"url": url})
+        status = None
+        while True:
+            with contextlib.suppress(RuntimeError):  # the document may be replaced while navigating
+                status = dt.evaluate(_STATUS_JS)
+            if status and status.get("status") in ("ready", "error"):
+                break
+            dt._remaining()
+            time.sleep(0.05)
+        if settle_ms:
+            time.sleep(settle_ms / 1000.0)
+        dt.evaluate(_TWO_FRAMES_JS, await_promise=True)
+        status = dt.evaluate(_STATUS_JS)
+        png = base64.b64decode(dt.call("Page.captureScreenshot", {"format": "png"})["data"]) if capture else None
+        return PageResult(status=status, errors=dt.errors(), png=png)
+    finally:
+        dt.close()
+
+
+def screenshot(html_path, png_path, *, size=(800, 600), play: bool = False, settle_ms: int = 0, timeout: float = 60.0) -> Path:
+    """Write a ``size = (width, height)`` PNG of an exported page at ``png_path``; returns the path.
+
+    By default the animation is paused on its first frame (a deterministic
+    picture); ``play=True, settle_ms=...`` captures it mid-motion.
+    """
+    result = render(html_path, size=size, play=play, settle_ms=settle_ms, timeout=timeout)
+    if result.status is None or result.status.get("status") != "ready":
+        raise RuntimeError(f"the page did not load its scene: status {result.status}, errors {result.errors}")
+    png = Path(png_path)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    png.write_bytes(result.png)
     return png
 
 
-def dump_dom(html_path, *, budget_ms: int = 4000, timeout: float = 120.0) -> str:
-    """The page's DOM after ``budget_ms`` of virtual time (Chromium's ``--dump-dom``)."""
-    proc = _run([f"--virtual-time-budget={int(budget_ms)}", "--dump-dom", _url(html_path)], timeout)
-    if proc.returncode != 0 or "<html" not in proc.stdout:
-        tail = "\n".join(proc.stderr.strip().splitlines()[-8:])
-        raise RuntimeError(f"chromium --dump-dom failed (exit {proc.returncode}):\n{tail}")
-    return proc.stdout
+def page_status(html_path, *, play: bool = False, timeout: float = 60.0) -> dict[str, str]:
+    """The ``data-*`` attributes of an exported page's status element once loaded, plus
+    ``console-errors``: the number of uncaught exceptions and console errors seen.
 
-
-def page_status(html_path, *, budget_ms: int = 4000, timeout: float = 120.0) -> dict[str, str]:
-    """The ``data-*`` attributes of an exported page's ``<div id="kinserve-status">`` after loading.
-
-    E.g. ``{"status": "ready", "errors": "0", "commands": "45", "animation-clips": "12", ...}``.
+    E.g. ``{"status": "ready", "errors": "0", "commands": "45", "animation-clips": "12",
+    "animation-playing": "true", "console-errors": "0", ...}``.
     """
-    dom = dump_dom(html_path, budget_ms=budget_ms, timeout=timeout)
-    m = re.search(r'<div id="kinserve-status"([^>]*)>', dom)
-    if m is None:
+    result = render(html_path, capture=False, play=play, timeout=timeout)
+    if result.status is None:
         raise RuntimeError("the page has no kinserve-status element (not a viz.export_html file?)")
-    return {k: v for k, v in re.findall(r'data-([\w-]+)="([^"]*)"', m.group(1))}
+    status = dict(result.status)
+    status["console-errors"] = str(len(result.errors))
+    if result.errors:
+        status["console-error"] = result.errors[0]
+    return status
