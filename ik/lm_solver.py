@@ -3,7 +3,7 @@
 For problems whose only inequalities are the joint limits. Each iteration
 linearises the task at ``q`` and takes the damped Gauss-Newton step
 
-    (J^T J + lambda I) dq = J^T e,      lambda = 0.1 |e|^2 + lambda_0
+    (J^T J + lambda I) dq = J^T e,      lambda = 0.01 |e|^2 + lambda_0
 
 (Sugihara's adaptive damping: large far from the target, where the
 linearisation is poor; ``lambda_0`` keeps the system positive definite at
@@ -53,7 +53,7 @@ from .seeds import seed_table, start_sequence
 #: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
 DAMPING = 1e-5
 #: Gain of the error term of the damping.
-DAMPING_GAIN = 0.1
+DAMPING_GAIN = 0.01
 #: A start is abandoned when ``|e|^2`` exceeds this fraction of the previous value ...
 STALL_RATIO = 0.85
 #: ... this many iterations in a row.

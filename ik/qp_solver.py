@@ -3,7 +3,7 @@
 At the current configuration ``q`` with task error ``e`` and task Jacobian
 ``J`` (kept rows, see :mod:`ik.targets`), the step ``dq`` solves
 
-    minimise   1/2 |J dq - e|^2 + 1/2 lambda |dq|^2          lambda = 0.1 |e|^2 + lambda_0
+    minimise   1/2 |J dq - e|^2 + 1/2 lambda |dq|^2          lambda = 0.01 |e|^2 + lambda_0
     subject to max(lower - q, -s) <= dq <= min(upper - q, s)    (joint limits, trust region s)
                g_k^T dq >= -xi (d_k - r_k)                      (every sphere / segment pair)
 
@@ -56,7 +56,7 @@ _minimum = np.minimum
 #: Floor of the Levenberg-Marquardt damping.
 DAMPING = 1e-5
 #: Gain of the error term of the damping.
-DAMPING_GAIN = 0.1
+DAMPING_GAIN = 0.01
 #: Trust region: largest joint step per iteration (rad or m).
 MAX_STEP = 1.0
 #: Iteration cap of one start.

@@ -15,11 +15,11 @@ target ``(R*, p*)`` it ranks them by the pose distance
 samples at once as one matrix-vector product on the stacked features
 ``f_i = [p_i, sqrt(w_R) vec(R_i)]`` (``D = |f_i|^2 - 2 f_i . f* + |f*|^2``).
 
-:func:`start_sequence` yields the starts of one solve: the caller's ``q0``
-and the best table sample first (whichever is closer to the target in ``D``
-goes first), then the next table samples in order of ``D``, then uniform
-random configurations from ``numpy.random.default_rng(seed)`` - the same
-sequence for the same ``seed``, so results are reproducible.
+:func:`start_sequence` yields the starts of one solve: the ``n_table``
+nearest table samples and the caller's ``q0``, in order of ``D`` (``q0``
+first with ``prefer_q0``), then uniform random configurations from
+``numpy.random.default_rng(seed)`` - the same sequence for the same
+``seed``, so results are reproducible.
 
 Tables are built once per model and frame (a few milliseconds with the
 vectorised :meth:`kinematics.Robot.fk_batch`) and cached.
@@ -128,20 +128,26 @@ def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_tab
     if table is not None:
         score = table.G.dot(f_target)
         i0 = int(score.argmin())
-        d0 = float(score[i0]) + float(f_target[:12].dot(f_target[:12]))
+        f2 = float(f_target[:12].dot(f_target[:12]))
+        d0 = float(score[i0]) + f2
         q0_first = q0 is not None and (prefer_q0 or q0_distance is None or q0_distance <= d0)
         if q0_first:
             yield np.array(q0, dtype=float)
         yield table.Q[i0].copy()
-        if q0 is not None and not q0_first:
-            yield np.array(q0, dtype=float)
+        pending_q0 = q0 is not None and not q0_first
         k = min(n_table, len(score))
         if k > 1:
             idx = np.argpartition(score, k - 1)[:k]
             idx = idx[np.argsort(score[idx])]
             for i in idx:
-                if i != i0:
-                    yield table.Q[i].copy()
+                if i == i0:
+                    continue
+                if pending_q0 and q0_distance <= float(score[i]) + f2:
+                    pending_q0 = False
+                    yield np.array(q0, dtype=float)
+                yield table.Q[i].copy()
+        if pending_q0:
+            yield np.array(q0, dtype=float)
     elif q0 is not None:
         yield np.array(q0, dtype=float)
     rng = np.random.default_rng(rng_seed)

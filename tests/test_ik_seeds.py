@@ -39,8 +39,10 @@ def test_start_sequence_order_and_determinism():
     f = table.features(T[:3, :3], T[:3, 3])
     q0 = robot.random_q(rng)
     idx, dist = table.ranked(f, 8)
-    far = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=1e9), 4))
-    assert np.array_equal(far[0], table.Q[idx[0]]) and np.array_equal(far[1], q0)
+    far = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=1e9), 10))
+    assert all(np.array_equal(far[i], table.Q[idx[i]]) for i in range(8)) and np.array_equal(far[8], q0)
+    mid = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=0.5 * (dist[2] + dist[3])), 5))
+    assert np.array_equal(mid[2], table.Q[idx[2]]) and np.array_equal(mid[3], q0)  # q0 ranked by its distance
     near = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=0.0), 2))
     assert np.array_equal(near[0], q0)
     forced = next(start_sequence(robot, table, f, q0, 0, q0_distance=1e9, prefer_q0=True))
