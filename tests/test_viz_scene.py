@@ -290,3 +290,23 @@ def test_mobile_base_heading_marker_points_forward():
     heading = nose[:2, 3] - body[:2, 3]
     np.testing.assert_allclose(heading / np.linalg.norm(heading), [0.0, 1.0], atol=1e-12)  # x forward, turned by 90 deg
     assert scene.object("map/base/body")["object"]["geometries"][0]["depth"] == 8
+
+
+def test_floor_grid_covers_the_scene_with_a_nice_spacing(panda):
+    scene = viz.Scene()
+    scene.add_robot(panda)
+    scene.add_sphere("far", [1.2, -0.9, 0.1], 0.05)
+    segments, step = scene.floor_grid()
+    lo, hi = scene.bounds()
+    span = max(hi[0] - lo[0], hi[1] - lo[1])
+    mantissa = step / 10 ** np.floor(np.log10(step))
+    assert min(abs(mantissa - m) for m in (1, 2, 5)) < 1e-9 and span / 16 <= step < 2.5 * span / 16
+    assert np.allclose(segments[:, 2], 0.0)
+    assert segments[:, 0].min() <= lo[0] and segments[:, 0].max() >= hi[0]
+    assert segments[:, 1].min() <= lo[1] and segments[:, 1].max() >= hi[1]
+    # every line sits on a multiple of the spacing
+    xs = segments[0::4, 0]
+    np.testing.assert_allclose(xs / step, np.round(xs / step), atol=1e-9)
+    grid_cmd = next(c for c in scene.commands() if c["type"] == "set_object" and c["path"] == "/Grid")
+    assert grid_cmd["object"]["object"]["type"] == "LineSegments"
+    assert "/Grid" not in [c["path"] for c in viz.Scene(grid=False).commands() if c["type"] == "set_object"]

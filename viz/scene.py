@@ -27,7 +27,9 @@ import warnings
 from dataclasses import dataclass, field
 
 import meshcat
+import meshcat.commands
 import meshcat.geometry as mg
+import meshcat.path
 import numpy as np
 import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
@@ -303,12 +305,43 @@ class Scene:
             if node.transform is not None:
                 out.append(node.transform)
             out.extend(node.properties.values())
+        if self.grid:
+            out.append(self.floor_grid_command())
         out.append({"type": "set_property", "path": "/Grid", "property": "visible", "value": self.grid})
         out.append({"type": "set_property", "path": "/Axes", "property": "visible", "value": self.axes})
         out.extend(self.camera_commands())
         if self._animation is not None:
             out.append(self._animation)
         return out
+
+    def floor_grid(self) -> tuple[np.ndarray, float]:
+        """``(segments (2K, 3), spacing)``: a square grid on z = 0 sized to the scene.
+
+        The spacing is the "nice" number (1, 2 or 5 x 10^k m) nearest above
+        1/16 of the scene's larger horizontal span; the grid covers the span
+        plus a margin, centred on the scene, with lines on multiples of the
+        spacing. (meshcat's own 20 m grid is replaced: its long lines are
+        mostly off screen for a 1 m robot, and software renderers clip them badly.)
+        """
+        b = self.bounds()
+        lo, hi = (np.array([-0.5, -0.5, 0.0]), np.array([0.5, 0.5, 0.0])) if b is None else b
+        span = max(float(hi[0] - lo[0]), float(hi[1] - lo[1]), 0.5)
+        raw = span / 16
+        exp = 10.0 ** np.floor(np.log10(raw))
+        step = next(m * exp for m in (1, 2, 5, 10) if m * exp >= raw - 1e-12)
+        half = np.ceil(0.5 * span * 1.4 / step) * step
+        cx, cy = (np.round(0.5 * (lo[:2] + hi[:2]) / step) * step).tolist()
+        ticks = np.arange(-half, half + 0.5 * step, step)
+        seg = []
+        for t in ticks:
+            seg += [[cx + t, cy - half, 0.0], [cx + t, cy + half, 0.0], [cx - half, cy + t, 0.0], [cx + half, cy + t, 0.0]]
+        return np.array(seg), float(step)
+
+    def floor_grid_command(self) -> dict:
+        """The ``set_object`` command drawing :meth:`floor_grid` at meshcat's ``/Grid`` node."""
+        segments, _ = self.floor_grid()
+        obj = mg.LineSegments(mg.PointsGeometry(segments.T.astype(np.float32)), mg.LineBasicMaterial(color=0x9A9A9A))
+        return meshcat.commands.SetObject(obj, path=meshcat.path.Path(("Grid",))).lower()
 
     # ------------------------------------------------------------ camera
     def set_camera(self, eye, target=(0.0, 0.0, 0.0)) -> None:
