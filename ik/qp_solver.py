@@ -22,7 +22,11 @@ task progress of the first stage is kept exactly.
 After each step the true sphere clearances at ``q + dq`` are checked and the
 step is halved until they are all non-negative (see :mod:`ik.constraints`),
 so every iterate - not only the answer - is outside every sphere, and inside
-the joint limits.
+the joint limits. Likewise, once the task is within tolerance, the
+secondary (centring) part of a step is halved until the next iterate is
+still within tolerance: the null space of the linearised task is only
+tangent to the self-motion manifold, and a long centring step would
+otherwise drift off the target before the next primary step pulls it back.
 
 Stopping: the task is within tolerance and (with centring) the secondary
 step has become negligible; or the error stalls (restart from the next start
@@ -125,6 +129,12 @@ class _QPIteration:
         J = self.target.jacobian(pin.getFrameJacobian(self.model, self.data, self.fid, _LWA))
         return e6[self.target.kept], J, pe, re
 
+    def errors_at(self, q):
+        """(position, orientation) errors of the kept components at ``q`` (forward kinematics only)."""
+        pin.forwardKinematics(self.model, self.data, q)
+        M = pin.updateFramePlacement(self.model, self.data, self.fid)
+        return self.target.errors(M.rotation, M.translation)
+
     def step(self, q, e, J):
         """(dq, secondary part of dq, status) - dq is None when the QP failed."""
         n = self.n
@@ -176,6 +186,7 @@ def _run(ws: _QPIteration, q, tol_pos, tol_rot, max_iter, deadline, record):
     best_E = math.inf
     stalls = 0
     best_ok = None  # index of the last iterate that met the tolerances
+    beta_prev = 1.0  # fraction of the centring step accepted last time
     qs, pes, res = record
     for it in range(max_iter + 1):
         e, J, pe, re = ws.evaluate(q)
@@ -203,7 +214,24 @@ def _run(ws: _QPIteration, q, tol_pos, tol_rot, max_iter, deadline, record):
             return best_ok is not None, it, status, best_ok
         if within and dq2 is not None and float(np.abs(dq).max()) < CENTRING_STEP_TOL:
             return True, it, "converged (task within tolerance, centring stationary)", best_ok
-        qn, alpha = ws.accept(q, dq)
+        if within and dq2 is not None:
+            # strict priority also along the path: once the task is within tolerance, a centring
+            # step may not take it out again (the null space is curved) - halve the secondary part
+            dq1 = dq - dq2
+            beta = min(1.0, 2.0 * beta_prev)  # start near the last accepted fraction
+            for _ in range(MAX_BACKTRACK):
+                qn, alpha = ws.accept(q, dq1 + beta * dq2)
+                if qn is None:
+                    break
+                pe_n, re_n = ws.errors_at(qn)
+                if pe_n < tol_pos and re_n < tol_rot:
+                    break
+                beta *= 0.5
+            else:
+                return True, it, "converged (centring stopped by the task tolerance)", best_ok
+            beta_prev = beta
+        else:
+            qn, alpha = ws.accept(q, dq)
         if qn is None:
             return best_ok is not None, it, "step blocked by a sphere", best_ok
         q = qn

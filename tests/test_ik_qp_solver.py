@@ -86,22 +86,25 @@ def test_s9_relax_z_with_the_sphere_binding(scara, backend):
 
 
 def test_centring_never_degrades_the_task_on_a_redundant_arm():
+    # start *at* a solution: centring may only slide along the self-motion manifold
     robot = robots.load("panda", geometry=False)
     rng = np.random.default_rng(3)
     mid = robot.middle()
     rngs = robot.upper - robot.lower
+
+    def h(q):
+        return float(np.sum(((q - mid) / rngs) ** 2))
+
     for _ in range(5):
-        T = robot.fk(robot.random_q(rng)).copy()
-        q0 = robot.random_q(rng)
-        plain = solve_qp(robot, Target(robot, T), q0, prefer_q0=True, seed_table_enabled=False)
-        centred = ik.solve(robot, T, q0, centring=1.0, prefer_q0=True, seed_table=False)
-        assert plain.success and centred.success
+        q_sol = robot.random_q(rng)
+        T = robot.fk(q_sol).copy()
+        centred = ik.solve(robot, T, q_sol, centring=1.0, prefer_q0=True, seed_table=False)
+        assert centred.success
         assert centred.position_error < 1e-4 and centred.orientation_error < 1e-3
-
-        def h(q):
-            return float(np.sum(((q - mid) / rngs) ** 2))
-
-        assert h(centred.q) <= h(plain.q) + 1e-9
+        assert h(centred.q) < h(q_sol)
+        # every recorded iterate that the solver accepted kept the task within tolerance
+        assert np.all(centred.history.position_error < 1e-4)
+        assert np.all(centred.history.orientation_error < 1e-3)
 
 
 def test_infeasible_target_reports_failure(scara):
@@ -111,7 +114,7 @@ def test_infeasible_target_reports_failure(scara):
     assert not res.success
     assert "best residual" in res.message
     assert scara.within_limits(res.q)
-    assert res.position_error == pytest.approx(2.0, abs=1e-3)  # stretched towards it: 3 - (a1 + a2)
+    assert res.position_error == pytest.approx(2.0, abs=1e-2)  # stretched towards it: 3 - (a1 + a2)
 
 
 def test_shortcut_is_exact():

@@ -23,8 +23,12 @@ Inverse (decoupling):
 1. ``theta1 = atan2(p_y, p_x)``, and ``theta1 + pi`` ("reach over the back");
    on the base axis ``theta1`` comes from the approach axis instead.
 2. A 5-DOF arm reaches only poses whose approach axis ``z5`` lies in the arm
-   plane. Off that set the solver projects ``z5`` onto the plane (and ``x5``
-   onto the plane orthogonal to the new ``z5``): the nearest reachable pose,
+   plane. Off that set the solver projects ``z5`` onto the plane and turns the
+   target frame by the smallest rotation taking ``z5`` to its projection (axis
+   ``z5 x zp``, angle ``asin |z5 . n|``). Every rotation whose ``z`` axis lies
+   in the plane is at least that angle away from the target's, so this is the
+   nearest reachable orientation (geodesic distance) at the target position:
+   the nearest reachable pose,
    reported in the note and in ``Result.info["reached_pose"]``.
 3. ``Theta = atan2(-z5.x1, z5.up)``; wrist point ``W = o4 = P + d5 z5``
    (``P`` the target in plane coordinates), then ``o3 = W - a4 (cos Theta, sin Theta)``.
@@ -52,6 +56,17 @@ YOUBOT_DH = ((-0.033, math.pi / 2, 0.145), (0.155, 0.0, 0.0), (0.135, 0.0, 0.0),
 def _dh(a, alpha, d, theta):
     ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
     return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]])
+
+
+def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Smallest rotation taking unit vector ``a`` to unit vector ``b`` (Rodrigues, axis ``a x b``)."""
+    k = np.cross(a, b)
+    s2 = float(k @ k)
+    c = float(a @ b)
+    if s2 < 1e-24:
+        return np.eye(3)  # a == b (a == -b cannot occur: b is a's projection onto a plane)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + K + K @ K * ((1.0 - c) / s2)
 
 
 class YouBotArm:
@@ -127,9 +142,7 @@ class YouBotArm:
                     f"target pose is off the 5-DOF reachable set (approach axis {math.degrees(math.asin(min(1.0, abs(off)))):.3g} deg "
                     "out of the arm plane); solved the nearest reachable pose"
                 )
-            xp = x5 - float(x5 @ zp) * zp
-            nx = np.linalg.norm(xp)
-            xp = np.cross(n, zp) if nx < 1e-12 else xp / nx
+            xp = _min_rotation(z5, zp) @ x5  # the whole frame turns by the smallest rotation z5 -> zp
             Theta = math.atan2(-float(zp @ x1), float(zp @ up))
             P = np.array([float(p @ x1) - self.a1, p[2] - self.d1])
             W = P + self.d5 * np.array([-math.sin(Theta), math.cos(Theta)])
