@@ -310,3 +310,13 @@ def test_floor_grid_covers_the_scene_with_a_nice_spacing(panda):
     grid_cmd = next(c for c in scene.commands() if c["type"] == "set_object" and c["path"] == "/Grid")
     assert grid_cmd["object"]["object"]["type"] == "LineSegments"
     assert "/Grid" not in [c["path"] for c in viz.Scene(grid=False).commands() if c["type"] == "set_object"]
+
+
+def test_for_robot_shows_the_tool_frame(rng):
+    arm = robots.load("youbot")
+    q = arm.random_q(rng)
+    base = se3.pose(se3.rot_z(0.3), [0.5, 0.0, 0.1])
+    scene = viz.Scene.for_robot(arm, q, base=base, frame_length=0.05)
+    assert scene.title == "youbot" and list(scene.robots) == ["youbot"]
+    np.testing.assert_allclose(scene.world_transform("tool"), base @ arm.fk(q), atol=1e-12)
+    np.testing.assert_allclose(scene.robots["youbot"].q, q)

@@ -18,9 +18,19 @@ objects; it never calls a solver.
     viz.export_html(scene, "scene.html")             # self-contained, opens offline
     viz.serve(scene)                                 # live meshcat server until Ctrl-C
 
-2-D maps (mobile scenarios) draw flat in 3-D with :meth:`Scene.add_map` and as
-PNG with :func:`map_figure`; plots are ``*_figure`` functions returning
-matplotlib figures, written by :func:`save_png`.
+``Scene.for_robot(robot, q)`` is a robot plus its tool triad (``kinserve view``).
+``viz.screenshot(html, png)`` and ``viz.page_status(html)`` open an exported
+page in headless Chromium (software WebGL) for pictures and load checks.
+
+2-D maps (mobile scenarios) draw flat in 3-D with :meth:`Scene.add_map` (map
+units scaled to metres; :meth:`Scene.add_mobile_base` and
+:meth:`Animation.planar` for a moving base) and as PNG with :func:`map_figure`;
+plots are ``*_figure`` functions returning matplotlib figures, written by
+:func:`save_png`::
+
+    viz.save_png(viz.joints_and_errors_figure(it, Q, {"|e_p|": ep, "|e_phi|": eo}), out / "s9.png")
+    viz.save_png(viz.map_figure(obstacles, (0, 0, 480, 480), paths=segments, waypoints=wps, inflate=10), out / "map.png")
+    viz.save_png(viz.planar_arm_figure([1, .8, .6, .4], {"elbow up": Qu, "elbow down": Qd}, target=(x, y, th)), out / "family.png")
 """
 
 from . import colors, map2d

@@ -34,8 +34,8 @@ import numpy as np
 import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
-from kinematics.errors import InputError, ShapeError
-from kinematics.validation import as_matrix, as_pose, as_vector
+from kinematics.errors import InputError
+from kinematics.validation import as_pose, as_vector
 
 from . import colors
 from .map2d import Circle, Rect, as_grid, as_polyline, as_shape
@@ -171,6 +171,18 @@ class Scene:
         self.visualizer = meshcat.Visualizer(window=self)
         self.grid = bool(grid)
         self.axes = bool(axes)
+
+    @classmethod
+    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1, **kwargs) -> "Scene":
+        """A scene showing one robot at ``q`` (default ``robot.neutral()``) and, with
+        ``tool_frame``, a triad at its tool frame ``robot.tip`` (node ``"tool"``).
+        Extra keyword arguments go to :meth:`add_robot`. (What ``kinserve view`` shows.)
+        """
+        scene = cls(getattr(robot, "name", "robot"))
+        handle = scene.add_robot(robot, q, **kwargs)
+        if tool_frame:
+            scene.add_frame("tool", handle.tool_pose(handle.q), length=frame_length)
+        return scene
 
     # ------------------------------------------------------------ recording
     @staticmethod
