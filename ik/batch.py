@@ -9,11 +9,11 @@ Design
   Linux) and reused by later calls with the same number of processes, so a
   batch does not pay process start-up again.
 * A call is a *job*: the robot (pickled kinematic model), the solve options
-  and the seed table of :mod:`ik.seeds`, serialised once in the parent and
-  sent with each chunk as bytes under a job id. A worker unpickles a job the
-  first time it sees its id and keeps it (a few jobs, least recently used
-  first out): the robot is rebuilt **once per worker and job, never per
-  target**.
+  and the seed table of :mod:`ik.seeds`, serialised once in the parent into
+  a temporary file (in ``/dev/shm`` when available); chunks carry only the
+  job id and the file name. A worker loads a job the first time it sees its
+  id and keeps it (a few jobs, least recently used first out): the robot is
+  rebuilt **once per worker and job, never per target**.
 * A worker solves a whole chunk and sends back compact arrays (joint
   vectors, flags, errors, counters) plus the messages - far cheaper to pickle
   than one ``Result`` per target. The parent rebuilds the ``Result`` list in
@@ -33,6 +33,7 @@ import math
 import multiprocessing as mp
 import os
 import pickle
+import tempfile
 import threading
 from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -73,16 +74,18 @@ class _Job:
         self.options = options
         self.keep_history = keep_history
         self.frame = frame
-        self._bytes = None
         self._prepared = None
 
-    def payload(self) -> bytes:
-        """The job as bytes: robot, options and the robot's seed table for the frame."""
-        if self._bytes is None:
-            table = seed_table(self.robot, self.frame)
-            self._bytes = pickle.dumps((self.robot, self.kwargs, self.options, self.keep_history, self.frame, table),
-                                       protocol=pickle.HIGHEST_PROTOCOL)
-        return self._bytes
+    def payload_file(self) -> str:
+        """Write the job (robot, options, the robot's seed table for the frame) to a temporary file."""
+        table = seed_table(self.robot, self.frame)
+        data = pickle.dumps((self.robot, self.kwargs, self.options, self.keep_history, self.frame, table),
+                            protocol=pickle.HIGHEST_PROTOCOL)
+        shm = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
+        fd, path = tempfile.mkstemp(prefix="kinserve-ik-job-", suffix=".pkl", dir=shm)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        return path
 
     def prepared(self):
         if self._prepared is None:
@@ -134,10 +137,11 @@ def _solve_chunk(job: _Job, start: int, poses, q0s):
 _worker_jobs: OrderedDict = OrderedDict()
 
 
-def _worker_chunk(job_id, payload: bytes, start, poses, q0s):
+def _worker_chunk(job_id, path: str, start, poses, q0s):
     job = _worker_jobs.get(job_id)
     if job is None:
-        robot, kwargs, options, keep_history, frame, table = pickle.loads(payload)
+        with open(path, "rb") as fh:
+            robot, kwargs, options, keep_history, frame, table = pickle.load(fh)
         install_table(robot, frame, table)
         job = _Job(robot, kwargs, options, keep_history, frame)
         _worker_jobs[job_id] = job
@@ -184,18 +188,21 @@ def _run_serial(job, chunks, processes, on_done):
 
 
 def _run_processes(job, chunks, processes, on_done):
-    payload = job.payload()
-    for attempt in range(2):
-        pool = _get_pool(processes)
-        try:
-            futures = [pool.submit(_worker_chunk, job.id, payload, s, p, q) for s, p, q in chunks]
-            for fut in as_completed(futures):
-                on_done(fut.result())
-            return
-        except BrokenProcessPool:
-            shutdown_pool()  # a worker died (e.g. killed): start a fresh pool once
-            if attempt:
-                raise
+    path = job.payload_file()
+    try:
+        for attempt in range(2):
+            pool = _get_pool(processes)
+            try:
+                futures = [pool.submit(_worker_chunk, job.id, path, s, p, q) for s, p, q in chunks]
+                for fut in as_completed(futures):
+                    on_done(fut.result())
+                return
+            except BrokenProcessPool:
+                shutdown_pool()  # a worker died (e.g. killed): start a fresh pool once
+                if attempt:
+                    raise
+    finally:
+        os.unlink(path)
 
 
 #: Execution backends: ``name -> runner(job, chunks, processes, on_done)``.

@@ -156,11 +156,13 @@ def solve(
     target:
         4x4 homogeneous pose (or ``pinocchio.SE3``) of ``frame`` in the world.
     q0:
-        Start / current configuration (``nq`` values). The iterative solvers
-        start from ``q0`` or from the nearest sample of a precomputed table of
-        configurations (:mod:`ik.seeds`), whichever is closer to the target;
-        pass ``prefer_q0=True`` to always start from ``q0``. The classical
-        methods start from ``q0`` (default: the neutral configuration).
+        Start / current configuration (``nq`` values; clipped into the joint
+        limits if outside). The iterative solvers try ``q0`` and the nearest
+        samples of a precomputed table of configurations (:mod:`ik.seeds`) in
+        order of their pose distance to the target; pass ``prefer_q0=True`` to
+        always start from ``q0``. The classical methods start from ``q0``
+        (default: the neutral configuration); the closed forms use it to pick
+        the branch nearest to it.
     frame:
         The frame to place (default ``robot.tip``).
     relax:
