@@ -320,3 +320,9 @@ def test_for_robot_shows_the_tool_frame(rng):
     assert scene.title == "youbot" and list(scene.robots) == ["youbot"]
     np.testing.assert_allclose(scene.world_transform("tool"), base @ arm.fk(q), atol=1e-12)
     np.testing.assert_allclose(scene.robots["youbot"].q, q)
+
+
+def test_commands_are_deterministic(panda):
+    scene = viz.Scene()
+    scene.add_robot(panda)
+    assert scene.commands() == scene.commands()

@@ -23,6 +23,7 @@ names are paths relative to ``/meshcat`` unless they start with ``/``.
 
 from __future__ import annotations
 
+import uuid
 import warnings
 from dataclasses import dataclass, field
 
@@ -353,6 +354,9 @@ class Scene:
         """The ``set_object`` command drawing :meth:`floor_grid` at meshcat's ``/Grid`` node."""
         segments, _ = self.floor_grid()
         obj = mg.LineSegments(mg.PointsGeometry(segments.T.astype(np.float32)), mg.LineBasicMaterial(color=0x9A9A9A))
+        # deterministic ids (meshcat draws fresh random ones): the same scene replays identically
+        key = uuid.uuid5(uuid.NAMESPACE_URL, "kinserve-grid:" + segments.astype(np.float32).tobytes().hex())
+        obj.uuid, obj.geometry.uuid, obj.material.uuid = (str(uuid.uuid5(key, part)) for part in ("object", "geometry", "material"))
         return meshcat.commands.SetObject(obj, path=meshcat.path.Path(("Grid",))).lower()
 
     # ------------------------------------------------------------ camera
