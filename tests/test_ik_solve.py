@@ -117,3 +117,18 @@ def test_tolerances_are_honoured(panda, T):
     assert loose.success and tight.success
     assert loose.position_error < 1e-2 and tight.position_error < 1e-9
     assert loose.iterations < tight.iterations
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "youbot", "scara", "planar4r"])
+def test_auto_on_random_reachable_targets(name):
+    from kinematics import se3
+
+    robot = robots.load(name, geometry=False)
+    rng = np.random.default_rng(31)
+    for q in robot.random_q(rng, 20):
+        T = robot.fk(q).copy()
+        res = ik.solve(robot, T, robot.random_q(rng))
+        assert res.success, (name, res.message)
+        assert robot.within_limits(res.q)
+        pe, re = se3.pose_error(robot.fk(res.q), T)
+        assert pe < 1e-4 and re < 1e-3
