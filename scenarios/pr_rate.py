@@ -40,7 +40,9 @@ the formula against Pinocchio's ``robot.jacobian`` rows x, y.
 
 Units: metres, radians (table in degrees where named), seconds.
 Artefacts: ``runs_xy.png``, ``runs_joints.png``, ``step_size.png``,
-``circles.png``, ``circle_errors.png``, ``manipulability.png``, ``runs.csv``.
+``circles.png``, ``circle_errors.png``, ``manipulability.png``, ``runs.csv`` (the table),
+``circle1.csv`` .. ``circle4.csv`` (reference, joints and tool positions, open and closed loop);
+``result.json`` holds every run's joint history ``q`` (rows ``[d1, theta2 rad]``).
 """
 
 from __future__ import annotations
@@ -133,6 +135,7 @@ def straight_run(robot, d2: float, v, q_init_deg, n: int, dt: float, index: int)
         "singular_steps": low,
         "events": _events(res),
         "final_q": [float(res.q[-1, 0]), math.degrees(res.q[-1, 1])],
+        "q": res.q,
         "final_position": res.positions[-1],
         "final_reference": res.reference[-1],
     }
@@ -378,8 +381,13 @@ def run(out: Path, *, d2: float = 1.0) -> dict:
         results.append(res)
     study = step_study(robot, d2)
     circle_rows, circle_runs = [], []
-    for centre, radius, n, dt in CIRCLES:
+    for i, (centre, radius, n, dt) in enumerate(CIRCLES, start=1):
         row, op, cl = circle_run(robot, d2, centre, radius, n, dt)
+        row["file"] = f"circle{i}.csv"
+        np.savetxt(out / row["file"], np.c_[op.times, op.reference, op.q, op.positions, cl.q, cl.positions],
+                   delimiter=",", fmt="%.12g", comments="",
+                   header="t_s,x_ref_m,y_ref_m,open_d1_m,open_theta2_rad,open_x_m,open_y_m,"
+                          "closed_d1_m,closed_theta2_rad,closed_x_m,closed_y_m")
         circle_rows.append(row)
         circle_runs.append((op, cl))
 
