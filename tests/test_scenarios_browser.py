@@ -1,0 +1,122 @@
+"""A real browser on a scenario's page: headless Chromium opens the exported S4 ``pick-place`` scene.html.
+
+Skipped only when no Chromium binary exists (``make test`` installs Debian's
+``chromium``). The scenario runs once; its ``scene.html`` is rendered by
+:func:`viz.screenshot` (``--headless --no-sandbox --disable-gpu``, WebGL in
+software by SwiftShader). The robot's pixels are the difference from a second
+page holding exactly the same commands (camera included) minus the robot's:
+they must cover a sensible share of the image, be mostly the Panda's light
+grey, and sit where the camera projects the arm's base and flange.
+"""
+
+from __future__ import annotations
+
+import base64
+import gzip
+import json
+import re
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import scenarios
+import viz
+from planners import JointTrajectory
+from viz.export import pack_commands
+from viz.scene import CAMERA_FOV_DEG
+
+pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
+
+SIZE = (800, 600)
+ROBOT = "/meshcat/panda"
+
+
+def without_robot(src, dst):
+    """Copy the exported page ``src`` to ``dst`` with every command (and animation track) of the robot removed."""
+    text = src.read_text(encoding="utf-8")
+    keep = []
+    for c in viz.read_html_commands(src):
+        if c.get("path", "").startswith(ROBOT):
+            continue
+        if c["type"] == "set_animation":
+            c = dict(c, animations=[a for a in c["animations"] if not a["path"].startswith(ROBOT)])
+        keep.append(c)
+    payload = base64.b64encode(gzip.compress(pack_commands(keep), mtime=0)).decode("ascii")
+    i = text.index('<script id="kinserve-scene"')
+    head_end = text.index(">", i)
+    body_end = text.index("</script>", head_end)
+    head = re.sub(r'data-commands="\d+"', f'data-commands="{len(keep)}"', text[i:head_end])
+    dst.write_text(text[:i] + head + ">" + payload + text[body_end:], encoding="utf-8")
+    return dst, keep
+
+
+def camera(commands):
+    """(eye, target) of an exported page: the drawing is shifted by -target, the camera sits at eye - target."""
+    shift = next(c for c in commands if c["type"] == "set_transform" and c["path"] == "/meshcat")
+    target = -np.asarray(shift["matrix"], dtype=float).reshape(4, 4).T[:3, 3]
+    pos = next(c for c in commands if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
+    p = np.asarray(pos["value"], dtype=float)  # three.js y-up: (x, z, -y) of the world
+    return target + np.array([p[0], -p[2], p[1]]), target
+
+
+def project(points, eye, target, size=SIZE):
+    """Pixel coordinates (u right, v down) of world points seen by meshcat's perspective camera."""
+    f = (target - eye) / np.linalg.norm(target - eye)
+    r = np.cross(f, [0, 0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    w, h = size
+    k = (h / 2) / np.tan(np.radians(CAMERA_FOV_DEG / 2))
+    d = np.asarray(points, dtype=float) - eye
+    depth = d @ f
+    return np.c_[w / 2 + k * (d @ r) / depth, h / 2 - k * (d @ u) / depth]
+
+
+@pytest.fixture(scope="module")
+def pick_place(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pick-place-browser")
+    scenarios.run("pick-place", out)
+    full = out / "scene.html"
+    bare, _ = without_robot(full, out / "bare.html")
+    r = json.loads((out / "result.json").read_text())
+    q0 = JointTrajectory.load(out / "trajectory.json").positions[0]
+    return out, full, bare, r, q0
+
+
+def test_pick_place_page_loads_without_errors(pick_place):
+    _, full, _, _, _ = pick_place
+    status = viz.page_status(full, play=True)
+    assert status["status"] == "ready", status
+    assert status["errors"] == "0" and status["console-errors"] == "0", status
+    assert int(status["commands"]) == len(viz.read_html_commands(full))
+    assert int(status["animation-clips"]) == 8 + 2  # the arm's 8 link meshes, the flange triad, the cylinder
+    assert float(status["animation-duration"]) == pytest.approx(15.0, rel=1e-3)
+
+
+def test_pick_place_screenshot_shows_the_robot(pick_place):
+    import robots
+
+    out, full, bare, r, q0 = pick_place
+    a = np.asarray(Image.open(viz.screenshot(full, out / "full.png", size=SIZE)).convert("RGB")).astype(int)
+    b = np.asarray(Image.open(viz.screenshot(bare, out / "bare.png", size=SIZE)).convert("RGB")).astype(int)
+    assert a.shape == b.shape == (SIZE[1], SIZE[0], 3)
+    # the canvas rendered the rest of the scene (grid, box, cylinder, path): not one flat colour
+    assert len(np.unique(b.reshape(-1, 3), axis=0)) > 50
+    robot = np.abs(a - b).max(axis=2) > 40
+    frac = robot.mean()
+    assert 0.01 < frac < 0.5, f"robot covers {frac:.2%} of the image"
+    # the Panda's shell is white / light grey
+    px = a[robot]
+    bright_grey = (px.min(axis=1) > 150) & (px.max(axis=1) - px.min(axis=1) < 40)
+    assert bright_grey.mean() > 0.3, f"only {bright_grey.mean():.0%} of the robot's pixels are light grey"
+    # and it is where the page's camera puts the arm at the first frame (q_start, home pose)
+    eye, target = camera(viz.read_html_commands(full))
+    panda = robots.load("panda")
+    fk = panda.fk_all(q0)
+    vs, us = np.nonzero(robot)
+    for frame in ("panda_link0", "panda_link4", "panda_link8"):
+        u, v = project([fk[frame][:3, 3]], eye, target)[0]
+        assert us.min() - 15 <= u <= us.max() + 15 and vs.min() - 15 <= v <= vs.max() + 15, (frame, u, v)
+    u4, v4 = project([fk["panda_link4"][:3, 3]], eye, target)[0].round().astype(int)
+    assert robot[max(v4 - 20, 0):v4 + 20, max(u4 - 20, 0):u4 + 20].mean() > 0.2
