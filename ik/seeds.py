@@ -16,10 +16,11 @@ samples at once as one matrix-vector product on the stacked features
 ``f_i = [p_i, sqrt(w_R) vec(R_i)]`` (``D = |f_i|^2 - 2 f_i . f* + |f*|^2``).
 
 :func:`start_sequence` yields the starts of one solve: the ``n_table``
-nearest table samples and the caller's ``q0``, in order of ``D`` (``q0``
-first with ``prefer_q0``), then uniform random configurations from
-``numpy.random.default_rng(seed)`` - the same sequence for the same
-``seed``, so results are reproducible.
+nearest interior samples and the caller's ``q0``, in order of ``D`` (``q0``
+first with ``prefer_q0``), then the ``n_table`` nearest samples of a second
+set drawn over the full joint ranges (for solutions next to a limit), then
+uniform random configurations from ``numpy.random.default_rng(seed)`` - the
+same sequence for the same ``seed``, so results are reproducible.
 
 Tables are built once per model and frame (a few milliseconds with the
 vectorised :meth:`kinematics.Robot.fk_batch`) and cached.
@@ -47,21 +48,31 @@ _tables: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 class SeedTable:
-    """``n`` uniform random configurations and the pose of ``frame`` at each."""
+    """``n`` configurations from the interior of the joint ranges and the pose of ``frame`` at each.
+
+    A second, smaller set (``n // 2`` samples over the *full* ranges, ``Q_full``
+    / ``G_full``) serves the restarts of targets whose solutions lie near a
+    limit, which the interior samples cannot approach.
+    """
 
     def __init__(self, robot, frame: str, n: int | None = None, rotation_weight: float | None = None):
         n = DEFAULT_SIZE if n is None else int(n)
         rng = np.random.default_rng(_TABLE_SEED)
         span = robot.upper - robot.lower
-        self.Q = rng.uniform(robot.lower + MARGIN * span, robot.upper - MARGIN * span, size=(n, robot.nq))
-        T = robot.fk_batch(self.Q, frame)
         self.weight = float(ROTATION_WEIGHT if rotation_weight is None else rotation_weight)
-        s = math.sqrt(self.weight)
-        self.F = np.hstack([T[:, :3, 3], s * T[:, :3, :3].reshape(n, 9)])
-        self.F_norm2 = np.einsum("ij,ij->i", self.F, self.F)
+        self._s = math.sqrt(self.weight)
+        self.Q = rng.uniform(robot.lower + MARGIN * span, robot.upper - MARGIN * span, size=(n, robot.nq))
+        self.F, self.F_norm2, self.G = self._features_of(robot, frame, self.Q)
+        self.Q_full = robot.random_q(rng, max(1, n // 2))
+        _, _, self.G_full = self._features_of(robot, frame, self.Q_full)
+
+    def _features_of(self, robot, frame, Q):
+        T = robot.fk_batch(Q, frame)
+        F = np.hstack([T[:, :3, 3], self._s * T[:, :3, :3].reshape(len(Q), 9)])
+        F_norm2 = np.einsum("ij,ij->i", F, F)
         # score_i = |f_i|^2 - 2 f_i . f  as one product G @ [f, 1]
-        self.G = np.ascontiguousarray(np.hstack([-2.0 * self.F, self.F_norm2[:, None]]))
-        self._s = s
+        G = np.ascontiguousarray(np.hstack([-2.0 * F, F_norm2[:, None]]))
+        return F, F_norm2, G
 
     def features(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
         """Stacked feature ``[p, sqrt(w_R) vec(R), 1]`` of one pose (the trailing 1 serves :meth:`scores`)."""
@@ -148,6 +159,12 @@ def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_tab
                 yield table.Q[i].copy()
         if pending_q0:
             yield np.array(q0, dtype=float)
+        # then the nearest full-range samples (solutions close to a joint limit)
+        score = table.G_full.dot(f_target)
+        k = min(n_table, len(score))
+        idx = np.argpartition(score, k - 1)[:k] if k < len(score) else np.arange(len(score))
+        for i in idx[np.argsort(score[idx])]:
+            yield table.Q_full[i].copy()
     elif q0 is not None:
         yield np.array(q0, dtype=float)
     rng = np.random.default_rng(rng_seed)
