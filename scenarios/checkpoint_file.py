@@ -183,15 +183,16 @@ def parse_csv(text: str, nq: int | None = None, source: str = "<csv>", units: st
 def load_checkpoints(path, nq: int | None = None, units: str = "rad") -> CheckpointFile:
     """Read a ``.json`` or ``.csv`` checkpoint file (``units`` applies to CSV; JSON says its own)."""
     path = Path(path)
+    kind = path.suffix.lower()
+    if kind not in (".json", ".csv"):
+        raise InputError(f"checkpoint file must end in .json or .csv, got {path.name!r}")
     try:
         text = path.read_text()
     except OSError as exc:
         raise InputError(f"cannot read checkpoint file {str(path)!r}: {exc}") from None
-    if path.suffix.lower() == ".json":
+    if kind == ".json":
         return parse_json(text, nq, str(path))
-    if path.suffix.lower() == ".csv":
-        return parse_csv(text, nq, str(path), units)
-    raise InputError(f"checkpoint file must end in .json or .csv, got {path.name!r}")
+    return parse_csv(text, nq, str(path), units)
 
 
 def write_csv(cf: CheckpointFile, path, nq: int) -> Path:
