@@ -41,8 +41,16 @@ therefore not drawn: it would reach 0.1 m below the flange, through the floor.
    damped least squares ``dq = J^T (J J^T + lambda^2 I)^-1 e`` (=
    ``(J^T J + lambda^2 I)^-1 J^T e``) with Pinocchio's analytic Jacobian
    (:func:`ik.solve`, ``method="dls"``), warm started from the previous
-   sample's solution; ``tracking_*`` are the pose errors of ``FK(q_k)``
-   against ``T(t_k)``.
+   sample's solution, iterated to ``tol_pos``/``tol_rot``. The Panda is
+   redundant (7 joints, 6 task rows): with ``centring > 0`` each DLS step also
+   moves the joints towards mid-range inside the Jacobian's null space
+   (strict priority, the task is unaffected; :mod:`ik.centring`), which keeps
+   them off their limits and brings the arm back to ``q_start`` at the end
+   (``final_configuration_drift``; without it the self-motion drifts by
+   about 1.8 rad). ``tracking_*`` are the pose errors of ``FK(q_k)`` against
+   ``T(t_k)``; ``tracking_failures`` lists samples not reached within
+   tolerance (with ``approach=0`` the direct release -> home motion drives
+   joint 1 into its limit and is not tracked: reported there).
 4. *Events* - ``grasped`` at the first step where the flange is within
    ``grasp_tolerance = (m, rad)`` of the grasp pose: from then on the
    cylinder moves rigidly with the flange,
@@ -244,7 +252,8 @@ def start_configuration(robot) -> tuple[np.ndarray, float, float]:
     return res.q, res.position_error, res.orientation_error
 
 
-def track(robot, poses, q_start, *, damping: float, tol_pos: float, tol_rot: float, max_iter: int):
+def track(robot, poses, q_start, *, damping: float, tol_pos: float, tol_rot: float, max_iter: int,
+          centring: float = 0.0):
     """DLS IK of every pose, warm started: ``(Q, position errors, orientation errors, iterations, failures)``."""
     n = len(poses)
     Q = np.empty((n, robot.nq))
@@ -253,7 +262,7 @@ def track(robot, poses, q_start, *, damping: float, tol_pos: float, tol_rot: flo
     q = q_start
     for k, T in enumerate(poses):
         res = ik.solve(robot, T, q, frame=FLANGE, method="dls", damping=damping, tol_pos=tol_pos, tol_rot=tol_rot,
-                       max_iter=max_iter)
+                       max_iter=max_iter, centring=centring)
         q = res.q
         Q[k], pe[k], re[k], its[k] = q, res.position_error, res.orientation_error, res.iterations
         if not res.success:
@@ -311,7 +320,8 @@ def _figure(rows: int = 1, size=(8.0, 4.4)):
 # ------------------------------------------------------------------ scenario
 def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed: float = 0.05,
         move_duration: float = 3.0, approach_duration: float = 1.5, dt: float = 0.03, damping: float = 0.05,
-        tol_pos: float = 1e-5, tol_rot: float = 1e-4, max_iter: int = 100, grasp_tolerance=(1e-3, 1e-2),
+        tol_pos: float = 1e-5, tol_rot: float = 1e-4, max_iter: int = 100, centring: float = 1.0,
+        grasp_tolerance=(1e-3, 1e-2),
         scene: bool = True) -> dict:
     """Run S4 into ``out``; returns the key numbers (see the module docstring)."""
     out = Path(out)
@@ -347,7 +357,7 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
 
     # 3. tracking
     Q, track_pe, track_re, iterations, failed = track(panda, targets, q_start, damping=damping, tol_pos=tol_pos,
-                                                       tol_rot=tol_rot, max_iter=max_iter)
+                                                       tol_rot=tol_rot, max_iter=max_iter, centring=centring)
     flange = np.array([panda.fk(q, FLANGE) for q in Q])
     manip = np.array([panda.manipulability(q, FLANGE) for q in Q])
     sigma_min = np.array([panda.singular_values(q, FLANGE)[-1] for q in Q])
@@ -388,7 +398,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
 
     fig = viz.errors_figure(times, {"position error (m)": track_pe, "orientation error (rad)": track_re},
                             xlabel="time (s)", ylabel="|error| (m, rad)",
-                            title=f"S4 tracking errors of DLS IK (λ = {damping:g}, warm started, {len(Q)} samples)")
+                            title=f"S4 tracking errors of DLS IK (λ = {damping:g}, warm started"
+                                  f"{', null-space centring' if centring else ''}, {len(Q)} samples)")
     ax = fig.axes[0]
     ax.axhline(tol_pos, color=viz.colors.to_rgb(viz.colors.cycle(0)), linestyle=":", linewidth=1.0,
                label=f"DLS tol_pos {tol_pos:g} m")
@@ -449,18 +460,19 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         sc.set_camera([1.1, -0.65, 1.0], [0.3, 0.15, 0.42])
         viz.export_html(sc, out / "scene.html")
 
-    pos = cyl_final[:3, 3]
+    pos, axis = cyl_final[:3, 3], np.round(cyl_final[:3, 2], 3) + 0.0
     return {  # scalars first: `kinserve demo` prints the first few
         "grasp_step": grasp_step,
         "release_step": release_step,
-        "cylinder_final_x": float(pos[0]),
-        "cylinder_final_y": float(pos[1]),
-        "cylinder_final_z": float(pos[2]),
+        "cylinder_final": "position ({:.4f}, {:.4f}, {:.4f}) m, axis ({:.3f}, {:.3f}, {:.3f})".format(*pos, *axis),
         "cylinder_release_error": cyl_pe,
         "max_tracking_position_error": float(track_pe.max()),
         "max_tracking_orientation_error": float(track_re.max()),
         "grasp_time": None if grasp_step is None else float(times[grasp_step]),
         "release_time": None if release_step is None else float(times[release_step]),
+        "cylinder_final_x": float(pos[0]),
+        "cylinder_final_y": float(pos[1]),
+        "cylinder_final_z": float(pos[2]),
         "cylinder_final_pose": cyl_final,
         "cylinder_ideal_pose": ideal_cylinder,
         "cylinder_release_rotation_error": cyl_re,
@@ -477,6 +489,9 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "q_start": q_start,
         "q_start_pose_error": [start_pe, start_re],
         "q_final": Q[-1],
+        "final_configuration_drift": float(np.linalg.norm(Q[-1] - q_start)),
+        "centring": centring,
+        "min_limit_margin": float(np.minimum(Q - panda.lower, panda.upper - Q).min()),
         "final_pose_error": list(_pose_errors(flange[-1], DOC_HOME)),
         "screw_axes_document": DOC_SCREWS,
         "screw_axes_urdf": screws_urdf,
