@@ -339,6 +339,7 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
 
     near, away = relax_z["near_sphere"], relax_z["away_from_sphere"]
     return {  # scalars first: `kinserve demo` prints the first few
+        "iterations_per_method": ", ".join(f"{m} {r['iterations']}" for m, r in methods.items()),
         "iterations": {m: r["iterations"] for m, r in methods.items()},
         "theta4_final": relax_phi["qp"]["theta4_final"],
         "d3_final_near_sphere": near["d3_final"],

@@ -162,6 +162,7 @@ def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, int
         viz.export_html(sc, out / "scene.html")
 
     return {  # scalars first: `kinserve demo` prints the first few
+        "visiting_order": " -> ".join(names[i] for i in best.order),
         "tour_length": best.cost,
         "order_names": [names[i] for i in best.order],
         "n_points": traj.n_points,
@@ -171,6 +172,7 @@ def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, int
         "ik_success": plan.success,
         "order": best.order,
         "order_method": best.method,
+        "order_gap_bound": best.gap_bound,
         "optimal": best.optimal,
         "order_squared_metric": squared.order,
         "squared_metric_length": planners.path_cost(C, squared.order),
