@@ -177,7 +177,7 @@ def waypoints(approach: float = 0.12, via_speed: float = 0.05) -> list[Waypoint]
 
 
 def segment_durations(wps: list[Waypoint], move: float, approach: float) -> list[float]:
-    """``approach`` s for a segment into or out of the grasp/release pose next to its pre-/post- pose, else ``move`` s."""
+    """``approach`` s for a segment between the grasp/release pose and its pre-/post- pose, else ``move`` s."""
     out = []
     for a, b in zip(wps[:-1], wps[1:]):
         short = {a.name, b.name} in ({"pre-grasp", "grasp"}, {"grasp", "lift"}, {"pre-release", "release"},
@@ -480,8 +480,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "grasp_tolerance": [tp, tr],
         "flange_at_grasp": None if grasp_step is None else flange[grasp_step],
         "flange_at_release": None if release_step is None else flange[release_step],
-        "events": [e for e in ({"kind": "grasped", "step": grasp_step, "time": times[grasp_step]} if grasp_step is not None else None,
-                               {"kind": "released", "step": release_step, "time": times[release_step]} if release_step is not None else None) if e],
+        "events": [{"kind": kind, "step": step, "time": float(times[step])}
+                   for kind, step in (("grasped", grasp_step), ("released", release_step)) if step is not None],
         "home_pose_document": DOC_HOME,
         "home_fk": home_fk,
         "home_fk_error": home_fk_error,

@@ -125,6 +125,9 @@ def test_trajectory_passes_the_waypoints_and_tracking_error_is_small(s4):
     assert all(panda.within_limits(q) for q in traj.positions)
     # a continuous joint path (no branch switch): small steps at 0.03 s
     assert np.abs(np.diff(traj.positions, axis=0)).max() < 0.1
+    # null-space centring: no self-motion drift, the arm ends in the configuration it started from
+    drift = np.linalg.norm(traj.positions[-1] - traj.positions[0])
+    assert drift < 1e-3 and r["final_configuration_drift"] == pytest.approx(drift, abs=1e-9)
 
 
 def test_grasp_and_release_events_at_the_first_step_within_tolerance(s4):
