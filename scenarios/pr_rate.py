@@ -29,7 +29,8 @@ the formula against Pinocchio's ``robot.jacobian`` rows x, y.
 2. *Step size* - run 10's velocity ``v = (0.2, 0.2)`` from ``(1, 45 deg)`` over
    the time the line stays inside the workspace (to ``y = 0.95 d2``), for
    decreasing ``Delta``: the open-loop (Euler) error falls in proportion to
-   ``Delta``; closed loop stays at the one-step linearisation error.
+   ``Delta``; closed loop keeps only one step's linearisation error, which
+   falls with ``Delta^2``.
 3. *Circles* (``follow_circle``, 1 rad/s, counter-clockwise from the point
    ``c + (r, 0)``): centre ``[1, 0.25]`` r 0.2, ``[1, 0.5]`` r 0.5 with
    ``Delta`` 0.001 and 0.01 (touching ``y = d2``: through the singularity),
