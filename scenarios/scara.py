@@ -96,7 +96,7 @@ Q_START_Z = (0.0, 0.5, 0.25, 0.0)
 
 
 def fk_formula(q, a1: float = A1, a2: float = A2, base_z: float = BASE_Z) -> tuple[np.ndarray, float]:
-    """Tool position (world) and yaw ``phi = theta1 + theta2 - theta4`` of the SCARA (seed 004's ``T`` on a base at ``base_z``)."""
+    """Tool position (world) and yaw ``phi = theta1 + theta2 - theta4`` (seed 004's ``T``, base at ``base_z``)."""
     t1, t2, d3, t4 = q
     p = np.array([a1 * math.cos(t1) + a2 * math.cos(t1 + t2), a1 * math.sin(t1) + a2 * math.sin(t1 + t2), base_z - d3])
     return p, t1 + t2 - t4

@@ -37,7 +37,6 @@ checkpoint triads, the tool path as a line).
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -74,7 +73,8 @@ def _path_figure(P_desired, P_tool, positions, names, order):
     for k, (a, b, title, xl, yl) in enumerate(views):
         ax = fig.add_subplot(1, 2, k + 1)
         ax.plot(P_desired[:, a], P_desired[:, b], "--", color="grey", linewidth=1.2, label="interpolated poses (targets)")
-        ax.plot(P_tool[:, a], P_tool[:, b], "-", color=viz.colors.to_rgb("blue"), linewidth=1.8, label="tool path (FK of the trajectory)")
+        ax.plot(P_tool[:, a], P_tool[:, b], "-", color=viz.colors.to_rgb("blue"), linewidth=1.8,
+                label="tool path (FK of the trajectory)")
         for rank, i in enumerate(order):
             p = positions[i]
             ax.plot([p[a]], [p[b]], "o", color=viz.colors.to_rgb("red" if i == 0 else "orange"), markersize=8,

@@ -109,7 +109,8 @@ def segments_cross(P):
         return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 
     def on(a, b, c):
-        return min(a[0], b[0]) - 1e-12 <= c[0] <= max(a[0], b[0]) + 1e-12 and min(a[1], b[1]) - 1e-12 <= c[1] <= max(a[1], b[1]) + 1e-12
+        e = 1e-12
+        return min(a[0], b[0]) - e <= c[0] <= max(a[0], b[0]) + e and min(a[1], b[1]) - e <= c[1] <= max(a[1], b[1]) + e
 
     for i in range(len(P) - 1):
         for j in range(i + 2, len(P) - 1):
