@@ -14,6 +14,14 @@ Design
   job id and the file name. A worker loads a job the first time it sees its
   id and keeps it (a few jobs, least recently used first out): the robot is
   rebuilt **once per worker and job, never per target**.
+* Plain pose targets (method ``"lm"``, or ``"auto"`` on a robot without a
+  finite closed form; no relaxation, spheres, centring or history) are
+  solved a whole chunk at a time by the stacked Levenberg-Marquardt of
+  :mod:`ik.batch_lm` (one NumPy iteration for all the chunk's targets; a
+  few large chunks); anything else goes target by target through
+  ``ik.solve``'s own code path. The stacked answers are valid solutions within
+  the same tolerances, not necessarily the very configurations ``ik.solve``
+  returns one by one.
 * A worker solves a whole chunk and sends back compact arrays (joint
   vectors, flags, errors, counters) plus the messages - far cheaper to pickle
   than one ``Result`` per target. The parent rebuilds the ``Result`` list in
@@ -43,6 +51,8 @@ import numpy as np
 
 from kinematics.errors import InputError
 
+from .analytic import closed_form_solver
+from .batch_lm import BatchChain, solve_batch
 from .result import Result
 from .seeds import install_table, seed_table
 from .solve import prepare, solve_prepared
@@ -53,6 +63,11 @@ PROGRESS_THRESHOLD = 500
 
 #: Jobs a worker keeps unpickled.
 WORKER_JOBS = 4
+
+#: Options of ``solve`` the stacked LM understands.
+VECTOR_OPTIONS = frozenset({"max_iter", "damping"})
+#: Largest chunk for the stacked LM (rows solved together).
+VECTOR_CHUNK = 1000
 
 _job_ids = itertools.count()
 
@@ -75,6 +90,7 @@ class _Job:
         self.keep_history = keep_history
         self.frame = frame
         self._prepared = None
+        self._vectorised = None
 
     def payload_file(self) -> str:
         """Write the job (robot, options, the robot's seed table for the frame) to a temporary file."""
@@ -91,6 +107,12 @@ class _Job:
         if self._prepared is None:
             self._prepared = prepare(self.robot, np.eye(4), None, **self.kwargs)
         return self._prepared
+
+    def vectorised(self) -> bool:
+        """Whether the targets can go through the stacked LM of :mod:`ik.batch_lm` (module docstring)."""
+        if self._vectorised is None:
+            self._vectorised = _vectorisable(self)
+        return self._vectorised
 
 
 def _solve_chunk(job: _Job, start: int, poses, q0s):
@@ -113,6 +135,16 @@ def _solve_chunk(job: _Job, start: int, poses, q0s):
     }
     base = job.prepared()
     relax, relax_frame = job.kwargs["relax"], job.kwargs["relax_frame"]
+    if job.vectorised():
+        b = solve_batch(robot, job.frame, np.asarray(poses), None if q0s is None else np.asarray(q0s),
+                        tol_pos=base["tol_pos"], tol_rot=base["tol_rot"], seed=base["seed"],
+                        max_time=base["max_time"], **job.options)
+        for key in ("q", "success", "position_error", "orientation_error", "iterations", "restarts", "elapsed"):
+            out[key][:] = b[key]
+        out["message"] = b["message"]
+        out["method"] = ["lm"] * n
+        out["info"] = [{"batched": True} for _ in range(n)]
+        return out
     for i in range(n):
         p = dict(base)
         p["target"] = Target(robot, poses[i], job.frame, relax, relax_frame)
@@ -131,6 +163,25 @@ def _solve_chunk(job: _Job, start: int, poses, q0s):
         if job.keep_history:
             out["history"].append(r.history)
     return out
+
+
+def _vectorisable(job) -> bool:
+    p = job.prepared()
+    if job.keep_history or p["spheres"] is not None or p["weights"] is not None or job.kwargs["relax"]:
+        return False
+    if set(job.options) - VECTOR_OPTIONS:
+        return False
+    if p["method"] == "auto":
+        solver = closed_form_solver(job.robot, job.frame)
+        if solver is not None and solver.finite:
+            return False  # "auto" answers with the closed form
+    elif p["method"] != "lm":
+        return False
+    try:
+        BatchChain(job.robot, job.frame)
+    except ValueError:
+        return False
+    return True
 
 
 # ----------------------------------------------------------------- worker side
@@ -308,15 +359,20 @@ def solve_many(
     if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
         raise InputError(f"processes must be a positive integer or None, got {processes!r}")
     processes = min(processes, n)
+    job = _Job(robot, kwargs, options, keep_history, frame)
     if chunksize is None:
-        chunksize = max(1, math.ceil(n / (processes * 8)))
+        if job.vectorised():  # stacked LM: few large chunks (2 per process)
+            chunksize = min(VECTOR_CHUNK, max(64, math.ceil(n / (2 * processes))))
+        else:
+            chunksize = max(1, math.ceil(n / (processes * 8)))
     if isinstance(chunksize, bool) or not isinstance(chunksize, int) or chunksize < 1:
         raise InputError(f"chunksize must be a positive integer or None, got {chunksize!r}")
     chunks = [(s, checked[s:s + chunksize], None if q0s is None else q0s[s:s + chunksize]) for s in range(0, n, chunksize)]
     runner = BACKENDS[backend]
     if processes == 1 and backend == "processes":
         runner = _run_serial
-    job = _Job(robot.copy() if runner is _run_serial else robot, kwargs, options, keep_history, frame)
+    if runner is _run_serial:
+        job.robot = robot.copy()
 
     results: list = [None] * n
     bar = None

@@ -5,6 +5,7 @@ import pytest
 
 import ik
 import robots
+from kinematics import se3
 from kinematics.errors import InputError, NonFiniteError
 
 
@@ -13,21 +14,48 @@ def ur5():
     return robots.load("ur5", geometry=False)
 
 
-def test_solve_many_matches_serial_solves(ur5):
+def _valid(robot, T, res):
+    pe, re = se3.pose_error(robot.fk(res.q), T)
+    return res.success and pe < 1e-4 and re < 1e-3 and robot.within_limits(res.q)
+
+
+def test_solve_many_on_two_processes(ur5):
     rng = np.random.default_rng(3)
     Q = ur5.random_q(rng, 24)
     poses = ur5.fk_batch(Q)
     q0 = ur5.random_q(rng, 24)
     many = ik.solve_many(ur5, poses, q0, processes=2, chunksize=5, progress=False, seed=2)
     assert len(many) == 24
-    for i, res in enumerate(many):
-        one = ik.solve(ur5, poses[i], q0[i], seed=2)
-        assert res.success and one.success
-        assert np.array_equal(res.q, one.q)  # deterministic and order preserved
-        assert res.history is None
-    serial = ik.solve_many(ur5, poses, q0, backend="serial", keep_history=True, progress=False, seed=2)
-    assert all(np.array_equal(a.q, b.q) for a, b in zip(many, serial))
-    assert serial[0].history is not None
+    for i, res in enumerate(many):  # in order, each a valid solution of its own target
+        assert _valid(ur5, poses[i], res)
+        assert res.history is None and res.method == "lm"
+    serial = ik.solve_many(ur5, poses, q0, processes=1, chunksize=5, progress=False, seed=2)
+    assert all(np.array_equal(a.q, b.q) for a, b in zip(many, serial))  # deterministic for a chunking and seed
+    kept = ik.solve_many(ur5, poses[:3], q0[:3], backend="serial", keep_history=True, progress=False)
+    assert kept[0].history is not None and _valid(ur5, poses[0], kept[0])
+
+
+def test_stacked_lm_on_a_large_chunk():
+    panda = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(8)
+    poses = panda.fk_batch(panda.random_q(rng, 150), "panda_hand")
+    res = ik.solve_many(panda, poses, panda.random_q(rng, 150), processes=1, progress=False)
+    assert all(r.info.get("batched") for r in res)
+    assert all(_valid(panda, poses[i], r) for i, r in enumerate(res))
+    assert all(r.elapsed > 0 and r.iterations >= 0 for r in res)
+    # an unreachable target in the batch is a failure with the best configuration, not an exception
+    bad = poses[:30].copy()
+    bad[5, :3, 3] = (3.0, 0.0, 0.5)
+    out = ik.solve_many(panda, bad, processes=1, progress=False, max_time=0.01)
+    assert not out[5].success and out[5].position_error > 1.0 and panda.within_limits(out[5].q)
+    assert all(out[i].success for i in range(30) if i != 5)
+
+
+def test_analytic_robots_and_relaxed_targets_go_target_by_target():
+    youbot = robots.load("youbot", geometry=False)
+    poses = youbot.fk_batch(youbot.random_q(np.random.default_rng(1), 10))
+    res = ik.solve_many(youbot, poses, processes=1, progress=False)
+    assert all(r.method == "analytic" and _valid(youbot, poses[i], r) for i, r in enumerate(res))
 
 
 def test_solve_many_shared_q0_and_options(ur5):
