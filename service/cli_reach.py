@@ -1,0 +1,48 @@
+"""``kinserve reach ROBOT --samples N [--backend ray]``: a reachability map saved as .npz and PNG."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+
+def cmd_reach(args) -> int:
+    from ik.reachability import reachability_map
+    from service.cli import load_robot
+    from viz import save_png
+    from viz.reachability_plot import reachability_figure
+
+    robot = load_robot(args)
+    orientation = {"free": "free", "random": "random", "down": np.diag([1.0, -1.0, -1.0])}[args.orientation]
+    rmap = reachability_map(robot, args.samples, frame=args.frame, resolution=args.resolution, orientation=orientation,
+                            backend=args.backend, processes=args.processes, ray_address=args.ray_address,
+                            max_time=args.max_time, seed=args.seed)
+    out = Path(args.out)
+    npz = rmap.save(out.with_suffix(".npz"))
+    png = save_png(reachability_figure(rmap.edges, rmap.counts, rmap.hits,
+                                       title=f"{robot.name} ({args.orientation})"), out.with_suffix(".png"))
+    print(f"{robot.name} frame {rmap.frame}: {rmap.reached.sum()}/{rmap.reached.size} sampled poses reached "
+          f"({100 * rmap.overall:.1f} %), orientation {args.orientation}, backend {args.backend}")
+    print(f"wrote {npz}\nwrote {png}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    from service.cli import add_robot_args
+
+    p = sub.add_parser("reach", help="reachability map: share of sampled workspace poses that IK reaches")
+    add_robot_args(p, q=False)
+    p.add_argument("--frame", help="tool frame (default: the robot's tip)")
+    p.add_argument("--samples", type=int, default=1000)
+    p.add_argument("--resolution", type=int, default=8, help="cells per axis")
+    p.add_argument("--orientation", choices=["free", "random", "down"], default="free",
+                   help="free = position only; random = uniform on SO(3); down = tool z pointing down")
+    p.add_argument("--backend", choices=["processes", "serial", "ray"], default="processes")
+    p.add_argument("--processes", type=int, default=None)
+    p.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local Ray)")
+    p.add_argument("--max-time", type=float, default=0.05, help="IK time budget per sample (s)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", default="reach", help="output path stem: writes STEM.npz and STEM.png")
+    p.set_defaults(func=cmd_reach)
