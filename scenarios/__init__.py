@@ -22,7 +22,7 @@ SCENARIOS: dict[str, tuple[str, str]] = {
     "planar4r": ("scenarios.planar4r", "S1 redundant 4R planar arm: the one-parameter IK family, both elbow branches, a chooser"),
     "youbot": ("scenarios.youbot", "S2 KUKA youBot 5-DOF: DH FK = URDF, Jacobian rank, closed-form IK branches, nearest reachable pose"),
     "youbot-tour": ("scenarios.youbot_tour", "S3 youBot checkpoint tour: shortest order, SE(3) interpolation, position-only IK trajectory"),
-    "pick-place": ("scenarios.pick_place", "S4 Franka Panda pick-and-place: SE(3) quintic screw trajectories, DLS tracking, grasp/release"),
+    "pick-place": ("scenarios.pick_place", "S4 Franka Panda pick-and-place: SE(3) quintic trajectories with boundary twists, DLS tracking, grasp/release"),
     "pr-rate": ("scenarios.pr_rate", "S5 PR planar robot: resolved-rate runs, singularity detection, circle following open vs closed loop"),
     "omni": ("scenarios.omni", "S6 three-wheel omnidirectional base: wheel-speed kinematics and simulated motion"),
     "mall": ("scenarios.mall", "S7 cleaning robot in a mall: A* between waypoints, best order, smoothing and time scaling"),

@@ -142,30 +142,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--reference", default="world", choices=["world", "local", "spatial"])
     p.set_defaults(func=cmd_jacobian)
 
-    for register in _EXTRA_COMMANDS:
-        register(sub)
+    import importlib
+
+    for module in _EXTRA_COMMANDS:
+        importlib.import_module(module).register(sub)
     return parser
 
 
-#: Registration hooks of the sub-commands defined in sibling modules (ik, demo, view, serve, reach).
-_EXTRA_COMMANDS: list = []
-
-
-def _load_extra_commands() -> None:
-    import importlib
-
-    for module in ("service.cli_ik", "service.cli_demo", "service.cli_view", "service.cli_serve", "service.cli_reach"):
-        try:
-            mod = importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-            continue
-        _EXTRA_COMMANDS.append(mod.register)
+#: Modules defining further sub-commands, each with ``register(subparsers)``.
+_EXTRA_COMMANDS = ("service.cli_ik", "service.cli_demo", "service.cli_view", "service.cli_serve", "service.cli_reach")
 
 
 def main(argv: list[str] | None = None) -> int:
-    _load_extra_commands()
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -175,6 +163,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:  # e.g. `kinserve demo all | head`: the reader left, nothing more to say
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":
