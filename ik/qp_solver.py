@@ -12,10 +12,14 @@ with hard inequality constraints.
 
 Exact shortcut (``shortcut=True``, default): the QP is convex, so when its
 unconstrained minimiser ``-P^-1 c`` (one Cholesky solve) already satisfies
-every inequality it *is* the QP's solution, and the solver call is skipped;
-otherwise the backend solves the QP. This is what an active-set solver does
-in its first step; it spares ADMM (OSQP) its iterations when nothing is
-active. ``shortcut=False`` calls the QP solver at every step. With ``centring`` a second QP stage moves
+every inequality it *is* the QP's solution, and the solver call is skipped.
+Without spheres the constraints are a box, and a few primal active-set
+rounds (:func:`box_active_set`: fix the violated joints at their bounds,
+re-solve the rest, accept only if the KKT conditions hold) usually find the
+exact solution too. Otherwise the backend solves the QP. This is what an
+active-set solver does in its first steps; it spares ADMM (OSQP) its
+iterations in the common cases. ``shortcut=False`` calls the QP solver at
+every step. With ``centring`` a second QP stage moves
 in the null space of ``J`` towards mid-range (:mod:`ik.centring`), so the
 task progress of the first stage is kept exactly.
 
@@ -79,6 +83,44 @@ MAX_BACKTRACK = 20
 _now = time.perf_counter
 _LWA = pin.LOCAL_WORLD_ALIGNED
 _LOCAL = pin.LOCAL
+
+
+def box_active_set(P, c, lb, ub, x, rounds: int = 3):
+    """Exact solution of ``min 1/2 x^T P x + c^T x, lb <= x <= ub`` by a few primal active-set rounds, or None.
+
+    Starting from the unconstrained minimiser ``x``, the coordinates outside
+    the box are fixed at their bound and the reduced problem is solved for
+    the others (Cholesky); the answer is returned only if it satisfies the KKT
+    conditions - feasible, and the gradient ``g = P x + c`` has the sign of a
+    non-negative multiplier on every fixed coordinate (``g_i <= 0`` at an upper
+    bound, ``g_i >= 0`` at a lower bound) - so it *is* the QP's solution.
+    Otherwise None (the caller asks the QP solver).
+    """
+    at_hi = x > ub
+    at_lo = x < lb
+    for _ in range(rounds):
+        fixed = at_hi | at_lo
+        free = ~fixed
+        xs = np.where(at_hi, ub, np.where(at_lo, lb, 0.0))
+        if free.any():
+            Pff = P[np.ix_(free, free)]
+            rhs = -(c[free] + P[np.ix_(free, fixed)] @ xs[fixed])
+            try:
+                xs[free] = np.linalg.solve(Pff, rhs)
+            except np.linalg.LinAlgError:
+                return None
+        new_hi = free & (xs > ub)
+        new_lo = free & (xs < lb)
+        if new_hi.any() or new_lo.any():
+            at_hi |= new_hi
+            at_lo |= new_lo
+            continue
+        grad = P @ xs + c
+        tol = 1e-12 * (1.0 + np.abs(grad).max())
+        if (grad[at_hi] <= tol).all() and (grad[at_lo] >= -tol).all():
+            return xs
+        return None
+    return None
 
 
 class _QPIteration:
@@ -155,8 +197,11 @@ class _QPIteration:
         dq1 = None
         if self.shortcut:
             x = _posv(P, g)[1]
-            if _clip(x, lb, ub).tolist() == x.tolist() and (G is None or (G.dot(x) >= l).all()):
-                dq1 = x
+            if _clip(x, lb, ub).tolist() == x.tolist():
+                if G is None or (G.dot(x) >= l).all():
+                    dq1 = x
+            elif G is None:
+                dq1 = box_active_set(P, c, lb, ub, x)
         if dq1 is None:
             self.qp_calls += 1
             dq1 = self.qp.solve(P, c, G, l, u, lb, ub)

@@ -130,3 +130,24 @@ def test_shortcut_is_exact():
         assert len(a.history) == len(b.history)
         assert np.allclose(a.history.q, b.history.q, atol=1e-8)
         assert b.info["qp_calls"] == b.iterations >= a.info["qp_calls"]
+
+
+def test_box_active_set_matches_a_qp_solver():
+    import qpsolvers
+
+    from ik.qp_solver import box_active_set
+
+    rng = np.random.default_rng(0)
+    exact = 0
+    for _ in range(200):
+        J = rng.normal(size=(6, 7))
+        P = J.T @ J + 1e-3 * np.eye(7)
+        c = -J.T @ (rng.normal(size=6) * 0.3)  # an IK step: c = -J^T e
+        lb, ub = -rng.random(7) * 0.3, rng.random(7) * 0.3
+        x0 = np.linalg.solve(P, -c)
+        x = box_active_set(P, c, lb, ub, x0)
+        ref = qpsolvers.solve_qp(P, c, lb=lb, ub=ub, solver="quadprog")
+        if x is not None:  # when it answers, it is the QP's solution
+            exact += 1
+            assert np.allclose(x, ref, atol=1e-8)
+    assert exact > 20
