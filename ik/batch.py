@@ -28,9 +28,9 @@ Design
   the original order. Histories are dropped unless ``keep_history=True``.
 * A ``tqdm`` progress bar (on stderr) follows the completed chunks of long
   batches.
-* Execution backends live in :data:`BACKENDS` (``"processes"``, ``"serial"``);
-  another one (e.g. a Ray cluster) is one more function with the same
-  signature ``runner(job, chunks, processes, on_done)``.
+* Execution backends live in :data:`BACKENDS` (``"processes"``, ``"serial"``,
+  ``"ray"`` through :mod:`ik.ray_backend`); each is one function
+  ``runner(job, chunks, processes, on_done)``.
 """
 
 from __future__ import annotations
@@ -91,6 +91,7 @@ class _Job:
         self.frame = frame
         self._prepared = None
         self._vectorised = None
+        self.ray_address = None
 
     def payload_file(self) -> str:
         """Write the job (robot, options, the robot's seed table for the frame) to a temporary file."""
@@ -115,7 +116,26 @@ class _Job:
         return self._vectorised
 
 
-def _solve_chunk(job: _Job, start: int, poses, q0s):
+def _solve_chunk(robot, common: dict, options: dict, keep_history: bool, start: int, poses, q0s):
+    """Solve one chunk for a runner that holds ``(robot, common, options, keep_history)`` (e.g. a Ray actor).
+
+    ``common`` is the dict :func:`solve_many` hands to every runner
+    (``"kwargs"``: the validated ``ik.solve`` keywords, ``"frame"``, ...). The
+    job is rebuilt once per ``common`` object and robot, not per chunk.
+    """
+    key = (id(robot), id(common))
+    job = _compat_jobs.get(key)
+    if job is None:
+        job = _compat_jobs[key] = _Job(robot, common["kwargs"], options, keep_history, common["frame"])
+        while len(_compat_jobs) > WORKER_JOBS:
+            _compat_jobs.popitem(last=False)
+    return _solve_job_chunk(job, start, poses, q0s)
+
+
+_compat_jobs: OrderedDict = OrderedDict()
+
+
+def _solve_job_chunk(job: _Job, start: int, poses, q0s):
     """Solve targets ``start .. start + len(poses)``; return compact arrays (see the module docstring)."""
     robot = job.robot
     n = len(poses)
@@ -200,7 +220,7 @@ def _worker_chunk(job_id, path: str, start, poses, q0s):
             _worker_jobs.popitem(last=False)
     else:
         _worker_jobs.move_to_end(job_id)
-    return _solve_chunk(job, start, poses, q0s)
+    return _solve_job_chunk(job, start, poses, q0s)
 
 
 # ----------------------------------------------------------------- parent side
@@ -235,7 +255,7 @@ atexit.register(shutdown_pool)
 
 def _run_serial(job, chunks, processes, on_done):
     for start, poses, q0s in chunks:
-        on_done(_solve_chunk(job, start, poses, q0s))
+        on_done(_solve_job_chunk(job, start, poses, q0s))
 
 
 def _run_processes(job, chunks, processes, on_done):
@@ -256,8 +276,17 @@ def _run_processes(job, chunks, processes, on_done):
         os.unlink(path)
 
 
+def _run_ray(job, chunks, processes, on_done):
+    """Ray actors (:mod:`ik.ray_backend`, ``ray_address=`` to join a cluster)."""
+    from .ray_backend import run_ray
+
+    common = {"prepared": job.prepared(), "frame": job.frame, "relax": job.kwargs["relax"],
+              "relax_frame": job.kwargs["relax_frame"], "kwargs": job.kwargs}
+    run_ray(job.robot, chunks, common, job.options, job.keep_history, processes, on_done, address=job.ray_address)
+
+
 #: Execution backends: ``name -> runner(job, chunks, processes, on_done)``.
-BACKENDS = {"processes": _run_processes, "serial": _run_serial}
+BACKENDS = {"processes": _run_processes, "serial": _run_serial, "ray": _run_ray}
 
 
 def _as_poses(targets) -> list:
@@ -282,6 +311,7 @@ def solve_many(
     chunksize: int | None = None,
     progress: bool | None = None,
     backend: str = "processes",
+    ray_address: str | None = None,
     keep_history: bool = False,
     qp_backend: str = "osqp",
     frame: str | None = None,
@@ -313,7 +343,8 @@ def solve_many(
         Show a tqdm bar (default: for batches of at least 500 targets).
     backend:
         Execution backend, ``"processes"`` (default; a persistent pool, see
-        the module docstring) or ``"serial"``. Not to be confused with
+        the module docstring), ``"serial"`` or ``"ray"`` (:mod:`ik.ray_backend`;
+        ``ray_address`` joins a running cluster). Not to be confused with
         ``qp_backend``, the QP solver of method ``"qp"`` (``ik.solve``'s ``backend``).
     keep_history:
         Return each ``Result.history`` (costs pickling time); by default ``history`` is None.
@@ -373,6 +404,7 @@ def solve_many(
         runner = _run_serial
     if runner is _run_serial:
         job.robot = robot.copy()
+    job.ray_address = ray_address
 
     results: list = [None] * n
     bar = None

@@ -5,9 +5,9 @@ linearises the task at ``q`` and takes the damped Gauss-Newton step
 
     (J^T J + lambda I) dq = J^T e,      lambda = 0.01 |e|^2 + lambda_0
 
-(Sugihara's adaptive damping: large far from the target, where the
-linearisation is poor; ``lambda_0`` keeps the system positive definite at
-singular configurations, so the step never explodes).
+(an error-dependent damping in the spirit of Sugihara's: larger far from
+the target, where the linearisation is poor; ``lambda_0`` keeps the system
+positive definite at singular configurations, so the step never explodes).
 
 * Full pose (nothing relaxed): ``e = log6(oMf^-1 oMd)`` is the twist that
   takes the frame to the target, in the frame's own axes, and ``J`` is the
@@ -25,11 +25,11 @@ configuration is clipped into the limits. Plain clipping would stall at a
 bound, this keeps descending along the free joints.
 
 Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
-has not fallen below 0.85 of its best value so far for 2 iterations in a row
-- this also catches oscillations) or after ``max_iter``
-iterations; the next start comes from :func:`ik.seeds.start_sequence`
-(``q0`` / nearest FK samples / seeded random configurations) until a start
-converges or ``max_time`` is spent.
+has not fallen below 0.85 of its best value so far for 2 iterations in a
+row - this also catches oscillations) or after ``max_iter`` iterations; the
+next start comes from :func:`ik.seeds.start_sequence` (``q0`` and the
+nearest FK samples by pose distance, then seeded random configurations)
+until a start converges or ``max_time`` is spent.
 
 The inner loop calls Pinocchio directly on ``robot.model`` / ``robot.data``
 (``computeJointJacobians``, ``updateFramePlacement``, ``getFrameJacobian``,
@@ -54,7 +54,7 @@ from .seeds import seed_table, start_sequence
 DAMPING = 1e-5
 #: Gain of the error term of the damping.
 DAMPING_GAIN = 0.01
-#: A start is abandoned when ``|e|^2`` exceeds this fraction of the previous value ...
+#: A start is abandoned when ``|e|^2`` has not fallen below this fraction of its best value so far ...
 STALL_RATIO = 0.85
 #: ... this many iterations in a row.
 STALL_PATIENCE = 2

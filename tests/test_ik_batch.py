@@ -73,7 +73,7 @@ def test_solve_many_validates_everything_first(ur5):
     with pytest.raises(InputError, match="q0"):
         ik.solve_many(ur5, good, np.zeros((3, 6)))
     with pytest.raises(InputError, match="backend"):
-        ik.solve_many(ur5, good, backend="ray")
+        ik.solve_many(ur5, good, backend="dask")
     with pytest.raises(InputError, match="processes"):
         ik.solve_many(ur5, good, processes=0)
     with pytest.raises(InputError, match="single"):
