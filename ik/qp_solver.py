@@ -90,32 +90,31 @@ def box_active_set(P, c, lb, ub, x, rounds: int = 3):
 
     Starting from the unconstrained minimiser ``x``, the coordinates outside
     the box are fixed at their bound and the reduced problem is solved for
-    the others (Cholesky); the answer is returned only if it satisfies the KKT
+    the others; the answer is returned only if it satisfies the KKT
     conditions - feasible, and the gradient ``g = P x + c`` has the sign of a
     non-negative multiplier on every fixed coordinate (``g_i <= 0`` at an upper
     bound, ``g_i >= 0`` at a lower bound) - so it *is* the QP's solution.
     Otherwise None (the caller asks the QP solver).
+
+    The reduced system is solved at full size: rows and columns of the fixed
+    coordinates are replaced by the identity (masks, no fancy indexing).
     """
+    n = x.shape[0]
     at_hi = x > ub
     at_lo = x < lb
     for _ in range(rounds):
         fixed = at_hi | at_lo
-        free = ~fixed
+        free = 1.0 - fixed
         xs = np.where(at_hi, ub, np.where(at_lo, lb, 0.0))
-        if free.any():
-            Pff = P[np.ix_(free, free)]
-            rhs = -(c[free] + P[np.ix_(free, fixed)] @ xs[fixed])
-            try:
-                xs[free] = np.linalg.solve(Pff, rhs)
-            except np.linalg.LinAlgError:
-                return None
-        new_hi = free & (xs > ub)
-        new_lo = free & (xs < lb)
-        if new_hi.any() or new_lo.any():
-            at_hi |= new_hi
-            at_lo |= new_lo
+        Pm = P * free[:, None] * free[None, :]
+        Pm.flat[:: n + 1] += fixed
+        rhs = free * -(c + P.dot(xs)) + xs
+        xs = _posv(Pm, rhs)[1]
+        if _clip(xs, lb, ub).tolist() != xs.tolist():
+            at_hi = at_hi | (xs > ub)
+            at_lo = at_lo | (xs < lb)
             continue
-        grad = P @ xs + c
+        grad = P.dot(xs) + c
         tol = 1e-12 * (1.0 + np.abs(grad).max())
         if (grad[at_hi] <= tol).all() and (grad[at_lo] >= -tol).all():
             return xs
