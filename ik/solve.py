@@ -190,10 +190,11 @@ def solve(
         Seed of the random restarts (None = 0): the same seed gives the same answer.
     options:
         Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
-        for ``"dls"``), ``gain`` (classical), ``max_step`` (``qp``),
-        ``max_starts`` (``lm``/``qp``), ``prefer_q0``, ``seed_table`` (False
-        disables the table of starts), ``samples`` (4R family),
-        ``choose`` (chooser criteria for ``"analytic"``).
+        for ``"dls"``), ``gain`` (classical), ``max_step`` and ``shortcut``
+        (``qp``: False calls the QP solver at every step), ``max_starts``
+        (``lm``/``qp``), ``prefer_q0``, ``seed_table`` (False disables the
+        table of starts), ``samples`` (4R family), ``choose`` (chooser
+        criteria for ``"analytic"``).
 
     Returns
     -------
