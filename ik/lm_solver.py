@@ -212,7 +212,7 @@ def solve_lm(
     if q0 is not None:
         q0 = _clip(q0, lo, hi)
     if table is not None:
-        f_target = table.features(target._R, target._p)
+        f_target = table.features(target._R, target._p, rotation=len(target.rot_rows) == 3)
         if q0 is not None:
             pin.forwardKinematics(model, data, q0)
             M0 = _ufp(model, data, fid)

@@ -322,7 +322,7 @@ def solve_qp(
     if q0 is not None:
         q0 = np.clip(q0, lo, hi)
     if table is not None:
-        f_target = table.features(target._R, target._p)
+        f_target = table.features(target._R, target._p, rotation=len(target.rot_rows) == 3)
         if q0 is not None:
             T0 = robot.fk(q0, target.frame)
             q0_dist = table.distance(f_target, table.features(T0[:3, :3], T0[:3, 3]))

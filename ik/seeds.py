@@ -74,12 +74,20 @@ class SeedTable:
         G = np.ascontiguousarray(np.hstack([-2.0 * F, F_norm2[:, None]]))
         return F, F_norm2, G
 
-    def features(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """Stacked feature ``[p, sqrt(w_R) vec(R), 1]`` of one pose (the trailing 1 serves :meth:`scores`)."""
+    def features(self, R: np.ndarray, p: np.ndarray, rotation: bool = True) -> np.ndarray:
+        """Stacked feature ``[p, sqrt(w_R) vec(R), 1]`` of one pose (the trailing 1 serves :meth:`scores`).
+
+        ``rotation=False`` (a target whose orientation is relaxed) zeroes the
+        rotation part: every sample's distance becomes ``|p_i - p*|^2 + 3 w_R``,
+        i.e. the ranking is by position only, ``q0`` included.
+        """
         f = np.empty(13)
         f[:3] = p
-        f[3:12] = R.reshape(9)
-        f[3:12] *= self._s
+        if rotation:
+            f[3:12] = R.reshape(9)
+            f[3:12] *= self._s
+        else:
+            f[3:12] = 0.0
         f[12] = 1.0
         return f
 

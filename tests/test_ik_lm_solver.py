@@ -97,3 +97,15 @@ def test_bounded_step_keeps_limits_and_uses_the_free_joints():
     assert np.all(qn <= hi + 1e-12) and np.all(qn >= lo - 1e-12)
     assert qn[0] == pytest.approx(0.1)
     assert J @ qn == pytest.approx(e, abs=1e-6)  # still solves the linearised task exactly
+
+
+def test_relaxed_targets_rank_starts_by_position_only():
+    # position-only tracking: q0 next to the solution must be the first start whatever the (ignored)
+    # target orientation says, so the answer stays on q0's branch
+    youbot = robots.load("youbot", geometry=False)
+    q0 = np.array([0.2, 0.4, -0.8, 0.5, 0.1])
+    T = youbot.fk(np.array([0.22, 0.39, -0.79, 0.5, 0.1])).copy()
+    T[:3, :3] = se3.rot_x(2.5)  # an orientation the relaxed task ignores
+    res = solve_lm(youbot, Target(youbot, T, relax=("roll", "pitch", "yaw")), q0)
+    assert res.success and res.restarts == 0
+    assert np.abs(res.q - q0).max() < 0.1
