@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
+import os
 import time
 
 import numpy as np
@@ -225,5 +226,6 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     return app
 
 
-#: The ASGI application, for ``uvicorn service.app:app``.
-app = create_app()
+#: The ASGI application, for ``uvicorn service.app:app`` (``kinserve serve --workers N`` passes the cap
+#: to its worker processes through ``KINSERVE_MAX_TIME_CAP``).
+app = create_app(max_time_cap=float(os.environ.get("KINSERVE_MAX_TIME_CAP", MAX_TIME_CAP)))

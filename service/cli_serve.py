@@ -3,13 +3,38 @@
 from __future__ import annotations
 
 import argparse
+import os
+import socket
+
+
+def tcp_listener(config) -> socket.socket:
+    """``config.bind_socket()`` re-wrapped so the socket reports ``proto == IPPROTO_TCP``.
+
+    uvicorn creates the shared listener of ``--workers N`` with ``proto`` 0;
+    accepted connections inherit it and asyncio then never sets
+    ``TCP_NODELAY``, so every keep-alive response waits ~40 ms for the
+    client's delayed ACK (uvicorn issue #3149). Re-wrapping the file descriptor
+    lets Python read the real protocol (6) from the kernel.
+    """
+    sock = config.bind_socket()
+    if sock.family in (socket.AF_INET, socket.AF_INET6) and sock.proto == 0:
+        fixed = socket.socket(fileno=sock.detach())
+        fixed.set_inheritable(True)
+        return fixed
+    return sock
 
 
 def cmd_serve(args) -> int:
     import uvicorn
 
     if args.workers > 1:
-        uvicorn.run("service.app:app", host=args.host, port=args.port, workers=args.workers, log_level=args.log_level)
+        from uvicorn.supervisors import Multiprocess
+
+        # worker processes import service.app:app; they read the time cap from the environment
+        os.environ["KINSERVE_MAX_TIME_CAP"] = str(args.max_time_cap)
+        config = uvicorn.Config("service.app:app", host=args.host, port=args.port, workers=args.workers,
+                                log_level=args.log_level)
+        Multiprocess(config, sockets=[tcp_listener(config)]).run()
     else:
         from service.app import create_app
 

@@ -1,0 +1,51 @@
+"""`kinserve serve --workers N`: the shared listener keeps TCP_NODELAY (uvicorn #3149) and workers answer."""
+
+import asyncio
+import socket
+
+import httpx
+import numpy as np
+import uvicorn
+
+import robots
+from service.cli_serve import tcp_listener
+from service_server import Server
+
+
+def test_listener_reports_tcp_so_accepted_connections_get_nodelay():
+    config = uvicorn.Config("service.app:app", host="127.0.0.1", port=0, log_level="critical")
+    assert config.bind_socket().proto == 0  # the uvicorn behaviour being worked around
+    sock = tcp_listener(config)
+    assert sock.proto == socket.IPPROTO_TCP
+    port = sock.getsockname()[1]
+    seen = {}
+
+    class Probe(asyncio.Protocol):
+        def connection_made(self, transport):
+            s = transport.get_extra_info("socket")
+            seen["nodelay"] = s.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+            transport.close()
+
+    async def main():
+        server = await asyncio.get_running_loop().create_server(Probe, sock=sock)
+        reader, writer = await asyncio.open_connection("127.0.0.1", port)
+        await reader.read()
+        writer.close()
+        server.close()
+
+    asyncio.run(main())
+    assert seen["nodelay"] == 1
+
+
+def test_two_worker_server_answers_fk():
+    srv = Server("--workers", "2")
+    try:
+        panda = robots.load("panda", geometry=False)
+        q = panda.random_q(2)
+        with httpx.Client(base_url=srv.url, timeout=30) as c:
+            for _ in range(6):
+                r = c.post("/fk", json={"robot": "panda", "q": q.tolist()})
+                assert r.status_code == 200
+                assert np.allclose(r.json()["pose"], panda.fk(q), atol=1e-12)
+    finally:
+        srv.stop()
