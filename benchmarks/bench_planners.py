@@ -30,40 +30,16 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.dirname(__file__))
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 
 from _common import machine, write_json  # noqa: E402
+from lattice_graph import sparse_lattice_graph  # noqa: E402
 from planners.checkpoint_order import shortest_order  # noqa: E402
 from planners.mobile import mall  # noqa: E402
 from planners.mobile.astar import astar  # noqa: E402
 from planners.mobile.coverage import boustrophedon_coverage  # noqa: E402
 from planners.mobile.sequencing import plan_waypoints  # noqa: E402
 
-SQ2 = math.sqrt(2.0)
-
-
-def networkx_graph(grid):
-    """The lattice as a networkx.Graph with nodes ``i * nx + j`` (built through a scipy sparse matrix)."""
-    import networkx as nx
-    from scipy import sparse
-
-    F = grid.free
-    ny, nx_ = F.shape
-    idx = np.arange(ny * nx_).reshape(ny, nx_)
-    rows, cols, ws = [], [], []
-    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        j0, j1 = max(0, -dj), nx_ - max(0, dj)
-        a = F[: ny - di, j0:j1] & F[di:, j0 + dj : j1 + dj]
-        if di and dj:
-            a &= F[di:, j0:j1] & F[: ny - di, j0 + dj : j1 + dj]
-        ii, jj = np.nonzero(a)
-        jj += j0
-        rows.append(idx[ii, jj])
-        cols.append(idx[ii + di, jj + dj])
-        ws.append(np.full(len(ii), grid.resolution * (SQ2 if di and dj else 1.0)))
-    M = sparse.coo_array((np.concatenate(ws), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx_,) * 2)
-    G = nx.from_scipy_sparse_array(M)
-    G.remove_nodes_from(np.flatnonzero(~F.ravel()).tolist())
-    return G
 
 
 def timed(fn, repeats):
@@ -95,7 +71,7 @@ def main() -> None:
 
     grid = mall.s7_map()
     t0 = time.perf_counter()
-    G = networkx_graph(grid)
+    G = sparse_lattice_graph(grid)
     build_nx = time.perf_counter() - t0
     nxc = grid.shape[1]
     nodes = [(int(i) * nxc + int(j)) for i, j in zip(*grid.world_to_index(wp))]

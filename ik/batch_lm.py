@@ -35,28 +35,16 @@ import time
 import numpy as np
 import pinocchio as pin
 
+from kinematics.batch_fk import joint_axis
+
 from .lm_solver import DAMPING, DAMPING_GAIN, MAX_ITER, STALL_PATIENCE, STALL_RATIO, solve_lm
 from .seeds import seed_table
 
-_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 #: Below this many unfinished targets the scalar solver takes over.
 SCALAR_BELOW = 24
 #: Starts per target before giving up (the scalar solver's time budget bounds it otherwise).
 MAX_STARTS = 100
-
-
-def _joint(joint):
-    short = joint.shortname()
-    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return "R", np.array(_AXES[short[-1]])
-    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return "P", np.array(_AXES[short[-1]])
-    if short == "JointModelRevoluteUnaligned":
-        return "R", np.asarray(joint.extract().axis, dtype=float).copy()
-    if short == "JointModelPrismaticUnaligned":
-        return "P", np.asarray(joint.extract().axis, dtype=float).copy()
-    raise ValueError(f"unsupported joint {short}")
 
 
 class BatchChain:
@@ -76,7 +64,10 @@ class BatchChain:
         self.nq = robot.nq
         self.steps = []
         for j in chain:
-            kind, axis = _joint(model.joints[j])
+            info = joint_axis(model.joints[j])
+            if info is None:
+                raise ValueError(f"unsupported joint {model.joints[j].shortname()}")
+            kind, axis = info
             M = model.jointPlacements[j]
             K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
             self.steps.append((model.joints[j].idx_q, kind, axis, M.rotation.copy(), M.translation.copy(), K, K @ K))

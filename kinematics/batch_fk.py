@@ -21,21 +21,25 @@ import pinocchio as pin
 
 from .errors import ModelError
 
-_AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np.array([0.0, 0.0, 1.0])}
+_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
-def _joint_kind(joint) -> tuple[str, np.ndarray]:
-    """('R' | 'P', unit axis) of a one-DOF Pinocchio joint model."""
+def joint_axis(joint) -> tuple[str, np.ndarray] | None:
+    """``('R' | 'P', unit axis in the joint frame)`` of a one-DOF Pinocchio joint model, else None.
+
+    Revolute/prismatic joints about x, y, z and their unaligned variants;
+    anything else (spherical, free-flyer, unbounded, composite...) is None.
+    """
     short = joint.shortname()
     if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return "R", _AXES[short[-1]]
+        return "R", np.array(_AXES[short[-1]])
     if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return "P", _AXES[short[-1]]
+        return "P", np.array(_AXES[short[-1]])
     if short == "JointModelRevoluteUnaligned":
         return "R", np.asarray(joint.extract().axis, dtype=float).copy()
     if short == "JointModelPrismaticUnaligned":
         return "P", np.asarray(joint.extract().axis, dtype=float).copy()
-    raise ModelError(f"batch FK supports revolute and prismatic joints only, got {short}")
+    return None
 
 
 class ChainFK:
@@ -51,7 +55,10 @@ class ChainFK:
         chain.reverse()
         self.steps = []
         for j in chain:
-            kind, axis = _joint_kind(model.joints[j])
+            info = joint_axis(model.joints[j])
+            if info is None:
+                raise ModelError(f"batch FK supports revolute and prismatic joints only, got {model.joints[j].shortname()}")
+            kind, axis = info
             M = model.jointPlacements[j]
             K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
             self.steps.append((model.joints[j].idx_q, kind, axis, M.rotation.copy(), M.translation.copy(), K, K @ K))

@@ -12,6 +12,8 @@ from planners.mobile.astar import MOVES, astar
 from planners.mobile.maps import OccupancyGrid
 from planners.mobile.shapes import Circle, Rectangle
 
+from lattice_graph import sparse_lattice_graph
+
 SQ2 = math.sqrt(2.0)
 
 
@@ -89,30 +91,6 @@ def test_cost_equals_networkx_on_random_maps(seed):
 @pytest.fixture(scope="module")
 def s7():
     return mall.s7_map()
-
-
-def sparse_lattice_graph(grid):
-    """The same graph for a large map, built through a scipy sparse matrix (nodes = i * nx + j)."""
-    from scipy import sparse
-
-    F = grid.free
-    ny, nx_ = F.shape
-    idx = np.arange(ny * nx_).reshape(ny, nx_)
-    rows, cols, ws = [], [], []
-    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        j0, j1 = max(0, -dj), nx_ - max(0, dj)
-        a = F[: ny - di, j0:j1] & F[di:, j0 + dj : j1 + dj]
-        if di and dj:
-            a &= F[di:, j0:j1] & F[: ny - di, j0 + dj : j1 + dj]
-        ii, jj = np.nonzero(a)
-        jj += j0
-        rows.append(idx[ii, jj])
-        cols.append(idx[ii + di, jj + dj])
-        ws.append(np.full(len(ii), grid.resolution * (SQ2 if di and dj else 1.0)))
-    M = sparse.coo_array((np.concatenate(ws), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx_,) * 2)
-    G = nx.from_scipy_sparse_array(M)
-    G.remove_nodes_from(np.flatnonzero(~F.ravel()).tolist())
-    return G
 
 
 @pytest.fixture(scope="module")

@@ -52,23 +52,10 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from kinematics.batch_fk import joint_axis
+
 _Z = np.array([0.0, 0.0, 1.0])
 _TWO_PI = 2.0 * math.pi
-
-
-def _joint_axis(joint) -> tuple[str, np.ndarray] | None:
-    """('R'|'P', local unit axis) of a one-DOF joint, or None."""
-    short = joint.shortname()
-    axes = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
-    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return "R", np.array(axes[short[-1]])
-    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return "P", np.array(axes[short[-1]])
-    if short == "JointModelRevoluteUnaligned":
-        return "R", np.asarray(joint.extract().axis, dtype=float).copy()
-    if short == "JointModelPrismaticUnaligned":
-        return "P", np.asarray(joint.extract().axis, dtype=float).copy()
-    return None
 
 
 def wrap_into(value: float, lower: float, upper: float, tol: float = 1e-9) -> list[float]:
@@ -128,7 +115,7 @@ class PlanarChain:
         self.revolute = []  # (q index, sign, axis xy point)
         self.prismatic = []  # (q index, sign)
         for j in chain:
-            info = _joint_axis(model.joints[j])
+            info = joint_axis(model.joints[j])
             if info is None:
                 raise ValueError("unsupported joint type")
             kind, axis = info
