@@ -60,8 +60,10 @@ class ChainFK:
                 raise ModelError(f"batch FK supports revolute and prismatic joints only, got {model.joints[j].shortname()}")
             kind, axis = info
             M = model.jointPlacements[j]
+            MR = M.rotation.copy()
             K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-            self.steps.append((model.joints[j].idx_q, kind, axis, M.rotation.copy(), M.translation.copy(), K, K @ K))
+            # M_R Rot(a, q) = M_R + sin q (M_R K) + (1 - cos q) (M_R K^2): one stacked product per joint
+            self.steps.append((model.joints[j].idx_q, kind, M.translation.copy(), MR, MR @ K, MR @ K @ K, MR @ axis))
         F = frame.placement
         self.frame_R = F.rotation.copy()
         self.frame_p = F.translation.copy()
@@ -70,16 +72,15 @@ class ChainFK:
         N = Q.shape[0]
         R = np.broadcast_to(np.eye(3), (N, 3, 3))
         p = np.zeros((N, 3))
-        for iq, kind, axis, MR, Mp, K, K2 in self.steps:
+        for iq, kind, Mp, MR, MRK, MRK2, MRa in self.steps:
             p = p + R @ Mp
-            R = R @ MR
             qi = Q[:, iq]
             if kind == "R":
-                s = np.sin(qi)[:, None, None]
-                c1 = (1.0 - np.cos(qi))[:, None, None]
-                R = R + s * (R @ K) + c1 * (R @ K2)
+                A = MR + np.sin(qi)[:, None, None] * MRK + (1.0 - np.cos(qi))[:, None, None] * MRK2
+                R = R @ A
             else:
-                p = p + (R @ axis) * qi[:, None]
+                p = p + (R @ MRa) * qi[:, None]
+                R = R @ MR
         T = np.zeros((N, 4, 4))
         T[:, :3, 3] = p + R @ self.frame_p
         T[:, :3, :3] = R @ self.frame_R

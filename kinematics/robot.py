@@ -41,6 +41,11 @@ _REFERENCES = {
 }
 
 _hypot = math.hypot
+# bound once: the hot paths below skip the module attribute lookups
+_forward_kinematics = pin.forwardKinematics
+_update_frame_placement = pin.updateFramePlacement
+_frame_jacobian = pin.computeFrameJacobian
+_LWA = pin.LOCAL_WORLD_ALIGNED
 
 
 def axis_rows(axes) -> list[int]:
@@ -223,17 +228,20 @@ class Robot:
 
     def fk(self, q, frame: str | None = None, *, check_limits: bool = False) -> np.ndarray:
         """Pose ``T`` (4x4) of ``frame`` (default: the tool ``tip``) in the world at ``q``."""
-        fid = self._tip_id if frame is None else self.frame_id(frame)
+        fid = self._tip_id if frame is None else self._frame_ids.get(frame) if type(frame) is str else None
+        if fid is None:
+            fid = self.frame_id(frame)  # raises FrameError naming the frame
         model, data = self.model, self.data
         if check_limits:
             q = self.check_q(q, check_limits=True)
         try:  # fast path, see _forward
-            if not _hypot(*q.tolist()) < MAX_ABS:
-                raise ValueError
-            pin.forwardKinematics(model, data, q)
+            if _hypot(*q.tolist()) < MAX_ABS:
+                _forward_kinematics(model, data, q)
+                return _update_frame_placement(model, data, fid).homogeneous
         except (AttributeError, TypeError, ValueError):
-            pin.forwardKinematics(model, data, self.check_q(q))
-        return pin.updateFramePlacement(model, data, fid).homogeneous
+            pass
+        _forward_kinematics(model, data, self.check_q(q))
+        return _update_frame_placement(model, data, fid).homogeneous
 
     def fk_all(self, q, *, check_limits: bool = False) -> dict[str, np.ndarray]:
         """Pose of every frame, ``{frame name: 4x4}``."""
@@ -265,19 +273,20 @@ class Robot:
         * ``"spatial"``: the spatial twist (velocity of the body point at the
           world origin, world axes; Pinocchio's WORLD).
         """
-        fid = self._tip_id if frame is None else self.frame_id(frame)
-        ref = _REFERENCES.get(reference)
+        fid = self._tip_id if frame is None else self._frame_ids.get(frame) if type(frame) is str else None
+        if fid is None:
+            fid = self.frame_id(frame)  # raises FrameError naming the frame
+        ref = _LWA if reference == "world" else _REFERENCES.get(reference)
         if ref is None:
             raise ShapeError(f"reference must be one of {sorted(_REFERENCES)}, got {reference!r}")
         if check_limits:
             q = self.check_q(q, check_limits=True)
-        try:
-            if not _hypot(*q.tolist()) < MAX_ABS:
-                raise ValueError
-            return pin.computeFrameJacobian(self.model, self.data, q, fid, ref)
+        try:  # fast path, see _forward
+            if _hypot(*q.tolist()) < MAX_ABS:
+                return _frame_jacobian(self.model, self.data, q, fid, ref)
         except (AttributeError, TypeError, ValueError):
-            q = self.check_q(q)
-            return pin.computeFrameJacobian(self.model, self.data, q, fid, ref)
+            pass
+        return _frame_jacobian(self.model, self.data, self.check_q(q), fid, ref)
 
     def analytic_jacobian(self, q, frame: str | None = None, rotation: str = "rpy", *, singular_tol: float = 1e-6) -> np.ndarray:
         """Analytic Jacobian ``(6, nq)``: rows ``[pdot; rpy_dot]`` for ``rotation="rpy"``.
