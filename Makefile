@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test bench install install-test browser clean
+.PHONY: demo test bench gallery install install-test browser clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -41,11 +41,16 @@ demo: $(VENV)/.installed
 test: $(VENV)/.installed-test browser
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
+# README gallery: one plot per scenario + browser screenshots of two scenes (needs chromium).
+gallery: $(VENV)/.installed browser
+	$(PY) -m scenarios.gallery --demo $(DEMO_OUT)
+
 bench: $(VENV)/.installed-bench
 	mkdir -p bench-out
 	$(PY) benchmarks/bench_kinematics.py --out bench-out/kinematics.json
 	$(PY) benchmarks/bench_ik.py --out bench-out/ik.json
 	$(PY) benchmarks/bench_planners.py --out bench-out/planners.json
+	$(PY) benchmarks/bench_service.py --out bench-out/service.json
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) bench-out .pytest_cache
