@@ -35,7 +35,7 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from kinematics.batch_fk import joint_axis
+from kinematics.batch_fk import joint_axis, joint_chain
 
 from .lm_solver import DAMPING, DAMPING_GAIN, MAX_ITER, STALL_PATIENCE, STALL_RATIO, solve_lm
 from .seeds import seed_table
@@ -52,13 +52,9 @@ class BatchChain:
 
     def __init__(self, robot, frame: str):
         model = robot.model
-        f = model.frames[robot.frame_id(frame)]
-        chain = []
-        j = f.parentJoint
-        while j > 0:
-            chain.append(j)
-            j = model.parents[j]
-        chain.reverse()
+        fid = robot.frame_id(frame)
+        f = model.frames[fid]
+        chain = joint_chain(model, fid)
         if len(chain) != robot.nq:
             raise ValueError("the frame does not depend on every joint")
         self.nq = robot.nq

@@ -42,17 +42,23 @@ def joint_axis(joint) -> tuple[str, np.ndarray] | None:
     return None
 
 
+def joint_chain(model: pin.Model, frame_id: int) -> list[int]:
+    """Indices of the joints from the root to the parent joint of frame ``frame_id``, root first."""
+    chain = []
+    j = model.frames[frame_id].parentJoint
+    while j > 0:
+        chain.append(j)
+        j = model.parents[j]
+    chain.reverse()
+    return chain
+
+
 class ChainFK:
     """Vectorised FK of frame ``frame_id`` of ``model``; call with ``Q`` (N, nq)."""
 
     def __init__(self, model: pin.Model, frame_id: int):
         frame = model.frames[frame_id]
-        chain = []
-        j = frame.parentJoint
-        while j > 0:
-            chain.append(j)
-            j = model.parents[j]
-        chain.reverse()
+        chain = joint_chain(model, frame_id)
         self.steps = []
         for j in chain:
             info = joint_axis(model.joints[j])

@@ -18,13 +18,14 @@ import re
 
 import numpy as np
 import pytest
-from PIL import Image
 
 import scenarios
 import viz
 from planners import JointTrajectory
 from viz.export import pack_commands
 from viz.scene import CAMERA_FOV_DEG
+
+from browser_checks import assert_panda_drawn, robot_mask
 
 pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
 
@@ -98,25 +99,8 @@ def test_pick_place_screenshot_shows_the_robot(pick_place):
     import robots
 
     out, full, bare, r, q0 = pick_place
-    a = np.asarray(Image.open(viz.screenshot(full, out / "full.png", size=SIZE)).convert("RGB")).astype(int)
-    b = np.asarray(Image.open(viz.screenshot(bare, out / "bare.png", size=SIZE)).convert("RGB")).astype(int)
-    assert a.shape == b.shape == (SIZE[1], SIZE[0], 3)
-    # the canvas rendered the rest of the scene (grid, box, cylinder, path): not one flat colour
-    assert len(np.unique(b.reshape(-1, 3), axis=0)) > 50
-    robot = np.abs(a - b).max(axis=2) > 40
-    frac = robot.mean()
-    assert 0.01 < frac < 0.5, f"robot covers {frac:.2%} of the image"
-    # the Panda's shell is white / light grey
-    px = a[robot]
-    bright_grey = (px.min(axis=1) > 150) & (px.max(axis=1) - px.min(axis=1) < 40)
-    assert bright_grey.mean() > 0.3, f"only {bright_grey.mean():.0%} of the robot's pixels are light grey"
-    # and it is where the page's camera puts the arm at the first frame (q_start, home pose)
+    image, robot = robot_mask(viz, full, bare, out, SIZE)
+    # the robot is where the page's camera puts the arm at the first frame (q_start, home pose)
     eye, target = camera(viz.read_html_commands(full))
-    panda = robots.load("panda")
-    fk = panda.fk_all(q0)
-    vs, us = np.nonzero(robot)
-    for frame in ("panda_link0", "panda_link4", "panda_link8"):
-        u, v = project([fk[frame][:3, 3]], eye, target)[0]
-        assert us.min() - 15 <= u <= us.max() + 15 and vs.min() - 15 <= v <= vs.max() + 15, (frame, u, v)
-    u4, v4 = project([fk["panda_link4"][:3, 3]], eye, target)[0].round().astype(int)
-    assert robot[max(v4 - 20, 0):v4 + 20, max(u4 - 20, 0):u4 + 20].mean() > 0.2
+    fk = robots.load("panda").fk_all(q0)
+    assert_panda_drawn(image, robot, fk, lambda pts: project(pts, eye, target), ("panda_link0", "panda_link4", "panda_link8"))

@@ -9,12 +9,13 @@ meshes, a sphere, a path, an animation) and the same scene without the robot.
 
 import numpy as np
 import pytest
-from PIL import Image
 
 import robots
 import viz
 from kinematics import se3
 from viz.scene import CAMERA_FOV_DEG
+
+from browser_checks import assert_panda_drawn, robot_mask
 
 pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
 
@@ -79,24 +80,6 @@ def test_page_loads_without_errors_and_plays_the_animation(pages):
 def test_screenshot_shows_the_robot(pages):
     panda, q0, full, bare, out = pages
     # screenshots show the animation's first frame (q0), paused
-    a = np.asarray(Image.open(viz.screenshot(full, out / "full.png", size=SIZE)).convert("RGB")).astype(int)
-    b = np.asarray(Image.open(viz.screenshot(bare, out / "bare.png", size=SIZE)).convert("RGB")).astype(int)
-    assert a.shape == b.shape == (SIZE[1], SIZE[0], 3)
-    # the WebGL canvas rendered something: not one flat colour, and the sphere differs from the background
-    assert len(np.unique(b.reshape(-1, 3), axis=0)) > 50
-    robot = np.abs(a - b).max(axis=2) > 40
-    frac = robot.mean()
-    assert 0.01 < frac < 0.5, f"robot covers {frac:.2%} of the image"
-    # the Panda's shell is white/light grey: many robot pixels are bright and unsaturated
-    px = a[robot]
-    bright_grey = (px.min(axis=1) > 150) & (px.max(axis=1) - px.min(axis=1) < 40)
-    assert bright_grey.mean() > 0.3, f"only {bright_grey.mean():.0%} of the robot's pixels are light grey"
-    # and it is where the camera model puts it: base and hand project inside the robot's pixel box
-    vs, us = np.nonzero(robot)
-    fk = panda.fk_all(q0)
-    for frame in ("panda_link0", "panda_link4", "panda_hand"):
-        u, v = project([fk[frame][:3, 3]])[0]
-        assert us.min() - 15 <= u <= us.max() + 15 and vs.min() - 15 <= v <= vs.max() + 15, (frame, u, v)
-    # the robot pixels near the projected elbow (link4) really belong to the robot
-    u4, v4 = project([fk["panda_link4"][:3, 3]])[0].round().astype(int)
-    assert robot[max(v4 - 20, 0):v4 + 20, max(u4 - 20, 0):u4 + 20].mean() > 0.2
+    image, robot = robot_mask(viz, full, bare, out, SIZE)
+    # the robot is where the camera model puts it: base, elbow and hand inside the robot's pixel box
+    assert_panda_drawn(image, robot, panda.fk_all(q0), project, ("panda_link0", "panda_link4", "panda_hand"))

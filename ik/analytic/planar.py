@@ -52,7 +52,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from kinematics.batch_fk import joint_axis
+from kinematics.batch_fk import joint_axis, joint_chain
 
 _Z = np.array([0.0, 0.0, 1.0])
 _TWO_PI = 2.0 * math.pi
@@ -97,13 +97,7 @@ class PlanarChain:
     def __init__(self, robot, frame: str):
         model = robot.model
         fid = robot.frame_id(frame)
-        f = model.frames[fid]
-        chain = []
-        j = f.parentJoint
-        while j > 0:
-            chain.append(j)
-            j = model.parents[j]
-        chain.reverse()
+        chain = joint_chain(model, fid)
         if len(chain) != robot.nq:
             raise ValueError("frame does not depend on every joint")
         data = model.createData()

@@ -1,0 +1,39 @@
+"""Shared assertion of the browser tests: a Panda is really drawn in a screenshot.
+
+``robot_mask(viz, full_html, bare_html, out, size)`` screenshots a page and the
+same page with the robot removed; the pixels that differ are the robot's.
+``assert_panda_drawn`` checks they cover a sensible share of the image, are
+mostly the Panda's light-grey shell, and lie where the page's camera projects
+the arm's joints (``project(points) -> (u, v)`` pixel coordinates).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from PIL import Image
+
+
+def robot_mask(viz, full_html, bare_html, out, size) -> tuple[np.ndarray, np.ndarray]:
+    """(screenshot with the robot as an int RGB array, boolean mask of the robot's pixels)."""
+    a = np.asarray(Image.open(viz.screenshot(full_html, out / "full.png", size=size)).convert("RGB")).astype(int)
+    b = np.asarray(Image.open(viz.screenshot(bare_html, out / "bare.png", size=size)).convert("RGB")).astype(int)
+    assert a.shape == b.shape == (size[1], size[0], 3)
+    # the WebGL canvas rendered the rest of the scene: not one flat colour
+    assert len(np.unique(b.reshape(-1, 3), axis=0)) > 50
+    return a, np.abs(a - b).max(axis=2) > 40
+
+
+def assert_panda_drawn(image: np.ndarray, robot: np.ndarray, fk: dict, project, frames) -> None:
+    """The robot's pixels: 1-50 % of the image, >30 % light grey, around the projected ``frames``."""
+    frac = robot.mean()
+    assert 0.01 < frac < 0.5, f"robot covers {frac:.2%} of the image"
+    px = image[robot]
+    bright_grey = (px.min(axis=1) > 150) & (px.max(axis=1) - px.min(axis=1) < 40)
+    assert bright_grey.mean() > 0.3, f"only {bright_grey.mean():.0%} of the robot's pixels are light grey"
+    vs, us = np.nonzero(robot)
+    for frame in frames:
+        u, v = project([fk[frame][:3, 3]])[0]
+        assert us.min() - 15 <= u <= us.max() + 15 and vs.min() - 15 <= v <= vs.max() + 15, (frame, u, v)
+    # the pixels around the projected elbow (link4) really belong to the robot
+    u4, v4 = project([fk["panda_link4"][:3, 3]])[0].round().astype(int)
+    assert robot[max(v4 - 20, 0):v4 + 20, max(u4 - 20, 0):u4 + 20].mean() > 0.2
