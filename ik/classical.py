@@ -15,7 +15,14 @@ tolerance:
 ``K`` is the ``gain`` (default 1). For ``pseudo_inverse`` and ``dls`` a
 ``centring`` weight adds the null-space term of :mod:`ik.centring`
 (``dq += Z z``, in the null space of ``J``), which is how seed 004 keeps
-``theta4`` (relax phi) or ``d3`` (relax z) mid-range.
+``theta4`` (relax phi) or ``d3`` (relax z) mid-range. The secondary step
+asks for ``CENTRING_GAIN * (mid - q)`` per iteration and its joint motion is
+capped at ``CENTRING_MAX_STEP`` (rad or m, max-norm): near a singularity the
+numerical null space grows by directions that are only approximately free,
+and a full step along them lets the arm wander across its joint range
+while the primary task cannot be met (seen as 5.8 rad jumps between samples
+of a tracked path). With the gain below 1 the centring still converges
+geometrically to mid-range and never overshoots it.
 
 These methods run once from ``q0`` (no restarts): their value is the
 history (``Result.history``: joint variables, position/orientation error and
@@ -46,6 +53,14 @@ MAX_ITER = {"jacobian_inverse": 200, "jacobian_transpose": 5000, "pseudo_inverse
 SINGULAR_RCOND = 1e-10
 
 _LWA = pin.LOCAL_WORLD_ALIGNED
+
+
+#: Share of the remaining distance to mid-range that one iteration's centring step asks for.
+CENTRING_GAIN = 0.5
+#: Largest joint motion (rad or m) one iteration's centring correction may make.
+CENTRING_MAX_STEP = 0.1
+#: The iteration ends (task met) once the centring correction is below this (rad or m).
+CENTRING_TOL = 1e-9
 
 
 def solve_classical(
@@ -93,6 +108,8 @@ def solve_classical(
     ok = False
     message = f"iteration limit ({max_iter}) reached"
     it = 0
+    # max-norm of the last centring correction: the loop goes on while centring still moves the joints
+    centring_left = math.inf if weights is not None else 0.0
     while True:
         pin.computeJointJacobians(model, data, q)
         M = pin.updateFramePlacement(model, data, fid)
@@ -103,13 +120,15 @@ def solve_classical(
         pes.append(pe)
         res.append(re)
         tes.append(e)
-        if pe < tol_pos and re < tol_rot:
+        task_ok = pe < tol_pos and re < tol_rot
+        if task_ok and centring_left <= CENTRING_TOL:
             ok, message = True, "converged"
             break
-        if it >= max_iter:
-            break
-        if time.perf_counter() > deadline:
-            message = "time budget exhausted"
+        if it >= max_iter or time.perf_counter() > deadline:
+            if task_ok:  # the task is met; only the secondary centring was still moving
+                ok, message = True, "converged (centring stopped by the iteration/time limit)"
+            elif it < max_iter:
+                message = "time budget exhausted"
             break
         J = target.jacobian(pin.getFrameJacobian(model, data, fid, _LWA))
         if method == "jacobian_inverse":
@@ -134,8 +153,13 @@ def solve_classical(
             dq = K * (J.T @ np.linalg.solve(J @ J.T + damping * damping * np.eye(m), e))
         if weights is not None:
             Z = null_space_basis(J)
-            target_step = np.where(weights > 0, robot.middle() - q, 0.0)
-            dq = dq + null_space_correction(Z, weights, target_step - dq)
+            target_step = np.where(weights > 0, CENTRING_GAIN * (robot.middle() - q), 0.0)
+            correction = null_space_correction(Z, weights, target_step - dq)
+            biggest = float(np.abs(correction).max()) if correction.size else 0.0
+            if biggest > CENTRING_MAX_STEP:
+                correction *= CENTRING_MAX_STEP / biggest
+            centring_left = biggest
+            dq = dq + correction
         if not np.all(np.isfinite(dq)):
             message = f"the step is not finite at iteration {it} (singular configuration)"
             break

@@ -203,3 +203,16 @@ def test_pngs_are_real_plots(s4):
         packed = (img[..., 0].astype(np.int32) << 16) | (img[..., 1].astype(np.int32) << 8) | img[..., 2]
         assert len(np.unique(packed)) > 100, name
         assert 0.02 < (img.min(axis=2) < 200).mean() < 0.6, name
+
+
+def test_direct_motion_reports_infeasible_samples_without_joint_jumps(tmp_path):
+    """approach=0 (the document's direct motions) drives joint 1 into its limit on the way home.
+
+    Those samples must be reported as tracking failures, and the joint path must stay continuous.
+    Regression: full-gain null-space centring in DLS let the arm jump 5.8 rad between two samples there.
+    """
+    r = pick_place.run(tmp_path, approach=0.0, scene=False)
+    assert r["tracking_failures"], "the direct motion is expected to be infeasible somewhere"
+    Q = JointTrajectory.load(tmp_path / "trajectory.json").positions
+    jumps = np.abs(np.diff(Q, axis=0)).max(axis=1)
+    assert jumps.max() < 0.5, f"joint jump of {jumps.max():.2f} rad at sample {int(jumps.argmax()) + 1}"
