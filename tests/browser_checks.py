@@ -12,6 +12,22 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image
 
+from viz.scene import CAMERA_FOV_DEG
+
+
+def project(points, eye, target, size) -> np.ndarray:
+    """Pixel coordinates (u right, v down) of world points seen by meshcat's perspective camera
+    (vertical field of view CAMERA_FOV_DEG, world z up, looking from ``eye`` at ``target``)."""
+    f = (target - eye) / np.linalg.norm(target - eye)
+    r = np.cross(f, [0, 0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    w, h = size
+    k = (h / 2) / np.tan(np.radians(CAMERA_FOV_DEG / 2))
+    d = np.asarray(points, dtype=float) - eye
+    depth = d @ f
+    return np.c_[w / 2 + k * (d @ r) / depth, h / 2 - k * (d @ u) / depth]
+
 
 def robot_mask(viz, full_html, bare_html, out, size) -> tuple[np.ndarray, np.ndarray]:
     """(screenshot with the robot as an int RGB array, boolean mask of the robot's pixels)."""

@@ -44,3 +44,4 @@ def panda(panda_model):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+

@@ -26,6 +26,7 @@ from matplotlib.image import imread
 
 import robots
 import scenarios
+from scenario_runs import run_scenario
 from kinematics.errors import InputError
 from planners import JointTrajectory
 from scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
@@ -65,30 +66,22 @@ def assert_scene(folder: Path, animated: bool):
 # --------------------------------------------------------------------------- fixtures
 @pytest.fixture(scope="module")
 def planar(tmp_path_factory):
-    out = tmp_path_factory.mktemp("planar4r")
-    scenarios.run("planar4r", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "planar4r")
 
 
 @pytest.fixture(scope="module")
 def youbot(tmp_path_factory):
-    out = tmp_path_factory.mktemp("youbot")
-    scenarios.run("youbot", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "youbot")
 
 
 @pytest.fixture(scope="module")
 def tour(tmp_path_factory):
-    out = tmp_path_factory.mktemp("youbot-tour")
-    scenarios.run("youbot-tour", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "youbot-tour")
 
 
 @pytest.fixture(scope="module")
 def scara(tmp_path_factory):
-    out = tmp_path_factory.mktemp("scara")
-    scenarios.run("scara", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "scara")
 
 
 # --------------------------------------------------------------------------- S1 planar 4R

@@ -23,9 +23,9 @@ import scenarios
 import viz
 from planners import JointTrajectory
 from viz.export import pack_commands
-from viz.scene import CAMERA_FOV_DEG
 
 from browser_checks import assert_panda_drawn, robot_mask
+from browser_checks import project as camera_project
 
 pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
 
@@ -63,15 +63,7 @@ def camera(commands):
 
 def project(points, eye, target, size=SIZE):
     """Pixel coordinates (u right, v down) of world points seen by meshcat's perspective camera."""
-    f = (target - eye) / np.linalg.norm(target - eye)
-    r = np.cross(f, [0, 0, 1.0])
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    w, h = size
-    k = (h / 2) / np.tan(np.radians(CAMERA_FOV_DEG / 2))
-    d = np.asarray(points, dtype=float) - eye
-    depth = d @ f
-    return np.c_[w / 2 + k * (d @ r) / depth, h / 2 - k * (d @ u) / depth]
+    return camera_project(points, eye, target, size)
 
 
 @pytest.fixture(scope="module")

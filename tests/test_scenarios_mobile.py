@@ -26,6 +26,7 @@ from scipy.linalg import expm
 from scipy.sparse.csgraph import dijkstra
 
 import scenarios
+from scenario_runs import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -99,23 +100,17 @@ def load(folder: Path) -> dict:
 # --------------------------------------------------------------------------- fixtures
 @pytest.fixture(scope="module")
 def omni(tmp_path_factory):
-    out = tmp_path_factory.mktemp("omni")
-    scenarios.run("omni", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "omni")
 
 
 @pytest.fixture(scope="module")
 def mall(tmp_path_factory):
-    out = tmp_path_factory.mktemp("mall")
-    scenarios.run("mall", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "mall")
 
 
 @pytest.fixture(scope="module")
 def coverage(tmp_path_factory):
-    out = tmp_path_factory.mktemp("coverage")
-    scenarios.run("coverage", out)
-    return out, load(out)
+    return run_scenario(tmp_path_factory, "coverage")
 
 
 # --------------------------------------------------------------------------- S6 omni

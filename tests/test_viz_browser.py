@@ -13,9 +13,9 @@ import pytest
 import robots
 import viz
 from kinematics import se3
-from viz.scene import CAMERA_FOV_DEG
 
 from browser_checks import assert_panda_drawn, robot_mask
+from browser_checks import project as camera_project
 
 pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
 
@@ -24,17 +24,8 @@ EYE, TARGET = np.array([1.25, 0.85, 0.85]), np.array([0.25, 0.0, 0.4])
 
 
 def project(points, eye=EYE, target=TARGET, size=SIZE):
-    """Pixel coordinates (u right, v down) of world points seen by meshcat's perspective camera
-    (vertical field of view CAMERA_FOV_DEG, world z up, looking from eye at target)."""
-    f = (target - eye) / np.linalg.norm(target - eye)
-    r = np.cross(f, [0, 0, 1.0])
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    w, h = size
-    k = (h / 2) / np.tan(np.radians(CAMERA_FOV_DEG / 2))
-    d = np.asarray(points, dtype=float) - eye
-    depth = d @ f
-    return np.c_[w / 2 + k * (d @ r) / depth, h / 2 - k * (d @ u) / depth]
+    """Pixel coordinates (u right, v down) of world points seen from this test's camera."""
+    return camera_project(points, eye, target, size)
 
 
 def build(with_robot: bool, panda, q0, Q):
