@@ -109,7 +109,7 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
     """One LM start on a full-pose target (LOCAL log6 error). Returns (converged, iterations, reason)."""
     best = math.inf
     stalls = 0
-    for it in range(max_iter):
+    for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         _cjj(model, data, q)
         iMd = _ufp(model, data, fid).actInv(Td)
         e = _log6(iMd).vector
@@ -122,6 +122,8 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
         re2s.append(re2)
         if pe2 < tp2 and re2 < tr2:
             return True, it, "converged"
+        if it == max_iter:
+            break
         E = pe2 + re2
         if E < STALL_RATIO * best:
             best = E
@@ -131,16 +133,6 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
             if stalls >= STALL_PATIENCE:
                 return False, it + 1, "stalled"
         q = _bounded_step(_gfj(model, data, fid, _LOCAL), e, DAMPING_GAIN * E + lam0, q, lo, hi)
-    _cjj(model, data, q)
-    iMd = _ufp(model, data, fid).actInv(Td)
-    e = _log6(iMd).vector
-    t = iMd.translation
-    w = e[3:]
-    qs.append(q)
-    pe2s.append(t.dot(t))
-    re2s.append(w.dot(w))
-    if pe2s[-1] < tp2 and re2s[-1] < tr2:
-        return True, max_iter, "converged"
     return False, max_iter, "iteration limit"
 
 
