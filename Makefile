@@ -43,7 +43,7 @@ test: $(VENV)/.installed-test browser
 
 # README gallery: one plot per scenario + browser screenshots of two scenes (needs chromium).
 gallery: $(VENV)/.installed browser
-	$(PY) -m scenarios.gallery --demo $(DEMO_OUT)
+	$(PY) -m kinserve.scenarios.gallery --demo $(DEMO_OUT)
 
 bench: $(VENV)/.installed-bench
 	mkdir -p bench-out

@@ -6,8 +6,12 @@ import json
 import os
 import platform
 import statistics
+import importlib.util
 import time
 from pathlib import Path
+from types import ModuleType
+
+TESTS_DIR = Path(__file__).resolve().parents[1] / "tests"
 
 
 def machine() -> dict:
@@ -39,3 +43,14 @@ def write_json(path: str | None, payload: dict) -> None:
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         Path(path).write_text(json.dumps(payload, indent=2))
         print(f"wrote {path}")
+
+
+def load_test_helper(name: str) -> ModuleType:
+    """A helper module of ``tests/`` (e.g. the reference lattice graph), loaded from its file.
+
+    The benchmarks share these references with the tests without putting ``tests/`` on ``sys.path``.
+    """
+    spec = importlib.util.spec_from_file_location(f"_kinserve_test_helper_{name}", TESTS_DIR / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -64,13 +64,11 @@ import warnings  # noqa: E402
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-sys.path.insert(0, os.path.dirname(__file__))
 
-import ik  # noqa: E402
-import robots  # noqa: E402
+from kinserve import ik  # noqa: E402
+from kinserve import robots  # noqa: E402
 from _common import machine, write_json  # noqa: E402
-from kinematics import se3  # noqa: E402
+from kinserve.kinematics import se3  # noqa: E402
 
 FRAME = "panda_link8"
 TOL_POS, TOL_ROT = 1e-4, 1e-3

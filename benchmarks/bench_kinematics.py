@@ -18,10 +18,8 @@ import time
 import numpy as np
 import pinocchio as pin
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-sys.path.insert(0, os.path.dirname(__file__))
 
-import robots  # noqa: E402
+from kinserve import robots  # noqa: E402
 from _common import machine, per_call_seconds, write_json  # noqa: E402
 
 

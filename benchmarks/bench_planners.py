@@ -28,17 +28,14 @@ import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-sys.path.insert(0, os.path.dirname(__file__))
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 
-from _common import machine, write_json  # noqa: E402
-from lattice_graph import sparse_lattice_graph  # noqa: E402
-from planners.checkpoint_order import shortest_order  # noqa: E402
-from planners.mobile import mall  # noqa: E402
-from planners.mobile.astar import astar  # noqa: E402
-from planners.mobile.coverage import boustrophedon_coverage  # noqa: E402
-from planners.mobile.sequencing import plan_waypoints  # noqa: E402
+from _common import load_test_helper, machine, write_json  # noqa: E402
+sparse_lattice_graph = load_test_helper("lattice_graph").sparse_lattice_graph
+from kinserve.planners.checkpoint_order import shortest_order  # noqa: E402
+from kinserve.planners.mobile import mall  # noqa: E402
+from kinserve.planners.mobile.astar import astar  # noqa: E402
+from kinserve.planners.mobile.coverage import boustrophedon_coverage  # noqa: E402
+from kinserve.planners.mobile.sequencing import plan_waypoints  # noqa: E402
 
 
 

@@ -24,13 +24,10 @@ import httpx
 import numpy as np
 
 ROOT = os.path.join(os.path.dirname(__file__), "..")
-sys.path.insert(0, ROOT)
-sys.path.insert(0, os.path.dirname(__file__))
-sys.path.insert(0, os.path.join(ROOT, "tests"))
 
-import robots  # noqa: E402
-from _common import machine, write_json  # noqa: E402
-from service_server import Server  # noqa: E402
+from kinserve import robots  # noqa: E402
+from _common import load_test_helper, machine, write_json  # noqa: E402
+Server = load_test_helper("service_server").Server
 
 
 def load_test(url: str, bodies: list[str], clients: int) -> dict:
@@ -95,7 +92,7 @@ def bench_http(n_requests: int) -> list[dict]:
 def bench_batch(n: int) -> dict:
     import ray
 
-    from ik import solve_many
+    from kinserve.ik import solve_many
 
     panda = robots.load("panda", geometry=False)
     targets = panda.fk_batch(panda.random_q(1, n=n), "panda_link8")

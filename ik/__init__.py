@@ -1,6 +1,6 @@
 """ik: inverse kinematics - QP-based with task relaxation, joint-limit centring and sphere avoidance.
 
-    import ik, robots
+    from kinserve import ik, robots
     panda = robots.load("panda")
     res = ik.solve(panda, T_target)                               # method "auto"
     res = ik.solve(panda, T, relax=("roll", "pitch", "yaw"))      # position only

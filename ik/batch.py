@@ -49,7 +49,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from .analytic import closed_form_solver
 from .batch_lm import BatchChain, solve_batch
@@ -413,7 +413,7 @@ def solve_many(
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=n, desc="ik.solve_many", unit="target", leave=False)
+        bar = tqdm(total=n, desc="kinserve.ik.solve_many", unit="target", leave=False)
 
     def on_done(res):
         s = res["start"]

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.errors import InputError, NonFiniteError
 
 
 def centring_weights(robot, centring) -> np.ndarray | None:

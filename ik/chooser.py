@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from .constraints import robot_segments
 

@@ -38,7 +38,7 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from .centring import null_space_basis, null_space_correction
 from .result import History, Result

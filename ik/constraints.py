@@ -48,8 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from kinematics.errors import InputError, NonFiniteError, ShapeError
-from kinematics.validation import MAX_ABS, as_vector
+from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
+from kinserve.kinematics.validation import MAX_ABS, as_vector
 
 #: Fraction of the current clearance one step may use up (velocity damper gain).
 DAMPER_GAIN = 0.5

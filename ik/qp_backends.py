@@ -31,7 +31,7 @@ import threading
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 INF = 1e20
 

@@ -15,7 +15,7 @@ Ray with ``processes`` CPUs is started and left running for later batches
 
 from __future__ import annotations
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 
 def _ray():

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from kinematics import as_matrix
-from kinematics.errors import InputError
-from kinematics.validation import check_rotation
+from kinserve.kinematics import as_matrix
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import check_rotation
 
 from .batch import solve_many
 

@@ -23,7 +23,7 @@ uniform random configurations from ``numpy.random.default_rng(seed)`` - the
 same sequence for the same ``seed``, so results are reproducible.
 
 Tables are built once per model and frame (a few milliseconds with the
-vectorised :meth:`kinematics.Robot.fk_batch`) and cached.
+vectorised :meth:`kinserve.kinematics.Robot.fk_batch`) and cached.
 """
 
 from __future__ import annotations

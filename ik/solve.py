@@ -35,7 +35,7 @@ import numbers
 
 import numpy as np
 
-from kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.errors import InputError, NonFiniteError
 
 from . import analytic as _analytic
 from .centring import centring_weights
@@ -67,7 +67,7 @@ def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
 
 def _check_robot(robot):
     if not (hasattr(robot, "model") and hasattr(robot, "frame_id") and hasattr(robot, "nq")):
-        raise InputError(f"robot must be a kinematics.Robot (e.g. robots.load('panda')), got {type(robot).__name__}")
+        raise InputError(f"robot must be a kinserve.kinematics.Robot (e.g. robots.load('panda')), got {type(robot).__name__}")
 
 
 def _check_seed(seed):
@@ -152,7 +152,7 @@ def solve(
     Parameters
     ----------
     robot:
-        A :class:`kinematics.Robot`.
+        A :class:`kinserve.kinematics.Robot`.
     target:
         4x4 homogeneous pose (or ``pinocchio.SE3``) of ``frame`` in the world.
     q0:
@@ -272,7 +272,7 @@ def solve_prepared(robot, p: dict, **options):
 
 
 def _names(rows) -> str:
-    from kinematics.robot import TASK_AXES
+    from kinserve.kinematics.robot import TASK_AXES
 
     return ", ".join(TASK_AXES[i] for i in rows)
 

@@ -40,9 +40,9 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from kinematics.errors import InputError
-from kinematics.robot import TASK_AXES
-from kinematics.validation import MAX_ABS, ROTATION_TOL, as_pose
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.robot import TASK_AXES
+from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_pose
 
 #: Accepted names of relaxable components (``phi`` = ``yaw``).
 RELAX_NAMES = TASK_AXES + ("phi",)
@@ -117,7 +117,7 @@ class Target:
     Parameters
     ----------
     robot:
-        The :class:`kinematics.Robot` (only used to resolve the frame).
+        The :class:`kinserve.kinematics.Robot` (only used to resolve the frame).
     pose:
         4x4 homogeneous pose or ``pinocchio.SE3`` (checked: finite, bottom row
         ``[0 0 0 1]``, orthonormal rotation with det +1).

@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-import ik
-from kinematics.errors import InputError, ShapeError
+from kinserve import ik
+from kinserve.kinematics.errors import InputError, ShapeError
 
 from .joint_trajectory import JointTrajectory
 from .se3_interpolation import interpolate_checkpoints

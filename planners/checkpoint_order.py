@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse.csgraph import minimum_spanning_tree
 
-from kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.errors import InputError, ShapeError
 
 
 @dataclass(frozen=True)

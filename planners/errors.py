@@ -13,7 +13,7 @@ messages name the point(s) in world units.
 
 from __future__ import annotations
 
-from kinematics.errors import InputError, KinserveError
+from kinserve.kinematics.errors import InputError, KinserveError
 
 
 class PlanningError(KinserveError):

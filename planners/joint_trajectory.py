@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from kinematics.errors import InputError, ShapeError
-from kinematics.validation import as_matrix
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_matrix
 
 
 def finite_difference_velocities(positions, times, *, zero_ends: bool = False) -> np.ndarray:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 
 def _duration(T) -> float:

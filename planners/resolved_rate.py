@@ -52,9 +52,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kinematics import Robot, axis_rows
-from kinematics.errors import InputError
-from kinematics.validation import as_vector
+from kinserve.kinematics import Robot, axis_rows
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_vector
 
 _POSITION_AXES = {"x": 0, "y": 1, "z": 2}
 

@@ -43,9 +43,9 @@ import numpy as np
 import pinocchio as pin
 from scipy.spatial.transform import Rotation
 
-from kinematics import se3
-from kinematics.errors import InputError
-from kinematics.validation import as_pose, as_vector
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_pose, as_vector
 
 from . import polynomials
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from . import polynomials
 

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from kinematics.errors import InputError, ShapeError
-from kinematics.validation import as_matrix
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_matrix
 
 from . import polynomials
 from .time_scaling import minimum_time

@@ -1,8 +1,8 @@
 """robots: URDF / xacro model files, the DH -> URDF builder and the registry (name | path -> Robot).
 
-    import robots
+    from kinserve import robots
     robots.available()                    # {name: description}
-    panda = robots.load("panda")          # a kinematics.Robot (fresh Data each call)
+    panda = robots.load("panda")          # a kinserve.kinematics.Robot (fresh Data each call)
     arm = robots.load("planar4r", l1=1.2) # parametric seed robot (xacro args)
     r = robots.load("my_arm.urdf.xacro", reach=0.8)
     dh = robots.from_dh([(0.5, 0, 0, 0), (0.5, 0, 0, 0)], "RR")

@@ -1,4 +1,4 @@
-"""Denavit-Hartenberg tables to URDF and to a :class:`kinematics.Robot`.
+"""Denavit-Hartenberg tables to URDF and to a :class:`kinserve.kinematics.Robot`.
 
 Convention: standard (distal) DH. Row ``i`` (1-based) is ``(a_i, alpha_i, d_i, theta_i)`` and
 
@@ -36,9 +36,9 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from kinematics.errors import InputError, ModelError
-from kinematics.robot import TASK_AXES, Robot
-from kinematics.validation import as_pose
+from kinserve.kinematics.errors import InputError, ModelError
+from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.validation import as_pose
 
 #: Default limits of a revolute joint when none are given (rad).
 DEFAULT_REVOLUTE_LIMITS = (-math.pi, math.pi)

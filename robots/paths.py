@@ -30,7 +30,7 @@ import site
 import sys
 from pathlib import Path
 
-from kinematics.errors import ModelError
+from kinserve.kinematics.errors import ModelError
 
 #: Environment variable that overrides the search for example-robot-data.
 ENV_VAR = "EXAMPLE_ROBOT_DATA_DIR"

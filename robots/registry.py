@@ -32,8 +32,8 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from kinematics.errors import ModelError, UnknownRobotError, suggest
-from kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.errors import ModelError, UnknownRobotError, suggest
+from kinserve.kinematics.robot import TASK_AXES, Robot
 
 from . import paths
 from .urdf_loader import is_xml_text, load_urdf

@@ -1,4 +1,4 @@
-"""Load a URDF (file path or XML string) into a :class:`kinematics.Robot`.
+"""Load a URDF (file path or XML string) into a :class:`kinserve.kinematics.Robot`.
 
 Pipeline
 --------
@@ -43,8 +43,8 @@ import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from kinematics.errors import InputError, ModelError, suggest
-from kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.errors import InputError, ModelError, suggest
+from kinserve.kinematics.robot import TASK_AXES, Robot
 
 from . import paths
 

@@ -26,8 +26,8 @@ from pathlib import Path
 import xacro
 from lxml import etree
 
-from kinematics.errors import ModelError, suggest
-from kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.errors import ModelError, suggest
+from kinserve.kinematics.robot import TASK_AXES, Robot
 
 from .urdf_loader import UrdfSource, load_urdf
 

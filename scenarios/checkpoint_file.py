@@ -40,9 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
-from kinematics import se3
-from kinematics.errors import InputError, ShapeError
-from kinematics.validation import as_pose, as_vector
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_pose, as_vector
 
 POSE_COLUMNS = ("x", "y", "z", "roll", "pitch", "yaw")
 

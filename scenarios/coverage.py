@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.colors import ListedColormap
 
-import viz
-from planners.mobile import boustrophedon_coverage, mall
+from kinserve import viz
+from kinserve.planners.mobile import boustrophedon_coverage, mall
 
 from .map_drawing import draw_keep_out, map_scene, resample_motion, viz_obstacles
 

@@ -46,7 +46,7 @@ def main(argv=None) -> int:
         src = chosen if chosen.exists() else pngs[0]
         shutil.copy(src, out / f"{name}.png")
         print(f"{name}: {src}")
-    from viz import screenshot
+    from kinserve.viz import screenshot
 
     for name, played_ms in SCREENSHOTS.items():
         png = screenshot(demo / name / "scene.html", out / f"{name}-scene.png", size=(900, 600),

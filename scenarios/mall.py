@@ -43,8 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-import viz
-from planners.mobile import DiffDrive, drive_through, mall, pairwise_costs, plan_waypoints, smooth_path
+from kinserve import viz
+from kinserve.planners.mobile import DiffDrive, drive_through, mall, pairwise_costs, plan_waypoints, smooth_path
 
 from .map_drawing import draw_keep_out, map_scene, resample_motion, viz_obstacles
 

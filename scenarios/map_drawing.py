@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-import viz
-from planners.mobile import Circle, Rectangle
+from kinserve import viz
+from kinserve.planners.mobile import Circle, Rectangle
 
 #: Metres per map unit in the 3-D scene.
 SCALE = 0.01

@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-import viz
-from planners.mobile import OmniBase
+from kinserve import viz
+from kinserve.planners.mobile import OmniBase
 
 #: Default geometry (the seed gives no numbers): 0.2 m centre-to-wheel, 0.05 m wheel radius.
 CENTER_DISTANCE = 0.20

@@ -76,12 +76,12 @@ import pinocchio as pin
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-import ik
-import robots
-import viz
-from kinematics import se3
-from kinematics.errors import InputError
-from planners import JointTrajectory, se3_polynomial_trajectory
+from kinserve import ik
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError
+from kinserve.planners import JointTrajectory, se3_polynomial_trajectory
 
 FLANGE = "panda_link8"
 

@@ -50,11 +50,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle as CirclePatch
 
-import ik
-import robots
-import viz
-from ik.chooser import joint_limit_distance, self_overlap
-from kinematics import se3
+from kinserve import ik
+from kinserve import robots
+from kinserve import viz
+from kinserve.ik.chooser import joint_limit_distance, self_overlap
+from kinserve.kinematics import se3
 
 #: Default task (x m, y m, theta_e rad).
 TARGET = (1.0, 0.8, math.pi / 2)

@@ -55,9 +55,9 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-import robots
-import viz
-from planners import follow_circle, resolved_rate
+from kinserve import robots
+from kinserve import viz
+from kinserve.planners import follow_circle, resolved_rate
 
 #: The document's table: (v [m/s], q_init [d1 m, theta2 deg], n steps, Delta s).
 RUNS = (

@@ -64,11 +64,11 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-import ik
-import robots
-import viz
-from ik.constraints import SphereSet
-from kinematics.errors import InputError
+from kinserve import ik
+from kinserve import robots
+from kinserve import viz
+from kinserve.ik.constraints import SphereSet
+from kinserve.kinematics.errors import InputError
 
 from .artefacts import write_json
 

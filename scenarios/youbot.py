@@ -55,11 +55,11 @@ import pinocchio as pin
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-import ik
-import robots
-import viz
-from kinematics import se3, singularity
-from robots.youbot import YOUBOT_DH
+from kinserve import ik
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import se3, singularity
+from kinserve.robots.youbot import YOUBOT_DH
 
 #: Configurations (rad) whose tool poses are the two IK targets.
 Q_FORWARD = (0.4, 0.5, -0.9, -0.6, 0.3)

@@ -43,10 +43,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-import planners
-import robots
-import viz
-from kinematics.errors import InputError
+from kinserve import planners
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics.errors import InputError
 
 from .checkpoint_file import load_checkpoints
 

@@ -28,9 +28,9 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 
-import ik
-import robots
-from kinematics.errors import FrameError, KinserveError, UnknownRobotError
+from kinserve import ik
+from kinserve import robots
+from kinserve.kinematics.errors import FrameError, KinserveError, UnknownRobotError
 
 from . import schemas as S
 from .robot_pool import RobotPool
@@ -199,7 +199,7 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
 
     @app.post("/plan/cartesian", response_model=S.CartesianPlanResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
     def plan_cartesian(req: S.CartesianPlanRequest):
-        from planners import cartesian_to_joint
+        from kinserve.planners import cartesian_to_joint
 
         r = robot_of(req)
         with field("q0"):

@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 
-from kinematics.errors import KinserveError, ShapeError
+from kinserve.kinematics.errors import KinserveError, ShapeError
 
 EXIT_USAGE = 2
 
@@ -52,7 +52,7 @@ def parse_params(items: list[str] | None) -> dict:
 
 
 def load_robot(args):
-    import robots
+    from kinserve import robots
 
     return robots.load(args.robot, geometry=getattr(args, "geometry", False), **parse_params(getattr(args, "param", None)))
 
@@ -81,7 +81,7 @@ def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
 
 # ---------------------------------------------------------------- commands
 def cmd_models(args) -> int:
-    import robots
+    from kinserve import robots
 
     models = robots.available()
     width = max(map(len, models))
@@ -150,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Modules defining further sub-commands, each with ``register(subparsers)``.
-_EXTRA_COMMANDS = ("service.cli_ik", "service.cli_demo", "service.cli_view", "service.cli_serve", "service.cli_reach")
+_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view", "kinserve.service.cli_serve", "kinserve.service.cli_reach")
 
 
 def main(argv: list[str] | None = None) -> int:

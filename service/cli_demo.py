@@ -14,7 +14,7 @@ def _summary(result: dict) -> str:
 
 
 def cmd_demo(args) -> int:
-    import scenarios
+    from kinserve import scenarios
 
     names = list(scenarios.SCENARIOS) if args.name == "all" else [args.name]
     out = Path(args.out)
@@ -32,7 +32,7 @@ def cmd_demo(args) -> int:
         if args.open and (folder / "scene.html").exists():
             webbrowser.open((folder / "scene.html").resolve().as_uri())
     if args.json:
-        from scenarios.artefacts import plain
+        from kinserve.scenarios.artefacts import plain
 
         print(json.dumps(plain(results), indent=2))
     else:
@@ -41,7 +41,7 @@ def cmd_demo(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    import scenarios
+    from kinserve import scenarios
 
     p = sub.add_parser("demo", help="run a seed scenario (or all) and write its results, plots and scenes")
     p.add_argument("name", choices=[*scenarios.SCENARIOS, "all"], metavar="NAME",

@@ -11,13 +11,13 @@ import argparse
 
 import numpy as np
 
-from kinematics import se3
-from kinematics.errors import ShapeError
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import ShapeError
 
 
 def parse_target(args) -> tuple[np.ndarray, tuple]:
     """(4x4 pose, extra relaxed components) from --target or --xyz/--rpy."""
-    from service.cli import parse_vector
+    from kinserve.service.cli import parse_vector
 
     if args.target:
         if args.xyz or args.rpy:
@@ -40,8 +40,8 @@ def parse_target(args) -> tuple[np.ndarray, tuple]:
 
 
 def cmd_ik(args) -> int:
-    import ik
-    from service.cli import emit, fmt_matrix, load_robot, parse_vector
+    from kinserve import ik
+    from kinserve.service.cli import emit, fmt_matrix, load_robot, parse_vector
 
     robot = load_robot(args)
     T, relax_extra = parse_target(args)
@@ -75,7 +75,7 @@ def cmd_ik(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from service.cli import add_robot_args
+    from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("ik", help="inverse kinematics: joint values placing a frame at a pose")
     add_robot_args(p, q=False)

@@ -9,10 +9,10 @@ import numpy as np
 
 
 def cmd_reach(args) -> int:
-    from ik.reachability import reachability_map
-    from service.cli import load_robot
-    from viz import save_png
-    from viz.reachability_plot import reachability_figure
+    from kinserve.ik.reachability import reachability_map
+    from kinserve.service.cli import load_robot
+    from kinserve.viz import save_png
+    from kinserve.viz.reachability_plot import reachability_figure
 
     robot = load_robot(args)
     orientation = {"free": "free", "random": "random", "down": np.diag([1.0, -1.0, -1.0])}[args.orientation]
@@ -30,7 +30,7 @@ def cmd_reach(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from service.cli import add_robot_args
+    from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("reach", help="reachability map: share of sampled workspace poses that IK reaches")
     add_robot_args(p, q=False)

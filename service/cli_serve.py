@@ -32,11 +32,11 @@ def cmd_serve(args) -> int:
 
         # worker processes import service.app:app; they read the time cap from the environment
         os.environ["KINSERVE_MAX_TIME_CAP"] = str(args.max_time_cap)
-        config = uvicorn.Config("service.app:app", host=args.host, port=args.port, workers=args.workers,
+        config = uvicorn.Config("kinserve.service.app:app", host=args.host, port=args.port, workers=args.workers,
                                 log_level=args.log_level)
         Multiprocess(config, sockets=[tcp_listener(config)]).run()
     else:
-        from service.app import create_app
+        from kinserve.service.app import create_app
 
         uvicorn.run(create_app(max_time_cap=args.max_time_cap), host=args.host, port=args.port, log_level=args.log_level)
     return 0

@@ -11,10 +11,10 @@ import argparse
 
 
 def cmd_view(args) -> int:
-    import robots
-    from service.cli import parse_params, robot_q
-    from viz import Scene, export_html
-    from viz.live import serve
+    from kinserve import robots
+    from kinserve.service.cli import parse_params, robot_q
+    from kinserve.viz import Scene, export_html
+    from kinserve.viz.live import serve
 
     robot = robots.load(args.robot, geometry=True, **parse_params(args.param))
     q = robot_q(robot, args)
@@ -28,7 +28,7 @@ def cmd_view(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    from service.cli import add_robot_args
+    from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("view", help="show a robot in the browser (live meshcat viewer, or --html for a static page)")
     add_robot_args(p)

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import threading
 
-import robots
-from kinematics import Robot
-from kinematics.errors import UnknownRobotError, suggest
+from kinserve import robots
+from kinserve.kinematics import Robot
+from kinserve.kinematics.errors import UnknownRobotError, suggest
 
 
 class RobotPool:

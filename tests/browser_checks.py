@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from PIL import Image
 
-from viz.scene import CAMERA_FOV_DEG
+from kinserve.viz.scene import CAMERA_FOV_DEG
 
 
 def project(points, eye, target, size) -> np.ndarray:

@@ -8,8 +8,6 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -36,7 +34,7 @@ def panda_model():
 
 @pytest.fixture
 def panda(panda_model):
-    from kinematics import Robot
+    from kinserve.kinematics import Robot
 
     return Robot(panda_model, tip="panda_link8", name="panda")
 

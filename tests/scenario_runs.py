@@ -2,7 +2,7 @@
 
 import json
 
-import scenarios
+from kinserve import scenarios
 
 
 def run_scenario(tmp_path_factory, name: str):

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-import robots
+from kinserve import robots
 
 N = 150
 ATOL = 1e-10

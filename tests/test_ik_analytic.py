@@ -1,4 +1,4 @@
-"""ik.analytic: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA; 2R/3R."""
+"""kinserve.ik.analytic: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA; 2R/3R."""
 
 import math
 
@@ -6,11 +6,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import ik
-import robots
-from ik.analytic import PlanarChain, YouBotArm, closed_form_solver, two_link, wrap_into
-from kinematics import Robot, se3
-from kinematics.errors import InputError
+from kinserve import ik
+from kinserve import robots
+from kinserve.ik.analytic import PlanarChain, YouBotArm, closed_form_solver, two_link, wrap_into
+from kinserve.kinematics import Robot, se3
+from kinserve.kinematics.errors import InputError
 
 
 def planar_robot(lengths, limit=math.pi, tool_offset=0.0):

@@ -1,12 +1,12 @@
-"""ik.batch.solve_many: same answers as one-by-one solving, in order, on 2 processes; validation up front."""
+"""kinserve.ik.batch.solve_many: same answers as one-by-one solving, in order, on 2 processes; validation up front."""
 
 import numpy as np
 import pytest
 
-import ik
-import robots
-from kinematics import se3
-from kinematics.errors import InputError, NonFiniteError
+from kinserve import ik
+from kinserve import robots
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError, NonFiniteError
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,11 @@
-"""ik.centring: weights, null-space basis, strict priority of the secondary step."""
+"""kinserve.ik.centring: weights, null-space basis, strict priority of the secondary step."""
 
 import numpy as np
 import pytest
 
-import robots
-from ik.centring import centring_objective, centring_weights, null_space_basis, null_space_correction
-from kinematics.errors import InputError, NonFiniteError
+from kinserve import robots
+from kinserve.ik.centring import centring_objective, centring_weights, null_space_basis, null_space_correction
+from kinserve.kinematics.errors import InputError, NonFiniteError
 
 
 @pytest.fixture(scope="module")

@@ -1,14 +1,14 @@
-"""ik.chooser: named criteria pick the expected branch; the self-overlap filter detects crossing links."""
+"""kinserve.ik.chooser: named criteria pick the expected branch; the self-overlap filter detects crossing links."""
 
 import math
 
 import numpy as np
 import pytest
 
-import ik
-import robots
-from ik.chooser import choose, joint_limit_distance, scores, self_overlap
-from kinematics.errors import InputError
+from kinserve import ik
+from kinserve import robots
+from kinserve.ik.chooser import choose, joint_limit_distance, scores, self_overlap
+from kinserve.kinematics.errors import InputError
 
 
 @pytest.fixture(scope="module")

@@ -1,11 +1,11 @@
-"""ik.classical on S9 (seed 004): Jacobian inverse vs transpose vs DLS, with their convergence histories."""
+"""kinserve.ik.classical on S9 (seed 004): Jacobian inverse vs transpose vs DLS, with their convergence histories."""
 
 import numpy as np
 import pytest
 
-import ik
-import robots
-from kinematics.errors import InputError
+from kinserve import ik
+from kinserve import robots
+from kinserve.kinematics.errors import InputError
 
 #: S9 task (x, y, z, phi): the SCARA's roll / pitch rows are identically zero, so they are relaxed
 RELAX = ("roll", "pitch")

@@ -1,12 +1,12 @@
-"""ik.constraints: sphere validation, segment geometry, clearance gradients against finite differences."""
+"""kinserve.ik.constraints: sphere validation, segment geometry, clearance gradients against finite differences."""
 
 import numpy as np
 import pytest
 
-import ik
-import robots
-from ik.constraints import SphereSet, as_sphere, joint_step_bounds, robot_segments
-from kinematics.errors import FrameError, InputError, NonFiniteError, ShapeError
+from kinserve import ik
+from kinserve import robots
+from kinserve.ik.constraints import SphereSet, as_sphere, joint_step_bounds, robot_segments
+from kinserve.kinematics.errors import FrameError, InputError, NonFiniteError, ShapeError
 
 
 def test_sphere_validation():

@@ -1,12 +1,12 @@
-"""ik.lm_solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic."""
+"""kinserve.ik.lm_solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic."""
 
 import numpy as np
 import pytest
 
-import robots
-from ik.lm_solver import _bounded_step, solve_lm
-from ik.targets import Target
-from kinematics import se3
+from kinserve import robots
+from kinserve.ik.lm_solver import _bounded_step, solve_lm
+from kinserve.ik.targets import Target
+from kinserve.kinematics import se3
 
 ROBOTS = {"panda": 30, "ur5": 25, "youbot": 20, "scara": 20, "planar4r": 20}
 

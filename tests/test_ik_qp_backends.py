@@ -1,11 +1,11 @@
-"""ik.qp_backends: every backend solves the same QPs as a reference solver; workspaces are reused."""
+"""kinserve.ik.qp_backends: every backend solves the same QPs as a reference solver; workspaces are reused."""
 
 import numpy as np
 import pytest
 import qpsolvers
 
-from ik.qp_backends import available_backends, make_backend
-from kinematics.errors import InputError
+from kinserve.ik.qp_backends import available_backends, make_backend
+from kinserve.kinematics.errors import InputError
 
 
 def _problems(rng, n, m, k=6):

@@ -1,14 +1,14 @@
-"""ik.qp_solver: convergence on random targets for every backend; S9 relaxed tasks with centring and the sphere."""
+"""kinserve.ik.qp_solver: convergence on random targets for every backend; S9 relaxed tasks with centring and the sphere."""
 
 import numpy as np
 import pytest
 
-import ik
-import robots
-from ik.constraints import SphereSet
-from ik.qp_solver import solve_qp
-from ik.targets import Target
-from kinematics import se3
+from kinserve import ik
+from kinserve import robots
+from kinserve.ik.constraints import SphereSet
+from kinserve.ik.qp_solver import solve_qp
+from kinserve.ik.targets import Target
+from kinserve.kinematics import se3
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
 
@@ -135,7 +135,7 @@ def test_shortcut_is_exact():
 def test_box_active_set_matches_a_qp_solver():
     import qpsolvers
 
-    from ik.qp_solver import box_active_set
+    from kinserve.ik.qp_solver import box_active_set
 
     rng = np.random.default_rng(0)
     exact = 0

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-import robots
-from ik import solve_many
+from kinserve import robots
+from kinserve.ik import solve_many
 
 ray = pytest.importorskip("ray")
 

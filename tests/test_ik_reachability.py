@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-import robots
-from ik.reachability import reachability_map, workspace_box
-from kinematics import InputError, RotationError
+from kinserve import robots
+from kinserve.ik.reachability import reachability_map, workspace_box
+from kinserve.kinematics import InputError, RotationError
 
 
 def test_planar_arm_reachability_matches_the_annulus():

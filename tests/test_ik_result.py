@@ -1,11 +1,11 @@
-"""ik.result: History bookkeeping, lazy task errors, pickling."""
+"""kinserve.ik.result: History bookkeeping, lazy task errors, pickling."""
 
 import pickle
 
 import numpy as np
 
-import ik
-import robots
+from kinserve import ik
+from kinserve import robots
 
 
 def test_history_lazy_task_error_and_pickle():

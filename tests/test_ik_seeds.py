@@ -1,11 +1,11 @@
-"""ik.seeds: the table ranks samples by the stated pose distance; start sequences are deterministic."""
+"""kinserve.ik.seeds: the table ranks samples by the stated pose distance; start sequences are deterministic."""
 
 import itertools
 
 import numpy as np
 
-import robots
-from ik.seeds import SeedTable, seed_table, start_sequence
+from kinserve import robots
+from kinserve.ik.seeds import SeedTable, seed_table, start_sequence
 
 
 def test_ranking_matches_brute_force_pose_distance():

@@ -1,12 +1,12 @@
-"""ik.solve: every bad input of the issue raises from kinematics.errors; method "auto" dispatch; Result fields."""
+"""kinserve.ik.solve: every bad input of the issue raises from kinematics.errors; method "auto" dispatch; Result fields."""
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-import ik
-import robots
-from kinematics.errors import FrameError, InputError, KinserveError, NonFiniteError, RotationError, ShapeError
+from kinserve import ik
+from kinserve import robots
+from kinserve.kinematics.errors import FrameError, InputError, KinserveError, NonFiniteError, RotationError, ShapeError
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
 
@@ -79,7 +79,7 @@ def test_sphere_containing_the_start_configuration(panda, T):
 
 
 def test_robot_argument_checked(T):
-    with pytest.raises(InputError, match="kinematics.Robot"):
+    with pytest.raises(InputError, match="kinserve.kinematics.Robot"):
         ik.solve("panda", T)
 
 
@@ -121,7 +121,7 @@ def test_tolerances_are_honoured(panda, T):
 
 @pytest.mark.parametrize("name", ["panda", "ur5", "youbot", "scara", "planar4r"])
 def test_auto_on_random_reachable_targets(name):
-    from kinematics import se3
+    from kinserve.kinematics import se3
 
     robot = robots.load(name, geometry=False)
     rng = np.random.default_rng(31)

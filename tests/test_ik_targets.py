@@ -1,13 +1,13 @@
-"""ik.targets: relax names, task error, task Jacobian rows (finite differences), world vs target axes."""
+"""kinserve.ik.targets: relax names, task error, task Jacobian rows (finite differences), world vs target axes."""
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
-import robots
-from ik.targets import Target, parse_relax
-from kinematics import se3
-from kinematics.errors import FrameError, InputError, NonFiniteError, RotationError, ShapeError
+from kinserve import robots
+from kinserve.ik.targets import Target, parse_relax
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import FrameError, InputError, NonFiniteError, RotationError, ShapeError
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import zlib
 import numpy as np
 import pytest
 
-import robots
+from kinserve import robots
 
 H = 1e-6
 TOL = 2e-7  # central differences: O(h^2) truncation + O(eps/h) rounding

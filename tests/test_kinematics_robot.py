@@ -4,8 +4,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinematics import ModelError, Robot, se3
-from kinematics.errors import SingularityError
+from kinserve.kinematics import ModelError, Robot, se3
+from kinserve.kinematics.errors import SingularityError
 
 # A chain exercising every joint kind batch FK supports: RX, RY, RZ, unaligned revolute,
 # PX and unaligned prismatic, with non-trivial fixed placements and a tool frame behind a fixed joint.
@@ -75,7 +75,7 @@ def test_fk_batch_matches_fk(robot_fixture, request, rng):
 
 
 def test_fk_batch_validates(panda):
-    from kinematics import NonFiniteError, ShapeError
+    from kinserve.kinematics import NonFiniteError, ShapeError
 
     with pytest.raises(ShapeError, match=r"Q must have shape \(N, 7\)"):
         panda.fk_batch(np.zeros((3, 6)))

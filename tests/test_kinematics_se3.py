@@ -3,7 +3,7 @@
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from kinematics import se3
+from kinserve.kinematics import se3
 
 
 def random_pose(rng):

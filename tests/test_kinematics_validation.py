@@ -4,7 +4,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinematics import (
+from kinserve.kinematics import (
     FrameError,
     InputError,
     JointLimitError,

@@ -6,11 +6,11 @@ import networkx as nx
 import numpy as np
 import pytest
 
-from planners.errors import BlockedPointError, NoPathError
-from planners.mobile import mall
-from planners.mobile.astar import MOVES, astar
-from planners.mobile.maps import OccupancyGrid
-from planners.mobile.shapes import Circle, Rectangle
+from kinserve.planners.errors import BlockedPointError, NoPathError
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.astar import MOVES, astar
+from kinserve.planners.mobile.maps import OccupancyGrid
+from kinserve.planners.mobile.shapes import Circle, Rectangle
 
 from lattice_graph import sparse_lattice_graph
 

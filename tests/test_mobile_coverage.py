@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.mobile import mall
-from planners.mobile.coverage import boustrophedon_coverage, coverable_pixels, decompose, lane_intervals, swept_coverage
-from planners.mobile.maps import OccupancyGrid
-from planners.mobile.shapes import Rectangle
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.coverage import boustrophedon_coverage, coverable_pixels, decompose, lane_intervals, swept_coverage
+from kinserve.planners.mobile.maps import OccupancyGrid
+from kinserve.planners.mobile.shapes import Rectangle
 
 
 @pytest.fixture(scope="module")

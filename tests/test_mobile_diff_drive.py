@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.mobile.diff_drive import DiffDrive
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.mobile.diff_drive import DiffDrive
 
 
 def test_round_trip(rng):

@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from planners.mobile import mall
-from planners.mobile.shapes import Circle, Rectangle
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.shapes import Circle, Rectangle
 
 
 def test_s8_padding_is_s7_plus_half_footprint():

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from kinematics.errors import InputError, ShapeError
-from planners.mobile.maps import OccupancyGrid
-from planners.mobile.shapes import Circle, Polygon, Rectangle
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.planners.mobile.maps import OccupancyGrid
+from kinserve.planners.mobile.shapes import Circle, Polygon, Rectangle
 
 SHAPES = (Rectangle(10, 10, 20, 15, "box"), Circle(30, 30, 5, "disc"), Polygon([(40, 5), (48, 5), (44, 14)], name="tri"))
 

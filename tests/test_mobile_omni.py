@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.mobile.omni import OmniBase
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.mobile.omni import OmniBase
 
 BASE = OmniBase(wheel_radius=0.05, center_distance=0.2)
 

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.mobile import mall
-from planners.mobile.path_timing import drive_through, time_scale_path, turn_in_place
-from planners.mobile.sequencing import plan_waypoints
-from planners.mobile.smoothing import SmoothPath, polyline_path, smooth_path
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.path_timing import drive_through, time_scale_path, turn_in_place
+from kinserve.planners.mobile.sequencing import plan_waypoints
+from kinserve.planners.mobile.smoothing import SmoothPath, polyline_path, smooth_path
 
 LIMITS = dict(v_max=20.0, a_max=10.0, omega_max=0.5, alpha_max=1.0, dt=0.01)
 

@@ -5,13 +5,13 @@ import itertools
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.errors import NoPathError
-from planners.mobile import mall
-from planners.mobile.astar import astar
-from planners.mobile.maps import OccupancyGrid
-from planners.mobile.sequencing import pairwise_costs, plan_waypoints
-from planners.mobile.shapes import Rectangle
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.errors import NoPathError
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.astar import astar
+from kinserve.planners.mobile.maps import OccupancyGrid
+from kinserve.planners.mobile.sequencing import pairwise_costs, plan_waypoints
+from kinserve.planners.mobile.shapes import Rectangle
 
 NAMES = [n for n, _ in mall.S7_WAYPOINTS]
 

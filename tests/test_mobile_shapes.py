@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.mobile.shapes import Circle, Polygon, Rectangle
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.mobile.shapes import Circle, Polygon, Rectangle
 
 
 def test_rectangle_signed_distance():

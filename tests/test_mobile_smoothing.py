@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.mobile import mall
-from planners.mobile.astar import astar
-from planners.mobile.maps import OccupancyGrid
-from planners.mobile.sequencing import plan_waypoints
-from planners.mobile.shapes import Circle, Rectangle
-from planners.mobile.smoothing import polyline_path, shortcut, smooth_path
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.astar import astar
+from kinserve.planners.mobile.maps import OccupancyGrid
+from kinserve.planners.mobile.sequencing import plan_waypoints
+from kinserve.planners.mobile.shapes import Circle, Rectangle
+from kinserve.planners.mobile.smoothing import polyline_path, shortcut, smooth_path
 
 
 @pytest.fixture(scope="module")

@@ -8,8 +8,8 @@ interpolation at the nodes) and ``|omega| = |kappa| v`` exceeded ``omega_max``.
 
 import numpy as np
 
-from planners.mobile.path_timing import time_scale_path
-from planners.mobile.smoothing import SmoothPath
+from kinserve.planners.mobile.path_timing import time_scale_path
+from kinserve.planners.mobile.smoothing import SmoothPath
 
 
 def _straight_path_with_kappa_spike(s_peak: float, kappa_peak: float) -> SmoothPath:

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-import robots
-from kinematics import InputError, RotationError, ShapeError, se3
-from planners import cartesian_to_joint
+from kinserve import robots
+from kinserve.kinematics import InputError, RotationError, ShapeError, se3
+from kinserve.planners import cartesian_to_joint
 
 
 @pytest.fixture(scope="module")

@@ -5,9 +5,9 @@ import itertools
 import numpy as np
 import pytest
 
-from kinematics import se3
-from kinematics.errors import InputError, ShapeError
-from planners.checkpoint_order import euclidean_cost_matrix, path_cost, shortest_order
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.planners.checkpoint_order import euclidean_cost_matrix, path_cost, shortest_order
 
 
 def _brute(C, start=0, end=None, tour=False):

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError, ShapeError
-from planners.joint_trajectory import JointTrajectory, finite_difference_velocities
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.planners.joint_trajectory import JointTrajectory, finite_difference_velocities
 
 NAMES = ["j1", "j2", "j3"]
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners import polynomials as P
+from kinserve.kinematics.errors import InputError
+from kinserve.planners import polynomials as P
 
 
 @pytest.mark.parametrize("seed", range(5))

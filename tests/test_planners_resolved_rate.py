@@ -6,9 +6,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinematics import Robot
-from kinematics.errors import InputError, ShapeError
-from planners.resolved_rate import damped_pseudo_inverse, follow_circle, resolved_rate, track_reference
+from kinserve.kinematics import Robot
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.planners.resolved_rate import damped_pseudo_inverse, follow_circle, resolved_rate, track_reference
 
 # (v, q_init = [d1, theta2 in degrees], n, dt) - SCENARIOS.md S5
 S5_RUNS = [
@@ -33,7 +33,7 @@ def _pr_from_pinocchio(d2=1.0):
 @pytest.fixture(scope="module")
 def pr():
     try:
-        import robots
+        from kinserve import robots
 
         return robots.load("pr")
     except Exception:  # robots/ not available: the same mechanism built directly

@@ -4,9 +4,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinematics import se3
-from kinematics.errors import InputError, RotationError
-from planners.se3_interpolation import (
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError, RotationError
+from kinserve.planners.se3_interpolation import (
     decoupled_interpolation,
     intermediate_poses,
     interpolate_checkpoints,
@@ -14,7 +14,7 @@ from planners.se3_interpolation import (
     screw_interpolation,
     se3_polynomial_trajectory,
 )
-from planners.time_scaling import quintic_time_scaling
+from kinserve.planners.time_scaling import quintic_time_scaling
 
 
 def _random_pose(rng):

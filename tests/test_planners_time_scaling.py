@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError
-from planners.time_scaling import (
+from kinserve.kinematics.errors import InputError
+from kinserve.planners.time_scaling import (
     cubic_time_scaling,
     minimum_time,
     quintic_time_scaling,

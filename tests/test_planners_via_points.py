@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from kinematics.errors import InputError, ShapeError
-from planners.joint_trajectory import JointTrajectory
-from planners.via_points import via_point_trajectory
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.planners.joint_trajectory import JointTrajectory
+from kinserve.planners.via_points import via_point_trajectory
 
 VIAS = np.array([[0.0, 0.0, 1.0], [1.0, 2.0, 0.5], [3.0, 1.0, 0.5], [2.0, -1.0, 2.0], [2.5, 0.0, 0.0]])
 TIMES = np.array([0.0, 1.0, 2.5, 3.0, 4.2])

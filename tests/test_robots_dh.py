@@ -1,13 +1,13 @@
-"""robots.dh: DH table -> URDF -> Robot, checked against a DH product written independently here."""
+"""kinserve.robots.dh: DH table -> URDF -> Robot, checked against a DH product written independently here."""
 
 import math
 
 import numpy as np
 import pytest
 
-from kinematics.errors import ModelError
-from robots import dh_to_urdf, from_dh, load_urdf
-from robots.dh import check_dh_table, dh_fk
+from kinserve.kinematics.errors import ModelError
+from kinserve.robots import dh_to_urdf, from_dh, load_urdf
+from kinserve.robots.dh import check_dh_table, dh_fk
 
 
 def Rz(t):

@@ -1,9 +1,9 @@
-"""robots.paths: finding example-robot-data and the package dir of its mesh URIs."""
+"""kinserve.robots.paths: finding example-robot-data and the package dir of its mesh URIs."""
 
 import pytest
 
-from kinematics.errors import ModelError
-from robots import paths
+from kinserve.kinematics.errors import ModelError
+from kinserve.robots import paths
 
 
 @pytest.fixture(autouse=True)

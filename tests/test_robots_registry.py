@@ -1,4 +1,4 @@
-"""robots.registry: names, paths and URDF strings in; Robots with the right joints and tips out."""
+"""kinserve.robots.registry: names, paths and URDF strings in; Robots with the right joints and tips out."""
 
 import math
 from pathlib import Path
@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import robots
-from kinematics import Robot
-from kinematics.errors import UnknownRobotError
-from robots.paths import erd_file, models_dir
+from kinserve import robots
+from kinserve.kinematics import Robot
+from kinserve.kinematics.errors import UnknownRobotError
+from kinserve.robots.paths import erd_file, models_dir
 
 #: name -> (nq, tip) expected for every built-in robot (from the model files, not from the registry).
 EXPECTED = {

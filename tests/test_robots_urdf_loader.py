@@ -1,4 +1,4 @@
-"""robots.urdf_loader: continuous joints, joint locking, package dirs, the source round trip."""
+"""kinserve.robots.urdf_loader: continuous joints, joint locking, package dirs, the source round trip."""
 
 import math
 
@@ -6,9 +6,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinematics.errors import ModelError
-from robots import load_urdf
-from robots.paths import erd_file, example_robot_data_package_dir
+from kinserve.kinematics.errors import ModelError
+from kinserve.robots import load_urdf
+from kinserve.robots.paths import erd_file, example_robot_data_package_dir
 
 PANDA = "panda_description/urdf/panda.urdf"
 KINOVA = "kinova_description/robots/kinova.urdf"

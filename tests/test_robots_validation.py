@@ -4,10 +4,10 @@ import re
 
 import pytest
 
-import robots
-from kinematics.errors import FrameError, ModelError
-from robots import load_urdf, load_xacro, process_xacro
-from robots.paths import models_dir
+from kinserve import robots
+from kinserve.kinematics.errors import FrameError, ModelError
+from kinserve.robots import load_urdf, load_xacro, process_xacro
+from kinserve.robots.paths import models_dir
 
 GOOD = """<?xml version="1.0"?>
 <robot name="two_link">

@@ -1,9 +1,9 @@
-"""robots.xacro_loader: declared args, substitution, and loading a parametric model."""
+"""kinserve.robots.xacro_loader: declared args, substitution, and loading a parametric model."""
 
 import numpy as np
 
-from robots import declared_args, load_xacro, process_xacro
-from robots.paths import models_dir
+from kinserve.robots import declared_args, load_xacro, process_xacro
+from kinserve.robots.paths import models_dir
 
 SCARA = models_dir() / "scara.urdf.xacro"
 

@@ -1,12 +1,12 @@
-"""robots.youbot: the shipped youbot.urdf is exactly what the DH builder generates."""
+"""kinserve.robots.youbot: the shipped youbot.urdf is exactly what the DH builder generates."""
 
 import math
 
 import numpy as np
 
-from robots import dh_fk, load_urdf
-from robots.paths import models_dir
-from robots.youbot import YOUBOT_DH, YOUBOT_LOWER, YOUBOT_UPPER, youbot_urdf
+from kinserve.robots import dh_fk, load_urdf
+from kinserve.robots.paths import models_dir
+from kinserve.robots.youbot import YOUBOT_DH, YOUBOT_LOWER, YOUBOT_UPPER, youbot_urdf
 
 
 def test_shipped_file_equals_fresh_generation():

@@ -24,12 +24,12 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-import robots
-import scenarios
+from kinserve import robots
+from kinserve import scenarios
 from scenario_runs import run_scenario
-from kinematics.errors import InputError
-from planners import JointTrajectory
-from scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
+from kinserve.kinematics.errors import InputError
+from kinserve.planners import JointTrajectory
+from kinserve.scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
 
 ROOT = Path(__file__).resolve().parents[1]
 LENGTHS = np.array([1.0, 0.8, 0.6, 0.4])
@@ -54,7 +54,7 @@ def assert_pngs(folder: Path, names):
 
 
 def assert_scene(folder: Path, animated: bool):
-    import viz
+    from kinserve import viz
 
     p = folder / "scene.html"
     assert p.is_file() and p.stat().st_size > 100_000
@@ -541,7 +541,7 @@ def test_scara_artefacts(scara):
 
 def test_cli_demo_scara_end_to_end(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "service.cli", "demo", "scara", "--out", str(tmp_path)], cwd=ROOT,
+    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "scara", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "[scara]" in proc.stdout

@@ -19,10 +19,10 @@ import re
 import numpy as np
 import pytest
 
-import scenarios
-import viz
-from planners import JointTrajectory
-from viz.export import pack_commands
+from kinserve import scenarios
+from kinserve import viz
+from kinserve.planners import JointTrajectory
+from kinserve.viz.export import pack_commands
 
 from browser_checks import assert_panda_drawn, robot_mask
 from browser_checks import project as camera_project
@@ -88,7 +88,7 @@ def test_pick_place_page_loads_without_errors(pick_place):
 
 
 def test_pick_place_screenshot_shows_the_robot(pick_place):
-    import robots
+    from kinserve import robots
 
     out, full, bare, r, q0 = pick_place
     image, robot = robot_mask(viz, full, bare, out, SIZE)

@@ -25,7 +25,7 @@ from scipy import ndimage, sparse
 from scipy.linalg import expm
 from scipy.sparse.csgraph import dijkstra
 
-import scenarios
+from kinserve import scenarios
 from scenario_runs import run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,7 +84,7 @@ def assert_artefacts(folder: Path, pngs, html: bool):
         assert p.stat().st_size > 10_000, f"{name} is only {p.stat().st_size} bytes"
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     if html:
-        import viz
+        from kinserve import viz
 
         cmds = viz.read_html_commands(folder / "scene.html")
         kinds = {c["type"] for c in cmds}
@@ -324,7 +324,7 @@ def test_coverage_artefacts(coverage):
 # --------------------------------------------------------------------------- CLI
 def test_cli_demo_mall_end_to_end(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "service.cli", "demo", "mall", "--out", str(tmp_path)], cwd=ROOT,
+    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "mall", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     r = load(tmp_path / "mall")

@@ -17,13 +17,13 @@ import pytest
 from PIL import Image
 from scipy.linalg import expm
 
-import robots
-import scenarios
-import viz
-from planners import JointTrajectory
-from scenarios import pick_place
-from service.cli_demo import _summary
-from viz.animation import pose_at
+from kinserve import robots
+from kinserve import scenarios
+from kinserve import viz
+from kinserve.planners import JointTrajectory
+from kinserve.scenarios import pick_place
+from kinserve.service.cli_demo import _summary
+from kinserve.viz.animation import pose_at
 
 HOME = np.array([[1, 0, 0, 0.088], [0, -1, 0, 0], [0, 0, -1, 0.926], [0, 0, 0, 1.0]])
 GRASP = np.array([[1, 0, 0, 0.65], [0, -1, 0, 0.095], [0, 0, -1, 0.05], [0, 0, 0, 1.0]])

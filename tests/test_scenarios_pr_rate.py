@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import robots
-import scenarios
+from kinserve import robots
+from kinserve import scenarios
 
 ROOT = Path(__file__).resolve().parents[1]
 D2 = 1.0
@@ -188,7 +188,7 @@ def test_pngs_are_real_plots(s5):
 
 def test_cli_demo_pr_rate_end_to_end(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "service.cli", "demo", "pr-rate", "--out", str(tmp_path)], cwd=ROOT,
+    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "pr-rate", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "[pr-rate]" in proc.stdout and "singular_start_event_step=0" in proc.stdout

@@ -11,7 +11,7 @@ import httpx
 import numpy as np
 import pytest
 
-import robots
+from kinserve import robots
 from service_server import ROOT, Server
 
 

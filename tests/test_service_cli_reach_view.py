@@ -15,7 +15,7 @@ ENV = dict(os.environ, PYTHONPATH=ROOT, MPLBACKEND="Agg")
 
 def test_reach_writes_npz_and_png(tmp_path):
     stem = tmp_path / "pr_reach"
-    out = subprocess.run([sys.executable, "-m", "service.cli", "reach", "pr", "--samples", "80", "--resolution", "4",
+    out = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "reach", "pr", "--samples", "80", "--resolution", "4",
                           "--backend", "serial", "--out", str(stem)], cwd=ROOT, env=ENV, capture_output=True, text=True,
                          timeout=300)
     assert out.returncode == 0, out.stderr
@@ -27,7 +27,7 @@ def test_reach_writes_npz_and_png(tmp_path):
 
 
 def test_view_serves_the_robot_until_interrupted(tmp_path):
-    proc = subprocess.Popen([sys.executable, "-u", "-m", "service.cli", "view", "scara", "--q", "0.3", "0.5", "0.4", "0.1"],
+    proc = subprocess.Popen([sys.executable, "-u", "-m", "kinserve.service.cli", "view", "scara", "--q", "0.3", "0.5", "0.4", "0.1"],
                             cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         url = None
@@ -48,7 +48,7 @@ def test_view_serves_the_robot_until_interrupted(tmp_path):
 
 
 def test_view_html_writes_a_static_page(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "service.cli", "view", "planar4r", "--html", str(tmp_path / "p.html")],
+    out = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "view", "planar4r", "--html", str(tmp_path / "p.html")],
                          cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     text = (tmp_path / "p.html").read_text()

@@ -7,13 +7,13 @@ import httpx
 import numpy as np
 import uvicorn
 
-import robots
-from service.cli_serve import tcp_listener
+from kinserve import robots
+from kinserve.service.cli_serve import tcp_listener
 from service_server import Server
 
 
 def test_listener_reports_tcp_so_accepted_connections_get_nodelay():
-    config = uvicorn.Config("service.app:app", host="127.0.0.1", port=0, log_level="critical")
+    config = uvicorn.Config("kinserve.service.app:app", host="127.0.0.1", port=0, log_level="critical")
     assert config.bind_socket().proto == 0  # the uvicorn behaviour being worked around
     sock = tcp_listener(config)
     assert sock.proto == socket.IPPROTO_TCP

@@ -1,12 +1,12 @@
-"""viz.Animation: keyframes equal FK at the trajectory's q; tool attachment; planar bases."""
+"""kinserve.viz.Animation: keyframes equal FK at the trajectory's q; tool attachment; planar bases."""
 
 import numpy as np
 import pytest
 
-import robots
-import viz
-from kinematics import InputError, se3
-from viz.animation import pose_at
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import InputError, se3
+from kinserve.viz.animation import pose_at
 
 
 @pytest.fixture(scope="module")

@@ -10,9 +10,9 @@ meshes, a sphere, a path, an animation) and the same scene without the robot.
 import numpy as np
 import pytest
 
-import robots
-import viz
-from kinematics import se3
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import se3
 
 from browser_checks import assert_panda_drawn, robot_mask
 from browser_checks import project as camera_project

@@ -1,14 +1,14 @@
-"""viz.export_html: one self-contained, offline HTML file holding meshcat's viewer and the scene."""
+"""kinserve.viz.export_html: one self-contained, offline HTML file holding meshcat's viewer and the scene."""
 
 import re
 
 import numpy as np
 import pytest
 
-import robots
-import viz
-from kinematics import InputError
-from viz.export import VIEWER_JS, pack_commands, unpack_commands
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import InputError
+from kinserve.viz.export import VIEWER_JS, pack_commands, unpack_commands
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""viz.LiveViewer / viz.serve: a real meshcat server on 127.0.0.1 receives the scene."""
+"""kinserve.viz.LiveViewer / viz.serve: a real meshcat server on 127.0.0.1 receives the scene."""
 
 import re
 import threading
@@ -7,8 +7,8 @@ import urllib.request
 import numpy as np
 import pytest
 
-import robots
-import viz
+from kinserve import robots
+from kinserve import viz
 
 
 @pytest.fixture(scope="module")

@@ -7,9 +7,9 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 from PIL import Image
 
-import robots
-import viz
-from kinematics import InputError, ShapeError
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import InputError, ShapeError
 
 
 def check_png(path, min_colors=3):

@@ -1,14 +1,14 @@
-"""viz.Scene: recorded nodes and transforms against FK computed independently."""
+"""kinserve.viz.Scene: recorded nodes and transforms against FK computed independently."""
 
 import numpy as np
 import pinocchio as pin
 import pytest
 import umsgpack
 
-import robots
-import viz
-from kinematics import InputError, Robot, RotationError, se3
-from viz.scene import CAMERA_FOV_DEG
+from kinserve import robots
+from kinserve import viz
+from kinserve.kinematics import InputError, Robot, RotationError, se3
+from kinserve.viz.scene import CAMERA_FOV_DEG
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,6 @@
 """viz: meshcat scenes (robots, frames, spheres, paths, maps, animation, static HTML) and matplotlib plots.
 
-``viz`` draws plain data (poses, arrays, paths, maps) and ``kinematics.Robot``
+``viz`` draws plain data (poses, arrays, paths, maps) and ``kinserve.kinematics.Robot``
 objects; it never calls a solver.
 
 3-D scenes::

@@ -33,8 +33,8 @@ import meshcat.path
 import numpy as np
 import pinocchio as pin
 
-from kinematics.errors import InputError
-from kinematics.validation import as_matrix, as_pose
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_matrix, as_pose
 
 from .scene import Scene
 

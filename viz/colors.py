@@ -12,7 +12,7 @@ A colour may be given as
 
 from __future__ import annotations
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 #: Named colours (a small, colour-blind friendly set, Okabe-Ito plus greys).
 NAMED = {

@@ -32,7 +32,7 @@ from pathlib import Path
 import meshcat
 import umsgpack
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from .scene import Scene
 

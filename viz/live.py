@@ -21,7 +21,7 @@ import meshcat.commands
 import meshcat.path
 import meshcat.visualizer
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from .scene import ROOT, Scene
 

@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinematics.errors import InputError, ShapeError
-from kinematics.validation import as_matrix
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_matrix
 
 
 @dataclass(frozen=True)

@@ -27,8 +27,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 
-from kinematics.errors import InputError, ShapeError
-from kinematics.validation import as_matrix
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_matrix
 
 from . import colors
 from .map2d import Rect, as_grid, as_polyline, as_shape

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from kinematics.errors import ShapeError
+from kinserve.kinematics.errors import ShapeError
 
 
 def reachability_figure(edges, counts, hits, *, title: str = "Reachability") -> Figure:

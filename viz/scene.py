@@ -35,8 +35,8 @@ import numpy as np
 import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
-from kinematics.errors import InputError
-from kinematics.validation import as_pose, as_vector
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_pose, as_vector
 
 from . import colors
 from .map2d import Circle, Rect, as_grid, as_polyline, as_shape
@@ -439,7 +439,7 @@ class Scene:
         color=None,
         skeleton_radius: float = 0.02,
     ) -> SceneRobot:
-        """Draw a ``kinematics.Robot`` at ``q`` (default ``robot.neutral()``).
+        """Draw a ``kinserve.kinematics.Robot`` at ``q`` (default ``robot.neutral()``).
 
         The links are drawn by Pinocchio's ``MeshcatVisualizer`` from
         ``robot.visual_model`` (meshes or primitives); a robot without visual

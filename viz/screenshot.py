@@ -31,7 +31,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from kinematics.errors import KinserveError
+from kinserve.kinematics.errors import KinserveError
 
 #: Binaries tried in order (after ``$KINSERVE_CHROMIUM``).
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")

@@ -52,7 +52,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from kinematics.batch_fk import joint_axis, joint_chain
+from kinserve.kinematics.batch_fk import joint_axis, joint_chain
 
 _Z = np.array([0.0, 0.0, 1.0])
 _TWO_PI = 2.0 * math.pi

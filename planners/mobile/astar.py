@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from ..errors import BlockedPointError, NoPathError
 from .maps import OccupancyGrid

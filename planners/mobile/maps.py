@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.errors import InputError, ShapeError
 
 from .shapes import Circle, Polygon, Rectangle
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 
 @dataclass(frozen=True)

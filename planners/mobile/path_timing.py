@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from ..time_scaling import minimum_time, quintic_time_scaling
 from .smoothing import SmoothPath

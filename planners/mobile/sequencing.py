@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from ..checkpoint_order import shortest_order
 from ..errors import NoPathError

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 
 def _finite(*vals, what: str):

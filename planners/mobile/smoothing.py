@@ -37,7 +37,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.interpolate import CubicSpline
 
-from kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError
 
 from .maps import OccupancyGrid
 

@@ -1,0 +1,37 @@
+"""kinserve: a Pinocchio-based kinematics service for robot arms and mobile bases.
+
+One import namespace: the repository's top-level folders are installed as its
+subpackages::
+
+    from kinserve import robots, ik
+    panda = robots.load("panda")
+    result = ik.solve(panda, target_pose)
+
+Subpackages: :mod:`kinserve.robots` (models and loaders), :mod:`kinserve.kinematics`
+(the ``Robot``, FK, Jacobians, errors), :mod:`kinserve.ik` (tasks, constraints,
+solvers), :mod:`kinserve.planners` (trajectories, paths, mobile bases),
+:mod:`kinserve.viz` (meshcat scenes and plots), :mod:`kinserve.scenarios` (the
+seed scenarios S1-S9) and :mod:`kinserve.service` (the CLI and HTTP service).
+Subpackages are imported on first use, so ``import kinserve`` stays cheap.
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import PackageNotFoundError, version
+from types import ModuleType
+
+try:
+    __version__: str = version("kinserve")
+except PackageNotFoundError:  # pragma: no cover - running from a tree that was never installed
+    __version__ = "0+unknown"
+
+SUBPACKAGES = ("robots", "kinematics", "ik", "planners", "viz", "scenarios", "service")
+__all__ = ["__version__", *SUBPACKAGES]
+
+
+def __getattr__(name: str) -> ModuleType:
+    """``kinserve.ik`` and friends without importing every subpackage up front (PEP 562)."""
+    if name in SUBPACKAGES:
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module 'kinserve' has no attribute {name!r}")
