@@ -104,12 +104,24 @@ class Problem:
         self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
         self.gain = min([getattr(c, "gain", DAMPER_GAIN) for c in self.checked] or [DAMPER_GAIN])
         self.nv = robot.model.nv
+        self.q_in_data = None
 
     # ------------------------------------------------------------------------------- tasks
+    def state(self, q):
+        """``(levels, pe, re, es, margin)`` at ``q`` from one kinematics pass on the main ``Data``."""
+        levels, pe, re, es = self.evaluate(q)
+        if not self.checked:
+            return levels, pe, re, es, math.inf
+        robot, data = self.robot, self.data
+        m = min(c.margin(robot, data, q) for c in self.checked) if len(self.checked) > 1 else \
+            self.checked[0].margin(robot, data, q)
+        return levels, pe, re, es, m
+
     def evaluate(self, q):
         """``(levels, pe, re, es)``: stacked ``(J, e)`` per level, goal errors (m, rad), each task's error."""
         robot, data = self.robot, self.data
         _cjj(self.model, data, q)
+        self.q_in_data = q
         levels = []
         es = []
         pe = re = 0.0
@@ -144,8 +156,11 @@ class Problem:
 
     # ------------------------------------------------------------------------- constraints
     def box_and_rows(self, q, dt=None, max_step: float = math.inf, with_checked_rows: bool = True):
-        """``(lb, ub, G, l, u)`` at ``q`` (after :meth:`evaluate`); ``G`` is None without rows."""
+        """``(lb, ub, G, l, u)`` at ``q``; ``G`` is None without rows. Recomputes the kinematics if needed."""
         robot, data = self.robot, self.data
+        if self.q_in_data is not q:
+            _cjj(self.model, data, q)
+            self.q_in_data = q
         lb = np.full(self.nv, -max_step)
         ub = np.full(self.nv, max_step)
         Gs, ls, us = [], [], []
