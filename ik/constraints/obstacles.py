@@ -306,7 +306,8 @@ class ObstacleAvoidance(Constraint):
 
     def rows(self, robot, data, q, dt=None):
         c, seg, s, N, A, B = self._pairs(data, True, self.influence)
-        near = c < self.influence
+        # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
+        near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
         if not near.all():
             if not near.any():
                 return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
