@@ -136,10 +136,23 @@ class LinkSkeleton:
         ``N`` the unit directions. Needs ``computeJointJacobians`` in ``data``.
         """
         Jv, Jw = data.J[:3], data.J[3:]
-        NJv = N @ Jv
-        rows_a = (NJv + np.cross(A, N) @ Jw) * self.support[self.ja[seg]]
-        rows_b = (NJv + np.cross(B, N) @ Jw) * self.support[self.jb[seg]]
+        ja, jb = self.ja[seg], self.jb[seg]
+        if (ja == jb).all():  # both ends on one body (no slider): the witness point itself
+            X = A + s[:, None] * (B - A)
+            return (N.dot(Jv) + _cross(X, N).dot(Jw)) * self.support[ja]
+        NJv = N.dot(Jv)
+        rows_a = (NJv + _cross(A, N).dot(Jw)) * self.support[ja]
+        rows_b = (NJv + _cross(B, N).dot(Jw)) * self.support[jb]
         return (1.0 - s)[:, None] * rows_a + s[:, None] * rows_b
+
+
+_I1 = [1, 2, 0]
+_I2 = [2, 0, 1]
+
+
+def _cross(U: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """Row-wise cross products of ``(P, 3)`` arrays (cheaper than ``np.cross`` on small inputs)."""
+    return U[:, _I1] * V[:, _I2] - U[:, _I2] * V[:, _I1]
 
 
 def skeleton_segments(robot, tool_frames=(), frames=None) -> list:
