@@ -27,6 +27,7 @@ gradient exact to first order with ``s`` frozen).
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from .sphere_set import frame_points, robot_segments
 
@@ -98,6 +99,14 @@ class LinkSkeleton:
                 S[j, jm.idx_v: jm.idx_v + jm.nv] = 1.0
         self.support = S
         self._placements = None
+        # segments whose ends sit on one body keep their length: 1 / |b - a|^2 once (0 for a point)
+        self.rigid = self.ja == self.jb
+        d0 = model.createData()
+        pin.forwardKinematics(model, d0, robot.neutral())
+        A, B = self.endpoints(d0)
+        self._placements = None
+        L2 = np.einsum("ij,ij->i", B - A, B - A)
+        self.inv_len2 = np.divide(1.0, L2, out=np.zeros_like(L2), where=L2 > 1e-24)
 
     @classmethod
     def of_robot(cls, robot, tool_frames=(), frames=None) -> "LinkSkeleton":
