@@ -186,6 +186,16 @@ class ObstacleAvoidance(Constraint):
         """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
         if not fixed:
             return
+        # cheap rejection: the obstacle's bounding ball does not reach the base's bounding ball
+        (cx, cy, cz), R = fixed_ball(fixed)
+        if isinstance(ob, Sphere):
+            (ox, oy, oz), rad = ob.center, ob.radius
+        elif isinstance(ob, Capsule):
+            (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), 0.5 * ob.length + ob.radius
+        else:
+            (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), _bounding_radius(ob)
+        if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + self.link_radius:
+            return
         A = np.array([f[1] for f in fixed])
         B = np.array([f[2] for f in fixed])
         if isinstance(ob, Sphere):
@@ -334,6 +344,17 @@ class ObstacleAvoidance(Constraint):
 
 
 _skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_balls: dict = {}
+
+
+def fixed_ball(fixed) -> tuple[tuple[float, float, float], float]:
+    """A ball ``(centre, radius)`` enclosing the fixed segments ``(name, a, b)`` (cached per list)."""
+    hit = _balls.get(id(fixed))
+    if hit is None or hit[0] is not fixed:
+        pts = np.array([p for _, a, b in fixed for p in (a, b)])
+        c = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        hit = _balls[id(fixed)] = (fixed, tuple(c.tolist()), float(np.linalg.norm(pts - c, axis=1).max()))
+    return hit[1], hit[2]
 
 
 def _skeleton(robot, tools, frames):
