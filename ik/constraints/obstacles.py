@@ -182,6 +182,16 @@ class ObstacleAvoidance(Constraint):
         self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
         self._oth_bound = np.array(other[2], dtype=float)
         self._oth_tf = [_coal_transform(o.pose) for o in other[1]]
+        # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
+        self._oth_local = []
+        for i in other[0]:
+            if sk.rigid[i] and sk.ja[i] != 0:
+                la, lb = sk.la[i], sk.lb[i]
+                L = float(np.linalg.norm(lb - la))
+                M = _axis_placement(la, lb - la, L)
+                self._oth_local.append((int(sk.ja[i]), M, _core(L)))
+            else:
+                self._oth_local.append(None)
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
         self._model = robot.model
@@ -285,21 +295,29 @@ class ObstacleAvoidance(Constraint):
         req = coal.DistanceRequest()
         res = coal.DistanceResult()
         far = cutoff + self._offset
-        for p in np.flatnonzero(lb < far):
-            a, b = A[p], B[p]
-            ab = b - a
-            L = math.sqrt(ab.dot(ab))
-            geom = _CORES.get(L)
-            if geom is None:
-                if len(_CORES) > 4096:
-                    _CORES.clear()
-                geom = _CORES[L] = coal.Capsule(0.0, L)
+        oMi = self.skeleton._placements[1]  # joint placements of the data just read by points()
+        todo = np.flatnonzero(lb < far).tolist()
+        X = np.zeros((len(i), 3))
+        for p in todo:
+            local = self._oth_local[p]
+            if local is not None:
+                j, M, geom = local
+                tf = coal.Transform3s(oMi[j] * M)
+            else:
+                a, b = A[p], B[p]
+                ab = b - a
+                L = math.sqrt(ab.dot(ab))
+                geom = _core(L)
+                tf = _segment_transform(a, ab, L)
             res.clear()
-            d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, _segment_transform(a, ab, L), req, res)
-            c[p] = d
-            x = res.getNearestPoint2()
-            s[p] = 0.0 if L < _EPS else min(max(float((x - a).dot(ab)) / (L * L), 0.0), 1.0)
+            c[p] = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, tf, req, res)
+            X[p] = res.getNearestPoint2()
             N[p] = res.normal
+        if todo:
+            AB = B[todo] - A[todo]
+            L2 = _einsum("ij,ij->i", AB, AB)
+            num = _einsum("ij,ij->i", X[todo] - A[todo], AB)
+            s[todo] = np.clip(np.divide(num, L2, out=np.zeros_like(num), where=L2 > 1e-24), 0.0, 1.0)
         return c, s, N
 
     def clearances(self, data) -> np.ndarray:
@@ -411,6 +429,26 @@ def _coal_transform(T: np.ndarray):
     tf.setRotation(np.ascontiguousarray(T[:3, :3]))
     tf.setTranslation(np.ascontiguousarray(T[:3, 3]))
     return tf
+
+
+def _core(L: float):
+    """The coal capsule core (radius 0) of length ``L``, cached by length."""
+    import coal
+
+    geom = _CORES.get(L)
+    if geom is None:
+        if len(_CORES) > 4096:
+            _CORES.clear()
+        geom = _CORES[L] = coal.Capsule(0.0, L)
+    return geom
+
+
+def _axis_placement(a: np.ndarray, ab: np.ndarray, L: float):
+    """``pinocchio.SE3`` at the midpoint of ``[a, a + ab]`` with its z axis along ``ab``."""
+    import pinocchio as pin
+
+    tf = _segment_transform(a, ab, L)
+    return pin.SE3(np.array(tf.getRotation()), np.array(tf.getTranslation()))
 
 
 def _segment_transform(a: np.ndarray, ab: np.ndarray, L: float):
