@@ -68,7 +68,7 @@ def run(n, kind, robot, seed=0):
         if not clear(robot, q_gen, frame, obs):
             continue
         t = clock()
-        r0 = ik.solve(robot, T, seed=1)
+        ik.solve(robot, T, seed=1)
         t_free = clock() - t
         t = clock()
         r = ik.solve(robot, T, obstacles=obs, seed=1)
