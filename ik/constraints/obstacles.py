@@ -325,16 +325,45 @@ class ObstacleAvoidance(Constraint):
         return self._pairs(data, False, MARGIN_EXACT)
 
     def first_violation(self, robot, Q) -> int | None:
-        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None."""
+        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None.
+
+        The sphere and capsule distances of all ``K`` configurations are evaluated at once (the same
+        closed forms on ``(K, pairs)`` arrays); coal pairs are checked per configuration where their
+        bounding-sphere bound is negative.
+        """
         import pinocchio as pin
 
-        data = robot.data
+        model, data = robot.model, robot.data
+        sk = self.skeleton
+        P = np.empty((len(Q), len(sk._translations) + len(sk._acts) + len(sk._world), 3))
         for k, q in enumerate(Q):
-            pin.forwardKinematics(robot.model, data, q)
-            c = self._pairs(data, False, 0.0)
-            if c.size and c.min() < 0.0:
-                return k
-        return None
+            pin.forwardKinematics(model, data, q)
+            P[k] = sk.points(data)
+        bad = np.zeros(len(Q), dtype=bool)
+        off = self._offset
+        if self._sph_seg.size:
+            A = P[:, self._sph_ia]
+            AB = P[:, self._sph_ib] - A
+            AC = self._sph_c - A
+            inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
+            t = _clip(_einsum("kij,kij->ki", AC, AB) * inv, 0.0, 1.0)
+            V = t[..., None] * AB - AC
+            bad |= (_sqrt(_einsum("kij,kij->ki", V, V)) - self._sph_r - off < 0.0).any(axis=1)
+        if self._cap_seg.size:
+            K, n = len(Q), self._cap_seg.size
+            A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
+            _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
+            d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
+            bad |= (d - self._cap_r - off < 0.0).any(axis=1)
+        if self._oth_seg.size:
+            for k in range(len(Q)):
+                if not bad[k]:
+                    pin.forwardKinematics(model, data, Q[k])
+                    sk.points(data)  # refreshes the placements _coal_pairs reads
+                    c, _, _ = self._coal_pairs(P[k, self._oth_ia], P[k, self._oth_ib], 0.0)
+                    bad[k] = (c - off < 0.0).any()
+        hits = np.flatnonzero(bad)
+        return int(hits[0]) if hits.size else None
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot, data, q) -> float:
