@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import time
 
 import numpy as np
 
@@ -301,29 +302,53 @@ def _task_options(options: dict) -> dict:
     return options
 
 
+#: Starts tried without constraints before the constrained solve (``"auto"`` with obstacles).
+FREE_ATTEMPTS = 4
+
+
 def _solve_unconstrained_first(robot, p: dict, options: dict):
     """The cheap path of ``"auto"`` with obstacles: an LM answer whose every iterate is clear, or None.
 
-    Obstacles rarely bind: the Levenberg-Marquardt solve runs first, and its
-    answer is kept when every iterate of the run that produced it (its
-    history) keeps every clearance ``>= 0`` - the constraint then held on
-    every iterate without ever being imposed. Otherwise the constrained
-    solve starts from the last clear iterate of that run (``p["q0"]`` is
-    updated in place; the caller continues with method ``"qp"``).
+    Obstacles rarely bind: Levenberg-Marquardt runs from the first
+    :data:`FREE_ATTEMPTS` collision-free starts of the usual start sequence,
+    one at a time, and the first converged run whose every iterate keeps
+    every clearance ``>= 0`` is the answer - the constraint then held on every
+    iterate without ever being imposed. Otherwise the constrained solve starts
+    from the last clear iterate of the first run (``p["q0"]`` is updated in
+    place; the caller continues with method ``"qp"``).
     """
+    from itertools import islice
+
+    from .multistart import frame_starts
+
     avoid = p["spheres"]
     opts = _task_options(options)
+    tgt = p["target"]
     q0 = p["q0"]
-    if q0 is not None and avoid.first_violation(robot, np.clip(q0, robot.lower, robot.upper)[None]) is not None:
-        return None  # the constrained solve reports the start in collision
-    res = solve_lm(robot, p["target"], q0, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
-                   seed=p["seed"], **opts)
-    k = avoid.first_violation(robot, res.history.q)
-    if res.success and k is None:
-        res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
-        return res
-    if k is not None and k > 0 and not opts.get("prefer_q0"):
-        p["q0"] = res.history.q[k - 1].copy()
+    if q0 is not None:
+        q0 = np.clip(q0, robot.lower, robot.upper)
+        if avoid.first_violation(robot, q0[None]) is not None:
+            return None  # the constrained solve reports the start in collision
+    starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
+                          p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
+    opts.pop("max_starts", None)
+    warm = None
+    t0 = time.perf_counter()
+    for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
+        if attempt and avoid.first_violation(robot, q[None]) is not None:
+            continue
+        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
+                       prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
+        k = avoid.first_violation(robot, res.history.q)
+        if res.success and k is None:
+            res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
+            res.restarts = attempt
+            res.elapsed = time.perf_counter() - t0
+            return res
+        if warm is None and k is not None and k > 0:
+            warm = res.history.q[k - 1].copy()
+    if warm is not None:
+        p["q0"] = warm
         p["warm"] = True
     return None
 

@@ -14,8 +14,10 @@ where ``d`` is the Euclidean distance (negative when they overlap):
 * capsule (core ``[p, q]``, radius ``r``): segment-segment closed form,
   ``d = |x - y| - r``;
 * box, cylinder, mesh (convex hull): coal's GJK/EPA distance between the
-  obstacle and the segment, with witness points and normal. A bounding
-  sphere gives a cheap lower bound first; pairs farther than ``influence``
+  obstacle and the segment, with witness points and normal. Two cheap lower
+  bounds come first - the distance to a bounding sphere and the largest gap
+  between the segment's and the obstacle's extents along the obstacle's own
+  axes (separating axes); pairs farther than ``influence``
   by that bound are not sent to coal (``margin`` uses :data:`MARGIN_EXACT`: it is
   exact below 5 cm and a lower bound above, which is all the step back-off needs).
 
@@ -81,6 +83,17 @@ def as_obstacle(value, name: str = "obstacle") -> Shape:
         raise InputError(f"{name} must be a shape (ik.Sphere, ik.Box, ik.Capsule, ik.Cylinder, ik.Mesh), "
                          f"a dict or a (center, radius) pair, got {value!r}") from None
     return Sphere(center, radius)
+
+
+def _local_extent(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
+    """Corners ``(lo, hi)`` of the shape's bounding box in its own frame."""
+    if isinstance(shape, Box):
+        h = shape.half_extents
+    elif isinstance(shape, Cylinder):
+        h = np.array([shape.radius, shape.radius, 0.5 * shape.length])
+    else:  # mesh: the hull's vertices
+        return shape.hull_vertices.min(axis=0), shape.hull_vertices.max(axis=0)
+    return -h, h
 
 
 def _bounding_radius(shape: Shape) -> float:
@@ -182,16 +195,13 @@ class ObstacleAvoidance(Constraint):
         self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
         self._oth_bound = np.array(other[2], dtype=float)
         self._oth_tf = [_coal_transform(o.pose) for o in other[1]]
+        self._oth_R = np.array([o.pose[:3, :3] for o in other[1]], dtype=float).reshape(-1, 3, 3)
+        self._oth_t = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
+        ext = [_local_extent(o) for o in other[1]]
+        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)
+        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)
         # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
-        self._oth_local = []
-        for i in other[0]:
-            if sk.rigid[i] and sk.ja[i] != 0:
-                la, lb = sk.la[i], sk.lb[i]
-                L = float(np.linalg.norm(lb - la))
-                M = _axis_placement(la, lb - la, L)
-                self._oth_local.append((int(sk.ja[i]), M, _core(L)))
-            else:
-                self._oth_local.append(None)
+        self._oth_local = [_local_core(sk, i) for i in other[0]]
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
         self._model = robot.model
@@ -282,13 +292,27 @@ class ObstacleAvoidance(Constraint):
         np.divide(1.0, L2, out=out, where=L2 > 1e-24)
         return out
 
+    def _coal_lower_bound(self, A, B, K: int) -> np.ndarray:
+        """Lower bounds on the coal pairs' distances for ``K`` stacked copies of the pairs (rows of ``A``, ``B``).
+
+        The larger of the distance from the segment to the obstacle's bounding
+        sphere and the largest gap between the segment's and the obstacle's
+        extents along the obstacle's own axes (separating axes).
+        """
+        tile = (lambda x: x) if K == 1 else (lambda x: np.tile(x, (K,) + (1,) * (x.ndim - 1)))
+        centre, t, R = tile(self._oth_center), tile(self._oth_t), tile(self._oth_R)
+        _, X = point_segment(A, B, centre)
+        lb = np.linalg.norm(X - centre, axis=1) - tile(self._oth_bound)
+        a = _einsum("pi,pij->pj", A - t, R)
+        b = _einsum("pi,pij->pj", B - t, R)
+        gap = np.maximum(np.minimum(a, b) - tile(self._oth_hi), tile(self._oth_lo) - np.maximum(a, b)).max(axis=1)
+        return np.maximum(lb, gap, out=lb)
+
     def _coal_pairs(self, A, B, cutoff):
         import coal
 
         i = self._oth_seg
-        # lower bound: distance from the segment to the bounding sphere
-        _, X = point_segment(A, B, self._oth_center)
-        lb = np.linalg.norm(X - self._oth_center, axis=1) - self._oth_bound
+        lb = self._coal_lower_bound(A, B, 1)
         c = lb.copy()
         s = np.zeros(len(i))
         N = np.zeros((len(i), 3))
@@ -356,12 +380,22 @@ class ObstacleAvoidance(Constraint):
             d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
             bad |= (d - self._cap_r - off < 0.0).any(axis=1)
         if self._oth_seg.size:
-            for k in range(len(Q)):
-                if not bad[k]:
-                    pin.forwardKinematics(model, data, Q[k])
-                    sk.points(data)  # refreshes the placements _coal_pairs reads
-                    c, _, _ = self._coal_pairs(P[k, self._oth_ia], P[k, self._oth_ib], 0.0)
-                    bad[k] = (c - off < 0.0).any()
+            import coal
+
+            K, n = len(Q), self._oth_seg.size
+            A, B = P[:, self._oth_ia].reshape(-1, 3), P[:, self._oth_ib].reshape(-1, 3)
+            lb = self._coal_lower_bound(A, B, K)
+            req, res = coal.DistanceRequest(), coal.DistanceResult()
+            for r in np.flatnonzero(lb < off).tolist():
+                k, p = divmod(r, n)
+                if bad[k]:
+                    continue
+                ab = B[r] - A[r]
+                L = math.sqrt(ab.dot(ab))
+                res.clear()
+                d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], _core(L), _segment_transform(A[r], ab, L),
+                                  req, res)
+                bad[k] = d - off < 0.0
         hits = np.flatnonzero(bad)
         return int(hits[0]) if hits.size else None
 
@@ -458,6 +492,19 @@ def _coal_transform(T: np.ndarray):
     tf.setRotation(np.ascontiguousarray(T[:3, :3]))
     tf.setTranslation(np.ascontiguousarray(T[:3, 3]))
     return tf
+
+
+def _local_core(sk: LinkSkeleton, i: int):
+    """``(joint, placement in the joint frame, coal core)`` of rigid segment ``i`` (cached on the skeleton), or None."""
+    cache = sk.__dict__.setdefault("_local_cores", {})
+    if i not in cache:
+        if sk.rigid[i] and sk.ja[i] != 0:
+            la, lb = sk.la[i], sk.lb[i]
+            L = float(np.linalg.norm(lb - la))
+            cache[i] = (int(sk.ja[i]), _axis_placement(la, lb - la, L), _core(L))
+        else:
+            cache[i] = None
+    return cache[i]
 
 
 def _core(L: float):
