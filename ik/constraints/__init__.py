@@ -2,13 +2,24 @@
 
 * :mod:`.base` - the protocol (linear rows ``lower <= G dq <= upper`` at ``q``
   and a true check of ``q + dq``), the velocity-damper gain;
-* :mod:`.sphere_set` - spheres against the link segments, pair by pair (the
-  original ``"qp"`` method's constraint), the robot's segments, step bounds.
+* :mod:`.joint_limits` - :class:`JointLimits` (always on);
+* :mod:`.velocity_limits` - :class:`VelocityLimits` (``ik.step``);
+* :mod:`.obstacles` - :class:`ObstacleAvoidance`: any shape of
+  :mod:`kinserve.kinematics.shapes` kept clear of the robot's link capsules;
+* :mod:`.link_capsules` - the robot body as skeleton segments, their end
+  points and distance-gradient rows;
+* :mod:`.segment_distance` - vectorised point-segment and segment-segment closed forms;
+* :mod:`.sphere_set` - spheres against the link segments pair by pair (the
+  original ``"qp"`` constraint, kept for its users), the robot's segments, step bounds.
 """
 
-from .base import DAMPER_GAIN, Constraint
-from .sphere_set import SphereSet, as_sphere, frame_points, joint_step_bounds, robot_segments
 from kinserve.kinematics.shapes import Sphere
 
-__all__ = ["Constraint", "DAMPER_GAIN", "Sphere", "SphereSet", "as_sphere", "frame_points", "joint_step_bounds",
-           "robot_segments"]
+from .base import DAMPER_GAIN, Constraint
+from .joint_limits import JointLimits
+from .obstacles import ObstacleAvoidance, as_obstacle
+from .sphere_set import SphereSet, as_sphere, frame_points, joint_step_bounds, robot_segments
+from .velocity_limits import VelocityLimits
+
+__all__ = ["Constraint", "DAMPER_GAIN", "JointLimits", "VelocityLimits", "ObstacleAvoidance", "as_obstacle",
+           "Sphere", "SphereSet", "as_sphere", "frame_points", "joint_step_bounds", "robot_segments"]
