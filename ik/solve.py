@@ -59,6 +59,7 @@ from .problem import Problem
 from .qp_backends import available_backends
 from .targets import Target
 from .qp_solver import solve_qp
+from .task_solver import MAX_TIME as QP_MAX_TIME
 from .task_solver import solve_problem
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
@@ -334,10 +335,14 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     opts.pop("max_starts", None)
     warm = None
     t0 = time.perf_counter()
+    budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
     for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
         if attempt and avoid.first_violation(robot, q[None]) is not None:
             continue
-        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
+        left = budget - (time.perf_counter() - t0)
+        if left <= 0.0:
+            break
+        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=left,
                        prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
         k = avoid.first_violation(robot, res.history.q)
         if res.success and k is None:
@@ -350,6 +355,7 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     if warm is not None:
         p["q0"] = warm
         p["warm"] = True
+    p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
     return None
 
 
