@@ -31,6 +31,7 @@ from .problem import Problem
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 _cache: dict = {}
 
 
@@ -64,7 +65,7 @@ def step(robot, tasks, constraints=(), q=None, dt: float = 0.01, *, damping: flo
     tasks = list(tasks) if not hasattr(tasks, "compute") else [tasks]
     constraints = [] if constraints is None else (list(constraints) if not hasattr(constraints, "rows") else [constraints])
     pb = _problem(robot, tasks, constraints)
-    q = np.clip(q, robot.lower, robot.upper)
+    q = _clip(q, robot.lower, robot.upper)
     levels, pe, re, _ = pb.evaluate(q)
     lb, ub, G, l, u = pb.box_and_rows(q, float(dt))
     lam = 0.01 * (pe * pe + re * re) + damping

@@ -61,6 +61,8 @@ MARGIN_EXACT = 0.05
 COAL_INFLUENCE = 0.15
 
 _EPS = 1e-12
+_INF = np.full(4096, np.inf)
+_INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
 _einsum = np.einsum
 _sqrt = np.sqrt
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
@@ -414,7 +416,7 @@ class ObstacleAvoidance(Constraint):
                 return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
             c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
         G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
-        return G, -self.gain * c, np.full(c.shape[0], np.inf)
+        return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
 
     def rows_all(self, robot, data):
         """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
