@@ -208,7 +208,8 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
             return result_out(res)
         if req.centring:
             tasks.append(ik.CentringTask(req.centring))
-        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames)]
+        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
+                                            tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
         with field("targets"):
             res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
                            tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=capped(req.max_time))

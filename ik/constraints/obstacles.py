@@ -148,6 +148,7 @@ class ObstacleAvoidance(Constraint):
         self.tool_frames = None if tool_frames is None else tuple(tool_frames)
         self.influence = _non_negative(influence, "influence")
         self._model = None
+        self._last = None  # (data, q, witness pairs) of the last margin() without coal pairs
 
     # ---------------------------------------------------------------------------------------- binding
     def bind(self, robot) -> "ObstacleAvoidance":
@@ -175,7 +176,7 @@ class ObstacleAvoidance(Constraint):
                     cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
                     groups[1].append((k, sk.names[i]))
                 else:
-                    other[0].append(i), other[1].append(ob), other[2].append(_bounding_radius(ob))
+                    other[0].append(i), other[1].append(ob), other[2].append(k)
                     groups[2].append((k, sk.names[i]))
         # pairs are ordered: spheres, capsules, others (the order of the clearance vector)
         self.pair_names = groups[0] + groups[1] + groups[2]
@@ -194,14 +195,20 @@ class ObstacleAvoidance(Constraint):
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
         self._oth = other[1]
-        self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
-        self._oth_bound = np.array(other[2], dtype=float)
-        self._oth_tf = [_coal_transform(o.pose) for o in other[1]]
-        self._oth_R = np.array([o.pose[:3, :3] for o in other[1]], dtype=float).reshape(-1, 3, 3)
-        self._oth_t = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
-        ext = [_local_extent(o) for o in other[1]]
-        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)
-        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)
+        # per obstacle once, then one row per pair
+        kinds = list(dict.fromkeys(other[2]))
+        row = np.array([kinds.index(k) for k in other[2]], dtype=int)
+        obs = [self.obstacles[k] for k in kinds]
+        tfs = [_coal_transform(o.pose) for o in obs]
+        self._oth_tf = [tfs[r] for r in row.tolist()]
+        poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
+        ext = [_local_extent(o) for o in obs]
+        self._oth_center = poses[row, :3, 3]
+        self._oth_t = self._oth_center
+        self._oth_R = poses[row, :3, :3]
+        self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
+        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
+        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
         # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
         self._oth_local = [_local_core(sk, i) for i in other[0]]
         self.m = len(self.pair_names)
@@ -282,6 +289,8 @@ class ObstacleAvoidance(Constraint):
             c = (clear[0] if len(clear) == 1 else np.concatenate(clear)) - self._offset
         if not witness:
             return c
+        if not segs:
+            return c, np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
         if len(segs) == 1:
             return c, segs[0], ss[0], Ns[0], As[0], Bs[0]
         cat = np.concatenate
@@ -403,12 +412,25 @@ class ObstacleAvoidance(Constraint):
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot, data, q) -> float:
-        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs)."""
+        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs).
+
+        Without coal pairs the witness points are kept: :meth:`rows` at the same ``q`` (same array
+        object, same ``data``) reuses them instead of computing the distances again.
+        """
+        if not self._oth_seg.size:
+            w = self._pairs(data, True)
+            self._last = (data, q, w)
+            c = w[0]
+            return float(c.min()) if c.size else math.inf
         c = self._pairs(data, False, MARGIN_EXACT)
         return float(c.min()) if c.size else math.inf
 
     def rows(self, robot, data, q, dt=None):
-        c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
+        last = self._last
+        if last is not None and last[0] is data and last[1] is q:
+            c, seg, s, N, A, B = last[2]
+        else:
+            c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
         # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
         near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
         if not near.all():
