@@ -4,9 +4,8 @@ Methods
 -------
 ``"auto"`` (default) picks the fastest method that can honour the request:
 
-1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first; its answer is kept when
-   every iterate of its run is clear of every obstacle, otherwise ``"qp"`` starts from the last
-   clear iterate. Centring or extra constraints -> ``"qp"`` (strict priority and hard
+1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first from the first few starts;
+   an answer is kept when every iterate of its run is clear of every obstacle, otherwise ``"qp"``. Centring or extra constraints -> ``"qp"`` (strict priority and hard
    inequalities need the QP);
 2. a closed-form solver with finitely many branches exists for the robot and
    frame and handles the relaxed components -> ``"analytic"`` (2R/3R, SCARA,
@@ -314,9 +313,9 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     :data:`FREE_ATTEMPTS` collision-free starts of the usual start sequence,
     one at a time, and the first converged run whose every iterate keeps
     every clearance ``>= 0`` is the answer - the constraint then held on every
-    iterate without ever being imposed. Otherwise the constrained solve starts
-    from the last clear iterate of the first run (``p["q0"]`` is updated in
-    place; the caller continues with method ``"qp"``).
+    iterate without ever being imposed. Otherwise None: the caller runs the
+    constrained solve on the usual starts (measured: starting it from the last
+    clear iterate of a free run is worse - that iterate faces the obstacle).
     """
     from itertools import islice
 
@@ -333,7 +332,6 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
                           p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
     opts.pop("max_starts", None)
-    warm = None
     t0 = time.perf_counter()
     budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
     for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
@@ -350,11 +348,6 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
             res.restarts = attempt
             res.elapsed = time.perf_counter() - t0
             return res
-        if warm is None and k is not None and k > 0:
-            warm = res.history.q[k - 1].copy()
-    if warm is not None:
-        p["q0"] = warm
-        p["warm"] = True
     p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
     return None
 
@@ -370,8 +363,6 @@ def _solve_target_tasks(robot, p: dict, options: dict):
     else:
         spheres = p["spheres"]
     opts = _task_options(options)
-    if p.get("warm"):
-        opts["prefer_q0"] = True
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
 

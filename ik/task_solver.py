@@ -59,9 +59,11 @@ STEP_TOL = 1e-6
 MAX_BACKTRACK = 20
 #: Iterations with the rows on after a lazy trial failed (an obstacle binds; trials would be wasted).
 LAZY_WAIT = 3
-#: Stall detection: best goal error^2 not improved by this factor for STALL_PATIENCE iterations.
-STALL_RATIO = 0.9
-STALL_PATIENCE = 4
+#: Stall detection: best goal error^2 not improved by this factor for STALL_PATIENCE iterations (then the
+#: next start). Measured on Panda with spheres and boxes in the way: abandoning early and restarting beats
+#: patience (the constrained iterations creep along an obstacle's surface when they stall).
+STALL_RATIO = 0.85
+STALL_PATIENCE = 2
 
 _now = time.perf_counter
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
@@ -80,8 +82,7 @@ class _Run:
         self.lo, self.hi = pb.robot.lower, pb.robot.upper
         self.gain = pb.gain
         self.lazy_wait = 0
-        constrained = bool(pb.checked) or len(pb.constraints) > 1
-        self.stall_ratio, self.stall_patience = (STALL_RATIO, STALL_PATIENCE) if constrained else (0.85, 2)
+        self.stall_ratio, self.stall_patience = STALL_RATIO, STALL_PATIENCE
 
 
 def _step(run: _Run, q, levels, E, m_q):
