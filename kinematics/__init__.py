@@ -14,10 +14,11 @@ from .errors import (
     UnknownRobotError,
 )
 from .robot import TASK_AXES, Robot, axis_rows
+from .task_axes import TaskAxes, detect_task_axes
 from .validation import as_matrix, as_pose, as_vector
 
 __all__ = [
-    "Robot", "TASK_AXES", "axis_rows", "as_pose", "as_vector", "as_matrix", "errors", "se3", "singularity",
+    "Robot", "TASK_AXES", "axis_rows", "TaskAxes", "detect_task_axes", "as_pose", "as_vector", "as_matrix", "errors", "se3", "singularity",
     "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
     "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError",
 ]
