@@ -60,6 +60,7 @@ class RobotEntry:
     locked: dict = field(default_factory=dict)  #: default values (rad / m) of the joints locked by default
     task_axes: tuple = TASK_AXES
     nq: int = 0  #: number of joints after locking (checked by the tests)
+    srdf: bool = True  #: read the SRDF found beside the model file (False when it does not fit the URDF)
 
     def path(self) -> Path:
         if self.origin == "erd":
@@ -71,8 +72,8 @@ class RobotEntry:
         return self.file.endswith(".xacro")
 
 
-def _erd(name, description, file, tip, nq, locked=None, task_axes=TASK_AXES) -> RobotEntry:
-    return RobotEntry(name, description, file, "erd", tip, dict(locked or {}), tuple(task_axes), nq)
+def _erd(name, description, file, tip, nq, locked=None, task_axes=TASK_AXES, srdf=True) -> RobotEntry:
+    return RobotEntry(name, description, file, "erd", tip, dict(locked or {}), tuple(task_axes), nq, srdf)
 
 
 _BAXTER_ARM = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
@@ -109,8 +110,9 @@ ENTRIES: dict[str, RobotEntry] = {
         _erd("xarm7", "UFactory xArm7 7-DOF arm (end effector link_eef)", "xarm_description/urdf/xarm7.urdf", "link_eef", 7),
         _erd("kinova", "Kinova Jaco2 j2s6s200 6-DOF arm (continuous joints bounded to +-2 pi)",
              "kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", 6),
+        # ERD's z1.srdf has a <chain base_link="base"> but z1.urdf has no link "base": not read
         _erd("z1", "Unitree Z1 6-DOF arm (gripper locked; tool gripperStator)", "z1_description/urdf/z1.urdf",
-             "gripperStator", 6, {"jointGripper": 0.0}),
+             "gripperStator", 6, {"jointGripper": 0.0}, srdf=False),
         _erd("so100", "SO-ARM100 5-DOF arm (gripper jaw locked; tool = gripper link)", "so_arm_description/urdf/so100.urdf",
              "gripper", 5, {"gripper": 0.0}),
         _erd("so101", "SO-101 5-DOF arm (gripper jaw locked; tool gripper_frame_link)", "so_arm_description/urdf/so101.urdf",
@@ -290,7 +292,8 @@ def _load_entry(entry: RobotEntry, opts: LoadOptions, params: dict, locks: dict)
                                                           time_limit=opts.time_limit, **kwargs), path))
     locks = {**_locks(f"robot {entry.name!r}", entry.locked, params), **_numbers(f"robot {entry.name!r}", locks)}
     key = ("entry", entry.name, _freeze(locks), opts.key(), tip)
-    return _cached(key, lambda: _auto_srdf(load_urdf(entry.path(), locked_joints=locks, **kwargs), entry.path()))
+    srdf_near = entry.path() if entry.srdf else None
+    return _cached(key, lambda: _auto_srdf(load_urdf(entry.path(), locked_joints=locks, **kwargs), srdf_near))
 
 
 def _numbers(label: str, values: Mapping) -> dict:
