@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import threading
 import warnings
 from collections import OrderedDict
@@ -41,6 +42,7 @@ from kinserve.kinematics.errors import ModelError, ShapeError, UnknownRobotError
 from kinserve.kinematics.robot import TASK_AXES, Robot, axis_rows
 
 from . import paths
+from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
 from .srdf import SrdfWarning, attach_srdf, find_srdf, read_srdf
 from .urdf_loader import is_xml_text, load_urdf
 from .xacro_loader import declared_args, load_xacro
@@ -257,7 +259,8 @@ class LoadOptions:
     time_limit: float | None = None
 
     def key(self) -> tuple:
-        return (self.tip, self.geometry, self.package_dirs, self.allow_outside)
+        env = tuple(os.environ.get(v) for v in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH))  # they resolve packages too
+        return (self.tip, self.geometry, self.package_dirs, self.allow_outside, env)
 
     def loader_kwargs(self) -> dict:
         return {"tip": self.tip, "geometry": self.geometry, "package_dirs": self.package_dirs,
