@@ -46,6 +46,17 @@ def _finder(req: dict):
                                   environ=req["environ"])
 
 
+def _caused_by_memory(exc: BaseException) -> bool:
+    """True when ``exc`` or what it wraps (xacro's ``exc.exc``, the cause chain) is a MemoryError."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, MemoryError):
+            return True
+        seen.add(id(exc))
+        exc = getattr(exc, "exc", None) or exc.__cause__ or exc.__context__
+    return False
+
+
 def expand(req: dict) -> dict:
     """The answer to one request (see the module docstring)."""
     import xacro
@@ -67,7 +78,7 @@ def expand(req: dict) -> dict:
         stack = list(xacro.filestack or [])
         return {
             "ok": False,
-            "error": type(exc).__name__,
+            "error": "MemoryError" if _caused_by_memory(exc) else type(exc).__name__,
             "message": str(exc),
             "reads_other_files": bool(xacro.all_includes),
             "file": str(stack[-1]) if stack and stack[-1] else req["path"],
