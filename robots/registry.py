@@ -43,7 +43,7 @@ from kinserve.kinematics.robot import TASK_AXES, Robot, axis_rows
 
 from . import paths
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
-from .srdf import SrdfWarning, attach_srdf, find_srdf, read_srdf
+from .srdf import SrdfWarning, attach_srdf, detach_srdf, find_srdf, read_srdf
 from .urdf_loader import is_xml_text, load_urdf
 from .xacro_loader import declared_args, load_xacro
 
@@ -395,7 +395,7 @@ def _apply(robot: Robot, task_axes, srdf) -> Robot:
         axis_rows(axes)  # ShapeError naming an unknown component
         robot.task_axes = tuple("yaw" if a == "phi" else a for a in axes)
     if srdf is False:
-        robot.named_states, robot.groups, robot.srdf_path = Robot.named_states, Robot.groups, None
+        detach_srdf(robot)
     elif srdf is not None:
         attach_srdf(robot, read_srdf(srdf, robot))
     return robot

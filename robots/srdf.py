@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from types import MappingProxyType
 
 import numpy as np
 from lxml import etree
@@ -243,9 +242,28 @@ def _states(root, label: str, urdf: _UrdfTree, robot: Robot, groups: dict) -> tu
     return states, state_groups
 
 
+class ReadOnlyDict(dict):
+    """A dict that refuses changes (shared by every ``Robot.copy()``) and still pickles."""
+
+    def _refuse(self, *args, **kwargs):
+        raise TypeError("this mapping is read-only (it is shared by every copy of the robot)")
+
+    __setitem__ = __delitem__ = clear = pop = popitem = setdefault = update = __ior__ = _refuse
+
+    def __reduce__(self):
+        return (type(self), (dict(self),))
+
+
 def attach_srdf(robot: Robot, srdf: Srdf) -> Robot:
     """Give ``robot`` the SRDF's ``groups`` and ``named_states`` (read-only mappings); returns ``robot``."""
-    robot.groups = MappingProxyType(dict(srdf.groups))
-    robot.named_states = MappingProxyType(dict(srdf.named_states))
+    robot.groups = ReadOnlyDict(srdf.groups)
+    robot.named_states = ReadOnlyDict(srdf.named_states)
     robot.srdf_path = srdf.label
+    return robot
+
+
+def detach_srdf(robot: Robot) -> Robot:
+    """Forget the SRDF of ``robot`` (back to the class defaults: no states, no groups)."""
+    for attr in ("groups", "named_states", "srdf_path"):
+        robot.__dict__.pop(attr, None)
     return robot

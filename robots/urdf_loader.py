@@ -8,7 +8,12 @@ Pipeline
    malformed XML, a joint whose parent/child link does not exist, duplicate
    names, a kinematic graph that is not one tree, unsupported joint types
    (``floating``/``planar``), malformed ``origin``/``axis``/``limit``
-   attributes, a mesh file that cannot be found, leftover xacro markup.
+   attributes, leftover xacro markup. When meshes are wanted
+   (``geometry=True``), every mesh URI is resolved (:class:`MeshResolver`,
+   :mod:`robots.packages`) and a path outside the model's folders and the
+   package folders is refused unless ``allow_outside``; a mesh that cannot
+   be found is a :class:`MissingMeshWarning`. Kinematics-only loads never
+   look at meshes.
 3. **Normalise** the joint types, because ``Robot`` needs ``nq == nv``:
    every ``continuous`` joint becomes a ``revolute`` joint with limits
    ``[-2 pi, +2 pi]`` (two full turns of travel, so every orientation is
@@ -22,10 +27,12 @@ Pipeline
    ``pinocchio.buildReducedModel`` and keeps ``Robot.source`` an exact
    description of the model.
 5. **Build** the Pinocchio model from the XML string and, when asked, the
-   visual and collision ``GeometryModel`` s with the package directories
-   that resolve ``package://`` mesh URIs (meshes are cached across loads).
-   Relative and ``file://`` mesh paths are rewritten as absolute paths (a
-   string has no directory of its own to resolve them against later).
+   visual and collision ``GeometryModel`` s from a copy whose mesh paths are
+   the files kinserve resolved (missing ones replaced, see
+   :func:`geometry_xml`; meshes are cached across loads). Relative and
+   ``file://`` mesh paths are rewritten as absolute paths in ``Robot.source``
+   (a string has no directory of its own to resolve them against later);
+   ``package://`` URIs stay, with ``Robot.package_dirs`` resolving them.
 
 ``Robot.source`` is the original text when nothing had to change, otherwise
 the normalised XML that was actually built.

@@ -126,3 +126,15 @@ def test_every_builtin_loads_without_srdf_warnings():
             robot = robots.load(name, geometry=False)
             for q in robot.named_states.values():
                 assert robot.within_limits(q)
+
+
+def test_named_states_are_read_only_and_travel_with_a_pickled_robot():
+    import pickle
+
+    panda = robots.load("panda", geometry=False)
+    with pytest.raises(TypeError, match="read-only"):
+        panda.named_states["mine"] = panda.neutral()
+    again = pickle.loads(pickle.dumps(panda))
+    assert again.named_states.keys() == panda.named_states.keys() and again.groups == panda.groups
+    np.testing.assert_array_equal(again.named_states["default"], panda.named_states["default"])
+    assert pickle.loads(pickle.dumps(robots.load("panda", geometry=False, srdf=False))).named_states == {}
