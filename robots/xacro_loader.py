@@ -128,17 +128,21 @@ def check_args(path, args: Mapping | None) -> dict[str, str]:
     return mappings
 
 
-def process_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_limit: float | None = None) -> str:
+def process_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_limit: float | None = None,
+                  allow_outside: bool = False) -> str:
     """URDF text of a xacro file expanded with ``args`` (``{name: value}``).
 
     ``package_dirs`` resolve ``$(find PKG)`` (see :mod:`robots.packages`);
     ``time_limit`` (s, default :data:`XACRO_TIME_LIMIT`) bounds the expansion.
+    Files it includes or loads must lie in the model's folders or the
+    package folders unless ``allow_outside``.
     """
-    text, _ = expand_xacro(path, args, package_dirs=package_dirs, time_limit=time_limit)
+    text, _ = expand_xacro(path, args, package_dirs=package_dirs, time_limit=time_limit, allow_outside=allow_outside)
     return text
 
 
-def expand_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_limit: float | None = None) -> tuple[str, list[Path]]:
+def expand_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_limit: float | None = None,
+                 allow_outside: bool = False) -> tuple[str, list[Path]]:
     """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see :func:`process_xacro`)."""
     p = _existing(path)
     mappings = check_args(p, args)
@@ -152,7 +156,7 @@ def expand_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_lim
         "package_dirs": [str(Path(d).expanduser().resolve()) for d in package_dirs], "model_dir": str(p.parent),
         "extra_dirs": [str(d) for d in default_package_dirs()],
         "environ": {k: os.environ[k] for k in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH) if k in os.environ},
-        "memory_limit": XACRO_MEMORY_LIMIT,
+        "memory_limit": XACRO_MEMORY_LIMIT, "allow_outside": bool(allow_outside),
     }
     try:
         done = subprocess.run([sys.executable, "-I", str(_WORKER)], input=json.dumps(request), capture_output=True,
@@ -170,6 +174,11 @@ def expand_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_lim
 
 def _failure_message(p: Path, answer: dict) -> str:
     kind = answer["error"]
+    if kind == "OutsideError":
+        what = "a file it includes" if answer["reads_other_files"] else repr(answer["message"])
+        return (f"{p}: xacro would read {what}, which resolves outside the folders this model may read from "
+                f"({', '.join(answer['roots'])}); refused. If you trust this model, pass allow_outside=True "
+                "(CLI: --allow-outside) or add its folder to package_dirs (CLI: --package-dir)")
     if kind == "MemoryError":
         return f"{p}: xacro expansion ran out of memory (limit {XACRO_MEMORY_LIMIT / 1024**3:g} GiB)"
     if answer["reads_other_files"]:
@@ -195,7 +204,7 @@ def load_xacro(
 ) -> Robot:
     """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`)."""
     p = _existing(path)
-    text, found = expand_xacro(p, args, package_dirs=package_dirs, time_limit=time_limit)
+    text, found = expand_xacro(p, args, package_dirs=package_dirs, time_limit=time_limit, allow_outside=allow_outside)
     label = f"{p} (expanded xacro)"
     if isinstance(package_dirs, (str, Path)):
         package_dirs = [package_dirs]

@@ -136,3 +136,35 @@ def test_find_resolves_through_package_dirs(tmp_path):
         load_xacro(top, geometry=False)
     robot = load_xacro(top, package_dirs=[tmp_path / "ws"], geometry=False)
     assert robot.joint_names == ["j"] and robot.task_axes == ("x",)
+
+
+def test_files_outside_the_model_folders_are_refused_whether_they_exist_or_not(tmp_path):
+    import pytest
+
+    from kinserve.kinematics.errors import ModelError
+
+    top = tmp_path / "desc" / "top.urdf.xacro"
+    top.parent.mkdir()
+    templates = [
+        '<xacro:include filename="{}"/><link name="a"/>',
+        '<xacro:property name="c" value="${{xacro.load_yaml(\'{}\')}}"/><link name="${{c}}"/>',
+    ]
+    for template in templates:
+        messages = {}
+        for target in ("/etc/passwd", "/etc/kinserve-no-such-file", "../../../../../../../etc/passwd"):
+            top.write_text(XACRO_HEAD + template.format(target) + "</robot>")
+            with pytest.raises(ModelError) as err:
+                process_xacro(top)
+            messages[target] = str(err.value).replace(target, "TARGET")
+        assert len(set(messages.values())) == 1, messages
+        message = next(iter(messages.values()))
+        assert "outside the folders this model may read from" in message and "root:" not in message
+    # a file beside the model is fine, and allow_outside lets a trusted model read anywhere
+    outside = tmp_path / "elsewhere" / "part.xacro"
+    outside.parent.mkdir()
+    outside.write_text(XACRO_HEAD + '<link name="from_elsewhere"/></robot>')
+    top.write_text(XACRO_HEAD + f'<xacro:include filename="{outside}"/></robot>')
+    with pytest.raises(ModelError, match="outside the folders"):
+        process_xacro(top)
+    assert "from_elsewhere" in process_xacro(top, allow_outside=True)
+    assert "from_elsewhere" in process_xacro(top, package_dirs=[outside.parent])
