@@ -87,7 +87,7 @@ def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
                         "workspace (repeatable; searched before $ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH)")
     p.add_argument("--srdf", metavar="FILE", help="SRDF with named states and groups (default: the one beside the model)")
     p.add_argument("--allow-outside", action="store_true",
-                   help="let the model read mesh files outside its own folder and the package folders")
+                   help="let the model read mesh and xacro-included files outside its own folder and the package folders")
     if q:
         p.add_argument("--q", nargs="+", metavar="Q", help="joint values (rad / m), space or comma separated; default: neutral")
         p.add_argument("--frame", help="frame name (default: the robot's tool frame)")
