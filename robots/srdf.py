@@ -39,8 +39,6 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-import warnings
-
 from kinserve.kinematics.errors import ModelError, suggest
 from kinserve.kinematics.robot import Robot
 
