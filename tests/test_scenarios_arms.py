@@ -332,6 +332,35 @@ def test_youbot_artefacts(youbot):
     assert_scene(out, animated=False)
 
 
+def test_youbot_scene_frames_every_branch_centred_and_filling_the_view(youbot):
+    """Every frame of every drawn arm (bases read from the page, q from result.json, FK here) projects
+    inside a 4:3 window with the page's camera, centred, spanning most of it both ways: not a
+    strip in the lower half with the top 40 % empty."""
+    from browser_checks import project
+    from browser_checks import page_camera as exported_camera
+    from kinserve import viz
+
+    out, r = youbot
+    commands = viz.read_html_commands(out / "scene.html")
+    eye, target = exported_camera(commands)
+    qs = {f"branch{k}": b["q"] for k, b in enumerate(b for case in r["ik"].values() for b in case["branches"])}
+    qs["nearest_reachable"] = r["off_reachable"]["branches"][0]["q"]
+    arm = robots.load("youbot", geometry=False)
+    points = []
+    for name, q in qs.items():
+        base = next(c for c in commands if c["type"] == "set_transform" and c["path"] == f"/meshcat/{name}")
+        B = np.asarray(base["matrix"], dtype=float).reshape(4, 4).T
+        points += [(B @ T)[:3, 3] for T in arm.fk_all(np.array(q)).values()]
+    w, h = size = (800, 600)
+    px = project(np.array(points), eye, target, size)
+    assert px[:, 0].min() >= 0 and px[:, 0].max() <= w and px[:, 1].min() >= 0 and px[:, 1].max() <= h
+    assert px[:, 1].min() < 0.4 * h, "the top 40 % of the view is empty"
+    # joint frames only: the link shapes and the target triads reach further out
+    assert np.ptp(px[:, 0]) > 0.6 * w and np.ptp(px[:, 1]) > 0.35 * h
+    assert abs(0.5 * (px[:, 0].min() + px[:, 0].max()) / w - 0.5) < 0.1
+    assert abs(0.5 * (px[:, 1].min() + px[:, 1].max()) / h - 0.5) < 0.1
+
+
 # --------------------------------------------------------------------------- S3 youBot tour
 def test_tour_order_is_optimal_by_brute_force_with_euclidean_distances(tour):
     _, r = tour
