@@ -157,10 +157,11 @@ def _branches_figure(robot, cases):
                 color=viz.colors.to_rgb(viz.colors.PALETTE[k % len(viz.colors.PALETTE)]), markeredgecolor="black",
                 label=f"{name}: {b['branch']}")
     ax.set_xticks(x, [f"A{i + 1}" for i in x])
+    ax.set_xlabel("joint (A1-A5 = q1-q5; markers side by side within a joint's range bar)")
     ax.set_ylabel("joint value (deg)")
     ax.set_title("youBot closed-form IK: every branch inside the limits, per target", fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, framealpha=0.9)
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="outside lower center", ncol=3, frameon=False)
     return fig
 
 
