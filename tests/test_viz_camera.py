@@ -165,3 +165,20 @@ def test_live_view_and_html_export_send_the_same_camera(tmp_path):
     assert live == exported
     eye, target = exported_camera(live)
     assert np.linalg.norm(eye - target) > 0.1
+
+
+def test_the_automatic_camera_frames_the_whole_animation():
+    """A planar 4R arm swinging through half a turn: its links at every keyed frame stay in the window."""
+    arm = robots.load("planar4r", geometry=True)
+    scene = viz.Scene("swing", grid=False)
+    scene.add_robot(arm, np.zeros(4))
+    Q = np.outer(np.linspace(0.0, 1.0, 61), [np.pi, 0.3, -0.2, 0.1])
+    anim = viz.Animation(scene, fps=30)
+    anim.robot("planar4r", Q)
+    anim.apply()
+    eye, target = exported_camera(scene.commands())
+    V = np.array([T[:3, 3] for q in Q for T in arm.fk_all(q).values()])  # every frame at every sample (base at 0)
+    px = pixel_project(V, eye, target, SIZE)
+    assert px[:, 0].min() >= 0 and px[:, 0].max() <= SIZE[0] and px[:, 1].min() >= 0 and px[:, 1].max() <= SIZE[1]
+    scene.delete("planar4r")  # the motion's extent goes with the robot
+    assert scene.bounds() is None
