@@ -1,4 +1,4 @@
-"""Camera framing: where meshcat's camera stands to show a box, and the commands that put it there.
+"""Camera framing: where meshcat's camera stands to show what a scene draws, and the commands that put it there.
 
 The camera model is meshcat's default camera, a three.js ``PerspectiveCamera``
 with a vertical field of view of :data:`CAMERA_FOV_DEG`, looking from ``eye``
@@ -17,9 +17,11 @@ a world point ``p`` projects to the normalised device coordinates
 :func:`frame_points` chooses ``(eye, target)`` for a set of points (the
 corners of the bounding boxes of what a scene draws): it looks along a fixed
 elevation from the azimuth, among a few around the default front-right view,
-that makes their projection largest, and places the camera so that the
-projected points are centred in the window and span ``fill`` of it on the
-limiting axis.
+that gives their projection the largest bounding rectangle, and places the
+camera so that the projected points are centred in the window and span
+``fill`` of it on the limiting axis - unless that would put the camera so
+close that the farthest point is more than :data:`MAX_DEPTH_RATIO` times as
+deep as the nearest (wide-angle distortion); then it stays back.
 :func:`view_commands` turns ``(eye, target)`` into meshcat commands. The static
 export and the live viewer both send a scene's :meth:`viz.Scene.commands`, so
 both show the same framing.
@@ -39,7 +41,7 @@ CAMERA_FOV_DEG = 75.0
 #: (4:3), so wider windows (16:9 browsers, the 3:2 gallery shots) show a margin at the sides.
 FRAMING_ASPECT = 4.0 / 3.0
 
-#: Share of the window (in normalised device coordinates) the box's larger projected side spans.
+#: Share of the window (normalised device coordinates) the projected points span on the limiting axis.
 FRAMING_FILL = 0.9
 
 #: Smallest distance (m) from the eye to the plane of the nearest point (meshcat's near plane is 0.01 m).
