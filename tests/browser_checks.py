@@ -29,6 +29,15 @@ def project(points, eye, target, size) -> np.ndarray:
     return np.c_[w / 2 + k * (d @ r) / depth, h / 2 - k * (d @ u) / depth]
 
 
+def page_camera(commands) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, target) of a page's replayed commands: the drawing is shifted by -target, the camera sits at eye - target."""
+    shift = next(c for c in commands if c["type"] == "set_transform" and c["path"] == "/meshcat")
+    target = -np.asarray(shift["matrix"], dtype=float).reshape(4, 4).T[:3, 3]
+    pos = next(c for c in commands if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
+    p = np.asarray(pos["value"], dtype=float)  # three.js y-up: (x, z, -y) of the world
+    return target + np.array([p[0], -p[2], p[1]]), target
+
+
 def robot_mask(viz, full_html, bare_html, out, size) -> tuple[np.ndarray, np.ndarray]:
     """(screenshot with the robot as an int RGB array, boolean mask of the robot's pixels)."""
     a = np.asarray(Image.open(viz.screenshot(full_html, out / "full.png", size=size)).convert("RGB")).astype(int)

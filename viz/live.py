@@ -51,7 +51,11 @@ class LiveViewer:
         self.window.send(_Lowered(command))
 
     def show(self, scene: Scene, clear: bool = True) -> int:
-        """Send the whole scene (after deleting what the server showed, if ``clear``); returns the command count."""
+        """Send the whole scene (after deleting what the server showed, if ``clear``); returns the command count.
+
+        The commands end with the scene's camera (:meth:`Scene.camera_commands`, framed by
+        :func:`viz.camera.frame_points`): the live page opens on the view of the static export.
+        """
         if not isinstance(scene, Scene):
             raise InputError(f"LiveViewer.show needs a viz.Scene, got {type(scene).__name__}")
         if clear:
