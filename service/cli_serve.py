@@ -6,6 +6,8 @@ import argparse
 import os
 import socket
 
+from .cli_types import port_number, positive_float, positive_int
+
 
 def tcp_listener(config) -> socket.socket:
     """``config.bind_socket()`` re-wrapped so the socket reports ``proto == IPPROTO_TCP``.
@@ -45,8 +47,8 @@ def cmd_serve(args) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8000)
-    p.add_argument("--workers", type=int, default=1, help="worker processes (each with its own robot cache)")
-    p.add_argument("--max-time-cap", type=float, default=5.0, help="upper bound on any IK request's max_time (s)")
+    p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
+    p.add_argument("--workers", type=positive_int, default=1, help="worker processes (each with its own robot cache)")
+    p.add_argument("--max-time-cap", type=positive_float, default=5.0, help="upper bound on any IK request's max_time (s)")
     p.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     p.set_defaults(func=cmd_serve)
