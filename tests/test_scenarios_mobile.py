@@ -323,7 +323,7 @@ def test_coverage_artefacts(coverage):
 
 # --------------------------------------------------------------------------- CLI
 def test_cli_demo_mall_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "mall", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr

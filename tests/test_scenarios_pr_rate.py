@@ -187,7 +187,7 @@ def test_pngs_are_real_plots(s5):
 
 
 def test_cli_demo_pr_rate_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "pr-rate", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr

@@ -10,7 +10,7 @@ import httpx
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-ENV = dict(os.environ, PYTHONPATH=ROOT, MPLBACKEND="Agg")
+ENV = dict(os.environ, MPLBACKEND="Agg")
 
 
 def test_reach_writes_npz_and_png(tmp_path):
