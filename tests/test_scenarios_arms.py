@@ -26,7 +26,7 @@ from matplotlib.image import imread
 
 from kinserve import robots
 from kinserve import scenarios
-from scenario_runs import run_scenario
+from scenario_runs import assert_readme_row, run_scenario
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory
 from kinserve.scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
@@ -548,3 +548,10 @@ def test_cli_demo_scara_end_to_end(tmp_path):
     r = load(tmp_path / "scara")
     assert r["scenario"] == "scara" and r["min_tool_sphere_distance"] >= SPHERE_R - 1e-9
     assert (tmp_path / "scara" / "scene.html").is_file() and (tmp_path / "scara" / "methods.png").is_file()
+
+
+# --------------------------------------------------------------------------- README table
+@pytest.mark.parametrize("fixture", ["planar", "youbot", "tour", "scara"])
+def test_readme_row_matches_a_fresh_run(fixture, request):
+    out, result = request.getfixturevalue(fixture)
+    assert_readme_row(result["scenario"], result)

@@ -26,7 +26,7 @@ from scipy.linalg import expm
 from scipy.sparse.csgraph import dijkstra
 
 from kinserve import scenarios
-from scenario_runs import run_scenario
+from scenario_runs import assert_readme_row, run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -331,3 +331,10 @@ def test_cli_demo_mall_end_to_end(tmp_path):
     assert {"waypoints", "segments", "smoothed", "length"} <= set(r)
     assert (tmp_path / "mall" / "scene.html").is_file() and (tmp_path / "mall" / "map.png").is_file()
     assert "[mall]" in proc.stdout
+
+
+# --------------------------------------------------------------------------- README table
+@pytest.mark.parametrize("fixture", ["omni", "mall", "coverage"])
+def test_readme_row_matches_a_fresh_run(fixture, request):
+    out, result = request.getfixturevalue(fixture)
+    assert_readme_row(result["scenario"], result)

@@ -216,3 +216,9 @@ def test_direct_motion_reports_infeasible_samples_without_joint_jumps(tmp_path):
     Q = JointTrajectory.load(tmp_path / "trajectory.json").positions
     jumps = np.abs(np.diff(Q, axis=0)).max(axis=1)
     assert jumps.max() < 0.5, f"joint jump of {jumps.max():.2f} rad at sample {int(jumps.argmax()) + 1}"
+
+
+def test_readme_row_matches_a_fresh_run(s4):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pick-place", s4[0])

@@ -195,3 +195,9 @@ def test_cli_demo_pr_rate_end_to_end(tmp_path):
     r = json.loads((tmp_path / "pr-rate" / "result.json").read_text())
     assert r["runs"] == 11 and r["closed_beats_open_on_all_circles"] is True
     assert (tmp_path / "pr-rate" / "circles.png").is_file()
+
+
+def test_readme_row_matches_a_fresh_run(s5):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pr-rate", s5[0])
