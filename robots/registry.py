@@ -27,10 +27,12 @@ parameters and options): every call returns a fresh ``Robot`` with its own
 from __future__ import annotations
 
 import math
+import os
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from kinserve.kinematics.errors import ModelError, UnknownRobotError, suggest
 from kinserve.kinematics.robot import TASK_AXES, Robot
@@ -247,7 +249,7 @@ def _looks_like_path(s: str) -> bool:
     return "/" in s or "\\" in s or s.endswith((".urdf", ".xacro", ".xml")) or Path(s).expanduser().is_file()
 
 
-def load(name_or_path, *, tip: str | None = None, geometry: bool = True, **params) -> Robot:
+def load(name_or_path: str | os.PathLike, *, tip: str | None = None, geometry: bool = True, **params: Any) -> Robot:
     """A :class:`Robot` from a built-in name, a ``.urdf`` / ``.xacro`` path, or URDF text.
 
     See the module docstring for what ``params`` mean for each form. Raises

@@ -34,8 +34,9 @@ the normalised XML that was actually built.
 from __future__ import annotations
 
 import math
+import os
 import threading
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -78,12 +79,12 @@ class UrdfSource:
     base_dir: Path | None = None  #: directory of the file (None for a string)
 
 
-def is_xml_text(source) -> bool:
+def is_xml_text(source: object) -> bool:
     """True when ``source`` is XML text rather than a path (it starts with ``<``)."""
     return isinstance(source, str) and source.lstrip().startswith("<")
 
 
-def read_urdf(source) -> UrdfSource:
+def read_urdf(source: str | os.PathLike) -> UrdfSource:
     """Read a URDF path or XML string; :class:`ModelError` if the file cannot be read.
 
     A :class:`UrdfSource` is passed through (used by the xacro loader to keep
@@ -185,7 +186,7 @@ class MeshResolver:
         return None
 
 
-def validate_urdf(root, label: str, resolver: MeshResolver | None) -> None:
+def validate_urdf(root: etree._Element, label: str, resolver: MeshResolver | None) -> None:
     """Check a parsed URDF tree; raise :class:`ModelError` naming file, element and line.
 
     With ``resolver=None`` mesh files are not checked.
@@ -301,7 +302,7 @@ def validate_urdf(root, label: str, resolver: MeshResolver | None) -> None:
 
 
 # -------------------------------------------------------------------- normalisation
-def continuous_to_revolute(root) -> list[str]:
+def continuous_to_revolute(root: etree._Element) -> list[str]:
     """Turn every ``continuous`` joint into ``revolute`` with limits +-2 pi; return their names."""
     changed = []
     for joint in root.findall("joint"):
@@ -331,7 +332,7 @@ def _origin_matrix(joint) -> np.ndarray:
     return T
 
 
-def lock_joints(root, locked: Mapping[str, float], label: str) -> None:
+def lock_joints(root: etree._Element, locked: Mapping[str, float], label: str) -> None:
     """Rewrite each named joint as a fixed joint at the given value (see module docstring).
 
     Raises :class:`ModelError` for an unknown or non-movable joint and for a
@@ -401,7 +402,8 @@ def build_model(xml: str, label: str) -> pin.Model:
         raise ModelError(f"{label}: Pinocchio could not build a model from the URDF: {exc}") from None
 
 
-def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path], label: str):
+def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
+                   label: str) -> tuple[pin.GeometryModel, pin.GeometryModel]:
     """Visual and collision ``GeometryModel`` s of ``xml`` (meshes cached across calls)."""
     global _MESH_LOADER
     dirs = [str(d) for d in package_dirs]
@@ -437,7 +439,8 @@ class PreparedUrdf:
     continuous: tuple[str, ...]
 
 
-def prepare_urdf(source, *, locked_joints: Mapping[str, float] | None = None, package_dirs=(), check_meshes: bool = True) -> PreparedUrdf:
+def prepare_urdf(source: str | os.PathLike, *, locked_joints: Mapping[str, float] | None = None,
+                 package_dirs: Iterable[str | os.PathLike] = (), check_meshes: bool = True) -> PreparedUrdf:
     """Read, validate, normalise (continuous joints, locks) a URDF; no Pinocchio yet."""
     src = read_urdf(source)
     root = parse_xml(src.text, src.label)
@@ -458,15 +461,15 @@ def prepare_urdf(source, *, locked_joints: Mapping[str, float] | None = None, pa
 
 
 def load_urdf(
-    source,
+    source: str | os.PathLike,
     *,
     tip: str | None = None,
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     geometry: bool = True,
-    task_axes=TASK_AXES,
+    task_axes: Sequence[str] = TASK_AXES,
 ) -> Robot:
     """Load a URDF file path or XML string as a :class:`Robot`.
 

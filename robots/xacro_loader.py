@@ -18,9 +18,10 @@ with a lock: the ``xacro`` package keeps global state.
 from __future__ import annotations
 
 import math
+import os
 import threading
 import xml.parsers.expat
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 import xacro
@@ -45,7 +46,7 @@ def _existing(path) -> Path:
     return p.resolve()
 
 
-def declared_args(path) -> dict[str, str | None]:
+def declared_args(path: str | os.PathLike) -> dict[str, str | None]:
     """``{name: default}`` of the ``<xacro:arg>`` elements of a xacro file (None = no default)."""
     p = _existing(path)
     try:
@@ -88,7 +89,7 @@ def _arg_text(path: Path, name: str, value, default: str | None) -> str:
     return text
 
 
-def check_args(path, args: Mapping | None) -> dict[str, str]:
+def check_args(path: str | os.PathLike, args: Mapping | None) -> dict[str, str]:
     """Validate ``args`` against the file's declared ``<xacro:arg>`` s; return the string mappings."""
     p = _existing(path)
     declared = declared_args(p)
@@ -107,7 +108,7 @@ def check_args(path, args: Mapping | None) -> dict[str, str]:
     return mappings
 
 
-def process_xacro(path, args: Mapping | None = None) -> str:
+def process_xacro(path: str | os.PathLike, args: Mapping | None = None) -> str:
     """URDF text of a xacro file expanded with ``args`` (``{name: value}``)."""
     p = _existing(path)
     mappings = check_args(p, args)
@@ -123,16 +124,16 @@ def process_xacro(path, args: Mapping | None = None) -> str:
 
 
 def load_xacro(
-    path,
+    path: str | os.PathLike,
     *,
     args: Mapping | None = None,
     tip: str | None = None,
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     geometry: bool = True,
-    task_axes=TASK_AXES,
+    task_axes: Sequence[str] = TASK_AXES,
 ) -> Robot:
     """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`)."""
     p = _existing(path)

@@ -110,6 +110,21 @@ def start_meshcat_server(timeout: float = 60.0) -> tuple[subprocess.Popen, str, 
     return proc, urls["zmq_url"], urls["web_url"]
 
 
+class _Window(meshcat.visualizer.ViewerWindow):
+    """meshcat's ``ViewerWindow`` that closes its previous ZeroMQ socket when it reconnects.
+
+    ``ViewerWindow.__init__`` connects twice (it asks for the URL, then
+    reconnects) and leaves the first socket to the garbage collector, which
+    reports it as a ``ResourceWarning``.
+    """
+
+    def connect_zmq(self) -> None:
+        previous = getattr(self, "zmq_socket", None)
+        super().connect_zmq()
+        if previous is not None:
+            previous.close(linger=0)
+
+
 class LiveViewer:
     """A meshcat server (started here, or an existing one at ``zmq_url``) and a client to it.
 
@@ -123,7 +138,7 @@ class LiveViewer:
             self._proc, zmq_url, _ = start_meshcat_server()
         try:
             with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; callers decide
-                window = meshcat.visualizer.ViewerWindow(zmq_url=zmq_url, start_server=False, server_args=[])
+                window = _Window(zmq_url=zmq_url, start_server=False, server_args=[])
         except BaseException:
             self.close()
             raise
