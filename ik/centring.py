@@ -39,10 +39,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.types import VectorLike
 
 
-def centring_weights(robot, centring) -> np.ndarray | None:
+def centring_weights(robot: Robot, centring: float | VectorLike | None) -> np.ndarray | None:
     """Per-joint weights ``w / r^2`` (``(nq,)``) or None when centring is off.
 
     ``centring`` is a number or a sequence of ``nq`` numbers, all finite and ``>= 0``.
@@ -68,7 +70,7 @@ def centring_weights(robot, centring) -> np.ndarray | None:
     return out if np.any(out > 0) else None
 
 
-def centring_objective(robot, q, weights) -> float:
+def centring_objective(robot: Robot, q: np.ndarray, weights: np.ndarray) -> float:
     """``h(q)`` for weights from :func:`centring_weights` (already divided by ``r^2``)."""
     d = np.asarray(q, dtype=float) - robot.middle()
     return 0.5 * float(np.sum(weights * d * d))
@@ -110,7 +112,7 @@ def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarr
     return Z @ z
 
 
-def centring_step(robot, q, weights) -> np.ndarray:
+def centring_step(robot: Robot, q: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The secondary step ``(m - q)`` on weighted joints (0 on joints with weight 0)."""
     return np.where(weights > 0, robot.middle() - q, 0.0)
 
@@ -123,8 +125,8 @@ class CentringStage:
     workspace cache of :func:`ik.qp_backends.make_backend` (built once per size).
     """
 
-    def __init__(self, robot, weights, k_rows: int, backend: str, max_step: float, eps: float = 1e-9,
-                 shortcut: bool = True):
+    def __init__(self, robot: Robot, weights: np.ndarray, k_rows: int, backend: str, max_step: float, eps: float = 1e-9,
+                 shortcut: bool = True) -> None:
         self.shortcut = shortcut
         self.n = robot.nq
         self.k_rows = k_rows
@@ -134,7 +136,8 @@ class CentringStage:
         self.eps = eps
         self.backend_name = backend
 
-    def step(self, q, J_task, dq1, lb, ub, G, l, u):
+    def step(self, q: np.ndarray, J_task: np.ndarray, dq1: np.ndarray, lb: np.ndarray, ub: np.ndarray,
+             G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None) -> np.ndarray:
         """Secondary correction ``Z z`` to add to ``dq1`` (zeros when there is no freedom or the QP fails)."""
         from .qp_backends import make_backend
 
