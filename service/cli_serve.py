@@ -26,8 +26,30 @@ def tcp_listener(config) -> socket.socket:
     return sock
 
 
+def check_address(host: str, port: int) -> None:
+    """Raise ``OSError`` (one ``error:`` line from the CLI) when ``host:port`` cannot be listened on.
+
+    uvicorn would log the failure among its start-up lines and exit with 1 or 3;
+    binding a probe socket first (with ``SO_REUSEADDR``, as uvicorn does) turns
+    a busy port or an unknown host into a clear message and exit status 2.
+    """
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except socket.gaierror as exc:
+        raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as exc:
+            raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+
+
 def cmd_serve(args) -> int:
     import uvicorn
+
+    check_address(args.host, args.port)
 
     if args.workers > 1:
         from uvicorn.supervisors import Multiprocess

@@ -127,3 +127,17 @@ def test_issue_cases_as_real_processes(args, needle, tmp_path):
     out = kinserve(*args, cwd=tmp_path)
     assert_one_line_error(out.returncode, out.stdout, out.stderr, needle)
     assert not os.path.exists("/nonexistent/dir")
+
+
+def test_serve_on_a_busy_port_or_unknown_host_is_one_line_exit_2(tmp_path):
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = str(busy.getsockname()[1])
+        for extra in ([], ["--workers", "2"]):
+            out = kinserve("serve", "--port", port, *extra, cwd=tmp_path)
+            assert_one_line_error(out.returncode, out.stdout, out.stderr, f"cannot listen on 127.0.0.1:{port}")
+    out = kinserve("serve", "--host", "no-such-host.invalid", "--port", "0", cwd=tmp_path)
+    assert_one_line_error(out.returncode, out.stdout, out.stderr, "cannot listen on no-such-host.invalid:0")
