@@ -24,7 +24,9 @@ import atexit
 import contextlib
 import ctypes
 import io
+import os
 import re
+import select
 import signal
 import subprocess
 import sys
@@ -94,19 +96,23 @@ def start_meshcat_server(timeout: float = 60.0) -> tuple[subprocess.Popen, str, 
     _SERVERS.add(proc)
     urls: dict[str, str] = {}
     deadline = time.monotonic() + timeout
+    fd, pending = proc.stdout.fileno(), b""
     while len(urls) < 2:
-        line = proc.stdout.readline().decode("utf-8", "replace").strip()
-        m = re.match(r"^(zmq_url|web_url)=(\S+)$", line)
-        if m:
-            urls[m.group(1)] = m.group(2)
-        elif not line and proc.poll() is not None:
+        left = deadline - time.monotonic()
+        ready = select.select([fd], [], [], max(left, 0.0))[0] if left > 0 else []
+        chunk = os.read(fd, 4096) if ready else None
+        if chunk is None or chunk == b"":
             stop_process(proc)
             _SERVERS.discard(proc)
+            if chunk is None:
+                raise RuntimeError(f"the meshcat server did not report its URLs within {timeout:.0f} s")
             raise RuntimeError(f"the meshcat server exited on start with code {proc.returncode}")
-        if time.monotonic() > deadline:
-            stop_process(proc)
-            _SERVERS.discard(proc)
-            raise RuntimeError(f"the meshcat server did not report its URLs within {timeout:.0f} s")
+        pending += chunk
+        *lines, pending = pending.split(b"\n")
+        for line in lines:
+            m = re.match(r"^(zmq_url|web_url)=(\S+)$", line.decode("utf-8", "replace").strip())
+            if m:
+                urls[m.group(1)] = m.group(2)
     return proc, urls["zmq_url"], urls["web_url"]
 
 
