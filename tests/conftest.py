@@ -57,9 +57,10 @@ os.environ[TAG] = f"{os.getpid()}-{os.urandom(6).hex()}"
 
 def _shut_down_persistent_pools() -> None:
     """Worker pools the library keeps on purpose between calls are stopped through their public API."""
-    batch = sys.modules.get("kinserve.ik.batch")
-    if batch is not None:
-        batch.shutdown_pool()
+    for module_name in ("kinserve.ik.batch",):
+        shutdown = getattr(sys.modules.get(module_name), "shutdown_pool", None)
+        if shutdown is not None:
+            shutdown()
 
 
 def _report_leftovers(session, message: str) -> None:
