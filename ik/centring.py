@@ -39,12 +39,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, NonFiniteError
-from kinserve.kinematics.types import VectorLike
 
 
-def centring_weights(robot: Robot, centring: float | VectorLike | None) -> np.ndarray | None:
+def centring_weights(robot, centring) -> np.ndarray | None:
     """Per-joint weights ``w / r^2`` (``(nq,)``) or None when centring is off.
 
     ``centring`` is a number or a sequence of ``nq`` numbers, all finite and ``>= 0``.
@@ -70,7 +68,7 @@ def centring_weights(robot: Robot, centring: float | VectorLike | None) -> np.nd
     return out if np.any(out > 0) else None
 
 
-def centring_objective(robot: Robot, q: np.ndarray, weights: np.ndarray) -> float:
+def centring_objective(robot, q, weights) -> float:
     """``h(q)`` for weights from :func:`centring_weights` (already divided by ``r^2``)."""
     d = np.asarray(q, dtype=float) - robot.middle()
     return 0.5 * float(np.sum(weights * d * d))
@@ -112,7 +110,7 @@ def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarr
     return Z @ z
 
 
-def centring_step(robot: Robot, q: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def centring_step(robot, q, weights) -> np.ndarray:
     """The secondary step ``(m - q)`` on weighted joints (0 on joints with weight 0)."""
     return np.where(weights > 0, robot.middle() - q, 0.0)
 
@@ -125,8 +123,8 @@ class CentringStage:
     workspace cache of :func:`ik.qp_backends.make_backend` (built once per size).
     """
 
-    def __init__(self, robot: Robot, weights: np.ndarray, k_rows: int, backend: str, max_step: float, eps: float = 1e-9,
-                 shortcut: bool = True) -> None:
+    def __init__(self, robot, weights, k_rows: int, backend: str, max_step: float, eps: float = 1e-9,
+                 shortcut: bool = True):
         self.shortcut = shortcut
         self.n = robot.nq
         self.k_rows = k_rows
@@ -136,8 +134,7 @@ class CentringStage:
         self.eps = eps
         self.backend_name = backend
 
-    def step(self, q: np.ndarray, J_task: np.ndarray, dq1: np.ndarray, lb: np.ndarray, ub: np.ndarray,
-             G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None) -> np.ndarray:
+    def step(self, q, J_task, dq1, lb, ub, G, l, u):
         """Secondary correction ``Z z`` to add to ``dq1`` (zeros when there is no freedom or the QP fails)."""
         from .qp_backends import make_backend
 

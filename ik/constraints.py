@@ -43,16 +43,12 @@ end.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
-from kinserve.kinematics.types import VectorLike
 from kinserve.kinematics.validation import MAX_ABS, as_vector
 
 #: Fraction of the current clearance one step may use up (velocity damper gain).
@@ -83,7 +79,7 @@ class Sphere:
     radius: float
     frames: tuple | None = None
 
-    def __init__(self, center: VectorLike, radius: float, frames: str | Sequence[str] | None = None) -> None:
+    def __init__(self, center, radius, frames=None):
         c = as_vector(center, 3, "sphere center")
         try:
             r = float(radius)
@@ -106,12 +102,12 @@ class Sphere:
         object.__setattr__(self, "radius", r)
         object.__setattr__(self, "frames", frames)
 
-    def distance(self, point: VectorLike) -> float:
+    def distance(self, point) -> float:
         """Distance (m) from a point to the sphere's centre."""
         return float(np.linalg.norm(np.asarray(point, dtype=float) - np.asarray(self.center)))
 
 
-def as_sphere(value: Sphere | tuple[VectorLike, float] | Mapping[str, Any]) -> Sphere:
+def as_sphere(value) -> Sphere:
     """Accept a :class:`Sphere`, a ``(center, radius)`` pair or a ``{"center", "radius", "frames"}`` dict."""
     if isinstance(value, Sphere):
         return value
@@ -142,7 +138,7 @@ class _Segment:
         return self.ja == 0 and self.jb == 0
 
 
-def robot_segments(robot: Robot, tool_frame: str) -> list[_Segment]:
+def robot_segments(robot, tool_frame: str) -> list[_Segment]:
     """The default checked geometry of ``robot``: link, prismatic and tool segments (module docstring)."""
     model = robot.model
     segs = []
@@ -158,7 +154,7 @@ def robot_segments(robot: Robot, tool_frame: str) -> list[_Segment]:
     return segs
 
 
-def frame_points(robot: Robot, frames: Sequence[str]) -> list[_Segment]:
+def frame_points(robot, frames) -> list[_Segment]:
     """Zero-length segments at the origins of the named frames."""
     segs = []
     for name in frames:
@@ -187,8 +183,7 @@ class SphereSet:
     right after its own kinematics pass.
     """
 
-    def __init__(self, robot: Robot, spheres: Iterable[Sphere | tuple[VectorLike, float] | Mapping[str, Any]],
-                 tool_frame: str) -> None:
+    def __init__(self, robot, spheres, tool_frame: str):
         self.robot = robot
         self.spheres = [as_sphere(s) for s in spheres]
         pairs = []
@@ -222,7 +217,7 @@ class SphereSet:
         b = ob.act(seg.lb) if seg.jb else seg.lb + 0.0
         return a, b
 
-    def clearances(self, data: pin.Data) -> np.ndarray:
+    def clearances(self, data) -> np.ndarray:
         """``d - r`` (m) for every pair at the configuration of ``data`` (after FK)."""
         out = np.empty(self.m)
         for i, (_, c, r, seg) in enumerate(self.pairs):
@@ -231,12 +226,12 @@ class SphereSet:
             out[i] = math.sqrt((x - c).dot(x - c)) - r
         return out
 
-    def clearances_at(self, q: VectorLike) -> np.ndarray:
+    def clearances_at(self, q) -> np.ndarray:
         """``d - r`` at ``q`` (runs forward kinematics on the robot's data)."""
         pin.forwardKinematics(self.robot.model, self.robot.data, q)
         return self.clearances(self.robot.data)
 
-    def rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
+    def rows(self, data) -> tuple[np.ndarray, np.ndarray]:
         """``(d - r, G)``: clearances ``(m,)`` and their gradients ``G`` ``(m, nq)`` (after computeJointJacobians)."""
         model = self.robot.model
         n = model.nv

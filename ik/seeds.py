@@ -30,11 +30,8 @@ from __future__ import annotations
 
 import math
 import weakref
-from collections.abc import Iterator
 
 import numpy as np
-
-from kinserve.kinematics import Robot
 
 #: Default number of samples in a table.
 DEFAULT_SIZE = 2000
@@ -58,7 +55,7 @@ class SeedTable:
     limit, which the interior samples cannot approach.
     """
 
-    def __init__(self, robot: Robot, frame: str, n: int | None = None, rotation_weight: float | None = None) -> None:
+    def __init__(self, robot, frame: str, n: int | None = None, rotation_weight: float | None = None):
         n = DEFAULT_SIZE if n is None else int(n)
         rng = np.random.default_rng(_TABLE_SEED)
         span = robot.upper - robot.lower
@@ -115,7 +112,7 @@ class SeedTable:
         return idx, score[idx] + float(f_target[:12] @ f_target[:12])
 
 
-def seed_table(robot: Robot, frame: str) -> SeedTable:
+def seed_table(robot, frame: str) -> SeedTable:
     """The cached :class:`SeedTable` of ``robot`` for ``frame`` (built on first use).
 
     Cached per Pinocchio model (weakly), so every ``robot.copy()`` - and every
@@ -130,7 +127,7 @@ def seed_table(robot: Robot, frame: str) -> SeedTable:
     return table
 
 
-def install_table(robot: Robot, frame: str, table: SeedTable) -> None:
+def install_table(robot, frame: str, table: SeedTable) -> None:
     """Register an existing table for ``robot`` (e.g. one shipped to a worker process)."""
     per_robot = _tables.get(robot.model)
     if per_robot is None:
@@ -138,9 +135,8 @@ def install_table(robot: Robot, frame: str, table: SeedTable) -> None:
     per_robot[frame] = table
 
 
-def start_sequence(robot: Robot, table: SeedTable | None, f_target: np.ndarray, q0: np.ndarray | None,
-                   rng_seed: int | np.random.Generator | None, n_table: int = 8, q0_distance: float | None = None,
-                   prefer_q0: bool = False) -> Iterator[np.ndarray]:
+def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_table: int = 8, q0_distance=None,
+                   prefer_q0: bool = False):
     """Generator of start configurations (fresh arrays) for one solve; see the module docstring.
 
     ``q0_distance`` is ``D`` of ``q0`` (None when ``q0`` is None). With

@@ -32,25 +32,20 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Iterable, Sequence
-from typing import Any
 
 import numpy as np
 
-from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, NonFiniteError
-from kinserve.kinematics.types import PoseLike, VectorLike
 
 from . import analytic as _analytic
 from .centring import centring_weights
 from .chooser import choose
 from .classical import METHODS as CLASSICAL_METHODS
 from .classical import solve_classical
-from .constraints import Sphere, SphereSet
+from .constraints import SphereSet
 from .lm_solver import solve_lm
 from .qp_backends import available_backends
 from .qp_solver import solve_qp
-from .result import Result
 from .targets import Target
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
@@ -91,10 +86,8 @@ def _check_backend(backend):
     return backend.lower()
 
 
-def prepare(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = None, *, frame: str | None = None,
-            relax: str | Sequence[str] = (), relax_frame: str = "world", spheres: Sphere | Iterable[Sphere] | None = (),
-            centring: float | VectorLike | None = 0.0, method: str = "auto", backend: str = "osqp", tol_pos: float = 1e-4,
-            tol_rot: float = 1e-3, max_time: float | None = None, seed: int | None = None) -> dict[str, Any]:
+def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), centring=0.0,
+            method="auto", backend="osqp", tol_pos=1e-4, tol_rot=1e-3, max_time=None, seed=None):
     """Validate every argument of :func:`solve`; return a dict of checked values.
 
     Exposed so that batch solving (:mod:`ik.batch`) validates each target once
@@ -137,23 +130,23 @@ def prepare(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = Non
 
 
 def solve(
-    robot: Robot,
-    target: PoseLike,
-    q0: VectorLike | None = None,
+    robot,
+    target,
+    q0=None,
     *,
     frame: str | None = None,
-    relax: str | Sequence[str] = (),
+    relax=(),
     relax_frame: str = "world",
-    spheres: Sphere | Iterable[Sphere] | None = (),
-    centring: float | VectorLike | None = 0.0,
+    spheres=(),
+    centring=0.0,
     method: str = "auto",
     backend: str = "osqp",
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
     seed: int | None = None,
-    **options: Any,
-) -> Result:
+    **options,
+):
     """Inverse kinematics: a configuration placing ``frame`` at ``target``.
 
     Parameters
@@ -228,7 +221,7 @@ def _check_options(method, options, allowed):
         raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
 
 
-def solve_prepared(robot: Robot, p: dict[str, Any], **options: Any) -> Result:
+def solve_prepared(robot, p: dict, **options):
     """Run the solver on arguments already checked by :func:`prepare`."""
     method = p["method"]
     tgt = p["target"]
@@ -334,9 +327,8 @@ def _choose_index(robot, pool, criteria, q0, frame):
     return i
 
 
-def solve_all(robot: Robot, target: PoseLike, q0: VectorLike | None = None, *, frame: str | None = None,
-              relax: str | Sequence[str] = (), relax_frame: str = "world", tol_pos: float = 1e-4, tol_rot: float = 1e-3,
-              samples: int = 24) -> list[Result]:
+def solve_all(robot, target, q0=None, *, frame: str | None = None, relax=(), relax_frame: str = "world",
+              tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24):
     """Every closed-form branch for ``target`` (list of :class:`ik.Result`, each verified by FK).
 
     Planar 4R arms return their one-parameter family sampled at about

@@ -15,15 +15,11 @@ from __future__ import annotations
 
 import time
 import weakref
-from typing import Any
 
 import numpy as np
 
-from kinserve.kinematics import Robot
-
 from ..result import History, Result
-from ..targets import Target
-from .planar import Branch, PlanarChain, two_link, wrap_into
+from .planar import PlanarChain, two_link, wrap_into
 from .youbot import YOUBOT_DH, YouBotArm
 
 __all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
@@ -32,7 +28,7 @@ _SOLVERS = (PlanarChain, YouBotArm)
 _cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def closed_form_solver(robot: Robot, frame: str) -> PlanarChain | YouBotArm | None:
+def closed_form_solver(robot, frame: str):
     """The closed-form solver of ``robot`` for ``frame``, or None when there is none."""
     per_model = _cache.get(robot.model)
     if per_model is None:
@@ -50,8 +46,7 @@ def closed_form_solver(robot: Robot, frame: str) -> PlanarChain | YouBotArm | No
     return solver
 
 
-def raw_branches(robot: Robot, solver: PlanarChain | YouBotArm, target: Target,
-                 samples: int = 24) -> tuple[list[Branch], str, dict[str, Any]]:
+def raw_branches(robot, solver, target, samples: int = 24):
     """``(branches, note, info)``: distinct joint vectors ``(q, label, free_parameter)`` inside the limits."""
     raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
     out = []
@@ -63,7 +58,7 @@ def raw_branches(robot: Robot, solver: PlanarChain | YouBotArm, target: Target,
     return out, note, extra
 
 
-def branch_result(robot: Robot, target: Target, branch: Branch, note: str, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
+def branch_result(robot, target, branch, note: str, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
     """One closed-form branch as a :class:`Result`, verified with the robot's forward kinematics."""
     q, label, free = branch
     T = robot.fk(q, target.frame)
@@ -83,7 +78,7 @@ def branch_result(robot: Robot, target: Target, branch: Branch, note: str, extra
     )
 
 
-def branches(robot: Robot, solver: PlanarChain | YouBotArm, target: Target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
+def branches(robot, solver, target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
     """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``)."""
     t0 = time.perf_counter()
     raw, note, extra = raw_branches(robot, solver, target, samples)

@@ -44,15 +44,10 @@ kinematics (with a constant base transform) before the solver is used.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
-from kinserve.kinematics import Robot
-from kinserve.kinematics.types import VectorLike
-
-from .planar import Branch, two_link, wrap_into
+from .planar import two_link, wrap_into
 
 #: ``(a, alpha, d)`` of the youBot arm (SCENARIOS.md, S2).
 YOUBOT_DH = ((-0.033, math.pi / 2, 0.145), (0.155, 0.0, 0.0), (0.135, 0.0, 0.0), (0.002, math.pi / 2, 0.0), (0.0, math.pi, -0.185))
@@ -80,7 +75,7 @@ class YouBotArm:
     name = "youbot"
     finite = True
 
-    def __init__(self, robot: Robot, frame: str, dh: Sequence[Sequence[float]] = YOUBOT_DH) -> None:
+    def __init__(self, robot, frame: str, dh=YOUBOT_DH):
         if robot.nq != 5:
             raise ValueError("the youBot solver needs 5 joints")
         self.dh = tuple(tuple(float(v) for v in row) for row in dh)
@@ -99,23 +94,22 @@ class YouBotArm:
             if np.abs(r.fk(q, frame) - self.base @ self.dh_fk(q)).max() > 1e-8:
                 raise ValueError("the robot does not match the youBot DH model")
 
-    def dh_fk(self, q: VectorLike) -> np.ndarray:
+    def dh_fk(self, q) -> np.ndarray:
         """``A_1(q_1) ... A_5(q_5)`` (base frame, 4x4)."""
         T = np.eye(4)
         for (a, alpha, d), th in zip(self.dh, q):
             T = T @ _dh(a, alpha, d, th)
         return T
 
-    def fk(self, q: VectorLike) -> np.ndarray:
+    def fk(self, q) -> np.ndarray:
         """Tool pose in the world: ``base * A_1 ... A_5``."""
         return self.base @ self.dh_fk(q)
 
-    def supports(self, relaxed: Sequence[int]) -> bool:
+    def supports(self, relaxed) -> bool:
         """Only full-pose targets have a closed form here (relaxations leave a family of solutions)."""
         return not relaxed
 
-    def solve_all(self, T_target: np.ndarray, relaxed: Sequence[int] = (),
-                  samples: int = 0) -> tuple[list[Branch], str, dict[str, Any]]:
+    def solve_all(self, T_target: np.ndarray, relaxed=(), samples: int = 0):
         """``(branches, note, info)``: every branch ``(q, label, None)`` within the limits.
 
         ``note`` says why the branches only approach the target (empty when
