@@ -34,9 +34,10 @@ import os
 import threading
 import warnings
 from collections import OrderedDict
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from kinserve.kinematics.errors import ModelError, ShapeError, UnknownRobotError, suggest
 from kinserve.kinematics.robot import TASK_AXES, Robot, axis_rows
@@ -201,7 +202,7 @@ def _number_or_text(v):
         return v
 
 
-def canonical_name(name) -> str:
+def canonical_name(name: str) -> str:
     """The built-in name matching ``name`` exactly or ignoring case; :class:`UnknownRobotError` otherwise."""
     if isinstance(name, str):
         if name in ENTRIES:
@@ -326,18 +327,18 @@ def _merge_params(params: Mapping | None, legacy: dict) -> dict:
 
 
 def load(
-    name_or_path,
+    name_or_path: str | os.PathLike,
     *,
     params: Mapping | None = None,
     locks: Mapping | None = None,
     tip: str | None = None,
     geometry: bool = True,
-    package_dirs=None,
-    task_axes=None,
-    srdf=None,
+    package_dirs: str | os.PathLike | Iterable[str | os.PathLike] | None = None,
+    task_axes: str | Sequence[str] | None = None,
+    srdf: str | os.PathLike | bool | None = None,
     allow_outside: bool = False,
     time_limit: float | None = None,
-    **legacy_params,
+    **legacy_params: Any,
 ) -> Robot:
     """A :class:`Robot` from a built-in name (any case), a ``.urdf`` / ``.xacro`` path, or URDF text.
 

@@ -33,6 +33,7 @@ to the model file as example-robot-data lays them out
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -111,7 +112,7 @@ class _UrdfTree:
         return out[::-1]
 
 
-def read_srdf(source, robot: Robot) -> Srdf:
+def read_srdf(source: str | os.PathLike, robot: Robot) -> Srdf:
     """Parse an SRDF (path or XML text) and resolve it against ``robot`` (see the module docstring)."""
     if isinstance(source, (str, Path)) and not str(source).lstrip().startswith("<"):
         path = Path(source).expanduser()

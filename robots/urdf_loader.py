@@ -41,9 +41,10 @@ the normalised XML that was actually built.
 from __future__ import annotations
 
 import math
+import os
 import threading
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from urllib.parse import unquote
@@ -89,12 +90,12 @@ class UrdfSource:
     base_dir: Path | None = None  #: directory of the file (None for a string)
 
 
-def is_xml_text(source) -> bool:
+def is_xml_text(source: object) -> bool:
     """True when ``source`` is XML text rather than a path (it starts with ``<``)."""
     return isinstance(source, str) and source.lstrip().startswith("<")
 
 
-def read_urdf(source) -> UrdfSource:
+def read_urdf(source: str | os.PathLike) -> UrdfSource:
     """Read a URDF path or XML string; :class:`ModelError` if the file cannot be read.
 
     A :class:`UrdfSource` is passed through (used by the xacro loader to keep
@@ -226,7 +227,7 @@ class MeshResolver:
         return out
 
 
-def validate_urdf(root, label: str, resolver: MeshResolver | None) -> None:
+def validate_urdf(root: etree._Element, label: str, resolver: MeshResolver | None) -> None:
     """Check a parsed URDF tree; raise :class:`ModelError` naming file, element and line.
 
     With ``resolver=None`` mesh files are not checked.
@@ -345,7 +346,7 @@ def validate_urdf(root, label: str, resolver: MeshResolver | None) -> None:
 
 
 # -------------------------------------------------------------------- normalisation
-def continuous_to_revolute(root) -> list[str]:
+def continuous_to_revolute(root: etree._Element) -> list[str]:
     """Turn every ``continuous`` joint into ``revolute`` with limits +-2 pi; return their names."""
     changed = []
     for joint in root.findall("joint"):
@@ -375,7 +376,7 @@ def _origin_matrix(joint) -> np.ndarray:
     return T
 
 
-def lock_joints(root, locked: Mapping[str, float], label: str) -> None:
+def lock_joints(root: etree._Element, locked: Mapping[str, float], label: str) -> None:
     """Rewrite each named joint as a fixed joint at the given value (see module docstring).
 
     Raises :class:`ModelError` for an unknown or non-movable joint and for a
@@ -436,7 +437,7 @@ def _absolutise_meshes(root, resolver: MeshResolver) -> bool:
     return changed
 
 
-def geometry_xml(root, resolver: MeshResolver) -> str:
+def geometry_xml(root: etree._Element, resolver: MeshResolver) -> str:
     """URDF text for Pinocchio's geometry builder: every mesh an absolute path, missing meshes replaced.
 
     A visual mesh that cannot be found becomes a sphere of radius
@@ -469,7 +470,8 @@ def build_model(xml: str, label: str) -> pin.Model:
         raise ModelError(f"{label}: Pinocchio could not build a model from the URDF: {exc}") from None
 
 
-def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path], label: str):
+def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
+                   label: str) -> tuple[pin.GeometryModel, pin.GeometryModel]:
     """Visual and collision ``GeometryModel`` s of ``xml`` (meshes cached across calls)."""
     global _MESH_LOADER
     dirs = [str(d) for d in package_dirs]
@@ -509,10 +511,10 @@ class PreparedUrdf:
 
 
 def prepare_urdf(
-    source,
+    source: str | os.PathLike,
     *,
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     check_meshes: bool = True,
     allow_outside: bool = False,
 ) -> PreparedUrdf:
@@ -551,15 +553,15 @@ def prepare_urdf(
 
 
 def load_urdf(
-    source,
+    source: str | os.PathLike,
     *,
     tip: str | None = None,
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     geometry: bool = True,
-    task_axes=None,
+    task_axes: str | Sequence[str] | None = None,
     allow_outside: bool = False,
 ) -> Robot:
     """Load a URDF file path or XML string as a :class:`Robot`.

@@ -33,7 +33,7 @@ import math
 import os
 import subprocess
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from lxml import etree
@@ -66,7 +66,7 @@ def _existing(path) -> Path:
     return p.resolve()
 
 
-def declared_args(path) -> dict[str, str | None]:
+def declared_args(path: str | os.PathLike) -> dict[str, str | None]:
     """``{name: default}`` of the ``<xacro:arg>`` elements of a xacro file (None = no default)."""
     p = _existing(path)
     try:
@@ -109,7 +109,7 @@ def _arg_text(path: Path, name: str, value, default: str | None) -> str:
     return text
 
 
-def check_args(path, args: Mapping | None) -> dict[str, str]:
+def check_args(path: str | os.PathLike, args: Mapping | None) -> dict[str, str]:
     """Validate ``args`` against the file's declared ``<xacro:arg>`` s; return the string mappings."""
     p = _existing(path)
     declared = declared_args(p)
@@ -128,7 +128,8 @@ def check_args(path, args: Mapping | None) -> dict[str, str]:
     return mappings
 
 
-def process_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_limit: float | None = None,
+def process_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
+                  package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
                   allow_outside: bool = False) -> str:
     """URDF text of a xacro file expanded with ``args`` (``{name: value}``).
 
@@ -141,7 +142,8 @@ def process_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_li
     return text
 
 
-def expand_xacro(path, args: Mapping | None = None, *, package_dirs=(), time_limit: float | None = None,
+def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
+                 package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
                  allow_outside: bool = False) -> tuple[str, list[Path]]:
     """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see :func:`process_xacro`)."""
     p = _existing(path)
@@ -189,16 +191,16 @@ def _failure_message(p: Path, answer: dict) -> str:
 
 
 def load_xacro(
-    path,
+    path: str | os.PathLike,
     *,
     args: Mapping | None = None,
     tip: str | None = None,
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     geometry: bool = True,
-    task_axes=None,
+    task_axes: str | Sequence[str] | None = None,
     allow_outside: bool = False,
     time_limit: float | None = None,
 ) -> Robot:

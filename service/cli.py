@@ -1,15 +1,22 @@
 """The ``kinserve`` command line.
 
 Each sub-command parses its arguments, calls the library and prints the
-answer (plain text, or JSON with ``--json``). Library errors
-(:class:`kinematics.errors.KinserveError`) become one ``error: ...`` line on
-stderr and exit status 2, never a traceback.
+answer (plain text, or JSON with ``--json``). ``kinserve --version`` prints
+``kinserve <version>``.
+
+Errors never end in a traceback: library errors
+(:class:`kinserve.kinematics.errors.KinserveError`) and operating-system errors
+(a folder that cannot be written, a port that cannot be bound: ``OSError``)
+become one ``error: ...`` line on stderr and exit status 2, as argparse does
+for malformed arguments. Anything else is a bug: one ``error: internal ...``
+line and exit status 70 (``KINSERVE_DEBUG=1`` re-raises it with its traceback).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
@@ -17,6 +24,7 @@ import numpy as np
 from kinserve.kinematics.errors import KinserveError, ShapeError
 
 EXIT_USAGE = 2
+EXIT_INTERNAL = 70  # sysexits.h EX_SOFTWARE: an unexpected exception, i.e. a bug in kinserve
 
 
 # ----------------------------------------------------------------- helpers
@@ -154,8 +162,21 @@ def cmd_jacobian(args) -> int:
 COMMANDS: dict[str, tuple] = {}
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with its usage errors as one ``error: ...`` line (exit 2) instead of usage + message.
+
+    Sub-command parsers inherit the class (``add_subparsers`` uses the parent's type).
+    """
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"error: {self.prog}: {message} (see `{self.prog} --help`)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="kinserve", description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
+    from kinserve import __version__
+
+    parser = OneLineParser(prog="kinserve", description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
+    parser.add_argument("--version", action="version", version=f"kinserve {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 
@@ -186,6 +207,14 @@ _EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kins
                    "kinserve.service.cli_frames")
 
 
+def describe_os_error(exc: OSError) -> str:
+    """One line for an ``OSError``: ``"/proc/nope/planar4r: No such file or directory"`` style."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    if exc.filename is not None:
+        return f"{exc.filename}: {reason}"
+    return reason
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -199,6 +228,14 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `kinserve demo all | head`: the reader left, nothing more to say
         sys.stderr.close()
         return 0
+    except OSError as exc:
+        print(f"error: {describe_os_error(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as exc:  # a bug: still one line, unless the user asks for the traceback
+        if os.environ.get("KINSERVE_DEBUG"):
+            raise
+        print(f"error: internal {type(exc).__name__}: {exc} (KINSERVE_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

@@ -62,3 +62,43 @@ def assert_panda_drawn(image: np.ndarray, robot: np.ndarray, fk: dict, project, 
     # the pixels around the projected elbow (link4) really belong to the robot
     u4, v4 = project([fk["panda_link4"][:3, 3]])[0].round().astype(int)
     assert robot[max(v4 - 20, 0):v4 + 20, max(u4 - 20, 0):u4 + 20].mean() > 0.2
+
+
+#: Chromium with no way out but loopback: every host name fails to resolve and any other request
+#: goes to a closed local proxy port (loopback itself bypasses the proxy).
+OFFLINE_FLAGS = ("--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1", "--proxy-server=http://127.0.0.1:9")
+
+
+def open_offline(url: str, ready_js: str, *, size=(1200, 900), timeout: float = 60.0):
+    """Open ``url`` in headless Chromium with the network off (loopback only) and poll ``ready_js``.
+
+    Returns ``(value, requested, errors)``: the first truthy value of the
+    expression, every URL the page requested, and the page's uncaught
+    exceptions / console errors. Raises ``TimeoutError`` when ``ready_js``
+    stays falsy for ``timeout`` seconds.
+    """
+    import importlib
+    import time
+
+    screenshot = importlib.import_module("kinserve.viz.screenshot")  # kinserve.viz.screenshot is also a function
+
+    browser = screenshot.find_browser()
+    dt = screenshot._DevTools(browser, size, timeout, extra_flags=OFFLINE_FLAGS)
+    try:
+        dt.attach_page()
+        for domain in ("Page", "Runtime", "Log", "Network"):
+            dt.call(f"{domain}.enable")
+        dt.call("Page.navigate", {"url": url})
+        value = None
+        while not value:
+            try:
+                value = dt.evaluate(ready_js)
+            except RuntimeError:  # the document is being replaced while navigating
+                value = None
+            if not value:
+                dt._remaining()
+                time.sleep(0.1)
+        requested = [ev["params"]["request"]["url"] for ev in dt.events if ev.get("method") == "Network.requestWillBeSent"]
+        return value, requested, dt.errors()
+    finally:
+        dt.close()

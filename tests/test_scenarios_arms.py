@@ -26,7 +26,7 @@ from matplotlib.image import imread
 
 from kinserve import robots
 from kinserve import scenarios
-from scenario_runs import figures, run_scenario
+from scenario_runs import assert_readme_row, figures, run_scenario
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory
 from kinserve.scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
@@ -602,7 +602,7 @@ def test_scara_artefacts(scara):
 
 
 def test_cli_demo_scara_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "scara", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -610,3 +610,10 @@ def test_cli_demo_scara_end_to_end(tmp_path):
     r = load(tmp_path / "scara")
     assert r["scenario"] == "scara" and r["min_tool_sphere_distance"] >= SPHERE_R - 1e-9
     assert (tmp_path / "scara" / "scene.html").is_file() and (tmp_path / "scara" / "methods.png").is_file()
+
+
+# --------------------------------------------------------------------------- README table
+@pytest.mark.parametrize("fixture", ["planar", "youbot", "tour", "scara"])
+def test_readme_row_matches_a_fresh_run(fixture, request):
+    out, result = request.getfixturevalue(fixture)
+    assert_readme_row(result["scenario"], result)

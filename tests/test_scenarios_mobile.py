@@ -27,7 +27,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from kinserve import scenarios
 from kinserve.kinematics.errors import InputError
-from scenario_runs import run_scenario
+from scenario_runs import assert_readme_row, run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -393,7 +393,7 @@ def test_coverage_artefacts(coverage):
 
 # --------------------------------------------------------------------------- CLI
 def test_cli_demo_mall_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "mall", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -401,3 +401,10 @@ def test_cli_demo_mall_end_to_end(tmp_path):
     assert {"waypoints", "segments", "smoothed", "length"} <= set(r)
     assert (tmp_path / "mall" / "scene.html").is_file() and (tmp_path / "mall" / "map.png").is_file()
     assert "[mall]" in proc.stdout
+
+
+# --------------------------------------------------------------------------- README table
+@pytest.mark.parametrize("fixture", ["omni", "mall", "coverage"])
+def test_readme_row_matches_a_fresh_run(fixture, request):
+    out, result = request.getfixturevalue(fixture)
+    assert_readme_row(result["scenario"], result)

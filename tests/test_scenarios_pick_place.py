@@ -229,3 +229,8 @@ def test_tracking_errors_plot_title_inside_legend_off_the_curves(s4):
     axis_labels(fig.axes[0])
     labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
     assert "position error (m)" in labels and any(lbl.startswith("grasped") for lbl in labels)
+
+def test_readme_row_matches_a_fresh_run(s4):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pick-place", s4[0])

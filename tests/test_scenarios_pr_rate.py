@@ -189,7 +189,7 @@ def test_pngs_are_real_plots(s5):
 
 
 def test_cli_demo_pr_rate_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "pr-rate", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -220,3 +220,8 @@ def test_runs_joints_plot_shows_every_run(s5):
         assert len(d1.get_xdata()) == row["n"] + 1 and d1.get_ydata()[0] == pytest.approx(row["q_init"][0])
         twins = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds]
         assert any(ln.get_label() == "θ₂ (deg)" for a in twins for ln in a.lines)
+
+def test_readme_row_matches_a_fresh_run(s5):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pr-rate", s5[0])

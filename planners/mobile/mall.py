@@ -13,11 +13,15 @@ no-go strips along the bottom and top of the central hallway.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError
 
 from .maps import OccupancyGrid
 from .shapes import Circle, Rectangle
+
+if TYPE_CHECKING:
+    import numpy as np
 
 BOUNDS = (0.0, 0.0, 480.0, 480.0)
 ROBOT_WIDTH = 20.0
@@ -43,7 +47,7 @@ S7_WAYPOINTS = (
 )
 
 
-def s7_waypoints():
+def s7_waypoints() -> np.ndarray:
     """The six S7 waypoints ``(6, 2)`` in the given order (start, 1, 2, 3, 4, end)."""
     import numpy as np
 
