@@ -44,7 +44,8 @@ SHOWS: dict[str, tuple[str, str]] = {
     "omni": ("S6", "three-wheel omni base: heading-dependent (not position-dependent) wheel kinematics, `solve_ivp` simulation"),
     "mall": ("S7", "A* (8-connected, optimal) through the waypoints, best order of the intermediate ones, smoothed path clear "
                    "of the inflated obstacles, time scaling with a turn-rate cap"),
-    "coverage": ("S8", "boustrophedon lanes of 20 with detours, no-go zones, smooth U-turns"),
+    "coverage": ("S8", "boustrophedon lanes of 20 with detours, no-go zones, smooth U-turns; the turning 20×20 footprint's "
+                       "reach into obstacles is measured (`padding=\"diagonal\"` pads by 10√2 instead)"),
     "scara": ("S9", "Jacobian inverse / transpose / pseudo-inverse / DLS histories; relax φ → θ4 centred; relax z → d3 centred "
                     "at 0.625 unless the sphere (0.4, −0.7, 0.5), r 0.2 binds, never entered on any iterate"),
 }
@@ -108,7 +109,8 @@ def _mall(r: Mapping) -> str:
 
 def _coverage(r: Mapping) -> str:
     length = f"{r['length']:,.0f}".replace(",", " ")  # 10 161
-    return f"{100 * r['coverage_fraction']:.1f} % of the free floor, path {length}"
+    return (f"{100 * r['coverage_fraction']:.1f} % of the free floor, path {length}; "
+            f"footprint corners reach {r['max_corner_penetration']:.2f} into obstacles/walls (padding {r['padding']})")
 
 
 def _scara(r: Mapping) -> str:

@@ -22,6 +22,8 @@ smaller than the footprint, so the outline suffices for the S7/S8 maps.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -73,7 +75,8 @@ def _shape_name(s, k: int) -> str:
     return s.name or f"{type(s).__name__.lower()} {k}"
 
 
-def footprint_penetration(path, heading, shapes, *, length: float, width: float | None = None, bounds=None,
+def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, length: float, width: float | None = None,
+                          bounds: tuple[float, float, float, float] | None = None,
                           spacing: float = 0.25, turn_step: float = math.radians(2.0)) -> Penetration:
     """How deep a ``length x width`` footprint (``width`` default ``length``: a square), centred on
     ``path[i]`` (``(N, 2)``) and turned by ``heading[i]`` (rad, ``(N,)``), reaches into ``shapes``
