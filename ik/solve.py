@@ -466,9 +466,11 @@ def _solve_analytic(robot, solver, p, fallback: bool = True, samples: int = 24, 
                       message="no closed-form branch inside the joint limits" + (f"; {note}" if note else ""),
                       history=History.empty(robot.nq, tgt.components), info={"note": note, **extra})
     criteria = choose if choose is not None else _default_criteria(p["q0"])
-    i = _choose_index(robot, [b[0] for b in raw], criteria, p["q0"], tgt.frame)
-    best = _analytic.branch_result(robot, tgt, raw[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
-    if not best.success and not note:
+    exact = [b for b in raw if not b[3]]  # branches that reach the target (no note of their own) come first
+    pool = exact or raw
+    i = _choose_index(robot, [b[0] for b in pool], criteria, p["q0"], tgt.frame)
+    best = _analytic.branch_result(robot, tgt, pool[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
+    if not best.success and not pool[i][3]:
         # numerically off (should not happen): choose among the branches that verify
         results = [_analytic.branch_result(robot, tgt, b, note, extra, p["tol_pos"], p["tol_rot"], t0) for b in raw]
         ok = [r for r in results if r.success]
