@@ -18,6 +18,7 @@ Returns None when the problem is infeasible or the solver fails.
 from __future__ import annotations
 
 import threading
+import warnings
 
 import numpy as np
 from scipy.linalg import get_lapack_funcs
@@ -136,7 +137,10 @@ def _backend_solve(P, c, lb, ub, A, l, u, backend):
     ubf = np.minimum(ub, BIG)
     opts = {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 20000, "polishing": True} if backend == "osqp" else {}
     try:
-        x = qpsolvers.solve_qp(P, c, Gi, h, lb=lbf, ub=ubf, solver=backend, **opts)
+        with warnings.catch_warnings():  # solver chatter (osqp's pending API change, qpsolvers' sparse hints)
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
+            warnings.filterwarnings("ignore", message="Converted matrix", module="qpsolvers")
+            x = qpsolvers.solve_qp(P, c, Gi, h, lb=lbf, ub=ubf, solver=backend, **opts)
     except Exception:  # noqa: BLE001 - solver-specific failures ("constraints are inconsistent")
         return None
     if x is None:
