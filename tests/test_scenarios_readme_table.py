@@ -68,7 +68,7 @@ def test_main_regenerates_and_checks(tmp_path, monkeypatch, capsys):
                     "closed_beats_open_on_all_circles": False, "singular_start_event_step": 0},
         "omni": {"rotation_max_centre_displacement": 0.0, "circle_radius_fit": 0.4, "center_distance": 0.2},
         "mall": {"length": 1.0, "best_order_length": 0.9, "smoothed_length": 0.95, "duration": 3.0},
-        "coverage": {"coverage_fraction": 0.5, "length": 12345.0},
+        "coverage": {"coverage_fraction": 0.5, "length": 12345.0, "max_corner_penetration": 4.1421, "padding": "width"},
         "scara": {"iterations": {"jacobian_inverse": 1, "jacobian_transpose": 2, "pseudo_inverse": 3, "dls": 4},
                   "min_tool_sphere_distance": 0.25},
     }
@@ -83,6 +83,6 @@ def test_main_regenerates_and_checks(tmp_path, monkeypatch, capsys):
     assert rt.main([*args, "--check"]) == 1 and "stale" in readme.read_text()
     assert rt.main(args) == 0
     assert rt.readme_rows(readme.read_text()) == made
-    assert "does NOT beat" in made["pr-rate"] and "path 12 345" in made["coverage"]
+    assert "does NOT beat" in made["pr-rate"] and "path 12 345" in made["coverage"] and "reach 4.14" in made["coverage"]
     assert rt.main([*args, "--check"]) == 0
     assert "up to date" in capsys.readouterr().out
