@@ -20,6 +20,7 @@ the validation.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +34,9 @@ from .problem import Problem
 STEP_DAMPING = 1e-6
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 _cache: dict = {}
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
 
 def _problem(robot, tasks, constraints) -> Problem:
@@ -48,7 +52,8 @@ def _problem(robot, tasks, constraints) -> Problem:
     return pb
 
 
-def step(robot, tasks, constraints=(), q=None, dt: float = 0.01, *, damping: float = STEP_DAMPING,
+def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None = None, dt: float = 0.01, *,
+         damping: float = STEP_DAMPING,
          backend: str = DEFAULT_BACKEND) -> np.ndarray:
     """Joint velocity ``v`` (``nv``,) for one control period ``dt`` (module docstring).
 

@@ -32,6 +32,7 @@ inputs give bit-identical answers unless the time budget cut the solve.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 import math
 import time
 
@@ -186,12 +187,12 @@ def _run_start(run: _Run, q, record):
 
 def solve_problem(
     pb: Problem,
-    q0=None,
+    q0: np.ndarray | None = None,
     *,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
-    seed=None,
+    seed: int | None = None,
     max_iter: int = MAX_ITER,
     max_step: float = MAX_STEP,
     damping: float = DAMPING,
@@ -202,8 +203,8 @@ def solve_problem(
     shortcut: bool = True,
     lazy: bool = True,
     method: str = "qp",
-    evaluate=None,
-    components=None,
+    evaluate: Callable[[np.ndarray], np.ndarray] | None = None,
+    components: tuple | None = None,
 ) -> Result:
     """Solve a bound :class:`Problem` from the starts of :func:`ik.multistart.starts` (module docstring).
 
@@ -294,7 +295,7 @@ def _kinematics(pb: Problem, q):
     return d
 
 
-def goal_evaluator(pb: Problem):
+def goal_evaluator(pb: Problem) -> Callable[[np.ndarray], np.ndarray]:
     """``q -> desired - current`` errors of the goal tasks, concatenated (for :attr:`History.task_error`)."""
     holder = {}
 

@@ -16,7 +16,13 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("robots", "kinematics", "planners")
-TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/result.py", "ik/targets.py")
+TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/result.py", "ik/targets.py",
+            # the IK model (issue 10)
+            "ik/tasks/__init__.py", "ik/tasks/base.py", "ik/tasks/frame_task.py", "ik/tasks/posture_task.py",
+            "ik/tasks/centring_task.py", "ik/constraints/__init__.py", "ik/constraints/base.py",
+            "ik/constraints/joint_limits.py", "ik/constraints/velocity_limits.py", "ik/constraints/obstacles.py",
+            "ik/constraints/link_capsules.py", "ik/constraints/segment_distance.py", "ik/problem.py", "ik/hierarchy.py",
+            "ik/dense_qp.py", "ik/task_solver.py", "ik/multistart.py", "ik/step.py", "ik/qp_solver.py")
 
 
 def unannotated(path: Path) -> list[str]:

@@ -41,7 +41,9 @@ segments) makes the problem infeasible: :class:`InputError` at ``bind``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import math
+from typing import TYPE_CHECKING, Any
 import weakref
 
 import numpy as np
@@ -67,8 +69,13 @@ _einsum = np.einsum
 _sqrt = np.sqrt
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
 
-def as_obstacle(value, name: str = "obstacle") -> Shape:
+    from kinserve.kinematics.robot import Robot
+
+
+def as_obstacle(value: Any, name: str = "obstacle") -> Shape:
     """A shape from a shape, a ``{"kind": ...}`` dict, a ``{"center", "radius"}`` dict or a ``(center, radius)`` pair."""
     if isinstance(value, Shape):
         return value
@@ -128,8 +135,8 @@ class ObstacleAvoidance(Constraint):
         Pairs with clearance below this (m) give QP rows.
     """
 
-    def __init__(self, obstacles, link_radius: float = 0.0, margin: float = 0.0, gain: float = DAMPER_GAIN,
-                 tool_frames=None, influence: float = INFLUENCE):
+    def __init__(self, obstacles: Any, link_radius: float = 0.0, margin: float = 0.0, gain: float = DAMPER_GAIN,
+                 tool_frames: Sequence[str] | str | None = None, influence: float = INFLUENCE) -> None:
         super().__init__(name="obstacles")
         if isinstance(obstacles, (Shape, dict)):
             obstacles = [obstacles]
@@ -151,7 +158,7 @@ class ObstacleAvoidance(Constraint):
         self._last = None  # (data, q, witness pairs) of the last margin() without coal pairs
 
     # ---------------------------------------------------------------------------------------- binding
-    def bind(self, robot) -> "ObstacleAvoidance":
+    def bind(self, robot: Robot) -> "ObstacleAvoidance":
         if self._model is robot.model:
             return self
         tools = self.tool_frames or (robot.tip,)
@@ -355,11 +362,11 @@ class ObstacleAvoidance(Constraint):
             s[todo] = np.clip(np.divide(num, L2, out=np.zeros_like(num), where=L2 > 1e-24), 0.0, 1.0)
         return c, s, N
 
-    def clearances(self, data) -> np.ndarray:
+    def clearances(self, data: pin.Data) -> np.ndarray:
         """Clearance ``c`` (m) of every pair after forward kinematics (far coal pairs: their lower bound)."""
         return self._pairs(data, False, MARGIN_EXACT)
 
-    def first_violation(self, robot, Q) -> int | None:
+    def first_violation(self, robot: Robot, Q: np.ndarray) -> int | None:
         """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None.
 
         The sphere and capsule distances of all ``K`` configurations are evaluated at once (the same
@@ -411,7 +418,7 @@ class ObstacleAvoidance(Constraint):
         return int(hits[0]) if hits.size else None
 
     # ------------------------------------------------------------------------------------- protocol
-    def margin(self, robot, data, q) -> float:
+    def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
         """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs).
 
         Without coal pairs the witness points are kept: :meth:`rows` at the same ``q`` (same array
@@ -425,7 +432,7 @@ class ObstacleAvoidance(Constraint):
         c = self._pairs(data, False, MARGIN_EXACT)
         return float(c.min()) if c.size else math.inf
 
-    def rows(self, robot, data, q, dt=None):
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         last = self._last
         if last is not None and last[0] is data and last[1] is q:
             c, seg, s, N, A, B = last[2]
@@ -440,12 +447,12 @@ class ObstacleAvoidance(Constraint):
         G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
         return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
 
-    def rows_all(self, robot, data):
+    def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
         c, seg, s, N, A, B = self._pairs(data, True, math.inf)
         return c, self.skeleton.gradient_rows(data, seg, s, A, B, N)
 
-    def describe(self, robot, data, q) -> str:
+    def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:
         c = self._pairs(data, False, math.inf)
         parts = []
         for p in np.flatnonzero(c < 0.0):
@@ -464,7 +471,7 @@ _CORES: dict = {}
 _balls: dict = {}
 
 
-def fixed_ball(fixed) -> tuple[tuple[float, float, float], float]:
+def fixed_ball(fixed: list) -> tuple[tuple[float, float, float], float]:
     """A ball ``(centre, radius)`` enclosing the fixed segments ``(name, a, b)`` (cached per list)."""
     hit = _balls.get(id(fixed))
     if hit is None or hit[0] is not fixed:
