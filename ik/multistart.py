@@ -32,7 +32,7 @@ def _frame_tasks(goals):
 
 
 def _features(table, task):
-    return table.features(task._Rt.T, task._p, rotation=(len(task.kept) - task.n_pos) == 3)
+    return table.features(task.T[:3, :3], task.T[:3, 3], rotation=(len(task.kept) - task.n_pos) == 3)
 
 
 def starts(robot: Robot, goals: list, q0: np.ndarray | None, seed: int | None, table_enabled: bool = True,
@@ -44,7 +44,7 @@ def starts(robot: Robot, goals: list, q0: np.ndarray | None, seed: int | None, t
         return start_sequence(robot, None, None, q0, rng_seed, prefer_q0=prefer_q0)
     if len(tasks) == 1:
         t = tasks[0]
-        return frame_starts(robot, t.frame_name, t.frame_id, t._Rt.T, t._p, (len(t.kept) - t.n_pos) == 3, q0, seed,
+        return frame_starts(robot, t.frame_name, t.frame_id, t.T[:3, :3], t.T[:3, 3], (len(t.kept) - t.n_pos) == 3, q0, seed,
                             prefer_q0=prefer_q0, n_table=n_table)
     tables = [seed_table(robot, t.frame_name) for t in tasks]
     fs = [_features(tab, t) for tab, t in zip(tables, tasks)]

@@ -45,6 +45,8 @@ class FrameTask(Task):
 
     ``relax`` names components left free (``x y z roll pitch yaw``, ``phi`` =
     ``yaw``) measured along ``relax_frame`` axes (``"world"`` or ``"target"``).
+    ``T`` is the (validated, private copy of the) target pose; move it with
+    :meth:`set_target`. ``components`` names the kept rows of the error.
     """
 
     def __init__(self, frame: str | None, target: np.ndarray | pin.SE3, relax: Sequence[str] | str = (), relax_frame: str = "world", weight: float | Sequence[float] = 1.0,
