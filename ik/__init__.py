@@ -21,7 +21,7 @@ from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
 from .batch import solve_many
 from .chooser import CRITERIA, choose
-from .constraints import Constraint
+from .constraints import CollisionConstraint, Constraint, SceneCollision, SelfCollision
 from .tasks import Task
 from .qp_backends import available_backends
 from .result import History, Result
@@ -30,6 +30,6 @@ from .targets import RELAX_NAMES, Target
 
 __all__ = [
     "solve", "solve_all", "solve_many", "Result", "History", "Sphere", "Box", "Capsule", "Cylinder", "Mesh",
-    "Task", "Constraint", "Target", "choose",
+    "Task", "Constraint", "Target", "choose", "SelfCollision", "SceneCollision", "CollisionConstraint",
     "METHODS", "CRITERIA", "RELAX_NAMES", "available_backends",
 ]

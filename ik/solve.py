@@ -145,6 +145,9 @@ def solve(
     tol_rot: float = 1e-3,
     max_time: float | None = None,
     seed: int | None = None,
+    self_collision: bool = False,
+    obstacles=(),
+    collision_margin: float = 0.0,
     **options,
 ):
     """Inverse kinematics: a configuration placing ``frame`` at ``target``.
@@ -188,6 +191,13 @@ def solve(
         Time budget (s) for restarts (default 0.1 s for ``lm``, 0.5 s for ``qp``).
     seed:
         Seed of the random restarts (None = 0): the same seed gives the same answer.
+    self_collision, obstacles, collision_margin:
+        Keep the robot's collision geometry (convex hulls of its URDF
+        ``<collision>`` shapes) free of self-collision (the SRDF / MoveIt-style
+        pairs) and ``collision_margin`` (m) clear of ``obstacles`` (any
+        ``ik.Sphere/Box/Capsule/Cylinder/Mesh``): the unconstrained answer is
+        checked first, then a constrained QP solve runs if needed, hard on every
+        iterate. See :mod:`ik.collision_solve`.
     options:
         Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
         for ``"dls"``), ``gain`` (classical), ``max_step`` and ``shortcut``
@@ -200,6 +210,13 @@ def solve(
     -------
     :class:`ik.Result`
     """
+    if self_collision or (obstacles is not None and (type(obstacles) is not tuple or obstacles)):
+        from .collision_solve import solve_collision_free
+
+        return solve_collision_free(robot, target, q0, self_collision=bool(self_collision), obstacles=obstacles,
+                                    collision_margin=collision_margin, spheres=spheres, frame=frame, relax=relax,
+                                    relax_frame=relax_frame, centring=centring, method=method, backend=backend,
+                                    tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
     p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
                 centring=centring, method=method, backend=backend, tol_pos=tol_pos, tol_rot=tol_rot,
                 max_time=max_time, seed=seed)

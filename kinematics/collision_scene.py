@@ -117,10 +117,36 @@ class CollisionScene:
             n[k] = res.normal
         return d, p1, p2, n
 
-    def pair_distance(self, q: np.ndarray, k: int, update: bool = True):
-        """``(d, p1, p2, n)`` of pair ``k`` alone; ``update=False`` reuses the placements of the last query."""
-        data, gd, _bpm = self.workspace()
-        if update:
-            pin.updateGeometryPlacements(self.model, data, self.geometry, gd, q)
-        res = pin.computeDistance(self.geometry, gd, k)
+    def _margin_data(self, threshold: float):
+        """This thread's GeometryData whose collision requests use ``security_margin = threshold``."""
+        ws = getattr(self._local, "margin", None)
+        if ws is None:
+            ws = self._local.margin = {}
+        gd = ws.get(threshold)
+        if gd is None:
+            gd = ws[threshold] = pin.GeometryData(self.geometry)
+            for req in gd.collisionRequests:
+                req.security_margin = threshold
+        return gd
+
+    def near(self, threshold: float, q: np.ndarray | None = None, data=None) -> list[int]:
+        """Indices of the pairs closer than ``threshold`` (m), at ``q`` or at the placements of ``data``.
+
+        Give ``q`` (forward kinematics runs on this thread's workspace) or a
+        ``pinocchio.Data`` whose joint placements ``oMi`` are current. The
+        placements stay in place for :meth:`near_distance`.
+        """
+        gd = self._margin_data(threshold)
+        if data is None:
+            data = self.workspace()[0]
+            pin.forwardKinematics(self.model, data, q)
+        pin.updateGeometryPlacements(self.model, data, self.geometry, gd)
+        if not len(self.pairs):
+            return []
+        _compute_collisions(self.geometry, gd, False)
+        return [k for k, res in enumerate(gd.collisionResults) if res.isCollision()]
+
+    def near_distance(self, threshold: float, k: int):
+        """``(d, p1, p2, n)`` of pair ``k`` at the placements of the last :meth:`near` call with ``threshold``."""
+        res = pin.computeDistance(self.geometry, self._margin_data(threshold), k)
         return res.min_distance, res.getNearestPoint1(), res.getNearestPoint2(), res.normal
