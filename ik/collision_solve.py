@@ -35,7 +35,7 @@ import coal
 import numpy as np
 
 from kinserve.kinematics.collision_queries import as_obstacles
-from kinserve.kinematics.errors import ModelError
+from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.shapes import Sphere
 
 from .constraints.collision import CollisionConstraint, QPRows
@@ -45,33 +45,41 @@ from .result import History, Result
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut")
 
 
-def solve_collision_free(robot, target, q0=None, *, self_collision: bool = False, obstacles=(), collision_margin=0.0,
-                         spheres=(), **kw) -> Result:
-    """``ik.solve`` keeping the robot's collision geometry free of itself and of ``obstacles`` (module docstring).
+def collision_options(self_collision=False, obstacles=(), collision_margin=0.0, spheres=()) -> dict:
+    """Validated collision options for :func:`solve_collision_free` (``spheres`` join the obstacles)."""
+    obs = as_obstacles(obstacles) + as_obstacles(spheres, "spheres")
+    if not isinstance(self_collision, (bool, np.bool_)):
+        raise InputError(f"self_collision must be True or False, got {self_collision!r}")
+    CollisionConstraint((), self_collision=False, margin=collision_margin)  # validates the margin
+    return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": float(collision_margin)}
 
-    ``kw`` are :func:`ik.solve`'s other arguments (``frame``, ``relax``,
-    ``centring``, ``method``, ``max_time``, ``seed``, solver options).
-    """
-    from .solve import prepare, solve, solve_prepared
+
+def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstacles=(), collision_margin=0.0,
+                         **solver_opts) -> Result:
+    """Collision-free IK on arguments checked by :func:`ik.solve.prepare` (``p``); see the module docstring."""
+    from .solve import solve_prepared
 
     t0 = time.perf_counter()
-    obs = as_obstacles(obstacles) + as_obstacles(spheres, "spheres")
+    obs = as_obstacles(obstacles)
+    if p["spheres"] is not None:
+        raise InputError("spheres cannot be combined with self_collision / obstacles in a prepared solve; "
+                         "pass them in obstacles=")
     try:
         robot.collision
     except ModelError as exc:
-        if not self_collision and all(isinstance(o, Sphere) for o in obs):
-            return solve(robot, target, q0, spheres=list(obs), **kw)
+        if not self_collision and obs and all(isinstance(o, Sphere) for o in obs):
+            from .constraints import SphereSet
+
+            return solve_prepared(robot, dict(p, spheres=SphereSet(robot, list(obs), p["target"].frame)), **solver_opts)
         raise ModelError(f"{exc}; ik.solve(self_collision=True / obstacles=) needs it (sphere obstacles alone "
                          "fall back to the link segments)") from None
     constraint = CollisionConstraint(obs, self_collision=self_collision, margin=collision_margin).bind(robot)
-    solver_opts = {k: kw.pop(k) for k in list(kw) if k in _QP_KEYS}
-    p = prepare(robot, target, q0, **kw)
     budget = MAX_TIME if p["max_time"] is None else p["max_time"]
     tgt = p["target"]
 
     blocked = _target_inside_obstacle(robot, constraint, tgt)
     if blocked:
-        return _failure(robot, tgt, q0, t0, blocked)
+        return _failure(robot, tgt, p["q0"], t0, blocked)
 
     if p["weights"] is None or p["method"] != "qp":
         first = solve_prepared(robot, dict(p, max_time=0.5 * budget), **solver_opts)
@@ -82,7 +90,7 @@ def solve_collision_free(robot, target, q0=None, *, self_collision: bool = False
             return first
 
     remaining = max(budget - (time.perf_counter() - t0), 1e-3)
-    opts = dict(solver_opts)
+    opts = {k: v for k, v in solver_opts.items() if k in _QP_KEYS}
     if "seed_table" in opts:
         opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
     res = solve_qp(robot, tgt, p["q0"], spheres=QPRows(constraint), weights=p["weights"], backend=p["backend"],

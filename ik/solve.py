@@ -211,18 +211,17 @@ def solve(
     :class:`ik.Result`
     """
     if self_collision or (obstacles is not None and (type(obstacles) is not tuple or obstacles)):
-        from .collision_solve import solve_collision_free
+        from .collision_solve import collision_options
 
-        return solve_collision_free(robot, target, q0, self_collision=bool(self_collision), obstacles=obstacles,
-                                    collision_margin=collision_margin, spheres=spheres, frame=frame, relax=relax,
-                                    relax_frame=relax_frame, centring=centring, method=method, backend=backend,
-                                    tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
+        options.update(collision_options(self_collision, obstacles, collision_margin, spheres))
+        spheres = ()
     p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
                 centring=centring, method=method, backend=backend, tol_pos=tol_pos, tol_rot=tol_rot,
                 max_time=max_time, seed=seed)
     return solve_prepared(robot, p, **options)
 
 
+_COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
 _QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut")
 _CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
@@ -239,7 +238,15 @@ def _check_options(method, options, allowed):
 
 
 def solve_prepared(robot, p: dict, **options):
-    """Run the solver on arguments already checked by :func:`prepare`."""
+    """Run the solver on arguments already checked by :func:`prepare`.
+
+    ``options`` may hold the collision options of :func:`solve` (``self_collision``, ``obstacles``,
+    ``collision_margin``): the solve then goes through :mod:`ik.collision_solve` (so does ``ik.solve_many``).
+    """
+    if options and not _COLLISION_KEYS.isdisjoint(options):
+        from .collision_solve import solve_collision_free
+
+        return solve_collision_free(robot, p, **options)
     method = p["method"]
     tgt = p["target"]
     if method == "auto":

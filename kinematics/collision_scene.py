@@ -32,6 +32,9 @@ import threading
 import numpy as np
 import pinocchio as pin
 
+#: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
+GJK_TOLERANCE = 1e-9
+
 _compute_collisions = pin.computeCollisions
 _BroadPhase = pin.BroadPhaseManager_DynamicAABBTreeCollisionManager
 
@@ -127,6 +130,8 @@ class CollisionScene:
             gd = ws[threshold] = pin.GeometryData(self.geometry)
             for req in gd.collisionRequests:
                 req.security_margin = threshold
+            for req in gd.distanceRequests:  # GJK to 1e-9 m (default 1e-6): smooth enough for step rows
+                req.gjk_tolerance = GJK_TOLERANCE
         return gd
 
     def near(self, threshold: float, q: np.ndarray | None = None, data=None) -> list[int]:
