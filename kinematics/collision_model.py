@@ -67,6 +67,25 @@ def convex_hulls(geometry: pin.GeometryModel) -> dict[str, float]:
     return ratios
 
 
+def _shape_dict(g, link: str) -> dict:
+    geo = g.geometry
+    out = {"name": g.name, "link": link, "joint": int(g.parentJoint), "placement": g.placement.homogeneous.copy()}
+    if isinstance(geo, coal.Box):
+        out.update(kind="box", size=(2.0 * np.asarray(geo.halfSide)).tolist())
+    elif isinstance(geo, coal.Sphere):
+        out.update(kind="sphere", radius=float(geo.radius))
+    elif isinstance(geo, (coal.Cylinder, coal.Capsule)):
+        out.update(kind="cylinder" if isinstance(geo, coal.Cylinder) else "capsule", radius=float(geo.radius),
+                   length=2.0 * float(geo.halfLength))
+    elif isinstance(geo, coal.Convex):
+        faces = [[int(t[0]), int(t[1]), int(t[2])] for t in (geo.polygons(i) for i in range(geo.num_polygons))]
+        out.update(kind="convex", vertices=np.array([geo.point(i) for i in range(geo.num_points)]),
+                   faces=np.array(faces, dtype=int).reshape(-1, 3))
+    else:
+        out.update(kind="other", type=type(geo).__name__)
+    return out
+
+
 class CollisionModel:
     """The robot's convex collision geometry with its self-collision pairs.
 
@@ -137,6 +156,19 @@ class CollisionModel:
         if key is not None:
             collision_cache.store_pairs(key, pairs)
         return pairs, "computed"
+
+    def shape_data(self) -> list[dict]:
+        """Plain data of every robot geometry in its joint frame (for viewers; computed once).
+
+        ``{"name", "link", "joint", "placement" (4x4 in the joint frame), "kind"}`` plus,
+        by kind: ``box`` ``size`` (full edges, m); ``sphere`` ``radius``; ``cylinder`` /
+        ``capsule`` ``radius``, ``length`` (local z); ``convex`` ``vertices`` ``(V, 3)``
+        and ``faces`` ``(F, 3)`` (triangles of the hull).
+        """
+        cached = self.__dict__.get("_shape_data")
+        if cached is None:
+            cached = self._shape_data = [_shape_dict(g, link) for g, link in zip(self.geometry.geometryObjects, self.links)]
+        return cached
 
     def __repr__(self) -> str:
         return (f"CollisionModel({self.name!r}, {len(self.links)} geometries, {len(self.self_pairs)} self pairs, "

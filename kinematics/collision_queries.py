@@ -113,6 +113,21 @@ class CollisionQueries:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (cached by identity)."""
         return self.collision.scene(as_obstacles(obstacles), bool(self_collision))
 
+    def collision_geometry(self, q) -> list[dict]:
+        """Plain data of the robot's collision shapes at ``q``: :meth:`CollisionModel.shape_data` with
+        ``"pose"`` = the shape's 4x4 world pose (``oMi[joint] @ placement``). For viewers."""
+        import pinocchio as pin
+
+        q = self.check_q(q)
+        data = self.model.createData()
+        pin.forwardKinematics(self.model, data, q)
+        out = []
+        for s in self.collision.shape_data():
+            d = dict(s)
+            d["pose"] = data.oMi[s["joint"]].homogeneous @ s["placement"]
+            out.append(d)
+        return out
+
     def in_collision(self, q, obstacles: Any = (), *, self_collision: bool = True) -> bool:
         """True when the robot at ``q`` intersects itself (checked pairs) or an obstacle."""
         q = self.check_q(q)
