@@ -18,9 +18,10 @@ Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
    the budget is spent.
 
 ``spheres`` given together with collision options join the obstacles (checked
-against the collision geometry, not the link segments). A robot without
-collision geometry gets the link-segment model for sphere obstacles (the
-original ``spheres=`` path); other shapes or ``self_collision=True`` then raise
+against the collision geometry, not the link capsules). A robot without
+collision geometry keeps obstacles clear of its link capsules
+(:class:`ik.ObstacleAvoidance`, the ``obstacles=`` path without
+``self_collision``); ``self_collision=True`` then raises
 :class:`~kinserve.kinematics.errors.ModelError` with the reason.
 
 ``Result.info["collision"]`` says which path produced the answer:
@@ -36,13 +37,14 @@ import numpy as np
 
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
-from kinserve.kinematics.shapes import Sphere
 
-from .constraints.collision import CollisionConstraint, QPRows
-from .qp_solver import MAX_TIME, solve_qp
+from .constraints.collision import CollisionConstraint
+from .qp_solver import solve_qp
 from .result import History, Result
 
-_QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut")
+_QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
+#: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
+MAX_TIME = 0.5
 
 
 def collision_options(self_collision=False, obstacles=(), collision_margin=0.0, spheres=()) -> dict:
@@ -67,12 +69,13 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
     try:
         robot.collision
     except ModelError as exc:
-        if not self_collision and obs and all(isinstance(o, Sphere) for o in obs):
-            from .constraints import SphereSet
+        if not self_collision and obs:
+            from .constraints.obstacles import ObstacleAvoidance
 
-            return solve_prepared(robot, dict(p, spheres=SphereSet(robot, list(obs), p["target"].frame)), **solver_opts)
-        raise ModelError(f"{exc}; ik.solve(self_collision=True / obstacles=) needs it (sphere obstacles alone "
-                         "fall back to the link segments)") from None
+            avoid = ObstacleAvoidance(list(obs), tool_frames=(p["target"].frame,))
+            return solve_prepared(robot, dict(p, spheres=avoid), **solver_opts)
+        raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to the "
+                         "link capsules of ik.ObstacleAvoidance)") from None
     constraint = CollisionConstraint(obs, self_collision=self_collision, margin=collision_margin).bind(robot)
     budget = MAX_TIME if p["max_time"] is None else p["max_time"]
     tgt = p["target"]
@@ -93,7 +96,7 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
     opts = {k: v for k, v in solver_opts.items() if k in _QP_KEYS}
     if "seed_table" in opts:
         opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
-    res = solve_qp(robot, tgt, p["q0"], spheres=QPRows(constraint), weights=p["weights"], backend=p["backend"],
+    res = solve_qp(robot, tgt, p["q0"], spheres=[constraint], weights=p["weights"], backend=p["backend"],
                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=remaining, seed=p["seed"], **opts)
     res.info["collision"] = "constrained"
     if res.message.startswith("no start configuration outside the spheres"):

@@ -125,7 +125,7 @@ def test_obstacle_in_the_way_forces_the_constrained_path(panda):
 def test_target_inside_an_obstacle_is_a_failed_result_not_a_hang(panda):
     T = panda.fk(panda.neutral())
     wall = ik.Box(_pose(T[:3, 3]), (0.3, 0.3, 0.3))
-    res = ik.solve(panda, T, obstacles=[wall], max_time=0.2)
+    res = ik.solve(panda, T, self_collision=True, obstacles=[wall], max_time=0.2)
     assert not res.success
     assert "inside obstacle[0]:box" in res.message
     assert res.elapsed < 0.2
@@ -151,7 +151,7 @@ def test_bad_input_is_named(panda):
         ik.SelfCollision(margin=-0.1)
     base = ik.Box(_pose((0.0, 0.0, 0.05)), (0.2, 0.2, 0.2))
     with pytest.raises(errors.InputError, match="overlaps the robot's fixed base"):
-        ik.solve(panda, panda.fk(panda.neutral()), obstacles=[base])
+        ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[base])
     bare = robots.load("""<robot name="bare"><link name="b"/><link name="l"/>
       <joint name="j" type="revolute"><parent link="b"/><child link="l"/><axis xyz="0 0 1"/><origin xyz="0 0 0"/>
       <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>""")

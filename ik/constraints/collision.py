@@ -44,8 +44,6 @@ from .base import DAMPER_GAIN, Constraint
 
 #: Pairs closer than ``margin + INFLUENCE`` (m) contribute rows.
 INFLUENCE = 0.05
-#: At most this many rows (the nearest pairs) per step.
-MAX_ROWS = 8
 #: An obstacle may overlap the fixed base by at most this much (m) (the Panda's base mesh reaches 0.03 mm
 #: below its mounting plane, so a table under it touches it); deeper means the base is inside it.
 BASE_TOLERANCE = 1e-3
@@ -87,7 +85,6 @@ class CollisionConstraint(Constraint):
         self.clearance = _length(margin, "collision margin")
         self.influence = _length(influence, "collision influence", positive=True)
         self.scene = None
-        self._m = 0
 
     # ------------------------------------------------------------------ protocol
     def bind(self, robot) -> "CollisionConstraint":
@@ -98,7 +95,6 @@ class CollisionConstraint(Constraint):
         bound.__dict__.update(self.__dict__)
         bound.scene = scene
         bound.robot = robot
-        bound._m = min(len(scene), MAX_ROWS)
         bound._threshold = self.clearance + self.influence
         return bound
 
@@ -143,13 +139,13 @@ class CollisionConstraint(Constraint):
 
     def margin(self, robot, data, q: np.ndarray) -> float:
         """Smallest ``d - margin`` (m) over the pairs, or ``influence`` when no pair is that close."""
-        near = self._near(q, data)
+        near = self._near(q)
         if not near:
             return self.influence
         return min(self._distance(k)[0] for k in near) - self.clearance
 
     def describe(self, robot, data, q: np.ndarray) -> str:
-        near = self._near(q, data)
+        near = self._near(q)
         bad = []
         for k in near:
             dist = self._distance(k)[0]
@@ -158,32 +154,11 @@ class CollisionConstraint(Constraint):
                 bad.append(f"{a}/{b} at {dist:.4g} m")
         return f"{self.name}: " + ", ".join(bad) + f" (margin {self.clearance:g} m)" if bad else ""
 
-    # -------------------------------------------- adapter for ik.qp_solver (fixed row count)
-    @property
-    def m(self) -> int:
-        return self._m
-
-    def clearances_at(self, q: np.ndarray) -> np.ndarray:
-        """``[min(d) - margin]`` at ``q`` (the true check of the step back-off)."""
-        return np.array([self.margin(self.robot, None, q)])
-
     def in_collision(self, q: np.ndarray) -> bool:
-        """True when ``q`` violates the constraint (broad phase when the margin is 0)."""
+        """True when ``q`` violates the constraint (the broad-phase check when the margin is 0)."""
         if self.clearance == 0.0:
             return self.scene.in_collision(q)
         return self.margin(self.robot, None, q) < 0.0
-
-    def qp_rows(self, data) -> tuple[np.ndarray, np.ndarray]:
-        """``(clear, G)`` with :attr:`m` rows for the QP: the nearest pairs, padded with inactive rows."""
-        d, G, _ = self.pair_rows(self.robot, data)
-        m = self._m
-        clear = np.full(m, 1e3)
-        out = np.zeros((m, self.robot.model.nv))
-        if len(d):
-            order = np.argsort(d)[:m]
-            clear[: len(order)] = d[order] - self.clearance
-            out[: len(order)] = G[order]
-        return clear, out
 
 
 def _check_base(robot, scene) -> None:
@@ -220,21 +195,3 @@ class SceneCollision(CollisionConstraint):
     def __init__(self, obstacles, margin: float = 0.0, influence: float = INFLUENCE) -> None:
         super().__init__(obstacles, self_collision=False, margin=margin, influence=influence, name="obstacles")
 
-
-class QPRows:
-    """A bound :class:`CollisionConstraint` in the row interface of :func:`kinserve.ik.qp_solver.solve_qp`.
-
-    ``m`` fixed rows (the nearest pairs, padded with inactive rows),
-    ``rows(data) -> (clear, G)`` with ``G dq >= -xi clear``, and the true check
-    ``clearances_at(q)``.
-    """
-
-    def __init__(self, constraint: CollisionConstraint) -> None:
-        self.constraint = constraint
-        self.m = constraint.m
-
-    def rows(self, data) -> tuple[np.ndarray, np.ndarray]:
-        return self.constraint.qp_rows(data)
-
-    def clearances_at(self, q: np.ndarray) -> np.ndarray:
-        return self.constraint.clearances_at(q)

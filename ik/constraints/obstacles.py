@@ -1,0 +1,394 @@
+"""``ObstacleAvoidance``: any solid shape kept clear of the robot's links, hard on every iterate.
+
+The robot body is its skeleton of segments, each the core of a capsule of
+radius ``link_radius`` (:mod:`.link_capsules`; ``link_radius=0`` = bare
+segments). An obstacle with ``frames`` set is kept clear of those frame
+origins only. For every (obstacle, segment) pair the **clearance** is
+
+    c = d(segment core, obstacle) - link_radius - margin        (m)
+
+where ``d`` is the Euclidean distance (negative when they overlap):
+
+* sphere (centre ``o``, radius ``r``): point-segment closed form,
+  ``d = |x - o| - r``;
+* capsule (core ``[p, q]``, radius ``r``): segment-segment closed form,
+  ``d = |x - y| - r``;
+* box, cylinder, mesh (convex hull): coal's GJK/EPA distance between the
+  obstacle and the segment, with witness points and normal. A bounding
+  sphere gives a cheap lower bound first; pairs farther than ``influence``
+  by that bound are not sent to coal.
+
+Both closed forms are evaluated for all pairs at once (NumPy, no loop over
+pairs). With ``x`` the witness point on the segment (parameter ``s``) and
+``n`` the unit normal pointing from the obstacle to ``x``, the clearance
+gradient is ``g = n^T ((1 - s) J_a + s J_b)`` (:meth:`LinkSkeleton.gradient_rows`)
+and the constraint row is the velocity damper
+
+    g^T dq >= -xi c                    (xi = ``gain``, default 0.5)
+
+so a step consumes at most the fraction ``xi`` of the clearance, and a
+negative clearance (a start in collision) must grow. Rows are returned for
+the pairs with ``c < influence`` only (the others cannot bind a step of
+reasonable size; the true check after the step covers every pair).
+``margin(q)`` is the smallest clearance over all pairs.
+
+An obstacle that contains a part of the robot fixed to the world (its base
+segments) makes the problem infeasible: :class:`InputError` at ``bind``.
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+
+import numpy as np
+
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
+
+from .base import DAMPER_GAIN, Constraint
+from .link_capsules import LinkSkeleton, skeleton_segments
+from .segment_distance import point_segment, segment_segment
+
+#: Pairs whose clearance is below this (m) contribute rows to the QP.
+INFLUENCE = 0.3
+
+_EPS = 1e-12
+_einsum = np.einsum
+_sqrt = np.sqrt
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+
+
+def as_obstacle(value, name: str = "obstacle") -> Shape:
+    """A shape from a shape, a ``{"kind": ...}`` dict, a ``{"center", "radius"}`` dict or a ``(center, radius)`` pair."""
+    if isinstance(value, Shape):
+        return value
+    if isinstance(value, dict) and "kind" not in value:
+        if "center" in value and "radius" in value:
+            return Sphere(value["center"], value["radius"], value.get("frames"))
+        raise InputError(f"{name} dict needs a 'kind' ({', '.join(('sphere', 'box', 'capsule', 'cylinder', 'mesh'))}) "
+                         f"or 'center' and 'radius', got keys {sorted(value)}")
+    if isinstance(value, dict):
+        return as_shape(value, name)
+    try:
+        center, radius = value
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a shape (ik.Sphere, ik.Box, ik.Capsule, ik.Cylinder, ik.Mesh), "
+                         f"a dict or a (center, radius) pair, got {value!r}") from None
+    return Sphere(center, radius)
+
+
+def _bounding_radius(shape: Shape) -> float:
+    if isinstance(shape, Box):
+        return float(np.linalg.norm(shape.half_extents))
+    if isinstance(shape, Cylinder):
+        return math.hypot(shape.radius, 0.5 * shape.length)
+    if isinstance(shape, Mesh):
+        return float(np.linalg.norm(shape.hull_vertices, axis=1).max())
+    raise TypeError(type(shape).__name__)
+
+
+class ObstacleAvoidance(Constraint):
+    """Keep ``obstacles`` (any :mod:`kinserve.kinematics.shapes` shape) clear of the robot (module docstring).
+
+    Parameters
+    ----------
+    obstacles:
+        Shapes (or dicts / ``(center, radius)`` pairs, see :func:`as_obstacle`).
+    link_radius:
+        Radius (m, >= 0) of the capsules around the link segments (0 = bare segments).
+    margin:
+        Extra clearance (m, >= 0) required between links and obstacles.
+    gain:
+        Velocity-damper gain ``xi`` in ``(0, 1]``.
+    tool_frames:
+        Frames whose tool segment (parent joint -> frame origin) is part of the
+        body (default: the robot's tip).
+    influence:
+        Pairs with clearance below this (m) give QP rows.
+    """
+
+    def __init__(self, obstacles, link_radius: float = 0.0, margin: float = 0.0, gain: float = DAMPER_GAIN,
+                 tool_frames=None, influence: float = INFLUENCE):
+        super().__init__(name="obstacles")
+        if isinstance(obstacles, (Shape, dict)):
+            obstacles = [obstacles]
+        try:
+            items = list(obstacles)
+        except TypeError:
+            raise InputError(f"obstacles must be a sequence of shapes, got {obstacles!r}") from None
+        self.obstacles = [as_obstacle(o, f"obstacles[{i}]") for i, o in enumerate(items)]
+        self.link_radius = _non_negative(link_radius, "link_radius")
+        self.margin_required = _non_negative(margin, "margin")
+        if isinstance(gain, bool) or not isinstance(gain, (int, float)) or not (0.0 < gain <= 1.0):
+            raise InputError(f"gain (velocity damper xi) must be in (0, 1], got {gain!r}")
+        self.gain = float(gain)
+        if isinstance(tool_frames, str):
+            tool_frames = (tool_frames,)
+        self.tool_frames = None if tool_frames is None else tuple(tool_frames)
+        self.influence = _non_negative(influence, "influence")
+        self._model = None
+        self._check_data = self._check_model = None
+
+    # ---------------------------------------------------------------------------------------- binding
+    def bind(self, robot) -> "ObstacleAvoidance":
+        if self._model is robot.model:
+            return self
+        tools = self.tool_frames or (robot.tip,)
+        for f in tools:
+            robot.frame_id(f)
+        extra = tuple(dict.fromkeys(f for ob in self.obstacles if ob.frames is not None for f in ob.frames))
+        sk, n_default, fixed = _skeleton(robot, tools, extra)
+        self.skeleton = sk
+        frame_index = {name: n_default + k for k, name in enumerate(extra)}
+        segs_default = list(range(n_default))
+        sph, cap, other = ([], [], []), ([], [], [], []), ([], [], [])
+        groups = ([], [], [])
+        for k, ob in enumerate(self.obstacles):
+            seg_ids = segs_default if ob.frames is None else [frame_index[f] for f in ob.frames]
+            if ob.frames is None:
+                self._check_base(k, ob, fixed)
+            for i in seg_ids:
+                if isinstance(ob, Sphere):
+                    sph[0].append(i), sph[1].append(ob.center), sph[2].append(ob.radius)
+                    groups[0].append((k, sk.names[i]))
+                elif isinstance(ob, Capsule):
+                    cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
+                    groups[1].append((k, sk.names[i]))
+                else:
+                    other[0].append(i), other[1].append(ob), other[2].append(_bounding_radius(ob))
+                    groups[2].append((k, sk.names[i]))
+        # pairs are ordered: spheres, capsules, others (the order of the clearance vector)
+        self.pair_names = groups[0] + groups[1] + groups[2]
+        self._sph_seg = np.array(sph[0], dtype=int)
+        self._sph_c = np.array(sph[1], dtype=float).reshape(-1, 3)
+        self._sph_r = np.array(sph[2], dtype=float)
+        self._cap_seg = np.array(cap[0], dtype=int)
+        self._cap_a = np.array(cap[1], dtype=float).reshape(-1, 3)
+        self._cap_b = np.array(cap[2], dtype=float).reshape(-1, 3)
+        self._cap_r = np.array(cap[3], dtype=float)
+        self._oth_seg = np.array(other[0], dtype=int)
+        self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
+        self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
+        self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
+        self._oth = other[1]
+        self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
+        self._oth_bound = np.array(other[2], dtype=float)
+        self._oth_tf = [_coal_transform(o.pose) for o in other[1]]
+        self.m = len(self.pair_names)
+        self._offset = self.link_radius + self.margin_required
+        self._model = robot.model
+        return self
+
+    def _check_base(self, k, ob, fixed):
+        """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
+        if not fixed:
+            return
+        A = np.array([f[1] for f in fixed])
+        B = np.array([f[2] for f in fixed])
+        if isinstance(ob, Sphere):
+            c = np.broadcast_to(np.asarray(ob.center), A.shape)
+            _, X = point_segment(A, B, c)
+            d = np.linalg.norm(X - c, axis=1) - ob.radius
+        elif isinstance(ob, Capsule):
+            _, _, X, Y = segment_segment(A, B, np.broadcast_to(np.asarray(ob.a), A.shape),
+                                         np.broadcast_to(np.asarray(ob.b), A.shape))
+            d = np.linalg.norm(X - Y, axis=1) - ob.radius
+        else:
+            t = np.linspace(0.0, 1.0, 33)[None, :, None]
+            d = ob.signed_distance((A[:, None] + t * (B - A)[:, None]).reshape(-1, 3)).reshape(len(A), -1).min(axis=1)
+        bad = np.flatnonzero(d < self.link_radius)
+        if bad.size:
+            raise InputError(f"obstacles[{k}] ({ob!r}) contains the robot base ({fixed[bad[0]][0]}); "
+                             "the base cannot move out of it")
+
+    # ------------------------------------------------------------------------------------- distances
+    def _pairs(self, data, witness: bool, cutoff: float = math.inf):
+        """Clearances ``(m,)`` and, with ``witness``, ``(seg, s, N, A, B)`` of every pair (module docstring).
+
+        ``A``, ``B`` are the end points of each pair's segment, ``N`` the unit
+        normals from the obstacle to the witness point ``(1 - s) A + s B``.
+        """
+        P = self.skeleton.points(data)
+        clear, segs, ss, Ns, As, Bs = [], [], [], [], [], []
+        if self._sph_seg.size:
+            A = P[self._sph_ia]
+            AB = P[self._sph_ib] - A
+            AC = self._sph_c - A
+            s = _einsum("ij,ij->i", AC, AB) * self._inv_len2(AB, self._sph_ia, self._sph_ib)
+            _clip(s, 0.0, 1.0, out=s)
+            V = s[:, None] * AB - AC  # x - c
+            d = _sqrt(_einsum("ij,ij->i", V, V))
+            clear.append(d - self._sph_r)
+            if witness:
+                segs.append(self._sph_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(A + AB)
+        if self._cap_seg.size:
+            A, B = P[self._cap_ia], P[self._cap_ib]
+            s, _, X, Y = segment_segment(A, B, self._cap_a, self._cap_b)
+            V = X - Y
+            d = _sqrt(_einsum("ij,ij->i", V, V))
+            clear.append(d - self._cap_r)
+            if witness:
+                segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
+        if self._oth_seg.size:
+            A, B = P[self._oth_ia], P[self._oth_ib]
+            c, s, N = self._coal_pairs(A, B, cutoff)
+            clear.append(c)
+            if witness:
+                segs.append(self._oth_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
+        if not clear:
+            c = np.zeros(0)
+        else:
+            c = (clear[0] if len(clear) == 1 else np.concatenate(clear)) - self._offset
+        if not witness:
+            return c
+        if len(segs) == 1:
+            return c, segs[0], ss[0], Ns[0], As[0], Bs[0]
+        cat = np.concatenate
+        return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
+
+    def _inv_len2(self, AB, ia, ib):
+        """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
+        L2 = _einsum("ij,ij->i", AB, AB)
+        out = np.zeros_like(L2)
+        np.divide(1.0, L2, out=out, where=L2 > 1e-24)
+        return out
+
+    def _coal_pairs(self, A, B, cutoff):
+        import coal
+
+        i = self._oth_seg
+        # lower bound: distance from the segment to the bounding sphere
+        _, X = point_segment(A, B, self._oth_center)
+        lb = np.linalg.norm(X - self._oth_center, axis=1) - self._oth_bound
+        c = lb.copy()
+        s = np.zeros(len(i))
+        N = np.zeros((len(i), 3))
+        req = coal.DistanceRequest()
+        res = coal.DistanceResult()
+        far = cutoff + self._offset
+        for p in np.flatnonzero(lb < far):
+            a, b = A[p], B[p]
+            ab = b - a
+            L = math.sqrt(ab.dot(ab))
+            geom = coal.Capsule(0.0, L)
+            res.clear()
+            d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, _segment_transform(a, ab, L), req, res)
+            c[p] = d
+            x = res.getNearestPoint2()
+            s[p] = 0.0 if L < _EPS else min(max(float((x - a).dot(ab)) / (L * L), 0.0), 1.0)
+            N[p] = res.normal
+        return c, s, N
+
+    def clearances(self, data) -> np.ndarray:
+        """Clearance ``c`` (m) of every pair after forward kinematics (far coal pairs: their lower bound)."""
+        return self._pairs(data, False, self.influence)
+
+    def first_violation(self, robot, Q) -> int | None:
+        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None."""
+        import pinocchio as pin
+
+        data = self._check_data
+        if data is None or self._check_model is not robot.model:
+            data = self._check_data = robot.model.createData()
+            self._check_model = robot.model
+        for k, q in enumerate(Q):
+            pin.forwardKinematics(robot.model, data, q)
+            c = self._pairs(data, False, 0.0)
+            if c.size and c.min() < 0.0:
+                return k
+        return None
+
+    # ------------------------------------------------------------------------------------- protocol
+    def margin(self, robot, data, q) -> float:
+        c = self._pairs(data, False, self.influence)
+        return float(c.min()) if c.size else math.inf
+
+    def rows(self, robot, data, q, dt=None):
+        c, seg, s, N, A, B = self._pairs(data, True, self.influence)
+        near = c < self.influence
+        if not near.all():
+            if not near.any():
+                return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
+            c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
+        G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
+        return G, -self.gain * c, np.full(c.shape[0], np.inf)
+
+    def rows_all(self, robot, data):
+        """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
+        c, seg, s, N, A, B = self._pairs(data, True, math.inf)
+        return c, self.skeleton.gradient_rows(data, seg, s, A, B, N)
+
+    def describe(self, robot, data, q) -> str:
+        c = self._pairs(data, False, math.inf)
+        parts = []
+        for p in np.flatnonzero(c < 0.0):
+            k, seg = self.pair_names[p]
+            parts.append(f"obstacles[{k}] ({self.obstacles[k].kind}) is entered by {seg} by {-c[p]:.4g} m")
+        return "; ".join(parts)
+
+    def __repr__(self) -> str:
+        return (f"ObstacleAvoidance({len(self.obstacles)} obstacles, link_radius={self.link_radius:g}, "
+                f"margin={self.margin_required:g})")
+
+
+_skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _skeleton(robot, tools, frames):
+    """``(skeleton, n_default, fixed)``: the moving default segments then the frame points, cached per model.
+
+    ``fixed`` lists ``(name, a, b)`` of the segments fixed to the world (checked against the obstacles).
+    """
+    per_model = _skeletons.get(robot.model)
+    if per_model is None:
+        per_model = _skeletons[robot.model] = {}
+    key = (tuple(tools), tuple(frames))
+    hit = per_model.get(key)
+    if hit is None:
+        segs = skeleton_segments(robot, tools)
+        moving = [s for s in segs if not s.fixed]
+        fixed = [(s.name, s.la.copy(), s.lb.copy()) for s in segs if s.fixed]
+        pts = skeleton_segments(robot, frames=frames) if frames else []
+        hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
+    return hit
+
+
+def _unit(V: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Rows of ``V`` divided by ``d`` (zero rows where ``d`` is 0: no defined direction)."""
+    out = np.zeros_like(V)
+    np.divide(V, d[:, None], out=out, where=d[:, None] > _EPS)
+    return out
+
+
+def _non_negative(value, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise InputError(f"{name} must be a number >= 0 (m), got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0:
+        raise InputError(f"{name} must be a finite number >= 0 (m), got {value!r}")
+    return v
+
+
+def _coal_transform(T: np.ndarray):
+    import coal
+
+    tf = coal.Transform3s()
+    tf.setRotation(np.ascontiguousarray(T[:3, :3]))
+    tf.setTranslation(np.ascontiguousarray(T[:3, 3]))
+    return tf
+
+
+def _segment_transform(a: np.ndarray, ab: np.ndarray, L: float):
+    """coal placement of a capsule core ``[a, a + ab]``: centre at the midpoint, local z along ``ab``."""
+    import coal
+
+    tf = coal.Transform3s()
+    if L > _EPS:
+        z = ab / L
+        helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        x = np.cross(helper, z)
+        x /= np.linalg.norm(x)
+        tf.setRotation(np.column_stack([x, np.cross(z, x), z]))
+    tf.setTranslation(a + 0.5 * ab)
+    return tf
