@@ -166,3 +166,13 @@ def test_solve_many_forwards_the_collision_options(panda):
     results = ik.solve_many(panda, poses, processes=1, self_collision=True, obstacles=SCENE, seed=0)
     assert all(r.success and "collision" in r.info for r in results)
     assert not any(panda.in_collision(r.q, SCENE) for r in results)
+
+
+def test_reach_map_counts_collision_free_solutions_only(panda):
+    from kinserve.ik.reachability import reachability_map
+
+    block = ik.Box(_pose((0.5, 0.0, 0.6)), (0.6, 1.6, 0.4))
+    rmap = reachability_map(panda, 60, processes=1, max_time=0.05, seed=1, self_collision=True, obstacles=[block])
+    inside = block.contains(rmap.positions)
+    assert inside.any() and not rmap.reached[inside].any()  # the hand's origin cannot be inside the block
+    assert rmap.reached[~inside].any()

@@ -100,3 +100,11 @@ def test_cli_collide_end_to_end(panda):
     assert hit.returncode == 1 and "IN COLLISION" in hit.stdout
     bad = kinserve("collide", "panda", "--sphere", "0", "0", "1", "-0.1")
     assert bad.returncode == 2 and bad.stderr.strip() == "error: sphere radius must be positive (m), got -0.1"
+
+
+def test_cli_reach_with_collision_options(tmp_path):
+    out = kinserve("reach", "panda", "--samples", "20", "--processes", "1", "--self-collision",
+                   "--box", "0.65", "0", "-0.05", "0.7", "1.2", "0.1", "--out", str(tmp_path / "r"))
+    assert out.returncode == 0, out.stderr
+    assert "collision-free solutions only (1 obstacle(s), self-collision)" in out.stdout
+    assert (tmp_path / "r.npz").is_file() and (tmp_path / "r.png").is_file()
