@@ -2,14 +2,14 @@
 
 Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 
-1. **Infeasible at once**: a target position inside an obstacle, for a frame
-   whose origin lies inside the robot's own collision geometry, cannot be
-   reached: ``Result(success=False)`` with the reason, no solve.
-2. **Unconstrained solve, then check**: the ordinary solver (closed form, LM or
+1. **Unconstrained solve, then check**: the ordinary solver (closed form, LM or
    QP with the requested options) with half the time budget; its answer and
    every iterate of the run that produced it are checked with the broad-phase
    collision check (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
    In an open scene this is almost always enough.
+2. **Infeasible at once**: a target position inside an obstacle, for a frame
+   whose origin lies inside the robot's own collision geometry, cannot be
+   reached: ``Result(success=False)`` with the reason, no constrained solve.
 3. **Constrained solve**: otherwise the QP method with
    :class:`~kinserve.ik.constraints.collision.CollisionConstraint` rows (velocity
    dampers from witness points and normals, hard on every iterate, the step
@@ -80,10 +80,6 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
     budget = MAX_TIME if p["max_time"] is None else p["max_time"]
     tgt = p["target"]
 
-    blocked = _target_inside_obstacle(robot, constraint, tgt)
-    if blocked:
-        return _failure(robot, tgt, p["q0"], t0, blocked)
-
     if p["weights"] is None or p["method"] != "qp":
         first = solve_prepared(robot, dict(p, max_time=0.5 * budget), **solver_opts)
         if first.success and _path_is_free(constraint, first):
@@ -91,6 +87,10 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
             first.info["collision"] = "unconstrained, checked"
             first.elapsed = time.perf_counter() - t0
             return first
+
+    blocked = _target_inside_obstacle(robot, constraint, tgt)
+    if blocked:
+        return _failure(robot, tgt, p["q0"], t0, blocked)
 
     remaining = max(budget - (time.perf_counter() - t0), 1e-3)
     opts = {k: v for k, v in solver_opts.items() if k in _QP_KEYS}

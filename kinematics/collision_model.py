@@ -187,7 +187,7 @@ class CollisionModel:
         key = (self_collision, *map(id, obs))
         scenes = self._scenes
         hit = scenes.get(key)
-        if hit is not None and all(a is b for a, b in zip(hit.obstacles, obs)):
+        if hit is not None and hit.obstacles == obs:  # identical objects: tuple comparison short-cuts on identity
             return hit
         scene = CollisionScene(self, obs, self_collision)
         with self._lock:

@@ -90,7 +90,9 @@ class CollisionConstraint(Constraint):
     def bind(self, robot) -> "CollisionConstraint":
         """Build the robot's collision scene; :class:`InputError` when an obstacle contains the fixed base."""
         scene = robot.collision_scene(self.obstacles, self.self_collision)
-        _check_base(robot, scene)
+        if not getattr(scene, "base_checked", False):  # once per scene (scenes are cached per obstacle set)
+            _check_base(robot, scene)
+            scene.base_checked = True
         bound = object.__new__(type(self))
         bound.__dict__.update(self.__dict__)
         bound.scene = scene
@@ -127,8 +129,9 @@ class CollisionConstraint(Constraint):
                 J = jac.get(j)
                 if J is None:
                     J = jac[j] = pin.getJointJacobian(model, data, int(j), _LWA)
-                arm = p - data.oMi[int(j)].translation
-                G[r] += sign * (n @ J[:3] + np.cross(arm, n) @ J[3:])
+                a = p - data.oMi[int(j)].translation
+                axn = (a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0])  # a x n
+                G[r] += sign * (n @ J[:3] + np.dot(axn, J[3:]))
         return d, G, near
 
     def rows(self, robot, data, q: np.ndarray, dt: float | None = None):
