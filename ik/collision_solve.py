@@ -2,11 +2,14 @@
 
 Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 
-1. **Unconstrained solve, then check**: the ordinary solver (closed form, LM or
-   QP with the requested options) with half the time budget; its answer and
-   every iterate of the run that produced it are checked with the broad-phase
-   collision check (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
-   In an open scene this is almost always enough.
+1. **Unconstrained solves, then check** (half the time budget at most): the
+   ordinary solver (closed form, LM or QP with the requested options), then up
+   to :data:`UNCONSTRAINED_ATTEMPTS` - 1 more from random collision-free starts;
+   an answer is kept when it and every iterate of the run that produced it pass
+   the broad-phase collision check
+   (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
+   In an open scene the first attempt is almost always enough; with an obstacle
+   in the way another branch often is.
 2. **Infeasible at once**: a target position inside an obstacle, for a frame
    whose origin lies inside the robot's own collision geometry, cannot be
    reached: ``Result(success=False)`` with the reason, no constrained solve.
@@ -45,6 +48,8 @@ from .result import History, Result
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5
+#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + random collision-free starts.
+UNCONSTRAINED_ATTEMPTS = 8
 
 
 def collision_options(self_collision=False, obstacles=(), collision_margin=0.0, spheres=()) -> dict:
@@ -81,12 +86,10 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
     tgt = p["target"]
 
     if p["weights"] is None or p["method"] != "qp":
-        first = solve_prepared(robot, dict(p, max_time=0.5 * budget), **solver_opts)
-        if first.success and _path_is_free(constraint, first):
-            first.message += "; collision free (unconstrained answer and iterates checked)"
-            first.info["collision"] = "unconstrained, checked"
-            first.elapsed = time.perf_counter() - t0
-            return first
+        found = _unconstrained_attempts(robot, p, constraint, t0 + 0.5 * budget, solver_opts)
+        if found is not None:
+            found.elapsed = time.perf_counter() - t0
+            return found
 
     blocked = _target_inside_obstacle(robot, constraint, tgt)
     if blocked:
@@ -103,6 +106,40 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
         res.message = "no collision-free start configuration was found within the time budget"
     res.elapsed = time.perf_counter() - t0
     return res
+
+
+def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, deadline: float, solver_opts: dict):
+    """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves, each answer checked.
+
+    The first is the ordinary solve (``q0``, then the table of starts); the
+    others start from random collision-free configurations (``seed``) - another
+    IK branch often clears what the first answer hit. An answer counts when it
+    and every iterate of its run are collision free. None if none qualifies
+    before ``deadline``.
+    """
+    from .solve import solve_prepared
+
+    rng = np.random.default_rng(p["seed"] or 0)
+    opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
+    for attempt in range(UNCONSTRAINED_ATTEMPTS):
+        left = deadline - time.perf_counter()
+        if left <= 0.0:
+            return None
+        if attempt == 0:
+            res = solve_prepared(robot, dict(p, max_time=left), **solver_opts)
+        else:
+            start = next((q for q in robot.random_q(rng, 20) if not constraint.in_collision(q)), None)
+            if start is None:
+                return None
+            res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
+                                 seed_table=False, **opts)
+        if res.success and _path_is_free(constraint, res):
+            res.message += "; collision free (unconstrained answer and iterates checked"
+            res.message += f", attempt {attempt + 1})" if attempt else ")"
+            res.info["collision"] = "unconstrained, checked"
+            res.info["collision_attempts"] = attempt + 1
+            return res
+    return None
 
 
 def _path_is_free(constraint: CollisionConstraint, res: Result) -> bool:

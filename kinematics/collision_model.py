@@ -30,6 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import collision_cache
+from .collision_scene import CollisionScene
 from .collision_pairs import (
     ALGORITHM_VERSION,
     SAMPLES,
@@ -181,9 +182,7 @@ class CollisionModel:
         Scenes are cached by the identity of the (immutable) obstacle objects, so
         passing the same list again costs a dictionary lookup.
         """
-        from .collision_scene import CollisionScene
-
-        obs = tuple(obstacles)
+        obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
         key = (self_collision, *map(id, obs))
         scenes = self._scenes
         hit = scenes.get(key)

@@ -64,7 +64,10 @@ def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
         from .errors import InputError
 
         raise InputError(f"{name} must be a sequence of shapes, got {type(obstacles).__name__}") from None
-    if all(isinstance(o, Shape) for o in items):
+    for o in items:
+        if not isinstance(o, Shape):
+            break
+    else:
         return items
     return tuple(as_shape(o, f"{name}[{k}]") for k, o in enumerate(items))
 

@@ -24,9 +24,11 @@ def _pose(xyz, R=None):
 
 #: The issue's Panda scene: a table top and a wall.
 SCENE = [Box(_pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)), Box(_pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
+#: Two more obstacles in the arm's workspace (a broad phase must handle any number).
+EXTRA = [Box(_pose((0.4, 0.1, 0.5)), (0.1, 0.1, 0.1)), Sphere((0.3, 0.3, 0.3), 0.08)]
 
 
-def _independent(name: str, urdf: str, srdf: str, locked=()):
+def _independent(name: str, urdf: str, srdf: str, locked=(), scene=SCENE):
     """Model + collision GeometryModel (hulls, SRDF pairs, scene pairs) built with pinocchio/coal directly."""
     erd = paths.example_robot_data_dir()
     pkg = [str(paths.example_robot_data_package_dir())]
@@ -42,8 +44,9 @@ def _independent(name: str, urdf: str, srdf: str, locked=()):
     geom.addAllCollisionPairs()
     pin.removeCollisionPairs(model, geom, str(erd / srdf))
     n_robot = geom.ngeoms
-    for k, box in enumerate(SCENE):
-        idx = geom.addGeometryObject(pin.GeometryObject(f"box{k}", 0, 0, pin.SE3(box.pose), coal.Box(*box.size)))
+    for k, ob in enumerate(scene):
+        shape = coal.Box(*ob.size) if ob.kind == "box" else coal.Sphere(ob.radius)
+        idx = geom.addGeometryObject(pin.GeometryObject(f"box{k}", 0, 0, pin.SE3(ob.pose), shape))
         for i in range(n_robot):
             if geom.geometryObjects[i].parentJoint != 0:  # the fixed base is not paired with the scene
                 geom.addCollisionPair(pin.CollisionPair(i, idx))
@@ -75,6 +78,12 @@ def test_in_collision_agrees_with_independent_coal_model(name, urdf, srdf, locke
     assert np.array_equal(ours_scene, ref_scene)
     assert np.array_equal(ours_self, np.array(ref_self))
     assert 0 < ours_scene.sum() < len(Q)  # both answers occur: the test can fail
+    # a scene of four obstacles, broad phase against pair-by-pair coal
+    model4, geom4 = _independent(name, urdf, srdf, locked, SCENE + EXTRA)
+    gdata4 = pin.GeometryData(geom4)
+    ours4 = np.array([robot.in_collision(q, SCENE + EXTRA) for q in Q])
+    ref4 = np.array([pin.computeCollisions(model4, data, geom4, gdata4, q, True) for q in Q])
+    assert np.array_equal(ours4, ref4) and ours4.sum() > ours_scene.sum()
     # named pairs: every reported pair really collides in the independent model
     for q in Q[ours_scene][:20]:
         pin.computeCollisions(model, data, geom, gdata, q, False)
