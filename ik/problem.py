@@ -81,7 +81,7 @@ class Problem:
         self.robot = robot
         self.model = robot.model
         self.data = robot.data
-        self.check_data = robot.model.createData()
+        self._check_data = None
         self.tasks = [t.bind(robot) for t in tasks]
         tool_frames = [t.frame_name for t in self.tasks if hasattr(t, "frame_name")]
         cons = as_constraints(constraints, tool_frames)
@@ -179,12 +179,22 @@ class Problem:
             return lb, ub, Gs[0], ls[0], us[0]
         return lb, ub, np.vstack(Gs), np.concatenate(ls), np.concatenate(us)
 
+    @property
+    def check_data(self):
+        """A second Pinocchio ``Data`` (made on first use) for checks that must not disturb :attr:`data`."""
+        if self._check_data is None:
+            self._check_data = self.model.createData()
+        return self._check_data
+
     def margin(self, q) -> float:
-        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); uses the check ``Data``."""
+        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics only."""
         if not self.checked:
             return math.inf
-        d = self.check_data
+        d = self.data
         _fk(self.model, d, q)
+        self.q_in_data = None
+        if len(self.checked) == 1:
+            return self.checked[0].margin(self.robot, d, q)
         return min(c.margin(self.robot, d, q) for c in self.checked)
 
     def describe(self, q) -> str:

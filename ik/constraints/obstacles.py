@@ -128,7 +128,6 @@ class ObstacleAvoidance(Constraint):
         self.tool_frames = None if tool_frames is None else tuple(tool_frames)
         self.influence = _non_negative(influence, "influence")
         self._model = None
-        self._check_data = self._check_model = None
 
     # ---------------------------------------------------------------------------------------- binding
     def bind(self, robot) -> "ObstacleAvoidance":
@@ -170,6 +169,9 @@ class ObstacleAvoidance(Constraint):
         self._oth_seg = np.array(other[0], dtype=int)
         self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
         self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
+        # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
+        rigid = bool(np.all(sk.rigid[self._sph_seg])) if self._sph_seg.size else False
+        self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
         self._oth = other[1]
         self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
@@ -215,7 +217,8 @@ class ObstacleAvoidance(Constraint):
             A = P[self._sph_ia]
             AB = P[self._sph_ib] - A
             AC = self._sph_c - A
-            s = _einsum("ij,ij->i", AC, AB) * self._inv_len2(AB, self._sph_ia, self._sph_ib)
+            inv = self._sph_inv if self._sph_inv is not None else self._inv_len2(AB)
+            s = _einsum("ij,ij->i", AC, AB) * inv
             _clip(s, 0.0, 1.0, out=s)
             V = s[:, None] * AB - AC  # x - c
             d = _sqrt(_einsum("ij,ij->i", V, V))
@@ -247,7 +250,7 @@ class ObstacleAvoidance(Constraint):
         cat = np.concatenate
         return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
 
-    def _inv_len2(self, AB, ia, ib):
+    def _inv_len2(self, AB):
         """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
         L2 = _einsum("ij,ij->i", AB, AB)
         out = np.zeros_like(L2)
@@ -288,10 +291,7 @@ class ObstacleAvoidance(Constraint):
         """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None."""
         import pinocchio as pin
 
-        data = self._check_data
-        if data is None or self._check_model is not robot.model:
-            data = self._check_data = robot.model.createData()
-            self._check_model = robot.model
+        data = robot.data
         for k, q in enumerate(Q):
             pin.forwardKinematics(robot.model, data, q)
             c = self._pairs(data, False, 0.0)
@@ -306,7 +306,8 @@ class ObstacleAvoidance(Constraint):
 
     def rows(self, robot, data, q, dt=None):
         c, seg, s, N, A, B = self._pairs(data, True, self.influence)
-        near = c < self.influence
+        # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
+        near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
         if not near.all():
             if not near.any():
                 return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
