@@ -186,3 +186,22 @@ def test_reach_map_counts_collision_free_solutions_only(panda):
     inside = block.contains(rmap.positions)
     assert inside.any() and not rmap.reached[inside].any()  # the hand's origin cannot be inside the block
     assert rmap.reached[~inside].any()
+
+
+def test_control_loop_with_collision_constraints_stays_clear(panda):
+    """ik.step with a frame task pulling the hand through the wall: SelfCollision + SceneCollision hold on every step."""
+    q = np.array([-0.5, 0.3, 0.0, -1.8, 0.0, 2.1, 0.8])
+    assert not panda.in_collision(q, SCENE)
+    goal = panda.fk(q)
+    goal[:3, 3] = (0.1, -0.9, 0.5)  # behind the wall (y = -0.6)
+    task = ik.FrameTask(panda.tip, goal)
+    # velocity limits bound a step (1 rad/s x 20 ms): links move less than the rows' influence distance (5 cm)
+    cons = [ik.SelfCollision(), ik.SceneCollision(SCENE, margin=0.005), ik.VelocityLimits(1.0)]
+    closest = np.inf
+    for _ in range(150):
+        v = ik.step(panda, [task], cons, q, dt=0.02)
+        q = np.clip(q + 0.02 * v, panda.lower, panda.upper)
+        assert not panda.in_collision(q)
+        closest = min(closest, panda.min_distance(q, SCENE, self_collision=False))
+    assert 0.0 < closest  # pushed against the wall, never through it
+    assert closest < 0.05

@@ -27,6 +27,9 @@ Rows are built for the pairs whose distance is below ``margin + influence``
 those pairs get a GJK distance); the true check after each step is
 :meth:`CollisionConstraint.margin` (broad-phase collision check, then distances
 of the near pairs), and the solver halves the step until it holds.
+``ik.step`` has no back-off: bound the step with :class:`ik.VelocityLimits` so
+that no point moves more than ``influence`` in one period (farther pairs have
+no row and could be crossed in one long step).
 """
 
 from __future__ import annotations
