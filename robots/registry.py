@@ -17,7 +17,9 @@
 
 Keyword-only options for every form: ``tip=`` overrides the default tool
 frame, ``geometry=False`` skips building the mesh geometry (faster; FK and
-Jacobians do not need it).
+Jacobians do not need it; the collision model is then built on first use),
+``srdf=`` (a path or SRDF text) gives the self-collision pairs to skip
+(default: the SRDF found next to the URDF, else MoveIt-style computed pairs).
 
 Parsed models are cached (keyed on the name or file + modification time,
 parameters and options): every call returns a fresh ``Robot`` with its own
@@ -231,18 +233,19 @@ def _freeze(params: dict):
     return tuple(sorted((k, repr(v)) for k, v in params.items()))
 
 
-def _load_entry(entry: RobotEntry, tip, geometry: bool, params: dict) -> Robot:
+def _load_entry(entry: RobotEntry, tip, geometry: bool, params: dict, srdf=None) -> Robot:
     tip = tip or entry.tip
     if entry.is_xacro:
         path = entry.path()
-        key = ("entry", entry.name, _freeze(params), tip, geometry)
+        key = ("entry", entry.name, _freeze(params), tip, geometry, _srdf_key(srdf))
         return _cached(key, lambda: load_xacro(
             path, args=params, tip=tip, name=entry.name, description=entry.description,
-            geometry=geometry, task_axes=entry.task_axes,
+            geometry=geometry, task_axes=entry.task_axes, srdf=srdf,
         ))
     locks = _locks(f"robot {entry.name!r}", entry.locked, params)
-    key = ("entry", entry.name, _freeze(locks), tip, geometry)
-    srdf = paths.erd_file(entry.srdf) if entry.srdf else None
+    key = ("entry", entry.name, _freeze(locks), tip, geometry, _srdf_key(srdf))
+    if srdf is None and entry.srdf:
+        srdf = paths.erd_file(entry.srdf)
     return _cached(key, lambda: load_urdf(
         entry.path(), tip=tip, name=entry.name, description=entry.description, locked_joints=locks,
         geometry=geometry, task_axes=entry.task_axes, srdf=srdf,
@@ -253,7 +256,21 @@ def _looks_like_path(s: str) -> bool:
     return "/" in s or "\\" in s or s.endswith((".urdf", ".xacro", ".xml")) or Path(s).expanduser().is_file()
 
 
-def load(name_or_path, *, tip: str | None = None, geometry: bool = True, **params) -> Robot:
+def _srdf_key(srdf):
+    """Cache-key part of an ``srdf=`` option (a path with its modification time, or the text)."""
+    if srdf is None:
+        return None
+    if not (isinstance(srdf, str) and is_xml_text(srdf)):
+        try:
+            p = Path(str(srdf)).expanduser()
+            st = p.stat()
+            return (str(p.resolve()), st.st_mtime_ns, st.st_size)
+        except (OSError, ValueError):
+            pass
+    return str(srdf)
+
+
+def load(name_or_path, *, tip: str | None = None, geometry: bool = True, srdf=None, **params) -> Robot:
     """A :class:`Robot` from a built-in name, a ``.urdf`` / ``.xacro`` path, or URDF text.
 
     See the module docstring for what ``params`` mean for each form. Raises
@@ -261,11 +278,11 @@ def load(name_or_path, *, tip: str | None = None, geometry: bool = True, **param
     name and :class:`ModelError` for a bad parameter or an unusable model.
     """
     if isinstance(name_or_path, str) and name_or_path in ENTRIES:
-        return _load_entry(ENTRIES[name_or_path], tip, geometry, params)
+        return _load_entry(ENTRIES[name_or_path], tip, geometry, params, srdf)
     if isinstance(name_or_path, str) and is_xml_text(name_or_path):
         locks = _locks("URDF string", {k: None for k in params}, params) if params else {}
-        key = ("string", name_or_path, _freeze(locks), tip, geometry)
-        return _cached(key, lambda: load_urdf(name_or_path, tip=tip, locked_joints=locks, geometry=geometry))
+        key = ("string", name_or_path, _freeze(locks), tip, geometry, _srdf_key(srdf))
+        return _cached(key, lambda: load_urdf(name_or_path, tip=tip, locked_joints=locks, geometry=geometry, srdf=srdf))
     if isinstance(name_or_path, Path) or (isinstance(name_or_path, str) and _looks_like_path(name_or_path)):
         path = Path(name_or_path).expanduser()
         if not path.is_file():
@@ -274,10 +291,10 @@ def load(name_or_path, *, tip: str | None = None, geometry: bool = True, **param
         st = path.stat()
         stamp = (str(path), st.st_mtime_ns, st.st_size)
         if path.name.endswith(".xacro"):
-            key = ("xacro", stamp, _freeze(params), tip, geometry)
-            return _cached(key, lambda: load_xacro(path, args=params, tip=tip, geometry=geometry))
+            key = ("xacro", stamp, _freeze(params), tip, geometry, _srdf_key(srdf))
+            return _cached(key, lambda: load_xacro(path, args=params, tip=tip, geometry=geometry, srdf=srdf))
         locks = _locks(str(path), {k: None for k in params}, params) if params else {}
-        key = ("urdf", stamp, _freeze(locks), tip, geometry)
-        return _cached(key, lambda: load_urdf(path, tip=tip, locked_joints=locks, geometry=geometry))
+        key = ("urdf", stamp, _freeze(locks), tip, geometry, _srdf_key(srdf))
+        return _cached(key, lambda: load_urdf(path, tip=tip, locked_joints=locks, geometry=geometry, srdf=srdf))
     _entry(name_or_path)  # raises UnknownRobotError
     raise AssertionError("unreachable")  # pragma: no cover

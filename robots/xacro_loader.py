@@ -133,6 +133,7 @@ def load_xacro(
     package_dirs=(),
     geometry: bool = True,
     task_axes=TASK_AXES,
+    srdf=None,
 ) -> Robot:
     """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`)."""
     p = _existing(path)
@@ -147,4 +148,5 @@ def load_xacro(
         package_dirs=package_dirs,
         geometry=geometry,
         task_axes=task_axes,
+        srdf=srdf,
     )

@@ -198,10 +198,17 @@ def test_urdf_without_collision_elements_is_a_clear_error():
 def test_srdf_with_unknown_link_is_named():
     erd = paths.example_robot_data_dir()
     srdf = (erd / "panda_description/srdf/panda.srdf").read_text().replace('link2="panda_link4"', 'link2="panda_lnk4"', 1)
-    robot = robots.load(str(erd / "panda_description/urdf/panda.urdf"), geometry=False)
-    bad = type(robot)(robot.model, name="panda", source=robot.source, package_dirs=robot.package_dirs, srdf=srdf)
+    bad = robots.load("panda", srdf=srdf)
     with pytest.raises(errors.ModelError, match="'panda_lnk4'.*Did you mean: panda_link4"):
         bad.in_collision(bad.neutral())
+    # an SRDF for a seed robot replaces the computed pairs
+    four = robots.load("planar4r", srdf='<robot name="p"><disable_collisions link1="link1" link2="link3"/></robot>')
+    assert four.collision.pair_source == "srdf" and ("link1", "link3") in four.collision.disabled
+    folded = [0.0, 3.0, 3.0, 0.0]
+    assert ("link1", "link3") in robots.load("planar4r").collisions(folded)
+    assert ("link1", "link3") not in four.collisions(folded)
+    with pytest.raises(errors.ModelError, match="cannot read SRDF file"):
+        robots.load("planar4r", srdf="/nonexistent/robot.srdf")
 
 
 def test_bad_obstacles_and_q_are_named():
