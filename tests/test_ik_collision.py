@@ -58,7 +58,7 @@ def test_damper_rows_match_finite_differences_of_the_distance(panda):
     for _ in range(40):
         q = panda.random_q(rng)
         pin.computeJointJacobians(panda.model, data, q)
-        d, G, pairs = c.pair_rows(panda, data)
+        d, G, pairs = c.pair_rows(panda, data, q)
         for r, k in enumerate(pairs):
             if d[r] < 0.005:  # penetration depth / near-contact witness points are not smooth enough for FD
                 continue
@@ -150,7 +150,7 @@ def test_margin_grows_from_a_start_in_collision_and_protocol_methods(panda):
     data = panda.model.createData()
     pin.computeJointJacobians(panda.model, data, q)
     G, lo, hi = c.rows(panda, data, q)
-    d = c.pair_rows(panda, data)[0]
+    d = c.pair_rows(panda, data, q)[0]
     assert G.shape == (len(d), panda.nq) and np.all(np.isinf(hi))
     assert np.any(d < 0) and np.all(lo[d < 0] > 0)  # a negative clearance must grow
     assert np.allclose(lo, -ik.constraints.DAMPER_GAIN * d)

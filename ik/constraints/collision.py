@@ -103,27 +103,36 @@ class CollisionConstraint(Constraint):
         bound._threshold = self.clearance + self.influence
         return bound
 
-    def _near(self, q: np.ndarray | None = None, data=None) -> list[int]:
-        """Pairs closer than ``margin + influence`` (one computeCollisions with that security margin)."""
-        return self.scene.near(self._threshold, q, data)
+    def near_pairs(self, q: np.ndarray, data=None) -> list[tuple]:
+        """``[(k, d, p1, p2, n), ...]`` for the pairs closer than ``margin + influence`` at ``q``.
 
-    def _distance(self, k: int):
-        return self.scene.near_distance(self._threshold, k)
+        One ``computeCollisions`` with that security margin, then a GJK distance per near pair.
+        Memoised for the last ``q`` (the solvers ask for the rows and the margin at the same
+        configuration). ``data``, when given, holds the joint placements of ``q``.
+        """
+        key = q.tobytes()
+        memo = self.__dict__.get("_memo")
+        if memo is not None and memo[0] == key:
+            return memo[1]
+        scene, th = self.scene, self._threshold
+        ks = scene.near(th, q if data is None else None, data)
+        out = [(k, *scene.near_distance(th, k)) for k in ks]
+        self._memo = (key, out)
+        return out
 
-    def pair_rows(self, robot, data):
-        """``(d, G, pairs)``: distances ``(k,)`` and rows ``g`` ``(k, nv)`` of the near pairs.
+    def pair_rows(self, robot, data, q: np.ndarray):
+        """``(d, G, pairs)``: distances ``(k,)`` and rows ``g`` ``(k, nv)`` of the near pairs at ``q``.
 
-        ``data`` holds ``pinocchio.computeJointJacobians(model, data, q)`` at the configuration of interest.
+        ``data`` holds ``pinocchio.computeJointJacobians(model, data, q)``.
         """
         scene = self.scene
-        near = self._near(data=data)
+        near = self.near_pairs(q, data)
         nv = robot.model.nv
         d = np.empty(len(near))
         G = np.zeros((len(near), nv))
         jac: dict[int, np.ndarray] = {}
         model = robot.model
-        for r, k in enumerate(near):
-            dist, p1, p2, n = self._distance(k)
+        for r, (k, dist, p1, p2, n) in enumerate(near):
             d[r] = dist
             j1, j2 = scene.pair_joints[k]
             for j, p, sign in ((j2, p2, 1.0), (j1, p1, -1.0)):
@@ -135,26 +144,31 @@ class CollisionConstraint(Constraint):
                 a = p - data.oMi[int(j)].translation
                 axn = (a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0])  # a x n
                 G[r] += sign * (n @ J[:3] + np.dot(axn, J[3:]))
-        return d, G, near
+        return d, G, [k for k, *_ in near]
 
     def rows(self, robot, data, q: np.ndarray, dt: float | None = None):
         """``G dq >= -xi (d - margin)`` for the near pairs (see the module docstring)."""
-        d, G, _ = self.pair_rows(robot, data)
+        d, G, _ = self.pair_rows(robot, data, q)
         lower = -DAMPER_GAIN * (d - self.clearance)
         return G, lower, np.full(len(d), np.inf)
 
     def margin(self, robot, data, q: np.ndarray) -> float:
-        """Smallest ``d - margin`` (m) over the pairs, or ``influence`` when no pair is that close."""
-        near = self._near(q)
+        """The slack at ``q``: ``>= 0`` iff the constraint holds (the solvers use its sign and negative values).
+
+        Negative: the smallest ``d - margin`` (m) over the violating pairs. Otherwise ``influence`` when
+        the margin is 0 and the broad-phase check finds no collision (the fast path of every step
+        back-off), else the smallest ``d - margin`` of the pairs closer than ``margin + influence``.
+        """
+        if self.clearance == 0.0 and not self.scene.in_collision(q):
+            return self.influence
+        near = self.near_pairs(q)
         if not near:
             return self.influence
-        return min(self._distance(k)[0] for k in near) - self.clearance
+        return min(item[1] for item in near) - self.clearance
 
     def describe(self, robot, data, q: np.ndarray) -> str:
-        near = self._near(q)
         bad = []
-        for k in near:
-            dist = self._distance(k)[0]
+        for k, dist, *_ in self.near_pairs(q):
             if dist < self.clearance:
                 a, b = self.scene.pair_names[k]
                 bad.append(f"{a}/{b} at {dist:.4g} m")
