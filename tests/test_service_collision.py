@@ -108,3 +108,15 @@ def test_cli_reach_with_collision_options(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "collision-free solutions only (1 obstacle(s), self-collision)" in out.stdout
     assert (tmp_path / "r.npz").is_file() and (tmp_path / "r.png").is_file()
+
+
+def test_cli_view_collision_html(tmp_path):
+    page = tmp_path / "c.html"
+    q = " ".join(map(str, Q_DOWN)).split()
+    out = kinserve("view", "panda", "--q", *q, "--collision", "--box", "0.65", "0", "-0.05", "0.7", "1.2", "0.1",
+                   "--html", str(page))
+    assert out.returncode == 0, out.stderr
+    plain = tmp_path / "p.html"
+    assert kinserve("view", "panda", "--q", *q, "--html", str(plain)).returncode == 0
+    # the page is compressed: the hull meshes and the obstacle make it clearly larger
+    assert page.stat().st_size > plain.stat().st_size + 5000
