@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .errors import InputError, ModelError
 from .shapes import Shape, as_shape
 
 _BUILD_LOCK = threading.Lock()
@@ -55,14 +56,10 @@ def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
     if isinstance(obstacles, (Shape, dict)):
         return (as_shape(obstacles, f"{name}[0]"),)
     if isinstance(obstacles, (str, bytes)):
-        from .errors import InputError
-
         raise InputError(f"{name} must be a sequence of shapes (Sphere, Box, Capsule, Cylinder, Mesh), got a string")
     try:
         items = tuple(obstacles)
     except TypeError:
-        from .errors import InputError
-
         raise InputError(f"{name} must be a sequence of shapes, got {type(obstacles).__name__}") from None
     for o in items:
         if not isinstance(o, Shape):
@@ -107,8 +104,6 @@ class CollisionQueries:
         if self.collision_model is not None:
             return CollisionModel(self.model, self.collision_model, self.lower, self.upper, **kw)
         if self.source is None:
-            from .errors import ModelError
-
             raise ModelError(f"robot {self.name!r} has no collision geometry and no URDF text to build it from")
         return CollisionModel.from_urdf(self.model, self.source, self.package_dirs, self.lower, self.upper, **kw)
 
@@ -157,5 +152,4 @@ class CollisionQueries:
     def min_distance(self, q, obstacles: Any = (), *, self_collision: bool = True) -> float:
         """The smallest signed distance (m) over the checked pairs at ``q`` (``inf`` when there is no pair)."""
         q = self.check_q(q)
-        d = self.collision_scene(obstacles, self_collision).distance_arrays(q)[0]
-        return float(d.min()) if d.size else float("inf")
+        return self.collision_scene(obstacles, self_collision).min_distance(q)[0]

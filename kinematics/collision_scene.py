@@ -123,6 +123,17 @@ class CollisionScene:
             n[k] = res.normal
         return d, p1, p2, n
 
+    def min_distance(self, q: np.ndarray) -> tuple[float, int]:
+        """``(d, k)``: the smallest signed distance (m) at ``q`` and its pair index (``(inf, -1)`` without pairs).
+
+        One ``pinocchio.computeDistances`` (it returns the index of the closest pair); no per-pair reading.
+        """
+        if not len(self.pairs):
+            return float("inf"), -1
+        data, gd, _bpm = self.workspace()
+        k = pin.computeDistances(self.model, data, self.geometry, gd, q)
+        return float(gd.distanceResults[k].min_distance), int(k)
+
     def _margin_data(self, threshold: float):
         """This thread's GeometryData whose collision requests use ``security_margin = threshold``."""
         ws = getattr(self._local, "margin", None)
