@@ -31,7 +31,6 @@ from fastapi.responses import JSONResponse
 from kinserve import ik
 from kinserve import robots
 from kinserve.kinematics.errors import FrameError, InputError, KinserveError, UnknownRobotError
-from kinserve.kinematics.shapes import as_shape
 
 from . import schemas as S
 from .robot_pool import RobotPool
@@ -130,13 +129,13 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
             q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
             method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
         )
-        if req.self_collision or req.obstacles:  # collision options (see service/collision_endpoint.py)
-            from .collision_endpoint import obstacles_of
+        from .collision_endpoint import obstacles_of
 
-            obstacles = obstacles_of(req.obstacles)
-            with field("self_collision" if req.self_collision else "obstacles"):
-                robot.collision_scene(obstacles, req.self_collision)  # builds the model; ModelError -> 422
-            kw.update(self_collision=req.self_collision, obstacles=obstacles, collision_margin=req.collision_margin)
+        kw["obstacles"] = obstacles_of(req.obstacles)
+        if req.self_collision:  # the robot's collision geometry (see service/collision_endpoint.py)
+            with field("self_collision"):
+                robot.collision_scene(kw["obstacles"], True)  # builds the model; no <collision> -> 422
+            kw.update(self_collision=True, collision_margin=req.collision_margin)
         return kw
 
     def result_out(res) -> dict:
@@ -192,10 +191,7 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
         kwargs = ik_kwargs(r, req)
         if (req.target is None) == (req.targets is None):
             raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
-        obstacles = []
-        for i, spec in enumerate(req.obstacles):
-            with field(f"obstacles[{i}]"):
-                obstacles.append(as_shape(spec.model_dump(exclude_none=True), f"obstacles[{i}]"))
+        obstacles = kwargs.pop("obstacles")
         tasks = []
         if req.targets is not None:
             if req.method not in ("auto", "qp"):
@@ -209,7 +205,7 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
                 except KinserveError as exc:
                     raise FieldError(f"targets[{i}]", exc) from exc
         tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
-        if obstacles or kwargs["spheres"]:
+        if (obstacles or kwargs["spheres"]) and not req.self_collision:
             with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
                 ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
         if req.target is not None:
@@ -219,7 +215,11 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
             return result_out(res)
         if req.centring:
             tasks.append(ik.CentringTask(req.centring))
-        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames)]
+        if req.self_collision:  # the robot's collision geometry, as ik.solve(self_collision=True)
+            constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
+        else:
+            constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
+                                                tool_frames=tool_frames)]
         with field("targets"):
             res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
                            tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=capped(req.max_time))

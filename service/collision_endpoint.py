@@ -25,7 +25,7 @@ def obstacles_of(specs) -> list:
     shapes = []
     for k, spec in enumerate(specs):
         with field(f"obstacles[{k}]"):
-            shapes.append(as_shape(spec.shape_dict(), f"obstacles[{k}]"))
+            shapes.append(as_shape(spec.model_dump(exclude_none=True), f"obstacles[{k}]"))
     return shapes
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from .schemas import JointVector, Obstacles, ObstacleSpec, RobotRef, Strict  # noqa: F401 - re-exported
+from .schemas import JointVector, Obstacles, RobotRef, Strict
 
 class CollisionOptions(Strict):
     """Collision options shared by ``/collision`` and ``/ik``."""

@@ -50,7 +50,7 @@ def test_collision_endpoint_matches_the_library(client, panda):
 @pytest.mark.parametrize("body, status, field", [
     ({"robot": "panda", "q": [0.0] * 6}, 422, "q"),
     ({"robot": "panda", "q": [0.0] * 7, "obstacles": [dict(TABLE, size=[0.7, 0.0, 0.1])]}, 422, "obstacles"),
-    ({"robot": "panda", "q": [0.0] * 7, "obstacles": [{"kind": "box", "size": [1, 1, 1]}]}, 422, "obstacles[0]"),
+    ({"robot": "panda", "q": [0.0] * 7, "obstacles": [{"kind": "box", "size": [1, 1, 1]}]}, 422, "pose"),
     ({"robot": "panda", "q": [0.0] * 7, "obstacles": [{"kind": "mesh", "path": "/etc/passwd"}]}, 422, "obstacles"),
     ({"robot": "pandaa", "q": [0.0] * 7}, 404, "robot"),
 ])
@@ -120,3 +120,16 @@ def test_cli_view_collision_html(tmp_path):
     assert kinserve("view", "panda", "--q", *q, "--html", str(plain)).returncode == 0
     # the page is compressed: the hull meshes and the obstacle make it clearly larger
     assert page.stat().st_size > plain.stat().st_size + 5000
+
+
+def test_ik_several_targets_with_self_collision(client):
+    baxter = robots.load("baxter")
+    rng = np.random.default_rng(3)
+    q = next(q for q in baxter.random_q(rng, 200) if not baxter.in_collision(q))
+    body = {"robot": "baxter", "self_collision": True, "seed": 0, "max_time": 1.0,
+            "targets": [{"frame": "left_gripper", "pose": baxter.fk(q, "left_gripper").tolist()},
+                        {"frame": "right_gripper", "pose": baxter.fk(q, "right_gripper").tolist()}]}
+    r = client.post("/ik", json=body)
+    assert r.status_code == 200, r.text
+    assert r.json()["success"], r.json()["message"]
+    assert not baxter.in_collision(r.json()["q"])
