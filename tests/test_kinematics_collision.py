@@ -239,3 +239,19 @@ def test_open_mesh_obstacle_is_a_named_error(tmp_path: Path):
     tet = Mesh(closed, _pose((0.3, 0.2, 0.3)), scale=0.2)
     d = robot.min_distance(robot.neutral(), [tet], self_collision=False)
     assert np.isfinite(d)
+
+
+def test_queries_are_thread_safe():
+    """One Robot shared by threads: each thread has its own Data / GeometryData / broad phase."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    robot = robots.load("panda")
+    Q = robot.random_q(np.random.default_rng(9), 400)
+    serial = [(robot.in_collision(q, SCENE), robot.min_distance(q, SCENE)) for q in Q]
+
+    def work(chunk):
+        return [(robot.in_collision(q, SCENE), robot.min_distance(q, SCENE)) for q in chunk]
+
+    with ThreadPoolExecutor(4) as pool:
+        parallel = [r for part in pool.map(work, np.array_split(Q, 8)) for r in part]
+    assert parallel == serial
