@@ -37,16 +37,16 @@ from .dense_qp import DEFAULT_BACKEND, solve_dense
 LOWER_DAMPING = 1e-9
 
 
-def stack_level(pairs, weights) -> tuple[np.ndarray, np.ndarray]:
-    """``(J, e)`` of one level: the tasks' rows stacked, each scaled by ``sqrt(weight)``."""
-    if len(pairs) == 1 and (weights[0] is None):
+def stack_level(pairs, sqrt_weights) -> tuple[np.ndarray, np.ndarray]:
+    """``(J, e)`` of one level: the tasks' ``(e, J)`` rows stacked, each scaled by its ``sqrt(weight)``
+    (``sqrt_weights``: a number, a vector, or None for weight 1)."""
+    if len(pairs) == 1 and (sqrt_weights[0] is None):
         return pairs[0][1], pairs[0][0]
     Js, es = [], []
-    for (e, J), w in zip(pairs, weights):
-        if w is None:
+    for (e, J), sw in zip(pairs, sqrt_weights):
+        if sw is None:
             Js.append(J), es.append(e)
         else:
-            sw = np.sqrt(w)
             if np.ndim(sw):
                 Js.append(J * sw[:, None]), es.append(e * sw)
             else:

@@ -96,9 +96,11 @@ class Problem:
                 continue
             if _is_checked(c):
                 self.checked.append(c)
+        self._plan = [(c, c in self.checked) for c in self.constraints]
         self.priorities = sorted({t.priority for t in self.tasks})
         self.levels = [[t for t in self.tasks if t.priority == p] for p in self.priorities]
-        self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else t.weight for t in lvl]
+        # sqrt(weight) of every task, None for weight 1 (rows used as they are)
+        self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else np.sqrt(t.weight) for t in lvl]
                               for lvl in self.levels]
         self.goals = [t for t in self.tasks if t.goal]
         self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
@@ -161,18 +163,23 @@ class Problem:
         if self.q_in_data is not q:
             _cjj(self.model, data, q)
             self.q_in_data = q
-        lb = np.full(self.nv, -max_step)
-        ub = np.full(self.nv, max_step)
+        lb = ub = None
         Gs, ls, us = [], [], []
-        for c in self.constraints:
-            if not with_checked_rows and c in self.checked and not isinstance(c, JointLimits):
+        for c, checked in self._plan:
+            if checked and not with_checked_rows:
                 continue
             G, lo, hi = c.rows(robot, data, q, dt)
             if G is None:
-                np.maximum(lb, lo, out=lb)
-                np.minimum(ub, hi, out=ub)
+                if lb is None:  # JointLimits' arrays are fresh; copy anyone else's before writing into them
+                    lb, ub = (lo, hi) if type(c) is JointLimits else (np.array(lo, dtype=float), np.array(hi, dtype=float))
+                else:
+                    np.maximum(lb, lo, out=lb)
+                    np.minimum(ub, hi, out=ub)
             elif G.shape[0]:
                 Gs.append(G), ls.append(lo), us.append(hi)
+        if max_step < math.inf:
+            np.maximum(lb, -max_step, out=lb)
+            np.minimum(ub, max_step, out=ub)
         if not Gs:
             return lb, ub, None, None, None
         if len(Gs) == 1:

@@ -4,7 +4,10 @@ Methods
 -------
 ``"auto"`` (default) picks the fastest method that can honour the request:
 
-1. spheres or centring  -> ``"qp"`` (hard inequalities / strict priority need the QP);
+1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first; its answer is kept when
+   every iterate of its run is clear of every obstacle, otherwise ``"qp"`` starts from the last
+   clear iterate. Centring or extra constraints -> ``"qp"`` (strict priority and hard
+   inequalities need the QP);
 2. a closed-form solver with finitely many branches exists for the robot and
    frame and handles the relaxed components -> ``"analytic"`` (2R/3R, SCARA,
    youBot; it falls back to ``"lm"`` only when no branch is usable). The
@@ -12,6 +15,9 @@ Methods
    to enumerate than one LM solve, so ``"auto"`` uses ``"lm"`` for it (name
    ``"analytic"`` or call :func:`solve_all` to get the family);
 3. otherwise -> ``"lm"`` (joint limits are the only inequalities).
+
+``ik.solve(robot, tasks=[...], constraints=[...])`` solves any composition of
+tasks and constraints on the task model (:mod:`ik.task_solver`).
 
 ``"qp"``, ``"lm"``, ``"analytic"`` and the classical ``"jacobian_inverse"``,
 ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"`` can be named
@@ -21,9 +27,10 @@ directly (see :mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.analytic`,
 Validation (once, before any solver runs; errors from :mod:`kinematics.errors`):
 the target pose (shape, NaN/inf, rotation orthonormal), ``q0`` (shape,
 finite), the frame name, the relaxed component names, tolerances, time
-budget, seed, method, backend, centring weights, and the spheres (radius
-positive, centre finite, frames known, neither the base nor the start
-configuration inside a sphere). Not reaching the target is not an error:
+budget, seed, method, backend, centring weights, and the obstacles (sizes
+positive, numbers finite, frames known, no obstacle containing the fixed
+base). A start inside an obstacle is not an error: the solve begins from
+collision-free starts and says so in ``Result.message``. Not reaching the target is not an error:
 ``Result.success`` is False, ``Result.q`` the best configuration found
 (inside the limits) and ``Result.message`` the reason.
 """
@@ -32,6 +39,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import time
 
 import numpy as np
 
@@ -310,30 +318,53 @@ def _task_options(options: dict) -> dict:
     return options
 
 
+#: Starts tried without constraints before the constrained solve (``"auto"`` with obstacles).
+FREE_ATTEMPTS = 4
+
+
 def _solve_unconstrained_first(robot, p: dict, options: dict):
     """The cheap path of ``"auto"`` with obstacles: an LM answer whose every iterate is clear, or None.
 
-    Obstacles rarely bind: the Levenberg-Marquardt solve runs first, and its
-    answer is kept when every iterate of the run that produced it (its
-    history) keeps every clearance ``>= 0`` - the constraint then held on
-    every iterate without ever being imposed. Otherwise the constrained
-    solve starts from the last clear iterate of that run (``p["q0"]`` is
-    updated in place; the caller continues with method ``"qp"``).
+    Obstacles rarely bind: Levenberg-Marquardt runs from the first
+    :data:`FREE_ATTEMPTS` collision-free starts of the usual start sequence,
+    one at a time, and the first converged run whose every iterate keeps
+    every clearance ``>= 0`` is the answer - the constraint then held on every
+    iterate without ever being imposed. Otherwise the constrained solve starts
+    from the last clear iterate of the first run (``p["q0"]`` is updated in
+    place; the caller continues with method ``"qp"``).
     """
+    from itertools import islice
+
+    from .multistart import frame_starts
+
     avoid = p["spheres"]
     opts = _task_options(options)
+    tgt = p["target"]
     q0 = p["q0"]
-    note = ""
-    if q0 is not None and avoid.first_violation(robot, np.clip(q0, robot.lower, robot.upper)[None]) is not None:
-        return None  # the constrained solve reports the start in collision
-    res = solve_lm(robot, p["target"], q0, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
-                   seed=p["seed"], **opts)
-    k = avoid.first_violation(robot, res.history.q)
-    if res.success and k is None:
-        res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)" + note
-        return res
-    if k is not None and k > 0 and not opts.get("prefer_q0"):
-        p["q0"] = res.history.q[k - 1].copy()
+    if q0 is not None:
+        q0 = np.clip(q0, robot.lower, robot.upper)
+        if avoid.first_violation(robot, q0[None]) is not None:
+            return None  # the constrained solve reports the start in collision
+    starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
+                          p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
+    opts.pop("max_starts", None)
+    warm = None
+    t0 = time.perf_counter()
+    for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
+        if attempt and avoid.first_violation(robot, q[None]) is not None:
+            continue
+        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
+                       prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
+        k = avoid.first_violation(robot, res.history.q)
+        if res.success and k is None:
+            res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
+            res.restarts = attempt
+            res.elapsed = time.perf_counter() - t0
+            return res
+        if warm is None and k is not None and k > 0:
+            warm = res.history.q[k - 1].copy()
+    if warm is not None:
+        p["q0"] = warm
         p["warm"] = True
     return None
 

@@ -37,7 +37,6 @@ import time
 
 import numpy as np
 
-from .constraints.base import DAMPER_GAIN
 from .dense_qp import DEFAULT_BACKEND, backend_calls
 from .hierarchy import hierarchical_step
 from .multistart import starts

@@ -66,7 +66,7 @@ def test_weights_inside_a_level_are_a_weighted_least_squares(panda):
     a = ik.PostureTask(panda.random_q(rng), weight=4.0, priority=1)
     b = ik.PostureTask(panda.random_q(rng), weight=1.0, priority=1)
     lv = _levels(panda, q, [a, b])
-    J, e = stack_level([(lv[0][1], lv[0][0]), (lv[1][1], lv[1][0])], [4.0, None])
+    J, e = stack_level([(lv[0][1], lv[0][0]), (lv[1][1], lv[1][0])], [2.0, None])  # sqrt(4), weight 1
     dq, _ = hierarchical_step([(J, e)], np.full(7, -np.inf), np.full(7, np.inf), lam=0.0)
     # minimiser of 4 |dq + ea|^2 + |dq + eb|^2
     assert np.allclose(dq, -(4 * lv[0][1] + lv[1][1]) / 5)

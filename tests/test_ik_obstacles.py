@@ -214,3 +214,18 @@ def test_slider_rows_match_finite_differences():
         fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(scara.nq)]).T
         ok = c > 1e-3
         assert np.allclose(G[ok], fd[ok], atol=1e-5)
+
+
+def test_first_violation_agrees_with_the_clearances(panda):
+    avoid = ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda)
+    rng = np.random.default_rng(70)
+    Q = panda.random_q(rng, 40)
+    flags = []
+    for q in Q:
+        pin.forwardKinematics(panda.model, panda.data, q)
+        flags.append(avoid._pairs(panda.data, False, np.inf).min() < 0.0)
+    assert any(flags) and not all(flags)
+    expected = flags.index(True)
+    assert avoid.first_violation(panda, Q) == expected
+    clear_rows = Q[[i for i, f in enumerate(flags) if not f]]
+    assert avoid.first_violation(panda, clear_rows) is None
