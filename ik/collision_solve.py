@@ -13,7 +13,8 @@ Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 2. **Infeasible at once**: a target position inside an obstacle, for a frame
    whose origin lies inside the robot's own collision geometry, cannot be
    reached: ``Result(success=False)`` with the reason, no constrained solve.
-3. **Constrained solve**: otherwise the QP method with
+3. **Constrained solve**: otherwise (warm-started from the last collision-free
+   iterate of the first attempt) the QP method with
    :class:`~kinserve.ik.constraints.collision.CollisionConstraint` rows (velocity
    dampers from witness points and normals, hard on every iterate, the step
    halved until the true check holds), restarting only from collision-free
@@ -86,10 +87,12 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
     tgt = p["target"]
 
     if p["weights"] is None or p["method"] != "qp":
-        found = _unconstrained_attempts(robot, p, constraint, t0 + 0.5 * budget, solver_opts)
+        found, warm = _unconstrained_attempts(robot, p, constraint, t0 + 0.5 * budget, solver_opts)
         if found is not None:
             found.elapsed = time.perf_counter() - t0
             return found
+    else:
+        warm = None
 
     blocked = _target_inside_obstacle(robot, constraint, tgt)
     if blocked:
@@ -99,7 +102,10 @@ def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstac
     opts = {k: v for k, v in solver_opts.items() if k in _QP_KEYS}
     if "seed_table" in opts:
         opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
-    res = solve_qp(robot, tgt, p["q0"], spheres=[constraint], weights=p["weights"], backend=p["backend"],
+    q_start = p["q0"]
+    if warm is not None and "prefer_q0" not in opts:  # the last collision-free iterate of the first attempt
+        q_start, opts["prefer_q0"] = warm, True
+    res = solve_qp(robot, tgt, q_start, spheres=[constraint], weights=p["weights"], backend=p["backend"],
                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=remaining, seed=p["seed"], **opts)
     res.info["collision"] = "constrained"
     if res.message.startswith("no start configuration outside the spheres"):
@@ -114,23 +120,26 @@ def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, dea
     The first is the ordinary solve (``q0``, then the table of starts); the
     others start from random collision-free configurations (``seed``) - another
     IK branch often clears what the first answer hit. An answer counts when it
-    and every iterate of its run are collision free. None if none qualifies
-    before ``deadline``.
+    and every iterate of its run are collision free. Returns ``(result, warm)``:
+    the qualifying result or None, and the last collision-free iterate of the
+    first attempt before its first collision (the constrained solve's warm
+    start; None when its start already collides).
     """
     from .solve import solve_prepared
 
     rng = np.random.default_rng(p["seed"] or 0)
     opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
+    warm = None
     for attempt in range(UNCONSTRAINED_ATTEMPTS):
         left = deadline - time.perf_counter()
         if left <= 0.0:
-            return None
+            return None, warm
         if attempt == 0:
             res = solve_prepared(robot, dict(p, max_time=left), **solver_opts)
         else:
             start = next((q for q in robot.random_q(rng, 20) if not constraint.in_collision(q)), None)
             if start is None:
-                return None
+                return None, warm
             res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
                                  seed_table=False, **opts)
         if res.success and _path_is_free(constraint, res):
@@ -138,8 +147,18 @@ def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, dea
             res.message += f", attempt {attempt + 1})" if attempt else ")"
             res.info["collision"] = "unconstrained, checked"
             res.info["collision_attempts"] = attempt + 1
-            return res
-    return None
+            return res, None
+        if attempt == 0 and res.history is not None and len(res.history.q):
+            warm = _last_clear_iterate(constraint, res.history.q)
+    return None, warm
+
+
+def _last_clear_iterate(constraint: CollisionConstraint, qs) -> np.ndarray | None:
+    """The iterate just before the first one in collision (None when the first collides; the last if none does)."""
+    for k, q in enumerate(qs):
+        if constraint.in_collision(q):
+            return qs[k - 1].copy() if k else None
+    return qs[-1].copy()
 
 
 def _path_is_free(constraint: CollisionConstraint, res: Result) -> bool:
