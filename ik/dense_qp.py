@@ -18,6 +18,7 @@ Returns None when the problem is infeasible or the solver fails.
 from __future__ import annotations
 
 import threading
+import warnings
 
 import numpy as np
 from scipy.linalg import get_lapack_funcs
@@ -48,7 +49,8 @@ def backend_calls() -> int:
     return getattr(_counter, "n", 0)
 
 
-def box_active_set(P, c, lb, ub, x, rounds: int = 3):
+def box_active_set(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, x: np.ndarray,
+                   rounds: int = 3) -> np.ndarray | None:
     """Exact solution of ``min 1/2 x^T P x + c^T x, lb <= x <= ub`` by a few primal active-set rounds, or None.
 
     Starting from the unconstrained minimiser ``x``, the coordinates outside
@@ -82,7 +84,9 @@ def box_active_set(P, c, lb, ub, x, rounds: int = 3):
     return None
 
 
-def solve_dense(P, c, lb, ub, A=None, l=None, u=None, backend: str = DEFAULT_BACKEND, shortcut: bool = True):
+def solve_dense(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A: np.ndarray | None = None,
+                l: np.ndarray | None = None, u: np.ndarray | None = None, backend: str = DEFAULT_BACKEND,
+                shortcut: bool = True) -> np.ndarray | None:
     """Solve the QP of the module docstring; None when infeasible. ``A`` may be None or have 0 rows."""
     has_rows = A is not None and A.shape[0] > 0
     if shortcut:
@@ -136,7 +140,10 @@ def _backend_solve(P, c, lb, ub, A, l, u, backend):
     ubf = np.minimum(ub, BIG)
     opts = {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 20000, "polishing": True} if backend == "osqp" else {}
     try:
-        x = qpsolvers.solve_qp(P, c, Gi, h, lb=lbf, ub=ubf, solver=backend, **opts)
+        with warnings.catch_warnings():  # solver chatter (osqp's pending API change, qpsolvers' sparse hints)
+            warnings.simplefilter("ignore", PendingDeprecationWarning)
+            warnings.filterwarnings("ignore", message="Converted matrix", module="qpsolvers")
+            x = qpsolvers.solve_qp(P, c, Gi, h, lb=lbf, ub=ubf, solver=backend, **opts)
     except Exception:  # noqa: BLE001 - solver-specific failures ("constraints are inconsistent")
         return None
     if x is None:

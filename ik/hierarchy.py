@@ -37,7 +37,7 @@ from .dense_qp import DEFAULT_BACKEND, solve_dense
 LOWER_DAMPING = 1e-9
 
 
-def stack_level(pairs, sqrt_weights) -> tuple[np.ndarray, np.ndarray]:
+def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray]:
     """``(J, e)`` of one level: the tasks' ``(e, J)`` rows stacked, each scaled by its ``sqrt(weight)``
     (``sqrt_weights``: a number, a vector, or None for weight 1)."""
     if len(pairs) == 1 and (sqrt_weights[0] is None):
@@ -54,8 +54,9 @@ def stack_level(pairs, sqrt_weights) -> tuple[np.ndarray, np.ndarray]:
     return np.vstack(Js), np.concatenate(es)
 
 
-def hierarchical_step(levels, lb, ub, G=None, l=None, u=None, *, lam: float, max_step: float = 1.0,
-                      backend: str = DEFAULT_BACKEND, shortcut: bool = True):
+def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
+                      l: np.ndarray | None = None, u: np.ndarray | None = None, *, lam: float, max_step: float = 1.0,
+                      backend: str = DEFAULT_BACKEND, shortcut: bool = True) -> tuple[np.ndarray | None, np.ndarray | None]:
     """``(dq, dq_lower)``: the step and the part of it contributed by levels below the first; ``(None, None)``
     when the first level's QP is infeasible.
 

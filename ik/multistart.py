@@ -14,10 +14,15 @@ The sequence depends only on the robot, the targets, ``q0`` and ``seed``.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 import numpy as np
 import pinocchio as pin
+from typing import TYPE_CHECKING
 
 from .seeds import seed_table, start_sequence
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
 
 def _frame_tasks(goals):
@@ -30,7 +35,8 @@ def _features(table, task):
     return table.features(task._Rt.T, task._p, rotation=(len(task.kept) - task.n_pos) == 3)
 
 
-def starts(robot, goals, q0, seed, table_enabled: bool = True, prefer_q0: bool = False, n_table: int = 8):
+def starts(robot: Robot, goals: list, q0: np.ndarray | None, seed: int | None, table_enabled: bool = True,
+           prefer_q0: bool = False, n_table: int = 8) -> Iterator[np.ndarray]:
     """Generator of start configurations (fresh arrays); see the module docstring."""
     rng_seed = 0 if seed is None else seed
     tasks = _frame_tasks(goals) if table_enabled else []
@@ -53,8 +59,9 @@ def starts(robot, goals, q0, seed, table_enabled: bool = True, prefer_q0: bool =
     return _combined(robot, tables, fs, q0, q0_dist, rng_seed, prefer_q0, n_table)
 
 
-def frame_starts(robot, frame: str, frame_id: int, R, p, rotation: bool, q0, seed, table_enabled: bool = True,
-                 prefer_q0: bool = False, n_table: int = 8):
+def frame_starts(robot: Robot, frame: str, frame_id: int, R: np.ndarray, p: np.ndarray, rotation: bool,
+                 q0: np.ndarray | None, seed: int | None, table_enabled: bool = True, prefer_q0: bool = False,
+                 n_table: int = 8) -> Iterator[np.ndarray]:
     """Starts for one frame at pose ``(R, p)`` (``rotation=False``: orientation relaxed, rank by position)."""
     rng_seed = 0 if seed is None else seed
     if not table_enabled:

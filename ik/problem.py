@@ -16,7 +16,9 @@ joint limits always on, and offers the three things an iteration needs:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -29,6 +31,9 @@ from .constraints.joint_limits import JointLimits
 from .constraints.obstacles import ObstacleAvoidance
 from .tasks.base import Task
 
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+
 _cjj = pin.computeJointJacobians
 _fk = pin.forwardKinematics
 
@@ -38,7 +43,7 @@ def _is_checked(c: Constraint) -> bool:
     return type(c).margin is not Constraint.margin
 
 
-def as_constraints(constraints, tool_frames=()) -> list[Constraint]:
+def as_constraints(constraints: Any, tool_frames: Sequence[str] = ()) -> list[Constraint]:
     """Constraint objects from a sequence of constraints and shapes (shapes become one :class:`ObstacleAvoidance`)."""
     if constraints is None:
         return []
@@ -65,7 +70,7 @@ def as_constraints(constraints, tool_frames=()) -> list[Constraint]:
 class Problem:
     """Bound tasks and constraints of one robot (see the module docstring)."""
 
-    def __init__(self, robot, tasks, constraints=()):
+    def __init__(self, robot: Robot, tasks: Any, constraints: Any = ()) -> None:
         if tasks is None or isinstance(tasks, Task):
             tasks = [] if tasks is None else [tasks]
         try:
@@ -109,7 +114,7 @@ class Problem:
         self.q_in_data = None
 
     # ------------------------------------------------------------------------------- tasks
-    def state(self, q):
+    def state(self, q: np.ndarray) -> tuple[list, float, float, list, float]:
         """``(levels, pe, re, es, margin)`` at ``q`` from one kinematics pass on the main ``Data``."""
         levels, pe, re, es = self.evaluate(q)
         if not self.checked:
@@ -119,7 +124,7 @@ class Problem:
             self.checked[0].margin(robot, data, q)
         return levels, pe, re, es, m
 
-    def evaluate(self, q):
+    def evaluate(self, q: np.ndarray) -> tuple[list, float, float, list]:
         """``(levels, pe, re, es)``: stacked ``(J, e)`` per level, goal errors (m, rad), each task's error."""
         robot, data = self.robot, self.data
         _cjj(self.model, data, q)
@@ -147,7 +152,7 @@ class Problem:
                 levels.append(stack_level(pairs, ws))
         return levels, pe, re, es
 
-    def task_errors(self, es) -> list[dict]:
+    def task_errors(self, es: list) -> list[dict]:
         """Per-task report for :attr:`Result.task_errors`."""
         out = []
         for t, e in zip(self.tasks, es):
@@ -157,7 +162,8 @@ class Problem:
         return out
 
     # ------------------------------------------------------------------------- constraints
-    def box_and_rows(self, q, dt=None, max_step: float = math.inf, with_checked_rows: bool = True):
+    def box_and_rows(self, q: np.ndarray, dt: float | None = None, max_step: float = math.inf,
+                     with_checked_rows: bool = True) -> tuple:
         """``(lb, ub, G, l, u)`` at ``q``; ``G`` is None without rows. Recomputes the kinematics if needed."""
         robot, data = self.robot, self.data
         if self.q_in_data is not q:
@@ -187,13 +193,13 @@ class Problem:
         return lb, ub, np.vstack(Gs), np.concatenate(ls), np.concatenate(us)
 
     @property
-    def check_data(self):
+    def check_data(self) -> pin.Data:
         """A second Pinocchio ``Data`` (made on first use) for checks that must not disturb :attr:`data`."""
         if self._check_data is None:
             self._check_data = self.model.createData()
         return self._check_data
 
-    def margin(self, q) -> float:
+    def margin(self, q: np.ndarray) -> float:
         """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics only."""
         if not self.checked:
             return math.inf
@@ -204,7 +210,7 @@ class Problem:
             return self.checked[0].margin(self.robot, d, q)
         return min(c.margin(self.robot, d, q) for c in self.checked)
 
-    def describe(self, q) -> str:
+    def describe(self, q: np.ndarray) -> str:
         """Violations at ``q`` in words."""
         d = self.check_data
         _fk(self.model, d, q)

@@ -11,6 +11,7 @@ restarts and determinism are documented there; the per-step QP is
 from __future__ import annotations
 
 import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from .constraints.obstacles import ObstacleAvoidance
 from .constraints.sphere_set import SphereSet
@@ -21,9 +22,15 @@ from .task_solver import DAMPING, MAX_ITER, MAX_STEP, solve_problem
 
 __all__ = ["solve_qp", "box_active_set"]
 
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
-def solve_qp(robot, target, q0=None, *, spheres=None, weights=None, backend: str = DEFAULT_BACKEND,
-             tol_pos: float = 1e-4, tol_rot: float = 1e-3, max_time: float | None = None, seed=None,
+    from .targets import Target
+
+
+def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, spheres: Any = None,
+             weights: np.ndarray | None = None, backend: str = DEFAULT_BACKEND,
+             tol_pos: float = 1e-4, tol_rot: float = 1e-3, max_time: float | None = None, seed: int | None = None,
              max_iter: int = MAX_ITER, max_step: float = MAX_STEP, damping: float = DAMPING,
              max_starts: int | None = None, seed_table_enabled: bool = True, prefer_q0: bool = False,
              shortcut: bool = True, lazy: bool = True) -> Result:

@@ -4,9 +4,8 @@ Methods
 -------
 ``"auto"`` (default) picks the fastest method that can honour the request:
 
-1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first; its answer is kept when
-   every iterate of its run is clear of every obstacle, otherwise ``"qp"`` starts from the last
-   clear iterate. Centring or extra constraints -> ``"qp"`` (strict priority and hard
+1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first from the first few starts;
+   an answer is kept when every iterate of its run is clear of every obstacle, otherwise ``"qp"``. Centring or extra constraints -> ``"qp"`` (strict priority and hard
    inequalities need the QP);
 2. a closed-form solver with finitely many branches exists for the robot and
    frame and handles the relaxed components -> ``"analytic"`` (2R/3R, SCARA,
@@ -59,6 +58,7 @@ from .problem import Problem
 from .qp_backends import available_backends
 from .targets import Target
 from .qp_solver import solve_qp
+from .task_solver import MAX_TIME as QP_MAX_TIME
 from .task_solver import solve_problem
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
@@ -329,9 +329,9 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     :data:`FREE_ATTEMPTS` collision-free starts of the usual start sequence,
     one at a time, and the first converged run whose every iterate keeps
     every clearance ``>= 0`` is the answer - the constraint then held on every
-    iterate without ever being imposed. Otherwise the constrained solve starts
-    from the last clear iterate of the first run (``p["q0"]`` is updated in
-    place; the caller continues with method ``"qp"``).
+    iterate without ever being imposed. Otherwise None: the caller runs the
+    constrained solve on the usual starts (measured: starting it from the last
+    clear iterate of a free run is worse - that iterate faces the obstacle).
     """
     from itertools import islice
 
@@ -348,12 +348,15 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
                           p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
     opts.pop("max_starts", None)
-    warm = None
     t0 = time.perf_counter()
+    budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
     for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
         if attempt and avoid.first_violation(robot, q[None]) is not None:
             continue
-        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
+        left = budget - (time.perf_counter() - t0)
+        if left <= 0.0:
+            break
+        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=left,
                        prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
         k = avoid.first_violation(robot, res.history.q)
         if res.success and k is None:
@@ -361,11 +364,7 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
             res.restarts = attempt
             res.elapsed = time.perf_counter() - t0
             return res
-        if warm is None and k is not None and k > 0:
-            warm = res.history.q[k - 1].copy()
-    if warm is not None:
-        p["q0"] = warm
-        p["warm"] = True
+    p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
     return None
 
 
@@ -380,8 +379,6 @@ def _solve_target_tasks(robot, p: dict, options: dict):
     else:
         spheres = p["spheres"]
     opts = _task_options(options)
-    if p.get("warm"):
-        opts["prefer_q0"] = True
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
 
@@ -494,9 +491,11 @@ def _solve_analytic(robot, solver, p, fallback: bool = True, samples: int = 24, 
                       message="no closed-form branch inside the joint limits" + (f"; {note}" if note else ""),
                       history=History.empty(robot.nq, tgt.components), info={"note": note, **extra})
     criteria = choose if choose is not None else _default_criteria(p["q0"])
-    i = _choose_index(robot, [b[0] for b in raw], criteria, p["q0"], tgt.frame)
-    best = _analytic.branch_result(robot, tgt, raw[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
-    if not best.success and not note:
+    exact = [b for b in raw if not b[3]]  # branches that reach the target (no note of their own) come first
+    pool = exact or raw
+    i = _choose_index(robot, [b[0] for b in pool], criteria, p["q0"], tgt.frame)
+    best = _analytic.branch_result(robot, tgt, pool[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
+    if not best.success and not pool[i][3]:
         # numerically off (should not happen): choose among the branches that verify
         results = [_analytic.branch_result(robot, tgt, b, note, extra, p["tol_pos"], p["tol_rot"], t0) for b in raw]
         ok = [r for r in results if r.success]

@@ -20,6 +20,7 @@ the validation.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -31,7 +32,11 @@ from .problem import Problem
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 _cache: dict = {}
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
 
 def _problem(robot, tasks, constraints) -> Problem:
@@ -47,7 +52,8 @@ def _problem(robot, tasks, constraints) -> Problem:
     return pb
 
 
-def step(robot, tasks, constraints=(), q=None, dt: float = 0.01, *, damping: float = STEP_DAMPING,
+def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None = None, dt: float = 0.01, *,
+         damping: float = STEP_DAMPING,
          backend: str = DEFAULT_BACKEND) -> np.ndarray:
     """Joint velocity ``v`` (``nv``,) for one control period ``dt`` (module docstring).
 
@@ -64,7 +70,7 @@ def step(robot, tasks, constraints=(), q=None, dt: float = 0.01, *, damping: flo
     tasks = list(tasks) if not hasattr(tasks, "compute") else [tasks]
     constraints = [] if constraints is None else (list(constraints) if not hasattr(constraints, "rows") else [constraints])
     pb = _problem(robot, tasks, constraints)
-    q = np.clip(q, robot.lower, robot.upper)
+    q = _clip(q, robot.lower, robot.upper)
     levels, pe, re, _ = pb.evaluate(q)
     lb, ub, G, l, u = pb.box_and_rows(q, float(dt))
     lam = 0.01 * (pe * pe + re * re) + damping

@@ -20,6 +20,8 @@ thread its own ``robot.copy()`` (which shares the immutable model).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from types import MappingProxyType
 
 import numpy as np
 import pinocchio as pin
@@ -28,6 +30,7 @@ from . import singularity
 from .batch_fk import ChainFK
 from .collision_queries import CollisionQueries
 from .errors import FrameError, ModelError, ShapeError, SingularityError, suggest
+from .types import MatrixLike, VectorLike
 from .validation import MAX_ABS, as_matrix, as_vector, check_limits
 
 #: Names of the six task components, in the row order of ``Robot.jacobian``.
@@ -49,7 +52,7 @@ _frame_jacobian = pin.computeFrameJacobian
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
 
-def axis_rows(axes) -> list[int]:
+def axis_rows(axes: Iterable[str]) -> list[int]:
     """Row indices (into ``TASK_AXES``) of task component names; ``phi`` = ``yaw``."""
     rows = []
     for a in axes:
@@ -87,7 +90,19 @@ class Robot(CollisionQueries):
         :mod:`kinematics.collision_pairs`). Collision queries
         (``in_collision``, ``collisions``, ``distances``, ``min_distance``) come
         from :class:`~kinematics.collision_queries.CollisionQueries`.
+
+    Attributes set by the loader from an SRDF (empty otherwise, see
+    :mod:`kinserve.robots.srdf`): ``named_states`` (``{name: q}``, e.g.
+    ``robot.named_states["default"]``), ``groups`` (``{group: joint names}``),
+    ``srdf_path`` and ``srdf`` (its text, for the collision pairs).
     """
+
+    #: Named configurations from the SRDF, ``{name: q (nq,)}`` (read-only).
+    named_states = MappingProxyType({})
+    #: Joint groups from the SRDF, ``{group: (joint name, ...)}`` (movable joints, model order).
+    groups = MappingProxyType({})
+    #: Where ``named_states`` and ``groups`` came from (None without an SRDF).
+    srdf_path: str | None = None
 
     def __init__(
         self,
@@ -98,11 +113,11 @@ class Robot(CollisionQueries):
         description: str = "",
         visual_model: pin.GeometryModel | None = None,
         collision_model: pin.GeometryModel | None = None,
-        task_axes=TASK_AXES,
+        task_axes: Sequence[str] = TASK_AXES,
         source: str | None = None,
-        package_dirs=(),
+        package_dirs: Sequence[str] = (),
         srdf: str | None = None,
-    ):
+    ) -> None:
         if model.nq != model.nv:
             raise ModelError(
                 f"robot {name!r}: configuration space must be a vector space (nq == nv); "
@@ -177,7 +192,14 @@ class Robot(CollisionQueries):
         self.data = self.model.createData()
 
     def neutral(self) -> np.ndarray:
-        """Mid-range configuration ``(lower + upper) / 2`` clipped to include 0 when 0 is in range."""
+        """The model's zero configuration clipped into the limits: ``clip(0, lower, upper)``.
+
+        This is the pose the URDF draws (every joint at 0) wherever 0 is
+        allowed; a joint whose range excludes 0 sits at the limit nearest to
+        0 (Panda's joint 4: ``-0.0698`` rad). It is the default IK seed, the
+        default pose of viewers and of the CLI. For the centre of the ranges
+        use :meth:`middle`; for the SRDF's poses, :attr:`named_states`.
+        """
         q = pin.neutral(self.model).copy()
         return np.clip(q, self.lower, self.upper)
 
@@ -185,7 +207,7 @@ class Robot(CollisionQueries):
         """Centre of the joint ranges, ``(lower + upper) / 2``."""
         return 0.5 * (self.lower + self.upper)
 
-    def random_q(self, rng=None, n: int | None = None) -> np.ndarray:
+    def random_q(self, rng: np.random.Generator | int | None = None, n: int | None = None) -> np.ndarray:
         """Uniform random configuration(s) within the joint limits.
 
         ``rng`` is a ``numpy.random.Generator``, an int seed or None. With
@@ -202,10 +224,10 @@ class Robot(CollisionQueries):
         except (KeyError, TypeError):
             raise FrameError(
                 f"unknown frame {frame!r} for robot {self.name!r}.{suggest(frame, self.frame_names)} "
-                f"(robot.frame_names lists all {len(self.frame_names)})"
+                f"(`kinserve frames ROBOT` lists all {len(self.frame_names)}; robot.frame_names in Python)"
             ) from None
 
-    def check_q(self, q, name: str = "q", check_limits: bool = False) -> np.ndarray:
+    def check_q(self, q: VectorLike, name: str = "q", check_limits: bool = False) -> np.ndarray:
         """Validate a joint vector: shape ``(nq,)``, finite; optionally within limits."""
         q = as_vector(q, self.nq, name)
         if check_limits:
@@ -239,7 +261,7 @@ class Robot(CollisionQueries):
             pin.forwardKinematics(self.model, self.data, q)
         return q
 
-    def fk(self, q, frame: str | None = None, *, check_limits: bool = False) -> np.ndarray:
+    def fk(self, q: VectorLike, frame: str | None = None, *, check_limits: bool = False) -> np.ndarray:
         """Pose ``T`` (4x4) of ``frame`` (default: the tool ``tip``) in the world at ``q``."""
         fid = self._tip_id if frame is None else self._frame_ids.get(frame) if type(frame) is str else None
         if fid is None:
@@ -256,13 +278,13 @@ class Robot(CollisionQueries):
         _forward_kinematics(model, data, self.check_q(q))
         return _update_frame_placement(model, data, fid).homogeneous
 
-    def fk_all(self, q, *, check_limits: bool = False) -> dict[str, np.ndarray]:
+    def fk_all(self, q: VectorLike, *, check_limits: bool = False) -> dict[str, np.ndarray]:
         """Pose of every frame, ``{frame name: 4x4}``."""
         self._forward(q, check_limits)
         pin.updateFramePlacements(self.model, self.data)
         return {name: self.data.oMf[i].homogeneous for name, i in self._frame_ids.items()}
 
-    def fk_batch(self, Q, frame: str | None = None) -> np.ndarray:
+    def fk_batch(self, Q: MatrixLike, frame: str | None = None) -> np.ndarray:
         """Poses ``(N, 4, 4)`` of ``frame`` for a batch ``Q`` of shape ``(N, nq)``.
 
         Vectorised over the batch with NumPy (see :mod:`kinematics.batch_fk`);
@@ -275,7 +297,8 @@ class Robot(CollisionQueries):
             chain = self._chains[fid] = ChainFK(self.model, fid)
         return chain(Q)
 
-    def jacobian(self, q, frame: str | None = None, reference: str = "world", *, check_limits: bool = False) -> np.ndarray:
+    def jacobian(self, q: VectorLike, frame: str | None = None, reference: str = "world", *,
+                 check_limits: bool = False) -> np.ndarray:
         """Frame Jacobian ``(6, nq)`` with rows ``[linear; angular]``.
 
         ``reference``:
@@ -301,7 +324,8 @@ class Robot(CollisionQueries):
             pass
         return _frame_jacobian(self.model, self.data, self.check_q(q), fid, ref)
 
-    def analytic_jacobian(self, q, frame: str | None = None, rotation: str = "rpy", *, singular_tol: float = 1e-6) -> np.ndarray:
+    def analytic_jacobian(self, q: VectorLike, frame: str | None = None, rotation: str = "rpy", *,
+                          singular_tol: float = 1e-6) -> np.ndarray:
         """Analytic Jacobian ``(6, nq)``: rows ``[pdot; rpy_dot]`` for ``rotation="rpy"``.
 
         With ``R = Rz(yaw) Ry(pitch) Rx(roll)`` and ``w = E(rpy) rpy_dot``
@@ -328,18 +352,19 @@ class Robot(CollisionQueries):
         J = self.jacobian(q, frame)
         return J[axis_rows(self.task_axes if axes is None else axes)]
 
-    def singular_values(self, q, frame: str | None = None, axes=None) -> np.ndarray:
+    def singular_values(self, q: VectorLike, frame: str | None = None, axes: Sequence[str] | None = None) -> np.ndarray:
         """Singular values (descending) of the Jacobian rows ``axes`` (default ``task_axes``)."""
         return singularity.singular_values(self._task_jacobian(q, frame, axes))
 
-    def manipulability(self, q, frame: str | None = None, axes=None) -> float:
+    def manipulability(self, q: VectorLike, frame: str | None = None, axes: Sequence[str] | None = None) -> float:
         """Yoshikawa manipulability ``sqrt(det(J J^T))`` of the task rows (product of singular values)."""
         return singularity.manipulability(self._task_jacobian(q, frame, axes))
 
-    def condition_number(self, q, frame: str | None = None, axes=None) -> float:
+    def condition_number(self, q: VectorLike, frame: str | None = None, axes: Sequence[str] | None = None) -> float:
         """``sigma_max / sigma_min`` of the task rows (``inf`` at a singularity)."""
         return singularity.condition_number(self._task_jacobian(q, frame, axes))
 
-    def is_singular(self, q, tol: float = 1e-6, frame: str | None = None, axes=None) -> bool:
+    def is_singular(self, q: VectorLike, tol: float = 1e-6, frame: str | None = None,
+                    axes: Sequence[str] | None = None) -> bool:
         """True when the task Jacobian loses rank: ``sigma_min <= tol * max(1, sigma_max)``."""
         return singularity.is_singular(self._task_jacobian(q, frame, axes), tol)

@@ -32,12 +32,16 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import InputError, ModelError, NonFiniteError, ShapeError
 from .validation import MAX_ABS, as_pose, as_vector
+
+if TYPE_CHECKING:
+    import coal
+    import pinocchio as pin
 
 __all__ = ["Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "SHAPE_KINDS"]
 
@@ -100,7 +104,7 @@ class Shape:
         object.__setattr__(self, "_geometry", None)
 
     # -- coal ------------------------------------------------------------------------------------------
-    def geometry(self):
+    def geometry(self) -> coal.CollisionGeometry:
         """The coal collision geometry in the shape's own frame (built once)."""
         g = self.__dict__.get("_geometry")
         if g is None:
@@ -111,7 +115,7 @@ class Shape:
     def _make_geometry(self):  # pragma: no cover - every subclass overrides
         raise NotImplementedError
 
-    def placement(self):
+    def placement(self) -> pin.SE3:
         """The pose as a ``pinocchio.SE3``."""
         import pinocchio as pin
 

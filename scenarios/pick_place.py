@@ -320,6 +320,29 @@ def _events_on(ax, events: dict, marks_t=None):
             ax.axvline(t, color="grey", linestyle=":", linewidth=0.7)
 
 
+def tracking_errors_figure(times, position_error, orientation_error, *, tol_pos: float, tol_rot: float, events: dict,
+                           marks_t=None, damping: float, centring: bool) -> Figure:
+    """Position (m) and orientation (rad) tracking errors of the DLS IK against time, log scale, with the
+    solver's tolerances, the grasp/release events and the via points; the legend sits below the axes."""
+    fig = viz.errors_figure(times, {"position error (m)": position_error, "orientation error (rad)": orientation_error},
+                            xlabel="time (s)", ylabel="|error| (m, rad)", title="")
+    fig.set_size_inches(8.0, 5.0)
+    ax = fig.axes[0]
+    ax.set_title(f"S4 tracking errors of DLS IK\n(λ = {damping:g}, warm started{', null-space centring' if centring else ''}, "
+                 f"{len(times)} samples)", fontsize=10)
+    ax.axhline(tol_pos, color=viz.colors.to_rgb(viz.colors.cycle(0)), linestyle=":", linewidth=1.0,
+               label=f"DLS tol_pos {tol_pos:g} m")
+    ax.axhline(tol_rot, color=viz.colors.to_rgb(viz.colors.cycle(1)), linestyle=":", linewidth=1.0,
+               label=f"DLS tol_rot {tol_rot:g} rad")
+    _events_on(ax, events, marks_t)
+    if marks_t is not None and len(marks_t) > 2:
+        ax.plot([], [], color="grey", linestyle=":", linewidth=0.7, label="via points")
+    handles, labels = ax.get_legend_handles_labels()
+    ax.get_legend().remove()
+    fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=7, frameon=False)
+    return fig
+
+
 def _figure(rows: int = 1, size=(8.0, 4.4)):
     fig = Figure(figsize=size, layout="constrained")
     FigureCanvasAgg(fig)
@@ -409,17 +432,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     fig.set_size_inches(8.0, 4.6)
     viz.save_png(fig, out / "joints.png")
 
-    fig = viz.errors_figure(times, {"position error (m)": track_pe, "orientation error (rad)": track_re},
-                            xlabel="time (s)", ylabel="|error| (m, rad)",
-                            title=f"S4 tracking errors of DLS IK (λ = {damping:g}, warm started"
-                                  f"{', null-space centring' if centring else ''}, {len(Q)} samples)")
-    ax = fig.axes[0]
-    ax.axhline(tol_pos, color=viz.colors.to_rgb(viz.colors.cycle(0)), linestyle=":", linewidth=1.0,
-               label=f"DLS tol_pos {tol_pos:g} m")
-    ax.axhline(tol_rot, color=viz.colors.to_rgb(viz.colors.cycle(1)), linestyle=":", linewidth=1.0,
-               label=f"DLS tol_rot {tol_rot:g} rad")
-    _events_on(ax, ev, marks_t)
-    ax.legend(loc="upper right", fontsize=7, ncol=2, framealpha=0.9)
+    fig = tracking_errors_figure(times, track_pe, track_re, tol_pos=tol_pos, tol_rot=tol_rot, events=ev,
+                                 marks_t=marks_t, damping=damping, centring=bool(centring))
     viz.save_png(fig, out / "tracking_errors.png")
 
     fig = viz.manipulability_figure(times, {"manipulability w = √det(J Jᵀ)": manip, "σ_min(J)": sigma_min},

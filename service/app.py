@@ -27,6 +27,7 @@ import numpy as np
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from fastapi_offline import FastAPIOffline
 
 from kinserve import ik
 from kinserve import robots
@@ -81,10 +82,13 @@ def json_safe(value):
 
 
 def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
-    app = FastAPI(
+    # /docs (Swagger UI) and /redoc load their JS/CSS from the fastapi-offline package, served here under
+    # /static-offline-docs, not from a CDN: the pages work without internet. No schema validator badge either.
+    app = FastAPIOffline(
         title="kinserve",
         version="0.1.0",
         description="Forward kinematics, Jacobians, constrained inverse kinematics and Cartesian plans over HTTP.",
+        swagger_ui_parameters={"validatorUrl": None},
     )
     pool = RobotPool()
     app.state.pool = pool
@@ -219,7 +223,7 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
             constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
         else:
             constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
-                                                tool_frames=tool_frames)]
+                                                tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
         with field("targets"):
             res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
                            tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=capped(req.max_time))

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli_types import positive_float, positive_int
+
 
 def cmd_reach(args) -> int:
     from kinserve.ik.reachability import reachability_map
@@ -41,14 +43,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reach", help="reachability map: share of sampled workspace poses that IK reaches")
     add_robot_args(p, q=False)
     p.add_argument("--frame", help="tool frame (default: the robot's tip)")
-    p.add_argument("--samples", type=int, default=1000)
-    p.add_argument("--resolution", type=int, default=8, help="cells per axis")
+    p.add_argument("--samples", type=positive_int, default=1000)
+    p.add_argument("--resolution", type=positive_int, default=8, help="cells per axis")
     p.add_argument("--orientation", choices=["free", "random", "down"], default="free",
                    help="free = position only; random = uniform on SO(3); down = tool z pointing down")
     p.add_argument("--backend", choices=["processes", "serial", "ray"], default="processes")
-    p.add_argument("--processes", type=int, default=None)
+    p.add_argument("--processes", type=positive_int, default=None)
     p.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local Ray)")
-    p.add_argument("--max-time", type=float, default=0.05, help="IK time budget per sample (s)")
+    p.add_argument("--max-time", type=positive_float, default=0.05, help="IK time budget per sample (s)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="reach", help="output path stem: writes STEM.npz and STEM.png")
     p.add_argument("--self-collision", action="store_true", help="count only solutions free of self-collision")

@@ -6,6 +6,8 @@ import argparse
 import os
 import socket
 
+from .cli_types import port_number, positive_float, positive_int
+
 
 def tcp_listener(config) -> socket.socket:
     """``config.bind_socket()`` re-wrapped so the socket reports ``proto == IPPROTO_TCP``.
@@ -24,8 +26,30 @@ def tcp_listener(config) -> socket.socket:
     return sock
 
 
+def check_address(host: str, port: int) -> None:
+    """Raise ``OSError`` (one ``error:`` line from the CLI) when ``host:port`` cannot be listened on.
+
+    uvicorn would log the failure among its start-up lines and exit with 1 or 3;
+    binding a probe socket first (with ``SO_REUSEADDR``, as uvicorn does) turns
+    a busy port or an unknown host into a clear message and exit status 2.
+    """
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except socket.gaierror as exc:
+        raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as exc:
+            raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+
+
 def cmd_serve(args) -> int:
     import uvicorn
+
+    check_address(args.host, args.port)
 
     if args.workers > 1:
         from uvicorn.supervisors import Multiprocess
@@ -45,8 +69,8 @@ def cmd_serve(args) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8000)
-    p.add_argument("--workers", type=int, default=1, help="worker processes (each with its own robot cache)")
-    p.add_argument("--max-time-cap", type=float, default=5.0, help="upper bound on any IK request's max_time (s)")
+    p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
+    p.add_argument("--workers", type=positive_int, default=1, help="worker processes (each with its own robot cache)")
+    p.add_argument("--max-time-cap", type=positive_float, default=5.0, help="upper bound on any IK request's max_time (s)")
     p.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     p.set_defaults(func=cmd_serve)

@@ -9,14 +9,15 @@ from __future__ import annotations
 
 import argparse
 
+from .cli_types import file_in_existing_folder
+
 
 def cmd_view(args) -> int:
-    from kinserve import robots
-    from kinserve.service.cli import parse_params, robot_q
+    from kinserve.service.cli import load_robot, robot_q
     from kinserve.viz import Scene, export_html
     from kinserve.viz.live import serve
 
-    robot = robots.load(args.robot, geometry=True, **parse_params(args.param))
+    robot = load_robot(args, geometry=True)
     q = robot_q(robot, args)
     obstacles = []
     if args.collision:
@@ -37,7 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("view", help="show a robot in the browser (live meshcat viewer, or --html for a static page)")
     add_robot_args(p)
-    p.add_argument("--html", metavar="FILE", help="write a self-contained HTML page instead of serving")
+    p.add_argument("--html", metavar="FILE", type=file_in_existing_folder,
+                   help="write a self-contained HTML page instead of serving (its folder must exist)")
     p.add_argument("--zmq-url", help="use an existing meshcat server instead of starting one")
     p.add_argument("--collision", action="store_true",
                    help="also draw the collision shapes and the --box/--sphere/--cylinder obstacles, colliding ones red")

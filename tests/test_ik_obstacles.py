@@ -229,3 +229,14 @@ def test_first_violation_agrees_with_the_clearances(panda):
     assert avoid.first_violation(panda, Q) == expected
     clear_rows = Q[[i for i, f in enumerate(flags) if not f]]
     assert avoid.first_violation(panda, clear_rows) is None
+
+
+def test_no_obstacles_is_a_valid_empty_constraint(panda):
+    avoid = ObstacleAvoidance([]).bind(panda)
+    q = panda.neutral()
+    pin.computeJointJacobians(panda.model, panda.data, q)
+    assert avoid.margin(panda, panda.data, q) == np.inf
+    G, lo, hi = avoid.rows(panda, panda.data, q)
+    assert G.shape == (0, panda.nq)
+    T = panda.fk(panda.random_q(np.random.default_rng(8))).copy()
+    assert ik.solve(panda, tasks=[ik.FrameTask(None, T)], constraints=[avoid], seed=0).success

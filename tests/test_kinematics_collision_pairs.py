@@ -99,8 +99,9 @@ def test_srdf_parsing_errors_are_named():
 
 def test_loader_finds_the_srdf_by_convention():
     erd = paths.example_robot_data_dir()
-    from kinserve.robots.urdf_loader import find_srdf
+    from kinserve.robots.srdf import find_srdf
 
     assert find_srdf(erd / "panda_description/urdf/panda.urdf") == erd / "panda_description/srdf/panda.srdf"
+    assert find_srdf(erd / "ur_description/urdf/ur5_robot.urdf") == erd / "ur_description/srdf/ur5.srdf"
     assert robots.load("panda").srdf is not None and robots.load("planar4r").srdf is None
     assert isinstance(robots.load("planar4r").collision.geometry, pin.GeometryModel)

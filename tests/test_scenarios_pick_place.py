@@ -17,6 +17,7 @@ import pytest
 from PIL import Image
 from scipy.linalg import expm
 
+from scenario_runs import figures, run_into
 from kinserve import robots
 from kinserve import scenarios
 from kinserve import viz
@@ -54,7 +55,7 @@ def poe(screws, q, M):
 @pytest.fixture(scope="module")
 def s4(tmp_path_factory):
     out = tmp_path_factory.mktemp("pick-place")
-    scenarios.run("pick-place", out)
+    run_into(out, "pick-place")
     r = json.loads((out / "result.json").read_text())
     traj = JointTrajectory.load(out / "trajectory.json")
     panda = robots.load("panda")
@@ -216,6 +217,23 @@ def test_direct_motion_reports_infeasible_samples_without_joint_jumps(tmp_path):
     Q = JointTrajectory.load(tmp_path / "trajectory.json").positions
     jumps = np.abs(np.diff(Q, axis=0)).max(axis=1)
     assert jumps.max() < 0.5, f"joint jump of {jumps.max():.2f} rad at sample {int(jumps.argmax()) + 1}"
+
+
+def test_tracking_errors_plot_title_inside_legend_off_the_curves(s4):
+    from figure_checks import axis_labels, legends_clear_of_data, titles_inside
+
+    _, out, _, _, _ = s4
+    fig = figures(out)["tracking_errors.png"]
+    titles_inside(fig)
+    legends_clear_of_data(fig)
+    axis_labels(fig.axes[0])
+    labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert "position error (m)" in labels and any(lbl.startswith("grasped") for lbl in labels)
+
+def test_readme_row_matches_a_fresh_run(s4):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pick-place", s4[0])
 
 
 def test_clearance_between_arm_and_scene_matches_independent_coal(s4):

@@ -64,9 +64,15 @@ Example (a user constraint: keep the tool above a table at height ``h``)::
 from __future__ import annotations
 
 import numpy as np
+from typing import TYPE_CHECKING
 
 #: Fraction of the current clearance one step may use up (velocity damper gain ``xi``).
 DAMPER_GAIN = 0.5
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
 
 
 class Constraint:
@@ -75,19 +81,19 @@ class Constraint:
     def __init__(self, name: str | None = None):
         self.name = name if name is not None else type(self).__name__
 
-    def bind(self, robot) -> "Constraint":
+    def bind(self, robot: Robot) -> "Constraint":
         """Validate against ``robot``; return the constraint to evaluate (default ``self``)."""
         return self
 
-    def rows(self, robot, data, q: np.ndarray, dt: float | None = None):  # pragma: no cover - protocol
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:  # pragma: no cover - protocol
         """``(G, lower, upper)`` with ``lower <= G dq <= upper`` at ``q`` (``G=None``: identity box)."""
         raise NotImplementedError(f"{type(self).__name__}.rows(robot, data, q, dt) must return (G, lower, upper)")
 
-    def margin(self, robot, data, q: np.ndarray) -> float:
+    def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
         """Smallest slack at ``q`` (``>= 0``: satisfied); default ``inf`` (nothing to check beyond the rows)."""
         return float("inf")
 
-    def describe(self, robot, data, q: np.ndarray) -> str:
+    def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:
         """The violations at ``q`` in words ("" when ``q`` satisfies the constraint)."""
         m = self.margin(robot, data, q)
         return "" if m >= 0.0 else f"{self.name} violated by {-m:.4g}"

@@ -8,27 +8,33 @@ every iterate into the limits (round-off), so the margin
 from __future__ import annotations
 
 import numpy as np
+from typing import TYPE_CHECKING
 
 from .base import Constraint
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
 
 
 class JointLimits(Constraint):
     """The robot's position limits as a box on the step (added to every solve automatically)."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         super().__init__(name="joint limits")
 
-    def rows(self, robot, data, q, dt=None):
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         lb = robot.lower - q
         ub = robot.upper - q
         np.minimum(lb, 0.0, out=lb)  # q is inside the limits: guard against round-off
         np.maximum(ub, 0.0, out=ub)
         return None, lb, ub
 
-    def margin(self, robot, data, q) -> float:
+    def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
         return float(min((q - robot.lower).min(), (robot.upper - q).min()))
 
-    def describe(self, robot, data, q) -> str:
+    def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:
         bad = np.flatnonzero((q < robot.lower) | (q > robot.upper))
         return "; ".join(f"{robot.joint_names[i]}={q[i]:.6g} outside [{robot.lower[i]:.6g}, {robot.upper[i]:.6g}]"
                          for i in bad)

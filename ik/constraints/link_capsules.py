@@ -26,10 +26,15 @@ gradient exact to first order with ``s`` frozen).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
+from typing import TYPE_CHECKING
 
 from .sphere_set import frame_points, robot_segments
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
 
 class LinkSkeleton:
@@ -39,7 +44,7 @@ class LinkSkeleton:
     (from :func:`robot_segments` / :func:`frame_points`).
     """
 
-    def __init__(self, robot, segments):
+    def __init__(self, robot: Robot, segments: list) -> None:
         model = robot.model
         self.names = [s.name for s in segments]
         self.ja = np.array([s.ja for s in segments], dtype=int)
@@ -109,7 +114,7 @@ class LinkSkeleton:
         self.inv_len2 = np.divide(1.0, L2, out=np.zeros_like(L2), where=L2 > 1e-24)
 
     @classmethod
-    def of_robot(cls, robot, tool_frames=(), frames=None) -> "LinkSkeleton":
+    def of_robot(cls, robot: Robot, tool_frames: Sequence[str] = (), frames: Sequence[str] | None = None) -> "LinkSkeleton":
         """The default skeleton (links, sliders, a tool segment per tool frame) or the origins of ``frames``."""
         return cls(robot, skeleton_segments(robot, tool_frames, frames))
 
@@ -117,16 +122,16 @@ class LinkSkeleton:
     def __len__(self) -> int:
         return len(self.names)
 
-    def endpoints(self, data) -> tuple[np.ndarray, np.ndarray]:
+    def endpoints(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """World end points ``(A, B)``, each ``(S, 3)``, after forward kinematics in ``data``."""
         P = self.points(data)
         return P[self._a_idx], P[self._b_idx]
 
-    def end_index(self, seg) -> tuple[np.ndarray, np.ndarray]:
+    def end_index(self, seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Rows of :meth:`points` holding the two ends of the segments ``seg``."""
         return self._a_idx[seg], self._b_idx[seg]
 
-    def points(self, data) -> np.ndarray:
+    def points(self, data: pin.Data) -> np.ndarray:
         """The distinct end points of the segments ``(K, 3)`` (see :meth:`end_index`), after forward kinematics."""
         cached = self._placements
         if cached is None or cached[0] is not data:
@@ -138,7 +143,8 @@ class LinkSkeleton:
         pts += [oMi[j].act(l) for j, l in self._acts]
         return np.array(pts + self._world) if self._world else np.array(pts)
 
-    def gradient_rows(self, data, seg, s, A, B, N) -> np.ndarray:
+    def gradient_rows(self, data: pin.Data, seg: np.ndarray, s: np.ndarray, A: np.ndarray, B: np.ndarray,
+                      N: np.ndarray) -> np.ndarray:
         """Rows ``(P, nv)``: ``n_i . xdot_i / qdot`` for the point ``(1 - s_i) a + s_i b`` of segment ``seg_i``.
 
         ``A``, ``B`` are the end points of the segments ``seg`` (``(P, 3)``),
@@ -164,7 +170,7 @@ def _cross(U: np.ndarray, V: np.ndarray) -> np.ndarray:
     return U[:, _I1] * V[:, _I2] - U[:, _I2] * V[:, _I1]
 
 
-def skeleton_segments(robot, tool_frames=(), frames=None) -> list:
+def skeleton_segments(robot: Robot, tool_frames: Sequence[str] = (), frames: Sequence[str] | None = None) -> list:
     """Segments of the default skeleton (a tool segment per tool frame), or the origins of ``frames``."""
     if frames is not None:
         return frame_points(robot, frames)

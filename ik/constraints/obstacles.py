@@ -41,7 +41,9 @@ segments) makes the problem infeasible: :class:`InputError` at ``bind``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import math
+from typing import TYPE_CHECKING, Any
 import weakref
 
 import numpy as np
@@ -61,12 +63,19 @@ MARGIN_EXACT = 0.05
 COAL_INFLUENCE = 0.15
 
 _EPS = 1e-12
+_INF = np.full(4096, np.inf)
+_INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
 _einsum = np.einsum
 _sqrt = np.sqrt
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
 
-def as_obstacle(value, name: str = "obstacle") -> Shape:
+    from kinserve.kinematics.robot import Robot
+
+
+def as_obstacle(value: Any, name: str = "obstacle") -> Shape:
     """A shape from a shape, a ``{"kind": ...}`` dict, a ``{"center", "radius"}`` dict or a ``(center, radius)`` pair."""
     if isinstance(value, Shape):
         return value
@@ -126,8 +135,8 @@ class ObstacleAvoidance(Constraint):
         Pairs with clearance below this (m) give QP rows.
     """
 
-    def __init__(self, obstacles, link_radius: float = 0.0, margin: float = 0.0, gain: float = DAMPER_GAIN,
-                 tool_frames=None, influence: float = INFLUENCE):
+    def __init__(self, obstacles: Any, link_radius: float = 0.0, margin: float = 0.0, gain: float = DAMPER_GAIN,
+                 tool_frames: Sequence[str] | str | None = None, influence: float = INFLUENCE) -> None:
         super().__init__(name="obstacles")
         if isinstance(obstacles, (Shape, dict)):
             obstacles = [obstacles]
@@ -146,9 +155,10 @@ class ObstacleAvoidance(Constraint):
         self.tool_frames = None if tool_frames is None else tuple(tool_frames)
         self.influence = _non_negative(influence, "influence")
         self._model = None
+        self._last = None  # (data, q, witness pairs) of the last margin() without coal pairs
 
     # ---------------------------------------------------------------------------------------- binding
-    def bind(self, robot) -> "ObstacleAvoidance":
+    def bind(self, robot: Robot) -> "ObstacleAvoidance":
         if self._model is robot.model:
             return self
         tools = self.tool_frames or (robot.tip,)
@@ -173,7 +183,7 @@ class ObstacleAvoidance(Constraint):
                     cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
                     groups[1].append((k, sk.names[i]))
                 else:
-                    other[0].append(i), other[1].append(ob), other[2].append(_bounding_radius(ob))
+                    other[0].append(i), other[1].append(ob), other[2].append(k)
                     groups[2].append((k, sk.names[i]))
         # pairs are ordered: spheres, capsules, others (the order of the clearance vector)
         self.pair_names = groups[0] + groups[1] + groups[2]
@@ -192,14 +202,20 @@ class ObstacleAvoidance(Constraint):
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
         self._oth = other[1]
-        self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
-        self._oth_bound = np.array(other[2], dtype=float)
-        self._oth_tf = [_coal_transform(o.pose) for o in other[1]]
-        self._oth_R = np.array([o.pose[:3, :3] for o in other[1]], dtype=float).reshape(-1, 3, 3)
-        self._oth_t = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
-        ext = [_local_extent(o) for o in other[1]]
-        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)
-        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)
+        # per obstacle once, then one row per pair
+        kinds = list(dict.fromkeys(other[2]))
+        row = np.array([kinds.index(k) for k in other[2]], dtype=int)
+        obs = [self.obstacles[k] for k in kinds]
+        tfs = [_coal_transform(o.pose) for o in obs]
+        self._oth_tf = [tfs[r] for r in row.tolist()]
+        poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
+        ext = [_local_extent(o) for o in obs]
+        self._oth_center = poses[row, :3, 3]
+        self._oth_t = self._oth_center
+        self._oth_R = poses[row, :3, :3]
+        self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
+        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
+        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
         # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
         self._oth_local = [_local_core(sk, i) for i in other[0]]
         self.m = len(self.pair_names)
@@ -280,6 +296,8 @@ class ObstacleAvoidance(Constraint):
             c = (clear[0] if len(clear) == 1 else np.concatenate(clear)) - self._offset
         if not witness:
             return c
+        if not segs:
+            return c, np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
         if len(segs) == 1:
             return c, segs[0], ss[0], Ns[0], As[0], Bs[0]
         cat = np.concatenate
@@ -344,11 +362,11 @@ class ObstacleAvoidance(Constraint):
             s[todo] = np.clip(np.divide(num, L2, out=np.zeros_like(num), where=L2 > 1e-24), 0.0, 1.0)
         return c, s, N
 
-    def clearances(self, data) -> np.ndarray:
+    def clearances(self, data: pin.Data) -> np.ndarray:
         """Clearance ``c`` (m) of every pair after forward kinematics (far coal pairs: their lower bound)."""
         return self._pairs(data, False, MARGIN_EXACT)
 
-    def first_violation(self, robot, Q) -> int | None:
+    def first_violation(self, robot: Robot, Q: np.ndarray) -> int | None:
         """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None.
 
         The sphere and capsule distances of all ``K`` configurations are evaluated at once (the same
@@ -400,13 +418,26 @@ class ObstacleAvoidance(Constraint):
         return int(hits[0]) if hits.size else None
 
     # ------------------------------------------------------------------------------------- protocol
-    def margin(self, robot, data, q) -> float:
-        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs)."""
+    def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
+        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs).
+
+        Without coal pairs the witness points are kept: :meth:`rows` at the same ``q`` (same array
+        object, same ``data``) reuses them instead of computing the distances again.
+        """
+        if not self._oth_seg.size:
+            w = self._pairs(data, True)
+            self._last = (data, q, w)
+            c = w[0]
+            return float(c.min()) if c.size else math.inf
         c = self._pairs(data, False, MARGIN_EXACT)
         return float(c.min()) if c.size else math.inf
 
-    def rows(self, robot, data, q, dt=None):
-        c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        last = self._last
+        if last is not None and last[0] is data and last[1] is q:
+            c, seg, s, N, A, B = last[2]
+        else:
+            c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
         # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
         near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
         if not near.all():
@@ -414,14 +445,14 @@ class ObstacleAvoidance(Constraint):
                 return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
             c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
         G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
-        return G, -self.gain * c, np.full(c.shape[0], np.inf)
+        return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
 
-    def rows_all(self, robot, data):
+    def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
         c, seg, s, N, A, B = self._pairs(data, True, math.inf)
         return c, self.skeleton.gradient_rows(data, seg, s, A, B, N)
 
-    def describe(self, robot, data, q) -> str:
+    def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:
         c = self._pairs(data, False, math.inf)
         parts = []
         for p in np.flatnonzero(c < 0.0):
@@ -440,7 +471,7 @@ _CORES: dict = {}
 _balls: dict = {}
 
 
-def fixed_ball(fixed) -> tuple[tuple[float, float, float], float]:
+def fixed_ball(fixed: list) -> tuple[tuple[float, float, float], float]:
     """A ball ``(centre, radius)`` enclosing the fixed segments ``(name, a, b)`` (cached per list)."""
     hit = _balls.get(id(fixed))
     if hit is None or hit[0] is not fixed:

@@ -38,7 +38,8 @@ def point_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarr
     return s, a + s[:, None] * ab
 
 
-def segment_segment(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray):
+def segment_segment(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray,
+                    q2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(s, t, x, y)``: closest points ``x = p1 + s d1`` and ``y = p2 + t d2`` of each pair of segments."""
     d1, d2, r = q1 - p1, q2 - p2, p1 - p2
     a, e, f = _dot(d1, d1), _dot(d2, d2), _dot(d2, r)

@@ -7,17 +7,24 @@ iterates without time (``dt=None``): the limits do not apply there.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import numpy as np
+from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
 from .base import Constraint
 
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
 
 class VelocityLimits(Constraint):
     """Joint speed limits ``v_max`` (rad/s or m/s): one positive number for every joint or one per joint."""
 
-    def __init__(self, v_max):
+    def __init__(self, v_max: float | Sequence[float]) -> None:
         super().__init__(name="velocity limits")
         try:
             v = np.array(v_max, dtype=float)
@@ -32,7 +39,7 @@ class VelocityLimits(Constraint):
         self.v_max = v
         self._v = None
 
-    def bind(self, robot) -> "VelocityLimits":
+    def bind(self, robot: Robot) -> "VelocityLimits":
         if self.v_max.ndim == 0:
             self._v = np.full(robot.model.nv, float(self.v_max))
         elif self.v_max.shape != (robot.model.nv,):
@@ -42,7 +49,7 @@ class VelocityLimits(Constraint):
             self._v = self.v_max
         return self
 
-    def rows(self, robot, data, q, dt=None):
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         if dt is None:
             return None, np.full(q.shape[0], -np.inf), np.full(q.shape[0], np.inf)
         b = self._v * dt

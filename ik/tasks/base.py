@@ -67,15 +67,22 @@ Example: a centre-of-mass task (a user task, nothing in the solver changes)::
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import math
 import numbers
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
 
-def check_weight(weight, name: str = "weight"):
+    from kinserve.kinematics.robot import Robot
+
+
+def check_weight(weight: float | Sequence[float], name: str = "weight") -> float | np.ndarray:
     """A positive finite number (float) or a 1-D array of them (validated task weight)."""
     if isinstance(weight, numbers.Real) and not isinstance(weight, bool):
         w = float(weight)
@@ -97,7 +104,7 @@ def check_weight(weight, name: str = "weight"):
     return w
 
 
-def check_priority(priority, name: str = "priority") -> int:
+def check_priority(priority: int, name: str = "priority") -> int:
     """An integer ``>= 1`` (1 = highest level)."""
     if isinstance(priority, bool) or not isinstance(priority, numbers.Integral) or priority < 1:
         raise InputError(f"{name} must be an integer >= 1 (1 = highest level), got {priority!r}")
@@ -114,16 +121,16 @@ class Task:
     #: True for a goal that must be met (success test), False for an objective.
     goal: bool = True
 
-    def __init__(self, weight=1.0, priority: int = 1, name: str | None = None):
+    def __init__(self, weight: float | Sequence[float] = 1.0, priority: int = 1, name: str | None = None):
         self.weight = check_weight(weight, f"{type(self).__name__} weight")
         self.priority = check_priority(priority, f"{type(self).__name__} priority")
         self.name = name if name is not None else type(self).__name__
 
-    def bind(self, robot) -> "Task":
+    def bind(self, robot: Robot) -> "Task":
         """Validate against ``robot`` and return the task to evaluate (default: ``self``)."""
         return self
 
-    def compute(self, robot, data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - protocol
+    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - protocol
         """``(e, J)`` at ``q``: error ``(m,)`` and Jacobian ``(m, nv)`` with ``e(q + dq) ~= e + J dq``."""
         raise NotImplementedError(f"{type(self).__name__}.compute(robot, data, q) must return (e, J)")
 

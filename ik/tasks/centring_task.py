@@ -12,12 +12,19 @@ the relative weights matter under strict priority.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import numpy as np
+from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError
 
 from ..centring import centring_weights
 from .base import Task
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
 
 
 class CentringTask(Task):
@@ -25,12 +32,12 @@ class CentringTask(Task):
 
     goal = False
 
-    def __init__(self, weights=1.0, priority: int = 2, weight=1.0, name: str = "centring"):
+    def __init__(self, weights: float | Sequence[float] = 1.0, priority: int = 2, weight: float | Sequence[float] = 1.0, name: str = "centring"):
         super().__init__(weight, priority, name)
         self.weights = weights
         self._model = None
 
-    def bind(self, robot) -> "CentringTask":
+    def bind(self, robot: Robot) -> "CentringTask":
         if self._model is not robot.model:
             w = centring_weights(robot, self.weights)
             if w is None:
@@ -41,5 +48,5 @@ class CentringTask(Task):
             self._model = robot.model
         return self
 
-    def compute(self, robot, data, q):
+    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self._sqrt_w * (q - self._mid), self._J

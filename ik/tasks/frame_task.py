@@ -21,13 +21,14 @@ for a full pose, the distance between the origins and the geodesic angle.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import math
 
 import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.robot import TASK_AXES
+from kinserve.kinematics.robot import TASK_AXES, Robot
 
 from ..targets import RELAX_FRAMES, Target, _checked_pose, parse_relax
 from .base import Task
@@ -46,7 +47,7 @@ class FrameTask(Task):
     ``yaw``) measured along ``relax_frame`` axes (``"world"`` or ``"target"``).
     """
 
-    def __init__(self, frame: str | None, target, relax=(), relax_frame: str = "world", weight=1.0,
+    def __init__(self, frame: str | None, target: np.ndarray | pin.SE3, relax: Sequence[str] | str = (), relax_frame: str = "world", weight: float | Sequence[float] = 1.0,
                  priority: int = 1, name: str | None = None):
         if frame is not None and not isinstance(frame, str):
             raise InputError(f"frame must be a frame name or None (the robot's tip), got {frame!r}")
@@ -66,7 +67,7 @@ class FrameTask(Task):
         self._model = None
         self.frame_id = -1
 
-    def set_target(self, target) -> None:
+    def set_target(self, target: np.ndarray | pin.SE3) -> None:
         """Move the target (validated 4x4 pose or ``SE3``); cheap enough for a control loop."""
         T = _checked_pose(target)
         self.T = T
@@ -92,7 +93,7 @@ class FrameTask(Task):
         self.frame_id = -1
         return self
 
-    def bind(self, robot) -> "FrameTask":
+    def bind(self, robot: Robot) -> "FrameTask":
         if self._model is not robot.model:
             frame = robot.tip if self.frame is None else self.frame
             self.frame_id = robot.frame_id(frame)
@@ -102,7 +103,7 @@ class FrameTask(Task):
             self._model = robot.model
         return self
 
-    def compute(self, robot, data, q):
+    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         model = robot.model
         M = _ufp(model, data, self.frame_id)
         R = M.rotation
@@ -124,7 +125,7 @@ class FrameTask(Task):
             return e, J
         return e[self.kept], J[self.kept]
 
-    def errors(self, e):
+    def errors(self, e: np.ndarray) -> tuple[float, float]:
         n = self.n_pos
         ep, ew = e[:n], e[n:]
         return math.sqrt(float(ep.dot(ep))), math.sqrt(float(ew.dot(ew)))
