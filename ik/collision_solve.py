@@ -35,12 +35,15 @@ collision geometry keeps obstacles clear of its link capsules
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
+from typing import Any
 
 import coal
 import numpy as np
 
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
+from kinserve.kinematics.robot import Robot
 
 from .constraints.collision import CollisionConstraint
 from .qp_solver import solve_qp
@@ -53,7 +56,8 @@ MAX_TIME = 0.5
 UNCONSTRAINED_ATTEMPTS = 8
 
 
-def collision_options(self_collision=False, obstacles=(), collision_margin=0.0, spheres=()) -> dict:
+def collision_options(self_collision: bool = False, obstacles: Sequence = (), collision_margin: float = 0.0,
+                      spheres: Sequence = ()) -> dict:
     """Validated collision options for :func:`solve_collision_free` (``spheres`` join the obstacles)."""
     obs = as_obstacles(obstacles) + as_obstacles(spheres, "spheres")
     if not isinstance(self_collision, (bool, np.bool_)):
@@ -62,8 +66,8 @@ def collision_options(self_collision=False, obstacles=(), collision_margin=0.0, 
     return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": float(collision_margin)}
 
 
-def solve_collision_free(robot, p: dict, *, self_collision: bool = False, obstacles=(), collision_margin=0.0,
-                         **solver_opts) -> Result:
+def solve_collision_free(robot: Robot, p: dict, *, self_collision: bool = False, obstacles: Sequence = (),
+                         collision_margin: float = 0.0, **solver_opts: Any) -> Result:
     """Collision-free IK on arguments checked by :func:`ik.solve.prepare` (``p``); see the module docstring."""
     from .solve import solve_prepared
 

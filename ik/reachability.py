@@ -18,6 +18,7 @@ reachability is ``reached / sampled`` (NaN for a cell with no sample).
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -93,7 +94,7 @@ def reachability_map(
     bounds: ArrayLike | None = None,
     progress: bool | None = None,
     self_collision: bool = False,
-    obstacles=(),
+    obstacles: Sequence = (),
     collision_margin: float = 0.0,
 ) -> ReachabilityMap:
     """Sample ``samples`` tool poses in the workspace box and record which ones IK reaches.

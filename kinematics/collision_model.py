@@ -24,6 +24,7 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 import coal
 import numpy as np
@@ -139,7 +140,8 @@ class CollisionModel:
         self._lock = threading.Lock()
 
     @classmethod
-    def from_urdf(cls, model: pin.Model, urdf: str, package_dirs: Sequence[str], lower, upper, **kw) -> "CollisionModel":
+    def from_urdf(cls, model: pin.Model, urdf: str, package_dirs: Sequence[str], lower: np.ndarray, upper: np.ndarray,
+                  **kw: Any) -> "CollisionModel":
         """Build the collision ``GeometryModel`` from URDF text, then the model (see the class)."""
         try:
             gm = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.COLLISION, package_dirs=list(package_dirs))
@@ -176,7 +178,7 @@ class CollisionModel:
                 f"pairs from {self.pair_source})")
 
     # ----------------------------------------------------------------- scenes
-    def scene(self, obstacles: Iterable = (), self_collision: bool = True):
+    def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes, cached).
 
         Scenes are cached by the identity of the (immutable) obstacle objects, so

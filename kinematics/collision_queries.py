@@ -19,12 +19,17 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .errors import InputError, ModelError
 from .shapes import Shape, as_shape
+from .types import VectorLike
+
+if TYPE_CHECKING:  # annotations only (collision_model imports pinocchio/coal)
+    from .collision_model import CollisionModel
+    from .collision_scene import CollisionScene
 
 _BUILD_LOCK = threading.Lock()
 
@@ -83,7 +88,7 @@ class CollisionQueries:
     upper: np.ndarray
 
     @property
-    def collision(self):
+    def collision(self) -> "CollisionModel":
         """The robot's :class:`~.collision_model.CollisionModel` (built on first use, shared by copies).
 
         :class:`~.errors.ModelError` when the URDF has no ``<collision>`` elements.
@@ -107,11 +112,11 @@ class CollisionQueries:
             raise ModelError(f"robot {self.name!r} has no collision geometry and no URDF text to build it from")
         return CollisionModel.from_urdf(self.model, self.source, self.package_dirs, self.lower, self.upper, **kw)
 
-    def collision_scene(self, obstacles: Any = (), self_collision: bool = True):
+    def collision_scene(self, obstacles: Any = (), self_collision: bool = True) -> "CollisionScene":
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (cached by identity)."""
         return self.collision.scene(as_obstacles(obstacles), bool(self_collision))
 
-    def collision_geometry(self, q) -> list[dict]:
+    def collision_geometry(self, q: VectorLike) -> list[dict]:
         """Plain data of the robot's collision shapes at ``q``: :meth:`CollisionModel.shape_data` with
         ``"pose"`` = the shape's 4x4 world pose (``oMi[joint] @ placement``). For viewers."""
         import pinocchio as pin
@@ -126,18 +131,18 @@ class CollisionQueries:
             out.append(d)
         return out
 
-    def in_collision(self, q, obstacles: Any = (), *, self_collision: bool = True) -> bool:
+    def in_collision(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> bool:
         """True when the robot at ``q`` intersects itself (checked pairs) or an obstacle."""
         q = self.check_q(q)
         return self.collision_scene(obstacles, self_collision).in_collision(q)
 
-    def collisions(self, q, obstacles: Any = (), *, self_collision: bool = True) -> list[tuple[str, str]]:
+    def collisions(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> list[tuple[str, str]]:
         """The intersecting pairs at ``q``, named (link / obstacle names), each once, in model order."""
         q = self.check_q(q)
         scene = self.collision_scene(obstacles, self_collision)
         return list(dict.fromkeys(scene.pair_names[k] for k in scene.colliding(q)))
 
-    def distances(self, q, obstacles: Any = (), *, self_collision: bool = True) -> dict[tuple[str, str], PairDistance]:
+    def distances(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> dict[tuple[str, str], PairDistance]:
         """``{(name_a, name_b): PairDistance}`` for every checked pair at ``q`` (the closest geometries per pair)."""
         q = self.check_q(q)
         scene = self.collision_scene(obstacles, self_collision)
@@ -149,7 +154,7 @@ class CollisionQueries:
                 out[key] = PairDistance(float(d[k]), p1[k], p2[k], n[k])
         return out
 
-    def min_distance(self, q, obstacles: Any = (), *, self_collision: bool = True) -> float:
+    def min_distance(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> float:
         """The smallest signed distance (m) over the checked pairs at ``q`` (``inf`` when there is no pair)."""
         q = self.check_q(q)
         return self.collision_scene(obstacles, self_collision).min_distance(q)[0]

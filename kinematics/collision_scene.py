@@ -31,6 +31,7 @@ between threads.
 from __future__ import annotations
 
 import threading
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -38,11 +39,15 @@ import pinocchio as pin
 #: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
 GJK_TOLERANCE = 1e-9
 
+if TYPE_CHECKING:
+    from .collision_model import CollisionModel
+    from .shapes import Shape
+
 _compute_collisions = pin.computeCollisions
 _BroadPhase = pin.BroadPhaseManager_DynamicAABBTreeCollisionManager
 
 
-def obstacle_name(k: int, shape) -> str:
+def obstacle_name(k: int, shape: "Shape") -> str:
     """Name of obstacle ``k`` in pair names: ``obstacle[k]:<kind>``."""
     return f"obstacle[{k}]:{shape.kind}"
 
@@ -50,7 +55,7 @@ def obstacle_name(k: int, shape) -> str:
 class CollisionScene:
     """Robot geometry + obstacles; see the module docstring. Built by :meth:`CollisionModel.scene`."""
 
-    def __init__(self, cmodel, obstacles: tuple, self_collision: bool = True) -> None:
+    def __init__(self, cmodel: "CollisionModel", obstacles: tuple, self_collision: bool = True) -> None:
         self.model = cmodel.model
         self.obstacles = obstacles
         gm = cmodel.geometry.copy()
@@ -79,7 +84,7 @@ class CollisionScene:
     def __len__(self) -> int:
         return len(self.pairs)
 
-    def workspace(self):
+    def workspace(self) -> tuple[pin.Data, pin.GeometryData, Any]:
         """This thread's ``(pinocchio.Data, GeometryData, broad-phase manager)``."""
         ws = getattr(self._local, "ws", None)
         if ws is None:
@@ -148,7 +153,7 @@ class CollisionScene:
                 req.gjk_tolerance = GJK_TOLERANCE
         return gd
 
-    def near(self, threshold: float, q: np.ndarray | None = None, data=None) -> list[int]:
+    def near(self, threshold: float, q: np.ndarray | None = None, data: pin.Data | None = None) -> list[int]:
         """Indices of the pairs closer than ``threshold`` (m), at ``q`` or at the placements of ``data``.
 
         Give ``q`` (forward kinematics runs on this thread's workspace) or a
@@ -167,7 +172,7 @@ class CollisionScene:
         _compute_collisions(self.geometry, gd, False)
         return [k for k, res in enumerate(gd.collisionResults) if res.isCollision()]
 
-    def near_distance(self, threshold: float, k: int):
+    def near_distance(self, threshold: float, k: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         """``(d, p1, p2, n)`` of pair ``k`` at the placements of the last :meth:`near` call with ``threshold``."""
         res = pin.computeDistance(self.geometry, self._margin_data(threshold), k)
         return res.min_distance, res.getNearestPoint1(), res.getNearestPoint2(), res.normal

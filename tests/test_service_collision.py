@@ -79,7 +79,7 @@ def test_ik_and_batch_accept_collision_options(client, panda):
 
 
 def kinserve(*args: str) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     return subprocess.run([sys.executable, "-m", "kinserve.service.cli", *args], cwd=ROOT, env=env,
                           capture_output=True, text=True, timeout=120)
 

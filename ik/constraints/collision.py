@@ -35,6 +35,7 @@ no row and could be crossed in one long step).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import coal
 import numpy as np
@@ -42,6 +43,7 @@ import pinocchio as pin
 
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.robot import Robot
 
 from .base import DAMPER_GAIN, Constraint
 
@@ -80,7 +82,7 @@ class CollisionConstraint(Constraint):
         Pairs closer than ``margin + influence`` (m) get QP rows.
     """
 
-    def __init__(self, obstacles=(), *, self_collision: bool = True, margin: float = 0.0,
+    def __init__(self, obstacles: Sequence = (), *, self_collision: bool = True, margin: float = 0.0,
                  influence: float = INFLUENCE, name: str | None = None) -> None:
         super().__init__(name=name or ("self-collision" if self_collision and not obstacles else "collision"))
         self.obstacles = as_obstacles(obstacles)
@@ -90,7 +92,7 @@ class CollisionConstraint(Constraint):
         self.scene = None
 
     # ------------------------------------------------------------------ protocol
-    def bind(self, robot) -> "CollisionConstraint":
+    def bind(self, robot: Robot) -> "CollisionConstraint":
         """Build the robot's collision scene; :class:`InputError` when an obstacle contains the fixed base."""
         scene = robot.collision_scene(self.obstacles, self.self_collision)
         if not getattr(scene, "base_checked", False):  # once per scene (scenes are cached per obstacle set)
@@ -103,7 +105,7 @@ class CollisionConstraint(Constraint):
         bound._threshold = self.clearance + self.influence
         return bound
 
-    def near_pairs(self, q: np.ndarray, data=None) -> list[tuple]:
+    def near_pairs(self, q: np.ndarray, data: pin.Data | None = None) -> list[tuple]:
         """``[(k, d, p1, p2, n), ...]`` for the pairs closer than ``margin + influence`` at ``q``.
 
         One ``computeCollisions`` with that security margin, then a GJK distance per near pair.
@@ -120,7 +122,7 @@ class CollisionConstraint(Constraint):
         self._memo = (key, out)
         return out
 
-    def pair_rows(self, robot, data, q: np.ndarray):
+    def pair_rows(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
         """``(d, G, pairs)``: distances ``(k,)`` and rows ``g`` ``(k, nv)`` of the near pairs at ``q``.
 
         ``data`` holds ``pinocchio.computeJointJacobians(model, data, q)``.
@@ -146,13 +148,14 @@ class CollisionConstraint(Constraint):
                 G[r] += sign * (n @ J[:3] + np.dot(axn, J[3:]))
         return d, G, [k for k, *_ in near]
 
-    def rows(self, robot, data, q: np.ndarray, dt: float | None = None):
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray,
+             dt: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``G dq >= -xi (d - margin)`` for the near pairs (see the module docstring)."""
         d, G, _ = self.pair_rows(robot, data, q)
         lower = -DAMPER_GAIN * (d - self.clearance)
         return G, lower, np.full(len(d), np.inf)
 
-    def margin(self, robot, data, q: np.ndarray) -> float:
+    def margin(self, robot: Robot, data: pin.Data | None, q: np.ndarray) -> float:
         """The slack at ``q``: ``>= 0`` iff the constraint holds (the solvers use its sign and negative values).
 
         Negative: the smallest ``d - margin`` (m) over the violating pairs. Otherwise ``influence`` when
@@ -166,7 +169,7 @@ class CollisionConstraint(Constraint):
             return self.influence
         return min(item[1] for item in near) - self.clearance
 
-    def describe(self, robot, data, q: np.ndarray) -> str:
+    def describe(self, robot: Robot, data: pin.Data | None, q: np.ndarray) -> str:
         bad = []
         for k, dist, *_ in self.near_pairs(q):
             if dist < self.clearance:
@@ -212,6 +215,6 @@ class SelfCollision(CollisionConstraint):
 class SceneCollision(CollisionConstraint):
     """The robot's moving collision geometry kept ``margin`` (m) clear of ``obstacles``, on every iterate."""
 
-    def __init__(self, obstacles, margin: float = 0.0, influence: float = INFLUENCE) -> None:
+    def __init__(self, obstacles: Sequence, margin: float = 0.0, influence: float = INFLUENCE) -> None:
         super().__init__(obstacles, self_collision=False, margin=margin, influence=influence, name="obstacles")
 
