@@ -25,6 +25,11 @@ revolute value is first moved by whole turns into the limits: example-robot-data
 Kinova SRDF gives ``-1.5707`` for a joint limited to ``[0.33, 5.95]``, the
 same angle as ``4.7124``).
 
+``<disable_collisions link1= link2=>``: the link pairs the robot's collision
+model does not check (``robot.srdf`` keeps the text; see
+:mod:`kinserve.kinematics.collision_pairs`); a link name the model does not have
+is a :class:`ModelError` here too.
+
 Where the SRDF comes from: ``robots.load(..., srdf=PATH)``, or found next
 to the model file as example-robot-data lays them out
 (``<pkg>/urdf/<name>.urdf`` -> ``<pkg>/srdf/<name>.srdf``, see :func:`find_srdf`).
@@ -40,6 +45,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from kinserve.kinematics.collision_pairs import srdf_disabled_pairs
 from kinserve.kinematics.errors import ModelError, suggest
 from kinserve.kinematics.robot import Robot
 
@@ -57,6 +63,7 @@ class Srdf:
     groups: dict[str, tuple[str, ...]]
     named_states: dict[str, np.ndarray]
     state_groups: dict[str, str | None]  #: group of each named state (None when not given)
+    text: str = ""  #: the SRDF text (its ``<disable_collisions>`` give the robot's self-collision pairs)
 
 
 def find_srdf(model_path: Path) -> Path | None:
@@ -133,7 +140,9 @@ def read_srdf(source: str | os.PathLike, robot: Robot) -> Srdf:
     urdf = _UrdfTree(robot)
     groups = _groups(root, label, urdf, robot)
     states, state_groups = _states(root, label, urdf, robot, groups)
-    return Srdf(label, groups, states, state_groups)
+    frame_names = [f.name for f in robot.model.frames]
+    srdf_disabled_pairs(text.decode("utf-8"), frame_names, label)  # unknown links in <disable_collisions>: ModelError
+    return Srdf(label, groups, states, state_groups, text.decode("utf-8"))
 
 
 def _check_joint(name, el, label: str, urdf: _UrdfTree) -> str:
@@ -258,6 +267,8 @@ def attach_srdf(robot: Robot, srdf: Srdf) -> Robot:
     robot.groups = ReadOnlyDict(srdf.groups)
     robot.named_states = ReadOnlyDict(srdf.named_states)
     robot.srdf_path = srdf.label
+    robot.srdf = srdf.text or None
+    robot._collision_holder = [None]  # the collision pairs follow this SRDF (not shared with other copies)
     return robot
 
 
@@ -265,4 +276,6 @@ def detach_srdf(robot: Robot) -> Robot:
     """Forget the SRDF of ``robot`` (back to the class defaults: no states, no groups)."""
     for attr in ("groups", "named_states", "srdf_path"):
         robot.__dict__.pop(attr, None)
+    robot.srdf = None
+    robot._collision_holder = [None]
     return robot

@@ -2,7 +2,7 @@
 
 Endpoints: ``GET /health``, ``GET /robots``, ``GET /robots/{name}``,
 ``POST /fk``, ``POST /jacobian``, ``POST /ik``, ``POST /ik/batch``,
-``POST /plan/cartesian``. Poses are 4x4 row-major lists; joint vectors are
+``POST /plan/cartesian``, ``POST /collision`` (:mod:`.collision_endpoint`). Poses are 4x4 row-major lists; joint vectors are
 lists of ``nq`` numbers (rad / m).
 
 Errors are JSON ``{"detail": [{"loc": [...], "msg": ..., "type": ...}]}``:
@@ -32,7 +32,6 @@ from fastapi_offline import FastAPIOffline
 from kinserve import ik
 from kinserve import robots
 from kinserve.kinematics.errors import FrameError, InputError, KinserveError, UnknownRobotError
-from kinserve.kinematics.shapes import as_shape
 
 from . import schemas as S
 from .robot_pool import RobotPool
@@ -93,6 +92,9 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     )
     pool = RobotPool()
     app.state.pool = pool
+    from .collision_endpoint import router as collision_router
+
+    app.include_router(collision_router)
 
     @app.exception_handler(RequestValidationError)
     async def _validation_error(request: Request, exc: RequestValidationError):
@@ -127,10 +129,18 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
                 robot.frame_id(frame)
         with field("spheres"):
             spheres = [ik.Sphere(s.center, s.radius, frames=s.frames) for s in req.spheres]
-        return dict(
+        kw = dict(
             q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
             method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
         )
+        from .collision_endpoint import obstacles_of
+
+        kw["obstacles"] = obstacles_of(req.obstacles)
+        if req.self_collision:  # the robot's collision geometry (see service/collision_endpoint.py)
+            with field("self_collision"):
+                robot.collision_scene(kw["obstacles"], True)  # builds the model; no <collision> -> 422
+            kw.update(self_collision=True, collision_margin=req.collision_margin)
+        return kw
 
     def result_out(res) -> dict:
         return {
@@ -185,10 +195,7 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
         kwargs = ik_kwargs(r, req)
         if (req.target is None) == (req.targets is None):
             raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
-        obstacles = []
-        for i, spec in enumerate(req.obstacles):
-            with field(f"obstacles[{i}]"):
-                obstacles.append(as_shape(spec.model_dump(exclude_none=True), f"obstacles[{i}]"))
+        obstacles = kwargs.pop("obstacles")
         tasks = []
         if req.targets is not None:
             if req.method not in ("auto", "qp"):
@@ -202,7 +209,7 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
                 except KinserveError as exc:
                     raise FieldError(f"targets[{i}]", exc) from exc
         tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
-        if obstacles or kwargs["spheres"]:
+        if (obstacles or kwargs["spheres"]) and not req.self_collision:
             with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
                 ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
         if req.target is not None:
@@ -212,8 +219,11 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
             return result_out(res)
         if req.centring:
             tasks.append(ik.CentringTask(req.centring))
-        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
-                                            tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
+        if req.self_collision:  # the robot's collision geometry, as ik.solve(self_collision=True)
+            constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
+        else:
+            constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
+                                                tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
         with field("targets"):
             res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
                            tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=capped(req.max_time))

@@ -62,21 +62,6 @@ class SphereSpec(Strict):
     frames: Annotated[list[Name], Field(max_length=64)] | None = None
 
 
-class IKOptions(Strict):
-    q0: JointVector | None = None
-    frame: Name | None = None
-    relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
-    spheres: Annotated[list[SphereSpec], Field(max_length=32)] = Field(default_factory=list)
-    centring: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e3)] = 0.0
-    method: Method = "auto"
-    max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
-        default=None, description="seconds; capped server-side"
-    )
-    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
-    tol_pos: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1.0)] = 1e-4
-    tol_rot: Annotated[float, Field(allow_inf_nan=False, gt=0, le=3.2)] = 1e-3
-
-
 Length = Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
 Point3 = Annotated[list[Number], Field(min_length=3, max_length=3)]
 Frames = Annotated[list[Name], Field(max_length=64)] | None
@@ -115,6 +100,32 @@ class CylinderObstacle(Strict):
 Obstacle = Annotated[SphereObstacle | BoxObstacle | CapsuleObstacle | CylinderObstacle, Field(discriminator="kind")]
 
 
+Obstacles = Annotated[list[Obstacle], Field(max_length=32)]
+
+
+class IKOptions(Strict):
+    q0: JointVector | None = None
+    frame: Name | None = None
+    relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
+    spheres: Annotated[list[SphereSpec], Field(max_length=32)] = Field(default_factory=list)
+    centring: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e3)] = 0.0
+    method: Method = "auto"
+    max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
+        default=None, description="seconds; capped server-side"
+    )
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
+    self_collision: bool = Field(
+        default=False, description="keep the robot's collision geometry free of self-collision; obstacles are then "
+                                   "kept clear of that geometry (not of the link capsules)")
+    obstacles: Obstacles = Field(
+        default_factory=list, description="shapes kept clear of the robot's links (kind: sphere, box, capsule, cylinder)"
+    )
+    collision_margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+        default=0.0, description="clearance (m) kept from obstacles and between checked link pairs")
+    tol_pos: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1.0)] = 1e-4
+    tol_rot: Annotated[float, Field(allow_inf_nan=False, gt=0, le=3.2)] = 1e-3
+
+
 class FrameTarget(Strict):
     frame: Name
     pose: Pose
@@ -126,9 +137,6 @@ class IKRequest(RobotRef, IKOptions):
     target: Pose | None = Field(default=None, description="pose of `frame`; or give `targets`")
     targets: Annotated[list[FrameTarget], Field(min_length=1, max_length=8)] | None = Field(
         default=None, description="several frames at once (e.g. both hands), solved together"
-    )
-    obstacles: Annotated[list[Obstacle], Field(max_length=32)] = Field(
-        default_factory=list, description="shapes kept clear of the robot's links (kind: sphere, box, capsule, cylinder)"
     )
     link_radius: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
         default=0.0, description="radius (m) of the capsules around the link segments"

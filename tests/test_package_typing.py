@@ -22,7 +22,9 @@ TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/
             "ik/tasks/centring_task.py", "ik/constraints/__init__.py", "ik/constraints/base.py",
             "ik/constraints/joint_limits.py", "ik/constraints/velocity_limits.py", "ik/constraints/obstacles.py",
             "ik/constraints/link_capsules.py", "ik/constraints/segment_distance.py", "ik/problem.py", "ik/hierarchy.py",
-            "ik/dense_qp.py", "ik/task_solver.py", "ik/multistart.py", "ik/step.py", "ik/qp_solver.py")
+            "ik/dense_qp.py", "ik/task_solver.py", "ik/multistart.py", "ik/step.py", "ik/qp_solver.py",
+            # collision (issue 11)
+            "ik/constraints/collision.py", "ik/collision_solve.py")
 
 
 def unannotated(path: Path) -> list[str]:
