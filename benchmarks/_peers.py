@@ -19,7 +19,6 @@ every benchmark checks the peer's FK against kinserve's before timing.
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import xml.etree.ElementTree as ET
@@ -101,17 +100,19 @@ def start_peer(peer: str) -> PeerWorker | None:
 
 
 # --------------------------------------------------------------------------- models for the peers
+def _rpy_of(R: np.ndarray) -> tuple[float, float, float]:
+    """URDF ``rpy`` of a rotation (``R = Rz(y) Ry(p) Rx(r)``), gimbal lock handled by Pinocchio."""
+    import pinocchio as pin
+
+    return tuple(float(v) for v in pin.rpy.matrixToRpy(np.asarray(R, dtype=float)))
+
+
 def _rpy_z_to(v: np.ndarray) -> tuple[float, float, float]:
-    """URDF ``rpy`` of a rotation taking the local z axis to the unit vector ``v`` (R = Rz(y) Ry(p) Rx(r))."""
+    """URDF ``rpy`` of a rotation taking the local z axis to the direction of ``v``."""
     z = v / np.linalg.norm(v)
     x = np.cross([0.0, 1.0, 0.0], z) if abs(z[1]) < 0.9 else np.cross([1.0, 0.0, 0.0], z)
     x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.column_stack([x, y, z])
-    pitch = math.asin(-max(-1.0, min(1.0, R[2, 0])))
-    roll = math.atan2(R[2, 1], R[2, 2])
-    yaw = math.atan2(R[1, 0], R[0, 0])
-    return roll, pitch, yaw
+    return _rpy_of(np.column_stack([x, np.cross(z, x), z]))
 
 
 def _vec(text: str | None) -> np.ndarray:
@@ -206,8 +207,3 @@ def arm_urdf(urdf_text: str, base: str = "panda_link0", tip: str = "panda_link8"
                           rpy=" ".join(f"{v:.15g}" for v in rr))
         pairs += [[lk, name] for lk in colliding]
     return ET.tostring(robot, encoding="unicode"), pairs
-
-
-def _rpy_of(R: np.ndarray) -> tuple[float, float, float]:
-    pitch = math.asin(-max(-1.0, min(1.0, R[2, 0])))
-    return math.atan2(R[2, 1], R[2, 2]), pitch, math.atan2(R[1, 0], R[0, 0])
