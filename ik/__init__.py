@@ -17,15 +17,19 @@ Jacobian rows), :mod:`ik.constraints` (limits, spheres), :mod:`ik.centring`
 :mod:`ik.batch`, :mod:`ik.result`.
 """
 
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
+
 from .batch import solve_many
 from .chooser import CRITERIA, choose
-from .constraints import Sphere
+from .constraints import Constraint
+from .tasks import Task
 from .qp_backends import available_backends
 from .result import History, Result
 from .solve import METHODS, solve, solve_all
 from .targets import RELAX_NAMES, Target
 
 __all__ = [
-    "solve", "solve_all", "solve_many", "Result", "History", "Sphere", "Target", "choose",
+    "solve", "solve_all", "solve_many", "Result", "History", "Sphere", "Box", "Capsule", "Cylinder", "Mesh",
+    "Task", "Constraint", "Target", "choose",
     "METHODS", "CRITERIA", "RELAX_NAMES", "available_backends",
 ]

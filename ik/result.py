@@ -114,6 +114,12 @@ class Result:
     info:
         Solver-specific extras (e.g. ``"branch"`` for a closed-form branch,
         ``"reached_pose"`` when a 5-DOF arm solved the nearest reachable pose).
+    task_errors:
+        One dict per task of a task-based solve (``name``, ``priority``,
+        ``goal``, ``error`` = ``|e|``, ``position_error``,
+        ``orientation_error``) at ``q``; empty for the single-target methods.
+        With several goal tasks, ``position_error`` / ``orientation_error``
+        are the largest over the goals.
     """
 
     q: np.ndarray
@@ -128,6 +134,7 @@ class Result:
     method: str = ""
     frame: str = ""
     info: dict = field(default_factory=dict)
+    task_errors: list = field(default_factory=list)
 
     def summary(self) -> str:
         """One line: success, errors, iterations, time and the message."""

@@ -36,17 +36,22 @@ import numbers
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.shapes import Shape
 
 from . import analytic as _analytic
 from .centring import centring_weights
 from .chooser import choose
 from .classical import METHODS as CLASSICAL_METHODS
 from .classical import solve_classical
-from .constraints import SphereSet
+from .constraints import as_sphere
+from .constraints.obstacles import ObstacleAvoidance, as_obstacle
+from .dense_qp import DEFAULT_BACKEND
 from .lm_solver import solve_lm
+from .problem import Problem
 from .qp_backends import available_backends
-from .qp_solver import solve_qp
 from .targets import Target
+from .qp_solver import solve_qp
+from .task_solver import solve_problem
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
@@ -79,6 +84,8 @@ def _check_seed(seed):
 
 
 def _check_backend(backend):
+    if backend is None or backend == DEFAULT_BACKEND:
+        return DEFAULT_BACKEND
     if backend == "osqp":
         return backend
     if not isinstance(backend, str) or backend.lower() not in available_backends():
@@ -86,12 +93,37 @@ def _check_backend(backend):
     return backend.lower()
 
 
-def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), centring=0.0,
-            method="auto", backend="osqp", tol_pos=1e-4, tol_rot=1e-3, max_time=None, seed=None):
+def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
+    """One :class:`ObstacleAvoidance` for the ``spheres`` and ``obstacles`` of the front door, or None."""
+    items = []
+    for name, group in (("spheres", spheres), ("obstacles", obstacles)):
+        if group is None or (type(group) is tuple and not group):
+            continue
+        if isinstance(group, (str, bytes)):
+            raise InputError(f"{name} must be a sequence of shapes (ik.Sphere, ik.Box, ...), got {group!r}")
+        if isinstance(group, (Shape, dict)):
+            group = [group]
+        try:
+            group = list(group)
+        except TypeError:
+            group = [group]
+        for i, ob in enumerate(group):
+            items.append(as_sphere(ob) if name == "spheres" else as_obstacle(ob, f"obstacles[{i}]"))
+    if not items:
+        if link_radius not in (0, 0.0):
+            ObstacleAvoidance([], link_radius=link_radius)  # validates the value
+        return None
+    return ObstacleAvoidance(items, link_radius=link_radius, tool_frames=(frame,)).bind(robot)
+
+
+def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), obstacles=(),
+            link_radius=0.0, centring=0.0, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
+            max_time=None, seed=None):
     """Validate every argument of :func:`solve`; return a dict of checked values.
 
     Exposed so that batch solving (:mod:`ik.batch`) validates each target once
-    in the parent process.
+    in the parent process. ``"spheres"`` holds the obstacle constraint
+    (:class:`ik.constraints.ObstacleAvoidance` of the spheres and obstacles) or None.
     """
     _check_robot(robot)
     if method not in _METHOD_SET:
@@ -108,46 +140,50 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
     seed = _check_seed(seed)
     backend = _check_backend(backend)
     weights = centring_weights(robot, centring)
-    sphere_set = None
-    if spheres is not None and (type(spheres) is not tuple or spheres):
-        if isinstance(spheres, (str, bytes)):
-            raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
-        try:
-            spheres = list(spheres)
-        except TypeError:
-            spheres = [spheres]
-        sphere_set = SphereSet(robot, spheres, tgt.frame) if spheres else None
-    if sphere_set is not None and q0 is not None:
-        clear = sphere_set.clearances_at(q0)
-        if clear.size and clear.min() < 0:
-            raise InputError(f"a sphere already contains the start configuration q0: {sphere_set.describe_violation(clear)}")
+    avoid = _obstacle_constraint(robot, spheres, obstacles, link_radius, tgt.frame)
     if method in ("lm", "analytic", "jacobian_inverse", "jacobian_transpose") and weights is not None:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
-    if method in ("lm", "analytic") + CLASSICAL_METHODS and sphere_set is not None:
-        raise InputError(f"method {method!r} cannot honour sphere constraints; use 'qp' or 'auto'")
+    if method in ("lm", "analytic") + CLASSICAL_METHODS and avoid is not None:
+        raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                backend=backend, weights=weights, spheres=sphere_set, method=method)
+                backend=backend, weights=weights, spheres=avoid, method=method)
 
 
 def solve(
     robot,
-    target,
+    target=None,
     q0=None,
     *,
     frame: str | None = None,
     relax=(),
     relax_frame: str = "world",
     spheres=(),
+    obstacles=(),
+    link_radius: float = 0.0,
     centring=0.0,
     method: str = "auto",
-    backend: str = "osqp",
+    backend: str | None = None,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
     seed: int | None = None,
+    tasks=None,
+    constraints=None,
     **options,
 ):
-    """Inverse kinematics: a configuration placing ``frame`` at ``target``.
+    """Inverse kinematics: a configuration placing ``frame`` at ``target`` - or meeting ``tasks``.
+
+    Two front doors:
+
+    * ``ik.solve(robot, target, q0, ...)``: one frame at one pose. It builds
+      an :class:`ik.FrameTask`, an :class:`ik.CentringTask` (priority 2) when
+      ``centring`` is set, and an obstacle constraint for ``spheres`` /
+      ``obstacles``, exactly the objects a user could build by hand.
+    * ``ik.solve(robot, tasks=[...], constraints=[...], q0=...)``: any
+      composition of tasks (priorities strict between levels, weights inside a
+      level) and constraints (joint limits always on; shapes in
+      ``constraints`` become obstacles). ``Result.task_errors`` reports every
+      task; ``success`` means every goal task is within tolerance.
 
     Parameters
     ----------
@@ -160,7 +196,9 @@ def solve(
         limits if outside). The iterative solvers try ``q0`` and the nearest
         samples of a precomputed table of configurations (:mod:`ik.seeds`) in
         order of their pose distance to the target; pass ``prefer_q0=True`` to
-        always start from ``q0``. The classical methods start from ``q0``
+        always start from ``q0``. A ``q0`` inside an obstacle is not an error:
+        the solve starts from collision-free configurations and says so in
+        ``Result.message``. The classical methods start from ``q0``
         (default: the neutral configuration); the closed forms use it to pick
         the branch nearest to it.
     frame:
@@ -169,45 +207,110 @@ def solve(
         Components left free, any of ``x y z roll pitch yaw`` (``phi`` =
         ``yaw``); position-only IK is ``relax=("roll", "pitch", "yaw")``.
         Relaxed components are expressed in the **world** frame by default
-        (``relax_frame="world"``: relaxing ``z`` frees the height, ``yaw`` the
-        rotation about the world vertical); ``relax_frame="target"`` measures
-        them along the target frame's own axes. See :mod:`ik.targets`.
-    spheres:
-        :class:`ik.Sphere` obstacles: hard constraints on every iterate (QP).
+        (``relax_frame="world"``); ``relax_frame="target"`` measures them
+        along the target frame's own axes. See :mod:`ik.targets`.
+    spheres, obstacles:
+        Obstacles kept clear of the robot's links on every iterate:
+        ``spheres`` takes :class:`ik.Sphere` objects or ``(center, radius)``
+        pairs, ``obstacles`` any shape (:class:`ik.Sphere`, :class:`ik.Box`,
+        :class:`ik.Capsule`, :class:`ik.Cylinder`, :class:`ik.Mesh`) or its
+        ``to_dict()`` form. An obstacle containing the fixed base raises.
+    link_radius:
+        Radius (m) of the capsules around the link segments (0 = bare segments).
     centring:
-        Weight(s) of the secondary objective pulling joints to mid-range, in
-        the task's null space only (strict priority; 0 = off). See :mod:`ik.centring`.
+        Weight(s) of the joint-limit centring objective, strictly below the
+        target (0 = off). See :mod:`ik.centring`.
     method:
         ``"auto"``, ``"qp"``, ``"lm"``, ``"analytic"``, ``"jacobian_inverse"``,
         ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"``.
     backend:
-        QP solver of ``"qp"``: ``"osqp"`` (default), ``"daqp"``, ``"proxqp"``, ``"quadprog"``.
+        QP solver of the constrained steps: ``"daqp"`` (default when
+        installed; deterministic), ``"osqp"``, ``"proxqp"``, ``"quadprog"``.
     tol_pos, tol_rot:
-        Success thresholds on the position (m) and orientation (rad) errors of the kept components.
+        Success thresholds on the position (m) and orientation (rad) errors.
     max_time:
         Time budget (s) for restarts (default 0.1 s for ``lm``, 0.5 s for ``qp``).
     seed:
-        Seed of the random restarts (None = 0): the same seed gives the same answer.
+        Seed of the random restarts (None = 0): the same seed gives a
+        bit-identical answer unless the time budget cut the solve.
+    tasks, constraints:
+        The composed front door (see above). ``constraints`` may also be given
+        with a ``target``: they are added to the target's own.
     options:
         Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
-        for ``"dls"``), ``gain`` (classical), ``max_step`` and ``shortcut``
-        (``qp``: False calls the QP solver at every step), ``max_starts``
-        (``lm``/``qp``), ``prefer_q0``, ``seed_table`` (False disables the
-        table of starts), ``samples`` (4R family), ``choose`` (chooser
-        criteria for ``"analytic"``).
+        for ``"dls"``), ``gain`` (classical), ``max_step``, ``shortcut`` and
+        ``lazy`` (``qp``), ``max_starts``, ``prefer_q0``, ``seed_table``
+        (False disables the table of starts), ``samples`` (4R family),
+        ``choose`` (chooser criteria for ``"analytic"``).
 
     Returns
     -------
     :class:`ik.Result`
     """
+    if tasks is not None:
+        if target is not None:
+            raise InputError("give either a target pose or tasks=[...], not both (add a FrameTask to the tasks)")
+        return solve_tasks(robot, tasks, constraints, q0, method=method, backend=backend, tol_pos=tol_pos,
+                           tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
+    if target is None:
+        raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
     p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
-                centring=centring, method=method, backend=backend, tol_pos=tol_pos, tol_rot=tol_rot,
-                max_time=max_time, seed=seed)
+                obstacles=obstacles, link_radius=link_radius, centring=centring, method=method, backend=backend,
+                tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
+    if constraints is not None:
+        extra = [c for c in (constraints if not isinstance(constraints, (Shape,)) else [constraints])]
+        if extra:
+            if method not in ("auto", "qp"):
+                raise InputError(f"method {method!r} cannot honour constraints; use 'qp' or 'auto'")
+            p["constraints"] = extra
     return solve_prepared(robot, p, **options)
 
 
+_TASK_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
+
+
+def solve_tasks(robot, tasks, constraints=None, q0=None, *, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
+                max_time=None, seed=None, **options):
+    """``ik.solve(robot, tasks=..., constraints=..., q0=...)`` (see :func:`solve`)."""
+    _check_robot(robot)
+    if method not in ("auto", "qp"):
+        raise InputError(f"method must be 'auto' or 'qp' for a composition of tasks, got {method!r}")
+    _check_options("qp", options, _TASK_OPTIONS)
+    if q0 is not None:
+        q0 = robot.check_q(q0, "q0")
+    tol_pos = _check_positive(tol_pos, "tol_pos")
+    tol_rot = _check_positive(tol_rot, "tol_rot")
+    if max_time is not None:
+        max_time = _check_positive(max_time, "max_time")
+    pb = Problem(robot, tasks, constraints)
+    return solve_problem(pb, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=_check_seed(seed),
+                         backend=_check_backend(backend), **_task_options(options))
+
+
+def _task_options(options: dict) -> dict:
+    if "seed_table" in options:
+        options = dict(options)
+        options["seed_table_enabled"] = bool(options.pop("seed_table"))
+    return options
+
+
+def _solve_target_tasks(robot, p: dict, options: dict):
+    """The single-target front door on the task model: FrameTask (+ CentringTask) and obstacle constraints."""
+    tgt = p["target"]
+    extra = p.get("constraints")
+    if extra:
+        from .problem import as_constraints
+
+        spheres = as_constraints(([p["spheres"]] if p["spheres"] is not None else []) + list(extra), (tgt.frame,))
+    else:
+        spheres = p["spheres"]
+    return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
+                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
+                    **_task_options(options))
+
+
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
-_QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut")
+_QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut", "lazy")
 _CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
 _ANALYTIC_OPTIONS = ("samples", "choose")
 _AUTO_OPTIONS = tuple(dict.fromkeys(_QP_OPTIONS + _ANALYTIC_OPTIONS))
@@ -227,7 +330,7 @@ def solve_prepared(robot, p: dict, **options):
     tgt = p["target"]
     if method == "auto":
         _check_options("auto", options, _AUTO_OPTIONS)
-        if p["spheres"] is not None or p["weights"] is not None:
+        if p["spheres"] is not None or p["weights"] is not None or p.get("constraints"):
             method = "qp"
         else:
             solver = _analytic.closed_form_solver(robot, tgt.frame)
@@ -249,11 +352,7 @@ def solve_prepared(robot, p: dict, **options):
                         seed=p["seed"], **opts)
     if method == "qp":
         _check_options(method, options, _QP_OPTIONS)
-        opts = dict(options)
-        if "seed_table" in opts:
-            opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
-        return solve_qp(robot, tgt, p["q0"], spheres=p["spheres"], weights=p["weights"], backend=p["backend"],
-                        tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
+        return _solve_target_tasks(robot, p, options)
     if method == "analytic":
         _check_options(method, options, _ANALYTIC_OPTIONS)
         solver = _analytic.closed_form_solver(robot, tgt.frame)

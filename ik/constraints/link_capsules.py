@@ -1,0 +1,100 @@
+"""The robot body used for obstacle avoidance: its skeleton segments as capsules of radius ``link_radius``.
+
+Segments (see :func:`kinserve.ik.constraints.robot_segments`): every link
+between consecutive joint origins, the sliding segment of each prismatic
+joint, and a tool segment from each tool frame's parent joint to the tool
+frame origin. Each segment is the core of a capsule of radius
+``link_radius`` (m); ``link_radius = 0`` keeps the historical behaviour
+(bare segments: inflate the obstacles by hand to account for link
+thickness). A segment is a pair of body points ``(joint j_a, local point
+l_a)``, ``(joint j_b, local point l_b)``; joint 0 is the world.
+
+Kinematics of a point: a point ``x`` fixed to the body of joint ``j``
+moves with ``xdot = sum_k (v_k + w_k x x) qdot_k`` over the joints ``k``
+supporting ``j``, where ``(v_k; w_k)`` is column ``k`` of Pinocchio's
+WORLD joint Jacobian ``data.J`` (after ``computeJointJacobians``). So for a
+unit direction ``n``
+
+    n . xdot = sum_k (n . v_k + (x x n) . w_k) qdot_k,
+
+computed for all pairs at once as ``N J_v + (X x N) J_w`` masked by the
+support of ``j``. For the closest point ``x = (1 - s) a + s b`` of a
+segment whose ends sit on different bodies (a slider), ``s`` held fixed,
+``xdot = (1 - s) adot + s bdot`` (the envelope theorem makes the distance
+gradient exact to first order with ``s`` frozen).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .sphere_set import frame_points, robot_segments
+
+
+class LinkSkeleton:
+    """Segments of a robot as arrays, with their world end points and distance-gradient rows.
+
+    ``segments`` is a list of :class:`~kinserve.ik.constraints.sphere_set._Segment`
+    (from :func:`robot_segments` / :func:`frame_points`).
+    """
+
+    def __init__(self, robot, segments):
+        model = robot.model
+        self.names = [s.name for s in segments]
+        self.ja = np.array([s.ja for s in segments], dtype=int)
+        self.jb = np.array([s.jb for s in segments], dtype=int)
+        self.la = np.array([s.la for s in segments], dtype=float).reshape(-1, 3)
+        self.lb = np.array([s.lb for s in segments], dtype=float).reshape(-1, 3)
+        self.fixed = (self.ja == 0) & (self.jb == 0)
+        self.joints = sorted({int(j) for j in np.concatenate([self.ja, self.jb]) if j})
+        nj = model.njoints
+        self._R = np.zeros((nj, 3, 3))
+        self._R[0] = np.eye(3)
+        self._t = np.zeros((nj, 3))
+        # support mask: S[j, v] = 1 when velocity index v moves the body of joint j
+        S = np.zeros((nj, model.nv))
+        for j in range(1, nj):
+            for k in model.supports[j]:
+                if k == 0:
+                    continue
+                jm = model.joints[k]
+                S[j, jm.idx_v: jm.idx_v + jm.nv] = 1.0
+        self.support = S
+
+    @classmethod
+    def of_robot(cls, robot, tool_frames=(), frames=None) -> "LinkSkeleton":
+        """The default skeleton (links, sliders, a tool segment per tool frame) or the origins of ``frames``."""
+        if frames is not None:
+            return cls(robot, frame_points(robot, frames))
+        tools = list(dict.fromkeys(tool_frames or (robot.tip,)))
+        segs = robot_segments(robot, tools[0])
+        for t in tools[1:]:
+            segs.append(robot_segments(robot, t)[-1])
+        return cls(robot, segs)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def endpoints(self, data) -> tuple[np.ndarray, np.ndarray]:
+        """World end points ``(A, B)``, each ``(S, 3)``, after forward kinematics in ``data``."""
+        R, t = self._R, self._t
+        oMi = data.oMi
+        for j in self.joints:
+            M = oMi[j]
+            R[j] = M.rotation
+            t[j] = M.translation
+        A = np.einsum("sij,sj->si", R[self.ja], self.la) + t[self.ja]
+        B = np.einsum("sij,sj->si", R[self.jb], self.lb) + t[self.jb]
+        return A, B
+
+    def gradient_rows(self, data, seg, s, A, B, N) -> np.ndarray:
+        """Rows ``(P, nv)``: ``n_i . xdot_i / qdot`` for the point ``(1 - s_i) a + s_i b`` of segment ``seg_i``.
+
+        ``A``, ``B`` are the end points of the segments ``seg`` (``(P, 3)``),
+        ``N`` the unit directions. Needs ``computeJointJacobians`` in ``data``.
+        """
+        Jv, Jw = data.J[:3], data.J[3:]
+        NJv = N @ Jv
+        rows_a = (NJv + np.cross(A, N) @ Jw) * self.support[self.ja[seg]]
+        rows_b = (NJv + np.cross(B, N) @ Jw) * self.support[self.jb[seg]]
+        return (1.0 - s)[:, None] * rows_a + s[:, None] * rows_b
