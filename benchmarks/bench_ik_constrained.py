@@ -29,19 +29,21 @@ gets the same time budget (``--budget``, 0.5 s) with restarts:
   hard ``avoid_self_collisions`` constraint over (skeleton cylinder r = 1 mm,
   obstacle link) pairs, margin 0 (see ``worker_placo.py``).
 
-Success is decided by ``_obstacle_check.py`` alone (none of the solvers' code):
+Figures (success, times, ratios) are over the **witness-feasible** targets -
+those whose generating configuration is itself clear; an obstacle may even
+contain the fixed base, which nobody can solve - with the success over all
+targets alongside. Success is decided by ``_obstacle_check.py`` alone (none of the solvers' code):
 position error < 0.1 mm, rotation error < 1 mrad (Pinocchio FK), q within the
 limits, every skeleton segment outside every obstacle (closed-form segment-
 sphere / segment-box distances). A second column re-checks the answers
 against the URDF's collision meshes with coal ("mesh-clear": the arm's real
-shape, which none of the contenders was asked to avoid). ``witness`` counts
-targets whose generating configuration is itself clear (known feasible).
+shape, which none of the contenders was asked to avoid).
 
 Also timed: one control step ``ik.step(robot, [FrameTask, PostureTask],
 [3 spheres], q, dt)`` (when kinserve has it) against one Pink step (forward
 kinematics + distances + ``solve_ik``) with the same tasks and barrier.
 
-Targets (issue 10): success >= 99 %, median <= 3x and p95 <= 10x the
+Targets (issue 10): success >= 99 % (of the witness-feasible targets), median <= 3x and p95 <= 10x the
 unconstrained solve, ``ik.step`` <= 100 us.
 
     .venv/bin/python benchmarks/bench_ik_constrained.py [--n 200] [--budget 0.5] [--out FILE.json]
@@ -223,18 +225,34 @@ def placo_solver(robot, urdf_text, budget):
 
 
 # --------------------------------------------------------------------------- control step
+def kinserve_step_api():
+    """``(step, FrameTask, PostureTask)`` of kinserve (``ik.*``, else their modules), or ``(None, None, None)``."""
+    step, frame_task, posture_task = (getattr(ik, n, None) for n in ("step", "FrameTask", "PostureTask"))
+    try:
+        if not callable(step):
+            from kinserve.ik.step import step
+        if frame_task is None:
+            from kinserve.ik.tasks.frame_task import FrameTask as frame_task
+        if posture_task is None:
+            from kinserve.ik.tasks.posture_task import PostureTask as posture_task
+    except ImportError:
+        return None, None, None
+    return step, frame_task, posture_task
+
+
 def time_steps(robot, shoulder, calls: int) -> dict:
     rng = np.random.default_rng(7)
     q = robot.random_q(rng)
     T = robot.fk(robot.random_q(rng), FRAME)
     obs = spheres_for(shoulder, T[:3, 3])
     out = {}
-    if hasattr(ik, "step") and hasattr(ik, "FrameTask") and hasattr(ik, "PostureTask"):
-        tasks = [ik.FrameTask(FRAME, T), ik.PostureTask(robot.middle())]
+    step, FrameTask, PostureTask = kinserve_step_api()
+    if step is not None:
+        tasks = [FrameTask(FRAME, T), PostureTask(robot.middle())]
         cons = kinserve_obstacles(obs)
-        ik.step(robot, tasks, cons, q, 0.01)
+        step(robot, tasks, cons, q, 0.01)
         out["kinserve ik.step (frame + posture + 3 spheres)"] = per_call_seconds(
-            lambda: ik.step(robot, tasks, cons, q, 0.01), calls=calls, repeats=5) * 1e6
+            lambda: step(robot, tasks, cons, q, 0.01), calls=calls, repeats=5) * 1e6
     else:
         print("SKIP ik.step: kinserve has no ik.step / FrameTask / PostureTask yet (branch ik-model)")
     try:
@@ -291,26 +309,29 @@ def run_workload(name, targets, seeds, obstacles, solvers, judge, witness, with_
                 if with_mesh and oks[key][i]:
                     mesh[key][i] = judge.mesh_clear(q, obstacles[i])
         print(f"  [{name}] {hi}/{n} targets ({time.perf_counter() - t_all:.1f} s)", flush=True)
-    unc = times["kinserve unconstrained"] * 1e3
+    # figures over the witness-feasible targets (an obstacle may contain the fixed base: nobody can solve
+    # those, and a solver that gives up at once would look fast); success over all targets alongside
+    w = witness if witness.any() else np.ones(n, dtype=bool)
+    unc = times["kinserve unconstrained"][w] * 1e3
     unc_med, unc_p95 = float(np.median(unc)), float(np.percentile(unc, 95))
     stats = {}
     for k in solvers:
-        s = summarise(times[k], oks[k], unc_med, unc_p95)
-        s["success_on_witness_pct"] = 100.0 * float(np.mean(oks[k][witness])) if witness.any() else float("nan")
+        s = summarise(times[k][w], oks[k][w], unc_med, unc_p95)
+        s["success_all_targets_pct"] = 100.0 * float(np.mean(oks[k]))
         if k == "kinserve unconstrained":
-            s["answers_clear_of_obstacles_pct"] = 100.0 * float(np.mean(clear[k] >= 0.0))
+            s["answers_clear_of_obstacles_pct"] = 100.0 * float(np.mean(clear[k][w] >= 0.0))
         if with_mesh:
-            s["mesh_clear_pct"] = 100.0 * float(np.mean(mesh[k]))
+            s["mesh_clear_pct"] = 100.0 * float(np.mean(mesh[k][w]))
         stats[k] = s
     return stats
 
 
 def print_table(name, stats, n, n_witness):
-    print(f"\n{name}: {n} targets, {n_witness} witness-feasible")
-    print(f"{'solver':26}{'success %':>10}{'on witness %':>13}{'mesh-clear %':>13}{'median ms':>11}{'p95 ms':>9}"
+    print(f"\n{name}: {n} targets, {n_witness} witness-feasible (figures over these; 'all %' over all {n})")
+    print(f"{'solver':26}{'success %':>10}{'all %':>8}{'mesh-clear %':>13}{'median ms':>11}{'p95 ms':>9}"
           f"{'mean ms':>9}{'med/unc':>9}{'p95/unc p95':>12}")
     for k, s in stats.items():
-        print(f"{k:26}{s['success_pct']:10.1f}{s['success_on_witness_pct']:13.1f}{s.get('mesh_clear_pct', float('nan')):13.1f}"
+        print(f"{k:26}{s['success_pct']:10.1f}{s['success_all_targets_pct']:8.1f}{s.get('mesh_clear_pct', float('nan')):13.1f}"
               f"{s['median_ms']:11.3f}{s['p95_ms']:9.2f}{s['mean_ms']:9.2f}{s['median_vs_unconstrained']:9.1f}"
               f"{s['p95_vs_unconstrained_p95']:12.1f}")
 
@@ -382,7 +403,7 @@ def main() -> None:
     verdict = {}
     a = results[next(iter(results))]["per_solver"].get("kinserve")
     if a is not None:
-        verdict["A_success_ge_99"] = a["success_pct"] >= 99.0
+        verdict["A_success_ge_99_of_witness_feasible"] = a["success_pct"] >= 99.0
         verdict["A_median_le_3x_unconstrained"] = a["median_vs_unconstrained"] <= 3.0
         verdict["A_p95_le_10x_unconstrained_p95"] = a["p95_vs_unconstrained_p95"] <= 10.0
     step_key = "kinserve ik.step (frame + posture + 3 spheres)"
