@@ -433,8 +433,9 @@ def main() -> None:
             verdict["way_ge_99pct_of_witness"] = w["kinserve"]["success_pct"] >= 99.0
             verdict["way_median_le_5x_unconstrained"] = w["kinserve"]["median_vs_unconstrained"] <= 5.0
             for peer in ("roboplan SimpleIk", "pink SelfCollisionBarrier"):
-                if peer in w:
-                    verdict[f"way_success_ahead_of_{peer.split()[0]}"] = w["kinserve"]["success_pct"] > w[peer]["success_pct"]
+                if peer in w:  # "ahead": strictly more, or both at 100 %
+                    ks, ps = w["kinserve"]["success_pct"], w[peer]["success_pct"]
+                    verdict[f"way_success_ahead_of_{peer.split()[0]}"] = ks > ps or ks == ps == 100.0
     kc = checks.get("kinserve robot.in_collision(q, obstacles)")
     if kc is not None and "roboplan Scene.hasCollisions" in checks:
         verdict["check_no_slower_than_roboplan"] = kc <= checks["roboplan Scene.hasCollisions"]
