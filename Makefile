@@ -62,12 +62,16 @@ $(PEER_VENVS)/%/.installed:
 
 peers: $(PEER_VENVS)/placo/.installed $(PEER_VENVS)/roboplan/.installed
 
+# BENCH_N=50 runs the IK benchmarks on 50 targets (a quick check; the README figures use the defaults).
+BENCH_N ?=
+BENCH_IK_N := $(if $(BENCH_N),--n $(BENCH_N))
+
 bench: $(VENV)/.installed-bench peers
 	mkdir -p bench-out
 	$(PY) benchmarks/bench_kinematics.py --out bench-out/kinematics.json
-	$(PY) benchmarks/bench_ik.py --out bench-out/ik.json
-	$(PY) benchmarks/bench_ik_constrained.py --out bench-out/ik_constrained.json
-	$(PY) benchmarks/bench_collision.py --out bench-out/collision.json
+	$(PY) benchmarks/bench_ik.py $(BENCH_IK_N) --out bench-out/ik.json
+	$(PY) benchmarks/bench_ik_constrained.py $(BENCH_IK_N) --out bench-out/ik_constrained.json
+	$(PY) benchmarks/bench_collision.py $(BENCH_IK_N) --out bench-out/collision.json
 	$(PY) benchmarks/bench_planners.py --out bench-out/planners.json
 	$(PY) benchmarks/bench_service.py --out bench-out/service.json
 	$(PY) benchmarks/render_tables.py bench-out --out bench-out/tables.md

@@ -71,6 +71,17 @@ class PeerWorker:
             raise PeerError(f"{self.peer} worker: {answer['error']}")
         return answer
 
+    def try_call(self, request: dict) -> dict | None:
+        """:meth:`call`, or None once the worker has failed (reported once; later calls return None at once)."""
+        if getattr(self, "failed", None):
+            return None
+        try:
+            return self.call(request)
+        except (PeerError, OSError, json.JSONDecodeError) as exc:
+            self.failed = str(exc)
+            print(f"WARNING {self.peer} failed, its remaining solves count as failures: {exc}", flush=True)
+            return None
+
     def close(self) -> None:
         if self.proc.poll() is None:
             try:

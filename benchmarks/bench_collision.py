@@ -184,12 +184,12 @@ def roboplan_solver(w, budget):
     def solve(T, q0, i, extra):
         cube = extra[0] if extra else box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
         if state["cube"] != cube:  # not timed
-            w.call({"cmd": "move_box", "name": "cube", "pose": cube.T.tolist()})
+            w.try_call({"cmd": "move_box", "name": "cube", "pose": cube.T.tolist()})
             state["cube"] = cube
-        a = w.call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                    "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "check_collisions": True})
-        solve.inner_time = a["time"]
-        return None if a["q"] is None else np.asarray(a["q"])
+        a = w.try_call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
+                        "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "check_collisions": True})
+        solve.inner_time = budget if a is None else a["time"]
+        return None if a is None or a["q"] is None else np.asarray(a["q"])
 
     solve.inner_time = None
     return solve
@@ -347,7 +347,9 @@ def time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs) -> dict:
         out[label] = median_us(lambda q: pin.computeCollisions(c.model, c.data, c.geom, c.gdata, q, True), fq)
         out[f"{label}: pairs"] = len(c.geom.collisionPairs)
     if rp is not None:
-        out["roboplan Scene.hasCollisions"] = rp.call({"cmd": "time_collision", "qs": [q.tolist() for q in qs]})["us"]
+        a = rp.try_call({"cmd": "time_collision", "qs": [q.tolist() for q in qs]})
+        if a is not None:
+            out["roboplan Scene.hasCollisions"] = a["us"]
     return out
 
 

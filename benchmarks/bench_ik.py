@@ -234,10 +234,10 @@ def make_placo(robot, urdf_text: str):
 
 def placo_solve_fn(worker, max_time: float = 0.1):
     def solve(T, q0):
-        a = worker.call({"cmd": "solve", "T": T.tolist(), "q0": np.asarray(q0).tolist(), "seed": 0,
-                         "max_time": max_time, "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "max_iter": 100})
-        solve.inner_time = a["time"]
-        return np.asarray(a["q"])
+        a = worker.try_call({"cmd": "solve", "T": T.tolist(), "q0": np.asarray(q0).tolist(), "seed": 0,
+                             "max_time": max_time, "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "max_iter": 100})
+        solve.inner_time = max_time if a is None else a["time"]
+        return None if a is None else np.asarray(a["q"])
 
     solve.inner_time = None
     return solve

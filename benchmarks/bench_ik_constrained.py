@@ -212,13 +212,13 @@ def placo_solver(robot, urdf_text, budget):
         key = tuple(o.to_dict().__repr__() for o in obs)
         if state["key"] != key:  # obstacles are part of PlaCo's URDF: reload (not timed)
             u, pairs = arm_urdf(urdf_text, segment_radius=1e-3, obstacles=[o.to_dict() for o in obs])
-            worker.call({"cmd": "setup", "urdf": u, "pairs": pairs, "frame": FRAME, "joints": robot.joint_names,
-                         "avoid": True, "margin": 0.0, "trigger": 0.05})
+            worker.try_call({"cmd": "setup", "urdf": u, "pairs": pairs, "frame": FRAME, "joints": robot.joint_names,
+                             "avoid": True, "margin": 0.0, "trigger": 0.05})
             state["key"] = key
-        a = worker.call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                         "tol_pos": TOL_POS, "tol_rot": TOL_ROT})
-        solve.inner_time = a["time"]
-        return np.asarray(a["q"])
+        a = worker.try_call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
+                             "tol_pos": TOL_POS, "tol_rot": TOL_ROT})
+        solve.inner_time = budget if a is None else a["time"]
+        return None if a is None else np.asarray(a["q"])
 
     solve.inner_time = None
     return solve, worker
