@@ -234,8 +234,12 @@ def pink_solver(urdf_path, srdf_path, package_dirs, budget):
     def solve(T, q0, i, extra):
         cube = extra[0] if extra else box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
         geom.geometryObjects[cube_id].placement = pin.SE3(np.eye(3), cube.T[:3, 3].copy())
-        return p.solve(T, q0, i, budget, TOL_POS, TOL_ROT)
+        t0 = time.perf_counter()
+        q = p.solve(T, q0, i, budget, TOL_POS, TOL_ROT)
+        solve.inner_time = time.perf_counter() - t0
+        return q
 
+    solve.inner_time = None
     solve.pairs = len(geom.collisionPairs)
     return solve
 

@@ -176,7 +176,7 @@ def kinserve_solvers(robot, budget: float) -> tuple[dict, list[str]]:
     return solvers, notes
 
 
-def pink_solver(robot, obstacles_of, budget):
+def pink_solver(robot, budget):
     try:
         import pink  # noqa: F401
     except ImportError as exc:
@@ -185,9 +185,14 @@ def pink_solver(robot, obstacles_of, budget):
     from _pink_peer import PinkBarrierIK, skeleton_capsules
 
     def solve(T, q0, i, obs):
+        # the barrier's geometry model is setup, like PlaCo's URDF: built outside the timed solve
         p = PinkBarrierIK(robot.model, FRAME, skeleton_capsules(robot.model, FRAME, obs))
-        return p.solve(T, q0, i, budget, TOL_POS, TOL_ROT)
+        t0 = time.perf_counter()
+        q = p.solve(T, q0, i, budget, TOL_POS, TOL_ROT)
+        solve.inner_time = time.perf_counter() - t0
+        return q
 
+    solve.inner_time = None
     return solve
 
 
@@ -364,7 +369,7 @@ def main() -> None:
     }
 
     base, notes = kinserve_solvers(robot, args.budget)
-    pink_fn = None if args.no_pink else pink_solver(robot, None, args.budget)
+    pink_fn = None if args.no_pink else pink_solver(robot, args.budget)
     placo_fn, placo_worker = (None, None) if args.no_placo else placo_solver(robot, urdf_text, args.budget)
     for note in notes:
         print("NOTE", note)
