@@ -127,7 +127,6 @@ class Judge:
         self.fid = self.model.getFrameId(FRAME)
         self.lower, self.upper = self.model.lowerPositionLimit, self.model.upperPositionLimit
         self.skeleton = Skeleton(self.model, FRAME)
-        self.urdf_path, self.package_dirs = urdf_path, package_dirs
         self.coal = CoalChecker(urdf_path, package_dirs, locked={"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0})
 
     def pose_ok(self, T, q) -> bool:
