@@ -44,7 +44,7 @@ Also timed: one control step ``ik.step(robot, [FrameTask, PostureTask],
 kinematics + distances + ``solve_ik``) with the same tasks and barrier.
 
 Targets (issue 10): success >= 99 % (of the witness-feasible targets), median <= 3x and p95 <= 10x the
-unconstrained solve, ``ik.step`` <= 100 us.
+unconstrained solve's median time, ``ik.step`` <= 100 us.
 
     .venv/bin/python benchmarks/bench_ik_constrained.py [--n 200] [--budget 0.5] [--out FILE.json]
 """
@@ -333,11 +333,11 @@ def run_workload(name, targets, seeds, obstacles, solvers, judge, witness, with_
 def print_table(name, stats, n, n_witness):
     print(f"\n{name}: {n} targets, {n_witness} witness-feasible (figures over these; 'all %' over all {n})")
     print(f"{'solver':26}{'success %':>10}{'all %':>8}{'mesh-clear %':>13}{'median ms':>11}{'p95 ms':>9}"
-          f"{'mean ms':>9}{'med/unc':>9}{'p95/unc p95':>12}")
+          f"{'mean ms':>9}{'med/unc':>9}{'p95/unc':>9}{'p95/unc p95':>12}")
     for k, s in stats.items():
         print(f"{k:26}{s['success_pct']:10.1f}{s['success_all_targets_pct']:8.1f}{s.get('mesh_clear_pct', float('nan')):13.1f}"
               f"{s['median_ms']:11.3f}{s['p95_ms']:9.2f}{s['mean_ms']:9.2f}{s['median_vs_unconstrained']:9.1f}"
-              f"{s['p95_vs_unconstrained_p95']:12.1f}")
+              f"{s['p95_vs_unconstrained_median']:9.1f}{s['p95_vs_unconstrained_p95']:12.1f}")
 
 
 def main() -> None:
@@ -409,7 +409,9 @@ def main() -> None:
     if a is not None:
         verdict["A_success_ge_99_of_witness_feasible"] = a["success_pct"] >= 99.0
         verdict["A_median_le_3x_unconstrained"] = a["median_vs_unconstrained"] <= 3.0
-        verdict["A_p95_le_10x_unconstrained_p95"] = a["p95_vs_unconstrained_p95"] <= 10.0
+        # "the unconstrained solve" = its median time (the issue's 55x is median / median); p95 / p95 is
+        # reported too but not judged: the unconstrained p95 is a handful of slow outliers on a shared machine
+        verdict["A_p95_le_10x_unconstrained_median"] = a["p95_vs_unconstrained_median"] <= 10.0
     step_key = "kinserve ik.step (frame + posture + 3 spheres)"
     if step_key in steps:
         verdict["ik_step_le_100us"] = steps[step_key] <= 100.0
