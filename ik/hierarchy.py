@@ -19,7 +19,9 @@ SVD, built level by level), ``dq = dq_{k-1} + Z z`` and::
 
 so ``J_j dq`` is unchanged for every higher level ``j`` (the higher levels'
 first-order progress is kept exactly) and the constraints hold at every
-level. A level whose QP is infeasible (the higher levels leave it no
+level. When the first level is infeasible because rows demand that violated
+constraints recover (``l > 0``, a start in collision), those rows are relaxed
+to ``l = 0`` (get no worse) and the level is solved again. A level whose QP is infeasible (the higher levels leave it no
 feasible freedom) contributes nothing. This is the nullspace form of a
 hierarchical QP; it needs no more than one small QP per level.
 """
@@ -65,6 +67,10 @@ def hierarchical_step(levels, lb, ub, G=None, l=None, u=None, *, lam: float, max
     P = J1.T.dot(J1)
     P.flat[:: n + 1] += lam
     dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
+    if dq is None and G is not None and (l > 0.0).any():
+        # rows that demand a violated constraint recover (l > 0) may conflict: ask only that it gets no worse
+        l = np.minimum(l, 0.0)
+        dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
     if dq is None:
         return None, None
     if len(levels) == 1:

@@ -40,7 +40,7 @@ def starts(robot, goals, q0, seed, table_enabled: bool = True, prefer_q0: bool =
     fs = [_features(tab, t) for tab, t in zip(tables, tasks)]
     q0_dist = None
     if q0 is not None:
-        data = robot.model.createData()
+        data = robot.data
         pin.forwardKinematics(robot.model, data, q0)
         q0_dist = 0.0
         for tab, t, f in zip(tables, tasks, fs):

@@ -81,7 +81,7 @@ class Problem:
         self.robot = robot
         self.model = robot.model
         self.data = robot.data
-        self.check_data = robot.model.createData()
+        self._check_data = None
         self.tasks = [t.bind(robot) for t in tasks]
         tool_frames = [t.frame_name for t in self.tasks if hasattr(t, "frame_name")]
         cons = as_constraints(constraints, tool_frames)
@@ -104,12 +104,24 @@ class Problem:
         self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
         self.gain = min([getattr(c, "gain", DAMPER_GAIN) for c in self.checked] or [DAMPER_GAIN])
         self.nv = robot.model.nv
+        self.q_in_data = None
 
     # ------------------------------------------------------------------------------- tasks
+    def state(self, q):
+        """``(levels, pe, re, es, margin)`` at ``q`` from one kinematics pass on the main ``Data``."""
+        levels, pe, re, es = self.evaluate(q)
+        if not self.checked:
+            return levels, pe, re, es, math.inf
+        robot, data = self.robot, self.data
+        m = min(c.margin(robot, data, q) for c in self.checked) if len(self.checked) > 1 else \
+            self.checked[0].margin(robot, data, q)
+        return levels, pe, re, es, m
+
     def evaluate(self, q):
         """``(levels, pe, re, es)``: stacked ``(J, e)`` per level, goal errors (m, rad), each task's error."""
         robot, data = self.robot, self.data
         _cjj(self.model, data, q)
+        self.q_in_data = q
         levels = []
         es = []
         pe = re = 0.0
@@ -144,8 +156,11 @@ class Problem:
 
     # ------------------------------------------------------------------------- constraints
     def box_and_rows(self, q, dt=None, max_step: float = math.inf, with_checked_rows: bool = True):
-        """``(lb, ub, G, l, u)`` at ``q`` (after :meth:`evaluate`); ``G`` is None without rows."""
+        """``(lb, ub, G, l, u)`` at ``q``; ``G`` is None without rows. Recomputes the kinematics if needed."""
         robot, data = self.robot, self.data
+        if self.q_in_data is not q:
+            _cjj(self.model, data, q)
+            self.q_in_data = q
         lb = np.full(self.nv, -max_step)
         ub = np.full(self.nv, max_step)
         Gs, ls, us = [], [], []
@@ -164,12 +179,22 @@ class Problem:
             return lb, ub, Gs[0], ls[0], us[0]
         return lb, ub, np.vstack(Gs), np.concatenate(ls), np.concatenate(us)
 
+    @property
+    def check_data(self):
+        """A second Pinocchio ``Data`` (made on first use) for checks that must not disturb :attr:`data`."""
+        if self._check_data is None:
+            self._check_data = self.model.createData()
+        return self._check_data
+
     def margin(self, q) -> float:
-        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); uses the check ``Data``."""
+        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics only."""
         if not self.checked:
             return math.inf
-        d = self.check_data
+        d = self.data
         _fk(self.model, d, q)
+        self.q_in_data = None
+        if len(self.checked) == 1:
+            return self.checked[0].margin(self.robot, d, q)
         return min(c.margin(self.robot, d, q) for c in self.checked)
 
     def describe(self, q) -> str:

@@ -294,6 +294,34 @@ def _task_options(options: dict) -> dict:
     return options
 
 
+def _solve_unconstrained_first(robot, p: dict, options: dict):
+    """The cheap path of ``"auto"`` with obstacles: an LM answer whose every iterate is clear, or None.
+
+    Obstacles rarely bind: the Levenberg-Marquardt solve runs first, and its
+    answer is kept when every iterate of the run that produced it (its
+    history) keeps every clearance ``>= 0`` - the constraint then held on
+    every iterate without ever being imposed. Otherwise the constrained
+    solve starts from the last clear iterate of that run (``p["q0"]`` is
+    updated in place; the caller continues with method ``"qp"``).
+    """
+    avoid = p["spheres"]
+    opts = _task_options(options)
+    q0 = p["q0"]
+    note = ""
+    if q0 is not None and avoid.first_violation(robot, np.clip(q0, robot.lower, robot.upper)[None]) is not None:
+        return None  # the constrained solve reports the start in collision
+    res = solve_lm(robot, p["target"], q0, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
+                   seed=p["seed"], **opts)
+    k = avoid.first_violation(robot, res.history.q)
+    if res.success and k is None:
+        res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)" + note
+        return res
+    if k is not None and k > 0 and not opts.get("prefer_q0"):
+        p["q0"] = res.history.q[k - 1].copy()
+        p["warm"] = True
+    return None
+
+
 def _solve_target_tasks(robot, p: dict, options: dict):
     """The single-target front door on the task model: FrameTask (+ CentringTask) and obstacle constraints."""
     tgt = p["target"]
@@ -304,9 +332,11 @@ def _solve_target_tasks(robot, p: dict, options: dict):
         spheres = as_constraints(([p["spheres"]] if p["spheres"] is not None else []) + list(extra), (tgt.frame,))
     else:
         spheres = p["spheres"]
+    opts = _task_options(options)
+    if p.get("warm"):
+        opts["prefer_q0"] = True
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
-                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
-                    **_task_options(options))
+                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
 
 
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
@@ -330,7 +360,12 @@ def solve_prepared(robot, p: dict, **options):
     tgt = p["target"]
     if method == "auto":
         _check_options("auto", options, _AUTO_OPTIONS)
-        if p["spheres"] is not None or p["weights"] is not None or p.get("constraints"):
+        if p["spheres"] is not None and p["weights"] is None and not p.get("constraints"):
+            res = _solve_unconstrained_first(robot, p, {k: v for k, v in options.items() if k in _LM_OPTIONS})
+            if res is not None:
+                return res
+            method = "qp"
+        elif p["spheres"] is not None or p["weights"] is not None or p.get("constraints"):
             method = "qp"
         else:
             solver = _analytic.closed_form_solver(robot, tgt.frame)

@@ -63,6 +63,7 @@ STALL_RATIO = 0.9
 STALL_PATIENCE = 4
 
 _now = time.perf_counter
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 
 
 class _Run:
@@ -82,7 +83,7 @@ class _Run:
 
 
 def _step(run: _Run, q, levels, E, m_q):
-    """``(dq, dq_lower, q_next)`` - ``q_next`` set when the lazy trial was accepted; dq None when infeasible."""
+    """``(dq, dq_lower, next)`` - ``next = (q + dq, state)`` when the lazy trial was accepted; dq None if infeasible."""
     pb = run.pb
     lam = DAMPING_GAIN * E + run.damping
     if run.lazy and pb.checked and m_q > 0.0:
@@ -90,9 +91,10 @@ def _step(run: _Run, q, levels, E, m_q):
         dq, dq2 = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=run.max_step, backend=run.backend,
                                     shortcut=run.shortcut)
         if dq is not None:
-            qn = np.clip(q + dq, run.lo, run.hi)
-            if pb.margin(qn) >= (1.0 - run.gain) * m_q:
-                return dq, dq2, qn
+            qn = _clip(q + dq, run.lo, run.hi)
+            st = pb.state(qn)
+            if st[4] >= (1.0 - run.gain) * m_q:
+                return dq, dq2, (qn, st)
     lb, ub, G, l, u = pb.box_and_rows(q, None, run.max_step)
     dq, dq2 = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=run.max_step, backend=run.backend,
                                 shortcut=run.shortcut)
@@ -100,26 +102,17 @@ def _step(run: _Run, q, levels, E, m_q):
 
 
 def _accept(run: _Run, q, dq, m_q):
-    """``(q + alpha dq, margin)`` with the largest ``alpha in {1, 1/2, ...}`` keeping the margin ``>= min(0, m_q)``."""
+    """``(q + alpha dq, state)`` with the largest ``alpha in {1, 1/2, ...}`` keeping the margin ``>= min(0, m_q)``."""
     pb = run.pb
-    qn = np.clip(q + dq, run.lo, run.hi)
-    if not pb.checked:
-        return qn, math.inf
     floor = min(0.0, m_q)
     alpha = 1.0
     for _ in range(MAX_BACKTRACK):
-        m = pb.margin(qn)
-        if m >= floor:
-            return qn, m
+        qn = _clip(q + alpha * dq, run.lo, run.hi)
+        st = pb.state(qn)
+        if st[4] >= floor:
+            return qn, st
         alpha *= 0.5
-        qn = np.clip(q + alpha * dq, run.lo, run.hi)
-    return None, m_q
-
-
-def _goal_errors(pb: Problem, qn):
-    """Goal errors at ``qn`` (forward kinematics and Jacobians on the problem's data)."""
-    _, pe, re, _ = pb.evaluate(qn)
-    return pe, re
+    return None, None
 
 
 def _run_start(run: _Run, q, record):
@@ -131,9 +124,9 @@ def _run_start(run: _Run, q, record):
     best_es = None
     beta_prev = 1.0
     qs, pes, res = record
-    m_q = pb.margin(q)
+    st = pb.state(q)
     for it in range(run.max_iter + 1):
-        levels, pe, re, es = pb.evaluate(q)
+        levels, pe, re, es, m_q = st
         qs.append(q)
         pes.append(pe)
         res.append(re)
@@ -154,32 +147,30 @@ def _run_start(run: _Run, q, record):
                 stalls += 1
                 if stalls >= run.stall_patience:
                     return best_ok is not None, it, "stalled", best_ok, best_es
-        dq, dq2, q_lazy = _step(run, q, levels, E, m_q)
+        dq, dq2, nxt = _step(run, q, levels, E, m_q)
         if dq is None:
             return best_ok is not None, it, "the constraints leave no feasible step (QP infeasible)", best_ok, best_es
         if within and float(np.abs(dq).max()) < STEP_TOL:
             return True, it, "converged (goals within tolerance, objectives stationary)", best_ok, best_es
         if within and dq2 is not None:
+            # strict priority along the path: a lower-level step may not take the goals out of tolerance
             dq1 = dq - dq2
             beta = min(1.0, 2.0 * beta_prev)
             for _ in range(MAX_BACKTRACK):
-                qn, m_n = _accept(run, q, dq1 + beta * dq2, m_q)
-                if qn is None:
-                    break
-                pe_n, re_n = _goal_errors(pb, qn)
-                if pe_n < run.tp and re_n < run.tr:
+                qn, st_n = _accept(run, q, dq1 + beta * dq2, m_q)
+                if qn is None or (st_n[1] < run.tp and st_n[2] < run.tr):
                     break
                 beta *= 0.5
             else:
                 return True, it, "converged (objectives stopped by the goal tolerance)", best_ok, best_es
             beta_prev = beta
-        elif q_lazy is not None:
-            qn, m_n = q_lazy, pb.margin(q_lazy) if pb.checked else math.inf
+        elif nxt is not None:
+            qn, st_n = nxt
         else:
-            qn, m_n = _accept(run, q, dq, m_q)
+            qn, st_n = _accept(run, q, dq, m_q)
         if qn is None:
             return best_ok is not None, it, "step blocked by a constraint", best_ok, best_es
-        q, m_q = qn, m_n
+        q, st = qn, st_n
         if _now() > run.deadline:
             return best_ok is not None, it + 1, "time budget exhausted", best_ok, best_es
     if best_ok is not None:

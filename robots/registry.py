@@ -111,6 +111,9 @@ ENTRIES: dict[str, RobotEntry] = {
              "gripper_frame_link", 5, {"gripper": 0.0}),
         _erd("talos_left_arm", "PAL TALOS left arm, 6 DOF (gripper locked; tool wrist_left_ft_tool_link)",
              "talos_data/robots/talos_left_arm.urdf", "wrist_left_ft_tool_link", 6, {"gripper_left_joint": 0.0}),
+        _erd("baxter", "Rethink Baxter, both 7-DOF arms free (14 joints; head and grippers locked; tip left_gripper, "
+             "the other hand is right_gripper)", "baxter_description/urdf/baxter.urdf", "left_gripper", 14,
+             {"head_pan": 0.0, **{f"{s}_gripper_{f}_finger_joint": 0.0 for s in "lr" for f in "lr"}}),
         _erd("baxter_left", "Rethink Baxter left 7-DOF arm (head, right arm, grippers locked)",
              "baxter_description/urdf/baxter.urdf", "left_gripper", 7, _baxter_locks("left")),
         _erd("baxter_right", "Rethink Baxter right 7-DOF arm (head, left arm, grippers locked)",

@@ -30,7 +30,8 @@ from fastapi.responses import JSONResponse
 
 from kinserve import ik
 from kinserve import robots
-from kinserve.kinematics.errors import FrameError, KinserveError, UnknownRobotError
+from kinserve.kinematics.errors import FrameError, InputError, KinserveError, UnknownRobotError
+from kinserve.kinematics.shapes import as_shape
 
 from . import schemas as S
 from .robot_pool import RobotPool
@@ -178,9 +179,42 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     def solve_ik(req: S.IKRequest):
         r = robot_of(req)
         kwargs = ik_kwargs(r, req)
-        with field("target"):
-            res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=capped(req.max_time), **kwargs)
-        return result_out(res)
+        if (req.target is None) == (req.targets is None):
+            raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
+        obstacles = []
+        for i, spec in enumerate(req.obstacles):
+            with field(f"obstacles[{i}]"):
+                obstacles.append(as_shape(spec.model_dump(exclude_none=True), f"obstacles[{i}]"))
+        tasks = []
+        if req.targets is not None:
+            if req.method not in ("auto", "qp"):
+                raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
+            for i, t in enumerate(req.targets):
+                try:
+                    task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
+                    tasks.append(task.bind(r))
+                except FrameError as exc:
+                    raise FieldError(f"targets[{i}].frame", exc) from exc
+                except KinserveError as exc:
+                    raise FieldError(f"targets[{i}]", exc) from exc
+        tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
+        if obstacles or kwargs["spheres"]:
+            with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
+                ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
+        if req.target is not None:
+            with field("target"):
+                res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=capped(req.max_time),
+                               obstacles=obstacles, link_radius=req.link_radius, **kwargs)
+            return result_out(res)
+        if req.centring:
+            tasks.append(ik.CentringTask(req.centring))
+        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames)]
+        with field("targets"):
+            res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
+                           tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=capped(req.max_time))
+        out = result_out(res)
+        out["task_errors"] = res.task_errors
+        return out
 
     @app.post("/ik/batch", response_model=S.IKBatchResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
     def solve_ik_batch(req: S.IKBatchRequest):

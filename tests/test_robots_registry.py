@@ -27,6 +27,7 @@ EXPECTED = {
     "so100": (5, "gripper"),
     "so101": (5, "gripper_frame_link"),
     "talos_left_arm": (6, "wrist_left_ft_tool_link"),
+    "baxter": (14, "left_gripper"),
     "baxter_left": (7, "left_gripper"),
     "baxter_right": (7, "right_gripper"),
     "finger_edu": (3, "finger_tip_link"),

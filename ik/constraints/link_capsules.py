@@ -46,11 +46,48 @@ class LinkSkeleton:
         self.la = np.array([s.la for s in segments], dtype=float).reshape(-1, 3)
         self.lb = np.array([s.lb for s in segments], dtype=float).reshape(-1, 3)
         self.fixed = (self.ja == 0) & (self.jb == 0)
-        self.joints = sorted({int(j) for j in np.concatenate([self.ja, self.jb]) if j})
+        # Every end point is read off Pinocchio as cheaply as possible: a joint origin (a translation),
+        # the origin of a revolute child joint (its mount point: also a translation), or a point
+        # transformed by its joint's placement (SE3.act); world points are constants.
+        points: dict = {}
+        self._translations: list[int] = []
+        self._acts: list[tuple[int, np.ndarray]] = []
+        self._world: list[np.ndarray] = []
+        revolute_child = {}
+        for c in range(1, model.njoints):
+            if not model.joints[c].shortname().startswith("JointModelP"):
+                revolute_child.setdefault((model.parents[c], tuple(np.round(model.jointPlacements[c].translation, 12))), c)
+
+        def key_of(j, l):
+            if j == 0:
+                return ("w", tuple(l))
+            if not l.any():
+                return ("t", j)
+            c = revolute_child.get((j, tuple(np.round(l, 12))))
+            if c is not None:
+                return ("t", c)
+            return ("a", j, tuple(l))
+
+        a_idx, b_idx = [], []
+        for js, ls, out in ((self.ja, self.la, a_idx), (self.jb, self.lb, b_idx)):
+            for j, l in zip(js, ls):
+                k = key_of(int(j), l)
+                if k not in points:
+                    points[k] = len(points)
+                out.append(points[k])
+        order = sorted(points, key=points.get)
+        # stack order: translations, acts, world points; remap indices accordingly
+        groups = {"t": [], "a": [], "w": []}
+        for k in order:
+            groups[k[0]].append(k)
+        stacked = groups["t"] + groups["a"] + groups["w"]
+        pos = {k: i for i, k in enumerate(stacked)}
+        self._a_idx = np.array([pos[order[i]] for i in a_idx], dtype=int)
+        self._b_idx = np.array([pos[order[i]] for i in b_idx], dtype=int)
+        self._translations = [k[1] for k in groups["t"]]
+        self._acts = [(k[1], np.array(k[2])) for k in groups["a"]]
+        self._world = [np.array(k[1]) for k in groups["w"]]
         nj = model.njoints
-        self._R = np.zeros((nj, 3, 3))
-        self._R[0] = np.eye(3)
-        self._t = np.zeros((nj, 3))
         # support mask: S[j, v] = 1 when velocity index v moves the body of joint j
         S = np.zeros((nj, model.nv))
         for j in range(1, nj):
@@ -60,32 +97,37 @@ class LinkSkeleton:
                 jm = model.joints[k]
                 S[j, jm.idx_v: jm.idx_v + jm.nv] = 1.0
         self.support = S
+        self._placements = None
 
     @classmethod
     def of_robot(cls, robot, tool_frames=(), frames=None) -> "LinkSkeleton":
         """The default skeleton (links, sliders, a tool segment per tool frame) or the origins of ``frames``."""
-        if frames is not None:
-            return cls(robot, frame_points(robot, frames))
-        tools = list(dict.fromkeys(tool_frames or (robot.tip,)))
-        segs = robot_segments(robot, tools[0])
-        for t in tools[1:]:
-            segs.append(robot_segments(robot, t)[-1])
-        return cls(robot, segs)
+        return cls(robot, skeleton_segments(robot, tool_frames, frames))
+
 
     def __len__(self) -> int:
         return len(self.names)
 
     def endpoints(self, data) -> tuple[np.ndarray, np.ndarray]:
         """World end points ``(A, B)``, each ``(S, 3)``, after forward kinematics in ``data``."""
-        R, t = self._R, self._t
-        oMi = data.oMi
-        for j in self.joints:
-            M = oMi[j]
-            R[j] = M.rotation
-            t[j] = M.translation
-        A = np.einsum("sij,sj->si", R[self.ja], self.la) + t[self.ja]
-        B = np.einsum("sij,sj->si", R[self.jb], self.lb) + t[self.jb]
-        return A, B
+        P = self.points(data)
+        return P[self._a_idx], P[self._b_idx]
+
+    def end_index(self, seg) -> tuple[np.ndarray, np.ndarray]:
+        """Rows of :meth:`points` holding the two ends of the segments ``seg``."""
+        return self._a_idx[seg], self._b_idx[seg]
+
+    def points(self, data) -> np.ndarray:
+        """The distinct end points of the segments ``(K, 3)`` (see :meth:`end_index`), after forward kinematics."""
+        cached = self._placements
+        if cached is None or cached[0] is not data:
+            # references into data.oMi (they follow every forward-kinematics pass): indexing the
+            # Pinocchio vector costs more than reading a placement
+            cached = self._placements = (data, list(data.oMi))
+        oMi = cached[1]
+        pts = [oMi[j].translation for j in self._translations]
+        pts += [oMi[j].act(l) for j, l in self._acts]
+        return np.array(pts + self._world) if self._world else np.array(pts)
 
     def gradient_rows(self, data, seg, s, A, B, N) -> np.ndarray:
         """Rows ``(P, nv)``: ``n_i . xdot_i / qdot`` for the point ``(1 - s_i) a + s_i b`` of segment ``seg_i``.
@@ -98,3 +140,14 @@ class LinkSkeleton:
         rows_a = (NJv + np.cross(A, N) @ Jw) * self.support[self.ja[seg]]
         rows_b = (NJv + np.cross(B, N) @ Jw) * self.support[self.jb[seg]]
         return (1.0 - s)[:, None] * rows_a + s[:, None] * rows_b
+
+
+def skeleton_segments(robot, tool_frames=(), frames=None) -> list:
+    """Segments of the default skeleton (a tool segment per tool frame), or the origins of ``frames``."""
+    if frames is not None:
+        return frame_points(robot, frames)
+    tools = list(dict.fromkeys(tool_frames or (robot.tip,)))
+    segs = robot_segments(robot, tools[0])
+    for t in tools[1:]:
+        segs.append(robot_segments(robot, t)[-1])
+    return segs

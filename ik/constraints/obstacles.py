@@ -39,6 +39,7 @@ segments) makes the problem infeasible: :class:`InputError` at ``bind``.
 from __future__ import annotations
 
 import math
+import weakref
 
 import numpy as np
 
@@ -46,13 +47,16 @@ from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
 
 from .base import DAMPER_GAIN, Constraint
-from .link_capsules import LinkSkeleton
+from .link_capsules import LinkSkeleton, skeleton_segments
 from .segment_distance import point_segment, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
 INFLUENCE = 0.3
 
 _EPS = 1e-12
+_einsum = np.einsum
+_sqrt = np.sqrt
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 
 
 def as_obstacle(value, name: str = "obstacle") -> Shape:
@@ -124,6 +128,7 @@ class ObstacleAvoidance(Constraint):
         self.tool_frames = None if tool_frames is None else tuple(tool_frames)
         self.influence = _non_negative(influence, "influence")
         self._model = None
+        self._check_data = self._check_model = None
 
     # ---------------------------------------------------------------------------------------- binding
     def bind(self, robot) -> "ObstacleAvoidance":
@@ -132,43 +137,29 @@ class ObstacleAvoidance(Constraint):
         tools = self.tool_frames or (robot.tip,)
         for f in tools:
             robot.frame_id(f)
-        body = LinkSkeleton.of_robot(robot, tools)
-        segs_default = [i for i in range(len(body)) if not body.fixed[i]]
-        # one skeleton holding the default segments and the frame points of obstacles with `frames`
-        extra = []
-        for ob in self.obstacles:
-            if ob.frames is not None:
-                extra.extend(ob.frames)
-        all_segs = list(_segments_of(body))
-        frame_index = {}
-        if extra:
-            pts = LinkSkeleton.of_robot(robot, frames=list(dict.fromkeys(extra)))
-            for k, name in enumerate(dict.fromkeys(extra)):
-                frame_index[name] = len(all_segs)
-                all_segs.append(_segments_of(pts)[k])
-        self.skeleton = sk = LinkSkeleton(robot, all_segs)
+        extra = tuple(dict.fromkeys(f for ob in self.obstacles if ob.frames is not None for f in ob.frames))
+        sk, n_default, fixed = _skeleton(robot, tools, extra)
+        self.skeleton = sk
+        frame_index = {name: n_default + k for k, name in enumerate(extra)}
+        segs_default = list(range(n_default))
         sph, cap, other = ([], [], []), ([], [], [], []), ([], [], [])
-        fixed_pairs = []
-        self.pair_names = []
-        pair_obstacle = []
+        groups = ([], [], [])
         for k, ob in enumerate(self.obstacles):
             seg_ids = segs_default if ob.frames is None else [frame_index[f] for f in ob.frames]
             if ob.frames is None:
-                fixed_pairs.extend((k, i) for i in range(len(body)) if body.fixed[i])
+                self._check_base(k, ob, fixed)
             for i in seg_ids:
-                pair_obstacle.append(k)
-                self.pair_names.append((k, sk.names[i]))
                 if isinstance(ob, Sphere):
                     sph[0].append(i), sph[1].append(ob.center), sph[2].append(ob.radius)
+                    groups[0].append((k, sk.names[i]))
                 elif isinstance(ob, Capsule):
                     cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
+                    groups[1].append((k, sk.names[i]))
                 else:
                     other[0].append(i), other[1].append(ob), other[2].append(_bounding_radius(ob))
+                    groups[2].append((k, sk.names[i]))
         # pairs are ordered: spheres, capsules, others (the order of the clearance vector)
-        order = ([p for p, k in enumerate(pair_obstacle) if isinstance(self.obstacles[k], Sphere)]
-                 + [p for p, k in enumerate(pair_obstacle) if isinstance(self.obstacles[k], Capsule)]
-                 + [p for p, k in enumerate(pair_obstacle) if not isinstance(self.obstacles[k], (Sphere, Capsule))])
-        self.pair_names = [self.pair_names[p] for p in order]
+        self.pair_names = groups[0] + groups[1] + groups[2]
         self._sph_seg = np.array(sph[0], dtype=int)
         self._sph_c = np.array(sph[1], dtype=float).reshape(-1, 3)
         self._sph_r = np.array(sph[2], dtype=float)
@@ -177,6 +168,9 @@ class ObstacleAvoidance(Constraint):
         self._cap_b = np.array(cap[2], dtype=float).reshape(-1, 3)
         self._cap_r = np.array(cap[3], dtype=float)
         self._oth_seg = np.array(other[0], dtype=int)
+        self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
+        self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
+        self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
         self._oth = other[1]
         self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
         self._oth_bound = np.array(other[2], dtype=float)
@@ -184,59 +178,88 @@ class ObstacleAvoidance(Constraint):
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
         self._model = robot.model
-        self._check_base(robot, body, fixed_pairs)
         return self
 
-    def _check_base(self, robot, body, fixed_pairs):
-        if not fixed_pairs:
+    def _check_base(self, k, ob, fixed):
+        """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
+        if not fixed:
             return
-        data = robot.model.createData()
-        A, B = body.endpoints(data)  # fixed segments do not depend on q
-        for k, i in fixed_pairs:
-            ob = self.obstacles[k]
-            pts = A[i] + np.linspace(0.0, 1.0, 33)[:, None] * (B[i] - A[i])
-            if float(ob.signed_distance(pts).min()) < self.link_radius:
-                raise InputError(
-                    f"obstacles[{k}] ({ob!r}) contains the robot base ({body.names[i]}); the base cannot move out of it"
-                )
+        A = np.array([f[1] for f in fixed])
+        B = np.array([f[2] for f in fixed])
+        if isinstance(ob, Sphere):
+            c = np.broadcast_to(np.asarray(ob.center), A.shape)
+            _, X = point_segment(A, B, c)
+            d = np.linalg.norm(X - c, axis=1) - ob.radius
+        elif isinstance(ob, Capsule):
+            _, _, X, Y = segment_segment(A, B, np.broadcast_to(np.asarray(ob.a), A.shape),
+                                         np.broadcast_to(np.asarray(ob.b), A.shape))
+            d = np.linalg.norm(X - Y, axis=1) - ob.radius
+        else:
+            t = np.linspace(0.0, 1.0, 33)[None, :, None]
+            d = ob.signed_distance((A[:, None] + t * (B - A)[:, None]).reshape(-1, 3)).reshape(len(A), -1).min(axis=1)
+        bad = np.flatnonzero(d < self.link_radius)
+        if bad.size:
+            raise InputError(f"obstacles[{k}] ({ob!r}) contains the robot base ({fixed[bad[0]][0]}); "
+                             "the base cannot move out of it")
 
     # ------------------------------------------------------------------------------------- distances
     def _pairs(self, data, witness: bool, cutoff: float = math.inf):
-        """Clearances ``(m,)`` and, with ``witness``, ``(seg, s, N)`` of every pair (see the module docstring)."""
-        A, B = self.skeleton.endpoints(data)
-        clear, segs, ss, Ns = [], [], [], []
+        """Clearances ``(m,)`` and, with ``witness``, ``(seg, s, N, A, B)`` of every pair (module docstring).
+
+        ``A``, ``B`` are the end points of each pair's segment, ``N`` the unit
+        normals from the obstacle to the witness point ``(1 - s) A + s B``.
+        """
+        P = self.skeleton.points(data)
+        clear, segs, ss, Ns, As, Bs = [], [], [], [], [], []
         if self._sph_seg.size:
-            i = self._sph_seg
-            s, X = point_segment(A[i], B[i], self._sph_c)
-            V = X - self._sph_c
-            d = np.sqrt(np.einsum("ij,ij->i", V, V))
+            A = P[self._sph_ia]
+            AB = P[self._sph_ib] - A
+            AC = self._sph_c - A
+            s = _einsum("ij,ij->i", AC, AB) * self._inv_len2(AB, self._sph_ia, self._sph_ib)
+            _clip(s, 0.0, 1.0, out=s)
+            V = s[:, None] * AB - AC  # x - c
+            d = _sqrt(_einsum("ij,ij->i", V, V))
             clear.append(d - self._sph_r)
             if witness:
-                segs.append(i), ss.append(s), Ns.append(_unit(V, d))
+                segs.append(self._sph_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(A + AB)
         if self._cap_seg.size:
-            i = self._cap_seg
-            s, _, X, Y = segment_segment(A[i], B[i], self._cap_a, self._cap_b)
+            A, B = P[self._cap_ia], P[self._cap_ib]
+            s, _, X, Y = segment_segment(A, B, self._cap_a, self._cap_b)
             V = X - Y
-            d = np.sqrt(np.einsum("ij,ij->i", V, V))
+            d = _sqrt(_einsum("ij,ij->i", V, V))
             clear.append(d - self._cap_r)
             if witness:
-                segs.append(i), ss.append(s), Ns.append(_unit(V, d))
+                segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
         if self._oth_seg.size:
+            A, B = P[self._oth_ia], P[self._oth_ib]
             c, s, N = self._coal_pairs(A, B, cutoff)
             clear.append(c)
             if witness:
-                segs.append(self._oth_seg), ss.append(s), Ns.append(N)
-        c = np.concatenate(clear) - self._offset if clear else np.zeros(0)
+                segs.append(self._oth_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
+        if not clear:
+            c = np.zeros(0)
+        else:
+            c = (clear[0] if len(clear) == 1 else np.concatenate(clear)) - self._offset
         if not witness:
-            return c, A, B
-        return c, A, B, np.concatenate(segs), np.concatenate(ss), np.concatenate(Ns)
+            return c
+        if len(segs) == 1:
+            return c, segs[0], ss[0], Ns[0], As[0], Bs[0]
+        cat = np.concatenate
+        return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
+
+    def _inv_len2(self, AB, ia, ib):
+        """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
+        L2 = _einsum("ij,ij->i", AB, AB)
+        out = np.zeros_like(L2)
+        np.divide(1.0, L2, out=out, where=L2 > 1e-24)
+        return out
 
     def _coal_pairs(self, A, B, cutoff):
         import coal
 
         i = self._oth_seg
         # lower bound: distance from the segment to the bounding sphere
-        _, X = point_segment(A[i], B[i], self._oth_center)
+        _, X = point_segment(A, B, self._oth_center)
         lb = np.linalg.norm(X - self._oth_center, axis=1) - self._oth_bound
         c = lb.copy()
         s = np.zeros(len(i))
@@ -245,7 +268,7 @@ class ObstacleAvoidance(Constraint):
         res = coal.DistanceResult()
         far = cutoff + self._offset
         for p in np.flatnonzero(lb < far):
-            a, b = A[i[p]], B[i[p]]
+            a, b = A[p], B[p]
             ab = b - a
             L = math.sqrt(ab.dot(ab))
             geom = coal.Capsule(0.0, L)
@@ -259,30 +282,46 @@ class ObstacleAvoidance(Constraint):
 
     def clearances(self, data) -> np.ndarray:
         """Clearance ``c`` (m) of every pair after forward kinematics (far coal pairs: their lower bound)."""
-        return self._pairs(data, False, self.influence)[0]
+        return self._pairs(data, False, self.influence)
+
+    def first_violation(self, robot, Q) -> int | None:
+        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None."""
+        import pinocchio as pin
+
+        data = self._check_data
+        if data is None or self._check_model is not robot.model:
+            data = self._check_data = robot.model.createData()
+            self._check_model = robot.model
+        for k, q in enumerate(Q):
+            pin.forwardKinematics(robot.model, data, q)
+            c = self._pairs(data, False, 0.0)
+            if c.size and c.min() < 0.0:
+                return k
+        return None
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot, data, q) -> float:
-        c = self._pairs(data, False, self.influence)[0]
+        c = self._pairs(data, False, self.influence)
         return float(c.min()) if c.size else math.inf
 
     def rows(self, robot, data, q, dt=None):
-        c, A, B, seg, s, N = self._pairs(data, True, self.influence)
-        near = np.flatnonzero(c < self.influence)
-        if near.size == 0:
-            return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
-        seg, s, N = seg[near], s[near], N[near]
-        G = self.skeleton.gradient_rows(data, seg, s, A[seg], B[seg], N)
-        lower = -self.gain * c[near]
-        return G, lower, np.full(near.size, np.inf)
+        c, seg, s, N, A, B = self._pairs(data, True, self.influence)
+        # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
+        near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
+        if not near.all():
+            if not near.any():
+                return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
+            c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
+        G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
+        return G, -self.gain * c, np.full(c.shape[0], np.inf)
 
     def rows_all(self, robot, data):
         """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
-        c, A, B, seg, s, N = self._pairs(data, True, math.inf)
-        return c, self.skeleton.gradient_rows(data, seg, s, A[seg], B[seg], N)
+        c, seg, s, N, A, B = self._pairs(data, True, math.inf)
+        return c, self.skeleton.gradient_rows(data, seg, s, A, B, N)
 
     def describe(self, robot, data, q) -> str:
-        c = self._pairs(data, False, math.inf)[0]
+        c = self._pairs(data, False, math.inf)
         parts = []
         for p in np.flatnonzero(c < 0.0):
             k, seg = self.pair_names[p]
@@ -294,11 +333,26 @@ class ObstacleAvoidance(Constraint):
                 f"margin={self.margin_required:g})")
 
 
-def _segments_of(skeleton: LinkSkeleton):
-    from .sphere_set import _Segment
+_skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
-    return [_Segment(skeleton.names[i], skeleton.ja[i], skeleton.la[i], skeleton.jb[i], skeleton.lb[i])
-            for i in range(len(skeleton))]
+
+def _skeleton(robot, tools, frames):
+    """``(skeleton, n_default, fixed)``: the moving default segments then the frame points, cached per model.
+
+    ``fixed`` lists ``(name, a, b)`` of the segments fixed to the world (checked against the obstacles).
+    """
+    per_model = _skeletons.get(robot.model)
+    if per_model is None:
+        per_model = _skeletons[robot.model] = {}
+    key = (tuple(tools), tuple(frames))
+    hit = per_model.get(key)
+    if hit is None:
+        segs = skeleton_segments(robot, tools)
+        moving = [s for s in segs if not s.fixed]
+        fixed = [(s.name, s.la.copy(), s.lb.copy()) for s in segs if s.fixed]
+        pts = skeleton_segments(robot, frames=frames) if frames else []
+        hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
+    return hit
 
 
 def _unit(V: np.ndarray, d: np.ndarray) -> np.ndarray:

@@ -75,10 +75,22 @@ class FrameTask(Task):
         self._At = None if self.relax_frame == "world" else self._Rt.copy()
 
     @classmethod
-    def from_target(cls, target: Target, weight=1.0, priority: int = 1) -> "FrameTask":
-        """The task of a legacy :class:`kinserve.ik.Target`."""
-        relax = tuple(TASK_AXES[i] for i in target.relaxed)
-        return cls(target.frame, target.T, relax, target.relax_frame, weight, priority)
+    def from_target(cls, target: Target) -> "FrameTask":
+        """The task (weight 1, priority 1) of a legacy :class:`kinserve.ik.Target` (already validated)."""
+        self = cls.__new__(cls)
+        self.weight, self.priority, self.name = 1.0, 1, f"frame {target.frame}"
+        self.frame, self.relax_frame, self.relaxed = target.frame, target.relax_frame, target.relaxed
+        self.kept = np.asarray(target.kept, dtype=int)
+        self.n_pos = int((self.kept < 3).sum())
+        self.components = target.components
+        T = target.T
+        self.T = T
+        self._p = T[:3, 3].copy()
+        self._Rt = np.ascontiguousarray(T[:3, :3].T)
+        self._At = None if target.relax_frame == "world" else self._Rt.copy()
+        self._model = None
+        self.frame_id = -1
+        return self
 
     def bind(self, robot) -> "FrameTask":
         if self._model is not robot.model:
