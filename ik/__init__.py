@@ -32,7 +32,7 @@ from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
 from .batch import solve_many
 from .chooser import CRITERIA, choose
-from .constraints import Constraint
+from .constraints import CollisionConstraint, Constraint, SceneCollision, SelfCollision
 from .constraints.joint_limits import JointLimits
 from .constraints.obstacles import ObstacleAvoidance
 from .constraints.velocity_limits import VelocityLimits
@@ -50,6 +50,7 @@ __all__ = [
     "solve", "solve_all", "solve_many", "step", "Result", "History",
     "Task", "FrameTask", "PostureTask", "CentringTask",
     "Constraint", "JointLimits", "VelocityLimits", "ObstacleAvoidance",
+    "SelfCollision", "SceneCollision", "CollisionConstraint",
     "Sphere", "Box", "Capsule", "Cylinder", "Mesh",
     "Target", "choose", "METHODS", "CRITERIA", "RELAX_NAMES", "available_backends",
 ]

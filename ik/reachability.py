@@ -90,8 +90,15 @@ def reachability_map(
     seed: int = 0,
     bounds=None,
     progress: bool | None = None,
+    self_collision: bool = False,
+    obstacles=(),
+    collision_margin: float = 0.0,
 ) -> ReachabilityMap:
-    """Sample ``samples`` tool poses in the workspace box and record which ones IK reaches."""
+    """Sample ``samples`` tool poses in the workspace box and record which ones IK reaches.
+
+    With ``self_collision`` / ``obstacles`` (:func:`ik.solve`'s collision options) a
+    pose counts as reached only by a collision-free solution.
+    """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError(f"samples must be a positive integer, got {samples!r}")
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or not 1 <= resolution <= 100:
@@ -130,6 +137,8 @@ def reachability_map(
     targets[:, :3, 3] = P
     targets[:, 3, 3] = 1.0
     extra = {"ray_address": ray_address} if backend == "ray" else {}
+    if self_collision or obstacles or collision_margin:
+        extra.update(self_collision=bool(self_collision), obstacles=list(obstacles), collision_margin=collision_margin)
     results = solve_many(robot, targets, frame=frame, relax=relax, backend=backend, processes=processes,
                          max_time=max_time, seed=seed, progress=progress, **extra)
     reached = np.array([r.success for r in results], dtype=bool)

@@ -169,6 +169,8 @@ def solve(
     seed: int | None = None,
     tasks=None,
     constraints=None,
+    self_collision: bool = False,
+    collision_margin: float = 0.0,
     **options,
 ):
     """Inverse kinematics: a configuration placing ``frame`` at ``target`` - or meeting ``tasks``.
@@ -236,6 +238,15 @@ def solve(
     tasks, constraints:
         The composed front door (see above). ``constraints`` may also be given
         with a ``target``: they are added to the target's own.
+    self_collision, collision_margin:
+        ``self_collision=True`` keeps the robot's collision geometry (convex
+        hulls of its URDF ``<collision>`` shapes) free of self-collision (SRDF /
+        MoveIt-style pairs) and, with it, ``collision_margin`` (m) clear of the
+        ``obstacles`` and ``spheres`` - against the real geometry instead of the
+        link capsules. The unconstrained answer and its iterates are checked
+        first; a constrained solve (hard on every iterate) runs only when needed.
+        See :mod:`ik.collision_solve`. (``constraints=[ik.SceneCollision(obstacles)]``
+        uses the real geometry for obstacles alone.)
     options:
         Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
         for ``"dls"``), ``gain`` (classical), ``max_step``, ``shortcut`` and
@@ -254,6 +265,11 @@ def solve(
                            tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
     if target is None:
         raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
+    if self_collision or collision_margin:
+        from .collision_solve import collision_options
+
+        options.update(collision_options(self_collision, obstacles, collision_margin, spheres))
+        spheres, obstacles = (), ()
     p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
                 obstacles=obstacles, link_radius=link_radius, centring=centring, method=method, backend=backend,
                 tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
@@ -339,6 +355,7 @@ def _solve_target_tasks(robot, p: dict, options: dict):
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
 
 
+_COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
 _QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut", "lazy")
 _CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
@@ -355,7 +372,15 @@ def _check_options(method, options, allowed):
 
 
 def solve_prepared(robot, p: dict, **options):
-    """Run the solver on arguments already checked by :func:`prepare`."""
+    """Run the solver on arguments already checked by :func:`prepare`.
+
+    ``options`` may hold the collision options of :func:`solve` (``self_collision``, ``obstacles``,
+    ``collision_margin``): the solve then goes through :mod:`ik.collision_solve` (so does ``ik.solve_many``).
+    """
+    if options and not _COLLISION_KEYS.isdisjoint(options):
+        from .collision_solve import solve_collision_free
+
+        return solve_collision_free(robot, p, **options)
     method = p["method"]
     tgt = p["target"]
     if method == "auto":

@@ -26,6 +26,7 @@ import pinocchio as pin
 
 from . import singularity
 from .batch_fk import ChainFK
+from .collision_queries import CollisionQueries
 from .errors import FrameError, ModelError, ShapeError, SingularityError, suggest
 from .validation import MAX_ABS, as_matrix, as_vector, check_limits
 
@@ -59,7 +60,7 @@ def axis_rows(axes) -> list[int]:
     return rows
 
 
-class Robot:
+class Robot(CollisionQueries):
     """A kinematic chain (or tree) loaded into Pinocchio, with a default tool frame.
 
     Parameters
@@ -80,6 +81,12 @@ class Robot:
         The URDF text the model was built from (for export and viewers).
     package_dirs:
         Directories used to resolve ``package://`` mesh URIs of ``source``.
+    srdf:
+        SRDF text whose ``<disable_collisions>`` name the link pairs not checked
+        for self-collision (None: computed MoveIt-style, see
+        :mod:`kinematics.collision_pairs`). Collision queries
+        (``in_collision``, ``collisions``, ``distances``, ``min_distance``) come
+        from :class:`~kinematics.collision_queries.CollisionQueries`.
     """
 
     def __init__(
@@ -94,6 +101,7 @@ class Robot:
         task_axes=TASK_AXES,
         source: str | None = None,
         package_dirs=(),
+        srdf: str | None = None,
     ):
         if model.nq != model.nv:
             raise ModelError(
@@ -111,6 +119,8 @@ class Robot:
         self.collision_model = collision_model
         self.source = source
         self.package_dirs = tuple(package_dirs)
+        self.srdf = srdf
+        self._collision_holder = [None]  # the CollisionModel, built on first use, shared by copies
         self.task_axes = tuple("yaw" if a == "phi" else a for a in task_axes)
         axis_rows(self.task_axes)
         self._frame_ids: dict[str, int] = {}
@@ -157,9 +167,12 @@ class Robot:
         for key in ("data", "visual_model", "collision_model"):
             state[key] = None
         state["_chains"] = {}
+        state["_collision_holder"] = [None]
         return state
 
     def __setstate__(self, state: dict) -> None:
+        state.setdefault("srdf", None)
+        state.setdefault("_collision_holder", [None])
         self.__dict__.update(state)
         self.data = self.model.createData()
 

@@ -24,7 +24,9 @@ URDF layout written by :func:`dh_to_urdf` (so the DH frames are frames of the mo
 
 Each link gets simple visual geometry (cylinders along the ``d`` and ``a``
 offsets, a drum for every revolute joint, a block for every prismatic joint,
-a sphere at the tool) so a browser viewer shows the mechanism.
+a sphere at the tool) so a browser viewer shows the mechanism; the cylinders
+along ``d`` and ``a`` are also its ``<collision>`` shapes (self-collision and
+obstacle checks, :mod:`kinserve.kinematics.collision_model`).
 """
 
 from __future__ import annotations
@@ -183,8 +185,15 @@ def _visual(link, shape: str, material: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **dim
     etree.SubElement(vis, "material", name=material)
 
 
+def _collision(link, shape: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **dims):
+    col = etree.SubElement(link, "collision")
+    etree.SubElement(col, "origin", xyz=" ".join(map(_vnum, xyz)), rpy=" ".join(map(_vnum, rpy)))
+    geo = etree.SubElement(col, "geometry")
+    etree.SubElement(geo, shape, **{k: _vnum(v) for k, v in dims.items()})
+
+
 def _segment(link, p0, p1, radius: float) -> None:
-    """A cylinder from point ``p0`` to ``p1`` (link frame); nothing if they coincide."""
+    """A cylinder from point ``p0`` to ``p1`` (link frame), visual and collision; nothing if they coincide."""
     p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
     u = p1 - p0
     length = float(np.linalg.norm(u))
@@ -198,7 +207,9 @@ def _segment(link, p0, p1, radius: float) -> None:
         R = np.eye(3) if c > 0 else pin.rpy.rpyToMatrix(math.pi, 0.0, 0.0)
     else:
         R = pin.AngleAxis(math.atan2(s, c), axis / s).matrix()
-    _visual(link, "cylinder", "kinserve_link", 0.5 * (p0 + p1), pin.rpy.matrixToRpy(R), radius=radius, length=length)
+    xyz, rpy = 0.5 * (p0 + p1), pin.rpy.matrixToRpy(R)
+    _visual(link, "cylinder", "kinserve_link", xyz, rpy, radius=radius, length=length)
+    _collision(link, "cylinder", xyz, rpy, radius=radius, length=length)
 
 
 def _check_name(value: str, what: str) -> str:

@@ -54,6 +54,7 @@ class RobotEntry:
     locked: dict = field(default_factory=dict)  #: default values (rad / m) of the joints locked by default
     task_axes: tuple = TASK_AXES
     nq: int = 0  #: number of joints after locking (checked by the tests)
+    srdf: str | None = None  #: SRDF path relative to the ERD robots directory when not found by convention
 
     def path(self) -> Path:
         if self.origin == "erd":
@@ -65,8 +66,8 @@ class RobotEntry:
         return self.file.endswith(".xacro")
 
 
-def _erd(name, description, file, tip, nq, locked=None, task_axes=TASK_AXES) -> RobotEntry:
-    return RobotEntry(name, description, file, "erd", tip, dict(locked or {}), tuple(task_axes), nq)
+def _erd(name, description, file, tip, nq, locked=None, task_axes=TASK_AXES, srdf=None) -> RobotEntry:
+    return RobotEntry(name, description, file, "erd", tip, dict(locked or {}), tuple(task_axes), nq, srdf)
 
 
 _BAXTER_ARM = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
@@ -98,7 +99,8 @@ ENTRIES: dict[str, RobotEntry] = {
              "panda_description/urdf/panda.urdf", "panda_hand", 7,
              {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}),
         _erd("ur3", "Universal Robots UR3 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur3_robot.urdf", "tool0", 6),
-        _erd("ur5", "Universal Robots UR5 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur5_robot.urdf", "tool0", 6),
+        _erd("ur5", "Universal Robots UR5 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur5_robot.urdf", "tool0", 6,
+             srdf="ur_description/srdf/ur5.srdf"),
         _erd("ur10", "Universal Robots UR10 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur10_robot.urdf", "tool0", 6),
         _erd("xarm7", "UFactory xArm7 7-DOF arm (end effector link_eef)", "xarm_description/urdf/xarm7.urdf", "link_eef", 7),
         _erd("kinova", "Kinova Jaco2 j2s6s200 6-DOF arm (continuous joints bounded to +-2 pi)",
@@ -240,9 +242,10 @@ def _load_entry(entry: RobotEntry, tip, geometry: bool, params: dict) -> Robot:
         ))
     locks = _locks(f"robot {entry.name!r}", entry.locked, params)
     key = ("entry", entry.name, _freeze(locks), tip, geometry)
+    srdf = paths.erd_file(entry.srdf) if entry.srdf else None
     return _cached(key, lambda: load_urdf(
         entry.path(), tip=tip, name=entry.name, description=entry.description, locked_joints=locks,
-        geometry=geometry, task_axes=entry.task_axes,
+        geometry=geometry, task_axes=entry.task_axes, srdf=srdf,
     ))
 
 

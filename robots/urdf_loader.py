@@ -457,6 +457,38 @@ def prepare_urdf(source, *, locked_joints: Mapping[str, float] | None = None, pa
     return PreparedUrdf(xml, src.label, used, name, tuple(continuous))
 
 
+def find_srdf(urdf_path) -> Path | None:
+    """The SRDF of a URDF file by ROS convention: ``<pkg>/srdf/<stem>.srdf`` or ``<stem>.srdf`` beside it."""
+    path = Path(urdf_path)
+    stem = path.name.split(".")[0]
+    for cand in (path.parent.parent / "srdf" / f"{stem}.srdf", path.parent / f"{stem}.srdf"):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def read_srdf(srdf) -> str:
+    """SRDF text from a path or from the text itself; :class:`ModelError` if the file cannot be read."""
+    if isinstance(srdf, bytes):
+        srdf = srdf.decode("utf-8")
+    if is_xml_text(srdf):
+        return srdf
+    if not isinstance(srdf, (str, Path)):
+        raise ModelError(f"srdf must be a file path or SRDF text, got {type(srdf).__name__}")
+    path = Path(srdf).expanduser()
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"cannot read SRDF file {str(path)!r}: {exc}") from None
+
+
+def _default_srdf(source) -> str | None:
+    if isinstance(source, UrdfSource) or is_xml_text(source) or not isinstance(source, (str, Path)):
+        return None
+    found = find_srdf(Path(source).expanduser())
+    return read_srdf(found) if found is not None else None
+
+
 def load_urdf(
     source,
     *,
@@ -467,6 +499,7 @@ def load_urdf(
     package_dirs=(),
     geometry: bool = True,
     task_axes=TASK_AXES,
+    srdf=None,
 ) -> Robot:
     """Load a URDF file path or XML string as a :class:`Robot`.
 
@@ -487,6 +520,10 @@ def load_urdf(
         Build the visual and collision geometry (meshes) for viewers.
     task_axes:
         Task components the mechanism can act on (see :class:`Robot`).
+    srdf:
+        SRDF file path or text giving the self-collision pairs to skip. Default:
+        the SRDF next to a URDF file (see :func:`find_srdf`), else none (the
+        pairs are then computed MoveIt-style on first use).
 
     Every problem with the model is a :class:`ModelError` naming the file and
     the offending element (with its line number).
@@ -507,6 +544,7 @@ def load_urdf(
             task_axes=task_axes,
             source=prep.xml,
             package_dirs=[str(d) for d in prep.package_dirs],
+            srdf=read_srdf(srdf) if srdf is not None else _default_srdf(source),
         )
     except InputError as exc:  # unknown tip frame, bad task axes
         raise type(exc)(f"{prep.label}: {exc}") from None

@@ -59,6 +59,13 @@ therefore not drawn: it would reach 0.1 m below the flange, through the floor.
    it is. ``cylinder_release_error`` is its distance from where an exact
    release would put it, ``T_release T_grasp^-1 W_cyl(0)``.
 
+5. *Clearance* - the scene is a table top (top face z = 0) and the open box,
+   as :class:`kinserve.kinematics.shapes.Box` obstacles; ``min_arm_scene_distance``
+   is the smallest signed distance between the arm's collision hulls (links 0-7,
+   no hand) and the scene over every step, ``min_cylinder_scene_distance`` that
+   of the carried cylinder while it is carried, ``clearance`` the details
+   (:mod:`.pick_place_clearance`).
+
 Units: metres, radians, seconds. Artefacts: ``joints.png``,
 ``tracking_errors.png``, ``manipulability.png``, ``flange_trajectory.png``,
 ``trajectory.json`` / ``trajectory.csv`` (the joint trajectory),
@@ -82,6 +89,8 @@ from kinserve import viz
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory, se3_polynomial_trajectory
+
+from .pick_place_clearance import TABLE_CENTRE, TABLE_SIZE, motion_clearance
 
 FLANGE = "panda_link8"
 
@@ -378,6 +387,10 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     cyl_final = cylinder[-1]
     cyl_pe, cyl_re = _pose_errors(cyl_final, ideal_cylinder)
 
+    # 5. clearance between the arm (and the carried cylinder) and the scene (table top, open box)
+    clearance = motion_clearance(panda, Q, cylinder, grasp_step, release_step, radius=CYLINDER_RADIUS,
+                                 height=CYLINDER_HEIGHT, box_centre=BOX_CENTRE, box_size=BOX_SIZE, box_wall=BOX_WALL)
+
     traj = JointTrajectory.from_positions(panda.joint_names, Q, dt, zero_end_velocities=True)
     traj.save(out / "trajectory.json")
     traj.save(out / "trajectory.csv")
@@ -446,6 +459,7 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         sc = viz.Scene("kinserve S4 Panda pick and place (grasp -> release)")
         sc.add_robot(arm, Q[0], name="panda")
         draw_open_box(sc, "box", BOX_CENTRE, BOX_SIZE, BOX_WALL)
+        sc.add_box("table", TABLE_SIZE, se3.pose(p=TABLE_CENTRE), color="#d9d2c5", opacity=0.6)
         sc.add_cylinder("cylinder", CYLINDER_RADIUS, CYLINDER_HEIGHT, CYLINDER_POSE, color="orange")
         sc.add_path("tool_path", flange[:, :3, 3], color="blue")
         for name, T in (("home", DOC_HOME), ("grasp", DOC_GRASP), ("release", DOC_RELEASE)):
@@ -466,6 +480,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "release_step": release_step,
         "cylinder_final": "position ({:.4f}, {:.4f}, {:.4f}) m, axis ({:.3f}, {:.3f}, {:.3f})".format(*pos, *axis),
         "cylinder_release_error": cyl_pe,
+        "min_arm_scene_distance": clearance["min_arm_scene_distance"],
+        "min_cylinder_scene_distance": clearance["min_cylinder_scene_distance"],
         "max_tracking_position_error": float(track_pe.max()),
         "max_tracking_orientation_error": float(track_re.max()),
         "grasp_time": None if grasp_step is None else float(times[grasp_step]),
@@ -515,4 +531,5 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "min_manipulability_step": int(manip.argmin()),
         "min_sigma": float(sigma_min.min()),
         "within_joint_limits": bool(all(panda.within_limits(q) for q in Q)),
+        "clearance": clearance,
     }

@@ -2,7 +2,7 @@
 
 Endpoints: ``GET /health``, ``GET /robots``, ``GET /robots/{name}``,
 ``POST /fk``, ``POST /jacobian``, ``POST /ik``, ``POST /ik/batch``,
-``POST /plan/cartesian``. Poses are 4x4 row-major lists; joint vectors are
+``POST /plan/cartesian``, ``POST /collision`` (:mod:`.collision_endpoint`). Poses are 4x4 row-major lists; joint vectors are
 lists of ``nq`` numbers (rad / m).
 
 Errors are JSON ``{"detail": [{"loc": [...], "msg": ..., "type": ...}]}``:
@@ -89,6 +89,9 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     )
     pool = RobotPool()
     app.state.pool = pool
+    from .collision_endpoint import router as collision_router
+
+    app.include_router(collision_router)
 
     @app.exception_handler(RequestValidationError)
     async def _validation_error(request: Request, exc: RequestValidationError):
@@ -123,10 +126,18 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
                 robot.frame_id(frame)
         with field("spheres"):
             spheres = [ik.Sphere(s.center, s.radius, frames=s.frames) for s in req.spheres]
-        return dict(
+        kw = dict(
             q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
             method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
         )
+        if req.self_collision or req.obstacles:  # collision options (see service/collision_endpoint.py)
+            from .collision_endpoint import obstacles_of
+
+            obstacles = obstacles_of(req.obstacles)
+            with field("self_collision" if req.self_collision else "obstacles"):
+                robot.collision_scene(obstacles, req.self_collision)  # builds the model; ModelError -> 422
+            kw.update(self_collision=req.self_collision, obstacles=obstacles, collision_margin=req.collision_margin)
+        return kw
 
     def result_out(res) -> dict:
         return {

@@ -150,7 +150,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Modules defining further sub-commands, each with ``register(subparsers)``.
-_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view", "kinserve.service.cli_serve", "kinserve.service.cli_reach")
+_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view", "kinserve.service.cli_serve", "kinserve.service.cli_reach",
+                   "kinserve.service.cli_collide")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -62,6 +62,33 @@ class SphereSpec(Strict):
     frames: Annotated[list[Name], Field(max_length=64)] | None = None
 
 
+Length = Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
+Vec3 = Annotated[list[Number], Field(min_length=3, max_length=3)]
+
+
+class ObstacleSpec(Strict):
+    """One obstacle: ``kind`` and that kind's fields, as ``kinserve.kinematics.shapes``.
+
+    Meshes are not accepted over HTTP (they would name files on the server).
+    """
+
+    kind: Literal["sphere", "box", "capsule", "cylinder"]
+    center: Vec3 | None = Field(default=None, description="sphere centre (m)")
+    radius: Length | None = Field(default=None, description="sphere / capsule / cylinder radius (m)")
+    pose: Pose | None = Field(default=None, description="box / cylinder centre pose, 4x4 row major")
+    size: Annotated[list[Length], Field(min_length=3, max_length=3)] | None = Field(
+        default=None, description="box full edge lengths (m)")
+    a: Vec3 | None = Field(default=None, description="capsule segment start (m)")
+    b: Vec3 | None = Field(default=None, description="capsule segment end (m)")
+    length: Length | None = Field(default=None, description="cylinder length (m)")
+
+    def shape_dict(self) -> dict:
+        return self.model_dump(exclude_none=True)
+
+
+Obstacles = Annotated[list[ObstacleSpec], Field(max_length=64)]
+
+
 class IKOptions(Strict):
     q0: JointVector | None = None
     frame: Name | None = None
@@ -73,6 +100,10 @@ class IKOptions(Strict):
         default=None, description="seconds; capped server-side"
     )
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
+    self_collision: bool = Field(default=False, description="keep the robot's collision geometry free of self-collision")
+    obstacles: Obstacles = Field(default_factory=list, description="kept clear of the robot's collision geometry")
+    collision_margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+        default=0.0, description="clearance (m) kept from obstacles and between checked link pairs")
     tol_pos: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1.0)] = 1e-4
     tol_rot: Annotated[float, Field(allow_inf_nan=False, gt=0, le=3.2)] = 1e-3
 

@@ -10,6 +10,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+# computed collision pairs are cached on disk: keep the tests' cache out of the user's ~/.cache
+if "KINSERVE_CACHE_DIR" not in os.environ:
+    import atexit
+    import shutil
+    import tempfile
+
+    os.environ["KINSERVE_CACHE_DIR"] = tempfile.mkdtemp(prefix="kinserve-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["KINSERVE_CACHE_DIR"], True)
 
 
 def erd_share_dir() -> Path:

@@ -174,15 +174,30 @@ class Scene:
         self.axes = bool(axes)
 
     @classmethod
-    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1, **kwargs) -> "Scene":
+    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1, collision: bool = False,
+                  obstacles=(), **kwargs) -> "Scene":
         """A scene showing one robot at ``q`` (default ``robot.neutral()``) and, with
         ``tool_frame``, a triad at its tool frame ``robot.tip`` (node ``"tool"``).
         Extra keyword arguments go to :meth:`add_robot`. (What ``kinserve view`` shows.)
+
+        ``collision=True`` also draws the robot's collision shapes (convex hulls and
+        primitives, node ``<name>_collision/<geometry>``) and the ``obstacles``
+        (shapes, node ``obstacles/<k>``), bodies in collision in red
+        (:mod:`viz.collision_drawing`).
         """
         scene = cls(getattr(robot, "name", "robot"))
         handle = scene.add_robot(robot, q, **kwargs)
         if tool_frame:
             scene.add_frame("tool", handle.tool_pose(handle.q), length=frame_length)
+        if collision:
+            from .collision_drawing import draw_collision_scene
+
+            obstacles = list(obstacles)
+            shapes = robot.collision_geometry(handle.q)
+            for s in shapes:
+                s["pose"] = handle.base @ s["pose"]
+            draw_collision_scene(scene, handle.name, shapes, [o.to_dict() for o in obstacles],
+                                 robot.collisions(handle.q, obstacles))
         return scene
 
     # ------------------------------------------------------------ recording
