@@ -196,3 +196,30 @@ def test_render_tables_copies_the_figures(tmp_path):
     assert "`open_median_le_1.5x_unconstrained` **not met**" in md
     assert "`nested.rate` = 700000" in md
     assert "ik.json: not found" in md
+
+
+@pytest.mark.parametrize("script, args, sections", [
+    ("bench_ik_constrained.py", ["--n", "3", "--budget", "0.05", "--no-pink", "--no-placo", "--no-mesh",
+                                 "--step-calls", "5"], ("workloads", "step_us")),
+    ("bench_collision.py", ["--n", "2", "--budget", "0.05", "--no-pink", "--no-roboplan"],
+     ("workloads", "collision_check_us")),
+])
+def test_benchmark_runs_end_to_end_and_renders(tmp_path, script, args, sections):
+    """A tiny run (peers off) writes its JSON, every success figure is a percentage, and it renders."""
+    import subprocess
+
+    out = tmp_path / ("ik_constrained.json" if "constrained" in script else "collision.json")
+    proc = subprocess.run([sys.executable, str(BENCH / script), *args, "--out", str(out)], capture_output=True,
+                          text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    data = json.loads(out.read_text())
+    for key in sections:
+        assert data[key]
+    for workload in data["workloads"].values():
+        per = workload["per_solver"]
+        assert "kinserve unconstrained" in per and "kinserve" in per
+        for s in per.values():
+            assert 0.0 <= s["success_pct"] <= 100.0 and s["median_ms"] > 0
+        assert per["kinserve unconstrained"]["median_vs_unconstrained"] == pytest.approx(1.0)
+    md = render.render(tmp_path)
+    assert "| kinserve unconstrained | " in md
