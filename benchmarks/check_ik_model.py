@@ -4,7 +4,9 @@ Panda, N reachable targets (flange poses of random in-limit q), 3 spheres r 5 cm
 shoulder -> target segment (kept only when the generating configuration clears them: a witness of
 feasibility), and a 2-box variant; success checked by independent code (kinematics.shapes signed
 distances on densely sampled link segments). Also times ik.step (frame + posture + 3 spheres) and the
-plain ik.solve. Writes bench-out/ik_model_check.json.
+plain ik.solve. Times are CPU seconds of this process (time.process_time: the machine is
+shared), best of REPEATS runs of the same deterministic solve. Writes
+bench-out/ik_model_check.json.
 
     python benchmarks/check_ik_model.py [N]
 """
@@ -14,6 +16,11 @@ from __future__ import annotations
 import json
 import sys
 import time
+
+#: CPU time of this process: the machine is shared, wall time measures the neighbours too
+clock = time.process_time
+#: Each solve is timed this many times, the smallest time kept (noise of the shared machine).
+REPEATS = 3
 from pathlib import Path
 
 import numpy as np
@@ -63,12 +70,14 @@ def run(n, kind, robot, seed=0):
         q_gen, T, obs = scene(robot, rng, kind)
         if not clear(robot, q_gen, frame, obs):
             continue
-        t = time.perf_counter()
-        r0 = ik.solve(robot, T, seed=1)
-        t_free = time.perf_counter() - t
-        t = time.perf_counter()
-        r = ik.solve(robot, T, obstacles=obs, seed=1)
-        t_con = time.perf_counter() - t
+        t_free = t_con = np.inf
+        for _ in range(REPEATS):  # best of REPEATS (same work each time: the solves are deterministic)
+            t = clock()
+            ik.solve(robot, T, seed=1)
+            t_free = min(t_free, clock() - t)
+            t = clock()
+            r = ik.solve(robot, T, obstacles=obs, seed=1)
+            t_con = min(t_con, clock() - t)
         ok = (r.success and robot.within_limits(r.q) and clear(robot, r.q, frame, obs)
               and all(clear(robot, qi, frame, obs) for qi in r.history.q))
         rows.append((ok, t_con, t_free))
@@ -90,10 +99,13 @@ def time_step(robot, reps=2000):
     cons = [ik.ObstacleAvoidance([ik.Sphere(hand + [0.15, 0, 0], 0.05), ik.Sphere(hand + [0, 0.2, 0], 0.05),
                                   ik.Sphere(hand + [0, 0, 0.25], 0.05)]), ik.VelocityLimits(2.0)]
     ik.step(robot, tasks, cons, q, 0.01)
-    t = time.perf_counter()
-    for _ in range(reps):
-        ik.step(robot, tasks, cons, q, 0.01)
-    return 1e6 * (time.perf_counter() - t) / reps
+    best = np.inf
+    for _ in range(5):
+        t = clock()
+        for _ in range(reps // 5):
+            ik.step(robot, tasks, cons, q, 0.01)
+        best = min(best, (clock() - t) / (reps // 5))
+    return 1e6 * best
 
 
 def main():

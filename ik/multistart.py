@@ -36,6 +36,10 @@ def starts(robot, goals, q0, seed, table_enabled: bool = True, prefer_q0: bool =
     tasks = _frame_tasks(goals) if table_enabled else []
     if not tasks:
         return start_sequence(robot, None, None, q0, rng_seed, prefer_q0=prefer_q0)
+    if len(tasks) == 1:
+        t = tasks[0]
+        return frame_starts(robot, t.frame_name, t.frame_id, t._Rt.T, t._p, (len(t.kept) - t.n_pos) == 3, q0, seed,
+                            prefer_q0=prefer_q0, n_table=n_table)
     tables = [seed_table(robot, t.frame_name) for t in tasks]
     fs = [_features(tab, t) for tab, t in zip(tables, tasks)]
     q0_dist = None
@@ -46,10 +50,24 @@ def starts(robot, goals, q0, seed, table_enabled: bool = True, prefer_q0: bool =
         for tab, t, f in zip(tables, tasks, fs):
             M = pin.updateFramePlacement(robot.model, data, t.frame_id)
             q0_dist += tab.distance(f, tab.features(M.rotation, M.translation))
-    if len(tasks) == 1:
-        return start_sequence(robot, tables[0], fs[0], q0, rng_seed, n_table=n_table, q0_distance=q0_dist,
-                              prefer_q0=prefer_q0)
     return _combined(robot, tables, fs, q0, q0_dist, rng_seed, prefer_q0, n_table)
+
+
+def frame_starts(robot, frame: str, frame_id: int, R, p, rotation: bool, q0, seed, table_enabled: bool = True,
+                 prefer_q0: bool = False, n_table: int = 8):
+    """Starts for one frame at pose ``(R, p)`` (``rotation=False``: orientation relaxed, rank by position)."""
+    rng_seed = 0 if seed is None else seed
+    if not table_enabled:
+        return start_sequence(robot, None, None, q0, rng_seed, prefer_q0=prefer_q0)
+    table = seed_table(robot, frame)
+    f = table.features(R, p, rotation=rotation)
+    q0_dist = None
+    if q0 is not None:
+        data = robot.data
+        pin.forwardKinematics(robot.model, data, q0)
+        M = pin.updateFramePlacement(robot.model, data, frame_id)
+        q0_dist = table.distance(f, table.features(M.rotation, M.translation))
+    return start_sequence(robot, table, f, q0, rng_seed, n_table=n_table, q0_distance=q0_dist, prefer_q0=prefer_q0)
 
 
 def _combined(robot, tables, fs, q0, q0_dist, rng_seed, prefer_q0, n_table):

@@ -4,7 +4,10 @@ Methods
 -------
 ``"auto"`` (default) picks the fastest method that can honour the request:
 
-1. spheres or centring  -> ``"qp"`` (hard inequalities / strict priority need the QP);
+1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first; its answer is kept when
+   every iterate of its run is clear of every obstacle, otherwise ``"qp"`` starts from the last
+   clear iterate. Centring or extra constraints -> ``"qp"`` (strict priority and hard
+   inequalities need the QP);
 2. a closed-form solver with finitely many branches exists for the robot and
    frame and handles the relaxed components -> ``"analytic"`` (2R/3R, SCARA,
    youBot; it falls back to ``"lm"`` only when no branch is usable). The
@@ -12,6 +15,9 @@ Methods
    to enumerate than one LM solve, so ``"auto"`` uses ``"lm"`` for it (name
    ``"analytic"`` or call :func:`solve_all` to get the family);
 3. otherwise -> ``"lm"`` (joint limits are the only inequalities).
+
+``ik.solve(robot, tasks=[...], constraints=[...])`` solves any composition of
+tasks and constraints on the task model (:mod:`ik.task_solver`).
 
 ``"qp"``, ``"lm"``, ``"analytic"`` and the classical ``"jacobian_inverse"``,
 ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"`` can be named
@@ -21,9 +27,10 @@ directly (see :mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.analytic`,
 Validation (once, before any solver runs; errors from :mod:`kinematics.errors`):
 the target pose (shape, NaN/inf, rotation orthonormal), ``q0`` (shape,
 finite), the frame name, the relaxed component names, tolerances, time
-budget, seed, method, backend, centring weights, and the spheres (radius
-positive, centre finite, frames known, neither the base nor the start
-configuration inside a sphere). Not reaching the target is not an error:
+budget, seed, method, backend, centring weights, and the obstacles (sizes
+positive, numbers finite, frames known, no obstacle containing the fixed
+base). A start inside an obstacle is not an error: the solve begins from
+collision-free starts and says so in ``Result.message``. Not reaching the target is not an error:
 ``Result.success`` is False, ``Result.q`` the best configuration found
 (inside the limits) and ``Result.message`` the reason.
 """
@@ -323,14 +330,13 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     avoid = p["spheres"]
     opts = _task_options(options)
     q0 = p["q0"]
-    note = ""
     if q0 is not None and avoid.first_violation(robot, np.clip(q0, robot.lower, robot.upper)[None]) is not None:
         return None  # the constrained solve reports the start in collision
     res = solve_lm(robot, p["target"], q0, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
                    seed=p["seed"], **opts)
     k = avoid.first_violation(robot, res.history.q)
     if res.success and k is None:
-        res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)" + note
+        res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
         return res
     if k is not None and k > 0 and not opts.get("prefer_q0"):
         p["q0"] = res.history.q[k - 1].copy()

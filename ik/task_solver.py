@@ -37,7 +37,6 @@ import time
 
 import numpy as np
 
-from .constraints.base import DAMPER_GAIN
 from .dense_qp import DEFAULT_BACKEND, backend_calls
 from .hierarchy import hierarchical_step
 from .multistart import starts
@@ -58,6 +57,8 @@ MAX_TIME = 0.5
 STEP_TOL = 1e-6
 #: Halvings of a step before giving up on it.
 MAX_BACKTRACK = 20
+#: Iterations with the rows on after a lazy trial failed (an obstacle binds; trials would be wasted).
+LAZY_WAIT = 3
 #: Stall detection: best goal error^2 not improved by this factor for STALL_PATIENCE iterations.
 STALL_RATIO = 0.9
 STALL_PATIENCE = 4
@@ -70,7 +71,7 @@ class _Run:
     """Settings of one solve shared by its starts."""
 
     __slots__ = ("pb", "tp", "tr", "max_iter", "deadline", "damping", "max_step", "backend", "shortcut", "lazy",
-                 "lo", "hi", "gain", "stall_ratio", "stall_patience")
+                 "lo", "hi", "gain", "stall_ratio", "stall_patience", "lazy_wait")
 
     def __init__(self, pb, tp, tr, max_iter, deadline, damping, max_step, backend, shortcut, lazy):
         self.pb, self.tp, self.tr = pb, tp, tr
@@ -78,6 +79,7 @@ class _Run:
         self.damping, self.max_step, self.backend, self.shortcut, self.lazy = damping, max_step, backend, shortcut, lazy
         self.lo, self.hi = pb.robot.lower, pb.robot.upper
         self.gain = pb.gain
+        self.lazy_wait = 0
         constrained = bool(pb.checked) or len(pb.constraints) > 1
         self.stall_ratio, self.stall_patience = (STALL_RATIO, STALL_PATIENCE) if constrained else (0.85, 2)
 
@@ -86,7 +88,7 @@ def _step(run: _Run, q, levels, E, m_q):
     """``(dq, dq_lower, next)`` - ``next = (q + dq, state)`` when the lazy trial was accepted; dq None if infeasible."""
     pb = run.pb
     lam = DAMPING_GAIN * E + run.damping
-    if run.lazy and pb.checked and m_q > 0.0:
+    if run.lazy and pb.checked and m_q > 0.0 and run.lazy_wait <= 0:
         lb, ub, G, l, u = pb.box_and_rows(q, None, run.max_step, with_checked_rows=False)
         dq, dq2 = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=run.max_step, backend=run.backend,
                                     shortcut=run.shortcut)
@@ -95,6 +97,8 @@ def _step(run: _Run, q, levels, E, m_q):
             st = pb.state(qn)
             if st[4] >= (1.0 - run.gain) * m_q:
                 return dq, dq2, (qn, st)
+        run.lazy_wait = LAZY_WAIT  # an obstacle is in the way: take the constrained step for a while
+    run.lazy_wait -= 1
     lb, ub, G, l, u = pb.box_and_rows(q, None, run.max_step)
     dq, dq2 = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=run.max_step, backend=run.backend,
                                 shortcut=run.shortcut)
@@ -124,6 +128,7 @@ def _run_start(run: _Run, q, record):
     best_es = None
     beta_prev = 1.0
     qs, pes, res = record
+    run.lazy_wait = 0
     st = pb.state(q)
     for it in range(run.max_iter + 1):
         levels, pe, re, es, m_q = st

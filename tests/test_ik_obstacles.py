@@ -193,3 +193,39 @@ def test_obstacles_accept_dicts_and_legacy_pairs(panda):
     a = ik.solve(panda, T, obstacles=[box.to_dict(), {"center": (0.6, -0.6, 0.6), "radius": 0.05}], seed=4)
     b = ik.solve(panda, T, obstacles=[box], spheres=[((0.6, -0.6, 0.6), 0.05)], seed=4)
     assert a.success and np.array_equal(a.q, b.q)
+
+
+def test_slider_rows_match_finite_differences():
+    # the SCARA's quill (a prismatic joint) gives segments whose ends sit on two bodies
+    scara = robots.load("scara", geometry=False)
+    avoid = ObstacleAvoidance([ik.Sphere((0.6, 0.3, 0.6), 0.05), ik.Capsule((0.2, -0.5, 0.3), (0.8, -0.2, 0.9), 0.03)],
+                              tool_frames=("tool",)).bind(scara)
+    assert any(n.startswith("slider") for n in avoid.skeleton.names)
+    rng = np.random.default_rng(60)
+    h = 1e-6
+    for q in scara.random_q(rng, 6):
+        pin.computeJointJacobians(scara.model, scara.data, q)
+        c, G = avoid.rows_all(scara, scara.data)
+
+        def clear(qq):
+            pin.forwardKinematics(scara.model, scara.data, qq)
+            return avoid._pairs(scara.data, False, np.inf)
+
+        fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(scara.nq)]).T
+        ok = c > 1e-3
+        assert np.allclose(G[ok], fd[ok], atol=1e-5)
+
+
+def test_first_violation_agrees_with_the_clearances(panda):
+    avoid = ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda)
+    rng = np.random.default_rng(70)
+    Q = panda.random_q(rng, 40)
+    flags = []
+    for q in Q:
+        pin.forwardKinematics(panda.model, panda.data, q)
+        flags.append(avoid._pairs(panda.data, False, np.inf).min() < 0.0)
+    assert any(flags) and not all(flags)
+    expected = flags.index(True)
+    assert avoid.first_violation(panda, Q) == expected
+    clear_rows = Q[[i for i, f in enumerate(flags) if not f]]
+    assert avoid.first_violation(panda, clear_rows) is None

@@ -27,6 +27,7 @@ gradient exact to first order with ``s`` frozen).
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 from .sphere_set import frame_points, robot_segments
 
@@ -98,6 +99,14 @@ class LinkSkeleton:
                 S[j, jm.idx_v: jm.idx_v + jm.nv] = 1.0
         self.support = S
         self._placements = None
+        # segments whose ends sit on one body keep their length: 1 / |b - a|^2 once (0 for a point)
+        self.rigid = self.ja == self.jb
+        d0 = model.createData()
+        pin.forwardKinematics(model, d0, robot.neutral())
+        A, B = self.endpoints(d0)
+        self._placements = None
+        L2 = np.einsum("ij,ij->i", B - A, B - A)
+        self.inv_len2 = np.divide(1.0, L2, out=np.zeros_like(L2), where=L2 > 1e-24)
 
     @classmethod
     def of_robot(cls, robot, tool_frames=(), frames=None) -> "LinkSkeleton":
@@ -136,10 +145,23 @@ class LinkSkeleton:
         ``N`` the unit directions. Needs ``computeJointJacobians`` in ``data``.
         """
         Jv, Jw = data.J[:3], data.J[3:]
-        NJv = N @ Jv
-        rows_a = (NJv + np.cross(A, N) @ Jw) * self.support[self.ja[seg]]
-        rows_b = (NJv + np.cross(B, N) @ Jw) * self.support[self.jb[seg]]
+        ja, jb = self.ja[seg], self.jb[seg]
+        if (ja == jb).all():  # both ends on one body (no slider): the witness point itself
+            X = A + s[:, None] * (B - A)
+            return (N.dot(Jv) + _cross(X, N).dot(Jw)) * self.support[ja]
+        NJv = N.dot(Jv)
+        rows_a = (NJv + _cross(A, N).dot(Jw)) * self.support[ja]
+        rows_b = (NJv + _cross(B, N).dot(Jw)) * self.support[jb]
         return (1.0 - s)[:, None] * rows_a + s[:, None] * rows_b
+
+
+_I1 = [1, 2, 0]
+_I2 = [2, 0, 1]
+
+
+def _cross(U: np.ndarray, V: np.ndarray) -> np.ndarray:
+    """Row-wise cross products of ``(P, 3)`` arrays (cheaper than ``np.cross`` on small inputs)."""
+    return U[:, _I1] * V[:, _I2] - U[:, _I2] * V[:, _I1]
 
 
 def skeleton_segments(robot, tool_frames=(), frames=None) -> list:

@@ -16,7 +16,8 @@ where ``d`` is the Euclidean distance (negative when they overlap):
 * box, cylinder, mesh (convex hull): coal's GJK/EPA distance between the
   obstacle and the segment, with witness points and normal. A bounding
   sphere gives a cheap lower bound first; pairs farther than ``influence``
-  by that bound are not sent to coal.
+  by that bound are not sent to coal (``margin`` uses :data:`MARGIN_EXACT`: it is
+  exact below 5 cm and a lower bound above, which is all the step back-off needs).
 
 Both closed forms are evaluated for all pairs at once (NumPy, no loop over
 pairs). With ``x`` the witness point on the segment (parameter ``s``) and
@@ -52,6 +53,10 @@ from .segment_distance import point_segment, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
 INFLUENCE = 0.3
+#: The true check computes coal distances exactly only for pairs whose bounding-sphere bound is below this (m).
+MARGIN_EXACT = 0.05
+#: Coal pairs (box, cylinder, mesh) give rows when their bounding-sphere bound is below this (m).
+COAL_INFLUENCE = 0.15
 
 _EPS = 1e-12
 _einsum = np.einsum
@@ -128,7 +133,6 @@ class ObstacleAvoidance(Constraint):
         self.tool_frames = None if tool_frames is None else tuple(tool_frames)
         self.influence = _non_negative(influence, "influence")
         self._model = None
-        self._check_data = self._check_model = None
 
     # ---------------------------------------------------------------------------------------- binding
     def bind(self, robot) -> "ObstacleAvoidance":
@@ -170,11 +174,24 @@ class ObstacleAvoidance(Constraint):
         self._oth_seg = np.array(other[0], dtype=int)
         self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
         self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
+        # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
+        rigid = bool(np.all(sk.rigid[self._sph_seg])) if self._sph_seg.size else False
+        self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
         self._oth = other[1]
         self._oth_center = np.array([o.pose[:3, 3] for o in other[1]], dtype=float).reshape(-1, 3)
         self._oth_bound = np.array(other[2], dtype=float)
         self._oth_tf = [_coal_transform(o.pose) for o in other[1]]
+        # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
+        self._oth_local = []
+        for i in other[0]:
+            if sk.rigid[i] and sk.ja[i] != 0:
+                la, lb = sk.la[i], sk.lb[i]
+                L = float(np.linalg.norm(lb - la))
+                M = _axis_placement(la, lb - la, L)
+                self._oth_local.append((int(sk.ja[i]), M, _core(L)))
+            else:
+                self._oth_local.append(None)
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
         self._model = robot.model
@@ -183,6 +200,16 @@ class ObstacleAvoidance(Constraint):
     def _check_base(self, k, ob, fixed):
         """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
         if not fixed:
+            return
+        # cheap rejection: the obstacle's bounding ball does not reach the base's bounding ball
+        (cx, cy, cz), R = fixed_ball(fixed)
+        if isinstance(ob, Sphere):
+            (ox, oy, oz), rad = ob.center, ob.radius
+        elif isinstance(ob, Capsule):
+            (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), 0.5 * ob.length + ob.radius
+        else:
+            (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), _bounding_radius(ob)
+        if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + self.link_radius:
             return
         A = np.array([f[1] for f in fixed])
         B = np.array([f[2] for f in fixed])
@@ -215,7 +242,8 @@ class ObstacleAvoidance(Constraint):
             A = P[self._sph_ia]
             AB = P[self._sph_ib] - A
             AC = self._sph_c - A
-            s = _einsum("ij,ij->i", AC, AB) * self._inv_len2(AB, self._sph_ia, self._sph_ib)
+            inv = self._sph_inv if self._sph_inv is not None else self._inv_len2(AB)
+            s = _einsum("ij,ij->i", AC, AB) * inv
             _clip(s, 0.0, 1.0, out=s)
             V = s[:, None] * AB - AC  # x - c
             d = _sqrt(_einsum("ij,ij->i", V, V))
@@ -247,7 +275,7 @@ class ObstacleAvoidance(Constraint):
         cat = np.concatenate
         return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
 
-    def _inv_len2(self, AB, ia, ib):
+    def _inv_len2(self, AB):
         """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
         L2 = _einsum("ij,ij->i", AB, AB)
         out = np.zeros_like(L2)
@@ -267,45 +295,84 @@ class ObstacleAvoidance(Constraint):
         req = coal.DistanceRequest()
         res = coal.DistanceResult()
         far = cutoff + self._offset
-        for p in np.flatnonzero(lb < far):
-            a, b = A[p], B[p]
-            ab = b - a
-            L = math.sqrt(ab.dot(ab))
-            geom = coal.Capsule(0.0, L)
+        oMi = self.skeleton._placements[1]  # joint placements of the data just read by points()
+        todo = np.flatnonzero(lb < far).tolist()
+        X = np.zeros((len(i), 3))
+        for p in todo:
+            local = self._oth_local[p]
+            if local is not None:
+                j, M, geom = local
+                tf = coal.Transform3s(oMi[j] * M)
+            else:
+                a, b = A[p], B[p]
+                ab = b - a
+                L = math.sqrt(ab.dot(ab))
+                geom = _core(L)
+                tf = _segment_transform(a, ab, L)
             res.clear()
-            d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, _segment_transform(a, ab, L), req, res)
-            c[p] = d
-            x = res.getNearestPoint2()
-            s[p] = 0.0 if L < _EPS else min(max(float((x - a).dot(ab)) / (L * L), 0.0), 1.0)
+            c[p] = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, tf, req, res)
+            X[p] = res.getNearestPoint2()
             N[p] = res.normal
+        if todo:
+            AB = B[todo] - A[todo]
+            L2 = _einsum("ij,ij->i", AB, AB)
+            num = _einsum("ij,ij->i", X[todo] - A[todo], AB)
+            s[todo] = np.clip(np.divide(num, L2, out=np.zeros_like(num), where=L2 > 1e-24), 0.0, 1.0)
         return c, s, N
 
     def clearances(self, data) -> np.ndarray:
         """Clearance ``c`` (m) of every pair after forward kinematics (far coal pairs: their lower bound)."""
-        return self._pairs(data, False, self.influence)
+        return self._pairs(data, False, MARGIN_EXACT)
 
     def first_violation(self, robot, Q) -> int | None:
-        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None."""
+        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None.
+
+        The sphere and capsule distances of all ``K`` configurations are evaluated at once (the same
+        closed forms on ``(K, pairs)`` arrays); coal pairs are checked per configuration where their
+        bounding-sphere bound is negative.
+        """
         import pinocchio as pin
 
-        data = self._check_data
-        if data is None or self._check_model is not robot.model:
-            data = self._check_data = robot.model.createData()
-            self._check_model = robot.model
+        model, data = robot.model, robot.data
+        sk = self.skeleton
+        P = np.empty((len(Q), len(sk._translations) + len(sk._acts) + len(sk._world), 3))
         for k, q in enumerate(Q):
-            pin.forwardKinematics(robot.model, data, q)
-            c = self._pairs(data, False, 0.0)
-            if c.size and c.min() < 0.0:
-                return k
-        return None
+            pin.forwardKinematics(model, data, q)
+            P[k] = sk.points(data)
+        bad = np.zeros(len(Q), dtype=bool)
+        off = self._offset
+        if self._sph_seg.size:
+            A = P[:, self._sph_ia]
+            AB = P[:, self._sph_ib] - A
+            AC = self._sph_c - A
+            inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
+            t = _clip(_einsum("kij,kij->ki", AC, AB) * inv, 0.0, 1.0)
+            V = t[..., None] * AB - AC
+            bad |= (_sqrt(_einsum("kij,kij->ki", V, V)) - self._sph_r - off < 0.0).any(axis=1)
+        if self._cap_seg.size:
+            K, n = len(Q), self._cap_seg.size
+            A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
+            _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
+            d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
+            bad |= (d - self._cap_r - off < 0.0).any(axis=1)
+        if self._oth_seg.size:
+            for k in range(len(Q)):
+                if not bad[k]:
+                    pin.forwardKinematics(model, data, Q[k])
+                    sk.points(data)  # refreshes the placements _coal_pairs reads
+                    c, _, _ = self._coal_pairs(P[k, self._oth_ia], P[k, self._oth_ib], 0.0)
+                    bad[k] = (c - off < 0.0).any()
+        hits = np.flatnonzero(bad)
+        return int(hits[0]) if hits.size else None
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot, data, q) -> float:
-        c = self._pairs(data, False, self.influence)
+        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs)."""
+        c = self._pairs(data, False, MARGIN_EXACT)
         return float(c.min()) if c.size else math.inf
 
     def rows(self, robot, data, q, dt=None):
-        c, seg, s, N, A, B = self._pairs(data, True, self.influence)
+        c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
         # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
         near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
         if not near.all():
@@ -334,6 +401,19 @@ class ObstacleAvoidance(Constraint):
 
 
 _skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: coal capsule cores by length (segment lengths repeat from one call to the next)
+_CORES: dict = {}
+_balls: dict = {}
+
+
+def fixed_ball(fixed) -> tuple[tuple[float, float, float], float]:
+    """A ball ``(centre, radius)`` enclosing the fixed segments ``(name, a, b)`` (cached per list)."""
+    hit = _balls.get(id(fixed))
+    if hit is None or hit[0] is not fixed:
+        pts = np.array([p for _, a, b in fixed for p in (a, b)])
+        c = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        hit = _balls[id(fixed)] = (fixed, tuple(c.tolist()), float(np.linalg.norm(pts - c, axis=1).max()))
+    return hit[1], hit[2]
 
 
 def _skeleton(robot, tools, frames):
@@ -380,16 +460,41 @@ def _coal_transform(T: np.ndarray):
     return tf
 
 
+def _core(L: float):
+    """The coal capsule core (radius 0) of length ``L``, cached by length."""
+    import coal
+
+    geom = _CORES.get(L)
+    if geom is None:
+        if len(_CORES) > 4096:
+            _CORES.clear()
+        geom = _CORES[L] = coal.Capsule(0.0, L)
+    return geom
+
+
+def _axis_placement(a: np.ndarray, ab: np.ndarray, L: float):
+    """``pinocchio.SE3`` at the midpoint of ``[a, a + ab]`` with its z axis along ``ab``."""
+    import pinocchio as pin
+
+    tf = _segment_transform(a, ab, L)
+    return pin.SE3(np.array(tf.getRotation()), np.array(tf.getTranslation()))
+
+
 def _segment_transform(a: np.ndarray, ab: np.ndarray, L: float):
-    """coal placement of a capsule core ``[a, a + ab]``: centre at the midpoint, local z along ``ab``."""
+    """coal placement of a capsule core ``[a, a + ab]``: centre at the midpoint, local z along ``ab``.
+
+    Plain floats: on one 3-vector they are several times cheaper than NumPy's cross products.
+    """
     import coal
 
     tf = coal.Transform3s()
     if L > _EPS:
-        z = ab / L
-        helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        x = np.cross(helper, z)
-        x /= np.linalg.norm(x)
-        tf.setRotation(np.column_stack([x, np.cross(z, x), z]))
+        zx, zy, zz = (ab / L).tolist()
+        hx, hy = (1.0, 0.0) if abs(zx) < 0.9 else (0.0, 1.0)
+        xx, xy, xz = hy * zz, -hx * zz, hx * zy - hy * zx  # h x z with h = (hx, hy, 0)
+        n = math.sqrt(xx * xx + xy * xy + xz * xz)
+        xx, xy, xz = xx / n, xy / n, xz / n
+        yx, yy, yz = zy * xz - zz * xy, zz * xx - zx * xz, zx * xy - zy * xx  # z x x
+        tf.setRotation(np.array([[xx, yx, zx], [xy, yy, zy], [xz, yz, zz]]))
     tf.setTranslation(a + 0.5 * ab)
     return tf

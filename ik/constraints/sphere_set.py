@@ -50,8 +50,6 @@ import pinocchio as pin
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Sphere
 
-from .base import DAMPER_GAIN
-
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
 
