@@ -5,7 +5,10 @@
 Reads ``ik.json`` (bench_ik.py), ``ik_constrained.json`` (bench_ik_constrained.py)
 and ``collision.json`` (bench_collision.py) when present and prints one section
 per file: the per-solver table (success, median / p95 / mean, ratios) with the
-issue's targets in brackets and whether the run met them. Any other JSON file in
+issue's targets in brackets and whether the run met them. "CPU" columns are
+``time.process_time`` around each solve (the worker's own, for peers in their
+venvs): on a shared machine a long solve is preempted, so wall times of long
+solves swell while short ones do not - read the CPU ratios alongside. Any other JSON file in
 the folder is listed with its numeric figures flattened (``a.b.c = value``), so
 nothing measured is left out. Missing files are skipped with a note. The numbers
 are copied, never recomputed: the README shows what the run wrote.
@@ -75,13 +78,14 @@ def render_ik_constrained(d: dict) -> list[str]:
         out += ["", f"**{name}**: figures over the {r['witness_feasible']} witness-feasible targets of {r['n']} "
                     "(success over all targets in the third column)", "",
                 "| solver | success [≥ 99 %] | all targets | mesh-clear | median | p95 | mean | median / unconstrained "
-                "[≤ 3×] | p95 / unconstrained [≤ 10×] | p95 / unconstrained p95 |",
-                "|---|---|---|---|---|---|---|---|---|---|"]
+                "[≤ 3×] | p95 / unconstrained [≤ 10×] | p95 / unconstrained p95 | median CPU | CPU / unconstrained |",
+                "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for k, s in r["per_solver"].items():
             out.append(f"| {k} | {_pct(s['success_pct'])} | {_pct(s.get('success_all_targets_pct'))} "
                        f"| {_pct(s.get('mesh_clear_pct'))} | {_ms(s['median_ms'])} | {_ms(s['p95_ms'])} "
                        f"| {_ms(s['mean_ms'])} | {_x(s['median_vs_unconstrained'])} "
-                       f"| {_x(s.get('p95_vs_unconstrained_median'))} | {_x(s['p95_vs_unconstrained_p95'])} |")
+                       f"| {_x(s.get('p95_vs_unconstrained_median'))} | {_x(s['p95_vs_unconstrained_p95'])} "
+                       f"| {_ms(s.get('median_cpu_ms'))} | {_x(s.get('median_cpu_vs_unconstrained'))} |")
     steps = d.get("step_us") or {}
     if steps:
         out += ["", "| one control step | µs |", "|---|---|"]
@@ -96,12 +100,14 @@ def render_collision(d: dict) -> list[str]:
     for name, r in d["workloads"].items():
         extra = f", from {r['collision_free_draws']} collision-free draws" if "collision_free_draws" in r else ""
         out += ["", f"**{name}** ({r['n']} targets{extra})", "",
-                "| solver | success | median | p95 | mean | median / unconstrained | p95 / unconstrained p95 |",
-                "|---|---|---|---|---|---|---|"]
+                "| solver | success | median | p95 | mean | median / unconstrained | p95 / unconstrained p95 "
+                "| median CPU | CPU / unconstrained |",
+                "|---|---|---|---|---|---|---|---|---|"]
         for k, s in r["per_solver"].items():
             out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s.get('median_ms'))} | {_ms(s.get('p95_ms'))} "
                        f"| {_ms(s.get('mean_ms'))} | {_x(s.get('median_vs_unconstrained'))} "
-                       f"| {_x(s.get('p95_vs_unconstrained_p95'))} |")
+                       f"| {_x(s.get('p95_vs_unconstrained_p95'))} | {_ms(s.get('median_cpu_ms'))} "
+                       f"| {_x(s.get('median_cpu_vs_unconstrained'))} |")
     checks = d.get("collision_check_us") or {}
     if checks:
         out += ["", "| collision check (self + scene) | µs per call |", "|---|---|"]

@@ -12,9 +12,9 @@ Requests (one JSON object per line; see benchmarks/_peers.py):
 * ``{"cmd": "collides", "q": [...]}`` -> ``{"collision": bool}`` (``Scene.hasCollisions``)
 * ``{"cmd": "time_collision", "qs": [[...], ...], "repeats": n}`` -> ``{"us": median us per call}``
 * ``{"cmd": "solve", "T": 4x4, "q0": [...], "seed": int, "max_time": s, "tol_pos": m, "tol_rot": rad,
-  "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "ok": bool}``: ``SimpleIk.solveIk``
+  "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "cpu": s, "ok": bool}``: ``SimpleIk.solveIk``
   with ``max_time`` and unlimited restarts, ``fast_return``, errors bounded by ``tol_pos``/``tol_rot``.
-  Time is measured here, around ``solveIk`` only.
+  Wall and CPU time are measured here, around ``solveIk`` only.
 * ``{"cmd": "quit"}``
 """
 
@@ -73,13 +73,13 @@ class RoboplanIK:
         goal = core.CartesianConfiguration(self.base, self.frame, np.asfortranarray(np.asarray(req["T"], dtype=float)))
         start = core.JointConfiguration(self.joints, np.asarray(req["q0"], dtype=float))
         sol = core.JointConfiguration()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         ok = ik.solveIk(goal, start, sol)
-        dt = time.perf_counter() - t0
+        dt, dc = time.perf_counter() - t0, time.process_time() - c0
         q = np.asarray(sol.positions, dtype=float)
         if q.size == len(self.q_full):
             q = q[self.idx]
-        return {"q": q.tolist() if q.size == len(self.joints) else None, "time": dt, "ok": bool(ok)}
+        return {"q": q.tolist() if q.size == len(self.joints) else None, "time": dt, "cpu": dc, "ok": bool(ok)}
 
 
 def main() -> None:

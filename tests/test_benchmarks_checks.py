@@ -191,7 +191,7 @@ def test_render_tables_copies_the_figures(tmp_path):
     (tmp_path / "collision.json").write_text(json.dumps(payload))
     (tmp_path / "kinematics.json").write_text(json.dumps({"fk_us": 1.5, "nested": {"rate": 7.0e5}}))
     md = render.render(tmp_path)
-    assert "| kinserve | 100.0 % | 0.123 ms | 0.500 ms | 0.200 ms | 1.25× | 2.00× |" in md
+    assert "| kinserve | 100.0 % | 0.123 ms | 0.500 ms | 0.200 ms | 1.25× | 2.00× | – | – |" in md
     assert "| roboplan Scene.hasCollisions | 6.0 |" in md
     assert "`open_median_le_1.5x_unconstrained` **not met**" in md
     assert "`nested.rate` = 700000" in md
@@ -219,7 +219,7 @@ def test_benchmark_runs_end_to_end_and_renders(tmp_path, script, args, sections)
         per = workload["per_solver"]
         assert "kinserve unconstrained" in per and "kinserve" in per
         for s in per.values():
-            assert 0.0 <= s["success_pct"] <= 100.0 and s["median_ms"] > 0
+            assert 0.0 <= s["success_pct"] <= 100.0 and s["median_ms"] > 0 and s["median_cpu_ms"] > 0
         assert per["kinserve unconstrained"]["median_vs_unconstrained"] == pytest.approx(1.0)
     md = render.render(tmp_path)
     assert "| kinserve unconstrained | " in md
