@@ -110,8 +110,11 @@ def render_collision(d: dict) -> list[str]:
                        f"| {_x(s.get('median_cpu_vs_unconstrained'))} |")
     checks = d.get("collision_check_us") or {}
     if checks:
-        out += ["", "| collision check (self + scene) | µs per call |", "|---|---|"]
-        out += [f"| {k} | {v:.1f} |" for k, v in checks.items() if not k.endswith(": pairs")]
+        out += ["", "| collision check (self + scene) | µs per call | CPU µs per call |", "|---|---|---|"]
+        for k, v in checks.items():
+            if not k.endswith((": pairs", ": CPU")):
+                cpu = checks.get(f"{k}: CPU")
+                out.append(f"| {k} | {v:.1f} | {'–' if cpu is None else f'{cpu:.1f}'} |")
     return out + _targets(d)
 
 

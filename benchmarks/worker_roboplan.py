@@ -10,7 +10,8 @@ Requests (one JSON object per line; see benchmarks/_peers.py):
 * ``{"cmd": "move_box", "name": NAME, "pose": 4x4}`` - ``updateGeometryPlacement`` of a scene box.
 * ``{"cmd": "fk", "q": [...]}`` -> ``{"T": 4x4}``
 * ``{"cmd": "collides", "q": [...]}`` -> ``{"collision": bool}`` (``Scene.hasCollisions``)
-* ``{"cmd": "time_collision", "qs": [[...], ...], "repeats": n}`` -> ``{"us": median us per call}``
+* ``{"cmd": "time_collision", "qs": [[...], ...], "repeats": n}`` -> ``{"us": ..., "cpu_us": ...}``: median
+  over the repeats of the wall / CPU time per call
 * ``{"cmd": "solve", "T": 4x4, "q0": [...], "seed": int, "max_time": s, "tol_pos": m, "tol_rot": rad,
   "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "cpu": s, "ok": bool}``: ``SimpleIk.solveIk``
   with ``max_time`` and unlimited restarts, ``fast_return``, errors bounded by ``tol_pos``/``tol_rot``.
@@ -110,13 +111,14 @@ def main() -> None:
             elif cmd == "time_collision":
                 qs = [rp.full(q) for q in req["qs"]]
                 has = rp.scene.hasCollisions
-                samples = []
+                wall, cpu = [], []
                 for _ in range(int(req.get("repeats", 5))):
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     for q in qs:
                         has(q)
-                    samples.append((time.perf_counter() - t0) / len(qs))
-                ans = {"us": statistics.median(samples) * 1e6}
+                    wall.append((time.perf_counter() - t0) / len(qs))
+                    cpu.append((time.process_time() - c0) / len(qs))
+                ans = {"us": statistics.median(wall) * 1e6, "cpu_us": statistics.median(cpu) * 1e6}
             elif cmd == "solve":
                 ans = rp.solve(req)
             else:

@@ -185,14 +185,14 @@ def test_render_tables_copies_the_figures(tmp_path):
         "workloads": {"open scene": {"n": 4, "per_solver": {
             "kinserve": {"success_pct": 100.0, "median_ms": 0.1234, "p95_ms": 0.5, "mean_ms": 0.2,
                          "median_vs_unconstrained": 1.25, "p95_vs_unconstrained_p95": 2.0}}}},
-        "collision_check_us": {"roboplan Scene.hasCollisions": 6.04},
+        "collision_check_us": {"roboplan Scene.hasCollisions": 6.04, "roboplan Scene.hasCollisions: CPU": 5.96},
         "targets_met": {"open_100pct": True, "open_median_le_1.5x_unconstrained": False},
     }
     (tmp_path / "collision.json").write_text(json.dumps(payload))
     (tmp_path / "kinematics.json").write_text(json.dumps({"fk_us": 1.5, "nested": {"rate": 7.0e5}}))
     md = render.render(tmp_path)
     assert "| kinserve | 100.0 % | 0.123 ms | 0.500 ms | 0.200 ms | 1.25× | 2.00× | – | – |" in md
-    assert "| roboplan Scene.hasCollisions | 6.0 |" in md
+    assert "| roboplan Scene.hasCollisions | 6.0 | 6.0 |" in md
     assert "`open_median_le_1.5x_unconstrained` **not met**" in md
     assert "`nested.rate` = 700000" in md
     assert "ik.json: not found" in md
