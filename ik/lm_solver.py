@@ -83,9 +83,9 @@ def _bounded_step(J, e, lam, q, lo, hi):
     these are the cheapest operations NumPy offers.
     """
     n = q.shape[0]
-    A = J.T.dot(J)
-    A.flat[:: n + 1] += lam
-    qn = q + _posv(A, e.dot(J), overwrite_a=1, overwrite_b=1)[1]
+    A = J.T.dot(J)  # C-ordered and symmetric: A.T is the Fortran-ordered view LAPACK takes without a copy
+    A.ravel()[:: n + 1] += lam
+    qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]  # (a, b, lower, overwrite_a, overwrite_b): positional is cheaper
     qc = _clip(qn, lo, hi)
     if qc.tolist() == qn.tolist():
         return qn
@@ -95,8 +95,8 @@ def _bounded_step(J, e, lam, q, lo, hi):
         dfix = (qc - q) * fixed
         Jf = J * free
         A = Jf.T.dot(Jf)
-        A.flat[:: n + 1] += lam
-        dq = _posv(A, (e - J.dot(dfix)).dot(Jf), overwrite_a=1, overwrite_b=1)[1]
+        A.ravel()[:: n + 1] += lam
+        dq = _posv(A.T, (e - J.dot(dfix)).dot(Jf), 0, 1, 1)[1]
         qn = q + dq * free + dfix
         qc = _clip(qn, lo, hi)
         if qc.tolist() == qn.tolist():
@@ -236,10 +236,8 @@ def solve_lm(
             f"({iterations} iterations, {'time budget exhausted' if _now() > deadline else 'start limit reached'}); "
             f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
         )
-    hist = History.from_lists(
-        qs[: k + 1], np.sqrt(pe2s[: k + 1]), np.sqrt(re2s[: k + 1]),
-        components=target.components, evaluate=task_evaluator(robot, target),
-    )
+    hist = History.from_squared(qs, pe2s, re2s, k + 1, components=target.components,
+                                evaluate=task_evaluator(robot, target))
     return Result(
         q=q.copy(), success=ok, position_error=pe, orientation_error=re, iterations=iterations,
         restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist, method="lm", frame=target.frame,

@@ -66,6 +66,9 @@ def frame_starts(robot: Robot, frame: str, frame_id: int, R: np.ndarray, p: np.n
     rng_seed = 0 if seed is None else seed
     if not table_enabled:
         return start_sequence(robot, None, None, q0, rng_seed, prefer_q0=prefer_q0)
+    if prefer_q0 and q0 is not None:
+        # q0 goes first whatever its pose distance: rank the table only if a restart needs it
+        return _q0_then(q0, robot, frame, R, p, rotation, rng_seed, n_table)
     table = seed_table(robot, frame)
     f = table.features(R, p, rotation=rotation)
     q0_dist = None
@@ -75,6 +78,13 @@ def frame_starts(robot: Robot, frame: str, frame_id: int, R: np.ndarray, p: np.n
         M = pin.updateFramePlacement(robot.model, data, frame_id)
         q0_dist = table.distance(f, table.features(M.rotation, M.translation))
     return start_sequence(robot, table, f, q0, rng_seed, n_table=n_table, q0_distance=q0_dist, prefer_q0=prefer_q0)
+
+
+def _q0_then(q0, robot, frame, R, p, rotation, rng_seed, n_table):
+    """``q0``, then the table's starts (the sequence of ``prefer_q0=True``, ranked only when needed)."""
+    yield np.array(q0, dtype=float)
+    table = seed_table(robot, frame)
+    yield from start_sequence(robot, table, table.features(R, p, rotation=rotation), None, rng_seed, n_table=n_table)
 
 
 def _combined(robot, tables, fs, q0, q0_dist, rng_seed, prefer_q0, n_table):

@@ -42,17 +42,63 @@ class History:
     it is read (and before pickling).
     """
 
-    __slots__ = ("q", "position_error", "orientation_error", "components", "_task_error", "_evaluate")
+    __slots__ = ("_q", "_position_error", "_orientation_error", "components", "_task_error", "_evaluate", "_raw")
 
     def __init__(self, q: ArrayLike, position_error: ArrayLike, orientation_error: ArrayLike,
                  task_error: ArrayLike | None = None, components: Sequence[str] = (),
                  evaluate: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
-        self.q = np.asarray(q, dtype=float)
-        self.position_error = np.asarray(position_error, dtype=float)
-        self.orientation_error = np.asarray(orientation_error, dtype=float)
+        self._q = np.asarray(q, dtype=float)
+        self._position_error = np.asarray(position_error, dtype=float)
+        self._orientation_error = np.asarray(orientation_error, dtype=float)
         self.components = tuple(components)
         self._task_error = None if task_error is None else np.asarray(task_error, dtype=float)
         self._evaluate = evaluate
+        self._raw = None
+
+    @classmethod
+    def from_squared(cls, qs: list, pos2: list, rot2: list, k: int, components: Sequence[str] = (),
+                     evaluate: Callable[[np.ndarray], np.ndarray] | None = None) -> History:
+        """The first ``k`` iterations of per-iteration lists of ``q`` and *squared* errors, kept as they are.
+
+        The arrays (``q`` stacked, errors square-rooted) are built the first time
+        one is read: a fast solver that returns after a few iterations pays
+        nothing for a history nobody looks at.
+        """
+        h = cls.__new__(cls)
+        h._q = h._position_error = h._orientation_error = h._task_error = None
+        h.components = tuple(components)
+        h._evaluate = evaluate
+        h._raw = (qs, pos2, rot2, k)
+        return h
+
+    def _materialise(self) -> None:
+        qs, pos2, rot2, k = self._raw
+        nq = len(qs[0]) if k else 0
+        self._q = np.array(qs[:k], dtype=float).reshape(k, nq)
+        self._position_error = np.sqrt(np.array(pos2[:k], dtype=float))
+        self._orientation_error = np.sqrt(np.array(rot2[:k], dtype=float))
+        self._raw = None
+
+    @property
+    def q(self) -> np.ndarray:
+        """Configurations ``(k, nq)``; ``q[0]`` is the start."""
+        if self._raw is not None:
+            self._materialise()
+        return self._q
+
+    @property
+    def position_error(self) -> np.ndarray:
+        """Position error ``(k,)`` at each ``q[i]`` (m)."""
+        if self._raw is not None:
+            self._materialise()
+        return self._position_error
+
+    @property
+    def orientation_error(self) -> np.ndarray:
+        """Orientation error ``(k,)`` at each ``q[i]`` (rad)."""
+        if self._raw is not None:
+            self._materialise()
+        return self._orientation_error
 
     @property
     def task_error(self) -> np.ndarray | None:
@@ -65,16 +111,19 @@ class History:
         return self._task_error
 
     def __len__(self) -> int:
-        return int(self.q.shape[0])
+        return self._raw[3] if self._raw is not None else int(self._q.shape[0])
 
     def __getstate__(self):
+        if self._raw is not None:
+            self._materialise()
         self.task_error  # materialise: the evaluator holds a robot, which is not pickled
-        return {k: getattr(self, k) for k in self.__slots__ if k != "_evaluate"}
+        return {k: getattr(self, k) for k in self.__slots__ if k not in ("_evaluate", "_raw")}
 
     def __setstate__(self, state):
         for k, v in state.items():
             setattr(self, k, v)
         self._evaluate = None
+        self._raw = None
 
     def __repr__(self) -> str:
         return f"History({len(self)} iterations, components={self.components})"
