@@ -89,6 +89,12 @@ def _bounded_step(J, e, lam, q, lo, hi):
     qc = _clip(qn, lo, hi)
     if qc.tolist() == qn.tolist():
         return qn
+    return _limited_step(J, e, lam, q, lo, hi, qn, qc)
+
+
+def _limited_step(J, e, lam, q, lo, hi, qn, qc):
+    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc`` clipped)."""
+    n = q.shape[0]
     fixed = qc != qn
     for _ in range(3):
         free = 1.0 - fixed
@@ -108,6 +114,7 @@ def _bounded_step(J, e, lam, q, lo, hi):
 def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
     """One LM start on a full-pose target (LOCAL log6 error). Returns (converged, iterations, reason)."""
     best = math.inf
+    n1 = q.shape[0] + 1
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         _cjj(model, data, q)
@@ -132,7 +139,14 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
             stalls += 1
             if stalls >= STALL_PATIENCE:
                 return False, it + 1, "stalled"
-        q = _bounded_step(_gfj(model, data, fid, _LOCAL), e, DAMPING_GAIN * E + lam0, q, lo, hi)
+        # _bounded_step inlined (the common case: the damped step stays inside the limits)
+        J = _gfj(model, data, fid, _LOCAL)
+        lam = DAMPING_GAIN * E + lam0
+        A = J.T.dot(J)
+        A.ravel()[::n1] += lam
+        qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]
+        qc = _clip(qn, lo, hi)
+        q = qn if qc.tolist() == qn.tolist() else _limited_step(J, e, lam, q, lo, hi, qn, qc)
     return False, max_iter, "iteration limit"
 
 

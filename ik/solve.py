@@ -63,6 +63,8 @@ from .task_solver import solve_problem
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
+_NO_CENTRING_METHODS = frozenset(("lm", "analytic", "jacobian_inverse", "jacobian_transpose"))
+_NO_OBSTACLE_METHODS = frozenset(("lm", "analytic") + CLASSICAL_METHODS)
 
 
 def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
@@ -103,6 +105,9 @@ def _check_backend(backend):
 
 def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
     """One :class:`ObstacleAvoidance` for the ``spheres`` and ``obstacles`` of the front door, or None."""
+    if type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
+            and type(link_radius) in (float, int) and link_radius == 0:
+        return None  # the defaults: nothing to build or validate
     items = []
     for name, group in (("spheres", spheres), ("obstacles", obstacles)):
         if group is None or (type(group) is tuple and not group):
@@ -149,9 +154,9 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
     backend = _check_backend(backend)
     weights = centring_weights(robot, centring)
     avoid = _obstacle_constraint(robot, spheres, obstacles, link_radius, tgt.frame)
-    if method in ("lm", "analytic", "jacobian_inverse", "jacobian_transpose") and weights is not None:
+    if weights is not None and method in _NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
-    if method in ("lm", "analytic") + CLASSICAL_METHODS and avoid is not None:
+    if avoid is not None and method in _NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=avoid, method=method)
@@ -385,6 +390,7 @@ def _solve_target_tasks(robot, p: dict, options: dict):
 
 _COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
+_LM_OPTION_SET = frozenset(_LM_OPTIONS)
 _QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut", "lazy")
 _CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
 _ANALYTIC_OPTIONS = ("samples", "choose")
@@ -428,7 +434,7 @@ def solve_prepared(robot, p: dict, **options):
                 if res is not None:
                     return res
             method = "lm"
-        if options:
+        if options and not _LM_OPTION_SET.issuperset(options):
             options = {k: v for k, v in options.items() if k in (_QP_OPTIONS if method == "qp" else _LM_OPTIONS)}
     if method == "lm":
         _check_options(method, options, _LM_OPTIONS)
