@@ -45,7 +45,7 @@ from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
 
-from .constraints.collision import CollisionConstraint
+from .constraints.collision import CollisionConstraint, _length
 from .qp_solver import solve_qp
 from .result import History, Result
 
@@ -62,8 +62,8 @@ def collision_options(self_collision: bool = False, obstacles: Sequence = (), co
     obs = as_obstacles(obstacles) + as_obstacles(spheres, "spheres")
     if not isinstance(self_collision, (bool, np.bool_)):
         raise InputError(f"self_collision must be True or False, got {self_collision!r}")
-    CollisionConstraint((), self_collision=False, margin=collision_margin)  # validates the margin
-    return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": float(collision_margin)}
+    margin = _length(collision_margin, "collision margin")  # the check CollisionConstraint makes
+    return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": margin}
 
 
 def solve_collision_free(robot: Robot, p: dict, *, self_collision: bool = False, obstacles: Sequence = (),
@@ -131,7 +131,7 @@ def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, dea
     """
     from .solve import solve_prepared
 
-    rng = np.random.default_rng(p["seed"] or 0)
+    rng = None  # built for the first retry only (creating a Generator costs more than a checked answer)
     opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
     warm = None
     for attempt in range(UNCONSTRAINED_ATTEMPTS):
@@ -141,6 +141,8 @@ def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, dea
         if attempt == 0:
             res = solve_prepared(robot, dict(p, max_time=left), **solver_opts)
         else:
+            if rng is None:
+                rng = np.random.default_rng(p["seed"] or 0)
             start = next((q for q in robot.random_q(rng, 20) if not constraint.in_collision(q)), None)
             if start is None:
                 return None, warm
@@ -166,10 +168,15 @@ def _last_clear_iterate(constraint: CollisionConstraint, qs) -> np.ndarray | Non
 
 
 def _path_is_free(constraint: CollisionConstraint, res: Result) -> bool:
-    """The answer, then every iterate of the run that produced it, violates nothing."""
+    """The answer, then every iterate of the run that produced it, violates nothing.
+
+    The answer is usually the run's last iterate: it is checked once.
+    """
     if constraint.in_collision(res.q):
         return False
     hist = res.history.q if res.history is not None else ()
+    if len(hist) and np.array_equal(hist[-1], res.q):
+        hist = hist[:-1]
     return not any(constraint.in_collision(q) for q in hist[::-1])
 
 

@@ -45,7 +45,7 @@ import pinocchio as pin
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import TASK_AXES, Robot
 from kinserve.kinematics.types import PoseLike
-from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_pose
+from kinserve.kinematics.validation import as_pose, is_pose_fast
 
 #: Accepted names of relaxable components (``phi`` = ``yaw``).
 RELAX_NAMES = TASK_AXES + ("phi",)
@@ -54,11 +54,9 @@ RELAX_NAMES = TASK_AXES + ("phi",)
 RELAX_FRAMES = ("world", "target")
 
 _log3 = pin.log3
-_isfinite = math.isfinite
 _ALL6 = np.arange(6)
 _ALL3 = np.arange(3)
 _EYE3 = np.eye(3)
-_TOL = ROTATION_TOL
 
 
 def _checked_pose(pose) -> np.ndarray:
@@ -70,18 +68,8 @@ def _checked_pose(pose) -> np.ndarray:
     """
     if isinstance(pose, pin.SE3):
         pose = pose.homogeneous
-    if type(pose) is np.ndarray and pose.shape == (4, 4):
-        (a, b, c, x), (d, e, f, y), (g, h, i, z), bottom = pose.tolist()
-        if (
-            bottom == [0.0, 0.0, 0.0, 1.0]
-            and _isfinite(a + b + c + d + e + f + g + h + i)
-            and abs(x) <= MAX_ABS and abs(y) <= MAX_ABS and abs(z) <= MAX_ABS
-            and abs(a * a + d * d + g * g - 1.0) <= _TOL and abs(b * b + e * e + h * h - 1.0) <= _TOL
-            and abs(c * c + f * f + i * i - 1.0) <= _TOL and abs(a * b + d * e + g * h) <= _TOL
-            and abs(a * c + d * f + g * i) <= _TOL and abs(b * c + e * f + h * i) <= _TOL
-            and abs(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) - 1.0) <= _TOL
-        ):
-            return np.array(pose, dtype=np.float64)
+    if type(pose) is np.ndarray and pose.shape == (4, 4) and pose.dtype == np.float64 and is_pose_fast(pose):
+        return np.array(pose, dtype=np.float64)
     return np.array(as_pose(pose, "target"), dtype=np.float64)
 
 

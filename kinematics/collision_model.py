@@ -182,7 +182,9 @@ class CollisionModel:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes, cached).
 
         Scenes are cached by the identity of the (immutable) obstacle objects, so
-        passing the same list again costs a dictionary lookup.
+        passing the same list again costs a dictionary lookup; equal obstacles
+        built anew (a client sending the same scene each call) find the same
+        scene by value (one hash of each shape's plain data).
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
         key = (self_collision, *map(id, obs))
@@ -190,9 +192,15 @@ class CollisionModel:
         hit = scenes.get(key)
         if hit is not None and hit.obstacles == obs:  # identical objects: tuple comparison short-cuts on identity
             return hit
+        # equal obstacles built anew (shapes hash and compare by value): the same scene, no rebuild
+        value_key = ("value", self_collision, obs)
+        hit = scenes.get(value_key)
+        if hit is not None:
+            return hit
         scene = CollisionScene(self, obs, self_collision)
         with self._lock:
             scenes[key] = scene
-            while len(scenes) > SCENE_CACHE_SIZE:
+            scenes[value_key] = scene
+            while len(scenes) > 2 * SCENE_CACHE_SIZE:  # two keys per scene (identity, value)
                 scenes.popitem(last=False)
         return scene

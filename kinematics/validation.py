@@ -47,6 +47,8 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
         arr = arr.reshape(n)
     if arr.shape != (n,):
         raise ShapeError(f"{name} must have shape ({n},), got shape {arr.shape}")
+    if math.hypot(*arr.tolist()) < MAX_ABS:  # the norm below MAX_ABS (NaN never is): every entry is fine
+        return arr
     if not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > MAX_ABS):
         _raise_non_finite(arr, name)
     return arr
@@ -77,11 +79,36 @@ def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
     """
     if hasattr(value, "homogeneous") and hasattr(value, "rotation"):
         value = value.homogeneous
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4) and is_pose_fast(value):
+        return value
     T = as_matrix(value, (4, 4), name)
     if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
         raise ShapeError(f"{name} must be homogeneous: bottom row [0, 0, 0, 1], got {T[3].tolist()}")
     check_rotation(T[:3, :3], name)
     return T
+
+
+def is_pose_fast(T: np.ndarray) -> bool:
+    """True when the 4x4 array ``T`` passes every check of :func:`as_pose`, tested in plain Python floats.
+
+    One ``tolist`` and scalar arithmetic (about 2 us, against 20+ us for the
+    NumPy path): bottom row exactly ``[0, 0, 0, 1]``, finite entries,
+    ``|p_i| <= MAX_ABS``, the six distinct entries of ``R^T R`` within
+    :data:`ROTATION_TOL` of the identity's and ``|det R - 1| <= ROTATION_TOL``.
+    False means "take the precise path" (which raises the exact error, or
+    accepts a bottom row that is only within 1e-9 of ``[0, 0, 0, 1]``).
+    """
+    (a, b, c, x), (d, e, f, y), (g, h, i, z), bottom = T.tolist()
+    tol = ROTATION_TOL
+    return (
+        bottom == [0.0, 0.0, 0.0, 1.0]
+        and math.isfinite(a + b + c + d + e + f + g + h + i)
+        and abs(x) <= MAX_ABS and abs(y) <= MAX_ABS and abs(z) <= MAX_ABS
+        and abs(a * a + d * d + g * g - 1.0) <= tol and abs(b * b + e * e + h * h - 1.0) <= tol
+        and abs(c * c + f * f + i * i - 1.0) <= tol and abs(a * b + d * e + g * h) <= tol
+        and abs(a * c + d * f + g * i) <= tol and abs(b * c + e * f + h * i) <= tol
+        and abs(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) - 1.0) <= tol
+    )
 
 
 def check_rotation(R: np.ndarray, name: str = "rotation") -> None:
