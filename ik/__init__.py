@@ -14,7 +14,8 @@ Jacobian rows), :mod:`ik.constraints` (limits, spheres), :mod:`ik.centring`
 (secondary objective), :mod:`ik.qp_solver`, :mod:`ik.lm_solver`,
 :mod:`ik.classical`, :mod:`ik.analytic`, :mod:`ik.chooser`, :mod:`ik.seeds`
 (start configurations), :mod:`ik.qp_backends`, :mod:`ik.solve`,
-:mod:`ik.batch`, :mod:`ik.result`.
+:mod:`ik.batch` (with :mod:`ik.batch_worker`, :mod:`ik.batch_runners`, :mod:`ik.batch_pool`),
+:mod:`ik.options`, :mod:`ik.result`.
 """
 
 from .batch import solve_many

@@ -252,7 +252,7 @@ def solve_many(
                 raise InputError(f"q0[{i}]: a sphere already contains the start configuration: "
                                  f"{prepared['spheres'].describe_violation(c)}")
     processes = min(_cpu_count() if processes is None else processes, n)
-    job = Job(robot, kwargs, options, keep_history, frame, poses, q0s)
+    job = Job(robot, kwargs, options, keep_history, frame, poses, q0s, prepared=prepared)
     job.ray_address = ray_address
     chunks = chunk_bounds(n, processes, chunksize, job.vectorised())
     runner = BACKENDS[backend]
@@ -270,18 +270,19 @@ def solve_many(
 
     def on_done(res: dict) -> None:
         s = res["start"]
-        q = res["q"]
-        success, pe, re = res["success"].tolist(), res["position_error"].tolist(), res["orientation_error"].tolist()
-        its, rs, el = res["iterations"].tolist(), res["restarts"].tolist(), res["elapsed"].tolist()
-        message, meth, info, hist = res["message"], res["method"], res["info"], res["history"]
-        for i in range(len(message)):
-            results[s + i] = Result(
-                q=q[i], success=success[i], position_error=pe[i], orientation_error=re[i], iterations=its[i],
-                restarts=rs[i], elapsed=el[i], message=message[i], history=None if hist is None else hist[i],
-                method=meth[i], frame=frame, info={"batched": True} if info is None else info[i],
-            )
+        m = len(res["message"])
+        info = res["info"] if res["info"] is not None else [{"batched": True} for _ in range(m)]
+        hist = res["history"] if res["history"] is not None else [None] * m
+        results[s:s + m] = [
+            Result(q=q, success=ok, position_error=pe, orientation_error=re, iterations=it, restarts=rs, elapsed=el,
+                   message=msg, history=h, method=meth, frame=frame, info=inf)
+            for q, ok, pe, re, it, rs, el, msg, h, meth, inf in zip(
+                list(res["q"]), res["success"].tolist(), res["position_error"].tolist(),
+                res["orientation_error"].tolist(), res["iterations"].tolist(), res["restarts"].tolist(),
+                res["elapsed"].tolist(), res["message"], hist, res["method"], info)
+        ]
         if bar is not None:
-            bar.update(len(message))
+            bar.update(m)
 
     try:
         runner(job, chunks, processes, on_done, TimeLimits.for_job(job, timeout))

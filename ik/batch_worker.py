@@ -54,7 +54,8 @@ class Job:
     or None are already validated.
     """
 
-    def __init__(self, robot, kwargs: dict, options: dict, keep_history: bool, frame: str, poses=None, q0s=None):
+    def __init__(self, robot, kwargs: dict, options: dict, keep_history: bool, frame: str, poses=None, q0s=None,
+                 prepared: dict | None = None):
         self.id = (os.getpid(), next(_job_ids))
         self.robot = robot
         self.kwargs = kwargs
@@ -64,7 +65,7 @@ class Job:
         self.poses = poses
         self.q0s = q0s
         self.ray_address = None  #: Ray cluster to join (``backend="ray"``)
-        self._prepared = None
+        self._prepared = prepared  # from the caller's own prepare(**kwargs), if it has one
         self._vectorised = None
 
     def prepared(self) -> dict:
