@@ -35,6 +35,7 @@ that spin while they wait for work, and two processes were *slower* than one
 
 from __future__ import annotations
 
+import atexit
 import multiprocessing as mp
 import os
 import pickle
@@ -290,6 +291,9 @@ def shutdown_pool() -> None:
     if pool is not None:
         with pool.lock:
             pool.close()
+
+
+atexit.register(shutdown_pool)
 
 
 def current_pool() -> WorkerPool | None:
