@@ -170,7 +170,11 @@ class WorkerPool:
                 if not w.process.is_alive():
                     w = self.workers[i] = self._spawn()
                 start, stop = pending.popleft()
-                w.conn.send((job_id, path, start, stop))
+                try:
+                    w.conn.send((job_id, path, start, stop))
+                except OSError:  # it died since the check: one fresh worker
+                    w = self.workers[i] = self._spawn()
+                    w.conn.send((job_id, path, start, stop))
                 w.task = (start, stop, time.monotonic(), chunk_limit(stop - start))
                 w.stopped_since = None
 
