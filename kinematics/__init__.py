@@ -15,10 +15,12 @@ from .errors import (
 )
 from .robot import TASK_AXES, Robot, axis_rows
 from .shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
+from .task_axes import TaskAxes, detect_task_axes
 from .validation import as_matrix, as_pose, as_vector
 
 __all__ = [
-    "Robot", "TASK_AXES", "axis_rows", "as_pose", "as_vector", "as_matrix", "errors", "se3", "shapes", "singularity",
+    "Robot", "TASK_AXES", "axis_rows", "TaskAxes", "detect_task_axes", "as_pose", "as_vector", "as_matrix",
+    "errors", "se3", "shapes", "singularity",
     "Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape",
     "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
     "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError",

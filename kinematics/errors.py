@@ -74,6 +74,18 @@ class WorkerTimeoutError(WorkerError, TimeoutError):
 
 
 def suggest(name: str, known: Iterable[str], n: int = 3) -> str:
-    """Return ' Did you mean: a, b?' for the closest names in ``known`` (or '')."""
-    close = difflib.get_close_matches(str(name), list(known), n=n, cutoff=0.5)
+    """Return ' Did you mean: a, b?' for the closest names in ``known`` (or '').
+
+    Case is ignored when comparing (``"UR5"`` suggests ``ur5``); names that
+    differ only in case come first.
+    """
+    known = [str(k) for k in known]
+    by_lower: dict[str, list[str]] = {}
+    for k in known:
+        by_lower.setdefault(k.lower(), []).append(k)
+    key = str(name).lower()
+    close = list(by_lower.get(key, []))
+    for match in difflib.get_close_matches(key, list(by_lower), n=n, cutoff=0.5):
+        close += [k for k in by_lower[match] if k not in close]
+    close = close[:n]
     return f" Did you mean: {', '.join(close)}?" if close else ""

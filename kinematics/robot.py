@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import threading
+from types import MappingProxyType
 
 import numpy as np
 import pinocchio as pin
@@ -97,7 +98,19 @@ class Robot:
         The URDF text the model was built from (for export and viewers).
     package_dirs:
         Directories used to resolve ``package://`` mesh URIs of ``source``.
+
+    Attributes set by the loader from an SRDF (empty otherwise, see
+    :mod:`kinserve.robots.srdf`): ``named_states`` (``{name: q}``, e.g.
+    ``robot.named_states["default"]``), ``groups`` (``{group: joint names}``)
+    and ``srdf_path``.
     """
+
+    #: Named configurations from the SRDF, ``{name: q (nq,)}`` (read-only).
+    named_states = MappingProxyType({})
+    #: Joint groups from the SRDF, ``{group: (joint name, ...)}`` (movable joints, model order).
+    groups = MappingProxyType({})
+    #: Where ``named_states`` and ``groups`` came from (None without an SRDF).
+    srdf_path: str | None = None
 
     def __init__(
         self,
@@ -195,7 +208,14 @@ class Robot:
         self._tls = _PerThreadData(self.model)
 
     def neutral(self) -> np.ndarray:
-        """Mid-range configuration ``(lower + upper) / 2`` clipped to include 0 when 0 is in range."""
+        """The model's zero configuration clipped into the limits: ``clip(0, lower, upper)``.
+
+        This is the pose the URDF draws (every joint at 0) wherever 0 is
+        allowed; a joint whose range excludes 0 sits at the limit nearest to
+        0 (Panda's joint 4: ``-0.0698`` rad). It is the default IK seed, the
+        default pose of viewers and of the CLI. For the centre of the ranges
+        use :meth:`middle`; for the SRDF's poses, :attr:`named_states`.
+        """
         q = pin.neutral(self.model).copy()
         return np.clip(q, self.lower, self.upper)
 
@@ -220,7 +240,7 @@ class Robot:
         except (KeyError, TypeError):
             raise FrameError(
                 f"unknown frame {frame!r} for robot {self.name!r}.{suggest(frame, self.frame_names)} "
-                f"(robot.frame_names lists all {len(self.frame_names)})"
+                f"(`kinserve frames ROBOT` lists all {len(self.frame_names)}; robot.frame_names in Python)"
             ) from None
 
     def check_q(self, q, name: str = "q", check_limits: bool = False) -> np.ndarray:

@@ -11,12 +11,11 @@ import argparse
 
 
 def cmd_view(args) -> int:
-    from kinserve import robots
-    from kinserve.service.cli import parse_params, robot_q
+    from kinserve.service.cli import load_robot, robot_q
     from kinserve.viz import Scene, export_html
     from kinserve.viz.live import serve
 
-    robot = robots.load(args.robot, geometry=True, **parse_params(args.param))
+    robot = load_robot(args, geometry=True)
     q = robot_q(robot, args)
     scene = Scene.for_robot(robot, q)
     if args.html:

@@ -32,9 +32,11 @@ class RobotPool:
     def get(self, name: str, params: dict | None = None) -> Robot:
         """This thread's own Robot for ``name`` with ``params``."""
         params = params or {}
-        known = robots.available()
-        if name not in known:
-            raise UnknownRobotError(f"unknown robot {name!r}.{suggest(name, known)} Known robots: {', '.join(known)}")
+        try:
+            name = robots.canonical_name(name)  # built-in names only, any case
+        except UnknownRobotError:
+            known = robots.ENTRIES
+            raise UnknownRobotError(f"unknown robot {name!r}.{suggest(name, known)} Known robots: {', '.join(known)}") from None
         key = self.key(name, params)
         cache = getattr(self._local, "robots", None)
         if cache is None:
@@ -44,6 +46,6 @@ class RobotPool:
             with self._lock:
                 base = self._base.get(key)
                 if base is None:
-                    base = self._base[key] = robots.load(name, geometry=False, **params)
+                    base = self._base[key] = robots.load(name, params=params, geometry=False)
             robot = cache[key] = base.copy()
         return robot
