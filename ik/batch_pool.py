@@ -54,6 +54,10 @@ from .batch_worker import limit_blas_threads, worker_chunk
 STOPPED_GRACE = 2.0
 #: Longest single wait (s) between two checks of the workers' states.
 POLL = 0.5
+#: Chunks a worker holds at once: the one it solves and the next, already in its pipe, so that it
+#: never waits for the parent between two chunks (on a loaded machine that round trip costs
+#: scheduling latency twice per chunk).
+PREFETCH = 2
 
 
 def _context():
@@ -103,13 +107,24 @@ _STATES = {"R": "running", "S": "sleeping", "D": "in uninterruptible wait", "T":
 
 
 class _Worker:
-    __slots__ = ("process", "conn", "task", "stopped_since")
+    """A worker process, its pipe, and the chunks it holds (the first is the one it is solving)."""
+
+    __slots__ = ("process", "conn", "queue", "head_since", "stopped_since")
 
     def __init__(self, process, conn):
         self.process = process
         self.conn = conn
-        self.task = None  # (start, stop, t_start, limit) of the chunk it holds
+        self.queue = deque()  # (start, stop, limit) of the chunks sent to it, oldest first
+        self.head_since = 0.0  # when it started on queue[0] (as far as the parent can tell)
         self.stopped_since = None
+
+    @property
+    def task(self):
+        """``(start, stop, since, limit)`` of the chunk it is solving, or None when idle."""
+        if not self.queue:
+            return None
+        start, stop, limit = self.queue[0]
+        return start, stop, self.head_since, limit
 
 
 class WorkerPool:
@@ -165,18 +180,24 @@ class WorkerPool:
             raise
 
     def _dispatch(self, job_id, path, pending, chunk_limit) -> None:
-        for i, w in enumerate(self.workers):
-            if w.task is None and pending:
-                if not w.process.is_alive():
+        """Top every worker up to :data:`PREFETCH` chunks, one round at a time (even shares)."""
+        for depth in range(PREFETCH):
+            for i in range(len(self.workers)):
+                w = self.workers[i]
+                if len(w.queue) > depth or not pending:
+                    continue
+                if not w.queue and not w.process.is_alive():
                     w = self.workers[i] = self._spawn()
                 start, stop = pending.popleft()
                 try:
                     w.conn.send((job_id, path, start, stop))
-                except OSError:  # it died since the check: one fresh worker
-                    w = self.workers[i] = self._spawn()
-                    w.conn.send((job_id, path, start, stop))
-                w.task = (start, stop, time.monotonic(), chunk_limit(stop - start))
-                w.stopped_since = None
+                except OSError:  # it died since the check: requeue, the sentinel reports it
+                    pending.appendleft((start, stop))
+                    continue
+                if not w.queue:
+                    w.head_since = time.monotonic()
+                    w.stopped_since = None
+                w.queue.append((start, stop, chunk_limit(stop - start)))
 
     def _receive(self, w: _Worker, job_id, on_done, pending, retried) -> None:
         try:
@@ -185,9 +206,11 @@ class WorkerPool:
             self._replace_dead(w, pending, retried)
             return
         kind, msg_job, start = msg[:3]
-        if msg_job != job_id or w.task is None or start != w.task[0]:
+        if msg_job != job_id or not w.queue or start != w.queue[0][0]:
             return  # not this run's (cannot happen: a pool is terminated when a run is abandoned)
-        w.task = None
+        w.queue.popleft()
+        w.head_since = time.monotonic()  # it goes on with the next chunk in its pipe, if any
+        w.stopped_since = None
         if kind == "error":
             exc, text = msg[3], msg[4]
             if exc is not None:
@@ -199,7 +222,8 @@ class WorkerPool:
         on_done(out)
 
     def _replace_dead(self, w: _Worker, pending, retried) -> None:
-        start, stop = w.task[:2]
+        """Replace a dead worker; its current chunk is retried once, the chunks behind it go back in line."""
+        start, stop, _ = w.queue[0]
         w.process.join(1.0)
         code = w.process.exitcode
         i = self.workers.index(w)
@@ -210,7 +234,8 @@ class WorkerPool:
                 f"(last exit code {code}; a negative code is the signal that ended it)"
             )
         retried.add((start, stop))
-        pending.appendleft((start, stop))
+        for s_, e_, _ in reversed(w.queue):
+            pending.appendleft((s_, e_))
 
     def _check_stalls(self, deadline) -> None:
         now = time.monotonic()
