@@ -141,7 +141,9 @@ def test_chunk_limit_and_overall_timeout(slow_batch, monkeypatch):
 def test_killed_worker_is_retried_once(slow_batch):
     thread, box = _run_in_thread({**slow_batch, "targets": slow_batch["targets"][:60]})
     pid, chunk = _busy_worker()
-    os.kill(pid, signal.SIGKILL)
+    held = [len(w.queue) for w in batch_pool.current_pool().workers]
+    assert held == [batch_pool.PREFETCH] * 2  # each worker already has its next chunk
+    os.kill(pid, signal.SIGKILL)  # the chunk it was solving is retried, the one behind it goes back in line
     thread.join(30)
     assert "error" not in box, box.get("error")
     res = box["results"]
