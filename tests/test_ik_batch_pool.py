@@ -141,8 +141,10 @@ def test_chunk_limit_and_overall_timeout(slow_batch, monkeypatch):
 def test_killed_worker_is_retried_once(slow_batch):
     thread, box = _run_in_thread({**slow_batch, "targets": slow_batch["targets"][:60]})
     pid, chunk = _busy_worker()
-    held = [len(w.queue) for w in batch_pool.current_pool().workers]
-    assert held == [batch_pool.PREFETCH] * 2  # each worker already has its next chunk
+    t_end = time.monotonic() + 2.0  # the parent may still be in the middle of handing them out
+    while time.monotonic() < t_end and [len(w.queue) for w in batch_pool.current_pool().workers] != [2, 2]:
+        time.sleep(0.002)
+    assert [len(w.queue) for w in batch_pool.current_pool().workers] == [batch_pool.PREFETCH] * 2  # the next chunk too
     os.kill(pid, signal.SIGKILL)  # the chunk it was solving is retried, the one behind it goes back in line
     thread.join(30)
     assert "error" not in box, box.get("error")
