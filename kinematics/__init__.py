@@ -12,6 +12,8 @@ from .errors import (
     ShapeError,
     SingularityError,
     UnknownRobotError,
+    WorkerError,
+    WorkerTimeoutError,
 )
 from .robot import TASK_AXES, Robot, axis_rows
 from .shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
@@ -23,5 +25,5 @@ __all__ = [
     "errors", "se3", "shapes", "singularity",
     "Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape",
     "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
-    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError",
+    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError", "WorkerError", "WorkerTimeoutError",
 ]
