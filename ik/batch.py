@@ -64,7 +64,7 @@ def _cpu_count() -> int:
 
 
 def _as_array(targets) -> np.ndarray | None:
-    """``(N, 4, 4)`` float64 view/copy of ``targets``, or None when it is not a clean numeric stack."""
+    """``(N, 4, 4)`` float64 view/copy of an array or a list of poses, or None when it is not a clean numeric stack."""
     if isinstance(targets, np.ndarray):
         if targets.ndim == 2 and targets.shape == (4, 4):
             raise InputError("targets must be a sequence of poses (N, 4, 4); got a single 4x4 pose - use ik.solve")
@@ -73,11 +73,8 @@ def _as_array(targets) -> np.ndarray | None:
         if targets.shape[1:] == (4, 4) and targets.dtype.kind in "fiu":
             return np.asarray(targets, dtype=np.float64)
         return None
-    if isinstance(targets, (str, bytes, dict)) or not hasattr(targets, "__iter__"):
-        raise InputError(f"targets must be a sequence of 4x4 poses, got {type(targets).__name__}")
-    items = [t.homogeneous if isinstance(t, pin.SE3) else t for t in targets]
     try:
-        arr = np.asarray(items, dtype=np.float64)
+        arr = np.asarray(targets, dtype=np.float64)
     except (TypeError, ValueError):
         return None
     return arr if arr.ndim == 3 and arr.shape[1:] == (4, 4) else None
@@ -109,11 +106,14 @@ def checked_poses(robot, targets, frame: str, relax=(), relax_frame: str = "worl
     again by :class:`ik.targets.Target`, whose error is raised with the
     target's index (``targets[i]: ...``).
     """
+    if not isinstance(targets, np.ndarray):
+        if isinstance(targets, (str, bytes, dict)) or not hasattr(targets, "__iter__"):
+            raise InputError(f"targets must be a sequence of 4x4 poses, got {type(targets).__name__}")
+        targets = [t.homogeneous if isinstance(t, pin.SE3) else t for t in targets]  # also consumes an iterator once
     arr = _as_array(targets)
     if arr is None:  # ragged / non-numeric: one by one, for the message
-        items = list(targets)
-        out = np.empty((len(items), 4, 4))
-        for i, pose in enumerate(items):
+        out = np.empty((len(targets), 4, 4))
+        for i, pose in enumerate(targets):
             out[i] = _one_pose(robot, i, pose, frame, relax, relax_frame)
         return out
     out = np.array(arr, dtype=np.float64)

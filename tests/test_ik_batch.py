@@ -126,6 +126,11 @@ def test_targets_validated_all_at_once_agree_with_target(ur5):
             checked_poses(ur5, one, ur5.tip)
     with pytest.raises(InputError, match=r"targets\[1\]"):
         checked_poses(ur5, [good[0], np.eye(3)], ur5.tip)  # ragged: checked one by one
+    with pytest.raises(InputError, match=r"targets\[1\]"):
+        checked_poses(ur5, iter([good[0], "x"]), ur5.tip)  # an iterator is read once
+    assert np.array_equal(checked_poses(ur5, (T for T in good[:4]), ur5.tip), good[:4])
+    with pytest.raises(InputError, match="sequence of 4x4 poses, got str"):
+        checked_poses(ur5, "poses", ur5.tip)
 
 
 def test_options_are_checked_without_a_trial_solve(ur5, monkeypatch):
