@@ -25,7 +25,8 @@ bound to a robot), :mod:`ik.hierarchy` (one prioritised step),
 :mod:`ik.multistart`, :mod:`ik.step`, :mod:`ik.targets`, :mod:`ik.centring`,
 :mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.classical`,
 :mod:`ik.analytic`, :mod:`ik.chooser`, :mod:`ik.seeds`, :mod:`ik.qp_backends`,
-:mod:`ik.solve`, :mod:`ik.batch`, :mod:`ik.result`.
+:mod:`ik.solve`, :mod:`ik.options`, :mod:`ik.result`, :mod:`ik.batch` (with
+:mod:`ik.batch_worker`, :mod:`ik.batch_runners`, :mod:`ik.batch_pool`).
 """
 
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere

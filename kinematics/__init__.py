@@ -12,6 +12,8 @@ from .errors import (
     ShapeError,
     SingularityError,
     UnknownRobotError,
+    WorkerError,
+    WorkerTimeoutError,
 )
 from .collision_model import CollisionModel
 from .collision_queries import PairDistance
@@ -25,5 +27,5 @@ __all__ = [
     "errors", "se3", "shapes", "singularity",
     "Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "CollisionModel", "PairDistance",
     "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
-    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError",
+    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError", "WorkerError", "WorkerTimeoutError",
 ]

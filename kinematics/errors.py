@@ -14,7 +14,9 @@ traceback from inside Pinocchio.
     │   ├── RotationError     rotation block not orthonormal / det != +1
     │   ├── JointLimitError   a joint value outside [lower, upper] when limits are checked
     │   └── UnknownRobotError unknown built-in robot name (lists the known ones)
-    └── SingularityError      a representation is undefined here (e.g. RPY at pitch = ±pi/2)
+    ├── SingularityError      a representation is undefined here (e.g. RPY at pitch = ±pi/2)
+    └── WorkerError           a worker process of a batch failed (ik.solve_many)
+        └── WorkerTimeoutError (TimeoutError)  a worker stalled or the batch's timeout expired
 """
 
 from __future__ import annotations
@@ -61,6 +63,14 @@ class UnknownRobotError(InputError):
 
 class SingularityError(KinserveError):
     """A quantity is undefined at this configuration (a representation singularity)."""
+
+
+class WorkerError(KinserveError):
+    """A worker process of a batch (``ik.solve_many``) failed; the message names the worker and its chunk."""
+
+
+class WorkerTimeoutError(WorkerError, TimeoutError):
+    """A batch worker stalled (no answer within its chunk's time limit, or stopped) or the batch timed out."""
 
 
 def suggest(name: str, known: Iterable[str], n: int = 3) -> str:

@@ -161,7 +161,7 @@ def test_live_view_and_html_export_send_the_same_camera(tmp_path):
             live = camera_part(server_commands(server.static_html()))
         finally:
             os.killpg(proc.pid, signal.SIGINT)
-            proc.wait(timeout=20)
+            proc.communicate(timeout=20)  # waits and closes both pipes
     assert live == exported
     eye, target = exported_camera(live)
     assert np.linalg.norm(eye - target) > 0.1

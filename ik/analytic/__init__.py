@@ -13,6 +13,7 @@ kept components, ``success`` against the tolerances).
 
 from __future__ import annotations
 
+import threading
 import time
 import weakref
 
@@ -26,23 +27,30 @@ __all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "P
 
 _SOLVERS = (PlanarChain, YouBotArm)
 _cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_cache_lock = threading.Lock()
 
 
 def closed_form_solver(robot, frame: str):
-    """The closed-form solver of ``robot`` for ``frame``, or None when there is none."""
+    """The closed-form solver of ``robot`` for ``frame``, or None when there is none.
+
+    Solvers are immutable once built; the per-model cache is filled under a
+    lock, so threads sharing a robot share its solvers.
+    """
     per_model = _cache.get(robot.model)
-    if per_model is None:
-        per_model = _cache[robot.model] = {}
-    if frame in per_model:
+    if per_model is not None and frame in per_model:
         return per_model[frame]
-    solver = None
-    for cls in _SOLVERS:
-        try:
-            solver = cls(robot, frame)
-            break
-        except (ValueError, np.linalg.LinAlgError):
-            continue
-    per_model[frame] = solver
+    with _cache_lock:
+        per_model = _cache.setdefault(robot.model, {})
+        if frame in per_model:
+            return per_model[frame]
+        solver = None
+        for cls in _SOLVERS:
+            try:
+                solver = cls(robot, frame)
+                break
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+        per_model[frame] = solver
     return solver
 
 
