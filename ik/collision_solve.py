@@ -34,6 +34,7 @@ collision geometry keeps obstacles clear of its link capsules
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -88,7 +89,7 @@ def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Re
             return solve_prepared(robot, dict(p, spheres=avoid), **solver_opts)
         raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to the "
                          "link capsules of ik.ObstacleAvoidance)") from None
-    constraint = CollisionConstraint(obs, self_collision=self_collision, margin=collision_margin).bind(robot)
+    constraint = _bound_constraint(robot, obs, self_collision, collision_margin)
     budget = MAX_TIME if p["max_time"] is None else p["max_time"]
     tgt = p["target"]
 
@@ -118,6 +119,32 @@ def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Re
         res.message = "no collision-free start configuration was found within the time budget"
     res.elapsed = time.perf_counter() - t0
     return res
+
+
+#: This thread's bound constraints, per (scene, margin): a scene is cached per obstacle set, so is its constraint.
+_BOUND = threading.local()
+_BOUND_CACHE_SIZE = 16
+
+
+def _bound_constraint(robot: Robot, obs: tuple, self_collision: bool, margin: float) -> CollisionConstraint:
+    """The :class:`CollisionConstraint` of ``obs`` bound to ``robot``, reused by later solves on this thread.
+
+    Its only state besides the scene is a memo keyed by the configuration's bytes, so reuse is exact;
+    per thread because that memo is written while solving.
+    """
+    cache = getattr(_BOUND, "cache", None)
+    if cache is None:
+        cache = _BOUND.cache = {}
+    scene = robot.collision.scene(obs, bool(self_collision))
+    key = (id(scene), float(margin))
+    hit = cache.get(key)
+    if hit is not None and hit.scene is scene and hit.robot is robot:
+        return hit
+    bound = CollisionConstraint(obs, self_collision=self_collision, margin=margin).bind(robot)
+    if len(cache) >= _BOUND_CACHE_SIZE:
+        cache.clear()
+    cache[key] = bound
+    return bound
 
 
 def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result], constraint: CollisionConstraint,
@@ -175,10 +202,10 @@ def _path_is_free(constraint: CollisionConstraint, res: Result) -> bool:
     """
     if constraint.in_collision(res.q):
         return False
-    hist = res.history.q if res.history is not None else ()
-    if len(hist) and np.array_equal(hist[-1], res.q):
+    hist = res.history.iterates() if res.history is not None else []
+    if hist and hist[-1].tolist() == res.q.tolist():
         hist = hist[:-1]
-    return not any(constraint.in_collision(q) for q in hist[::-1])
+    return not any(constraint.in_collision(q) for q in reversed(hist))
 
 
 def _target_inside_obstacle(robot, constraint: CollisionConstraint, tgt) -> str:

@@ -79,6 +79,13 @@ class History:
         self._orientation_error = np.sqrt(np.array(rot2[:k], dtype=float))
         self._raw = None
 
+    def iterates(self) -> list[np.ndarray]:
+        """The configurations as a list of ``(nq,)`` arrays (no stacking when the history is still lazy)."""
+        if self._raw is not None:
+            qs, _, _, k = self._raw
+            return qs[:k]
+        return list(self._q)
+
     @property
     def q(self) -> np.ndarray:
         """Configurations ``(k, nq)``; ``q[0]`` is the start."""

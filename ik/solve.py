@@ -280,9 +280,7 @@ def solve(
     if target is None:
         raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
     if self_collision or collision_margin:
-        from .collision_solve import collision_options
-
-        options.update(collision_options(self_collision, obstacles, collision_margin, spheres))
+        options.update(_collision_module().collision_options(self_collision, obstacles, collision_margin, spheres))
         spheres, obstacles = (), ()
     p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
                 obstacles=obstacles, link_radius=link_radius, centring=centring, method=method, backend=backend,
@@ -389,6 +387,19 @@ def _solve_target_tasks(robot, p: dict, options: dict):
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
 
 
+_collision_solve = None
+
+
+def _collision_module():
+    """:mod:`ik.collision_solve`, imported on first use (it loads coal) and then held: no import per solve."""
+    global _collision_solve
+    if _collision_solve is None:
+        from . import collision_solve
+
+        _collision_solve = collision_solve
+    return _collision_solve
+
+
 _COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 # accepted option names per method: one list, in ik.options
 _LM_OPTIONS, _QP_OPTIONS = OPTIONS["lm"], OPTIONS["qp"]
@@ -411,9 +422,7 @@ def solve_prepared(robot, p: dict, **options):
     ``collision_margin``): the solve then goes through :mod:`ik.collision_solve` (so does ``ik.solve_many``).
     """
     if options and not _COLLISION_KEYS.isdisjoint(options):
-        from .collision_solve import solve_collision_free
-
-        return solve_collision_free(robot, p, solve_prepared, **options)
+        return _collision_module().solve_collision_free(robot, p, solve_prepared, **options)
     method = p["method"]
     tgt = p["target"]
     if method == "auto":
