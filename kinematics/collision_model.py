@@ -178,6 +178,17 @@ class CollisionModel:
                 f"pairs from {self.pair_source})")
 
     # ----------------------------------------------------------------- scenes
+    def cached_scene(self, obstacles: Any, self_collision: bool = True) -> CollisionScene | None:
+        """The cached scene of exactly these obstacle objects (a list or tuple, unvalidated), else None.
+
+        A hit is safe without validating ``obstacles``: a cached scene holds its
+        (validated, immutable) shapes, so no other live object can carry their
+        ids - equal ids mean the very same shapes. Dict forms never hit.
+        """
+        if type(obstacles) is tuple or type(obstacles) is list:
+            return self._scenes.get((self_collision, *map(id, obstacles)))
+        return None
+
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes, cached).
 
