@@ -26,6 +26,9 @@ Queries are single Pinocchio calls over all pairs:
   pair-by-pair coal on scenes of 2 to 4 obstacles and on obstacles placed at
   the arm's surface.)
 * ``colliding`` - every pair (``computeCollisions`` without early stop);
+* ``near`` - the pairs closer than a threshold (the IK's rows): the same
+  broad phase with AABBs inflated by the threshold collects the candidate
+  pairs, GJK with that security margin decides on them only;
 * ``distance_arrays`` - ``pinocchio.computeDistances``: per pair the signed
   distance ``d`` (m, negative = penetration depth), the witness points ``p1`` on
   the first and ``p2`` on the second geometry (world, m) and the unit normal
@@ -52,6 +55,7 @@ if TYPE_CHECKING:
     from .shapes import Shape
 
 _compute_collisions = pin.computeCollisions
+_compute_collision = pin.computeCollision
 
 #: Largest number of geometries (robot + obstacles) checked by coal's naive broad phase; more use the AABB tree.
 NAIVE_MAX_GEOMETRIES = 96
@@ -156,19 +160,26 @@ class CollisionScene:
         k = pin.computeDistances(self.model, data, self.geometry, gd, q)
         return float(gd.distanceResults[k].min_distance), int(k)
 
-    def _margin_data(self, threshold: float):
-        """This thread's GeometryData whose collision requests use ``security_margin = threshold``."""
+    def _margin_workspace(self, threshold: float) -> tuple[pin.GeometryData, Any, Any]:
+        """This thread's ``(GeometryData, broad-phase manager, pair collector)`` whose collision requests use
+        ``security_margin = threshold`` (the manager inflates every AABB by half of it)."""
         ws = getattr(self._local, "margin", None)
         if ws is None:
             ws = self._local.margin = {}
-        gd = ws.get(threshold)
-        if gd is None:
-            gd = ws[threshold] = pin.GeometryData(self.geometry)
+        entry = ws.get(threshold)
+        if entry is None:
+            gd = pin.GeometryData(self.geometry)
             for req in gd.collisionRequests:
                 req.security_margin = threshold
             for req in gd.distanceRequests:  # GJK to 1e-9 m (default 1e-6): smooth enough for step rows
                 req.gjk_tolerance = GJK_TOLERANCE
-        return gd
+            bpm = self._broad_phase(self.model, self.geometry, gd) if len(self.pairs) else None
+            entry = ws[threshold] = (gd, bpm, pin.CollisionCallBackCollect(self.geometry, gd))
+        return entry
+
+    def _margin_data(self, threshold: float) -> pin.GeometryData:
+        """This thread's GeometryData whose collision requests use ``security_margin = threshold``."""
+        return self._margin_workspace(threshold)[0]
 
     def near(self, threshold: float, q: np.ndarray | None = None, data: pin.Data | None = None) -> list[int]:
         """Indices of the pairs closer than ``threshold`` (m), at ``q`` or at the placements of ``data``.
@@ -176,18 +187,26 @@ class CollisionScene:
         Give ``q`` (forward kinematics runs on this thread's workspace) or a
         ``pinocchio.Data`` whose joint placements ``oMi`` are current. The
         placements stay in place for :meth:`near_distance`.
+
+        Broad phase first: the candidates are the checked pairs whose world
+        AABBs, each inflated by ``threshold / 2``, overlap (``CollisionCallBackCollect``;
+        two shapes closer than ``threshold`` always qualify, since an AABB gap is
+        never larger than the shapes' distance); GJK with the security margin then
+        runs on the candidates only. Same pairs as GJK on every pair, a third of
+        the time on the Panda with three boxes and a 5 cm threshold (20 against
+        60 µs).
         """
-        gd = self._margin_data(threshold)
+        gd, bpm, collect = self._margin_workspace(threshold)
         if data is None:
             data = self.workspace()[0]
             pin.forwardKinematics(self.model, data, q)
         pin.updateGeometryPlacements(self.model, data, self.geometry, gd)
-        if not len(self.pairs):
+        if bpm is None:
             return []
-        if not _compute_collisions(self.geometry, gd, True):  # the common case: nothing near, no result to read
-            return []
-        _compute_collisions(self.geometry, gd, False)
-        return [k for k, res in enumerate(gd.collisionResults) if res.isCollision()]
+        bpm.update(False)
+        _compute_collisions(bpm, collect)
+        geometry = self.geometry
+        return [k for k in sorted(collect.pair_indexes) if _compute_collision(geometry, gd, k)]
 
     def near_distance(self, threshold: float, k: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         """``(d, p1, p2, n)`` of pair ``k`` at the placements of the last :meth:`near` call with ``threshold``."""

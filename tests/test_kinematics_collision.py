@@ -326,3 +326,25 @@ def test_broad_phase_never_skips_a_colliding_pair(n_obstacles, manager):
     if n_obstacles < 10:
         assert hits < 0.9 * n_configs
         assert grazing > 0.05 * n_configs  # cases within 5 mm of the boundary (16 of 150 with this seed)
+
+
+def test_near_pairs_match_all_pairs_gjk_with_the_margin():
+    """``scene.near(threshold)`` (broad phase with inflated AABBs, then GJK on the candidates) returns exactly the
+    pairs that GJK with ``security_margin = threshold`` on every pair finds, for thresholds from 0 to 10 cm."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(12)
+    found = 0
+    for q in robot.random_q(rng, 60):
+        scene = robot.collision_scene(SCENE + _obstacles_at_the_surface(robot, q, rng, 2))
+        for threshold in (0.0, 0.01, 0.05, 0.1):
+            data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+            for req in gd.collisionRequests:
+                req.security_margin = threshold
+            pin.computeCollisions(scene.model, data, scene.geometry, gd, q, False)
+            expected = [k for k, res in enumerate(gd.collisionResults) if res.isCollision()]
+            assert scene.near(threshold, q) == expected
+            found += len(expected)
+            # the witness distances of the near pairs are below the threshold (placements left by near)
+            for k in expected[:3]:
+                assert scene.near_distance(threshold, k)[0] < threshold + 1e-6
+    assert found > 200  # near pairs are common: the comparison has substance
