@@ -84,22 +84,26 @@ class CollisionScene:
             gm.removeAllCollisionPairs()
         n_robot = gm.ngeoms
         names = list(cmodel.links)
-        moving = [i for i, g in enumerate(gm.geometryObjects) if g.parentJoint != 0]
+        joints = list(cmodel.geometry_joints)
+        moving = [i for i, j in enumerate(joints) if j != 0]
+        pairs = list(cmodel.model_pairs) if self_collision else []
         for k, shape in enumerate(obstacles):
             name = obstacle_name(k, shape)
             idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, shape.placement(), shape.geometry()))
             names.append(name)
+            joints.append(0)
             for i in moving:
                 gm.addCollisionPair(pin.CollisionPair(i, idx))
+                pairs.append((i, idx))
+        if len(pairs) != len(gm.collisionPairs):  # pragma: no cover - Pinocchio dropped or reordered a pair
+            pairs = [(int(cp.first), int(cp.second)) for cp in gm.collisionPairs]
         self.geometry = gm
         self.n_robot = n_robot
         self.geometry_owner: list[str] = names  #: link name (robot) or obstacle name, per geometry
-        pairs = [(cp.first, cp.second) for cp in gm.collisionPairs]
         self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
         self.pair_names: list[tuple[str, str]] = [(names[a], names[b]) for a, b in pairs]
-        objs = gm.geometryObjects
         #: Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2).
-        self.pair_joints = np.array([(objs[a].parentJoint, objs[b].parentJoint) for a, b in pairs], dtype=int).reshape(-1, 2)
+        self.pair_joints = np.asarray(joints, dtype=int)[self.pairs].reshape(-1, 2)
         self._broad_phase = broad_phase_manager_class(gm.ngeoms)
         self._local = threading.local()
 

@@ -348,3 +348,28 @@ def test_near_pairs_match_all_pairs_gjk_with_the_margin():
             for k in expected[:3]:
                 assert scene.near_distance(threshold, k)[0] < threshold + 1e-6
     assert found > 200  # near pairs are common: the comparison has substance
+
+
+def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
+    """The scene's pair table (indices, joints, names) is the GeometryModel's; equal obstacles reuse one scene."""
+    robot = robots.load("panda")
+    for self_collision in (True, False):
+        scene = robot.collision_scene(SCENE + EXTRA, self_collision)
+        gm = scene.geometry
+        assert scene.pairs.tolist() == [[cp.first, cp.second] for cp in gm.collisionPairs]
+        joint = [g.parentJoint for g in gm.geometryObjects]
+        assert scene.pair_joints.tolist() == [[joint[a], joint[b]] for a, b in scene.pairs.tolist()]
+        assert len(scene) == (len(robot.collision.self_pairs) if self_collision else 0) + 4 * sum(
+            1 for g in gm.geometryObjects[:scene.n_robot] if g.parentJoint != 0)
+    same = [Box(b.pose, b.size) for b in SCENE]  # new objects, equal values
+    assert robot.collision_scene(same) is robot.collision_scene(SCENE)
+    assert robot.collision_scene([b.to_dict() for b in SCENE]) is robot.collision_scene(SCENE)
+    moved = [Box(_pose((0.65, 0.0, -0.04)), (0.7, 1.2, 0.1)), SCENE[1]]
+    assert robot.collision_scene(moved) is not robot.collision_scene(SCENE)
+    assert robot.collision_scene(SCENE, self_collision=False) is not robot.collision_scene(SCENE)
+    q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])
+
+    def to_table(obstacles):
+        return min(d.distance for (_, b), d in robot.distances(q, obstacles).items() if b == "obstacle[0]:box")
+
+    assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
