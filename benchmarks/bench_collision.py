@@ -1,4 +1,4 @@
-"""Collision-aware IK on the Panda with its SRDF: kinserve vs roboplan SimpleIk vs Pink's barrier.
+"""Collision-aware IK and the collision check on the Panda with its SRDF: kinserve vs roboplan SimpleIk vs Pink.
 
 Scene (issue 11): a table top (box centre (0.65, 0, -0.05), size 0.7 x 1.2 x 0.1)
 and a wall (centre (0, -0.6, 0.5), size 1.5 x 0.05 x 1.0), axis-aligned. The
@@ -14,7 +14,7 @@ Workloads (every solver gets the same targets, starts and budget ``--budget``
    collision is reported).
 2. **obstacle in the way** - for each target, a cube of edge 10 cm centred on
    the elbow (origin of ``panda_joint4``) of kinserve's *unconstrained* answer,
-    so that answer becomes invalid; only targets whose generating configuration
+   so that answer becomes invalid; only targets whose generating configuration
    clears the cube are kept (a witness that they are feasible). The unconstrained
    answer's elbow is usually close to the generating one, so targets are drawn
    on until ``--n`` are kept (the kept fraction is reported).
@@ -22,16 +22,21 @@ Workloads (every solver gets the same targets, starts and budget ``--budget``
 Contenders:
 
 * kinserve ``ik.solve(robot, T, q0, frame=..., self_collision=True,
-  obstacles=[table, wall(, cube)], seed=i, max_time=budget)`` (skipped with a
-  message while kinserve has no ``self_collision=``);
+  obstacles=[table, wall(, cube)], seed=i, max_time=budget)`` (the ``ik.Box``
+  objects are built before the timed call, as roboplan's box is moved before
+  its timed solve; the collision scene they make is built inside); also reported:
+  which path answered (``Result.info["collision"]``) and, in workload 2, the
+  share of solves whose every iterate is collision free (checked like the answers);
 * kinserve unconstrained ``ik.solve(robot, T, q0, frame=..., seed=i)``: the
   reference of the ratios (its answers are checked like everyone's);
-* roboplan ``SimpleIk`` (C++; its own venv ``bench-out/venvs/roboplan``):
-  ``Scene`` from the same URDF + SRDF, the boxes added with
-  ``addBoxGeometry``, ``check_collisions=True``, unlimited restarts within the
-  budget, error norms 1e-4 m / 1e-3 rad;
+* roboplan ``SimpleIk`` (C++; its own venv ``bench-out/venvs/roboplan``, or
+  ``$KINSERVE_BENCH_VENVS/roboplan``): ``Scene`` from the same URDF + SRDF, the
+  boxes added with ``addBoxGeometry``, ``check_collisions=True``, unlimited
+  restarts within the budget, error norms 1e-4 m / 1e-3 rad;
 * Pink ``SelfCollisionBarrier`` over every active pair (self + scene) of the
-  convex collision geometry, ``safe_displacement_gain=0`` (``_pink_peer.py``).
+  convex collision geometry, ``safe_displacement_gain=0`` (``_pink_peer.py``;
+  Pink is an optional extra, ``pip install -e .[bench]``: skipped with a message
+  when it is not installed).
 
 Success is decided by code written here (``_obstacle_check.CoalChecker``):
 ``pin.buildGeomFromUrdf`` on the URDF's meshes, all pairs of non-adjacent
@@ -43,10 +48,14 @@ Times are wall clock around each solve (roboplan: inside its worker) and,
 alongside, CPU time (``time.process_time``; long solves are preempted on a
 shared machine, short ones rarely).
 
-Collision check (us per call, wall and CPU, 200 random configurations, self + scene):
-kinserve ``robot.in_collision(q, obstacles)`` vs raw ``pin.computeCollisions``
-on the meshes and on their convex hulls vs roboplan's ``Scene.hasCollisions``
-(broad phase first).
+Collision check (us per call, wall and CPU, ``--configs`` random configurations,
+self + scene): kinserve ``robot.in_collision(q, obstacles)`` (validation
+included), its scene's check alone, self only and ``robot.min_distance``; raw
+``pin.computeCollisions`` over every pair on the meshes and on their convex
+hulls; roboplan's ``Scene.hasCollisions`` (broad phase first). kinserve and
+roboplan are timed in alternating rounds (``--rounds``) so that both see the
+same load; the figure is the median over the rounds, and the load average is
+recorded.
 
 Targets (issue 11): open scene 100 % with median <= 1.5x kinserve's
 unconstrained solve and below roboplan's; obstacle in the way >= 99 % of the
@@ -54,6 +63,8 @@ witness-feasible targets with median <= 5x unconstrained and success ahead of
 roboplan and Pink; collision check no slower than roboplan's.
 
     .venv/bin/python benchmarks/bench_collision.py [--n 200] [--budget 0.5] [--out FILE.json]
+        [--kinserve-only]   kinserve alone (no peer is started)
+        [--check-only]      the collision-check timings only (no IK workloads)
 """
 
 from __future__ import annotations
@@ -65,7 +76,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
-import inspect  # noqa: E402
+import importlib.util  # noqa: E402
 import math  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
@@ -98,11 +109,8 @@ WALL = box((0.0, -0.6, 0.5), (1.5, 0.05, 1.0))
 SCENE = (TABLE, WALL)
 
 
-def kinserve_box(spec: BoxSpec):
-    Box = getattr(ik, "Box", None)
-    if Box is None:
-        from kinserve.kinematics.shapes import Box
-    return Box(spec.T, spec.size)
+def kinserve_box(spec: BoxSpec) -> ik.Box:
+    return ik.Box(spec.T, spec.size)
 
 
 # --------------------------------------------------------------------------- independent success test
@@ -138,23 +146,31 @@ class Judge:
 
 # --------------------------------------------------------------------------- contenders
 def kinserve_solvers(robot, budget):
-    params = inspect.signature(ik.solve).parameters
     solvers = {"kinserve unconstrained": lambda T, q0, i, extra: ik.solve(robot, T, q0, frame=FRAME, seed=i).q}
-    if "self_collision" in params and "obstacles" in params:
-        def constrained(T, q0, i, extra):
-            obs = [kinserve_box(b) for b in SCENE + tuple(extra)]
-            try:
-                return ik.solve(robot, T, q0, frame=FRAME, self_collision=True, obstacles=obs, seed=i,
-                                max_time=budget).q
-            except Exception as exc:  # noqa: BLE001 - counted as a failure and reported
-                constrained.errors.append(f"{type(exc).__name__}: {exc}")
-                return None
 
-        constrained.errors = []
-        solvers["kinserve"] = constrained
-    else:
-        print("SKIP kinserve collision-aware IK: ik.solve has no self_collision=/obstacles= yet "
-              "(branches ik-model / collision)")
+    shapes: dict = {}
+
+    def prepare(extra) -> None:
+        """kinserve's obstacle objects for the specs, built before the timed call (as roboplan moves its box)."""
+        for b in SCENE + tuple(extra):
+            if b not in shapes:
+                shapes[b] = kinserve_box(b)
+
+    def constrained(T, q0, i, extra):
+        obs = [shapes[b] for b in SCENE + tuple(extra)]
+        constrained.last = None
+        try:
+            res = ik.solve(robot, T, q0, frame=FRAME, self_collision=True, obstacles=obs, seed=i, max_time=budget)
+        except Exception as exc:  # noqa: BLE001 - counted as a failure and reported
+            constrained.errors.append(f"{type(exc).__name__}: {exc}")
+            return None
+        constrained.last = res  # read after the timed call: the path taken and the iterates
+        return res.q
+
+    constrained.errors = []
+    constrained.last = None
+    constrained.prepare = prepare
+    solvers["kinserve"] = constrained
     return solvers
 
 
@@ -201,10 +217,8 @@ def roboplan_solver(w, budget):
 
 
 def pink_solver(urdf_path, srdf_path, package_dirs, budget):
-    try:
-        import pink  # noqa: F401
-    except ImportError as exc:
-        print(f"SKIP pink: {exc}")
+    if importlib.util.find_spec("pink") is None:
+        print("SKIP pink: not installed (an optional extra: pip install -e '.[bench]')")
         return None
     from _pink_peer import PinkBarrierIK
 
@@ -298,11 +312,24 @@ def summarise(times, oks, unc_median, unc_p95) -> dict:
             "median_vs_unconstrained": med / unc_median, "p95_vs_unconstrained_p95": p95 / unc_p95}
 
 
-def run(name, idx, targets, starts, extras, solvers, judge) -> dict:
+def kinserve_extras(res, judge, extra, tally: dict, check_iterates: bool) -> None:
+    """Count the path kinserve's answer came from and (workload 2) whether every iterate is collision free."""
+    if res is None:
+        tally["paths"]["raised"] = tally["paths"].get("raised", 0) + 1
+        return
+    path = res.info.get("collision", "-")
+    tally["paths"][path] = tally["paths"].get(path, 0) + 1
+    if check_iterates and res.history is not None:
+        tally["iterates_checked"] += 1
+        tally["every_iterate_free"] += all(not judge.collides(q, extra) for q in res.history.q)
+
+
+def run(name, idx, targets, starts, extras, solvers, judge, check_iterates: bool = False) -> dict:
     n = len(idx)
     times = {k: np.zeros(n) for k in solvers}
     cpu = {k: np.zeros(n) for k in solvers}
     oks = {k: np.zeros(n, dtype=bool) for k in solvers}
+    tally = {"paths": {}, "iterates_checked": 0, "every_iterate_free": 0}
     names = list(solvers)
     t_all = time.perf_counter()
     for b, lo in enumerate(range(0, n, BLOCK)):
@@ -311,6 +338,8 @@ def run(name, idx, targets, starts, extras, solvers, judge) -> dict:
             fn = solvers[key]
             for j in range(lo, hi):
                 i = idx[j]
+                if hasattr(fn, "prepare"):  # untimed setup of the obstacles
+                    fn.prepare(extras[i])
                 t0, c0 = time.perf_counter(), time.process_time()
                 q = fn(targets[i], starts[i].copy(), int(i), extras[i])
                 dt, dc = time.perf_counter() - t0, time.process_time() - c0
@@ -318,6 +347,8 @@ def run(name, idx, targets, starts, extras, solvers, judge) -> dict:
                 times[key][j] = dt if inner is None else inner
                 cpu[key][j] = dc if inner is None else getattr(fn, "inner_cpu", None)
                 oks[key][j] = judge(targets[i], q, extras[i])
+                if key == "kinserve":
+                    kinserve_extras(fn.last, judge, extras[i], tally, check_iterates)
         print(f"  [{name}] {hi}/{n} targets ({time.perf_counter() - t_all:.1f} s)", flush=True)
     unc = times["kinserve unconstrained"] * 1e3
     unc_med, unc_p95 = float(np.median(unc)), float(np.percentile(unc, 95))
@@ -327,6 +358,10 @@ def run(name, idx, targets, starts, extras, solvers, judge) -> dict:
         s = stats[k] = summarise(times[k], oks[k], unc_med, unc_p95)
         s["median_cpu_ms"] = float(np.median(cpu[k])) * 1e3
         s["median_cpu_vs_unconstrained"] = s["median_cpu_ms"] / unc_cpu
+    if "kinserve" in stats:
+        stats["kinserve"]["paths"] = tally["paths"]
+        if check_iterates and tally["iterates_checked"]:
+            stats["kinserve"]["every_iterate_free_pct"] = 100.0 * tally["every_iterate_free"] / tally["iterates_checked"]
     return stats
 
 
@@ -338,61 +373,109 @@ def print_table(name, stats, n):
         print(f"{k:34}{s['success_pct']:10.1f}{s['median_ms']:11.3f}{s['p95_ms']:9.2f}{s['mean_ms']:9.2f}"
               f"{s['median_vs_unconstrained']:9.1f}{s['p95_vs_unconstrained_p95']:12.1f}"
               f"{s['median_cpu_ms']:11.3f}{s['median_cpu_vs_unconstrained']:9.1f}")
+    k = stats.get("kinserve", {})
+    if "paths" in k:
+        print(f"kinserve answers by path: {k['paths']}"
+              + (f"; every iterate collision free in {k['every_iterate_free_pct']:.1f} % of the solves"
+                 if "every_iterate_free_pct" in k else ""))
 
 
-def median_us(fn, qs, repeats=5) -> tuple[float, float]:
-    """(wall, CPU) us per call: medians over ``repeats`` passes over ``qs``."""
-    wall, cpu = [], []
-    for _ in range(repeats):
-        t0, c0 = time.perf_counter(), time.process_time()
-        for q in qs:
-            fn(q)
-        wall.append((time.perf_counter() - t0) / len(qs))
-        cpu.append((time.process_time() - c0) / len(qs))
-    return statistics.median(wall) * 1e6, statistics.median(cpu) * 1e6
+# --------------------------------------------------------------------------- collision check
+def per_call_us(fn, qs) -> tuple[float, float]:
+    """(wall, CPU) us per call of one pass over ``qs``."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    for q in qs:
+        fn(q)
+    return (time.perf_counter() - t0) / len(qs) * 1e6, (time.process_time() - c0) / len(qs) * 1e6
 
 
-def time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs) -> dict:
-    out = {}
-    if hasattr(robot, "in_collision"):
-        obs = [kinserve_box(b) for b in SCENE]
-        robot.in_collision(qs[0], obs)
-        out["kinserve robot.in_collision(q, obstacles)"], out["kinserve robot.in_collision(q, obstacles): CPU"] = \
-            median_us(lambda q: robot.in_collision(q, obs), qs)
-    else:
-        print("SKIP kinserve collision check: Robot has no in_collision yet (branch collision)")
+def time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs, rounds: int) -> tuple[dict, dict]:
+    """``({label: us per call}, {facts})`` of the collision checks (module docstring); rounds alternate
+    between the contenders."""
+    qs = [np.array(q) for q in qs]  # fixed objects: the raw checks look their full q up by id
+    obs = [kinserve_box(b) for b in SCENE]
+    scene = robot.collision_scene(obs)
+    fns = {
+        "kinserve robot.in_collision(q, obstacles)": lambda q: robot.in_collision(q, obs),
+        "kinserve scene.in_collision(q) (no validation)": scene.in_collision,
+        "kinserve robot.in_collision(q) (self only)": robot.in_collision,
+    }
     for label, convex in (("pinocchio.computeCollisions, meshes", False),
                           ("pinocchio.computeCollisions, convex hulls", True)):
         c = CoalChecker(urdf_path, package_dirs, SCENE, srdf_path=srdf_path, self_collision=True, locked=LOCKED,
                         convex=convex)
-        fq = [c.full_q(q) for q in qs]
-        out[label], out[f"{label}: CPU"] = median_us(
-            lambda q: pin.computeCollisions(c.model, c.data, c.geom, c.gdata, q, True), fq)
-        out[f"{label}: pairs"] = len(c.geom.collisionPairs)
+        full = {id(q): c.full_q(q) for q in qs}
+        n_raw_pairs = len(c.geom.collisionPairs)
+        fns[label] = (lambda c, full: lambda q: pin.computeCollisions(c.model, c.data, c.geom, c.gdata, full[id(q)],
+                                                                      True))(c, full)
+    for fn in fns.values():  # warm-up (scene, workspaces)
+        fn(qs[0])
+    samples: dict[str, list] = {k: [] for k in fns}
+    rp_label = "roboplan Scene.hasCollisions"
     if rp is not None:
-        a = rp.try_call({"cmd": "time_collision", "qs": [q.tolist() for q in qs]})
-        if a is not None:
-            out["roboplan Scene.hasCollisions"], out["roboplan Scene.hasCollisions: CPU"] = a["us"], a["cpu_us"]
-    return out
+        samples[rp_label] = []
+    for r in range(rounds):
+        order = list(fns) + ([rp_label] if rp is not None else [])
+        order = order[r % len(order):] + order[: r % len(order)]  # alternate who goes first
+        for k in order:
+            if k == rp_label:
+                a = rp.try_call({"cmd": "time_collision", "qs": [q.tolist() for q in qs], "repeats": 1})
+                if a is not None:
+                    samples[k].append((a["us"], a["cpu_us"]))
+            else:
+                samples[k].append(per_call_us(fns[k], qs))
+    out = {}
+    for k, v in samples.items():
+        if v:
+            out[k] = statistics.median(w for w, _ in v)
+            out[f"{k}: CPU"] = statistics.median(c for _, c in v)
+    t0, c0 = time.perf_counter(), time.process_time()
+    for q in qs[:100]:
+        robot.min_distance(q, obs)
+    out["kinserve robot.min_distance(q, obstacles)"] = (time.perf_counter() - t0) / 100 * 1e6
+    out["kinserve robot.min_distance(q, obstacles): CPU"] = (time.process_time() - c0) / 100 * 1e6
+    about = {"kinserve pairs (self + scene)": len(scene), "kinserve broad phase": type(scene.workspace()[2]).__name__,
+             "raw computeCollisions pairs": n_raw_pairs,
+             "configurations in collision %": 100.0 * float(np.mean([robot.in_collision(q, obs) for q in qs]))}
+    return out, about
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--n", type=int, default=200, help="number of targets (default 200)")
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--budget", type=float, default=0.5, help="time budget per solve, s (default 0.5)")
-    ap.add_argument("--out", help="write the figures to this JSON file")
-    ap.add_argument("--no-pink", action="store_true")
-    ap.add_argument("--no-roboplan", action="store_true")
-    args = ap.parse_args()
+def print_checks(checks: dict, n: int, load: tuple) -> None:
+    print(f"\ncollision check, us per call (self + scene, {n} random configurations; load average "
+          f"{load[0]:.2f} {load[1]:.2f} {load[2]:.2f}):")
+    print(f"  {'':52}{'wall':>9}{'CPU':>9}")
+    for k, v in checks.items():
+        if k.endswith(": CPU"):
+            continue
+        cpu = checks.get(f"{k}: CPU")
+        print(f"  {k:52}{v:9.1f}" + (f"{cpu:9.1f}" if cpu is not None else ""))
 
-    robot = robots.load("panda", tip=FRAME)
-    d = robots.example_robot_data_dir() / "panda_description"
-    urdf_path, srdf_path = str(d / "urdf/panda.urdf"), str(d / "srdf/panda.srdf")
-    urdf_text, srdf_text = open(urdf_path).read(), open(srdf_path).read()
-    package_dirs = [str(robots.example_robot_data_package_dir())]
-    judge = Judge(robot, urdf_path, srdf_path, package_dirs)
 
+# --------------------------------------------------------------------------- main
+def verdicts(results: dict, checks: dict) -> dict:
+    verdict = {}
+    o = results.get("open scene", {}).get("per_solver", {})
+    if "kinserve" in o:
+        k = o["kinserve"]
+        verdict["open_100pct"] = k["success_pct"] >= 100.0
+        verdict["open_median_le_1.5x_unconstrained"] = k["median_vs_unconstrained"] <= 1.5
+        if "roboplan SimpleIk" in o:
+            verdict["open_median_below_roboplan"] = k["median_ms"] < o["roboplan SimpleIk"]["median_ms"]
+    w = results.get("obstacle in the way", {}).get("per_solver", {})
+    if "kinserve" in w:
+        verdict["way_ge_99pct_of_witness"] = w["kinserve"]["success_pct"] >= 99.0
+        verdict["way_median_le_5x_unconstrained"] = w["kinserve"]["median_vs_unconstrained"] <= 5.0
+        for peer in ("roboplan SimpleIk", "pink SelfCollisionBarrier"):
+            if peer in w:  # "ahead": strictly more, or both at 100 %
+                ks, ps = w["kinserve"]["success_pct"], w[peer]["success_pct"]
+                verdict[f"way_success_ahead_of_{peer.split()[0]}"] = ks > ps or ks == ps == 100.0
+    kc = checks.get("kinserve robot.in_collision(q, obstacles): CPU")
+    if kc is not None and "roboplan Scene.hasCollisions: CPU" in checks:  # CPU time: steadier on a shared machine
+        verdict["check_no_slower_than_roboplan"] = kc <= checks["roboplan Scene.hasCollisions: CPU"]
+    return verdict
+
+
+def run_workloads(args, robot, judge, solvers) -> dict:
     rng = np.random.default_rng(args.seed)
     Q, drawn = [], 0
     while len(Q) < args.n:
@@ -405,75 +488,86 @@ def main() -> None:
     starts_in_collision = float(np.mean([judge.collides(q) for q in starts])) * 100
     print(f"{args.n} collision-free targets from {drawn} draws ({100 * (1 - args.n / drawn):.1f} % in collision); "
           f"{starts_in_collision:.1f} % of the starts in collision")
+    info = {"targets_drawn": drawn, "starts_in_collision_pct": starts_in_collision}
+    results = {}
+    for fn in solvers.values():  # warm-up, not timed
+        if hasattr(fn, "prepare"):
+            fn.prepare(())
+        fn(targets[0], starts[0].copy(), 0, ())
+    open_stats = run("open scene", np.arange(args.n), targets, starts, [()] * args.n, solvers, judge)
+    print_table("1. open scene (table + wall)", open_stats, args.n)
+    results["open scene"] = {"n": args.n, "per_solver": open_stats}
+
+    # workload 2: a cube on the elbow of kinserve's unconstrained answer; targets drawn on (same RNG
+    # stream) until --n of them are witness-feasible (their generating configuration clears the cube)
+    Q2, T2, S2, cubes, drawn2 = obstacle_targets(robot, judge, rng, args.n, max_draws=60 * args.n)
+    print(f"\nobstacle in the way: {len(Q2)} witness-feasible targets from {drawn2} collision-free draws "
+          f"({100 * len(Q2) / max(drawn2, 1):.1f} % kept)")
+    if len(Q2):
+        way_stats = run("obstacle in the way", np.arange(len(Q2)), T2, S2, cubes, solvers, judge, check_iterates=True)
+        print_table("2. obstacle in the way (10 cm cube on the unconstrained elbow)", way_stats, len(Q2))
+        results["obstacle in the way"] = {"n": int(len(Q2)), "collision_free_draws": drawn2, "per_solver": way_stats}
+    if solvers["kinserve"].errors:
+        print(f"kinserve raised on {len(solvers['kinserve'].errors)} solves, e.g. {solvers['kinserve'].errors[0]}")
+    return results, info
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", type=int, default=200, help="number of targets (default 200)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--budget", type=float, default=0.5, help="time budget per solve, s (default 0.5)")
+    ap.add_argument("--configs", type=int, default=200, help="configurations of the collision-check timing")
+    ap.add_argument("--rounds", type=int, default=7, help="alternating rounds of the collision-check timing")
+    ap.add_argument("--out", help="write the figures to this JSON file")
+    ap.add_argument("--no-pink", action="store_true")
+    ap.add_argument("--no-roboplan", action="store_true")
+    ap.add_argument("--kinserve-only", action="store_true", help="no peers: kinserve's own figures")
+    ap.add_argument("--check-only", action="store_true", help="only the collision-check timings")
+    args = ap.parse_args()
+    if args.kinserve_only:
+        args.no_pink = args.no_roboplan = True
+
+    robot = robots.load("panda", tip=FRAME)
+    d = robots.example_robot_data_dir() / "panda_description"
+    urdf_path, srdf_path = str(d / "urdf/panda.urdf"), str(d / "srdf/panda.srdf")
+    urdf_text, srdf_text = open(urdf_path).read(), open(srdf_path).read()
+    package_dirs = [str(robots.example_robot_data_package_dir())]
+    judge = Judge(robot, urdf_path, srdf_path, package_dirs)
 
     solvers = kinserve_solvers(robot, args.budget)
     rp = None if args.no_roboplan else roboplan_worker(robot, urdf_text, srdf_text, package_dirs)
-    if rp is not None:
-        solvers["roboplan SimpleIk"] = roboplan_solver(rp, args.budget)
-    pink_fn = None if args.no_pink else pink_solver(urdf_path, srdf_path, package_dirs, args.budget)
-    if pink_fn is not None:
-        solvers["pink SelfCollisionBarrier"] = pink_fn
-        print(f"pink barrier over {pink_fn.pairs} pairs")
-
-    results = {}
+    results, info = {}, {}
     try:
-        no_extra = [()] * args.n
-        for fn in solvers.values():  # warm-up, not timed
-            fn(targets[0], starts[0].copy(), 0, ())
-        open_stats = run("open scene", np.arange(args.n), targets, starts, no_extra, solvers, judge)
-        print_table("1. open scene (table + wall)", open_stats, args.n)
-        results["open scene"] = {"n": args.n, "per_solver": open_stats}
-
-        # workload 2: a cube on the elbow of kinserve's unconstrained answer; targets drawn on (same RNG
-        # stream) until --n of them are witness-feasible (their generating configuration clears the cube)
-        Q2, T2, S2, cubes, drawn2 = obstacle_targets(robot, judge, rng, args.n, max_draws=60 * args.n)
-        print(f"\nobstacle in the way: {len(Q2)} witness-feasible targets from {drawn2} collision-free draws "
-              f"({100 * len(Q2) / max(drawn2, 1):.1f} % kept)")
-        if len(Q2):
-            way_stats = run("obstacle in the way", np.arange(len(Q2)), T2, S2, cubes, solvers, judge)
-            print_table("2. obstacle in the way (10 cm cube on the unconstrained elbow)", way_stats, len(Q2))
-            results["obstacle in the way"] = {"n": int(len(Q2)), "collision_free_draws": drawn2,
-                                              "per_solver": way_stats}
-        if "kinserve" in solvers and solvers["kinserve"].errors:
-            print(f"kinserve raised on {len(solvers['kinserve'].errors)} solves, e.g. {solvers['kinserve'].errors[0]}")
-        qs = robot.random_q(np.random.default_rng(5), 200)
-        checks = time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs)
+        if not args.check_only:
+            if rp is not None:
+                solvers["roboplan SimpleIk"] = roboplan_solver(rp, args.budget)
+            pink_fn = None if args.no_pink else pink_solver(urdf_path, srdf_path, package_dirs, args.budget)
+            if pink_fn is not None:
+                solvers["pink SelfCollisionBarrier"] = pink_fn
+                print(f"pink barrier over {pink_fn.pairs} pairs")
+            results, info = run_workloads(args, robot, judge, solvers)
+        qs = robot.random_q(np.random.default_rng(5), args.configs)
+        load = os.getloadavg()
+        checks, about = time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs, args.rounds)
+        load = tuple(max(a, b) for a, b in zip(load, os.getloadavg()))
     finally:
         if rp is not None:
             rp.close()
-    print("\ncollision check, us per call (self + scene, 200 random configurations):")
-    for k, v in checks.items():
-        print(f"  {k:48}{v:10.1f}")
-
-    verdict = {}
-    o = results["open scene"]["per_solver"]
-    if "kinserve" in o:
-        k = o["kinserve"]
-        verdict["open_100pct"] = k["success_pct"] >= 100.0
-        verdict["open_median_le_1.5x_unconstrained"] = k["median_vs_unconstrained"] <= 1.5
-        if "roboplan SimpleIk" in o:
-            verdict["open_median_below_roboplan"] = k["median_ms"] < o["roboplan SimpleIk"]["median_ms"]
-        w = results.get("obstacle in the way", {}).get("per_solver", {})
-        if "kinserve" in w:
-            verdict["way_ge_99pct_of_witness"] = w["kinserve"]["success_pct"] >= 99.0
-            verdict["way_median_le_5x_unconstrained"] = w["kinserve"]["median_vs_unconstrained"] <= 5.0
-            for peer in ("roboplan SimpleIk", "pink SelfCollisionBarrier"):
-                if peer in w:  # "ahead": strictly more, or both at 100 %
-                    ks, ps = w["kinserve"]["success_pct"], w[peer]["success_pct"]
-                    verdict[f"way_success_ahead_of_{peer.split()[0]}"] = ks > ps or ks == ps == 100.0
-    kc = checks.get("kinserve robot.in_collision(q, obstacles): CPU")
-    if kc is not None and "roboplan Scene.hasCollisions: CPU" in checks:  # CPU time: steadier on a shared machine
-        verdict["check_no_slower_than_roboplan"] = kc <= checks["roboplan Scene.hasCollisions: CPU"]
+    print_checks(checks, len(qs), load)
+    print("  " + "; ".join(f"{k}: {v:.1f}" if isinstance(v, float) else f"{k}: {v}" for k, v in about.items()))
+    verdict = verdicts(results, checks)
     print("targets:", ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
     write_json(args.out, {
-        "machine": machine(),
+        "machine": machine(), "load_average": list(load),
         "versions": {"pinocchio": pin.__version__, "roboplan": rp.version if rp is not None else "skipped"},
         "workload": {"robot": "panda (fingers locked at 0)", "frame": FRAME, "n": args.n, "seed": args.seed,
-                     "budget_s": args.budget, "scene": {"table": TABLE.to_dict(), "wall": WALL.to_dict()},
-                     "targets_drawn": drawn, "starts_in_collision_pct": starts_in_collision,
+                     "budget_s": args.budget, "scene": {"table": TABLE.to_dict(), "wall": WALL.to_dict()}, **info,
                      "cube": f"edge {CUBE_EDGE} m, centred on {ELBOW} of kinserve's unconstrained answer",
                      "success": "pose within 0.1 mm / 1 mrad, q within limits, no collision: URDF meshes, "
-                                "non-adjacent pairs minus panda.srdf, robot x scene (coal, written in _obstacle_check.py)"},
+                                "non-adjacent pairs minus panda.srdf, robot x scene (coal, written in _obstacle_check.py)",
+                     "check": {"configurations": len(qs), "rounds": args.rounds, "figure": "median over the rounds",
+                               **about}},
         "workloads": results, "collision_check_us": checks, "targets_met": verdict,
     })
 

@@ -26,6 +26,7 @@ import numpy as np
 from .errors import InputError, ModelError
 from .shapes import Shape, as_shape
 from .types import VectorLike
+from .validation import as_vector
 
 if TYPE_CHECKING:  # annotations only (collision_model imports pinocchio/coal)
     from .collision_model import CollisionModel
@@ -79,6 +80,7 @@ class CollisionQueries:
 
     # provided by Robot
     model: Any
+    nq: int
     name: str
     collision_model: Any
     source: str | None
@@ -114,7 +116,9 @@ class CollisionQueries:
 
     def collision_scene(self, obstacles: Any = (), self_collision: bool = True) -> "CollisionScene":
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (cached by identity)."""
-        return self.collision.scene(as_obstacles(obstacles), bool(self_collision))
+        cm = self.collision
+        self_collision = self_collision is True or bool(self_collision)
+        return cm.cached_scene(obstacles, self_collision) or cm.scene(as_obstacles(obstacles), self_collision)
 
     def collision_geometry(self, q: VectorLike) -> list[dict]:
         """Plain data of the robot's collision shapes at ``q``: :meth:`CollisionModel.shape_data` with
@@ -132,8 +136,13 @@ class CollisionQueries:
         return out
 
     def in_collision(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> bool:
-        """True when the robot at ``q`` intersects itself (checked pairs) or an obstacle."""
-        q = self.check_q(q)
+        """True when the robot at ``q`` intersects itself (checked pairs) or an obstacle.
+
+        One broad-phase pass in C++ (see :meth:`CollisionScene.in_collision`); the
+        scene of the same obstacle objects is reused, so a repeated call costs
+        the validation of ``q``, a dictionary lookup and that pass.
+        """
+        q = as_vector(q, self.nq)
         return self.collision_scene(obstacles, self_collision).in_collision(q)
 
     def collisions(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> list[tuple[str, str]]:

@@ -1,9 +1,10 @@
 """Input checking shared by every public entry point.
 
 The fast path costs well under a microsecond for a correct float64 vector: a
-type/shape test and one dot product (``q·q`` is finite iff every entry is
-finite and not astronomically large). Only when that test fails is the slow
-path taken to say exactly what is wrong.
+type/shape test and one norm, ``hypot(*q)`` for short vectors (0.4 µs for 7
+entries against 0.65 µs for ``q·q``) and ``q·q`` for long ones - either is
+below ``MAX_ABS`` iff every entry is finite and not astronomically large. Only
+when that test fails is the slow path taken to say exactly what is wrong.
 """
 
 from __future__ import annotations
@@ -19,6 +20,10 @@ from .types import ArrayLike, PoseLike
 #: Magnitudes beyond this are rejected as non-physical (metres or radians).
 MAX_ABS = 1e6
 
+_hypot = math.hypot
+#: Longest vector whose fast check is ``hypot(*q)`` (a Python list of that many floats); longer ones use ``q·q``.
+_HYPOT_MAX_N = 64
+
 #: Tolerance on ||R^T R - I|| (max abs entry) and on |det R - 1| for poses.
 ROTATION_TOL = 1e-6
 
@@ -31,9 +36,8 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     infinities or entries with magnitude above :data:`MAX_ABS`.
     """
     if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,):
-        s = value.dot(value)
-        if math.isfinite(s) and s < MAX_ABS * MAX_ABS:
-            return value
+        if (_hypot(*value.tolist()) < MAX_ABS) if n <= _HYPOT_MAX_N else (value.dot(value) < MAX_ABS * MAX_ABS):
+            return value  # NaN compares False, inf is not below the bound
         _raise_non_finite(value, name)
     try:
         if value is None or isinstance(value, (str, bytes, dict)):

@@ -10,7 +10,7 @@ import pytest
 
 from kinserve import robots
 from kinserve.kinematics import errors
-from kinserve.kinematics.shapes import Box, Cylinder, Mesh, Sphere
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 from kinserve.robots import paths
 
 
@@ -261,3 +261,115 @@ def test_queries_are_thread_safe():
     assert [c for c, _ in parallel] == [c for c, _ in serial]
     # GJK starts from the previous call's direction (per thread): distances agree to rounding
     assert np.allclose([d for _, d in parallel], [d for _, d in serial], rtol=0, atol=1e-12)
+
+
+# ------------------------------------------------------------------ broad phase
+def _obstacles_at_the_surface(robot, q, rng, k):
+    """``k`` random spheres / boxes / capsules (1-6 cm) centred near random vertices of the arm's collision
+    shapes at ``q``: their distances to the arm straddle zero, so near misses and grazing hits are common."""
+    shapes = [s for s in robot.collision_geometry(q) if s["joint"] != 0]
+    out = []
+    for _ in range(k):
+        s = shapes[rng.integers(len(shapes))]
+        local = s["vertices"][rng.integers(len(s["vertices"]))] if s["kind"] == "convex" else np.zeros(3)
+        centre = (s["pose"] @ np.append(local, 1.0))[:3] + rng.normal(scale=0.05, size=3)
+        size = rng.uniform(0.005, 0.03)
+        kind = rng.integers(3)
+        R = pin.rpy.rpyToMatrix(*rng.uniform(-np.pi, np.pi, 3))
+        if kind == 0:
+            out.append(Sphere(centre, size))
+        elif kind == 1:
+            out.append(Box(_pose(centre, R), rng.uniform(0.01, 0.05, 3)))
+        else:
+            out.append(Capsule(centre - R[:, 0] * size, centre + R[:, 0] * size, 0.5 * size))
+    return out
+
+
+def _pairs_by_broad_phase(scene, q):
+    """Indices of the colliding pairs as the scene's broad phase finds them (no early stop)."""
+    data, gd, bpm = scene.workspace()
+    for res in gd.collisionResults:  # pairs the broad phase skips keep their result: start from "no collision"
+        res.clear()
+    pin.computeCollisions(scene.model, data, bpm, q, False)
+    return {k for k, res in enumerate(gd.collisionResults) if res.isCollision()}
+
+
+def _pairs_by_all_pairs_narrow_phase(scene, q):
+    """Indices of the colliding pairs by GJK on every pair (no broad phase), on a GeometryData of its own."""
+    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+    for req in gd.collisionRequests:
+        req.security_margin = 0.0
+    pin.computeCollisions(scene.model, data, scene.geometry, gd, q, False)
+    return {k for k, res in enumerate(gd.collisionResults) if res.isCollision()}
+
+
+@pytest.mark.parametrize("n_obstacles, manager", [(3, "Naive"), (110, "DynamicAABBTree")])
+def test_broad_phase_never_skips_a_colliding_pair(n_obstacles, manager):
+    """Random configurations with obstacles at the arm's surface: the broad phase (naive manager for small
+    scenes, AABB tree for large ones) finds exactly the colliding pairs of all-pairs GJK, self pairs included,
+    and ``in_collision`` says yes exactly when one exists."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(11)
+    n_configs = 150 if n_obstacles < 10 else 25
+    hits = grazing = 0
+    for q in robot.random_q(rng, n_configs):
+        obstacles = _obstacles_at_the_surface(robot, q, rng, n_obstacles)
+        scene = robot.collision_scene(obstacles)
+        assert manager in type(scene.workspace()[2]).__name__, "the manager this case is meant to test"
+        expected = _pairs_by_all_pairs_narrow_phase(scene, q)
+        assert _pairs_by_broad_phase(scene, q) == expected
+        assert robot.in_collision(q, obstacles) == bool(expected)
+        hits += bool(expected)
+        d = scene.min_distance(q)[0]
+        grazing += abs(d) < 5e-3
+    assert 0.2 * n_configs < hits <= n_configs  # both answers occur (with 110 obstacles nearly all collide)
+    if n_obstacles < 10:
+        assert hits < 0.9 * n_configs
+        assert grazing > 0.05 * n_configs  # cases within 5 mm of the boundary (16 of 150 with this seed)
+
+
+def test_near_pairs_match_all_pairs_gjk_with_the_margin():
+    """``scene.near(threshold)`` (broad phase with inflated AABBs, then GJK on the candidates) returns exactly the
+    pairs that GJK with ``security_margin = threshold`` on every pair finds, for thresholds from 0 to 10 cm."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(12)
+    found = 0
+    for q in robot.random_q(rng, 60):
+        scene = robot.collision_scene(SCENE + _obstacles_at_the_surface(robot, q, rng, 2))
+        for threshold in (0.0, 0.01, 0.05, 0.1):
+            data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+            for req in gd.collisionRequests:
+                req.security_margin = threshold
+            pin.computeCollisions(scene.model, data, scene.geometry, gd, q, False)
+            expected = [k for k, res in enumerate(gd.collisionResults) if res.isCollision()]
+            assert scene.near(threshold, q) == expected
+            found += len(expected)
+            # the witness distances of the near pairs are below the threshold (placements left by near)
+            for k in expected[:3]:
+                assert scene.near_distance(threshold, k)[0] < threshold + 1e-6
+    assert found > 200  # near pairs are common: the comparison has substance
+
+
+def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
+    """The scene's pair table (indices, joints, names) is the GeometryModel's; equal obstacles reuse one scene."""
+    robot = robots.load("panda")
+    for self_collision in (True, False):
+        scene = robot.collision_scene(SCENE + EXTRA, self_collision)
+        gm = scene.geometry
+        assert scene.pairs.tolist() == [[cp.first, cp.second] for cp in gm.collisionPairs]
+        joint = [g.parentJoint for g in gm.geometryObjects]
+        assert scene.pair_joints.tolist() == [[joint[a], joint[b]] for a, b in scene.pairs.tolist()]
+        assert len(scene) == (len(robot.collision.self_pairs) if self_collision else 0) + 4 * sum(
+            1 for g in gm.geometryObjects[:scene.n_robot] if g.parentJoint != 0)
+    same = [Box(b.pose, b.size) for b in SCENE]  # new objects, equal values
+    assert robot.collision_scene(same) is robot.collision_scene(SCENE)
+    assert robot.collision_scene([b.to_dict() for b in SCENE]) is robot.collision_scene(SCENE)
+    moved = [Box(_pose((0.65, 0.0, -0.04)), (0.7, 1.2, 0.1)), SCENE[1]]
+    assert robot.collision_scene(moved) is not robot.collision_scene(SCENE)
+    assert robot.collision_scene(SCENE, self_collision=False) is not robot.collision_scene(SCENE)
+    q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])
+
+    def to_table(obstacles):
+        return min(d.distance for (_, b), d in robot.distances(q, obstacles).items() if b == "obstacle[0]:box")
+
+    assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
