@@ -52,7 +52,7 @@ from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
 
 from .base import DAMPER_GAIN, Constraint
-from .link_capsules import LinkSkeleton, skeleton_segments
+from .link_capsules import LinkSkeleton, _cross, skeleton_segments
 from .segment_distance import point_segment, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
@@ -220,6 +220,9 @@ class ObstacleAvoidance(Constraint):
         self._oth_local = [_local_core(sk, i) for i in other[0]]
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
+        # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
+        self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._oth_seg.size
+        self._sph_r_off = self._sph_r + self._offset
         self._model = robot.model
         return self
 
@@ -436,6 +439,8 @@ class ObstacleAvoidance(Constraint):
         last = self._last
         if last is not None and last[0] is data and last[1] is q:
             c, seg, s, N, A, B = last[2]
+        elif self._sph_only:
+            return self._sphere_rows(data)
         else:
             c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
         # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
@@ -446,6 +451,38 @@ class ObstacleAvoidance(Constraint):
             c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
         G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
         return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
+
+    def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
+
+        With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
+        (``V x n = 0``): the moment arm of every row is the sphere centre, a constant.
+        """
+        P = self.skeleton.points(data)
+        A = P[self._sph_ia]
+        AB = P[self._sph_ib] - A
+        AC = self._sph_c - A
+        s = _einsum("ij,ij->i", AC, AB) * self._sph_inv
+        _clip(s, 0.0, 1.0, out=s)
+        V = s[:, None] * AB - AC
+        d = _sqrt(_einsum("ij,ij->i", V, V))
+        c = d - self._sph_r_off
+        near = np.flatnonzero((c < self.influence) & (d > _EPS))
+        if near.shape[0] < c.shape[0]:
+            c, d, V = c[near], d[near], V[near]
+            O, seg = self._sph_c[near], self._sph_seg[near]
+        else:
+            O, seg = self._sph_c, self._sph_seg
+        k = c.shape[0]
+        if not k:
+            return np.zeros((0, self.skeleton.support.shape[1])), np.zeros(0), np.zeros(0)
+        H = np.empty((k, 6))
+        N = H[:, :3]
+        np.divide(V, d[:, None], out=N)
+        H[:, 3:] = _cross(O, N)
+        G = H.dot(data.J)
+        G *= self.skeleton.support[self.skeleton.ja[seg]]
+        return G, -self.gain * c, _INF[:k] if k <= _INF.shape[0] else np.full(k, np.inf)
 
     def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
