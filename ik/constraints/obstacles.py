@@ -259,11 +259,13 @@ class ObstacleAvoidance(Constraint):
                              "the base cannot move out of it")
 
     # ------------------------------------------------------------------------------------- distances
-    def _pairs(self, data, witness: bool, cutoff: float = math.inf):
+    def _pairs(self, data, witness: bool, cutoff: float = math.inf, min_only: bool = False):
         """Clearances ``(m,)`` and, with ``witness``, ``(seg, s, N, A, B)`` of every pair (module docstring).
 
         ``A``, ``B`` are the end points of each pair's segment, ``N`` the unit
         normals from the obstacle to the witness point ``(1 - s) A + s B``.
+        ``min_only``: only the smallest entry must be right (coal pairs whose lower
+        bound exceeds the smallest distance found keep their bound; see :meth:`_coal_pairs`).
         """
         P = self.skeleton.points(data)
         clear, segs, ss, Ns, As, Bs = [], [], [], [], [], []
@@ -289,7 +291,8 @@ class ObstacleAvoidance(Constraint):
                 segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
         if self._oth_seg.size:
             A, B = P[self._oth_ia], P[self._oth_ib]
-            c, s, N = self._coal_pairs(A, B, cutoff)
+            best = float(min((x.min() for x in clear if x.size), default=math.inf)) if min_only else math.inf
+            c, s, N = self._coal_pairs(A, B, cutoff, best if min_only else None)
             clear.append(c)
             if witness:
                 segs.append(self._oth_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
@@ -329,7 +332,14 @@ class ObstacleAvoidance(Constraint):
         gap = np.maximum(np.minimum(a, b) - tile(self._oth_hi), tile(self._oth_lo) - np.maximum(a, b)).max(axis=1)
         return np.maximum(lb, gap, out=lb)
 
-    def _coal_pairs(self, A, B, cutoff):
+    def _coal_pairs(self, A, B, cutoff, best=None):
+        """``(c, s, N)`` of the coal pairs: exact distances where the lower bound is below ``cutoff`` (+ offset).
+
+        ``best`` (a distance already known, e.g. the closed-form pairs' smallest): only the smallest
+        distance is wanted - the pairs are visited in increasing order of their lower bound and the
+        visit stops once the bound reaches the smallest distance found (the others cannot be smaller;
+        they keep their bound). ``c.min()`` is then the same as with every pair computed.
+        """
         import coal
 
         i = self._oth_seg
@@ -341,9 +351,17 @@ class ObstacleAvoidance(Constraint):
         res = coal.DistanceResult()
         far = cutoff + self._offset
         oMi = self.skeleton._placements[1]  # joint placements of the data just read by points()
-        todo = np.flatnonzero(lb < far).tolist()
+        todo = np.flatnonzero(lb < far)
+        if best is not None and todo.size > 1:
+            todo = todo[np.argsort(lb[todo], kind="stable")]
+        todo = todo.tolist()
         X = np.zeros((len(i), 3))
+        done = []
         for p in todo:
+            if best is not None:
+                if lb[p] >= best:
+                    break
+                done.append(p)
             local = self._oth_local[p]
             if local is not None:
                 j, M, geom = local
@@ -358,6 +376,10 @@ class ObstacleAvoidance(Constraint):
             c[p] = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, tf, req, res)
             X[p] = res.getNearestPoint2()
             N[p] = res.normal
+            if best is not None and c[p] < best:
+                best = c[p]
+        if best is not None:
+            todo = done
         if todo:
             AB = B[todo] - A[todo]
             L2 = _einsum("ij,ij->i", AB, AB)
@@ -407,16 +429,20 @@ class ObstacleAvoidance(Constraint):
             A, B = P[:, self._oth_ia].reshape(-1, 3), P[:, self._oth_ib].reshape(-1, 3)
             lb = self._coal_lower_bound(A, B, K)
             req, res = coal.DistanceRequest(), coal.DistanceResult()
-            for r in np.flatnonzero(lb < off).tolist():
+            hits = np.flatnonzero(bad)
+            first = int(hits[0]) if hits.size else K  # only the first violating configuration matters
+            for r in np.flatnonzero(lb < off).tolist():  # in order of the configuration
                 k, p = divmod(r, n)
-                if bad[k]:
-                    continue
+                if k >= first:
+                    break
                 ab = B[r] - A[r]
                 L = math.sqrt(ab.dot(ab))
                 res.clear()
                 d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], _core(L), _segment_transform(A[r], ab, L),
                                   req, res)
-                bad[k] = d - off < 0.0
+                if d - off < 0.0:
+                    bad[k] = True
+                    first = k
         hits = np.flatnonzero(bad)
         return int(hits[0]) if hits.size else None
 
@@ -432,7 +458,7 @@ class ObstacleAvoidance(Constraint):
             self._last = (data, q, w)
             c = w[0]
             return float(c.min()) if c.size else math.inf
-        c = self._pairs(data, False, MARGIN_EXACT)
+        c = self._pairs(data, False, MARGIN_EXACT, min_only=True)
         return float(c.min()) if c.size else math.inf
 
     def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
