@@ -52,7 +52,7 @@ from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
 
 from .base import DAMPER_GAIN, Constraint
-from .link_capsules import LinkSkeleton, _cross, skeleton_segments
+from .link_capsules import LinkSkeleton, skeleton_segments
 from .segment_distance import point_segment, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
@@ -223,6 +223,13 @@ class ObstacleAvoidance(Constraint):
         # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
+        # per sphere pair: W = [I, -[o]x] (3 x 6; n^T W = [n, o x n]) and the support mask of its segment's joint
+        W = np.zeros((len(self._sph_c), 3, 6))
+        W[:, [0, 1, 2], [0, 1, 2]] = 1.0
+        ox, oy, oz = self._sph_c.T
+        W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
+        self._sph_W = W
+        self._sph_S = sk.support[sk.ja[self._sph_seg]]
         self._model = robot.model
         return self
 
@@ -496,18 +503,15 @@ class ObstacleAvoidance(Constraint):
         near = np.flatnonzero((c < self.influence) & (d > _EPS))
         if near.shape[0] < c.shape[0]:
             c, d, V = c[near], d[near], V[near]
-            O, seg = self._sph_c[near], self._sph_seg[near]
+            W, S = self._sph_W[near], self._sph_S[near]
         else:
-            O, seg = self._sph_c, self._sph_seg
+            W, S = self._sph_W, self._sph_S
         k = c.shape[0]
         if not k:
-            return np.zeros((0, self.skeleton.support.shape[1])), np.zeros(0), np.zeros(0)
-        H = np.empty((k, 6))
-        N = H[:, :3]
-        np.divide(V, d[:, None], out=N)
-        H[:, 3:] = _cross(O, N)
-        G = H.dot(data.J)
-        G *= self.skeleton.support[self.skeleton.ja[seg]]
+            return np.zeros((0, self._sph_S.shape[1])), np.zeros(0), np.zeros(0)
+        # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint
+        G = _einsum("pi,pij->pj", V / d[:, None], W).dot(data.J)
+        G *= S
         return G, -self.gain * c, _INF[:k] if k <= _INF.shape[0] else np.full(k, np.inf)
 
     def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
