@@ -6,8 +6,6 @@
 1. The unconstrained minimiser ``x = -P^-1 c`` (one Cholesky solve, LAPACK
    ``posv``): the problem is convex, so if ``x`` satisfies every bound and row
    it *is* the solution.
-   One variable (the null space left to a lower level of a 7-joint arm under a
-   full-pose task): the vertex clamped to the feasible interval, exactly (:func:`solve_1d`).
 2. Box only: a few primal active-set rounds (:func:`box_active_set`),
    accepted only when the KKT conditions hold.
 3. Otherwise a dense active-set solver: DAQP (default; no state is kept
@@ -19,7 +17,6 @@ Returns None when the problem is infeasible or the solver fails.
 
 from __future__ import annotations
 
-import math
 import threading
 import warnings
 
@@ -92,8 +89,6 @@ def solve_dense(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A:
                 shortcut: bool = True) -> np.ndarray | None:
     """Solve the QP of the module docstring; None when infeasible. ``A`` may be None or have 0 rows."""
     has_rows = A is not None and A.shape[0] > 0
-    if c.shape[0] == 1:
-        return solve_1d(P, c, lb, ub, A if has_rows else None, l, u)
     if shortcut:
         x = _posv(P, -c)[1]
         if _clip(x, lb, ub).tolist() == x.tolist():
@@ -107,40 +102,6 @@ def solve_dense(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A:
             if xs is not None:
                 return xs
     return _backend_solve(P, c, lb, ub, A if has_rows else None, l, u, backend)
-
-
-def solve_1d(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A: np.ndarray | None = None,
-             l: np.ndarray | None = None, u: np.ndarray | None = None) -> np.ndarray | None:
-    """The QP of the module docstring in one variable, exactly: the minimiser ``-c / P`` clamped to the interval.
-
-    Each row ``l_i <= a_i x <= u_i`` bounds ``x`` by ``l_i / a_i`` and ``u_i / a_i`` (swapped when
-    ``a_i < 0``; a row with ``a_i = 0`` needs ``l_i <= 0 <= u_i``); with the box they leave an interval
-    ``[lo, hi]`` and a convex parabola's minimum on it is its vertex clamped to it. None when the
-    interval is empty (beyond round-off: ``lo - hi <= 1e-12 (1 + |lo| + |hi|)`` is taken as one point).
-    """
-    lo, hi = float(lb[0]), float(ub[0])
-    if A is not None:
-        a = A[:, 0]
-        pos, neg = a > 0.0, a < 0.0
-        if pos.any():
-            ap = a[pos]
-            lo = max(lo, float((l[pos] / ap).max()))
-            hi = min(hi, float((u[pos] / ap).min()))
-        if neg.any():
-            an = a[neg]
-            lo = max(lo, float((u[neg] / an).max()))
-            hi = min(hi, float((l[neg] / an).min()))
-        zero = ~(pos | neg)
-        if zero.any() and ((l[zero] > 1e-12).any() or (u[zero] < -1e-12).any()):
-            return None
-    if lo > hi:
-        if lo - hi > 1e-12 * (1.0 + abs(lo) + abs(hi)) or not math.isfinite(lo + hi):
-            return None
-        return np.array([0.5 * (lo + hi)])
-    p = float(P[0, 0])
-    x = -float(c[0]) / p if p > 0.0 else (lo if c[0] > 0.0 else hi)
-    x = min(max(x, lo), hi)
-    return np.array([x]) if math.isfinite(x) else None
 
 
 def _backend_solve(P, c, lb, ub, A, l, u, backend):

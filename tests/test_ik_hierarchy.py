@@ -83,30 +83,3 @@ def test_three_levels_in_a_full_solve(panda):
         assert alone.success and res.success, res.message
         assert res.position_error < 1e-4 and res.orientation_error < 1e-3
         assert [t["priority"] for t in res.task_errors] == [1, 2, 3]
-
-
-def test_one_variable_qp_is_exact_against_daqp():
-    """solve_1d (the lower level of a 7-joint arm) gives DAQP's answer, and the same verdict on infeasible ones."""
-    from kinserve.ik.dense_qp import _backend_solve, solve_1d
-
-    rng = np.random.default_rng(5)
-    infeasible = 0
-    for _ in range(2000):
-        P = np.array([[abs(rng.normal()) + 1e-3]])
-        c = rng.normal(size=1)
-        lb, ub = np.array([-abs(rng.normal())]), np.array([abs(rng.normal())])
-        m = int(rng.integers(0, 6))
-        A = rng.normal(size=(m, 1))
-        if m and rng.random() < 0.2:
-            A[0, 0] = 0.0
-        l = rng.normal(size=m) - 0.3
-        u = l + np.abs(rng.normal(size=m))
-        l[rng.random(m) < 0.3] = -np.inf
-        x = solve_1d(P, c, lb, ub, A if m else None, l, u)
-        ref = _backend_solve(P, c, lb, ub, A if m else None, l, u, "daqp")
-        assert (x is None) == (ref is None)
-        if x is None:
-            infeasible += 1
-        else:
-            assert x[0] == pytest.approx(ref[0], abs=1e-9)
-    assert infeasible > 50
