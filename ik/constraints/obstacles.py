@@ -200,36 +200,37 @@ class ObstacleAvoidance(Constraint):
         # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
         rigid = bool(np.all(sk.rigid[self._sph_seg])) if self._sph_seg.size else False
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
-        self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
-        self._oth = other[1]
-        # per obstacle once, then one row per pair
-        kinds = list(dict.fromkeys(other[2]))
-        row = np.array([kinds.index(k) for k in other[2]], dtype=int)
-        obs = [self.obstacles[k] for k in kinds]
-        tfs = [_coal_transform(o.pose) for o in obs]
-        self._oth_tf = [tfs[r] for r in row.tolist()]
-        poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
-        ext = [_local_extent(o) for o in obs]
-        self._oth_center = poses[row, :3, 3]
-        self._oth_t = self._oth_center
-        self._oth_R = poses[row, :3, :3]
-        self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
-        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
-        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
-        # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
-        self._oth_local = [_local_core(sk, i) for i in other[0]]
+        if other[0]:
+            self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
+            self._oth = other[1]
+            # per obstacle once, then one row per pair
+            kinds = list(dict.fromkeys(other[2]))
+            row = np.array([kinds.index(k) for k in other[2]], dtype=int)
+            obs = [self.obstacles[k] for k in kinds]
+            tfs = [_coal_transform(o.pose) for o in obs]
+            self._oth_tf = [tfs[r] for r in row.tolist()]
+            poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
+            ext = [_local_extent(o) for o in obs]
+            self._oth_center = poses[row, :3, 3]
+            self._oth_t = self._oth_center
+            self._oth_R = poses[row, :3, :3]
+            self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
+            self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
+            self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
+            # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
+            self._oth_local = [_local_core(sk, i) for i in other[0]]
+        else:  # no coal pairs (spheres and capsules only): empty arrays, nothing to prepare
+            self._oth_ia = self._oth_ib = self._oth_seg
+            self._oth, self._oth_tf, self._oth_local = [], [], []
+            self._oth_center = self._oth_t = self._oth_lo = self._oth_hi = np.zeros((0, 3))
+            self._oth_R = np.zeros((0, 3, 3))
+            self._oth_bound = np.zeros(0)
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
         # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
-        # per sphere pair: W = [I, -[o]x] (3 x 6; n^T W = [n, o x n]) and the support mask of its segment's joint
-        W = np.zeros((len(self._sph_c), 3, 6))
-        W[:, [0, 1, 2], [0, 1, 2]] = 1.0
-        ox, oy, oz = self._sph_c.T
-        W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
-        self._sph_W = W
-        self._sph_S = sk.support[sk.ja[self._sph_seg]]
+        self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
         self._model = robot.model
         return self
 
@@ -485,6 +486,15 @@ class ObstacleAvoidance(Constraint):
         G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
         return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
 
+    def _sphere_constants(self) -> None:
+        """Per sphere pair: ``W = [I, -[o]x]`` (3 x 6, so ``n^T W = [n, o x n]``) and the support mask of its joint."""
+        W = np.zeros((len(self._sph_c), 3, 6))
+        W[:, [0, 1, 2], [0, 1, 2]] = 1.0
+        ox, oy, oz = self._sph_c.T
+        W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
+        self._sph_S = self.skeleton.support[self.skeleton.ja[self._sph_seg]]
+        self._sph_W = W
+
     def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
 
@@ -501,6 +511,8 @@ class ObstacleAvoidance(Constraint):
         d = _sqrt(_einsum("ij,ij->i", V, V))
         c = d - self._sph_r_off
         near = np.flatnonzero((c < self.influence) & (d > _EPS))
+        if self._sph_W is None:
+            self._sphere_constants()
         if near.shape[0] < c.shape[0]:
             c, d, V = c[near], d[near], V[near]
             W, S = self._sph_W[near], self._sph_S[near]
