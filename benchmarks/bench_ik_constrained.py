@@ -46,7 +46,13 @@ their wall times swell while short ones do not.
 
 Also timed: one control step ``ik.step(robot, [FrameTask, PostureTask],
 [3 spheres], q, dt)`` (when kinserve has it) against one Pink step (forward
-kinematics + distances + ``solve_ik``) with the same tasks and barrier.
+kinematics + distances + ``solve_ik``) with the same tasks and barrier, as the
+wall-clock median of the repeats and as CPU time (best of the repeats, what
+``check_ik_model.py`` reports). This step has two priority levels (the posture
+task at its default priority 2: a null-space basis and a second QP) and no
+velocity limits, unlike ``check_ik_model.py``'s (posture at priority 1): on a
+loaded machine the wall-clock median of this one is several times the CPU
+best of that one.
 
 Targets (issue 10): success >= 99 % (of the witness-feasible targets), median <= 3x and p95 <= 10x the
 unconstrained solve's median time, ``ik.step`` <= 100 us.
@@ -250,7 +256,7 @@ def kinserve_step_api():
     return step, frame_task, posture_task
 
 
-def time_steps(robot, shoulder, calls: int) -> dict:
+def time_steps(robot, shoulder, calls: int, with_pink: bool = True) -> dict:
     rng = np.random.default_rng(7)
     q = robot.random_q(rng)
     T = robot.fk(robot.random_q(rng), FRAME)
@@ -263,11 +269,19 @@ def time_steps(robot, shoulder, calls: int) -> dict:
         step(robot, tasks, cons, q, 0.01)
         out["kinserve ik.step (frame + posture + 3 spheres)"] = per_call_seconds(
             lambda: step(robot, tasks, cons, q, 0.01), calls=calls, repeats=5) * 1e6
+        # the same call in CPU time, best of the repeats (what check_ik_model.py reports): wall-clock medians
+        # on a loaded 2-core machine count the neighbours' time slices too
+        out["kinserve ik.step (frame + posture + 3 spheres), CPU best of 5"] = cpu_per_call_seconds(
+            lambda: step(robot, tasks, cons, q, 0.01), calls=calls, repeats=5) * 1e6
     else:
         print("SKIP ik.step: kinserve has no ik.step / FrameTask / PostureTask yet (branch ik-model)")
+    if not with_pink:
+        return out
     try:
+        import pink  # noqa: F401
         from _pink_peer import PinkBarrierIK, skeleton_capsules
-    except ImportError:
+    except ImportError as exc:
+        print(f"SKIP pink step: {exc}")
         return out
     for label, geom in (("pink step (frame + posture)", None),
                         ("pink step (frame + posture + barrier, 3 spheres)", skeleton_capsules(robot.model, FRAME, obs))):
@@ -282,7 +296,19 @@ def time_steps(robot, shoulder, calls: int) -> dict:
 
         one()
         out[label] = per_call_seconds(one, calls=max(50, calls // 10), repeats=5) * 1e6
+        out[label + ", CPU best of 5"] = cpu_per_call_seconds(one, calls=max(50, calls // 10), repeats=5) * 1e6
     return out
+
+
+def cpu_per_call_seconds(fn, calls: int, repeats: int = 5) -> float:
+    """Smallest over ``repeats`` of the mean CPU time (``time.process_time``) of one call over ``calls`` calls."""
+    best = math.inf
+    for _ in range(repeats):
+        c0 = time.process_time()
+        for _ in range(calls):
+            fn()
+        best = min(best, (time.process_time() - c0) / calls)
+    return best
 
 
 # --------------------------------------------------------------------------- main
@@ -411,7 +437,7 @@ def main() -> None:
         if placo_worker is not None:
             placo_worker.close()
 
-    steps = time_steps(robot, shoulder, args.step_calls)
+    steps = time_steps(robot, shoulder, args.step_calls, with_pink=not args.no_pink)
     print("\none control step (us):")
     for k, v in steps.items():
         print(f"  {k:55}{v:10.1f}")
@@ -427,6 +453,7 @@ def main() -> None:
     step_key = "kinserve ik.step (frame + posture + 3 spheres)"
     if step_key in steps:
         verdict["ik_step_le_100us"] = steps[step_key] <= 100.0
+        verdict["ik_step_cpu_le_100us"] = steps[step_key + ", CPU best of 5"] <= 100.0
     print("targets:", ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
     m = machine()
     write_json(args.out, {
