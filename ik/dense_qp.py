@@ -109,17 +109,18 @@ def _backend_solve(P, c, lb, ub, A, l, u, backend):
     n = c.shape[0]
     if backend == "daqp" and _daqp is not None:
         m = 0 if A is None else A.shape[0]
+        bu = np.empty(n + m)
+        bl = np.empty(n + m)
+        np.minimum(ub, BIG, out=bu[:n])
+        np.maximum(lb, -BIG, out=bl[:n])
         if m:
-            bu = np.concatenate((ub, u))
-            bl = np.concatenate((lb, l))
+            np.minimum(u, BIG, out=bu[n:])
+            np.maximum(l, -BIG, out=bl[n:])
             Am = np.ascontiguousarray(A)
         else:
-            bu, bl = np.array(ub, dtype=float), np.array(lb, dtype=float)
             Am = np.zeros((0, n))
-        np.minimum(bu, BIG, out=bu)
-        np.maximum(bl, -BIG, out=bl)
         x, _, exitflag, _ = _daqp.solve(np.ascontiguousarray(P), np.ascontiguousarray(c, dtype=float), Am, bu, bl,
-                                        np.zeros(n + m, dtype=np.int32))  # fresh: DAQP may write into it
+                                        np.zeros(n + m, dtype=np.int32))
         if exitflag < 1:
             return None
         x = np.asarray(x, dtype=float)
