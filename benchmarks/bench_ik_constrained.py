@@ -46,7 +46,13 @@ their wall times swell while short ones do not.
 
 Also timed: one control step ``ik.step(robot, [FrameTask, PostureTask],
 [3 spheres], q, dt)`` against one Pink step (forward
-kinematics + distances + ``solve_ik``) with the same tasks and barrier.
+kinematics + distances + ``solve_ik``) with the same tasks and barrier, as the
+wall-clock median of the repeats and as CPU time (best of the repeats, what
+``check_ik_model.py`` reports). This step has two priority levels (the posture
+task at its default priority 2: a null-space basis and a second QP) and no
+velocity limits, unlike ``check_ik_model.py``'s (posture at priority 1): on a
+loaded machine the wall-clock median of this one is several times the CPU
+best of that one.
 
 Targets (issue 10): success >= 99 % (of the witness-feasible targets), median <= 3x and p95 <= 10x the
 unconstrained solve's median time, ``ik.step`` <= 100 us.
@@ -244,6 +250,10 @@ def time_steps(robot, shoulder, calls: int, with_pink: bool) -> dict:
     ik.step(robot, tasks, cons, q, 0.01)
     out["kinserve ik.step (frame + posture + 3 spheres)"] = per_call_seconds(
         lambda: ik.step(robot, tasks, cons, q, 0.01), calls=calls, repeats=5) * 1e6
+    # the same call in CPU time, best of the repeats (what check_ik_model.py reports): wall-clock medians
+    # on a loaded 2-core machine count the neighbours' time slices too
+    out["kinserve ik.step (frame + posture + 3 spheres), CPU best of 5"] = cpu_per_call_seconds(
+        lambda: ik.step(robot, tasks, cons, q, 0.01), calls=calls, repeats=5) * 1e6
     if not with_pink:
         return out
     from _pink_peer import PinkBarrierIK, skeleton_capsules
@@ -261,7 +271,19 @@ def time_steps(robot, shoulder, calls: int, with_pink: bool) -> dict:
 
         one()
         out[label] = per_call_seconds(one, calls=max(50, calls // 10), repeats=5) * 1e6
+        out[label + ", CPU best of 5"] = cpu_per_call_seconds(one, calls=max(50, calls // 10), repeats=5) * 1e6
     return out
+
+
+def cpu_per_call_seconds(fn, calls: int, repeats: int = 5) -> float:
+    """Smallest over ``repeats`` of the mean CPU time (``time.process_time``) of one call over ``calls`` calls."""
+    best = math.inf
+    for _ in range(repeats):
+        c0 = time.process_time()
+        for _ in range(calls):
+            fn()
+        best = min(best, (time.process_time() - c0) / calls)
+    return best
 
 
 # --------------------------------------------------------------------------- main
@@ -404,6 +426,7 @@ def main() -> None:
     # reported too but not judged: the unconstrained p95 is a handful of slow outliers on a shared machine
     verdict["A_p95_le_10x_unconstrained_median"] = a["p95_vs_unconstrained_median"] <= 10.0
     verdict["ik_step_le_100us"] = steps["kinserve ik.step (frame + posture + 3 spheres)"] <= 100.0
+    verdict["ik_step_cpu_le_100us"] = steps["kinserve ik.step (frame + posture + 3 spheres), CPU best of 5"] <= 100.0
     print("targets:", ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
     m = machine()
     write_json(args.out, {

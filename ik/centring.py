@@ -38,6 +38,7 @@ the middle of its range; relaxing ``z`` leaves ``d3`` free, which goes to
 from __future__ import annotations
 
 import numpy as np
+from scipy.linalg import get_lapack_funcs
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
@@ -74,6 +75,8 @@ def centring_objective(robot, q, weights) -> float:
     return 0.5 * float(np.sum(weights * d * d))
 
 
+_gesdd = get_lapack_funcs(("gesdd",), (np.eye(2),))[0]
+
 #: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
 RANK_TOL = 1e-6
 
@@ -86,7 +89,12 @@ def null_space_basis(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray:
     freedom.
     """
     n = J.shape[1]
-    _, s, Vt = np.linalg.svd(J, full_matrices=True)
+    if J.shape[0] == 0:
+        return np.eye(n)
+    # LAPACK's gesdd directly (what numpy.linalg.svd calls, bit for bit, without its wrapper's overhead)
+    _, s, Vt, info = _gesdd(J, compute_uv=1, full_matrices=1)
+    if info != 0:  # pragma: no cover - LAPACK failure: the checked path
+        _, s, Vt = np.linalg.svd(J, full_matrices=True)
     rank = int(np.sum(s > tol * max(1.0, s[0] if s.size else 0.0)))
     return Vt[rank:].T.copy() if rank < n else np.zeros((n, 0))
 

@@ -78,7 +78,10 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         return dq, None
     dq_lower = np.zeros(n)
     Z = null_space_basis(J1)
-    for Jk, ek in levels[1:]:
+    last = len(levels) - 1
+    has_rows = G is not None and G.shape[0] > 0
+    for k in range(1, last + 1):
+        Jk, ek = levels[k]
         dim = Z.shape[1]
         if dim == 0:
             break
@@ -86,22 +89,19 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         Pz = JZ.T.dot(JZ)
         Pz.flat[:: dim + 1] += LOWER_DAMPING
         cz = (Jk.dot(dq) + ek).dot(JZ)
-        rows = [Z]
-        lo = [lb - dq]
-        hi = [ub - dq]
-        if G is not None and G.shape[0]:
-            rows.append(G.dot(Z))
+        if has_rows:
             Gd = G.dot(dq)
-            lo.append(l - Gd)
-            hi.append(u - Gd)
-        A = np.vstack(rows)
+            A = np.concatenate((Z, G.dot(Z)))
+            lo = np.concatenate((lb - dq, l - Gd))
+            hi = np.concatenate((ub - dq, u - Gd))
+        else:
+            A, lo, hi = Z, lb - dq, ub - dq
         zlim = np.full(dim, max_step)
-        z = solve_dense(Pz, cz, -zlim, zlim, A, np.concatenate(lo), np.concatenate(hi), backend, shortcut)
+        z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
         if z is not None:
             step = Z.dot(z)
             dq = dq + step
             dq_lower += step
-        # the next level moves in the null space of this one too
-        Nk = null_space_basis(JZ)
-        Z = Z.dot(Nk)
+        if k < last:  # the next level moves in the null space of this one too (none after the last)
+            Z = Z.dot(null_space_basis(JZ))
     return dq, dq_lower

@@ -240,3 +240,39 @@ def test_no_obstacles_is_a_valid_empty_constraint(panda):
     assert G.shape == (0, panda.nq)
     T = panda.fk(panda.random_q(np.random.default_rng(8))).copy()
     assert ik.solve(panda, tasks=[ik.FrameTask(None, T)], constraints=[avoid], seed=0).success
+
+
+def test_margin_is_the_smallest_exact_clearance_with_bounded_coal_calls(panda):
+    """margin() skips coal pairs whose lower bound exceeds the smallest distance found: same minimum, fewer calls."""
+    import coal
+
+    avoid = ObstacleAvoidance(OBSTACLES + [_box((0.45, -0.1, 0.45), (0.12, 0.1, 0.2), 1.1)], link_radius=0.01).bind(panda)
+    rng = np.random.default_rng(71)
+    calls = {"n": 0}
+    real = coal.distance
+
+    def counting(*args):
+        calls["n"] += 1
+        return real(*args)
+
+    fewer = 0
+    for q in panda.random_q(rng, 60):
+        pin.forwardKinematics(panda.model, panda.data, q)
+        coal.distance = counting
+        try:
+            calls["n"] = 0
+            m = avoid.margin(panda, panda.data, q)
+            n_min = calls["n"]
+            calls["n"] = 0
+            full = avoid._pairs(panda.data, False, 0.05)  # every coal pair below the 5 cm bound computed
+            n_full = calls["n"]
+        finally:
+            coal.distance = real
+        ref = float(full.min())
+        assert m == pytest.approx(ref, abs=1e-9)  # coal's GJK may differ in the last bits with the call order
+        if 0.0 <= ref < 0.05:  # exact region (outside): also against the dense-sampling reference
+            assert m == pytest.approx(min(sampled_clearance(panda, q, panda.tip, ob, 0.01, n=401)
+                                          for ob in avoid.obstacles), abs=1e-3)
+        assert n_min <= n_full
+        fewer += n_min < n_full
+    assert fewer > 0

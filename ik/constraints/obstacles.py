@@ -200,26 +200,37 @@ class ObstacleAvoidance(Constraint):
         # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
         rigid = bool(np.all(sk.rigid[self._sph_seg])) if self._sph_seg.size else False
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
-        self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
-        self._oth = other[1]
-        # per obstacle once, then one row per pair
-        kinds = list(dict.fromkeys(other[2]))
-        row = np.array([kinds.index(k) for k in other[2]], dtype=int)
-        obs = [self.obstacles[k] for k in kinds]
-        tfs = [_coal_transform(o.pose) for o in obs]
-        self._oth_tf = [tfs[r] for r in row.tolist()]
-        poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
-        ext = [_local_extent(o) for o in obs]
-        self._oth_center = poses[row, :3, 3]
-        self._oth_t = self._oth_center
-        self._oth_R = poses[row, :3, :3]
-        self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
-        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
-        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
-        # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
-        self._oth_local = [_local_core(sk, i) for i in other[0]]
+        if other[0]:
+            self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
+            self._oth = other[1]
+            # per obstacle once, then one row per pair
+            kinds = list(dict.fromkeys(other[2]))
+            row = np.array([kinds.index(k) for k in other[2]], dtype=int)
+            obs = [self.obstacles[k] for k in kinds]
+            tfs = [_coal_transform(o.pose) for o in obs]
+            self._oth_tf = [tfs[r] for r in row.tolist()]
+            poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
+            ext = [_local_extent(o) for o in obs]
+            self._oth_center = poses[row, :3, 3]
+            self._oth_t = self._oth_center
+            self._oth_R = poses[row, :3, :3]
+            self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
+            self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
+            self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
+            # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
+            self._oth_local = [_local_core(sk, i) for i in other[0]]
+        else:  # no coal pairs (spheres and capsules only): empty arrays, nothing to prepare
+            self._oth_ia = self._oth_ib = self._oth_seg
+            self._oth, self._oth_tf, self._oth_local = [], [], []
+            self._oth_center = self._oth_t = self._oth_lo = self._oth_hi = np.zeros((0, 3))
+            self._oth_R = np.zeros((0, 3, 3))
+            self._oth_bound = np.zeros(0)
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
+        # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
+        self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._oth_seg.size
+        self._sph_r_off = self._sph_r + self._offset
+        self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
         self._model = robot.model
         return self
 
@@ -256,11 +267,13 @@ class ObstacleAvoidance(Constraint):
                              "the base cannot move out of it")
 
     # ------------------------------------------------------------------------------------- distances
-    def _pairs(self, data, witness: bool, cutoff: float = math.inf):
+    def _pairs(self, data, witness: bool, cutoff: float = math.inf, min_only: bool = False):
         """Clearances ``(m,)`` and, with ``witness``, ``(seg, s, N, A, B)`` of every pair (module docstring).
 
         ``A``, ``B`` are the end points of each pair's segment, ``N`` the unit
         normals from the obstacle to the witness point ``(1 - s) A + s B``.
+        ``min_only``: only the smallest entry must be right (coal pairs whose lower
+        bound exceeds the smallest distance found keep their bound; see :meth:`_coal_pairs`).
         """
         P = self.skeleton.points(data)
         clear, segs, ss, Ns, As, Bs = [], [], [], [], [], []
@@ -286,7 +299,8 @@ class ObstacleAvoidance(Constraint):
                 segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
         if self._oth_seg.size:
             A, B = P[self._oth_ia], P[self._oth_ib]
-            c, s, N = self._coal_pairs(A, B, cutoff)
+            best = float(min((x.min() for x in clear if x.size), default=math.inf)) if min_only else math.inf
+            c, s, N = self._coal_pairs(A, B, cutoff, best if min_only else None)
             clear.append(c)
             if witness:
                 segs.append(self._oth_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
@@ -326,7 +340,14 @@ class ObstacleAvoidance(Constraint):
         gap = np.maximum(np.minimum(a, b) - tile(self._oth_hi), tile(self._oth_lo) - np.maximum(a, b)).max(axis=1)
         return np.maximum(lb, gap, out=lb)
 
-    def _coal_pairs(self, A, B, cutoff):
+    def _coal_pairs(self, A, B, cutoff, best=None):
+        """``(c, s, N)`` of the coal pairs: exact distances where the lower bound is below ``cutoff`` (+ offset).
+
+        ``best`` (a distance already known, e.g. the closed-form pairs' smallest): only the smallest
+        distance is wanted - the pairs are visited in increasing order of their lower bound and the
+        visit stops once the bound reaches the smallest distance found (the others cannot be smaller;
+        they keep their bound). ``c.min()`` is then the same as with every pair computed.
+        """
         import coal
 
         i = self._oth_seg
@@ -338,9 +359,17 @@ class ObstacleAvoidance(Constraint):
         res = coal.DistanceResult()
         far = cutoff + self._offset
         oMi = self.skeleton._placements[1]  # joint placements of the data just read by points()
-        todo = np.flatnonzero(lb < far).tolist()
+        todo = np.flatnonzero(lb < far)
+        if best is not None and todo.size > 1:
+            todo = todo[np.argsort(lb[todo], kind="stable")]
+        todo = todo.tolist()
         X = np.zeros((len(i), 3))
+        done = []
         for p in todo:
+            if best is not None:
+                if lb[p] >= best:
+                    break
+                done.append(p)
             local = self._oth_local[p]
             if local is not None:
                 j, M, geom = local
@@ -355,6 +384,10 @@ class ObstacleAvoidance(Constraint):
             c[p] = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, tf, req, res)
             X[p] = res.getNearestPoint2()
             N[p] = res.normal
+            if best is not None and c[p] < best:
+                best = c[p]
+        if best is not None:
+            todo = done
         if todo:
             AB = B[todo] - A[todo]
             L2 = _einsum("ij,ij->i", AB, AB)
@@ -404,16 +437,20 @@ class ObstacleAvoidance(Constraint):
             A, B = P[:, self._oth_ia].reshape(-1, 3), P[:, self._oth_ib].reshape(-1, 3)
             lb = self._coal_lower_bound(A, B, K)
             req, res = coal.DistanceRequest(), coal.DistanceResult()
-            for r in np.flatnonzero(lb < off).tolist():
+            hits = np.flatnonzero(bad)
+            first = int(hits[0]) if hits.size else K  # only the first violating configuration matters
+            for r in np.flatnonzero(lb < off).tolist():  # in order of the configuration
                 k, p = divmod(r, n)
-                if bad[k]:
-                    continue
+                if k >= first:
+                    break
                 ab = B[r] - A[r]
                 L = math.sqrt(ab.dot(ab))
                 res.clear()
                 d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], _core(L), _segment_transform(A[r], ab, L),
                                   req, res)
-                bad[k] = d - off < 0.0
+                if d - off < 0.0:
+                    bad[k] = True
+                    first = k
         hits = np.flatnonzero(bad)
         return int(hits[0]) if hits.size else None
 
@@ -429,13 +466,15 @@ class ObstacleAvoidance(Constraint):
             self._last = (data, q, w)
             c = w[0]
             return float(c.min()) if c.size else math.inf
-        c = self._pairs(data, False, MARGIN_EXACT)
+        c = self._pairs(data, False, MARGIN_EXACT, min_only=True)
         return float(c.min()) if c.size else math.inf
 
     def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         last = self._last
         if last is not None and last[0] is data and last[1] is q:
             c, seg, s, N, A, B = last[2]
+        elif self._sph_only:
+            return self._sphere_rows(data)
         else:
             c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
         # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
@@ -446,6 +485,46 @@ class ObstacleAvoidance(Constraint):
             c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
         G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
         return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
+
+    def _sphere_constants(self) -> None:
+        """Per sphere pair: ``W = [I, -[o]x]`` (3 x 6, so ``n^T W = [n, o x n]``) and the support mask of its joint."""
+        W = np.zeros((len(self._sph_c), 3, 6))
+        W[:, [0, 1, 2], [0, 1, 2]] = 1.0
+        ox, oy, oz = self._sph_c.T
+        W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
+        self._sph_S = self.skeleton.support[self.skeleton.ja[self._sph_seg]]
+        self._sph_W = W
+
+    def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
+
+        With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
+        (``V x n = 0``): the moment arm of every row is the sphere centre, a constant.
+        """
+        P = self.skeleton.points(data)
+        A = P[self._sph_ia]
+        AB = P[self._sph_ib] - A
+        AC = self._sph_c - A
+        s = _einsum("ij,ij->i", AC, AB) * self._sph_inv
+        _clip(s, 0.0, 1.0, out=s)
+        V = s[:, None] * AB - AC
+        d = _sqrt(_einsum("ij,ij->i", V, V))
+        c = d - self._sph_r_off
+        near = np.flatnonzero((c < self.influence) & (d > _EPS))
+        if self._sph_W is None:
+            self._sphere_constants()
+        if near.shape[0] < c.shape[0]:
+            c, d, V = c[near], d[near], V[near]
+            W, S = self._sph_W[near], self._sph_S[near]
+        else:
+            W, S = self._sph_W, self._sph_S
+        k = c.shape[0]
+        if not k:
+            return np.zeros((0, self._sph_S.shape[1])), np.zeros(0), np.zeros(0)
+        # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint
+        G = _einsum("pi,pij->pj", V / d[:, None], W).dot(data.J)
+        G *= S
+        return G, -self.gain * c, _INF[:k] if k <= _INF.shape[0] else np.full(k, np.inf)
 
     def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""

@@ -38,6 +38,7 @@ class VelocityLimits(Constraint):
             raise InputError(f"v_max must be positive, got {v.tolist()}")
         self.v_max = v
         self._v = None
+        self._box = None  # (dt, lower, upper) of the last call, read-only
 
     def bind(self, robot: Robot) -> "VelocityLimits":
         if self.v_max.ndim == 0:
@@ -47,10 +48,16 @@ class VelocityLimits(Constraint):
                              f"got {self.v_max.size}")
         else:
             self._v = self.v_max
+        self._box = None
         return self
 
     def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         if dt is None:
             return None, np.full(q.shape[0], -np.inf), np.full(q.shape[0], np.inf)
-        b = self._v * dt
-        return None, -b, b.copy()
+        cached = self._box
+        if cached is None or cached[0] != dt:  # one control period after another: the same box
+            hi = self._v * dt
+            lo = -hi
+            lo.flags.writeable = hi.flags.writeable = False
+            cached = self._box = (dt, lo, hi)
+        return None, cached[1], cached[2]
