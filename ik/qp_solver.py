@@ -355,8 +355,9 @@ def solve_qp(
 
     if best is None:
         q = np.clip(robot.neutral() if q0 is None else q0, lo, hi)
+        pe, re = target.errors_at(robot, q)  # the residual at the returned q: finite, never NaN
         return Result(
-            q=q, success=False, position_error=math.nan, orientation_error=math.nan, elapsed=_now() - t0,
+            q=q, success=False, position_error=float(pe), orientation_error=float(re), elapsed=_now() - t0,
             message="no start configuration outside the spheres was found", method="qp", frame=target.frame,
             history=History.empty(robot.nq, target.components),
         )

@@ -30,12 +30,13 @@ configuration inside a sphere). Not reaching the target is not an error:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.errors import InputError, KinserveError, NonFiniteError
 
 from . import analytic as _analytic
 from .centring import centring_weights
@@ -86,6 +87,17 @@ def _check_backend(backend):
     return backend.lower()
 
 
+@contextlib.contextmanager
+def _argument(name: str):
+    """Tag a :class:`KinserveError` raised inside with the argument it concerns (``exc.argument``)."""
+    try:
+        yield
+    except KinserveError as exc:
+        if exc.argument is None:
+            exc.argument = name
+        raise
+
+
 def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), centring=0.0,
             method="auto", backend="osqp", tol_pos=1e-4, tol_rot=1e-3, max_time=None, seed=None):
     """Validate every argument of :func:`solve`; return a dict of checked values.
@@ -98,7 +110,8 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
     if q0 is not None:
-        q0 = robot.check_q(q0, "q0")
+        with _argument("q0"):
+            q0 = robot.check_q(q0, "q0")
     if tol_pos != 1e-4:
         tol_pos = _check_positive(tol_pos, "tol_pos")
     if tol_rot != 1e-3:
@@ -108,25 +121,42 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
     seed = _check_seed(seed)
     backend = _check_backend(backend)
     weights = centring_weights(robot, centring)
-    sphere_set = None
-    if spheres is not None and (type(spheres) is not tuple or spheres):
-        if isinstance(spheres, (str, bytes)):
-            raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
-        try:
-            spheres = list(spheres)
-        except TypeError:
-            spheres = [spheres]
-        sphere_set = SphereSet(robot, spheres, tgt.frame) if spheres else None
-    if sphere_set is not None and q0 is not None:
-        clear = sphere_set.clearances_at(q0)
-        if clear.size and clear.min() < 0:
-            raise InputError(f"a sphere already contains the start configuration q0: {sphere_set.describe_violation(clear)}")
+    with _argument("spheres"):
+        sphere_set = _sphere_set(robot, spheres, tgt.frame, q0)
     if method in ("lm", "analytic", "jacobian_inverse", "jacobian_transpose") and weights is not None:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     if method in ("lm", "analytic") + CLASSICAL_METHODS and sphere_set is not None:
         raise InputError(f"method {method!r} cannot honour sphere constraints; use 'qp' or 'auto'")
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=sphere_set, method=method)
+
+
+def _sphere_set(robot, spheres, frame: str, q0):
+    """The :class:`SphereSet` of ``spheres`` (None when there are none), checked against the start.
+
+    The solvers start from ``q0`` clipped into the joint limits, so that is the
+    configuration that must lie outside every sphere.
+    """
+    if spheres is None or (type(spheres) is tuple and not spheres):
+        return None
+    if isinstance(spheres, (str, bytes)):
+        raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
+    try:
+        spheres = list(spheres)
+    except TypeError:
+        spheres = [spheres]
+    if not spheres:
+        return None
+    sphere_set = SphereSet(robot, spheres, frame)
+    if q0 is not None:
+        start = np.clip(q0, robot.lower, robot.upper)
+        clear = sphere_set.clearances_at(start)
+        if clear.size and clear.min() < 0:
+            clipped = "" if np.array_equal(start, q0) else " (q0 clipped into the joint limits, where the solver starts)"
+            raise InputError(
+                f"a sphere already contains the start configuration q0{clipped}: {sphere_set.describe_violation(clear)}"
+            )
+    return sphere_set
 
 
 def solve(

@@ -45,6 +45,7 @@ from lxml import etree
 
 from kinserve.kinematics.errors import InputError, ModelError, suggest
 from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.validation import MAX_ABS, is_bounded
 
 from . import paths
 
@@ -138,9 +139,10 @@ def _floats(el, attr: str, n: int, label: str, owner, default=None) -> np.ndarra
         vals = np.array([float(v) for v in text.split()], dtype=float)
     except ValueError:
         vals = None
-    if vals is None or vals.shape != (n,) or not np.all(np.isfinite(vals)):
+    if vals is None or vals.shape != (n,) or not is_bounded(vals):
         raise ModelError(
-            f"{_where(label, el)}: {_desc(owner)}: <{el.tag} {attr}={text!r}> must be {n} finite number(s)"
+            f"{_where(label, el)}: {_desc(owner)}: <{el.tag} {attr}={text!r}> must be {n} finite number(s) "
+            f"with magnitude <= {MAX_ABS:g}"
         )
     return vals
 
