@@ -2,8 +2,8 @@
 
 The bound is per entry: every number must be finite with ``|x| <=`` :data:`MAX_ABS`.
 The fast path costs well under a microsecond for a correct float64 vector: a
-type/shape test and one dot product (``q·q < MAX_ABS**2`` implies every entry
-is within the bound). Only when that sufficient test fails is the exact
+type/shape test and one ``math.hypot`` (``|q| < MAX_ABS`` implies every entry
+is within the bound; NaN and inf fail it). Only when that sufficient test fails is the exact
 per-entry test run, which either accepts the vector or says exactly which
 entries are wrong - so the fast path never rejects what the exact one accepts.
 """
@@ -22,6 +22,8 @@ MAX_ABS = 1e6
 #: Tolerance on ||R^T R - I|| (max abs entry) and on |det R - 1| for poses.
 ROTATION_TOL = 1e-6
 
+_hypot = math.hypot
+
 
 def as_vector(value, n: int, name: str = "q") -> np.ndarray:
     """Return ``value`` as a finite float64 vector of length ``n`` or raise.
@@ -31,12 +33,16 @@ def as_vector(value, n: int, name: str = "q") -> np.ndarray:
     infinities or entries with magnitude above :data:`MAX_ABS`.
     """
     if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,):
-        with np.errstate(over="ignore", invalid="ignore"):
-            s = value.dot(value)
-        if math.isfinite(s) and s < MAX_ABS * MAX_ABS:
+        if _hypot(*value.tolist()) < MAX_ABS:
             return value
         check_bounded(value, name)
         return value
+    if type(value) is list and len(value) == n:
+        try:  # a list of plain numbers (a parsed JSON array): same sufficient test, no NumPy call
+            if _hypot(*value) < MAX_ABS:
+                return np.array(value, dtype=np.float64)
+        except TypeError:
+            pass
     try:
         if value is None or isinstance(value, (str, bytes, dict)):
             raise TypeError

@@ -47,28 +47,41 @@ def uvicorn_options(settings) -> dict:
     )
 
 
-def cmd_serve(args) -> int:
+def serve(app, settings, *, host: str = "127.0.0.1", port: int = 8000, workers: int = 1, log_level: str = "info") -> None:
+    """Run ``app`` with uvicorn under ``settings``' bounds, as ``kinserve serve`` does.
+
+    ``app`` is an ASGI application, or its import string (required with
+    ``workers > 1``: every worker process imports it; kinserve's own
+    ``kinserve.service.app:app`` reads ``settings`` from the environment).
+    """
     import uvicorn
 
     from kinserve.service.settings import ENV_VAR
 
+    options = uvicorn_options(settings)
+    # the connection protocol (and, with workers, each worker's kinserve.service.app:app) reads them here
+    os.environ[ENV_VAR] = settings.to_env()
+    if workers > 1:
+        from uvicorn.supervisors import Multiprocess
+
+        config = uvicorn.Config(app, host=host, port=port, workers=workers, log_level=log_level, **options)
+        Multiprocess(config, sockets=[tcp_listener(config)]).run()
+    else:
+        uvicorn.run(app, host=host, port=port, log_level=log_level, **options)
+
+
+def cmd_serve(args) -> int:
     try:
         settings = settings_of(args)
     except ValueError as exc:
         raise SystemExit(f"error: {exc}") from None
-    options = uvicorn_options(settings)
-    # the connection protocol (and, with --workers, each worker's kinserve.service.app:app) reads them here
-    os.environ[ENV_VAR] = settings.to_env()
     if args.workers > 1:
-        from uvicorn.supervisors import Multiprocess
-
-        config = uvicorn.Config("kinserve.service.app:app", host=args.host, port=args.port, workers=args.workers,
-                                log_level=args.log_level, **options)
-        Multiprocess(config, sockets=[tcp_listener(config)]).run()
+        app = "kinserve.service.app:app"
     else:
         from kinserve.service.app import create_app
 
-        uvicorn.run(create_app(settings), host=args.host, port=args.port, log_level=args.log_level, **options)
+        app = create_app(settings)
+    serve(app, settings, host=args.host, port=args.port, workers=args.workers, log_level=args.log_level)
     return 0
 
 
