@@ -1,0 +1,185 @@
+"""The heavy work of the service, run in the solver processes (:mod:`service.executor`).
+
+Each function takes the job's :class:`Deadline` first, then plain picklable
+arguments (the validated request models), and returns plain data for
+:func:`service.responses.json_response`. A solver process keeps its own
+bounded :class:`RobotPool`, created by :func:`init_worker`.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+
+from kinserve import ik
+
+from . import schemas as S
+from .executor import Deadline
+from .fields import field
+from .robot_pool import RobotPool
+from .settings import ServiceSettings
+
+#: IK budget (s) of a request that names no ``max_time``.
+DEFAULT_MAX_TIME = 0.5
+
+#: Scheduling niceness of solver processes: the event loop's process runs first when the cores are busy.
+SOLVER_NICENESS = 10
+
+_pool: RobotPool | None = None
+_settings = ServiceSettings()
+
+
+def exit_with_parent(poll: float = 0.5) -> None:
+    """End this process when its parent (the server) is gone.
+
+    A pool worker holds both ends of its task queue's pipe, so it never sees
+    EOF when the server dies; without this watch it would live on as an orphan.
+    """
+    parent = os.getppid()
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(poll)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="kinserve-parent-watch", daemon=True).start()
+
+
+def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
+    """Set up a solver process: its settings, its robot pool, a lower scheduling priority, a parent watch."""
+    global _pool, _settings
+    exit_with_parent()
+    _settings = ServiceSettings(**__import__("json").loads(settings_json)) if settings_json else ServiceSettings()
+    _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
+    if niceness and hasattr(os, "nice"):
+        try:
+            os.nice(niceness)
+        except OSError:
+            pass
+
+
+def pool() -> RobotPool:
+    global _pool
+    if _pool is None:
+        _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
+    return _pool
+
+
+def warm(deadline: Deadline, robot: str = "panda") -> int:
+    """Load ``robot`` (so the first request does not pay for it); returns the process id."""
+    pool().get(robot, {})
+    return os.getpid()
+
+
+def capped_by(settings: ServiceSettings, max_time: float | None) -> float:
+    """A request's IK budget: its ``max_time`` (default :data:`DEFAULT_MAX_TIME`) capped by the server."""
+    return min(max_time if max_time is not None else DEFAULT_MAX_TIME, settings.max_time_cap)
+
+
+def capped(max_time: float | None) -> float:
+    return capped_by(_settings, max_time)
+
+
+def robot_of(req: S.RobotRef):
+    with field("params" if req.params else "robot"):
+        return pool().get(req.robot, dict(req.params))
+
+
+def ik_kwargs(robot, req: S.IKOptions) -> dict:
+    with field("q0"):
+        q0 = None if req.q0 is None else robot.check_q(req.q0, "q0")
+    with field("frame"):
+        frame = req.frame
+        if frame is not None:
+            robot.frame_id(frame)
+    with field("spheres"):
+        spheres = [ik.Sphere(s.center, s.radius, frames=s.frames) for s in req.spheres]
+    return dict(q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
+                method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed)
+
+
+def result_out(res) -> dict:
+    return {
+        "success": bool(res.success), "q": np.asarray(res.q, dtype=float).tolist(),
+        "position_error": float(res.position_error), "orientation_error": float(res.orientation_error),
+        "iterations": int(res.iterations), "restarts": int(res.restarts), "elapsed": float(res.elapsed),
+        "message": str(res.message),
+    }
+
+
+def not_attempted(robot, target, frame: str | None, relax, q0, why: str) -> dict:
+    """The answer for a batch target the time cap left no time for: the start configuration, its residual."""
+    q = robot.neutral() if q0 is None else np.clip(q0, robot.lower, robot.upper)
+    pe, re = ik.Target(robot, target, frame, relax).errors_at(robot, q)
+    return {"success": False, "q": q.tolist(), "position_error": float(pe), "orientation_error": float(re),
+            "iterations": 0, "restarts": 0, "elapsed": 0.0, "message": why}
+
+
+def solve_ik(deadline: Deadline, req: S.IKRequest) -> dict:
+    """``POST /ik``: one solve with the time left (the request's capped ``max_time``)."""
+    r = robot_of(req)
+    kwargs = ik_kwargs(r, req)
+    with field("target"):
+        res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=max(deadline.remaining, 1e-3), **kwargs)
+    return result_out(res)
+
+
+def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
+    """``POST /ik/batch``: the targets in order, each with ``min(max_time, time left)``; the rest not attempted."""
+    t0 = time.perf_counter()
+    r = robot_of(req)
+    kwargs = ik_kwargs(r, req)
+    per_target = capped(req.max_time)
+    out = []
+    attempted = 0
+    for i, target in enumerate(req.targets):
+        T = np.asarray(target, dtype=float)
+        left = deadline.remaining
+        with field(f"targets[{i}]"):
+            if left <= 1e-3:
+                out.append(not_attempted(r, T, kwargs["frame"], kwargs["relax"], kwargs["q0"],
+                                         f"not attempted: the request's time cap ({deadline.budget:g} s) was spent"))
+                continue
+            res = ik.solve(r, T, max_time=min(per_target, left), **kwargs)
+        attempted += 1
+        out.append(result_out(res))
+    return {"results": out, "success_rate": sum(o["success"] for o in out) / len(out),
+            "elapsed": time.perf_counter() - t0, "attempted": attempted,
+            "stop_reason": "completed" if attempted == len(out) else "time_cap"}
+
+
+def plan_cartesian(deadline: Deadline, req: S.CartesianPlanRequest) -> dict:
+    """``POST /plan/cartesian`` within the time left, stopping at the first failure unless told not to."""
+    from kinserve.planners import cartesian_to_joint
+
+    r = robot_of(req)
+    with field("q0"):
+        q0 = None if req.q0 is None else r.check_q(req.q0, "q0")
+    with field("frame"):
+        if req.frame is not None:
+            r.frame_id(req.frame)
+    with field("poses"):
+        plan = cartesian_to_joint(
+            r, [np.asarray(p, dtype=float) for p in req.poses], q0=q0, frame=req.frame, steps=req.steps,
+            dt=req.dt, interpolation=req.interpolation, relax=tuple(req.relax), max_time=capped(None),
+            total_time=max(deadline.remaining, 1e-3), stop_on_failure=req.stop_on_failure,
+        )
+    traj = plan.trajectory
+    return {
+        "success": bool(plan.success),
+        "trajectory": {
+            "joint_names": list(traj.joint_names), "times": np.asarray(traj.times).tolist(),
+            "positions": np.asarray(traj.positions).tolist(), "velocities": np.asarray(traj.velocities).tolist(),
+            "accelerations": None if traj.accelerations is None else np.asarray(traj.accelerations).tolist(),
+        },
+        "max_position_error": float(plan.max_position_error),
+        "max_orientation_error": float(plan.max_orientation_error),
+        "events": [dict(e) for e in plan.events],
+        "message": plan.message,
+        "stop_reason": plan.stop_reason,
+        "poses_attempted": int(len(plan.position_errors)),
+        "total_poses": int(plan.total_poses),
+    }
