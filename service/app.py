@@ -142,15 +142,12 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
                 robot = pool.get(name, params)  # this thread's copy (loads inline only if evicted meanwhile)
         return robot
 
-    async def heavy(req: S.RobotRef, job, budget: float, work_budget: float | None = None):
-        """Answer ``job(deadline, req)`` run in a solver process; an unknown robot is a 404 before queueing.
-
-        ``budget`` bounds the whole request from now (queueing included); ``work_budget``
-        the job itself from its start (see :meth:`BoundedExecutor.run`).
-        """
+    async def heavy(req: S.RobotRef, job, budget: float, *args):
+        """Answer ``job(deadline, req, *args)`` run in a solver process; an unknown robot is a 404 before
+        queueing. ``budget`` bounds the whole request from now, queueing included."""
         with field("robot"):
             pool.check_name(req.robot)
-        return json_response(await solvers.run(job, Deadline(budget), work_budget, req))
+        return json_response(await solvers.run(job, Deadline(budget), None, req, *args))
 
     # --------------------------------------------------------- inline endpoints
     @app.get("/health")
@@ -198,7 +195,7 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
     # ------------------------------------------------------ solver endpoints
     @app.post("/ik", response_model=S.IKResponse, responses=_HEAVY_ERRORS)
     async def solve_ik(req: S.IKRequest):
-        return await heavy(req, jobs.solve_ik, settings.request_time_cap, work_budget=jobs.capped_by(settings, req.max_time))
+        return await heavy(req, jobs.solve_ik, settings.request_time_cap, jobs.capped_by(settings, req.max_time))
 
     @app.post("/ik/batch", response_model=S.IKBatchResponse, responses=_HEAVY_ERRORS)
     async def solve_ik_batch(req: S.IKBatchRequest):
