@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import socket
+import sys
 
 
 def tcp_listener(config) -> socket.socket:
@@ -30,7 +31,9 @@ def settings_of(args) -> "ServiceSettings":
     return ServiceSettings(
         max_time_cap=args.max_time_cap, request_time_cap=args.request_time_cap, max_body=args.max_body,
         body_timeout=args.body_timeout, header_timeout=args.header_timeout, keep_alive=args.keep_alive,
-        max_connections=args.max_connections, solver_threads=args.solver_threads, queue=args.queue,
+        max_connections=args.max_connections, queue=args.queue,
+        # the cores are shared by the worker processes: each gets its share of solver processes
+        solver_threads=args.solver_threads or max(1, (os.cpu_count() or 1) // max(1, args.workers)),
         robot_cache=args.robot_cache, robot_cache_bytes=int(args.robot_cache_mb * (1 << 20)), access_log=args.access_log,
     )
 
@@ -74,7 +77,8 @@ def cmd_serve(args) -> int:
     try:
         settings = settings_of(args)
     except ValueError as exc:
-        raise SystemExit(f"error: {exc}") from None
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     if args.workers > 1:
         app = "kinserve.service.app:app"
     else:
@@ -112,8 +116,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep-alive", type=float, default=D.keep_alive, help="idle keep-alive connections are closed after this (s)")
     p.add_argument("--max-connections", type=int, default=D.max_connections,
                    help="open connections beyond this are closed at accept; requests beyond it get 503")
-    p.add_argument("--solver-threads", type=int, default=D.solver_threads, help="IK/plan threads (0 = one per core)")
-    p.add_argument("--queue", type=int, default=D.queue, help="heavy requests waiting for a solver thread (503 beyond)")
+    p.add_argument("--solver-threads", type=int, default=D.solver_threads,
+                   help="IK/plan solver processes per worker (0 = the cores divided among the workers)")
+    p.add_argument("--queue", type=int, default=D.queue, help="heavy requests waiting for a solver process (503 beyond)")
     p.add_argument("--robot-cache", type=int, default=D.robot_cache, help="robot variants (name + params) kept loaded")
     p.add_argument("--robot-cache-mb", type=float, default=D.robot_cache_bytes / (1 << 20),
                    help="estimated memory of the cached robot variants, seed tables included (MiB)")

@@ -16,7 +16,8 @@ header_timeout         ``--header-timeout``       a connection that has not sent
 keep_alive             ``--keep-alive``           idle keep-alive connections are closed after this many s
 max_connections        ``--max-connections``      sockets beyond this are closed right after accept;
                                                   requests beyond it (tasks) get 503
-solver_threads         ``--solver-threads``       threads of the heavy-work executor (default: the cores)
+solver_threads         ``--solver-threads``       solver processes of the heavy-work executor (default: the
+                                                  cores, divided among ``--workers``)
 queue                  ``--queue``                heavy requests waiting for a solver thread; more get 503
 robot_cache            ``--robot-cache``          robot variants (name + params) kept in memory
 robot_cache_bytes      ``--robot-cache-mb``       their estimated memory, seed tables included
@@ -50,7 +51,7 @@ class ServiceSettings:
     header_timeout: float = 10.0
     keep_alive: float = 5.0
     max_connections: int = 1000
-    solver_threads: int = 0  #: 0 = ``os.cpu_count()``
+    solver_threads: int = 0  #: solver processes; 0 = ``os.cpu_count()``
     queue: int = 256
     robot_cache: int = 64
     robot_cache_bytes: int = 256 << 20
@@ -72,7 +73,7 @@ class ServiceSettings:
 
     @property
     def threads(self) -> int:
-        """Solver threads actually used: ``solver_threads`` or the number of cores."""
+        """Solver processes actually used: ``solver_threads`` or the number of cores."""
         return self.solver_threads or max(1, os.cpu_count() or 1)
 
     def to_env(self) -> str:
