@@ -6,11 +6,11 @@ the event loop. Everything that can take milliseconds to seconds runs on a
 
 * the **solver** executor is a pool of processes, one per core by default
   (``--solver-threads``), started with the server, each with its own robot
-  cache and a lower scheduling priority. In a thread, a solve would hold the
-  GIL the event loop needs: measured on this machine, ``/health`` p50 went
-  from 5 ms to 33 ms (p95 20 -> 97 ms) while four ``/ik`` ran in threads.
-  In processes the event loop keeps its interpreter to itself, and the
-  lower priority lets the OS run it first when the cores are busy;
+  cache. In a thread, a solve would hold the GIL the event loop needs:
+  measured on this machine, ``/health`` p50 went from 5 ms to 33 ms (p95
+  20 -> 97 ms) while four ``/ik`` ran in threads. In processes the event
+  loop keeps its interpreter to itself (``/health`` p95 12-16 ms while 45
+  unreachable ``/ik`` run, ``bench_service.py``);
 * the **loader** executor is one thread that loads a model a microsecond
   endpoint has not seen yet (milliseconds, once per robot variant).
 

@@ -25,8 +25,10 @@ from .settings import ServiceSettings
 #: IK budget (s) of a request that names no ``max_time``.
 DEFAULT_MAX_TIME = 0.5
 
-#: Scheduling niceness of solver processes: the event loop's process runs first when the cores are busy.
-SOLVER_NICENESS = 10
+#: Scheduling niceness added to solver processes. 0: the kernel already favours the event loop's
+#: process, which sleeps between short bursts; measured, niceness 10 starved the solvers (IK budgets
+#: missed) whenever other programs loaded the machine, without being needed for /health.
+SOLVER_NICENESS = 0
 
 _pool: RobotPool | None = None
 _settings = ServiceSettings()
@@ -49,7 +51,7 @@ def exit_with_parent(poll: float = 0.5) -> None:
 
 
 def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
-    """Set up a solver process: its settings, its robot pool, a lower scheduling priority, a parent watch."""
+    """Set up a solver process: its settings, its robot pool, its niceness, a parent watch."""
     global _pool, _settings
     exit_with_parent()
     _settings = ServiceSettings(**__import__("json").loads(settings_json)) if settings_json else ServiceSettings()

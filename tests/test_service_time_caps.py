@@ -84,7 +84,7 @@ def test_45_unreachable_ik_leave_health_fast_and_every_request_bounded(server):
     for code, headers, out, dt in results:
         assert dt < REQUEST_CAP * 1.1 + SLACK, f"{code} after {dt:.2f} s"
         if code == 200:
-            assert out["success"] is False and out["elapsed"] < IK_CAP * 1.1 + 0.1  # + a niced process's scheduling delay on a busy machine
+            assert out["success"] is False and out["elapsed"] < IK_CAP * 1.1 + 0.1  # + scheduling delay on a busy shared machine
         else:
             assert int(headers["retry-after"]) >= 1 and out["detail"][0]["type"] == "ServiceBusy"
     assert httpx.get(server.url + "/health", timeout=5).json()["solver_jobs"] == 0
