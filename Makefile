@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test bench gallery install install-test browser clean
+.PHONY: demo test bench peers gallery install install-test browser clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -45,12 +45,36 @@ test: $(VENV)/.installed-test browser
 gallery: $(VENV)/.installed browser
 	$(PY) -m kinserve.scenarios.gallery --demo $(DEMO_OUT)
 
-bench: $(VENV)/.installed-bench
+# Peers that pin another Pinocchio get their own venv under bench-out/venvs/<peer>, never the main .venv.
+# Stamp files make it idempotent; a failed install leaves no stamp (retried next time) and the benchmarks
+# skip that peer with a message.
+PEER_VENVS   := bench-out/venvs
+PLACO_SPEC    ?= placo==0.10.2
+ROBOPLAN_SPEC ?= roboplan==0.7.0
+
+$(PEER_VENVS)/%/.installed:
+	@mkdir -p $(PEER_VENVS)
+	@echo "peer venv $(PEER_VENVS)/$*: $($(shell echo $* | tr a-z A-Z)_SPEC)"
+	@( $(PYTHON) -m venv $(PEER_VENVS)/$* \
+	   && $(PEER_VENVS)/$*/bin/python -m pip install --quiet --upgrade pip \
+	   && $(PEER_VENVS)/$*/bin/python -m pip install --quiet "$($(shell echo $* | tr a-z A-Z)_SPEC)" \
+	   && touch $@ ) || echo "WARNING: could not install $* in $(PEER_VENVS)/$*; its benchmark rows will be skipped"
+
+peers: $(PEER_VENVS)/placo/.installed $(PEER_VENVS)/roboplan/.installed
+
+# BENCH_N=50 runs the IK benchmarks on 50 targets (a quick check; the README figures use the defaults).
+BENCH_N ?=
+BENCH_IK_N := $(if $(BENCH_N),--n $(BENCH_N))
+
+bench: $(VENV)/.installed-bench peers
 	mkdir -p bench-out
 	$(PY) benchmarks/bench_kinematics.py --out bench-out/kinematics.json
-	$(PY) benchmarks/bench_ik.py --out bench-out/ik.json
+	$(PY) benchmarks/bench_ik.py $(BENCH_IK_N) --out bench-out/ik.json
+	$(PY) benchmarks/bench_ik_constrained.py $(BENCH_IK_N) --out bench-out/ik_constrained.json
+	$(PY) benchmarks/bench_collision.py $(BENCH_IK_N) --out bench-out/collision.json
 	$(PY) benchmarks/bench_planners.py --out bench-out/planners.json
 	$(PY) benchmarks/bench_service.py --out bench-out/service.json
+	$(PY) benchmarks/render_tables.py bench-out --out bench-out/tables.md
 
 clean:
 	rm -rf $(VENV) $(DEMO_OUT) bench-out .pytest_cache

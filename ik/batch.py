@@ -3,73 +3,57 @@
 Design
 ------
 * Every argument and every target is validated **once, in the calling
-  process** (errors name the offending target index), before any work starts.
-* Targets are cut into chunks and solved by a pool of worker processes. The
-  pool is **persistent**: created on first use (``fork`` start method on
-  Linux) and reused by later calls with the same number of processes, so a
-  batch does not pay process start-up again.
-* A call is a *job*: the robot (pickled kinematic model), the solve options
-  and the seed table of :mod:`ik.seeds`, serialised once in the parent into
-  a temporary file (in ``/dev/shm`` when available); chunks carry only the
-  job id and the file name. A worker loads a job the first time it sees its
-  id and keeps it (a few jobs, least recently used first out): the robot is
-  rebuilt **once per worker and job, never per target**.
-* Plain pose targets (method ``"lm"``, or ``"auto"`` on a robot without a
-  finite closed form; no relaxation, spheres, centring or history) are
-  solved a whole chunk at a time by the stacked Levenberg-Marquardt of
-  :mod:`ik.batch_lm` (one NumPy iteration for all the chunk's targets; a
-  few large chunks); anything else goes target by target through
-  ``ik.solve``'s own code path. The stacked answers are valid solutions within
-  the same tolerances, not necessarily the very configurations ``ik.solve``
-  returns one by one.
-* A worker solves a whole chunk and sends back compact arrays (joint
-  vectors, flags, errors, counters) plus the messages - far cheaper to pickle
-  than one ``Result`` per target. The parent rebuilds the ``Result`` list in
-  the original order. Histories are dropped unless ``keep_history=True``.
+  process**, before any work starts (errors name the offending target
+  index): the targets and start configurations vectorised
+  (:func:`checked_poses`), the method options directly
+  (:func:`ik.options.check_options`, no trial solve).
+* Targets are cut into chunks (:func:`chunk_bounds`) and solved by an
+  execution backend of :mod:`ik.batch_runners`: a persistent pool of worker
+  processes (:mod:`ik.batch_pool`; default), this process (``"serial"``), or
+  Ray actors (:mod:`ik.ray_backend`). The work of a chunk, wherever it runs,
+  is :mod:`ik.batch_worker`: plain pose targets go through the stacked
+  Levenberg-Marquardt of :mod:`ik.batch_lm`, anything else target by target
+  through ``ik.solve``'s own code path. The stacked answers are valid
+  solutions within the same tolerances, not necessarily the very
+  configurations ``ik.solve`` returns one by one.
+* A worker sends back compact arrays per chunk; this process rebuilds the
+  ``Result`` list in the original order. Histories are dropped unless
+  ``keep_history=True``.
+* Every chunk has a time limit derived from the per-target budget, and
+  ``timeout=`` bounds the whole call: a stalled worker (e.g. stopped by
+  ``SIGSTOP``) raises :class:`kinserve.kinematics.errors.WorkerTimeoutError`
+  naming the worker and its chunk, and the pool is terminated; a killed
+  worker is replaced and its chunk retried once (:mod:`ik.batch_pool`).
 * A ``tqdm`` progress bar (on stderr) follows the completed chunks of long
   batches.
-* Execution backends live in :data:`BACKENDS` (``"processes"``, ``"serial"``,
-  ``"ray"`` through :mod:`ik.ray_backend`); each is one function
-  ``runner(job, chunks, processes, on_done)``.
 """
 
 from __future__ import annotations
 
-import atexit
-import itertools
 import math
-import multiprocessing as mp
+import numbers
 import os
-import pickle
-import tempfile
-import threading
-from collections import OrderedDict
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
+import pinocchio as pin
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL
 
-from .analytic import closed_form_solver
-from .batch_lm import BatchChain, solve_batch
+from .batch_pool import shutdown_pool
+from .batch_runners import BACKENDS, TimeLimits, run_serial
+from .batch_worker import Job
+from .options import check_options
 from .result import Result
-from .seeds import install_table, seed_table
-from .solve import prepare, solve_prepared
+from .solve import prepare
 from .targets import Target
+
+__all__ = ["solve_many", "shutdown_pool", "checked_poses", "chunk_bounds", "BACKENDS"]
 
 #: Batches at least this long show a progress bar by default.
 PROGRESS_THRESHOLD = 500
-
-#: Jobs a worker keeps unpickled.
-WORKER_JOBS = 4
-
-#: Options of ``solve`` the stacked LM understands.
-VECTOR_OPTIONS = frozenset({"max_iter", "damping"})
 #: Largest chunk for the stacked LM (rows solved together).
 VECTOR_CHUNK = 1000
-
-_job_ids = itertools.count()
 
 
 def _cpu_count() -> int:
@@ -79,227 +63,116 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
-class _Job:
-    """Everything a worker needs to solve targets of one ``solve_many`` call."""
-
-    def __init__(self, robot, kwargs: dict, options: dict, keep_history: bool, frame: str):
-        self.id = (os.getpid(), next(_job_ids))
-        self.robot = robot
-        self.kwargs = kwargs
-        self.options = options
-        self.keep_history = keep_history
-        self.frame = frame
-        self._prepared = None
-        self._vectorised = None
-        self.ray_address = None
-
-    def payload_file(self) -> str:
-        """Write the job (robot, options, the robot's seed table for the frame) to a temporary file."""
-        table = seed_table(self.robot, self.frame)
-        data = pickle.dumps((self.robot, self.kwargs, self.options, self.keep_history, self.frame, table),
-                            protocol=pickle.HIGHEST_PROTOCOL)
-        shm = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
-        fd, path = tempfile.mkstemp(prefix="kinserve-ik-job-", suffix=".pkl", dir=shm)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        return path
-
-    def prepared(self):
-        if self._prepared is None:
-            self._prepared = prepare(self.robot, np.eye(4), None, **self.kwargs)
-        return self._prepared
-
-    def vectorised(self) -> bool:
-        """Whether the targets can go through the stacked LM of :mod:`ik.batch_lm` (module docstring)."""
-        if self._vectorised is None:
-            self._vectorised = _vectorisable(self)
-        return self._vectorised
-
-
-def _solve_chunk(robot, common: dict, options: dict, keep_history: bool, start: int, poses, q0s):
-    """Solve one chunk for a runner that holds ``(robot, common, options, keep_history)`` (e.g. a Ray actor).
-
-    ``common`` is the dict :func:`solve_many` hands to every runner
-    (``"kwargs"``: the validated ``ik.solve`` keywords, ``"frame"``, ...). The
-    job is rebuilt once per ``common`` object and robot, not per chunk.
-    """
-    key = (id(robot), id(common))
-    job = _compat_jobs.get(key)
-    if job is None:
-        job = _compat_jobs[key] = _Job(robot, common["kwargs"], options, keep_history, common["frame"])
-        while len(_compat_jobs) > WORKER_JOBS:
-            _compat_jobs.popitem(last=False)
-    return _solve_job_chunk(job, start, poses, q0s)
-
-
-_compat_jobs: OrderedDict = OrderedDict()
-
-
-def _solve_job_chunk(job: _Job, start: int, poses, q0s):
-    """Solve targets ``start .. start + len(poses)``; return compact arrays (see the module docstring)."""
-    robot = job.robot
-    n = len(poses)
-    out = {
-        "start": start,
-        "q": np.empty((n, robot.nq)),
-        "success": np.zeros(n, dtype=bool),
-        "position_error": np.empty(n),
-        "orientation_error": np.empty(n),
-        "iterations": np.zeros(n, dtype=np.int64),
-        "restarts": np.zeros(n, dtype=np.int64),
-        "elapsed": np.empty(n),
-        "message": [],
-        "method": [],
-        "info": [],
-        "history": [] if job.keep_history else None,
-    }
-    base = job.prepared()
-    relax, relax_frame = job.kwargs["relax"], job.kwargs["relax_frame"]
-    if job.vectorised():
-        b = solve_batch(robot, job.frame, np.asarray(poses), None if q0s is None else np.asarray(q0s),
-                        tol_pos=base["tol_pos"], tol_rot=base["tol_rot"], seed=base["seed"],
-                        max_time=base["max_time"], **job.options)
-        for key in ("q", "success", "position_error", "orientation_error", "iterations", "restarts", "elapsed"):
-            out[key][:] = b[key]
-        out["message"] = b["message"]
-        out["method"] = ["lm"] * n
-        out["info"] = [{"batched": True} for _ in range(n)]
-        return out
-    for i in range(n):
-        p = dict(base)
-        p["target"] = Target(robot, poses[i], job.frame, relax, relax_frame)
-        p["q0"] = None if q0s is None else q0s[i]
-        r = solve_prepared(robot, p, **job.options)
-        out["q"][i] = r.q
-        out["success"][i] = r.success
-        out["position_error"][i] = r.position_error
-        out["orientation_error"][i] = r.orientation_error
-        out["iterations"][i] = r.iterations
-        out["restarts"][i] = r.restarts
-        out["elapsed"][i] = r.elapsed
-        out["message"].append(r.message)
-        out["method"].append(r.method)
-        out["info"].append(r.info)
-        if job.keep_history:
-            out["history"].append(r.history)
-    return out
-
-
-def _vectorisable(job) -> bool:
-    p = job.prepared()
-    if job.keep_history or p["spheres"] is not None or p["weights"] is not None or job.kwargs["relax"]:
-        return False
-    if set(job.options) - VECTOR_OPTIONS:
-        return False
-    if p["method"] == "auto":
-        solver = closed_form_solver(job.robot, job.frame)
-        if solver is not None and solver.finite:
-            return False  # "auto" answers with the closed form
-    elif p["method"] != "lm":
-        return False
-    try:
-        BatchChain(job.robot, job.frame)
-    except ValueError:
-        return False
-    return True
-
-
-# ----------------------------------------------------------------- worker side
-_worker_jobs: OrderedDict = OrderedDict()
-
-
-def _worker_chunk(job_id, path: str, start, poses, q0s):
-    job = _worker_jobs.get(job_id)
-    if job is None:
-        with open(path, "rb") as fh:
-            robot, kwargs, options, keep_history, frame, table = pickle.load(fh)
-        install_table(robot, frame, table)
-        job = _Job(robot, kwargs, options, keep_history, frame)
-        _worker_jobs[job_id] = job
-        while len(_worker_jobs) > WORKER_JOBS:
-            _worker_jobs.popitem(last=False)
-    else:
-        _worker_jobs.move_to_end(job_id)
-    return _solve_job_chunk(job, start, poses, q0s)
-
-
-# ----------------------------------------------------------------- parent side
-_pool = None
-_pool_size = 0
-_pool_lock = threading.Lock()
-
-
-def _get_pool(processes: int) -> ProcessPoolExecutor:
-    global _pool, _pool_size
-    with _pool_lock:
-        if _pool is None or _pool_size != processes:
-            if _pool is not None:
-                _pool.shutdown(wait=False, cancel_futures=True)
-            ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context()
-            _pool = ProcessPoolExecutor(max_workers=processes, mp_context=ctx)
-            _pool_size = processes
-        return _pool
-
-
-def shutdown_pool() -> None:
-    """Stop the persistent worker processes (they are started again on demand)."""
-    global _pool
-    with _pool_lock:
-        if _pool is not None:
-            _pool.shutdown(wait=True, cancel_futures=True)
-            _pool = None
-
-
-atexit.register(shutdown_pool)
-
-
-def _run_serial(job, chunks, processes, on_done):
-    for start, poses, q0s in chunks:
-        on_done(_solve_job_chunk(job, start, poses, q0s))
-
-
-def _run_processes(job, chunks, processes, on_done):
-    path = job.payload_file()
-    try:
-        for attempt in range(2):
-            pool = _get_pool(processes)
-            try:
-                futures = [pool.submit(_worker_chunk, job.id, path, s, p, q) for s, p, q in chunks]
-                for fut in as_completed(futures):
-                    on_done(fut.result())
-                return
-            except BrokenProcessPool:
-                shutdown_pool()  # a worker died (e.g. killed): start a fresh pool once
-                if attempt:
-                    raise
-    finally:
-        os.unlink(path)
-
-
-def _run_ray(job, chunks, processes, on_done):
-    """Ray actors (:mod:`ik.ray_backend`, ``ray_address=`` to join a cluster)."""
-    from .ray_backend import run_ray
-
-    common = {"prepared": job.prepared(), "frame": job.frame, "relax": job.kwargs["relax"],
-              "relax_frame": job.kwargs["relax_frame"], "kwargs": job.kwargs}
-    run_ray(job.robot, chunks, common, job.options, job.keep_history, processes, on_done, address=job.ray_address)
-
-
-#: Execution backends: ``name -> runner(job, chunks, processes, on_done)``.
-BACKENDS = {"processes": _run_processes, "serial": _run_serial, "ray": _run_ray}
-
-
-def _as_poses(targets) -> list:
+def _as_array(targets) -> np.ndarray | None:
+    """``(N, 4, 4)`` float64 view/copy of an array or a list of poses, or None when it is not a clean numeric stack."""
     if isinstance(targets, np.ndarray):
         if targets.ndim == 2 and targets.shape == (4, 4):
             raise InputError("targets must be a sequence of poses (N, 4, 4); got a single 4x4 pose - use ik.solve")
         if targets.ndim != 3:
             raise InputError(f"targets must have shape (N, 4, 4), got shape {targets.shape}")
-        return list(targets)
+        if targets.shape[1:] == (4, 4) and targets.dtype.kind in "fiu":
+            return np.asarray(targets, dtype=np.float64)
+        return None
     try:
-        return list(targets)
-    except TypeError:
-        raise InputError(f"targets must be a sequence of 4x4 poses, got {type(targets).__name__}") from None
+        arr = np.asarray(targets, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    return arr if arr.ndim == 3 and arr.shape[1:] == (4, 4) else None
+
+
+def _well_formed(T: np.ndarray) -> np.ndarray:
+    """Mask of the poses that pass every check of ``ik.targets.Target`` (vectorised, slightly stricter).
+
+    Bottom row exactly ``[0 0 0 1]``, finite, ``|p_i| <= MAX_ABS``,
+    ``|R^T R - I| <= tol`` entrywise and ``|det R - 1| <= tol``; the
+    tolerance is 0.999 of ``ROTATION_TOL``, so a pose this test rejects on
+    rounding alone is decided by ``Target`` itself.
+    """
+    tol = 0.999 * ROTATION_TOL
+    R = T[:, :3, :3]
+    ok = (T[:, 3, :] == (0.0, 0.0, 0.0, 1.0)).all(axis=1)
+    ok &= np.isfinite(R).all(axis=(1, 2)) & (np.abs(T[:, :3, 3]) <= MAX_ABS).all(axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        G = np.einsum("nki,nkj->nij", R, R) - np.eye(3)
+        ok &= (np.abs(G) <= tol).all(axis=(1, 2))
+        ok &= np.abs(np.linalg.det(np.where(np.isfinite(R), R, 0.0)) - 1.0) <= tol
+    return ok
+
+
+def checked_poses(robot, targets, frame: str, relax=(), relax_frame: str = "world") -> np.ndarray:
+    """Validated ``(N, 4, 4)`` float64 copy of ``targets`` (array, sequence of 4x4 or ``pinocchio.SE3``).
+
+    Checked all at once (:func:`_well_formed`); a pose that fails is checked
+    again by :class:`ik.targets.Target`, whose error is raised with the
+    target's index (``targets[i]: ...``).
+    """
+    if not isinstance(targets, np.ndarray):
+        if isinstance(targets, (str, bytes, dict)) or not hasattr(targets, "__iter__"):
+            raise InputError(f"targets must be a sequence of 4x4 poses, got {type(targets).__name__}")
+        targets = [t.homogeneous if isinstance(t, pin.SE3) else t for t in targets]  # also consumes an iterator once
+    arr = _as_array(targets)
+    if arr is None:  # ragged / non-numeric: one by one, for the message
+        out = np.empty((len(targets), 4, 4))
+        for i, pose in enumerate(targets):
+            out[i] = _one_pose(robot, i, pose, frame, relax, relax_frame)
+        return out
+    out = np.array(arr, dtype=np.float64)
+    if len(out):
+        for i in np.flatnonzero(~_well_formed(out)):
+            out[i] = _one_pose(robot, i, arr[i], frame, relax, relax_frame)
+    return out
+
+
+def _one_pose(robot, i, pose, frame, relax, relax_frame) -> np.ndarray:
+    try:
+        return Target(robot, pose, frame, relax, relax_frame).T
+    except InputError as exc:
+        raise type(exc)(f"targets[{i}]: {exc}") from None
+
+
+def _checked_q0s(robot, q0, n: int) -> np.ndarray | None:
+    """``(n, nq)`` start configurations from None, one configuration, or ``(n, nq)`` (each validated)."""
+    if q0 is None:
+        return None
+    arr = np.asarray(q0, dtype=float) if not isinstance(q0, np.ndarray) else q0
+    if arr.ndim == 1:
+        return np.repeat(robot.check_q(arr, "q0")[None, :], n, axis=0)
+    if arr.shape != (n, robot.nq):
+        raise InputError(f"q0 must have shape ({robot.nq},) or ({n}, {robot.nq}), got shape {arr.shape}")
+    arr = np.array(arr, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        bad = ~(np.isfinite(arr).all(axis=1) & (np.abs(arr) <= MAX_ABS).all(axis=1))
+    for i in np.flatnonzero(bad):
+        robot.check_q(arr[i], f"q0[{i}]")  # raises, naming the row and the joint
+    return arr
+
+
+def _check_count(value, name: str) -> None:
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
+        raise InputError(f"{name} must be a positive integer or None, got {value!r}")
+
+
+def _check_timeout(timeout) -> float | None:
+    if timeout is None:
+        return None
+    if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real):
+        raise InputError(f"timeout must be a positive number of seconds or None, got {timeout!r}")
+    if not math.isfinite(float(timeout)):
+        raise NonFiniteError(f"timeout must be finite (None for no overall limit), got {timeout!r}")
+    if timeout <= 0:
+        raise InputError(f"timeout must be positive, got {timeout!r}")
+    return float(timeout)
+
+
+def chunk_bounds(n: int, processes: int, chunksize: int | None, vectorised: bool) -> list[tuple[int, int]]:
+    """``(start, stop)`` of each chunk: by default 2 chunks per process of at most
+    :data:`VECTOR_CHUNK` targets for the stacked LM, about 8 per process otherwise."""
+    if chunksize is None:
+        if vectorised:
+            chunksize = min(VECTOR_CHUNK, max(64, math.ceil(n / (2 * processes))))
+        else:
+            chunksize = max(1, math.ceil(n / (processes * 8)))
+    return [(s, min(n, s + chunksize)) for s in range(0, n, chunksize)]
 
 
 def solve_many(
@@ -313,6 +186,7 @@ def solve_many(
     backend: str = "processes",
     ray_address: str | None = None,
     keep_history: bool = False,
+    timeout: float | None = None,
     qp_backend: str = "osqp",
     frame: str | None = None,
     relax=(),
@@ -338,73 +212,52 @@ def solve_many(
         Worker processes (default: every available core). ``1`` solves in
         this process.
     chunksize:
-        Targets per task (default: about 8 tasks per worker).
+        Targets per chunk (default: see :func:`chunk_bounds`).
     progress:
         Show a tqdm bar (default: for batches of at least 500 targets).
     backend:
         Execution backend, ``"processes"`` (default; a persistent pool, see
-        the module docstring), ``"serial"`` or ``"ray"`` (:mod:`ik.ray_backend`;
+        :mod:`ik.batch_pool`), ``"serial"`` or ``"ray"`` (:mod:`ik.ray_backend`;
         ``ray_address`` joins a running cluster). Not to be confused with
         ``qp_backend``, the QP solver of method ``"qp"`` (``ik.solve``'s ``backend``).
     keep_history:
         Return each ``Result.history`` (costs pickling time); by default ``history`` is None.
+    timeout:
+        Overall limit in seconds (None: none beyond the per-chunk limits of
+        :mod:`ik.batch_runners`). When it expires, or a worker stalls,
+        :class:`~kinserve.kinematics.errors.WorkerTimeoutError` is raised and
+        the workers are terminated.
     The remaining keywords are those of :func:`ik.solve`, shared by every target.
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}")
-    poses = _as_poses(targets)
+    _check_count(processes, "processes")
+    _check_count(chunksize, "chunksize")
+    timeout = _check_timeout(timeout)
+    kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, centring=centring,
+                  method=method, backend=qp_backend, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
+    # the shared arguments once (frame, relax, spheres, method, tolerances...), then every target
+    prepared = prepare(robot, np.eye(4), None, **kwargs)
+    check_options(prepared["method"], options)
+    frame = kwargs["frame"] = prepared["target"].frame
+    poses = checked_poses(robot, targets, frame, relax, relax_frame)
     n = len(poses)
     if n == 0:
         return []
-    kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, centring=centring,
-                  method=method, backend=qp_backend, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
-    # validate the shared arguments once, and every target (fast path, ~4 us each)
-    prepared = prepare(robot, poses[0], None, **kwargs)
-    frame = kwargs["frame"] = prepared["target"].frame
-    checked = np.empty((n, 4, 4))
-    for i, pose in enumerate(poses):
-        try:
-            checked[i] = Target(robot, pose, frame, relax, relax_frame).T
-        except InputError as exc:
-            raise type(exc)(f"targets[{i}]: {exc}") from None
-    q0s = None
-    if q0 is not None:
-        arr = np.asarray(q0, dtype=float) if not isinstance(q0, np.ndarray) else q0
-        if arr.ndim == 1:
-            q0s = np.repeat(robot.check_q(arr, "q0")[None, :], n, axis=0)
-        else:
-            if arr.shape != (n, robot.nq):
-                raise InputError(f"q0 must have shape ({robot.nq},) or ({n}, {robot.nq}), got shape {arr.shape}")
-            q0s = np.array([robot.check_q(arr[i], f"q0[{i}]") for i in range(n)])
-        if prepared["spheres"] is not None:
-            for i in range(n):
-                c = prepared["spheres"].clearances_at(q0s[i])
-                if c.size and c.min() < 0:
-                    raise InputError(f"q0[{i}]: a sphere already contains the start configuration: "
-                                     f"{prepared['spheres'].describe_violation(c)}")
-    if options:  # reject bad options now rather than in a worker
-        solve_prepared(robot, {**prepared, "target": Target(robot, checked[0], frame, relax, relax_frame),
-                               "q0": None if q0s is None else q0s[0]}, **options)
-    if processes is None:
-        processes = _cpu_count()
-    if isinstance(processes, bool) or not isinstance(processes, int) or processes < 1:
-        raise InputError(f"processes must be a positive integer or None, got {processes!r}")
-    processes = min(processes, n)
-    job = _Job(robot, kwargs, options, keep_history, frame)
-    if chunksize is None:
-        if job.vectorised():  # stacked LM: few large chunks (2 per process)
-            chunksize = min(VECTOR_CHUNK, max(64, math.ceil(n / (2 * processes))))
-        else:
-            chunksize = max(1, math.ceil(n / (processes * 8)))
-    if isinstance(chunksize, bool) or not isinstance(chunksize, int) or chunksize < 1:
-        raise InputError(f"chunksize must be a positive integer or None, got {chunksize!r}")
-    chunks = [(s, checked[s:s + chunksize], None if q0s is None else q0s[s:s + chunksize]) for s in range(0, n, chunksize)]
+    q0s = _checked_q0s(robot, q0, n)
+    if q0s is not None and prepared["spheres"] is not None:
+        for i in range(n):
+            c = prepared["spheres"].clearances_at(q0s[i])
+            if c.size and c.min() < 0:
+                raise InputError(f"q0[{i}]: a sphere already contains the start configuration: "
+                                 f"{prepared['spheres'].describe_violation(c)}")
+    processes = min(_cpu_count() if processes is None else processes, n)
+    job = Job(robot, kwargs, options, keep_history, frame, poses, q0s, prepared=prepared)
+    job.ray_address = ray_address
+    chunks = chunk_bounds(n, processes, chunksize, job.vectorised())
     runner = BACKENDS[backend]
     if processes == 1 and backend == "processes":
-        runner = _run_serial
-    if runner is _run_serial:
-        job.robot = robot.copy()
-    job.ray_address = ray_address
+        runner = run_serial
 
     results: list = [None] * n
     bar = None
@@ -415,21 +268,24 @@ def solve_many(
 
         bar = tqdm(total=n, desc="kinserve.ik.solve_many", unit="target", leave=False)
 
-    def on_done(res):
+    def on_done(res: dict) -> None:
         s = res["start"]
-        for i in range(len(res["message"])):
-            results[s + i] = Result(
-                q=res["q"][i], success=bool(res["success"][i]), position_error=float(res["position_error"][i]),
-                orientation_error=float(res["orientation_error"][i]), iterations=int(res["iterations"][i]),
-                restarts=int(res["restarts"][i]), elapsed=float(res["elapsed"][i]), message=res["message"][i],
-                history=res["history"][i] if res["history"] is not None else None, method=res["method"][i],
-                frame=frame, info=res["info"][i],
-            )
+        m = len(res["message"])
+        info = res["info"] if res["info"] is not None else [{"batched": True} for _ in range(m)]
+        hist = res["history"] if res["history"] is not None else [None] * m
+        results[s:s + m] = [
+            Result(q=q, success=ok, position_error=pe, orientation_error=re, iterations=it, restarts=rs, elapsed=el,
+                   message=msg, history=h, method=meth, frame=frame, info=inf)
+            for q, ok, pe, re, it, rs, el, msg, h, meth, inf in zip(
+                list(res["q"]), res["success"].tolist(), res["position_error"].tolist(),
+                res["orientation_error"].tolist(), res["iterations"].tolist(), res["restarts"].tolist(),
+                res["elapsed"].tolist(), res["message"], hist, res["method"], info)
+        ]
         if bar is not None:
-            bar.update(len(res["message"]))
+            bar.update(m)
 
     try:
-        runner(job, chunks, processes, on_done)
+        runner(job, chunks, processes, on_done, TimeLimits.for_job(job, timeout))
     finally:
         if bar is not None:
             bar.close()

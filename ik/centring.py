@@ -20,7 +20,7 @@ primary task leaves, so it never degrades the task:
   where ``m - q`` is the Newton step of ``h`` (its Hessian is ``W``, so the
   unconstrained step is simply ``m - q`` on every weighted joint). For equal
   weights this is the classical ``dq = J^+ e + (I - J^+ J)(m - q)``.
-* Second QP stage (QP method): with the primary step ``dq1`` and an
+* Second QP level (QP method, :mod:`ik.hierarchy`): with the primary step ``dq1`` and an
   orthonormal basis ``Z`` of the null space of ``J`` (the right singular
   vectors of its zero singular values), solve for ``z``
 
@@ -113,58 +113,3 @@ def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarr
 def centring_step(robot, q, weights) -> np.ndarray:
     """The secondary step ``(m - q)`` on weighted joints (0 on joints with weight 0)."""
     return np.where(weights > 0, robot.middle() - q, 0.0)
-
-
-class CentringStage:
-    """Second QP stage of :mod:`ik.qp_solver` (see the module docstring).
-
-    The null-space dimension ``k = n - rank J`` may change at singular
-    configurations, so the backend is fetched per step from the per-size
-    workspace cache of :func:`ik.qp_backends.make_backend` (built once per size).
-    """
-
-    def __init__(self, robot, weights, k_rows: int, backend: str, max_step: float, eps: float = 1e-9,
-                 shortcut: bool = True):
-        self.shortcut = shortcut
-        self.n = robot.nq
-        self.k_rows = k_rows
-        self.weights = weights
-        self.mid = robot.middle()
-        self.max_step = max_step
-        self.eps = eps
-        self.backend_name = backend
-
-    def step(self, q, J_task, dq1, lb, ub, G, l, u):
-        """Secondary correction ``Z z`` to add to ``dq1`` (zeros when there is no freedom or the QP fails)."""
-        from .qp_backends import make_backend
-
-        Z = null_space_basis(J_task)
-        dim = Z.shape[1]
-        if dim == 0:
-            return np.zeros(self.n)
-        W = self.weights
-        target = np.where(W > 0, self.mid - q, 0.0)
-        ZW = Z.T * W
-        P = ZW @ Z + self.eps * np.eye(dim)
-        c = ZW @ (dq1 - target)
-        rows = [Z]
-        lo = [lb - dq1]
-        hi = [ub - dq1]
-        if G is not None and G.shape[0]:
-            rows.append(G @ Z)
-            Gd = G @ dq1
-            lo.append(l - Gd)
-            hi.append(u - Gd)
-        A = np.vstack(rows)
-        lo, hi = np.concatenate(lo), np.concatenate(hi)
-        zlim = np.full(dim, self.max_step)
-        if self.shortcut:  # exact: a feasible unconstrained minimiser is the QP's solution
-            z = np.linalg.solve(P, -c)
-            Az = A @ z
-            if (Az >= lo).all() and (Az <= hi).all() and (np.abs(z) <= zlim).all():
-                return Z @ z
-        backend = make_backend(self.backend_name, dim, A.shape[0], role="secondary")
-        z = backend.solve(P, c, A, lo, hi, -zlim, zlim)
-        if z is None:
-            return np.zeros(self.n)
-        return Z @ z

@@ -20,10 +20,14 @@ the next ones.
 from __future__ import annotations
 
 import numpy as np
+from collections.abc import Sequence
 
+from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.types import VectorLike
 
 from .constraints import robot_segments
+from .result import Result
 
 CRITERIA = ("joint_limit_distance", "displacement", "manipulability", "no_self_overlap")
 FILTERS = ("no_self_overlap",)
@@ -32,7 +36,7 @@ FILTERS = ("no_self_overlap",)
 OVERLAP_TOL = 1e-6
 
 
-def joint_limit_distance(robot, q) -> float:
+def joint_limit_distance(robot: Robot, q: VectorLike) -> float:
     """Normalised distance of the joint closest to a limit (0 at a limit, 0.5 at mid-range)."""
     rng = robot.upper - robot.lower
     rng = np.where(rng > 0, rng, 1.0)
@@ -63,7 +67,7 @@ def _segment_distance(p1, q1, p2, q2) -> float:
     return float(np.linalg.norm((p1 + s * d1) - (p2 + t * d2)))
 
 
-def self_overlap(robot, q, frame: str | None = None) -> bool:
+def self_overlap(robot: Robot, q: VectorLike, frame: str | None = None) -> bool:
     """True when two non-adjacent link segments of the arm at ``q`` touch (within :data:`OVERLAP_TOL`)."""
     frame = robot.tip if frame is None else frame
     r = robot.copy()
@@ -85,7 +89,8 @@ def _as_q(c):
     return np.asarray(c.q if hasattr(c, "q") else c, dtype=float)
 
 
-def scores(robot, candidates, criterion: str, q_current=None, frame: str | None = None) -> np.ndarray:
+def scores(robot: Robot, candidates: Sequence[Result | VectorLike], criterion: str, q_current: VectorLike | None = None,
+           frame: str | None = None) -> np.ndarray:
     """Score of every candidate for one criterion (higher is better; filters give 1 = keep, 0 = drop)."""
     qs = [_as_q(c) for c in candidates]
     if criterion == "joint_limit_distance":
@@ -103,7 +108,8 @@ def scores(robot, candidates, criterion: str, q_current=None, frame: str | None 
     raise InputError(f"unknown criterion {criterion!r}; expected one of {CRITERIA}")
 
 
-def choose(robot, candidates, criteria=("joint_limit_distance",), q_current=None, frame: str | None = None):
+def choose(robot: Robot, candidates: Sequence[Result | VectorLike], criteria: str | Sequence[str] = ("joint_limit_distance",),
+           q_current: VectorLike | None = None, frame: str | None = None) -> int | None:
     """Index of the best candidate (a list of ``Result`` or joint vectors), or None if the filters drop all.
 
     See the module docstring for the criteria and how they combine.

@@ -27,7 +27,7 @@ bound, this keeps descending along the free joints.
 Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
 has not fallen below 0.85 of its best value so far for 2 iterations in a
 row - this also catches oscillations) or after ``max_iter`` iterations; the
-next start comes from :func:`ik.seeds.start_sequence` (``q0`` and the
+next start comes from :func:`ik.multistart.frame_starts` (``q0`` and the
 nearest FK samples by pose distance, then seeded random configurations)
 until a start converges or ``max_time`` is spent.
 
@@ -48,7 +48,7 @@ import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
 from .result import History, Result, task_evaluator
-from .seeds import seed_table, start_sequence
+from .multistart import frame_starts
 
 #: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
 DAMPING = 1e-5
@@ -199,17 +199,10 @@ def solve_lm(
     tp2, tr2 = tol_pos * tol_pos, tol_rot * tol_rot
     full = target.full
 
-    table = seed_table(robot, target.frame) if seed_table_enabled else None
-    f_target = q0_dist = None
     if q0 is not None:
         q0 = _clip(q0, lo, hi)
-    if table is not None:
-        f_target = table.features(target._R, target._p, rotation=len(target.rot_rows) == 3)
-        if q0 is not None:
-            pin.forwardKinematics(model, data, q0)
-            M0 = _ufp(model, data, fid)
-            q0_dist = table.distance(f_target, table.features(M0.rotation, M0.translation))
-    starts = start_sequence(robot, table, f_target, q0, 0 if seed is None else seed, q0_distance=q0_dist, prefer_q0=prefer_q0)
+    starts = frame_starts(robot, target.frame, fid, target.T[:3, :3], target.T[:3, 3], len(target.rot_rows) == 3, q0,
+                          seed, seed_table_enabled, prefer_q0)
 
     best = None
     iterations = 0

@@ -3,9 +3,14 @@
 The batch is cut into the same chunks as the local backends. One Ray actor
 per worker receives the robot **once** (Ray pickles a ``Robot`` as its
 kinematic model, without meshes) together with the solve options, then
-solves whole chunks and returns the same compact arrays as a local worker,
-so results are identical, target for target, to the ``"processes"`` backend
-for the same seed.
+solves whole chunks (:func:`ik.batch_worker.actor_chunk`) and returns the
+same compact arrays as a local worker, so results are identical, target for
+target, to the ``"processes"`` backend for the same seed.
+
+Time limits are those of the local pool (:mod:`ik.batch_runners`): an actor
+still on its chunk after ``chunk_limit(n)`` seconds, or the overall
+``deadline``, kills every actor and raises
+:class:`kinserve.kinematics.errors.WorkerTimeoutError`.
 
 ``ray.init(address=...)`` joins an existing cluster when an address is
 given (``ray_address="auto"`` or ``"ray://host:10001"``); otherwise a local
@@ -15,7 +20,12 @@ Ray with ``processes`` CPUs is started and left running for later batches
 
 from __future__ import annotations
 
-from kinserve.kinematics.errors import InputError
+import time
+
+from kinserve.kinematics.errors import InputError, WorkerTimeoutError
+
+from .batch_worker import actor_chunk, limit_blas_threads
+from .seeds import seed_table
 
 
 def _ray():
@@ -38,42 +48,57 @@ def ensure_ray(address: str | None = None, num_cpus: int | None = None):
     return ray
 
 
-def run_ray(robot, chunks, common, options, keep_history, processes, on_done, address: str | None = None):
-    """Runner with the signature of :data:`ik.batch.BACKENDS` entries (plus ``address``)."""
-    from .batch import _solve_chunk
-    from .seeds import seed_table
+class _ChunkSolver:
+    """Body of the Ray actor: holds the robot and the options, solves chunks."""
 
+    def __init__(self, robot, common, options, keep_history):
+        limit_blas_threads()
+        self.robot = robot
+        self.args = (common, options, keep_history)
+        seed_table(robot, common["frame"])  # once per actor, as a forked worker inherits it
+
+    def solve(self, start, poses, q0s):
+        common, options, keep_history = self.args
+        return actor_chunk(self.robot, common, options, keep_history, start, poses, q0s)
+
+
+def run_ray_chunks(robot, chunks, common, options, keep_history, processes, on_done, address: str | None = None,
+                   chunk_limit=None, deadline: float | None = None):
+    """Solve ``chunks`` (``(start, poses, q0s)``) on ``processes`` actors; ``on_done(result)`` for each."""
     ray = ensure_ray(address, processes)
-
-    @ray.remote(num_cpus=1)
-    class ChunkSolver:
-        def __init__(self, robot, common, options, keep_history, frame):
-            self.robot = robot
-            self.args = (common, options, keep_history)
-            seed_table(robot, frame)  # once per actor, as a forked worker inherits it
-
-        def solve(self, start, poses, q0s):
-            common, options, keep_history = self.args
-            return _solve_chunk(self.robot, common, options, keep_history, start, poses, q0s)
-
+    actor_class = ray.remote(num_cpus=1)(_ChunkSolver)
     workers = max(1, min(processes, int(ray.available_resources().get("CPU", processes)) or 1, len(chunks)))
     robot_ref = ray.put(robot)
-    actors = [ChunkSolver.remote(robot_ref, common, options, keep_history, common["frame"]) for _ in range(workers)]
+    actors = [actor_class.remote(robot_ref, common, options, keep_history) for _ in range(workers)]
     try:
-        pending = {}
+        pending = {}  # ref -> (actor, start, n, t_start)
         queue = list(chunks)
+
+        def submit(actor):
+            start, poses, q0s = queue.pop(0)
+            pending[actor.solve.remote(start, poses, q0s)] = (actor, start, len(poses), time.monotonic())
+
         for actor in actors:
             if queue:
-                start, poses, q0s = queue.pop(0)
-                pending[actor.solve.remote(start, poses, q0s)] = actor
+                submit(actor)
         while pending:
-            done, _ = ray.wait(list(pending), num_returns=1)
+            done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
+            now = time.monotonic()
+            if not done:
+                for actor, start, n, t0 in pending.values():
+                    limit = chunk_limit(n) if chunk_limit is not None else None
+                    if (limit is not None and now - t0 > limit) or (deadline is not None and now > deadline):
+                        raise WorkerTimeoutError(
+                            f"ik.solve_many: a Ray actor has not finished targets[{start}:{start + n}] after "
+                            f"{now - t0:.1f} s ({'chunk limit %.1f s' % limit if limit and now - t0 > limit else 'overall timeout'}); "
+                            "every actor was killed"
+                        )
+                continue
             ref = done[0]
-            actor = pending.pop(ref)
+            actor = pending.pop(ref)[0]
             on_done(ray.get(ref))
             if queue:
-                start, poses, q0s = queue.pop(0)
-                pending[actor.solve.remote(start, poses, q0s)] = actor
+                submit(actor)
     finally:
         for actor in actors:
             ray.kill(actor)

@@ -17,12 +17,15 @@ reachability is ``reached / sampled`` (NaN for a cell with no sample).
 
 from __future__ import annotations
 
+import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from kinserve.kinematics import as_matrix
+from kinserve.kinematics import Robot, as_matrix
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import check_rotation
 
@@ -56,7 +59,7 @@ class ReachabilityMap:
         """Share of all samples reached."""
         return float(self.reached.mean()) if self.reached.size else 0.0
 
-    def save(self, path) -> Path:
+    def save(self, path: str | os.PathLike) -> Path:
         """Write a ``.npz`` with every array (and the metadata as 0-d arrays)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -68,7 +71,7 @@ class ReachabilityMap:
         return path
 
 
-def workspace_box(robot, frame=None, n: int = 5000, seed: int = 0, pad: float = 0.05) -> np.ndarray:
+def workspace_box(robot: Robot, frame: str | None = None, n: int = 5000, seed: int = 0, pad: float = 0.05) -> np.ndarray:
     """``(2, 3)`` [min; max] of the frame origin over ``n`` random configurations, padded by ``pad`` of the size."""
     P = robot.fk_batch(robot.random_q(seed, n=n), frame)[:, :3, 3]
     lo, hi = P.min(axis=0), P.max(axis=0)
@@ -77,21 +80,28 @@ def workspace_box(robot, frame=None, n: int = 5000, seed: int = 0, pad: float = 
 
 
 def reachability_map(
-    robot,
+    robot: Robot,
     samples: int = 1000,
     *,
     frame: str | None = None,
     resolution: int = 8,
-    orientation="free",
+    orientation: str | ArrayLike = "free",
     backend: str = "processes",
     processes: int | None = None,
     ray_address: str | None = None,
     max_time: float = 0.05,
     seed: int = 0,
-    bounds=None,
+    bounds: ArrayLike | None = None,
     progress: bool | None = None,
+    self_collision: bool = False,
+    obstacles: Sequence = (),
+    collision_margin: float = 0.0,
 ) -> ReachabilityMap:
-    """Sample ``samples`` tool poses in the workspace box and record which ones IK reaches."""
+    """Sample ``samples`` tool poses in the workspace box and record which ones IK reaches.
+
+    With ``self_collision`` / ``obstacles`` (:func:`ik.solve`'s collision options) a
+    pose counts as reached only by a collision-free solution.
+    """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError(f"samples must be a positive integer, got {samples!r}")
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or not 1 <= resolution <= 100:
@@ -130,6 +140,8 @@ def reachability_map(
     targets[:, :3, 3] = P
     targets[:, 3, 3] = 1.0
     extra = {"ray_address": ray_address} if backend == "ray" else {}
+    if self_collision or obstacles or collision_margin:
+        extra.update(self_collision=bool(self_collision), obstacles=list(obstacles), collision_margin=collision_margin)
     results = solve_many(robot, targets, frame=frame, relax=relax, backend=backend, processes=processes,
                          max_time=max_time, seed=seed, progress=progress, **extra)
     reached = np.array([r.success for r in results], dtype=bool)

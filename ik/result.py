@@ -16,9 +16,17 @@ Errors are measured on the *kept* (non-relaxed) task components only:
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from kinserve.kinematics import Robot
+
+    from .targets import Target
 
 
 class History:
@@ -36,7 +44,9 @@ class History:
 
     __slots__ = ("q", "position_error", "orientation_error", "components", "_task_error", "_evaluate")
 
-    def __init__(self, q, position_error, orientation_error, task_error=None, components=(), evaluate=None):
+    def __init__(self, q: ArrayLike, position_error: ArrayLike, orientation_error: ArrayLike,
+                 task_error: ArrayLike | None = None, components: Sequence[str] = (),
+                 evaluate: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
         self.q = np.asarray(q, dtype=float)
         self.position_error = np.asarray(position_error, dtype=float)
         self.orientation_error = np.asarray(orientation_error, dtype=float)
@@ -70,12 +80,14 @@ class History:
         return f"History({len(self)} iterations, components={self.components})"
 
     @classmethod
-    def empty(cls, nq: int, components=()) -> "History":
+    def empty(cls, nq: int, components: Sequence[str] = ()) -> History:
         """A history with no iteration."""
         return cls(np.zeros((0, nq)), np.zeros(0), np.zeros(0), np.zeros((0, len(components))), components)
 
     @classmethod
-    def from_lists(cls, qs, pos, rot, task=None, components=(), evaluate=None) -> "History":
+    def from_lists(cls, qs: Sequence[ArrayLike], pos: Sequence[float], rot: Sequence[float],
+                   task: Sequence[ArrayLike] | None = None, components: Sequence[str] = (),
+                   evaluate: Callable[[np.ndarray], np.ndarray] | None = None) -> History:
         """Build from per-iteration lists (``qs`` a list of 1-D arrays)."""
         nq = len(qs[0]) if len(qs) else 0
         q = np.array(qs, dtype=float).reshape(len(qs), nq)
@@ -114,6 +126,12 @@ class Result:
     info:
         Solver-specific extras (e.g. ``"branch"`` for a closed-form branch,
         ``"reached_pose"`` when a 5-DOF arm solved the nearest reachable pose).
+    task_errors:
+        One dict per task of a task-based solve (``name``, ``priority``,
+        ``goal``, ``error`` = ``|e|``, ``position_error``,
+        ``orientation_error``) at ``q``; empty for the single-target methods.
+        With several goal tasks, ``position_error`` / ``orientation_error``
+        are the largest over the goals.
     """
 
     q: np.ndarray
@@ -128,6 +146,7 @@ class Result:
     method: str = ""
     frame: str = ""
     info: dict = field(default_factory=dict)
+    task_errors: list = field(default_factory=list)
 
     def summary(self) -> str:
         """One line: success, errors, iterations, time and the message."""
@@ -138,7 +157,7 @@ class Result:
         )
 
 
-def task_evaluator(robot, target):
+def task_evaluator(robot: Robot, target: Target) -> Callable[[np.ndarray], np.ndarray]:
     """``q -> kept task error`` (:meth:`ik.targets.Target.residual`) for :attr:`History.task_error`.
 
     Runs forward kinematics on a private copy of the robot, made on first use.

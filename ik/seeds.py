@@ -23,12 +23,15 @@ uniform random configurations from ``numpy.random.default_rng(seed)`` - the
 same sequence for the same ``seed``, so results are reproducible.
 
 Tables are built once per model and frame (a few milliseconds with the
-vectorised :meth:`kinserve.kinematics.Robot.fk_batch`) and cached.
+vectorised :meth:`kinserve.kinematics.Robot.fk_batch`) and cached. A table is
+immutable (its arrays are read-only) and the cache is guarded by a lock, so
+threads sharing a robot share its tables safely.
 """
 
 from __future__ import annotations
 
 import math
+import threading
 import weakref
 
 import numpy as np
@@ -45,6 +48,7 @@ MARGIN = 0.1
 _TABLE_SEED = 20240611
 
 _tables: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_tables_lock = threading.Lock()
 
 
 class SeedTable:
@@ -65,6 +69,8 @@ class SeedTable:
         self.F, self.F_norm2, self.G = self._features_of(robot, frame, self.Q)
         self.Q_full = robot.random_q(rng, max(1, n // 2))
         _, _, self.G_full = self._features_of(robot, frame, self.Q_full)
+        for a in (self.Q, self.F, self.F_norm2, self.G, self.Q_full, self.G_full):
+            a.flags.writeable = False  # shared by every thread and solve: nobody may change it
 
     @property
     def nbytes(self) -> int:
@@ -121,14 +127,17 @@ def seed_table(robot, frame: str) -> SeedTable:
     """The cached :class:`SeedTable` of ``robot`` for ``frame`` (built on first use).
 
     Cached per Pinocchio model (weakly), so every ``robot.copy()`` - and every
-    ``robots.load`` of the same model - shares one table.
+    ``robots.load`` of the same model - shares one table. Built under a lock:
+    threads asking for the same new table build it once.
     """
     per_robot = _tables.get(robot.model)
-    if per_robot is None:
-        per_robot = _tables[robot.model] = {}
-    table = per_robot.get(frame)
+    table = None if per_robot is None else per_robot.get(frame)
     if table is None:
-        table = per_robot[frame] = SeedTable(robot, frame)
+        with _tables_lock:
+            per_robot = _tables.setdefault(robot.model, {})
+            table = per_robot.get(frame)
+            if table is None:
+                table = per_robot[frame] = SeedTable(robot, frame)
     return table
 
 
@@ -139,10 +148,8 @@ def cached_tables(robot) -> list[SeedTable]:
 
 def install_table(robot, frame: str, table: SeedTable) -> None:
     """Register an existing table for ``robot`` (e.g. one shipped to a worker process)."""
-    per_robot = _tables.get(robot.model)
-    if per_robot is None:
-        per_robot = _tables[robot.model] = {}
-    per_robot[frame] = table
+    with _tables_lock:
+        _tables.setdefault(robot.model, {})[frame] = table
 
 
 def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_table: int = 8, q0_distance=None,

@@ -4,7 +4,9 @@ Methods
 -------
 ``"auto"`` (default) picks the fastest method that can honour the request:
 
-1. spheres or centring  -> ``"qp"`` (hard inequalities / strict priority need the QP);
+1. obstacles (``spheres`` / ``obstacles``) only -> ``"lm"`` first from the first few starts;
+   an answer is kept when every iterate of its run is clear of every obstacle, otherwise ``"qp"``. Centring or extra constraints -> ``"qp"`` (strict priority and hard
+   inequalities need the QP);
 2. a closed-form solver with finitely many branches exists for the robot and
    frame and handles the relaxed components -> ``"analytic"`` (2R/3R, SCARA,
    youBot; it falls back to ``"lm"`` only when no branch is usable). The
@@ -12,6 +14,9 @@ Methods
    to enumerate than one LM solve, so ``"auto"`` uses ``"lm"`` for it (name
    ``"analytic"`` or call :func:`solve_all` to get the family);
 3. otherwise -> ``"lm"`` (joint limits are the only inequalities).
+
+``ik.solve(robot, tasks=[...], constraints=[...])`` solves any composition of
+tasks and constraints on the task model (:mod:`ik.task_solver`).
 
 ``"qp"``, ``"lm"``, ``"analytic"`` and the classical ``"jacobian_inverse"``,
 ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"`` can be named
@@ -21,9 +26,10 @@ directly (see :mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.analytic`,
 Validation (once, before any solver runs; errors from :mod:`kinematics.errors`):
 the target pose (shape, NaN/inf, rotation orthonormal), ``q0`` (shape,
 finite), the frame name, the relaxed component names, tolerances, time
-budget, seed, method, backend, centring weights, and the spheres (radius
-positive, centre finite, frames known, neither the base nor the start
-configuration inside a sphere). Not reaching the target is not an error:
+budget, seed, method, backend, centring weights, and the obstacles (sizes
+positive, numbers finite, frames known, no obstacle containing the fixed
+base). A start inside an obstacle is not an error: the solve begins from
+collision-free starts and says so in ``Result.message``. Not reaching the target is not an error:
 ``Result.success`` is False, ``Result.q`` the best configuration found
 (inside the limits) and ``Result.message`` the reason.
 """
@@ -33,21 +39,28 @@ from __future__ import annotations
 import contextlib
 import math
 import numbers
+import time
 
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, KinserveError, NonFiniteError
+from kinserve.kinematics.shapes import Shape
 
 from . import analytic as _analytic
 from .centring import centring_weights
 from .chooser import choose
 from .classical import METHODS as CLASSICAL_METHODS
 from .classical import solve_classical
-from .constraints import SphereSet
+from .constraints import as_sphere
+from .constraints.obstacles import ObstacleAvoidance, as_obstacle
+from .dense_qp import DEFAULT_BACKEND
 from .lm_solver import solve_lm
+from .problem import Problem
 from .qp_backends import available_backends
-from .qp_solver import solve_qp
 from .targets import Target
+from .qp_solver import solve_qp
+from .task_solver import MAX_TIME as QP_MAX_TIME
+from .task_solver import solve_problem
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
@@ -80,6 +93,8 @@ def _check_seed(seed):
 
 
 def _check_backend(backend):
+    if backend is None or backend == DEFAULT_BACKEND:
+        return DEFAULT_BACKEND
     if backend == "osqp":
         return backend
     if not isinstance(backend, str) or backend.lower() not in available_backends():
@@ -98,12 +113,37 @@ def _argument(name: str):
         raise
 
 
-def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), centring=0.0,
-            method="auto", backend="osqp", tol_pos=1e-4, tol_rot=1e-3, max_time=None, seed=None):
+def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
+    """One :class:`ObstacleAvoidance` for the ``spheres`` and ``obstacles`` of the front door, or None."""
+    items = []
+    for name, group in (("spheres", spheres), ("obstacles", obstacles)):
+        if group is None or (type(group) is tuple and not group):
+            continue
+        if isinstance(group, (str, bytes)):
+            raise InputError(f"{name} must be a sequence of shapes (ik.Sphere, ik.Box, ...), got {group!r}")
+        if isinstance(group, (Shape, dict)):
+            group = [group]
+        try:
+            group = list(group)
+        except TypeError:
+            group = [group]
+        for i, ob in enumerate(group):
+            items.append(as_sphere(ob) if name == "spheres" else as_obstacle(ob, f"obstacles[{i}]"))
+    if not items:
+        if link_radius not in (0, 0.0):
+            ObstacleAvoidance([], link_radius=link_radius)  # validates the value
+        return None
+    return ObstacleAvoidance(items, link_radius=link_radius, tool_frames=(frame,)).bind(robot)
+
+
+def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), obstacles=(),
+            link_radius=0.0, centring=0.0, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
+            max_time=None, seed=None):
     """Validate every argument of :func:`solve`; return a dict of checked values.
 
     Exposed so that batch solving (:mod:`ik.batch`) validates each target once
-    in the parent process.
+    in the parent process. ``"spheres"`` holds the obstacle constraint
+    (:class:`ik.constraints.ObstacleAvoidance` of the spheres and obstacles) or None.
     """
     _check_robot(robot)
     if method not in _METHOD_SET:
@@ -121,63 +161,53 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
     seed = _check_seed(seed)
     backend = _check_backend(backend)
     weights = centring_weights(robot, centring)
-    with _argument("spheres"):
-        sphere_set = _sphere_set(robot, spheres, tgt.frame, q0)
+    with _argument("spheres" if obstacles is None or (type(obstacles) is tuple and not obstacles) else "obstacles"):
+        avoid = _obstacle_constraint(robot, spheres, obstacles, link_radius, tgt.frame)
     if method in ("lm", "analytic", "jacobian_inverse", "jacobian_transpose") and weights is not None:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
-    if method in ("lm", "analytic") + CLASSICAL_METHODS and sphere_set is not None:
-        raise InputError(f"method {method!r} cannot honour sphere constraints; use 'qp' or 'auto'")
+    if method in ("lm", "analytic") + CLASSICAL_METHODS and avoid is not None:
+        raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                backend=backend, weights=weights, spheres=sphere_set, method=method)
-
-
-def _sphere_set(robot, spheres, frame: str, q0):
-    """The :class:`SphereSet` of ``spheres`` (None when there are none), checked against the start.
-
-    The solvers start from ``q0`` clipped into the joint limits, so that is the
-    configuration that must lie outside every sphere.
-    """
-    if spheres is None or (type(spheres) is tuple and not spheres):
-        return None
-    if isinstance(spheres, (str, bytes)):
-        raise InputError(f"spheres must be a sequence of ik.Sphere, got {spheres!r}")
-    try:
-        spheres = list(spheres)
-    except TypeError:
-        spheres = [spheres]
-    if not spheres:
-        return None
-    sphere_set = SphereSet(robot, spheres, frame)
-    if q0 is not None:
-        start = np.clip(q0, robot.lower, robot.upper)
-        clear = sphere_set.clearances_at(start)
-        if clear.size and clear.min() < 0:
-            clipped = "" if np.array_equal(start, q0) else " (q0 clipped into the joint limits, where the solver starts)"
-            raise InputError(
-                f"a sphere already contains the start configuration q0{clipped}: {sphere_set.describe_violation(clear)}"
-            )
-    return sphere_set
+                backend=backend, weights=weights, spheres=avoid, method=method)
 
 
 def solve(
     robot,
-    target,
+    target=None,
     q0=None,
     *,
     frame: str | None = None,
     relax=(),
     relax_frame: str = "world",
     spheres=(),
+    obstacles=(),
+    link_radius: float = 0.0,
     centring=0.0,
     method: str = "auto",
-    backend: str = "osqp",
+    backend: str | None = None,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
     seed: int | None = None,
+    tasks=None,
+    constraints=None,
+    self_collision: bool = False,
+    collision_margin: float = 0.0,
     **options,
 ):
-    """Inverse kinematics: a configuration placing ``frame`` at ``target``.
+    """Inverse kinematics: a configuration placing ``frame`` at ``target`` - or meeting ``tasks``.
+
+    Two front doors:
+
+    * ``ik.solve(robot, target, q0, ...)``: one frame at one pose. It builds
+      an :class:`ik.FrameTask`, an :class:`ik.CentringTask` (priority 2) when
+      ``centring`` is set, and an obstacle constraint for ``spheres`` /
+      ``obstacles``, exactly the objects a user could build by hand.
+    * ``ik.solve(robot, tasks=[...], constraints=[...], q0=...)``: any
+      composition of tasks (priorities strict between levels, weights inside a
+      level) and constraints (joint limits always on; shapes in
+      ``constraints`` become obstacles). ``Result.task_errors`` reports every
+      task; ``success`` means every goal task is within tolerance.
 
     Parameters
     ----------
@@ -190,7 +220,9 @@ def solve(
         limits if outside). The iterative solvers try ``q0`` and the nearest
         samples of a precomputed table of configurations (:mod:`ik.seeds`) in
         order of their pose distance to the target; pass ``prefer_q0=True`` to
-        always start from ``q0``. The classical methods start from ``q0``
+        always start from ``q0``. A ``q0`` inside an obstacle is not an error:
+        the solve starts from collision-free configurations and says so in
+        ``Result.message``. The classical methods start from ``q0``
         (default: the neutral configuration); the closed forms use it to pick
         the branch nearest to it.
     frame:
@@ -199,45 +231,175 @@ def solve(
         Components left free, any of ``x y z roll pitch yaw`` (``phi`` =
         ``yaw``); position-only IK is ``relax=("roll", "pitch", "yaw")``.
         Relaxed components are expressed in the **world** frame by default
-        (``relax_frame="world"``: relaxing ``z`` frees the height, ``yaw`` the
-        rotation about the world vertical); ``relax_frame="target"`` measures
-        them along the target frame's own axes. See :mod:`ik.targets`.
-    spheres:
-        :class:`ik.Sphere` obstacles: hard constraints on every iterate (QP).
+        (``relax_frame="world"``); ``relax_frame="target"`` measures them
+        along the target frame's own axes. See :mod:`ik.targets`.
+    spheres, obstacles:
+        Obstacles kept clear of the robot's links on every iterate:
+        ``spheres`` takes :class:`ik.Sphere` objects or ``(center, radius)``
+        pairs, ``obstacles`` any shape (:class:`ik.Sphere`, :class:`ik.Box`,
+        :class:`ik.Capsule`, :class:`ik.Cylinder`, :class:`ik.Mesh`) or its
+        ``to_dict()`` form. An obstacle containing the fixed base raises.
+    link_radius:
+        Radius (m) of the capsules around the link segments (0 = bare segments).
     centring:
-        Weight(s) of the secondary objective pulling joints to mid-range, in
-        the task's null space only (strict priority; 0 = off). See :mod:`ik.centring`.
+        Weight(s) of the joint-limit centring objective, strictly below the
+        target (0 = off). See :mod:`ik.centring`.
     method:
         ``"auto"``, ``"qp"``, ``"lm"``, ``"analytic"``, ``"jacobian_inverse"``,
         ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"``.
     backend:
-        QP solver of ``"qp"``: ``"osqp"`` (default), ``"daqp"``, ``"proxqp"``, ``"quadprog"``.
+        QP solver of the constrained steps: ``"daqp"`` (default when
+        installed; deterministic), ``"osqp"``, ``"proxqp"``, ``"quadprog"``.
     tol_pos, tol_rot:
-        Success thresholds on the position (m) and orientation (rad) errors of the kept components.
+        Success thresholds on the position (m) and orientation (rad) errors.
     max_time:
         Time budget (s) for restarts (default 0.1 s for ``lm``, 0.5 s for ``qp``).
     seed:
-        Seed of the random restarts (None = 0): the same seed gives the same answer.
+        Seed of the random restarts (None = 0): the same seed gives a
+        bit-identical answer unless the time budget cut the solve.
+    tasks, constraints:
+        The composed front door (see above). ``constraints`` may also be given
+        with a ``target``: they are added to the target's own.
+    self_collision, collision_margin:
+        ``self_collision=True`` keeps the robot's collision geometry (convex
+        hulls of its URDF ``<collision>`` shapes) free of self-collision (SRDF /
+        MoveIt-style pairs) and, with it, ``collision_margin`` (m) clear of the
+        ``obstacles`` and ``spheres`` - against the real geometry instead of the
+        link capsules. The unconstrained answer and its iterates are checked
+        first; a constrained solve (hard on every iterate) runs only when needed.
+        See :mod:`ik.collision_solve`. (``constraints=[ik.SceneCollision(obstacles)]``
+        uses the real geometry for obstacles alone.)
     options:
         Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
-        for ``"dls"``), ``gain`` (classical), ``max_step`` and ``shortcut``
-        (``qp``: False calls the QP solver at every step), ``max_starts``
-        (``lm``/``qp``), ``prefer_q0``, ``seed_table`` (False disables the
-        table of starts), ``samples`` (4R family), ``choose`` (chooser
-        criteria for ``"analytic"``).
+        for ``"dls"``), ``gain`` (classical), ``max_step``, ``shortcut`` and
+        ``lazy`` (``qp``), ``max_starts``, ``prefer_q0``, ``seed_table``
+        (False disables the table of starts), ``samples`` (4R family),
+        ``choose`` (chooser criteria for ``"analytic"``).
 
     Returns
     -------
     :class:`ik.Result`
     """
+    if tasks is not None:
+        if target is not None:
+            raise InputError("give either a target pose or tasks=[...], not both (add a FrameTask to the tasks)")
+        return solve_tasks(robot, tasks, constraints, q0, method=method, backend=backend, tol_pos=tol_pos,
+                           tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
+    if target is None:
+        raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
+    if self_collision or collision_margin:
+        from .collision_solve import collision_options
+
+        options.update(collision_options(self_collision, obstacles, collision_margin, spheres))
+        spheres, obstacles = (), ()
     p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
-                centring=centring, method=method, backend=backend, tol_pos=tol_pos, tol_rot=tol_rot,
-                max_time=max_time, seed=seed)
+                obstacles=obstacles, link_radius=link_radius, centring=centring, method=method, backend=backend,
+                tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
+    if constraints is not None:
+        extra = [c for c in (constraints if not isinstance(constraints, (Shape,)) else [constraints])]
+        if extra:
+            if method not in ("auto", "qp"):
+                raise InputError(f"method {method!r} cannot honour constraints; use 'qp' or 'auto'")
+            p["constraints"] = extra
     return solve_prepared(robot, p, **options)
 
 
+_TASK_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
+
+
+def solve_tasks(robot, tasks, constraints=None, q0=None, *, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
+                max_time=None, seed=None, **options):
+    """``ik.solve(robot, tasks=..., constraints=..., q0=...)`` (see :func:`solve`)."""
+    _check_robot(robot)
+    if method not in ("auto", "qp"):
+        raise InputError(f"method must be 'auto' or 'qp' for a composition of tasks, got {method!r}")
+    _check_options("qp", options, _TASK_OPTIONS)
+    if q0 is not None:
+        q0 = robot.check_q(q0, "q0")
+    tol_pos = _check_positive(tol_pos, "tol_pos")
+    tol_rot = _check_positive(tol_rot, "tol_rot")
+    if max_time is not None:
+        max_time = _check_positive(max_time, "max_time")
+    pb = Problem(robot, tasks, constraints)
+    return solve_problem(pb, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=_check_seed(seed),
+                         backend=_check_backend(backend), **_task_options(options))
+
+
+def _task_options(options: dict) -> dict:
+    if "seed_table" in options:
+        options = dict(options)
+        options["seed_table_enabled"] = bool(options.pop("seed_table"))
+    return options
+
+
+#: Starts tried without constraints before the constrained solve (``"auto"`` with obstacles).
+FREE_ATTEMPTS = 4
+
+
+def _solve_unconstrained_first(robot, p: dict, options: dict):
+    """The cheap path of ``"auto"`` with obstacles: an LM answer whose every iterate is clear, or None.
+
+    Obstacles rarely bind: Levenberg-Marquardt runs from the first
+    :data:`FREE_ATTEMPTS` collision-free starts of the usual start sequence,
+    one at a time, and the first converged run whose every iterate keeps
+    every clearance ``>= 0`` is the answer - the constraint then held on every
+    iterate without ever being imposed. Otherwise None: the caller runs the
+    constrained solve on the usual starts (measured: starting it from the last
+    clear iterate of a free run is worse - that iterate faces the obstacle).
+    """
+    from itertools import islice
+
+    from .multistart import frame_starts
+
+    avoid = p["spheres"]
+    opts = _task_options(options)
+    tgt = p["target"]
+    q0 = p["q0"]
+    if q0 is not None:
+        q0 = np.clip(q0, robot.lower, robot.upper)
+        if avoid.first_violation(robot, q0[None]) is not None:
+            return None  # the constrained solve reports the start in collision
+    starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
+                          p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
+    opts.pop("max_starts", None)
+    t0 = time.perf_counter()
+    budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
+    for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
+        if attempt and avoid.first_violation(robot, q[None]) is not None:
+            continue
+        left = budget - (time.perf_counter() - t0)
+        if left <= 0.0:
+            break
+        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=left,
+                       prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
+        k = avoid.first_violation(robot, res.history.q)
+        if res.success and k is None:
+            res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
+            res.restarts = attempt
+            res.elapsed = time.perf_counter() - t0
+            return res
+    p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
+    return None
+
+
+def _solve_target_tasks(robot, p: dict, options: dict):
+    """The single-target front door on the task model: FrameTask (+ CentringTask) and obstacle constraints."""
+    tgt = p["target"]
+    extra = p.get("constraints")
+    if extra:
+        from .problem import as_constraints
+
+        spheres = as_constraints(([p["spheres"]] if p["spheres"] is not None else []) + list(extra), (tgt.frame,))
+    else:
+        spheres = p["spheres"]
+    opts = _task_options(options)
+    return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
+                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
+
+
+_COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 _LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
-_QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut")
+_QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut", "lazy")
 _CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
 _ANALYTIC_OPTIONS = ("samples", "choose")
 _AUTO_OPTIONS = tuple(dict.fromkeys(_QP_OPTIONS + _ANALYTIC_OPTIONS))
@@ -252,12 +414,25 @@ def _check_options(method, options, allowed):
 
 
 def solve_prepared(robot, p: dict, **options):
-    """Run the solver on arguments already checked by :func:`prepare`."""
+    """Run the solver on arguments already checked by :func:`prepare`.
+
+    ``options`` may hold the collision options of :func:`solve` (``self_collision``, ``obstacles``,
+    ``collision_margin``): the solve then goes through :mod:`ik.collision_solve` (so does ``ik.solve_many``).
+    """
+    if options and not _COLLISION_KEYS.isdisjoint(options):
+        from .collision_solve import solve_collision_free
+
+        return solve_collision_free(robot, p, **options)
     method = p["method"]
     tgt = p["target"]
     if method == "auto":
         _check_options("auto", options, _AUTO_OPTIONS)
-        if p["spheres"] is not None or p["weights"] is not None:
+        if p["spheres"] is not None and p["weights"] is None and not p.get("constraints"):
+            res = _solve_unconstrained_first(robot, p, {k: v for k, v in options.items() if k in _LM_OPTIONS})
+            if res is not None:
+                return res
+            method = "qp"
+        elif p["spheres"] is not None or p["weights"] is not None or p.get("constraints"):
             method = "qp"
         else:
             solver = _analytic.closed_form_solver(robot, tgt.frame)
@@ -279,11 +454,7 @@ def solve_prepared(robot, p: dict, **options):
                         seed=p["seed"], **opts)
     if method == "qp":
         _check_options(method, options, _QP_OPTIONS)
-        opts = dict(options)
-        if "seed_table" in opts:
-            opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
-        return solve_qp(robot, tgt, p["q0"], spheres=p["spheres"], weights=p["weights"], backend=p["backend"],
-                        tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
+        return _solve_target_tasks(robot, p, options)
     if method == "analytic":
         _check_options(method, options, _ANALYTIC_OPTIONS)
         solver = _analytic.closed_form_solver(robot, tgt.frame)
@@ -334,9 +505,11 @@ def _solve_analytic(robot, solver, p, fallback: bool = True, samples: int = 24, 
                       message="no closed-form branch inside the joint limits" + (f"; {note}" if note else ""),
                       history=History.empty(robot.nq, tgt.components), info={"note": note, **extra})
     criteria = choose if choose is not None else _default_criteria(p["q0"])
-    i = _choose_index(robot, [b[0] for b in raw], criteria, p["q0"], tgt.frame)
-    best = _analytic.branch_result(robot, tgt, raw[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
-    if not best.success and not note:
+    exact = [b for b in raw if not b[3]]  # branches that reach the target (no note of their own) come first
+    pool = exact or raw
+    i = _choose_index(robot, [b[0] for b in pool], criteria, p["q0"], tgt.frame)
+    best = _analytic.branch_result(robot, tgt, pool[i], note, extra, p["tol_pos"], p["tol_rot"], t0)
+    if not best.success and not pool[i][3]:
         # numerically off (should not happen): choose among the branches that verify
         results = [_analytic.branch_result(robot, tgt, b, note, extra, p["tol_pos"], p["tol_rot"], t0) for b in raw]
         ok = [r for r in results if r.success]

@@ -36,12 +36,15 @@ between origins and the geodesic angle between orientations.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.robot import TASK_AXES
+from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.types import PoseLike
 from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_pose
 
 #: Accepted names of relaxable components (``phi`` = ``yaw``).
@@ -82,7 +85,7 @@ def _checked_pose(pose) -> np.ndarray:
     return np.array(as_pose(pose, "target"), dtype=np.float64)
 
 
-def parse_relax(relax) -> tuple[int, ...]:
+def parse_relax(relax: str | Iterable[str] | None) -> tuple[int, ...]:
     """Sorted row indices (0..5 into ``x y z roll pitch yaw``) of the relaxed components.
 
     ``relax`` is an iterable of names or one name / a comma- or space-separated
@@ -134,7 +137,8 @@ class Target:
         "full", "relax_frame", "A", "components", "_p", "_R", "_Rt_axes",
     )
 
-    def __init__(self, robot, pose, frame: str | None = None, relax=(), relax_frame: str = "world"):
+    def __init__(self, robot: Robot, pose: PoseLike, frame: str | None = None, relax: str | Iterable[str] | None = (),
+                 relax_frame: str = "world") -> None:
         T = _checked_pose(pose)
         self.T = T
         self._R = T[:3, :3]
@@ -190,7 +194,7 @@ class Target:
         ew = e[3:][self.rot_rows] if len(self.rot_rows) < 3 else e[3:]
         return math.sqrt(float(ep @ ep)), math.sqrt(float(ew @ ew))
 
-    def errors_at(self, robot, q: np.ndarray) -> tuple[float, float]:
+    def errors_at(self, robot: Robot, q: np.ndarray) -> tuple[float, float]:
         """Errors at configuration ``q`` (runs FK on ``robot``)."""
         T = robot.fk(q, self.frame)
         return self.errors(T[:3, :3], T[:3, 3])

@@ -1,6 +1,6 @@
-"""kinematics: the Robot (Pinocchio model + data), FK, Jacobians, singularity measures, SE(3) helpers, errors."""
+"""kinematics: the Robot (Pinocchio model + data), FK, Jacobians, singularity measures, collision queries, SE(3) helpers, errors."""
 
-from . import errors, se3, singularity
+from . import errors, se3, shapes, singularity
 from .errors import (
     FrameError,
     InputError,
@@ -12,12 +12,20 @@ from .errors import (
     ShapeError,
     SingularityError,
     UnknownRobotError,
+    WorkerError,
+    WorkerTimeoutError,
 )
+from .collision_model import CollisionModel
+from .collision_queries import PairDistance
 from .robot import TASK_AXES, Robot, axis_rows
+from .shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
+from .task_axes import TaskAxes, detect_task_axes
 from .validation import as_matrix, as_pose, as_vector
 
 __all__ = [
-    "Robot", "TASK_AXES", "axis_rows", "as_pose", "as_vector", "as_matrix", "errors", "se3", "singularity",
+    "Robot", "TASK_AXES", "axis_rows", "TaskAxes", "detect_task_axes", "as_pose", "as_vector", "as_matrix",
+    "errors", "se3", "shapes", "singularity",
+    "Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "CollisionModel", "PairDistance",
     "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
-    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError",
+    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError", "WorkerError", "WorkerTimeoutError",
 ]

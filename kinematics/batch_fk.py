@@ -24,7 +24,7 @@ from .errors import ModelError
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 
-def joint_axis(joint) -> tuple[str, np.ndarray] | None:
+def joint_axis(joint: pin.JointModel) -> tuple[str, np.ndarray] | None:
     """``('R' | 'P', unit axis in the joint frame)`` of a one-DOF Pinocchio joint model, else None.
 
     Revolute/prismatic joints about x, y, z and their unaligned variants;

@@ -14,7 +14,9 @@ traceback from inside Pinocchio.
     │   ├── RotationError     rotation block not orthonormal / det != +1
     │   ├── JointLimitError   a joint value outside [lower, upper] when limits are checked
     │   └── UnknownRobotError unknown built-in robot name (lists the known ones)
-    └── SingularityError      a representation is undefined here (e.g. RPY at pitch = ±pi/2)
+    ├── SingularityError      a representation is undefined here (e.g. RPY at pitch = ±pi/2)
+    └── WorkerError           a worker process of a batch failed (ik.solve_many)
+        └── WorkerTimeoutError (TimeoutError)  a worker stalled or the batch's timeout expired
 """
 
 from __future__ import annotations
@@ -71,7 +73,27 @@ class SingularityError(KinserveError):
     """A quantity is undefined at this configuration (a representation singularity)."""
 
 
+class WorkerError(KinserveError):
+    """A worker process of a batch (``ik.solve_many``) failed; the message names the worker and its chunk."""
+
+
+class WorkerTimeoutError(WorkerError, TimeoutError):
+    """A batch worker stalled (no answer within its chunk's time limit, or stopped) or the batch timed out."""
+
+
 def suggest(name: str, known: Iterable[str], n: int = 3) -> str:
-    """Return ' Did you mean: a, b?' for the closest names in ``known`` (or '')."""
-    close = difflib.get_close_matches(str(name), list(known), n=n, cutoff=0.5)
+    """Return ' Did you mean: a, b?' for the closest names in ``known`` (or '').
+
+    Case is ignored when comparing (``"UR5"`` suggests ``ur5``); names that
+    differ only in case come first.
+    """
+    known = [str(k) for k in known]
+    by_lower: dict[str, list[str]] = {}
+    for k in known:
+        by_lower.setdefault(k.lower(), []).append(k)
+    key = str(name).lower()
+    close = list(by_lower.get(key, []))
+    for match in difflib.get_close_matches(key, list(by_lower), n=n, cutoff=0.5):
+        close += [k for k in by_lower[match] if k not in close]
+    close = close[:n]
     return f" Did you mean: {', '.join(close)}?" if close else ""

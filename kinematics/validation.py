@@ -11,10 +11,12 @@ entries are wrong - so the fast path never rejects what the exact one accepts.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from .errors import JointLimitError, NonFiniteError, RotationError, ShapeError
+from .types import ArrayLike, PoseLike
 
 #: Magnitudes beyond this are rejected as non-physical (metres or radians).
 MAX_ABS = 1e6
@@ -25,7 +27,7 @@ ROTATION_TOL = 1e-6
 _hypot = math.hypot
 
 
-def as_vector(value, n: int, name: str = "q") -> np.ndarray:
+def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     """Return ``value`` as a finite float64 vector of length ``n`` or raise.
 
     Accepts any sequence of numbers. Raises :class:`ShapeError` for wrong
@@ -59,7 +61,7 @@ def as_vector(value, n: int, name: str = "q") -> np.ndarray:
     return arr
 
 
-def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
+def as_matrix(value: ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a finite float64 array of exactly ``shape`` (-1 = any)."""
     try:
         if value is None or isinstance(value, (str, bytes, dict)):
@@ -74,7 +76,7 @@ def as_matrix(value, shape: tuple[int, ...], name: str) -> np.ndarray:
     return arr
 
 
-def as_pose(value, name: str = "target") -> np.ndarray:
+def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
     """Return a homogeneous 4x4 float64 pose, checking the rotation block.
 
     Accepts a 4x4 array-like or a ``pinocchio.SE3``. The bottom row must be
@@ -102,7 +104,8 @@ def check_rotation(R: np.ndarray, name: str = "rotation") -> None:
         )
 
 
-def check_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, names, name: str = "q", tol: float = 1e-9) -> None:
+def check_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, names: Sequence[str], name: str = "q",
+                 tol: float = 1e-9) -> None:
     """Raise :class:`JointLimitError` naming every joint outside [lower, upper]."""
     bad = np.flatnonzero((q < lower - tol) | (q > upper + tol))
     if bad.size:

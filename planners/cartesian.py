@@ -29,12 +29,15 @@ cut short holds the poses attempted so far (the failed one last);
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from kinserve import ik
+from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.types import PoseLike, VectorLike
 
 from .joint_trajectory import JointTrajectory
 from .se3_interpolation import interpolate_checkpoints
@@ -65,16 +68,16 @@ class CartesianPlan:
 
 
 def cartesian_to_joint(
-    robot,
-    poses,
-    q0=None,
+    robot: Robot,
+    poses: Sequence[PoseLike],
+    q0: VectorLike | None = None,
     *,
     frame: str | None = None,
     steps: int = 10,
     dt: float = 0.1,
     interpolation: str = "decoupled",
-    relax=(),
-    spheres=(),
+    relax: Sequence[str] = (),
+    spheres: Sequence[ik.Sphere] = (),
     centring: float = 0.0,
     method: str = "auto",
     max_time: float | None = 0.2,

@@ -30,9 +30,12 @@ differently from travelled distance and is not used here.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import minimum_spanning_tree
 
 from kinserve.kinematics.errors import InputError, ShapeError
@@ -63,7 +66,7 @@ class OrderResult:
         return self.cost / self.lower_bound
 
 
-def positions_of(points) -> np.ndarray:
+def positions_of(points: ArrayLike) -> np.ndarray:
     """Positions ``(N, d)`` of points given as positions ``(N, d)`` or poses ``(N, 4, 4)``."""
     P = np.asarray(points, dtype=float)
     if P.ndim == 3 and P.shape[1:] == (4, 4):
@@ -73,7 +76,7 @@ def positions_of(points) -> np.ndarray:
     raise ShapeError(f"points must be positions (N, d) or poses (N, 4, 4), got shape {P.shape}")
 
 
-def euclidean_cost_matrix(points) -> np.ndarray:
+def euclidean_cost_matrix(points: ArrayLike) -> np.ndarray:
     """``C[i, j] = ||p_i - p_j||`` for positions or poses (their translations)."""
     P = positions_of(points)
     return np.linalg.norm(P[:, None, :] - P[None, :, :], axis=-1)
@@ -100,7 +103,7 @@ def _cost_matrix(points, cost) -> np.ndarray:
     return C
 
 
-def path_cost(C: np.ndarray, order, return_to_start: bool = False) -> float:
+def path_cost(C: np.ndarray, order: Sequence[int], return_to_start: bool = False) -> float:
     """Sum of ``C[order[k], order[k+1]]`` (plus the closing edge for a tour)."""
     o = list(order)
     total = float(sum(C[a, b] for a, b in zip(o[:-1], o[1:])))
@@ -109,7 +112,8 @@ def path_cost(C: np.ndarray, order, return_to_start: bool = False) -> float:
     return total
 
 
-def held_karp(C: np.ndarray, start: int = 0, end: int | None = None, return_to_start: bool = False):
+def held_karp(C: np.ndarray, start: int = 0, end: int | None = None,
+              return_to_start: bool = False) -> tuple[list[int], float]:
     """Exact optimal order by dynamic programming over subsets; returns ``(order, cost)``."""
     n = C.shape[0]
     if n == 1:
@@ -170,7 +174,8 @@ def _nearest_neighbour(C, start, end, return_to_start):
     return order
 
 
-def two_opt(C: np.ndarray, order, fixed_end: bool, return_to_start: bool = False, max_rounds: int = 1000):
+def two_opt(C: np.ndarray, order: Sequence[int], fixed_end: bool, return_to_start: bool = False,
+            max_rounds: int = 1000) -> tuple[list[int], float]:
     """Improve ``order`` by reversing segments while that lowers the cost (first improvement).
 
     The first point always stays first; the last stays last when ``fixed_end``.
@@ -224,9 +229,9 @@ def spanning_tree_bound(C: np.ndarray) -> float:
 
 
 def shortest_order(
-    points=None,
+    points: ArrayLike | None = None,
     *,
-    cost=None,
+    cost: ArrayLike | Callable[[Any, Any], float] | None = None,
     start: int = 0,
     end: int | None = None,
     return_to_start: bool = False,

@@ -19,16 +19,19 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.validation import as_matrix
 
 
-def finite_difference_velocities(positions, times, *, zero_ends: bool = False) -> np.ndarray:
+def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *, zero_ends: bool = False) -> np.ndarray:
     """Velocities ``(N, nq)`` from positions by second-order finite differences.
 
     Interior points use the non-uniform central difference of
@@ -85,7 +88,8 @@ class JointTrajectory:
 
     # ----------------------------------------------------------- constructors
     @classmethod
-    def from_positions(cls, joint_names, positions, dt: float, *, velocities: str | None = "finite_difference", zero_end_velocities: bool = False):
+    def from_positions(cls, joint_names: Sequence[str], positions: ArrayLike, dt: float, *,
+                       velocities: str | None = "finite_difference", zero_end_velocities: bool = False) -> JointTrajectory:
         """Points at ``time_from_start = i * dt``; velocities by finite differences unless ``velocities=None``."""
         if not (isinstance(dt, (int, float)) and np.isfinite(dt) and dt > 0):
             raise InputError(f"dt must be a finite number > 0, got {dt!r}")
@@ -124,7 +128,7 @@ class JointTrajectory:
             out.append(p)
         return out
 
-    def position_at(self, t) -> np.ndarray:
+    def position_at(self, t: ArrayLike) -> np.ndarray:
         """Positions at times ``t`` by linear interpolation between points (clamped at the ends)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         return np.stack([np.interp(t, self.times, self.positions[:, j]) for j in range(self.nq)], axis=-1)
@@ -133,7 +137,7 @@ class JointTrajectory:
     def to_dict(self) -> dict:
         return {"joint_names": list(self.joint_names), "points": self.points()}
 
-    def to_json(self, path=None, indent: int | None = None) -> str:
+    def to_json(self, path: str | os.PathLike | None = None, indent: int | None = None) -> str:
         """JSON text (see the module docstring); also written to ``path`` if given."""
         text = json.dumps(self.to_dict(), indent=indent)
         if path is not None:
@@ -158,7 +162,7 @@ class JointTrajectory:
                    None if V is None else np.array(V, dtype=float), None if A is None else np.array(A, dtype=float))
 
     @classmethod
-    def from_json(cls, source) -> "JointTrajectory":
+    def from_json(cls, source: str | os.PathLike) -> JointTrajectory:
         """From JSON text or a path to a ``.json`` file."""
         text = source
         if isinstance(source, Path) or (isinstance(source, str) and not source.lstrip().startswith("{")):
@@ -173,7 +177,7 @@ class JointTrajectory:
         return cls.from_dict(d)
 
     # ------------------------------------------------------------------- CSV
-    def to_csv(self, path=None) -> str:
+    def to_csv(self, path: str | os.PathLike | None = None) -> str:
         """CSV text (see the module docstring); also written to ``path`` if given."""
         header = ["time_from_start"] + [f"position:{n}" for n in self.joint_names]
         blocks = [self.times[:, None], self.positions]
@@ -195,7 +199,7 @@ class JointTrajectory:
         return text
 
     @classmethod
-    def from_csv(cls, source) -> "JointTrajectory":
+    def from_csv(cls, source: str | os.PathLike) -> JointTrajectory:
         """From CSV text or a path to a ``.csv`` file."""
         text = source
         if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
@@ -232,7 +236,7 @@ class JointTrajectory:
         return cls(names, data[:, 0], block("position"), block("velocity"), block("acceleration"))
 
     # ------------------------------------------------------------- save/load
-    def save(self, path) -> Path:
+    def save(self, path: str | os.PathLike) -> Path:
         """Write ``.json`` or ``.csv`` by the file's extension."""
         path = Path(path)
         if path.suffix.lower() == ".json":
@@ -244,7 +248,7 @@ class JointTrajectory:
         return path
 
     @classmethod
-    def load(cls, path) -> "JointTrajectory":
+    def load(cls, path: str | os.PathLike) -> JointTrajectory:
         """Read a ``.json`` or ``.csv`` file written by :meth:`save` (or by hand)."""
         path = Path(path)
         if path.suffix.lower() == ".json":

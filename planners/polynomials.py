@@ -10,6 +10,7 @@ and the coefficient array has shape ``(n + 1,) + S``.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError
 
@@ -21,7 +22,7 @@ def _duration(T) -> float:
     return T
 
 
-def cubic_coefficients(T, x0, x1, v0=0.0, v1=0.0) -> np.ndarray:
+def cubic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike = 0.0, v1: ArrayLike = 0.0) -> np.ndarray:
     """Coefficients ``(4, ...)`` of the cubic with ``x(0)=x0, x(T)=x1, x'(0)=v0, x'(T)=v1``.
 
     ``c0 = x0, c1 = v0``,
@@ -34,7 +35,8 @@ def cubic_coefficients(T, x0, x1, v0=0.0, v1=0.0) -> np.ndarray:
     return np.stack([x0, v0, 3.0 * dx / T**2 - (2.0 * v0 + v1) / T, -2.0 * dx / T**3 + (v0 + v1) / T**2])
 
 
-def quintic_coefficients(T, x0, x1, v0=0.0, v1=0.0, a0=0.0, a1=0.0) -> np.ndarray:
+def quintic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike = 0.0, v1: ArrayLike = 0.0,
+                         a0: ArrayLike = 0.0, a1: ArrayLike = 0.0) -> np.ndarray:
     """Coefficients ``(6, ...)`` of the quintic meeting position, velocity, acceleration at both ends.
 
     ``c0 = x0, c1 = v0, c2 = a0/2``; ``c3..c5`` solve the 3x3 end conditions
@@ -53,7 +55,7 @@ def quintic_coefficients(T, x0, x1, v0=0.0, v1=0.0, a0=0.0, a1=0.0) -> np.ndarra
     return np.stack([x0, v0, 0.5 * a0, c3, c4, c5])
 
 
-def evaluate(coeffs, t, order: int = 2):
+def evaluate(coeffs: ArrayLike, t: ArrayLike, order: int = 2) -> list[np.ndarray]:
     """Value and the first ``order`` derivatives of ``sum_k c_k t^k`` at times ``t``.
 
     ``coeffs`` has shape ``(n + 1,) + S``; ``t`` any shape ``R``. Returns a list of

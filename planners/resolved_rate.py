@@ -48,13 +48,19 @@ coordinate and are rejected.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from kinserve.kinematics import Robot, axis_rows
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.types import VectorLike
 from kinserve.kinematics.validation import as_vector
+
+#: A reference trajectory: ``t -> (x_ref(t), xdot_ref(t))`` in the task axes.
+Reference = Callable[[float], tuple[np.ndarray, np.ndarray]]
 
 _POSITION_AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -146,7 +152,7 @@ def _check_axes(robot: Robot, axes) -> tuple[str, ...]:
     return axes
 
 
-def task_coordinates(robot: Robot, q, axes, frame: str | None = None) -> np.ndarray:
+def task_coordinates(robot: Robot, q: VectorLike, axes: Sequence[str], frame: str | None = None) -> np.ndarray:
     """Task coordinates ``x(q)``: tool position components and/or yaw (see module docstring)."""
     T = robot.fk(q, frame)
     out = np.empty(len(axes))
@@ -161,7 +167,7 @@ def _wrap_task_error(e: np.ndarray, yaw_index: list[int]) -> np.ndarray:
     return e
 
 
-def damped_pseudo_inverse(J: np.ndarray, damping: float = 0.0, rcond: float = 1e-12):
+def damped_pseudo_inverse(J: np.ndarray, damping: float = 0.0, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
     """``(J^+, sigma)``: ``V diag(sigma/(sigma^2 + damping^2)) U^T`` and the singular values.
 
     With ``damping = 0`` singular values below ``rcond * sigma_max`` are
@@ -190,16 +196,16 @@ def adaptive_damping(sigma_min: float, sigma_threshold: float, lambda_max: float
 
 def track_reference(
     robot: Robot,
-    reference,
-    q0,
+    reference: Reference,
+    q0: VectorLike,
     n: int,
     dt: float,
     *,
     closed_loop: bool = True,
     gain: float = 1.0,
-    axes=None,
+    axes: Sequence[str] | None = None,
     frame: str | None = None,
-    damping="adaptive",
+    damping: float | str = "adaptive",
     sigma_threshold: float = 0.05,
     lambda_max: float = 0.1,
     max_joint_rate: float | None = None,
@@ -317,7 +323,8 @@ def track_reference(
                               rates[:last], lams[:last], events, closed_loop, stopped)
 
 
-def resolved_rate(robot: Robot, velocity, q0, n: int, dt: float, *, closed_loop: bool = False, **kwargs) -> ResolvedRateResult:
+def resolved_rate(robot: Robot, velocity: VectorLike, q0: VectorLike, n: int, dt: float, *, closed_loop: bool = False,
+                  **kwargs: Any) -> ResolvedRateResult:
     """Move the tool along the constant task velocity ``velocity`` for ``n`` steps of ``dt``.
 
     Open loop by default (``q_{k+1} = q_k + J^+ v dt``, the seed's scheme);
@@ -331,7 +338,7 @@ def resolved_rate(robot: Robot, velocity, q0, n: int, dt: float, *, closed_loop:
     return track_reference(robot, lambda t: (x0 + v * t, v), q0, n, dt, closed_loop=closed_loop, axes=axes, **kwargs)
 
 
-def circle_reference(centre, radius: float, period: float, phase: float = 0.0):
+def circle_reference(centre: VectorLike, radius: float, period: float, phase: float = 0.0) -> Reference:
     """``t -> (c + r [cos(w t + phase), sin(w t + phase)], r w [-sin, cos])`` with ``w = 2 pi / period``."""
     c = as_vector(centre, 2, "centre")
     if not (math.isfinite(radius) and radius > 0):
@@ -348,15 +355,15 @@ def circle_reference(centre, radius: float, period: float, phase: float = 0.0):
 
 def follow_circle(
     robot: Robot,
-    centre,
+    centre: VectorLike,
     radius: float,
-    q0,
+    q0: VectorLike,
     n: int,
     dt: float,
     *,
     closed_loop: bool = True,
     angular_velocity: float = 1.0,
-    **kwargs,
+    **kwargs: Any,
 ) -> ResolvedRateResult:
     """Follow a circle (centre, radius) in the two task axes at ``angular_velocity`` rad/s for ``n`` steps.
 

@@ -37,6 +37,7 @@ the goal acceleration is met to about ``1e-9`` (relative), not exactly.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,7 @@ from scipy.spatial.transform import Rotation
 
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.types import ArrayLike, PoseLike, VectorLike
 from kinserve.kinematics.validation import as_pose, as_vector
 
 from . import polynomials
@@ -59,7 +61,7 @@ def _progress(s):
     return s
 
 
-def decoupled_interpolation(T0, T1, s) -> np.ndarray:
+def decoupled_interpolation(T0: PoseLike, T1: PoseLike, s: ArrayLike) -> np.ndarray:
     """Straight-line translation + slerp rotation; ``(4, 4)`` for a scalar ``s``, else ``(N, 4, 4)``."""
     A, B = as_pose(T0, "T0"), as_pose(T1, "T1")
     s = _progress(s)
@@ -72,7 +74,7 @@ def decoupled_interpolation(T0, T1, s) -> np.ndarray:
     return out[0] if s.ndim == 0 else out
 
 
-def screw_interpolation(T0, T1, s) -> np.ndarray:
+def screw_interpolation(T0: PoseLike, T1: PoseLike, s: ArrayLike) -> np.ndarray:
     """``T0 exp(s log(T0^-1 T1))``; ``(4, 4)`` for a scalar ``s``, else ``(N, 4, 4)``."""
     A, B = as_pose(T0, "T0"), as_pose(T1, "T1")
     s = _progress(s)
@@ -83,7 +85,7 @@ def screw_interpolation(T0, T1, s) -> np.ndarray:
     return out[0] if s.ndim == 0 else out
 
 
-def interpolate(T0, T1, s, method: str = "decoupled") -> np.ndarray:
+def interpolate(T0: PoseLike, T1: PoseLike, s: ArrayLike, method: str = "decoupled") -> np.ndarray:
     """Dispatch to :func:`decoupled_interpolation` or :func:`screw_interpolation`."""
     if method == "decoupled":
         return decoupled_interpolation(T0, T1, s)
@@ -92,7 +94,7 @@ def interpolate(T0, T1, s, method: str = "decoupled") -> np.ndarray:
     raise InputError(f"method must be one of {METHODS}, got {method!r}")
 
 
-def intermediate_poses(T0, T1, n: int, method: str = "decoupled", include_ends: bool = False) -> np.ndarray:
+def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoupled", include_ends: bool = False) -> np.ndarray:
     """``n`` poses strictly between ``T0`` and ``T1`` at ``s = k/(n+1)``, ``k = 1..n``.
 
     With ``include_ends`` the result also starts with ``T0`` and ends with ``T1``
@@ -109,7 +111,7 @@ def intermediate_poses(T0, T1, n: int, method: str = "decoupled", include_ends: 
     return interpolate(T0, T1, s, method)
 
 
-def interpolate_checkpoints(poses, n: int, method: str = "decoupled") -> np.ndarray:
+def interpolate_checkpoints(poses: Sequence[PoseLike], n: int, method: str = "decoupled") -> np.ndarray:
     """Poses through consecutive checkpoints: ``P0, n poses, P1, n poses, ..., P_last``.
 
     Returns ``((K - 1)(n + 1) + 1, 4, 4)`` for ``K`` checkpoints; every
@@ -138,20 +140,20 @@ class SE3PolynomialTrajectory:
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
         return polynomials.evaluate(self.coefficients, t, 1)
 
-    def pose(self, t) -> np.ndarray:
+    def pose(self, t: ArrayLike) -> np.ndarray:
         """Pose(s) at time(s) ``t``: ``(4, 4)`` or ``(N, 4, 4)``."""
         xi, _ = self._xi(t)
         A = se3.to_se3(self.T0)
         out = np.array([(A * pin.exp6(pin.Motion(x))).homogeneous for x in xi])
         return out[0] if np.ndim(t) == 0 else out
 
-    def body_twist(self, t) -> np.ndarray:
+    def body_twist(self, t: ArrayLike) -> np.ndarray:
         """Body twist ``V = Jr(xi) xi'`` (``[v; w]`` in the moving frame) at time(s) ``t``."""
         xi, dxi = self._xi(t)
         out = np.array([pin.Jexp6(pin.Motion(x)) @ d for x, d in zip(xi, dxi)])
         return out[0] if np.ndim(t) == 0 else out
 
-    def sample(self, n: int):
+    def sample(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``(t, poses)`` at ``n`` evenly spaced times including both ends."""
         t = np.linspace(0.0, self.duration, int(n))
         return t, self.pose(t)
@@ -169,15 +171,15 @@ def _jr_derivative(X: np.ndarray, direction: np.ndarray, h: float = 1e-5) -> np.
 
 
 def se3_polynomial_trajectory(
-    T0,
-    T1,
+    T0: PoseLike,
+    T1: PoseLike,
     duration: float,
-    twist0=None,
-    twist1=None,
+    twist0: VectorLike | None = None,
+    twist1: VectorLike | None = None,
     *,
     order: str = "quintic",
-    acceleration0=None,
-    acceleration1=None,
+    acceleration0: VectorLike | None = None,
+    acceleration1: VectorLike | None = None,
 ) -> SE3PolynomialTrajectory:
     """SE(3) trajectory from ``T0`` to ``T1`` in ``duration`` seconds with boundary body twists.
 
@@ -208,7 +210,7 @@ def se3_polynomial_trajectory(
     return SE3PolynomialTrajectory(A, B, tf, c, order)
 
 
-def poses_along(T0, T1, scaling, times, method: str = "screw") -> np.ndarray:
+def poses_along(T0: PoseLike, T1: PoseLike, scaling: Callable[[np.ndarray], ArrayLike], times: ArrayLike, method: str = "screw") -> np.ndarray:
     """Poses ``interpolate(T0, T1, s(t))`` at ``times`` for a time scaling ``s`` (``(N, 4, 4)``).
 
     E.g. ``poses_along(Ts, Tg, quintic_time_scaling(5.0), t)`` is Lynch & Park's

@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError
 
@@ -55,26 +56,26 @@ class TimeScaling:
 
     duration: float
 
-    def evaluate(self, t):
+    def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(s, s', s'')`` at times ``t`` (scalars or arrays, seconds)."""
         raise NotImplementedError
 
-    def __call__(self, t):
+    def __call__(self, t: ArrayLike) -> np.ndarray:
         return self.evaluate(t)[0]
 
-    def s(self, t):
+    def s(self, t: ArrayLike) -> np.ndarray:
         """Progress ``s(t)`` in ``[0, 1]``."""
         return self.evaluate(t)[0]
 
-    def ds(self, t):
+    def ds(self, t: ArrayLike) -> np.ndarray:
         """Rate ``s'(t)`` (1/s)."""
         return self.evaluate(t)[1]
 
-    def dds(self, t):
+    def dds(self, t: ArrayLike) -> np.ndarray:
         """Second derivative ``s''(t)`` (1/s^2)."""
         return self.evaluate(t)[2]
 
-    def sample(self, n: int):
+    def sample(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(t, s, s', s'')`` at ``n`` evenly spaced times including both ends."""
         t = np.linspace(0.0, self.duration, int(n))
         return (t, *self.evaluate(t))
@@ -88,18 +89,18 @@ class PolynomialTimeScaling(TimeScaling):
     duration: float
     kind: str
 
-    def evaluate(self, t):
+    def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         return tuple(polynomials.evaluate(self.coefficients, t, 2))
 
 
-def cubic_time_scaling(T, v0: float = 0.0, v1: float = 0.0) -> PolynomialTimeScaling:
+def cubic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0) -> PolynomialTimeScaling:
     """Cubic ``s(t)`` with ``s(0)=0, s(T)=1, s'(0)=v0, s'(T)=v1`` (rates in 1/s)."""
     T = _positive(T, "T")
     return PolynomialTimeScaling(polynomials.cubic_coefficients(T, 0.0, 1.0, v0, v1), T, "cubic")
 
 
-def quintic_time_scaling(T, v0: float = 0.0, v1: float = 0.0, a0: float = 0.0, a1: float = 0.0) -> PolynomialTimeScaling:
+def quintic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0, a0: float = 0.0, a1: float = 0.0) -> PolynomialTimeScaling:
     """Quintic ``s(t)`` meeting ``s, s', s''`` at both ends (zero rates by default)."""
     T = _positive(T, "T")
     return PolynomialTimeScaling(polynomials.quintic_coefficients(T, 0.0, 1.0, v0, v1, a0, a1), T, "quintic")
@@ -124,7 +125,7 @@ class TrapezoidalTimeScaling(TimeScaling):
     def kind(self) -> str:
         return "trapezoidal"
 
-    def evaluate(self, t):
+    def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         a, ta, vp, T = self.a_max, self.t_a, self.v_peak, self.duration
         td = T - t
@@ -134,7 +135,7 @@ class TrapezoidalTimeScaling(TimeScaling):
         return s, sd, sdd
 
 
-def trapezoidal_time_scaling(v_max, a_max, distance: float = 1.0) -> TrapezoidalTimeScaling:
+def trapezoidal_time_scaling(v_max: float, a_max: float, distance: float = 1.0) -> TrapezoidalTimeScaling:
     """Fastest trapezoidal scaling for a path of length ``distance`` under ``v_max``, ``a_max``.
 
     The limits are in the path's units (units/s, units/s^2); they act on ``s``
@@ -156,7 +157,7 @@ PEAK_RATE = {"cubic": 1.5, "quintic": 15.0 / 8.0}
 PEAK_ACCELERATION = {"cubic": 6.0, "quintic": 10.0 / math.sqrt(3.0)}
 
 
-def minimum_time(kind: str, distance, v_max, a_max) -> float:
+def minimum_time(kind: str, distance: ArrayLike, v_max: ArrayLike, a_max: ArrayLike) -> float:
     """Shortest duration ``T`` of a rest-to-rest scaling moving ``distance`` within the limits.
 
     ``distance``, ``v_max`` and ``a_max`` may be vectors (one entry per joint):
@@ -191,7 +192,8 @@ def minimum_time(kind: str, distance, v_max, a_max) -> float:
     return float(np.max(T)) if T.size else 0.0
 
 
-def time_scaling(kind: str, T=None, *, distance=None, v_max=None, a_max=None) -> TimeScaling:
+def time_scaling(kind: str, T: float | None = None, *, distance: ArrayLike | None = None, v_max: ArrayLike | None = None,
+                 a_max: ArrayLike | None = None) -> TimeScaling:
     """Build a rest-to-rest scaling by name.
 
     ``time_scaling("quintic", T=2.0)``; or with limits instead of ``T``:

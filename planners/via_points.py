@@ -21,9 +21,12 @@ a conservative heuristic since the vias are passed with non-zero velocity.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 
 from kinserve.kinematics.errors import InputError, ShapeError
@@ -31,6 +34,9 @@ from kinserve.kinematics.validation import as_matrix
 
 from . import polynomials
 from .time_scaling import minimum_time
+
+if TYPE_CHECKING:
+    from .joint_trajectory import JointTrajectory
 
 METHODS = ("cubic_spline", "quintic")
 
@@ -57,7 +63,7 @@ class ViaPointTrajectory:
     def dim(self) -> int:
         return self.points.shape[1]
 
-    def evaluate(self, t):
+    def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         scalar = np.ndim(t) == 0
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
         if self._spline is not None:
@@ -80,7 +86,7 @@ class ViaPointTrajectory:
             return tuple(o[0] for o in out)
         return tuple(out)
 
-    def sample(self, dt: float):
+    def sample(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(t, q, qd, qdd)`` at ``t_0, t_0 + dt, ...`` up to and including the end time."""
         if not dt > 0:
             raise InputError(f"dt must be > 0, got {dt!r}")
@@ -90,7 +96,7 @@ class ViaPointTrajectory:
             t = np.append(t, self.times[-1])
         return (t, *self.evaluate(t))
 
-    def to_joint_trajectory(self, dt: float, joint_names):
+    def to_joint_trajectory(self, dt: float, joint_names: Iterable[str]) -> JointTrajectory:
         """Sample every ``dt`` into a :class:`planners.joint_trajectory.JointTrajectory`."""
         from .joint_trajectory import JointTrajectory
 
@@ -98,7 +104,7 @@ class ViaPointTrajectory:
         return JointTrajectory(list(joint_names), t - t[0], q, qd, qdd)
 
 
-def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0, v1) -> np.ndarray:
+def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0: ArrayLike, v1: ArrayLike) -> np.ndarray:
     """Via velocities ``(K, n)``: mean of adjacent slopes when they agree in sign, else 0."""
     slopes = np.diff(points, axis=0) / np.diff(times)[:, None]
     v = np.zeros_like(points)
@@ -109,14 +115,14 @@ def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0, v1) -> n
 
 
 def via_point_trajectory(
-    points,
-    times=None,
+    points: ArrayLike,
+    times: ArrayLike | None = None,
     *,
     method: str = "cubic_spline",
-    v_max=None,
-    a_max=None,
-    v0=0.0,
-    v1=0.0,
+    v_max: ArrayLike | None = None,
+    a_max: ArrayLike | None = None,
+    v0: ArrayLike = 0.0,
+    v1: ArrayLike = 0.0,
     t0: float = 0.0,
 ) -> ViaPointTrajectory:
     """Trajectory through ``points`` (shape ``(K, n)``, ``K >= 2``) at ``times`` (shape ``(K,)``).

@@ -24,13 +24,16 @@ URDF layout written by :func:`dh_to_urdf` (so the DH frames are frames of the mo
 
 Each link gets simple visual geometry (cylinders along the ``d`` and ``a``
 offsets, a drum for every revolute joint, a block for every prismatic joint,
-a sphere at the tool) so a browser viewer shows the mechanism.
+a sphere at the tool) so a browser viewer shows the mechanism; the cylinders
+along ``d`` and ``a`` are also its ``<collision>`` shapes (self-collision and
+obstacle checks, :mod:`kinserve.kinematics.collision_model`).
 """
 
 from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -38,6 +41,7 @@ from lxml import etree
 
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.types import ArrayLike, PoseLike, VectorLike
 from kinserve.kinematics.validation import as_pose
 
 #: Default limits of a revolute joint when none are given (rad).
@@ -87,7 +91,7 @@ def _vector(value, n: int, name: str, default) -> np.ndarray:
     return arr
 
 
-def check_dh_rows(rows, joint_types=None) -> tuple[np.ndarray, str]:
+def check_dh_rows(rows: ArrayLike, joint_types: str | None = None) -> tuple[np.ndarray, str]:
     """Validate the rows ``(n, 4)`` and the ``R``/``P`` letters (default all ``R``)."""
     try:
         table = np.asarray(rows, dtype=float)
@@ -117,7 +121,8 @@ def check_dh_rows(rows, joint_types=None) -> tuple[np.ndarray, str]:
     return table, types
 
 
-def check_dh_table(rows, joint_types=None, lower=None, upper=None):
+def check_dh_table(rows: ArrayLike, joint_types: str | None = None, lower: VectorLike | None = None,
+                   upper: VectorLike | None = None) -> tuple[np.ndarray, str, np.ndarray, np.ndarray]:
     """Validate a DH table; return ``(rows (n, 4), joint_types "RP..", lower (n,), upper (n,))``.
 
     ``joint_types`` defaults to all revolute. Revolute limits default to
@@ -139,7 +144,8 @@ def check_dh_table(rows, joint_types=None, lower=None, upper=None):
     return table, types, lo, hi
 
 
-def dh_fk(rows, joint_types, q, base=None, tool=None) -> np.ndarray:
+def dh_fk(rows: ArrayLike, joint_types: str | None, q: VectorLike, base: PoseLike | None = None,
+          tool: PoseLike | None = None) -> np.ndarray:
     """Reference DH product ``base * prod A_i(q_i) * tool`` (4x4) with NumPy."""
     table, types = check_dh_rows(rows, joint_types)
     q = np.asarray(q, dtype=float)
@@ -183,8 +189,15 @@ def _visual(link, shape: str, material: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **dim
     etree.SubElement(vis, "material", name=material)
 
 
+def _collision(link, shape: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **dims):
+    col = etree.SubElement(link, "collision")
+    etree.SubElement(col, "origin", xyz=" ".join(map(_vnum, xyz)), rpy=" ".join(map(_vnum, rpy)))
+    geo = etree.SubElement(col, "geometry")
+    etree.SubElement(geo, shape, **{k: _vnum(v) for k, v in dims.items()})
+
+
 def _segment(link, p0, p1, radius: float) -> None:
-    """A cylinder from point ``p0`` to ``p1`` (link frame); nothing if they coincide."""
+    """A cylinder from point ``p0`` to ``p1`` (link frame), visual and collision; nothing if they coincide."""
     p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
     u = p1 - p0
     length = float(np.linalg.norm(u))
@@ -198,7 +211,9 @@ def _segment(link, p0, p1, radius: float) -> None:
         R = np.eye(3) if c > 0 else pin.rpy.rpyToMatrix(math.pi, 0.0, 0.0)
     else:
         R = pin.AngleAxis(math.atan2(s, c), axis / s).matrix()
-    _visual(link, "cylinder", "kinserve_link", 0.5 * (p0 + p1), pin.rpy.matrixToRpy(R), radius=radius, length=length)
+    xyz, rpy = 0.5 * (p0 + p1), pin.rpy.matrixToRpy(R)
+    _visual(link, "cylinder", "kinserve_link", xyz, rpy, radius=radius, length=length)
+    _collision(link, "cylinder", xyz, rpy, radius=radius, length=length)
 
 
 def _check_name(value: str, what: str) -> str:
@@ -208,17 +223,17 @@ def _check_name(value: str, what: str) -> str:
 
 
 def dh_to_urdf(
-    rows,
-    joint_types=None,
-    lower=None,
-    upper=None,
+    rows: ArrayLike,
+    joint_types: str | None = None,
+    lower: VectorLike | None = None,
+    upper: VectorLike | None = None,
     name: str = "dh_robot",
-    base=None,
-    tool=None,
+    base: PoseLike | None = None,
+    tool: PoseLike | None = None,
     tip_name: str = "tool",
-    joint_names=None,
-    velocity=DEFAULT_VELOCITY,
-    effort=DEFAULT_EFFORT,
+    joint_names: Sequence[str] | None = None,
+    velocity: float | VectorLike = DEFAULT_VELOCITY,
+    effort: float | VectorLike = DEFAULT_EFFORT,
     radius: float | None = None,
 ) -> str:
     """URDF text of the chain described by a standard DH table (see the module docstring).
@@ -331,20 +346,20 @@ def _as_pose(value, name: str) -> np.ndarray:
 
 
 def from_dh(
-    rows,
-    joint_types=None,
-    lower=None,
-    upper=None,
+    rows: ArrayLike,
+    joint_types: str | None = None,
+    lower: VectorLike | None = None,
+    upper: VectorLike | None = None,
     name: str = "dh_robot",
-    base=None,
-    tool=None,
+    base: PoseLike | None = None,
+    tool: PoseLike | None = None,
     tip_name: str = "tool",
-    joint_names=None,
+    joint_names: Sequence[str] | None = None,
     *,
     description: str = "",
-    task_axes=TASK_AXES,
-    velocity=DEFAULT_VELOCITY,
-    effort=DEFAULT_EFFORT,
+    task_axes: Sequence[str] = TASK_AXES,
+    velocity: float | VectorLike = DEFAULT_VELOCITY,
+    effort: float | VectorLike = DEFAULT_EFFORT,
     radius: float | None = None,
     geometry: bool = True,
 ) -> Robot:

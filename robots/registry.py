@@ -1,8 +1,8 @@
 """The robot registry: a name, a model file path or a URDF string in, a :class:`Robot` out.
 
-``load(name_or_path, **params)`` accepts
+``load(name_or_path, params={...}, locks={...}, **options)`` accepts
 
-* a **built-in name** (see :func:`available`):
+* a **built-in name** (see :func:`available`; case is ignored):
 
   - arms of example-robot-data (ERD). Their parameters are the values of the
     joints the entry locks (gripper fingers, the other arm, ...), e.g.
@@ -15,9 +15,11 @@
   ``.xacro`` file (parameters = xacro args);
 * URDF XML text (parameters = joints to lock).
 
-Keyword-only options for every form: ``tip=`` overrides the default tool
-frame, ``geometry=False`` skips building the mesh geometry (faster; FK and
-Jacobians do not need it).
+Parameters go in ``params={...}`` (or, for short, as keywords:
+``load("planar4r", l1=1.2)``); options are the named keywords of :func:`load`
+(``tip``, ``geometry``, ``package_dirs``, ``task_axes``, ``srdf``,
+``allow_outside``, ``time_limit``), so ``package_dirs=`` is never read as a
+joint value.
 
 Parsed models are cached (keyed on the name or file + modification time,
 parameters and options): every call returns a fresh ``Robot`` with its own
@@ -26,16 +28,23 @@ parameters and options): every call returns a fresh ``Robot`` with its own
 
 from __future__ import annotations
 
+import difflib
 import math
+import os
 import threading
+import warnings
 from collections import OrderedDict
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from kinserve.kinematics.errors import ModelError, UnknownRobotError, suggest
-from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.errors import ModelError, ShapeError, UnknownRobotError, suggest
+from kinserve.kinematics.robot import TASK_AXES, Robot, axis_rows
 
 from . import paths
+from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
+from .srdf import SrdfWarning, attach_srdf, detach_srdf, find_srdf, read_srdf
 from .urdf_loader import is_xml_text, load_urdf
 from .xacro_loader import declared_args, load_xacro
 
@@ -54,6 +63,7 @@ class RobotEntry:
     locked: dict = field(default_factory=dict)  #: default values (rad / m) of the joints locked by default
     task_axes: tuple = TASK_AXES
     nq: int = 0  #: number of joints after locking (checked by the tests)
+    srdf: bool = True  #: read the SRDF found beside the model file (False when it does not fit the URDF)
 
     def path(self) -> Path:
         if self.origin == "erd":
@@ -65,8 +75,8 @@ class RobotEntry:
         return self.file.endswith(".xacro")
 
 
-def _erd(name, description, file, tip, nq, locked=None, task_axes=TASK_AXES) -> RobotEntry:
-    return RobotEntry(name, description, file, "erd", tip, dict(locked or {}), tuple(task_axes), nq)
+def _erd(name, description, file, tip, nq, locked=None, task_axes=TASK_AXES, srdf=True) -> RobotEntry:
+    return RobotEntry(name, description, file, "erd", tip, dict(locked or {}), tuple(task_axes), nq, srdf)
 
 
 _BAXTER_ARM = ("s0", "s1", "e0", "e1", "w0", "w1", "w2")
@@ -103,14 +113,18 @@ ENTRIES: dict[str, RobotEntry] = {
         _erd("xarm7", "UFactory xArm7 7-DOF arm (end effector link_eef)", "xarm_description/urdf/xarm7.urdf", "link_eef", 7),
         _erd("kinova", "Kinova Jaco2 j2s6s200 6-DOF arm (continuous joints bounded to +-2 pi)",
              "kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", 6),
+        # ERD's z1.srdf has a <chain base_link="base"> but z1.urdf has no link "base": not read
         _erd("z1", "Unitree Z1 6-DOF arm (gripper locked; tool gripperStator)", "z1_description/urdf/z1.urdf",
-             "gripperStator", 6, {"jointGripper": 0.0}),
+             "gripperStator", 6, {"jointGripper": 0.0}, srdf=False),
         _erd("so100", "SO-ARM100 5-DOF arm (gripper jaw locked; tool = gripper link)", "so_arm_description/urdf/so100.urdf",
              "gripper", 5, {"gripper": 0.0}),
         _erd("so101", "SO-101 5-DOF arm (gripper jaw locked; tool gripper_frame_link)", "so_arm_description/urdf/so101.urdf",
              "gripper_frame_link", 5, {"gripper": 0.0}),
         _erd("talos_left_arm", "PAL TALOS left arm, 6 DOF (gripper locked; tool wrist_left_ft_tool_link)",
              "talos_data/robots/talos_left_arm.urdf", "wrist_left_ft_tool_link", 6, {"gripper_left_joint": 0.0}),
+        _erd("baxter", "Rethink Baxter, both 7-DOF arms free (14 joints; head and grippers locked; tip left_gripper, "
+             "the other hand is right_gripper)", "baxter_description/urdf/baxter.urdf", "left_gripper", 14,
+             {"head_pan": 0.0, **{f"{s}_gripper_{f}_finger_joint": 0.0 for s in "lr" for f in "lr"}}),
         _erd("baxter_left", "Rethink Baxter left 7-DOF arm (head, right arm, grippers locked)",
              "baxter_description/urdf/baxter.urdf", "left_gripper", 7, _baxter_locks("left")),
         _erd("baxter_right", "Rethink Baxter right 7-DOF arm (head, left arm, grippers locked)",
@@ -191,14 +205,22 @@ def _number_or_text(v):
         return v
 
 
+def canonical_name(name: str) -> str:
+    """The built-in name matching ``name`` exactly or ignoring case; :class:`UnknownRobotError` otherwise."""
+    if isinstance(name, str):
+        if name in ENTRIES:
+            return name
+        for known in ENTRIES:
+            if known.lower() == name.strip().lower():
+                return known
+    raise UnknownRobotError(
+        f"unknown robot {name!r}.{suggest(str(name), ENTRIES)} Built-in robots: {', '.join(ENTRIES)}; "
+        "or pass a path to a .urdf / .xacro file, or URDF XML text"
+    )
+
+
 def _entry(name) -> RobotEntry:
-    entry = ENTRIES.get(name) if isinstance(name, str) else None
-    if entry is None:
-        raise UnknownRobotError(
-            f"unknown robot {name!r}.{suggest(str(name), ENTRIES)} Built-in robots: {', '.join(ENTRIES)}; "
-            "or pass a path to a .urdf / .xacro file, or URDF XML text"
-        )
-    return entry
+    return ENTRIES[canonical_name(name)]
 
 
 def _locks(entry_label: str, defaults: dict, params: dict) -> dict:
@@ -226,52 +248,190 @@ def _freeze(params: dict):
     return tuple(sorted((k, repr(v)) for k, v in params.items()))
 
 
-def _load_entry(entry: RobotEntry, tip, geometry: bool, params: dict) -> Robot:
-    tip = tip or entry.tip
+#: Keyword options of :func:`load` (everything else given as a keyword is a model parameter).
+OPTIONS = ("params", "locks", "tip", "geometry", "package_dirs", "task_axes", "srdf", "allow_outside", "time_limit")
+
+
+@dataclass(frozen=True)
+class LoadOptions:
+    """How to load a model, apart from its parameters (see :func:`load`)."""
+
+    tip: str | None = None
+    geometry: bool = True
+    package_dirs: tuple[str, ...] = ()
+    allow_outside: bool = False
+    time_limit: float | None = None
+
+    def key(self) -> tuple:
+        env = tuple(os.environ.get(v) for v in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH))  # they resolve packages too
+        return (self.tip, self.geometry, self.package_dirs, self.allow_outside, env)
+
+    def loader_kwargs(self) -> dict:
+        return {"tip": self.tip, "geometry": self.geometry, "package_dirs": self.package_dirs,
+                "allow_outside": self.allow_outside}
+
+
+def _auto_srdf(robot: Robot, model_path: Path | None) -> Robot:
+    """Attach the SRDF found beside ``model_path`` (see :func:`srdf.find_srdf`), if any.
+
+    An SRDF that was not asked for never stops a model from loading: when it
+    is unusable, a :class:`SrdfWarning` says why (``srdf=PATH`` raises instead).
+    """
+    found = find_srdf(model_path) if model_path is not None else None
+    if found is None:
+        return robot
+    try:
+        return attach_srdf(robot, read_srdf(found, robot))
+    except ModelError as exc:
+        warnings.warn(f"{str(exc).rstrip('.')}; loading without named states (pass srdf=False to skip it, srdf=PATH to choose one)",
+                      SrdfWarning, stacklevel=4)
+        return robot
+
+
+def _load_entry(entry: RobotEntry, opts: LoadOptions, params: dict, locks: dict) -> Robot:
+    tip = opts.tip or entry.tip
+    kwargs = {**opts.loader_kwargs(), "tip": tip, "name": entry.name, "description": entry.description,
+              "task_axes": entry.task_axes}
     if entry.is_xacro:
         path = entry.path()
-        key = ("entry", entry.name, _freeze(params), tip, geometry)
-        return _cached(key, lambda: load_xacro(
-            path, args=params, tip=tip, name=entry.name, description=entry.description,
-            geometry=geometry, task_axes=entry.task_axes,
-        ))
-    locks = _locks(f"robot {entry.name!r}", entry.locked, params)
-    key = ("entry", entry.name, _freeze(locks), tip, geometry)
-    return _cached(key, lambda: load_urdf(
-        entry.path(), tip=tip, name=entry.name, description=entry.description, locked_joints=locks,
-        geometry=geometry, task_axes=entry.task_axes,
-    ))
+        key = ("entry", entry.name, _freeze(params), _freeze(locks), opts.key(), tip)
+        return _cached(key, lambda: _auto_srdf(load_xacro(path, args=params, locked_joints=locks or None,
+                                                          time_limit=opts.time_limit, **kwargs), path))
+    locks = {**_locks(f"robot {entry.name!r}", entry.locked, params), **_numbers(f"robot {entry.name!r}", locks)}
+    key = ("entry", entry.name, _freeze(locks), opts.key(), tip)
+    srdf_near = entry.path() if entry.srdf else None
+    return _cached(key, lambda: _auto_srdf(load_urdf(entry.path(), locked_joints=locks, **kwargs), srdf_near))
+
+
+def _numbers(label: str, values: Mapping) -> dict:
+    """``values`` checked as finite joint values (the accepted names are checked by the loader)."""
+    return _locks(label, dict.fromkeys(values), dict(values)) if values else {}
 
 
 def _looks_like_path(s: str) -> bool:
     return "/" in s or "\\" in s or s.endswith((".urdf", ".xacro", ".xml")) or Path(s).expanduser().is_file()
 
 
-def load(name_or_path, *, tip: str | None = None, geometry: bool = True, **params) -> Robot:
-    """A :class:`Robot` from a built-in name, a ``.urdf`` / ``.xacro`` path, or URDF text.
+def _merge_params(params: Mapping | None, legacy: dict) -> dict:
+    """``params`` and the legacy keyword form ``load(name, l1=1.2)`` in one dict."""
+    if params is not None and not isinstance(params, Mapping):
+        raise ModelError(f"params must be a mapping name -> value, got {type(params).__name__}")
+    for key in legacy:
+        close = difflib.get_close_matches(key, OPTIONS, n=1, cutoff=0.75)
+        if close:
+            raise ModelError(
+                f"unknown option {key!r} of robots.load; did you mean {close[0]}=? "
+                f"(options: {', '.join(OPTIONS)}; joint values and xacro args go in params={{...}})"
+            )
+    both = sorted(set(params or {}) & set(legacy))
+    if both:
+        raise ModelError(f"parameter(s) {both} given both in params= and as keywords")
+    return {**dict(params or {}), **legacy}
 
-    See the module docstring for what ``params`` mean for each form. Raises
-    :class:`UnknownRobotError` (listing the built-in names) for an unknown
-    name and :class:`ModelError` for a bad parameter or an unusable model.
+
+def load(
+    name_or_path: str | os.PathLike,
+    *,
+    params: Mapping | None = None,
+    locks: Mapping | None = None,
+    tip: str | None = None,
+    geometry: bool = True,
+    package_dirs: str | os.PathLike | Iterable[str | os.PathLike] | None = None,
+    task_axes: str | Sequence[str] | None = None,
+    srdf: str | os.PathLike | bool | None = None,
+    allow_outside: bool = False,
+    time_limit: float | None = None,
+    **legacy_params: Any,
+) -> Robot:
+    """A :class:`Robot` from a built-in name (any case), a ``.urdf`` / ``.xacro`` path, or URDF text.
+
+    Model values and loading options never share a namespace:
+
+    * ``params``: the model's parameters - xacro args of a xacro file or
+      parametric built-in (``params={"l1": 1.2}``), joint values to lock of
+      a URDF or built-in arm (see the module docstring and :func:`parameters`).
+      For short, ``load("planar4r", l1=1.2)`` is the same as
+      ``load("planar4r", params={"l1": 1.2})``; a keyword that is (close to)
+      an option name below is always the option.
+    * ``locks``: ``{joint: value}`` to freeze, for every form (also after a
+      xacro expansion).
+    * ``tip``: default tool frame; ``geometry``: build the meshes for viewers
+      (kinematics never needs them; a missing mesh is then a warning and a
+      placeholder); ``package_dirs``: folders resolving ``package://`` URIs
+      and ``$(find)``, searched before ``$ROS_PACKAGE_PATH`` and
+      ``$AMENT_PREFIX_PATH`` (:mod:`robots.packages`).
+    * ``task_axes``: the task components singularity measures use (e.g.
+      ``("x", "y", "z")`` or ``"x,y,z"``); default: the built-in's, or
+      detected from the model (:mod:`kinematics.task_axes`).
+    * ``srdf``: SRDF path or text for ``robot.named_states`` / ``robot.groups``;
+      default: the SRDF found beside the model file; ``False``: none.
+    * ``allow_outside``: let the model read mesh files outside its own
+      folders and the package folders (refused by default).
+    * ``time_limit``: seconds a xacro expansion may take.
+
+    Raises :class:`UnknownRobotError` (with suggestions) for an unknown name
+    and :class:`ModelError` for a bad parameter or an unusable model.
     """
+    params = _merge_params(params, legacy_params)
+    if locks is not None and not isinstance(locks, Mapping):
+        raise ModelError(f"locks must be a mapping joint name -> value, got {type(locks).__name__}")
+    locks = dict(locks or {})
+    if package_dirs is None:
+        package_dirs = ()
+    elif isinstance(package_dirs, (str, Path)):
+        package_dirs = (package_dirs,)
+    dirs = []
+    for d in package_dirs:
+        if not isinstance(d, (str, Path)) or not Path(d).expanduser().is_dir():
+            raise ModelError(f"package_dirs: {d!r} is not a folder")
+        dirs.append(str(Path(d).expanduser().resolve()))
+    opts = LoadOptions(tip, bool(geometry), tuple(dirs), bool(allow_outside), time_limit)
+    robot = _load(name_or_path, opts, params, locks, auto_srdf=srdf is None)
+    return _apply(robot, task_axes, srdf)
+
+
+def _apply(robot: Robot, task_axes, srdf) -> Robot:
+    """Per-call options applied to the (fresh) copy: task axes and an explicit SRDF."""
+    if task_axes is not None:
+        axes = tuple(a.strip() for a in task_axes.split(",")) if isinstance(task_axes, str) else tuple(task_axes)
+        if not axes:
+            raise ShapeError("task_axes must name at least one of x, y, z, roll, pitch, yaw")
+        axis_rows(axes)  # ShapeError naming an unknown component
+        robot.task_axes = tuple("yaw" if a == "phi" else a for a in axes)
+    if srdf is False:
+        detach_srdf(robot)
+    elif srdf is not None:
+        attach_srdf(robot, read_srdf(srdf, robot))
+    return robot
+
+
+def _load(name_or_path, opts: LoadOptions, params: dict, locks: dict, auto_srdf: bool) -> Robot:
     if isinstance(name_or_path, str) and name_or_path in ENTRIES:
-        return _load_entry(ENTRIES[name_or_path], tip, geometry, params)
+        return _load_entry(ENTRIES[name_or_path], opts, params, locks)
     if isinstance(name_or_path, str) and is_xml_text(name_or_path):
-        locks = _locks("URDF string", {k: None for k in params}, params) if params else {}
-        key = ("string", name_or_path, _freeze(locks), tip, geometry)
-        return _cached(key, lambda: load_urdf(name_or_path, tip=tip, locked_joints=locks, geometry=geometry))
+        locks = {**_numbers("URDF string", params), **_numbers("URDF string", locks)}
+        key = ("string", name_or_path, _freeze(locks), opts.key())
+        return _cached(key, lambda: load_urdf(name_or_path, locked_joints=locks, **opts.loader_kwargs()))
     if isinstance(name_or_path, Path) or (isinstance(name_or_path, str) and _looks_like_path(name_or_path)):
-        path = Path(name_or_path).expanduser()
-        if not path.is_file():
-            raise ModelError(f"robot model file {str(path)!r} does not exist")
-        path = path.resolve()
-        st = path.stat()
-        stamp = (str(path), st.st_mtime_ns, st.st_size)
-        if path.name.endswith(".xacro"):
-            key = ("xacro", stamp, _freeze(params), tip, geometry)
-            return _cached(key, lambda: load_xacro(path, args=params, tip=tip, geometry=geometry))
-        locks = _locks(str(path), {k: None for k in params}, params) if params else {}
-        key = ("urdf", stamp, _freeze(locks), tip, geometry)
-        return _cached(key, lambda: load_urdf(path, tip=tip, locked_joints=locks, geometry=geometry))
-    _entry(name_or_path)  # raises UnknownRobotError
-    raise AssertionError("unreachable")  # pragma: no cover
+        return _load_file(Path(name_or_path).expanduser(), opts, params, locks, auto_srdf)
+    return _load_entry(_entry(name_or_path), opts, params, locks)  # any case; else UnknownRobotError
+
+
+def _load_file(path: Path, opts: LoadOptions, params: dict, locks: dict, auto_srdf: bool) -> Robot:
+    if not path.is_file():
+        raise ModelError(f"robot model file {str(path)!r} does not exist")
+    path = path.resolve()
+    st = path.stat()
+    stamp = (str(path), st.st_mtime_ns, st.st_size)
+    attach = (lambda r: _auto_srdf(r, path)) if auto_srdf else (lambda r: r)
+    if path.name.endswith(".xacro"):
+        locks = _numbers(str(path), locks)
+        key = ("xacro", stamp, _freeze(params), _freeze(locks), opts.key(), auto_srdf)
+        return _cached(key, lambda: attach(load_xacro(path, args=params, locked_joints=locks or None,
+                                                      time_limit=opts.time_limit, **opts.loader_kwargs())))
+    both = sorted(set(params) & set(locks))
+    if both:
+        raise ModelError(f"{path}: joint(s) {both} given both in params= and locks=")
+    locks = {**_numbers(str(path), params), **_numbers(str(path), locks)}
+    key = ("urdf", stamp, _freeze(locks), opts.key(), auto_srdf)
+    return _cached(key, lambda: attach(load_urdf(path, locked_joints=locks, **opts.loader_kwargs())))

@@ -8,7 +8,12 @@ Pipeline
    malformed XML, a joint whose parent/child link does not exist, duplicate
    names, a kinematic graph that is not one tree, unsupported joint types
    (``floating``/``planar``), malformed ``origin``/``axis``/``limit``
-   attributes, a mesh file that cannot be found, leftover xacro markup.
+   attributes, leftover xacro markup. When meshes are wanted
+   (``geometry=True``), every mesh URI is resolved (:class:`MeshResolver`,
+   :mod:`robots.packages`) and a path outside the model's folders and the
+   package folders is refused unless ``allow_outside``; a mesh that cannot
+   be found is a :class:`MissingMeshWarning`. Kinematics-only loads never
+   look at meshes.
 3. **Normalise** the joint types, because ``Robot`` needs ``nq == nv``:
    every ``continuous`` joint becomes a ``revolute`` joint with limits
    ``[-2 pi, +2 pi]`` (two full turns of travel, so every orientation is
@@ -22,10 +27,12 @@ Pipeline
    ``pinocchio.buildReducedModel`` and keeps ``Robot.source`` an exact
    description of the model.
 5. **Build** the Pinocchio model from the XML string and, when asked, the
-   visual and collision ``GeometryModel`` s with the package directories
-   that resolve ``package://`` mesh URIs (meshes are cached across loads).
-   Relative and ``file://`` mesh paths are rewritten as absolute paths (a
-   string has no directory of its own to resolve them against later).
+   visual and collision ``GeometryModel`` s from a copy whose mesh paths are
+   the files kinserve resolved (missing ones replaced, see
+   :func:`geometry_xml`; meshes are cached across loads). Relative and
+   ``file://`` mesh paths are rewritten as absolute paths in ``Robot.source``
+   (a string has no directory of its own to resolve them against later);
+   ``package://`` URIs stay, with ``Robot.package_dirs`` resolving them.
 
 ``Robot.source`` is the original text when nothing had to change, otherwise
 the normalised XML that was actually built.
@@ -34,20 +41,25 @@ the normalised XML that was actually built.
 from __future__ import annotations
 
 import math
+import os
 import threading
-from collections.abc import Iterable, Mapping
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import unquote
 
 import numpy as np
 import pinocchio as pin
 from lxml import etree
 
 from kinserve.kinematics.errors import InputError, ModelError, suggest
-from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.task_axes import detect_task_axes
 from kinserve.kinematics.validation import MAX_ABS, is_bounded
 
 from . import paths
+from .packages import PackageFinder, is_within
 
 #: Limits (rad) given to a ``continuous`` joint when it is turned into a revolute one.
 CONTINUOUS_LIMIT = 2.0 * math.pi
@@ -79,12 +91,12 @@ class UrdfSource:
     base_dir: Path | None = None  #: directory of the file (None for a string)
 
 
-def is_xml_text(source) -> bool:
+def is_xml_text(source: object) -> bool:
     """True when ``source`` is XML text rather than a path (it starts with ``<``)."""
     return isinstance(source, str) and source.lstrip().startswith("<")
 
 
-def read_urdf(source) -> UrdfSource:
+def read_urdf(source: str | os.PathLike) -> UrdfSource:
     """Read a URDF path or XML string; :class:`ModelError` if the file cannot be read.
 
     A :class:`UrdfSource` is passed through (used by the xacro loader to keep
@@ -147,47 +159,77 @@ def _floats(el, attr: str, n: int, label: str, owner, default=None) -> np.ndarra
     return vals
 
 
+class MissingMeshWarning(UserWarning):
+    """A mesh file of a model cannot be found; a placeholder shape is drawn instead."""
+
+
+#: Radius (m) of the sphere drawn in place of a visual mesh that cannot be found.
+PLACEHOLDER_RADIUS = 0.02
+
+
 @dataclass
 class MeshResolver:
-    """Resolves mesh ``filename`` URIs to files and collects the package directories used."""
+    """Resolves mesh ``filename`` URIs to files, refusing files outside the model's folders.
 
-    package_dirs: list[Path]
+    ``package://<pkg>/<sub>`` is looked up with ``finder`` (see
+    :mod:`robots.packages`), ``file://<path>`` and plain paths are taken as
+    they are (relative ones against the model's folder). Unless
+    ``allow_outside`` is set, a path that resolves outside
+    ``finder.roots()`` (the model's folder and package, every package
+    folder searched) is refused with a message that does not depend on
+    whether the file exists, so a model cannot be used to probe for files.
+    """
+
+    finder: PackageFinder
     base_dir: Path | None
-    used_package_dirs: list[Path] = field(default_factory=list)
+    allow_outside: bool = False
+    missing: list[str] = field(default_factory=list)  #: messages of meshes not found (one per mesh)
 
     def candidates(self, uri: str) -> list[Path]:
-        """Files a mesh URI may refer to, in search order."""
+        """Files a mesh URI may refer to, in search order (empty when nothing can be looked up)."""
         if uri.startswith("package://"):
-            rest = uri[len("package://"):]
-            pkg, _, sub = rest.partition("/")
-            cands = [d / pkg / sub for d in self.package_dirs]
-            if self.base_dir is not None:  # a ROS package that contains this file
-                for anc in (self.base_dir, *self.base_dir.parents):
-                    if anc.name == pkg:
-                        cands.append(anc / sub)
-                        break
-            return cands
+            pkg, _, sub = uri[len("package://"):].partition("/")
+            folder = self.finder.find(pkg)
+            return [folder / unquote(sub)] if folder is not None and sub else []
         if uri.startswith("file://"):
-            return [Path(uri[len("file://"):])]
+            uri = unquote(uri[len("file://"):])
         path = Path(uri)
         if path.is_absolute():
             return [path]
         return [self.base_dir / path] if self.base_dir is not None else []
 
+    def check_inside(self, uri: str, where: str) -> None:
+        """Raise ModelError when ``uri`` resolves outside the allowed folders (existence is not looked at)."""
+        if self.allow_outside:
+            return
+        cands = self.candidates(uri)  # first: a package found here becomes one of the roots
+        roots = self.finder.roots()
+        for cand in cands:
+            if not is_within(cand, roots):
+                raise ModelError(
+                    f"{where}: mesh file {uri!r} resolves outside the folders this model may read from "
+                    f"({', '.join(map(str, roots)) or 'none: a URDF string with no package_dirs'}); refused. "
+                    "If you trust this model, pass allow_outside=True (CLI: --allow-outside) or add its "
+                    "folder to package_dirs (CLI: --package-dir)"
+                )
+
     def resolve(self, uri: str) -> Path | None:
+        """The existing file ``uri`` refers to, or None."""
         for cand in self.candidates(uri):
             if cand.is_file():
-                if uri.startswith("package://"):
-                    pkg, _, sub = uri[len("package://"):].partition("/")
-                    root = Path(str(cand)[: -len(sub)]).parent if sub else cand.parent
-                    root = root.resolve()
-                    if root not in self.used_package_dirs:
-                        self.used_package_dirs.append(root)
                 return cand
         return None
 
+    def package_dirs(self) -> list[Path]:
+        """Folders that resolve every package found so far: ``<dir>/<pkg>`` when the folder is named
+        after its package (Pinocchio's convention), else the package folder itself."""
+        out = []
+        for pkg, folder in self.finder.found.items():
+            out.append(folder.parent if folder.name == pkg else folder)
+        return out
 
-def validate_urdf(root, label: str, resolver: MeshResolver | None) -> None:
+
+def validate_urdf(root: etree._Element, label: str, resolver: MeshResolver | None) -> None:
     """Check a parsed URDF tree; raise :class:`ModelError` naming file, element and line.
 
     With ``resolver=None`` mesh files are not checked.
@@ -294,16 +336,19 @@ def validate_urdf(root, label: str, resolver: MeshResolver | None) -> None:
                             raise ModelError(f"{_where(label, mesh)}: <mesh> in {kind} of {_desc(link)} has no filename")
                         if mesh.get("scale") is not None:
                             _floats(mesh, "scale", 3, label, link)
+                        resolver.check_inside(uri, _where(label, mesh))
                         if resolver.resolve(uri) is None:
-                            looked = [str(c) for c in resolver.candidates(uri)] or ["(a relative path in a URDF string has no base directory)"]
-                            raise ModelError(
+                            looked = [str(c) for c in resolver.candidates(uri)]
+                            if not looked and uri.startswith("package://"):
+                                looked = [f"package {uri[10:].partition('/')[0]!r} not found in: " + "; ".join(resolver.finder.searched())]
+                            resolver.missing.append(
                                 f"{_where(label, mesh)}: mesh file {uri!r} of {_desc(link)} ({kind}) not found; looked in: "
-                                + ", ".join(looked)
+                                + (", ".join(looked) or "(a relative path in a URDF string has no base directory)")
                             )
 
 
 # -------------------------------------------------------------------- normalisation
-def continuous_to_revolute(root) -> list[str]:
+def continuous_to_revolute(root: etree._Element) -> list[str]:
     """Turn every ``continuous`` joint into ``revolute`` with limits +-2 pi; return their names."""
     changed = []
     for joint in root.findall("joint"):
@@ -333,7 +378,7 @@ def _origin_matrix(joint) -> np.ndarray:
     return T
 
 
-def lock_joints(root, locked: Mapping[str, float], label: str) -> None:
+def lock_joints(root: etree._Element, locked: Mapping[str, float], label: str) -> None:
     """Rewrite each named joint as a fixed joint at the given value (see module docstring).
 
     Raises :class:`ModelError` for an unknown or non-movable joint and for a
@@ -381,7 +426,7 @@ def lock_joints(root, locked: Mapping[str, float], label: str) -> None:
 
 
 def _absolutise_meshes(root, resolver: MeshResolver) -> bool:
-    """Replace relative / file:// mesh filenames by absolute paths (Pinocchio needs them)."""
+    """Replace relative / file:// mesh filenames by absolute paths (a string has no folder to resolve them)."""
     changed = False
     for mesh in root.iter("mesh"):
         uri = mesh.get("filename") or ""
@@ -394,6 +439,30 @@ def _absolutise_meshes(root, resolver: MeshResolver) -> bool:
     return changed
 
 
+def geometry_xml(root: etree._Element, resolver: MeshResolver) -> str:
+    """URDF text for Pinocchio's geometry builder: every mesh an absolute path, missing meshes replaced.
+
+    A visual mesh that cannot be found becomes a sphere of radius
+    :data:`PLACEHOLDER_RADIUS`; a collision mesh that cannot be found is left
+    out (a made-up shape would give made-up collision answers). Pinocchio
+    then never searches package folders itself: kinserve's resolution (and
+    its refusal of files outside the model's folders) is the only one.
+    """
+    root = etree.fromstring(etree.tostring(root))
+    for mesh in list(root.iter("mesh")):
+        found = resolver.resolve(mesh.get("filename") or "")
+        if found is not None:
+            mesh.set("filename", str(found.resolve()))
+            continue
+        geometry = mesh.getparent()
+        element = geometry.getparent()
+        if element.tag == "visual":
+            geometry.replace(mesh, etree.Element("sphere", radius=repr(PLACEHOLDER_RADIUS)))
+        else:
+            element.getparent().remove(element)
+    return etree.tostring(root, encoding="unicode")
+
+
 # ----------------------------------------------------------------------- building
 def build_model(xml: str, label: str) -> pin.Model:
     """``pinocchio.buildModelFromXML`` with its failures turned into ModelError."""
@@ -403,7 +472,8 @@ def build_model(xml: str, label: str) -> pin.Model:
         raise ModelError(f"{label}: Pinocchio could not build a model from the URDF: {exc}") from None
 
 
-def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path], label: str):
+def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
+                   label: str) -> tuple[pin.GeometryModel, pin.GeometryModel]:
     """Visual and collision ``GeometryModel`` s of ``xml`` (meshes cached across calls)."""
     global _MESH_LOADER
     dirs = [str(d) for d in package_dirs]
@@ -432,19 +502,38 @@ def default_package_dirs() -> list[Path]:
 class PreparedUrdf:
     """A validated, normalised URDF ready for Pinocchio."""
 
-    xml: str
+    xml: str  #: the URDF text of the model (``Robot.source``)
     label: str
-    package_dirs: tuple[Path, ...]
+    package_dirs: tuple[Path, ...]  #: folders that resolve its ``package://`` URIs (``Robot.package_dirs``)
     robot_name: str
     continuous: tuple[str, ...]
+    geometry_xml: str | None = None  #: for the geometry builder (see :func:`geometry_xml`); None without meshes
+    missing_meshes: tuple[str, ...] = ()  #: one message per mesh file that was not found
+    base_dir: Path | None = None  #: folder of the model file
 
 
-def prepare_urdf(source, *, locked_joints: Mapping[str, float] | None = None, package_dirs=(), check_meshes: bool = True) -> PreparedUrdf:
-    """Read, validate, normalise (continuous joints, locks) a URDF; no Pinocchio yet."""
+def prepare_urdf(
+    source: str | os.PathLike,
+    *,
+    locked_joints: Mapping[str, float] | None = None,
+    package_dirs: Iterable[str | os.PathLike] = (),
+    check_meshes: bool = True,
+    allow_outside: bool = False,
+) -> PreparedUrdf:
+    """Read, validate, normalise (continuous joints, locks) a URDF; no Pinocchio yet.
+
+    With ``check_meshes`` every mesh URI is resolved (``package_dirs``,
+    ``$ROS_PACKAGE_PATH``, ``$AMENT_PREFIX_PATH``, the model's folders,
+    example-robot-data), refused when it lies outside those folders (unless
+    ``allow_outside``), and a missing file is recorded in ``missing_meshes``.
+    Without it meshes are not looked at at all (kinematics never needs them).
+    """
     src = read_urdf(source)
     root = parse_xml(src.text, src.label)
-    dirs = [Path(d).expanduser().resolve() for d in package_dirs] + default_package_dirs()
-    resolver = MeshResolver(dirs, src.base_dir)
+    if isinstance(package_dirs, (str, Path)):
+        package_dirs = [package_dirs]
+    finder = PackageFinder(tuple(package_dirs), src.base_dir, tuple(default_package_dirs()))
+    resolver = MeshResolver(finder, src.base_dir, allow_outside)
     validate_urdf(root, src.label, resolver if check_meshes else None)
     continuous = continuous_to_revolute(root)
     if locked_joints:
@@ -452,23 +541,30 @@ def prepare_urdf(source, *, locked_joints: Mapping[str, float] | None = None, pa
             raise ModelError(f"locked_joints must be a mapping joint name -> value, got {type(locked_joints).__name__}")
         lock_joints(root, locked_joints, src.label)
     changed = bool(continuous or locked_joints)
-    changed |= _absolutise_meshes(root, resolver)
+    if check_meshes:
+        changed |= _absolutise_meshes(root, resolver)
     xml = etree.tostring(root, encoding="unicode") if changed else src.text
     name = root.get("name") or (Path(src.label).stem if src.base_dir else "robot")
-    used = tuple(dict.fromkeys([*resolver.used_package_dirs, *dirs]))
-    return PreparedUrdf(xml, src.label, used, name, tuple(continuous))
+    used = [*resolver.package_dirs(), *finder.package_dirs, *finder.extra_dirs]
+    if src.base_dir is not None:
+        used.append(src.base_dir)  # absolutised relative meshes stay readable when `xml` is loaded again
+    return PreparedUrdf(
+        xml, src.label, tuple(dict.fromkeys(used)), name, tuple(continuous),
+        geometry_xml(root, resolver) if check_meshes else None, tuple(resolver.missing), src.base_dir,
+    )
 
 
 def load_urdf(
-    source,
+    source: str | os.PathLike,
     *,
     tip: str | None = None,
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     geometry: bool = True,
-    task_axes=TASK_AXES,
+    task_axes: str | Sequence[str] | None = None,
+    allow_outside: bool = False,
 ) -> Robot:
     """Load a URDF file path or XML string as a :class:`Robot`.
 
@@ -483,21 +579,35 @@ def load_urdf(
     locked_joints:
         ``{joint name: value}`` (rad or m) of joints to freeze, e.g. gripper fingers.
     package_dirs:
-        Extra directories resolving ``package://<pkg>/...`` mesh URIs
-        (example-robot-data's is always included when installed).
+        Folders resolving ``package://<pkg>/...`` mesh URIs, searched before
+        ``$ROS_PACKAGE_PATH``, ``$AMENT_PREFIX_PATH``, the folders holding the
+        file and example-robot-data (see :mod:`robots.packages`).
     geometry:
-        Build the visual and collision geometry (meshes) for viewers.
+        Build the visual and collision geometry (meshes) for viewers. A mesh
+        file that cannot be found is a :class:`MissingMeshWarning` and a
+        placeholder (see :func:`geometry_xml`); with ``geometry=False`` meshes
+        are never looked at.
     task_axes:
-        Task components the mechanism can act on (see :class:`Robot`).
+        Task components the mechanism can act on (see :class:`Robot`); None
+        detects them from the model (:func:`kinematics.task_axes.detect_task_axes`).
+    allow_outside:
+        Read mesh files outside the model's folders and the package folders
+        (refused by default: a model file from elsewhere could name any file).
 
     Every problem with the model is a :class:`ModelError` naming the file and
     the offending element (with its line number).
     """
-    prep = prepare_urdf(source, locked_joints=locked_joints, package_dirs=package_dirs, check_meshes=True)
+    prep = prepare_urdf(source, locked_joints=locked_joints, package_dirs=package_dirs, check_meshes=geometry,
+                        allow_outside=allow_outside)
     model = build_model(prep.xml, prep.label)
     visual = collision = None
     if geometry:
-        visual, collision = build_geometry(model, prep.xml, prep.package_dirs, prep.label)
+        for message in prep.missing_meshes:
+            warnings.warn(f"{message}; drawing a {PLACEHOLDER_RADIUS} m sphere instead (no collision shape)",
+                          MissingMeshWarning, stacklevel=2)
+        visual, collision = build_geometry(model, prep.geometry_xml, (), prep.label)
+    if task_axes is None:
+        task_axes = detect_task_axes(model).axes
     try:
         return Robot(
             model,

@@ -14,30 +14,51 @@ the argument:
 * a declared argument without default that is not given.
 
 Anything xacro itself rejects (bad expressions, undefined properties, ...) is
-re-raised as :class:`ModelError` naming the file. Processing is serialised
-with a lock: the ``xacro`` package keeps global state.
+re-raised as :class:`ModelError` naming the file.
+
+Xacro runs in a separate process (:mod:`robots.xacro_worker`) with a wall
+time limit (:data:`XACRO_TIME_LIMIT`, killed when exceeded) and a memory cap
+(:data:`XACRO_MEMORY_LIMIT`): a xacro file is a program (``${10**10**8}``
+never returns) and a model file from elsewhere must not hang the caller.
+Each call has its own process, so no lock is held while xacro runs.
+``$(find PKG)`` is answered by :class:`robots.packages.PackageFinder`
+(``package_dirs``, ``$ROS_PACKAGE_PATH``, ``$AMENT_PREFIX_PATH``, ...).
+
+When the file reads other files (``xacro:include``, ``load_yaml``), xacro's
+error text is not shown (it may quote those files); the message names the
+file and the kind of error, and says how to see the details.
 """
 
 from __future__ import annotations
 
+import json
 import math
-import threading
-import xml.parsers.expat
-from collections.abc import Mapping
+import os
+import subprocess
+import sys
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-import xacro
 from lxml import etree
 
 from kinserve.kinematics.errors import ModelError, suggest
-from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.validation import MAX_ABS
 
-from .urdf_loader import UrdfSource, load_urdf
+from . import packages
+from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
+from .urdf_loader import UrdfSource, default_package_dirs, load_urdf
 
 XACRO_NS = "http://www.ros.org/wiki/xacro"
 
-_XACRO_LOCK = threading.Lock()
+#: Wall-clock limit (s) of one xacro expansion.
+XACRO_TIME_LIMIT = 20.0
+
+#: Address-space cap (bytes) of the xacro process (POSIX only).
+XACRO_MEMORY_LIMIT = 2 * 1024**3
+
+_WORKER = Path(__file__).resolve().with_name("xacro_worker.py")
+_SAFE_PARSER = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False)
 
 
 def _existing(path) -> Path:
@@ -49,11 +70,11 @@ def _existing(path) -> Path:
     return p.resolve()
 
 
-def declared_args(path) -> dict[str, str | None]:
+def declared_args(path: str | os.PathLike) -> dict[str, str | None]:
     """``{name: default}`` of the ``<xacro:arg>`` elements of a xacro file (None = no default)."""
     p = _existing(path)
     try:
-        root = etree.parse(str(p)).getroot()
+        root = etree.parse(str(p), _SAFE_PARSER).getroot()
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (exc.lineno, 0)
         raise ModelError(f"{p}: malformed XML at line {line}, column {col}: {exc.msg}") from None
@@ -94,7 +115,7 @@ def _arg_text(path: Path, name: str, value, default: str | None) -> str:
     return text
 
 
-def check_args(path, args: Mapping | None) -> dict[str, str]:
+def check_args(path: str | os.PathLike, args: Mapping | None) -> dict[str, str]:
     """Validate ``args`` against the file's declared ``<xacro:arg>`` s; return the string mappings."""
     p = _existing(path)
     declared = declared_args(p)
@@ -113,44 +134,98 @@ def check_args(path, args: Mapping | None) -> dict[str, str]:
     return mappings
 
 
-def process_xacro(path, args: Mapping | None = None) -> str:
-    """URDF text of a xacro file expanded with ``args`` (``{name: value}``)."""
-    p = _existing(path)
-    mappings = check_args(p, args)
-    with _XACRO_LOCK:
-        try:
-            doc = xacro.process_file(str(p), mappings=mappings, verbosity=0)
-            text = doc.toprettyxml(indent="  ")
-        except xml.parsers.expat.ExpatError as exc:
-            raise ModelError(f"{p}: malformed XML: {exc}") from None
-        except Exception as exc:  # noqa: BLE001 - xacro raises XacroException, NameError, ...
-            raise ModelError(f"{p}: xacro processing failed: {type(exc).__name__}: {exc}") from None
+def process_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
+                  package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
+                  allow_outside: bool = False) -> str:
+    """URDF text of a xacro file expanded with ``args`` (``{name: value}``).
+
+    ``package_dirs`` resolve ``$(find PKG)`` (see :mod:`robots.packages`);
+    ``time_limit`` (s, default :data:`XACRO_TIME_LIMIT`) bounds the expansion.
+    Files it includes or loads must lie in the model's folders or the
+    package folders unless ``allow_outside``.
+    """
+    text, _ = expand_xacro(path, args, package_dirs=package_dirs, time_limit=time_limit, allow_outside=allow_outside)
     return text
 
 
+def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
+                 package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
+                 allow_outside: bool = False) -> tuple[str, list[Path]]:
+    """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see :func:`process_xacro`)."""
+    p = _existing(path)
+    mappings = check_args(p, args)
+    limit = XACRO_TIME_LIMIT if time_limit is None else float(time_limit)
+    if not (math.isfinite(limit) and limit > 0):
+        raise ModelError(f"xacro time_limit must be a positive number of seconds, got {time_limit!r}")
+    if isinstance(package_dirs, (str, Path)):
+        package_dirs = [package_dirs]
+    request = {
+        "path": str(p), "mappings": mappings, "packages_module": packages.__file__,
+        "package_dirs": [str(Path(d).expanduser().resolve()) for d in package_dirs], "model_dir": str(p.parent),
+        "extra_dirs": [str(d) for d in default_package_dirs()],
+        "environ": {k: os.environ[k] for k in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH) if k in os.environ},
+        "memory_limit": XACRO_MEMORY_LIMIT, "allow_outside": bool(allow_outside),
+    }
+    try:
+        done = subprocess.run([sys.executable, "-I", str(_WORKER)], input=json.dumps(request), capture_output=True,
+                              text=True, timeout=limit, check=False)
+    except subprocess.TimeoutExpired:  # subprocess.run killed the process
+        raise ModelError(f"{p}: xacro expansion took longer than {limit:g} s and was stopped") from None
+    try:
+        answer = json.loads(done.stdout)
+    except ValueError:
+        raise ModelError(f"{p}: xacro expansion stopped without an answer (exit status {done.returncode})") from None
+    if answer["ok"]:
+        return answer["xml"], [Path(f) for f in answer["found"].values()]
+    raise ModelError(_failure_message(p, answer))
+
+
+def _failure_message(p: Path, answer: dict) -> str:
+    kind = answer["error"]
+    if kind == "OutsideError":
+        what = "a file it includes" if answer["reads_other_files"] else repr(answer["message"])
+        return (f"{p}: xacro would read {what}, which resolves outside the folders this model may read from "
+                f"({', '.join(answer['roots'])}); refused. If you trust this model, pass allow_outside=True "
+                "(CLI: --allow-outside) or add its folder to package_dirs (CLI: --package-dir)")
+    if kind == "MemoryError":
+        return f"{p}: xacro expansion ran out of memory (limit {XACRO_MEMORY_LIMIT / 1024**3:g} GiB)"
+    if answer["reads_other_files"]:
+        where = answer["file"] if answer["file"] != str(p) else "it or a file it reads"
+        return (f"{p}: xacro processing failed ({kind} in {where}); the details are not shown because they may "
+                f"quote files this one includes or loads - run `xacro {p}` to see them")
+    return f"{p}: xacro processing failed: {kind}: {answer['message']}"
+
+
 def load_xacro(
-    path,
+    path: str | os.PathLike,
     *,
     args: Mapping | None = None,
     tip: str | None = None,
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs=(),
+    package_dirs: Iterable[str | os.PathLike] = (),
     geometry: bool = True,
-    task_axes=TASK_AXES,
+    task_axes: str | Sequence[str] | None = None,
+    allow_outside: bool = False,
+    time_limit: float | None = None,
 ) -> Robot:
     """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`)."""
     p = _existing(path)
-    text = process_xacro(p, args)
+    text, found = expand_xacro(p, args, package_dirs=package_dirs, time_limit=time_limit, allow_outside=allow_outside)
     label = f"{p} (expanded xacro)"
+    if isinstance(package_dirs, (str, Path)):
+        package_dirs = [package_dirs]
+    # the packages $(find) resolved may hold the meshes the expanded text names by absolute path
+    dirs = [*package_dirs, *found]
     return load_urdf(
         UrdfSource(text, label, p.parent),
         tip=tip,
         name=name,
         description=description,
         locked_joints=locked_joints,
-        package_dirs=package_dirs,
+        package_dirs=dirs,
         geometry=geometry,
         task_axes=task_axes,
+        allow_outside=allow_outside,
     )

@@ -19,10 +19,18 @@ robot's 20 x 20 footprint (rotated with the heading) at some point of the
 path; the free area is every pixel the footprint could reach at all.
 ``coverage_fraction`` = covered / free.
 
-``result.json``: ``path`` ([x, y] points; the planner's dense samples with
-the interior points of straight runs dropped - the same polyline),
-``coverage_fraction``, ``length``, and the cell / lane / U-turn / detour
-counts. Artefacts: ``coverage.png``, ``cells.png``, ``scene.html``. The drawings
+Corners: padding by half the width (10) lets a turning 20 x 20 footprint's
+corners reach up to ``10 sqrt(2) - 10 = 4.14`` u into the obstacles
+(:func:`planners.mobile.footprint_penetration` sweeps the rotated square,
+turns in place included, against the physical shapes, the no-go floor areas
+and the walls); ``padding="diagonal"`` pads by half the diagonal instead and
+the reach is 0, at the cost of some coverage.
+
+``result.json``: ``coverage_fraction``, ``max_corner_penetration`` (u) with
+``penetration`` (where, which obstacle, per obstacle), ``padding``,
+``path`` ([x, y] points; the planner's dense samples with the interior points
+of straight runs dropped - the same polyline), ``length``, and the cell /
+lane / U-turn / detour counts. Artefacts: ``coverage.png``, ``cells.png``, ``scene.html``. The drawings
 show the physical obstacles (those of S7, which padded by 10 u are exactly the
 shapes above) with the keep-out outline of the padded ones.
 """
@@ -35,7 +43,7 @@ import numpy as np
 from matplotlib.colors import ListedColormap
 
 from kinserve import viz
-from kinserve.planners.mobile import boustrophedon_coverage, mall
+from kinserve.planners.mobile import boustrophedon_coverage, footprint_penetration, mall
 
 from .map_drawing import draw_keep_out, map_scene, resample_motion, viz_obstacles
 
@@ -59,18 +67,24 @@ def drop_collinear(points, tol: float = 1e-9) -> np.ndarray:
 
 
 def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_speedup: float = 4.0, fps: float = 30.0,
-        scene: bool = True) -> dict:
+        padding: str = "width", scene: bool = True) -> dict:
     """Run S8 into ``out``; returns the key numbers (see the module docstring).
 
     ``speed`` (u/s) is the cleaning speed used for the animation and the
     reported ``duration`` (constant speed along the path); ``playback_speedup``
-    plays the scene faster than real time.
+    plays the scene faster than real time. ``padding``: ``"width"`` (the
+    document's padded shapes, 10 = half the width) or ``"diagonal"`` (the
+    physical shapes padded by half the diagonal, 10 sqrt(2), start at (15, 15)).
     """
     out = Path(out)
-    grid = mall.s8_map(resolution)
-    res = boustrophedon_coverage(grid, mall.S8_START, lane_spacing=mall.S8_LANE_SPACING, robot_width=mall.ROBOT_WIDTH)
+    grid = mall.s8_map(resolution, padding=padding)
+    start = mall.s8_start(padding, resolution)
+    res = boustrophedon_coverage(grid, start, lane_spacing=mall.S8_LANE_SPACING, robot_width=mall.ROBOT_WIDTH)
     path = drop_collinear(res.path)
     summary = res.summary()
+    # the turning footprint against the physical obstacles, the no-go floor areas and the walls
+    reach = footprint_penetration(res.path, res.heading, mall.S8_OBSTACLES + mall.S8_NO_GO_RAW,
+                                  length=mall.ROBOT_WIDTH, bounds=mall.BOUNDS)
 
     covered = res.covered & res.coverable
     missed = res.coverable & ~res.covered
@@ -79,9 +93,11 @@ def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_spe
     # coverage map
     fig = viz.map_figure(viz_obstacles(mall.S7_OBSTACLES, wrap=True), mall.BOUNDS,
                          paths={f"coverage path ({res.length:.0f} u)": path},
-                         waypoints={"start (10, 10)": mall.S8_START},
+                         waypoints={f"start ({start[0]:g}, {start[1]:g})": start},
                          coverage=viz.Grid(covered, (grid.bounds[0], grid.bounds[1]), pix),
-                         title=f"S8 floor coverage: {100 * res.covered_fraction:.1f} % of the free area swept")
+                         title=f"S8 floor coverage ({padding} padding, {mall.s8_padding(padding):.3g} u): "
+                               f"{100 * res.covered_fraction:.1f} % of the free area swept\n"
+                               f"turning footprint reaches {reach.depth:.2f} u into obstacles/walls at most")
     ax = fig.axes[0]
     ax.lines[0].set_linewidth(0.7)
     ax.imshow(np.where(missed, 1.0, np.nan), origin="lower", extent=(grid.bounds[0], grid.bounds[2], grid.bounds[1],
@@ -130,14 +146,16 @@ def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_spe
         motion = resample_motion(s / float(speed), res.path[:, 0], res.path[:, 1], res.heading, fps,
                                  speedup=playback_speedup)
         sc = map_scene("kinserve S8 floor coverage: boustrophedon path and swept area", mall.S7_OBSTACLES, mall.BOUNDS,
-                       zones=mall.S8_NO_GO, inflate=mall.HALF_FOOTPRINT, motion=motion, fps=fps, robot_width=mall.ROBOT_WIDTH, paths={"coverage": path},
-                       waypoints={"start": mall.S8_START},
+                       zones=mall.S8_NO_GO, inflate=mall.s8_padding(padding), motion=motion, fps=fps, robot_width=mall.ROBOT_WIDTH, paths={"coverage": path},
+                       waypoints={"start": start},
                        coverage=viz.Grid(covered, (grid.bounds[0], grid.bounds[1]), pix))
         viz.export_html(sc, out / "scene.html")
 
     return {
-        "path": path,
         "coverage_fraction": res.covered_fraction,
+        "max_corner_penetration": reach.depth,
+        "padding": padding,
+        "padding_distance": mall.s8_padding(padding),
         "length": res.length,
         "covered_area": res.covered_area,
         "free_area": res.free_area,
@@ -147,13 +165,16 @@ def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_spe
         "u_turns": summary["u_turns"],
         "detours": summary["detours"],
         "path_is_free": res.path_is_free,
+        "penetration": reach.summary(),
+        "path": path,
         "visit_order": res.visit_order,
-        "start": mall.S8_START,
+        "start": start,
         "lane_spacing": mall.S8_LANE_SPACING,
         "robot_width": mall.ROBOT_WIDTH,
         "speed": float(speed),
         "duration": duration,
         "obstacles": viz_obstacles(mall.S8_PADDED_OBSTACLES),
+        "physical_obstacles": viz_obstacles(mall.S8_OBSTACLES + mall.S8_NO_GO_RAW),
         "no_go_zones": viz_obstacles(mall.S8_NO_GO),
         "bounds": mall.BOUNDS,
     }

@@ -1,6 +1,6 @@
 """The README gallery: one plot per scenario and screenshots of the 3-D scenes.
 
-    python -m scenarios.gallery [--demo DIR] [--out scenarios/gallery]
+    python -m kinserve.scenarios.gallery [--demo DIR] [--out scenarios/gallery]
 
 Runs every scenario into ``--demo`` (default ``demo-out``) unless its
 ``result.json`` is already there, copies the chosen PNG of each into

@@ -59,6 +59,13 @@ therefore not drawn: it would reach 0.1 m below the flange, through the floor.
    it is. ``cylinder_release_error`` is its distance from where an exact
    release would put it, ``T_release T_grasp^-1 W_cyl(0)``.
 
+5. *Clearance* - the scene is a table top (top face z = 0) and the open box,
+   as :class:`kinserve.kinematics.shapes.Box` obstacles; ``min_arm_scene_distance``
+   is the smallest signed distance between the arm's collision hulls (links 0-7,
+   no hand) and the scene over every step, ``min_cylinder_scene_distance`` that
+   of the carried cylinder while it is carried, ``clearance`` the details
+   (:mod:`.pick_place_clearance`).
+
 Units: metres, radians, seconds. Artefacts: ``joints.png``,
 ``tracking_errors.png``, ``manipulability.png``, ``flange_trajectory.png``,
 ``trajectory.json`` / ``trajectory.csv`` (the joint trajectory),
@@ -82,6 +89,8 @@ from kinserve import viz
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory, se3_polynomial_trajectory
+
+from .pick_place_clearance import TABLE_CENTRE, TABLE_SIZE, motion_clearance
 
 FLANGE = "panda_link8"
 
@@ -311,6 +320,29 @@ def _events_on(ax, events: dict, marks_t=None):
             ax.axvline(t, color="grey", linestyle=":", linewidth=0.7)
 
 
+def tracking_errors_figure(times, position_error, orientation_error, *, tol_pos: float, tol_rot: float, events: dict,
+                           marks_t=None, damping: float, centring: bool) -> Figure:
+    """Position (m) and orientation (rad) tracking errors of the DLS IK against time, log scale, with the
+    solver's tolerances, the grasp/release events and the via points; the legend sits below the axes."""
+    fig = viz.errors_figure(times, {"position error (m)": position_error, "orientation error (rad)": orientation_error},
+                            xlabel="time (s)", ylabel="|error| (m, rad)", title="")
+    fig.set_size_inches(8.0, 5.0)
+    ax = fig.axes[0]
+    ax.set_title(f"S4 tracking errors of DLS IK\n(λ = {damping:g}, warm started{', null-space centring' if centring else ''}, "
+                 f"{len(times)} samples)", fontsize=10)
+    ax.axhline(tol_pos, color=viz.colors.to_rgb(viz.colors.cycle(0)), linestyle=":", linewidth=1.0,
+               label=f"DLS tol_pos {tol_pos:g} m")
+    ax.axhline(tol_rot, color=viz.colors.to_rgb(viz.colors.cycle(1)), linestyle=":", linewidth=1.0,
+               label=f"DLS tol_rot {tol_rot:g} rad")
+    _events_on(ax, events, marks_t)
+    if marks_t is not None and len(marks_t) > 2:
+        ax.plot([], [], color="grey", linestyle=":", linewidth=0.7, label="via points")
+    handles, labels = ax.get_legend_handles_labels()
+    ax.get_legend().remove()
+    fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=7, frameon=False)
+    return fig
+
+
 def _figure(rows: int = 1, size=(8.0, 4.4)):
     fig = Figure(figsize=size, layout="constrained")
     FigureCanvasAgg(fig)
@@ -378,6 +410,10 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     cyl_final = cylinder[-1]
     cyl_pe, cyl_re = _pose_errors(cyl_final, ideal_cylinder)
 
+    # 5. clearance between the arm (and the carried cylinder) and the scene (table top, open box)
+    clearance = motion_clearance(panda, Q, cylinder, grasp_step, release_step, radius=CYLINDER_RADIUS,
+                                 height=CYLINDER_HEIGHT, box_centre=BOX_CENTRE, box_size=BOX_SIZE, box_wall=BOX_WALL)
+
     traj = JointTrajectory.from_positions(panda.joint_names, Q, dt, zero_end_velocities=True)
     traj.save(out / "trajectory.json")
     traj.save(out / "trajectory.csv")
@@ -396,17 +432,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     fig.set_size_inches(8.0, 4.6)
     viz.save_png(fig, out / "joints.png")
 
-    fig = viz.errors_figure(times, {"position error (m)": track_pe, "orientation error (rad)": track_re},
-                            xlabel="time (s)", ylabel="|error| (m, rad)",
-                            title=f"S4 tracking errors of DLS IK (λ = {damping:g}, warm started"
-                                  f"{', null-space centring' if centring else ''}, {len(Q)} samples)")
-    ax = fig.axes[0]
-    ax.axhline(tol_pos, color=viz.colors.to_rgb(viz.colors.cycle(0)), linestyle=":", linewidth=1.0,
-               label=f"DLS tol_pos {tol_pos:g} m")
-    ax.axhline(tol_rot, color=viz.colors.to_rgb(viz.colors.cycle(1)), linestyle=":", linewidth=1.0,
-               label=f"DLS tol_rot {tol_rot:g} rad")
-    _events_on(ax, ev, marks_t)
-    ax.legend(loc="upper right", fontsize=7, ncol=2, framealpha=0.9)
+    fig = tracking_errors_figure(times, track_pe, track_re, tol_pos=tol_pos, tol_rot=tol_rot, events=ev,
+                                 marks_t=marks_t, damping=damping, centring=bool(centring))
     viz.save_png(fig, out / "tracking_errors.png")
 
     fig = viz.manipulability_figure(times, {"manipulability w = √det(J Jᵀ)": manip, "σ_min(J)": sigma_min},
@@ -446,6 +473,7 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         sc = viz.Scene("kinserve S4 Panda pick and place (grasp -> release)")
         sc.add_robot(arm, Q[0], name="panda")
         draw_open_box(sc, "box", BOX_CENTRE, BOX_SIZE, BOX_WALL)
+        sc.add_box("table", TABLE_SIZE, se3.pose(p=TABLE_CENTRE), color="#d9d2c5", opacity=0.6)
         sc.add_cylinder("cylinder", CYLINDER_RADIUS, CYLINDER_HEIGHT, CYLINDER_POSE, color="orange")
         sc.add_path("tool_path", flange[:, :3, 3], color="blue")
         for name, T in (("home", DOC_HOME), ("grasp", DOC_GRASP), ("release", DOC_RELEASE)):
@@ -466,6 +494,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "release_step": release_step,
         "cylinder_final": "position ({:.4f}, {:.4f}, {:.4f}) m, axis ({:.3f}, {:.3f}, {:.3f})".format(*pos, *axis),
         "cylinder_release_error": cyl_pe,
+        "min_arm_scene_distance": clearance["min_arm_scene_distance"],
+        "min_cylinder_scene_distance": clearance["min_cylinder_scene_distance"],
         "max_tracking_position_error": float(track_pe.max()),
         "max_tracking_orientation_error": float(track_re.max()),
         "grasp_time": None if grasp_step is None else float(times[grasp_step]),
@@ -515,4 +545,5 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "min_manipulability_step": int(manip.argmin()),
         "min_sigma": float(sigma_min.min()),
         "within_joint_limits": bool(all(panda.within_limits(q) for q in Q)),
+        "clearance": clearance,
     }

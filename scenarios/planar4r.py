@@ -148,6 +148,33 @@ def _zoom(ax, points, margin: float = 0.25):
     ax.set_ylim(c[1] - h, c[1] + h)
 
 
+def family_figure(lengths, Q, labels, overlap, target) -> Figure:
+    """The family drawn as arms: one colour per elbow branch, members with crossing links apart.
+
+    Every legend count is counted here from the members drawn: ``elbow up: N members`` is the
+    branch's size (as ``elbow_up`` in ``result.json``), with how many of them cross.
+    """
+    labels, overlap = np.asarray(labels), np.asarray(overlap, dtype=bool)
+    groups = {}
+    for b in ("elbow up", "elbow down"):
+        mine = labels == b
+        n, n_cross = int(mine.sum()), int((mine & overlap).sum())
+        groups[f"{b}: {n} members" + (f" ({n_cross} with crossing links, drawn apart)" if n_cross else "")] = \
+            Q[mine & ~overlap]
+    if overlap.any():
+        groups[f"links cross: {int(overlap.sum())} members (rejected by no_self_overlap)"] = Q[overlap]
+    fig = viz.planar_arm_figure(lengths, groups, target=target, max_per_branch=24, count_in_label=False,
+                                title=f"S1 4R family for (x, y, θe) = ({target[0]:g}, {target[1]:g}, {target[2]:.3g}): "
+                                      f"{len(Q)} members")
+    ax = fig.axes[0]
+    _zoom(ax, np.vstack([viz.planar_chain(lengths, q) for q in Q]))
+    handles, names = ax.get_legend_handles_labels()
+    ax.get_legend().remove()
+    fig.legend(handles, names, loc="outside lower center", fontsize=8, frameon=False)  # below the arms, not on them
+    fig.set_size_inches(6.4, 7.2)
+    return fig
+
+
 def _family_joints_figure(family, overlap, chosen, target):
     fig, axes = _figure(size=(10.0, 3.8), cols=3)
     q1 = np.array([r.info["free_parameter"] for r in family])
@@ -284,15 +311,7 @@ def run(out: Path, *, target=TARGET, q_current=Q_CURRENT, lengths=(1.0, 0.8, 0.6
             [r.q for r in fam])
 
     # plots
-    crossing = {"elbow up": Q[[l == "elbow up" and not o for l, o in zip(labels, overlap)]],
-                "elbow down": Q[[l == "elbow down" and not o for l, o in zip(labels, overlap)]]}
-    if overlap.any():
-        crossing["links cross (rejected by no_self_overlap)"] = Q[overlap]
-    fig = viz.planar_arm_figure(lengths, crossing, target=target, max_per_branch=24,
-                                title=f"S1 4R family for (x, y, θe) = ({target[0]:g}, {target[1]:g}, {target[2]:.3g}): "
-                                      f"{len(family)} members")
-    _zoom(fig.axes[0], np.vstack([viz.planar_chain(lengths, q) for q in Q]))
-    viz.save_png(fig, out / "family.png")
+    viz.save_png(family_figure(lengths, Q, labels, overlap, target), out / "family.png")
     viz.save_png(_family_joints_figure(family, overlap, chosen, target), out / "family_joints.png")
     viz.save_png(_chosen_figure(lengths, family, chosen, q_current, target, scores), out / "chosen.png")
     viz.save_png(_boundary_figure(sweep, lengths, boundary_families), out / "boundary.png")

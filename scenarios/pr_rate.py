@@ -244,30 +244,39 @@ def _wrapped_degrees(x, theta) -> tuple[np.ndarray, np.ndarray]:
     return np.array(xs, dtype=float), np.array(ys)
 
 
-def plot_runs_joints(rows, results, path: Path, which=(1, 2, 9, 10)) -> None:
-    """``d1`` and ``theta2`` (deg, wrapped) against the step for a few runs, with the singular angles +-90 deg."""
-    fig, ((a1,), (a2,)) = _figure(2, 1, (8.0, 6.4))
-    for i, k in enumerate(which):
-        row, res = rows[k - 1], results[k - 1]
+def runs_joints_figure(rows, results) -> Figure:
+    """One small panel per run (all of the table's runs): ``d1`` (m, left axis) and ``theta2``
+    (deg, wrapped to +-180, right axis) against the step, with the singular angles +-90 deg."""
+    cols = 4
+    nrows = -(-(len(rows) + 1) // cols)  # one spare panel holds the legend
+    fig, axes = _figure(nrows, cols, (13.0, 3.0 * nrows + 0.6))
+    for ax, row, res in zip(axes.flat, rows, results):
         steps = np.arange(len(res.q))
-        lab = f"run {k}: v=({row['v'][0]:g}, {row['v'][1]:g}), θ₀={row['q_init'][1]:g}°, Δ={row['dt']:g}"
-        a1.plot(steps, res.q[:, 0], color=_color(i), linewidth=1.4, marker=".", markersize=3, label=lab)
-        a2.plot(*_wrapped_degrees(steps, res.q[:, 1]), color=_color(i), linewidth=1.0, marker="o", markersize=3,
-                label=lab)
-    for s in (90, -90):
-        a2.axhline(s, color="red", linestyle="--", linewidth=1.0)
-    a2.text(0.995, 90, "singular θ₂ = ±90° ", color="red", fontsize=8, va="bottom", ha="right",
-            transform=a2.get_yaxis_transform())
-    a1.set_ylabel("d₁ (m)")
-    a2.set_ylabel("θ₂ (deg, wrapped to ±180°)")
-    a2.set_ylim(-185, 185)
-    a2.set_yticks([-180, -90, 0, 90, 180])
-    a2.set_xlabel("step k")
-    a1.set_title("S5 joint variables over the steps (open loop, damped J⁺)")
-    a1.legend(fontsize=7, loc="best")
-    for a in (a1, a2):
-        a.grid(True, alpha=0.3)
-    viz.save_png(fig, path)
+        ax.plot(steps, res.q[:, 0], color=_color(0), linewidth=1.3, marker=".", markersize=3, label="d₁ (m)")
+        ax.set_ylabel("d₁ (m)", color=_color(0), fontsize=8)
+        tw = ax.twinx()
+        tw.plot(*_wrapped_degrees(steps, res.q[:, 1]), color=_color(1), linewidth=0.9, marker="o", markersize=2.5,
+                label="θ₂ (deg)")
+        for s in (90, -90):
+            tw.axhline(s, color="red", linestyle="--", linewidth=0.8)
+        tw.set_ylim(-185, 185)
+        tw.set_yticks([-180, -90, 0, 90, 180])
+        tw.set_ylabel("θ₂ (deg)", color=_color(1), fontsize=8)
+        v, qi = row["v"], row["q_init"]
+        ax.set_title(f"run {row['run']}: v=({v[0]:g}, {v[1]:g}), θ₀={qi[1]:g}°, n={row['n']}, Δ={row['dt']:g}", fontsize=9)
+        ax.set_xlabel("step k", fontsize=8)
+        for a in (ax, tw):
+            a.tick_params(labelsize=7)
+        ax.grid(True, alpha=0.3)
+    for ax in list(axes.flat)[len(rows):]:
+        ax.axis("off")
+    key = axes.flat[len(rows)]
+    key.plot([], [], color=_color(0), marker=".", label="d₁ (m), left axis")
+    key.plot([], [], color=_color(1), marker="o", label="θ₂ (deg, wrapped to ±180°), right axis")
+    key.plot([], [], color="red", linestyle="--", label="singular θ₂ = ±90°")
+    key.legend(loc="center", fontsize=9)
+    fig.suptitle(f"S5 joint variables over the steps, all {len(rows)} runs (open loop, damped J⁺)", fontsize=12)
+    return fig
 
 
 def plot_step_size(study: dict, path: Path) -> None:
@@ -404,7 +413,7 @@ def run(out: Path, *, d2: float = 1.0) -> dict:
                     f"{r['max_joint_rate_undamped']:.12g},{r['min_manipulability']:.12g},{first},{ev}\n")
 
     plot_runs_xy(rows, results, d2, out / "runs_xy.png")
-    plot_runs_joints(rows, results, out / "runs_joints.png")
+    viz.save_png(runs_joints_figure(rows, results), out / "runs_joints.png")
     plot_step_size(study, out / "step_size.png")
     plot_circles(circle_rows, circle_runs, d2, out / "circles.png")
     plot_circle_errors(circle_rows, circle_runs, out / "circle_errors.png")

@@ -41,8 +41,9 @@ A3 -151..146, A4 +-102.5, A5 +-167.5.
 
 Artefacts: ``manipulability.png`` (``w`` and ``sigma_min`` along the ``q3``
 sweep), ``branches.png`` (joint values of every branch against the limits),
-``scene.html`` (the arm at every branch side by side, target triads; the
-off-set target with its nearest reachable pose).
+``scene.html`` (the arm at every branch, one row per target, with target
+triads; the off-set target with its nearest reachable pose at the end of the
+front row).
 """
 
 from __future__ import annotations
@@ -156,10 +157,11 @@ def _branches_figure(robot, cases):
                 color=viz.colors.to_rgb(viz.colors.PALETTE[k % len(viz.colors.PALETTE)]), markeredgecolor="black",
                 label=f"{name}: {b['branch']}")
     ax.set_xticks(x, [f"A{i + 1}" for i in x])
+    ax.set_xlabel("joint (A1-A5 = q1-q5; markers side by side within a joint's range bar)")
     ax.set_ylabel("joint value (deg)")
     ax.set_title("youBot closed-form IK: every branch inside the limits, per target", fontsize=10)
     ax.grid(True, axis="y", alpha=0.3)
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, framealpha=0.9)
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=7, loc="outside lower center", ncol=3, frameon=False)
     return fig
 
 
@@ -219,18 +221,23 @@ def run(out: Path, *, n_random: int = 500, q_forward=Q_FORWARD, q_above=Q_ABOVE,
     viz.save_png(_branches_figure(robot, cases), out / "branches.png")
 
     if scene:
-        sc = viz.Scene("kinserve S2 youBot: closed-form IK branches side by side; off-set target and its nearest pose")
+        sc = viz.Scene("kinserve S2 youBot: closed-form IK branches, one row per target (front: forward target, "
+                       "then the off-set target's nearest pose in grey; back: target above the base)")
+
+        def slot(row: int, col: int) -> np.ndarray:  # rows 0.8 m apart along -x, robots 0.6 m apart along +y
+            base = np.eye(4)
+            base[:2, 3] = (-0.8 * row, 0.6 * col)
+            return base
+
         k = 0
-        for name, case in cases.items():
-            for b in case["branches"]:
-                base = np.eye(4)
-                base[1, 3] = 0.6 * k
+        for row, (name, case) in enumerate(cases.items()):
+            for col, b in enumerate(case["branches"]):
+                base = slot(row, col)
                 sc.add_robot(robot, b["q"], name=f"branch{k}", base=base, color=viz.colors.PALETTE[k % 8])
                 sc.add_frame(f"target{k}", base @ case["target"], length=0.08)
                 k += 1
         if off:
-            base = np.eye(4)
-            base[1, 3] = 0.6 * k
+            base = slot(0, len(cases["forward"]["branches"]))
             sc.add_robot(robot, off[0].q, name="nearest_reachable", base=base, color="grey")
             sc.add_frame("off_set_target", base @ T_off, length=0.1)
             sc.add_frame("nearest_reachable_pose", base @ reached, length=0.06)

@@ -2,7 +2,7 @@
 
 Endpoints: ``GET /health``, ``GET /robots``, ``GET /robots/{name}``,
 ``POST /fk``, ``POST /jacobian``, ``POST /ik``, ``POST /ik/batch``,
-``POST /plan/cartesian``. Poses are 4x4 row-major lists; joint vectors are
+``POST /plan/cartesian``, ``POST /collision`` (:mod:`.collision_endpoint`). Poses are 4x4 row-major lists; joint vectors are
 lists of ``nq`` numbers (rad / m).
 
 Errors are JSON ``{"detail": [{"loc": [...], "msg": ..., "type": ...}]}``:
@@ -33,6 +33,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
+from fastapi_offline import FastAPIOffline
 
 from kinserve.kinematics.errors import KinserveError
 
@@ -93,12 +94,18 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
             solvers.shutdown()
             loader.shutdown()
 
-    app = FastAPI(
+    # /docs (Swagger UI) and /redoc load their JS/CSS from the fastapi-offline package, served here under
+    # /static-offline-docs, not from a CDN: the pages work without internet. No schema validator badge either.
+    app = FastAPIOffline(
         title="kinserve",
         version="0.1.0",
         description="Forward kinematics, Jacobians, constrained inverse kinematics and Cartesian plans over HTTP.",
+        swagger_ui_parameters={"validatorUrl": None},
         lifespan=lifespan,
     )
+    from .collision_endpoint import router as collision_router
+
+    app.include_router(collision_router)
     app.add_middleware(BodyLimitMiddleware, max_body=settings.max_body, body_timeout=settings.body_timeout)
     app.state.pool, app.state.solvers, app.state.settings = pool, solvers, settings
 

@@ -1,15 +1,22 @@
 """The ``kinserve`` command line.
 
 Each sub-command parses its arguments, calls the library and prints the
-answer (plain text, or JSON with ``--json``). Library errors
-(:class:`kinematics.errors.KinserveError`) become one ``error: ...`` line on
-stderr and exit status 2, never a traceback.
+answer (plain text, or JSON with ``--json``). ``kinserve --version`` prints
+``kinserve <version>``.
+
+Errors never end in a traceback: library errors
+(:class:`kinserve.kinematics.errors.KinserveError`) and operating-system errors
+(a folder that cannot be written, a port that cannot be bound: ``OSError``)
+become one ``error: ...`` line on stderr and exit status 2, as argparse does
+for malformed arguments. Anything else is a bug: one ``error: internal ...``
+line and exit status 70 (``KINSERVE_DEBUG=1`` re-raises it with its traceback).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
@@ -17,6 +24,7 @@ import numpy as np
 from kinserve.kinematics.errors import KinserveError, ShapeError
 
 EXIT_USAGE = 2
+EXIT_INTERNAL = 70  # sysexits.h EX_SOFTWARE: an unexpected exception, i.e. a bug in kinserve
 
 
 # ----------------------------------------------------------------- helpers
@@ -51,10 +59,19 @@ def parse_params(items: list[str] | None) -> dict:
     return params
 
 
-def load_robot(args):
+def load_robot(args, *, geometry: bool | None = None, task_axes=None):
+    """The robot named by the arguments of :func:`add_robot_args` (``geometry`` defaults to ``args.geometry``)."""
     from kinserve import robots
 
-    return robots.load(args.robot, geometry=getattr(args, "geometry", False), **parse_params(getattr(args, "param", None)))
+    return robots.load(
+        args.robot,
+        params=parse_params(getattr(args, "param", None)),
+        geometry=getattr(args, "geometry", False) if geometry is None else geometry,
+        package_dirs=getattr(args, "package_dir", None) or None,
+        srdf=getattr(args, "srdf", None),
+        allow_outside=getattr(args, "allow_outside", False),
+        task_axes=task_axes,
+    )
 
 
 def robot_q(robot, args) -> np.ndarray:
@@ -73,6 +90,12 @@ def emit(args, payload: dict, text: str) -> None:
 def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
     p.add_argument("robot", help="built-in robot name (see `kinserve models`), or a .urdf/.xacro path")
     p.add_argument("--param", action="append", metavar="KEY=VALUE", help="model parameter / xacro arg (repeatable)")
+    p.add_argument("--package-dir", action="append", metavar="DIR",
+                   help="folder resolving package://PKG/... and $(find PKG): a package, a folder of packages or a "
+                        "workspace (repeatable; searched before $ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH)")
+    p.add_argument("--srdf", metavar="FILE", help="SRDF with named states and groups (default: the one beside the model)")
+    p.add_argument("--allow-outside", action="store_true",
+                   help="let the model read mesh and xacro-included files outside its own folder and the package folders")
     if q:
         p.add_argument("--q", nargs="+", metavar="Q", help="joint values (rad / m), space or comma separated; default: neutral")
         p.add_argument("--frame", help="frame name (default: the robot's tool frame)")
@@ -99,23 +122,38 @@ def cmd_fk(args) -> int:
     return 0
 
 
+def task_axes_origin(robot, given) -> str:
+    """Why ``robot.task_axes`` are what they are, in words (for the CLI)."""
+    from kinserve.kinematics.task_axes import detect_task_axes
+
+    if given:
+        return "given with --axes"
+    detected = detect_task_axes(robot.model)
+    if detected.axes == robot.task_axes:
+        return f"detected: {detected.reason}"
+    return "set by the built-in robot's entry"
+
+
 def cmd_jacobian(args) -> int:
-    robot = load_robot(args)
+    robot = load_robot(args, task_axes=args.axes)
     q = robot_q(robot, args)
     frame = args.frame or robot.tip
     J = robot.jacobian(q, frame, reference=args.reference)
     sv = robot.singular_values(q, frame)
     manip = float(np.prod(sv))
     singular = robot.is_singular(q, frame=frame)
+    origin = task_axes_origin(robot, args.axes)
     text = (
         f"{robot.name}  frame {frame}  reference {args.reference}  q = {np.array2string(q, precision=4)}\n"
         f"Jacobian (6x{robot.nq}, rows vx vy vz wx wy wz):\n{fmt_matrix(J)}\n"
-        f"task axes {', '.join(robot.task_axes)}: singular values {np.array2string(sv, precision=5)}, "
+        f"task axes {', '.join(robot.task_axes)} ({origin}):\n"
+        f"  singular values {np.array2string(sv, precision=5)}, "
         f"manipulability {manip:.6g}{'  SINGULAR' if singular else ''}"
     )
     payload = {
         "robot": robot.name, "frame": frame, "reference": args.reference, "q": q.tolist(), "jacobian": J.tolist(),
-        "task_axes": list(robot.task_axes), "singular_values": sv.tolist(), "manipulability": manip, "singular": singular,
+        "task_axes": list(robot.task_axes), "task_axes_origin": origin, "singular_values": sv.tolist(),
+        "manipulability": manip, "singular": singular,
     }
     emit(args, payload, text)
     return 0
@@ -124,8 +162,21 @@ def cmd_jacobian(args) -> int:
 COMMANDS: dict[str, tuple] = {}
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with its usage errors as one ``error: ...`` line (exit 2) instead of usage + message.
+
+    Sub-command parsers inherit the class (``add_subparsers`` uses the parent's type).
+    """
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"error: {self.prog}: {message} (see `{self.prog} --help`)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="kinserve", description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
+    from kinserve import __version__
+
+    parser = OneLineParser(prog="kinserve", description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
+    parser.add_argument("--version", action="version", version=f"kinserve {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 
@@ -140,6 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("jacobian", help="geometric Jacobian and singularity measures")
     add_robot_args(p)
     p.add_argument("--reference", default="world", choices=["world", "local", "spatial"])
+    p.add_argument("--axes", metavar="A,B,...",
+                   help="task rows for the singularity measures, e.g. x,y,z or x,y,yaw (default: the robot's task axes)")
     p.set_defaults(func=cmd_jacobian)
 
     import importlib
@@ -150,7 +203,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Modules defining further sub-commands, each with ``register(subparsers)``.
-_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view", "kinserve.service.cli_serve", "kinserve.service.cli_reach")
+_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view", "kinserve.service.cli_serve", "kinserve.service.cli_reach",
+                   "kinserve.service.cli_frames", "kinserve.service.cli_collide")
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for an ``OSError``: ``"/proc/nope/planar4r: No such file or directory"`` style."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    if exc.filename is not None:
+        return f"{exc.filename}: {reason}"
+    return reason
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -166,6 +228,14 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. `kinserve demo all | head`: the reader left, nothing more to say
         sys.stderr.close()
         return 0
+    except OSError as exc:
+        print(f"error: {describe_os_error(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as exc:  # a bug: still one line, unless the user asks for the traceback
+        if os.environ.get("KINSERVE_DEBUG"):
+            raise
+        print(f"error: internal {type(exc).__name__}: {exc} (KINSERVE_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

@@ -14,6 +14,8 @@ import numpy as np
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import ShapeError
 
+from .cli_types import non_negative_float, positive_float
+
 
 def parse_target(args) -> tuple[np.ndarray, tuple]:
     """(4x4 pose, extra relaxed components) from --target or --xyz/--rpy."""
@@ -86,8 +88,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--relax", nargs="+", choices=["x", "y", "z", "roll", "pitch", "yaw", "phi"], help="task components left free")
     p.add_argument("--q0", nargs="+", metavar="Q", help="initial guess")
     p.add_argument("--sphere", action="append", metavar="CX,CY,CZ,R", help="spherical obstacle (repeatable)")
-    p.add_argument("--centring", type=float, default=0.0, help="weight of joint-range centring in the free DOF")
+    p.add_argument("--centring", type=non_negative_float, default=0.0, help="weight of joint-range centring in the free DOF")
     p.add_argument("--method", default="auto")
-    p.add_argument("--max-time", type=float, default=None, help="time budget (s)")
+    p.add_argument("--max-time", type=positive_float, default=None, help="time budget (s)")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=cmd_ik)

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli_types import positive_float, positive_int
+
 
 def cmd_reach(args) -> int:
     from kinserve.ik.reachability import reachability_map
@@ -16,15 +18,21 @@ def cmd_reach(args) -> int:
 
     robot = load_robot(args)
     orientation = {"free": "free", "random": "random", "down": np.diag([1.0, -1.0, -1.0])}[args.orientation]
+    from kinserve.service.cli_collide import obstacles_from_args
+
+    obstacles = obstacles_from_args(args)
     rmap = reachability_map(robot, args.samples, frame=args.frame, resolution=args.resolution, orientation=orientation,
                             backend=args.backend, processes=args.processes, ray_address=args.ray_address,
-                            max_time=args.max_time, seed=args.seed)
+                            max_time=args.max_time, seed=args.seed, self_collision=args.self_collision,
+                            obstacles=obstacles)
     out = Path(args.out)
     npz = rmap.save(out.with_suffix(".npz"))
     png = save_png(reachability_figure(rmap.edges, rmap.counts, rmap.hits,
                                        title=f"{robot.name} ({args.orientation})"), out.with_suffix(".png"))
     print(f"{robot.name} frame {rmap.frame}: {rmap.reached.sum()}/{rmap.reached.size} sampled poses reached "
-          f"({100 * rmap.overall:.1f} %), orientation {args.orientation}, backend {args.backend}")
+          f"({100 * rmap.overall:.1f} %), orientation {args.orientation}, backend {args.backend}"
+          + (f", collision-free solutions only ({len(obstacles)} obstacle(s)"
+             f"{', self-collision' if args.self_collision else ''})" if args.self_collision or obstacles else ""))
     print(f"wrote {npz}\nwrote {png}")
     return 0
 
@@ -35,14 +43,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reach", help="reachability map: share of sampled workspace poses that IK reaches")
     add_robot_args(p, q=False)
     p.add_argument("--frame", help="tool frame (default: the robot's tip)")
-    p.add_argument("--samples", type=int, default=1000)
-    p.add_argument("--resolution", type=int, default=8, help="cells per axis")
+    p.add_argument("--samples", type=positive_int, default=1000)
+    p.add_argument("--resolution", type=positive_int, default=8, help="cells per axis")
     p.add_argument("--orientation", choices=["free", "random", "down"], default="free",
                    help="free = position only; random = uniform on SO(3); down = tool z pointing down")
     p.add_argument("--backend", choices=["processes", "serial", "ray"], default="processes")
-    p.add_argument("--processes", type=int, default=None)
+    p.add_argument("--processes", type=positive_int, default=None)
     p.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local Ray)")
-    p.add_argument("--max-time", type=float, default=0.05, help="IK time budget per sample (s)")
+    p.add_argument("--max-time", type=positive_float, default=0.05, help="IK time budget per sample (s)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="reach", help="output path stem: writes STEM.npz and STEM.png")
+    p.add_argument("--self-collision", action="store_true", help="count only solutions free of self-collision")
+    p.add_argument("--box", nargs=6, action="append", metavar="V", help="box obstacle CX CY CZ SX SY SZ (m), repeatable")
+    p.add_argument("--sphere", nargs=4, action="append", metavar="V", help="sphere obstacle CX CY CZ R (m), repeatable")
+    p.add_argument("--cylinder", nargs=5, action="append", metavar="V", help="vertical cylinder CX CY CZ R L (m)")
     p.set_defaults(func=cmd_reach)

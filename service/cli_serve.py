@@ -7,6 +7,8 @@ import os
 import socket
 import sys
 
+from .cli_types import port_number, positive_float, positive_int
+
 
 def tcp_listener(config) -> socket.socket:
     """``config.bind_socket()`` re-wrapped so the socket reports ``proto == IPPROTO_TCP``.
@@ -23,6 +25,29 @@ def tcp_listener(config) -> socket.socket:
         fixed.set_inheritable(True)
         return fixed
     return sock
+
+
+    return sock
+
+
+def check_address(host: str, port: int) -> None:
+    """Raise ``OSError`` (one ``error:`` line from the CLI) when ``host:port`` cannot be listened on.
+
+    uvicorn would log the failure among its start-up lines and exit with 1 or 3;
+    binding a probe socket first (with ``SO_REUSEADDR``, as uvicorn does) turns
+    a busy port or an unknown host into a clear message and exit status 2.
+    """
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except socket.gaierror as exc:
+        raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as exc:
+            raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
 
 
 def settings_of(args) -> "ServiceSettings":
@@ -79,6 +104,7 @@ def cmd_serve(args) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    check_address(args.host, args.port)
     if args.workers > 1:
         app = "kinserve.service.app:app"
     else:
@@ -104,9 +130,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
     p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8000)
-    p.add_argument("--workers", type=int, default=1, help="worker processes (each with its own robot cache)")
-    p.add_argument("--max-time-cap", type=float, default=D.max_time_cap, help="upper bound on any IK request's max_time (s)")
+    p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
+    p.add_argument("--workers", type=positive_int, default=1, help="worker processes (each with its own robot cache)")
+    p.add_argument("--max-time-cap", type=positive_float, default=D.max_time_cap, help="upper bound on any IK request's max_time (s)")
     p.add_argument("--request-time-cap", type=float, default=D.request_time_cap,
                    help="upper bound on a whole /ik/batch or /plan/cartesian request, queueing included (s)")
     p.add_argument("--max-body", type=_size, default=D.max_body, help="largest request body accepted (bytes; 413 above)")

@@ -1,4 +1,4 @@
-"""``kinserve view ROBOT [--q ...] [--html FILE]``: show a robot in the browser.
+"""``kinserve view ROBOT [--q ...] [--html FILE] [--collision --box ...]``: show a robot in the browser.
 
 Starts a local meshcat server, prints its URL and keeps serving until
 interrupted (Ctrl-C). ``--html FILE`` instead writes a self-contained static
@@ -9,16 +9,22 @@ from __future__ import annotations
 
 import argparse
 
+from .cli_types import file_in_existing_folder
+
 
 def cmd_view(args) -> int:
-    from kinserve import robots
-    from kinserve.service.cli import parse_params, robot_q
+    from kinserve.service.cli import load_robot, robot_q
     from kinserve.viz import Scene, export_html
     from kinserve.viz.live import serve
 
-    robot = robots.load(args.robot, geometry=True, **parse_params(args.param))
+    robot = load_robot(args, geometry=True)
     q = robot_q(robot, args)
-    scene = Scene.for_robot(robot, q)
+    obstacles = []
+    if args.collision:
+        from kinserve.service.cli_collide import obstacles_from_args
+
+        obstacles = obstacles_from_args(args)
+    scene = Scene.for_robot(robot, q, collision=args.collision, obstacles=obstacles)
     if args.html:
         path = export_html(scene, args.html)
         print(f"wrote {path}")
@@ -32,6 +38,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     p = sub.add_parser("view", help="show a robot in the browser (live meshcat viewer, or --html for a static page)")
     add_robot_args(p)
-    p.add_argument("--html", metavar="FILE", help="write a self-contained HTML page instead of serving")
+    p.add_argument("--html", metavar="FILE", type=file_in_existing_folder,
+                   help="write a self-contained HTML page instead of serving (its folder must exist)")
     p.add_argument("--zmq-url", help="use an existing meshcat server instead of starting one")
+    p.add_argument("--collision", action="store_true",
+                   help="also draw the collision shapes and the --box/--sphere/--cylinder obstacles, colliding ones red")
+    p.add_argument("--box", nargs=6, action="append", metavar="V", help="box obstacle CX CY CZ SX SY SZ (m), with --collision")
+    p.add_argument("--sphere", nargs=4, action="append", metavar="V", help="sphere obstacle CX CY CZ R (m), with --collision")
+    p.add_argument("--cylinder", nargs=5, action="append", metavar="V", help="vertical cylinder CX CY CZ R L (m)")
     p.set_defaults(func=cmd_view)

@@ -15,10 +15,11 @@ import time
 import numpy as np
 
 from kinserve import ik
+from kinserve.kinematics.errors import FrameError, InputError, KinserveError
 
 from . import schemas as S
 from .executor import Deadline
-from .fields import field
+from .fields import FieldError, field
 from .robot_pool import RobotPool
 from .settings import ServiceSettings
 
@@ -103,8 +104,16 @@ def ik_kwargs(robot, req: S.IKOptions) -> dict:
             robot.frame_id(frame)
     with field("spheres"):
         spheres = [ik.Sphere(s.center, s.radius, frames=s.frames) for s in req.spheres]
-    return dict(q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
-                method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed)
+    kw = dict(q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
+              method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed)
+    from .collision_endpoint import obstacles_of
+
+    kw["obstacles"] = obstacles_of(req.obstacles)
+    if req.self_collision:  # the robot's collision geometry (see service/collision_endpoint.py)
+        with field("self_collision"):
+            robot.collision_scene(kw["obstacles"], True)  # builds the model; no <collision> -> 422
+        kw.update(self_collision=True, collision_margin=req.collision_margin)
+    return kw
 
 
 def result_out(res) -> dict:
@@ -126,14 +135,52 @@ def not_attempted(robot, target, frame: str | None, relax, q0, why: str) -> dict
 
 def solve_ik(deadline: Deadline, req: S.IKRequest, max_time: float) -> dict:
     """``POST /ik``: one solve given ``max_time`` from its start (the request's capped ``max_time``),
-    never past the request's ``deadline``; loading the model is not charged to the solve."""
+    never past the request's ``deadline``; loading the model is not charged to the solve.
+
+    ``target`` (one 4x4 pose of ``frame``) or ``targets`` (several frame targets, one task each).
+    """
     r = robot_of(req)
     kwargs = ik_kwargs(r, req)
-    prepare_starts(r, kwargs)
-    with field("target"):
+    if (req.target is None) == (req.targets is None):
+        raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
+    obstacles = kwargs.pop("obstacles")
+    tasks = []
+    if req.targets is not None:
+        if req.method not in ("auto", "qp"):
+            raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
+        for i, t in enumerate(req.targets):
+            try:
+                task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
+                tasks.append(task.bind(r))
+            except FrameError as exc:
+                raise FieldError(f"targets[{i}].frame", exc) from None
+            except KinserveError as exc:
+                raise FieldError(f"targets[{i}]", exc) from None
+    tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
+    if (obstacles or kwargs["spheres"]) and not req.self_collision:
+        with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
+            ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
+    if req.target is not None:
+        prepare_starts(r, kwargs)
+        with field("target"):
+            budget = max(min(max_time, deadline.remaining), 1e-3)
+            res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=budget, obstacles=obstacles,
+                           link_radius=req.link_radius, **kwargs)
+        return result_out(res)
+    if req.centring:
+        tasks.append(ik.CentringTask(req.centring))
+    if req.self_collision:  # the robot's collision geometry, as ik.solve(self_collision=True)
+        constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
+    else:
+        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
+                                            tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
+    with field("targets"):
         budget = max(min(max_time, deadline.remaining), 1e-3)
-        res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=budget, **kwargs)
-    return result_out(res)
+        res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
+                       tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=budget)
+    out = result_out(res)
+    out["task_errors"] = res.task_errors
+    return out
 
 
 def prepare_starts(robot, kwargs: dict) -> None:

@@ -65,9 +65,16 @@ class _Variant:
 
 
 def _own_model(robot: Robot) -> Robot:
-    """``robot`` rebuilt on a private copy of its Pinocchio model (same frames, limits, tip)."""
-    return Robot(robot.model.copy(), tip=robot.tip, name=robot.name, description=robot.description,
-                 task_axes=robot.task_axes, source=robot.source, package_dirs=robot.package_dirs)
+    """A copy of ``robot`` on a private copy of its Pinocchio model (everything else shared).
+
+    ``Robot.__setstate__`` rebuilds the per-thread workspaces from the state's model.
+    """
+    state = robot.__getstate__()
+    state["model"] = robot.model.copy()
+    state["_chains"] = {}
+    other = object.__new__(Robot)
+    other.__setstate__(state)
+    return other
 
 
 class RobotPool:
@@ -99,11 +106,16 @@ class RobotPool:
         with self._lock:
             return sum(v.nbytes() for v in self._variants.values())
 
-    def check_name(self, name: str) -> None:
-        if name not in self.catalogue:
+    def check_name(self, name: str) -> str:
+        """The built-in name ``name`` means (any case); :class:`UnknownRobotError` for anything else."""
+        if name in self.catalogue:
+            return name
+        try:
+            return robots.canonical_name(name)
+        except UnknownRobotError:
             raise UnknownRobotError(
-                f"unknown robot {name!r}.{suggest(name, self.catalogue)} Known robots: {', '.join(self.catalogue)}"
-            )
+                f"unknown robot {name!r}.{suggest(str(name), self.catalogue)} Known robots: {', '.join(self.catalogue)}"
+            ) from None
 
     def cached(self, name: str, params: dict | None = None) -> Robot | None:
         """This thread's Robot for the variant if it is loaded already (microseconds), else None."""
@@ -128,8 +140,11 @@ class RobotPool:
         robot = self.cached(name, params)
         if robot is not None:
             return robot
-        self.check_name(name)
-        base = _own_model(robots.load(name, geometry=False, **params))
+        name = self.check_name(name)
+        robot = self.cached(name, params)
+        if robot is not None:
+            return robot
+        base = _own_model(robots.load(name, params=params, geometry=False))
         variant = _Variant(base)
         key = self.key(name, params)
         with self._lock:

@@ -66,6 +66,47 @@ class SphereSpec(Strict):
     frames: Annotated[list[Name], Field(max_length=64)] | None = None
 
 
+Length = Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
+Point3 = Annotated[list[Number], Field(min_length=3, max_length=3)]
+Frames = Annotated[list[Name], Field(max_length=64)] | None
+
+
+class SphereObstacle(Strict):
+    kind: Literal["sphere"]
+    center: Point3
+    radius: Length
+    frames: Frames = None
+
+
+class BoxObstacle(Strict):
+    kind: Literal["box"]
+    pose: Pose
+    size: Annotated[list[Length], Field(min_length=3, max_length=3, description="full edge lengths (m), as URDF")]
+    frames: Frames = None
+
+
+class CapsuleObstacle(Strict):
+    kind: Literal["capsule"]
+    a: Point3
+    b: Point3
+    radius: Length
+    frames: Frames = None
+
+
+class CylinderObstacle(Strict):
+    kind: Literal["cylinder"]
+    pose: Pose
+    radius: Length
+    length: Length
+    frames: Frames = None
+
+
+Obstacle = Annotated[SphereObstacle | BoxObstacle | CapsuleObstacle | CylinderObstacle, Field(discriminator="kind")]
+
+
+Obstacles = Annotated[list[Obstacle], Field(max_length=32)]
+
+
 class IKOptions(Strict):
     q0: JointVector | None = None
     frame: Name | None = None
@@ -77,12 +118,42 @@ class IKOptions(Strict):
         default=None, description="seconds; capped server-side"
     )
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
+    self_collision: bool = Field(
+        default=False, description="keep the robot's collision geometry free of self-collision; obstacles are then "
+                                   "kept clear of that geometry (not of the link capsules)")
+    obstacles: Obstacles = Field(
+        default_factory=list, description="shapes kept clear of the robot's links (kind: sphere, box, capsule, cylinder)"
+    )
+    collision_margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+        default=0.0, description="clearance (m) kept from obstacles and between checked link pairs")
     tol_pos: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1.0)] = 1e-4
     tol_rot: Annotated[float, Field(allow_inf_nan=False, gt=0, le=3.2)] = 1e-3
 
 
+class FrameTarget(Strict):
+    frame: Name
+    pose: Pose
+    relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
+    relax_frame: Literal["world", "target"] = "world"
+
+
 class IKRequest(RobotRef, IKOptions):
-    target: Pose
+    target: Pose | None = Field(default=None, description="pose of `frame`; or give `targets`")
+    targets: Annotated[list[FrameTarget], Field(min_length=1, max_length=8)] | None = Field(
+        default=None, description="several frames at once (e.g. both hands), solved together"
+    )
+    link_radius: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+        default=0.0, description="radius (m) of the capsules around the link segments"
+    )
+
+
+class TaskErrorOut(BaseModel):
+    name: str
+    priority: int
+    goal: bool
+    error: float
+    position_error: float
+    orientation_error: float
 
 
 class IKResponse(BaseModel):
@@ -94,6 +165,7 @@ class IKResponse(BaseModel):
     restarts: int
     elapsed: float
     message: str
+    task_errors: list[TaskErrorOut] = Field(default_factory=list)
 
 
 class IKBatchRequest(RobotRef, IKOptions):

@@ -29,6 +29,15 @@ def project(points, eye, target, size) -> np.ndarray:
     return np.c_[w / 2 + k * (d @ r) / depth, h / 2 - k * (d @ u) / depth]
 
 
+def page_camera(commands) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, target) of a page's replayed commands: the drawing is shifted by -target, the camera sits at eye - target."""
+    shift = next(c for c in commands if c["type"] == "set_transform" and c["path"] == "/meshcat")
+    target = -np.asarray(shift["matrix"], dtype=float).reshape(4, 4).T[:3, 3]
+    pos = next(c for c in commands if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
+    p = np.asarray(pos["value"], dtype=float)  # three.js y-up: (x, z, -y) of the world
+    return target + np.array([p[0], -p[2], p[1]]), target
+
+
 def robot_mask(viz, full_html, bare_html, out, size) -> tuple[np.ndarray, np.ndarray]:
     """(screenshot with the robot as an int RGB array, boolean mask of the robot's pixels)."""
     a = np.asarray(Image.open(viz.screenshot(full_html, out / "full.png", size=size)).convert("RGB")).astype(int)
@@ -53,3 +62,43 @@ def assert_panda_drawn(image: np.ndarray, robot: np.ndarray, fk: dict, project, 
     # the pixels around the projected elbow (link4) really belong to the robot
     u4, v4 = project([fk["panda_link4"][:3, 3]])[0].round().astype(int)
     assert robot[max(v4 - 20, 0):v4 + 20, max(u4 - 20, 0):u4 + 20].mean() > 0.2
+
+
+#: Chromium with no way out but loopback: every host name fails to resolve and any other request
+#: goes to a closed local proxy port (loopback itself bypasses the proxy).
+OFFLINE_FLAGS = ("--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1", "--proxy-server=http://127.0.0.1:9")
+
+
+def open_offline(url: str, ready_js: str, *, size=(1200, 900), timeout: float = 60.0):
+    """Open ``url`` in headless Chromium with the network off (loopback only) and poll ``ready_js``.
+
+    Returns ``(value, requested, errors)``: the first truthy value of the
+    expression, every URL the page requested, and the page's uncaught
+    exceptions / console errors. Raises ``TimeoutError`` when ``ready_js``
+    stays falsy for ``timeout`` seconds.
+    """
+    import importlib
+    import time
+
+    screenshot = importlib.import_module("kinserve.viz.screenshot")  # kinserve.viz.screenshot is also a function
+
+    browser = screenshot.find_browser()
+    dt = screenshot._DevTools(browser, size, timeout, extra_flags=OFFLINE_FLAGS)
+    try:
+        dt.attach_page()
+        for domain in ("Page", "Runtime", "Log", "Network"):
+            dt.call(f"{domain}.enable")
+        dt.call("Page.navigate", {"url": url})
+        value = None
+        while not value:
+            try:
+                value = dt.evaluate(ready_js)
+            except RuntimeError:  # the document is being replaced while navigating
+                value = None
+            if not value:
+                dt._remaining()
+                time.sleep(0.1)
+        requested = [ev["params"]["request"]["url"] for ev in dt.events if ev.get("method") == "Network.requestWillBeSent"]
+        return value, requested, dt.errors()
+    finally:
+        dt.close()

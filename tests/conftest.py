@@ -1,6 +1,8 @@
 """Shared fixtures: models built straight from Pinocchio so kinematics tests do not depend on robots/."""
 
+import contextlib
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -10,6 +12,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+# computed collision pairs are cached on disk: keep the tests' cache out of the user's ~/.cache
+if "KINSERVE_CACHE_DIR" not in os.environ:
+    import atexit
+    import shutil
+    import tempfile
+
+    os.environ["KINSERVE_CACHE_DIR"] = tempfile.mkdtemp(prefix="kinserve-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["KINSERVE_CACHE_DIR"], True)
 
 
 def erd_share_dir() -> Path:
@@ -43,3 +53,65 @@ def panda(panda_model):
 def rng():
     return np.random.default_rng(12345)
 
+
+
+# ------------------------------------------------------------ no process left behind
+# A per-session tag in the environment: every process started by this pytest process (or by an
+# xdist worker: each worker re-imports this file and sets its own) inherits it, orphans included.
+from process_leaks import TAG, leftovers, wait_gone  # noqa: E402
+
+os.environ[TAG] = f"{os.getpid()}-{os.urandom(6).hex()}"
+
+
+def _shut_down_persistent_pools() -> None:
+    """Worker pools the library keeps on purpose between calls are stopped through their public API."""
+    for module_name in ("kinserve.ik.batch",):
+        shutdown = getattr(sys.modules.get(module_name), "shutdown_pool", None)
+        if shutdown is not None:
+            shutdown()
+
+
+def _report_leftovers(session, message: str) -> None:
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    if reporter is not None:
+        reporter.ensure_newline()
+        reporter.write_sep("!", "LEFTOVER PROCESSES", red=True, bold=True)
+        reporter.write_line(message)
+    else:
+        print(message, file=sys.stderr)
+    session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_testnodedown(node, error):
+    """xdist controller: collect what each worker found (see pytest_sessionfinish)."""
+    message = getattr(node, "workeroutput", {}).get("leftover_processes")
+    if message:
+        node.config._kinserve_leftovers = [*getattr(node.config, "_kinserve_leftovers", []), message]
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Fail the session if a process the tests started is still alive (checked per xdist worker); kill it.
+
+    A worker hands its finding to the controller through ``workeroutput``
+    (an xdist worker's own exit status does not fail the run).
+    """
+    config = session.config
+    if getattr(config.option, "dist", "no") != "no" and not hasattr(config, "workerinput"):
+        for message in getattr(config, "_kinserve_leftovers", []):  # the xdist controller
+            _report_leftovers(session, message)
+        return
+    _shut_down_persistent_pools()
+    left = leftovers(os.environ[TAG])
+    still = wait_gone(left, timeout=5.0)  # give just-stopped servers (ray, uvicorn, chromium) a moment
+    if not still:
+        return
+    worker = getattr(config, "workerinput", {}).get("workerid", "")
+    lines = [f"  pid {pid}: {left[pid][:200]}" for pid in sorted(still)]
+    message = (f"processes started by the tests{' on xdist worker ' + worker if worker else ''} were still alive "
+               "at the end of the session (now killed):\n" + "\n".join(lines))
+    for pid in still:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGKILL)
+    if hasattr(config, "workeroutput"):
+        config.workeroutput["leftover_processes"] = message
+    _report_leftovers(session, message)

@@ -28,7 +28,7 @@ class Server:
         self.url = f"http://127.0.0.1:{self.port}"
         cmd = [sys.executable, "-m", "kinserve.service.cli", "serve", "--port", str(self.port), "--log-level", "warning",
                "--max-time-cap", str(max_time_cap), *extra]
-        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        env = dict(os.environ)
         self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:

@@ -1,6 +1,7 @@
 """kinserve.ik.analytic: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA; 2R/3R."""
 
 import math
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -161,10 +162,10 @@ def test_youbot_back_branch_reaches_over():
     T = youbot.fk(q).copy()
     raw, note, _ = closed_form_solver(youbot, "tool").solve_all(T)
     assert note == ""
-    sides = {label.split(",")[0] for _, label, _ in raw}
+    sides = {label.split(",")[0] for _, label, *_ in raw}
     # the front branches are inside the limits; the back ones (theta1 + pi) are offered when in limits
     assert "front" in sides
-    for qq, label, _ in raw:
+    for qq, label, *_ in raw:
         if label.startswith("back"):
             assert math.remainder(qq[0] - q[0] - math.pi, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
 
@@ -193,3 +194,42 @@ def test_robots_without_closed_form():
         ik.solve_all(panda, panda.fk(panda.neutral()))
     with pytest.raises(InputError, match="no closed-form"):
         ik.solve(panda, panda.fk(panda.neutral()), method="analytic")
+
+
+def test_youbot_branches_carry_their_own_notes_exact_first():
+    """A target the back branch reaches exactly but the front one cannot (its wrist point is beyond the
+    stretched arm): the exact branch comes first with a clean message, the other says what it is."""
+    youbot = robots.load("youbot", geometry=False)
+    q = np.array([-2.752, 1.487, 0.278, -1.497, -1.043])
+    T = youbot.fk(q).copy()
+    res = ik.solve_all(youbot, T)
+    assert [r.success for r in res] == [True, False]
+    exact, near = res
+    assert exact.message == "closed form" and exact.info["note"] == "" and exact.info["branch"].startswith("back")
+    assert np.allclose(exact.q, q, atol=1e-8)
+    assert near.info["branch"].startswith("front") and "out of reach of the front branches" in near.message
+    assert "nearest reachable position" in near.message and "stretched arm" in near.message
+    # the stated shortfall is the branch's real position error (the arm points at the target, stretched)
+    short_mm = float(re.search(r"([0-9.]+) mm short", near.message).group(1))
+    assert short_mm == pytest.approx(1000 * near.position_error, rel=2e-3)
+    # the independent check: the stretched arm's wrist-to-shoulder distance is a2 + a3
+    assert abs(near.q[2]) < 1e-9 or abs(abs(near.q[2]) - math.pi) < 1e-9
+    # ik.solve picks an exact branch when there is one, whatever the criteria rank first
+    for criteria in ("joint_limit_distance", "displacement"):
+        best = ik.solve(youbot, T, q0=near.q, method="analytic", choose=criteria) if criteria == "displacement" else \
+            ik.solve(youbot, T, method="analytic", choose=criteria)
+        assert best.success and best.message == "closed form"
+
+
+def test_youbot_off_set_target_branches_are_ordered_by_residual_and_labelled():
+    youbot = robots.load("youbot", geometry=False)
+    q = np.array([-2.752, 1.487, 0.278, -1.497, -1.043])
+    T = youbot.fk(q).copy()
+    T[:3, :3] = se3.rot_z(0.15) @ T[:3, :3]
+    res = ik.solve_all(youbot, T)
+    assert not any(r.success for r in res)
+    residual = [r.position_error + r.orientation_error for r in res]
+    assert residual == sorted(residual)
+    assert "this branch reaches the nearest reachable pose" in res[0].message
+    assert "off the 5-DOF reachable set" in res[1].message and "out of reach of the front branches" in res[1].message
+    assert "this branch reaches" not in res[1].message

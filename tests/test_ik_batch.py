@@ -81,3 +81,83 @@ def test_solve_many_validates_everything_first(ur5):
     with pytest.raises(InputError, match="unknown option"):
         ik.solve_many(ur5, good, processes=1, frobnicate=True)
     assert ik.solve_many(ur5, []) == []
+
+
+def test_targets_validated_all_at_once_agree_with_target(ur5):
+    """checked_poses accepts exactly what ik.targets.Target accepts; errors name the index."""
+    import pinocchio as pin
+
+    from kinserve.ik.batch import checked_poses
+    from kinserve.ik.targets import Target
+    from kinserve.kinematics.validation import ROTATION_TOL
+
+    rng = np.random.default_rng(9)
+    good = ur5.fk_batch(ur5.random_q(rng, 50))
+    assert np.array_equal(checked_poses(ur5, good, ur5.tip), good)
+    assert np.array_equal(checked_poses(ur5, [pin.SE3(T) for T in good[:3]], ur5.tip), good[:3])
+    # rotations perturbed around the tolerance: accepted by one iff accepted by the other
+    for k in range(300):
+        T = good[k % 50].copy()
+        T[:3, :3] += rng.normal(size=(3, 3)) * ROTATION_TOL * rng.uniform(0.05, 1.5)
+        try:
+            Target(ur5, T)
+            ok = True
+        except InputError:
+            ok = False
+        try:
+            checked_poses(ur5, T[None], ur5.tip)
+            assert ok, k
+        except InputError as exc:
+            assert not ok and "targets[0]" in str(exc)
+    bad = good[:6].copy()
+    bad[1, 3, 0] = 0.1  # bottom row
+    bad[2, :3, :3] = np.diag([1.0, 1.0, -1.0])  # a reflection, det -1
+    bad[3, 0, 3] = np.inf
+    bad[4, :3, :3] *= 1.01  # not orthonormal
+    bad[5, 2, 3] = 1e9  # beyond any physical size
+    for i in range(1, 6):
+        one = good[:6].copy()
+        one[i] = bad[i]
+        try:
+            Target(ur5, bad[i])
+        except InputError as exc:
+            expected = type(exc)
+        with pytest.raises(expected, match=rf"targets\[{i}\]"):
+            checked_poses(ur5, one, ur5.tip)
+    with pytest.raises(InputError, match=r"targets\[1\]"):
+        checked_poses(ur5, [good[0], np.eye(3)], ur5.tip)  # ragged: checked one by one
+    with pytest.raises(InputError, match=r"targets\[1\]"):
+        checked_poses(ur5, iter([good[0], "x"]), ur5.tip)  # an iterator is read once
+    assert np.array_equal(checked_poses(ur5, (T for T in good[:4]), ur5.tip), good[:4])
+    with pytest.raises(InputError, match="sequence of 4x4 poses, got str"):
+        checked_poses(ur5, "poses", ur5.tip)
+
+
+def test_options_are_checked_without_a_trial_solve(ur5, monkeypatch):
+    from kinserve.ik import batch_worker
+
+    calls = []
+    real = batch_worker.solve_prepared
+    monkeypatch.setattr(batch_worker, "solve_prepared", lambda *a, **k: calls.append(1) or real(*a, **k))
+    poses = ur5.fk_batch(ur5.random_q(np.random.default_rng(6), 5))
+    with pytest.raises(InputError, match="max_iter must be an integer"):
+        ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=0)
+    with pytest.raises(NonFiniteError, match="damping"):
+        ik.solve_many(ur5, poses, processes=1, damping=float("nan"))
+    assert calls == []
+    res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, progress=False)
+    assert len(calls) == 5 and all(r.success for r in res)  # one solve per target, none to test the options
+
+
+def test_timeout_and_q0_rows_are_validated(ur5):
+    poses = ur5.fk_batch(ur5.random_q(np.random.default_rng(7), 4))
+    with pytest.raises(InputError, match="timeout must be positive"):
+        ik.solve_many(ur5, poses, timeout=0)
+    with pytest.raises(NonFiniteError, match="timeout must be finite"):
+        ik.solve_many(ur5, poses, timeout=float("inf"))
+    with pytest.raises(InputError, match="chunksize"):
+        ik.solve_many(ur5, poses, chunksize=0)
+    q0 = ur5.random_q(np.random.default_rng(8), 4)
+    q0[3, 2] = np.nan
+    with pytest.raises(NonFiniteError, match=r"q0\[3\]"):
+        ik.solve_many(ur5, poses, q0)

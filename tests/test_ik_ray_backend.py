@@ -31,3 +31,31 @@ def test_ray_matches_local_backends(local_ray, robot_name, relax):
     assert all(r.success for r in remote)
     for r, T in zip(remote, targets):  # and they are right, checked by FK
         assert np.linalg.norm(robot.fk(r.q)[:3, 3] - T[:3, 3]) < 1e-4
+
+
+def test_ray_timeout_kills_the_actors(local_ray):
+    from kinserve.kinematics.errors import WorkerTimeoutError
+
+    panda = robots.load("panda", geometry=False)
+    far = np.repeat(np.eye(4)[None], 40, axis=0)
+    far[:, :3, 3] = (3.0, 0.0, 0.5)  # unreachable: every target spends its whole 0.05 s budget
+    import time
+
+    t0 = time.monotonic()
+    with pytest.raises(WorkerTimeoutError, match=r"Ray actor .* targets\[\d+:\d+\]"):
+        solve_many(panda, far, backend="ray", processes=2, relax=("yaw",), max_time=0.05, chunksize=20,
+                   timeout=0.3, progress=False)
+    assert time.monotonic() - t0 < 15  # the timeout plus actor start-up, not the whole batch
+    # the killed actors gave their CPUs back: a new batch gets both
+    assert ray.available_resources().get("CPU", 0) == 2 or _cpus_freed_within(5.0)
+
+
+def _cpus_freed_within(seconds):
+    import time
+
+    t_end = time.monotonic() + seconds
+    while time.monotonic() < t_end:
+        if ray.available_resources().get("CPU", 0) == 2:
+            return True
+        time.sleep(0.1)
+    return False

@@ -71,11 +71,18 @@ def test_bad_input_raises_clear_errors(panda, T, kwargs, error, match):
     assert isinstance(info.value, KinserveError)
 
 
-def test_sphere_containing_the_start_configuration(panda, T):
+def test_sphere_containing_the_start_configuration_is_not_an_error(panda, T):
+    # issue 10: a start is only a guess - the solve begins from collision-free starts and says so
     q0 = panda.neutral()
     hand = panda.fk(q0)[:3, 3]
-    with pytest.raises(InputError, match="start configuration"):
-        ik.solve(panda, T, q0, spheres=[ik.Sphere(hand, 0.05)])
+    sphere = ik.Sphere(hand, 0.05)
+    res = ik.solve(panda, T, q0, spheres=[sphere])
+    assert res.success and "q0" in res.message, res.message
+    from kinserve.ik.constraints.obstacles import ObstacleAvoidance
+
+    avoid = ObstacleAvoidance([sphere], tool_frames=("panda_hand",)).bind(panda)
+    panda.fk(res.q)
+    assert avoid.clearances(panda.data).min() >= 0.0
 
 
 def test_robot_argument_checked(T):
@@ -89,7 +96,9 @@ def test_auto_dispatch(panda, scara, T):
     Ts = scara.fk(np.array([0.3, 0.6, 0.5, 0.2])).copy()
     assert ik.solve(scara, Ts).method == "analytic"
     assert ik.solve(scara, Ts, relax=("yaw",)).method == "analytic"
-    assert ik.solve(scara, Ts, spheres=[SPHERE]).method == "qp"
+    # obstacles: the unconstrained answer is kept when its whole path is clear ("lm"), else the constrained QP
+    assert ik.solve(scara, Ts, spheres=[SPHERE]).method in ("lm", "qp")
+    assert ik.solve(scara, Ts, spheres=[SPHERE], method="qp").method == "qp"
     res = ik.solve(scara, Ts, relax=("yaw",))
     assert res.q[3] == pytest.approx(0.0)  # the closed form centres the free wrist joint too
     # SE3 targets are accepted

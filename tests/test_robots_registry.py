@@ -27,6 +27,7 @@ EXPECTED = {
     "so100": (5, "gripper"),
     "so101": (5, "gripper_frame_link"),
     "talos_left_arm": (6, "wrist_left_ft_tool_link"),
+    "baxter": (14, "left_gripper"),
     "baxter_left": (7, "left_gripper"),
     "baxter_right": (7, "right_gripper"),
     "finger_edu": (3, "finger_tip_link"),
@@ -157,3 +158,54 @@ def test_youbot_is_the_shipped_file():
     robot = robots.load("youbot", geometry=False)
     assert robot.source == (models_dir() / "youbot.urdf").read_text()
     assert robot.joint_names == [f"arm_joint_{i}" for i in range(1, 6)]
+
+
+# --------------------------------------------- names, options and parameters (issue 12)
+def test_names_ignore_case_and_suggestions_ignore_case():
+    assert robots.load("UR5", geometry=False).name == "ur5"
+    assert robots.load(" Panda ", geometry=False).name == "panda"
+    assert robots.canonical_name("FINGER_EDU") == "finger_edu"
+    with pytest.raises(UnknownRobotError, match="'UR55'. Did you mean: ur5"):
+        robots.load("UR55")
+    from kinserve.kinematics.errors import FrameError
+
+    with pytest.raises(FrameError, match=r"Did you mean: panda_link8.*`kinserve frames ROBOT` lists all 26"):
+        robots.load("panda", geometry=False).fk(np.zeros(7), "PANDA_LINK8")
+
+
+def test_options_and_parameters_never_share_a_namespace(tmp_path):
+    from kinserve.kinematics.errors import ModelError
+
+    path = tmp_path / "two.urdf"
+    path.write_text(TWO_LINK)
+    # an option is an option, a near-miss of one is named as such (not taken for a joint lock)
+    assert robots.load(path, package_dirs=[tmp_path], geometry=False).nq == 2
+    with pytest.raises(ModelError, match=r"unknown option 'package_dir'.*did you mean package_dirs="):
+        robots.load(path, package_dir=[tmp_path])
+    # parameters in params= (any name, even one spelled like an option) or, for short, as keywords
+    by_params = robots.load(path, params={"j2": 0.5}, tip="l2", geometry=False)
+    by_keyword = robots.load(path, j2=0.5, tip="l2", geometry=False)
+    by_locks = robots.load(path, locks={"j2": 0.5}, tip="l2", geometry=False)
+    for robot in (by_params, by_keyword, by_locks):
+        assert robot.nq == 1
+        np.testing.assert_allclose(robot.fk([0.2]), by_params.fk([0.2]), atol=1e-15)
+    with pytest.raises(ModelError, match="both"):
+        robots.load(path, params={"j2": 0.5}, j2=0.5)
+    with pytest.raises(ModelError, match="package_dirs: .* is not a folder"):
+        robots.load(path, package_dirs=[tmp_path / "nope"])
+    # locks= also after a xacro expansion, next to its args
+    arm = robots.load("planar4r", params={"l1": 2.0}, locks={"joint4": 0.5}, geometry=False)
+    assert arm.nq == 3
+    np.testing.assert_allclose(arm.fk(np.zeros(3)), robots.load("planar4r", l1=2.0, geometry=False).fk([0, 0, 0, 0.5]),
+                               atol=1e-14)
+
+
+def test_neutral_is_the_zero_pose_clipped_into_the_limits():
+    """The documented choice: neutral() = clip(0, lower, upper); middle() = (lower + upper) / 2."""
+    for name in ("panda", "scara", "pr", "kinova"):
+        robot = robots.load(name, geometry=False)
+        np.testing.assert_array_equal(robot.neutral(), np.clip(np.zeros(robot.nq), robot.lower, robot.upper))
+        np.testing.assert_array_equal(robot.middle(), 0.5 * (robot.lower + robot.upper))
+    panda = robots.load("panda", geometry=False)
+    assert panda.neutral()[3] == panda.upper[3] < 0  # joint 4's range excludes 0: the nearest limit
+    assert "clip(0, lower, upper)" in Robot.neutral.__doc__

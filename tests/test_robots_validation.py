@@ -10,6 +10,7 @@ import pytest
 from kinserve import robots
 from kinserve.kinematics.errors import FrameError, ModelError
 from kinserve.robots import load_urdf, load_xacro, process_xacro
+from kinserve.robots.urdf_loader import PLACEHOLDER_RADIUS, MissingMeshWarning
 from kinserve.robots.paths import models_dir
 
 GOOD = """<?xml version="1.0"?>
@@ -69,17 +70,26 @@ def test_joint_naming_a_missing_link(tmp_path):
 
 
 def test_missing_mesh_file(tmp_path):
+    """A missing mesh: kinematics loads silently; with geometry, a warning naming file, line, link and
+    where it looked, and a placeholder sphere instead of the mesh (no collision shape)."""
     text = GOOD.replace(
         '<link name="l1"/>',
-        '<link name="l1"><visual><geometry><mesh filename="meshes/arm.stl"/></geometry></visual></link>',
+        '<link name="l1"><visual><geometry><mesh filename="meshes/arm.stl"/></geometry></visual>'
+        '<collision><geometry><mesh filename="meshes/arm.stl"/></geometry></collision></link>',
     )
     path = write(tmp_path, text)
-    msg = error_of(path)
+    assert load_urdf(path, geometry=False).nq == 2
+    with pytest.warns(MissingMeshWarning) as record:
+        robot = load_urdf(path, geometry=True)
+    msg = str(record[0].message)
     assert str(path) in msg and "'meshes/arm.stl'" in msg and "'l1'" in msg and "line 4" in msg
     assert str(tmp_path / "meshes" / "arm.stl") in msg  # where it looked
+    assert robot.visual_model.ngeoms == 1 and robot.collision_model.ngeoms == 0
+    shape = robot.visual_model.geometryObjects[0].geometry
+    assert type(shape).__name__ == "Sphere" and shape.radius == PLACEHOLDER_RADIUS
     pkg = text.replace("meshes/arm.stl", "package://example-robot-data/robots/nowhere/arm.stl")
-    msg = error_of(write(tmp_path, pkg, "pkg.urdf"))
-    assert "package://example-robot-data/robots/nowhere/arm.stl" in msg and "looked in" in msg
+    with pytest.warns(MissingMeshWarning, match="package://example-robot-data/robots/nowhere/arm.stl.*looked in"):
+        load_urdf(write(tmp_path, pkg, "pkg.urdf"), geometry=True)
 
 
 def test_existing_relative_mesh_loads_with_geometry(tmp_path):

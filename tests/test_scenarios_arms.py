@@ -26,7 +26,7 @@ from matplotlib.image import imread
 
 from kinserve import robots
 from kinserve import scenarios
-from scenario_runs import run_scenario
+from scenario_runs import assert_readme_row, figures, run_scenario
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory
 from kinserve.scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
@@ -224,6 +224,27 @@ def test_planar_branches_collapse_at_the_workspace_boundary(planar):
     assert all(row["family_size"] > 10 for row in rows)
 
 
+def test_planar_family_plot_legend_counts_come_from_the_result(planar):
+    from figure_checks import axis_labels, legends_clear_of_data, titles_inside
+
+    out, r = planar
+    fig = figures(out)["family.png"]
+    titles_inside(fig)
+    legends_clear_of_data(fig)
+    axis_labels(fig.axes[0])
+    labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    up = next(lbl for lbl in labels if lbl.startswith("elbow up"))
+    down = next(lbl for lbl in labels if lbl.startswith("elbow down"))
+    cross = next(lbl for lbl in labels if lbl.startswith("links cross"))
+    assert f"elbow up: {r['elbow_up']} members" in up and f"elbow down: {r['elbow_down']} members" in down
+    assert f"{r['self_overlapping']} members" in cross
+    # the numbers in parentheses are the crossing members of each branch, as result.json lists them
+    branch, overlap = np.array(r["family_branch"]), np.array(r["family_self_overlap"], dtype=bool)
+    n_up, n_down = int((overlap & (branch == "elbow up")).sum()), int((overlap & (branch == "elbow down")).sum())
+    assert f"({n_up} with crossing" in up and f"({n_down} with crossing" in down
+    assert r["elbow_up"] == int((branch == "elbow up").sum()) and r["elbow_down"] == int((branch == "elbow down").sum())
+
+
 def test_planar_artefacts(planar):
     out, _ = planar
     assert_pngs(out, ["family.png", "family_joints.png", "chosen.png", "boundary.png"])
@@ -326,10 +347,51 @@ def test_youbot_off_set_pose_is_reported_and_the_nearest_reachable_pose_solved(y
         assert np.abs(Tq - np.array(off["reached_pose"])).max() < 1e-9
 
 
+def test_youbot_branches_plot_has_both_axis_labels_and_a_clear_legend(youbot):
+    from figure_checks import axis_labels, legends_clear_of_data, titles_inside
+
+    out, r = youbot
+    fig = figures(out)["branches.png"]
+    titles_inside(fig)
+    axis_labels(fig.axes[0])
+    legends_clear_of_data(fig)
+    n = sum(len(case["branches"]) for case in r["ik"].values())
+    assert len([ln for ln in fig.axes[0].lines if not ln.get_label().startswith("_")]) == n
+
+
 def test_youbot_artefacts(youbot):
     out, _ = youbot
     assert_pngs(out, ["manipulability.png", "branches.png"])
     assert_scene(out, animated=False)
+
+
+def test_youbot_scene_frames_every_branch_centred_and_filling_the_view(youbot):
+    """Every frame of every drawn arm (bases read from the page, q from result.json, FK here) projects
+    inside a 4:3 window with the page's camera, centred, spanning most of it both ways: not a
+    strip in the lower half with the top 40 % empty."""
+    from browser_checks import project
+    from browser_checks import page_camera as exported_camera
+    from kinserve import viz
+
+    out, r = youbot
+    commands = viz.read_html_commands(out / "scene.html")
+    eye, target = exported_camera(commands)
+    qs = {f"branch{k}": b["q"] for k, b in enumerate(b for case in r["ik"].values() for b in case["branches"])}
+    qs["nearest_reachable"] = r["off_reachable"]["branches"][0]["q"]
+    arm = robots.load("youbot", geometry=False)
+    points = []
+    for name, q in qs.items():
+        base = next(c for c in commands if c["type"] == "set_transform" and c["path"] == f"/meshcat/{name}")
+        B = np.asarray(base["matrix"], dtype=float).reshape(4, 4).T
+        points += [(B @ T)[:3, 3] for T in arm.fk_all(np.array(q)).values()]
+    w, h = size = (800, 600)
+    px = project(np.array(points), eye, target, size)
+    assert px[:, 0].min() >= 0 and px[:, 0].max() <= w and px[:, 1].min() >= 0 and px[:, 1].max() <= h
+    assert px[:, 1].min() < 0.4 * h, "the top 40 % of the view is empty"
+    # joint frames only: the link shapes and the target triads reach further out
+    assert np.ptp(px[:, 0]) > 0.6 * w and np.ptp(px[:, 1]) > 0.35 * h
+    assert abs(0.5 * (px[:, 0].min() + px[:, 0].max()) / w - 0.5) < 0.1
+    assert abs(0.5 * (px[:, 1].min() + px[:, 1].max()) / h - 0.5) < 0.1
 
 
 # --------------------------------------------------------------------------- S3 youBot tour
@@ -540,7 +602,7 @@ def test_scara_artefacts(scara):
 
 
 def test_cli_demo_scara_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "scara", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -548,3 +610,10 @@ def test_cli_demo_scara_end_to_end(tmp_path):
     r = load(tmp_path / "scara")
     assert r["scenario"] == "scara" and r["min_tool_sphere_distance"] >= SPHERE_R - 1e-9
     assert (tmp_path / "scara" / "scene.html").is_file() and (tmp_path / "scara" / "methods.png").is_file()
+
+
+# --------------------------------------------------------------------------- README table
+@pytest.mark.parametrize("fixture", ["planar", "youbot", "tour", "scara"])
+def test_readme_row_matches_a_fresh_run(fixture, request):
+    out, result = request.getfixturevalue(fixture)
+    assert_readme_row(result["scenario"], result)

@@ -17,11 +17,12 @@ import pytest
 from PIL import Image
 from scipy.linalg import expm
 
+from scenario_runs import figures, run_into
 from kinserve import robots
 from kinserve import scenarios
 from kinserve import viz
 from kinserve.planners import JointTrajectory
-from kinserve.scenarios import pick_place
+from kinserve.scenarios import pick_place, pick_place_clearance
 from kinserve.service.cli_demo import _summary
 from kinserve.viz.animation import pose_at
 
@@ -54,7 +55,7 @@ def poe(screws, q, M):
 @pytest.fixture(scope="module")
 def s4(tmp_path_factory):
     out = tmp_path_factory.mktemp("pick-place")
-    scenarios.run("pick-place", out)
+    run_into(out, "pick-place")
     r = json.loads((out / "result.json").read_text())
     traj = JointTrajectory.load(out / "trajectory.json")
     panda = robots.load("panda")
@@ -216,3 +217,59 @@ def test_direct_motion_reports_infeasible_samples_without_joint_jumps(tmp_path):
     Q = JointTrajectory.load(tmp_path / "trajectory.json").positions
     jumps = np.abs(np.diff(Q, axis=0)).max(axis=1)
     assert jumps.max() < 0.5, f"joint jump of {jumps.max():.2f} rad at sample {int(jumps.argmax()) + 1}"
+
+
+def test_tracking_errors_plot_title_inside_legend_off_the_curves(s4):
+    from figure_checks import axis_labels, legends_clear_of_data, titles_inside
+
+    _, out, _, _, _ = s4
+    fig = figures(out)["tracking_errors.png"]
+    titles_inside(fig)
+    legends_clear_of_data(fig)
+    axis_labels(fig.axes[0])
+    labels = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert "position error (m)" in labels and any(lbl.startswith("grasped") for lbl in labels)
+
+def test_readme_row_matches_a_fresh_run(s4):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pick-place", s4[0])
+
+
+def test_clearance_between_arm_and_scene_matches_independent_coal(s4):
+    """result.json's smallest arm-scene distance, recomputed with coal on the saved trajectory (links 0-7 hulls)."""
+    import coal
+    import pinocchio as pin
+
+    r, _out, traj, panda, _flange = s4
+    c = r["clearance"]
+    assert [o["kind"] for o in c["scene_obstacles"]] == ["box"] * 6  # table top + the open box's five plates
+    boxes = [(coal.Box(*o["size"]), coal.Transform3s(np.array(o["pose"])[:3, :3], np.array(o["pose"])[:3, 3]))
+             for o in c["scene_obstacles"]]
+    geoms = []
+    for g in panda.collision_model.geometryObjects:
+        if panda.model.frames[g.parentFrame].name in pick_place_clearance.ARM_LINKS and g.parentJoint:
+            mesh = g.geometry
+            mesh.buildConvexHull(True, "Qt")
+            geoms.append((g, mesh.convex))
+    data = panda.model.createData()
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+
+    def min_distance(q):
+        pin.forwardKinematics(panda.model, data, q)
+        best = np.inf
+        for g, hull in geoms:
+            M = data.oMi[g.parentJoint] * g.placement
+            for box, T in boxes:
+                res.clear()
+                best = min(best, coal.distance(hull, coal.Transform3s(M.rotation, M.translation), box, T, req, res))
+        return best
+
+    k = c["min_arm_scene_distance_step"]
+    assert min_distance(traj.positions[k]) == pytest.approx(c["min_arm_scene_distance"], abs=1e-6)
+    for q in traj.positions[::10]:
+        assert min_distance(q) >= c["min_arm_scene_distance"] - 1e-6
+    assert r["min_arm_scene_distance"] == c["min_arm_scene_distance"] > 0.0
+    assert c["self_collision_free"] is True
+    # the carried cylinder: within a grasp tolerance (1 mm) of the table / box floor at worst
+    assert -1e-3 <= r["min_cylinder_scene_distance"] < 0.05

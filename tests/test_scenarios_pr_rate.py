@@ -9,6 +9,7 @@ tracking errors from the saved joint histories with these formulas.
 from __future__ import annotations
 
 import json
+import re
 import math
 import os
 import subprocess
@@ -19,6 +20,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from scenario_runs import figures, run_into
 from kinserve import robots
 from kinserve import scenarios
 
@@ -47,7 +49,7 @@ def jac(t2):
 @pytest.fixture(scope="module")
 def s5(tmp_path_factory):
     out = tmp_path_factory.mktemp("pr-rate")
-    scenarios.run("pr-rate", out)
+    run_into(out, "pr-rate")
     return json.loads((out / "result.json").read_text()), out
 
 
@@ -187,7 +189,7 @@ def test_pngs_are_real_plots(s5):
 
 
 def test_cli_demo_pr_rate_end_to_end(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
+    env = dict(os.environ, MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "pr-rate", "--out", str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -195,3 +197,31 @@ def test_cli_demo_pr_rate_end_to_end(tmp_path):
     r = json.loads((tmp_path / "pr-rate" / "result.json").read_text())
     assert r["runs"] == 11 and r["closed_beats_open_on_all_circles"] is True
     assert (tmp_path / "pr-rate" / "circles.png").is_file()
+
+
+def test_runs_joints_plot_shows_every_run(s5):
+    """runs_joints.png: one panel per run of the table (all 11), each with d1 and theta2 over n + 1 steps."""
+    from figure_checks import axis_labels, titles_inside
+
+    r, out = s5
+    fig = figures(out)["runs_joints.png"]
+    titles_inside(fig)
+    panels = {}
+    for ax in fig.axes:
+        m = re.match(r"run (\d+):", ax.get_title())
+        if m:
+            assert m.group(1) not in panels
+            panels[m.group(1)] = ax
+    assert len(panels) == len(r["table"]) == 11
+    for row in r["table"]:
+        ax = panels[str(row["run"])]
+        axis_labels(ax)
+        (d1,) = [ln for ln in ax.lines if ln.get_label() == "d₁ (m)"]
+        assert len(d1.get_xdata()) == row["n"] + 1 and d1.get_ydata()[0] == pytest.approx(row["q_init"][0])
+        twins = [a for a in fig.axes if a is not ax and a.bbox.bounds == ax.bbox.bounds]
+        assert any(ln.get_label() == "θ₂ (deg)" for a in twins for ln in a.lines)
+
+def test_readme_row_matches_a_fresh_run(s5):
+    from scenario_runs import assert_readme_row
+
+    assert_readme_row("pr-rate", s5[0])

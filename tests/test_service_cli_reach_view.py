@@ -2,15 +2,18 @@
 
 import os
 import re
+import signal
 import subprocess
 import sys
 import time
 
 import httpx
 import numpy as np
+import pytest
+from process_leaks import alive, parent_of, wait_gone
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-ENV = dict(os.environ, PYTHONPATH=ROOT, MPLBACKEND="Agg")
+ENV = dict(os.environ, MPLBACKEND="Agg")
 
 
 def test_reach_writes_npz_and_png(tmp_path):
@@ -26,25 +29,58 @@ def test_reach_writes_npz_and_png(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
 
 
-def test_view_serves_the_robot_until_interrupted(tmp_path):
-    proc = subprocess.Popen([sys.executable, "-u", "-m", "kinserve.service.cli", "view", "scara", "--q", "0.3", "0.5", "0.4", "0.1"],
+def start_view(*args: str) -> tuple[subprocess.Popen, str, int]:
+    """``kinserve view ...`` in a subprocess: (process, page URL, pid of its meshcat server) once it serves."""
+    proc = subprocess.Popen([sys.executable, "-u", "-m", "kinserve.service.cli", "view", *args],
                             cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 60
+    seen = []
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        seen.append(line)
+        if not line and proc.poll() is not None:
+            break
+        m = re.search(r"(http://127\.0\.0\.1:\d+/static/)\s+\(meshcat server pid (\d+);", line)
+        if m:
+            return proc, m.group(1), int(m.group(2))
+    proc.kill()
+    proc.wait()
+    raise AssertionError(f"no viewer URL printed: {''.join(seen)}")
+
+
+@pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 128 + signal.SIGTERM), (signal.SIGINT, 0),
+                                         (signal.SIGHUP, 128 + signal.SIGHUP)], ids=["SIGTERM", "SIGINT", "SIGHUP"])
+def test_view_serves_the_robot_until_signalled_and_stops_its_server(sig, status):
+    proc, url, server = start_view("scara", "--q", "0.3", "0.5", "0.4", "0.1")
     try:
-        url = None
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and url is None:
-            line = proc.stdout.readline()
-            if not line and proc.poll() is not None:
-                break
-            m = re.search(r"(http://127\.0\.0\.1:\d+/static/)", line)
-            url = m.group(1) if m else None
-        assert url, "no viewer URL printed"
+        assert alive(server) and parent_of(server) == proc.pid
         page = httpx.get(url, timeout=10)
         assert page.status_code == 200 and "meshcat" in page.text.lower()
         assert proc.poll() is None  # still serving
+        proc.send_signal(sig)
+        assert proc.wait(timeout=20) == status
+        assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the viewer"
+        assert "Traceback" not in proc.stdout.read()
     finally:
-        proc.terminate()
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
+        if alive(server):
+            os.kill(server, signal.SIGKILL)
+
+
+def test_viewer_killed_outright_still_takes_its_server_down():
+    """SIGKILL allows no clean-up in the viewer: the server's parent-death signal (Linux) ends it."""
+    proc, _, server = start_view("planar4r")
+    try:
+        proc.kill()
         proc.wait(timeout=10)
+        assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the killed viewer"
+    finally:
+        proc.stdout.close()
+        if alive(server):
+            os.kill(server, signal.SIGKILL)
 
 
 def test_view_html_writes_a_static_page(tmp_path):

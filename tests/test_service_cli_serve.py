@@ -14,7 +14,8 @@ from service_server import Server
 
 def test_listener_reports_tcp_so_accepted_connections_get_nodelay():
     config = uvicorn.Config("kinserve.service.app:app", host="127.0.0.1", port=0, log_level="critical")
-    assert config.bind_socket().proto == 0  # the uvicorn behaviour being worked around
+    with config.bind_socket() as plain:
+        assert plain.proto == 0  # the uvicorn behaviour being worked around
     sock = tcp_listener(config)
     assert sock.proto == socket.IPPROTO_TCP
     port = sock.getsockname()[1]

@@ -1,4 +1,5 @@
-"""service.robot_pool: a bounded LRU of robot variants with per-thread copies."""
+"""service.robot_pool: a bounded LRU of robot variants with per-thread copies; built-in names only (any
+case), parameters never taken for options."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ import pytest
 
 from kinserve import robots
 from kinserve.ik.seeds import seed_table
-from kinserve.kinematics.errors import UnknownRobotError
+from kinserve.kinematics.errors import ModelError, UnknownRobotError
+from kinserve.robots.paths import models_dir
 from kinserve.service.robot_pool import RobotPool
 
 
@@ -91,3 +93,25 @@ def test_1000_distinct_params_leave_the_rss_bounded():
     assert pool.nbytes() < 32 << 20
     # unbounded, the 900 further variants would hold ~570 MB (measured: 0.63 MB each)
     assert growth < 40, f"RSS grew {growth:.0f} MB over 900 further variants"
+
+
+def test_names_ignore_case_and_share_one_model():
+    pool = RobotPool()
+    a, b = pool.get("PANDA"), pool.get("panda")
+    assert a is b and a.name == "panda" and a.visual_model is None
+
+
+@pytest.mark.parametrize("name", ["/etc/passwd", str(models_dir() / "planar4r.urdf.xacro"), "../robots/models/pr.urdf.xacro",
+                                  '<robot name="x"><link name="a"/></robot>'])
+def test_paths_and_xml_from_the_network_are_unknown_robots(name):
+    with pytest.raises(UnknownRobotError, match="Known robots: planar4r") as err:
+        RobotPool().get(name)
+    assert "path" not in str(err.value)  # no hint the service would read files
+
+
+@pytest.mark.parametrize("params", [{"geometry": True}, {"package_dirs": "/"}, {"allow_outside": True}, {"srdf": "/etc/passwd"}])
+def test_request_parameters_are_model_parameters_never_loader_options(params):
+    with pytest.raises(ModelError, match="unknown parameter"):
+        RobotPool().get("panda", params)
+    with pytest.raises(ModelError, match="unknown xacro arg"):
+        RobotPool().get("planar4r", params)

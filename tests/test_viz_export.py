@@ -70,3 +70,57 @@ def test_title_is_escaped(tmp_path):
     scene.add_sphere("s", [0, 0, 0], 0.1)
     text = viz.export_html(scene, tmp_path / "t.html").read_text()
     assert "<title>&lt;b&gt;a &amp; b&lt;/b&gt;</title>" in text
+
+
+def wcag_luminance(rgb) -> float:
+    """WCAG 2 relative luminance of an sRGB colour given as 0-255 channels."""
+    c = np.asarray(rgb, dtype=float) / 255.0
+    lin = np.where(c <= 0.03928, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return float(0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2])
+
+
+def contrast_ratio(a, b) -> float:
+    la, lb = sorted((wcag_luminance(a), wcag_luminance(b)), reverse=True)
+    return (la + 0.05) / (lb + 0.05)
+
+
+def css_colour(value: str):
+    """(r, g, b in 0-255, alpha) of a CSS colour: #rgb, #rrggbb, rgb(...) or rgba(...)."""
+    value = value.strip()
+    m = re.fullmatch(r"#([0-9a-fA-F]{3}|[0-9a-fA-F]{6})", value)
+    if m:
+        h = m.group(1) if len(m.group(1)) == 6 else "".join(ch * 2 for ch in m.group(1))
+        return np.array([int(h[i:i + 2], 16) for i in (0, 2, 4)], dtype=float), 1.0
+    m = re.fullmatch(r"rgba?\(([^)]*)\)", value)
+    assert m, f"unparsed CSS colour {value!r}"
+    parts = [float(p) for p in m.group(1).split(",")]
+    return np.array(parts[:3]), (parts[3] if len(parts) == 4 else 1.0)
+
+
+def caption_style(text: str) -> dict:
+    rule = re.search(r"#kinserve-status\s*\{([^}]*)\}", text).group(1)
+    return {k.strip(): v.strip() for k, v in (d.split(":", 1) for d in rule.split(";") if ":" in d)}
+
+
+def test_caption_is_readable_over_the_scene_background(panda_scene, tmp_path):
+    """WCAG contrast >= 4.5 between the caption's text and what is behind it, from the page as written:
+    its CSS, and the background gradient the page's own commands set (over black and white too)."""
+    path = viz.export_html(panda_scene, tmp_path / "caption.html")
+    text = path.read_text(encoding="utf-8")
+    style = caption_style(text)
+    fg, fg_alpha = css_colour(style["color"])
+    assert fg_alpha == 1.0
+    backdrop = style.get("background-color", style.get("background", "rgba(0, 0, 0, 0)"))
+    bd, bd_alpha = css_colour(backdrop)
+    gradient = {c["property"]: np.array(c["value"]) * 255 for c in viz.read_html_commands(path)
+                if c["path"] == "/Background" and c["type"] == "set_property"}
+    assert set(gradient) == {"top_color", "bottom_color"}
+    behind = [gradient["top_color"], gradient["bottom_color"], np.zeros(3), np.full(3, 255.0)]
+    for scene_colour in behind:
+        seen = bd_alpha * bd + (1 - bd_alpha) * scene_colour  # the backdrop composited over the scene
+        ratio = contrast_ratio(fg, seen)
+        assert ratio >= 4.5, f"caption contrast {ratio:.2f} over {scene_colour}"
+    # the formula itself: black on white is 21, a colour on itself 1, and the old grey on midnight blue fails
+    assert contrast_ratio([0, 0, 0], [255, 255, 255]) == pytest.approx(21.0)
+    assert contrast_ratio([51, 51, 51], [51, 51, 51]) == pytest.approx(1.0)
+    assert contrast_ratio([0x33, 0x33, 0x33], gradient["bottom_color"]) < 4.5

@@ -48,3 +48,18 @@ def test_serve_announces_and_stops(scene):
     thread.join(timeout=20)
     assert not thread.is_alive()
     assert len(lines) == 1 and result["url"] in lines[0] and "Ctrl-C" in lines[0]
+
+
+def test_a_viewer_never_closed_stops_its_server_when_python_exits(tmp_path):
+    """Normal interpreter exit without close(): the atexit stop ends the meshcat server."""
+    import subprocess
+    import sys
+
+    from process_leaks import alive, wait_gone
+
+    code = "from kinserve.viz import LiveViewer; v = LiveViewer(); print(v.server_pid, flush=True); assert v.running"
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    server = int(out.stdout.split()[0])
+    assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived its Python process"
+    assert not alive(server)

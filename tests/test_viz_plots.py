@@ -127,3 +127,28 @@ def test_bad_plot_input():
         viz.save_png(viz.series_figure(None, np.zeros(3)), "plot.jpg")
     with pytest.raises(InputError):
         viz.planar_arm_figure([1, 1], {})
+
+
+def test_layout_checks_catch_a_cut_title_and_a_legend_on_the_curves():
+    """The checks the scenario plot tests use (figure_checks) fail on the faults they look for."""
+    from figure_checks import axis_labels, legends_clear_of_data, titles_inside
+
+    t = np.linspace(0, 15, 501)
+    e = np.where(t > 14.5, 1e-6, 1e-16)  # a spike at the right end, under an upper-right legend
+    fig = viz.errors_figure(t, {"position": e, "orientation": 0.5 * e}, xlabel="time (s)",
+                            title="S4 tracking errors of DLS IK (λ = 0.05, warm started, null-space centring, 501 samples)")
+    fig.axes[0].legend(loc="upper right")
+    with pytest.raises(AssertionError, match="outside the figure"):
+        titles_inside(fig)
+    with pytest.raises(AssertionError, match="covers"):
+        legends_clear_of_data(fig)
+    fig.axes[0].set_xlabel("")
+    with pytest.raises(AssertionError, match="no x label"):
+        axis_labels(fig.axes[0])
+    # the same data with a short title and the legend below the axes passes
+    fig = viz.errors_figure(t, {"position": e, "orientation": 0.5 * e}, xlabel="time (s)", title="S4 tracking errors")
+    fig.axes[0].get_legend().remove()
+    fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=2)
+    titles_inside(fig)
+    legends_clear_of_data(fig)
+    axis_labels(fig.axes[0])

@@ -208,13 +208,19 @@ def test_auto_camera_sees_everything(panda):
     scene.add_robot(panda, panda.neutral())
     scene.add_sphere("far", [1.5, -1.0, 0.2], 0.1)
     eye, target = scene.camera()
+    # every drawn point is inside a 4:3 window: within the vertical field of view, and
+    # horizontally within aspect * tan(fov/2) (a pyramid, not a cone)
+    f = (target - eye) / np.linalg.norm(target - eye)
+    r = np.cross(f, [0, 0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    t = np.tan(np.radians(CAMERA_FOV_DEG / 2))
+    d = scene.drawn_points() - eye
     lo, hi = scene.bounds()
-    view = (target - eye) / np.linalg.norm(target - eye)
-    half = np.radians(CAMERA_FOV_DEG / 2)
-    for corner in np.array(np.meshgrid(*zip(lo, hi))).T.reshape(-1, 3):
-        d = corner - eye
-        angle = np.arccos(np.clip(d @ view / np.linalg.norm(d), -1, 1))
-        assert angle < half
+    assert np.allclose(d.min(axis=0) + eye, lo) and np.allclose(d.max(axis=0) + eye, hi)
+    depth = d @ f
+    assert np.all(depth > 0)
+    assert np.all(np.abs(d @ u) / depth < t) and np.all(np.abs(d @ r) / depth < 4 / 3 * t)
     # meshcat aims at its world origin: the drawing and the grid are shifted by -target, and the
     # camera (inside the y-up "rotated" node, Rx(90 deg)) sits at eye - target
     cmds = {c["path"]: c for c in scene.camera_commands()}

@@ -33,7 +33,7 @@ plots are ``*_figure`` functions returning matplotlib figures, written by
     viz.save_png(viz.planar_arm_figure([1, .8, .6, .4], {"elbow up": Qu, "elbow down": Qd}, target=(x, y, th)), out / "family.png")
 """
 
-from . import colors, map2d
+from . import camera, colors, map2d
 from .animation import Animation
 from .export import export_html, read_html_commands, static_html
 from .live import LiveViewer, serve
@@ -59,5 +59,5 @@ __all__ = [
     "LiveViewer", "serve", "Rect", "Circle", "Grid", "skeleton_geometry",
     "save_png", "series_figure", "joints_figure", "errors_figure", "joints_and_errors_figure",
     "manipulability_figure", "xy_figure", "map_figure", "planar_arm_figure", "planar_chain",
-    "screenshot", "page_status", "find_browser", "BrowserUnavailable", "colors", "map2d",
+    "screenshot", "page_status", "find_browser", "BrowserUnavailable", "colors", "map2d", "camera",
 ]

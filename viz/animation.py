@@ -144,6 +144,9 @@ class Animation:
             for path, T in handle.geometry_poses(q, world=False).items():
                 self._keys.setdefault(path, {})[int(f)] = T
         self._robot_steps[name] = (frames, Q.copy())
+        # the scene's automatic camera frames the whole motion: geometry boxes at (up to) 40 of its samples
+        picks = np.unique(np.linspace(0, len(Q) - 1, min(len(Q), 40)).round().astype(int))
+        self.scene._note_points(f"{name}/motion", np.vstack([handle.geometry_corners(Q[i]) for i in picks]))
         return frames
 
     # ------------------------------------------------------------ queries

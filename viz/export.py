@@ -36,6 +36,12 @@ from kinserve.kinematics.errors import InputError
 
 from .scene import Scene
 
+#: Caption (the page title, then the load status) at the bottom left: near-black text on a
+#: nearly opaque white backdrop, readable over any part of the scene (the background gradient
+#: ends in midnight blue at the bottom; WCAG contrast ratio above 12 even over black).
+CAPTION_TEXT = "#1a1a1a"
+CAPTION_BACKDROP = "rgba(255, 255, 255, 0.88)"
+
 #: The meshcat viewer bundle shipped inside the ``meshcat`` Python package.
 VIEWER_JS = Path(meshcat.__file__).resolve().parent / "viewer" / "dist" / "main.min.js"
 
@@ -48,7 +54,8 @@ _TEMPLATE = """<!DOCTYPE html>
 <style>
   body {{ margin: 0; }}
   #meshcat-pane {{ width: 100vw; height: 100vh; overflow: hidden; }}
-  #kinserve-status {{ position: absolute; left: 8px; bottom: 6px; font: 12px sans-serif; color: #333; }}
+  #kinserve-status {{ position: absolute; left: 8px; bottom: 6px; padding: 2px 6px; border-radius: 3px;
+                     font: 12px sans-serif; color: {caption_text}; background-color: {caption_backdrop}; }}
 </style>
 </head>
 <body>
@@ -165,6 +172,8 @@ def static_html(scene: Scene, *, title: str | None = None, compress: bool = True
         viewer_js = viewer_js.replace("</script", "<\\/script").replace("</SCRIPT", "<\\/SCRIPT")
     return _TEMPLATE.format(
         title=html.escape(title or scene.title),
+        caption_text=CAPTION_TEXT,
+        caption_backdrop=CAPTION_BACKDROP,
         viewer_js=viewer_js,
         encoding="gzip" if compress else "raw",
         count=len(commands),

@@ -1,4 +1,4 @@
-"""A live meshcat viewer: a local meshcat server showing a :class:`viz.Scene`.
+"""A live meshcat viewer: a local meshcat server showing a :class:`kinserve.viz.Scene`.
 
 ``LiveViewer()`` starts meshcat's own server (``python -m
 meshcat.servers.zmqserver``, the process ``meshcat.Visualizer()`` starts) as a
@@ -8,12 +8,29 @@ and pushes it to every browser that opens :attr:`LiveViewer.url` (and it
 answers meshcat's ``get_scene`` request with the same static HTML that
 meshcat would export). :meth:`LiveViewer.close` (or leaving a ``with`` block)
 stops the server. :func:`serve` is the blocking loop behind ``kinserve view``.
+
+No server outlives its viewer: :func:`start_meshcat_server` registers an
+``atexit`` stop as soon as the process exists (normal exit, ``sys.exit``, an
+exception), :func:`serve` turns SIGTERM and SIGHUP into a normal exit
+(``SystemExit(128 + signal)``) so that clean-up runs, SIGINT (Ctrl-C) ends the
+loop, and on Linux a server started from the main thread also gets SIGTERM
+from the kernel if its parent dies without clean-up (``PR_SET_PDEATHSIG``,
+e.g. after SIGKILL).
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import ctypes
 import io
+import os
+import re
+import select
+import signal
+import subprocess
+import sys
+import threading
 import time
 
 import meshcat
@@ -26,6 +43,94 @@ from kinserve.kinematics.errors import InputError
 from .scene import ROOT, Scene
 
 
+#: Linux prctl option: the signal the kernel sends a child when the thread that started it dies.
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def stop_process(proc: subprocess.Popen, timeout: float = 5.0) -> None:
+    """SIGTERM ``proc``, wait up to ``timeout`` s, then SIGKILL; reaps it either way."""
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    for stream in (proc.stdout, proc.stderr):
+        if stream is not None:
+            stream.close()
+
+
+#: meshcat servers started by this process and not stopped yet; stopped at interpreter exit at the latest.
+_SERVERS: set[subprocess.Popen] = set()
+
+
+@atexit.register
+def _stop_all_servers() -> None:
+    for proc in list(_SERVERS):
+        stop_process(proc)
+        _SERVERS.discard(proc)
+
+
+def start_meshcat_server(timeout: float = 60.0) -> tuple[subprocess.Popen, str, str]:
+    """Start ``python -m meshcat.servers.zmqserver`` on 127.0.0.1: ``(process, zmq_url, web_url)``.
+
+    What ``meshcat.servers.zmqserver.start_zmq_server_as_subprocess`` does,
+    plus: the server is stopped at interpreter exit unless stopped before, the
+    server gets its parent's death signal (Linux, main thread only: the
+    kernel ties it to the starting *thread*), and stderr is not kept in an
+    unread pipe. The server runs in its own session, so a Ctrl-C in the
+    terminal reaches the viewer, which then stops the server in order.
+    """
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    proc = subprocess.Popen(
+        [sys.executable, "-u", "-m", "meshcat.servers.zmqserver"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+        stdin=subprocess.DEVNULL, start_new_session=True,
+        preexec_fn=_die_with_parent if in_main_thread and sys.platform.startswith("linux") else None,
+    )
+    _SERVERS.add(proc)
+    urls: dict[str, str] = {}
+    deadline = time.monotonic() + timeout
+    fd, pending = proc.stdout.fileno(), b""
+    while len(urls) < 2:
+        left = deadline - time.monotonic()
+        ready = select.select([fd], [], [], max(left, 0.0))[0] if left > 0 else []
+        chunk = os.read(fd, 4096) if ready else None
+        if chunk is None or chunk == b"":
+            stop_process(proc)
+            _SERVERS.discard(proc)
+            if chunk is None:
+                raise RuntimeError(f"the meshcat server did not report its URLs within {timeout:.0f} s")
+            raise RuntimeError(f"the meshcat server exited on start with code {proc.returncode}")
+        pending += chunk
+        *lines, pending = pending.split(b"\n")
+        for line in lines:
+            m = re.match(r"^(zmq_url|web_url)=(\S+)$", line.decode("utf-8", "replace").strip())
+            if m:
+                urls[m.group(1)] = m.group(2)
+    return proc, urls["zmq_url"], urls["web_url"]
+
+
+class _Window(meshcat.visualizer.ViewerWindow):
+    """meshcat's ``ViewerWindow`` that closes its previous ZeroMQ socket when it reconnects.
+
+    ``ViewerWindow.__init__`` connects twice (it asks for the URL, then
+    reconnects) and leaves the first socket to the garbage collector, which
+    reports it as a ``ResourceWarning``.
+    """
+
+    def connect_zmq(self) -> None:
+        previous = getattr(self, "zmq_socket", None)
+        super().connect_zmq()
+        if previous is not None:
+            previous.close(linger=0)
+
+
 class LiveViewer:
     """A meshcat server (started here, or an existing one at ``zmq_url``) and a client to it.
 
@@ -33,14 +138,16 @@ class LiveViewer:
     ``visualizer`` (a ``meshcat.Visualizer`` talking to the server).
     """
 
-    def __init__(self, zmq_url: str | None = None):
-        self._proc = None
+    def __init__(self, zmq_url: str | None = None) -> None:
+        self._proc: subprocess.Popen | None = None
         if zmq_url is None:
-            from meshcat.servers.zmqserver import start_zmq_server_as_subprocess  # imports tornado: only when serving
-
-            self._proc, zmq_url, _ = start_zmq_server_as_subprocess()
-        with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; callers decide
-            window = meshcat.visualizer.ViewerWindow(zmq_url=zmq_url, start_server=False, server_args=[])
+            self._proc, zmq_url, _ = start_meshcat_server()
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; callers decide
+                window = _Window(zmq_url=zmq_url, start_server=False, server_args=[])
+        except BaseException:
+            self.close()
+            raise
         self.zmq_url = zmq_url
         self.url = window.web_url
         self.window = window
@@ -51,7 +158,11 @@ class LiveViewer:
         self.window.send(_Lowered(command))
 
     def show(self, scene: Scene, clear: bool = True) -> int:
-        """Send the whole scene (after deleting what the server showed, if ``clear``); returns the command count."""
+        """Send the whole scene (after deleting what the server showed, if ``clear``); returns the command count.
+
+        The commands end with the scene's camera (:meth:`Scene.camera_commands`, framed by
+        :func:`viz.camera.frame_points`): the live page opens on the view of the static export.
+        """
         if not isinstance(scene, Scene):
             raise InputError(f"LiveViewer.show needs a viz.Scene, got {type(scene).__name__}")
         if clear:
@@ -65,19 +176,18 @@ class LiveViewer:
         """The server's own static export of what it currently shows (meshcat's ``get_scene``)."""
         return self.window.get_scene()
 
+    @property
+    def server_pid(self) -> int | None:
+        """Process id of the meshcat server this viewer started (None when it joined an existing one)."""
+        return None if self._proc is None else self._proc.pid
+
     def close(self) -> None:
-        """Stop the server if this viewer started it."""
-        try:
+        """Stop the server if this viewer started it (SIGTERM, then SIGKILL after 5 s)."""
+        with contextlib.suppress(Exception):  # not connected yet, or already closed
             self.window.zmq_socket.close(linger=0)
-        except Exception:  # already closed
-            pass
-        if self._proc is not None and self._proc.poll() is None:
-            self._proc.terminate()
-            try:
-                self._proc.wait(timeout=5)
-            except Exception:
-                self._proc.kill()
-                self._proc.wait()
+        if self._proc is not None:
+            stop_process(self._proc)
+            _SERVERS.discard(self._proc)
         self._proc = None
 
     @property
@@ -104,23 +214,50 @@ class _Lowered:
         return self.cmd
 
 
-def serve(scene: Scene, *, zmq_url: str | None = None, announce=print, poll: float = 0.5, stop=None) -> str:
-    """Show ``scene`` in a live viewer and keep serving until interrupted (Ctrl-C).
+@contextlib.contextmanager
+def exit_on_termination(signals: tuple[int, ...] = (signal.SIGTERM, signal.SIGHUP)):
+    """Inside the block, ``signals`` raise ``SystemExit(128 + signal)`` so ``finally`` and ``atexit`` clean-up runs.
 
-    ``announce`` receives one line with the URL to open. ``stop`` (a
-    ``threading.Event`` or anything with ``is_set()``) ends the loop too, for
-    embedding and tests. Returns the URL once the server has been stopped.
+    By default SIGTERM and SIGHUP end Python at once, skipping both. Only the
+    main thread can handle signals; elsewhere the block changes nothing. The
+    previous handlers are restored on leaving.
     """
-    viewer = LiveViewer(zmq_url)
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _exit(signum, frame):
+        raise SystemExit(128 + signum)
+
+    previous = {sig: signal.signal(sig, _exit) for sig in signals}
     try:
-        viewer.show(scene)
-        announce(f"meshcat viewer: {viewer.url}  (Ctrl-C to stop)")
-        while stop is None or not stop.is_set():
-            if zmq_url is None and not viewer.running:
-                raise RuntimeError("the meshcat server process exited")
-            time.sleep(poll)
-    except KeyboardInterrupt:
-        pass
+        yield
     finally:
-        viewer.close()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def serve(scene: Scene, *, zmq_url: str | None = None, announce=print, poll: float = 0.5, stop=None) -> str:
+    """Show ``scene`` in a live viewer and keep serving until interrupted (Ctrl-C, SIGTERM, SIGHUP).
+
+    ``announce`` receives one line with the URL to open (and the pid of the
+    meshcat server started for it). ``stop`` (a ``threading.Event`` or anything
+    with ``is_set()``) ends the loop too, for embedding and tests. Returns the
+    URL once the server has been stopped. Ctrl-C returns normally; SIGTERM and
+    SIGHUP stop the server and then raise ``SystemExit(128 + signal)``.
+    """
+    with exit_on_termination():
+        viewer = LiveViewer(zmq_url)
+        try:
+            viewer.show(scene)
+            server = "" if viewer.server_pid is None else f"meshcat server pid {viewer.server_pid}; "
+            announce(f"meshcat viewer: {viewer.url}  ({server}Ctrl-C to stop)")
+            while stop is None or not stop.is_set():
+                if zmq_url is None and not viewer.running:
+                    raise RuntimeError("the meshcat server process exited")
+                time.sleep(poll)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            viewer.close()
     return viewer.url

@@ -278,13 +278,15 @@ def planar_chain(link_lengths, q, base=(0.0, 0.0)) -> np.ndarray:
 
 
 def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0), title: str = "Planar arm configurations",
-                      max_per_branch: int = 24) -> Figure:
+                      max_per_branch: int = 24, count_in_label: bool = True) -> Figure:
     """Configurations of a planar arm (e.g. the S1 4R solution family), one colour per branch.
 
     ``branches``: ``{label: (M, n) joint angles}`` (rad; e.g. ``{"elbow up": Q1,
     "elbow down": Q2}``); each configuration is drawn as its chain of links
     (:func:`planar_chain`), at most ``max_per_branch`` evenly chosen per branch.
     ``target = (x, y, theta)`` marks the task pose with an arrow along ``theta``.
+    Legend entries read ``label (M)``, ``M`` the branch's number of configurations;
+    ``count_in_label=False`` keeps the labels as given (they state their own counts).
     """
     if not isinstance(branches, dict) or not branches:
         raise InputError("branches must be a non-empty dict {label: (M, n) joint angles}")
@@ -300,7 +302,7 @@ def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0), t
         for j, k in enumerate(idx):
             P = planar_chain(lengths, Q[k], base)
             ax.plot(P[:, 0], P[:, 1], "-o", color=c, markersize=2.5, linewidth=1.1, alpha=0.75,
-                    label=f"{label} ({len(Q)})" if j == 0 else None)
+                    label=(f"{label} ({len(Q)})" if count_in_label else str(label)) if j == 0 else None)
     if target is not None:
         x, y, th = (float(v) for v in target)
         reach = 0.15 * float(lengths.sum())

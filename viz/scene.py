@@ -39,6 +39,7 @@ from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import as_pose, as_vector
 
 from . import colors
+from .camera import CAMERA_FOV_DEG, box_corners, frame_points, view_commands  # noqa: F401 (CAMERA_FOV_DEG re-exported)
 from .map2d import Circle, Rect, as_grid, as_polyline, as_shape
 from .skeleton import skeleton_geometry
 
@@ -48,8 +49,9 @@ ROOT = "/meshcat"
 #: turns them to run along local z, as URDF cylinders do.
 _Y_TO_Z = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
 
-#: Vertical field of view of meshcat's default camera (degrees).
-CAMERA_FOV_DEG = 75.0
+#: Background gradient (top, bottom) of every scene: meshcat's own sky blue to midnight blue,
+#: written into the scene so that captions can be checked against it.
+BACKGROUND = (0x87CEFA, 0x191970)
 
 
 class _ZCylinder(mg.Cylinder):
@@ -112,6 +114,7 @@ class SceneRobot:
     base: np.ndarray = field(default_factory=lambda: np.eye(4))
     q: np.ndarray | None = None
     missing: list[str] = field(default_factory=list)
+    local_boxes: dict[str, np.ndarray] = field(default_factory=dict)
 
     def geometry_poses(self, q, world: bool = True) -> dict[str, np.ndarray]:
         """``{node path: 4x4}`` rigid pose of every drawn geometry at ``q`` (no mesh scale).
@@ -137,7 +140,18 @@ class SceneRobot:
         q = self.robot.check_q(q)
         self.visualizer.display(q)
         self.q = q.copy()
-        self.scene._note_points(self.name, [self.base @ T[:, 3] for T in self.geometry_poses(q, world=False).values()])
+        self.scene._note_points(self.name, self.geometry_corners(q))
+
+    def geometry_corners(self, q) -> np.ndarray:
+        """``(8 G, 3)`` world corners of the drawn geometries' bounding boxes at ``q``.
+
+        Each geometry's box is its local axis-aligned bounding box (coal's
+        ``aabb_local``, in the geometry frame, mesh scale included), placed by
+        ``base @ oMg(q)``: every drawn vertex lies inside one of these boxes.
+        """
+        poses = self.geometry_poses(q)
+        pts = [(T[:3, :3] @ self.local_boxes[path].T).T + T[:3, 3] for path, T in poses.items() if path in self.local_boxes]
+        return np.vstack(pts) if pts else np.array([T[:3, 3] for T in poses.values()]).reshape(-1, 3)
 
     def set_base(self, pose) -> None:
         """Pose (4x4, world) of the robot's base node."""
@@ -174,15 +188,30 @@ class Scene:
         self.axes = bool(axes)
 
     @classmethod
-    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1, **kwargs) -> "Scene":
+    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1, collision: bool = False,
+                  obstacles=(), **kwargs) -> "Scene":
         """A scene showing one robot at ``q`` (default ``robot.neutral()``) and, with
         ``tool_frame``, a triad at its tool frame ``robot.tip`` (node ``"tool"``).
         Extra keyword arguments go to :meth:`add_robot`. (What ``kinserve view`` shows.)
+
+        ``collision=True`` also draws the robot's collision shapes (convex hulls and
+        primitives, node ``<name>_collision/<geometry>``) and the ``obstacles``
+        (shapes, node ``obstacles/<k>``), bodies in collision in red
+        (:mod:`viz.collision_drawing`).
         """
         scene = cls(getattr(robot, "name", "robot"))
         handle = scene.add_robot(robot, q, **kwargs)
         if tool_frame:
             scene.add_frame("tool", handle.tool_pose(handle.q), length=frame_length)
+        if collision:
+            from .collision_drawing import draw_collision_scene
+
+            obstacles = list(obstacles)
+            shapes = robot.collision_geometry(handle.q)
+            for s in shapes:
+                s["pose"] = handle.base @ s["pose"]
+            draw_collision_scene(scene, handle.name, shapes, [o.to_dict() for o in obstacles],
+                                 robot.collisions(handle.q, obstacles))
         return scene
 
     # ------------------------------------------------------------ recording
@@ -309,7 +338,7 @@ class Scene:
 
         Depth-first over the tree (parents before children): object, then
         transform, then properties of each node; then the grid/axes switches,
-        the camera, and the animation last (its targets must exist).
+        the background, the camera, and the animation last (its targets must exist).
         """
         out = []
         for _, node in self._walk():
@@ -322,6 +351,7 @@ class Scene:
             out.append(self.floor_grid_command())
         out.append({"type": "set_property", "path": "/Grid", "property": "visible", "value": self.grid})
         out.append({"type": "set_property", "path": "/Axes", "property": "visible", "value": self.axes})
+        out.extend(self.background_commands())
         out.extend(self.camera_commands())
         if self._animation is not None:
             out.append(self._animation)
@@ -373,59 +403,50 @@ class Scene:
         if pts:
             self._extent[key] = pts
 
+    def drawn_points(self) -> np.ndarray:
+        """``(N, 3)`` world points (metres) enclosing what the scene draws: the corners of each
+        robot geometry's bounding box (:meth:`SceneRobot.geometry_corners`), box and cylinder
+        corners, sphere extremes, triad tips, path and point-cloud points, map corners."""
+        pts = [p for ps in self._extent.values() for p in ps]
+        return np.array(pts, dtype=float).reshape(-1, 3)
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """Axis-aligned ``(min, max)`` corners of what the scene draws (world, metres), or None."""
-        pts = [p for ps in self._extent.values() for p in ps]
-        if not pts:
+        P = self.drawn_points()
+        if len(P) == 0:
             return None
-        P = np.array(pts)
         return P.min(axis=0), P.max(axis=0)
 
     def camera(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(eye, target)``: the one set, or one framing :meth:`bounds`.
+        """``(eye, target)``: the one set with :meth:`set_camera`, or one framing :meth:`bounds`.
 
-        The automatic view looks at the centre ``c`` of the bounding box from
-        direction ``(1, 0.75, 0.6)`` (front-right, above) at distance
-        ``1.15 r / sin(fov/2)``, ``r`` the half diagonal: the bounding sphere
-        fits the vertical field of view with a margin.
+        The automatic view (:func:`viz.camera.frame_points`) shows
+        :meth:`drawn_points` centred in the window, spanning 90 % of a 4:3 window
+        on the limiting axis (front-right view from above; a floor plan is seen
+        steeply from the front).
         """
         if self._camera is not None:
             return self._camera
-        b = self.bounds()
-        if b is None:
+        pts = self.drawn_points()
+        if len(pts) == 0:
             return np.array([1.5, 1.2, 1.0]), np.zeros(3)
-        lo, hi = b
-        c = 0.5 * (lo + hi)
-        r = max(0.5 * float(np.linalg.norm(hi - lo)), 0.2)
-        flat = (hi[2] - lo[2]) < 0.1 * max(hi[0] - lo[0], hi[1] - lo[1], 1e-9)
-        d = np.array([0.35, -0.75, 1.0]) if flat else np.array([1.0, 0.75, 0.6])
-        dist = 1.15 * r / np.sin(np.radians(CAMERA_FOV_DEG / 2))
-        return c + dist * d / np.linalg.norm(d), c
+        return frame_points(pts)
 
     def camera_commands(self) -> list[dict]:
-        """meshcat commands placing the camera at ``eye`` looking at ``target``.
+        """meshcat commands placing the camera at :meth:`camera` (:func:`viz.camera.view_commands`).
 
-        meshcat's orbit controls always aim the camera at the *viewer's* world
-        origin (three.js ``lookAt`` takes world coordinates), whatever the
-        transform of ``/Cameras/default``. So the view is centred by shifting
-        the drawing instead: ``/meshcat`` (everything the scene draws), the
-        ground ``/Grid`` and the ``/Axes`` are translated by ``-target``, and
-        the camera sits at ``eye - target`` from the origin, expressed in the
-        y-up axes of its ``rotated`` node: ``(dx, dz, -dy)``. Orbiting then
-        turns about ``target``. Scene transforms (:meth:`transform`) are not
+        The drawing is shifted by ``-target`` (meshcat's orbit controls aim at
+        the viewer's origin); scene transforms (:meth:`transform`) are not
         affected: the shift exists only in the replayed commands.
         """
-        eye, target = self.camera()
-        d = eye - target
-        shift = list(_translation(-target).T.flatten())
-        return [
-            {"type": "set_transform", "path": ROOT, "matrix": shift},
-            {"type": "set_transform", "path": "/Grid", "matrix": shift},
-            {"type": "set_transform", "path": "/Axes", "matrix": shift},
-            {"type": "set_transform", "path": "/Cameras/default", "matrix": list(np.eye(4).flatten())},
-            {"type": "set_property", "path": "/Cameras/default/rotated/<object>", "property": "position",
-             "value": [float(d[0]), float(d[2]), float(-d[1])]},
-        ]
+        return view_commands(*self.camera())
+
+    def background_commands(self) -> list[dict]:
+        """meshcat commands setting the background gradient to :data:`BACKGROUND` (top, bottom RGB in [0, 1])."""
+        top, bottom = BACKGROUND
+        return [{"type": "set_property", "path": "/Background", "property": "top_color", "value": list(colors.to_rgb(top))},
+                {"type": "set_property", "path": "/Background", "property": "bottom_color",
+                 "value": list(colors.to_rgb(bottom))}]
 
     # ------------------------------------------------------------ robots
     def add_robot(
@@ -478,7 +499,7 @@ class Scene:
             if "get_image" not in str(w.message):
                 warnings.warn(f"drawing robot {name!r}: {w.message}", stacklevel=2)
         handle = SceneRobot(name=name, robot=robot, root=root, visualizer=vis, geometry=visual, nodes=nodes,
-                            scene=self, missing=missing)
+                            scene=self, missing=missing, local_boxes=_local_boxes(visual, nodes))
         self.robots[name] = handle
         if base is not None:
             handle.base = as_pose(base, "base")
@@ -679,6 +700,24 @@ class Scene:
             self._draw(path, mg.Mesh(mg.Box([sx, sy, height]), _material(color, opacity)), _translation([cx, cy, 0.5 * height]))
         else:
             self._draw(path, mg.Mesh(_ZCylinder(height, s.r), _material(color, opacity)), _translation([s.cx, s.cy, 0.5 * height]))
+
+
+def _local_boxes(geometry: pin.GeometryModel, nodes: dict[str, str]) -> dict[str, np.ndarray]:
+    """``{node path: (8, 3) corners}`` of each drawn geometry's local bounding box (geometry frame, metres)."""
+    out = {}
+    for g in geometry.geometryObjects:
+        path = nodes.get(g.name)
+        if path is None:
+            continue
+        try:
+            g.geometry.computeLocalAABB()
+            box = g.geometry.aabb_local
+            lo, hi = np.asarray(box.min_, dtype=float), np.asarray(box.max_, dtype=float)
+        except (AttributeError, RuntimeError):  # a geometry without a local box: its origin stands for it
+            lo = hi = np.zeros(3)
+        if np.isfinite(lo).all() and np.isfinite(hi).all() and np.all(hi >= lo):
+            out[path] = box_corners(lo, hi)
+    return out
 
 
 def _named(items, stem: str) -> list[tuple[str, object]]:

@@ -93,13 +93,13 @@ class PageResult:
 class _DevTools:
     """A Chromium process and a DevTools-protocol session with its page, over a pipe."""
 
-    def __init__(self, browser: str, size: tuple[int, int], timeout: float):
+    def __init__(self, browser: str, size: tuple[int, int], timeout: float, extra_flags: tuple[str, ...] = ()):
         self.deadline = time.monotonic() + timeout
         self._profile = tempfile.TemporaryDirectory(prefix="kinserve-chromium-")
         to_browser_r, self._to_browser = os.pipe()
         self._from_browser, from_browser_w = os.pipe()
         w, h = size
-        cmd = [browser, *FLAGS, f"--user-data-dir={self._profile.name}", f"--window-size={w},{h}",
+        cmd = [browser, *FLAGS, *extra_flags, f"--user-data-dir={self._profile.name}", f"--window-size={w},{h}",
                "--remote-debugging-pipe", "about:blank"]
         # the browser reads commands on fd 3 and writes replies on fd 4: hand it our pipe ends
         # as stdin/stdout of a shell that moves them there before exec'ing Chromium

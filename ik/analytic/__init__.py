@@ -13,6 +13,7 @@ kept components, ``success`` against the tolerances).
 
 from __future__ import annotations
 
+import threading
 import time
 import weakref
 
@@ -26,41 +27,56 @@ __all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "P
 
 _SOLVERS = (PlanarChain, YouBotArm)
 _cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_cache_lock = threading.Lock()
 
 
 def closed_form_solver(robot, frame: str):
-    """The closed-form solver of ``robot`` for ``frame``, or None when there is none."""
+    """The closed-form solver of ``robot`` for ``frame``, or None when there is none.
+
+    Solvers are immutable once built; the per-model cache is filled under a
+    lock, so threads sharing a robot share its solvers.
+    """
     per_model = _cache.get(robot.model)
-    if per_model is None:
-        per_model = _cache[robot.model] = {}
-    if frame in per_model:
+    if per_model is not None and frame in per_model:
         return per_model[frame]
-    solver = None
-    for cls in _SOLVERS:
-        try:
-            solver = cls(robot, frame)
-            break
-        except (ValueError, np.linalg.LinAlgError):
-            continue
-    per_model[frame] = solver
+    with _cache_lock:
+        per_model = _cache.setdefault(robot.model, {})
+        if frame in per_model:
+            return per_model[frame]
+        solver = None
+        for cls in _SOLVERS:
+            try:
+                solver = cls(robot, frame)
+                break
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+        per_model[frame] = solver
     return solver
 
 
 def raw_branches(robot, solver, target, samples: int = 24):
-    """``(branches, note, info)``: distinct joint vectors ``(q, label, free_parameter)`` inside the limits."""
+    """``(branches, note, info)``: distinct joint vectors ``(q, label, free_parameter, note)`` inside the limits.
+
+    A solver's branch may carry its own note (why it only approaches the
+    target); otherwise the solver's shared ``note`` applies to it.
+    """
     raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
     out = []
-    for q, label, free in raw:
+    for q, label, free, *own in raw:
         q = np.clip(np.asarray(q, dtype=float), robot.lower, robot.upper)
         if any(np.abs(q - s[0]).max() < 1e-9 for s in out):
             continue  # branches that coincide (stretched / folded arm)
-        out.append((q, label, free))
+        out.append((q, label, free, own[0] if own else note))
     return out, note, extra
 
 
 def branch_result(robot, target, branch, note: str, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
-    """One closed-form branch as a :class:`Result`, verified with the robot's forward kinematics."""
-    q, label, free = branch
+    """One closed-form branch as a :class:`Result`, verified with the robot's forward kinematics.
+
+    The branch's own note (4th element, from :func:`raw_branches`) takes the place of ``note``.
+    """
+    q, label, free, *own = branch
+    note = own[0] if own else note
     T = robot.fk(q, target.frame)
     pe, re = target.errors(T[:3, :3], T[:3, 3])
     ok = pe < tol_pos and re < tol_rot
@@ -79,7 +95,9 @@ def branch_result(robot, target, branch, note: str, extra: dict, tol_pos: float,
 
 
 def branches(robot, solver, target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
-    """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``)."""
+    """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``),
+    the successful ones first (otherwise in the solver's order)."""
     t0 = time.perf_counter()
     raw, note, extra = raw_branches(robot, solver, target, samples)
-    return [branch_result(robot, target, b, note, extra, tol_pos, tol_rot, t0) for b in raw]
+    results = [branch_result(robot, target, b, note, extra, tol_pos, tol_rot, t0) for b in raw]
+    return sorted(results, key=lambda r: not r.success)

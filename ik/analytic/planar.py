@@ -48,11 +48,18 @@ returned.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from kinserve.kinematics import Robot
 from kinserve.kinematics.batch_fk import joint_axis, joint_chain
+from kinserve.kinematics.types import VectorLike
+
+#: One closed-form branch: ``(q, label, free parameter value or None)``.
+Branch = tuple[np.ndarray, str, float | None]
 
 _Z = np.array([0.0, 0.0, 1.0])
 _TWO_PI = 2.0 * math.pi
@@ -69,7 +76,7 @@ def wrap_into(value: float, lower: float, upper: float, tol: float = 1e-9) -> li
     return out
 
 
-def two_link(wx: float, wy: float, L1: float, L2: float):
+def two_link(wx: float, wy: float, L1: float, L2: float) -> tuple[list[tuple[float, float, float]], bool]:
     """Both solutions ``(psi_1, psi_2, beta)`` of a 2R arm reaching ``(wx, wy)`` from its base.
 
     ``beta = psi_2 - psi_1`` is the elbow angle. Returns ``(solutions, reachable)``;
@@ -94,7 +101,7 @@ class PlanarChain:
 
     name = "planar"
 
-    def __init__(self, robot, frame: str):
+    def __init__(self, robot: Robot, frame: str) -> None:
         model = robot.model
         fid = robot.frame_id(frame)
         chain = joint_chain(model, fid)
@@ -146,7 +153,7 @@ class PlanarChain:
         self._verify(robot, frame)
 
     # ------------------------------------------------------------------ model
-    def fk(self, q) -> np.ndarray:
+    def fk(self, q: VectorLike) -> np.ndarray:
         """Tool pose (4x4) from the closed-form planar model (used to verify it against Pinocchio)."""
         Theta = 0.0
         p = self.c1.astype(float).copy()
@@ -178,7 +185,8 @@ class PlanarChain:
             return False  # 3R/4R with free yaw: a family, leave it to the numerical solvers
         return True
 
-    def solve_all(self, T_target: np.ndarray, relaxed=(), samples: int = 24):
+    def solve_all(self, T_target: np.ndarray, relaxed: Sequence[int] = (),
+                  samples: int = 24) -> tuple[list[Branch], str, dict[str, Any]]:
         """``(branches, note, info)``: every branch ``(q, label, free_parameter)`` within the joint limits.
 
         ``note`` is empty when the target is reachable in closed form, else

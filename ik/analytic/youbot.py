@@ -69,6 +69,11 @@ def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.eye(3) + K + K @ K * ((1.0 - c) / s2)
 
 
+def _length(d: float) -> str:
+    """A distance in metres for a message: millimetres below 1 m."""
+    return f"{1000 * d:.3g} mm" if d < 1.0 else f"{d:.3g} m"
+
+
 class YouBotArm:
     """Closed-form solver of a chain with the youBot's DH structure (module docstring)."""
 
@@ -110,11 +115,17 @@ class YouBotArm:
         return not relaxed
 
     def solve_all(self, T_target: np.ndarray, relaxed=(), samples: int = 0):
-        """``(branches, note, info)``: every branch ``(q, label, None)`` within the limits.
+        """``(branches, note, info)``: every branch ``(q, label, None, note)`` within the limits.
 
-        ``note`` says why the branches only approach the target (empty when
-        they reach it); ``info["reached_pose"]`` is the nearest reachable pose
-        when the target is off the 5-DOF reachable set.
+        Each branch carries its own ``note``: empty when it reaches the target
+        exactly; otherwise what it is instead - the nearest reachable pose (the
+        target's approach axis is out of the arm plane), or, when the target is
+        out of reach of that branch's side (front / back), the stretched or
+        folded arm pointing at it, with how far short it stays. Branches come
+        exact first, then by their residual (position error + orientation
+        error of this model's FK, m + rad). ``note`` joins the distinct branch
+        notes (for callers that want one line); ``info["reached_pose"]`` is the
+        nearest reachable pose when the target is off the 5-DOF reachable set.
         """
         T = self.base_inv @ T_target
         p, R = T[:3, 3], T[:3, :3]
@@ -127,7 +138,6 @@ class YouBotArm:
         else:
             t1 = 0.0
         out = []
-        notes = set()
         reached = None
         for side, th1 in (("front", t1), ("back", t1 + math.pi)):
             c1, s1 = math.cos(th1), math.sin(th1)
@@ -137,19 +147,13 @@ class YouBotArm:
             zp = z5 - off * n
             nz = np.linalg.norm(zp)
             zp = up if nz < 1e-12 else zp / nz
-            if abs(off) > 1e-9:
-                notes.add(
-                    f"target pose is off the 5-DOF reachable set (approach axis {math.degrees(math.asin(min(1.0, abs(off)))):.3g} deg "
-                    "out of the arm plane); solved the nearest reachable pose"
-                )
             xp = _min_rotation(z5, zp) @ x5  # the whole frame turns by the smallest rotation z5 -> zp
             Theta = math.atan2(-float(zp @ x1), float(zp @ up))
             P = np.array([float(p @ x1) - self.a1, p[2] - self.d1])
             W = P + self.d5 * np.array([-math.sin(Theta), math.cos(Theta)])
             o3 = W - self.a4 * np.array([math.cos(Theta), math.sin(Theta)])
             sols, ok = two_link(o3[0], o3[1], self.a2, self.a3)
-            if not ok:
-                notes.add("target out of reach (the returned configuration points at it)")
+            note = self._branch_note(side, abs(off), ok, float(np.linalg.norm(o3)))
             x4 = math.cos(Theta) * x1 + math.sin(Theta) * up
             th5 = math.atan2(float(xp @ n), float(xp @ x4))
             if reached is None and side == "front" and abs(off) > 1e-9:
@@ -160,9 +164,40 @@ class YouBotArm:
             for th2, _, th3 in sols:
                 th4 = Theta - th2 - th3
                 label = f"{side}, elbow {'up' if th3 < 0 else 'down'}"
-                out.extend((q, label, None) for q in self._in_limits((th1, th2, th3, th4, th5)))
-        info = {"reached_pose": reached} if any("off the 5-DOF" in n for n in notes) else {}
-        return out, "; ".join(sorted(notes)), info
+                out.extend((q, label, None, note) for q in self._in_limits((th1, th2, th3, th4, th5)))
+        out.sort(key=lambda b: (bool(b[3]), self._residual(b[0], T)))
+        info = {"reached_pose": reached} if reached is not None else {}
+        return out, "; ".join(dict.fromkeys(b[3] for b in out if b[3])), info
+
+    def _branch_note(self, side: str, off: float, reach_ok: bool, r: float) -> str:
+        """What a ``side`` branch is when it does not reach the target ("" when it does).
+
+        ``off = |z5 . n|``: the approach axis leaves the arm plane by ``asin(off)``;
+        ``r``: distance of the wrist point from joint 2, reachable for
+        ``|a2 - a3| <= r <= a2 + a3`` (otherwise the arm is stretched or folded
+        towards it, and stays ``r - (a2 + a3)`` or ``|a2 - a3| - r`` short).
+        """
+        if reach_ok:
+            short = ""
+        elif r > self.a2 + self.a3:
+            short = f"stretched arm pointing at it, {_length(r - self.a2 - self.a3)} short"
+        else:
+            short = f"folded arm pointing at it, {_length(abs(self.a2 - self.a3) - r)} short"
+        if off > 1e-9:
+            plane = (f"target pose is off the 5-DOF reachable set (approach axis {math.degrees(math.asin(min(1.0, off))):.3g} deg "
+                     "out of the arm plane)")
+            if reach_ok:
+                return plane + "; this branch reaches the nearest reachable pose"
+            return plane + f" and out of reach of the {side} branches: nearest reachable orientation, {short}"
+        if not reach_ok:
+            return f"target out of reach of the {side} branches: nearest reachable position, {short}"
+        return ""
+
+    def _residual(self, q, T_base: np.ndarray) -> float:
+        """``|p(q) - p| + |angle of R(q)^T R|`` (m + rad) of this model's FK against ``T_base`` (base frame)."""
+        A = self.dh_fk(q)
+        c = (np.trace(A[:3, :3].T @ T_base[:3, :3]) - 1.0) / 2.0
+        return float(np.linalg.norm(A[:3, 3] - T_base[:3, 3]) + math.acos(min(1.0, max(-1.0, c))))
 
     def _in_limits(self, thetas):
         """All joint vectors (2 pi shifts) of the angles inside the limits."""

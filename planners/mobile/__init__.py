@@ -4,6 +4,7 @@ from . import mall
 from .astar import GridPath, astar, path_length_lower_bound
 from .coverage import CoverageResult, boustrophedon_coverage, coverable_pixels, decompose, lane_intervals, swept_coverage
 from .diff_drive import DiffDrive
+from .footprint import Penetration, footprint_outline, footprint_penetration
 from .maps import OccupancyGrid
 from .omni import OmniBase
 from .path_timing import DriveTrajectory, drive_through, time_scale_path, turn_in_place
@@ -18,5 +19,5 @@ __all__ = [
     "smooth_path", "shortcut", "polyline_path", "SmoothPath",
     "time_scale_path", "drive_through", "turn_in_place", "DriveTrajectory",
     "boustrophedon_coverage", "CoverageResult", "lane_intervals", "decompose", "swept_coverage", "coverable_pixels",
-    "DiffDrive", "OmniBase",
+    "DiffDrive", "OmniBase", "footprint_penetration", "footprint_outline", "Penetration",
 ]

@@ -43,6 +43,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from kinserve.kinematics.errors import InputError
@@ -144,7 +145,7 @@ def _describe_block(grid: OccupancyGrid, p: np.ndarray) -> str:
     return "on a blocked lattice point"
 
 
-def snap(grid: OccupancyGrid, point, name: str) -> tuple[int, int]:
+def snap(grid: OccupancyGrid, point: ArrayLike, name: str) -> tuple[int, int]:
     """Nearest lattice ``(i, j)`` of a world point; :class:`BlockedPointError` if it is not free."""
     p = np.asarray(point, dtype=float)
     if p.shape != (2,) or not np.all(np.isfinite(p)):
@@ -165,8 +166,8 @@ def octile(di: float, dj: float) -> float:
 # ---------------------------------------------------------------------- API
 def astar(
     grid: OccupancyGrid,
-    start,
-    goal,
+    start: ArrayLike,
+    goal: ArrayLike,
     *,
     heuristic: str = "octile",
     turn_penalty: float = 0.0,
@@ -224,7 +225,7 @@ def astar(
     return GridPath(pts, cells, float(cost), length, expanded, used)
 
 
-def path_length_lower_bound(grid: OccupancyGrid, start, goal) -> float:
+def path_length_lower_bound(grid: OccupancyGrid, start: ArrayLike, goal: ArrayLike) -> float:
     """Octile distance between the snapped points: no 8-connected path is shorter."""
     si, sj = snap(grid, start, "start")
     gi, gj = snap(grid, goal, "goal")

@@ -37,6 +37,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError
 
@@ -303,7 +304,7 @@ def coverable_pixels(grid: OccupancyGrid, robot_width: float) -> np.ndarray:
 
 def boustrophedon_coverage(
     grid: OccupancyGrid,
-    start,
+    start: ArrayLike,
     *,
     lane_spacing: float,
     robot_width: float | None = None,

@@ -15,9 +15,11 @@ thetadot = omega``. The robot cannot move sideways (non-holonomic).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from kinserve.kinematics.errors import InputError
@@ -36,21 +38,23 @@ class DiffDrive:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"{name} must be a finite number > 0, got {v!r}")
 
-    def wheel_speeds(self, v, omega) -> np.ndarray:
+    def wheel_speeds(self, v: ArrayLike, omega: ArrayLike) -> np.ndarray:
         """``[phi_L, phi_R]`` (rad/s) for forward speed ``v`` and turn rate ``omega``; broadcasts (``(..., 2)``)."""
         v = np.asarray(v, dtype=float)
         w = np.asarray(omega, dtype=float)
         half = 0.5 * self.track
         return np.stack([(v - w * half) / self.wheel_radius, (v + w * half) / self.wheel_radius], axis=-1)
 
-    def body_velocity(self, phi_left, phi_right) -> np.ndarray:
+    def body_velocity(self, phi_left: ArrayLike, phi_right: ArrayLike) -> np.ndarray:
         """``[v, omega]`` from the wheel speeds (rad/s); broadcasts (``(..., 2)``)."""
         L = np.asarray(phi_left, dtype=float)
         R = np.asarray(phi_right, dtype=float)
         r = self.wheel_radius
         return np.stack([0.5 * r * (R + L), r * (R - L) / self.track], axis=-1)
 
-    def simulate(self, wheel_speeds, pose0, t_span, t_eval=None, rtol: float = 1e-10, atol: float = 1e-12):
+    def simulate(self, wheel_speeds: ArrayLike | Callable[[float], ArrayLike], pose0: ArrayLike,
+                 t_span: tuple[float, float], t_eval: ArrayLike | None = None, rtol: float = 1e-10,
+                 atol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
         """Integrate the pose ``(x, y, theta)`` under wheel speeds (``[phi_L, phi_R]`` or a function of ``t``).
 
         Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp``.

@@ -12,8 +12,16 @@ no-go strips along the bottom and top of the central hallway.
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING
+
+from kinserve.kinematics.errors import InputError
+
 from .maps import OccupancyGrid
 from .shapes import Circle, Rectangle
+
+if TYPE_CHECKING:
+    import numpy as np
 
 BOUNDS = (0.0, 0.0, 480.0, 480.0)
 ROBOT_WIDTH = 20.0
@@ -39,7 +47,7 @@ S7_WAYPOINTS = (
 )
 
 
-def s7_waypoints():
+def s7_waypoints() -> np.ndarray:
     """The six S7 waypoints ``(6, 2)`` in the given order (start, 1, 2, 3, 4, end)."""
     import numpy as np
 
@@ -63,6 +71,13 @@ S8_NO_GO = (
     Rectangle(110, -10, 370, 50, "no-go zone 1 (padded)"),
     Rectangle(110, 430, 370, 490, "no-go zone 2 (padded)"),
 )
+#: The no-go zones as floor areas (the padded strips above without their 10 u padding).
+S8_NO_GO_RAW = (
+    Rectangle(120, 0, 360, 40, "no-go zone 1"),
+    Rectangle(120, 440, 360, 480, "no-go zone 2"),
+)
+#: The physical obstacles of S8 (the padded shapes are these grown by 10): S7's stands, fountain, escalators.
+S8_OBSTACLES = S7_OBSTACLES
 S8_START = (10.0, 10.0)
 S8_LANE_SPACING = ROBOT_WIDTH
 #: Store blocks (informational: the document draws no walls between them and the hallway).
@@ -73,8 +88,40 @@ S8_AREAS = {
 }
 
 
-def s8_map(resolution: float = 1.0) -> OccupancyGrid:
-    """S8 occupancy grid for the robot centre: padded shapes as given, walls kept 10 away."""
-    return OccupancyGrid.from_shapes(
-        BOUNDS, S8_PADDED_OBSTACLES + S8_NO_GO, resolution=resolution, inflation=0.0, border_clearance=HALF_FOOTPRINT
-    )
+#: Padding choices for S8: half the footprint's width (the document's) or half its diagonal.
+PADDINGS = {"width": HALF_FOOTPRINT, "diagonal": HALF_FOOTPRINT * math.sqrt(2.0)}
+
+
+def s8_padding(padding: str = "width") -> float:
+    """The clearance (u) of a padding choice: ``"width"`` 10 (half the width), ``"diagonal"`` 10 sqrt(2)."""
+    if padding not in PADDINGS:
+        raise InputError(f"padding must be one of {sorted(PADDINGS)}, got {padding!r}")
+    return PADDINGS[padding]
+
+
+def s8_map(resolution: float = 1.0, padding: str = "width") -> OccupancyGrid:
+    """S8 occupancy grid for the robot centre.
+
+    ``padding="width"`` (the document's): the padded shapes as given (the
+    physical ones grown by 10, half the width), walls kept 10 away: a turning
+    20 x 20 footprint's corners can cut into obstacles. ``padding="diagonal"``:
+    the physical obstacles and no-go zones inflated by half the diagonal,
+    ``10 sqrt(2)``, walls kept as far: no corner can reach an obstacle.
+    """
+    c = s8_padding(padding)
+    if padding == "width":
+        return OccupancyGrid.from_shapes(
+            BOUNDS, S8_PADDED_OBSTACLES + S8_NO_GO, resolution=resolution, inflation=0.0, border_clearance=c
+        )
+    return OccupancyGrid.from_shapes(BOUNDS, S8_OBSTACLES + S8_NO_GO_RAW, resolution=resolution, inflation=c,
+                                     border_clearance=c)
+
+
+def s8_start(padding: str = "width", resolution: float = 1.0) -> tuple[float, float]:
+    """The start of the coverage path: ``S8_START`` (10, 10) for the width padding; for the diagonal
+    one the nearest lattice corner point ``(c, c)`` with ``c`` = the clearance rounded up to the lattice."""
+    c = s8_padding(padding)
+    if padding == "width":
+        return S8_START
+    k = math.ceil(c / resolution - 1e-9) * resolution
+    return (k, k)

@@ -27,14 +27,16 @@ the exact (analytic) clearance for anything finer.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from kinserve.kinematics.errors import InputError, ShapeError
 
-from .shapes import Circle, Polygon, Rectangle
+from .shapes import Circle, Polygon, Rectangle, Shape
 
 _TOL = 1e-9
 
@@ -55,8 +57,8 @@ class OccupancyGrid:
     @classmethod
     def from_shapes(
         cls,
-        bounds,
-        shapes=(),
+        bounds: Sequence[float],
+        shapes: Iterable[Shape] = (),
         *,
         resolution: float = 1.0,
         inflation: float = 0.0,
@@ -135,32 +137,32 @@ class OccupancyGrid:
             raise InputError(f"{name} must be finite")
         return P
 
-    def contains(self, points) -> np.ndarray:
+    def contains(self, points: ArrayLike) -> np.ndarray:
         """True where a point lies within the map bounds (inclusive)."""
         P = self._points(points)
         b = self.bounds
         return (P[:, 0] >= b[0] - _TOL) & (P[:, 0] <= b[2] + _TOL) & (P[:, 1] >= b[1] - _TOL) & (P[:, 1] <= b[3] + _TOL)
 
-    def world_to_index(self, points) -> tuple[np.ndarray, np.ndarray]:
+    def world_to_index(self, points: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Nearest lattice ``(row i, column j)`` of world points (not clipped: check :meth:`contains`)."""
         P = self._points(points)
         j = np.rint((P[:, 0] - self.bounds[0]) / self.resolution).astype(np.int64)
         i = np.rint((P[:, 1] - self.bounds[1]) / self.resolution).astype(np.int64)
         return i, j
 
-    def index_to_world(self, i, j) -> np.ndarray:
+    def index_to_world(self, i: ArrayLike, j: ArrayLike) -> np.ndarray:
         """World ``(N, 2)`` coordinates of lattice points ``(i, j)``."""
         i = np.atleast_1d(np.asarray(i))
         j = np.atleast_1d(np.asarray(j))
         return np.stack([self.bounds[0] + self.resolution * j, self.bounds[1] + self.resolution * i], axis=-1).astype(float)
 
-    def on_lattice(self, points, tol: float = 1e-6) -> np.ndarray:
+    def on_lattice(self, points: ArrayLike, tol: float = 1e-6) -> np.ndarray:
         """True where a point coincides with a lattice point."""
         P = self._points(points)
         i, j = self.world_to_index(P)
         return np.all(np.abs(self.index_to_world(i, j) - P) <= tol * self.resolution, axis=1)
 
-    def is_free(self, points) -> np.ndarray:
+    def is_free(self, points: ArrayLike) -> np.ndarray:
         """Raster rule: free iff inside the map and every floor/ceil lattice neighbour is free."""
         P = self._points(points)
         ny, nx = self.free.shape
@@ -178,7 +180,7 @@ class OccupancyGrid:
         F = self.free
         return inside & F[i0, j0] & F[i0, j1] & F[i1, j0] & F[i1, j1]
 
-    def segment_is_free(self, a, b, step: float | None = None) -> bool:
+    def segment_is_free(self, a: ArrayLike, b: ArrayLike, step: float | None = None) -> bool:
         """True when points every ``step`` (default ``resolution / 4``) along ``a -> b`` are all free."""
         a = np.asarray(a, dtype=float)
         b = np.asarray(b, dtype=float)
@@ -187,7 +189,7 @@ class OccupancyGrid:
         s = np.linspace(0.0, 1.0, n)[:, None]
         return bool(np.all(self.is_free(a + s * (b - a))))
 
-    def path_is_free(self, points, step: float | None = None) -> bool:
+    def path_is_free(self, points: ArrayLike, step: float | None = None) -> bool:
         """Every segment of a polyline ``(N, 2)`` is free (dense sampling, raster rule)."""
         P = self._points(points, "path")
         step = self.resolution / 4.0 if step is None else step
@@ -201,7 +203,7 @@ class OccupancyGrid:
             samples.append(p + (np.arange(1, c + 1) / c)[:, None] * d)
         return bool(np.all(self.is_free(np.concatenate(samples))))
 
-    def clearance(self, points) -> np.ndarray:
+    def clearance(self, points: ArrayLike) -> np.ndarray:
         """Exact margin: ``min(sd_shape - inflation, border distance - border_clearance)`` (>= 0 is free)."""
         P = self._points(points)
         b = self.bounds
@@ -223,7 +225,7 @@ class OccupancyGrid:
             self._distance = d[1:-1, 1:-1]
         return self._distance
 
-    def first_blocked(self, points) -> int | None:
+    def first_blocked(self, points: ArrayLike) -> int | None:
         """Index of the first point that is not free, or None."""
         bad = np.flatnonzero(~self.is_free(points))
         return int(bad[0]) if bad.size else None

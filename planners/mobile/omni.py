@@ -28,9 +28,11 @@ wheel alone gives a constant body twist, i.e. a circle in the world.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from kinserve.kinematics.errors import InputError
@@ -60,7 +62,7 @@ class OmniBase:
     def wheel_angles(self) -> np.ndarray:
         return self.first_wheel_angle + 2.0 * math.pi / 3.0 * np.arange(3)
 
-    def wheel_positions(self, pose=(0.0, 0.0, 0.0)) -> np.ndarray:
+    def wheel_positions(self, pose: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
         """World positions ``(3, 2)`` of the wheel contact points at ``pose = (x, y, theta)``."""
         x, y, th = (float(v) for v in pose)
         a = self.wheel_angles + th
@@ -73,25 +75,27 @@ class OmniBase:
         R, D = self.wheel_radius, self.center_distance
         return -np.stack([-np.sin(a), np.cos(a), np.full(3, D)], axis=1) / R
 
-    def wheel_speeds(self, twist, theta: float) -> np.ndarray:
+    def wheel_speeds(self, twist: ArrayLike, theta: float) -> np.ndarray:
         """Inverse kinematics: wheel speeds (rad/s) for the world twist ``(xdot, ydot, thetadot)``."""
         t = np.asarray(twist, dtype=float)
         if t.shape[-1] != 3:
             raise InputError(f"twist must be (xdot, ydot, thetadot), got shape {t.shape}")
         return t @ self.jacobian(theta).T
 
-    def twist(self, wheel_speeds, theta: float) -> np.ndarray:
+    def twist(self, wheel_speeds: ArrayLike, theta: float) -> np.ndarray:
         """Forward kinematics: world twist ``(xdot, ydot, thetadot)`` from the wheel speeds (rad/s)."""
         w = np.asarray(wheel_speeds, dtype=float)
         if w.shape[-1] != 3:
             raise InputError(f"wheel_speeds must hold 3 values, got shape {w.shape}")
         return np.linalg.solve(self.jacobian(theta), w.T).T
 
-    def body_twist(self, wheel_speeds) -> np.ndarray:
+    def body_twist(self, wheel_speeds: ArrayLike) -> np.ndarray:
         """Twist in the body frame (heading 0): constant for constant wheel speeds."""
         return self.twist(wheel_speeds, 0.0)
 
-    def simulate(self, wheel_speeds, pose0, t_span, t_eval=None, rtol: float = 1e-10, atol: float = 1e-12):
+    def simulate(self, wheel_speeds: ArrayLike | Callable[[float], ArrayLike], pose0: ArrayLike,
+                 t_span: tuple[float, float], t_eval: ArrayLike | None = None, rtol: float = 1e-10,
+                 atol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
         """Integrate the pose ``(x, y, theta)`` under wheel speeds (3 values or a function of ``t``).
 
         Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp`` (RK45).

@@ -12,9 +12,12 @@ with obstacle-aware distances instead of straight lines.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError
 
@@ -46,7 +49,8 @@ class WaypointPlan:
         return [self.names[i] for i in self.order]
 
 
-def pairwise_costs(grid: OccupancyGrid, waypoints, **astar_kwargs):
+def pairwise_costs(grid: OccupancyGrid, waypoints: ArrayLike,
+                   **astar_kwargs: Any) -> tuple[np.ndarray, dict[tuple[int, int], GridPath]]:
     """``(C, paths)``: A* cost between every ordered pair (``inf`` if unreachable) and the paths.
 
     Costs are symmetric for the distance and proximity costs (one search per
@@ -76,7 +80,8 @@ def _reverse(p: GridPath) -> GridPath:
     return GridPath(p.points[::-1].copy(), p.cells[::-1].copy(), p.cost, p.length, p.expanded, p.method)
 
 
-def plan_waypoints(grid: OccupancyGrid, waypoints, *, order: str = "given", names=None, **astar_kwargs) -> WaypointPlan:
+def plan_waypoints(grid: OccupancyGrid, waypoints: ArrayLike, *, order: str = "given", names: Sequence[str] | None = None,
+                   **astar_kwargs: Any) -> WaypointPlan:
     """Join ``waypoints`` (``(K, 2)``, world units) by A* paths, in the given or the best order.
 
     ``order="optimal"`` keeps the first and the last waypoint and reorders the

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError
 
@@ -38,13 +39,14 @@ class Rectangle:
                 f"rectangle {self.name!r} needs x_min < x_max and y_min < y_max, got ({self.x_min}, {self.y_min})-({self.x_max}, {self.y_max})"
             )
 
-    def signed_distance(self, x, y):
+    def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
+        """Signed distance (negative inside) of the points ``(x, y)`` to the rectangle."""
         dx = np.maximum(self.x_min - np.asarray(x, dtype=float), np.asarray(x, dtype=float) - self.x_max)
         dy = np.maximum(self.y_min - np.asarray(y, dtype=float), np.asarray(y, dtype=float) - self.y_max)
         outside = np.hypot(np.maximum(dx, 0.0), np.maximum(dy, 0.0))
         return outside + np.minimum(np.maximum(dx, dy), 0.0)
 
-    def bounds(self):
+    def bounds(self) -> tuple[float, float, float, float]:
         return (self.x_min, self.y_min, self.x_max, self.y_max)
 
     @property
@@ -66,10 +68,11 @@ class Circle:
         if self.radius <= 0:
             raise InputError(f"circle {self.name!r} needs radius > 0, got {self.radius}")
 
-    def signed_distance(self, x, y):
+    def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
+        """Signed distance (negative inside) of the points ``(x, y)`` to the circle."""
         return np.hypot(np.asarray(x, dtype=float) - self.cx, np.asarray(y, dtype=float) - self.cy) - self.radius
 
-    def bounds(self):
+    def bounds(self) -> tuple[float, float, float, float]:
         r = self.radius
         return (self.cx - r, self.cy - r, self.cx + r, self.cy + r)
 
@@ -95,7 +98,7 @@ class Polygon:
         object.__setattr__(self, "vertices", tuple(map(tuple, V.tolist())))
         object.__setattr__(self, "_v", V)
 
-    def signed_distance(self, x, y):
+    def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         shape = np.broadcast(x, y).shape
@@ -115,7 +118,7 @@ class Polygon:
         inside = (np.sum(crosses & (px[:, None] < xint), axis=1) % 2) == 1
         return np.where(inside, -d, d).reshape(shape)
 
-    def bounds(self):
+    def bounds(self) -> tuple[float, float, float, float]:
         V = self._v
         return (V[:, 0].min(), V[:, 1].min(), V[:, 0].max(), V[:, 1].max())
 

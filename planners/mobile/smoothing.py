@@ -31,9 +31,11 @@ heading and signed curvature, ready for time scaling
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy import ndimage
 from scipy.interpolate import CubicSpline
 
@@ -66,7 +68,7 @@ class SmoothPath:
     def length(self) -> float:
         return float(self.s[-1])
 
-    def at(self, s):
+    def at(self, s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(x, y, heading, curvature)`` at arc lengths ``s`` (linear interpolation of the samples)."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
         x = np.interp(s, self.s, self.points[:, 0])
@@ -88,7 +90,7 @@ def _visible(grid: OccupancyGrid, a, b, margin: float, step: float) -> bool:
     return True
 
 
-def shortcut(grid: OccupancyGrid, points, *, margin: float = 0.0, keep=()) -> np.ndarray:
+def shortcut(grid: OccupancyGrid, points: ArrayLike, *, margin: float = 0.0, keep: Iterable[int] = ()) -> np.ndarray:
     """Indices of the vertices kept by greedy string pulling (first and last always kept).
 
     ``keep``: indices that must stay vertices (e.g. waypoints in the middle of a path).
@@ -146,7 +148,7 @@ def _geometry(pts, d1, d2):
     return s, heading, kappa
 
 
-def polyline_path(points, step: float = 0.25) -> SmoothPath:
+def polyline_path(points: ArrayLike, step: float = 0.25) -> SmoothPath:
     """A polyline as a :class:`SmoothPath` (zero curvature on each piece, stops at the corners)."""
     V = _dedupe(np.asarray(points, dtype=float))
     if len(V) < 2:
@@ -220,12 +222,12 @@ def relax(grid: OccupancyGrid, P: np.ndarray, fixed: np.ndarray, margin: float, 
 
 def smooth_path(
     grid: OccupancyGrid,
-    points,
+    points: ArrayLike,
     *,
     margin: float | None = None,
     iterations: int = 300,
     knot_spacing: float | None = None,
-    keep=(),
+    keep: Iterable[int] = (),
 ) -> SmoothPath:
     """Shortcut, relax and spline a free path ``(N, 2)``, verified against ``grid``.
 

@@ -1,4 +1,4 @@
-"""Hard inequality constraints of the QP solver: joint limits and spherical obstacles.
+"""Sphere obstacles against the robot's link segments, pair by pair (the ``"qp"`` method's original constraint).
 
 Joint limits
 ------------
@@ -9,7 +9,7 @@ region ``|dq_i| <= max_step`` the QP box is
 
 Spheres
 -------
-``Sphere(center, radius, frames=None)`` is an obstacle the robot must stay
+``Sphere(center, radius, frames=None)`` (:class:`kinserve.kinematics.shapes.Sphere`) is an obstacle the robot must stay
 outside of. By default the whole arm is checked as *segments* (capsules of
 zero radius - inflate the sphere radius to account for link thickness):
 
@@ -43,16 +43,12 @@ end.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
-from kinserve.kinematics.validation import MAX_ABS, as_vector
-
-#: Fraction of the current clearance one step may use up (velocity damper gain).
-DAMPER_GAIN = 0.5
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Sphere
 
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
@@ -65,46 +61,6 @@ def joint_step_bounds(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, max_s
     np.minimum(lb, 0.0, out=lb)
     np.maximum(ub, 0.0, out=ub)
     return lb, ub
-
-
-@dataclass(frozen=True)
-class Sphere:
-    """A spherical obstacle: ``center`` (m, world), ``radius`` (m, > 0), optional ``frames``.
-
-    ``frames=None`` checks the tool and every link segment (module docstring);
-    a list of frame names checks only those frame origins.
-    """
-
-    center: tuple
-    radius: float
-    frames: tuple | None = None
-
-    def __init__(self, center, radius, frames=None):
-        c = as_vector(center, 3, "sphere center")
-        try:
-            r = float(radius)
-        except (TypeError, ValueError):
-            raise ShapeError(f"sphere radius must be a number (m), got {radius!r}") from None
-        if not math.isfinite(r) or abs(r) > MAX_ABS:
-            raise NonFiniteError(f"sphere radius must be finite, got {radius!r}")
-        if r <= 0.0:
-            raise InputError(f"sphere radius must be positive (m), got {r!r}")
-        if frames is not None:
-            if isinstance(frames, str):
-                frames = (frames,)
-            try:
-                frames = tuple(frames)
-            except TypeError:
-                raise InputError(f"sphere frames must be a sequence of frame names, got {frames!r}") from None
-            if not frames or not all(isinstance(f, str) for f in frames):
-                raise InputError(f"sphere frames must be a non-empty sequence of frame names, got {frames!r}")
-        object.__setattr__(self, "center", tuple(float(v) for v in c))
-        object.__setattr__(self, "radius", r)
-        object.__setattr__(self, "frames", frames)
-
-    def distance(self, point) -> float:
-        """Distance (m) from a point to the sphere's centre."""
-        return float(np.linalg.norm(np.asarray(point, dtype=float) - np.asarray(self.center)))
 
 
 def as_sphere(value) -> Sphere:

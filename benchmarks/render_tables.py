@@ -1,0 +1,163 @@
+"""Render the README's benchmark tables (Markdown) from the JSON files that ``make bench`` writes.
+
+    .venv/bin/python benchmarks/render_tables.py bench-out [--out bench-out/tables.md]
+
+Reads ``ik.json`` (bench_ik.py), ``ik_constrained.json`` (bench_ik_constrained.py)
+and ``collision.json`` (bench_collision.py) when present and prints one section
+per file: the per-solver table (success, median / p95 / mean, ratios) with the
+issue's targets in brackets and whether the run met them. "CPU" columns are
+``time.process_time`` around each solve (the worker's own, for peers in their
+venvs): on a shared machine a long solve is preempted, so wall times of long
+solves swell while short ones do not - read the CPU ratios alongside. Any other JSON file in
+the folder is listed with its numeric figures flattened (``a.b.c = value``), so
+nothing measured is left out. Missing files are skipped with a note. The numbers
+are copied, never recomputed: the README shows what the run wrote.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+
+def _ms(v) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "–"
+    return f"{v:.3f} ms" if v < 10 else f"{v:.1f} ms"
+
+
+def _pct(v) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.1f} %"
+
+
+def _x(v) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.2f}×"
+
+
+def _machine(d: dict) -> str:
+    m = d.get("machine", {})
+    return f"_{m.get('cpu', '?')}, {m.get('cores', '?')} cores, Python {m.get('python', '?')}_"
+
+
+def _targets(d: dict) -> list[str]:
+    t = d.get("targets_met") or {}
+    if not t:
+        return []
+    return ["", "Targets: " + ", ".join(f"`{k}` {'met' if v else '**not met**'}" for k, v in t.items())]
+
+
+def render_ik(d: dict) -> list[str]:
+    w = d["workload"]
+    out = [f"### IK (bench_ik.py): Panda `{w['frame']}`, {w['n']} targets, seed {w['seed']}", "", _machine(d), "",
+           "| solver | success | median | p95 | mean | median / ik_LM | median / ik_LM same start |",
+           "|---|---|---|---|---|---|---|"]
+    for k, s in d["per_solve"].items():
+        out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s['median_ms'])} | {_ms(s['p95_ms'])} | {_ms(s['mean_ms'])} "
+                   f"| {_x(s.get('median_vs_ik_LM'))} | {_x(s.get('median_vs_ik_LM_same_start'))} |")
+    sm = d.get("solve_many")
+    if sm:
+        out += ["", f"solve_many on {sm['processes']} processes: {sm['targets_per_s']:,.0f} targets/s "
+                    f"({_x(sm['ratio_vs_ik_LM'])} ik_LM one by one; machine delivers "
+                    f"{sm['machine_parallel_scaling_2_processes']:.2f}× on 2 processes)"]
+    ss = d.get("same_start")
+    if ss:
+        out += ["", f"Same start = the start kinserve picks first (a table sample for {ss['table_start_pct']:.0f} % "
+                    f"of the targets); PlaCo: {ss['placo']}."]
+    return out + _targets(d)
+
+
+def render_ik_constrained(d: dict) -> list[str]:
+    w = d["workload"]
+    out = [f"### IK with obstacles (bench_ik_constrained.py): Panda `{w['frame']}`, {w['n']} targets, "
+           f"budget {w['budget_s']} s with restarts", "", _machine(d), ""]
+    for note in d.get("notes", []):
+        out.append(f"- {note}")
+    for name, r in d["workloads"].items():
+        out += ["", f"**{name}**: figures over the {r['witness_feasible']} witness-feasible targets of {r['n']} "
+                    "(success over all targets in the third column)", "",
+                "| solver | success [≥ 99 %] | all targets | mesh-clear | median | p95 | mean | median / unconstrained "
+                "[≤ 3×] | p95 / unconstrained [≤ 10×] | p95 / unconstrained p95 | median CPU | CPU / unconstrained |",
+                "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+        for k, s in r["per_solver"].items():
+            out.append(f"| {k} | {_pct(s['success_pct'])} | {_pct(s.get('success_all_targets_pct'))} "
+                       f"| {_pct(s.get('mesh_clear_pct'))} | {_ms(s['median_ms'])} | {_ms(s['p95_ms'])} "
+                       f"| {_ms(s['mean_ms'])} | {_x(s['median_vs_unconstrained'])} "
+                       f"| {_x(s.get('p95_vs_unconstrained_median'))} | {_x(s['p95_vs_unconstrained_p95'])} "
+                       f"| {_ms(s.get('median_cpu_ms'))} | {_x(s.get('median_cpu_vs_unconstrained'))} |")
+    steps = d.get("step_us") or {}
+    if steps:
+        out += ["", "| one control step | µs |", "|---|---|"]
+        out += [f"| {k} | {v:.1f} |" for k, v in steps.items()]
+    return out + _targets(d)
+
+
+def render_collision(d: dict) -> list[str]:
+    w = d["workload"]
+    out = [f"### Collision-aware IK (bench_collision.py): {w['robot']}, table + wall, budget {w['budget_s']} s",
+           "", _machine(d), "", f"Starts in collision: {w['starts_in_collision_pct']:.1f} %."]
+    for name, r in d["workloads"].items():
+        extra = f", from {r['collision_free_draws']} collision-free draws" if "collision_free_draws" in r else ""
+        out += ["", f"**{name}** ({r['n']} targets{extra})", "",
+                "| solver | success | median | p95 | mean | median / unconstrained | p95 / unconstrained p95 "
+                "| median CPU | CPU / unconstrained |",
+                "|---|---|---|---|---|---|---|---|---|"]
+        for k, s in r["per_solver"].items():
+            out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s.get('median_ms'))} | {_ms(s.get('p95_ms'))} "
+                       f"| {_ms(s.get('mean_ms'))} | {_x(s.get('median_vs_unconstrained'))} "
+                       f"| {_x(s.get('p95_vs_unconstrained_p95'))} | {_ms(s.get('median_cpu_ms'))} "
+                       f"| {_x(s.get('median_cpu_vs_unconstrained'))} |")
+    checks = d.get("collision_check_us") or {}
+    if checks:
+        out += ["", "| collision check (self + scene) | µs per call | CPU µs per call |", "|---|---|---|"]
+        for k, v in checks.items():
+            if not k.endswith((": pairs", ": CPU")):
+                cpu = checks.get(f"{k}: CPU")
+                out.append(f"| {k} | {v:.1f} | {'–' if cpu is None else f'{cpu:.1f}'} |")
+    return out + _targets(d)
+
+
+def _flatten(prefix: str, v, out: list[str]) -> None:
+    if isinstance(v, dict):
+        for k, x in v.items():
+            _flatten(f"{prefix}.{k}" if prefix else str(k), x, out)
+    elif isinstance(v, (int, float)) and not isinstance(v, bool):
+        out.append(f"- `{prefix}` = {v:.6g}")
+    elif isinstance(v, bool):
+        out.append(f"- `{prefix}` = {'yes' if v else 'no'}")
+
+
+RENDERERS = {"ik.json": render_ik, "ik_constrained.json": render_ik_constrained, "collision.json": render_collision}
+
+
+def render(folder: Path) -> str:
+    lines: list[str] = []
+    for name, fn in RENDERERS.items():
+        path = folder / name
+        if not path.exists():
+            lines += [f"<!-- {name}: not found in {folder} (run its benchmark) -->", ""]
+            continue
+        lines += fn(json.loads(path.read_text())) + [""]
+    for path in sorted(folder.glob("*.json")):
+        if path.name in RENDERERS:
+            continue
+        flat: list[str] = []
+        _flatten("", {k: v for k, v in json.loads(path.read_text()).items() if k != "machine"}, flat)
+        lines += [f"### {path.stem}", ""] + flat + [""]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("folder", nargs="?", default="bench-out", help="where the benchmark JSON files are")
+    ap.add_argument("--out", help="also write the Markdown to this file")
+    args = ap.parse_args()
+    text = render(Path(args.folder))
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text)
+
+
+if __name__ == "__main__":
+    main()

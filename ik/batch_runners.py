@@ -1,0 +1,146 @@
+"""Execution backends of :func:`ik.solve_many`: where the chunks of a job are solved, and within what time.
+
+Each backend is one function ``runner(job, chunks, processes, on_done, limits)``
+in :data:`BACKENDS`; ``chunks`` are ``(start, stop)`` index pairs into
+``job.poses``, ``on_done`` takes the compact result of one chunk
+(:func:`ik.batch_worker.solve_chunk`), ``limits`` is a :class:`TimeLimits`.
+
+* ``"processes"``: the persistent local pool of :mod:`ik.batch_pool`;
+* ``"serial"``: this process, chunk after chunk;
+* ``"ray"``: Ray actors (:mod:`ik.ray_backend`, ``ray_address=`` joins a cluster).
+
+Time limits
+-----------
+Every solve is bounded by its time budget ``max_time`` (default
+:data:`DEFAULT_BUDGET` per method), so a chunk of ``n`` targets needs at most
+about ``n * max_time``; the limit of a chunk is
+
+    limit(n) = FACTOR * n * max_time + SLACK       (s)
+
+(``FACTOR`` = :data:`CHUNK_FACTOR` covers the overshoot of a budget by its
+last iteration and a loaded machine, ``SLACK`` = :data:`CHUNK_SLACK` the
+worker's start and the loading of the job). A worker still on its chunk
+after the limit is stalled: the pool is terminated and
+:class:`kinserve.kinematics.errors.WorkerTimeoutError` names the worker and
+the chunk. ``timeout=`` bounds the whole call as well. The serial backend
+cannot interrupt a chunk: it checks the overall timeout between chunks.
+
+Why 2 processes were slower than 1 (issue 13: Panda, 10k-50k targets, 2 cores)
+-------------------------------------------------------------------------------
+Four causes, measured on the shared 2-core machine:
+
+1. **BLAS threads.** Without ``OPENBLAS_NUM_THREADS`` set, NumPy's OpenBLAS
+   starts one thread per core in every process, and the stacked LM makes
+   calls large enough to use them (ranking 1000 targets against the
+   2000-sample table of starts is a 1000 x 13 x 2000 product). Two workers
+   then ran four BLAS threads on two cores, and idle OpenBLAS threads spin:
+   1 process 7.2k, 2 processes 5.2k targets/s; with one BLAS thread per
+   process 10-13k and 20k (same run, load 3.4). Workers now make their
+   BLAS and OpenMP single-threaded (``threadpoolctl``,
+   :func:`ik.batch_worker.limit_blas_threads`); the caller's process is
+   left as the user configured it.
+2. **The parent's serial work.** Validating every target with a
+   ``Target`` object (about 8 us each) and building one ``Result`` per
+   target field by field (about 12 us) took ~20 % of a 2-process run. Both
+   are now done on whole arrays/lists: 0.03 s of parent CPU per 10k targets
+   (was 0.10 s) against ~0.4 s of CPU per worker.
+3. **A round trip per chunk.** A worker that finished a chunk waited for the
+   parent to wake up, read the result and send the next chunk - twice a
+   scheduling latency, tens of milliseconds on a loaded machine. Each
+   worker now holds its next chunk already (:data:`ik.batch_pool.PREFETCH`).
+4. **The machine itself.** The kernel groups the processes of a session
+   (``/proc/sys/kernel/sched_autogroup_enabled`` = 1 here) and shares the
+   CPU fairly between sessions: while other sessions keep both cores busy,
+   a 2-process batch gets no more CPU than a 1-process one, whatever the
+   library does. Two plain CPU-bound Python processes show the same ratio
+   at the same moment (``benchmarks/bench_ik.py`` records it next to the
+   solve_many ratio, with the CPU seconds that give the speed-up on two
+   free cores).
+
+Chunking was not a cause: a few large chunks (2 per process, at most 1000
+targets) keep the stacked LM efficient (smaller chunks pay its per-chunk
+scalar tail more often) and dynamic dispatch keeps the workers even.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import time
+from dataclasses import dataclass
+
+from kinserve.kinematics.errors import WorkerTimeoutError
+
+from .batch_pool import acquire_pool, current_pool
+from .batch_worker import Job, solve_chunk, write_job
+from .ray_backend import run_ray_chunks
+
+#: Time budget (s) of one solve per method when ``max_time`` is not given (the solvers' defaults).
+DEFAULT_BUDGET = {"lm": 0.1, "qp": 0.5, "auto": 0.5, "analytic": 0.1}
+#: Budget (s) assumed for the classical methods (bounded by their iteration cap, not by time).
+CLASSICAL_BUDGET = 1.0
+#: Chunk limit = CHUNK_FACTOR * targets * budget + CHUNK_SLACK (module docstring).
+CHUNK_FACTOR = 3.0
+CHUNK_SLACK = 10.0
+
+
+@dataclass(frozen=True)
+class TimeLimits:
+    """Per-chunk limits and the overall deadline of one ``solve_many`` call (module docstring)."""
+
+    budget: float  #: time budget of one target (s)
+    deadline: float | None  #: absolute ``time.monotonic()`` of the overall timeout, or None
+    factor: float
+    slack: float
+
+    @classmethod
+    def for_job(cls, job: Job, timeout: float | None) -> "TimeLimits":
+        """The limits of ``job`` with the module's current ``CHUNK_FACTOR`` / ``CHUNK_SLACK``."""
+        p = job.prepared()
+        budget = p["max_time"] if p["max_time"] is not None else DEFAULT_BUDGET.get(p["method"], CLASSICAL_BUDGET)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        return cls(budget, deadline, CHUNK_FACTOR, CHUNK_SLACK)
+
+    def chunk(self, n: int) -> float:
+        """Time limit (s) of a chunk of ``n`` targets."""
+        return self.factor * n * self.budget + self.slack
+
+
+def run_serial(job: Job, chunks, processes: int, on_done, limits: TimeLimits) -> None:
+    """Solve the chunks in this process, one after the other (the overall timeout is checked between chunks)."""
+    for start, stop in chunks:
+        if limits.deadline is not None and time.monotonic() > limits.deadline:
+            raise WorkerTimeoutError(f"ik.solve_many: the overall timeout expired before targets[{start}:{stop}]")
+        poses, q0s = job.chunk(start, stop)
+        on_done(solve_chunk(job, start, poses, q0s))
+
+
+def run_processes(job: Job, chunks, processes: int, on_done, limits: TimeLimits) -> None:
+    """Solve the chunks on the persistent local pool (:mod:`ik.batch_pool`)."""
+    path = write_job(job)
+    pool = None
+    try:
+        pool = acquire_pool(processes, limits.deadline)
+        pool.run(job.id, path, chunks, on_done, limits.chunk, limits.deadline)
+    finally:
+        if pool is not None:
+            pool.lock.release()
+            if current_pool() is not pool and pool.workers:
+                pool.close()  # replaced by a pool of another size while this run held it
+        for leftover in [path] + glob.glob(path + ".*"):
+            try:
+                os.unlink(leftover)
+            except FileNotFoundError:
+                pass
+
+
+def run_ray(job: Job, chunks, processes: int, on_done, limits: TimeLimits) -> None:
+    """Solve the chunks on Ray actors (:mod:`ik.ray_backend`)."""
+    common = {"frame": job.frame, "kwargs": job.kwargs}
+    ray_chunks = [(start, *job.chunk(start, stop)) for start, stop in chunks]
+    run_ray_chunks(job.robot, ray_chunks, common, job.options, job.keep_history, processes, on_done,
+         address=job.ray_address, chunk_limit=limits.chunk, deadline=limits.deadline)
+
+
+#: Execution backends: ``name -> runner(job, chunks, processes, on_done, limits)``.
+BACKENDS = {"processes": run_processes, "serial": run_serial, "ray": run_ray}

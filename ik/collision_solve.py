@@ -1,0 +1,214 @@
+"""Collision-free IK: ``ik.solve(robot, target, self_collision=True, obstacles=[...])``.
+
+Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
+
+1. **Unconstrained solves, then check** (half the time budget at most): the
+   ordinary solver (closed form, LM or QP with the requested options), then up
+   to :data:`UNCONSTRAINED_ATTEMPTS` - 1 more from random collision-free starts;
+   an answer is kept when it and every iterate of the run that produced it pass
+   the broad-phase collision check
+   (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
+   In an open scene the first attempt is almost always enough; with an obstacle
+   in the way another branch often is.
+2. **Infeasible at once**: a target position inside an obstacle, for a frame
+   whose origin lies inside the robot's own collision geometry, cannot be
+   reached: ``Result(success=False)`` with the reason, no constrained solve.
+3. **Constrained solve**: otherwise (warm-started from the last collision-free
+   iterate of the first attempt) the QP method with
+   :class:`~kinserve.ik.constraints.collision.CollisionConstraint` rows (velocity
+   dampers from witness points and normals, hard on every iterate, the step
+   halved until the true check holds), restarting only from collision-free
+   starts (``q0``, then the table of starts, then random ones) until the rest of
+   the budget is spent.
+
+``spheres`` given together with collision options join the obstacles (checked
+against the collision geometry, not the link capsules). A robot without
+collision geometry keeps obstacles clear of its link capsules
+(:class:`ik.ObstacleAvoidance`, the ``obstacles=`` path without
+``self_collision``); ``self_collision=True`` then raises
+:class:`~kinserve.kinematics.errors.ModelError` with the reason.
+
+``Result.info["collision"]`` says which path produced the answer:
+``"unconstrained, checked"`` or ``"constrained"``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import coal
+import numpy as np
+
+from kinserve.kinematics.collision_queries import as_obstacles
+from kinserve.kinematics.errors import InputError, ModelError
+from kinserve.kinematics.robot import Robot
+
+from .constraints.collision import CollisionConstraint
+from .qp_solver import solve_qp
+from .result import History, Result
+
+_QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
+#: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
+MAX_TIME = 0.5
+#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + random collision-free starts.
+UNCONSTRAINED_ATTEMPTS = 8
+
+
+def collision_options(self_collision: bool = False, obstacles: Sequence = (), collision_margin: float = 0.0,
+                      spheres: Sequence = ()) -> dict:
+    """Validated collision options for :func:`solve_collision_free` (``spheres`` join the obstacles)."""
+    obs = as_obstacles(obstacles) + as_obstacles(spheres, "spheres")
+    if not isinstance(self_collision, (bool, np.bool_)):
+        raise InputError(f"self_collision must be True or False, got {self_collision!r}")
+    CollisionConstraint((), self_collision=False, margin=collision_margin)  # validates the margin
+    return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": float(collision_margin)}
+
+
+def solve_collision_free(robot: Robot, p: dict, *, self_collision: bool = False, obstacles: Sequence = (),
+                         collision_margin: float = 0.0, **solver_opts: Any) -> Result:
+    """Collision-free IK on arguments checked by :func:`ik.solve.prepare` (``p``); see the module docstring."""
+    from .solve import solve_prepared
+
+    t0 = time.perf_counter()
+    obs = as_obstacles(obstacles)
+    if p["spheres"] is not None:
+        raise InputError("spheres cannot be combined with self_collision / obstacles in a prepared solve; "
+                         "pass them in obstacles=")
+    try:
+        robot.collision
+    except ModelError as exc:
+        if not self_collision and obs:
+            from .constraints.obstacles import ObstacleAvoidance
+
+            avoid = ObstacleAvoidance(list(obs), tool_frames=(p["target"].frame,))
+            return solve_prepared(robot, dict(p, spheres=avoid), **solver_opts)
+        raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to the "
+                         "link capsules of ik.ObstacleAvoidance)") from None
+    constraint = CollisionConstraint(obs, self_collision=self_collision, margin=collision_margin).bind(robot)
+    budget = MAX_TIME if p["max_time"] is None else p["max_time"]
+    tgt = p["target"]
+
+    if p["weights"] is None or p["method"] != "qp":
+        found, warm = _unconstrained_attempts(robot, p, constraint, t0 + 0.5 * budget, solver_opts)
+        if found is not None:
+            found.elapsed = time.perf_counter() - t0
+            return found
+    else:
+        warm = None
+
+    blocked = _target_inside_obstacle(robot, constraint, tgt)
+    if blocked:
+        return _failure(robot, tgt, p["q0"], t0, blocked)
+
+    remaining = max(budget - (time.perf_counter() - t0), 1e-3)
+    opts = {k: v for k, v in solver_opts.items() if k in _QP_KEYS}
+    if "seed_table" in opts:
+        opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
+    q_start = p["q0"]
+    if warm is not None and "prefer_q0" not in opts:  # the last collision-free iterate of the first attempt
+        q_start, opts["prefer_q0"] = warm, True
+    res = solve_qp(robot, tgt, q_start, spheres=[constraint], weights=p["weights"], backend=p["backend"],
+                   tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=remaining, seed=p["seed"], **opts)
+    res.info["collision"] = "constrained"
+    if res.message.startswith("no start configuration outside the spheres"):
+        res.message = "no collision-free start configuration was found within the time budget"
+    res.elapsed = time.perf_counter() - t0
+    return res
+
+
+def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, deadline: float, solver_opts: dict):
+    """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves, each answer checked.
+
+    The first is the ordinary solve (``q0``, then the table of starts); the
+    others start from random collision-free configurations (``seed``) - another
+    IK branch often clears what the first answer hit. An answer counts when it
+    and every iterate of its run are collision free. Returns ``(result, warm)``:
+    the qualifying result or None, and the last collision-free iterate of the
+    first attempt before its first collision (the constrained solve's warm
+    start; None when its start already collides).
+    """
+    from .solve import solve_prepared
+
+    rng = np.random.default_rng(p["seed"] or 0)
+    opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
+    warm = None
+    for attempt in range(UNCONSTRAINED_ATTEMPTS):
+        left = deadline - time.perf_counter()
+        if left <= 0.0:
+            return None, warm
+        if attempt == 0:
+            res = solve_prepared(robot, dict(p, max_time=left), **solver_opts)
+        else:
+            start = next((q for q in robot.random_q(rng, 20) if not constraint.in_collision(q)), None)
+            if start is None:
+                return None, warm
+            res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
+                                 seed_table=False, **opts)
+        if res.success and _path_is_free(constraint, res):
+            res.message += "; collision free (unconstrained answer and iterates checked"
+            res.message += f", attempt {attempt + 1})" if attempt else ")"
+            res.info["collision"] = "unconstrained, checked"
+            res.info["collision_attempts"] = attempt + 1
+            return res, None
+        if attempt == 0 and res.history is not None and len(res.history.q):
+            warm = _last_clear_iterate(constraint, res.history.q)
+    return None, warm
+
+
+def _last_clear_iterate(constraint: CollisionConstraint, qs) -> np.ndarray | None:
+    """The iterate just before the first one in collision (None when the first collides; the last if none does)."""
+    for k, q in enumerate(qs):
+        if constraint.in_collision(q):
+            return qs[k - 1].copy() if k else None
+    return qs[-1].copy()
+
+
+def _path_is_free(constraint: CollisionConstraint, res: Result) -> bool:
+    """The answer, then every iterate of the run that produced it, violates nothing."""
+    if constraint.in_collision(res.q):
+        return False
+    hist = res.history.q if res.history is not None else ()
+    return not any(constraint.in_collision(q) for q in hist[::-1])
+
+
+def _target_inside_obstacle(robot, constraint: CollisionConstraint, tgt) -> str:
+    """Reason text when the target's position is inside an obstacle and the frame origin inside the body, else ""."""
+    if not constraint.obstacles or any(k in tgt.relaxed for k in (0, 1, 2)):
+        return ""
+    point = np.asarray(tgt._p, dtype=float)
+    for k, ob in enumerate(constraint.obstacles):
+        depth = float(ob.signed_distance(point)[0])
+        if depth < 0.0 and _frame_origin_inside_body(robot, tgt.frame):
+            return (f"the target position {np.round(point, 4).tolist()} lies inside obstacle[{k}]:{ob.kind} "
+                    f"({-depth:.4g} m deep) and frame {tgt.frame!r} has its origin inside the robot's collision "
+                    "geometry: no collision-free configuration reaches it")
+    return ""
+
+
+def _frame_origin_inside_body(robot, frame: str) -> bool:
+    """True when the frame's origin lies inside a collision geometry of the body that carries it."""
+    model = robot.model
+    fid = robot.frame_id(frame)
+    joint = model.frames[fid].parentJoint
+    origin = model.frames[fid].placement  # frame in its joint's frame
+    gm = robot.collision.geometry
+    point = coal.Sphere(1e-9)
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    for g in gm.geometryObjects:
+        if g.parentJoint != joint:
+            continue
+        res.clear()
+        d = coal.distance(g.geometry, coal.Transform3s(g.placement.rotation, g.placement.translation),
+                          point, coal.Transform3s(np.eye(3), origin.translation), req, res)
+        if d < 0.0:
+            return True
+    return False
+
+
+def _failure(robot, tgt, q0, t0: float, reason: str) -> Result:
+    q = np.clip(robot.neutral() if q0 is None else np.asarray(q0, dtype=float), robot.lower, robot.upper)
+    return Result(q=q, success=False, position_error=float("nan"), orientation_error=float("nan"),
+                  elapsed=time.perf_counter() - t0, message=reason, method="qp", frame=tgt.frame,
+                  history=History.empty(robot.nq, tgt.components), info={"collision": "infeasible"})

@@ -1,0 +1,29 @@
+"""Hard IK constraints: the :class:`Constraint` protocol and its implementations.
+
+* :mod:`.base` - the protocol (linear rows ``lower <= G dq <= upper`` at ``q``
+  and a true check of ``q + dq``), the velocity-damper gain;
+* :mod:`.joint_limits` - :class:`JointLimits` (always on);
+* :mod:`.velocity_limits` - :class:`VelocityLimits` (``ik.step``);
+* :mod:`.obstacles` - :class:`ObstacleAvoidance`: any shape of
+  :mod:`kinserve.kinematics.shapes` kept clear of the robot's link capsules;
+* :mod:`.link_capsules` - the robot body as skeleton segments, their end
+  points and distance-gradient rows;
+* :mod:`.segment_distance` - vectorised point-segment and segment-segment closed forms;
+* :mod:`.sphere_set` - spheres against the link segments pair by pair (the
+  original ``"qp"`` constraint, kept for its users), the robot's segments, step bounds;
+* :mod:`.collision` - :class:`SelfCollision`, :class:`SceneCollision`, :class:`CollisionConstraint`:
+  the robot's collision geometry (convex hulls) against itself and obstacles (coal witness points and normals).
+"""
+
+from kinserve.kinematics.shapes import Sphere
+
+from .base import DAMPER_GAIN, Constraint
+from .collision import CollisionConstraint, SceneCollision, SelfCollision
+from .joint_limits import JointLimits
+from .obstacles import ObstacleAvoidance, as_obstacle
+from .sphere_set import SphereSet, as_sphere, frame_points, joint_step_bounds, robot_segments
+from .velocity_limits import VelocityLimits
+
+__all__ = ["Constraint", "DAMPER_GAIN", "JointLimits", "VelocityLimits", "ObstacleAvoidance", "as_obstacle",
+           "SelfCollision", "SceneCollision", "CollisionConstraint",
+           "Sphere", "SphereSet", "as_sphere", "frame_points", "joint_step_bounds", "robot_segments"]

@@ -1,0 +1,40 @@
+"""``JointLimits``: ``lower <= q + dq <= upper`` on every iterate (always on).
+
+A box on the step: ``lower - q <= dq <= upper - q``. The solvers also clip
+every iterate into the limits (round-off), so the margin
+``min_i min(q_i - lower_i, upper_i - q_i)`` is never negative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from typing import TYPE_CHECKING
+
+from .base import Constraint
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
+
+class JointLimits(Constraint):
+    """The robot's position limits as a box on the step (added to every solve automatically)."""
+
+    def __init__(self) -> None:
+        super().__init__(name="joint limits")
+
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        lb = robot.lower - q
+        ub = robot.upper - q
+        np.minimum(lb, 0.0, out=lb)  # q is inside the limits: guard against round-off
+        np.maximum(ub, 0.0, out=ub)
+        return None, lb, ub
+
+    def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
+        return float(min((q - robot.lower).min(), (robot.upper - q).min()))
+
+    def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:
+        bad = np.flatnonzero((q < robot.lower) | (q > robot.upper))
+        return "; ".join(f"{robot.joint_names[i]}={q[i]:.6g} outside [{robot.lower[i]:.6g}, {robot.upper[i]:.6g}]"
+                         for i in bad)

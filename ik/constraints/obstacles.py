@@ -1,0 +1,578 @@
+"""``ObstacleAvoidance``: any solid shape kept clear of the robot's links, hard on every iterate.
+
+The robot body is its skeleton of segments, each the core of a capsule of
+radius ``link_radius`` (:mod:`.link_capsules`; ``link_radius=0`` = bare
+segments). An obstacle with ``frames`` set is kept clear of those frame
+origins only. For every (obstacle, segment) pair the **clearance** is
+
+    c = d(segment core, obstacle) - link_radius - margin        (m)
+
+where ``d`` is the Euclidean distance (negative when they overlap):
+
+* sphere (centre ``o``, radius ``r``): point-segment closed form,
+  ``d = |x - o| - r``;
+* capsule (core ``[p, q]``, radius ``r``): segment-segment closed form,
+  ``d = |x - y| - r``;
+* box, cylinder, mesh (convex hull): coal's GJK/EPA distance between the
+  obstacle and the segment, with witness points and normal. Two cheap lower
+  bounds come first - the distance to a bounding sphere and the largest gap
+  between the segment's and the obstacle's extents along the obstacle's own
+  axes (separating axes); pairs farther than ``influence``
+  by that bound are not sent to coal (``margin`` uses :data:`MARGIN_EXACT`: it is
+  exact below 5 cm and a lower bound above, which is all the step back-off needs).
+
+Both closed forms are evaluated for all pairs at once (NumPy, no loop over
+pairs). With ``x`` the witness point on the segment (parameter ``s``) and
+``n`` the unit normal pointing from the obstacle to ``x``, the clearance
+gradient is ``g = n^T ((1 - s) J_a + s J_b)`` (:meth:`LinkSkeleton.gradient_rows`)
+and the constraint row is the velocity damper
+
+    g^T dq >= -xi c                    (xi = ``gain``, default 0.5)
+
+so a step consumes at most the fraction ``xi`` of the clearance, and a
+negative clearance (a start in collision) must grow. Rows are returned for
+the pairs with ``c < influence`` only (the others cannot bind a step of
+reasonable size; the true check after the step covers every pair).
+``margin(q)`` is the smallest clearance over all pairs.
+
+An obstacle that contains a part of the robot fixed to the world (its base
+segments) makes the problem infeasible: :class:`InputError` at ``bind``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import math
+from typing import TYPE_CHECKING, Any
+import weakref
+
+import numpy as np
+
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
+
+from .base import DAMPER_GAIN, Constraint
+from .link_capsules import LinkSkeleton, skeleton_segments
+from .segment_distance import point_segment, segment_segment
+
+#: Pairs whose clearance is below this (m) contribute rows to the QP.
+INFLUENCE = 0.3
+#: The true check computes coal distances exactly only for pairs whose bounding-sphere bound is below this (m).
+MARGIN_EXACT = 0.05
+#: Coal pairs (box, cylinder, mesh) give rows when their bounding-sphere bound is below this (m).
+COAL_INFLUENCE = 0.15
+
+_EPS = 1e-12
+_INF = np.full(4096, np.inf)
+_INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
+_einsum = np.einsum
+_sqrt = np.sqrt
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
+
+def as_obstacle(value: Any, name: str = "obstacle") -> Shape:
+    """A shape from a shape, a ``{"kind": ...}`` dict, a ``{"center", "radius"}`` dict or a ``(center, radius)`` pair."""
+    if isinstance(value, Shape):
+        return value
+    if isinstance(value, dict) and "kind" not in value:
+        if "center" in value and "radius" in value:
+            return Sphere(value["center"], value["radius"], value.get("frames"))
+        raise InputError(f"{name} dict needs a 'kind' ({', '.join(('sphere', 'box', 'capsule', 'cylinder', 'mesh'))}) "
+                         f"or 'center' and 'radius', got keys {sorted(value)}")
+    if isinstance(value, dict):
+        return as_shape(value, name)
+    try:
+        center, radius = value
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a shape (ik.Sphere, ik.Box, ik.Capsule, ik.Cylinder, ik.Mesh), "
+                         f"a dict or a (center, radius) pair, got {value!r}") from None
+    return Sphere(center, radius)
+
+
+def _local_extent(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
+    """Corners ``(lo, hi)`` of the shape's bounding box in its own frame."""
+    if isinstance(shape, Box):
+        h = shape.half_extents
+    elif isinstance(shape, Cylinder):
+        h = np.array([shape.radius, shape.radius, 0.5 * shape.length])
+    else:  # mesh: the hull's vertices
+        return shape.hull_vertices.min(axis=0), shape.hull_vertices.max(axis=0)
+    return -h, h
+
+
+def _bounding_radius(shape: Shape) -> float:
+    if isinstance(shape, Box):
+        return float(np.linalg.norm(shape.half_extents))
+    if isinstance(shape, Cylinder):
+        return math.hypot(shape.radius, 0.5 * shape.length)
+    if isinstance(shape, Mesh):
+        return float(np.linalg.norm(shape.hull_vertices, axis=1).max())
+    raise TypeError(type(shape).__name__)
+
+
+class ObstacleAvoidance(Constraint):
+    """Keep ``obstacles`` (any :mod:`kinserve.kinematics.shapes` shape) clear of the robot (module docstring).
+
+    Parameters
+    ----------
+    obstacles:
+        Shapes (or dicts / ``(center, radius)`` pairs, see :func:`as_obstacle`).
+    link_radius:
+        Radius (m, >= 0) of the capsules around the link segments (0 = bare segments).
+    margin:
+        Extra clearance (m, >= 0) required between links and obstacles.
+    gain:
+        Velocity-damper gain ``xi`` in ``(0, 1]``.
+    tool_frames:
+        Frames whose tool segment (parent joint -> frame origin) is part of the
+        body (default: the robot's tip).
+    influence:
+        Pairs with clearance below this (m) give QP rows.
+    """
+
+    def __init__(self, obstacles: Any, link_radius: float = 0.0, margin: float = 0.0, gain: float = DAMPER_GAIN,
+                 tool_frames: Sequence[str] | str | None = None, influence: float = INFLUENCE) -> None:
+        super().__init__(name="obstacles")
+        if isinstance(obstacles, (Shape, dict)):
+            obstacles = [obstacles]
+        try:
+            items = list(obstacles)
+        except TypeError:
+            raise InputError(f"obstacles must be a sequence of shapes, got {obstacles!r}") from None
+        self.obstacles = [as_obstacle(o, f"obstacles[{i}]") for i, o in enumerate(items)]
+        self.link_radius = _non_negative(link_radius, "link_radius")
+        self.margin_required = _non_negative(margin, "margin")
+        if isinstance(gain, bool) or not isinstance(gain, (int, float)) or not (0.0 < gain <= 1.0):
+            raise InputError(f"gain (velocity damper xi) must be in (0, 1], got {gain!r}")
+        self.gain = float(gain)
+        if isinstance(tool_frames, str):
+            tool_frames = (tool_frames,)
+        self.tool_frames = None if tool_frames is None else tuple(tool_frames)
+        self.influence = _non_negative(influence, "influence")
+        self._model = None
+        self._last = None  # (data, q, witness pairs) of the last margin() without coal pairs
+
+    # ---------------------------------------------------------------------------------------- binding
+    def bind(self, robot: Robot) -> "ObstacleAvoidance":
+        if self._model is robot.model:
+            return self
+        tools = self.tool_frames or (robot.tip,)
+        for f in tools:
+            robot.frame_id(f)
+        extra = tuple(dict.fromkeys(f for ob in self.obstacles if ob.frames is not None for f in ob.frames))
+        sk, n_default, fixed = _skeleton(robot, tools, extra)
+        self.skeleton = sk
+        frame_index = {name: n_default + k for k, name in enumerate(extra)}
+        segs_default = list(range(n_default))
+        sph, cap, other = ([], [], []), ([], [], [], []), ([], [], [])
+        groups = ([], [], [])
+        for k, ob in enumerate(self.obstacles):
+            seg_ids = segs_default if ob.frames is None else [frame_index[f] for f in ob.frames]
+            if ob.frames is None:
+                self._check_base(k, ob, fixed)
+            for i in seg_ids:
+                if isinstance(ob, Sphere):
+                    sph[0].append(i), sph[1].append(ob.center), sph[2].append(ob.radius)
+                    groups[0].append((k, sk.names[i]))
+                elif isinstance(ob, Capsule):
+                    cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
+                    groups[1].append((k, sk.names[i]))
+                else:
+                    other[0].append(i), other[1].append(ob), other[2].append(k)
+                    groups[2].append((k, sk.names[i]))
+        # pairs are ordered: spheres, capsules, others (the order of the clearance vector)
+        self.pair_names = groups[0] + groups[1] + groups[2]
+        self._sph_seg = np.array(sph[0], dtype=int)
+        self._sph_c = np.array(sph[1], dtype=float).reshape(-1, 3)
+        self._sph_r = np.array(sph[2], dtype=float)
+        self._cap_seg = np.array(cap[0], dtype=int)
+        self._cap_a = np.array(cap[1], dtype=float).reshape(-1, 3)
+        self._cap_b = np.array(cap[2], dtype=float).reshape(-1, 3)
+        self._cap_r = np.array(cap[3], dtype=float)
+        self._oth_seg = np.array(other[0], dtype=int)
+        self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
+        self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
+        # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
+        rigid = bool(np.all(sk.rigid[self._sph_seg])) if self._sph_seg.size else False
+        self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
+        self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
+        self._oth = other[1]
+        # per obstacle once, then one row per pair
+        kinds = list(dict.fromkeys(other[2]))
+        row = np.array([kinds.index(k) for k in other[2]], dtype=int)
+        obs = [self.obstacles[k] for k in kinds]
+        tfs = [_coal_transform(o.pose) for o in obs]
+        self._oth_tf = [tfs[r] for r in row.tolist()]
+        poses = np.array([o.pose for o in obs], dtype=float).reshape(-1, 4, 4)
+        ext = [_local_extent(o) for o in obs]
+        self._oth_center = poses[row, :3, 3]
+        self._oth_t = self._oth_center
+        self._oth_R = poses[row, :3, :3]
+        self._oth_bound = np.array([_bounding_radius(o) for o in obs], dtype=float).reshape(-1)[row]
+        self._oth_lo = np.array([e[0] for e in ext], dtype=float).reshape(-1, 3)[row]
+        self._oth_hi = np.array([e[1] for e in ext], dtype=float).reshape(-1, 3)[row]
+        # rigid segments: the capsule core's placement in its joint's frame and its coal geometry, once
+        self._oth_local = [_local_core(sk, i) for i in other[0]]
+        self.m = len(self.pair_names)
+        self._offset = self.link_radius + self.margin_required
+        self._model = robot.model
+        return self
+
+    def _check_base(self, k, ob, fixed):
+        """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
+        if not fixed:
+            return
+        # cheap rejection: the obstacle's bounding ball does not reach the base's bounding ball
+        (cx, cy, cz), R = fixed_ball(fixed)
+        if isinstance(ob, Sphere):
+            (ox, oy, oz), rad = ob.center, ob.radius
+        elif isinstance(ob, Capsule):
+            (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), 0.5 * ob.length + ob.radius
+        else:
+            (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), _bounding_radius(ob)
+        if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + self.link_radius:
+            return
+        A = np.array([f[1] for f in fixed])
+        B = np.array([f[2] for f in fixed])
+        if isinstance(ob, Sphere):
+            c = np.broadcast_to(np.asarray(ob.center), A.shape)
+            _, X = point_segment(A, B, c)
+            d = np.linalg.norm(X - c, axis=1) - ob.radius
+        elif isinstance(ob, Capsule):
+            _, _, X, Y = segment_segment(A, B, np.broadcast_to(np.asarray(ob.a), A.shape),
+                                         np.broadcast_to(np.asarray(ob.b), A.shape))
+            d = np.linalg.norm(X - Y, axis=1) - ob.radius
+        else:
+            t = np.linspace(0.0, 1.0, 33)[None, :, None]
+            d = ob.signed_distance((A[:, None] + t * (B - A)[:, None]).reshape(-1, 3)).reshape(len(A), -1).min(axis=1)
+        bad = np.flatnonzero(d < self.link_radius)
+        if bad.size:
+            raise InputError(f"obstacles[{k}] ({ob!r}) contains the robot base ({fixed[bad[0]][0]}); "
+                             "the base cannot move out of it")
+
+    # ------------------------------------------------------------------------------------- distances
+    def _pairs(self, data, witness: bool, cutoff: float = math.inf):
+        """Clearances ``(m,)`` and, with ``witness``, ``(seg, s, N, A, B)`` of every pair (module docstring).
+
+        ``A``, ``B`` are the end points of each pair's segment, ``N`` the unit
+        normals from the obstacle to the witness point ``(1 - s) A + s B``.
+        """
+        P = self.skeleton.points(data)
+        clear, segs, ss, Ns, As, Bs = [], [], [], [], [], []
+        if self._sph_seg.size:
+            A = P[self._sph_ia]
+            AB = P[self._sph_ib] - A
+            AC = self._sph_c - A
+            inv = self._sph_inv if self._sph_inv is not None else self._inv_len2(AB)
+            s = _einsum("ij,ij->i", AC, AB) * inv
+            _clip(s, 0.0, 1.0, out=s)
+            V = s[:, None] * AB - AC  # x - c
+            d = _sqrt(_einsum("ij,ij->i", V, V))
+            clear.append(d - self._sph_r)
+            if witness:
+                segs.append(self._sph_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(A + AB)
+        if self._cap_seg.size:
+            A, B = P[self._cap_ia], P[self._cap_ib]
+            s, _, X, Y = segment_segment(A, B, self._cap_a, self._cap_b)
+            V = X - Y
+            d = _sqrt(_einsum("ij,ij->i", V, V))
+            clear.append(d - self._cap_r)
+            if witness:
+                segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
+        if self._oth_seg.size:
+            A, B = P[self._oth_ia], P[self._oth_ib]
+            c, s, N = self._coal_pairs(A, B, cutoff)
+            clear.append(c)
+            if witness:
+                segs.append(self._oth_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
+        if not clear:
+            c = np.zeros(0)
+        else:
+            c = (clear[0] if len(clear) == 1 else np.concatenate(clear)) - self._offset
+        if not witness:
+            return c
+        if not segs:
+            return c, np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+        if len(segs) == 1:
+            return c, segs[0], ss[0], Ns[0], As[0], Bs[0]
+        cat = np.concatenate
+        return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
+
+    def _inv_len2(self, AB):
+        """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
+        L2 = _einsum("ij,ij->i", AB, AB)
+        out = np.zeros_like(L2)
+        np.divide(1.0, L2, out=out, where=L2 > 1e-24)
+        return out
+
+    def _coal_lower_bound(self, A, B, K: int) -> np.ndarray:
+        """Lower bounds on the coal pairs' distances for ``K`` stacked copies of the pairs (rows of ``A``, ``B``).
+
+        The larger of the distance from the segment to the obstacle's bounding
+        sphere and the largest gap between the segment's and the obstacle's
+        extents along the obstacle's own axes (separating axes).
+        """
+        tile = (lambda x: x) if K == 1 else (lambda x: np.tile(x, (K,) + (1,) * (x.ndim - 1)))
+        centre, t, R = tile(self._oth_center), tile(self._oth_t), tile(self._oth_R)
+        _, X = point_segment(A, B, centre)
+        lb = np.linalg.norm(X - centre, axis=1) - tile(self._oth_bound)
+        a = _einsum("pi,pij->pj", A - t, R)
+        b = _einsum("pi,pij->pj", B - t, R)
+        gap = np.maximum(np.minimum(a, b) - tile(self._oth_hi), tile(self._oth_lo) - np.maximum(a, b)).max(axis=1)
+        return np.maximum(lb, gap, out=lb)
+
+    def _coal_pairs(self, A, B, cutoff):
+        import coal
+
+        i = self._oth_seg
+        lb = self._coal_lower_bound(A, B, 1)
+        c = lb.copy()
+        s = np.zeros(len(i))
+        N = np.zeros((len(i), 3))
+        req = coal.DistanceRequest()
+        res = coal.DistanceResult()
+        far = cutoff + self._offset
+        oMi = self.skeleton._placements[1]  # joint placements of the data just read by points()
+        todo = np.flatnonzero(lb < far).tolist()
+        X = np.zeros((len(i), 3))
+        for p in todo:
+            local = self._oth_local[p]
+            if local is not None:
+                j, M, geom = local
+                tf = coal.Transform3s(oMi[j] * M)
+            else:
+                a, b = A[p], B[p]
+                ab = b - a
+                L = math.sqrt(ab.dot(ab))
+                geom = _core(L)
+                tf = _segment_transform(a, ab, L)
+            res.clear()
+            c[p] = coal.distance(self._oth[p].geometry(), self._oth_tf[p], geom, tf, req, res)
+            X[p] = res.getNearestPoint2()
+            N[p] = res.normal
+        if todo:
+            AB = B[todo] - A[todo]
+            L2 = _einsum("ij,ij->i", AB, AB)
+            num = _einsum("ij,ij->i", X[todo] - A[todo], AB)
+            s[todo] = np.clip(np.divide(num, L2, out=np.zeros_like(num), where=L2 > 1e-24), 0.0, 1.0)
+        return c, s, N
+
+    def clearances(self, data: pin.Data) -> np.ndarray:
+        """Clearance ``c`` (m) of every pair after forward kinematics (far coal pairs: their lower bound)."""
+        return self._pairs(data, False, MARGIN_EXACT)
+
+    def first_violation(self, robot: Robot, Q: np.ndarray) -> int | None:
+        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None.
+
+        The sphere and capsule distances of all ``K`` configurations are evaluated at once (the same
+        closed forms on ``(K, pairs)`` arrays); coal pairs are checked per configuration where their
+        bounding-sphere bound is negative.
+        """
+        import pinocchio as pin
+
+        model, data = robot.model, robot.data
+        sk = self.skeleton
+        P = np.empty((len(Q), len(sk._translations) + len(sk._acts) + len(sk._world), 3))
+        for k, q in enumerate(Q):
+            pin.forwardKinematics(model, data, q)
+            P[k] = sk.points(data)
+        bad = np.zeros(len(Q), dtype=bool)
+        off = self._offset
+        if self._sph_seg.size:
+            A = P[:, self._sph_ia]
+            AB = P[:, self._sph_ib] - A
+            AC = self._sph_c - A
+            inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
+            t = _clip(_einsum("kij,kij->ki", AC, AB) * inv, 0.0, 1.0)
+            V = t[..., None] * AB - AC
+            bad |= (_sqrt(_einsum("kij,kij->ki", V, V)) - self._sph_r - off < 0.0).any(axis=1)
+        if self._cap_seg.size:
+            K, n = len(Q), self._cap_seg.size
+            A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
+            _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
+            d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
+            bad |= (d - self._cap_r - off < 0.0).any(axis=1)
+        if self._oth_seg.size:
+            import coal
+
+            K, n = len(Q), self._oth_seg.size
+            A, B = P[:, self._oth_ia].reshape(-1, 3), P[:, self._oth_ib].reshape(-1, 3)
+            lb = self._coal_lower_bound(A, B, K)
+            req, res = coal.DistanceRequest(), coal.DistanceResult()
+            for r in np.flatnonzero(lb < off).tolist():
+                k, p = divmod(r, n)
+                if bad[k]:
+                    continue
+                ab = B[r] - A[r]
+                L = math.sqrt(ab.dot(ab))
+                res.clear()
+                d = coal.distance(self._oth[p].geometry(), self._oth_tf[p], _core(L), _segment_transform(A[r], ab, L),
+                                  req, res)
+                bad[k] = d - off < 0.0
+        hits = np.flatnonzero(bad)
+        return int(hits[0]) if hits.size else None
+
+    # ------------------------------------------------------------------------------------- protocol
+    def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
+        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs).
+
+        Without coal pairs the witness points are kept: :meth:`rows` at the same ``q`` (same array
+        object, same ``data``) reuses them instead of computing the distances again.
+        """
+        if not self._oth_seg.size:
+            w = self._pairs(data, True)
+            self._last = (data, q, w)
+            c = w[0]
+            return float(c.min()) if c.size else math.inf
+        c = self._pairs(data, False, MARGIN_EXACT)
+        return float(c.min()) if c.size else math.inf
+
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        last = self._last
+        if last is not None and last[0] is data and last[1] is q:
+            c, seg, s, N, A, B = last[2]
+        else:
+            c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
+        # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
+        near = (c < self.influence) & (_einsum("ij,ij->i", N, N) > 0.5)
+        if not near.all():
+            if not near.any():
+                return np.zeros((0, robot.model.nv)), np.zeros(0), np.zeros(0)
+            c, seg, s, N, A, B = c[near], seg[near], s[near], N[near], A[near], B[near]
+        G = self.skeleton.gradient_rows(data, seg, s, A, B, N)
+        return G, -self.gain * c, _INF[: c.shape[0]] if c.shape[0] <= _INF.shape[0] else np.full(c.shape[0], np.inf)
+
+    def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
+        """``(c, G)`` for every pair (tests, diagnostics); needs ``computeJointJacobians``."""
+        c, seg, s, N, A, B = self._pairs(data, True, math.inf)
+        return c, self.skeleton.gradient_rows(data, seg, s, A, B, N)
+
+    def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:
+        c = self._pairs(data, False, math.inf)
+        parts = []
+        for p in np.flatnonzero(c < 0.0):
+            k, seg = self.pair_names[p]
+            parts.append(f"obstacles[{k}] ({self.obstacles[k].kind}) is entered by {seg} by {-c[p]:.4g} m")
+        return "; ".join(parts)
+
+    def __repr__(self) -> str:
+        return (f"ObstacleAvoidance({len(self.obstacles)} obstacles, link_radius={self.link_radius:g}, "
+                f"margin={self.margin_required:g})")
+
+
+_skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: coal capsule cores by length (segment lengths repeat from one call to the next)
+_CORES: dict = {}
+_balls: dict = {}
+
+
+def fixed_ball(fixed: list) -> tuple[tuple[float, float, float], float]:
+    """A ball ``(centre, radius)`` enclosing the fixed segments ``(name, a, b)`` (cached per list)."""
+    hit = _balls.get(id(fixed))
+    if hit is None or hit[0] is not fixed:
+        pts = np.array([p for _, a, b in fixed for p in (a, b)])
+        c = 0.5 * (pts.min(axis=0) + pts.max(axis=0))
+        hit = _balls[id(fixed)] = (fixed, tuple(c.tolist()), float(np.linalg.norm(pts - c, axis=1).max()))
+    return hit[1], hit[2]
+
+
+def _skeleton(robot, tools, frames):
+    """``(skeleton, n_default, fixed)``: the moving default segments then the frame points, cached per model.
+
+    ``fixed`` lists ``(name, a, b)`` of the segments fixed to the world (checked against the obstacles).
+    """
+    per_model = _skeletons.get(robot.model)
+    if per_model is None:
+        per_model = _skeletons[robot.model] = {}
+    key = (tuple(tools), tuple(frames))
+    hit = per_model.get(key)
+    if hit is None:
+        segs = skeleton_segments(robot, tools)
+        moving = [s for s in segs if not s.fixed]
+        fixed = [(s.name, s.la.copy(), s.lb.copy()) for s in segs if s.fixed]
+        pts = skeleton_segments(robot, frames=frames) if frames else []
+        hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
+    return hit
+
+
+def _unit(V: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Rows of ``V`` divided by ``d`` (zero rows where ``d`` is 0: no defined direction)."""
+    out = np.zeros_like(V)
+    np.divide(V, d[:, None], out=out, where=d[:, None] > _EPS)
+    return out
+
+
+def _non_negative(value, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise InputError(f"{name} must be a number >= 0 (m), got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v < 0.0:
+        raise InputError(f"{name} must be a finite number >= 0 (m), got {value!r}")
+    return v
+
+
+def _coal_transform(T: np.ndarray):
+    import coal
+
+    tf = coal.Transform3s()
+    tf.setRotation(np.ascontiguousarray(T[:3, :3]))
+    tf.setTranslation(np.ascontiguousarray(T[:3, 3]))
+    return tf
+
+
+def _local_core(sk: LinkSkeleton, i: int):
+    """``(joint, placement in the joint frame, coal core)`` of rigid segment ``i`` (cached on the skeleton), or None."""
+    cache = sk.__dict__.setdefault("_local_cores", {})
+    if i not in cache:
+        if sk.rigid[i] and sk.ja[i] != 0:
+            la, lb = sk.la[i], sk.lb[i]
+            L = float(np.linalg.norm(lb - la))
+            cache[i] = (int(sk.ja[i]), _axis_placement(la, lb - la, L), _core(L))
+        else:
+            cache[i] = None
+    return cache[i]
+
+
+def _core(L: float):
+    """The coal capsule core (radius 0) of length ``L``, cached by length."""
+    import coal
+
+    geom = _CORES.get(L)
+    if geom is None:
+        if len(_CORES) > 4096:
+            _CORES.clear()
+        geom = _CORES[L] = coal.Capsule(0.0, L)
+    return geom
+
+
+def _axis_placement(a: np.ndarray, ab: np.ndarray, L: float):
+    """``pinocchio.SE3`` at the midpoint of ``[a, a + ab]`` with its z axis along ``ab``."""
+    import pinocchio as pin
+
+    tf = _segment_transform(a, ab, L)
+    return pin.SE3(np.array(tf.getRotation()), np.array(tf.getTranslation()))
+
+
+def _segment_transform(a: np.ndarray, ab: np.ndarray, L: float):
+    """coal placement of a capsule core ``[a, a + ab]``: centre at the midpoint, local z along ``ab``.
+
+    Plain floats: on one 3-vector they are several times cheaper than NumPy's cross products.
+    """
+    import coal
+
+    tf = coal.Transform3s()
+    if L > _EPS:
+        zx, zy, zz = (ab / L).tolist()
+        hx, hy = (1.0, 0.0) if abs(zx) < 0.9 else (0.0, 1.0)
+        xx, xy, xz = hy * zz, -hx * zz, hx * zy - hy * zx  # h x z with h = (hx, hy, 0)
+        n = math.sqrt(xx * xx + xy * xy + xz * xz)
+        xx, xy, xz = xx / n, xy / n, xz / n
+        yx, yy, yz = zy * xz - zz * xy, zz * xx - zx * xz, zx * xy - zy * xx  # z x x
+        tf.setRotation(np.array([[xx, yx, zx], [xy, yy, zy], [xz, yz, zz]]))
+    tf.setTranslation(a + 0.5 * ab)
+    return tf

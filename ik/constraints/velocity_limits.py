@@ -1,0 +1,56 @@
+"""``VelocityLimits(v_max)``: ``|v_i| <= v_max_i`` for the differential step of :func:`kinserve.ik.step`.
+
+With the control period ``dt`` (s) the step ``dq = v dt`` is boxed by
+``-v_max dt <= dq <= v_max dt`` (rad or m). :func:`kinserve.ik.solve`
+iterates without time (``dt=None``): the limits do not apply there.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import numpy as np
+from typing import TYPE_CHECKING
+
+from kinserve.kinematics.errors import InputError, NonFiniteError
+
+from .base import Constraint
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
+
+class VelocityLimits(Constraint):
+    """Joint speed limits ``v_max`` (rad/s or m/s): one positive number for every joint or one per joint."""
+
+    def __init__(self, v_max: float | Sequence[float]) -> None:
+        super().__init__(name="velocity limits")
+        try:
+            v = np.array(v_max, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"v_max must be a positive number or one per joint, got {v_max!r}") from None
+        if v.ndim > 1:
+            raise InputError(f"v_max must be a number or a 1-D sequence, got shape {v.shape}")
+        if not np.all(np.isfinite(v)):
+            raise NonFiniteError(f"v_max must be finite, got {v.tolist()}")
+        if np.any(v <= 0.0):
+            raise InputError(f"v_max must be positive, got {v.tolist()}")
+        self.v_max = v
+        self._v = None
+
+    def bind(self, robot: Robot) -> "VelocityLimits":
+        if self.v_max.ndim == 0:
+            self._v = np.full(robot.model.nv, float(self.v_max))
+        elif self.v_max.shape != (robot.model.nv,):
+            raise InputError(f"v_max must be one number or {robot.model.nv} numbers (one per joint), "
+                             f"got {self.v_max.size}")
+        else:
+            self._v = self.v_max
+        return self
+
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        if dt is None:
+            return None, np.full(q.shape[0], -np.inf), np.full(q.shape[0], np.inf)
+        b = self._v * dt
+        return None, -b, b.copy()

@@ -1,0 +1,107 @@
+"""One differential-IK step with strict priorities between levels and hard constraints at every level.
+
+Tasks are grouped by priority (1 = highest). Inside a level the rows of its
+tasks are stacked, each scaled by ``sqrt(weight)``: ``J_k``, ``e_k``. With the
+box ``lb <= dq <= ub`` (joint limits, trust region, velocity limits) and the
+constraint rows ``l <= G dq <= u``:
+
+Level 1 - a Levenberg-Marquardt step with hard inequalities::
+
+    dq_1 = argmin 1/2 |J_1 dq + e_1|^2 + 1/2 lambda |dq|^2      lambda = gain |e_1|^2 + lambda_0
+           s.t. lb <= dq <= ub,  l <= G dq <= u
+
+Level k > 1 - in the null space of every higher level: with ``Z`` an
+orthonormal basis of the null space of ``[J_1; ...; J_{k-1}]`` (rank-revealing
+SVD, built level by level), ``dq = dq_{k-1} + Z z`` and::
+
+    z = argmin 1/2 |J_k (dq_{k-1} + Z z) + e_k|^2 + 1/2 eps |z|^2
+        s.t. lb <= dq_{k-1} + Z z <= ub,  l <= G (dq_{k-1} + Z z) <= u,  |z| <= max_step
+
+so ``J_j dq`` is unchanged for every higher level ``j`` (the higher levels'
+first-order progress is kept exactly) and the constraints hold at every
+level. When the first level is infeasible because rows demand that violated
+constraints recover (``l > 0``, a start in collision), those rows are relaxed
+to ``l = 0`` (get no worse) and the level is solved again. A level whose QP is infeasible (the higher levels leave it no
+feasible freedom) contributes nothing. This is the nullspace form of a
+hierarchical QP; it needs no more than one small QP per level.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .centring import null_space_basis
+from .dense_qp import DEFAULT_BACKEND, solve_dense
+
+#: Damping of the lower levels (regularises the null-space coordinates).
+LOWER_DAMPING = 1e-9
+
+
+def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray]:
+    """``(J, e)`` of one level: the tasks' ``(e, J)`` rows stacked, each scaled by its ``sqrt(weight)``
+    (``sqrt_weights``: a number, a vector, or None for weight 1)."""
+    if len(pairs) == 1 and (sqrt_weights[0] is None):
+        return pairs[0][1], pairs[0][0]
+    Js, es = [], []
+    for (e, J), sw in zip(pairs, sqrt_weights):
+        if sw is None:
+            Js.append(J), es.append(e)
+        else:
+            if np.ndim(sw):
+                Js.append(J * sw[:, None]), es.append(e * sw)
+            else:
+                Js.append(J * sw), es.append(e * sw)
+    return np.vstack(Js), np.concatenate(es)
+
+
+def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
+                      l: np.ndarray | None = None, u: np.ndarray | None = None, *, lam: float, max_step: float = 1.0,
+                      backend: str = DEFAULT_BACKEND, shortcut: bool = True) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(dq, dq_lower)``: the step and the part of it contributed by levels below the first; ``(None, None)``
+    when the first level's QP is infeasible.
+
+    ``levels`` is a list of ``(J, e)`` ordered by priority; ``lam`` the
+    first level's damping.
+    """
+    J1, e1 = levels[0]
+    n = J1.shape[1]
+    P = J1.T.dot(J1)
+    P.flat[:: n + 1] += lam
+    dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
+    if dq is None and G is not None and (l > 0.0).any():
+        # rows that demand a violated constraint recover (l > 0) may conflict: ask only that it gets no worse
+        l = np.minimum(l, 0.0)
+        dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
+    if dq is None:
+        return None, None
+    if len(levels) == 1:
+        return dq, None
+    dq_lower = np.zeros(n)
+    Z = null_space_basis(J1)
+    for Jk, ek in levels[1:]:
+        dim = Z.shape[1]
+        if dim == 0:
+            break
+        JZ = Jk.dot(Z)
+        Pz = JZ.T.dot(JZ)
+        Pz.flat[:: dim + 1] += LOWER_DAMPING
+        cz = (Jk.dot(dq) + ek).dot(JZ)
+        rows = [Z]
+        lo = [lb - dq]
+        hi = [ub - dq]
+        if G is not None and G.shape[0]:
+            rows.append(G.dot(Z))
+            Gd = G.dot(dq)
+            lo.append(l - Gd)
+            hi.append(u - Gd)
+        A = np.vstack(rows)
+        zlim = np.full(dim, max_step)
+        z = solve_dense(Pz, cz, -zlim, zlim, A, np.concatenate(lo), np.concatenate(hi), backend, shortcut)
+        if z is not None:
+            step = Z.dot(z)
+            dq = dq + step
+            dq_lower += step
+        # the next level moves in the null space of this one too
+        Nk = null_space_basis(JZ)
+        Z = Z.dot(Nk)
+    return dq, dq_lower

@@ -1,0 +1,109 @@
+"""Method-specific options of ``ik.solve`` (``**options``): accepted names per method and their values.
+
+``ik.solve(robot, T, method=m, **options)`` forwards ``options`` to the solver
+of method ``m``. :func:`check_options` validates them *without solving*
+(:func:`ik.solve_many` checks them once in the calling process, before any
+worker starts):
+
+==================  ==========================================  ==============================
+option              meaning                                     accepted values
+==================  ==========================================  ==============================
+``max_iter``        iteration cap of one start                  integer >= 1
+``damping``         damping ``lambda_0`` (LM / QP / DLS)        finite number > 0
+``max_starts``      cap on the number of starts                 integer >= 1 or None
+``prefer_q0``       start from ``q0`` first                     bool
+``seed_table``      use the table of starts (:mod:`ik.seeds`)   bool
+``max_step``        bound on each joint step (QP, rad or m)     finite number > 0
+``shortcut``        skip the QP when the free step is feasible  bool
+``gain``            step gain of the classical methods          finite number > 0
+``samples``         samples of a closed-form family             integer >= 2
+``choose``          chooser criteria (:mod:`ik.chooser`)        name or sequence of names
+==================  ==========================================  ==============================
+
+Accepted names per method are :data:`OPTIONS`; ``"auto"`` accepts the union
+of the methods it may pick (``qp``, ``lm``, ``analytic``).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from kinserve.kinematics.errors import InputError, NonFiniteError
+
+from .chooser import CRITERIA
+
+_LM = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
+_QP = _LM + ("max_step", "shortcut")
+_CLASSICAL = ("gain", "damping", "max_iter")
+_ANALYTIC = ("samples", "choose")
+
+#: Accepted option names per method.
+OPTIONS: dict[str, tuple[str, ...]] = {
+    "lm": _LM,
+    "qp": _QP,
+    "analytic": _ANALYTIC,
+    "auto": tuple(dict.fromkeys(_QP + _ANALYTIC)),
+    "jacobian_inverse": _CLASSICAL,
+    "jacobian_transpose": _CLASSICAL,
+    "pseudo_inverse": _CLASSICAL,
+    "dls": _CLASSICAL,
+}
+
+
+def _integer(name, value, minimum, allow_none=False):
+    if value is None and allow_none:
+        return
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        extra = " or None" if allow_none else ""
+        raise InputError(f"option {name} must be an integer >= {minimum}{extra}, got {value!r}")
+
+
+def _positive(name, value):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"option {name} must be a positive number, got {value!r}")
+    if not math.isfinite(float(value)):
+        raise NonFiniteError(f"option {name} must be finite, got {value!r}")
+    if value <= 0:
+        raise InputError(f"option {name} must be positive, got {value!r}")
+
+
+def _flag(name, value):
+    if not isinstance(value, bool):
+        raise InputError(f"option {name} must be True or False, got {value!r}")
+
+
+def _criteria(name, value):
+    names = (value,) if isinstance(value, str) else value
+    try:
+        names = tuple(names)
+    except TypeError:
+        names = None
+    if not names or any(not isinstance(c, str) or c not in CRITERIA for c in names):
+        raise InputError(f"option {name} must name criteria from {CRITERIA}, got {value!r}")
+
+
+_CHECKS = {
+    "max_iter": lambda n, v: _integer(n, v, 1),
+    "max_starts": lambda n, v: _integer(n, v, 1, allow_none=True),
+    "samples": lambda n, v: _integer(n, v, 2),
+    "damping": _positive,
+    "max_step": _positive,
+    "gain": _positive,
+    "prefer_q0": _flag,
+    "seed_table": _flag,
+    "shortcut": _flag,
+    "choose": _criteria,
+}
+
+
+def check_options(method: str, options: dict) -> None:
+    """Raise :class:`InputError` for an option ``method`` does not accept or a value out of range."""
+    allowed = OPTIONS.get(method)
+    if allowed is None:
+        raise InputError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")
+    bad = [k for k in options if k not in allowed]
+    if bad:
+        raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
+    for name, value in options.items():
+        _CHECKS[name](name, value)

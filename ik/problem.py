@@ -1,0 +1,217 @@
+"""``Problem``: tasks and constraints bound to one robot - the one task-evaluation path of the solvers.
+
+Built once per solve (or cached by :func:`kinserve.ik.step` for a control
+loop). It validates the composition, groups the tasks by priority, keeps
+joint limits always on, and offers the three things an iteration needs:
+
+* :meth:`evaluate` - one ``computeJointJacobians`` pass, then every task's
+  ``(e, J)``, stacked per level (rows scaled by ``sqrt(weight)``), and the goal
+  errors (largest position / orientation error over the goal tasks);
+* :meth:`box_and_rows` - the box on ``dq`` (joint limits, velocity limits,
+  trust region) and the stacked rows ``l <= G dq <= u`` of the other constraints;
+* :meth:`margin` - the true check of a configuration on a second Pinocchio
+  ``Data`` (forward kinematics only), so checking a trial step never
+  overwrites the kinematics of the current iterate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Shape
+
+from .constraints.base import DAMPER_GAIN, Constraint
+from .constraints.joint_limits import JointLimits
+from .constraints.obstacles import ObstacleAvoidance
+from .tasks.base import Task
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+
+_cjj = pin.computeJointJacobians
+_fk = pin.forwardKinematics
+
+
+def _is_checked(c: Constraint) -> bool:
+    """True when ``c`` implements a true check (its ``margin`` is not the protocol default)."""
+    return type(c).margin is not Constraint.margin
+
+
+def as_constraints(constraints: Any, tool_frames: Sequence[str] = ()) -> list[Constraint]:
+    """Constraint objects from a sequence of constraints and shapes (shapes become one :class:`ObstacleAvoidance`)."""
+    if constraints is None:
+        return []
+    if isinstance(constraints, (Constraint, Shape)):
+        constraints = [constraints]
+    try:
+        items = list(constraints)
+    except TypeError:
+        raise InputError(f"constraints must be a sequence of ik.Constraint objects or shapes, got {constraints!r}") from None
+    out, shapes = [], []
+    for i, c in enumerate(items):
+        if isinstance(c, Shape):
+            shapes.append(c)
+        elif isinstance(c, Constraint):
+            out.append(c)
+        else:
+            raise InputError(f"constraints[{i}] must be an ik.Constraint or a shape (ik.Sphere, ik.Box, ...), "
+                             f"got {type(c).__name__}")
+    if shapes:
+        out.append(ObstacleAvoidance(shapes, tool_frames=tuple(tool_frames) or None))
+    return out
+
+
+class Problem:
+    """Bound tasks and constraints of one robot (see the module docstring)."""
+
+    def __init__(self, robot: Robot, tasks: Any, constraints: Any = ()) -> None:
+        if tasks is None or isinstance(tasks, Task):
+            tasks = [] if tasks is None else [tasks]
+        try:
+            tasks = list(tasks)
+        except TypeError:
+            raise InputError(f"tasks must be a sequence of ik.Task objects, got {tasks!r}") from None
+        if not tasks:
+            raise InputError("tasks must hold at least one ik.Task (e.g. ik.FrameTask(frame, pose))")
+        for i, t in enumerate(tasks):
+            if not isinstance(t, Task):
+                raise InputError(f"tasks[{i}] must be an ik.Task (FrameTask, PostureTask, CentringTask or a "
+                                 f"subclass of ik.Task), got {type(t).__name__}")
+        self.robot = robot
+        self.model = robot.model
+        self.data = robot.data
+        self._check_data = None
+        self.tasks = [t.bind(robot) for t in tasks]
+        tool_frames = [t.frame_name for t in self.tasks if hasattr(t, "frame_name")]
+        cons = as_constraints(constraints, tool_frames)
+        if not any(isinstance(c, JointLimits) for c in cons):
+            cons.insert(0, JointLimits())
+        self.constraints = [c.bind(robot) for c in cons]
+        self.box_constraints = []
+        self.row_constraints = []
+        self.checked = []  # constraints with a true check (JointLimits excluded: iterates are clipped)
+        for c in self.constraints:
+            if isinstance(c, JointLimits):
+                continue
+            if _is_checked(c):
+                self.checked.append(c)
+        self._plan = [(c, c in self.checked) for c in self.constraints]
+        self.priorities = sorted({t.priority for t in self.tasks})
+        self.levels = [[t for t in self.tasks if t.priority == p] for p in self.priorities]
+        # sqrt(weight) of every task, None for weight 1 (rows used as they are)
+        self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else np.sqrt(t.weight) for t in lvl]
+                              for lvl in self.levels]
+        self.goals = [t for t in self.tasks if t.goal]
+        self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
+        self.gain = min([getattr(c, "gain", DAMPER_GAIN) for c in self.checked] or [DAMPER_GAIN])
+        self.nv = robot.model.nv
+        self.q_in_data = None
+
+    # ------------------------------------------------------------------------------- tasks
+    def state(self, q: np.ndarray) -> tuple[list, float, float, list, float]:
+        """``(levels, pe, re, es, margin)`` at ``q`` from one kinematics pass on the main ``Data``."""
+        levels, pe, re, es = self.evaluate(q)
+        if not self.checked:
+            return levels, pe, re, es, math.inf
+        robot, data = self.robot, self.data
+        m = min(c.margin(robot, data, q) for c in self.checked) if len(self.checked) > 1 else \
+            self.checked[0].margin(robot, data, q)
+        return levels, pe, re, es, m
+
+    def evaluate(self, q: np.ndarray) -> tuple[list, float, float, list]:
+        """``(levels, pe, re, es)``: stacked ``(J, e)`` per level, goal errors (m, rad), each task's error."""
+        robot, data = self.robot, self.data
+        _cjj(self.model, data, q)
+        self.q_in_data = q
+        levels = []
+        es = []
+        pe = re = 0.0
+        for lvl, ws in zip(self.levels, self.level_weights):
+            pairs = []
+            for t in lvl:
+                e, J = t.compute(robot, data, q)
+                pairs.append((e, J))
+                es.append(e)
+                if t.goal:
+                    p, r = t.errors(e)
+                    if p > pe:
+                        pe = p
+                    if r > re:
+                        re = r
+            if len(pairs) == 1 and ws[0] is None:
+                levels.append((pairs[0][1], pairs[0][0]))
+            else:
+                from .hierarchy import stack_level
+
+                levels.append(stack_level(pairs, ws))
+        return levels, pe, re, es
+
+    def task_errors(self, es: list) -> list[dict]:
+        """Per-task report for :attr:`Result.task_errors`."""
+        out = []
+        for t, e in zip(self.tasks, es):
+            p, r = t.errors(e)
+            out.append({"name": t.name, "priority": t.priority, "goal": t.goal, "error": float(np.linalg.norm(e)),
+                        "position_error": float(p), "orientation_error": float(r)})
+        return out
+
+    # ------------------------------------------------------------------------- constraints
+    def box_and_rows(self, q: np.ndarray, dt: float | None = None, max_step: float = math.inf,
+                     with_checked_rows: bool = True) -> tuple:
+        """``(lb, ub, G, l, u)`` at ``q``; ``G`` is None without rows. Recomputes the kinematics if needed."""
+        robot, data = self.robot, self.data
+        if self.q_in_data is not q:
+            _cjj(self.model, data, q)
+            self.q_in_data = q
+        lb = ub = None
+        Gs, ls, us = [], [], []
+        for c, checked in self._plan:
+            if checked and not with_checked_rows:
+                continue
+            G, lo, hi = c.rows(robot, data, q, dt)
+            if G is None:
+                if lb is None:  # JointLimits' arrays are fresh; copy anyone else's before writing into them
+                    lb, ub = (lo, hi) if type(c) is JointLimits else (np.array(lo, dtype=float), np.array(hi, dtype=float))
+                else:
+                    np.maximum(lb, lo, out=lb)
+                    np.minimum(ub, hi, out=ub)
+            elif G.shape[0]:
+                Gs.append(G), ls.append(lo), us.append(hi)
+        if max_step < math.inf:
+            np.maximum(lb, -max_step, out=lb)
+            np.minimum(ub, max_step, out=ub)
+        if not Gs:
+            return lb, ub, None, None, None
+        if len(Gs) == 1:
+            return lb, ub, Gs[0], ls[0], us[0]
+        return lb, ub, np.vstack(Gs), np.concatenate(ls), np.concatenate(us)
+
+    @property
+    def check_data(self) -> pin.Data:
+        """A second Pinocchio ``Data`` (made on first use) for checks that must not disturb :attr:`data`."""
+        if self._check_data is None:
+            self._check_data = self.model.createData()
+        return self._check_data
+
+    def margin(self, q: np.ndarray) -> float:
+        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics only."""
+        if not self.checked:
+            return math.inf
+        d = self.data
+        _fk(self.model, d, q)
+        self.q_in_data = None
+        if len(self.checked) == 1:
+            return self.checked[0].margin(self.robot, d, q)
+        return min(c.margin(self.robot, d, q) for c in self.checked)
+
+    def describe(self, q: np.ndarray) -> str:
+        """Violations at ``q`` in words."""
+        d = self.check_data
+        _fk(self.model, d, q)
+        return "; ".join(s for s in (c.describe(self.robot, d, q) for c in self.checked) if s)

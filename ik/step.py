@@ -1,0 +1,80 @@
+"""``ik.step``: one differential-IK velocity for a control loop (the role of Pink's ``solve_ik``).
+
+At the current configuration ``q`` and control period ``dt`` (s), with the
+tasks grouped by priority and every constraint's rows at ``q`` (joint
+limits as ``lower - q <= dq <= upper - q``, velocity limits as
+``|dq| <= v_max dt``, obstacle dampers ``g^T dq >= -xi c``), the step ``dq``
+is the hierarchical least-squares step of :mod:`ik.hierarchy` with the
+Levenberg-Marquardt damping ``lambda = 0.01 |e_1|^2 + damping``, and the
+returned velocity is ``v = dq / dt`` (rad/s or m/s). Integrating
+``q + v dt`` keeps the joint limits; the obstacle rows are first order, so
+the clearance may shrink by at most the fraction ``xi`` per period (to first
+order) and grows when it is negative.
+
+The bound problem (tasks and constraints validated against the robot) is
+cached on the call's objects: calling ``ik.step`` again with the same task
+and constraint objects (targets moved with ``FrameTask.set_target``) skips
+the validation.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from kinserve.kinematics.errors import InputError
+
+from .dense_qp import DEFAULT_BACKEND
+from .hierarchy import hierarchical_step
+from .problem import Problem
+
+#: Floor of the Levenberg-Marquardt damping of ``ik.step``.
+STEP_DAMPING = 1e-6
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_cache: dict = {}
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+
+
+def _problem(robot, tasks, constraints) -> Problem:
+    key = (id(robot), id(robot.data), tuple(map(id, tasks)), tuple(map(id, constraints)))
+    entry = _cache.get(key)
+    if entry is not None and entry[0] is robot and all(a is b for a, b in zip(entry[1], tasks)) \
+            and all(a is b for a, b in zip(entry[2], constraints)):
+        return entry[3]
+    pb = Problem(robot, tasks, constraints)
+    if len(_cache) > 64:
+        _cache.clear()
+    _cache[key] = (robot, list(tasks), list(constraints), pb)
+    return pb
+
+
+def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None = None, dt: float = 0.01, *,
+         damping: float = STEP_DAMPING,
+         backend: str = DEFAULT_BACKEND) -> np.ndarray:
+    """Joint velocity ``v`` (``nv``,) for one control period ``dt`` (module docstring).
+
+    ``q`` must lie inside the joint limits. Raises :class:`InputError` when
+    the constraints leave no feasible velocity.
+    """
+    if not (hasattr(robot, "model") and hasattr(robot, "check_q")):
+        raise InputError(f"robot must be a kinserve.kinematics.Robot, got {type(robot).__name__}")
+    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
+        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    if q is None:
+        raise InputError("q (the current configuration) is required")
+    q = robot.check_q(q, "q")
+    tasks = list(tasks) if not hasattr(tasks, "compute") else [tasks]
+    constraints = [] if constraints is None else (list(constraints) if not hasattr(constraints, "rows") else [constraints])
+    pb = _problem(robot, tasks, constraints)
+    q = _clip(q, robot.lower, robot.upper)
+    levels, pe, re, _ = pb.evaluate(q)
+    lb, ub, G, l, u = pb.box_and_rows(q, float(dt))
+    lam = 0.01 * (pe * pe + re * re) + damping
+    dq, _ = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=math.inf, backend=backend)
+    if dq is None:
+        raise InputError("the constraints leave no feasible velocity at q (QP infeasible)")
+    return dq / dt

@@ -1,0 +1,142 @@
+"""The ``Task`` protocol: what the IK solvers need to know about a goal or an objective.
+
+A task maps a configuration ``q`` (``nq`` values) to an **error** ``e(q)``
+(``m`` values) that the solver drives towards zero, and gives its
+**Jacobian** ``J(q) = de/dq`` (``m x nv``), so that to first order
+
+    e(q + dq) ~= e(q) + J(q) dq.
+
+The differential IK step of one priority level minimises the weighted sum
+
+    1/2 sum_tasks | sqrt(W) (e + J dq) |^2          (W = diag(weight))
+
+over the joint steps ``dq`` the higher levels leave free (strict priority,
+see :mod:`kinserve.ik.hierarchy`), subject to every hard constraint.
+
+Attributes every task has
+-------------------------
+``weight``
+    A positive number or ``m`` numbers: the weight of the task's rows inside
+    its priority level (the cost is ``1/2 |sqrt(w) (e + J dq)|^2``).
+``priority``
+    An integer ``>= 1``; level 1 is the highest. A lower level moves only in
+    the freedom the higher ones leave.
+``goal``
+    True when the task must be *met* for the solve to succeed (a frame pose,
+    a centre-of-mass position); False for an *objective* that is only
+    improved (posture, joint-limit centring). :func:`kinserve.ik.solve`
+    reports success when every goal task is within tolerance.
+``name``
+    A short label used in :attr:`Result.task_errors` and in messages.
+
+Methods a task implements
+-------------------------
+``bind(robot) -> Task``
+    Validate the task against ``robot`` (frame names, vector lengths) and
+    return the task to evaluate (``self`` or a bound copy). Called once per
+    solve, before any iteration; raise
+    :class:`kinserve.kinematics.errors.InputError` naming the argument.
+``compute(robot, data, q) -> (e, J)``
+    The error and Jacobian at ``q``. ``data`` is ``robot.data`` holding the
+    kinematics of ``q``: ``pinocchio.computeJointJacobians`` has run (joint
+    placements ``data.oMi`` and joint Jacobians ``data.J``), frame placements
+    are **not** updated - call ``pinocchio.updateFramePlacement`` for the
+    frames you use. Do not run other algorithms that overwrite ``data`` with
+    another configuration.
+``errors(e) -> (position, orientation)``
+    Norms used for the success test (m, rad). The default treats the whole
+    error as a position-like quantity: ``(|e|, 0)``.
+
+Example: a centre-of-mass task (a user task, nothing in the solver changes)::
+
+    import pinocchio as pin
+    from kinserve import ik
+
+    class CoMTask(ik.Task):
+        def __init__(self, target, weight=1.0, priority=1):
+            super().__init__(weight=weight, priority=priority, name="com")
+            self.target = np.asarray(target, dtype=float)
+
+        def compute(self, robot, data, q):
+            # e = c(q) - c*, J = dc/dq (Pinocchio's jacobianCenterOfMass)
+            J = pin.jacobianCenterOfMass(robot.model, data, q, False)
+            return data.com[0] - self.target, J
+
+    res = ik.solve(robot, tasks=[CoMTask((0.1, 0.0, 0.4)), ik.PostureTask(q_ref, priority=2)])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import math
+import numbers
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from kinserve.kinematics.errors import InputError, NonFiniteError
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
+
+def check_weight(weight: float | Sequence[float], name: str = "weight") -> float | np.ndarray:
+    """A positive finite number (float) or a 1-D array of them (validated task weight)."""
+    if isinstance(weight, numbers.Real) and not isinstance(weight, bool):
+        w = float(weight)
+        if not math.isfinite(w):
+            raise NonFiniteError(f"{name} must be finite, got {weight!r}")
+        if w <= 0.0:
+            raise InputError(f"{name} must be positive, got {weight!r}")
+        return w
+    try:
+        w = np.array(weight, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a positive number or a sequence of them, got {weight!r}") from None
+    if w.ndim != 1 or w.size == 0:
+        raise InputError(f"{name} must be a positive number or a 1-D sequence of them, got shape {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise NonFiniteError(f"{name} must be finite, got {w.tolist()}")
+    if np.any(w < 0.0) or not np.any(w > 0.0):
+        raise InputError(f"{name} entries must be >= 0 with at least one > 0, got {w.tolist()}")
+    return w
+
+
+def check_priority(priority: int, name: str = "priority") -> int:
+    """An integer ``>= 1`` (1 = highest level)."""
+    if isinstance(priority, bool) or not isinstance(priority, numbers.Integral) or priority < 1:
+        raise InputError(f"{name} must be an integer >= 1 (1 = highest level), got {priority!r}")
+    return int(priority)
+
+
+class Task:
+    """Base class of IK tasks (the protocol of the module docstring).
+
+    Subclasses implement :meth:`compute` (and usually :meth:`bind`); the
+    constructor validates ``weight`` and ``priority``.
+    """
+
+    #: True for a goal that must be met (success test), False for an objective.
+    goal: bool = True
+
+    def __init__(self, weight: float | Sequence[float] = 1.0, priority: int = 1, name: str | None = None):
+        self.weight = check_weight(weight, f"{type(self).__name__} weight")
+        self.priority = check_priority(priority, f"{type(self).__name__} priority")
+        self.name = name if name is not None else type(self).__name__
+
+    def bind(self, robot: Robot) -> "Task":
+        """Validate against ``robot`` and return the task to evaluate (default: ``self``)."""
+        return self
+
+    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - protocol
+        """``(e, J)`` at ``q``: error ``(m,)`` and Jacobian ``(m, nv)`` with ``e(q + dq) ~= e + J dq``."""
+        raise NotImplementedError(f"{type(self).__name__}.compute(robot, data, q) must return (e, J)")
+
+    def errors(self, e: np.ndarray) -> tuple[float, float]:
+        """(position-like, orientation-like) error norms of ``e`` for the success test; default ``(|e|, 0)``."""
+        return math.sqrt(float(e.dot(e))), 0.0
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r}, weight={self.weight!r}, priority={self.priority})"

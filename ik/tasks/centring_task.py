@@ -1,0 +1,52 @@
+"""``CentringTask``: pull the joints towards the middle of their ranges (joint-limit centring).
+
+With ``m = (lower + upper) / 2``, ``r = upper - lower`` and per-joint weights
+``w_i >= 0`` (``weights``: one number or ``nq``), the objective
+``h = 1/2 sum_i w_i ((q_i - m_i) / r_i)^2`` is the task
+
+    e_i = sqrt(w_i) (q_i - m_i) / r_i,      J = diag(sqrt(w_i) / r_i)
+
+(:mod:`kinserve.ik.centring`). An objective at priority 2 by default: only
+the relative weights matter under strict priority.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import numpy as np
+from typing import TYPE_CHECKING
+
+from kinserve.kinematics.errors import InputError
+
+from ..centring import centring_weights
+from .base import Task
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
+
+class CentringTask(Task):
+    """Joint-limit centring with per-joint ``weights`` at ``priority`` (default level 2)."""
+
+    goal = False
+
+    def __init__(self, weights: float | Sequence[float] = 1.0, priority: int = 2, weight: float | Sequence[float] = 1.0, name: str = "centring"):
+        super().__init__(weight, priority, name)
+        self.weights = weights
+        self._model = None
+
+    def bind(self, robot: Robot) -> "CentringTask":
+        if self._model is not robot.model:
+            w = centring_weights(robot, self.weights)
+            if w is None:
+                raise InputError(f"CentringTask weights must have at least one positive entry, got {self.weights!r}")
+            self._sqrt_w = np.sqrt(w)
+            self._J = np.diag(self._sqrt_w)
+            self._mid = robot.middle()
+            self._model = robot.model
+        return self
+
+    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self._sqrt_w * (q - self._mid), self._J

@@ -1,0 +1,42 @@
+"""``PostureTask``: pull the joints towards a reference configuration ``q_ref``.
+
+    e = q - q_ref,      J = I                (rad or m; exact)
+
+An objective (``goal = False``): it shapes the answer in the freedom the
+higher levels leave (default priority 2) and is never required to vanish.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import numpy as np
+from typing import TYPE_CHECKING
+
+from kinserve.kinematics.validation import as_vector
+
+from .base import Task
+
+if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
+
+    from kinserve.kinematics.robot import Robot
+
+
+class PostureTask(Task):
+    """Joints towards ``q_ref`` (``nq`` values) with ``weight`` at ``priority`` (default level 2)."""
+
+    goal = False
+
+    def __init__(self, q_ref: Sequence[float] | np.ndarray, weight: float | Sequence[float] = 1.0, priority: int = 2, name: str = "posture"):
+        super().__init__(weight, priority, name)
+        self.q_ref = np.array(as_vector(q_ref, len(np.ravel(q_ref)), "q_ref"), dtype=float)
+        self._I = None
+
+    def bind(self, robot: Robot) -> "PostureTask":
+        self.q_ref = robot.check_q(self.q_ref, "q_ref")
+        if self._I is None or self._I.shape[0] != robot.nq:
+            self._I = np.eye(robot.nq)
+        return self
+
+    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return q - self.q_ref, self._I

@@ -1,0 +1,165 @@
+"""Which pairs of a robot's links are checked for self-collision (MoveIt's allowed-collision idea).
+
+A robot's collision geometries hang on its links; checking every pair is wasteful
+and wrong (neighbouring links touch at their joint by design). The pairs *not*
+checked are a set of **disabled link pairs**, taken from one of two sources:
+
+* the model's **SRDF** (``<disable_collisions link1=... link2=...>``), when it has
+  one - exactly what MoveIt and ``pinocchio.removeCollisionPairs`` use; or
+* **computed** the way MoveIt's setup assistant does
+  (``moveit_setup_assistant``'s ``computeDefaultCollisions``), at link level:
+
+  1. *adjacent*: links on the same rigid body or on bodies joined by one joint
+     (a fixed joint merges links into one body, as MoveIt does);
+  2. *default*: links in collision at the reference configuration (the middle of
+     the joint ranges);
+  3. *always*: links in collision in at least :data:`ALWAYS_FRACTION` of
+     :data:`SAMPLES` uniformly random configurations;
+  4. *never*: links never in collision over the same samples.
+
+  The samples come from ``numpy.random.default_rng(SEED)``, so the result is
+  deterministic. As in MoveIt, "never" is statistical: a pair that collides only
+  in a region of volume below about ``1 / SAMPLES`` of the joint space can be
+  disabled wrongly - give the model an SRDF when that matters.
+
+Computed sets are cached on disk per model text (see :mod:`.collision_cache`):
+the sampling costs a few hundred milliseconds on a 7-joint arm.
+
+Geometries on the same Pinocchio joint (one rigid body) are never paired: their
+relative pose cannot change. Pairs are link names in sorted order.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import ModelError, suggest
+
+#: Number of random configurations of the "always" / "never" tests (MoveIt's setup assistant default is 10000).
+SAMPLES = 2000
+#: Seed of the random configurations (``numpy.random.default_rng``).
+SEED = 0
+#: A pair in collision in at least this fraction of the samples is "always" in collision (MoveIt: 95 %).
+ALWAYS_FRACTION = 0.95
+#: Version of the computation; part of the cache key.
+ALGORITHM_VERSION = 1
+
+LinkPair = tuple[str, str]
+
+
+def link_pair(a: str, b: str) -> LinkPair:
+    """The pair ``(a, b)`` in sorted order."""
+    return (a, b) if a <= b else (b, a)
+
+
+def geometry_links(model: pin.Model, geometry: pin.GeometryModel) -> list[str]:
+    """The link (frame) name that carries each geometry object, in geometry order."""
+    return [model.frames[g.parentFrame].name for g in geometry.geometryObjects]
+
+
+def srdf_disabled_pairs(srdf: str, link_names: Iterable[str], label: str = "SRDF") -> dict[LinkPair, str]:
+    """``{(link1, link2): reason}`` of the ``<disable_collisions>`` elements of SRDF text.
+
+    Raises :class:`ModelError` for malformed XML, a missing attribute, or a link
+    name the robot does not have (the message lists close matches). Pairs naming
+    links without collision geometry are legal (MoveIt lists them too).
+    """
+    from lxml import etree
+
+    known = set(link_names)
+    try:
+        root = etree.fromstring(srdf.encode("utf-8"), etree.XMLParser(resolve_entities=False))
+    except etree.XMLSyntaxError as exc:
+        raise ModelError(f"{label}: malformed XML: {exc.msg}") from None
+    pairs: dict[LinkPair, str] = {}
+    for el in root.iter("disable_collisions"):
+        a, b = el.get("link1"), el.get("link2")
+        if not a or not b:
+            raise ModelError(f"{label}, line {el.sourceline}: <disable_collisions> needs link1= and link2= attributes")
+        for name in (a, b):
+            if name not in known:
+                raise ModelError(
+                    f"{label}, line {el.sourceline}: <disable_collisions> names link {name!r}, which the robot "
+                    f"does not have.{suggest(name, known)}"
+                )
+        pairs[link_pair(a, b)] = el.get("reason") or "srdf"
+    return pairs
+
+
+def adjacent_pairs(model: pin.Model, geometry: pin.GeometryModel) -> dict[LinkPair, str]:
+    """Link pairs on one rigid body or on two bodies joined by one joint."""
+    links = geometry_links(model, geometry)
+    joints = [g.parentJoint for g in geometry.geometryObjects]
+    parents = list(model.parents)
+    out: dict[LinkPair, str] = {}
+    for i in range(len(links)):
+        for j in range(i + 1, len(links)):
+            if links[i] == links[j]:
+                continue
+            ji, jj = joints[i], joints[j]
+            if ji == jj or parents[ji] == jj or parents[jj] == ji:
+                out[link_pair(links[i], links[j])] = "Adjacent"
+    return out
+
+
+def candidate_geometry_pairs(model: pin.Model, geometry: pin.GeometryModel,
+                             disabled: Iterable[LinkPair] = ()) -> list[tuple[int, int]]:
+    """Geometry index pairs ``(i, j)``, ``i < j``, on different joints whose link pair is not disabled."""
+    links = geometry_links(model, geometry)
+    off = set(disabled)
+    objs = geometry.geometryObjects
+    out = []
+    for i in range(len(objs)):
+        for j in range(i + 1, len(objs)):
+            if objs[i].parentJoint == objs[j].parentJoint or links[i] == links[j]:
+                continue
+            if link_pair(links[i], links[j]) in off:
+                continue
+            out.append((i, j))
+    return out
+
+
+def compute_disabled_pairs(model: pin.Model, geometry: pin.GeometryModel, lower: np.ndarray, upper: np.ndarray,
+                           samples: int = SAMPLES, seed: int = SEED) -> dict[LinkPair, str]:
+    """MoveIt-style disabled link pairs (see the module docstring): adjacent, default, always, never.
+
+    ``geometry`` is left unchanged (a copy is checked). Cost: ``samples`` calls of
+    ``pinocchio.computeCollisions`` over every candidate pair.
+    """
+    disabled = adjacent_pairs(model, geometry)
+    gm = geometry.copy()
+    gm.removeAllCollisionPairs()
+    pairs = candidate_geometry_pairs(model, gm, disabled)
+    if not pairs:
+        return disabled
+    for i, j in pairs:
+        gm.addCollisionPair(pin.CollisionPair(i, j))
+    gd = pin.GeometryData(gm)
+    for req in gd.collisionRequests:
+        req.security_margin = 0.0
+    data = model.createData()
+    links = geometry_links(model, gm)
+    pair_links = [link_pair(links[i], links[j]) for i, j in pairs]
+
+    def colliding_links(q: np.ndarray) -> set[LinkPair]:
+        pin.computeCollisions(model, data, gm, gd, q, False)
+        return {pair_links[k] for k, res in enumerate(gd.collisionResults) if res.isCollision()}
+
+    for lp in colliding_links(np.clip(0.5 * (lower + upper), lower, upper)):
+        disabled[lp] = "Default"
+    counts: dict[LinkPair, int] = dict.fromkeys(set(pair_links) - set(disabled), 0)
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(lower, upper, size=(int(samples), model.nq))
+    for q in Q:
+        for lp in colliding_links(q):
+            if lp in counts:
+                counts[lp] += 1
+    for lp, n in counts.items():
+        if n == 0:
+            disabled[lp] = "Never"
+        elif n >= ALWAYS_FRACTION * len(Q):
+            disabled[lp] = "Always"
+    return dict(sorted(disabled.items()))

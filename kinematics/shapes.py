@@ -1,0 +1,385 @@
+"""Solid 3-D shapes: the one vocabulary of obstacles and collision bodies.
+
+``Sphere``, ``Box``, ``Capsule``, ``Cylinder`` and ``Mesh`` are used by the IK
+constraints (``kinserve.ik`` re-exports them), by the robot's collision queries
+(``Robot.distances(q, obstacles=...)``), by the service and by the viewer. Each
+shape is immutable, validated on construction, and knows
+
+* ``pose`` - its 4x4 placement in the world (m);
+* ``geometry()`` - the matching `coal` collision geometry, built once and cached
+  (coal ships with Pinocchio; distances with witness points come from it);
+* ``signed_distance(points)`` - the exact Euclidean signed distance (m) from
+  world points, ``(N, 3) -> (N,)``, negative inside (closed forms below; the
+  mesh uses its convex hull's face planes, exact inside and a lower bound on the
+  true distance outside - see :class:`Mesh`);
+* ``to_dict()`` - plain JSON-able data (``kind`` plus the constructor arguments).
+
+Closed forms (``p`` a point in the shape's own frame):
+
+* sphere, centre ``c``, radius ``r``:       ``|p - c| - r``;
+* box, half extents ``h``:                  ``q = |p| - h``; ``|max(q, 0)| + min(max_i q_i, 0)``;
+* capsule, segment ``[a, b]``, radius ``r``: ``|p - closest(p, [a, b])| - r``;
+* cylinder along local z, radius ``r``, length ``L``: the 2-D box formula on
+  ``(sqrt(x^2 + y^2) - r, |z| - L/2)``.
+
+``frames`` (optional, every shape): names of robot frames whose origins alone
+are kept clear of this obstacle by the IK; ``None`` (default) means the whole
+robot (its links, or its collision geometry when it has one).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .errors import InputError, ModelError, NonFiniteError, ShapeError
+from .validation import MAX_ABS, as_pose, as_vector
+
+if TYPE_CHECKING:
+    import coal
+    import pinocchio as pin
+
+__all__ = ["Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "SHAPE_KINDS"]
+
+
+def _positive(value: Any, name: str) -> float:
+    """A finite, strictly positive length in metres."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be a number (m), got {value!r}") from None
+    if not math.isfinite(v) or abs(v) > MAX_ABS:
+        raise NonFiniteError(f"{name} must be finite and at most {MAX_ABS:g} m, got {value!r}")
+    if v <= 0.0:
+        raise InputError(f"{name} must be positive (m), got {v!r}")
+    return v
+
+
+def _frames(frames: Any, kind: str) -> tuple[str, ...] | None:
+    if frames is None:
+        return None
+    if isinstance(frames, str):
+        frames = (frames,)
+    try:
+        frames = tuple(frames)
+    except TypeError:
+        raise InputError(f"{kind} frames must be a sequence of frame names, got {frames!r}") from None
+    if not frames or not all(isinstance(f, str) and f for f in frames):
+        raise InputError(f"{kind} frames must be a non-empty sequence of frame names, got {frames!r}")
+    return frames
+
+
+def _points(points: Any) -> np.ndarray:
+    p = np.asarray(points, dtype=float)
+    if p.ndim == 1:
+        p = p[None, :]
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ShapeError(f"points must have shape (N, 3) or (3,), got shape {np.shape(points)}")
+    return p
+
+
+def _translation(t: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, 3] = t
+    return T
+
+
+class Shape:
+    """Common behaviour of the solid shapes (not instantiated directly)."""
+
+    kind: str = "shape"
+    pose: np.ndarray
+    frames: tuple[str, ...] | None
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(f"{type(self).__name__} is immutable")
+
+    def _set(self, **fields: Any) -> None:
+        for k, v in fields.items():
+            object.__setattr__(self, k, v)
+        object.__setattr__(self, "_geometry", None)
+
+    # -- coal ------------------------------------------------------------------------------------------
+    def geometry(self) -> coal.CollisionGeometry:
+        """The coal collision geometry in the shape's own frame (built once)."""
+        g = self.__dict__.get("_geometry")
+        if g is None:
+            g = self._make_geometry()
+            object.__setattr__(self, "_geometry", g)
+        return g
+
+    def _make_geometry(self):  # pragma: no cover - every subclass overrides
+        raise NotImplementedError
+
+    def placement(self) -> pin.SE3:
+        """The pose as a ``pinocchio.SE3``."""
+        import pinocchio as pin
+
+        return pin.SE3(self.pose[:3, :3].copy(), self.pose[:3, 3].copy())
+
+    # -- geometry ------------------------------------------------------------------------------------
+    def local_points(self, points: Any) -> np.ndarray:
+        """World points ``(N, 3)`` expressed in the shape's frame."""
+        p = _points(points)
+        R, t = self.pose[:3, :3], self.pose[:3, 3]
+        return (p - t) @ R
+
+    def signed_distance(self, points: Any) -> np.ndarray:
+        """Signed distance (m) from world points ``(N, 3)``: > 0 outside, < 0 inside."""
+        return self._local_signed_distance(self.local_points(points))
+
+    def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def contains(self, points: Any) -> np.ndarray:
+        """True where a world point lies inside (or on) the shape."""
+        return self.signed_distance(points) <= 0.0
+
+    def to_dict(self) -> dict:
+        """Plain data: ``{"kind": ..., <constructor arguments>}`` (JSON-able)."""
+        d = {"kind": self.kind, **self._fields()}
+        if self.frames is not None:
+            d["frames"] = list(self.frames)
+        return d
+
+    def _fields(self) -> dict:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self._fields().items())
+        return f"{type(self).__name__}({args})"
+
+    def __eq__(self, other: object) -> bool:
+        return type(other) is type(self) and other.to_dict() == self.to_dict()
+
+    def __hash__(self) -> int:
+        return hash(repr(self.to_dict()))
+
+    def __getstate__(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k != "_geometry"}
+
+    def __setstate__(self, state: dict) -> None:
+        self._set(**state)
+
+
+class Sphere(Shape):
+    """A ball: ``center`` (3,) in metres (world), ``radius`` > 0 (m)."""
+
+    kind = "sphere"
+    center: tuple[float, float, float]
+    radius: float
+
+    def __init__(self, center: Sequence[float], radius: float, frames: Iterable[str] | None = None) -> None:
+        c = as_vector(center, 3, "sphere center")
+        self._set(center=tuple(float(v) for v in c), radius=_positive(radius, "sphere radius"),
+                  frames=_frames(frames, "sphere"), pose=_translation(c))
+
+    def _make_geometry(self):
+        import coal
+
+        return coal.Sphere(self.radius)
+
+    def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
+        return np.linalg.norm(p, axis=1) - self.radius
+
+    def distance(self, point: Sequence[float]) -> float:
+        """Distance (m) from a point to the sphere's centre."""
+        return float(np.linalg.norm(np.asarray(point, dtype=float) - np.asarray(self.center)))
+
+    def _fields(self) -> dict:
+        return {"center": list(self.center), "radius": self.radius}
+
+
+class Box(Shape):
+    """A box: 4x4 ``pose`` of its centre (world), ``size`` = full edge lengths (m), as URDF's ``<box size>``."""
+
+    kind = "box"
+    size: tuple[float, float, float]
+
+    def __init__(self, pose: Any, size: Sequence[float], frames: Iterable[str] | None = None) -> None:
+        T = as_pose(pose, "box pose")
+        s = as_vector(size, 3, "box size")
+        self._set(pose=T, size=tuple(_positive(v, "box size entries") for v in s), frames=_frames(frames, "box"))
+
+    @property
+    def half_extents(self) -> np.ndarray:
+        return 0.5 * np.asarray(self.size)
+
+    def _make_geometry(self):
+        import coal
+
+        return coal.Box(*self.size)
+
+    def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
+        q = np.abs(p) - self.half_extents
+        outside = np.linalg.norm(np.maximum(q, 0.0), axis=1)
+        inside = np.minimum(q.max(axis=1), 0.0)
+        return outside + inside
+
+    def _fields(self) -> dict:
+        return {"pose": self.pose.tolist(), "size": list(self.size)}
+
+
+class Capsule(Shape):
+    """All points within ``radius`` (m) of the segment from ``a`` to ``b`` (world, m)."""
+
+    kind = "capsule"
+    a: tuple[float, float, float]
+    b: tuple[float, float, float]
+    radius: float
+
+    def __init__(self, a: Sequence[float], b: Sequence[float], radius: float,
+                 frames: Iterable[str] | None = None) -> None:
+        pa, pb = as_vector(a, 3, "capsule a"), as_vector(b, 3, "capsule b")
+        self._set(a=tuple(float(v) for v in pa), b=tuple(float(v) for v in pb),
+                  radius=_positive(radius, "capsule radius"), frames=_frames(frames, "capsule"),
+                  pose=_axis_pose(pa, pb))
+
+    @property
+    def length(self) -> float:
+        """Length (m) of the core segment (0 for a sphere-like capsule)."""
+        return float(np.linalg.norm(np.subtract(self.b, self.a)))
+
+    def _make_geometry(self):
+        import coal
+
+        return coal.Capsule(self.radius, self.length)
+
+    def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
+        half = 0.5 * self.length
+        z = np.clip(p[:, 2], -half, half)
+        return np.sqrt(p[:, 0] ** 2 + p[:, 1] ** 2 + (p[:, 2] - z) ** 2) - self.radius
+
+    def _fields(self) -> dict:
+        return {"a": list(self.a), "b": list(self.b), "radius": self.radius}
+
+
+class Cylinder(Shape):
+    """A solid cylinder along its local z axis: 4x4 ``pose`` of its centre, ``radius`` and ``length`` (m), as URDF."""
+
+    kind = "cylinder"
+    radius: float
+    length: float
+
+    def __init__(self, pose: Any, radius: float, length: float, frames: Iterable[str] | None = None) -> None:
+        self._set(pose=as_pose(pose, "cylinder pose"), radius=_positive(radius, "cylinder radius"),
+                  length=_positive(length, "cylinder length"), frames=_frames(frames, "cylinder"))
+
+    def _make_geometry(self):
+        import coal
+
+        return coal.Cylinder(self.radius, self.length)
+
+    def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
+        q = np.stack([np.hypot(p[:, 0], p[:, 1]) - self.radius, np.abs(p[:, 2]) - 0.5 * self.length], axis=1)
+        return np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+
+    def _fields(self) -> dict:
+        return {"pose": self.pose.tolist(), "radius": self.radius, "length": self.length}
+
+
+class Mesh(Shape):
+    """A triangle mesh read from ``path`` (STL, OBJ, PLY, ...), placed at 4x4 ``pose``, scaled by ``scale``.
+
+    Collision queries use the mesh's **convex hull** (coal ``Convex``): exact for
+    convex meshes, conservative (never reports "clear" when the solid mesh is hit)
+    for concave ones; split a concave obstacle into convex parts for tighter
+    clearance. The mesh must be a closed surface (watertight), otherwise "inside"
+    has no meaning and :class:`~kinserve.kinematics.errors.ModelError` is raised.
+    """
+
+    kind = "mesh"
+    path: str
+    scale: tuple[float, float, float]
+
+    def __init__(self, path: str | Path, pose: Any = None, scale: float | Sequence[float] = 1.0,
+                 frames: Iterable[str] | None = None) -> None:
+        T = np.eye(4) if pose is None else as_pose(pose, "mesh pose")
+        s = np.broadcast_to(np.asarray(scale, dtype=float), (3,)) if np.ndim(scale) == 0 else as_vector(scale, 3, "mesh scale")
+        sc = tuple(_positive(v, "mesh scale entries") for v in s)
+        vertices, planes = _load_hull(Path(path), np.asarray(sc))
+        self._set(path=str(path), pose=T, scale=sc, frames=_frames(frames, "mesh"),
+                  hull_vertices=vertices, hull_planes=planes)
+
+    def _make_geometry(self):
+        import coal
+
+        hull = coal.BVHModelOBBRSS()
+        hull.beginModel(0, len(self.hull_vertices))
+        hull.addVertices(np.ascontiguousarray(self.hull_vertices))
+        hull.endModel()
+        hull.buildConvexHull(False, "Qt")
+        return hull.convex
+
+    def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
+        # signed distance to the hull's planes n.x - d: exact inside, a lower bound outside (face planes only)
+        n, d = self.hull_planes[:, :3], self.hull_planes[:, 3]
+        return (p @ n.T - d).max(axis=1)
+
+    def _fields(self) -> dict:
+        return {"path": self.path, "pose": self.pose.tolist(), "scale": list(self.scale)}
+
+
+def _load_hull(path: Path, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices ``(V, 3)`` and face planes ``(F, 4)`` (unit normal, offset) of a mesh file's convex hull."""
+    import trimesh
+
+    if not path.is_file():
+        raise InputError(f"mesh path must name a readable mesh file, got {str(path)!r}")
+    try:
+        mesh = trimesh.load(str(path), force="mesh")
+    except Exception as exc:  # noqa: BLE001 - trimesh raises many types for a bad file
+        raise ModelError(f"mesh file {path.name!r} could not be read as a triangle mesh ({type(exc).__name__})") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise ModelError(f"mesh file {path.name!r} holds no triangles")
+    if not mesh.is_watertight:
+        raise ModelError(f"mesh file {path.name!r} is not a closed surface (watertight mesh expected for an obstacle)")
+    mesh.apply_scale(scale)
+    hull = mesh.convex_hull
+    normals = np.asarray(hull.face_normals)
+    offsets = np.einsum("ij,ij->i", normals, hull.vertices[hull.faces[:, 0]])
+    return np.asarray(hull.vertices, dtype=float), np.column_stack([normals, offsets])
+
+
+def _axis_pose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """A pose at the midpoint of ``[a, b]`` whose z axis points from ``a`` to ``b`` (any z if ``a == b``)."""
+    T = np.eye(4)
+    T[:3, 3] = 0.5 * (a + b)
+    axis = b - a
+    n = np.linalg.norm(axis)
+    if n < 1e-12:
+        return T
+    z = axis / n
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    T[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    return T
+
+
+SHAPE_KINDS: dict[str, type[Shape]] = {c.kind: c for c in (Sphere, Box, Capsule, Cylinder, Mesh)}
+
+
+def as_shape(value: Any, name: str = "obstacle") -> Shape:
+    """A :class:`Shape` from a shape, or from its ``to_dict()`` form ``{"kind": "box", "pose": ..., "size": ...}``."""
+    if isinstance(value, Shape):
+        return value
+    if not isinstance(value, dict):
+        raise InputError(f"{name} must be a shape (Sphere, Box, Capsule, Cylinder, Mesh) or a dict with a 'kind', "
+                         f"got {type(value).__name__}")
+    kind = value.get("kind")
+    cls = SHAPE_KINDS.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise InputError(f"{name} kind must be one of {sorted(SHAPE_KINDS)}, got {kind!r}")
+    args = {k: v for k, v in value.items() if k != "kind"}
+    try:
+        return cls(**args)
+    except TypeError:
+        import inspect
+
+        params = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+        raise InputError(f"{name} of kind {kind!r} takes {params}, got {sorted(args)}") from None

@@ -1,0 +1,42 @@
+"""Request/response schemas of the collision endpoint and of the collision options of ``/ik``.
+
+Obstacles over HTTP are the solid primitives of :mod:`kinserve.kinematics.shapes`
+(sphere, box, capsule, cylinder) in their ``to_dict()`` form; meshes are not
+accepted (they would name files on the server). Lengths are metres, bounded
+and finite; sizes must be positive (a zero or negative size is a 422 naming
+the field).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, Field
+
+from .schemas import JointVector, Obstacles, RobotRef, Strict
+
+class CollisionOptions(Strict):
+    """Collision options shared by ``/collision`` and ``/ik``."""
+
+    obstacles: Obstacles = Field(default_factory=list)
+    self_collision: bool = Field(default=True, description="check the robot's own link pairs (SRDF / MoveIt-style)")
+
+
+class CollisionRequest(RobotRef, CollisionOptions):
+    q: JointVector
+    distances: bool = Field(default=False, description="also return every checked pair's distance and witness points")
+
+
+class PairDistanceOut(BaseModel):
+    a: str
+    b: str
+    distance: float
+    point_a: list[float]
+    point_b: list[float]
+    normal: list[float]
+
+
+class CollisionResponse(BaseModel):
+    in_collision: bool
+    pairs: list[list[str]] = Field(description="colliding pairs, named by link / obstacle[k]:kind")
+    min_distance: float | None = Field(description="smallest signed distance (m) over the checked pairs; null if none")
+    closest_pair: list[str] | None
+    distances: list[PairDistanceOut] | None = None

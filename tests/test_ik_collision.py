@@ -1,0 +1,207 @@
+"""Collision-aware IK: damper rows against finite differences of coal distances, collision-free answers and
+iterates (checked with an independent coal model), infeasible targets, the constraint protocol, solve_many."""
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinserve import ik, robots
+from kinserve.ik.constraints.collision import CollisionConstraint
+from kinserve.kinematics import errors
+
+
+def _pose(xyz):
+    T = np.eye(4)
+    T[:3, 3] = xyz
+    return T
+
+
+SCENE = [ik.Box(_pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)), ik.Box(_pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda")
+
+
+def _independent_min_distance(robot, q, obstacles):
+    """Smallest signed distance over the robot's SRDF pairs and scene pairs, pair by pair with coal.distance."""
+    cm = robot.collision
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q)
+    objs = cm.geometry.geometryObjects
+
+    def world(g):
+        M = data.oMi[g.parentJoint] * g.placement
+        return coal.Transform3s(M.rotation, M.translation)
+
+    best = np.inf
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    for i, j in cm.self_pairs:
+        res.clear()
+        best = min(best, coal.distance(objs[i].geometry, world(objs[i]), objs[j].geometry, world(objs[j]), req, res))
+    for ob in obstacles:
+        T = coal.Transform3s(ob.pose[:3, :3], ob.pose[:3, 3])
+        for g in objs:
+            if g.parentJoint:
+                res.clear()
+                best = min(best, coal.distance(g.geometry, world(g), ob.geometry(), T, req, res))
+    return best
+
+
+def test_damper_rows_match_finite_differences_of_the_distance(panda):
+    rng = np.random.default_rng(4)
+    c = CollisionConstraint(SCENE, self_collision=True, influence=0.3).bind(panda)
+    checked = 0
+    data = panda.model.createData()
+    for _ in range(40):
+        q = panda.random_q(rng)
+        pin.computeJointJacobians(panda.model, data, q)
+        d, G, pairs = c.pair_rows(panda, data, q)
+        for r, k in enumerate(pairs):
+            if d[r] < 0.005:  # penetration depth / near-contact witness points are not smooth enough for FD
+                continue
+            h = 1e-4
+            dq = rng.normal(size=panda.nq)
+            dq *= h / np.linalg.norm(dq)
+
+            def dist(qq):
+                data2 = panda.model.createData()
+                pin.forwardKinematics(panda.model, data2, qq)
+                c.scene.near(c._threshold, data=data2)
+                return c.scene.near_distance(c._threshold, k)[0]
+
+            fd = (dist(q + dq) - dist(q - dq)) / 2.0
+            # near-pair distances use GJK to 1e-9 m: an absolute bound well below |G dq| ~ h |g|
+            assert abs(G[r] @ dq - fd) <= 1e-3 * h + 1e-8, (c.scene.pair_names[k], G[r] @ dq, fd)
+            checked += abs(fd) > 1e-5
+    assert checked > 30
+
+
+def test_answers_and_every_iterate_are_collision_free(panda):
+    rng = np.random.default_rng(11)
+    targets = []
+    while len(targets) < 25:
+        q = panda.random_q(rng)
+        if not panda.in_collision(q, SCENE):
+            targets.append(panda.fk(q))
+    paths = set()
+    for T in targets:
+        q0 = panda.random_q(rng)  # some starts are in collision: not an error
+        res = ik.solve(panda, T, q0, self_collision=True, obstacles=SCENE, seed=3, max_time=1.0)
+        assert res.success, res.summary()
+        assert _independent_min_distance(panda, res.q, SCENE) >= 0.0
+        for q in res.history.q:
+            assert _independent_min_distance(panda, q, SCENE) >= 0.0
+        paths.add(res.info["collision"])
+    assert paths == {"unconstrained, checked", "constrained"}  # both paths are exercised
+
+
+@pytest.mark.parametrize("attempts", [1, None])
+def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
+    """A 10 cm box at the elbow of the unconstrained answer, cleared by the generating configuration.
+
+    ``attempts=1`` (one checked unconstrained solve) forces the constrained path; the default
+    may find another branch with its unconstrained restarts.
+    """
+    from kinserve.ik import collision_solve
+
+    if attempts is not None:
+        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", attempts)
+    rng = np.random.default_rng(8)
+    cases = 0
+    for _ in range(40):
+        q_gen = panda.random_q(rng)
+        if panda.in_collision(q_gen):
+            continue
+        T = panda.fk(q_gen)
+        free = ik.solve(panda, T, panda.random_q(rng), seed=0)
+        elbow = panda.fk(free.q, "panda_link4")[:3, 3]
+        block = ik.Box(_pose(elbow), (0.1, 0.1, 0.1))
+        if not free.success or panda.min_distance(q_gen, [block], self_collision=False) < 0.02:
+            continue
+        res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=2.0, collision_margin=0.01)
+        assert res.success, res.summary()
+        if attempts == 1:
+            assert res.info["collision"] == "constrained"
+        assert panda.min_distance(res.q, [block]) >= 0.01 - 1e-6
+        assert all(panda.min_distance(q, [block]) >= 0.01 - 1e-6 for q in res.history.q[1:])
+        cases += 1
+        if cases == 3:
+            break
+    assert cases == 3
+
+def test_target_inside_an_obstacle_is_a_failed_result_not_a_hang(panda):
+    T = panda.fk(panda.neutral())
+    wall = ik.Box(_pose(T[:3, 3]), (0.3, 0.3, 0.3))
+    res = ik.solve(panda, T, self_collision=True, obstacles=[wall], max_time=0.2)
+    assert not res.success
+    assert "inside obstacle[0]:box" in res.message
+    assert res.elapsed < 0.2
+
+
+def test_margin_grows_from_a_start_in_collision_and_protocol_methods(panda):
+    c = ik.SelfCollision(margin=0.0).bind(panda)
+    rng = np.random.default_rng(2)
+    q = next(q for q in panda.random_q(rng, 200) if panda.in_collision(q))
+    assert c.margin(panda, None, q) < 0
+    assert "self-collision:" in c.describe(panda, None, q)
+    data = panda.model.createData()
+    pin.computeJointJacobians(panda.model, data, q)
+    G, lo, hi = c.rows(panda, data, q)
+    d = c.pair_rows(panda, data, q)[0]
+    assert G.shape == (len(d), panda.nq) and np.all(np.isinf(hi))
+    assert np.any(d < 0) and np.all(lo[d < 0] > 0)  # a negative clearance must grow
+    assert np.allclose(lo, -ik.constraints.DAMPER_GAIN * d)
+
+
+def test_bad_input_is_named(panda):
+    with pytest.raises(errors.InputError, match="collision margin must be >= 0"):
+        ik.SelfCollision(margin=-0.1)
+    base = ik.Box(_pose((0.0, 0.0, 0.05)), (0.2, 0.2, 0.2))
+    with pytest.raises(errors.InputError, match="overlaps the robot's fixed base"):
+        ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[base])
+    bare = robots.load("""<robot name="bare"><link name="b"/><link name="l"/>
+      <joint name="j" type="revolute"><parent link="b"/><child link="l"/><axis xyz="0 0 1"/><origin xyz="0 0 0"/>
+      <limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>""")
+    with pytest.raises(errors.ModelError, match="no <collision> elements"):
+        ik.solve(bare, np.eye(4), self_collision=True, relax=("x", "y", "z", "roll", "pitch"))
+
+
+def test_solve_many_forwards_the_collision_options(panda):
+    rng = np.random.default_rng(5)
+    qs = [q for q in panda.random_q(rng, 50) if not panda.in_collision(q, SCENE)][:6]
+    poses = np.array([panda.fk(q) for q in qs])
+    results = ik.solve_many(panda, poses, processes=1, self_collision=True, obstacles=SCENE, seed=0)
+    assert all(r.success and "collision" in r.info for r in results)
+    assert not any(panda.in_collision(r.q, SCENE) for r in results)
+
+
+def test_reach_map_counts_collision_free_solutions_only(panda):
+    from kinserve.ik.reachability import reachability_map
+
+    block = ik.Box(_pose((0.5, 0.0, 0.6)), (0.6, 1.6, 0.4))
+    rmap = reachability_map(panda, 60, processes=1, max_time=0.05, seed=1, self_collision=True, obstacles=[block])
+    inside = block.contains(rmap.positions)
+    assert inside.any() and not rmap.reached[inside].any()  # the hand's origin cannot be inside the block
+    assert rmap.reached[~inside].any()
+
+
+def test_control_loop_with_collision_constraints_stays_clear(panda):
+    """ik.step with a frame task pulling the hand through the wall: SelfCollision + SceneCollision hold on every step."""
+    q = np.array([-0.5, 0.3, 0.0, -1.8, 0.0, 2.1, 0.8])
+    assert not panda.in_collision(q, SCENE)
+    goal = panda.fk(q)
+    goal[:3, 3] = (0.1, -0.9, 0.5)  # behind the wall (y = -0.6)
+    task = ik.FrameTask(panda.tip, goal)
+    # velocity limits bound a step (1 rad/s x 20 ms): links move less than the rows' influence distance (5 cm)
+    cons = [ik.SelfCollision(), ik.SceneCollision(SCENE, margin=0.005), ik.VelocityLimits(1.0)]
+    closest = np.inf
+    for _ in range(150):
+        v = ik.step(panda, [task], cons, q, dt=0.02)
+        q = np.clip(q + 0.02 * v, panda.lower, panda.upper)
+        assert not panda.in_collision(q)
+        closest = min(closest, panda.min_distance(q, SCENE, self_collision=False))
+    assert 0.0 < closest  # pushed against the wall, never through it
+    assert closest < 0.05

@@ -1,0 +1,85 @@
+"""kinserve.ik.hierarchy: strict priorities never degrade a higher level; weights inside a level."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinserve import ik, robots
+from kinserve.ik.hierarchy import hierarchical_step, stack_level
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda", geometry=False)
+
+
+def _levels(robot, q, tasks):
+    pin.computeJointJacobians(robot.model, robot.data, q)
+    out = []
+    for t in tasks:
+        e, J = t.bind(robot).compute(robot, robot.data, q)
+        out.append((J, e))
+    return out
+
+
+def test_lower_levels_never_change_the_higher_levels_velocity(panda):
+    rng = np.random.default_rng(0)
+    big = np.full(panda.nq, 10.0)
+    for _ in range(10):
+        q = panda.random_q(rng)
+        # level 1: position of the hand (3 rows), level 2: orientation (3 rows), level 3: posture
+        T = panda.fk(panda.random_q(rng)).copy()
+        tasks = [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")), ik.FrameTask(None, T, relax=("x", "y", "z")),
+                 ik.PostureTask(panda.random_q(rng))]
+        lv = _levels(panda, q, tasks)
+        lb, ub = -big, big
+        one, _ = hierarchical_step(lv[:1], lb, ub, lam=1e-6)
+        two, _ = hierarchical_step(lv[:2], lb, ub, lam=1e-6)
+        three, lower = hierarchical_step(lv, lb, ub, lam=1e-6)
+        J1, J2 = lv[0][0], lv[1][0]
+        assert np.allclose(J1 @ two, J1 @ one, atol=1e-9) and np.allclose(J1 @ three, J1 @ one, atol=1e-9)
+        assert np.allclose(J2 @ three, J2 @ two, atol=1e-9)
+        # and each lower level does at least as well on its own task as without it
+        e2 = lv[1][1]
+        assert np.linalg.norm(J2 @ two + e2) <= np.linalg.norm(J2 @ one + e2) + 1e-12
+        assert np.allclose(three, one + lower)
+
+
+def test_priorities_hold_with_constraints(panda):
+    rng = np.random.default_rng(1)
+    q = panda.random_q(rng)
+    T = panda.fk(panda.random_q(rng)).copy()
+    lv = _levels(panda, q, [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")), ik.PostureTask(panda.neutral())])
+    lb, ub = np.maximum(panda.lower - q, -0.2), np.minimum(panda.upper - q, 0.2)
+    G = rng.normal(size=(3, panda.nq))
+    l, u = np.full(3, -0.05), np.full(3, np.inf)
+    one, _ = hierarchical_step(lv[:1], lb, ub, G, l, u, lam=1e-4)
+    two, _ = hierarchical_step(lv, lb, ub, G, l, u, lam=1e-4)
+    for dq in (one, two):
+        assert np.all(dq >= lb - 1e-9) and np.all(dq <= ub + 1e-9) and np.all(G @ dq >= l - 1e-9)
+    assert np.allclose(lv[0][0] @ two, lv[0][0] @ one, atol=1e-8)
+
+
+def test_weights_inside_a_level_are_a_weighted_least_squares(panda):
+    rng = np.random.default_rng(2)
+    q = panda.random_q(rng)
+    a = ik.PostureTask(panda.random_q(rng), weight=4.0, priority=1)
+    b = ik.PostureTask(panda.random_q(rng), weight=1.0, priority=1)
+    lv = _levels(panda, q, [a, b])
+    J, e = stack_level([(lv[0][1], lv[0][0]), (lv[1][1], lv[1][0])], [2.0, None])  # sqrt(4), weight 1
+    dq, _ = hierarchical_step([(J, e)], np.full(7, -np.inf), np.full(7, np.inf), lam=0.0)
+    # minimiser of 4 |dq + ea|^2 + |dq + eb|^2
+    assert np.allclose(dq, -(4 * lv[0][1] + lv[1][1]) / 5)
+
+
+def test_three_levels_in_a_full_solve(panda):
+    rng = np.random.default_rng(3)
+    for k in range(4):
+        T = panda.fk(panda.random_q(rng)).copy()
+        q_rest = panda.random_q(rng)
+        alone = ik.solve(panda, tasks=[ik.FrameTask(None, T)], seed=k)
+        res = ik.solve(panda, tasks=[ik.FrameTask(None, T), ik.PostureTask(q_rest, priority=2),
+                                     ik.CentringTask(priority=3)], seed=k)
+        assert alone.success and res.success, res.message
+        assert res.position_error < 1e-4 and res.orientation_error < 1e-3
+        assert [t["priority"] for t in res.task_errors] == [1, 2, 3]

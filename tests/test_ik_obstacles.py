@@ -1,0 +1,242 @@
+"""kinserve.ik obstacles: closed-form distances, clearances against independent code, gradients against finite
+differences of the true distance, every iterate outside every obstacle, start in collision, link radius."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinserve import ik, robots
+from kinserve.ik.constraints import robot_segments
+from kinserve.ik.constraints.obstacles import ObstacleAvoidance
+from kinserve.ik.constraints.segment_distance import point_segment, segment_segment
+from kinserve.kinematics.errors import InputError
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda", geometry=False)
+
+
+def _box(center, size, yaw=0.3):
+    T = np.eye(4)
+    c, s = np.cos(yaw), np.sin(yaw)
+    T[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    T[:3, 3] = center
+    return ik.Box(T, size)
+
+
+def _cylinder(center, radius, length):
+    T = np.eye(4)
+    T[:3, :3] = pin.rpy.rpyToMatrix(0.4, -0.2, 0.1)
+    T[:3, 3] = center
+    return ik.Cylinder(T, radius, length)
+
+
+OBSTACLES = [
+    ik.Sphere((0.35, 0.1, 0.55), 0.06),
+    ik.Capsule((0.2, -0.3, 0.4), (0.45, -0.25, 0.7), 0.04),
+    _box((0.3, 0.3, 0.3), (0.1, 0.15, 0.08)),
+    _cylinder((0.5, 0.0, 0.2), 0.05, 0.2),
+]
+
+
+def sampled_clearance(robot, q, frame, obstacle, link_radius=0.0, n=801):
+    """Independent reference: the shape's own signed distance at densely sampled points of every link segment."""
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q)
+    best = np.inf
+    for seg in robot_segments(robot, frame):
+        if seg.ja == 0 and seg.jb == 0:
+            continue
+        a = data.oMi[seg.ja].act(seg.la) if seg.ja else seg.la
+        b = data.oMi[seg.jb].act(seg.lb) if seg.jb else seg.lb
+        pts = a + np.linspace(0, 1, n)[:, None] * (b - a)
+        best = min(best, float(obstacle.signed_distance(pts).min()))
+    return best - link_radius
+
+
+def test_closed_forms_against_dense_sampling():
+    rng = np.random.default_rng(0)
+    P = 300
+    a, b, c, d = (rng.normal(size=(P, 3)) for _ in range(4))
+    b[:20] = a[:20]  # point-like first segment
+    d[20:40] = c[20:40]  # point-like second segment
+    t = np.linspace(0, 1, 2001)
+    s, x = point_segment(a, b, c)
+    ref = np.array([np.linalg.norm(a[i] + t[:, None] * (b[i] - a[i]) - c[i], axis=1).min() for i in range(P)])
+    assert np.all(np.linalg.norm(x - c, axis=1) <= ref + 1e-12)
+    assert np.allclose(np.linalg.norm(x - c, axis=1), ref, atol=2e-6)
+    s, u, x, y = segment_segment(a, b, c, d)
+    assert np.allclose(x, a + s[:, None] * (b - a)) and np.allclose(y, c + u[:, None] * (d - c))
+    for i in range(0, P, 7):
+        A = a[i] + t[::10, None] * (b[i] - a[i])
+        C = c[i] + t[::10, None] * (d[i] - c[i])
+        brute = np.linalg.norm(A[:, None] - C[None], axis=2).min()
+        assert np.linalg.norm(x[i] - y[i]) <= brute + 1e-12
+        assert np.linalg.norm(x[i] - y[i]) == pytest.approx(brute, abs=2e-3 * (1 + np.linalg.norm(b[i] - a[i])))
+
+
+@pytest.mark.parametrize("k", range(len(OBSTACLES)))
+@pytest.mark.parametrize("link_radius", [0.0, 0.03])
+def test_clearance_matches_the_shapes_signed_distance(panda, k, link_radius):
+    ob = OBSTACLES[k]
+    avoid = ObstacleAvoidance([ob], link_radius=link_radius).bind(panda)
+    rng = np.random.default_rng(10 + k)
+    for q in panda.random_q(rng, 8):
+        pin.forwardKinematics(panda.model, panda.data, q)
+        c = avoid._pairs(panda.data, False, np.inf)
+        ref = sampled_clearance(panda, q, panda.tip, ob, link_radius)
+        assert c.min() <= ref + 1e-5  # coal (GJK) is exact to about 1e-6 m
+        assert c.min() == pytest.approx(ref, abs=1e-3)
+
+
+@pytest.mark.parametrize("k", range(len(OBSTACLES)))
+def test_clearance_rows_match_finite_differences_of_the_true_distance(panda, k):
+    avoid = ObstacleAvoidance([OBSTACLES[k]], link_radius=0.02).bind(panda)
+    rng = np.random.default_rng(20 + k)
+    h = 1e-6 if k < 2 else 1e-5
+    checked = 0
+    for q in panda.random_q(rng, 6):
+        pin.computeJointJacobians(panda.model, panda.data, q)
+        c, G = avoid.rows_all(panda, panda.data)
+
+        def clear(qq):
+            pin.forwardKinematics(panda.model, panda.data, qq)
+            return avoid._pairs(panda.data, False, np.inf)
+
+        fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(panda.nq)]).T
+        ok = c > 1e-3  # away from contact (where the distance is not differentiable)
+        assert np.allclose(G[ok], fd[ok], atol=2e-4 if k < 2 else 2e-3)
+        checked += int(ok.sum())
+    assert checked > 10
+
+
+def test_rows_are_the_velocity_damper(panda):
+    ob = OBSTACLES[0]
+    avoid = ObstacleAvoidance([ob], gain=0.3, influence=10.0).bind(panda)
+    q = panda.random_q(np.random.default_rng(1))
+    pin.computeJointJacobians(panda.model, panda.data, q)
+    G, lo, hi = avoid.rows(panda, panda.data, q)
+    c, G_all = avoid.rows_all(panda, panda.data)
+    assert np.allclose(G, G_all) and np.allclose(lo, -0.3 * c) and np.all(np.isinf(hi))
+
+
+def _all_clear(robot, Q, frame, obstacles, link_radius=0.0, tol=1e-9):
+    return all(sampled_clearance(robot, q, frame, ob, link_radius, n=201) >= -tol for q in Q for ob in obstacles)
+
+
+@pytest.mark.parametrize("method", ["auto", "qp"])
+def test_every_iterate_is_outside_every_obstacle(panda, method):
+    rng = np.random.default_rng(30)
+    shoulder = panda.fk(panda.neutral(), "panda_link2")[:3, 3]
+    solved = tried = 0
+    while tried < 8:
+        q = panda.random_q(rng)
+        T = panda.fk(q).copy()
+        p = T[:3, 3]
+        obs = [ik.Sphere(shoulder + f * (p - shoulder), 0.05) for f in (0.3, 0.5)] + [
+            _box(shoulder + 0.7 * (p - shoulder), (0.06, 0.06, 0.06))]
+        if not _all_clear(panda, [q], panda.tip, obs):
+            continue
+        tried += 1
+        res = ik.solve(panda, T, obstacles=obs, method=method, seed=tried)
+        solved += res.success
+        assert _all_clear(panda, res.history.q, panda.tip, obs), res.message
+    assert solved >= 7
+
+
+def test_link_radius_keeps_capsules_clear(panda):
+    rng = np.random.default_rng(40)
+    q = panda.random_q(rng)
+    T = panda.fk(q).copy()
+    ob = _box(0.5 * (T[:3, 3] + panda.fk(q, "panda_link4")[:3, 3]) + [0.12, 0.0, 0.0], (0.05, 0.05, 0.05))
+    res = ik.solve(panda, T, obstacles=[ob], link_radius=0.04, method="qp", seed=1)
+    assert res.success, res.message
+    assert all(sampled_clearance(panda, qi, panda.tip, ob, 0.04) >= -1e-6 for qi in res.history.q)
+
+
+def test_start_in_collision_is_not_an_error(panda):
+    rng = np.random.default_rng(50)
+    T = panda.fk(panda.random_q(rng)).copy()
+    q0 = panda.random_q(rng)
+    elbow = panda.fk(q0, "panda_link4")[:3, 3]
+    ob = ik.Sphere(elbow + np.array([0.02, 0.01, 0.0]), 0.05)
+    assert sampled_clearance(panda, q0, panda.tip, ob) < 0
+    res = ik.solve(panda, T, q0, obstacles=[ob], seed=2)
+    assert res.success and "q0" in res.message, res.message
+    assert _all_clear(panda, res.history.q, panda.tip, [ob])
+    # a control step from inside demands that the clearance grow
+    avoid = ik.ObstacleAvoidance([ob])
+    before = sampled_clearance(panda, q0, panda.tip, ob)
+    v = ik.step(panda, [ik.PostureTask(q0, priority=1)], [avoid], q0, 0.01)
+    after = sampled_clearance(panda, q0 + 0.01 * v, panda.tip, ob)
+    assert after > before
+
+
+def test_obstacle_containing_the_base_is_an_error(panda):
+    T = panda.fk(panda.random_q(np.random.default_rng(2))).copy()
+    with pytest.raises(InputError, match="base"):
+        ik.solve(panda, T, obstacles=[ik.Sphere((0, 0, 0.1), 0.2)])
+    with pytest.raises(InputError, match="base"):
+        ik.solve(panda, T, obstacles=[_box((0, 0, 0.05), (0.3, 0.3, 0.1))])
+    with pytest.raises(InputError, match="link_radius"):
+        ik.solve(panda, T, obstacles=[OBSTACLES[0]], link_radius=-0.1)
+    with pytest.raises(InputError, match="obstacles"):
+        ik.solve(panda, T, obstacles=[{"kind": "cone"}])
+    with pytest.raises(InputError):
+        ik.solve(panda, T, obstacles=["box"])
+
+
+def test_obstacles_accept_dicts_and_legacy_pairs(panda):
+    T = panda.fk(panda.random_q(np.random.default_rng(3))).copy()
+    box = _box((0.6, 0.6, 0.6), (0.1, 0.1, 0.1))
+    a = ik.solve(panda, T, obstacles=[box.to_dict(), {"center": (0.6, -0.6, 0.6), "radius": 0.05}], seed=4)
+    b = ik.solve(panda, T, obstacles=[box], spheres=[((0.6, -0.6, 0.6), 0.05)], seed=4)
+    assert a.success and np.array_equal(a.q, b.q)
+
+
+def test_slider_rows_match_finite_differences():
+    # the SCARA's quill (a prismatic joint) gives segments whose ends sit on two bodies
+    scara = robots.load("scara", geometry=False)
+    avoid = ObstacleAvoidance([ik.Sphere((0.6, 0.3, 0.6), 0.05), ik.Capsule((0.2, -0.5, 0.3), (0.8, -0.2, 0.9), 0.03)],
+                              tool_frames=("tool",)).bind(scara)
+    assert any(n.startswith("slider") for n in avoid.skeleton.names)
+    rng = np.random.default_rng(60)
+    h = 1e-6
+    for q in scara.random_q(rng, 6):
+        pin.computeJointJacobians(scara.model, scara.data, q)
+        c, G = avoid.rows_all(scara, scara.data)
+
+        def clear(qq):
+            pin.forwardKinematics(scara.model, scara.data, qq)
+            return avoid._pairs(scara.data, False, np.inf)
+
+        fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(scara.nq)]).T
+        ok = c > 1e-3
+        assert np.allclose(G[ok], fd[ok], atol=1e-5)
+
+
+def test_first_violation_agrees_with_the_clearances(panda):
+    avoid = ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda)
+    rng = np.random.default_rng(70)
+    Q = panda.random_q(rng, 40)
+    flags = []
+    for q in Q:
+        pin.forwardKinematics(panda.model, panda.data, q)
+        flags.append(avoid._pairs(panda.data, False, np.inf).min() < 0.0)
+    assert any(flags) and not all(flags)
+    expected = flags.index(True)
+    assert avoid.first_violation(panda, Q) == expected
+    clear_rows = Q[[i for i, f in enumerate(flags) if not f]]
+    assert avoid.first_violation(panda, clear_rows) is None
+
+
+def test_no_obstacles_is_a_valid_empty_constraint(panda):
+    avoid = ObstacleAvoidance([]).bind(panda)
+    q = panda.neutral()
+    pin.computeJointJacobians(panda.model, panda.data, q)
+    assert avoid.margin(panda, panda.data, q) == np.inf
+    G, lo, hi = avoid.rows(panda, panda.data, q)
+    assert G.shape == (0, panda.nq)
+    T = panda.fk(panda.random_q(np.random.default_rng(8))).copy()
+    assert ik.solve(panda, tasks=[ik.FrameTask(None, T)], constraints=[avoid], seed=0).success

@@ -1,0 +1,138 @@
+"""kinserve.ik.tasks: task errors and Jacobians against finite differences, a user task, two hands at once."""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinserve import ik, robots
+from kinserve.kinematics.errors import FrameError, InputError, NonFiniteError
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda", geometry=False)
+
+
+def _e(robot, task, q):
+    pin.computeJointJacobians(robot.model, robot.data, q)
+    return task.compute(robot, robot.data, q)
+
+
+def _fd_jacobian(robot, task, q, h=1e-6):
+    cols = []
+    for i in range(robot.nq):
+        dq = np.zeros(robot.nq)
+        dq[i] = h
+        cols.append((_e(robot, task, q + dq)[0] - _e(robot, task, q - dq)[0]) / (2 * h))
+    return np.array(cols).T
+
+
+class CoMTask(ik.Task):
+    """A user task: the centre of mass at a point (e = c(q) - c*, J = dc/dq)."""
+
+    def __init__(self, target, weight=1.0, priority=1):
+        super().__init__(weight=weight, priority=priority, name="com")
+        self.target = np.asarray(target, dtype=float)
+
+    def compute(self, robot, data, q):
+        J = pin.jacobianCenterOfMass(robot.model, data, q, False)
+        return data.com[0] - self.target, J
+
+
+@pytest.mark.parametrize("relax,axes", [((), "world"), (("roll", "pitch"), "world"), (("z", "yaw"), "target"),
+                                        (("x",), "target")])
+def test_frame_task_jacobian_matches_finite_differences(panda, relax, axes):
+    rng = np.random.default_rng(3)
+    T = panda.fk(panda.random_q(rng)).copy()
+    task = ik.FrameTask("panda_hand", T, relax=relax, relax_frame=axes).bind(panda)
+    for q in panda.random_q(rng, 4):
+        e, J = _e(panda, task, q)
+        assert e.shape == (6 - len(relax),) and J.shape == (6 - len(relax), panda.nq)
+        assert np.allclose(J, _fd_jacobian(panda, task, q), atol=1e-6)
+
+
+def test_frame_task_error_is_zero_at_the_target_and_matches_the_pose_distance(panda):
+    rng = np.random.default_rng(4)
+    q = panda.random_q(rng)
+    T = panda.fk(q).copy()
+    task = ik.FrameTask(None, T).bind(panda)
+    assert task.frame_name == panda.tip
+    assert np.allclose(_e(panda, task, q)[0], 0.0, atol=1e-12)
+    q2 = panda.random_q(rng)
+    T2 = panda.fk(q2)
+    pe, re = task.errors(_e(panda, task, q2)[0])
+    assert pe == pytest.approx(np.linalg.norm(T2[:3, 3] - T[:3, 3]))
+    angle = np.arccos(np.clip((np.trace(T2[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1))
+    assert re == pytest.approx(angle, abs=1e-9)
+
+
+def test_posture_centring_and_user_com_jacobians(panda):
+    rng = np.random.default_rng(5)
+    q_ref = panda.random_q(rng)
+    for task in (ik.PostureTask(q_ref).bind(panda), ik.CentringTask([1, 2, 0, 1, 1, 3, 1]).bind(panda),
+                 CoMTask((0.1, 0.0, 0.4))):
+        for q in panda.random_q(rng, 3):
+            e, J = _e(panda, task, q)
+            assert np.allclose(J, _fd_jacobian(panda, task, q), atol=1e-6)
+    # the centring task is today's objective: 1/2 |e|^2 = h(q)
+    from kinserve.ik.centring import centring_objective, centring_weights
+
+    w = [1, 2, 0, 1, 1, 3, 1]
+    e, _ = _e(panda, ik.CentringTask(w).bind(panda), q)
+    assert 0.5 * e @ e == pytest.approx(centring_objective(panda, q, centring_weights(panda, w)))
+
+
+def test_task_validation(panda):
+    T = np.eye(4)
+    with pytest.raises(InputError, match="priority"):
+        ik.FrameTask("panda_hand", T, priority=0)
+    with pytest.raises(InputError, match="weight"):
+        ik.PostureTask(np.zeros(7), weight=-1)
+    with pytest.raises(NonFiniteError):
+        ik.PostureTask(np.zeros(7), weight=np.nan)
+    with pytest.raises(InputError, match="relax"):
+        ik.FrameTask("panda_hand", T, relax=("x", "y", "z", "roll", "pitch", "yaw"))
+    with pytest.raises(InputError, match="relax_frame"):
+        ik.FrameTask("panda_hand", T, relax_frame="tool")
+    with pytest.raises(FrameError):
+        ik.FrameTask("nope", T).bind(panda)
+    with pytest.raises(InputError, match="q_ref"):
+        ik.PostureTask(np.zeros(3)).bind(panda)
+    with pytest.raises(InputError, match="CentringTask"):
+        ik.CentringTask(0.0).bind(panda)
+    with pytest.raises(InputError, match="tasks"):
+        ik.solve(panda, tasks=[])
+    with pytest.raises(InputError, match=r"tasks\[1\]"):
+        ik.solve(panda, tasks=[ik.PostureTask(np.zeros(7)), "frame"])
+    with pytest.raises(InputError, match="either"):
+        ik.solve(panda, np.eye(4), tasks=[ik.PostureTask(np.zeros(7))])
+
+
+def test_user_task_centre_of_mass_is_reached(panda):
+    rng = np.random.default_rng(6)
+    q = panda.random_q(rng)
+    com = pin.centerOfMass(panda.model, panda.model.createData(), q)
+    res = ik.solve(panda, tasks=[CoMTask(com), ik.PostureTask(panda.neutral(), priority=2)], seed=0)
+    assert res.success, res.message
+    reached = pin.centerOfMass(panda.model, panda.model.createData(), res.q)
+    assert np.linalg.norm(reached - com) < 1e-4
+    assert [t["name"] for t in res.task_errors] == ["com", "posture"]
+    assert res.task_errors[0]["error"] < 1e-4 and res.task_errors[0]["goal"] and not res.task_errors[1]["goal"]
+
+
+def test_baxter_reaches_a_pose_with_each_hand_at_once():
+    baxter = robots.load("baxter", geometry=False)
+    assert baxter.nq == 14
+    rng = np.random.default_rng(7)
+    for k in range(3):
+        q = baxter.random_q(rng)
+        TL, TR = baxter.fk(q, "left_gripper").copy(), baxter.fk(q, "right_gripper").copy()
+        res = ik.solve(baxter, tasks=[ik.FrameTask("left_gripper", TL), ik.FrameTask("right_gripper", TR)], seed=k)
+        assert res.success, res.message
+        for frame, T in (("left_gripper", TL), ("right_gripper", TR)):
+            got = baxter.fk(res.q, frame)
+            assert np.linalg.norm(got[:3, 3] - T[:3, 3]) < 1e-4
+            assert np.arccos(np.clip((np.trace(got[:3, :3].T @ T[:3, :3]) - 1) / 2, -1, 1)) < 1e-3
+        assert baxter.within_limits(res.q)
+        assert len(res.task_errors) == 2 and res.frame == "left_gripper,right_gripper"
+        assert res.history.task_error.shape[1] == 12

@@ -1,0 +1,113 @@
+"""Every kinserve module imports, and the import graph of kinserve's modules has no cycle.
+
+The graph is read from the source with ``ast``: an edge ``a -> b`` for every
+``import`` / ``from ... import`` in module ``a`` (at any depth, function-level
+imports included: a lazy import that dodges a circle at load time is still
+a circle) that names kinserve module ``b``. ``from pkg import name`` points
+at the submodule ``pkg.name`` when there is one, else at ``pkg``.
+"""
+
+import ast
+import importlib
+from pathlib import Path
+
+import kinserve
+
+ROOT = Path(kinserve.__file__).resolve().parent
+SKIP = {"tests", "benchmarks", "build", "dist"}
+
+
+def kinserve_modules() -> dict[str, tuple[Path, bool]]:
+    """``{dotted name: (file, is package)}`` of every module of the installed kinserve tree."""
+    mods = {}
+    files = [ROOT / "__init__.py"] + [
+        f for d in sorted(ROOT.iterdir())
+        if d.is_dir() and d.name not in SKIP and (d / "__init__.py").exists() for f in d.rglob("*.py")
+    ]
+    for path in files:
+        rel = path.relative_to(ROOT)
+        if rel.parts[0] in SKIP or any(p.startswith(".") or p.endswith(".egg-info") for p in rel.parts):
+            continue
+        parts = list(rel.with_suffix("").parts)
+        is_pkg = parts[-1] == "__init__"
+        if is_pkg:
+            parts = parts[:-1]
+        if any(not (ROOT.joinpath(*parts[:k]) / "__init__.py").exists() for k in range(1, len(parts))):
+            continue  # a folder that is not a package (data, scripts)
+        mods[".".join(["kinserve", *parts])] = (path, is_pkg)
+    return mods
+
+
+def _targets(name: str, is_pkg: bool, node, mods) -> list[str]:
+    if isinstance(node, ast.Import):
+        names = [a.name for a in node.names]
+    else:
+        if node.level:
+            base = name.split(".") if is_pkg else name.split(".")[:-1]
+            base = base[: len(base) - (node.level - 1)]
+            pkg = ".".join(base + ([node.module] if node.module else []))
+        else:
+            pkg = node.module or ""
+        names = [f"{pkg}.{a.name}" if f"{pkg}.{a.name}" in mods else pkg for a in node.names]
+    out = []
+    for t in names:
+        while t not in mods and "." in t:
+            t = t.rsplit(".", 1)[0]
+        if t in mods and t != name:
+            out.append(t)
+    return out
+
+
+def import_graph(mods) -> dict[str, set[str]]:
+    graph = {}
+    for name, (path, is_pkg) in mods.items():
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                edges.update(_targets(name, is_pkg, node, mods))
+        graph[name] = edges
+    return graph
+
+
+def find_cycle(graph) -> list[str] | None:
+    """One cycle ``[a, b, ..., a]`` of ``graph`` (depth-first search), or None."""
+    state, stack = {}, []
+
+    def visit(v):
+        state[v] = "open"
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if state.get(w) == "open":
+                return stack[stack.index(w):] + [w]
+            if w not in state:
+                found = visit(w)
+                if found:
+                    return found
+        stack.pop()
+        state[v] = "done"
+        return None
+
+    for v in sorted(graph):
+        if v not in state:
+            found = visit(v)
+            if found:
+                return found
+    return None
+
+
+def test_the_cycle_finder_finds_cycles():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b"}, "b": set(), "c": {"a", "b"}}) is None
+    mods = {"kinserve.ik": (None, True), "kinserve.ik.batch": (None, False), "kinserve.ik.ray_backend": (None, False)}
+    lazy = ast.parse("def f():\n    from .batch import run\n").body[0].body[0]
+    assert _targets("kinserve.ik.ray_backend", False, lazy, mods) == ["kinserve.ik.batch"]
+
+
+def test_every_module_imports_and_no_import_cycle():
+    mods = kinserve_modules()
+    assert {"kinserve.ik.batch", "kinserve.ik.ray_backend", "kinserve.kinematics.robot", "kinserve.service.app"} <= set(mods)
+    for name in sorted(mods):
+        importlib.import_module(name)
+    graph = import_graph(mods)
+    assert "kinserve.ik.batch_worker" in graph["kinserve.ik.ray_backend"]
+    assert find_cycle(graph) is None, " -> ".join(find_cycle(graph))

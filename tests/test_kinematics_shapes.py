@@ -1,0 +1,103 @@
+"""kinematics.shapes: closed-form signed distances against coal, validation, plain-data round trips."""
+
+import pickle
+
+import coal
+import numpy as np
+import pytest
+
+from kinserve.kinematics.errors import InputError, ModelError, NonFiniteError, RotationError, ShapeError
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere, as_shape
+
+
+def random_pose(rng):
+    Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    Q *= np.sign(np.linalg.det(Q))
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = Q, rng.normal(size=3) * 0.3
+    return T
+
+
+@pytest.fixture
+def ico_path(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    path = tmp_path / "ico.stl"
+    trimesh.creation.icosphere(subdivisions=2, radius=0.2).export(path)
+    return path
+
+
+def shapes(rng, ico_path):
+    return [Sphere([0.1, 0.2, 0.3], 0.2), Box(random_pose(rng), [0.3, 0.2, 0.5]),
+            Capsule([0, 0, 0], [0.3, 0.1, 0.2], 0.1), Cylinder(random_pose(rng), 0.15, 0.4),
+            Mesh(ico_path, random_pose(rng))]
+
+
+def coal_distance(shape, point):
+    """Distance from a point to the shape by coal's GJK (an independent code path)."""
+    M = shape.placement()
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    return coal.distance(coal.Sphere(1e-12), coal.Transform3s(np.eye(3), point), shape.geometry(),
+                         coal.Transform3s(M.rotation, M.translation), req, res)
+
+
+def test_outside_distances_equal_coal(rng, ico_path):
+    for shape in shapes(rng, ico_path):
+        pts = rng.normal(size=(150, 3)) * 0.7
+        sd = shape.signed_distance(pts)
+        outside = sd > 1e-6
+        assert outside.sum() > 50
+        ref = np.array([coal_distance(shape, p) for p in pts[outside]])
+        if shape.kind == "mesh":  # face planes: a lower bound outside, never above the true distance
+            assert np.all(sd[outside] <= ref + 1e-9)
+            assert np.max(ref - sd[outside]) < 0.02
+        else:
+            np.testing.assert_allclose(sd[outside], ref, atol=1e-8)
+
+
+def test_inside_points_are_negative_and_depth_is_exact_for_primitives():
+    box = Box(np.eye(4), [0.4, 0.2, 1.0])
+    assert box.signed_distance([0.0, 0.0, 0.0])[0] == pytest.approx(-0.1)   # nearest face y = 0.1
+    assert box.signed_distance([0.15, 0.05, 0.4])[0] == pytest.approx(-0.05)
+    cyl = Cylinder(np.eye(4), 0.1, 1.0)
+    assert cyl.signed_distance([0.02, 0.0, 0.48])[0] == pytest.approx(-0.02)
+    cap = Capsule([0, 0, 0], [0, 0, 1], 0.1)
+    assert cap.signed_distance([0.0, 0.0, 1.05])[0] == pytest.approx(-0.05)
+    assert cap.signed_distance([0.0, 0.3, 0.5])[0] == pytest.approx(0.2)
+    assert Sphere([1, 1, 1], 0.5).contains([[1, 1, 1.4], [1, 1, 1.6]]).tolist() == [True, False]
+
+
+def test_round_trips_through_plain_data_and_pickle(rng, ico_path):
+    for shape in shapes(rng, ico_path):
+        again = as_shape(shape.to_dict())
+        assert again == shape
+        assert pickle.loads(pickle.dumps(shape)) == shape
+        with pytest.raises(AttributeError):
+            shape.pose = np.eye(4)
+
+
+@pytest.mark.parametrize("make, err", [
+    (lambda: Sphere([0, 0, 0], 0.0), InputError),
+    (lambda: Sphere([0, 0, np.nan], 0.1), NonFiniteError),
+    (lambda: Sphere([0, 0], 0.1), ShapeError),
+    (lambda: Box(np.eye(4), [0.1, -0.2, 0.3]), InputError),
+    (lambda: Box(np.diag([2.0, 1, 1, 1]), [0.1, 0.2, 0.3]), RotationError),
+    (lambda: Capsule([0, 0, 0], [0, 0, 1], float("inf")), NonFiniteError),
+    (lambda: Cylinder(np.eye(4), 0.1, 0.0), InputError),
+    (lambda: Mesh("/nonexistent/file.stl"), InputError),
+    (lambda: as_shape({"kind": "torus"}), InputError),
+    (lambda: as_shape({"kind": "box", "pose": np.eye(4).tolist()}), InputError),
+    (lambda: Sphere([0, 0, 0], 0.1, frames=[]), InputError),
+])
+def test_bad_shapes_are_named_errors(make, err):
+    with pytest.raises(err):
+        make()
+
+
+def test_open_mesh_is_refused(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    box = trimesh.creation.box(extents=[0.1, 0.1, 0.1])
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-2])  # two triangles missing: not closed
+    path = tmp_path / "open.stl"
+    open_box.export(path)
+    with pytest.raises(ModelError, match="closed surface"):
+        Mesh(path)

@@ -1,0 +1,143 @@
+"""The CLI's error boundary: every sub-command, given bad arguments, says so in one line and exits 2.
+
+The walk is in-process (``cli.main(argv)``, fast); the cases named in issue 9
+also run as real ``kinserve`` subprocesses. A traceback in-process would raise
+out of ``main`` and fail the test; a bug caught by the last-resort handler
+exits 70, not 2, and fails it too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+
+import pytest
+
+from kinserve import __version__
+from kinserve.service import cli
+
+
+def subcommands() -> dict[str, argparse.ArgumentParser]:
+    parser = cli.build_parser()
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def takes_robot(sub: argparse.ArgumentParser) -> bool:
+    return any(a.dest == "robot" and not a.option_strings for a in sub._actions)
+
+
+#: Bad arguments per sub-command and a piece of the expected message.
+BAD = {
+    "models": [(["--json", "extra"], "unrecognized arguments")],
+    "fk": [(["panda", "--q", "1", "2"], "q must have shape (7,)"), (["panda", "--q", "nan,0,0,0,0,0,0"], "finite"),
+           (["panda", "--frame", "hand"], "unknown frame 'hand'"), (["planar4r", "--param", "l1"], "KEY=VALUE")],
+    "jacobian": [(["panda", "--reference", "body"], "invalid choice"), (["pr", "--q", "a,b"], "expected numbers")],
+    "ik": [(["panda", "--xyz", "1", "2"], "--xyz expects 3 numbers"), (["panda"], "a target is needed"),
+           (["panda", "--xyz", "0.4", "0", "0.5", "--max-time", "-1"], "argument --max-time"),
+           (["panda", "--xyz", "0.4", "0", "0.5", "--centring", "inf"], "argument --centring"),
+           (["panda", "--xyz", "0.4", "0", "0.5", "--sphere", "1,2,3"], "--sphere expects"),
+           (["panda", "--target", "1", "2", "3"], "16 numbers")],
+    "demo": [(["S10"], "invalid choice"), (["scara", "--out", "/proc/nope"], "/proc/nope: No such file or directory")],
+    "view": [(["scara", "--html", "/nonexistent/dir/x.html"], "'/nonexistent/dir' does not exist"),
+             (["scara", "--html", "/"], "expected a file path"), (["scara", "--q", "1"], "q must have shape (4,)")],
+    "serve": [(["--port", "99999"], "port number 0..65535"), (["--port", "-1"], "port number"),
+              (["--port", "http"], "port number"), (["--workers", "0"], "argument --workers"),
+              (["--max-time-cap", "nan"], "argument --max-time-cap")],
+    "reach": [(["pr", "--samples", "0"], "argument --samples"), (["pr", "--resolution", "x"], "argument --resolution"),
+              (["pr", "--max-time", "inf"], "argument --max-time"), (["pr", "--orientation", "up"], "invalid choice")],
+}
+
+
+def run_main(argv: list[str], capsys) -> tuple[int, str, str]:
+    try:
+        code = cli.main(argv)
+    except SystemExit as exc:  # argparse
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def assert_one_line_error(code, out, err, needle=None):
+    assert code == 2, (code, out, err)
+    assert "Traceback" not in out + err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), err
+    if needle:
+        assert needle in err, err
+
+
+def test_every_registered_subcommand_has_bad_argument_cases():
+    assert set(BAD) <= set(subcommands()), "a case for a sub-command that no longer exists"
+
+
+@pytest.mark.parametrize("name", sorted(subcommands()))
+def test_unknown_option_is_one_line_exit_2(name, capsys):
+    code, out, err = run_main([name, "--no-such-option"], capsys)
+    assert_one_line_error(code, out, err)  # "unrecognized arguments", or a missing positional reported first
+    assert "--no-such-option" in err or "the following arguments are required" in err
+
+
+@pytest.mark.parametrize("name", sorted(n for n, p in subcommands().items() if takes_robot(p)))
+def test_unknown_robot_is_one_line_exit_2(name, capsys):
+    code, out, err = run_main([name, "no_such_robot"], capsys)
+    assert_one_line_error(code, out, err, "unknown robot 'no_such_robot'")
+
+
+@pytest.mark.parametrize("name, args, needle", [(n, a, m) for n, cases in BAD.items() for a, m in cases],
+                         ids=lambda v: v if isinstance(v, str) else None)
+def test_bad_arguments_are_one_line_exit_2(name, args, needle, capsys):
+    code, out, err = run_main([name, *args], capsys)
+    assert_one_line_error(code, out, err, needle)
+
+
+def test_no_command_is_one_line_exit_2(capsys):
+    assert_one_line_error(*run_main([], capsys), "COMMAND")
+
+
+def test_unexpected_exception_is_one_line_exit_70(monkeypatch, capsys):
+    def broken(args):
+        raise TypeError("boom")
+
+    monkeypatch.setattr(cli, "cmd_models", broken)
+    code, out, err = run_main(["models"], capsys)
+    assert code == cli.EXIT_INTERNAL and "Traceback" not in err
+    assert err.strip() == "error: internal TypeError: boom (KINSERVE_DEBUG=1 shows the traceback)"
+
+
+def kinserve(*args: str, cwd) -> subprocess.CompletedProcess:
+    exe = os.path.join(os.path.dirname(sys.executable), "kinserve")
+    return subprocess.run([exe, *args], cwd=cwd, capture_output=True, text=True, timeout=120)
+
+
+def test_version_prints_kinserve_and_the_version(tmp_path):
+    out = kinserve("--version", cwd=tmp_path)
+    assert out.returncode == 0 and out.stdout.strip() == f"kinserve {__version__}"
+    assert __version__.count(".") >= 2 and __version__[0].isdigit()
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["serve", "--port", "99999"], "port number 0..65535"),
+    (["demo", "scara", "--out", "/proc/nope"], "/proc/nope: No such file or directory"),
+    (["view", "scara", "--html", "/nonexistent/dir/x.html"], "'/nonexistent/dir' does not exist"),
+])
+def test_issue_cases_as_real_processes(args, needle, tmp_path):
+    out = kinserve(*args, cwd=tmp_path)
+    assert_one_line_error(out.returncode, out.stdout, out.stderr, needle)
+    assert not os.path.exists("/nonexistent/dir")
+
+
+def test_serve_on_a_busy_port_or_unknown_host_is_one_line_exit_2(tmp_path):
+    import socket
+
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = str(busy.getsockname()[1])
+        for extra in ([], ["--workers", "2"]):
+            out = kinserve("serve", "--port", port, *extra, cwd=tmp_path)
+            assert_one_line_error(out.returncode, out.stdout, out.stderr, f"cannot listen on 127.0.0.1:{port}")
+    out = kinserve("serve", "--host", "no-such-host.invalid", "--port", "0", cwd=tmp_path)
+    assert_one_line_error(out.returncode, out.stdout, out.stderr, "cannot listen on no-such-host.invalid:0")

@@ -1,0 +1,85 @@
+"""POST /ik with the IK model: obstacles of every kind, several frame targets, errors that name the field
+(a real server on loopback)."""
+
+from __future__ import annotations
+
+import json
+
+import httpx
+import numpy as np
+import pytest
+
+from kinserve import ik, robots
+from service_server import Server
+
+
+@pytest.fixture(scope="module")
+def client():
+    srv = Server(max_time_cap=2.0)
+    try:
+        with httpx.Client(base_url=srv.url, timeout=60) as c:
+            yield c
+    finally:
+        srv.stop()
+
+
+def post(client, body):
+    return client.post("/ik", content=json.dumps(body), headers={"content-type": "application/json"})
+
+
+def test_obstacles_of_every_kind_are_kept_clear(client):
+    panda = robots.load("panda", geometry=False)
+    q = panda.random_q(np.random.default_rng(3))
+    T = panda.fk(q).copy()
+    elbow = panda.fk(q, "panda_link4")[:3, 3]
+    B = np.eye(4)
+    B[:3, 3] = elbow + [0.0, 0.0, 0.15]
+    C = np.eye(4)
+    C[:3, 3] = [0.6, -0.5, 0.3]
+    obstacles = [{"kind": "box", "pose": B.tolist(), "size": [0.05, 0.05, 0.05]},
+                 {"kind": "sphere", "center": [0.4, 0.5, 0.2], "radius": 0.05},
+                 {"kind": "capsule", "a": [0.7, 0.3, 0.0], "b": [0.7, 0.3, 0.4], "radius": 0.03},
+                 {"kind": "cylinder", "pose": C.tolist(), "radius": 0.05, "length": 0.2}]
+    r = post(client, {"robot": "panda", "target": T.tolist(), "obstacles": obstacles, "link_radius": 0.02, "seed": 1})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["success"], body["message"]
+    avoid = ik.ObstacleAvoidance([ik.Box(B, (0.05, 0.05, 0.05)), ik.Sphere((0.4, 0.5, 0.2), 0.05),
+                                  ik.Capsule((0.7, 0.3, 0.0), (0.7, 0.3, 0.4), 0.03), ik.Cylinder(C, 0.05, 0.2)],
+                                 link_radius=0.02).bind(panda)
+    panda.fk(np.array(body["q"]))
+    assert avoid._pairs(panda.data, False, np.inf).min() >= -1e-9
+
+
+def test_two_hands_at_once(client):
+    baxter = robots.load("baxter", geometry=False)
+    q = baxter.random_q(np.random.default_rng(4))
+    targets = [{"frame": f, "pose": baxter.fk(q, f).tolist()} for f in ("left_gripper", "right_gripper")]
+    r = post(client, {"robot": "baxter", "targets": targets, "seed": 2})
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert body["success"], body["message"]
+    assert [t["name"] for t in body["task_errors"]] == ["frame left_gripper", "frame right_gripper"]
+    for t in targets:
+        assert np.linalg.norm(baxter.fk(np.array(body["q"]), t["frame"])[:3, 3] - np.array(t["pose"])[:3, 3]) < 1e-4
+
+
+def test_errors_name_the_field(client):
+    T = np.eye(4).tolist()
+    cases = [
+        ({"robot": "panda", "target": T, "obstacles": [{"kind": "box", "pose": T, "size": [0.1, -0.1, 0.1]}]},
+         ["body", "obstacles", 0, "box", "size", 1]),
+        ({"robot": "panda", "target": T, "obstacles": [{"kind": "cone", "radius": 1}]}, ["body", "obstacles", 0]),
+        ({"robot": "panda", "target": T, "obstacles": [{"kind": "sphere", "center": [0, 0, 0.1], "radius": 0.2}]},
+         ["body", "obstacles"]),
+        ({"robot": "baxter", "targets": [{"frame": "left_grip", "pose": T}]}, ["body", "targets[0].frame"]),
+        ({"robot": "panda"}, ["body", "target"]),
+        ({"robot": "panda", "target": T, "targets": [{"frame": "panda_hand", "pose": T}]}, ["body", "target"]),
+        ({"robot": "panda", "targets": [{"frame": "panda_hand", "pose": T}], "method": "lm"}, ["body", "method"]),
+        ({"robot": "panda", "target": T, "link_radius": -1}, ["body", "link_radius"]),
+    ]
+    for body, loc in cases:
+        r = post(client, body)
+        assert r.status_code == 422, (body, r.text)
+        got = r.json()["detail"][0]["loc"]
+        assert got[: len(loc)] == loc, (loc, got)
