@@ -192,6 +192,10 @@ def solve_many(
     relax=(),
     relax_frame: str = "world",
     spheres=(),
+    obstacles=(),
+    link_radius: float = 0.0,
+    self_collision: bool = False,
+    collision_margin: float = 0.0,
     centring=0.0,
     method: str = "auto",
     tol_pos: float = 1e-4,
@@ -234,23 +238,27 @@ def solve_many(
     _check_count(processes, "processes")
     _check_count(chunksize, "chunksize")
     timeout = _check_timeout(timeout)
-    kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, centring=centring,
-                  method=method, backend=qp_backend, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
-    # the shared arguments once (frame, relax, spheres, method, tolerances...), then every target
+    if self_collision or collision_margin:  # as ik.solve: the robot's collision geometry keeps clear of everything
+        from .collision_solve import collision_options
+
+        collision = collision_options(self_collision, obstacles, collision_margin, spheres)
+        spheres, obstacles = (), ()
+    else:
+        collision = {}
+    kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, obstacles=obstacles,
+                  link_radius=link_radius, centring=centring, method=method, backend=qp_backend, tol_pos=tol_pos,
+                  tol_rot=tol_rot, max_time=max_time, seed=seed)
+    # the shared arguments once (frame, relax, obstacles, method, tolerances...), then every target
     prepared = prepare(robot, np.eye(4), None, **kwargs)
     check_options(prepared["method"], options)
+    options = {**options, **collision}
     frame = kwargs["frame"] = prepared["target"].frame
     poses = checked_poses(robot, targets, frame, relax, relax_frame)
     n = len(poses)
     if n == 0:
         return []
     q0s = _checked_q0s(robot, q0, n)
-    if q0s is not None and prepared["spheres"] is not None:
-        for i in range(n):
-            c = prepared["spheres"].clearances_at(q0s[i])
-            if c.size and c.min() < 0:
-                raise InputError(f"q0[{i}]: a sphere already contains the start configuration: "
-                                 f"{prepared['spheres'].describe_violation(c)}")
+    # a start inside an obstacle is not an error (as in ik.solve): the solver moves out or starts elsewhere
     processes = min(_cpu_count() if processes is None else processes, n)
     job = Job(robot, kwargs, options, keep_history, frame, poses, q0s, prepared=prepared)
     job.ray_address = ray_address

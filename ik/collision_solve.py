@@ -35,7 +35,7 @@ collision geometry keeps obstacles clear of its link capsules
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import coal
@@ -66,11 +66,13 @@ def collision_options(self_collision: bool = False, obstacles: Sequence = (), co
     return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": float(collision_margin)}
 
 
-def solve_collision_free(robot: Robot, p: dict, *, self_collision: bool = False, obstacles: Sequence = (),
-                         collision_margin: float = 0.0, **solver_opts: Any) -> Result:
-    """Collision-free IK on arguments checked by :func:`ik.solve.prepare` (``p``); see the module docstring."""
-    from .solve import solve_prepared
+def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Result], *, self_collision: bool = False,
+                         obstacles: Sequence = (), collision_margin: float = 0.0, **solver_opts: Any) -> Result:
+    """Collision-free IK on arguments checked by :func:`ik.solve.prepare` (``p``); see the module docstring.
 
+    ``solve_prepared`` is :func:`ik.solve.solve_prepared` (the solver without the collision layer), passed in
+    by the caller so that this module does not import :mod:`ik.solve` (no import circle).
+    """
     t0 = time.perf_counter()
     obs = as_obstacles(obstacles)
     if p["spheres"] is not None:
@@ -91,7 +93,7 @@ def solve_collision_free(robot: Robot, p: dict, *, self_collision: bool = False,
     tgt = p["target"]
 
     if p["weights"] is None or p["method"] != "qp":
-        found, warm = _unconstrained_attempts(robot, p, constraint, t0 + 0.5 * budget, solver_opts)
+        found, warm = _unconstrained_attempts(robot, p, solve_prepared, constraint, t0 + 0.5 * budget, solver_opts)
         if found is not None:
             found.elapsed = time.perf_counter() - t0
             return found
@@ -118,7 +120,8 @@ def solve_collision_free(robot: Robot, p: dict, *, self_collision: bool = False,
     return res
 
 
-def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, deadline: float, solver_opts: dict):
+def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result], constraint: CollisionConstraint,
+                            deadline: float, solver_opts: dict):
     """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves, each answer checked.
 
     The first is the ordinary solve (``q0``, then the table of starts); the
@@ -129,8 +132,6 @@ def _unconstrained_attempts(robot, p: dict, constraint: CollisionConstraint, dea
     first attempt before its first collision (the constrained solve's warm
     start; None when its start already collides).
     """
-    from .solve import solve_prepared
-
     rng = np.random.default_rng(p["seed"] or 0)
     opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
     warm = None

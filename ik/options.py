@@ -15,6 +15,7 @@ option              meaning                                     accepted values
 ``seed_table``      use the table of starts (:mod:`ik.seeds`)   bool
 ``max_step``        bound on each joint step (QP, rad or m)     finite number > 0
 ``shortcut``        skip the QP when the free step is feasible  bool
+``lazy``            add obstacle rows only when a step needs    bool
 ``gain``            step gain of the classical methods          finite number > 0
 ``samples``         samples of a closed-form family             integer >= 2
 ``choose``          chooser criteria (:mod:`ik.chooser`)        name or sequence of names
@@ -34,7 +35,7 @@ from kinserve.kinematics.errors import InputError, NonFiniteError
 from .chooser import CRITERIA
 
 _LM = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
-_QP = _LM + ("max_step", "shortcut")
+_QP = _LM + ("max_step", "shortcut", "lazy")
 _CLASSICAL = ("gain", "damping", "max_iter")
 _ANALYTIC = ("samples", "choose")
 

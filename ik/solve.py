@@ -55,6 +55,7 @@ from .constraints import as_sphere
 from .constraints.obstacles import ObstacleAvoidance, as_obstacle
 from .dense_qp import DEFAULT_BACKEND
 from .lm_solver import solve_lm
+from .options import OPTIONS
 from .problem import Problem
 from .qp_backends import available_backends
 from .targets import Target
@@ -304,7 +305,7 @@ def solve(
     return solve_prepared(robot, p, **options)
 
 
-_TASK_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
+_TASK_OPTIONS = OPTIONS["qp"]
 
 
 def solve_tasks(robot, tasks, constraints=None, q0=None, *, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
@@ -398,11 +399,9 @@ def _solve_target_tasks(robot, p: dict, options: dict):
 
 
 _COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
-_LM_OPTIONS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
-_QP_OPTIONS = _LM_OPTIONS + ("max_step", "shortcut", "lazy")
-_CLASSICAL_OPTIONS = ("gain", "damping", "max_iter")
-_ANALYTIC_OPTIONS = ("samples", "choose")
-_AUTO_OPTIONS = tuple(dict.fromkeys(_QP_OPTIONS + _ANALYTIC_OPTIONS))
+# accepted option names per method: one list, in ik.options
+_LM_OPTIONS, _QP_OPTIONS = OPTIONS["lm"], OPTIONS["qp"]
+_CLASSICAL_OPTIONS, _ANALYTIC_OPTIONS, _AUTO_OPTIONS = OPTIONS["dls"], OPTIONS["analytic"], OPTIONS["auto"]
 
 
 def _check_options(method, options, allowed):
@@ -422,7 +421,7 @@ def solve_prepared(robot, p: dict, **options):
     if options and not _COLLISION_KEYS.isdisjoint(options):
         from .collision_solve import solve_collision_free
 
-        return solve_collision_free(robot, p, **options)
+        return solve_collision_free(robot, p, solve_prepared, **options)
     method = p["method"]
     tgt = p["target"]
     if method == "auto":

@@ -45,7 +45,7 @@ def test_names_agree_with_what_ik_solve_accepts():
     ur5 = robots.load("ur5", geometry=False)
     planar = robots.load("scara", geometry=False)
     values = {"max_iter": 5, "damping": 1e-3, "max_starts": 1, "prefer_q0": False, "seed_table": True,
-              "max_step": 0.3, "shortcut": True, "gain": 0.5, "samples": 4, "choose": "joint_limit_distance"}
+              "max_step": 0.3, "shortcut": True, "lazy": True, "gain": 0.5, "samples": 4, "choose": "joint_limit_distance"}
     for method, names in OPTIONS.items():
         robot = planar if method == "analytic" else ur5
         T = robot.fk(robot.random_q(np.random.default_rng(0)))

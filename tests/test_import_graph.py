@@ -58,12 +58,23 @@ def _targets(name: str, is_pkg: bool, node, mods) -> list[str]:
     return out
 
 
+def _type_checking_only(tree: ast.AST) -> set[int]:
+    """ids of the import nodes under ``if TYPE_CHECKING:`` (never executed, so no runtime edge)."""
+    skip = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            skip.update(id(n) for stmt in node.body for n in ast.walk(stmt))
+    return skip
+
+
 def import_graph(mods) -> dict[str, set[str]]:
     graph = {}
     for name, (path, is_pkg) in mods.items():
         edges = set()
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, (ast.Import, ast.ImportFrom)):
+        tree = ast.parse(path.read_text(), str(path))
+        typing_only = _type_checking_only(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.Import, ast.ImportFrom)) and id(node) not in typing_only:
                 edges.update(_targets(name, is_pkg, node, mods))
         graph[name] = edges
     return graph
