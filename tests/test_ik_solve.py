@@ -153,17 +153,3 @@ def test_sphere_errors_name_their_argument(panda, T):
     with pytest.raises(NonFiniteError) as info:
         ik.solve(panda, T, [0.0] * 6 + [float("nan")])
     assert info.value.argument == "q0"
-
-
-def test_the_start_checked_against_spheres_is_the_clipped_q0(panda, T):
-    """The solvers start from q0 clipped into the limits: that configuration must be outside the spheres."""
-    q0 = panda.neutral()
-    q0[0] = panda.upper[0] + 1.0
-    clipped = np.clip(q0, panda.lower, panda.upper)
-    at_clipped = panda.fk(clipped, "panda_link8")[:3, 3]
-    at_raw = panda.fk(q0, "panda_link8")[:3, 3]
-    with pytest.raises(InputError, match="clipped") as info:
-        ik.solve(panda, T, q0, spheres=[ik.Sphere(at_clipped, 0.05, frames=["panda_link8"])], max_time=0.05)
-    assert info.value.argument == "spheres"
-    res = ik.solve(panda, T, q0, spheres=[ik.Sphere(at_raw, 0.05, frames=["panda_link8"])], max_time=0.05)
-    assert np.all(panda.check_q(res.q) >= panda.lower - 1e-9)

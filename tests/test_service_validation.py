@@ -111,27 +111,6 @@ def test_sphere_errors_point_at_spheres(client, panda):
     assert r.status_code == 422 and loc(r) == ["body", "spheres"] and "no_such_frame" in r.text
     r = post(client, "/ik", {**base, "spheres": [{"center": [0, 0, 0], "radius": 0.2}]})  # around the base
     assert r.status_code == 422 and loc(r) == ["body", "spheres"] and "base" in r.text
-    q0 = panda.neutral()
-    p = panda.fk(q0, "panda_link8")[:3, 3]
-    r = post(client, "/ik", {**base, "q0": q0.tolist(), "spheres": [{"center": p.tolist(), "radius": 0.05,
-                                                                      "frames": ["panda_link8"]}]})
-    assert r.status_code == 422 and loc(r) == ["body", "spheres"] and "q0" in r.text
-
-
-def test_q0_sphere_check_uses_the_clipped_start(client, panda):
-    """The solver starts from q0 clipped into the limits; that start is what must be outside the spheres."""
-    q0 = panda.neutral()
-    q0[0] = panda.upper[0] + 1.0  # beyond the limit: the solver starts from upper[0]
-    clipped = np.clip(q0, panda.lower, panda.upper)
-    at_clipped = panda.fk(clipped, "panda_link8")[:3, 3]
-    at_raw = panda.fk(q0, "panda_link8")[:3, 3]
-    assert np.linalg.norm(at_clipped - at_raw) > 0.1
-    T = panda.fk(panda.neutral(), "panda_link8")
-    body = {"robot": "panda", "target": T.tolist(), "q0": q0.tolist(), "max_time": 0.05}
-    r = post(client, "/ik", {**body, "spheres": [{"center": at_clipped.tolist(), "radius": 0.05, "frames": ["panda_link8"]}]})
-    assert r.status_code == 422 and loc(r) == ["body", "spheres"] and "clipped" in r.text
-    r = post(client, "/ik", {**body, "spheres": [{"center": at_raw.tolist(), "radius": 0.05, "frames": ["panda_link8"]}]})
-    assert r.status_code == 200
 
 
 def test_the_response_guard_turns_non_finite_results_into_an_error_answer():
