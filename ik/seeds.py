@@ -72,6 +72,11 @@ class SeedTable:
         for a in (self.Q, self.F, self.F_norm2, self.G, self.Q_full, self.G_full):
             a.flags.writeable = False  # shared by every thread and solve: nobody may change it
 
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the table's arrays (bytes)."""
+        return sum(a.nbytes for a in (self.Q, self.F, self.F_norm2, self.G, self.Q_full, self.G_full))
+
     def _features_of(self, robot, frame, Q):
         T = robot.fk_batch(Q, frame)
         F = np.hstack([T[:, :3, 3], self._s * T[:, :3, :3].reshape(len(Q), 9)])
@@ -134,6 +139,11 @@ def seed_table(robot, frame: str) -> SeedTable:
             if table is None:
                 table = per_robot[frame] = SeedTable(robot, frame)
     return table
+
+
+def cached_tables(robot) -> list[SeedTable]:
+    """The tables already built for ``robot``'s model (any frame); builds nothing."""
+    return list(_tables.get(robot.model, {}).values())
 
 
 def install_table(robot, frame: str, table: SeedTable) -> None:

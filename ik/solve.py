@@ -36,13 +36,14 @@ collision-free starts and says so in ``Result.message``. Not reaching the target
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
 import time
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.errors import InputError, KinserveError, NonFiniteError
 from kinserve.kinematics.shapes import Shape
 
 from . import analytic as _analytic
@@ -104,6 +105,17 @@ def _check_backend(backend):
     return backend.lower()
 
 
+@contextlib.contextmanager
+def _argument(name: str):
+    """Tag a :class:`KinserveError` raised inside with the argument it concerns (``exc.argument``)."""
+    try:
+        yield
+    except KinserveError as exc:
+        if exc.argument is None:
+            exc.argument = name
+        raise
+
+
 def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
     """One :class:`ObstacleAvoidance` for the ``spheres`` and ``obstacles`` of the front door, or None."""
     if type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
@@ -144,7 +156,8 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
     if q0 is not None:
-        q0 = robot.check_q(q0, "q0")
+        with _argument("q0"):
+            q0 = robot.check_q(q0, "q0")
     if tol_pos != 1e-4:
         tol_pos = _check_positive(tol_pos, "tol_pos")
     if tol_rot != 1e-3:
@@ -154,7 +167,8 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
     seed = _check_seed(seed)
     backend = _check_backend(backend)
     weights = centring_weights(robot, centring)
-    avoid = _obstacle_constraint(robot, spheres, obstacles, link_radius, tgt.frame)
+    with _argument("spheres" if obstacles is None or (type(obstacles) is tuple and not obstacles) else "obstacles"):
+        avoid = _obstacle_constraint(robot, spheres, obstacles, link_radius, tgt.frame)
     if weights is not None and method in _NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     if avoid is not None and method in _NO_OBSTACLE_METHODS:

@@ -250,7 +250,8 @@ def solve_problem(
     frame = _frame_of(pb)
     if best is None:
         q = np.clip(robot.neutral() if q0 is None else q0, lo, hi)
-        return Result(q=q, success=False, position_error=math.nan, orientation_error=math.nan, elapsed=_now() - t0,
+        _, pe, re, _ = pb.evaluate(q)  # the residual at the returned q: finite, never NaN (no null over HTTP)
+        return Result(q=q, success=False, position_error=float(pe), orientation_error=float(re), elapsed=_now() - t0,
                       message="no start configuration satisfying the constraints was found" + (f"; {note}" if note else ""),
                       method=method, frame=frame, history=History.empty(robot.nq, comps))
     _, k, (qs, pes, res), reason, ok = best

@@ -26,7 +26,15 @@ from collections.abc import Iterable
 
 
 class KinserveError(Exception):
-    """Base class of every error raised on purpose by kinserve."""
+    """Base class of every error raised on purpose by kinserve.
+
+    ``argument`` names the offending argument of the public call when the
+    raiser knows it (e.g. ``"spheres"`` or ``"q0"`` from :func:`ik.solve`), so a
+    front end (the HTTP service) can point at the right request field; None
+    when not set.
+    """
+
+    argument: str | None = None
 
 
 class ModelError(KinserveError):

@@ -277,9 +277,10 @@ class Robot(CollisionQueries):
     def _forward(self, q, check_limits: bool) -> None:
         """Run forward kinematics into this thread's ``data`` after validating ``q``.
 
-        Fast path: ``hypot(*q)`` is finite and below MAX_ABS iff every entry is
-        finite and not huge; Pinocchio itself rejects a wrong length. Anything
-        odd falls through to the precise (slow) validation for its message.
+        Fast path: ``hypot(*q) < MAX_ABS`` implies every entry is finite with
+        ``|q_i| <= MAX_ABS``; Pinocchio itself rejects a wrong length. Anything
+        else falls through to the exact per-entry validation (``check_q``), which
+        accepts e.g. ``[5e5] * 7`` and names the bad entries otherwise.
         """
         if check_limits:
             q = self.check_q(q, check_limits=True)

@@ -56,6 +56,7 @@ from lxml import etree
 from kinserve.kinematics.errors import InputError, ModelError, suggest
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.task_axes import detect_task_axes
+from kinserve.kinematics.validation import MAX_ABS, is_bounded
 
 from . import paths
 from .packages import PackageFinder, is_within
@@ -150,9 +151,10 @@ def _floats(el, attr: str, n: int, label: str, owner, default=None) -> np.ndarra
         vals = np.array([float(v) for v in text.split()], dtype=float)
     except ValueError:
         vals = None
-    if vals is None or vals.shape != (n,) or not np.all(np.isfinite(vals)):
+    if vals is None or vals.shape != (n,) or not is_bounded(vals):
         raise ModelError(
-            f"{_where(label, el)}: {_desc(owner)}: <{el.tag} {attr}={text!r}> must be {n} finite number(s)"
+            f"{_where(label, el)}: {_desc(owner)}: <{el.tag} {attr}={text!r}> must be {n} finite number(s) "
+            f"with magnitude <= {MAX_ABS:g}"
         )
     return vals
 

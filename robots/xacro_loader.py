@@ -8,6 +8,9 @@ the argument:
 * a value that is not a string, number or bool;
 * a value for an argument whose declared default is a number that does not
   parse as a finite number (e.g. ``l1="abc"``);
+* a numeric value beyond ``kinematics.validation.MAX_ABS`` in magnitude
+  (e.g. ``l1="1e308"``; the expanded URDF's origins and limits are bounded
+  the same way by ``urdf_loader.validate_urdf``);
 * a declared argument without default that is not given.
 
 Anything xacro itself rejects (bad expressions, undefined properties, ...) is
@@ -40,6 +43,7 @@ from lxml import etree
 
 from kinserve.kinematics.errors import ModelError, suggest
 from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.validation import MAX_ABS
 
 from . import packages
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
@@ -106,6 +110,8 @@ def _arg_text(path: Path, name: str, value, default: str | None) -> str:
         raise ModelError(f"{path}: xacro arg {name!r} must be a number or a string, got {type(value).__name__} {value!r}")
     if default is not None and _is_number(default) and not _is_number(text):
         raise ModelError(f"{path}: xacro arg {name!r} = {value!r} does not parse as a finite number (its default is {default})")
+    if _is_number(text) and abs(float(text)) > MAX_ABS:
+        raise ModelError(f"{path}: xacro arg {name!r} = {value!r} is beyond any physical size (|value| <= {MAX_ABS:g})")
     return text
 
 

@@ -7,81 +7,93 @@ lists of ``nq`` numbers (rad / m).
 
 Errors are JSON ``{"detail": [{"loc": [...], "msg": ..., "type": ...}]}``:
 422 for a malformed or invalid field (schema violations, wrong lengths,
-non-orthonormal rotations, unknown frames or relax names), 404 for an
-unknown robot. Failing to reach a target is a 200 with ``success: false``.
-Solver time is capped server-side (``max_time_cap``).
+non-orthonormal rotations, unknown frames or relax names, models whose
+parameters are out of bounds), 404 for an unknown robot, 413 for a body over
+the size limit, 408 for a body that does not arrive in time, 503 (with
+``Retry-After``) when the solver queue is full. Failing to reach a target is
+a 200 with ``success: false``. Every number in an answer is finite.
 
-Sync endpoints run in the server's thread pool; each thread has its own
-``Robot`` copy (``RobotPool``).
+Where work runs (see :mod:`service.executor`): the microsecond endpoints
+(health, catalogue, FK, Jacobian) compute inline on the event loop; IK,
+batches and plans run in the solver processes (:mod:`service.jobs`). A
+request waits there at most the request time cap; an ``/ik`` solve then gets
+its ``max_time`` (capped by ``--max-time-cap``), and ``/ik/batch`` and
+``/plan/cartesian`` end within the request time cap counted from their
+arrival, queueing included. Every process has its own bounded robot cache
+(:class:`RobotPool`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import math
-import os
-import time
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
 from fastapi_offline import FastAPIOffline
 
-from kinserve import ik
-from kinserve import robots
-from kinserve.kinematics.errors import FrameError, InputError, KinserveError, UnknownRobotError
+from kinserve.kinematics.errors import KinserveError
 
+from . import jobs
 from . import schemas as S
+from .executor import BoundedExecutor, Deadline, ServiceBusy
+from .fields import FieldError, field
+from .limits import BodyLimitMiddleware
+from .responses import error_body, json_response, json_safe
 from .robot_pool import RobotPool
+from .settings import ServiceSettings
 
 log = logging.getLogger("kinserve.service")
 
-DEFAULT_MAX_TIME = 0.5
-MAX_TIME_CAP = 5.0
-BATCH_TIME_CAP = 60.0
+DEFAULT_MAX_TIME = jobs.DEFAULT_MAX_TIME
+MAX_TIME_CAP = ServiceSettings.max_time_cap
+BATCH_TIME_CAP = ServiceSettings.request_time_cap
+
+_ERRORS = {404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}}
+_HEAVY_ERRORS = {**_ERRORS, 503: {"model": S.ErrorResponse}}
+
+__all__ = ["create_app", "app", "FieldError", "field"]
 
 
-class FieldError(Exception):
-    """A library error tagged with the request field it concerns."""
+def solver_executor(settings: ServiceSettings) -> BoundedExecutor:
+    """``settings.threads`` solver processes (spawned: no fork of a running event loop) and their queue."""
+    def factory():
+        return ProcessPoolExecutor(max_workers=settings.threads, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=jobs.init_worker, initargs=(settings.to_env(),))
 
-    def __init__(self, field: str, error: Exception, status: int = 422):
-        super().__init__(str(error))
-        self.field, self.error, self.status = field, error, status
-
-
-@contextlib.contextmanager
-def field(name: str):
-    """Attribute any :class:`KinserveError` raised inside to request field ``name``."""
-    try:
-        yield
-    except UnknownRobotError as exc:
-        raise FieldError("robot", exc, 404) from exc
-    except FrameError as exc:
-        raise FieldError("frame" if name != "spheres" else name, exc) from exc
-    except KinserveError as exc:
-        raise FieldError(name, exc) from exc
+    return BoundedExecutor(factory, settings.threads, settings.queue, name="solver")
 
 
-def error_body(loc: list, msg: str, kind: str) -> dict:
-    return {"detail": [{"loc": loc, "msg": msg, "type": kind}]}
+def loader_executor(settings: ServiceSettings) -> BoundedExecutor:
+    """One thread loading models for the inline endpoints."""
+    return BoundedExecutor(lambda: ThreadPoolExecutor(1, thread_name_prefix="kinserve-loader"), 1, settings.queue,
+                           name="loader")
 
 
-def json_safe(value):
-    """``value`` with NaN/inf floats as strings and unknown objects as ``str``: always JSON-encodable."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else repr(value)
-    if isinstance(value, (str, int, bool)) or value is None:
-        return value
-    if isinstance(value, dict):
-        return {str(k): json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    return str(value)
+def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float | None = None) -> FastAPI:
+    """The service with ``settings`` (``max_time_cap`` overrides that one field, for convenience)."""
+    settings = settings or ServiceSettings()
+    if max_time_cap is not None:
+        settings = ServiceSettings(**{**settings.__dict__, "max_time_cap": float(max_time_cap)})
+    pool = RobotPool(settings.robot_cache, settings.robot_cache_bytes)
+    solvers = solver_executor(settings)
+    loader = loader_executor(settings)
 
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        # start every solver process now (spawning one takes ~1 s) with the most used model loaded
+        warm = [solvers.run(jobs.warm, Deadline(60.0)) for _ in range(settings.threads)]
+        try:
+            yield
+        finally:
+            for w in warm:
+                w.close()
+            solvers.shutdown()
+            loader.shutdown()
 
-def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
     # /docs (Swagger UI) and /redoc load their JS/CSS from the fastapi-offline package, served here under
     # /static-offline-docs, not from a CDN: the pages work without internet. No schema validator badge either.
     app = FastAPIOffline(
@@ -89,13 +101,15 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
         version="0.1.0",
         description="Forward kinematics, Jacobians, constrained inverse kinematics and Cartesian plans over HTTP.",
         swagger_ui_parameters={"validatorUrl": None},
+        lifespan=lifespan,
     )
-    pool = RobotPool()
-    app.state.pool = pool
     from .collision_endpoint import router as collision_router
 
     app.include_router(collision_router)
+    app.add_middleware(BodyLimitMiddleware, max_body=settings.max_body, body_timeout=settings.body_timeout)
+    app.state.pool, app.state.solvers, app.state.settings = pool, solvers, settings
 
+    # ------------------------------------------------------------------ errors
     @app.exception_handler(RequestValidationError)
     async def _validation_error(request: Request, exc: RequestValidationError):
         # The default handler echoes the offending input, which cannot be JSON-encoded when it is NaN/inf.
@@ -103,178 +117,105 @@ def create_app(max_time_cap: float = MAX_TIME_CAP) -> FastAPI:
             {"loc": json_safe(list(e.get("loc", ()))), "msg": str(e.get("msg", "")), "type": str(e.get("type", ""))}
             for e in exc.errors()
         ]
-        return JSONResponse({"detail": detail}, status_code=422)
+        return json_response({"detail": detail}, 422)
 
     @app.exception_handler(FieldError)
     async def _field_error(request: Request, exc: FieldError):
-        return JSONResponse(error_body(["body", exc.field], str(exc.error), type(exc.error).__name__), status_code=exc.status)
+        return json_response(error_body(["body", exc.field], str(exc.error), type(exc.error).__name__), exc.status)
 
     @app.exception_handler(KinserveError)
     async def _kinserve_error(request: Request, exc: KinserveError):
-        return JSONResponse(error_body(["body"], str(exc), type(exc).__name__), status_code=422)
+        return json_response(error_body(["body"], str(exc), type(exc).__name__), 422)
 
-    def robot_of(req: S.RobotRef):
-        with field("params" if req.params else "robot"):
-            return pool.get(req.robot, dict(req.params))
+    @app.exception_handler(ServiceBusy)
+    async def _busy(request: Request, exc: ServiceBusy):
+        return json_response(error_body([], str(exc), "ServiceBusy"), 503, headers={"Retry-After": str(exc.retry_after)})
 
-    def capped(max_time: float | None) -> float:
-        return min(max_time if max_time is not None else DEFAULT_MAX_TIME, max_time_cap)
+    @app.exception_handler(ArithmeticError)
+    @app.exception_handler(np.linalg.LinAlgError)
+    async def _numerical(request: Request, exc: Exception):
+        log.warning("numerical failure answered as 422: %s: %s", type(exc).__name__, exc)
+        return json_response(error_body(["body"], f"the computation failed numerically ({type(exc).__name__}: {exc}); "
+                                        "the model or inputs are degenerate", "NumericalError"), 422)
 
-    def ik_kwargs(robot, req: S.IKOptions) -> dict:
-        with field("q0"):
-            q0 = None if req.q0 is None else robot.check_q(req.q0, "q0")
-        with field("frame"):
-            frame = req.frame
-            if frame is not None:
-                robot.frame_id(frame)
-        with field("spheres"):
-            spheres = [ik.Sphere(s.center, s.radius, frames=s.frames) for s in req.spheres]
-        kw = dict(
-            q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
-            method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
-        )
-        from .collision_endpoint import obstacles_of
+    # ------------------------------------------------------------------ helpers
+    async def robot_here(name: str, params: dict, field_name: str):
+        """The event-loop thread's Robot; a first-time load runs on the loader thread."""
+        with field(field_name):
+            robot = pool.cached(name, params)
+            if robot is None:
+                pool.check_name(name)
+                await loader.run(lambda d: pool.get(name, params), Deadline(settings.request_time_cap))
+                robot = pool.get(name, params)  # this thread's copy (loads inline only if evicted meanwhile)
+        return robot
 
-        kw["obstacles"] = obstacles_of(req.obstacles)
-        if req.self_collision:  # the robot's collision geometry (see service/collision_endpoint.py)
-            with field("self_collision"):
-                robot.collision_scene(kw["obstacles"], True)  # builds the model; no <collision> -> 422
-            kw.update(self_collision=True, collision_margin=req.collision_margin)
-        return kw
+    async def heavy(req: S.RobotRef, job, budget: float, *args):
+        """Answer ``job(deadline, req, *args)`` run in a solver process; an unknown robot is a 404 before
+        queueing. ``budget`` bounds the whole request from now, queueing included."""
+        with field("robot"):
+            pool.check_name(req.robot)
+        return json_response(await solvers.run(job, Deadline(budget), None, req, *args))
 
-    def result_out(res) -> dict:
-        return {
-            "success": bool(res.success), "q": np.asarray(res.q, dtype=float).tolist(),
-            "position_error": float(res.position_error), "orientation_error": float(res.orientation_error),
-            "iterations": int(res.iterations), "restarts": int(res.restarts), "elapsed": float(res.elapsed),
-            "message": str(res.message),
-        }
-
+    # --------------------------------------------------------- inline endpoints
     @app.get("/health")
-    def health() -> dict:
-        return {"status": "ok", "robots_loaded": len(pool._base)}
+    async def health():
+        return json_response({"status": "ok", "robots_loaded": len(pool), "solver_jobs": solvers.admitted})
 
-    @app.get("/robots")
-    def list_robots() -> dict[str, str]:
-        return robots.available()
+    @app.get("/robots", response_model=dict[str, str])
+    async def list_robots():
+        return json_response(pool.catalogue)
 
     @app.get("/robots/{name}", response_model=S.RobotInfo, responses={404: {"model": S.ErrorResponse}})
-    def robot_info(name: str):
-        with field("robot"):
-            r = pool.get(name)
-        return S.RobotInfo(
-            name=name, description=r.description, nq=r.nq, joint_names=r.joint_names, lower=r.lower.tolist(),
-            upper=r.upper.tolist(), tip=r.tip, task_axes=list(r.task_axes), frames=r.frame_names,
-        )
+    async def robot_info(name: str):
+        r = await robot_here(name, {}, "robot")
+        return json_response({
+            "name": name, "description": r.description, "nq": r.nq, "joint_names": r.joint_names,
+            "lower": r.lower, "upper": r.upper, "tip": r.tip, "task_axes": list(r.task_axes),
+            "frames": r.frame_names,
+        })
 
-    @app.post("/fk", response_model=S.FKResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
-    def fk(req: S.FKRequest):
-        r = robot_of(req)
+    @app.post("/fk", response_model=S.FKResponse, responses=_ERRORS)
+    async def fk(req: S.FKRequest):
+        r = await robot_here(req.robot, req.params, "params" if req.params else "robot")
         with field("q"):
             q = r.check_q(req.q, "q")
         with field("frame"):
-            T = r.fk(q, req.frame)
-        return S.FKResponse(robot=req.robot, frame=req.frame or r.tip, pose=T.tolist())
+            if req.frame is not None:
+                r.frame_id(req.frame)
+        return json_response({"robot": req.robot, "frame": req.frame or r.tip, "pose": r.fk(q, req.frame)})
 
-    @app.post("/jacobian", response_model=S.JacobianResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
-    def jacobian(req: S.JacobianRequest):
-        r = robot_of(req)
+    @app.post("/jacobian", response_model=S.JacobianResponse, responses=_ERRORS)
+    async def jacobian(req: S.JacobianRequest):
+        r = await robot_here(req.robot, req.params, "params" if req.params else "robot")
         with field("q"):
             q = r.check_q(req.q, "q")
         with field("frame"):
-            J = r.jacobian(q, req.frame, reference=req.reference)
-            sv = r.singular_values(q, req.frame)
-        return S.JacobianResponse(
-            robot=req.robot, frame=req.frame or r.tip, reference=req.reference, jacobian=J.tolist(),
-            singular_values=sv.tolist(), manipulability=float(np.prod(sv)),
-        )
+            if req.frame is not None:
+                r.frame_id(req.frame)
+        J = r.jacobian(q, req.frame, reference=req.reference)
+        sv = r.singular_values(q, req.frame)
+        return json_response({
+            "robot": req.robot, "frame": req.frame or r.tip, "reference": req.reference, "jacobian": J,
+            "singular_values": sv, "manipulability": float(np.prod(sv)),
+        })
 
-    @app.post("/ik", response_model=S.IKResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
-    def solve_ik(req: S.IKRequest):
-        r = robot_of(req)
-        kwargs = ik_kwargs(r, req)
-        if (req.target is None) == (req.targets is None):
-            raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
-        obstacles = kwargs.pop("obstacles")
-        tasks = []
-        if req.targets is not None:
-            if req.method not in ("auto", "qp"):
-                raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
-            for i, t in enumerate(req.targets):
-                try:
-                    task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
-                    tasks.append(task.bind(r))
-                except FrameError as exc:
-                    raise FieldError(f"targets[{i}].frame", exc) from exc
-                except KinserveError as exc:
-                    raise FieldError(f"targets[{i}]", exc) from exc
-        tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
-        if (obstacles or kwargs["spheres"]) and not req.self_collision:
-            with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
-                ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
-        if req.target is not None:
-            with field("target"):
-                res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=capped(req.max_time),
-                               obstacles=obstacles, link_radius=req.link_radius, **kwargs)
-            return result_out(res)
-        if req.centring:
-            tasks.append(ik.CentringTask(req.centring))
-        if req.self_collision:  # the robot's collision geometry, as ik.solve(self_collision=True)
-            constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
-        else:
-            constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
-                                                tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
-        with field("targets"):
-            res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
-                           tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=capped(req.max_time))
-        out = result_out(res)
-        out["task_errors"] = res.task_errors
-        return out
+    # ------------------------------------------------------ solver endpoints
+    @app.post("/ik", response_model=S.IKResponse, responses=_HEAVY_ERRORS)
+    async def solve_ik(req: S.IKRequest):
+        return await heavy(req, jobs.solve_ik, settings.request_time_cap, jobs.capped_by(settings, req.max_time))
 
-    @app.post("/ik/batch", response_model=S.IKBatchResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
-    def solve_ik_batch(req: S.IKBatchRequest):
-        r = robot_of(req)
-        kwargs = ik_kwargs(r, req)
-        per_target = capped(req.max_time)
-        t0 = time.perf_counter()
-        out = []
-        for i, target in enumerate(req.targets):
-            budget = min(per_target, max(BATCH_TIME_CAP - (time.perf_counter() - t0), 1e-3))
-            with field(f"targets[{i}]"):
-                res = ik.solve(r, np.asarray(target, dtype=float), max_time=budget, **kwargs)
-            out.append(result_out(res))
-        rate = sum(o["success"] for o in out) / len(out)
-        return {"results": out, "success_rate": rate, "elapsed": time.perf_counter() - t0}
+    @app.post("/ik/batch", response_model=S.IKBatchResponse, responses=_HEAVY_ERRORS)
+    async def solve_ik_batch(req: S.IKBatchRequest):
+        return await heavy(req, jobs.solve_ik_batch, settings.request_time_cap)
 
-    @app.post("/plan/cartesian", response_model=S.CartesianPlanResponse, responses={404: {"model": S.ErrorResponse}, 422: {"model": S.ErrorResponse}})
-    def plan_cartesian(req: S.CartesianPlanRequest):
-        from kinserve.planners import cartesian_to_joint
-
-        r = robot_of(req)
-        with field("q0"):
-            q0 = None if req.q0 is None else r.check_q(req.q0, "q0")
-        with field("poses"):
-            plan = cartesian_to_joint(
-                r, [np.asarray(p, dtype=float) for p in req.poses], q0=q0, frame=req.frame, steps=req.steps,
-                dt=req.dt, interpolation=req.interpolation, relax=tuple(req.relax), max_time=capped(None),
-            )
-        traj = plan.trajectory
-        return {
-            "success": bool(plan.success),
-            "trajectory": {
-                "joint_names": list(traj.joint_names), "times": np.asarray(traj.times).tolist(),
-                "positions": np.asarray(traj.positions).tolist(), "velocities": np.asarray(traj.velocities).tolist(),
-                "accelerations": None if traj.accelerations is None else np.asarray(traj.accelerations).tolist(),
-            },
-            "max_position_error": float(plan.max_position_error),
-            "max_orientation_error": float(plan.max_orientation_error),
-            "events": [dict(e) for e in plan.events],
-            "message": plan.message,
-        }
+    @app.post("/plan/cartesian", response_model=S.CartesianPlanResponse, responses=_HEAVY_ERRORS)
+    async def plan_cartesian(req: S.CartesianPlanRequest):
+        budget = settings.request_time_cap if req.max_time is None else min(req.max_time, settings.request_time_cap)
+        return await heavy(req, jobs.plan_cartesian, budget)
 
     return app
 
 
-#: The ASGI application, for ``uvicorn service.app:app`` (``kinserve serve --workers N`` passes the cap
-#: to its worker processes through ``KINSERVE_MAX_TIME_CAP``).
-app = create_app(max_time_cap=float(os.environ.get("KINSERVE_MAX_TIME_CAP", MAX_TIME_CAP)))
+#: The ASGI application, for ``uvicorn kinserve.service.app:app`` (``kinserve serve --workers N`` passes its
+#: settings to the worker processes through the environment, see :mod:`service.settings`).
+app = create_app(ServiceSettings.from_env())

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import socket
+import sys
 
 from .cli_types import port_number, positive_float, positive_int
 
@@ -23,6 +24,9 @@ def tcp_listener(config) -> socket.socket:
         fixed = socket.socket(fileno=sock.detach())
         fixed.set_inheritable(True)
         return fixed
+    return sock
+
+
     return sock
 
 
@@ -46,31 +50,104 @@ def check_address(host: str, port: int) -> None:
             raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
 
 
-def cmd_serve(args) -> int:
+def settings_of(args) -> "ServiceSettings":
+    from kinserve.service.settings import ServiceSettings
+
+    return ServiceSettings(
+        max_time_cap=args.max_time_cap, request_time_cap=args.request_time_cap, max_body=args.max_body,
+        body_timeout=args.body_timeout, header_timeout=args.header_timeout, keep_alive=args.keep_alive,
+        max_connections=args.max_connections, queue=args.queue,
+        # the cores are shared by the worker processes: each gets its share of solver processes
+        solver_threads=args.solver_threads or max(1, (os.cpu_count() or 1) // max(1, args.workers)),
+        robot_cache=args.robot_cache, robot_cache_bytes=int(args.robot_cache_mb * (1 << 20)), access_log=args.access_log,
+    )
+
+
+def uvicorn_options(settings) -> dict:
+    """uvicorn.Config keywords enforcing ``settings``' connection bounds (see :mod:`service.connection`;
+    the protocol class reads the header timeout and connection cap from the environment)."""
+    return dict(
+        http="kinserve.service.connection:GuardedH11Protocol",  # reads its bounds from the environment
+        timeout_keep_alive=settings.keep_alive,
+        limit_concurrency=settings.max_connections + 1,  # uvicorn answers 503 from this many connections or tasks
+        h11_max_incomplete_event_size=64 * 1024,  # request line + headers
+        access_log=settings.access_log,
+    )
+
+
+def serve(app, settings, *, host: str = "127.0.0.1", port: int = 8000, workers: int = 1, log_level: str = "info") -> None:
+    """Run ``app`` with uvicorn under ``settings``' bounds, as ``kinserve serve`` does.
+
+    ``app`` is an ASGI application, or its import string (required with
+    ``workers > 1``: every worker process imports it; kinserve's own
+    ``kinserve.service.app:app`` reads ``settings`` from the environment).
+    """
     import uvicorn
 
-    check_address(args.host, args.port)
+    from kinserve.service.settings import ENV_VAR
 
-    if args.workers > 1:
+    options = uvicorn_options(settings)
+    # the connection protocol (and, with workers, each worker's kinserve.service.app:app) reads them here
+    os.environ[ENV_VAR] = settings.to_env()
+    if workers > 1:
         from uvicorn.supervisors import Multiprocess
 
-        # worker processes import service.app:app; they read the time cap from the environment
-        os.environ["KINSERVE_MAX_TIME_CAP"] = str(args.max_time_cap)
-        config = uvicorn.Config("kinserve.service.app:app", host=args.host, port=args.port, workers=args.workers,
-                                log_level=args.log_level)
+        config = uvicorn.Config(app, host=host, port=port, workers=workers, log_level=log_level, **options)
         Multiprocess(config, sockets=[tcp_listener(config)]).run()
+    else:
+        uvicorn.run(app, host=host, port=port, log_level=log_level, **options)
+
+
+def cmd_serve(args) -> int:
+    try:
+        settings = settings_of(args)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    check_address(args.host, args.port)
+    if args.workers > 1:
+        app = "kinserve.service.app:app"
     else:
         from kinserve.service.app import create_app
 
-        uvicorn.run(create_app(max_time_cap=args.max_time_cap), host=args.host, port=args.port, log_level=args.log_level)
+        app = create_app(settings)
+    serve(app, settings, host=args.host, port=args.port, workers=args.workers, log_level=args.log_level)
     return 0
 
 
+def _size(text: str) -> int:
+    """Bytes from ``1048576``, ``512k``, ``1M``, ``1MiB`` (k/M/G are powers of 1024)."""
+    t = text.strip().lower().removesuffix("ib").removesuffix("b")
+    scale = {"k": 1 << 10, "m": 1 << 20, "g": 1 << 30}.get(t[-1:], 1)
+    try:
+        return int(float(t[:-1] if scale > 1 else t) * scale)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a size like 1048576, 512k or 1M, got {text!r}") from None
+
+
 def register(sub: argparse._SubParsersAction) -> None:
+    from kinserve.service.settings import ServiceSettings as D
+
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
     p.add_argument("--workers", type=positive_int, default=1, help="worker processes (each with its own robot cache)")
-    p.add_argument("--max-time-cap", type=positive_float, default=5.0, help="upper bound on any IK request's max_time (s)")
+    p.add_argument("--max-time-cap", type=positive_float, default=D.max_time_cap, help="upper bound on any IK request's max_time (s)")
+    p.add_argument("--request-time-cap", type=float, default=D.request_time_cap,
+                   help="upper bound on a whole /ik/batch or /plan/cartesian request, queueing included (s)")
+    p.add_argument("--max-body", type=_size, default=D.max_body, help="largest request body accepted (bytes; 413 above)")
+    p.add_argument("--body-timeout", type=float, default=D.body_timeout, help="time to receive a whole body (s; 408 after)")
+    p.add_argument("--header-timeout", type=float, default=D.header_timeout,
+                   help="time for a connection to send complete request headers (s; closed after)")
+    p.add_argument("--keep-alive", type=float, default=D.keep_alive, help="idle keep-alive connections are closed after this (s)")
+    p.add_argument("--max-connections", type=int, default=D.max_connections,
+                   help="open connections beyond this are closed at accept; requests beyond it get 503")
+    p.add_argument("--solver-threads", type=int, default=D.solver_threads,
+                   help="IK/plan solver processes per worker (0 = the cores divided among the workers)")
+    p.add_argument("--queue", type=int, default=D.queue, help="heavy requests waiting for a solver process (503 beyond)")
+    p.add_argument("--robot-cache", type=int, default=D.robot_cache, help="robot variants (name + params) kept loaded")
+    p.add_argument("--robot-cache-mb", type=float, default=D.robot_cache_bytes / (1 << 20),
+                   help="estimated memory of the cached robot variants, seed tables included (MiB)")
+    p.add_argument("--access-log", action="store_true", help="log every request (off by default)")
     p.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
     p.set_defaults(func=cmd_serve)

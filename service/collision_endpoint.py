@@ -20,7 +20,7 @@ router = APIRouter()
 
 def obstacles_of(specs) -> list:
     """Shapes from validated obstacle specs; a bad one is a 422 on ``obstacles[k]``."""
-    from .app import field
+    from .fields import field
 
     shapes = []
     for k, spec in enumerate(specs):
@@ -32,7 +32,7 @@ def obstacles_of(specs) -> list:
 @router.post("/collision", response_model=C.CollisionResponse,
              responses={404: {"model": ErrorResponse}, 422: {"model": ErrorResponse}})
 def collision(req: C.CollisionRequest, request: Request):
-    from .app import field
+    from .fields import field
 
     pool = request.app.state.pool
     with field("params" if req.params else "robot"):

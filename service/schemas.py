@@ -1,7 +1,9 @@
 """Pydantic request/response schemas of the HTTP service (they are the OpenAPI document).
 
-Numbers are finite and bounded (|x| <= 1e6): NaN, infinities and absurd
-magnitudes are rejected with a 422 naming the field before any solver runs.
+Numbers are finite and bounded (|x| <= 1e6, the library's one bound
+``kinematics.validation.MAX_ABS``): NaN, infinities and absurd magnitudes are
+rejected with a 422 naming the field before any solver runs. String model
+parameters are bounded the same way when the model is built.
 """
 
 from __future__ import annotations
@@ -10,7 +12,9 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-BOUND = 1e6
+from kinserve.kinematics.validation import MAX_ABS
+
+BOUND = MAX_ABS
 Number = Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
 Row4 = Annotated[list[Number], Field(min_length=4, max_length=4)]
 Pose = Annotated[list[Row4], Field(min_length=4, max_length=4, description="homogeneous 4x4 pose, row major")]
@@ -169,9 +173,11 @@ class IKBatchRequest(RobotRef, IKOptions):
 
 
 class IKBatchResponse(BaseModel):
-    results: list[IKResponse]
+    results: list[IKResponse] = Field(description="one per target, in order (targets not attempted included)")
     success_rate: float
     elapsed: float
+    attempted: int = Field(description="targets given to the solver before the request's time cap ran out")
+    stop_reason: Literal["completed", "time_cap"]
 
 
 class CartesianPlanRequest(RobotRef):
@@ -182,6 +188,10 @@ class CartesianPlanRequest(RobotRef):
     dt: Annotated[float, Field(allow_inf_nan=False, gt=0, le=60)] = 0.1
     interpolation: Literal["decoupled", "screw"] = "decoupled"
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
+    max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
+        default=None, description="seconds for the whole plan; default and upper bound: the server's request time cap"
+    )
+    stop_on_failure: bool = Field(default=True, description="stop at the first pose not reached (false: try every pose)")
 
 
 class JointTrajectoryOut(BaseModel):
@@ -199,6 +209,12 @@ class CartesianPlanResponse(BaseModel):
     max_orientation_error: float
     events: list[dict]
     message: str
+    stop_reason: Literal["completed", "ik_failed", "time_cap"] = Field(
+        description="completed: every pose attempted; ik_failed: stopped at the first pose not reached; "
+        "time_cap: the plan's time ran out"
+    )
+    poses_attempted: int
+    total_poses: int = Field(description="interpolated poses of the whole path")
 
 
 class RobotInfo(BaseModel):

@@ -53,3 +53,48 @@ class Server:
             self.proc.kill()
             out, _ = self.proc.communicate()
         return out or ""
+
+
+class KeepAliveClient:
+    """One raw HTTP/1.1 keep-alive connection: cheap enough on the client side to time the server.
+
+    (An ``httpx`` client costs milliseconds of CPU to create; with dozens of them in one process the
+    client, not the server, would dominate the measured latencies.)
+    """
+
+    def __init__(self, port: int, timeout: float = 60):
+        self.sock = socket.create_connection(("127.0.0.1", port), timeout=timeout)
+        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.buf = b""
+
+    def request(self, method: str, path: str, body: bytes = b"") -> tuple[int, dict, bytes]:
+        """``(status, headers, body)`` of one request on this connection."""
+        head = f"{method} {path} HTTP/1.1\r\nHost: test\r\n"
+        if body:
+            head += f"Content-Type: application/json\r\nContent-Length: {len(body)}\r\n"
+        self.sock.sendall(head.encode() + b"\r\n" + body)
+        while b"\r\n\r\n" not in self.buf:
+            self._more()
+        header, _, self.buf = self.buf.partition(b"\r\n\r\n")
+        lines = header.decode("latin-1").split("\r\n")
+        headers = {k.strip().lower(): v.strip() for k, _, v in (ln.partition(":") for ln in lines[1:])}
+        length = int(headers.get("content-length", 0))
+        while len(self.buf) < length:
+            self._more()
+        out, self.buf = self.buf[:length], self.buf[length:]
+        return int(lines[0].split()[1]), headers, out
+
+    def _more(self) -> None:
+        chunk = self.sock.recv(65536)
+        if not chunk:
+            raise ConnectionError("server closed the connection")
+        self.buf += chunk
+
+    def close(self) -> None:
+        self.sock.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -151,3 +151,16 @@ def test_box_active_set_matches_a_qp_solver():
             exact += 1
             assert np.allclose(x, ref, atol=1e-8)
     assert exact > 20
+
+
+def test_no_start_outside_the_spheres_reports_finite_errors():
+    """Used to answer NaN errors (null over HTTP); now the residual at the returned q."""
+    panda = robots.load("panda", geometry=False)
+    T = panda.fk(panda.neutral(), "panda_link8")
+    target = Target(panda, T, "panda_link8")
+    spheres = SphereSet(panda, [ik.Sphere(T[:3, 3], 1.5, frames=["panda_link8"])], "panda_link8")
+    res = solve_qp(panda, target, spheres=spheres, max_time=0.05)
+    assert not res.success and "no start configuration" in res.message
+    pe, re = target.errors_at(panda, res.q)
+    assert np.isfinite(res.position_error) and res.position_error == pytest.approx(pe)
+    assert res.orientation_error == pytest.approx(re)

@@ -141,3 +141,15 @@ def test_auto_on_random_reachable_targets(name):
         assert robot.within_limits(res.q)
         pe, re = se3.pose_error(robot.fk(res.q), T)
         assert pe < 1e-4 and re < 1e-3
+
+
+def test_sphere_errors_name_their_argument(panda, T):
+    with pytest.raises(FrameError) as info:
+        ik.solve(panda, T, spheres=[ik.Sphere((0, 0, 0), 0.1, frames=["no_such_frame"])])
+    assert info.value.argument == "spheres"
+    with pytest.raises(InputError, match="base") as info:
+        ik.solve(panda, T, spheres=[ik.Sphere((0, 0, 0), 0.2)])
+    assert info.value.argument == "spheres"
+    with pytest.raises(NonFiniteError) as info:
+        ik.solve(panda, T, [0.0] * 6 + [float("nan")])
+    assert info.value.argument == "q0"

@@ -102,3 +102,15 @@ def test_as_pose_checks_rotation_and_shape():
 def test_as_vector_names_the_argument():
     with pytest.raises(ShapeError, match=r"^velocity must have shape \(2,\)"):
         as_vector([1, 2, 3], 2, "velocity")
+
+
+def test_one_per_entry_bound_whatever_the_container(panda):
+    """|q_i| <= MAX_ABS for every entry: a list and an array of the same numbers are treated alike."""
+    q = [5e5] * 7  # every entry within the bound, the norm beyond it
+    T = panda.fk(np.full(7, 5e5))
+    assert np.allclose(panda.fk(q), T) and np.allclose(panda.fk(tuple(q)), T)
+    assert np.allclose(panda.jacobian(q), panda.jacobian(np.full(7, 5e5)))
+    assert np.array_equal(as_vector(q, 7), np.full(7, 5e5))
+    for bad in ([5e5] * 6 + [1.5e6], np.array([5e5] * 6 + [1.5e6])):
+        with pytest.raises(NonFiniteError, match=r"\[6\]=1500000.0"):
+            panda.fk(bad)

@@ -99,3 +99,27 @@ def test_bad_input(panda):
         cartesian_to_joint(panda, [T0, bad])
     with pytest.raises(ShapeError, match="q0"):
         cartesian_to_joint(panda, [T0, T1], q0=[0, 0])
+
+
+def test_stop_on_failure_ends_the_plan_at_the_first_pose_not_reached(panda):
+    T0, T1 = line(panda, [2.0, 0.0, 0.0])
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=8, max_time=0.05, stop_on_failure=True)
+    failed = [e["index"] for e in plan.events if e["kind"] == "ik_failed"]
+    assert plan.stop_reason == "ik_failed" and len(failed) == 1
+    assert len(plan.poses) == plan.trajectory.n_points == failed[0] + 1 < plan.total_poses == 10
+    assert not plan.success and "stopped at the first pose not reached" in plan.message
+
+
+def test_total_time_caps_the_whole_plan(panda):
+    import time
+
+    T0, T1 = line(panda, [2.0, 0.0, 0.0])
+    t0 = time.perf_counter()
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=40, max_time=0.1, total_time=0.5)
+    dt = time.perf_counter() - t0
+    assert dt < 0.5 * 1.1 + 0.1, f"{dt:.2f} s"
+    assert plan.stop_reason == "time_cap" and len(plan.poses) < plan.total_poses == 42
+    assert any(e["kind"] == "time_cap" for e in plan.events)
+    assert np.all(np.isfinite(plan.trajectory.positions))
+    full = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, max_time=0.05)
+    assert full.stop_reason == "completed" and full.total_poses == len(full.poses) == 5

@@ -1,6 +1,9 @@
 """Unusable models raise ModelError naming the file and the element (and line) at fault."""
 
+import math
 import re
+
+import numpy as np
 
 import pytest
 
@@ -215,3 +218,35 @@ def test_xacro_malformed_xml(tmp_path):
     path.write_text('<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="a"></robot>')
     with pytest.raises(ModelError, match=r"bad.urdf.xacro: malformed XML at line 1"):
         load_xacro(path)
+
+
+@pytest.mark.parametrize("old,new", [
+    ('<origin xyz="1 0 0" rpy="0 0 0"/>', '<origin xyz="1e308 0 0" rpy="0 0 0"/>'),
+    ('<origin xyz="1 0 0" rpy="0 0 0"/>', '<origin xyz="1 0 0" rpy="0 2e6 0"/>'),
+    ('<limit lower="-1" upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>',
+     '<limit lower="-1e308" upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>'),
+])
+def test_model_numbers_beyond_the_input_bound_are_refused_at_load(old, new):
+    """A 1e308 origin used to load and make ik.solve raise OverflowError; now the load names it."""
+    bad = GOOD.replace(old, new)
+    assert bad != GOOD
+    with pytest.raises(ModelError, match=r"magnitude <= 1e\+06"):
+        load_urdf(bad)
+
+
+def test_large_but_bounded_model_numbers_load_and_solve_finitely():
+    from kinserve import ik
+
+    r = load_urdf(GOOD.replace('<origin xyz="1 0 0" rpy="0 0 0"/>', '<origin xyz="1e5 0 0" rpy="0 0 0"/>'))
+    T = r.fk([0.5, 0.2])
+    assert T[0, 3] == pytest.approx(1e5 * math.cos(0.5), rel=1e-12)
+    res = ik.solve(r, T, relax=("roll", "pitch", "yaw"), max_time=0.2)
+    assert np.isfinite(res.position_error)
+
+
+@pytest.mark.parametrize("robot,params", [("planar4r", {"l1": "1e308"}), ("planar4r", {"l1": 1e7}),
+                                          ("scara", {"d3_min": "-1e308"})])
+def test_xacro_args_beyond_the_bound_are_refused(robot, params):
+    name = next(iter(params))
+    with pytest.raises(ModelError, match=rf"xacro arg '{name}'.*1e\+06"):
+        robots.load(robot, geometry=False, **params)

@@ -50,3 +50,19 @@ def test_two_worker_server_answers_fk():
                 assert np.allclose(r.json()["pose"], panda.fk(q), atol=1e-12)
     finally:
         srv.stop()
+
+
+def test_bad_limits_are_one_error_line_and_exit_2():
+    import subprocess
+    import sys
+
+    for args, word in ((["--max-body", "0"], "max_body"), (["--keep-alive", "0"], "keep_alive")):
+        proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "serve", "--port", "1", *args],
+                              capture_output=True, text=True, timeout=60)
+        assert proc.returncode == 2 and proc.stderr.startswith("error: ") and word in proc.stderr
+
+
+def test_sizes_accept_units():
+    from kinserve.service.cli_serve import _size
+
+    assert _size("1M") == _size("1MiB") == 1 << 20 and _size("512k") == 512 << 10 and _size("4096") == 4096

@@ -1,0 +1,255 @@
+"""The heavy work of the service, run in the solver processes (:mod:`service.executor`).
+
+Each function takes the job's :class:`Deadline` first, then plain picklable
+arguments (the validated request models), and returns plain data for
+:func:`service.responses.json_response`. A solver process keeps its own
+bounded :class:`RobotPool`, created by :func:`init_worker`.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+
+import numpy as np
+
+from kinserve import ik
+from kinserve.kinematics.errors import FrameError, InputError, KinserveError
+
+from . import schemas as S
+from .executor import Deadline
+from .fields import FieldError, field
+from .robot_pool import RobotPool
+from .settings import ServiceSettings
+
+#: IK budget (s) of a request that names no ``max_time``.
+DEFAULT_MAX_TIME = 0.5
+
+#: Scheduling niceness added to solver processes. 0: the kernel already favours the event loop's
+#: process, which sleeps between short bursts; measured, niceness 10 starved the solvers (IK budgets
+#: missed) whenever other programs loaded the machine, without being needed for /health.
+SOLVER_NICENESS = 0
+
+_pool: RobotPool | None = None
+_settings = ServiceSettings()
+
+
+def exit_with_parent(poll: float = 0.5) -> None:
+    """End this process when its parent (the server) is gone.
+
+    A pool worker holds both ends of its task queue's pipe, so it never sees
+    EOF when the server dies; without this watch it would live on as an orphan.
+    """
+    parent = os.getppid()
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(poll)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="kinserve-parent-watch", daemon=True).start()
+
+
+def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
+    """Set up a solver process: its settings, its robot pool, its niceness, a parent watch."""
+    global _pool, _settings
+    exit_with_parent()
+    _settings = ServiceSettings(**__import__("json").loads(settings_json)) if settings_json else ServiceSettings()
+    _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
+    if niceness and hasattr(os, "nice"):
+        try:
+            os.nice(niceness)
+        except OSError:
+            pass
+
+
+def pool() -> RobotPool:
+    global _pool
+    if _pool is None:
+        _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
+    return _pool
+
+
+def warm(deadline: Deadline, robot: str = "panda") -> int:
+    """Load ``robot`` and its IK seed table for the tool frame (so the first request does not pay for
+    them: building the table takes ~0.1-0.3 s); returns the process id."""
+    from kinserve.ik.seeds import seed_table
+
+    r = pool().get(robot, {})
+    seed_table(r, r.tip)
+    return os.getpid()
+
+
+def capped_by(settings: ServiceSettings, max_time: float | None) -> float:
+    """A request's IK budget: its ``max_time`` (default :data:`DEFAULT_MAX_TIME`) capped by the server."""
+    return min(max_time if max_time is not None else DEFAULT_MAX_TIME, settings.max_time_cap)
+
+
+def capped(max_time: float | None) -> float:
+    return capped_by(_settings, max_time)
+
+
+def robot_of(req: S.RobotRef):
+    with field("params" if req.params else "robot"):
+        return pool().get(req.robot, dict(req.params))
+
+
+def ik_kwargs(robot, req: S.IKOptions) -> dict:
+    with field("q0"):
+        q0 = None if req.q0 is None else robot.check_q(req.q0, "q0")
+    with field("frame"):
+        frame = req.frame
+        if frame is not None:
+            robot.frame_id(frame)
+    with field("spheres"):
+        spheres = [ik.Sphere(s.center, s.radius, frames=s.frames) for s in req.spheres]
+    kw = dict(q0=q0, frame=frame, relax=tuple(req.relax), spheres=spheres, centring=req.centring,
+              method=req.method, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed)
+    from .collision_endpoint import obstacles_of
+
+    kw["obstacles"] = obstacles_of(req.obstacles)
+    if req.self_collision:  # the robot's collision geometry (see service/collision_endpoint.py)
+        with field("self_collision"):
+            robot.collision_scene(kw["obstacles"], True)  # builds the model; no <collision> -> 422
+        kw.update(self_collision=True, collision_margin=req.collision_margin)
+    return kw
+
+
+def result_out(res) -> dict:
+    return {
+        "success": bool(res.success), "q": np.asarray(res.q, dtype=float).tolist(),
+        "position_error": float(res.position_error), "orientation_error": float(res.orientation_error),
+        "iterations": int(res.iterations), "restarts": int(res.restarts), "elapsed": float(res.elapsed),
+        "message": str(res.message),
+    }
+
+
+def not_attempted(robot, target, frame: str | None, relax, q0, why: str) -> dict:
+    """The answer for a batch target the time cap left no time for: the start configuration, its residual."""
+    q = robot.neutral() if q0 is None else np.clip(q0, robot.lower, robot.upper)
+    pe, re = ik.Target(robot, target, frame, relax).errors_at(robot, q)
+    return {"success": False, "q": q.tolist(), "position_error": float(pe), "orientation_error": float(re),
+            "iterations": 0, "restarts": 0, "elapsed": 0.0, "message": why}
+
+
+def solve_ik(deadline: Deadline, req: S.IKRequest, max_time: float) -> dict:
+    """``POST /ik``: one solve given ``max_time`` from its start (the request's capped ``max_time``),
+    never past the request's ``deadline``; loading the model is not charged to the solve.
+
+    ``target`` (one 4x4 pose of ``frame``) or ``targets`` (several frame targets, one task each).
+    """
+    r = robot_of(req)
+    kwargs = ik_kwargs(r, req)
+    if (req.target is None) == (req.targets is None):
+        raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
+    obstacles = kwargs.pop("obstacles")
+    tasks = []
+    if req.targets is not None:
+        if req.method not in ("auto", "qp"):
+            raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
+        for i, t in enumerate(req.targets):
+            try:
+                task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
+                tasks.append(task.bind(r))
+            except FrameError as exc:
+                raise FieldError(f"targets[{i}].frame", exc) from None
+            except KinserveError as exc:
+                raise FieldError(f"targets[{i}]", exc) from None
+    tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
+    if (obstacles or kwargs["spheres"]) and not req.self_collision:
+        with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
+            ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
+    if req.target is not None:
+        prepare_starts(r, kwargs)
+        with field("target"):
+            budget = max(min(max_time, deadline.remaining), 1e-3)
+            res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=budget, obstacles=obstacles,
+                           link_radius=req.link_radius, **kwargs)
+        return result_out(res)
+    if req.centring:
+        tasks.append(ik.CentringTask(req.centring))
+    if req.self_collision:  # the robot's collision geometry, as ik.solve(self_collision=True)
+        constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
+    else:
+        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
+                                            tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
+    with field("targets"):
+        budget = max(min(max_time, deadline.remaining), 1e-3)
+        res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
+                       tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=budget)
+    out = result_out(res)
+    out["task_errors"] = res.task_errors
+    return out
+
+
+def prepare_starts(robot, kwargs: dict) -> None:
+    """Build the IK seed table of the request's frame before the solve's clock starts.
+
+    Like loading the model, it is a one-time cost per robot variant and process
+    (0.1-0.3 s), not part of any one solve; charged to ``max_time`` it would
+    make the first request for a variant fail on a short budget.
+    """
+    from kinserve.ik.seeds import seed_table
+
+    if kwargs["method"] in ("auto", "lm", "qp"):
+        seed_table(robot, kwargs["frame"] or robot.tip)
+
+
+def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
+    """``POST /ik/batch``: the targets in order, each with ``min(max_time, time left)``; the rest not attempted."""
+    t0 = time.perf_counter()
+    r = robot_of(req)
+    kwargs = ik_kwargs(r, req)
+    prepare_starts(r, kwargs)
+    per_target = capped(req.max_time)
+    out = []
+    attempted = 0
+    for i, target in enumerate(req.targets):
+        T = np.asarray(target, dtype=float)
+        left = deadline.remaining
+        with field(f"targets[{i}]"):
+            if left <= 1e-3:
+                out.append(not_attempted(r, T, kwargs["frame"], kwargs["relax"], kwargs["q0"],
+                                         f"not attempted: the request's time cap ({deadline.budget:g} s) was spent"))
+                continue
+            res = ik.solve(r, T, max_time=min(per_target, left), **kwargs)
+        attempted += 1
+        out.append(result_out(res))
+    return {"results": out, "success_rate": sum(o["success"] for o in out) / len(out),
+            "elapsed": time.perf_counter() - t0, "attempted": attempted,
+            "stop_reason": "completed" if attempted == len(out) else "time_cap"}
+
+
+def plan_cartesian(deadline: Deadline, req: S.CartesianPlanRequest) -> dict:
+    """``POST /plan/cartesian`` within the time left, stopping at the first failure unless told not to."""
+    from kinserve.planners import cartesian_to_joint
+
+    r = robot_of(req)
+    with field("q0"):
+        q0 = None if req.q0 is None else r.check_q(req.q0, "q0")
+    with field("frame"):
+        if req.frame is not None:
+            r.frame_id(req.frame)
+    with field("poses"):
+        plan = cartesian_to_joint(
+            r, [np.asarray(p, dtype=float) for p in req.poses], q0=q0, frame=req.frame, steps=req.steps,
+            dt=req.dt, interpolation=req.interpolation, relax=tuple(req.relax), max_time=capped(None),
+            total_time=max(deadline.remaining, 1e-3), stop_on_failure=req.stop_on_failure,
+        )
+    traj = plan.trajectory
+    return {
+        "success": bool(plan.success),
+        "trajectory": {
+            "joint_names": list(traj.joint_names), "times": np.asarray(traj.times).tolist(),
+            "positions": np.asarray(traj.positions).tolist(), "velocities": np.asarray(traj.velocities).tolist(),
+            "accelerations": None if traj.accelerations is None else np.asarray(traj.accelerations).tolist(),
+        },
+        "max_position_error": float(plan.max_position_error),
+        "max_orientation_error": float(plan.max_orientation_error),
+        "events": [dict(e) for e in plan.events],
+        "message": plan.message,
+        "stop_reason": plan.stop_reason,
+        "poses_attempted": int(len(plan.position_errors)),
+        "total_poses": int(plan.total_poses),
+    }
