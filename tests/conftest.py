@@ -69,6 +69,11 @@ def _shut_down_persistent_pools() -> None:
         shutdown = getattr(sys.modules.get(module_name), "shutdown_pool", None)
         if shutdown is not None:
             shutdown()
+    # multiprocessing's resource tracker (started by the spawned solver processes of an in-process service)
+    # lives until the interpreter exits; stop it now so that the leak check below sees only real leftovers
+    tracker = sys.modules.get("multiprocessing.resource_tracker")
+    if tracker is not None and getattr(tracker._resource_tracker, "_pid", None) is not None:
+        tracker._resource_tracker._stop()
 
 
 def _report_leftovers(session, message: str) -> None:
