@@ -76,21 +76,72 @@ def centring_objective(robot, q, weights) -> float:
 
 
 _gesdd = get_lapack_funcs(("gesdd",), (np.eye(2),))[0]
+_geqrf, _ormqr, _trtri = get_lapack_funcs(("geqrf", "ormqr", "trtri"), (np.eye(2),))
 
 #: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
 RANK_TOL = 1e-6
 
+_qr_consts: dict = {}
+
+
+def _qr_constants(m: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(E, U)``: the last ``n - m`` columns of ``I_n`` (Fortran order) and the upper-triangle mask of ``m x m``."""
+    hit = _qr_consts.get((m, n))
+    if hit is None:
+        E = np.asfortranarray(np.eye(n)[:, m:])
+        U = np.asfortranarray(np.triu(np.ones((m, m))))
+        E.flags.writeable = U.flags.writeable = False
+        hit = _qr_consts[(m, n)] = (E, U)
+    return hit
+
+
+def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
+    """Orthonormal basis ``(n, n - m)`` of the null space of a wide ``J`` (``m < n``) certified of full row rank, or None.
+
+    Householder QR of the transpose, ``J^T = Q [R; 0]`` (LAPACK ``geqrf``): when ``R``
+    is invertible the last ``n - m`` columns of ``Q`` (``ormqr`` applied to the
+    unit vectors) span the null space of ``J``. ``J`` and ``R`` have the same
+    singular values, and ``sigma_min(R) >= 1 / |R^-1|_F``, ``sigma_max <= |J|_F``:
+    when ``|R^-1|_F^2 tol^2 max(1, |J|_F^2) < 1`` every singular value exceeds
+    ``tol * max(1, sigma_max)``, so :func:`null_space_basis`'s SVD would find rank
+    ``m`` too and the two bases span the same space. None when the certificate
+    fails (nearly singular ``J``: the caller uses the SVD) or ``m >= n``.
+    """
+    m, n = J.shape
+    if m == 0 or m >= n:
+        return None
+    qr, tau, _, info = _geqrf(J.T)
+    if info != 0:  # pragma: no cover - LAPACK failure
+        return None
+    Rinv, info = _trtri(qr[:m])
+    if info != 0:  # an exactly zero diagonal entry: singular
+        return None
+    E, U = _qr_constants(m, n)
+    Rinv *= U  # R^-1 is upper triangular; trtri leaves the reflectors below the diagonal
+    r = Rinv.ravel("K")
+    j = J.ravel()
+    if not (r.dot(r) * (tol * tol) * max(1.0, j.dot(j)) < 1.0):
+        return None
+    Z, _, info = _ormqr(b"L", b"N", qr, tau, E, n - m)
+    return Z if info == 0 else None
+
 
 def null_space_basis(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray:
-    """Orthonormal basis ``(n, n - rank J)`` of the null space of ``J`` (``m x n``), from the SVD.
+    """Orthonormal basis ``(n, n - rank J)`` of the null space of ``J`` (``m x n``).
 
     Rank-revealing: rows that are identically zero (a planar arm's ``z``,
     ``roll``, ``pitch`` rows, a SCARA's ``roll`` / ``pitch``) do not use up
-    freedom.
+    freedom. A wide ``J`` certified of full row rank takes the QR of
+    :func:`full_rank_null_space` (a third of the cost); anything else the SVD
+    (singular values below ``tol * max(1, sigma_max)`` count as zero). Both give
+    an orthonormal basis of the same space, which is all the callers use.
     """
     n = J.shape[1]
     if J.shape[0] == 0:
         return np.eye(n)
+    Z = full_rank_null_space(J, tol)
+    if Z is not None:
+        return Z
     # LAPACK's gesdd directly (what numpy.linalg.svd calls, bit for bit, without its wrapper's overhead)
     _, s, Vt, info = _gesdd(J, compute_uv=1, full_matrices=1)
     if info != 0:  # pragma: no cover - LAPACK failure: the checked path

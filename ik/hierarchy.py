@@ -11,8 +11,9 @@ Level 1 - a Levenberg-Marquardt step with hard inequalities::
            s.t. lb <= dq <= ub,  l <= G dq <= u
 
 Level k > 1 - in the null space of every higher level: with ``Z`` an
-orthonormal basis of the null space of ``[J_1; ...; J_{k-1}]`` (rank-revealing
-SVD, built level by level), ``dq = dq_{k-1} + Z z`` and::
+orthonormal basis of the null space of ``[J_1; ...; J_{k-1}]`` (rank-revealing,
+built level by level: :func:`~kinserve.ik.centring.null_space_basis`),
+``dq = dq_{k-1} + Z z`` and::
 
     z = argmin 1/2 |J_k (dq_{k-1} + Z z) + e_k|^2 + 1/2 eps |z|^2
         s.t. lb <= dq_{k-1} + Z z <= ub,  l <= G (dq_{k-1} + Z z) <= u,  |z| <= max_step
@@ -23,7 +24,11 @@ level. When the first level is infeasible because rows demand that violated
 constraints recover (``l > 0``, a start in collision), those rows are relaxed
 to ``l = 0`` (get no worse) and the level is solved again. A level whose QP is infeasible (the higher levels leave it no
 feasible freedom) contributes nothing. This is the nullspace form of a
-hierarchical QP; it needs no more than one small QP per level.
+hierarchical QP; it needs no more than one small QP per level. When the
+freedom left is a line (``Z`` has one column: a 6-D task on a 7-joint arm)
+the level's QP is one-dimensional and is solved exactly in closed form
+(:func:`line_qp`: the unconstrained minimiser clipped to the feasible
+interval).
 """
 
 from __future__ import annotations
@@ -86,22 +91,81 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         if dim == 0:
             break
         JZ = Jk.dot(Z)
-        Pz = JZ.T.dot(JZ)
-        Pz.flat[:: dim + 1] += LOWER_DAMPING
-        cz = (Jk.dot(dq) + ek).dot(JZ)
-        if has_rows:
-            Gd = G.dot(dq)
-            A = np.concatenate((Z, G.dot(Z)))
-            lo = np.concatenate((lb - dq, l - Gd))
-            hi = np.concatenate((ub - dq, u - Gd))
-        else:
-            A, lo, hi = Z, lb - dq, ub - dq
-        zlim = np.full(dim, max_step)
-        z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
-        if z is not None:
-            step = Z.dot(z)
+        if dim == 1 and shortcut:  # one free direction (a 6-D task on 7 joints): the QP on a line, in closed form
+            step = _line_level(Z[:, 0], JZ[:, 0], Jk.dot(dq) + ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
             dq = dq + step
             dq_lower += step
+        else:
+            Pz = JZ.T.dot(JZ)
+            Pz.flat[:: dim + 1] += LOWER_DAMPING
+            cz = (Jk.dot(dq) + ek).dot(JZ)
+            if has_rows:
+                Gd = G.dot(dq)
+                A = np.concatenate((Z, G.dot(Z)))
+                lo = np.concatenate((lb - dq, l - Gd))
+                hi = np.concatenate((ub - dq, u - Gd))
+            else:
+                A, lo, hi = Z, lb - dq, ub - dq
+            zlim = np.full(dim, max_step)
+            z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
+            if z is not None:
+                step = Z.dot(z)
+                dq = dq + step
+                dq_lower += step
         if k < last:  # the next level moves in the null space of this one too (none after the last)
             Z = Z.dot(null_space_basis(JZ))
     return dq, dq_lower
+
+
+def line_qp(p: float, c: float, a: list, lo: list, hi: list, limit: float) -> float:
+    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= a_i z <= hi_i`` and ``|z| <= limit``.
+
+    ``p > 0``; ``z = 0`` is taken as feasible (``lo_i <= 0 <= hi_i``: the rows
+    are the slacks left by a feasible step, round-off included), so every
+    bound is clamped at 0 and the interval ``[z_lo, z_hi]`` of feasible ``z``
+    contains 0. A strictly convex function of one variable on an interval is
+    minimised by its unconstrained minimiser ``-c / p`` clipped to the interval.
+    Rows with ``a_i = 0`` do not restrict ``z``.
+    """
+    zlo, zhi = -limit, limit
+    for ai, li, hi_ in zip(a, lo, hi):
+        if ai > 0.0:
+            b = li / ai
+            if b > zlo:
+                zlo = b
+            b = hi_ / ai
+            if b < zhi:
+                zhi = b
+        elif ai < 0.0:
+            b = hi_ / ai
+            if b > zlo:
+                zlo = b
+            b = li / ai
+            if b < zhi:
+                zhi = b
+    z = -c / p
+    if z < zlo:
+        return zlo if zlo < 0.0 else 0.0
+    if z > zhi:
+        return zhi if zhi > 0.0 else 0.0
+    return z
+
+
+def _line_level(z0: np.ndarray, jz: np.ndarray, r: np.ndarray, dq: np.ndarray, lb: np.ndarray, ub: np.ndarray,
+                G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> np.ndarray:
+    """The lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
+
+    The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
+    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``, ``r = J_k dq + e_k``), the box
+    ``lb - dq <= z0 z <= ub - dq`` and the rows ``l - G dq <= (G z0) z <= u - G dq``,
+    solved exactly by :func:`line_qp`.
+    """
+    p = float(jz.dot(jz)) + LOWER_DAMPING
+    c = float(r.dot(jz))
+    a, lo, hi = z0.tolist(), (lb - dq).tolist(), (ub - dq).tolist()
+    if G is not None:
+        Gd = G.dot(dq)
+        a += G.dot(z0).tolist()
+        lo += (l - Gd).tolist()
+        hi += (u - Gd).tolist()
+    return z0 * line_qp(p, c, a, lo, hi, max_step)
