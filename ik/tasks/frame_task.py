@@ -113,10 +113,8 @@ class FrameTask(Task):
         e = np.empty(6)
         e[:3] = M.translation - self._p
         e[3:] = _log3(X)
-        Jf = _gfj(model, data, self.frame_id, _LWA)
-        J = np.empty_like(Jf)
-        J[:3] = Jf[:3]
-        J[3:] = _Jlog3(X).dot(X.T).dot(Jf[3:])
+        J = _gfj(model, data, self.frame_id, _LWA)  # a fresh array: its rotation rows are replaced in place
+        J[3:] = _Jlog3(X).dot(X.T).dot(J[3:])
         At = self._At
         if At is not None:
             e[:3] = At.dot(e[:3])
