@@ -132,12 +132,10 @@ def _backend_solve(P, c, lb, ub, A, l, u, backend):
     n = c.shape[0]
     if backend == "daqp" and _daqp is not None:
         if A is None:
-            bu, bl, Am = ub, lb, _no_rows(n)
+            bu, bl, Am = ub.copy(), lb.copy(), _no_rows(n)  # writable copies (DAQP takes writable buffers)
         else:
             bu, bl, Am = _concat((ub, u)), _concat((lb, l)), A
-        # infinite bounds as BIG (fresh arrays; the callers' bounds are not written)
-        bu = _clip(bu, -BIG, BIG)
-        bl = _clip(bl, -BIG, BIG)
+        # infinite bounds are passed as they are: DAQP treats bounds beyond its DAQP_INF (1e30) as absent
         x, _, exitflag, _ = _daqp.solve(P if P.flags.c_contiguous else np.ascontiguousarray(P),
                                         c if c.flags.c_contiguous else np.ascontiguousarray(c),
                                         Am if Am.flags.c_contiguous else np.ascontiguousarray(Am), bu, bl,

@@ -81,7 +81,7 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         return None, None
     if len(levels) == 1:
         return dq, None
-    dq_lower = np.zeros(n)
+    dq_lower = None
     Z = null_space_basis(J1)
     last = len(levels) - 1
     has_rows = G is not None and G.shape[0] > 0
@@ -94,7 +94,7 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         if dim == 1 and shortcut:  # one free direction (a 6-D task on 7 joints): the QP on a line, in closed form
             step = _line_level(Z[:, 0], JZ[:, 0], Jk.dot(dq) + ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
             dq = dq + step
-            dq_lower += step
+            dq_lower = step if dq_lower is None else dq_lower + step
         else:
             Pz = JZ.T.dot(JZ)
             Pz.flat[:: dim + 1] += LOWER_DAMPING
@@ -111,10 +111,10 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
             if z is not None:
                 step = Z.dot(z)
                 dq = dq + step
-                dq_lower += step
+                dq_lower = step if dq_lower is None else dq_lower + step
         if k < last:  # the next level moves in the null space of this one too (none after the last)
             Z = Z.dot(null_space_basis(JZ))
-    return dq, dq_lower
+    return dq, (np.zeros(n) if dq_lower is None else dq_lower)
 
 
 def line_qp(p: float, c: float, a: list, lo: list, hi: list, limit: float) -> float:

@@ -38,6 +38,7 @@ _log3 = pin.log3
 _Jlog3 = pin.Jlog3
 _ufp = pin.updateFramePlacement
 _gfj = pin.getFrameJacobian
+_concat = np.concatenate
 
 
 class FrameTask(Task):
@@ -110,9 +111,7 @@ class FrameTask(Task):
         M = _ufp(model, data, self.frame_id)
         R = M.rotation
         X = R.dot(self._Rt)
-        e = np.empty(6)
-        e[:3] = M.translation - self._p
-        e[3:] = _log3(X)
+        e = _concat((M.translation - self._p, _log3(X)))
         J = _gfj(model, data, self.frame_id, _LWA)  # a fresh array: its rotation rows are replaced in place
         J[3:] = _Jlog3(X).dot(X.T).dot(J[3:])
         At = self._At
