@@ -36,6 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from .centring import null_space_basis
+
+_concat = np.concatenate
 from .dense_qp import DEFAULT_BACKEND, solve_dense
 
 #: Damping of the lower levels (regularises the null-space coordinates).
@@ -56,7 +58,7 @@ def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray
                 Js.append(J * sw[:, None]), es.append(e * sw)
             else:
                 Js.append(J * sw), es.append(e * sw)
-    return np.vstack(Js), np.concatenate(es)
+    return _concat(Js), _concat(es)
 
 
 def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
@@ -117,30 +119,30 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
     return dq, (np.zeros(n) if dq_lower is None else dq_lower)
 
 
-def line_qp(p: float, c: float, a: list, lo: list, hi: list, limit: float) -> float:
-    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= a_i z <= hi_i`` and ``|z| <= limit``.
+def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: float) -> float:
+    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= v_i + a_i z <= hi_i`` and ``|z| <= limit``.
 
-    ``p > 0``; ``z = 0`` is taken as feasible (``lo_i <= 0 <= hi_i``: the rows
-    are the slacks left by a feasible step, round-off included), so every
-    bound is clamped at 0 and the interval ``[z_lo, z_hi]`` of feasible ``z``
-    contains 0. A strictly convex function of one variable on an interval is
-    minimised by its unconstrained minimiser ``-c / p`` clipped to the interval.
-    Rows with ``a_i = 0`` do not restrict ``z``.
+    ``p > 0``; ``v`` are the rows' values at ``z = 0``, taken as feasible
+    (``lo_i <= v_i <= hi_i``: the rows at a feasible step, round-off included),
+    so every bound on ``z`` is clamped at 0 and the interval ``[z_lo, z_hi]`` of
+    feasible ``z`` contains 0. A strictly convex function of one variable on an
+    interval is minimised by its unconstrained minimiser ``-c / p`` clipped to
+    the interval. Rows with ``a_i = 0`` do not restrict ``z``.
     """
     zlo, zhi = -limit, limit
-    for ai, li, hi_ in zip(a, lo, hi):
+    for ai, vi, li, hi_ in zip(a, v, lo, hi):
         if ai > 0.0:
-            b = li / ai
+            b = (li - vi) / ai
             if b > zlo:
                 zlo = b
-            b = hi_ / ai
+            b = (hi_ - vi) / ai
             if b < zhi:
                 zhi = b
         elif ai < 0.0:
-            b = hi_ / ai
+            b = (hi_ - vi) / ai
             if b > zlo:
                 zlo = b
-            b = li / ai
+            b = (li - vi) / ai
             if b < zhi:
                 zhi = b
     z = -c / p
@@ -157,15 +159,15 @@ def _line_level(z0: np.ndarray, jz: np.ndarray, r: np.ndarray, dq: np.ndarray, l
 
     The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
     ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``, ``r = J_k dq + e_k``), the box
-    ``lb - dq <= z0 z <= ub - dq`` and the rows ``l - G dq <= (G z0) z <= u - G dq``,
+    ``lb <= dq + z0 z <= ub`` and the rows ``l <= G dq + (G z0) z <= u``,
     solved exactly by :func:`line_qp`.
     """
     p = float(jz.dot(jz)) + LOWER_DAMPING
     c = float(r.dot(jz))
-    a, lo, hi = z0.tolist(), (lb - dq).tolist(), (ub - dq).tolist()
+    a, v, lo, hi = z0.tolist(), dq.tolist(), lb.tolist(), ub.tolist()
     if G is not None:
-        Gd = G.dot(dq)
         a += G.dot(z0).tolist()
-        lo += (l - Gd).tolist()
-        hi += (u - Gd).tolist()
-    return z0 * line_qp(p, c, a, lo, hi, max_step)
+        v += G.dot(dq).tolist()
+        lo += l.tolist()
+        hi += u.tolist()
+    return z0 * line_qp(p, c, a, v, lo, hi, max_step)

@@ -189,7 +189,7 @@ class Problem:
             return lb, ub, None, None, None
         if len(Gs) == 1:
             return lb, ub, Gs[0], ls[0], us[0]
-        return lb, ub, np.vstack(Gs), np.concatenate(ls), np.concatenate(us)
+        return lb, ub, np.concatenate(Gs), np.concatenate(ls), np.concatenate(us)
 
     @property
     def check_data(self) -> pin.Data:

@@ -123,7 +123,8 @@ def test_line_qp_matches_brute_force():
         lo, hi = -rng.random(5), rng.random(5)
         lo[rng.random(5) < 0.2] = -np.inf
         p, c = rng.random() + 0.1, rng.normal()
-        z = line_qp(p, c, a.tolist(), lo.tolist(), hi.tolist(), 2.5)
+        v = rng.uniform(np.maximum(lo, -1.0), hi)  # rows' values at z = 0 (feasible): the bounds on a z are lo - v, hi - v
+        z = line_qp(p, c, a.tolist(), v.tolist(), (lo + v).tolist(), (hi + v).tolist(), 2.5)
         ok = (np.abs(grid) <= 2.5) & np.all((a[:, None] * grid >= lo[:, None]) & (a[:, None] * grid <= hi[:, None]), axis=0)
         f = 0.5 * p * grid ** 2 + c * grid
         best = grid[ok][np.argmin(f[ok])]
