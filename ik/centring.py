@@ -37,6 +37,8 @@ the middle of its range; relaxing ``z`` leaves ``d3`` free, which goes to
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.linalg import get_lapack_funcs
 
@@ -76,7 +78,7 @@ def centring_objective(robot, q, weights) -> float:
 
 
 _gesdd = get_lapack_funcs(("gesdd",), (np.eye(2),))[0]
-_geqrf, _ormqr, _trtri = get_lapack_funcs(("geqrf", "ormqr", "trtri"), (np.eye(2),))
+_geqrf, _ormqr = get_lapack_funcs(("geqrf", "ormqr"), (np.eye(2),))
 
 #: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
 RANK_TOL = 1e-6
@@ -100,11 +102,12 @@ def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | N
     Householder QR of the transpose, ``J^T = Q [R; 0]`` (LAPACK ``geqrf``): when ``R``
     is invertible the last ``n - m`` columns of ``Q`` (``ormqr`` applied to the
     unit vectors) span the null space of ``J``. ``J`` and ``R`` have the same
-    singular values, and ``sigma_min(R) >= 1 / |R^-1|_F``, ``sigma_max <= |J|_F``:
-    when ``|R^-1|_F^2 tol^2 max(1, |J|_F^2) < 1`` every singular value exceeds
-    ``tol * max(1, sigma_max)``, so :func:`null_space_basis`'s SVD would find rank
-    ``m`` too and the two bases span the same space. None when the certificate
-    fails (nearly singular ``J``: the caller uses the SVD) or ``m >= n``.
+    singular values, ``|det R| = prod |R_ii| = prod sigma_i <= sigma_min sigma_max^(m-1)``
+    and ``sigma_max <= |J|_F = F``, so ``sigma_min >= prod |R_ii| / F^(m-1)``: when
+    that bound exceeds ``tol * max(1, F)`` every singular value exceeds
+    ``tol * max(1, sigma_max)``, :func:`null_space_basis`'s SVD would find rank
+    ``m`` too, and the two bases span the same space. None when the certificate
+    fails (a nearly singular ``J``: the caller uses the SVD) or ``m >= n``.
     """
     m, n = J.shape
     if m == 0 or m >= n:
@@ -112,13 +115,11 @@ def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | N
     qr, tau, _, info = _geqrf(J.T)
     if info != 0:  # pragma: no cover - LAPACK failure
         return None
-    Rinv, info = _trtri(qr[:m])
-    if info != 0:  # an exactly zero diagonal entry: singular
-        return None
-    # R^-1 is the upper triangle of Rinv; trtri leaves the reflectors below the diagonal, and counting
-    # them too only makes the bound |R^-1|_F larger: the certificate stays sufficient
-    r = _vdot(Rinv, Rinv)
-    if not (r * (tol * tol) * max(1.0, _vdot(J, J)) < 1.0):
+    det = 1.0
+    for r in qr.diagonal().tolist():
+        det *= r
+    F = math.sqrt(_vdot(J, J))
+    if not (abs(det) > tol * max(1.0, F) * F ** (m - 1)):  # NaN fails too
         return None
     E = _qr_constants(m, n)
     Z, _, info = _ormqr(b"L", b"N", qr, tau, E, n - m)
