@@ -37,6 +37,8 @@ the middle of its range; relaxing ``z`` leaves ``d3`` free, which goes to
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.linalg import get_lapack_funcs
 
@@ -76,21 +78,70 @@ def centring_objective(robot, q, weights) -> float:
 
 
 _gesdd = get_lapack_funcs(("gesdd",), (np.eye(2),))[0]
+_geqrf, _ormqr = get_lapack_funcs(("geqrf", "ormqr"), (np.eye(2),))
 
 #: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
 RANK_TOL = 1e-6
 
+_qr_consts: dict = {}
+_vdot = np.vdot
+
+
+def _qr_constants(m: int, n: int) -> np.ndarray:
+    """The last ``n - m`` columns of ``I_n`` (Fortran order, cached read-only)."""
+    E = _qr_consts.get((m, n))
+    if E is None:
+        E = _qr_consts[(m, n)] = np.asfortranarray(np.eye(n)[:, m:])
+        E.flags.writeable = False
+    return E
+
+
+def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
+    """Orthonormal basis ``(n, n - m)`` of the null space of a wide ``J`` (``m < n``) certified of full row rank, or None.
+
+    Householder QR of the transpose, ``J^T = Q [R; 0]`` (LAPACK ``geqrf``): when ``R``
+    is invertible the last ``n - m`` columns of ``Q`` (``ormqr`` applied to the
+    unit vectors) span the null space of ``J``. ``J`` and ``R`` have the same
+    singular values, ``|det R| = prod |R_ii| = prod sigma_i <= sigma_min sigma_max^(m-1)``
+    and ``sigma_max <= |J|_F = F``, so ``sigma_min >= prod |R_ii| / F^(m-1)``: when
+    that bound exceeds ``tol * max(1, F)`` every singular value exceeds
+    ``tol * max(1, sigma_max)``, :func:`null_space_basis`'s SVD would find rank
+    ``m`` too, and the two bases span the same space. None when the certificate
+    fails (a nearly singular ``J``: the caller uses the SVD) or ``m >= n``.
+    """
+    m, n = J.shape
+    if m == 0 or m >= n:
+        return None
+    qr, tau, _, info = _geqrf(J.T)
+    if info != 0:  # pragma: no cover - LAPACK failure
+        return None
+    det = 1.0
+    for r in qr.diagonal().tolist():
+        det *= r
+    F = math.sqrt(_vdot(J, J))
+    if not (abs(det) > tol * max(1.0, F) * F ** (m - 1)):  # NaN fails too
+        return None
+    E = _qr_constants(m, n)
+    Z, _, info = _ormqr(b"L", b"N", qr, tau, E, n - m)
+    return Z if info == 0 else None
+
 
 def null_space_basis(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray:
-    """Orthonormal basis ``(n, n - rank J)`` of the null space of ``J`` (``m x n``), from the SVD.
+    """Orthonormal basis ``(n, n - rank J)`` of the null space of ``J`` (``m x n``).
 
     Rank-revealing: rows that are identically zero (a planar arm's ``z``,
     ``roll``, ``pitch`` rows, a SCARA's ``roll`` / ``pitch``) do not use up
-    freedom.
+    freedom. A wide ``J`` certified of full row rank takes the QR of
+    :func:`full_rank_null_space` (a third of the cost); anything else the SVD
+    (singular values below ``tol * max(1, sigma_max)`` count as zero). Both give
+    an orthonormal basis of the same space, which is all the callers use.
     """
     n = J.shape[1]
     if J.shape[0] == 0:
         return np.eye(n)
+    Z = full_rank_null_space(J, tol)
+    if Z is not None:
+        return Z
     # LAPACK's gesdd directly (what numpy.linalg.svd calls, bit for bit, without its wrapper's overhead)
     _, s, Vt, info = _gesdd(J, compute_uv=1, full_matrices=1)
     if info != 0:  # pragma: no cover - LAPACK failure: the checked path

@@ -17,6 +17,7 @@ Returns None when the problem is infeasible or the solver fails.
 
 from __future__ import annotations
 
+import math
 import threading
 import warnings
 
@@ -104,27 +105,45 @@ def solve_dense(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A:
     return _backend_solve(P, c, lb, ub, A if has_rows else None, l, u, backend)
 
 
+_concat = np.concatenate
+_add_reduce = np.add.reduce
+_NO_ROWS: dict = {}
+_SENSE: dict = {}
+
+
+def _no_rows(n: int) -> np.ndarray:
+    """An empty ``(0, n)`` row matrix (cached; it has no entries to write)."""
+    a = _NO_ROWS.get(n)
+    if a is None:
+        a = _NO_ROWS[n] = np.zeros((0, n))
+    return a
+
+
+def _sense(k: int) -> np.ndarray:
+    """DAQP's constraint kinds: ``k`` zeros (plain inequalities; DAQP reads them and does not write them)."""
+    a = _SENSE.get(k)
+    if a is None:
+        a = _SENSE[k] = np.zeros(k, dtype=np.int32)
+    return a
+
+
 def _backend_solve(P, c, lb, ub, A, l, u, backend):
     _counter.n = getattr(_counter, "n", 0) + 1
     n = c.shape[0]
     if backend == "daqp" and _daqp is not None:
-        m = 0 if A is None else A.shape[0]
-        bu = np.empty(n + m)
-        bl = np.empty(n + m)
-        np.minimum(ub, BIG, out=bu[:n])
-        np.maximum(lb, -BIG, out=bl[:n])
-        if m:
-            np.minimum(u, BIG, out=bu[n:])
-            np.maximum(l, -BIG, out=bl[n:])
-            Am = np.ascontiguousarray(A)
+        if A is None:
+            bu, bl, Am = ub.copy(), lb.copy(), _no_rows(n)  # writable copies (DAQP takes writable buffers)
         else:
-            Am = np.zeros((0, n))
-        x, _, exitflag, _ = _daqp.solve(np.ascontiguousarray(P), np.ascontiguousarray(c, dtype=float), Am, bu, bl,
-                                        np.zeros(n + m, dtype=np.int32))
+            bu, bl, Am = _concat((ub, u)), _concat((lb, l)), A
+        # infinite bounds are passed as they are: DAQP treats bounds beyond its DAQP_INF (1e30) as absent
+        x, _, exitflag, _ = _daqp.solve(P if P.flags.c_contiguous else np.ascontiguousarray(P),
+                                        c if c.flags.c_contiguous else np.ascontiguousarray(c),
+                                        Am if Am.flags.c_contiguous else np.ascontiguousarray(Am), bu, bl,
+                                        _sense(bu.shape[0]))
         if exitflag < 1:
             return None
-        x = np.asarray(x, dtype=float)
-        return x if np.isfinite(x).all() else None
+        # a finite sum: every entry finite (a step of more than 1e300 rad counts as a failure too)
+        return x if math.isfinite(_add_reduce(x)) else None
     import qpsolvers
 
     if backend not in qpsolvers.available_solvers:

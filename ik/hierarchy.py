@@ -11,8 +11,9 @@ Level 1 - a Levenberg-Marquardt step with hard inequalities::
            s.t. lb <= dq <= ub,  l <= G dq <= u
 
 Level k > 1 - in the null space of every higher level: with ``Z`` an
-orthonormal basis of the null space of ``[J_1; ...; J_{k-1}]`` (rank-revealing
-SVD, built level by level), ``dq = dq_{k-1} + Z z`` and::
+orthonormal basis of the null space of ``[J_1; ...; J_{k-1}]`` (rank-revealing,
+built level by level: :func:`~kinserve.ik.centring.null_space_basis`),
+``dq = dq_{k-1} + Z z`` and::
 
     z = argmin 1/2 |J_k (dq_{k-1} + Z z) + e_k|^2 + 1/2 eps |z|^2
         s.t. lb <= dq_{k-1} + Z z <= ub,  l <= G (dq_{k-1} + Z z) <= u,  |z| <= max_step
@@ -23,7 +24,11 @@ level. When the first level is infeasible because rows demand that violated
 constraints recover (``l > 0``, a start in collision), those rows are relaxed
 to ``l = 0`` (get no worse) and the level is solved again. A level whose QP is infeasible (the higher levels leave it no
 feasible freedom) contributes nothing. This is the nullspace form of a
-hierarchical QP; it needs no more than one small QP per level.
+hierarchical QP; it needs no more than one small QP per level. When the
+freedom left is a line (``Z`` has one column: a 6-D task on a 7-joint arm)
+the level's QP is one-dimensional and is solved exactly in closed form
+(:func:`line_qp`: the unconstrained minimiser clipped to the feasible
+interval).
 """
 
 from __future__ import annotations
@@ -31,6 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from .centring import null_space_basis
+
+_concat = np.concatenate
 from .dense_qp import DEFAULT_BACKEND, solve_dense
 
 #: Damping of the lower levels (regularises the null-space coordinates).
@@ -51,7 +58,7 @@ def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray
                 Js.append(J * sw[:, None]), es.append(e * sw)
             else:
                 Js.append(J * sw), es.append(e * sw)
-    return np.vstack(Js), np.concatenate(es)
+    return _concat(Js), _concat(es)
 
 
 def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
@@ -76,7 +83,7 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         return None, None
     if len(levels) == 1:
         return dq, None
-    dq_lower = np.zeros(n)
+    dq_lower = None
     Z = null_space_basis(J1)
     last = len(levels) - 1
     has_rows = G is not None and G.shape[0] > 0
@@ -86,22 +93,81 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
         if dim == 0:
             break
         JZ = Jk.dot(Z)
-        Pz = JZ.T.dot(JZ)
-        Pz.flat[:: dim + 1] += LOWER_DAMPING
-        cz = (Jk.dot(dq) + ek).dot(JZ)
-        if has_rows:
-            Gd = G.dot(dq)
-            A = np.concatenate((Z, G.dot(Z)))
-            lo = np.concatenate((lb - dq, l - Gd))
-            hi = np.concatenate((ub - dq, u - Gd))
-        else:
-            A, lo, hi = Z, lb - dq, ub - dq
-        zlim = np.full(dim, max_step)
-        z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
-        if z is not None:
-            step = Z.dot(z)
+        if dim == 1 and shortcut:  # one free direction (a 6-D task on 7 joints): the QP on a line, in closed form
+            step = _line_level(Z[:, 0], JZ[:, 0], Jk.dot(dq) + ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
             dq = dq + step
-            dq_lower += step
+            dq_lower = step if dq_lower is None else dq_lower + step
+        else:
+            Pz = JZ.T.dot(JZ)
+            Pz.flat[:: dim + 1] += LOWER_DAMPING
+            cz = (Jk.dot(dq) + ek).dot(JZ)
+            if has_rows:
+                Gd = G.dot(dq)
+                A = np.concatenate((Z, G.dot(Z)))
+                lo = np.concatenate((lb - dq, l - Gd))
+                hi = np.concatenate((ub - dq, u - Gd))
+            else:
+                A, lo, hi = Z, lb - dq, ub - dq
+            zlim = np.full(dim, max_step)
+            z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
+            if z is not None:
+                step = Z.dot(z)
+                dq = dq + step
+                dq_lower = step if dq_lower is None else dq_lower + step
         if k < last:  # the next level moves in the null space of this one too (none after the last)
             Z = Z.dot(null_space_basis(JZ))
-    return dq, dq_lower
+    return dq, (np.zeros(n) if dq_lower is None else dq_lower)
+
+
+def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: float) -> float:
+    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= v_i + a_i z <= hi_i`` and ``|z| <= limit``.
+
+    ``p > 0``; ``v`` are the rows' values at ``z = 0``, taken as feasible
+    (``lo_i <= v_i <= hi_i``: the rows at a feasible step, round-off included),
+    so every bound on ``z`` is clamped at 0 and the interval ``[z_lo, z_hi]`` of
+    feasible ``z`` contains 0. A strictly convex function of one variable on an
+    interval is minimised by its unconstrained minimiser ``-c / p`` clipped to
+    the interval. Rows with ``a_i = 0`` do not restrict ``z``.
+    """
+    zlo, zhi = -limit, limit
+    for ai, vi, li, hi_ in zip(a, v, lo, hi):
+        if ai > 0.0:
+            b = (li - vi) / ai
+            if b > zlo:
+                zlo = b
+            b = (hi_ - vi) / ai
+            if b < zhi:
+                zhi = b
+        elif ai < 0.0:
+            b = (hi_ - vi) / ai
+            if b > zlo:
+                zlo = b
+            b = (li - vi) / ai
+            if b < zhi:
+                zhi = b
+    z = -c / p
+    if z < zlo:
+        return zlo if zlo < 0.0 else 0.0
+    if z > zhi:
+        return zhi if zhi > 0.0 else 0.0
+    return z
+
+
+def _line_level(z0: np.ndarray, jz: np.ndarray, r: np.ndarray, dq: np.ndarray, lb: np.ndarray, ub: np.ndarray,
+                G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> np.ndarray:
+    """The lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
+
+    The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
+    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``, ``r = J_k dq + e_k``), the box
+    ``lb <= dq + z0 z <= ub`` and the rows ``l <= G dq + (G z0) z <= u``,
+    solved exactly by :func:`line_qp`.
+    """
+    p = float(jz.dot(jz)) + LOWER_DAMPING
+    c = float(r.dot(jz))
+    a, v, lo, hi = z0.tolist(), dq.tolist(), lb.tolist(), ub.tolist()
+    if G is not None:
+        a += G.dot(z0).tolist()
+        v += G.dot(dq).tolist()
+        lo += l.tolist()
+        hi += u.tolist()
+    return z0 * line_qp(p, c, a, v, lo, hi, max_step)

@@ -29,6 +29,7 @@ from kinserve.kinematics.shapes import Shape
 from .constraints.base import DAMPER_GAIN, Constraint
 from .constraints.joint_limits import JointLimits
 from .constraints.obstacles import ObstacleAvoidance
+from .hierarchy import stack_level
 from .tasks.base import Task
 
 if TYPE_CHECKING:  # annotations only
@@ -147,8 +148,6 @@ class Problem:
             if len(pairs) == 1 and ws[0] is None:
                 levels.append((pairs[0][1], pairs[0][0]))
             else:
-                from .hierarchy import stack_level
-
                 levels.append(stack_level(pairs, ws))
         return levels, pe, re, es
 
@@ -190,7 +189,7 @@ class Problem:
             return lb, ub, None, None, None
         if len(Gs) == 1:
             return lb, ub, Gs[0], ls[0], us[0]
-        return lb, ub, np.vstack(Gs), np.concatenate(ls), np.concatenate(us)
+        return lb, ub, np.concatenate(Gs), np.concatenate(ls), np.concatenate(us)
 
     @property
     def check_data(self) -> pin.Data:

@@ -40,15 +40,20 @@ if TYPE_CHECKING:  # annotations only
 
 
 def _problem(robot, tasks, constraints) -> Problem:
-    key = (id(robot), id(robot.data), tuple(map(id, tasks)), tuple(map(id, constraints)))
+    """The bound problem of these objects, cached by their ids.
+
+    The cache entry holds the robot, tasks and constraints themselves, so none
+    of them can be collected while it exists and no other object can reuse
+    their ids: equal keys mean the very same objects.
+    """
+    key = (id(robot), id(robot.data), *map(id, tasks), None, *map(id, constraints))
     entry = _cache.get(key)
-    if entry is not None and entry[0] is robot and all(a is b for a, b in zip(entry[1], tasks)) \
-            and all(a is b for a, b in zip(entry[2], constraints)):
-        return entry[3]
+    if entry is not None:
+        return entry[1]
     pb = Problem(robot, tasks, constraints)
     if len(_cache) > 64:
         _cache.clear()
-    _cache[key] = (robot, list(tasks), list(constraints), pb)
+    _cache[key] = ((robot, robot.data, list(tasks), list(constraints)), pb)
     return pb
 
 

@@ -83,3 +83,50 @@ def test_three_levels_in_a_full_solve(panda):
         assert alone.success and res.success, res.message
         assert res.position_error < 1e-4 and res.orientation_error < 1e-3
         assert [t["priority"] for t in res.task_errors] == [1, 2, 3]
+
+
+def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda):
+    """6-D frame task on 7 joints: the posture level has one free direction; its closed form (line_qp)
+    agrees with the QP solver (shortcut=False) and keeps every bound and row."""
+    rng = np.random.default_rng(4)
+    lines = 0
+    for k in range(40):
+        q = panda.random_q(rng)
+        near = k % 2 == 0  # a near target leaves level 1 inside its bounds; a far one saturates them
+        T = panda.fk(np.clip(q + 0.1 * rng.normal(size=7), panda.lower, panda.upper) if near
+                     else panda.random_q(rng)).copy()
+        lv = _levels(panda, q, [ik.FrameTask(None, T), ik.PostureTask(panda.random_q(rng))])
+        step = [0.05, 0.2, 1.0][k % 3]
+        lb, ub = np.maximum(panda.lower - q, -step), np.minimum(panda.upper - q, step)
+        G = rng.normal(size=(3, panda.nq))
+        l = -rng.uniform(0.02, 1.0, 3)  # from binding to loose
+        u = np.where(rng.random(3) < 0.5, np.inf, -l)
+        fast, low = hierarchical_step(lv, lb, ub, G, l, u, lam=1e-4, max_step=0.5)
+        slow, _ = hierarchical_step(lv, lb, ub, G, l, u, lam=1e-4, max_step=0.5, shortcut=False)
+        one, _ = hierarchical_step(lv[:1], lb, ub, G, l, u, lam=1e-4, shortcut=False)
+        assert np.allclose(fast, slow, atol=1e-7), (k, fast - slow)
+        assert np.all(fast >= lb - 1e-9) and np.all(fast <= ub + 1e-9)
+        assert np.all(G @ fast >= l - 1e-9) and np.all(G @ fast <= u + 1e-9)
+        assert np.allclose(lv[0][0] @ fast, lv[0][0] @ one, atol=1e-9)  # the frame task's velocity is kept
+        lines += np.linalg.norm(low) > 1e-9
+    assert lines >= 5  # the posture level moved in several cases (not a vacuous comparison)
+
+
+def test_line_qp_matches_brute_force():
+    from kinserve.ik.hierarchy import line_qp
+
+    rng = np.random.default_rng(5)
+    grid = np.linspace(-3, 3, 60001)
+    for _ in range(200):
+        a = rng.normal(size=5)
+        a[rng.random(5) < 0.2] = 0.0
+        lo, hi = -rng.random(5), rng.random(5)
+        lo[rng.random(5) < 0.2] = -np.inf
+        p, c = rng.random() + 0.1, rng.normal()
+        v = rng.uniform(np.maximum(lo, -1.0), hi)  # rows' values at z = 0 (feasible): the bounds on a z are lo - v, hi - v
+        z = line_qp(p, c, a.tolist(), v.tolist(), (lo + v).tolist(), (hi + v).tolist(), 2.5)
+        ok = (np.abs(grid) <= 2.5) & np.all((a[:, None] * grid >= lo[:, None]) & (a[:, None] * grid <= hi[:, None]), axis=0)
+        f = 0.5 * p * grid ** 2 + c * grid
+        best = grid[ok][np.argmin(f[ok])]
+        assert abs(z - best) < 2e-4 and abs(z) <= 2.5
+        assert np.all(a * z >= lo - 1e-12) and np.all(a * z <= hi + 1e-12)

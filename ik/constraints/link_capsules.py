@@ -136,11 +136,12 @@ class LinkSkeleton:
         cached = self._placements
         if cached is None or cached[0] is not data:
             # references into data.oMi (they follow every forward-kinematics pass): indexing the
-            # Pinocchio vector costs more than reading a placement
-            cached = self._placements = (data, list(data.oMi))
+            # Pinocchio vector costs more than reading a placement. The translations are NumPy views
+            # of the placements' memory (they follow too); the tuple keeps ``data``, their owner, alive.
+            oMi = list(data.oMi)
+            cached = self._placements = (data, oMi, [oMi[j].translation for j in self._translations])
         oMi = cached[1]
-        pts = [oMi[j].translation for j in self._translations]
-        pts += [oMi[j].act(l) for j, l in self._acts]
+        pts = cached[2] + [oMi[j].act(l) for j, l in self._acts]
         return np.array(pts + self._world) if self._world else np.array(pts)
 
     def gradient_rows(self, data: pin.Data, seg: np.ndarray, s: np.ndarray, A: np.ndarray, B: np.ndarray,

@@ -67,6 +67,7 @@ _INF = np.full(4096, np.inf)
 _INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
 _einsum = np.einsum
 _sqrt = np.sqrt
+_fmax = np.fmax
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
 
 if TYPE_CHECKING:  # annotations only
@@ -493,6 +494,7 @@ class ObstacleAvoidance(Constraint):
         ox, oy, oz = self._sph_c.T
         W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
         self._sph_S = self.skeleton.support[self.skeleton.ja[self._sph_seg]]
+        self._sph_iab = np.concatenate((self._sph_ia, self._sph_ib))
         self._sph_W = W
 
     def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -501,29 +503,32 @@ class ObstacleAvoidance(Constraint):
         With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
         (``V x n = 0``): the moment arm of every row is the sphere centre, a constant.
         """
+        if self._sph_W is None:
+            self._sphere_constants()
         P = self.skeleton.points(data)
-        A = P[self._sph_ia]
-        AB = P[self._sph_ib] - A
+        n = self._sph_seg.shape[0]
+        X = P.take(self._sph_iab, 0)  # both ends of every pair in one gather (take: cheaper than fancy indexing)
+        A = X[:n]
+        AB = X[n:] - A
         AC = self._sph_c - A
         s = _einsum("ij,ij->i", AC, AB) * self._sph_inv
         _clip(s, 0.0, 1.0, out=s)
-        V = s[:, None] * AB - AC
+        V = s[:, None] * AB
+        V -= AC  # x - o
         d = _sqrt(_einsum("ij,ij->i", V, V))
         c = d - self._sph_r_off
-        near = np.flatnonzero((c < self.influence) & (d > _EPS))
-        if self._sph_W is None:
-            self._sphere_constants()
-        if near.shape[0] < c.shape[0]:
-            c, d, V = c[near], d[near], V[near]
-            W, S = self._sph_W[near], self._sph_S[near]
-        else:
-            W, S = self._sph_W, self._sph_S
+        near = c < self.influence
+        # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint;
+        # computed for every pair (a few more rows of small products), then the far pairs are dropped
+        if d.min() > _EPS:
+            V /= d[:, None]  # unit normals
+        else:  # a witness at a sphere's centre has no direction: no row for it
+            near &= d > _EPS
+            V /= _fmax(d, _EPS)[:, None]
+        G = _einsum("pi,pij->pj", V, self._sph_W).dot(data.J)
+        G *= self._sph_S
+        G, c = G.compress(near, 0), c.compress(near)
         k = c.shape[0]
-        if not k:
-            return np.zeros((0, self._sph_S.shape[1])), np.zeros(0), np.zeros(0)
-        # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint
-        G = _einsum("pi,pij->pj", V / d[:, None], W).dot(data.J)
-        G *= S
         return G, -self.gain * c, _INF[:k] if k <= _INF.shape[0] else np.full(k, np.inf)
 
     def rows_all(self, robot: Robot, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:

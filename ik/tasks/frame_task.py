@@ -38,6 +38,8 @@ _log3 = pin.log3
 _Jlog3 = pin.Jlog3
 _ufp = pin.updateFramePlacement
 _gfj = pin.getFrameJacobian
+_concat = np.concatenate
+_hypot = math.hypot
 
 
 class FrameTask(Task):
@@ -110,13 +112,9 @@ class FrameTask(Task):
         M = _ufp(model, data, self.frame_id)
         R = M.rotation
         X = R.dot(self._Rt)
-        e = np.empty(6)
-        e[:3] = M.translation - self._p
-        e[3:] = _log3(X)
-        Jf = _gfj(model, data, self.frame_id, _LWA)
-        J = np.empty_like(Jf)
-        J[:3] = Jf[:3]
-        J[3:] = _Jlog3(X).dot(X.T).dot(Jf[3:])
+        e = _concat((M.translation - self._p, _log3(X)))
+        J = _gfj(model, data, self.frame_id, _LWA)  # a fresh array: its rotation rows are replaced in place
+        J[3:] = _Jlog3(X).dot(X.T).dot(J[3:])
         At = self._At
         if At is not None:
             e[:3] = At.dot(e[:3])
@@ -129,8 +127,8 @@ class FrameTask(Task):
 
     def errors(self, e: np.ndarray) -> tuple[float, float]:
         n = self.n_pos
-        ep, ew = e[:n], e[n:]
-        return math.sqrt(float(ep.dot(ep))), math.sqrt(float(ew.dot(ew)))
+        v = e.tolist()  # a few Python floats: cheaper than slicing and two dot products
+        return _hypot(*v[:n]), _hypot(*v[n:])
 
     def __repr__(self) -> str:
         relaxed = ",".join(TASK_AXES[i] for i in self.relaxed) or "none"
