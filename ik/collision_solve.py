@@ -56,7 +56,7 @@ from .result import History, Result
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5
-#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + random collision-free starts.
+#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + collision-free retry starts.
 UNCONSTRAINED_ATTEMPTS = 8
 
 
