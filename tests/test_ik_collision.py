@@ -239,3 +239,15 @@ def test_retry_starts_are_collision_free_table_starts_first(panda):
     free_table = [q for q in table[1:] if not panda.in_collision(q, SCENE)]
     assert len(free_table) >= 4
     np.testing.assert_array_equal(np.array(starts[: len(free_table)]), np.array(free_table))
+
+
+def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
+    """Obstacles found clear of the fixed base are remembered (by value); a new one overlapping it still raises."""
+    from kinserve.ik.constraints import collision as cc
+
+    ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=SCENE)
+    assert all(ob in cc._BASE_CLEAR[panda.collision] for ob in SCENE)
+    base = ik.Box(_pose((0.0, 0.0, 0.05)), (0.2, 0.2, 0.2))
+    with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
+        ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[*SCENE, base])
+    assert base not in cc._BASE_CLEAR[panda.collision]
