@@ -4,7 +4,8 @@ Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 
 1. **Unconstrained solves, then check** (half the time budget at most): the
    ordinary solver (closed form, LM or QP with the requested options), then up
-   to :data:`UNCONSTRAINED_ATTEMPTS` - 1 more from random collision-free starts;
+   to :data:`UNCONSTRAINED_ATTEMPTS` - 1 more from collision-free starts (the
+   table's samples nearest the target pose, then random configurations);
    an answer is kept when it and every iterate of the run that produced it pass
    the broad-phase collision check
    (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
@@ -47,13 +48,15 @@ from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
 
 from .constraints.collision import CollisionConstraint, _length
+from .multistart import frame_starts
 from .qp_solver import solve_qp
+from .seeds import start_sequence
 from .result import History, Result
 
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5
-#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + random collision-free starts.
+#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + collision-free retry starts.
 UNCONSTRAINED_ATTEMPTS = 8
 
 
@@ -152,16 +155,17 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
     """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves, each answer checked.
 
     The first is the ordinary solve (``q0``, then the table of starts); the
-    others start from random collision-free configurations (``seed``) - another
+    others start from the collision-free starts of :func:`_retry_starts` - another
     IK branch often clears what the first answer hit. An answer counts when it
     and every iterate of its run are collision free. Returns ``(result, warm)``:
     the qualifying result or None, and the last collision-free iterate of the
     first attempt before its first collision (the constrained solve's warm
     start; None when its start already collides).
     """
-    rng = None  # built for the first retry only (creating a Generator costs more than a checked answer)
+    retries = None  # built for the first retry only (ranking the table costs more than a checked answer)
     opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
     warm = None
+    first_start = None
     for attempt in range(UNCONSTRAINED_ATTEMPTS):
         left = deadline - time.perf_counter()
         if left <= 0.0:
@@ -169,9 +173,9 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
         if attempt == 0:
             res = solve_prepared(robot, dict(p, max_time=left), **solver_opts)
         else:
-            if rng is None:
-                rng = np.random.default_rng(p["seed"] or 0)
-            start = next((q for q in robot.random_q(rng, 20) if not constraint.in_collision(q)), None)
+            if retries is None:
+                retries = _retry_starts(robot, p, constraint, first_start)
+            start = next(retries, None)
             if start is None:
                 return None, warm
             res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
@@ -183,8 +187,41 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
             res.info["collision_attempts"] = attempt + 1
             return res, None
         if attempt == 0 and res.history is not None and len(res.history.q):
+            first_start = res.history.q[0]
             warm = _last_clear_iterate(constraint, res.history.q)
     return None, warm
+
+
+#: Consecutive random candidates in collision after which the retries give up (the scene leaves little room).
+RANDOM_TRIES = 20
+
+
+def _retry_starts(robot, p: dict, constraint: CollisionConstraint, skip: np.ndarray | None):
+    """Collision-free starts of the retries: the target's ranked table starts, then random configurations.
+
+    The table's samples nearest the target pose (:func:`kinserve.ik.multistart.frame_starts`, no ``q0``)
+    converge in few iterations and often on other IK branches than the first answer; ``skip`` (the
+    first attempt's start) and the samples in collision are left out. The random tail (``seed``)
+    stops after :data:`RANDOM_TRIES` candidates in a row collide.
+    """
+    tgt = p["target"]
+    seed = p["seed"] or 0
+    if getattr(tgt, "frame_id", None) is not None and getattr(tgt, "T", None) is not None:
+        seq = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3,
+                           None, seed)
+    else:
+        seq = start_sequence(robot, None, None, None, seed)
+    misses = 0
+    for q in seq:
+        if skip is not None and q.tolist() == skip.tolist():
+            continue
+        if constraint.in_collision(q):
+            misses += 1
+            if misses >= RANDOM_TRIES:
+                return
+            continue
+        misses = 0
+        yield q
 
 
 def _last_clear_iterate(constraint: CollisionConstraint, qs) -> np.ndarray | None:

@@ -102,6 +102,7 @@ class Shape:
         for k, v in fields.items():
             object.__setattr__(self, k, v)
         object.__setattr__(self, "_geometry", None)
+        object.__setattr__(self, "_hash", None)
 
     # -- coal ------------------------------------------------------------------------------------------
     def geometry(self) -> coal.CollisionGeometry:
@@ -157,10 +158,15 @@ class Shape:
         return type(other) is type(self) and other.to_dict() == self.to_dict()
 
     def __hash__(self) -> int:
-        return hash(repr(self.to_dict()))
+        """Hash of the plain data, computed once (the shape is immutable; scene caches hash it per solve)."""
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash(repr(self.to_dict()))
+            object.__setattr__(self, "_hash", h)
+        return h
 
-    def __getstate__(self) -> dict:
-        return {k: v for k, v in self.__dict__.items() if k != "_geometry"}
+    def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
+        return {k: v for k, v in self.__dict__.items() if k not in ("_geometry", "_hash")}
 
     def __setstate__(self, state: dict) -> None:
         self._set(**state)

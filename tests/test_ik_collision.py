@@ -1,6 +1,7 @@
 """Collision-aware IK: damper rows against finite differences of coal distances, collision-free answers and
 iterates (checked with an independent coal model), infeasible targets, the constraint protocol, solve_many."""
 
+import itertools
 import coal
 import numpy as np
 import pinocchio as pin
@@ -79,7 +80,12 @@ def test_damper_rows_match_finite_differences_of_the_distance(panda):
     assert checked > 30
 
 
-def test_answers_and_every_iterate_are_collision_free(panda):
+def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
+    """Open scene: every answer and iterate clear; every other solve with one unconstrained attempt
+    (then a first answer in collision goes to the constrained path), the others with the default retries."""
+    from kinserve.ik import collision_solve
+
+    default_attempts = collision_solve.UNCONSTRAINED_ATTEMPTS
     rng = np.random.default_rng(11)
     targets = []
     while len(targets) < 25:
@@ -87,7 +93,8 @@ def test_answers_and_every_iterate_are_collision_free(panda):
         if not panda.in_collision(q, SCENE):
             targets.append(panda.fk(q))
     paths = set()
-    for T in targets:
+    for i, T in enumerate(targets):
+        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", 1 if i % 2 else default_attempts)
         q0 = panda.random_q(rng)  # some starts are in collision: not an error
         res = ik.solve(panda, T, q0, self_collision=True, obstacles=SCENE, seed=3, max_time=1.0)
         assert res.success, res.summary()
@@ -205,3 +212,42 @@ def test_control_loop_with_collision_constraints_stays_clear(panda):
         closest = min(closest, panda.min_distance(q, SCENE, self_collision=False))
     assert 0.0 < closest  # pushed against the wall, never through it
     assert closest < 0.05
+
+
+def test_retry_starts_are_collision_free_table_starts_first(panda):
+    """The retries of the unconstrained path start from the target's ranked table samples (minus the first
+    attempt's start and the samples in collision), then from random collision-free configurations."""
+    from kinserve.ik import collision_solve
+    from kinserve.ik.multistart import frame_starts
+    from kinserve.ik.solve import prepare
+
+    rng = np.random.default_rng(4)
+    q_gen = panda.random_q(rng)
+    while panda.in_collision(q_gen, SCENE):
+        q_gen = panda.random_q(rng)
+    T = panda.fk(q_gen)
+    p = prepare(panda, T, None, seed=5)
+    tgt = p["target"]
+    constraint = collision_solve._bound_constraint(panda, SCENE, True, 0.0)
+    table = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], True,
+                                               None, 5), 16))
+    skip = table[0]
+    starts = list(itertools.islice(collision_solve._retry_starts(panda, p, constraint, skip), 30))
+    assert len(starts) == 30
+    assert all(not panda.in_collision(q, SCENE) for q in starts)
+    assert not any(np.array_equal(q, skip) for q in starts)
+    free_table = [q for q in table[1:] if not panda.in_collision(q, SCENE)]
+    assert len(free_table) >= 4
+    np.testing.assert_array_equal(np.array(starts[: len(free_table)]), np.array(free_table))
+
+
+def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
+    """Obstacles found clear of the fixed base are remembered (by value); a new one overlapping it still raises."""
+    from kinserve.ik.constraints import collision as cc
+
+    ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=SCENE)
+    assert all(ob in cc._BASE_CLEAR[panda.collision] for ob in SCENE)
+    base = ik.Box(_pose((0.0, 0.0, 0.05)), (0.2, 0.2, 0.2))
+    with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
+        ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[*SCENE, base])
+    assert base not in cc._BASE_CLEAR[panda.collision]

@@ -101,3 +101,16 @@ def test_open_mesh_is_refused(tmp_path):
     open_box.export(path)
     with pytest.raises(ModelError, match="closed surface"):
         Mesh(path)
+
+
+def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
+    a = Box(np.eye(4), (0.1, 0.2, 0.3))
+    b = Box(np.eye(4), (0.1, 0.2, 0.3))
+    c = Box(np.eye(4), (0.1, 0.2, 0.31))
+    assert hash(a) == hash(b) == hash(repr(b.to_dict()))
+    assert hash(a) != hash(c) and a != c
+    assert a.__dict__["_hash"] == hash(a)  # cached after the first call
+    assert "_hash" not in a.__getstate__()  # str hashes differ between processes
+    clone = pickle.loads(pickle.dumps(a))
+    assert clone.__dict__["_hash"] is None and hash(clone) == hash(a) and clone == a
+    assert {a: 1}[b] == 1

@@ -35,6 +35,8 @@ no row and could be crossed in one long step).
 from __future__ import annotations
 
 import math
+import threading
+import weakref
 from collections.abc import Sequence
 
 import coal
@@ -184,14 +186,33 @@ class CollisionConstraint(Constraint):
         return self.margin(self.robot, None, q) < 0.0
 
 
+#: Per collision model, the obstacles (by value; meshes never) already found clear of its fixed base.
+_BASE_CLEAR: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_BASE_CLEAR_SIZE = 256
+_BASE_CLEAR_LOCK = threading.Lock()
+
+
 def _check_base(robot, scene) -> None:
-    """InputError when an obstacle overlaps a geometry fixed to the world by more than BASE_TOLERANCE."""
+    """InputError when an obstacle overlaps a geometry fixed to the world by more than BASE_TOLERANCE.
+
+    An obstacle found clear is remembered per collision model (a table or wall shared by many
+    scenes is checked once).
+    """
     gm = scene.geometry
     base = [i for i in range(scene.n_robot) if gm.geometryObjects[i].parentJoint == 0]
     if not base or scene.n_robot == gm.ngeoms:
         return
+    try:
+        cleared = _BASE_CLEAR.get(robot.collision)
+    except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
+        cleared = None
     req, res = coal.DistanceRequest(), coal.DistanceResult()
+    newly = []
     for k in range(scene.n_robot, gm.ngeoms):
+        shape = scene.obstacles[k - scene.n_robot]
+        by_value = shape.kind != "mesh"
+        if by_value and cleared is not None and shape in cleared:
+            continue
         ob = gm.geometryObjects[k]
         for i in base:
             g = gm.geometryObjects[i]
@@ -203,6 +224,17 @@ def _check_base(robot, scene) -> None:
                     f"{scene.geometry_owner[k]} overlaps the robot's fixed base ({scene.geometry_owner[i]}) by "
                     f"{-d:.4g} m; the base cannot move out of it"
                 )
+        if by_value:
+            newly.append(shape)
+    if newly:
+        with _BASE_CLEAR_LOCK:
+            try:
+                cleared = _BASE_CLEAR.setdefault(robot.collision, set())
+            except TypeError:  # pragma: no cover
+                return
+            if len(cleared) + len(newly) > _BASE_CLEAR_SIZE:
+                cleared.clear()
+            cleared.update(newly)
 
 
 class SelfCollision(CollisionConstraint):
