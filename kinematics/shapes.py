@@ -100,6 +100,9 @@ class Shape:
 
     def _set(self, **fields: Any) -> None:
         for k, v in fields.items():
+            if isinstance(v, np.ndarray):  # immutable all the way down: hashes and cached scenes stay valid
+                v = v.copy()
+                v.setflags(write=False)
             object.__setattr__(self, k, v)
         object.__setattr__(self, "_geometry", None)
         object.__setattr__(self, "_hash", None)

@@ -114,3 +114,14 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
     clone = pickle.loads(pickle.dumps(a))
     assert clone.__dict__["_hash"] is None and hash(clone) == hash(a) and clone == a
     assert {a: 1}[b] == 1
+
+
+def test_pose_arrays_are_read_only(rng, ico_path):
+    """A shape's arrays cannot be changed in place (its hash and the scenes cached by value depend on them)."""
+    for shape in shapes(rng, ico_path):
+        with pytest.raises(ValueError):
+            shape.pose[0, 3] = 1.0
+    T = np.eye(4)
+    box = Box(T, [0.1, 0.1, 0.1])
+    T[0, 3] = 5.0  # the caller's array stays the caller's
+    assert box.pose[0, 3] == 0.0
