@@ -24,7 +24,11 @@ TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/
             "ik/constraints/link_capsules.py", "ik/constraints/segment_distance.py", "ik/problem.py", "ik/hierarchy.py",
             "ik/dense_qp.py", "ik/task_solver.py", "ik/multistart.py", "ik/step.py", "ik/qp_solver.py",
             # collision (issue 11)
-            "ik/constraints/collision.py", "ik/collision_solve.py")
+            "ik/constraints/collision.py", "ik/collision_solve.py",
+            # the front door, solvers, seeds and batch solving
+            "ik/solve.py", "ik/centring.py", "ik/seeds.py", "ik/analytic/__init__.py", "ik/analytic/youbot.py",
+            "ik/batch.py", "ik/batch_lm.py", "ik/ray_backend.py", "ik/qp_backends.py", "ik/lm_solver.py",
+            "ik/classical.py")
 
 
 def unannotated(path: Path) -> list[str]:
