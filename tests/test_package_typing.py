@@ -28,7 +28,8 @@ TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/
             # the front door, solvers, seeds and batch solving
             "ik/solve.py", "ik/centring.py", "ik/seeds.py", "ik/analytic/__init__.py", "ik/analytic/youbot.py",
             "ik/batch.py", "ik/batch_lm.py", "ik/ray_backend.py", "ik/qp_backends.py", "ik/lm_solver.py",
-            "ik/classical.py")
+            "ik/classical.py", "ik/batch_worker.py", "ik/batch_pool.py", "ik/batch_runners.py",
+            "ik/__init__.py", "ik/options.py")
 
 
 def unannotated(path: Path) -> list[str]:
