@@ -33,6 +33,8 @@ from __future__ import annotations
 import math
 import numbers
 import os
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -47,6 +49,10 @@ from .options import check_options
 from .result import Result
 from .solve import prepare
 from .targets import Target
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+    from kinserve.kinematics.types import MatrixLike, VectorLike
 
 __all__ = ["solve_many", "shutdown_pool", "checked_poses", "chunk_bounds", "BACKENDS"]
 
@@ -99,7 +105,8 @@ def _well_formed(T: np.ndarray) -> np.ndarray:
     return ok
 
 
-def checked_poses(robot, targets, frame: str, relax=(), relax_frame: str = "world") -> np.ndarray:
+def checked_poses(robot: Robot, targets: Any, frame: str, relax: str | Iterable[str] | None = (),
+                  relax_frame: str = "world") -> np.ndarray:
     """Validated ``(N, 4, 4)`` float64 copy of ``targets`` (array, sequence of 4x4 or ``pinocchio.SE3``).
 
     Checked all at once (:func:`_well_formed`); a pose that fails is checked
@@ -176,9 +183,9 @@ def chunk_bounds(n: int, processes: int, chunksize: int | None, vectorised: bool
 
 
 def solve_many(
-    robot,
-    targets,
-    q0=None,
+    robot: Robot,
+    targets: Any,
+    q0: VectorLike | MatrixLike | None = None,
     *,
     processes: int | None = None,
     chunksize: int | None = None,
@@ -189,20 +196,20 @@ def solve_many(
     timeout: float | None = None,
     qp_backend: str = "osqp",
     frame: str | None = None,
-    relax=(),
+    relax: str | Iterable[str] | None = (),
     relax_frame: str = "world",
-    spheres=(),
-    obstacles=(),
+    spheres: Any = (),
+    obstacles: Any = (),
     link_radius: float = 0.0,
     self_collision: bool = False,
     collision_margin: float = 0.0,
-    centring=0.0,
+    centring: float | VectorLike = 0.0,
     method: str = "auto",
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
     seed: int | None = None,
-    **options,
+    **options: Any,
 ) -> list[Result]:
     """Solve ``ik.solve`` for every pose of ``targets``; returns the results in order.
 

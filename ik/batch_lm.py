@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
@@ -39,6 +40,9 @@ from kinserve.kinematics.batch_fk import joint_axis, joint_chain
 
 from .lm_solver import DAMPING, DAMPING_GAIN, MAX_ITER, STALL_PATIENCE, STALL_RATIO, solve_lm
 from .seeds import seed_table
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
 
 #: Below this many unfinished targets the scalar solver takes over.
@@ -50,7 +54,7 @@ MAX_STARTS = 100
 class BatchChain:
     """Stacked forward kinematics and geometric Jacobian of one frame of a serial chain."""
 
-    def __init__(self, robot, frame: str):
+    def __init__(self, robot: Robot, frame: str) -> None:
         model = robot.model
         fid = robot.frame_id(frame)
         f = model.frames[fid]
@@ -70,7 +74,7 @@ class BatchChain:
         self.frame_R = f.placement.rotation.copy()
         self.frame_p = f.placement.translation.copy()
 
-    def __call__(self, Q):
+    def __call__(self, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(R (N,3,3), p (N,3), J (N,6,nq))`` of the frame for configurations ``Q`` (N, nq)."""
         N = Q.shape[0]
         R = np.broadcast_to(np.eye(3), (N, 3, 3))
@@ -193,8 +197,9 @@ class _Starts:
         return self.robot.random_q(rng)
 
 
-def solve_batch(robot, frame: str, targets: np.ndarray, q0s=None, *, tol_pos=1e-4, tol_rot=1e-3, seed=None,
-                max_time=None, max_iter: int = MAX_ITER, damping: float = DAMPING):
+def solve_batch(robot: Robot, frame: str, targets: np.ndarray, q0s: np.ndarray | None = None, *,
+                tol_pos: float = 1e-4, tol_rot: float = 1e-3, seed: int | None = None,
+                max_time: float | None = None, max_iter: int = MAX_ITER, damping: float = DAMPING) -> dict[str, Any]:
     """Solve full-pose targets ``(N, 4, 4)`` together; returns a dict of per-target arrays.
 
     Keys: ``q``, ``success``, ``position_error``, ``orientation_error``,

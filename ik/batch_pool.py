@@ -44,6 +44,7 @@ import threading
 import time
 import traceback
 from collections import deque
+from collections.abc import Callable, Iterable
 from multiprocessing.connection import wait
 
 from kinserve.kinematics.errors import WorkerError, WorkerTimeoutError
@@ -150,7 +151,8 @@ class WorkerPool:
     def alive(self) -> bool:
         return all(w.process.is_alive() for w in self.workers)
 
-    def run(self, job_id, path: str, chunks, on_done, chunk_limit, deadline: float | None = None) -> None:
+    def run(self, job_id: tuple[int, int], path: str, chunks: Iterable[tuple[int, int]], on_done: Callable[[dict], None],
+            chunk_limit: Callable[[int], float], deadline: float | None = None) -> None:
         """Solve ``chunks`` (``(start, stop)`` pairs) of the job in file ``path``; ``on_done(result)`` for each.
 
         ``chunk_limit(n)`` is the time limit (s) of a chunk of ``n`` targets;

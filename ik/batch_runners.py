@@ -67,6 +67,7 @@ from __future__ import annotations
 import glob
 import os
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from kinserve.kinematics.errors import WorkerTimeoutError
@@ -106,7 +107,8 @@ class TimeLimits:
         return self.factor * n * self.budget + self.slack
 
 
-def run_serial(job: Job, chunks, processes: int, on_done, limits: TimeLimits) -> None:
+def run_serial(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
+               limits: TimeLimits) -> None:
     """Solve the chunks in this process, one after the other (the overall timeout is checked between chunks)."""
     for start, stop in chunks:
         if limits.deadline is not None and time.monotonic() > limits.deadline:
@@ -115,7 +117,8 @@ def run_serial(job: Job, chunks, processes: int, on_done, limits: TimeLimits) ->
         on_done(solve_chunk(job, start, poses, q0s))
 
 
-def run_processes(job: Job, chunks, processes: int, on_done, limits: TimeLimits) -> None:
+def run_processes(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
+                  limits: TimeLimits) -> None:
     """Solve the chunks on the persistent local pool (:mod:`ik.batch_pool`)."""
     path = write_job(job)
     pool = None
@@ -134,7 +137,8 @@ def run_processes(job: Job, chunks, processes: int, on_done, limits: TimeLimits)
                 pass
 
 
-def run_ray(job: Job, chunks, processes: int, on_done, limits: TimeLimits) -> None:
+def run_ray(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
+            limits: TimeLimits) -> None:
     """Solve the chunks on Ray actors (:mod:`ik.ray_backend`)."""
     common = {"frame": job.frame, "kwargs": job.kwargs}
     ray_chunks = [(start, *job.chunk(start, stop)) for start, stop in chunks]

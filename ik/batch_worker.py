@@ -27,6 +27,7 @@ import os
 import pickle
 import tempfile
 from collections import OrderedDict
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -35,6 +36,9 @@ from .batch_lm import BatchChain, solve_batch
 from .seeds import install_table, seed_table
 from .solve import prepare, solve_prepared
 from .targets import Target
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
 
 #: Jobs a worker keeps loaded (least recently used first out).
 WORKER_JOBS = 2
@@ -54,8 +58,9 @@ class Job:
     or None are already validated.
     """
 
-    def __init__(self, robot, kwargs: dict, options: dict, keep_history: bool, frame: str, poses=None, q0s=None,
-                 prepared: dict | None = None):
+    def __init__(self, robot: Robot, kwargs: dict, options: dict, keep_history: bool, frame: str,
+                 poses: np.ndarray | None = None, q0s: np.ndarray | None = None,
+                 prepared: dict | None = None) -> None:
         self.id = (os.getpid(), next(_job_ids))
         self.robot = robot
         self.kwargs = kwargs
@@ -80,7 +85,7 @@ class Job:
             self._vectorised = _vectorisable(self)
         return self._vectorised
 
-    def chunk(self, start: int, stop: int):
+    def chunk(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray | None]:
         """``(poses, q0s)`` of targets ``start .. stop``."""
         return self.poses[start:stop], None if self.q0s is None else self.q0s[start:stop]
 
@@ -121,7 +126,7 @@ def _empty_out(n: int, nq: int, start: int, keep_history: bool) -> dict:
     }
 
 
-def solve_chunk(job: Job, start: int, poses, q0s) -> dict:
+def solve_chunk(job: Job, start: int, poses: np.ndarray, q0s: np.ndarray | None) -> dict:
     """Solve targets ``start .. start + len(poses)`` of ``job``; return compact arrays (module docstring)."""
     robot = job.robot
     n = len(poses)
@@ -187,7 +192,7 @@ def read_job(path: str) -> Job:
 _worker_jobs: OrderedDict = OrderedDict()
 
 
-def worker_chunk(job_id, path: str, start: int, stop: int) -> dict:
+def worker_chunk(job_id: tuple[int, int], path: str, start: int, stop: int) -> dict:
     """Solve targets ``start .. stop`` of the job ``job_id`` stored at ``path`` (loaded once per process)."""
     job = _worker_jobs.get(job_id)
     if job is None:
@@ -204,7 +209,8 @@ def worker_chunk(job_id, path: str, start: int, stop: int) -> dict:
 _actor_jobs: OrderedDict = OrderedDict()
 
 
-def actor_chunk(robot, common: dict, options: dict, keep_history: bool, start: int, poses, q0s) -> dict:
+def actor_chunk(robot: Robot, common: dict, options: dict, keep_history: bool, start: int, poses: np.ndarray,
+                q0s: np.ndarray | None) -> dict:
     """Solve one chunk for a runner that holds ``(robot, common, options, keep_history)`` (a Ray actor).
 
     ``common`` carries ``"kwargs"`` (the validated ``ik.solve`` keywords) and

@@ -38,14 +38,19 @@ the middle of its range; relaxing ``z`` leaves ``d3`` free, which goes to
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import get_lapack_funcs
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+    from kinserve.kinematics.types import VectorLike
 
-def centring_weights(robot, centring) -> np.ndarray | None:
+
+def centring_weights(robot: Robot, centring: float | VectorLike | None) -> np.ndarray | None:
     """Per-joint weights ``w / r^2`` (``(nq,)``) or None when centring is off.
 
     ``centring`` is a number or a sequence of ``nq`` numbers, all finite and ``>= 0``.
@@ -71,7 +76,7 @@ def centring_weights(robot, centring) -> np.ndarray | None:
     return out if np.any(out > 0) else None
 
 
-def centring_objective(robot, q, weights) -> float:
+def centring_objective(robot: Robot, q: VectorLike, weights: np.ndarray) -> float:
     """``h(q)`` for weights from :func:`centring_weights` (already divided by ``r^2``)."""
     d = np.asarray(q, dtype=float) - robot.middle()
     return 0.5 * float(np.sum(weights * d * d))
@@ -169,6 +174,6 @@ def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarr
     return Z @ z
 
 
-def centring_step(robot, q, weights) -> np.ndarray:
+def centring_step(robot: Robot, q: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The secondary step ``(m - q)`` on weighted joints (0 on joints with weight 0)."""
     return np.where(weights > 0, robot.middle() - q, 0.0)

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -42,6 +43,11 @@ from kinserve.kinematics.errors import InputError
 
 from .centring import null_space_basis, null_space_correction
 from .result import History, Result
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+
+    from .targets import Target
 
 METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
 
@@ -64,14 +70,14 @@ CENTRING_TOL = 1e-9
 
 
 def solve_classical(
-    robot,
-    target,
-    q0,
+    robot: Robot,
+    target: Target,
+    q0: np.ndarray,
     method: str,
     *,
     gain: float | None = None,
     damping: float = DLS_DAMPING,
-    weights=None,
+    weights: np.ndarray | None = None,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_iter: int | None = None,

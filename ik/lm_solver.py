@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -49,6 +50,11 @@ from scipy.linalg import get_lapack_funcs
 
 from .result import History, Result, task_evaluator
 from .multistart import frame_starts
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+
+    from .targets import Target
 
 #: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
 DAMPING = 1e-5
@@ -183,14 +189,14 @@ def _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, lam0, 
 
 
 def solve_lm(
-    robot,
-    target,
-    q0=None,
+    robot: Robot,
+    target: Target,
+    q0: np.ndarray | None = None,
     *,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
-    seed=None,
+    seed: int | None = None,
     max_iter: int = MAX_ITER,
     damping: float = DAMPING,
     max_starts: int | None = None,

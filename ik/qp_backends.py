@@ -53,18 +53,19 @@ class QPBackend:
 
     name = "?"
 
-    def __init__(self, n: int, m: int):
+    def __init__(self, n: int, m: int) -> None:
         self.n, self.m = n, m
         self.status = ""
 
-    def solve(self, P, c, G, l, u, lb, ub):  # pragma: no cover - interface
+    def solve(self, P: np.ndarray, c: np.ndarray, G: np.ndarray, l: np.ndarray, u: np.ndarray,
+              lb: np.ndarray, ub: np.ndarray) -> np.ndarray | None:  # pragma: no cover - interface
         raise NotImplementedError
 
 
 class OSQPBackend(QPBackend):
     name = "osqp"
 
-    def __init__(self, n, m, eps=1e-7, max_iter=4000):
+    def __init__(self, n: int, m: int, eps: float = 1e-7, max_iter: int = 4000) -> None:
         super().__init__(n, m)
         import osqp
         import scipy.sparse as sp
@@ -92,7 +93,8 @@ class OSQPBackend(QPBackend):
         )
         self._solver = self._prob._solver
 
-    def solve(self, P, c, G, l, u, lb, ub):
+    def solve(self, P: np.ndarray, c: np.ndarray, G: np.ndarray, l: np.ndarray, u: np.ndarray,
+              lb: np.ndarray, ub: np.ndarray) -> np.ndarray | None:
         # the extension object directly: osqp.OSQP.solve() builds a namespace of
         # every info field on each call, which costs more than the solve itself
         solver = self._solver
@@ -119,7 +121,7 @@ class OSQPBackend(QPBackend):
 class DAQPBackend(QPBackend):
     name = "daqp"
 
-    def __init__(self, n, m):
+    def __init__(self, n: int, m: int) -> None:
         super().__init__(n, m)
         import daqp
 
@@ -130,7 +132,8 @@ class DAQPBackend(QPBackend):
         self._sense = np.zeros(n + m, dtype=np.int32)
         self._setup = False
 
-    def solve(self, P, c, G, l, u, lb, ub):
+    def solve(self, P: np.ndarray, c: np.ndarray, G: np.ndarray, l: np.ndarray, u: np.ndarray,
+              lb: np.ndarray, ub: np.ndarray) -> np.ndarray | None:
         n = self.n
         self._bl[:n], self._bu[:n] = lb, ub
         if self.m:
@@ -157,7 +160,7 @@ class DAQPBackend(QPBackend):
 class ProxQPBackend(QPBackend):
     name = "proxqp"
 
-    def __init__(self, n, m):
+    def __init__(self, n: int, m: int) -> None:
         super().__init__(n, m)
         from proxsuite import proxqp
 
@@ -168,7 +171,8 @@ class ProxQPBackend(QPBackend):
         self._init = False
         self._ok = proxqp.QPSolverOutput.PROXQP_SOLVED
 
-    def solve(self, P, c, G, l, u, lb, ub):
+    def solve(self, P: np.ndarray, c: np.ndarray, G: np.ndarray, l: np.ndarray, u: np.ndarray,
+              lb: np.ndarray, ub: np.ndarray) -> np.ndarray | None:
         C = G if self.m else None
         lo = np.maximum(l, -INF) if self.m else None
         up = np.minimum(u, INF) if self.m else None
@@ -188,7 +192,7 @@ class ProxQPBackend(QPBackend):
 class QPSolversBackend(QPBackend):
     """Any ``qpsolvers`` solver, called statelessly (``G x <= h`` form, infinite rows dropped)."""
 
-    def __init__(self, n, m, solver):
+    def __init__(self, n: int, m: int, solver: str) -> None:
         super().__init__(n, m)
         import qpsolvers
 
@@ -196,7 +200,8 @@ class QPSolversBackend(QPBackend):
         self.name = solver
         self._x = None
 
-    def solve(self, P, c, G, l, u, lb, ub):
+    def solve(self, P: np.ndarray, c: np.ndarray, G: np.ndarray, l: np.ndarray, u: np.ndarray,
+              lb: np.ndarray, ub: np.ndarray) -> np.ndarray | None:
         rows, rhs = [], []
         if self.m:
             fin_u = np.isfinite(u) & (u < INF)

@@ -21,11 +21,19 @@ Ray with ``processes`` CPUs is started and left running for later batches
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
 
 from .batch_worker import actor_chunk, limit_blas_threads
 from .seeds import seed_table
+
+if TYPE_CHECKING:  # annotations only
+    import numpy as np
+
+    from kinserve.kinematics.robot import Robot
 
 
 def _ray():
@@ -36,7 +44,7 @@ def _ray():
     return ray
 
 
-def ensure_ray(address: str | None = None, num_cpus: int | None = None):
+def ensure_ray(address: str | None = None, num_cpus: int | None = None) -> ModuleType:
     """Connect to Ray (``address``) or start a local instance with ``num_cpus`` CPUs; return the module."""
     ray = _ray()
     if not ray.is_initialized():
@@ -62,8 +70,10 @@ class _ChunkSolver:
         return actor_chunk(self.robot, common, options, keep_history, start, poses, q0s)
 
 
-def run_ray_chunks(robot, chunks, common, options, keep_history, processes, on_done, address: str | None = None,
-                   chunk_limit=None, deadline: float | None = None):
+def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, np.ndarray, np.ndarray | None]], common: dict,
+                   options: dict, keep_history: bool, processes: int, on_done: Callable[[dict], None],
+                   address: str | None = None, chunk_limit: Callable[[int], float] | None = None,
+                   deadline: float | None = None) -> None:
     """Solve ``chunks`` (``(start, poses, q0s)``) on ``processes`` actors; ``on_done(result)`` for each."""
     ray = ensure_ray(address, processes)
     actor_class = ray.remote(num_cpus=1)(_ChunkSolver)

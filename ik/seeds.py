@@ -33,8 +33,14 @@ from __future__ import annotations
 import math
 import threading
 import weakref
+from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+    from kinserve.kinematics.types import VectorLike
 
 #: Default number of samples in a table.
 DEFAULT_SIZE = 2000
@@ -59,7 +65,7 @@ class SeedTable:
     limit, which the interior samples cannot approach.
     """
 
-    def __init__(self, robot, frame: str, n: int | None = None, rotation_weight: float | None = None):
+    def __init__(self, robot: Robot, frame: str, n: int | None = None, rotation_weight: float | None = None) -> None:
         n = DEFAULT_SIZE if n is None else int(n)
         rng = np.random.default_rng(_TABLE_SEED)
         span = robot.upper - robot.lower
@@ -123,7 +129,7 @@ class SeedTable:
         return idx, score[idx] + float(f_target[:12] @ f_target[:12])
 
 
-def seed_table(robot, frame: str) -> SeedTable:
+def seed_table(robot: Robot, frame: str) -> SeedTable:
     """The cached :class:`SeedTable` of ``robot`` for ``frame`` (built on first use).
 
     Cached per Pinocchio model (weakly), so every ``robot.copy()`` - and every
@@ -141,19 +147,20 @@ def seed_table(robot, frame: str) -> SeedTable:
     return table
 
 
-def cached_tables(robot) -> list[SeedTable]:
+def cached_tables(robot: Robot) -> list[SeedTable]:
     """The tables already built for ``robot``'s model (any frame); builds nothing."""
     return list(_tables.get(robot.model, {}).values())
 
 
-def install_table(robot, frame: str, table: SeedTable) -> None:
+def install_table(robot: Robot, frame: str, table: SeedTable) -> None:
     """Register an existing table for ``robot`` (e.g. one shipped to a worker process)."""
     with _tables_lock:
         _tables.setdefault(robot.model, {})[frame] = table
 
 
-def start_sequence(robot, table: SeedTable | None, f_target, q0, rng_seed, n_table: int = 8, q0_distance=None,
-                   prefer_q0: bool = False):
+def start_sequence(robot: Robot, table: SeedTable | None, f_target: np.ndarray | None, q0: VectorLike | None,
+                   rng_seed: int | None, n_table: int = 8, q0_distance: float | None = None,
+                   prefer_q0: bool = False) -> Iterator[np.ndarray]:
     """Generator of start configurations (fresh arrays) for one solve; see the module docstring.
 
     ``q0_distance`` is ``D`` of ``q0`` (None when ``q0`` is None). With

@@ -40,6 +40,7 @@ import contextlib
 import math
 import numbers
 import time
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -62,6 +63,14 @@ from .targets import Target
 from .qp_solver import solve_qp
 from .task_solver import MAX_TIME as QP_MAX_TIME
 from .task_solver import solve_problem
+
+if TYPE_CHECKING:  # annotations only
+    from collections.abc import Iterable
+
+    from kinserve.kinematics.robot import Robot
+    from kinserve.kinematics.types import PoseLike, VectorLike
+
+    from .result import Result
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
@@ -142,9 +151,11 @@ def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
     return ObstacleAvoidance(items, link_radius=link_radius, tool_frames=(frame,)).bind(robot)
 
 
-def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world", spheres=(), obstacles=(),
-            link_radius=0.0, centring=0.0, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
-            max_time=None, seed=None):
+def prepare(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = None, *, frame: str | None = None,
+            relax: str | Iterable[str] | None = (), relax_frame: str = "world", spheres: Any = (),
+            obstacles: Any = (), link_radius: float = 0.0, centring: float | VectorLike = 0.0,
+            method: str = "auto", backend: str | None = None, tol_pos: float = 1e-4, tol_rot: float = 1e-3,
+            max_time: float | None = None, seed: int | None = None) -> dict[str, Any]:
     """Validate every argument of :func:`solve`; return a dict of checked values.
 
     Exposed so that batch solving (:mod:`ik.batch`) validates each target once
@@ -178,29 +189,29 @@ def prepare(robot, target, q0=None, *, frame=None, relax=(), relax_frame="world"
 
 
 def solve(
-    robot,
-    target=None,
-    q0=None,
+    robot: Robot,
+    target: PoseLike | Target | None = None,
+    q0: VectorLike | None = None,
     *,
     frame: str | None = None,
-    relax=(),
+    relax: str | Iterable[str] | None = (),
     relax_frame: str = "world",
-    spheres=(),
-    obstacles=(),
+    spheres: Any = (),
+    obstacles: Any = (),
     link_radius: float = 0.0,
-    centring=0.0,
+    centring: float | VectorLike = 0.0,
     method: str = "auto",
     backend: str | None = None,
     tol_pos: float = 1e-4,
     tol_rot: float = 1e-3,
     max_time: float | None = None,
     seed: int | None = None,
-    tasks=None,
-    constraints=None,
+    tasks: Any = None,
+    constraints: Any = None,
     self_collision: bool = False,
     collision_margin: float = 0.0,
-    **options,
-):
+    **options: Any,
+) -> Result:
     """Inverse kinematics: a configuration placing ``frame`` at ``target`` - or meeting ``tasks``.
 
     Two front doors:
@@ -311,8 +322,9 @@ def solve(
 _TASK_OPTIONS = OPTIONS["qp"]
 
 
-def solve_tasks(robot, tasks, constraints=None, q0=None, *, method="auto", backend=None, tol_pos=1e-4, tol_rot=1e-3,
-                max_time=None, seed=None, **options):
+def solve_tasks(robot: Robot, tasks: Any, constraints: Any = None, q0: VectorLike | None = None, *,
+                method: str = "auto", backend: str | None = None, tol_pos: float = 1e-4, tol_rot: float = 1e-3,
+                max_time: float | None = None, seed: int | None = None, **options: Any) -> Result:
     """``ik.solve(robot, tasks=..., constraints=..., q0=...)`` (see :func:`solve`)."""
     _check_robot(robot)
     if method not in ("auto", "qp"):
@@ -429,7 +441,7 @@ def _check_options(method, options, allowed):
         raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
 
 
-def solve_prepared(robot, p: dict, **options):
+def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:
     """Run the solver on arguments already checked by :func:`prepare`.
 
     ``options`` may hold the collision options of :func:`solve` (``self_collision``, ``obstacles``,
@@ -544,8 +556,9 @@ def _choose_index(robot, pool, criteria, q0, frame):
     return i
 
 
-def solve_all(robot, target, q0=None, *, frame: str | None = None, relax=(), relax_frame: str = "world",
-              tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24):
+def solve_all(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = None, *, frame: str | None = None,
+              relax: str | Iterable[str] | None = (), relax_frame: str = "world",
+              tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
     """Every closed-form branch for ``target`` (list of :class:`ik.Result`, each verified by FK).
 
     Planar 4R arms return their one-parameter family sampled at about

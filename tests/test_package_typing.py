@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("robots", "kinematics", "planners")
+PACKAGES = ("robots", "kinematics", "planners", "ik")  # every public signature of these is annotated
 TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/result.py", "ik/targets.py",
             # the IK model (issue 10)
             "ik/tasks/__init__.py", "ik/tasks/base.py", "ik/tasks/frame_task.py", "ik/tasks/posture_task.py",
@@ -24,7 +24,12 @@ TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/
             "ik/constraints/link_capsules.py", "ik/constraints/segment_distance.py", "ik/problem.py", "ik/hierarchy.py",
             "ik/dense_qp.py", "ik/task_solver.py", "ik/multistart.py", "ik/step.py", "ik/qp_solver.py",
             # collision (issue 11)
-            "ik/constraints/collision.py", "ik/collision_solve.py")
+            "ik/constraints/collision.py", "ik/collision_solve.py",
+            # the front door, solvers, seeds and batch solving
+            "ik/solve.py", "ik/centring.py", "ik/seeds.py", "ik/analytic/__init__.py", "ik/analytic/youbot.py",
+            "ik/batch.py", "ik/batch_lm.py", "ik/ray_backend.py", "ik/qp_backends.py", "ik/lm_solver.py",
+            "ik/classical.py", "ik/batch_worker.py", "ik/batch_pool.py", "ik/batch_runners.py",
+            "ik/__init__.py", "ik/options.py")
 
 
 def unannotated(path: Path) -> list[str]:

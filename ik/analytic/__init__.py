@@ -16,12 +16,24 @@ from __future__ import annotations
 import threading
 import time
 import weakref
+from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
 from ..result import History, Result
 from .planar import PlanarChain, two_link, wrap_into
 from .youbot import YOUBOT_DH, YouBotArm
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+
+    from ..targets import Target
+
+#: A closed-form solver: one of :data:`_SOLVERS`.
+ClosedFormSolver = Union[PlanarChain, YouBotArm]
+
+#: One raw branch ``(q, label, free_parameter, note)`` from :func:`raw_branches`.
+Branch = tuple[np.ndarray, str, Union[float, None], Union[str, None]]
 
 __all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
 
@@ -30,7 +42,7 @@ _cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _cache_lock = threading.Lock()
 
 
-def closed_form_solver(robot, frame: str):
+def closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | None:
     """The closed-form solver of ``robot`` for ``frame``, or None when there is none.
 
     Solvers are immutable once built; the per-model cache is filled under a
@@ -54,7 +66,8 @@ def closed_form_solver(robot, frame: str):
     return solver
 
 
-def raw_branches(robot, solver, target, samples: int = 24):
+def raw_branches(robot: Robot, solver: ClosedFormSolver, target: Target,
+                 samples: int = 24) -> tuple[list[Branch], str | None, dict]:
     """``(branches, note, info)``: distinct joint vectors ``(q, label, free_parameter, note)`` inside the limits.
 
     A solver's branch may carry its own note (why it only approaches the
@@ -70,7 +83,7 @@ def raw_branches(robot, solver, target, samples: int = 24):
     return out, note, extra
 
 
-def branch_result(robot, target, branch, note: str, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
+def branch_result(robot: Robot, target: Target, branch: Branch, note: str | None, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
     """One closed-form branch as a :class:`Result`, verified with the robot's forward kinematics.
 
     The branch's own note (4th element, from :func:`raw_branches`) takes the place of ``note``.
@@ -94,7 +107,7 @@ def branch_result(robot, target, branch, note: str, extra: dict, tol_pos: float,
     )
 
 
-def branches(robot, solver, target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
+def branches(robot: Robot, solver: ClosedFormSolver, target: Target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
     """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``),
     the successful ones first (otherwise in the solver's order)."""
     t0 = time.perf_counter()

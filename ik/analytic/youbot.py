@@ -44,10 +44,16 @@ kinematics (with a constant base transform) before the solver is used.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .planar import two_link, wrap_into
+
+if TYPE_CHECKING:  # annotations only
+    from kinserve.kinematics.robot import Robot
+    from kinserve.kinematics.types import VectorLike
 
 #: ``(a, alpha, d)`` of the youBot arm (SCENARIOS.md, S2).
 YOUBOT_DH = ((-0.033, math.pi / 2, 0.145), (0.155, 0.0, 0.0), (0.135, 0.0, 0.0), (0.002, math.pi / 2, 0.0), (0.0, math.pi, -0.185))
@@ -80,7 +86,7 @@ class YouBotArm:
     name = "youbot"
     finite = True
 
-    def __init__(self, robot, frame: str, dh=YOUBOT_DH):
+    def __init__(self, robot: Robot, frame: str, dh: Sequence[Sequence[float]] = YOUBOT_DH) -> None:
         if robot.nq != 5:
             raise ValueError("the youBot solver needs 5 joints")
         self.dh = tuple(tuple(float(v) for v in row) for row in dh)
@@ -99,22 +105,23 @@ class YouBotArm:
             if np.abs(r.fk(q, frame) - self.base @ self.dh_fk(q)).max() > 1e-8:
                 raise ValueError("the robot does not match the youBot DH model")
 
-    def dh_fk(self, q) -> np.ndarray:
+    def dh_fk(self, q: VectorLike) -> np.ndarray:
         """``A_1(q_1) ... A_5(q_5)`` (base frame, 4x4)."""
         T = np.eye(4)
         for (a, alpha, d), th in zip(self.dh, q):
             T = T @ _dh(a, alpha, d, th)
         return T
 
-    def fk(self, q) -> np.ndarray:
+    def fk(self, q: VectorLike) -> np.ndarray:
         """Tool pose in the world: ``base * A_1 ... A_5``."""
         return self.base @ self.dh_fk(q)
 
-    def supports(self, relaxed) -> bool:
+    def supports(self, relaxed: Sequence[int]) -> bool:
         """Only full-pose targets have a closed form here (relaxations leave a family of solutions)."""
         return not relaxed
 
-    def solve_all(self, T_target: np.ndarray, relaxed=(), samples: int = 0):
+    def solve_all(self, T_target: np.ndarray, relaxed: Sequence[int] = (),
+                  samples: int = 0) -> tuple[list[tuple[np.ndarray, str, None, str]], str, dict[str, Any]]:
         """``(branches, note, info)``: every branch ``(q, label, None, note)`` within the limits.
 
         Each branch carries its own ``note``: empty when it reaches the target

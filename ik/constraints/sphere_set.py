@@ -43,12 +43,18 @@ end.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Sphere
+
+if TYPE_CHECKING:
+    from kinserve.kinematics.robot import Robot
+    from kinserve.kinematics.types import VectorLike
 
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
@@ -63,7 +69,7 @@ def joint_step_bounds(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, max_s
     return lb, ub
 
 
-def as_sphere(value) -> Sphere:
+def as_sphere(value: Any) -> Sphere:
     """Accept a :class:`Sphere`, a ``(center, radius)`` pair or a ``{"center", "radius", "frames"}`` dict."""
     if isinstance(value, Sphere):
         return value
@@ -94,7 +100,7 @@ class _Segment:
         return self.ja == 0 and self.jb == 0
 
 
-def robot_segments(robot, tool_frame: str) -> list[_Segment]:
+def robot_segments(robot: Robot, tool_frame: str) -> list[_Segment]:
     """The default checked geometry of ``robot``: link, prismatic and tool segments (module docstring)."""
     model = robot.model
     segs = []
@@ -110,7 +116,7 @@ def robot_segments(robot, tool_frame: str) -> list[_Segment]:
     return segs
 
 
-def frame_points(robot, frames) -> list[_Segment]:
+def frame_points(robot: Robot, frames: Iterable[str]) -> list[_Segment]:
     """Zero-length segments at the origins of the named frames."""
     segs = []
     for name in frames:
@@ -139,7 +145,7 @@ class SphereSet:
     right after its own kinematics pass.
     """
 
-    def __init__(self, robot, spheres, tool_frame: str):
+    def __init__(self, robot: Robot, spheres: Iterable[Sphere], tool_frame: str) -> None:
         self.robot = robot
         self.spheres = [as_sphere(s) for s in spheres]
         pairs = []
@@ -173,7 +179,7 @@ class SphereSet:
         b = ob.act(seg.lb) if seg.jb else seg.lb + 0.0
         return a, b
 
-    def clearances(self, data) -> np.ndarray:
+    def clearances(self, data: pin.Data) -> np.ndarray:
         """``d - r`` (m) for every pair at the configuration of ``data`` (after FK)."""
         out = np.empty(self.m)
         for i, (_, c, r, seg) in enumerate(self.pairs):
@@ -182,12 +188,12 @@ class SphereSet:
             out[i] = math.sqrt((x - c).dot(x - c)) - r
         return out
 
-    def clearances_at(self, q) -> np.ndarray:
+    def clearances_at(self, q: VectorLike) -> np.ndarray:
         """``d - r`` at ``q`` (runs forward kinematics on the robot's data)."""
         pin.forwardKinematics(self.robot.model, self.robot.data, q)
         return self.clearances(self.robot.data)
 
-    def rows(self, data) -> tuple[np.ndarray, np.ndarray]:
+    def rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """``(d - r, G)``: clearances ``(m,)`` and their gradients ``G`` ``(m, nq)`` (after computeJointJacobians)."""
         model = self.robot.model
         n = model.nv
