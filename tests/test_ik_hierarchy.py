@@ -85,9 +85,12 @@ def test_three_levels_in_a_full_solve(panda):
         assert [t["priority"] for t in res.task_errors] == [1, 2, 3]
 
 
-def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda):
+def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda, monkeypatch):
     """6-D frame task on 7 joints: the posture level has one free direction; its closed form (line_qp)
     agrees with the QP solver (shortcut=False) and keeps every bound and row."""
+    from kinserve.ik import hierarchy
+
+    monkeypatch.setattr(hierarchy, "LINE_LEVEL", True)
     rng = np.random.default_rng(4)
     lines = 0
     for k in range(40):
