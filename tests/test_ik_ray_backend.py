@@ -1,5 +1,8 @@
 """solve_many on a local 2-CPU Ray gives the same results as the local backends."""
 
+import gc
+import warnings
+
 import numpy as np
 import pytest
 
@@ -11,7 +14,12 @@ ray = pytest.importorskip("ray")
 
 @pytest.fixture(scope="module")
 def local_ray():
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    # ray.init leaves a probe socket of its own to the garbage collector: collect it here, where its
+    # ResourceWarning (Ray's, not ours) is ignored, instead of in whichever test runs next
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResourceWarning)
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        gc.collect()
     yield ray
     ray.shutdown()
 
