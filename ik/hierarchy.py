@@ -43,11 +43,13 @@ from .dense_qp import DEFAULT_BACKEND, solve_dense
 #: Damping of the lower levels (regularises the null-space coordinates).
 LOWER_DAMPING = 1e-9
 
-#: Solve a lower level whose freedom is a line with :func:`line_qp` instead of the QP solver. Off: with it
-#: on, the S9 SCARA relax-z solve (centring under the sphere constraint) stops 5 cm above the sphere's top
-#: instead of on it, although line_qp agrees with the QP solver on random problems (tests/test_ik_hierarchy.py);
-#: the cause is not found yet, so the exact-but-slower QP path is used (ik.step with two levels ~160 us).
-LINE_LEVEL = False
+#: Solve a lower level whose freedom is a line with :func:`line_qp` instead of the QP solver.
+LINE_LEVEL = True
+
+#: Rows whose coefficient along the line is at most this (in magnitude) do not restrict it (round-off of
+#: a null-space basis vector: without this, a joint at its bound with a 1e-17 component along the line
+#: froze the line - the S9 relax-z centring stopped 5 cm short of the sphere).
+LINE_ROW_TOL = 1e-12
 
 
 def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray]:
@@ -137,18 +139,22 @@ def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: flo
     """
     zlo, zhi = -limit, limit
     for ai, vi, li, hi_ in zip(a, v, lo, hi):
-        if ai > 0.0:
-            b = (li - vi) / ai
+        # slacks clamped at 0 (a row at its bound by round-off does not push z away from 0), and a row the
+        # line barely moves (|a_i| <= LINE_ROW_TOL, e.g. 1e-17 of a basis vector) does not restrict z: a
+        # bound of (1e-16 / 1e-17) would be noise, as the QP solver's feasibility tolerance also treats it
+        below, above = min(li - vi, 0.0), max(hi_ - vi, 0.0)
+        if ai > LINE_ROW_TOL:
+            b = below / ai
             if b > zlo:
                 zlo = b
-            b = (hi_ - vi) / ai
+            b = above / ai
             if b < zhi:
                 zhi = b
-        elif ai < 0.0:
-            b = (hi_ - vi) / ai
+        elif ai < -LINE_ROW_TOL:
+            b = above / ai
             if b > zlo:
                 zlo = b
-            b = (li - vi) / ai
+            b = below / ai
             if b < zhi:
                 zhi = b
     z = -c / p
