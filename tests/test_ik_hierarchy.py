@@ -133,3 +133,16 @@ def test_line_qp_matches_brute_force():
         best = grid[ok][np.argmin(f[ok])]
         assert abs(z - best) < 2e-4 and abs(z) <= 2.5
         assert np.all(a * z >= lo - 1e-12) and np.all(a * z <= hi + 1e-12)
+
+
+def test_line_qp_ignores_round_off_rows_at_their_bounds():
+    """A joint at its bound (by round-off just past it) with a 1e-17 component along the line must not freeze
+    the line (the S9 relax-z regression: centring stopped 5 cm short of the sphere)."""
+    from kinserve.ik.hierarchy import line_qp
+
+    # row 0: the line barely touches it and it sits 1e-16 past its lower bound; row 1: the joint that moves
+    z = line_qp(1.0, -0.3, [1e-17, 1.0], [-1.0 - 1e-16, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
+    assert z == pytest.approx(0.3)
+    # a genuine row (not round-off) still bounds the line
+    z = line_qp(1.0, -0.3, [0.5, 1.0], [0.95, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
+    assert z == pytest.approx(0.1)
