@@ -141,7 +141,7 @@ def test_line_qp_ignores_round_off_rows_at_their_bounds():
     from kinserve.ik.hierarchy import line_qp
 
     # row 0: the line barely touches it and it sits 1e-16 past its lower bound; row 1: the joint that moves
-    z = line_qp(1.0, -0.3, [1e-17, 1.0], [-1.0 - 1e-16, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
+    z = line_qp(1.0, -0.3, [1e-17, 1.0], [-1.0 - 4.5e-16, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
     assert z == pytest.approx(0.3)
     # a genuine row (not round-off) still bounds the line
     z = line_qp(1.0, -0.3, [0.5, 1.0], [0.95, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
