@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+
+from _worker_loop import serve
 
 
 def rot_err(Ra, Rb) -> float:
@@ -130,38 +131,37 @@ class PlacoIK:
                 "starts": starts, "ok": False}
 
 
+class _Handler:
+    """One PlaCo solver per worker, set up by the ``setup`` request."""
+
+    def __init__(self) -> None:
+        self.ik: PlacoIK | None = None
+
+    def __call__(self, cmd: str, req: dict) -> dict:
+        if cmd == "version":
+            import placo
+            import pinocchio
+
+            ans = {"version": f"placo {getattr(placo, '__version__', '?')} / pin {pinocchio.__version__}"}
+            try:
+                from importlib.metadata import version
+
+                ans["version"] = f"placo {version('placo')} / pin {pinocchio.__version__}"
+            except Exception:  # noqa: BLE001
+                pass
+            return ans
+        if cmd == "setup":
+            self.ik = PlacoIK(req)
+            return {"nq": len(self.ik.joints), "lower": self.ik.lower.tolist(), "upper": self.ik.upper.tolist()}
+        if cmd == "fk":
+            return {"T": self.ik.fk(req["q"]).tolist()}
+        if cmd == "solve":
+            return self.ik.solve(req)
+        return {"error": f"unknown cmd {cmd!r}"}
+
+
 def main() -> None:
-    ik = None
-    for line in sys.stdin:
-        try:
-            req = json.loads(line)
-            cmd = req.get("cmd")
-            if cmd == "quit":
-                break
-            if cmd == "version":
-                import placo
-                import pinocchio
-
-                ans = {"version": f"placo {getattr(placo, '__version__', '?')} / pin {pinocchio.__version__}"}
-                try:
-                    from importlib.metadata import version
-
-                    ans["version"] = f"placo {version('placo')} / pin {pinocchio.__version__}"
-                except Exception:  # noqa: BLE001
-                    pass
-            elif cmd == "setup":
-                ik = PlacoIK(req)
-                ans = {"nq": len(ik.joints), "lower": ik.lower.tolist(), "upper": ik.upper.tolist()}
-            elif cmd == "fk":
-                ans = {"T": ik.fk(req["q"]).tolist()}
-            elif cmd == "solve":
-                ans = ik.solve(req)
-            else:
-                ans = {"error": f"unknown cmd {cmd!r}"}
-        except Exception as exc:  # noqa: BLE001 - report every failure to the parent, keep serving
-            ans = {"error": f"{type(exc).__name__}: {exc}"}
-        sys.stdout.write(json.dumps(ans) + "\n")
-        sys.stdout.flush()
+    serve(_Handler())
 
 
 if __name__ == "__main__":

@@ -21,12 +21,12 @@ Requests (one JSON object per line; see benchmarks/_peers.py):
 
 from __future__ import annotations
 
-import json
 import statistics
-import sys
 import time
 
 import numpy as np
+
+from _worker_loop import serve
 
 
 class RoboplanIK:
@@ -83,50 +83,49 @@ class RoboplanIK:
         return {"q": q.tolist() if q.size == len(self.joints) else None, "time": dt, "cpu": dc, "ok": bool(ok)}
 
 
+class _Handler:
+    """One roboplan scene and solver per worker, set up by the ``setup`` request."""
+
+    def __init__(self) -> None:
+        self.rp: RoboplanIK | None = None
+
+    def __call__(self, cmd: str, req: dict) -> dict:
+        rp = self.rp
+        if cmd == "version":
+            from importlib.metadata import version
+
+            import pinocchio
+
+            return {"version": f"roboplan {version('roboplan')} / pin {pinocchio.__version__}"}
+        if cmd == "setup":
+            self.rp = RoboplanIK(req)
+            return {"joints": self.rp.full_names}
+        if cmd == "move_box":
+            rp.scene.updateGeometryPlacement(req["name"], "universe",
+                                             np.asfortranarray(np.asarray(req["pose"], dtype=float)))
+            return {}
+        if cmd == "fk":
+            return {"T": np.asarray(rp.scene.forwardKinematics(rp.full(req["q"]), rp.frame)).tolist()}
+        if cmd == "collides":
+            return {"collision": bool(rp.scene.hasCollisions(rp.full(req["q"])))}
+        if cmd == "time_collision":
+            qs = [rp.full(q) for q in req["qs"]]
+            has = rp.scene.hasCollisions
+            wall, cpu = [], []
+            for _ in range(int(req.get("repeats", 5))):
+                t0, c0 = time.perf_counter(), time.process_time()
+                for q in qs:
+                    has(q)
+                wall.append((time.perf_counter() - t0) / len(qs))
+                cpu.append((time.process_time() - c0) / len(qs))
+            return {"us": statistics.median(wall) * 1e6, "cpu_us": statistics.median(cpu) * 1e6}
+        if cmd == "solve":
+            return rp.solve(req)
+        return {"error": f"unknown cmd {cmd!r}"}
+
+
 def main() -> None:
-    rp = None
-    for line in sys.stdin:
-        try:
-            req = json.loads(line)
-            cmd = req.get("cmd")
-            if cmd == "quit":
-                break
-            if cmd == "version":
-                from importlib.metadata import version
-
-                import pinocchio
-
-                ans = {"version": f"roboplan {version('roboplan')} / pin {pinocchio.__version__}"}
-            elif cmd == "setup":
-                rp = RoboplanIK(req)
-                ans = {"joints": rp.full_names}
-            elif cmd == "move_box":
-                rp.scene.updateGeometryPlacement(req["name"], "universe",
-                                                 np.asfortranarray(np.asarray(req["pose"], dtype=float)))
-                ans = {}
-            elif cmd == "fk":
-                ans = {"T": np.asarray(rp.scene.forwardKinematics(rp.full(req["q"]), rp.frame)).tolist()}
-            elif cmd == "collides":
-                ans = {"collision": bool(rp.scene.hasCollisions(rp.full(req["q"])))}
-            elif cmd == "time_collision":
-                qs = [rp.full(q) for q in req["qs"]]
-                has = rp.scene.hasCollisions
-                wall, cpu = [], []
-                for _ in range(int(req.get("repeats", 5))):
-                    t0, c0 = time.perf_counter(), time.process_time()
-                    for q in qs:
-                        has(q)
-                    wall.append((time.perf_counter() - t0) / len(qs))
-                    cpu.append((time.process_time() - c0) / len(qs))
-                ans = {"us": statistics.median(wall) * 1e6, "cpu_us": statistics.median(cpu) * 1e6}
-            elif cmd == "solve":
-                ans = rp.solve(req)
-            else:
-                ans = {"error": f"unknown cmd {cmd!r}"}
-        except Exception as exc:  # noqa: BLE001 - report every failure to the parent, keep serving
-            ans = {"error": f"{type(exc).__name__}: {exc}"}
-        sys.stdout.write(json.dumps(ans) + "\n")
-        sys.stdout.flush()
+    serve(_Handler())
 
 
 if __name__ == "__main__":
