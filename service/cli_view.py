@@ -8,6 +8,8 @@ page (opens offline) and exits.
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 
 from .cli_types import file_in_existing_folder
 
@@ -29,8 +31,16 @@ def cmd_view(args) -> int:
         path = export_html(scene, args.html)
         print(f"wrote {path}")
         return 0
-    serve(scene, zmq_url=args.zmq_url, announce=lambda line: print(line, flush=True))
-    return 0
+    try:
+        serve(scene, zmq_url=args.zmq_url, announce=lambda line: print(line, flush=True))
+        status = 0
+    except SystemExit as exc:  # SIGTERM / SIGHUP: the server is stopped already, exit 128 + signal
+        status = exc.code if isinstance(exc.code, int) else 1
+    # The meshcat server is stopped (serve's finally). Leave at once: interpreter teardown terminates
+    # meshcat's ZeroMQ context, which can block on a socket whose peer died with a signal.
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
