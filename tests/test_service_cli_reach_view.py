@@ -29,10 +29,15 @@ def test_reach_writes_npz_and_png(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
 
 
-def start_view(*args: str) -> tuple[subprocess.Popen, str, int]:
-    """``kinserve view ...`` in a subprocess: (process, page URL, pid of its meshcat server) once it serves."""
+def start_view(*args: str, sigint_ignored: bool = False) -> tuple[subprocess.Popen, str, int]:
+    """``kinserve view ...`` in a subprocess: (process, page URL, pid of its meshcat server) once it serves.
+
+    ``sigint_ignored``: start it with SIGINT ignored, as a background job of a non-interactive shell is.
+    """
+    preexec = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None
     proc = subprocess.Popen([sys.executable, "-u", "-m", "kinserve.service.cli", "view", *args],
-                            cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=preexec)
     deadline = time.monotonic() + 60
     seen = []
     while time.monotonic() < deadline:
@@ -61,6 +66,22 @@ def test_view_serves_the_robot_until_signalled_and_stops_its_server(sig, status)
         assert proc.wait(timeout=20) == status
         assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the viewer"
         assert "Traceback" not in proc.stdout.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
+        if alive(server):
+            os.kill(server, signal.SIGKILL)
+
+
+def test_ctrl_c_stops_a_viewer_started_with_sigint_ignored():
+    """A background job of a non-interactive shell inherits SIGINT ignored; Ctrl-C must still stop the viewer."""
+    proc, _, server = start_view("planar4r", sigint_ignored=True)
+    try:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0
+        assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the viewer"
     finally:
         if proc.poll() is None:
             proc.kill()

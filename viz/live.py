@@ -216,7 +216,8 @@ class _Lowered:
 
 @contextlib.contextmanager
 def exit_on_termination(signals: tuple[int, ...] = (signal.SIGTERM, signal.SIGHUP)):
-    """Inside the block, ``signals`` raise ``SystemExit(128 + signal)`` so ``finally`` and ``atexit`` clean-up runs.
+    """Inside the block, ``signals`` raise ``SystemExit(128 + signal)`` so ``finally`` and ``atexit`` clean-up runs,
+    and SIGINT raises ``KeyboardInterrupt`` (also when the process inherited it ignored).
 
     By default SIGTERM and SIGHUP end Python at once, skipping both. Only the
     main thread can handle signals; elsewhere the block changes nothing. The
@@ -230,6 +231,9 @@ def exit_on_termination(signals: tuple[int, ...] = (signal.SIGTERM, signal.SIGHU
         raise SystemExit(128 + signum)
 
     previous = {sig: signal.signal(sig, _exit) for sig in signals}
+    # Ctrl-C stops the viewer even when the process was started with SIGINT ignored (a background job of a
+    # non-interactive shell inherits SIG_IGN, and Python then installs no KeyboardInterrupt handler)
+    previous[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         yield
     finally:
