@@ -86,7 +86,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from kinserve import ik, robots  # noqa: E402
-from _common import machine, write_json  # noqa: E402
+from _common import interleaved, machine, timed, write_json  # noqa: E402
 from _obstacle_check import BoxSpec, CoalChecker  # noqa: E402
 from _peers import start_peer  # noqa: E402
 
@@ -330,26 +330,14 @@ def run(name, idx, targets, starts, extras, solvers, judge, check_iterates: bool
     cpu = {k: np.zeros(n) for k in solvers}
     oks = {k: np.zeros(n, dtype=bool) for k in solvers}
     tally = {"paths": {}, "iterates_checked": 0, "every_iterate_free": 0}
-    names = list(solvers)
-    t_all = time.perf_counter()
-    for b, lo in enumerate(range(0, n, BLOCK)):
-        hi = min(lo + BLOCK, n)
-        for key in names[b % len(names):] + names[: b % len(names)]:
-            fn = solvers[key]
-            for j in range(lo, hi):
-                i = idx[j]
-                if hasattr(fn, "prepare"):  # untimed setup of the obstacles
-                    fn.prepare(extras[i])
-                t0, c0 = time.perf_counter(), time.process_time()
-                q = fn(targets[i], starts[i].copy(), int(i), extras[i])
-                dt, dc = time.perf_counter() - t0, time.process_time() - c0
-                inner = getattr(fn, "inner_time", None)  # a worker's (or untimed-setup) own measurement
-                times[key][j] = dt if inner is None else inner
-                cpu[key][j] = dc if inner is None else getattr(fn, "inner_cpu", None)
-                oks[key][j] = judge(targets[i], q, extras[i])
-                if key == "kinserve":
-                    kinserve_extras(fn.last, judge, extras[i], tally, check_iterates)
-        print(f"  [{name}] {hi}/{n} targets ({time.perf_counter() - t_all:.1f} s)", flush=True)
+    for key, fn, j in interleaved(solvers, n, BLOCK, name):
+        i = idx[j]
+        if hasattr(fn, "prepare"):  # untimed setup of the obstacles
+            fn.prepare(extras[i])
+        q, times[key][j], cpu[key][j] = timed(fn, targets[i], starts[i].copy(), int(i), extras[i])
+        oks[key][j] = judge(targets[i], q, extras[i])
+        if key == "kinserve":
+            kinserve_extras(fn.last, judge, extras[i], tally, check_iterates)
     unc = times["kinserve unconstrained"] * 1e3
     unc_med, unc_p95 = float(np.median(unc)), float(np.percentile(unc, 95))
     unc_cpu = float(np.median(cpu["kinserve unconstrained"])) * 1e3

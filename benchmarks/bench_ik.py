@@ -82,7 +82,7 @@ import pinocchio as pin  # noqa: E402
 
 from kinserve import ik  # noqa: E402
 from kinserve import robots  # noqa: E402
-from _common import machine, write_json  # noqa: E402
+from _common import interleaved, machine, timed, write_json  # noqa: E402
 from _peers import arm_urdf, start_peer  # noqa: E402
 from kinserve.ik import seeds as ik_seeds  # noqa: E402
 from kinserve.kinematics import se3  # noqa: E402
@@ -415,22 +415,9 @@ def main() -> None:
 
     times = {k: np.zeros(args.n) for k in solvers}
     oks = {k: np.zeros(args.n, dtype=bool) for k in solvers}
-    names = list(solvers)
-    t_all = time.perf_counter()
-    for b, lo in enumerate(range(0, args.n, BLOCK)):
-        hi = min(lo + BLOCK, args.n)
-        order = names[b % len(names):] + names[: b % len(names)]  # rotate who goes first
-        for name in order:
-            fn = solvers[name]
-            for i in range(lo, hi):
-                q0c = start_of(name, i)
-                t0 = time.perf_counter()
-                q = fn(targets[i], q0c)
-                dt = time.perf_counter() - t0
-                inner = getattr(fn, "inner_time", None)  # a worker process's own timing (no pipe)
-                times[name][i] = dt if inner is None else inner
-                oks[name][i] = check(robot, targets[i], q)
-        print(f"  {hi}/{args.n} targets ({time.perf_counter() - t_all:.1f} s)", flush=True)
+    for name, fn, i in interleaved(solvers, args.n, BLOCK):
+        q, times[name][i], _ = timed(fn, targets[i], start_of(name, i))
+        oks[name][i] = check(robot, targets[i], q)
     stats = {k: summarise(times[k], oks[k]) for k in solvers}
     nan = {"median_ms": float("nan"), "mean_ms": float("nan")}
     ref = stats.get("ik_LM", nan)

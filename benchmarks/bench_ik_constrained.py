@@ -77,7 +77,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from kinserve import ik, robots  # noqa: E402
-from _common import machine, per_call_seconds, write_json  # noqa: E402
+from _common import cpu_per_call_seconds, interleaved, machine, per_call_seconds, timed, write_json  # noqa: E402
 from _obstacle_check import BoxSpec, CoalChecker, Skeleton, SphereSpec  # noqa: E402
 from _peers import arm_urdf, start_peer  # noqa: E402
 
@@ -275,17 +275,6 @@ def time_steps(robot, shoulder, calls: int, with_pink: bool) -> dict:
     return out
 
 
-def cpu_per_call_seconds(fn, calls: int, repeats: int = 5) -> float:
-    """Smallest over ``repeats`` of the mean CPU time (``time.process_time``) of one call over ``calls`` calls."""
-    best = math.inf
-    for _ in range(repeats):
-        c0 = time.process_time()
-        for _ in range(calls):
-            fn()
-        best = min(best, (time.process_time() - c0) / calls)
-    return best
-
-
 # --------------------------------------------------------------------------- main
 def summarise(times, oks, unc_median, unc_p95) -> dict:
     t = np.asarray(times) * 1e3
@@ -302,28 +291,16 @@ def run_workload(name, targets, seeds, obstacles, solvers, judge, witness, with_
     oks = {k: np.zeros(n, dtype=bool) for k in solvers}
     clear = {k: np.zeros(n) for k in solvers}
     mesh = {k: np.zeros(n, dtype=bool) for k in solvers}
-    names = list(solvers)
-    t_all = time.perf_counter()
-    for b, lo in enumerate(range(0, n, BLOCK)):
-        hi = min(lo + BLOCK, n)
-        for key in names[b % len(names):] + names[: b % len(names)]:
-            fn = solvers[key]
-            for i in range(lo, hi):
-                if hasattr(fn, "prepare"):  # untimed setup of the obstacles
-                    fn.prepare(obstacles[i])
-                t0, c0 = time.perf_counter(), time.process_time()
-                q = fn(targets[i], seeds[i].copy(), i, obstacles[i])
-                dt, dc = time.perf_counter() - t0, time.process_time() - c0
-                inner = getattr(fn, "inner_time", None)  # a worker's (or untimed-setup) own measurement
-                times[key][i] = inner if inner is not None else dt
-                cpu[key][i] = getattr(fn, "inner_cpu", None) if inner is not None else dc
-                if key == "kinserve unconstrained":
-                    oks[key][i], clear[key][i] = judge(targets[i], q, [])[0], judge(targets[i], q, obstacles[i])[1]
-                else:
-                    oks[key][i], clear[key][i] = judge(targets[i], q, obstacles[i])
-                if with_mesh and oks[key][i]:
-                    mesh[key][i] = judge.mesh_clear(q, obstacles[i])
-        print(f"  [{name}] {hi}/{n} targets ({time.perf_counter() - t_all:.1f} s)", flush=True)
+    for key, fn, i in interleaved(solvers, n, BLOCK, name):
+        if hasattr(fn, "prepare"):  # untimed setup of the obstacles
+            fn.prepare(obstacles[i])
+        q, times[key][i], cpu[key][i] = timed(fn, targets[i], seeds[i].copy(), i, obstacles[i])
+        if key == "kinserve unconstrained":
+            oks[key][i], clear[key][i] = judge(targets[i], q, [])[0], judge(targets[i], q, obstacles[i])[1]
+        else:
+            oks[key][i], clear[key][i] = judge(targets[i], q, obstacles[i])
+        if with_mesh and oks[key][i]:
+            mesh[key][i] = judge.mesh_clear(q, obstacles[i])
     # figures over the witness-feasible targets (an obstacle may contain the fixed base: nobody can solve
     # those, and a solver that gives up at once would look fast); success over all targets alongside
     w = witness if witness.any() else np.ones(n, dtype=bool)

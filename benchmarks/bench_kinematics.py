@@ -11,8 +11,6 @@ Raw Pinocchio = the minimal calls producing the same answer:
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 import time
 
 import numpy as np

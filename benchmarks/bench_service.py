@@ -21,6 +21,7 @@ are the server's, not an HTTP library's.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import socket
@@ -268,10 +269,9 @@ def bench_batch(n: int, with_ray: bool) -> dict:
     out: dict = {"targets": n}
     runs = [("processes", 1), ("processes", 2)]
     if with_ray:
-        try:
-            import ray  # noqa: F401
+        if importlib.util.find_spec("ray") is not None:
             runs.append(("ray", 2))
-        except ImportError:
+        else:
             out["ray"] = "skipped: the optional extra 'ray' is not installed (pip install kinserve[ray])"
             print(f"  {out['ray']}")
     else:

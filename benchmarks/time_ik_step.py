@@ -11,10 +11,11 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+
+from _common import cpu_per_call_seconds
 
 from kinserve import ik, robots
 
@@ -34,23 +35,13 @@ def setups(robot):
     return {"one level (posture priority 1)": (one, cons, q), "two levels (posture priority 2)": (two, cons, q)}
 
 
-def cpu_per_call(fn, calls):
-    fn()
-    best = np.inf
-    for _ in range(REPEATS):
-        t = time.process_time()
-        for _ in range(calls):
-            fn()
-        best = min(best, (time.process_time() - t) / calls)
-    return best
-
-
 def main():
     calls = int(sys.argv[1]) if len(sys.argv) > 1 else 400
     robot = robots.load("panda", geometry=False)
     out = {"loadavg_before": os.getloadavg()}
     for name, (tasks, cons, q) in setups(robot).items():
-        out[name + " us"] = 1e6 * cpu_per_call(lambda: ik.step(robot, tasks, cons, q, 0.01), calls)
+        ik.step(robot, tasks, cons, q, 0.01)  # warm-up: binds and caches the problem
+        out[name + " us"] = 1e6 * cpu_per_call_seconds(lambda: ik.step(robot, tasks, cons, q, 0.01), calls, REPEATS)
     out["loadavg_after"] = os.getloadavg()
     Path("bench-out").mkdir(exist_ok=True)
     Path("bench-out/ik_step_time.json").write_text(json.dumps(out, indent=2))
