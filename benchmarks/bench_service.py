@@ -24,7 +24,6 @@ import argparse
 import importlib.util
 import json
 import os
-import socket
 import statistics
 import subprocess
 import sys
@@ -39,42 +38,8 @@ from _common import load_test_helper, machine, write_json
 
 HERE = Path(__file__).resolve().parent
 helpers = load_test_helper("service_server")
-Server, free_port = helpers.Server, helpers.free_port
-
-
-# ---------------------------------------------------------------- the client
-class KeepAliveClient:
-    """One HTTP/1.1 keep-alive connection speaking just enough HTTP for these endpoints."""
-
-    def __init__(self, port: int):
-        self.sock = socket.create_connection(("127.0.0.1", port))
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        self.buf = b""
-
-    def request(self, method: str, path: str, body: bytes = b"") -> tuple[int, bytes]:
-        head = f"{method} {path} HTTP/1.1\r\nHost: bench\r\n"
-        if body:
-            head += f"Content-Type: application/json\r\nContent-Length: {len(body)}\r\n"
-        self.sock.sendall(head.encode() + b"\r\n" + body)
-        while b"\r\n\r\n" not in self.buf:
-            self._more()
-        header, _, self.buf = self.buf.partition(b"\r\n\r\n")
-        lines = header.split(b"\r\n")
-        status = int(lines[0].split()[1])
-        length = next(int(v) for k, _, v in (ln.partition(b":") for ln in lines[1:]) if k.lower() == b"content-length")
-        while len(self.buf) < length:
-            self._more()
-        out, self.buf = self.buf[:length], self.buf[length:]
-        return status, out
-
-    def _more(self) -> None:
-        chunk = self.sock.recv(65536)
-        if not chunk:
-            raise ConnectionError("server closed the connection")
-        self.buf += chunk
-
-    def close(self) -> None:
-        self.sock.close()
+# the tests' raw keep-alive client: one HTTP/1.1 connection, cheap enough on the client side to time the server
+Server, free_port, KeepAliveClient = helpers.Server, helpers.free_port, helpers.KeepAliveClient
 
 
 def tree_cpu_seconds(pid: int) -> float:
@@ -122,7 +87,7 @@ def load_test(port: int, method: str, path: str, bodies: list[bytes], clients: i
                 if body is None:
                     return
                 t0 = time.perf_counter()
-                status, _ = c.request(method, path, body)
+                status, _, _ = c.request(method, path, body)
                 dt = time.perf_counter() - t0
                 with lock:
                     latencies.append(dt)
@@ -228,7 +193,7 @@ def bench_starvation(n_ik: int = 45, max_time: float = 0.5) -> dict:
         def one_ik():
             c = KeepAliveClient(srv.port)
             t0 = time.perf_counter()
-            status, _ = c.request("POST", "/ik", body)
+            status, _, _ = c.request("POST", "/ik", body)
             with lock:
                 ik_times.append(time.perf_counter() - t0)
                 statuses.append(status)
