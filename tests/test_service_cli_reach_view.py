@@ -1,5 +1,6 @@
 """End-to-end: `kinserve reach` writes its map and plot; `kinserve view` serves a live page."""
 
+import contextlib
 import os
 import re
 import signal
@@ -53,11 +54,25 @@ def start_view(*args: str, sigint_ignored: bool = False) -> tuple[subprocess.Pop
     raise AssertionError(f"no viewer URL printed: {''.join(seen)}")
 
 
+@contextlib.contextmanager
+def running_view(*args: str, sigint_ignored: bool = False):
+    """:func:`start_view` whose viewer and meshcat server are gone afterwards, whatever the test did."""
+    proc, url, server = start_view(*args, sigint_ignored=sigint_ignored)
+    try:
+        yield proc, url, server
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        proc.stdout.close()
+        if alive(server):
+            os.kill(server, signal.SIGKILL)
+
+
 @pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 128 + signal.SIGTERM), (signal.SIGINT, 0),
                                          (signal.SIGHUP, 128 + signal.SIGHUP)], ids=["SIGTERM", "SIGINT", "SIGHUP"])
 def test_view_serves_the_robot_until_signalled_and_stops_its_server(sig, status):
-    proc, url, server = start_view("scara", "--q", "0.3", "0.5", "0.4", "0.1")
-    try:
+    with running_view("scara", "--q", "0.3", "0.5", "0.4", "0.1") as (proc, url, server):
         assert alive(server) and parent_of(server) == proc.pid
         page = httpx.get(url, timeout=10)
         assert page.status_code == 200 and "meshcat" in page.text.lower()
@@ -66,42 +81,22 @@ def test_view_serves_the_robot_until_signalled_and_stops_its_server(sig, status)
         assert proc.wait(timeout=20) == status
         assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the viewer"
         assert "Traceback" not in proc.stdout.read()
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        proc.stdout.close()
-        if alive(server):
-            os.kill(server, signal.SIGKILL)
 
 
 def test_ctrl_c_stops_a_viewer_started_with_sigint_ignored():
     """A background job of a non-interactive shell inherits SIGINT ignored; Ctrl-C must still stop the viewer."""
-    proc, _, server = start_view("planar4r", sigint_ignored=True)
-    try:
+    with running_view("planar4r", sigint_ignored=True) as (proc, _, server):
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=20) == 0
         assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the viewer"
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        proc.stdout.close()
-        if alive(server):
-            os.kill(server, signal.SIGKILL)
 
 
 def test_viewer_killed_outright_still_takes_its_server_down():
     """SIGKILL allows no clean-up in the viewer: the server's parent-death signal (Linux) ends it."""
-    proc, _, server = start_view("planar4r")
-    try:
+    with running_view("planar4r") as (proc, _, server):
         proc.kill()
         proc.wait(timeout=10)
         assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived the killed viewer"
-    finally:
-        proc.stdout.close()
-        if alive(server):
-            os.kill(server, signal.SIGKILL)
 
 
 def test_view_html_writes_a_static_page(tmp_path):
