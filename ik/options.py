@@ -27,10 +27,10 @@ of the methods it may pick (``qp``, ``lm``, ``analytic``).
 
 from __future__ import annotations
 
-import math
 import numbers
 
-from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_positive
 
 from .chooser import CRITERIA
 
@@ -61,12 +61,7 @@ def _integer(name, value, minimum, allow_none=False):
 
 
 def _positive(name, value):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"option {name} must be a positive number, got {value!r}")
-    if not math.isfinite(float(value)):
-        raise NonFiniteError(f"option {name} must be finite, got {value!r}")
-    if value <= 0:
-        raise InputError(f"option {name} must be positive, got {value!r}")
+    as_positive(value, f"option {name}")
 
 
 def _flag(name, value):

@@ -37,14 +37,14 @@ collision-free starts and says so in ``Result.message``. Not reaching the target
 from __future__ import annotations
 
 import contextlib
-import math
 import numbers
 import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError, KinserveError, NonFiniteError
+from kinserve.kinematics.errors import InputError, KinserveError
+from kinserve.kinematics.validation import as_positive
 from kinserve.kinematics.shapes import Shape
 
 from . import analytic as _analytic
@@ -81,14 +81,7 @@ _NO_OBSTACLE_METHODS = frozenset(("lm", "analytic") + CLASSICAL_METHODS)
 def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
     if value is None and allow_none:
         return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{name} must be a positive number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise NonFiniteError(f"{name} must be finite, got {value!r}")
-    if v <= 0:
-        raise InputError(f"{name} must be positive, got {value!r}")
-    return v
+    return as_positive(value, name)
 
 
 def _check_robot(robot):

@@ -13,11 +13,12 @@ what the exact one accepts.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 
 import numpy as np
 
-from .errors import JointLimitError, NonFiniteError, RotationError, ShapeError
+from .errors import InputError, JointLimitError, NonFiniteError, RotationError, ShapeError
 from .types import ArrayLike, PoseLike
 
 #: Magnitudes beyond this are rejected as non-physical (metres or radians).
@@ -123,6 +124,18 @@ def is_pose_fast(T: np.ndarray) -> bool:
         and abs(a * c + d * f + g * i) <= tol and abs(b * c + e * f + h * i) <= tol
         and abs(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) - 1.0) <= tol
     )
+
+
+def as_positive(value: object, name: str) -> float:
+    """``value`` as a float if it is a finite real number > 0 (bools are not numbers here); else the named error."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise NonFiniteError(f"{name} must be finite, got {value!r}")
+    if v <= 0:
+        raise InputError(f"{name} must be positive, got {value!r}")
+    return v
 
 
 def check_rotation(R: np.ndarray, name: str = "rotation") -> None:
