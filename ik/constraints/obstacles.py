@@ -157,12 +157,43 @@ class ObstacleAvoidance(Constraint):
         self.influence = _non_negative(influence, "influence")
         self._model = None
         self._last = None  # (data, q, witness pairs) of the last margin() without coal pairs
+        self._shared = None  # the cached products of bind (see bind)
 
     # ---------------------------------------------------------------------------------------- binding
     def bind(self, robot: Robot) -> "ObstacleAvoidance":
+        """Validate against ``robot`` and prepare the pair arrays (cached per model and obstacle set).
+
+        Shapes are immutable and compare by value, so two constraints with equal
+        obstacles, link radius, margin and tool frames on one model share their
+        (read-only) arrays: a solve that builds its constraint afresh binds it by
+        one dictionary look-up. Only successful binds are cached (an obstacle
+        containing the base raises every time).
+        """
         if self._model is robot.model:
             return self
         tools = self.tool_frames or (robot.tip,)
+        per_model = _bound.get(robot.model)
+        if per_model is None:
+            per_model = _bound[robot.model] = {}
+        key = (tuple(self.obstacles), self.link_radius, self.margin_required, tuple(tools))
+        hit = per_model.get(key)
+        if hit is None:
+            self._bind_arrays(robot, tools)
+            hit = {k: v for k, v in self.__dict__.items() if k not in _UNBOUND}
+            for v in hit.values():
+                if isinstance(v, np.ndarray):
+                    v.flags.writeable = False
+            if len(per_model) >= _BOUND_CACHE:
+                per_model.pop(next(iter(per_model)))
+            per_model[key] = hit
+        else:
+            self.__dict__.update(hit)
+        self._shared = hit
+        self._model = robot.model
+        return self
+
+    def _bind_arrays(self, robot: Robot, tools: tuple) -> None:
+        """The body of :meth:`bind`: skeleton, base check and the per-pair arrays."""
         for f in tools:
             robot.frame_id(f)
         extra = tuple(dict.fromkeys(f for ob in self.obstacles if ob.frames is not None for f in ob.frames))
@@ -232,8 +263,6 @@ class ObstacleAvoidance(Constraint):
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
         self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
-        self._model = robot.model
-        return self
 
     def _check_base(self, k, ob, fixed):
         """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
@@ -496,6 +525,11 @@ class ObstacleAvoidance(Constraint):
         self._sph_S = self.skeleton.support[self.skeleton.ja[self._sph_seg]]
         self._sph_iab = np.concatenate((self._sph_ia, self._sph_ib))
         self._sph_W = W
+        shared = self.__dict__.get("_shared")
+        if shared is not None:  # the next constraint bound to the same obstacles reuses them
+            for k in ("_sph_S", "_sph_iab", "_sph_W"):
+                v = shared[k] = getattr(self, k)
+                v.flags.writeable = False
 
     def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
@@ -550,6 +584,12 @@ class ObstacleAvoidance(Constraint):
 
 
 _skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: bound pair arrays per model, then per (obstacles, link radius, margin, tool frames); see ObstacleAvoidance.bind
+_bound: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_BOUND_CACHE = 64
+#: attributes of an ObstacleAvoidance that are not products of bind (its arguments and per-instance state)
+_UNBOUND = frozenset(("name", "obstacles", "link_radius", "margin_required", "gain", "tool_frames", "influence",
+                      "_model", "_last", "_shared"))
 #: coal capsule cores by length (segment lengths repeat from one call to the next)
 _CORES: dict = {}
 _balls: dict = {}
