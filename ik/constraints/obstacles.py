@@ -13,7 +13,11 @@ where ``d`` is the Euclidean distance (negative when they overlap):
   ``d = |x - o| - r``;
 * capsule (core ``[p, q]``, radius ``r``): segment-segment closed form,
   ``d = |x - y| - r``;
-* box, cylinder, mesh (convex hull): coal's GJK/EPA distance between the
+* box (pose ``(R, t)``, half extents ``h``): the exact closed form of
+  :func:`.segment_distance.segment_box` on the segment in the box's frame
+  (``a = R^T (A - t)``), vectorised over all pairs; a segment that meets the
+  box gets coal's signed (penetration) distance instead;
+* cylinder, mesh (convex hull): coal's GJK/EPA distance between the
   obstacle and the segment, with witness points and normal. Two cheap lower
   bounds come first - the distance to a bounding sphere and the largest gap
   between the segment's and the obstacle's extents along the obstacle's own
@@ -21,7 +25,7 @@ where ``d`` is the Euclidean distance (negative when they overlap):
   by that bound are not sent to coal (``margin`` uses :data:`MARGIN_EXACT`: it is
   exact below 5 cm and a lower bound above, which is all the step back-off needs).
 
-Both closed forms are evaluated for all pairs at once (NumPy, no loop over
+The closed forms are evaluated for all pairs at once (NumPy, no loop over
 pairs). With ``x`` the witness point on the segment (parameter ``s``) and
 ``n`` the unit normal pointing from the obstacle to ``x``, the clearance
 gradient is ``g = n^T ((1 - s) J_a + s J_b)`` (:meth:`LinkSkeleton.gradient_rows`)
@@ -53,7 +57,7 @@ from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphe
 
 from .base import DAMPER_GAIN, Constraint
 from .link_capsules import LinkSkeleton, skeleton_segments
-from .segment_distance import point_segment, segment_segment
+from .segment_distance import point_segment, segment_box, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
 INFLUENCE = 0.3
@@ -201,8 +205,8 @@ class ObstacleAvoidance(Constraint):
         self.skeleton = sk
         frame_index = {name: n_default + k for k, name in enumerate(extra)}
         segs_default = list(range(n_default))
-        sph, cap, other = ([], [], []), ([], [], [], []), ([], [], [])
-        groups = ([], [], [])
+        sph, cap, box, other = ([], [], []), ([], [], [], []), ([], [], []), ([], [], [])
+        groups = ([], [], [], [])
         for k, ob in enumerate(self.obstacles):
             seg_ids = segs_default if ob.frames is None else [frame_index[f] for f in ob.frames]
             if ob.frames is None:
@@ -214,11 +218,21 @@ class ObstacleAvoidance(Constraint):
                 elif isinstance(ob, Capsule):
                     cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
                     groups[1].append((k, sk.names[i]))
+                elif isinstance(ob, Box):
+                    box[0].append(i), box[1].append(ob), box[2].append(k)
+                    groups[2].append((k, sk.names[i]))
                 else:
                     other[0].append(i), other[1].append(ob), other[2].append(k)
-                    groups[2].append((k, sk.names[i]))
-        # pairs are ordered: spheres, capsules, others (the order of the clearance vector)
-        self.pair_names = groups[0] + groups[1] + groups[2]
+                    groups[3].append((k, sk.names[i]))
+        # pairs are ordered: spheres, capsules, boxes, others (the order of the clearance vector)
+        self.pair_names = groups[0] + groups[1] + groups[2] + groups[3]
+        self._box_seg = np.array(box[0], dtype=int)
+        self._box_ia, self._box_ib = sk.end_index(self._box_seg)
+        self._box_ob = box[1]
+        self._box_R = np.array([ob.pose[:3, :3] for ob in box[1]], dtype=float).reshape(-1, 3, 3)
+        self._box_t = np.array([ob.pose[:3, 3] for ob in box[1]], dtype=float).reshape(-1, 3)
+        self._box_h = np.array([ob.half_extents for ob in box[1]], dtype=float).reshape(-1, 3)
+        self._box_tf = [_coal_transform(ob.pose) for ob in box[1]]
         self._sph_seg = np.array(sph[0], dtype=int)
         self._sph_c = np.array(sph[1], dtype=float).reshape(-1, 3)
         self._sph_r = np.array(sph[2], dtype=float)
@@ -260,7 +274,8 @@ class ObstacleAvoidance(Constraint):
         self.m = len(self.pair_names)
         self._offset = self.link_radius + self.margin_required
         # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
-        self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._oth_seg.size
+        self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._box_seg.size \
+            and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
         self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
 
@@ -327,6 +342,12 @@ class ObstacleAvoidance(Constraint):
             clear.append(d - self._cap_r)
             if witness:
                 segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
+        if self._box_seg.size:
+            A, B = P[self._box_ia], P[self._box_ib]
+            c, s, N = self._box_pairs(A, B, witness)
+            clear.append(c)
+            if witness:
+                segs.append(self._box_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
         if self._oth_seg.size:
             A, B = P[self._oth_ia], P[self._oth_ib]
             best = float(min((x.min() for x in clear if x.size), default=math.inf)) if min_only else math.inf
@@ -346,6 +367,44 @@ class ObstacleAvoidance(Constraint):
             return c, segs[0], ss[0], Ns[0], As[0], Bs[0]
         cat = np.concatenate
         return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
+
+    def _box_pairs(self, A, B, witness: bool, K: int = 1):
+        """``(d, s, N)`` of the box pairs (``K`` stacked copies): closed-form distances (:func:`segment_box`).
+
+        The segments are expressed in each box's frame, ``a = R^T (A - t)``; the
+        normal is ``N = R (x - y) / d`` (from the box to the witness point). A
+        segment that meets its box (``d = 0``) gets coal's signed distance (the
+        penetration depth, negative) and normal instead.
+        """
+        R, t, h = self._box_R, self._box_t, self._box_h
+        if K > 1:
+            R, t, h = np.tile(R, (K, 1, 1)), np.tile(t, (K, 1)), np.tile(h, (K, 1))
+        a = _einsum("pi,pij->pj", A - t, R)
+        b = _einsum("pi,pij->pj", B - t, R)
+        s, d, x, y = segment_box(a, b, h)
+        N = None
+        if witness:
+            V = x - y
+            N = _einsum("pij,pj->pi", R, V)
+            N /= _fmax(d, _EPS)[:, None]
+        meet = np.flatnonzero(d <= 0.0)
+        if meet.size:  # inside: the penetration depth from coal
+            import coal
+
+            req, res = coal.DistanceRequest(), coal.DistanceResult()
+            n = self._box_seg.size
+            for r in meet.tolist():
+                ab = B[r] - A[r]
+                L = math.sqrt(ab.dot(ab))
+                res.clear()
+                p = r % n
+                d[r] = coal.distance(self._box_ob[p].geometry(), self._box_tf[p], _core(L),
+                                     _segment_transform(A[r], ab, L), req, res)
+                if witness:
+                    N[r] = res.normal
+                    w = res.getNearestPoint2() - A[r]
+                    s[r] = min(max(float(w.dot(ab)) / max(L * L, 1e-24), 0.0), 1.0)
+        return d, s, N
 
     def _inv_len2(self, AB):
         """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
@@ -430,11 +489,17 @@ class ObstacleAvoidance(Constraint):
         return self._pairs(data, False, MARGIN_EXACT)
 
     def first_violation(self, robot: Robot, Q: np.ndarray) -> int | None:
-        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None.
+        """Index of the first configuration of ``Q`` (``(K, nq)``) with a negative clearance, or None."""
+        hits = np.flatnonzero(self.violations(robot, Q, first_only=True))
+        return int(hits[0]) if hits.size else None
 
-        The sphere and capsule distances of all ``K`` configurations are evaluated at once (the same
-        closed forms on ``(K, pairs)`` arrays); coal pairs are checked per configuration where their
-        bounding-sphere bound is negative.
+    def violations(self, robot: Robot, Q: np.ndarray, first_only: bool = False) -> np.ndarray:
+        """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``) has a negative clearance.
+
+        The sphere, capsule and box distances of all ``K`` configurations are evaluated at once (the
+        same closed forms on ``(K, pairs)`` arrays); coal pairs (cylinders, meshes) are checked per
+        configuration where their bounding-sphere bound is negative. ``first_only``: only the first
+        True entry must be right (coal pairs of later configurations are skipped).
         """
         import pinocchio as pin
 
@@ -460,6 +525,11 @@ class ObstacleAvoidance(Constraint):
             _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
             d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
             bad |= (d - self._cap_r - off < 0.0).any(axis=1)
+        if self._box_seg.size:
+            K, n = len(Q), self._box_seg.size
+            A, B = P[:, self._box_ia].reshape(-1, 3), P[:, self._box_ib].reshape(-1, 3)
+            d = self._box_pairs(A, B, False, K)[0]
+            bad |= (d.reshape(K, n) - off < 0.0).any(axis=1)
         if self._oth_seg.size:
             import coal
 
@@ -468,11 +538,13 @@ class ObstacleAvoidance(Constraint):
             lb = self._coal_lower_bound(A, B, K)
             req, res = coal.DistanceRequest(), coal.DistanceResult()
             hits = np.flatnonzero(bad)
-            first = int(hits[0]) if hits.size else K  # only the first violating configuration matters
+            first = int(hits[0]) if hits.size and first_only else K  # with first_only: only the first matters
             for r in np.flatnonzero(lb < off).tolist():  # in order of the configuration
                 k, p = divmod(r, n)
                 if k >= first:
                     break
+                if bad[k]:
+                    continue
                 ab = B[r] - A[r]
                 L = math.sqrt(ab.dot(ab))
                 res.clear()
@@ -480,9 +552,9 @@ class ObstacleAvoidance(Constraint):
                                   req, res)
                 if d - off < 0.0:
                     bad[k] = True
-                    first = k
-        hits = np.flatnonzero(bad)
-        return int(hits[0]) if hits.size else None
+                    if first_only:
+                        first = k
+        return bad
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:

@@ -13,7 +13,23 @@ parameters of the infinite lines are ``s = (b f - c e) / (a e - b^2)``,
 ``t = (b s + f) / e``; ``s`` is clamped to ``[0, 1]``, ``t`` recomputed and
 clamped, and ``s`` recomputed from the clamped ``t`` (``s = clamp((b t - c) / a)``).
 Parallel segments (``a e - b^2 ~ 0``) take ``s = 0``; a point-like second segment takes
-``s = clamp(-c / a)``. Every function works on
+``s = clamp(-c / a)``.
+
+Segment-box (a box centred at the origin of its own frame, half extents
+``h``; the segment ``x(s) = a + s u``, ``u = b - a``, in that frame): the
+squared distance
+
+    f(s) = sum_i max(|x_i(s)| - h_i, 0)^2
+
+is a convex, piecewise-quadratic function of ``s``; its derivative
+``f'(s) / 2 = sum_i u_i phi_i(x_i(s))``, ``phi_i(x) = x - clamp(x, -h_i, h_i)``,
+is non-decreasing and linear between the breakpoints ``s = (+-h_i - a_i) / u_i``.
+Evaluating ``f'`` at ``0``, ``1`` and the breakpoints in between (sorted) brackets
+its zero, and the linear interpolation between the bracketing points *is* the
+zero: the minimiser ``s*`` is exact (``s* = 0`` when ``f'(0) > 0``, ``1`` when
+``f'(1) <= 0``). The closest box point is ``y = clamp(x(s*), -h, h)`` and the
+distance ``|x(s*) - y|`` (0 when the segment meets the box: the penetration
+depth needs another method, e.g. coal's EPA). Every function works on
 ``(P, 3)`` arrays (one row per pair) with no Python loop.
 """
 
@@ -60,3 +76,54 @@ def segment_segment(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray,
         s_pt = np.clip(np.divide(-c, a, out=np.zeros_like(a), where=a > _EPS), 0.0, 1.0)
         s = np.where(point2, s_pt, s)
     return s, t, p1 + s[:, None] * d1, p2 + t[:, None] * d2
+
+
+_TINY = 1e-300
+_uclip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_fmin, _fmax = np.fmin, np.fmax
+
+
+def segment_box(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(s, d, x, y)``: distance ``d`` between each segment ``[a_i, b_i]`` and the box ``|y| <= h_i`` (its frame).
+
+    ``s`` is the parameter of the closest point ``x = a + s (b - a)`` of the
+    segment, ``y`` the closest point of the box (module docstring); ``d = 0``
+    when the segment meets the box. ``a``, ``b``, ``h`` are ``(P, 3)``.
+
+    With the candidates ``S_0 = 0 <= S_1 <= ... <= S_7 = 1`` (the breakpoints,
+    clipped to ``[0, 1]``) and ``f'`` linear between them, the zero of the
+    non-decreasing ``f'`` is the length of ``{s : f'(s) <= 0}``: the sum over the
+    intervals of their length times the fraction ``clamp(-f'_k / (f'_{k+1} - f'_k), 0, 1)``
+    where ``f' <= 0`` (1 or 0 on an interval where ``f'`` is constant). Extra
+    candidates are harmless (they only split an interval where ``f'`` is linear),
+    so an axis with ``u_i = 0`` (no breakpoint) contributes arbitrary ones.
+    Internally the pairs run along the last axis (long contiguous loops).
+    """
+    aT, hT = a.T, h.T
+    uT = (b - a).T
+    inv = 1.0 / (uT + (uT == 0.0))  # u_i = 0: arbitrary (finite) candidates; inf/nan ones are clipped below
+    n = a.shape[0]
+    S = np.empty((8, n))
+    S[0] = 0.0
+    S[7] = 1.0
+    nhT = -hT
+    np.multiply(hT - aT, inv, out=S[1:4])
+    np.multiply(nhT - aT, inv, out=S[4:7])
+    _fmax(_fmin(S, 1.0, out=S), 0.0, out=S)  # fmin / fmax map nan (0 * inf) into [0, 1] as well
+    S.sort(axis=0)
+    X = S * uT[:, None, :]  # (3, 8, P): x(S) - a
+    X += aT[:, None, :]
+    X -= _uclip(X, nhT[:, None, :], hT[:, None, :])  # phi(x(S))
+    X *= uT[:, None, :]
+    fp = X[0]
+    fp += X[1]
+    fp += X[2]  # f'(S) / 2, non-decreasing along each column
+    f0 = fp[:-1]
+    frac = np.negative(f0)
+    frac /= _fmax(fp[1:] - f0, _TINY)
+    _uclip(frac, 0.0, 1.0, out=frac)
+    frac *= S[1:] - S[:-1]
+    s = frac.sum(axis=0)
+    x = (s * uT + aT).T
+    v = x - _uclip(x, -h, h)
+    return s, np.sqrt(_dot(v, v)), x, x - v
