@@ -349,12 +349,19 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     """The cheap path of ``"auto"`` with obstacles: an LM answer whose every iterate is clear, or None.
 
     Obstacles rarely bind: Levenberg-Marquardt runs from the first
-    :data:`FREE_ATTEMPTS` collision-free starts of the usual start sequence,
-    one at a time, and the first converged run whose every iterate keeps
-    every clearance ``>= 0`` is the answer - the constraint then held on every
-    iterate without ever being imposed. Otherwise None: the caller runs the
-    constrained solve on the usual starts (measured: starting it from the last
-    clear iterate of a free run is worse - that iterate faces the obstacle).
+    :data:`FREE_ATTEMPTS` starts of the usual start sequence, one at a time, and
+    the first converged run whose every iterate keeps every clearance ``>= 0``
+    is the answer - the constraint then held on every iterate without ever
+    being imposed. The start is not checked before the run: its check is part
+    of the run's (one vectorised check of ``q0`` and all the iterates).
+
+    A converged run whose *answer* is clear but whose path was not ends the
+    free attempts: its answer becomes the constrained solve's first start
+    (``p["warm_start"]``; a clear configuration within tolerance, which that
+    solve checks and returns with a history of clear iterates only).
+    Otherwise None: the caller runs the constrained solve on the usual starts
+    (measured: starting it from the last clear iterate of a free run is worse -
+    that iterate faces the obstacle).
     """
     from itertools import islice
 
@@ -366,27 +373,35 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     q0 = p["q0"]
     if q0 is not None:
         q0 = np.clip(q0, robot.lower, robot.upper)
-        if avoid.first_violation(robot, q0[None]) is not None:
-            return None  # the constrained solve reports the start in collision
+    q0_bad = None  # unknown until a run is checked
     starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
                           p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
     opts.pop("max_starts", None)
     t0 = time.perf_counter()
     budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
     for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
-        if attempt and avoid.first_violation(robot, q[None]) is not None:
-            continue
         left = budget - (time.perf_counter() - t0)
         if left <= 0.0:
             break
         res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=left,
                        prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
-        k = avoid.first_violation(robot, res.history.q)
-        if res.success and k is None:
+        if not res.success:
+            continue
+        Q = res.history.q
+        with_q0 = q0 is not None and q0_bad is None
+        bad = avoid.violations(robot, np.concatenate((q0[None], Q)) if with_q0 else Q)
+        if with_q0:
+            q0_bad, bad = bool(bad[0]), bad[1:]
+        if not bad.any():
             res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
+            if q0_bad:
+                res.message += "; q0 is inside an obstacle: started from a configuration clear of them"
             res.restarts = attempt
             res.elapsed = time.perf_counter() - t0
             return res
+        if not bad[-1]:
+            p["warm_start"] = res.q
+            break
     p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
     return None
 
@@ -403,7 +418,8 @@ def _solve_target_tasks(robot, p: dict, options: dict):
         spheres = p["spheres"]
     opts = _task_options(options)
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
-                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"], **opts)
+                    tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
+                    warm_start=p.get("warm_start"), **opts)
 
 
 _collision_solve = None

@@ -33,6 +33,7 @@ inputs give bit-identical answers unless the time budget cut the solve.
 from __future__ import annotations
 
 from collections.abc import Callable
+import itertools
 import math
 import time
 
@@ -205,11 +206,14 @@ def solve_problem(
     method: str = "qp",
     evaluate: Callable[[np.ndarray], np.ndarray] | None = None,
     components: tuple | None = None,
+    warm_start: np.ndarray | None = None,
 ) -> Result:
     """Solve a bound :class:`Problem` from the starts of :func:`ik.multistart.starts` (module docstring).
 
     ``evaluate``/``components`` define :attr:`History.task_error` (default:
-    the goal tasks' errors, sign ``desired - current``).
+    the goal tasks' errors, sign ``desired - current``). ``warm_start``: a
+    configuration tried before those starts (e.g. the answer of an
+    unconstrained run; skipped like any start when it violates a constraint).
     """
     t0 = _now()
     calls0 = backend_calls()
@@ -225,13 +229,20 @@ def solve_problem(
             note = f"q0 violates a constraint ({pb.describe(q0)}); started from configurations that satisfy them"
     best = None
     iterations = n_starts = skipped = 0
-    for q in starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0):
+    sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
+    if warm_start is not None:
+        sequence = itertools.chain((np.clip(warm_start, lo, hi),), sequence)
+    warm = warm_start is not None
+    for q in sequence:
         if pb.checked and pb.margin(q) < 0.0:
             skipped += 1
+            warm = False  # (the warm start is the first of the sequence: skipped, or already past)
             if skipped > 10000 or _now() > deadline:
                 break
             continue
         n_starts += 1
+        if n_starts > 1:
+            warm = False
         record = ([], [], [])
         ok, it, reason, k, es = _run_start(run, q, record)
         iterations += it
@@ -259,6 +270,8 @@ def solve_problem(
     _, _, _, es = pb.evaluate(q)
     if ok:
         message = reason
+        if warm and n_starts == 1:
+            message += " (from the warm start: an unconstrained run's answer, clear of the constraints)"
     else:
         message = (f"no start reached tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad in {n_starts} starts "
                    f"({iterations} iterations; last start: {reason}); best residual {pes[k]:.3g} m / {res[k]:.3g} rad")
