@@ -67,6 +67,8 @@ MARGIN_EXACT = 0.05
 COAL_INFLUENCE = 0.15
 
 _EPS = 1e-12
+_NO_INT = np.zeros(0, dtype=int)
+_NO_INT.flags.writeable = False
 _INF = np.full(4096, np.inf)
 _INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
 _einsum = np.einsum
@@ -171,7 +173,7 @@ class ObstacleAvoidance(Constraint):
         obstacles, link radius, margin and tool frames on one model share their
         (read-only) arrays: a solve that builds its constraint afresh binds it by
         one dictionary look-up. Only successful binds are cached (an obstacle
-        containing the base raises every time).
+        containing the base raises every time); nothing writes into the shared arrays.
         """
         if self._model is robot.model:
             return self
@@ -183,15 +185,15 @@ class ObstacleAvoidance(Constraint):
         hit = per_model.get(key)
         if hit is None:
             self._bind_arrays(robot, tools)
-            hit = {k: v for k, v in self.__dict__.items() if k not in _UNBOUND}
-            for v in hit.values():
-                if isinstance(v, np.ndarray):
-                    v.flags.writeable = False
+            hit = self.__dict__.copy()  # the arrays are shared from now on: nothing writes into them
             if len(per_model) >= _BOUND_CACHE:
                 per_model.pop(next(iter(per_model)))
             per_model[key] = hit
         else:
-            self.__dict__.update(hit)
+            d = self.__dict__
+            own = {k: d[k] for k in _UNBOUND if k in d}  # this instance's arguments and state
+            d.update(hit)
+            d.update(own)
         self._shared = hit
         self._model = robot.model
         return self
@@ -205,46 +207,49 @@ class ObstacleAvoidance(Constraint):
         self.skeleton = sk
         frame_index = {name: n_default + k for k, name in enumerate(extra)}
         segs_default = list(range(n_default))
-        sph, cap, box, other = ([], [], []), ([], [], [], []), ([], [], []), ([], [], [])
-        groups = ([], [], [], [])
+        # per kind: (obstacle index, obstacle, segment ids); pairs are ordered spheres, capsules, boxes,
+        # others (the order of the clearance vector), obstacle by obstacle
+        kinds: tuple = ([], [], [], [])
         for k, ob in enumerate(self.obstacles):
-            seg_ids = segs_default if ob.frames is None else [frame_index[f] for f in ob.frames]
             if ob.frames is None:
                 self._check_base(k, ob, fixed)
-            for i in seg_ids:
-                if isinstance(ob, Sphere):
-                    sph[0].append(i), sph[1].append(ob.center), sph[2].append(ob.radius)
-                    groups[0].append((k, sk.names[i]))
-                elif isinstance(ob, Capsule):
-                    cap[0].append(i), cap[1].append(ob.a), cap[2].append(ob.b), cap[3].append(ob.radius)
-                    groups[1].append((k, sk.names[i]))
-                elif isinstance(ob, Box):
-                    box[0].append(i), box[1].append(ob), box[2].append(k)
-                    groups[2].append((k, sk.names[i]))
-                else:
-                    other[0].append(i), other[1].append(ob), other[2].append(k)
-                    groups[3].append((k, sk.names[i]))
-        # pairs are ordered: spheres, capsules, boxes, others (the order of the clearance vector)
-        self.pair_names = groups[0] + groups[1] + groups[2] + groups[3]
-        self._box_seg = np.array(box[0], dtype=int)
+                seg_ids = segs_default
+            else:
+                seg_ids = [frame_index[f] for f in ob.frames]
+            g = 0 if isinstance(ob, Sphere) else 1 if isinstance(ob, Capsule) else 2 if isinstance(ob, Box) else 3
+            kinds[g].append((k, ob, seg_ids))
+        names = sk.names
+        self.pair_names = [(k, names[i]) for group in kinds for k, _, ids in group for i in ids]
+        sph, cap, box = kinds[0], kinds[1], kinds[2]
+        other = ([i for _, _, ids in kinds[3] for i in ids], [ob for _, ob, ids in kinds[3] for _ in ids],
+                 [k for k, _, ids in kinds[3] for _ in ids])
+
+        def seg_and_rows(group):
+            """Segment ids of the group's pairs and, per pair, the row of its obstacle in the group."""
+            if not group:
+                return _NO_INT, _NO_INT
+            seg = np.array([i for _, _, ids in group for i in ids], dtype=int)
+            return seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int)
+
+        self._box_seg, row = seg_and_rows(box)
         self._box_ia, self._box_ib = sk.end_index(self._box_seg)
-        self._box_ob = box[1]
-        self._box_R = np.array([ob.pose[:3, :3] for ob in box[1]], dtype=float).reshape(-1, 3, 3)
-        self._box_t = np.array([ob.pose[:3, 3] for ob in box[1]], dtype=float).reshape(-1, 3)
-        self._box_h = np.array([ob.half_extents for ob in box[1]], dtype=float).reshape(-1, 3)
-        self._box_tf = [_coal_transform(ob.pose) for ob in box[1]]
-        self._sph_seg = np.array(sph[0], dtype=int)
-        self._sph_c = np.array(sph[1], dtype=float).reshape(-1, 3)
-        self._sph_r = np.array(sph[2], dtype=float)
-        self._cap_seg = np.array(cap[0], dtype=int)
-        self._cap_a = np.array(cap[1], dtype=float).reshape(-1, 3)
-        self._cap_b = np.array(cap[2], dtype=float).reshape(-1, 3)
-        self._cap_r = np.array(cap[3], dtype=float)
+        self._box_ob = [ob for _, ob, ids in box for _ in ids]
+        poses = np.array([ob.pose for _, ob, _ in box], dtype=float).reshape(-1, 4, 4)
+        self._box_R = poses[row, :3, :3]
+        self._box_t = poses[row, :3, 3]
+        self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float).reshape(-1, 3)[row]
+        self._sph_seg, row = seg_and_rows(sph)
+        self._sph_c = np.array([ob.center for _, ob, _ in sph], dtype=float).reshape(-1, 3)[row]
+        self._sph_r = np.array([ob.radius for _, ob, _ in sph], dtype=float)[row]
+        self._cap_seg, row = seg_and_rows(cap)
+        self._cap_a = np.array([ob.a for _, ob, _ in cap], dtype=float).reshape(-1, 3)[row]
+        self._cap_b = np.array([ob.b for _, ob, _ in cap], dtype=float).reshape(-1, 3)[row]
+        self._cap_r = np.array([ob.radius for _, ob, _ in cap], dtype=float)[row]
         self._oth_seg = np.array(other[0], dtype=int)
         self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
         self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
         # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
-        rigid = bool(np.all(sk.rigid[self._sph_seg])) if self._sph_seg.size else False
+        rigid = bool(sk.rigid[self._sph_seg].all()) if self._sph_seg.size else False
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         if other[0]:
             self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
@@ -344,7 +349,7 @@ class ObstacleAvoidance(Constraint):
                 segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
         if self._box_seg.size:
             A, B = P[self._box_ia], P[self._box_ib]
-            c, s, N = self._box_pairs(A, B, witness)
+            c, s, N = self._box_pairs(A, B, witness, cutoff=cutoff + self._offset)
             clear.append(c)
             if witness:
                 segs.append(self._box_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
@@ -368,20 +373,35 @@ class ObstacleAvoidance(Constraint):
         cat = np.concatenate
         return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
 
-    def _box_pairs(self, A, B, witness: bool, K: int = 1):
+    def _box_pairs(self, A, B, witness: bool, K: int = 1, cutoff: float = math.inf):
         """``(d, s, N)`` of the box pairs (``K`` stacked copies): closed-form distances (:func:`segment_box`).
 
         The segments are expressed in each box's frame, ``a = R^T (A - t)``; the
         normal is ``N = R (x - y) / d`` (from the box to the witness point). A
         segment that meets its box (``d = 0``) gets coal's signed distance (the
-        penetration depth, negative) and normal instead.
+        penetration depth, negative) and normal instead. Pairs whose separating-axis
+        bound (the largest gap between the segment's and the box's extents along the
+        box's axes, ``<= d``) is at least ``cutoff`` keep that bound, with ``s = 0``
+        and ``N = 0`` (no row).
         """
         R, t, h = self._box_R, self._box_t, self._box_h
         if K > 1:
             R, t, h = np.tile(R, (K, 1, 1)), np.tile(t, (K, 1)), np.tile(h, (K, 1))
         a = _einsum("pi,pij->pj", A - t, R)
         b = _einsum("pi,pij->pj", B - t, R)
-        s, d, x, y = segment_box(a, b, h)
+        near = None
+        if cutoff < math.inf:
+            gap = np.maximum(np.minimum(a, b) - h, -h - np.maximum(a, b)).max(axis=1)
+            near = gap < cutoff
+            if 2 * np.count_nonzero(near) > near.shape[0]:
+                near = None  # mostly near: one pass over all pairs costs less than picking them out
+        if near is None:
+            s, d, x, y = segment_box(a, b, h)
+        else:
+            d, s, idx = gap, np.zeros(len(gap)), np.flatnonzero(near)
+            x = y = np.zeros((len(gap), 3))
+            if idx.size:
+                s[idx], d[idx], x[idx], y[idx] = segment_box(a[idx], b[idx], h[idx])
         N = None
         if witness:
             V = x - y
@@ -397,8 +417,8 @@ class ObstacleAvoidance(Constraint):
                 ab = B[r] - A[r]
                 L = math.sqrt(ab.dot(ab))
                 res.clear()
-                p = r % n
-                d[r] = coal.distance(self._box_ob[p].geometry(), self._box_tf[p], _core(L),
+                ob = self._box_ob[r % n]
+                d[r] = coal.distance(ob.geometry(), _coal_transform(ob.pose), _core(L),
                                      _segment_transform(A[r], ab, L), req, res)
                 if witness:
                     N[r] = res.normal
@@ -528,7 +548,7 @@ class ObstacleAvoidance(Constraint):
         if self._box_seg.size:
             K, n = len(Q), self._box_seg.size
             A, B = P[:, self._box_ia].reshape(-1, 3), P[:, self._box_ib].reshape(-1, 3)
-            d = self._box_pairs(A, B, False, K)[0]
+            d = self._box_pairs(A, B, False, K, cutoff=off)[0]
             bad |= (d.reshape(K, n) - off < 0.0).any(axis=1)
         if self._oth_seg.size:
             import coal
@@ -558,13 +578,13 @@ class ObstacleAvoidance(Constraint):
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
-        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal pairs).
+        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal and box pairs).
 
         Without coal pairs the witness points are kept: :meth:`rows` at the same ``q`` (same array
         object, same ``data``) reuses them instead of computing the distances again.
         """
         if not self._oth_seg.size:
-            w = self._pairs(data, True)
+            w = self._pairs(data, True, COAL_INFLUENCE)  # (boxes: exact below it, as rows() asks)
             self._last = (data, q, w)
             c = w[0]
             return float(c.min()) if c.size else math.inf
@@ -600,8 +620,7 @@ class ObstacleAvoidance(Constraint):
         shared = self.__dict__.get("_shared")
         if shared is not None:  # the next constraint bound to the same obstacles reuses them
             for k in ("_sph_S", "_sph_iab", "_sph_W"):
-                v = shared[k] = getattr(self, k)
-                v.flags.writeable = False
+                shared[k] = getattr(self, k)
 
     def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
