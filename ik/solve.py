@@ -388,10 +388,13 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
         if not res.success:
             continue
         Q = res.history.q
-        with_q0 = q0 is not None and q0_bad is None
-        bad = avoid.violations(robot, np.concatenate((q0[None], Q)) if with_q0 else Q)
-        if with_q0:
+        if q0 is not None and q0_bad is None and not np.array_equal(Q[0], q0):  # (q0 is checked once)
+            bad = avoid.violations(robot, np.concatenate((q0[None], Q)))
             q0_bad, bad = bool(bad[0]), bad[1:]
+        else:
+            bad = avoid.violations(robot, Q)
+            if q0 is not None and q0_bad is None:  # this run started at q0
+                q0_bad = bool(bad[0])
         if not bad.any():
             res.message = "converged; every iterate clear of the obstacles (checked, no constraint was needed)"
             if q0_bad:

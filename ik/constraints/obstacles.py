@@ -67,11 +67,13 @@ MARGIN_EXACT = 0.05
 COAL_INFLUENCE = 0.15
 
 _EPS = 1e-12
-_NO_INT = np.zeros(0, dtype=int)
-_NO_INT.flags.writeable = False
+_NO_INT, _NO_1, _NO_3, _NO_R = np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3, 3))
+for _a in (_NO_INT, _NO_1, _NO_3, _NO_R):  # shared empty arrays of absent pair groups (read-only)
+    _a.flags.writeable = False
 _INF = np.full(4096, np.inf)
 _INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
 _einsum = np.einsum
+_matmul = np.matmul
 _sqrt = np.sqrt
 _fmax = np.fmax
 _clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
@@ -169,11 +171,14 @@ class ObstacleAvoidance(Constraint):
     def bind(self, robot: Robot) -> "ObstacleAvoidance":
         """Validate against ``robot`` and prepare the pair arrays (cached per model and obstacle set).
 
-        Shapes are immutable and compare by value, so two constraints with equal
-        obstacles, link radius, margin and tool frames on one model share their
-        (read-only) arrays: a solve that builds its constraint afresh binds it by
-        one dictionary look-up. Only successful binds are cached (an obstacle
-        containing the base raises every time); nothing writes into the shared arrays.
+        Shapes are immutable, so two constraints with the same obstacle objects
+        (identity: hashing a shape by value costs more than a cache miss saves),
+        link radius, margin and tool frames on one model share their arrays: a
+        solve that builds its constraint afresh around a scene's shapes binds it
+        by one dictionary look-up. The cache entry holds the shapes, so their ids
+        cannot be reused while it lives. Only successful binds are cached (an
+        obstacle containing the base raises every time); nothing writes into the
+        shared arrays.
         """
         if self._model is robot.model:
             return self
@@ -181,15 +186,16 @@ class ObstacleAvoidance(Constraint):
         per_model = _bound.get(robot.model)
         if per_model is None:
             per_model = _bound[robot.model] = {}
-        key = (tuple(self.obstacles), self.link_radius, self.margin_required, tuple(tools))
-        hit = per_model.get(key)
-        if hit is None:
+        key = (tuple(map(id, self.obstacles)), self.link_radius, self.margin_required, tuple(tools))
+        entry = per_model.get(key)
+        if entry is None:
             self._bind_arrays(robot, tools)
             hit = self.__dict__.copy()  # the arrays are shared from now on: nothing writes into them
             if len(per_model) >= _BOUND_CACHE:
                 per_model.pop(next(iter(per_model)))
-            per_model[key] = hit
+            per_model[key] = (tuple(self.obstacles), hit)
         else:
+            hit = entry[1]
             d = self.__dict__
             own = {k: d[k] for k in _UNBOUND if k in d}  # this instance's arguments and state
             d.update(hit)
@@ -218,36 +224,51 @@ class ObstacleAvoidance(Constraint):
                 seg_ids = [frame_index[f] for f in ob.frames]
             g = 0 if isinstance(ob, Sphere) else 1 if isinstance(ob, Capsule) else 2 if isinstance(ob, Box) else 3
             kinds[g].append((k, ob, seg_ids))
-        names = sk.names
-        self.pair_names = [(k, names[i]) for group in kinds for k, _, ids in group for i in ids]
+        self._kinds = kinds  # (pair_names is made from it on first use)
         sph, cap, box = kinds[0], kinds[1], kinds[2]
         other = ([i for _, _, ids in kinds[3] for i in ids], [ob for _, ob, ids in kinds[3] for _ in ids],
                  [k for k, _, ids in kinds[3] for _ in ids])
 
         def seg_and_rows(group):
-            """Segment ids of the group's pairs and, per pair, the row of its obstacle in the group."""
+            """``(seg, row, ia, ib)``: segment ids of the group's pairs, the row of each pair's obstacle in the
+            group and the pairs' end-point rows (:meth:`LinkSkeleton.end_index`); cached per skeleton and
+            count when every obstacle of the group is kept clear of the default segments (the usual case)."""
             if not group:
-                return _NO_INT, _NO_INT
+                return _NO_INT, _NO_INT, _NO_INT, _NO_INT
+            if all(ids is segs_default for _, _, ids in group):
+                key = (n_default, len(group))
+                hit = sk.__dict__.setdefault("_pair_index", {}).get(key)
+                if hit is None:
+                    seg = np.tile(np.arange(n_default), len(group))
+                    hit = sk._pair_index[key] = (seg, np.repeat(np.arange(len(group)), n_default)) + sk.end_index(seg)
+                return hit
             seg = np.array([i for _, _, ids in group for i in ids], dtype=int)
-            return seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int)
+            return (seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int)) \
+                + sk.end_index(seg)
 
-        self._box_seg, row = seg_and_rows(box)
-        self._box_ia, self._box_ib = sk.end_index(self._box_seg)
+        self._box_seg, row, self._box_ia, self._box_ib = seg_and_rows(box)
         self._box_ob = [ob for _, ob, ids in box for _ in ids]
-        poses = np.array([ob.pose for _, ob, _ in box], dtype=float).reshape(-1, 4, 4)
-        self._box_R = poses[row, :3, :3]
-        self._box_t = poses[row, :3, 3]
-        self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float).reshape(-1, 3)[row]
-        self._sph_seg, row = seg_and_rows(sph)
-        self._sph_c = np.array([ob.center for _, ob, _ in sph], dtype=float).reshape(-1, 3)[row]
-        self._sph_r = np.array([ob.radius for _, ob, _ in sph], dtype=float)[row]
-        self._cap_seg, row = seg_and_rows(cap)
-        self._cap_a = np.array([ob.a for _, ob, _ in cap], dtype=float).reshape(-1, 3)[row]
-        self._cap_b = np.array([ob.b for _, ob, _ in cap], dtype=float).reshape(-1, 3)[row]
-        self._cap_r = np.array([ob.radius for _, ob, _ in cap], dtype=float)[row]
-        self._oth_seg = np.array(other[0], dtype=int)
-        self._sph_ia, self._sph_ib = sk.end_index(self._sph_seg)
-        self._cap_ia, self._cap_ib = sk.end_index(self._cap_seg)
+        if box:
+            poses = np.array([ob.pose for _, ob, _ in box], dtype=float)[row]
+            self._box_R = poses[:, :3, :3]
+            self._box_t = poses[:, :3, 3]
+            self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float)[row]
+        else:
+            self._box_R, self._box_t, self._box_h = _NO_R, _NO_3, _NO_3
+        self._sph_seg, row, self._sph_ia, self._sph_ib = seg_and_rows(sph)
+        if sph:
+            self._sph_c = np.array([ob.center for _, ob, _ in sph], dtype=float)[row]
+            self._sph_r = np.array([ob.radius for _, ob, _ in sph], dtype=float)[row]
+        else:
+            self._sph_c, self._sph_r = _NO_3, _NO_1
+        self._cap_seg, row, self._cap_ia, self._cap_ib = seg_and_rows(cap)
+        if cap:
+            self._cap_a = np.array([ob.a for _, ob, _ in cap], dtype=float)[row]
+            self._cap_b = np.array([ob.b for _, ob, _ in cap], dtype=float)[row]
+            self._cap_r = np.array([ob.radius for _, ob, _ in cap], dtype=float)[row]
+        else:
+            self._cap_a, self._cap_b, self._cap_r = _NO_3, _NO_3, _NO_1
+        self._oth_seg = np.array(other[0], dtype=int) if other[0] else _NO_INT
         # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
         rigid = bool(sk.rigid[self._sph_seg].all()) if self._sph_seg.size else False
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
@@ -273,16 +294,25 @@ class ObstacleAvoidance(Constraint):
         else:  # no coal pairs (spheres and capsules only): empty arrays, nothing to prepare
             self._oth_ia = self._oth_ib = self._oth_seg
             self._oth, self._oth_tf, self._oth_local = [], [], []
-            self._oth_center = self._oth_t = self._oth_lo = self._oth_hi = np.zeros((0, 3))
-            self._oth_R = np.zeros((0, 3, 3))
-            self._oth_bound = np.zeros(0)
-        self.m = len(self.pair_names)
+            self._oth_center = self._oth_t = self._oth_lo = self._oth_hi = _NO_3
+            self._oth_R = _NO_R
+            self._oth_bound = _NO_1
+        self.m = sum(len(ids) for group in self._kinds for _, _, ids in group)
         self._offset = self.link_radius + self.margin_required
         # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._box_seg.size \
             and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
         self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
+
+    @property
+    def pair_names(self) -> list[tuple[int, str]]:
+        """``(obstacle index, segment name)`` of every pair, in the order of the clearance vector."""
+        names = self.__dict__.get("_pair_names")
+        if names is None:
+            seg_names = self.skeleton.names
+            names = self._pair_names = [(k, seg_names[i]) for group in self._kinds for k, _, ids in group for i in ids]
+        return names
 
     def _check_base(self, k, ob, fixed):
         """InputError when obstacle ``k`` reaches a segment fixed to the world (the base)."""
@@ -298,17 +328,15 @@ class ObstacleAvoidance(Constraint):
             (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), _bounding_radius(ob)
         if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + self.link_radius:
             return
-        A = np.array([f[1] for f in fixed])
-        B = np.array([f[2] for f in fixed])
-        if isinstance(ob, Sphere):
-            c = np.broadcast_to(np.asarray(ob.center), A.shape)
-            _, X = point_segment(A, B, c)
-            d = np.linalg.norm(X - c, axis=1) - ob.radius
+        if isinstance(ob, Sphere):  # point-segment closed form, on plain floats (a few fixed segments)
+            d = np.array([_point_segment_distance(a, b, ob.center) - ob.radius for _, a, b in fixed])
         elif isinstance(ob, Capsule):
+            A, B = np.array([f[1] for f in fixed]), np.array([f[2] for f in fixed])
             _, _, X, Y = segment_segment(A, B, np.broadcast_to(np.asarray(ob.a), A.shape),
                                          np.broadcast_to(np.asarray(ob.b), A.shape))
             d = np.linalg.norm(X - Y, axis=1) - ob.radius
         else:
+            A, B = np.array([f[1] for f in fixed]), np.array([f[2] for f in fixed])
             t = np.linspace(0.0, 1.0, 33)[None, :, None]
             d = ob.signed_distance((A[:, None] + t * (B - A)[:, None]).reshape(-1, 3)).reshape(len(A), -1).min(axis=1)
         bad = np.flatnonzero(d < self.link_radius)
@@ -373,25 +401,24 @@ class ObstacleAvoidance(Constraint):
         cat = np.concatenate
         return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
 
-    def _box_pairs(self, A, B, witness: bool, K: int = 1, cutoff: float = math.inf):
-        """``(d, s, N)`` of the box pairs (``K`` stacked copies): closed-form distances (:func:`segment_box`).
+    def _box_pairs(self, A, B, witness: bool, cutoff: float = math.inf, rows: np.ndarray | None = None):
+        """``(d, s, N)`` of the box pairs (or of the pairs ``rows``): closed-form distances (:func:`segment_box`).
 
         The segments are expressed in each box's frame, ``a = R^T (A - t)``; the
         normal is ``N = R (x - y) / d`` (from the box to the witness point). A
         segment that meets its box (``d = 0``) gets coal's signed distance (the
         penetration depth, negative) and normal instead. Pairs whose separating-axis
-        bound (the largest gap between the segment's and the box's extents along the
-        box's axes, ``<= d``) is at least ``cutoff`` keep that bound, with ``s = 0``
-        and ``N = 0`` (no row).
+        bound (:func:`_box_gap`, ``<= d``) is at least ``cutoff`` keep that bound,
+        with ``s = 0`` and ``N = 0`` (no row).
         """
         R, t, h = self._box_R, self._box_t, self._box_h
-        if K > 1:
-            R, t, h = np.tile(R, (K, 1, 1)), np.tile(t, (K, 1)), np.tile(h, (K, 1))
-        a = _einsum("pi,pij->pj", A - t, R)
-        b = _einsum("pi,pij->pj", B - t, R)
+        if rows is not None:
+            R, t, h = R[rows], t[rows], h[rows]
+        a = _matmul((A - t)[:, None, :], R)[:, 0]  # R^T (A - t) per pair
+        b = _matmul((B - t)[:, None, :], R)[:, 0]
         near = None
         if cutoff < math.inf:
-            gap = np.maximum(np.minimum(a, b) - h, -h - np.maximum(a, b)).max(axis=1)
+            gap = _box_gap(a, b, h)
             near = gap < cutoff
             if 2 * np.count_nonzero(near) > near.shape[0]:
                 near = None  # mostly near: one pass over all pairs costs less than picking them out
@@ -412,12 +439,11 @@ class ObstacleAvoidance(Constraint):
             import coal
 
             req, res = coal.DistanceRequest(), coal.DistanceResult()
-            n = self._box_seg.size
             for r in meet.tolist():
                 ab = B[r] - A[r]
                 L = math.sqrt(ab.dot(ab))
                 res.clear()
-                ob = self._box_ob[r % n]
+                ob = self._box_ob[r if rows is None else rows[r]]
                 d[r] = coal.distance(ob.geometry(), _coal_transform(ob.pose), _core(L),
                                      _segment_transform(A[r], ab, L), req, res)
                 if witness:
@@ -521,35 +547,45 @@ class ObstacleAvoidance(Constraint):
         configuration where their bounding-sphere bound is negative. ``first_only``: only the first
         True entry must be right (coal pairs of later configurations are skipped).
         """
-        import pinocchio as pin
-
         model, data = robot.model, robot.data
         sk = self.skeleton
+        fk = _pin().forwardKinematics
         P = np.empty((len(Q), len(sk._translations) + len(sk._acts) + len(sk._world), 3))
         for k, q in enumerate(Q):
-            pin.forwardKinematics(model, data, q)
+            fk(model, data, q)
             P[k] = sk.points(data)
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
-        if self._sph_seg.size:
-            A = P[:, self._sph_ia]
-            AB = P[:, self._sph_ib] - A
+        if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
+            A = P.take(self._sph_ia, 1)
+            AB = P.take(self._sph_ib, 1)
+            AB -= A
             AC = self._sph_c - A
             inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
-            t = _clip(_einsum("kij,kij->ki", AC, AB) * inv, 0.0, 1.0)
-            V = t[..., None] * AB - AC
-            bad |= (_sqrt(_einsum("kij,kij->ki", V, V)) - self._sph_r - off < 0.0).any(axis=1)
+            t = _einsum("kij,kij->ki", AC, AB)
+            t *= inv
+            _clip(t, 0.0, 1.0, out=t)
+            AB *= t[..., None]
+            AB -= AC  # x - c
+            d2 = _einsum("kij,kij->ki", AB, AB)
+            bad |= (d2 < self._sph_r_off * self._sph_r_off).any(axis=1)
         if self._cap_seg.size:
             K, n = len(Q), self._cap_seg.size
             A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
             _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
             d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
             bad |= (d - self._cap_r - off < 0.0).any(axis=1)
-        if self._box_seg.size:
-            K, n = len(Q), self._box_seg.size
-            A, B = P[:, self._box_ia].reshape(-1, 3), P[:, self._box_ib].reshape(-1, 3)
-            d = self._box_pairs(A, B, False, K, cutoff=off)[0]
-            bad |= (d.reshape(K, n) - off < 0.0).any(axis=1)
+        if self._box_seg.size:  # the separating-axis bound on all (K, pairs), then exact distances where below off
+            n = self._box_seg.size
+            A, B = P[:, self._box_ia], P[:, self._box_ib]
+            R, t = self._box_R, self._box_t
+            a = _matmul((A - t)[:, :, None, :], R)[:, :, 0]  # R^T (A - t) per pair, all configurations
+            b = _matmul((B - t)[:, :, None, :], R)[:, :, 0]
+            near = np.flatnonzero(_box_gap(a, b, self._box_h) < off)
+            if near.size:
+                rows = near % n
+                d = self._box_pairs(A.reshape(-1, 3)[near], B.reshape(-1, 3)[near], False, rows=rows)[0]
+                bad[near[d - off < 0.0] // n] = True
         if self._oth_seg.size:
             import coal
 
@@ -675,7 +711,8 @@ class ObstacleAvoidance(Constraint):
 
 
 _skeletons: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-#: bound pair arrays per model, then per (obstacles, link radius, margin, tool frames); see ObstacleAvoidance.bind
+#: bound pair arrays per model, then per (obstacle ids, link radius, margin, tool frames) -> (obstacles, arrays);
+#: see ObstacleAvoidance.bind
 _bound: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _BOUND_CACHE = 64
 #: attributes of an ObstacleAvoidance that are not products of bind (its arguments and per-instance state)
@@ -713,6 +750,39 @@ def _skeleton(robot, tools, frames):
         pts = skeleton_segments(robot, frames=frames) if frames else []
         hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
     return hit
+
+
+_pin_module = None
+
+
+def _pin():
+    """The ``pinocchio`` module, imported on first use (this module loads without it)."""
+    global _pin_module
+    if _pin_module is None:
+        import pinocchio
+
+        _pin_module = pinocchio
+    return _pin_module
+
+
+def _point_segment_distance(a, b, c) -> float:
+    """Distance from the point ``c`` to the segment ``[a, b]`` (3-sequences; the closed form of :func:`point_segment`)."""
+    ax, ay, az = a
+    ux, uy, uz = b[0] - ax, b[1] - ay, b[2] - az
+    wx, wy, wz = c[0] - ax, c[1] - ay, c[2] - az
+    L2 = ux * ux + uy * uy + uz * uz
+    s = min(max((wx * ux + wy * uy + wz * uz) / L2, 0.0), 1.0) if L2 > 1e-24 else 0.0
+    vx, vy, vz = wx - s * ux, wy - s * uy, wz - s * uz
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
+def _box_gap(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Lower bound on the distance from segments ``[a, b]`` to boxes ``|y| <= h`` (their frames; ``(..., 3)``).
+
+    The largest gap between the segment's and the box's extents along the box's axes (a
+    separating axis): ``max_i max(min(a_i, b_i) - h_i, -h_i - max(a_i, b_i))``.
+    """
+    return np.maximum(np.minimum(a, b) - h, -h - np.maximum(a, b)).max(axis=-1)
 
 
 def _unit(V: np.ndarray, d: np.ndarray) -> np.ndarray:
