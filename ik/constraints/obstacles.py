@@ -57,7 +57,7 @@ from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphe
 
 from .base import DAMPER_GAIN, Constraint
 from .link_capsules import LinkSkeleton, skeleton_segments
-from .segment_distance import point_segment, segment_box, segment_segment
+from .segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
 INFLUENCE = 0.3
@@ -328,6 +328,11 @@ class ObstacleAvoidance(Constraint):
             (ox, oy, oz), rad = ob.pose[:3, 3].tolist(), _bounding_radius(ob)
         if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + self.link_radius:
             return
+        if isinstance(ob, Box):  # exact rejection: every fixed segment separated from the box grown by link_radius
+            Rb, t, h = ob.pose[:3, :3], ob.pose[:3, 3], ob.half_extents.tolist()
+            if all(_separated(((a - t) @ Rb).tolist(), ((b - t) @ Rb).tolist(), h, self.link_radius)
+                   for _, a, b in fixed):
+                return
         if isinstance(ob, Sphere):  # point-segment closed form, on plain floats (a few fixed segments)
             d = np.array([_point_segment_distance(a, b, ob.center) - ob.radius for _, a, b in fixed])
         elif isinstance(ob, Capsule):
@@ -377,7 +382,11 @@ class ObstacleAvoidance(Constraint):
                 segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
         if self._box_seg.size:
             A, B = P[self._box_ia], P[self._box_ib]
-            c, s, N = self._box_pairs(A, B, witness, cutoff=cutoff + self._offset)
+            if min_only and not witness:
+                best = float(min((x.min() for x in clear if x.size), default=math.inf))
+                c, s, N = self._box_min(A, B, best), None, None
+            else:
+                c, s, N = self._box_pairs(A, B, witness, cutoff=cutoff + self._offset)
             clear.append(c)
             if witness:
                 segs.append(self._box_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
@@ -423,15 +432,23 @@ class ObstacleAvoidance(Constraint):
             if 2 * np.count_nonzero(near) > near.shape[0]:
                 near = None  # mostly near: one pass over all pairs costs less than picking them out
         if near is None:
-            s, d, x, y = segment_box(a, b, h)
+            d, s, idx = np.empty(len(a)), np.empty(len(a)), None
         else:
             d, s, idx = gap, np.zeros(len(gap)), np.flatnonzero(near)
-            x = y = np.zeros((len(gap), 3))
-            if idx.size:
-                s[idx], d[idx], x[idx], y[idx] = segment_box(a[idx], b[idx], h[idx])
+        n_exact = len(a) if idx is None else idx.size
+        if n_exact > _SCALAR_PAIRS:
+            sel = slice(None) if idx is None else idx
+            s[sel], d[sel] = segment_box(a[sel], b[sel], h[sel])[:2]
+        elif n_exact:  # a few pairs: the same closed form on floats (less fixed cost than the arrays)
+            al, bl, hl = a.tolist(), b.tolist(), h.tolist()
+            for p in (range(n_exact) if idx is None else idx.tolist()):
+                s[p], d[p] = segment_box_distance(al[p], bl[p], hl[p])
         N = None
         if witness:
-            V = x - y
+            x = a + s[:, None] * (b - a)
+            V = x - _clip(x, -h, h)  # x - y (0 for the pairs left at their bound: s = 0 ... no row)
+            if idx is not None:
+                V[~near] = 0.0
             N = _einsum("pij,pj->pi", R, V)
             N /= _fmax(d, _EPS)[:, None]
         meet = np.flatnonzero(d <= 0.0)
@@ -451,6 +468,31 @@ class ObstacleAvoidance(Constraint):
                     w = res.getNearestPoint2() - A[r]
                     s[r] = min(max(float(w.dot(ab)) / max(L * L, 1e-24), 0.0), 1.0)
         return d, s, N
+
+    def _box_min(self, A, B, best: float) -> np.ndarray:
+        """Distances of the box pairs where only the smallest (and the others' lower bounds) must be right.
+
+        Pairs are visited in increasing order of their separating-axis bound
+        (:func:`_box_gap`) and get their exact distance until the bound reaches the
+        smallest distance found (``best``: e.g. the sphere pairs' smallest); the
+        others keep their bound, so ``min`` is exact. ``min_only`` of :meth:`_pairs`.
+        """
+        R, t, h = self._box_R, self._box_t, self._box_h
+        a = _matmul((A - t)[:, None, :], R)[:, 0]
+        b = _matmul((B - t)[:, None, :], R)[:, 0]
+        c = _box_gap(a, b, h)
+        order = np.argsort(c, kind="stable").tolist()
+        al, bl, hl, lb = a.tolist(), b.tolist(), h.tolist(), c.tolist()
+        for p in order:
+            if lb[p] >= best:
+                break
+            d = segment_box_distance(al[p], bl[p], hl[p])[1]
+            if d <= 0.0:  # the segment meets the box: coal's penetration depth
+                d = float(self._box_pairs(A[p:p + 1], B[p:p + 1], False, rows=np.array([p]))[0][0])
+            c[p] = d
+            if d < best:
+                best = d
+        return c
 
     def _inv_len2(self, AB):
         """``1 / |b - a|^2`` per pair (0 for a point-like segment)."""
@@ -581,7 +623,12 @@ class ObstacleAvoidance(Constraint):
             R, t = self._box_R, self._box_t
             a = _matmul((A - t)[:, :, None, :], R)[:, :, 0]  # R^T (A - t) per pair, all configurations
             b = _matmul((B - t)[:, :, None, :], R)[:, :, 0]
-            near = np.flatnonzero(_box_gap(a, b, self._box_h) < off)
+            h = self._box_h
+            near = np.flatnonzero(_box_gap(a, b, h) < off)
+            if 0 < near.size <= _SAT_PAIRS:  # few left: the full separating-axis test on floats first
+                a2, b2, rows = a.reshape(-1, 3)[near].tolist(), b.reshape(-1, 3)[near].tolist(), (near % n).tolist()
+                hl = h.tolist()
+                near = near[[not _separated(a2[j], b2[j], hl[r], off) for j, r in enumerate(rows)]]
             if near.size:
                 rows = near % n
                 d = self._box_pairs(A.reshape(-1, 3)[near], B.reshape(-1, 3)[near], False, rows=rows)[0]
@@ -614,13 +661,13 @@ class ObstacleAvoidance(Constraint):
 
     # ------------------------------------------------------------------------------------- protocol
     def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
-        """Smallest clearance (m): exact below :data:`MARGIN_EXACT`, a lower bound above (coal and box pairs).
+        """Smallest clearance (m), exact (box and coal pairs: only the smallest is computed exactly).
 
-        Without coal pairs the witness points are kept: :meth:`rows` at the same ``q`` (same array
-        object, same ``data``) reuses them instead of computing the distances again.
+        With spheres and capsules only, the witness points are kept: :meth:`rows` at the same ``q``
+        (same array object, same ``data``) reuses them instead of computing the distances again.
         """
-        if not self._oth_seg.size:
-            w = self._pairs(data, True, COAL_INFLUENCE)  # (boxes: exact below it, as rows() asks)
+        if not self._oth_seg.size and not self._box_seg.size:
+            w = self._pairs(data, True)
             self._last = (data, q, w)
             c = w[0]
             return float(c.min()) if c.size else math.inf
@@ -774,6 +821,32 @@ def _point_segment_distance(a, b, c) -> float:
     s = min(max((wx * ux + wy * uy + wz * uz) / L2, 0.0), 1.0) if L2 > 1e-24 else 0.0
     vx, vy, vz = wx - s * ux, wy - s * uy, wz - s * uz
     return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
+#: violations(): up to this many box pairs left by the axis-gap bound get the full separating-axis test on floats
+_SAT_PAIRS = 8
+#: up to this many box pairs get their exact distance on floats (segment_box_distance), more at once on arrays
+_SCALAR_PAIRS = 12
+
+
+def _separated(a, b, h, off: float) -> bool:
+    """True when the segment ``[a, b]`` is separated from the box ``|y| <= h + off`` (its frame) by an axis.
+
+    The separating-axis test of a segment and a box (Ericson, *Real-Time
+    Collision Detection*, 5.3.3): with the midpoint ``c``, the half-extent
+    ``w = (b - a) / 2`` and ``|w|`` padded by 1e-12 (parallel cases), the axes
+    are the box's (``|c_i| > e_i + |w_i|``) and their cross products with ``w``.
+    Separated from the box grown by ``off`` on every side implies a distance
+    ``>= off`` from the box (the grown box contains all points within ``off``).
+    """
+    e0, e1, e2 = h[0] + off, h[1] + off, h[2] + off
+    c0, c1, c2 = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])
+    w0, w1, w2 = 0.5 * (b[0] - a[0]), 0.5 * (b[1] - a[1]), 0.5 * (b[2] - a[2])
+    v0, v1, v2 = abs(w0) + 1e-12, abs(w1) + 1e-12, abs(w2) + 1e-12
+    return (abs(c0) > e0 + v0 or abs(c1) > e1 + v1 or abs(c2) > e2 + v2
+            or abs(c1 * w2 - c2 * w1) > e1 * v2 + e2 * v1
+            or abs(c2 * w0 - c0 * w2) > e0 * v2 + e2 * v0
+            or abs(c0 * w1 - c1 * w0) > e0 * v1 + e1 * v0)
 
 
 def _box_gap(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> np.ndarray:

@@ -35,6 +35,8 @@ depth needs another method, e.g. coal's EPA). Every function works on
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 _EPS = 1e-18
@@ -127,3 +129,48 @@ def segment_box(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> tuple[np.ndarray
     x = (s * uT + aT).T
     v = x - _uclip(x, -h, h)
     return s, np.sqrt(_dot(v, v)), x, x - v
+
+
+def segment_box_distance(a, b, h) -> tuple[float, float]:
+    """``(s, d)`` of :func:`segment_box` for one segment ``[a, b]`` and one box ``h`` (3-sequences of floats).
+
+    The same exact minimisation on plain floats: for a handful of pairs it costs
+    less than the vectorised form's fixed overhead. ``f'`` is evaluated at the
+    sorted breakpoints until it turns positive; the zero is interpolated on that
+    interval.
+    """
+    a0, a1, a2 = a
+    u0, u1, u2 = b[0] - a0, b[1] - a1, b[2] - a2
+    h0, h1, h2 = h
+    cands = [0.0, 1.0]
+    for ai, ui, hi in ((a0, u0, h0), (a1, u1, h1), (a2, u2, h2)):
+        if ui != 0.0:
+            for e in (hi, -hi):
+                t = (e - ai) / ui
+                if 0.0 < t < 1.0:
+                    cands.append(t)
+    cands.sort()
+
+    def fprime(t: float) -> float:  # f'(t) / 2 = sum_i u_i phi_i(a_i + t u_i)
+        x0, x1, x2 = a0 + t * u0, a1 + t * u1, a2 + t * u2
+        return (u0 * (x0 - h0 if x0 > h0 else x0 + h0 if x0 < -h0 else 0.0)
+                + u1 * (x1 - h1 if x1 > h1 else x1 + h1 if x1 < -h1 else 0.0)
+                + u2 * (x2 - h2 if x2 > h2 else x2 + h2 if x2 < -h2 else 0.0))
+
+    s = 1.0
+    t0, f0 = 0.0, fprime(0.0)
+    if f0 > 0.0:
+        s = 0.0
+    else:
+        for t1 in cands[1:]:
+            f1 = fprime(t1)
+            if f1 > 0.0:
+                s = t0 - f0 * (t1 - t0) / (f1 - f0)
+                s = 0.0 if s < 0.0 else 1.0 if s > 1.0 else s
+                break
+            t0, f0 = t1, f1
+    x0, x1, x2 = a0 + s * u0, a1 + s * u1, a2 + s * u2
+    v0 = x0 - h0 if x0 > h0 else x0 + h0 if x0 < -h0 else 0.0
+    v1 = x1 - h1 if x1 > h1 else x1 + h1 if x1 < -h1 else 0.0
+    v2 = x2 - h2 if x2 > h2 else x2 + h2 if x2 < -h2 else 0.0
+    return s, math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
