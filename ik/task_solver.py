@@ -122,8 +122,11 @@ def _accept(run: _Run, q, dq, m_q):
     return None, None
 
 
-def _run_start(run: _Run, q, record):
-    """One start. Returns (ok, iterations, reason, index of the answer in the record, task errors of it)."""
+def _run_start(run: _Run, q, record, st=None):
+    """One start (``st``: its state when already evaluated).
+
+    Returns (ok, iterations, reason, index of the answer in the record, task errors of it).
+    """
     pb = run.pb
     best_E = math.inf
     stalls = 0
@@ -132,7 +135,8 @@ def _run_start(run: _Run, q, record):
     beta_prev = 1.0
     qs, pes, res = record
     run.lazy_wait = 0
-    st = pb.state(q)
+    if st is None:
+        st = pb.state(q)
     for it in range(run.max_iter + 1):
         levels, pe, re, es, m_q = st
         qs.append(q)
@@ -234,7 +238,8 @@ def solve_problem(
         sequence = itertools.chain((np.clip(warm_start, lo, hi),), sequence)
     warm = warm_start is not None
     for q in sequence:
-        if pb.checked and pb.margin(q) < 0.0:
+        st = pb.state(q)  # (its margin decides whether the start is used; the start's first iteration reuses it)
+        if st[4] < 0.0:
             skipped += 1
             warm = False  # (the warm start is the first of the sequence: skipped, or already past)
             if skipped > 10000 or _now() > deadline:
@@ -244,14 +249,14 @@ def solve_problem(
         if n_starts > 1:
             warm = False
         record = ([], [], [])
-        ok, it, reason, k, es = _run_start(run, q, record)
+        ok, it, reason, k, es = _run_start(run, q, record, st)
         iterations += it
         qs, pes, res = record
         if k is None:
             k = int(np.argmin(np.square(pes) + np.square(res)))
         score = pes[k] ** 2 + res[k] ** 2
         if best is None or ok or score < best[0]:
-            best = (score, k, record, reason, ok)
+            best = (score, k, record, reason, ok, es)
         if ok:
             break
         if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
@@ -265,9 +270,11 @@ def solve_problem(
         return Result(q=q, success=False, position_error=float(pe), orientation_error=float(re), elapsed=_now() - t0,
                       message="no start configuration satisfying the constraints was found" + (f"; {note}" if note else ""),
                       method=method, frame=frame, history=History.empty(robot.nq, comps))
-    _, k, (qs, pes, res), reason, ok = best
+    _, k, (qs, pes, res), reason, ok, es = best
     q = np.array(qs[k])
-    _, _, _, es = pb.evaluate(q)
+    if not (ok and es is not None and k == len(qs) - 1 and not pb.has_objectives):
+        # (a goals-only start that converged returns right after evaluating its answer: es are its errors)
+        _, _, _, es = pb.evaluate(q)
     if ok:
         message = reason
         if warm and n_starts == 1:
