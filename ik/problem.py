@@ -210,7 +210,8 @@ class Problem:
         return min(c.margin(self.robot, d, q) for c in self.checked)
 
     def describe(self, q: np.ndarray) -> str:
-        """Violations at ``q`` in words."""
-        d = self.check_data
+        """Violations at ``q`` in words (forward kinematics on the main ``Data``, as :meth:`margin`)."""
+        d = self.data
         _fk(self.model, d, q)
+        self.q_in_data = None
         return "; ".join(s for s in (c.describe(self.robot, d, q) for c in self.checked) if s)

@@ -404,6 +404,7 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
             return res
         if not bad[-1]:
             p["warm_start"] = res.q
+            p["q0_checked"] = q0_bad is False  # the constrained solve need not check q0 for its message
             break
     p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
     return None
@@ -422,7 +423,7 @@ def _solve_target_tasks(robot, p: dict, options: dict):
     opts = _task_options(options)
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
-                    warm_start=p.get("warm_start"), **opts)
+                    warm_start=p.get("warm_start"), q0_checked=p.get("q0_checked", False), **opts)
 
 
 _collision_solve = None

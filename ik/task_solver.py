@@ -211,6 +211,7 @@ def solve_problem(
     evaluate: Callable[[np.ndarray], np.ndarray] | None = None,
     components: tuple | None = None,
     warm_start: np.ndarray | None = None,
+    q0_checked: bool = False,
 ) -> Result:
     """Solve a bound :class:`Problem` from the starts of :func:`ik.multistart.starts` (module docstring).
 
@@ -218,6 +219,8 @@ def solve_problem(
     the goal tasks' errors, sign ``desired - current``). ``warm_start``: a
     configuration tried before those starts (e.g. the answer of an
     unconstrained run; skipped like any start when it violates a constraint).
+    ``q0_checked``: the caller has found ``q0`` to satisfy the checked
+    constraints (no check for the message's note).
     """
     t0 = _now()
     calls0 = backend_calls()
@@ -229,13 +232,15 @@ def solve_problem(
     note = ""
     if q0 is not None:
         q0 = np.clip(q0, lo, hi)
-        if pb.checked and pb.margin(q0) < 0.0:
+        if pb.checked and not q0_checked and pb.margin(q0) < 0.0:
             note = f"q0 violates a constraint ({pb.describe(q0)}); started from configurations that satisfy them"
     best = None
     iterations = n_starts = skipped = 0
-    sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
-    if warm_start is not None:
-        sequence = itertools.chain((np.clip(warm_start, lo, hi),), sequence)
+    if warm_start is None:
+        sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
+    else:  # the usual starts are ranked only if the warm start does not do
+        sequence = itertools.chain((np.clip(warm_start, lo, hi),),
+                                   _later(starts, robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0))
     warm = warm_start is not None
     for q in sequence:
         st = pb.state(q)  # (its margin decides whether the start is used; the start's first iteration reuses it)
@@ -289,6 +294,11 @@ def solve_problem(
                   iterations=iterations, restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist,
                   method=method, frame=frame, info={"backend": backend, "qp_calls": backend_calls() - calls0, "skipped_starts": skipped},
                   task_errors=pb.task_errors(es))
+
+
+def _later(make, *args):
+    """The items of ``make(*args)``, which is called only when the first item is asked for."""
+    yield from make(*args)
 
 
 def _frame_of(pb: Problem) -> str:
