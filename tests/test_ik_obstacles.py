@@ -8,7 +8,7 @@ import pytest
 from kinserve import ik, robots
 from kinserve.ik.constraints import robot_segments
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
-from kinserve.ik.constraints.segment_distance import point_segment, segment_segment
+from kinserve.ik.constraints.segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
 from kinserve.kinematics.errors import InputError
 
 
@@ -280,3 +280,120 @@ def test_margin_is_the_smallest_exact_clearance_with_bounded_coal_calls(panda):
         assert n_min <= n_full
         fewer += n_min < n_full
     assert fewer > 0
+
+
+def test_segment_box_against_coal_and_dense_sampling():
+    """The closed-form segment-box distance (arrays and floats) against coal's GJK and a dense sampling."""
+    import coal
+
+    from kinserve.ik.constraints.obstacles import _segment_transform
+
+    rng = np.random.default_rng(80)
+    P = 400
+    h = rng.uniform(0.01, 0.3, (P, 3))
+    a, b = rng.uniform(-0.6, 0.6, (P, 3)), rng.uniform(-0.6, 0.6, (P, 3))
+    b[:20] = a[:20]  # point-like segments
+    b[20:40, 1:] = a[20:40, 1:]  # parallel to the box's x axis
+    b[40:60, 0] = a[40:60, 0]  # in a plane parallel to a face
+    s, d, x, y = segment_box(a, b, h)
+    assert np.allclose(x, a + s[:, None] * (b - a)) and np.all(np.abs(y) <= h + 1e-15)
+    assert np.allclose(np.linalg.norm(x - y, axis=1), d)
+    t = np.linspace(0.0, 1.0, 4001)
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    separated = 0
+    for i in range(P):
+        X = a[i] + t[:, None] * (b[i] - a[i])
+        sampled = np.linalg.norm(np.maximum(np.abs(X) - h[i], 0.0), axis=1).min()
+        step = float(np.linalg.norm(b[i] - a[i])) / 4000  # the sampling's spacing bounds its excess
+        assert d[i] <= sampled + 1e-15 and d[i] == pytest.approx(sampled, abs=step + 1e-15)  # a minimum, the minimum
+        si, di = segment_box_distance(a[i].tolist(), b[i].tolist(), h[i].tolist())
+        assert di == pytest.approx(d[i], abs=1e-12)
+        L = float(np.linalg.norm(b[i] - a[i]))
+        if L > 1e-9:
+            res.clear()
+            dc = coal.distance(coal.Box(*(2 * h[i])), coal.Transform3s(), coal.Capsule(0.0, L),
+                               _segment_transform(a[i], b[i] - a[i], L), req, res)
+            if d[i] > 0.0:
+                separated += 1
+                assert d[i] == pytest.approx(dc, abs=1e-8)
+            else:
+                assert dc <= 1e-9  # coal: touching or penetrating
+    assert separated > 200
+
+
+def test_separating_axis_test_implies_the_distance():
+    from kinserve.ik.constraints.obstacles import _separated
+
+    rng = np.random.default_rng(81)
+    h = rng.uniform(0.02, 0.2, (500, 3))
+    a, b = rng.uniform(-0.5, 0.5, (500, 3)), rng.uniform(-0.5, 0.5, (500, 3))
+    d = segment_box(a, b, h)[1]
+    for off in (0.0, 0.03):
+        flags = np.array([_separated(a[i].tolist(), b[i].tolist(), h[i].tolist(), off) for i in range(500)])
+        assert np.all(d[flags] >= off)  # separated from the grown box: at least off away
+        assert not flags[d == 0.0].any()  # a segment meeting the box is never separated
+        assert flags.any() and not flags.all()
+
+
+def test_violations_mask_matches_the_clearances(panda):
+    avoid = ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda)
+    Q = panda.random_q(np.random.default_rng(72), 40)
+    flags = []
+    for q in Q:
+        pin.forwardKinematics(panda.model, panda.data, q)
+        flags.append(avoid._pairs(panda.data, False, np.inf).min() < 0.0)
+    assert any(flags) and not all(flags)
+    assert avoid.violations(panda, Q).tolist() == flags
+    boxes = ObstacleAvoidance([OBSTACLES[2], _box((0.45, -0.1, 0.45), (0.12, 0.1, 0.2), 1.1)]).bind(panda)
+    ref = []
+    for q in Q:
+        pin.forwardKinematics(panda.model, panda.data, q)
+        ref.append(min(sampled_clearance(panda, q, panda.tip, ob, n=401) for ob in boxes.obstacles) < -1e-6)
+    got = boxes.violations(panda, Q)
+    assert all(g or not r for g, r in zip(got, ref))  # every sampled violation found (sampling misses some)
+
+
+def test_bind_is_shared_by_constraints_on_the_same_shapes(panda):
+    a = ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda)
+    b = ObstacleAvoidance(OBSTACLES, link_radius=0.01, gain=0.2).bind(panda)
+    c = ObstacleAvoidance([ik.Sphere(o.center, o.radius) if isinstance(o, ik.Sphere) else o for o in OBSTACLES],
+                          link_radius=0.01).bind(panda)
+    assert b._sph_c is a._sph_c and b.gain == 0.2 and a.gain != 0.2  # shared arrays, own arguments
+    assert c._sph_c is not a._sph_c and np.array_equal(c._sph_c, a._sph_c)  # equal shapes, other objects: rebuilt
+    q = panda.random_q(np.random.default_rng(73))
+    pin.forwardKinematics(panda.model, panda.data, q)
+    assert np.array_equal(a._pairs(panda.data, False, np.inf), c._pairs(panda.data, False, np.inf))
+
+
+def test_a_free_answer_reached_through_an_obstacle_is_only_a_warm_start(panda, monkeypatch):
+    """The free LM attempts of ik.solve: a converged run whose path enters an obstacle is not returned; its clear
+    answer starts the constrained solve, whose history holds clear configurations only."""
+    import sys
+
+    from kinserve.ik.result import History, Result
+
+    solve_module = sys.modules["kinserve.ik.solve"]
+    rng = np.random.default_rng(90)
+    while True:
+        q_goal, q_mid = panda.random_q(rng, 2)
+        ob = ik.Sphere(panda.fk(q_mid, "panda_link4")[:3, 3], 0.05)  # contains the elbow at q_mid
+        if sampled_clearance(panda, q_goal, panda.tip, ob) > 0.01:
+            break
+    T = panda.fk(q_goal).copy()
+    calls = []
+
+    def fake_lm(robot, target, q, **kwargs):  # "converges" through q_mid
+        calls.append(q)
+        qs = [np.asarray(q, dtype=float), q_mid, q_goal]
+        return Result(q=q_goal.copy(), success=True, position_error=0.0, orientation_error=0.0, iterations=2,
+                      message="converged", history=History.from_lists(qs, [0.1, 0.05, 0.0], [0.1, 0.05, 0.0]),
+                      method="lm", frame=panda.tip)
+
+    monkeypatch.setattr(solve_module, "solve_lm", fake_lm)
+    res = ik.solve(panda, T, obstacles=[ob], seed=3)
+    assert len(calls) == 1  # the clear answer ends the free attempts
+    assert res.success and "warm start" in res.message, res.message
+    assert np.array_equal(res.q, q_goal) and len(res.history.q) == 1
+    assert _all_clear(panda, res.history.q, panda.tip, [ob])
+    again = ik.solve(panda, T, obstacles=[ob], seed=3)
+    assert np.array_equal(again.q, res.q)
