@@ -249,9 +249,11 @@ class ObstacleAvoidance(Constraint):
         self._box_seg, row, self._box_ia, self._box_ib = seg_and_rows(box)
         self._box_ob = [ob for _, ob, ids in box for _ in ids]
         if box:
-            poses = np.array([ob.pose for _, ob, _ in box], dtype=float)[row]
-            self._box_R = poses[:, :3, :3]
-            self._box_t = poses[:, :3, 3]
+            poses = np.array([ob.pose for _, ob, _ in box], dtype=float)
+            self._boxes_R, self._boxes_t = poses[:, :3, :3], poses[:, None, :3, 3]  # per box (t: (boxes, 1, 3))
+            self._box_row = row  # per pair: its box
+            self._box_R = self._boxes_R[row]
+            self._box_t = poses[row, :3, 3]
             self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float)[row]
         else:
             self._box_R, self._box_t, self._box_h = _NO_R, _NO_3, _NO_3
@@ -303,6 +305,7 @@ class ObstacleAvoidance(Constraint):
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._box_seg.size \
             and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
+        self._sph_r_off2 = self._sph_r_off * self._sph_r_off  # (r + offset)^2: violations() compares squares
         self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
 
     @property
@@ -381,12 +384,12 @@ class ObstacleAvoidance(Constraint):
             if witness:
                 segs.append(self._cap_seg), ss.append(s), Ns.append(_unit(V, d)), As.append(A), Bs.append(B)
         if self._box_seg.size:
-            A, B = P[self._box_ia], P[self._box_ib]
             if min_only and not witness:
                 best = float(min((x.min() for x in clear if x.size), default=math.inf))
-                c, s, N = self._box_min(A, B, best), None, None
+                c, s, N = self._box_min(P, best), None, None
             else:
-                c, s, N = self._box_pairs(A, B, witness, cutoff=cutoff + self._offset)
+                A, B = P[self._box_ia], P[self._box_ib]
+                c, s, N = self._box_pairs(A, B, witness, cutoff=cutoff + self._offset, local=self._box_local(P))
             clear.append(c)
             if witness:
                 segs.append(self._box_seg), ss.append(s), Ns.append(N), As.append(A), Bs.append(B)
@@ -410,7 +413,8 @@ class ObstacleAvoidance(Constraint):
         cat = np.concatenate
         return c, cat(segs), cat(ss), cat(Ns), cat(As), cat(Bs)
 
-    def _box_pairs(self, A, B, witness: bool, cutoff: float = math.inf, rows: np.ndarray | None = None):
+    def _box_pairs(self, A, B, witness: bool, cutoff: float = math.inf, rows: np.ndarray | None = None,
+                   local: tuple | None = None):
         """``(d, s, N)`` of the box pairs (or of the pairs ``rows``): closed-form distances (:func:`segment_box`).
 
         The segments are expressed in each box's frame, ``a = R^T (A - t)``; the
@@ -418,13 +422,17 @@ class ObstacleAvoidance(Constraint):
         segment that meets its box (``d = 0``) gets coal's signed distance (the
         penetration depth, negative) and normal instead. Pairs whose separating-axis
         bound (:func:`_box_gap`, ``<= d``) is at least ``cutoff`` keep that bound,
-        with ``s = 0`` and ``N = 0`` (no row).
+        with ``s = 0`` and ``N = 0`` (no row). ``local``: the ends already in the boxes' frames
+        (:meth:`_box_local`).
         """
         R, t, h = self._box_R, self._box_t, self._box_h
         if rows is not None:
             R, t, h = R[rows], t[rows], h[rows]
-        a = _matmul((A - t)[:, None, :], R)[:, 0]  # R^T (A - t) per pair
-        b = _matmul((B - t)[:, None, :], R)[:, 0]
+        if local is None:
+            a = _matmul((A - t)[:, None, :], R)[:, 0]  # R^T (A - t) per pair
+            b = _matmul((B - t)[:, None, :], R)[:, 0]
+        else:
+            a, b = local
         near = None
         if cutoff < math.inf:
             gap = _box_gap(a, b, h)
@@ -469,7 +477,17 @@ class ObstacleAvoidance(Constraint):
                     s[r] = min(max(float(w.dot(ab)) / max(L * L, 1e-24), 0.0), 1.0)
         return d, s, N
 
-    def _box_min(self, A, B, best: float) -> np.ndarray:
+    def _box_local(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(a, b)``: the box pairs' segment ends in their boxes' frames, ``R^T (x - t)``.
+
+        ``P`` holds the skeleton's points, ``(points, 3)`` or ``(K, points, 3)``; every
+        point is moved into every box's frame at once (one small product per box and
+        configuration) and the pairs' ends are picked out of that.
+        """
+        L = _matmul(P[..., None, :, :] - self._boxes_t, self._boxes_R)  # (..., boxes, points, 3)
+        return L[..., self._box_row, self._box_ia, :], L[..., self._box_row, self._box_ib, :]
+
+    def _box_min(self, P, best: float) -> np.ndarray:
         """Distances of the box pairs where only the smallest (and the others' lower bounds) must be right.
 
         Pairs are visited in increasing order of their separating-axis bound
@@ -477,9 +495,8 @@ class ObstacleAvoidance(Constraint):
         smallest distance found (``best``: e.g. the sphere pairs' smallest); the
         others keep their bound, so ``min`` is exact. ``min_only`` of :meth:`_pairs`.
         """
-        R, t, h = self._box_R, self._box_t, self._box_h
-        a = _matmul((A - t)[:, None, :], R)[:, 0]
-        b = _matmul((B - t)[:, None, :], R)[:, 0]
+        h = self._box_h
+        a, b = self._box_local(P)
         c = _box_gap(a, b, h)
         order = np.argsort(c, kind="stable").tolist()
         al, bl, hl, lb = a.tolist(), b.tolist(), h.tolist(), c.tolist()
@@ -488,7 +505,8 @@ class ObstacleAvoidance(Constraint):
                 break
             d = segment_box_distance(al[p], bl[p], hl[p])[1]
             if d <= 0.0:  # the segment meets the box: coal's penetration depth
-                d = float(self._box_pairs(A[p:p + 1], B[p:p + 1], False, rows=np.array([p]))[0][0])
+                ia, ib = self._box_ia[p:p + 1], self._box_ib[p:p + 1]
+                d = float(self._box_pairs(P[ia], P[ib], False, rows=np.array([p]))[0][0])
             c[p] = d
             if d < best:
                 best = d
@@ -610,7 +628,7 @@ class ObstacleAvoidance(Constraint):
             AB *= t[..., None]
             AB -= AC  # x - c
             d2 = _einsum("kij,kij->ki", AB, AB)
-            bad |= (d2 < self._sph_r_off * self._sph_r_off).any(axis=1)
+            bad |= (d2 < self._sph_r_off2).any(axis=1)
         if self._cap_seg.size:
             K, n = len(Q), self._cap_seg.size
             A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
@@ -619,10 +637,7 @@ class ObstacleAvoidance(Constraint):
             bad |= (d - self._cap_r - off < 0.0).any(axis=1)
         if self._box_seg.size:  # the separating-axis bound on all (K, pairs), then exact distances where below off
             n = self._box_seg.size
-            A, B = P[:, self._box_ia], P[:, self._box_ib]
-            R, t = self._box_R, self._box_t
-            a = _matmul((A - t)[:, :, None, :], R)[:, :, 0]  # R^T (A - t) per pair, all configurations
-            b = _matmul((B - t)[:, :, None, :], R)[:, :, 0]
+            a, b = self._box_local(P)  # (K, pairs, 3)
             h = self._box_h
             near = np.flatnonzero(_box_gap(a, b, h) < off)
             if 0 < near.size <= _SAT_PAIRS:  # few left: the full separating-axis test on floats first
@@ -630,9 +645,9 @@ class ObstacleAvoidance(Constraint):
                 hl = h.tolist()
                 near = near[[not _separated(a2[j], b2[j], hl[r], off) for j, r in enumerate(rows)]]
             if near.size:
-                rows = near % n
-                d = self._box_pairs(A.reshape(-1, 3)[near], B.reshape(-1, 3)[near], False, rows=rows)[0]
-                bad[near[d - off < 0.0] // n] = True
+                k, rows = near // n, near % n
+                d = self._box_pairs(P[k, self._box_ia[rows]], P[k, self._box_ib[rows]], False, rows=rows)[0]
+                bad[k[d - off < 0.0]] = True
         if self._oth_seg.size:
             import coal
 
