@@ -379,6 +379,7 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     opts.pop("max_starts", None)
     t0 = time.perf_counter()
     budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
+    attempt = -1
     for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
         left = budget - (time.perf_counter() - t0)
         if left <= 0.0:
@@ -407,6 +408,7 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
             p["q0_checked"] = q0_bad is False  # the constrained solve need not check q0 for its message
             break
     p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
+    p["tried_starts"] = attempt + 1 if "warm_start" not in p else 0  # (the constrained solve retries them later)
     return None
 
 
@@ -423,7 +425,8 @@ def _solve_target_tasks(robot, p: dict, options: dict):
     opts = _task_options(options)
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
-                    warm_start=p.get("warm_start"), q0_checked=p.get("q0_checked", False), **opts)
+                    warm_start=p.get("warm_start"), q0_checked=p.get("q0_checked", False),
+                    defer_starts=p.get("tried_starts", 0), **opts)
 
 
 _collision_solve = None
