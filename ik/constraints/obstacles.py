@@ -332,9 +332,8 @@ class ObstacleAvoidance(Constraint):
         if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + self.link_radius:
             return
         if isinstance(ob, Box):  # exact rejection: every fixed segment separated from the box grown by link_radius
-            Rb, t, h = ob.pose[:3, :3], ob.pose[:3, 3], ob.half_extents.tolist()
-            if all(_separated(((a - t) @ Rb).tolist(), ((b - t) @ Rb).tolist(), h, self.link_radius)
-                   for _, a, b in fixed):
+            T, h = ob.pose.tolist(), [0.5 * v for v in ob.size]
+            if all(_separated(_to_local(T, a), _to_local(T, b), h, self.link_radius) for _, a, b in fixed):
                 return
         if isinstance(ob, Sphere):  # point-segment closed form, on plain floats (a few fixed segments)
             d = np.array([_point_segment_distance(a, b, ob.center) - ob.radius for _, a, b in fixed])
@@ -808,7 +807,7 @@ def _skeleton(robot, tools, frames):
     if hit is None:
         segs = skeleton_segments(robot, tools)
         moving = [s for s in segs if not s.fixed]
-        fixed = [(s.name, s.la.copy(), s.lb.copy()) for s in segs if s.fixed]
+        fixed = [(s.name, tuple(s.la.tolist()), tuple(s.lb.tolist())) for s in segs if s.fixed]  # (floats)
         pts = skeleton_segments(robot, frames=frames) if frames else []
         hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
     return hit
@@ -825,6 +824,13 @@ def _pin():
 
         _pin_module = pinocchio
     return _pin_module
+
+
+def _to_local(T: list, p) -> list:
+    """``R^T (p - t)`` for the pose ``T`` (4x4 nested lists) and a 3-point ``p``, on plain floats."""
+    x, y, z = p[0] - T[0][3], p[1] - T[1][3], p[2] - T[2][3]
+    return [T[0][0] * x + T[1][0] * y + T[2][0] * z, T[0][1] * x + T[1][1] * y + T[2][1] * z,
+            T[0][2] * x + T[1][2] * y + T[2][2] * z]
 
 
 def _point_segment_distance(a, b, c) -> float:
