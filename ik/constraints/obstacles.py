@@ -602,9 +602,12 @@ class ObstacleAvoidance(Constraint):
         """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``) has a negative clearance.
 
         The sphere, capsule and box distances of all ``K`` configurations are evaluated at once (the
-        same closed forms on ``(K, pairs)`` arrays); coal pairs (cylinders, meshes) are checked per
-        configuration where their bounding-sphere bound is negative. ``first_only``: only the first
-        True entry must be right (coal pairs of later configurations are skipped).
+        same closed forms on ``(K, pairs)`` arrays; box pairs only where their axis-gap bound is below
+        the offset, and a segment that meets a box counts as a violation - the penetration depth is not
+        needed for the verdict, only a tangential touch would have clearance 0); coal pairs (cylinders,
+        meshes) are checked per configuration where their bounding-sphere bound is negative.
+        ``first_only``: only the first True entry must be right (coal pairs of later configurations are
+        skipped).
         """
         model, data = robot.model, robot.data
         sk = self.skeleton
@@ -639,14 +642,18 @@ class ObstacleAvoidance(Constraint):
             a, b = self._box_local(P)  # (K, pairs, 3)
             h = self._box_h
             near = np.flatnonzero(_box_gap(a, b, h) < off)
-            if 0 < near.size <= _SAT_PAIRS:  # few left: the full separating-axis test on floats first
+            if 0 < near.size <= _SCALAR_PAIRS:  # few left: separating axes, then the exact distance, on floats
                 a2, b2, rows = a.reshape(-1, 3)[near].tolist(), b.reshape(-1, 3)[near].tolist(), (near % n).tolist()
                 hl = h.tolist()
-                near = near[[not _separated(a2[j], b2[j], hl[r], off) for j, r in enumerate(rows)]]
-            if near.size:
-                k, rows = near // n, near % n
-                d = self._box_pairs(P[k, self._box_ia[rows]], P[k, self._box_ib[rows]], False, rows=rows)[0]
-                bad[k[d - off < 0.0]] = True
+                for j, r in enumerate(rows):
+                    if not _separated(a2[j], b2[j], hl[r], off):
+                        d = segment_box_distance(a2[j], b2[j], hl[r])[1]
+                        if d < off or d <= 0.0:
+                            bad[near[j] // n] = True
+            elif near.size:
+                k = near // n
+                d = segment_box(a.reshape(-1, 3)[near], b.reshape(-1, 3)[near], h[near % n])[1]
+                bad[k[(d < off) | (d <= 0.0)]] = True
         if self._oth_seg.size:
             import coal
 
@@ -844,8 +851,6 @@ def _point_segment_distance(a, b, c) -> float:
     return math.sqrt(vx * vx + vy * vy + vz * vz)
 
 
-#: violations(): up to this many box pairs left by the axis-gap bound get the full separating-axis test on floats
-_SAT_PAIRS = 8
 #: up to this many box pairs get their exact distance on floats (segment_box_distance), more at once on arrays
 _SCALAR_PAIRS = 12
 
