@@ -35,6 +35,7 @@ depth needs another method, e.g. coal's EPA). Every function works on
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 import math
 
 import numpy as np
@@ -131,7 +132,7 @@ def segment_box(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> tuple[np.ndarray
     return s, np.sqrt(_dot(v, v)), x, x - v
 
 
-def segment_box_distance(a, b, h) -> tuple[float, float]:
+def segment_box_distance(a: Sequence[float], b: Sequence[float], h: Sequence[float]) -> tuple[float, float]:
     """``(s, d)`` of :func:`segment_box` for one segment ``[a, b]`` and one box ``h`` (3-sequences of floats).
 
     The same exact minimisation on plain floats: for a handful of pairs it costs
