@@ -13,8 +13,6 @@ from __future__ import annotations
 import numpy as np
 from typing import TYPE_CHECKING, Any
 
-from .constraints.obstacles import ObstacleAvoidance
-from .constraints.sphere_set import SphereSet
 from .dense_qp import DEFAULT_BACKEND, box_active_set
 from .problem import Problem
 from .result import Result, task_evaluator
@@ -36,9 +34,8 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
              shortcut: bool = True, lazy: bool = True) -> Result:
     """QP-based IK of ``target`` with hard joint limits, optional obstacles and centring, and restarts.
 
-    ``spheres`` is an :class:`ObstacleAvoidance`, a legacy :class:`SphereSet`,
-    a list of constraints or None; ``weights`` the centring weights of
-    :func:`ik.centring.centring_weights` (None = off).
+    ``spheres`` is a constraint (e.g. :class:`~kinserve.ik.constraints.obstacles.ObstacleAvoidance`), a list
+    of constraints or None; ``weights`` the centring weights of :func:`ik.centring.centring_weights` (None = off).
     """
     from .tasks.centring_task import CentringTask
     from .tasks.frame_task import FrameTask
@@ -52,9 +49,7 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
         ct._model = robot.model
         tasks.append(ct)
     cons = []
-    if isinstance(spheres, SphereSet):
-        cons.append(ObstacleAvoidance(spheres.spheres, tool_frames=(target.frame,)))
-    elif isinstance(spheres, (list, tuple)):
+    if isinstance(spheres, (list, tuple)):
         cons.extend(spheres)
     elif spheres is not None:
         cons.append(spheres)
