@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import collision_cache
+from .collision_layout import SceneLayout, shape_signature
 from .collision_scene import CollisionScene
 from .collision_pairs import (
     ALGORITHM_VERSION,
@@ -44,7 +45,7 @@ from .collision_pairs import (
 )
 from .errors import ModelError
 
-#: Scenes (obstacle sets) kept per model, least recently used dropped first.
+#: Scenes (obstacle sets) kept per model, least recently used dropped first (also: layouts kept).
 SCENE_CACHE_SIZE = 32
 
 
@@ -141,6 +142,7 @@ class CollisionModel:
         self.model_pairs: list[tuple[int, int]] = [(int(cp.first), int(cp.second)) for cp in gm.collisionPairs]
         self._scenes: OrderedDict = OrderedDict()  #: (self_collision, *ids) -> (scene, obstacles)
         self._scenes_by_value: OrderedDict = OrderedDict()  #: (self_collision, *shapes) -> scene
+        self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
         self._lock = threading.Lock()
 
     @classmethod
@@ -214,12 +216,24 @@ class CollisionModel:
         vkey = (self_collision, *obs)
         scene = self._scenes_by_value.get(vkey) if by_value else None
         if scene is None:
-            scene = CollisionScene(self, obs, self_collision)
+            scene = CollisionScene(self, obs, self_collision, self.layout(obs, self_collision))
         with self._lock:
             _remember(self._scenes, key, (scene, obs))
             if by_value:
                 _remember(self._scenes_by_value, vkey, scene)
         return scene
+
+    def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:
+        """The :class:`~.collision_layout.SceneLayout` of obstacles shaped like ``obstacles`` (validated
+        shapes), cached by their signatures (:func:`~.collision_layout.shape_signature`): scenes whose
+        obstacles differ only by pose share it, so a moved obstacle does not rebuild a scene from nothing."""
+        key = (self_collision, *map(shape_signature, obstacles))
+        layout = self._layouts.get(key)
+        if layout is None:
+            layout = SceneLayout(self, obstacles, self_collision)
+            with self._lock:
+                _remember(self._layouts, key, layout)
+        return layout
 
 
 def _remember(cache: OrderedDict, key: tuple, value: Any) -> None:
