@@ -47,6 +47,7 @@ from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
 
+from . import analytic
 from .constraints.collision import CollisionConstraint, _length
 from .multistart import frame_starts
 from .qp_solver import solve_qp
@@ -154,66 +155,89 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
                             deadline: float, solver_opts: dict):
     """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves, each answer checked.
 
-    The first is the ordinary solve (``q0``, then the table of starts); the
-    others start from the collision-free starts of :func:`_retry_starts` - another
-    IK branch often clears what the first answer hit. An answer counts when it
-    and every iterate of its run are collision free. Returns ``(result, warm)``:
-    the qualifying result or None, and the last collision-free iterate of the
-    first attempt before its first collision (the constrained solve's warm
-    start; None when its start already collides).
+    The solves run one start at a time, in the order the ordinary solve would take them (``q0`` and the
+    target's ranked table samples, then random configurations; :func:`_free_starts`), skipping every
+    start in collision at the price of one check instead of a run. A closed-form method (no starts, no
+    iterates) makes the first attempt the ordinary solve. An answer counts when it and every iterate of
+    its run are collision free (:func:`_path_is_free`: the answer first, then the iterates, last first).
+    Returns ``(result, warm)``: the qualifying result or None, and the constrained solve's warm start
+    (:func:`_last_clear_iterate` of the first run that failed the check; None when there is none).
     """
-    retries = None  # built for the first retry only (ranking the table costs more than a checked answer)
     opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
-    warm = None
-    first_start = None
-    for attempt in range(UNCONSTRAINED_ATTEMPTS):
+    failed = None  # iterates of the first run whose answer or path collided
+    attempt = 0
+    skip = None
+    if _closed_form_answers(robot, p):
+        res = solve_prepared(robot, dict(p, max_time=max(deadline - time.perf_counter(), 1e-4)), **solver_opts)
+        attempt = 1
+        if res.success and _path_is_free(constraint, res):
+            return _checked(res, attempt), None
+        if res.history is not None and len(res.history.q):
+            skip, failed = res.history.q[0], res.history.q
+    for start in _free_starts(robot, p, constraint, solver_opts, skip):
+        if attempt >= UNCONSTRAINED_ATTEMPTS:
+            break
         left = deadline - time.perf_counter()
         if left <= 0.0:
-            return None, warm
-        if attempt == 0:
-            res = solve_prepared(robot, dict(p, max_time=left), **solver_opts)
-        else:
-            if retries is None:
-                retries = _retry_starts(robot, p, constraint, first_start)
-            start = next(retries, None)
-            if start is None:
-                return None, warm
-            res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
-                                 seed_table=False, **opts)
-        if res.success and _path_is_free(constraint, res):
-            res.message += "; collision free (unconstrained answer and iterates checked"
-            res.message += f", attempt {attempt + 1})" if attempt else ")"
-            res.info["collision"] = "unconstrained, checked"
-            res.info["collision_attempts"] = attempt + 1
-            return res, None
-        if attempt == 0 and res.history is not None and len(res.history.q):
-            first_start = res.history.q[0]
-            warm = _last_clear_iterate(constraint, res.history.q)
-    return None, warm
+            break
+        attempt += 1
+        res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1, seed_table=False,
+                             **opts)
+        if res.success and _path_is_free(constraint, res, start_checked=True):
+            return _checked(res, attempt), None
+        if failed is None and res.history is not None and len(res.history.q):
+            failed = res.history.q
+    return None, (None if failed is None else _last_clear_iterate(constraint, failed))
 
 
-#: Consecutive random candidates in collision after which the retries give up (the scene leaves little room).
+def _checked(res: Result, attempt: int) -> Result:
+    res.message += "; collision free (unconstrained answer and iterates checked"
+    res.message += f", attempt {attempt})" if attempt > 1 else ")"
+    res.info["collision"] = "unconstrained, checked"
+    res.info["collision_attempts"] = attempt
+    return res
+
+
+def _closed_form_answers(robot, p: dict) -> bool:
+    """True when the ordinary solve is a closed form (method ``"analytic"``, or ``"auto"`` with a closed form
+    of finitely many branches for the frame): it has no starts to try one at a time."""
+    method = p["method"]
+    if method == "analytic":
+        return True
+    if method != "auto" or p["weights"] is not None:
+        return False
+    tgt = p["target"]
+    solver = analytic.closed_form_solver(robot, tgt.frame)
+    return solver is not None and solver.finite and solver.supports(tgt.relaxed)
+
+
+#: Consecutive candidate starts in collision after which the attempts give up (the scene leaves little room).
 RANDOM_TRIES = 20
 
 
-def _retry_starts(robot, p: dict, constraint: CollisionConstraint, skip: np.ndarray | None):
-    """Collision-free starts of the retries: the target's ranked table starts, then random configurations.
+def _free_starts(robot, p: dict, constraint: CollisionConstraint, solver_opts: dict, skip: np.ndarray | None = None):
+    """The collision-free starts of the unconstrained attempts, in the ordinary solve's order.
 
-    The table's samples nearest the target pose (:func:`kinserve.ik.multistart.frame_starts`, no ``q0``)
-    converge in few iterations and often on other IK branches than the first answer; ``skip`` (the
-    first attempt's start) and the samples in collision are left out. The random tail (``seed``)
-    stops after :data:`RANDOM_TRIES` candidates in a row collide.
+    :func:`kinserve.ik.multistart.frame_starts` with the solve's ``q0``, ``seed`` and the options
+    ``seed_table`` / ``prefer_q0``: ``q0`` and the target's table samples ranked by pose distance, then
+    random configurations. ``skip`` (a start already tried) and the starts in collision are left out
+    (each costs one check); the sequence stops after :data:`RANDOM_TRIES` candidates in a row collide.
     """
     tgt = p["target"]
     seed = p["seed"] or 0
+    q0 = p["q0"]
+    if q0 is not None:
+        q0 = np.clip(q0, robot.lower, robot.upper)
+    table, prefer_q0 = bool(solver_opts.get("seed_table", True)), bool(solver_opts.get("prefer_q0", False))
     if getattr(tgt, "frame_id", None) is not None and getattr(tgt, "T", None) is not None:
         seq = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3,
-                           None, seed)
+                           q0, seed, table, prefer_q0)
     else:
-        seq = start_sequence(robot, None, None, None, seed)
+        seq = start_sequence(robot, None, None, q0, seed, prefer_q0=prefer_q0)
+    skip_list = None if skip is None else skip.tolist()
     misses = 0
     for q in seq:
-        if skip is not None and q.tolist() == skip.tolist():
+        if skip_list is not None and q.tolist() == skip_list:
             continue
         if constraint.in_collision(q):
             misses += 1
@@ -232,17 +256,21 @@ def _last_clear_iterate(constraint: CollisionConstraint, qs) -> np.ndarray | Non
     return qs[-1].copy()
 
 
-def _path_is_free(constraint: CollisionConstraint, res: Result) -> bool:
-    """The answer, then every iterate of the run that produced it, violates nothing.
+def _path_is_free(constraint: CollisionConstraint, res: Result, start_checked: bool = False) -> bool:
+    """The answer, then every iterate of the run that produced it (last first), violates nothing.
 
-    The answer is usually the run's last iterate: it is checked once.
+    The answer is usually the run's last iterate: it is checked once. ``start_checked``: the run's
+    first iterate (its start) was found clear before the run and is not checked again.
     """
-    if constraint.in_collision(res.q):
+    in_collision = constraint.in_collision
+    if in_collision(res.q):
         return False
     hist = res.history.iterates() if res.history is not None else []
     if hist and hist[-1].tolist() == res.q.tolist():
         hist = hist[:-1]
-    return not any(constraint.in_collision(q) for q in reversed(hist))
+    if start_checked and hist:
+        hist = hist[1:]
+    return not any(in_collision(q) for q in reversed(hist))
 
 
 def _target_inside_obstacle(robot, constraint: CollisionConstraint, tgt) -> str:

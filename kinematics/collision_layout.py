@@ -135,8 +135,9 @@ class SceneLayout:
             return self.geometry
         gm = self.geometry.copy()  # shares the coal shapes; the placements are the copy's own
         objects = gm.geometryObjects
-        for k, shape in enumerate(obstacles, start=self.n_robot):
-            objects[k].placement = shape.placement()
+        for k, (shape, first) in enumerate(zip(obstacles, self.obstacles), start=self.n_robot):
+            if shape is not first:  # the layout's own obstacle objects are in place already (shapes are immutable)
+                objects[k].placement = shape.placement()
         return gm
 
     def workspace(self) -> tuple[pin.Data, pin.GeometryData]:

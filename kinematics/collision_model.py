@@ -70,6 +70,15 @@ def convex_hulls(geometry: pin.GeometryModel) -> dict[str, float]:
     return ratios
 
 
+def bounding_sphere(obj: pin.GeometryObject) -> tuple[np.ndarray, float]:
+    """Centre and radius (m) of a sphere containing ``obj`` at its placement (in its joint's frame, the world
+    for joint 0): coal's local AABB sphere (``aabb_center``, ``aabb_radius``; computed on first use)."""
+    geo = obj.geometry
+    if geo.aabb_radius < 0.0:
+        geo.computeLocalAABB()
+    return obj.placement.act(np.asarray(geo.aabb_center, dtype=float)), float(geo.aabb_radius)
+
+
 def _shape_dict(g, link: str) -> dict:
     geo = g.geometry
     out = {"name": g.name, "link": link, "joint": int(g.parentJoint), "placement": g.placement.homogeneous.copy()}
@@ -177,6 +186,19 @@ class CollisionModel:
         cached = self.__dict__.get("_shape_data")
         if cached is None:
             cached = self._shape_data = [_shape_dict(g, link) for g, link in zip(self.geometry.geometryObjects, self.links)]
+        return cached
+
+    def base_spheres(self) -> list[tuple[int, np.ndarray, float]]:
+        """``[(geometry index, centre (3,), radius), ...]``: a sphere (world, m) containing each geometry fixed
+        to the world (joint 0), from coal's local AABB sphere at the geometry's placement (computed once)."""
+        cached = self.__dict__.get("_base_spheres")
+        if cached is None:
+            cached = []
+            for i, joint in enumerate(self.geometry_joints):
+                if joint == 0:
+                    centre, radius = bounding_sphere(self.geometry.geometryObjects[i])
+                    cached.append((i, centre, radius))
+            self._base_spheres = cached
         return cached
 
     def __repr__(self) -> str:

@@ -81,8 +81,8 @@ def test_damper_rows_match_finite_differences_of_the_distance(panda):
 
 
 def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
-    """Open scene: every answer and iterate clear; every other solve with one unconstrained attempt
-    (then a first answer in collision goes to the constrained path), the others with the default retries."""
+    """Open scene: every answer and iterate clear; every other solve without unconstrained attempts
+    (straight to the constrained path), the others with the default attempts."""
     from kinserve.ik import collision_solve
 
     default_attempts = collision_solve.UNCONSTRAINED_ATTEMPTS
@@ -94,7 +94,7 @@ def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
             targets.append(panda.fk(q))
     paths = set()
     for i, T in enumerate(targets):
-        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", 1 if i % 2 else default_attempts)
+        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", 0 if i % 2 else default_attempts)
         q0 = panda.random_q(rng)  # some starts are in collision: not an error
         res = ik.solve(panda, T, q0, self_collision=True, obstacles=SCENE, seed=3, max_time=1.0)
         assert res.success, res.summary()
@@ -105,12 +105,12 @@ def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
     assert paths == {"unconstrained, checked", "constrained"}  # both paths are exercised
 
 
-@pytest.mark.parametrize("attempts", [1, None])
+@pytest.mark.parametrize("attempts", [0, None])
 def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
     """A 10 cm box at the elbow of the unconstrained answer, cleared by the generating configuration.
 
-    ``attempts=1`` (one checked unconstrained solve) forces the constrained path; the default
-    may find another branch with its unconstrained restarts.
+    ``attempts=0`` (no unconstrained solve) forces the constrained path; the default
+    may find another branch with its unconstrained attempts.
     """
     from kinserve.ik import collision_solve
 
@@ -130,7 +130,7 @@ def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
             continue
         res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=2.0, collision_margin=0.01)
         assert res.success, res.summary()
-        if attempts == 1:
+        if attempts == 0:
             assert res.info["collision"] == "constrained"
         assert panda.min_distance(res.q, [block]) >= 0.01 - 1e-6
         assert all(panda.min_distance(q, [block]) >= 0.01 - 1e-6 for q in res.history.q[1:])
@@ -214,9 +214,10 @@ def test_control_loop_with_collision_constraints_stays_clear(panda):
     assert closest < 0.05
 
 
-def test_retry_starts_are_collision_free_table_starts_first(panda):
-    """The retries of the unconstrained path start from the target's ranked table samples (minus the first
-    attempt's start and the samples in collision), then from random collision-free configurations."""
+def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(panda):
+    """The unconstrained attempts start from the ordinary solve's starts (``q0`` and the target's ranked table
+    samples, then random configurations) in its order, minus the ones in collision (a ``q0`` in collision
+    included) and the one to skip."""
     from kinserve.ik import collision_solve
     from kinserve.ik.multistart import frame_starts
     from kinserve.ik.solve import prepare
@@ -225,21 +226,23 @@ def test_retry_starts_are_collision_free_table_starts_first(panda):
     q_gen = panda.random_q(rng)
     while panda.in_collision(q_gen, SCENE):
         q_gen = panda.random_q(rng)
+    q0 = panda.random_q(rng)
+    while not panda.in_collision(q0, SCENE):
+        q0 = panda.random_q(rng)
     T = panda.fk(q_gen)
-    p = prepare(panda, T, None, seed=5)
+    p = prepare(panda, T, q0, seed=5)
     tgt = p["target"]
     constraint = collision_solve._bound_constraint(panda, SCENE, True, 0.0)
-    table = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], True,
-                                               None, 5), 16))
-    skip = table[0]
-    starts = list(itertools.islice(collision_solve._retry_starts(panda, p, constraint, skip), 30))
+    ordinary = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], True,
+                                                  q0, 5), 40))
+    skip = next(q for q in ordinary if not panda.in_collision(q, SCENE))
+    starts = list(itertools.islice(collision_solve._free_starts(panda, p, constraint, {}, skip), 30))
     assert len(starts) == 30
     assert all(not panda.in_collision(q, SCENE) for q in starts)
-    assert not any(np.array_equal(q, skip) for q in starts)
-    free_table = [q for q in table[1:] if not panda.in_collision(q, SCENE)]
-    assert len(free_table) >= 4
-    np.testing.assert_array_equal(np.array(starts[: len(free_table)]), np.array(free_table))
-
+    assert not any(np.array_equal(q, skip) or np.array_equal(q, q0) for q in starts)
+    expected = [q for q in ordinary if not panda.in_collision(q, SCENE) and not np.array_equal(q, skip)]
+    assert len(expected) >= 20
+    np.testing.assert_array_equal(np.array(starts[:20]), np.array(expected[:20]))
 
 def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
     """Obstacles found clear of the fixed base are remembered (by value); a new one overlapping it still raises."""

@@ -43,6 +43,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from kinserve.kinematics.collision_model import bounding_sphere
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
@@ -198,23 +199,30 @@ def _check_base(robot, scene) -> None:
     An obstacle found clear is remembered per collision model (a table or wall shared by many
     scenes is checked once).
     """
-    gm = scene.geometry
-    base = [i for i in range(scene.n_robot) if gm.geometryObjects[i].parentJoint == 0]
-    if not base or scene.n_robot == gm.ngeoms:
+    cm = robot.collision
+    n_robot = scene.n_robot
+    base = cm.base_spheres()
+    if not base or not scene.obstacles:
         return
     try:
-        cleared = _BASE_CLEAR.get(robot.collision)
+        cleared = _BASE_CLEAR.get(cm)
     except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
         cleared = None
+    pending = [k for k, shape in enumerate(scene.obstacles, start=n_robot)
+               if shape.kind == "mesh" or cleared is None or shape not in cleared]
+    if not pending:
+        return
+    gm = scene.geometry
     req, res = coal.DistanceRequest(), coal.DistanceResult()
     newly = []
-    for k in range(scene.n_robot, gm.ngeoms):
-        shape = scene.obstacles[k - scene.n_robot]
+    for k in pending:
+        shape = scene.obstacles[k - n_robot]
         by_value = shape.kind != "mesh"
-        if by_value and cleared is not None and shape in cleared:
-            continue
         ob = gm.geometryObjects[k]
-        for i in base:
+        c_ob, r_ob = bounding_sphere(ob)
+        for i, c, r in base:
+            if math.dist(c, c_ob) > r + r_ob:  # bounding spheres apart: no overlap at all (GJK not needed)
+                continue
             g = gm.geometryObjects[i]
             res.clear()
             d = coal.distance(g.geometry, coal.Transform3s(g.placement.rotation, g.placement.translation),
