@@ -49,7 +49,9 @@ from kinserve.kinematics.robot import Robot
 
 from . import analytic
 from .constraints.collision import CollisionConstraint, _length
+from .lm_solver import solve_lm
 from .multistart import frame_starts
+from .options import check_options
 from .qp_solver import solve_qp
 from .seeds import start_sequence
 from .result import History, Result
@@ -167,13 +169,15 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
     failed = None  # iterates of the first run whose answer or path collided
     attempt = 0
     skip = None
-    if _closed_form_answers(robot, p):
+    closed = _closed_form_answers(robot, p)
+    if closed:
         res = solve_prepared(robot, dict(p, max_time=max(deadline - time.perf_counter(), 1e-4)), **solver_opts)
         attempt = 1
         if res.success and _path_is_free(constraint, res):
             return _checked(res, attempt), None
         if res.history is not None and len(res.history.q):
             skip, failed = res.history.q[0], res.history.q
+    run = None if closed else _lm_run(robot, p, solver_opts)
     for start in _free_starts(robot, p, constraint, solver_opts, skip):
         if attempt >= UNCONSTRAINED_ATTEMPTS:
             break
@@ -181,13 +185,35 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
         if left <= 0.0:
             break
         attempt += 1
-        res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1, seed_table=False,
-                             **opts)
+        if run is not None:
+            res = run(start, left)
+        else:
+            res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
+                                 seed_table=False, **opts)
         if res.success and _path_is_free(constraint, res, start_checked=True):
             return _checked(res, attempt), None
         if failed is None and res.history is not None and len(res.history.q):
             failed = res.history.q
     return None, (None if failed is None else _last_clear_iterate(constraint, failed))
+
+
+def _lm_run(robot, p: dict, solver_opts: dict) -> Callable[[np.ndarray, float], Result] | None:
+    """``run(start, max_time)``: one Levenberg-Marquardt run from ``start`` (:func:`ik.lm_solver.solve_lm`, the
+    solver ``solve_prepared`` would pick), or None when the ordinary solve is not LM (QP, centring, extra
+    constraints). Calling the solver directly spares a dispatch per attempt; the options are checked once."""
+    method = p["method"]
+    if method not in ("auto", "lm") or p["weights"] is not None or p.get("constraints"):
+        return None
+    if solver_opts:
+        check_options(method, solver_opts)
+    tuning = {k: solver_opts[k] for k in ("max_iter", "damping") if k in solver_opts}
+    tgt, tol_pos, tol_rot, seed = p["target"], p["tol_pos"], p["tol_rot"], p["seed"]
+
+    def run(start: np.ndarray, max_time: float) -> Result:
+        return solve_lm(robot, tgt, start, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                        max_starts=1, prefer_q0=True, seed_table_enabled=False, **tuning)
+
+    return run
 
 
 def _checked(res: Result, attempt: int) -> Result:
