@@ -216,33 +216,40 @@ def test_control_loop_with_collision_constraints_stays_clear(panda):
 
 def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(panda):
     """The unconstrained attempts start from the ordinary solve's starts (``q0`` and the target's ranked table
-    samples, then random configurations) in its order, minus the ones in collision (a ``q0`` in collision
-    included) and the one to skip."""
+    samples, then random configurations) in its order - ranked lazily, the same order - minus the ones in
+    collision (a ``q0`` in collision included) and the one to skip."""
     from kinserve.ik import collision_solve
     from kinserve.ik.multistart import frame_starts
     from kinserve.ik.solve import prepare
 
     rng = np.random.default_rng(4)
-    q_gen = panda.random_q(rng)
-    while panda.in_collision(q_gen, SCENE):
-        q_gen = panda.random_q(rng)
-    q0 = panda.random_q(rng)
-    while not panda.in_collision(q0, SCENE):
-        q0 = panda.random_q(rng)
-    T = panda.fk(q_gen)
-    p = prepare(panda, T, q0, seed=5)
-    tgt = p["target"]
     constraint = collision_solve._bound_constraint(panda, SCENE, True, 0.0)
-    ordinary = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], True,
-                                                  q0, 5), 40))
-    skip = next(q for q in ordinary if not panda.in_collision(q, SCENE))
-    starts = list(itertools.islice(collision_solve._free_starts(panda, p, constraint, {}, skip), 30))
-    assert len(starts) == 30
-    assert all(not panda.in_collision(q, SCENE) for q in starts)
-    assert not any(np.array_equal(q, skip) or np.array_equal(q, q0) for q in starts)
-    expected = [q for q in ordinary if not panda.in_collision(q, SCENE) and not np.array_equal(q, skip)]
-    assert len(expected) >= 20
-    np.testing.assert_array_equal(np.array(starts[:20]), np.array(expected[:20]))
+    q0_placed = 0
+    for case in range(6):
+        q_gen = panda.random_q(rng)
+        while panda.in_collision(q_gen, SCENE):
+            q_gen = panda.random_q(rng)
+        T = panda.fk(q_gen)
+        # q0: in collision, near the target (among the ranked table samples), far from it
+        q0 = (q_gen + rng.normal(0.0, 0.05 if case % 3 == 1 else 2.0, 7)).clip(panda.lower, panda.upper)
+        while (case % 3 == 0) != panda.in_collision(q0, SCENE):
+            q0 = panda.random_q(rng)
+        p = prepare(panda, T, q0, seed=5 + case)
+        tgt = p["target"]
+        ordinary = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3],
+                                                      True, q0, 5 + case), 40))
+        q0_placed += any(np.array_equal(q, q0) for q in ordinary[1:9])
+        skip = next(q for q in ordinary if not panda.in_collision(q, SCENE))
+        starts = list(itertools.islice(collision_solve._free_starts(panda, p, constraint, {}, skip), 30))
+        assert len(starts) == 30
+        assert all(not panda.in_collision(q, SCENE) for q in starts)
+        assert not any(np.array_equal(q, skip) for q in starts)
+        if case % 3 == 0:
+            assert not any(np.array_equal(q, q0) for q in starts)
+        expected = [q for q in ordinary if not panda.in_collision(q, SCENE) and not np.array_equal(q, skip)]
+        assert len(expected) >= 20
+        np.testing.assert_array_equal(np.array(starts[:20]), np.array(expected[:20]))
+    assert q0_placed >= 1  # q0 ranked among the table samples, not first: its place is checked too
 
 def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
     """Obstacles found clear of the fixed base are remembered (by value); a new one overlapping it still raises."""
