@@ -8,19 +8,22 @@ differ. A layout holds all of that once:
 
 * the Pinocchio ``GeometryModel`` (robot geometry, then one object per obstacle
   fixed to the universe, joint 0), the pair table and the names;
-* per thread, the ``pinocchio.Data`` and the ``GeometryData`` (its collision
-  requests with ``security_margin = 0``) that every scene of the layout uses,
-  and one ``GeometryData`` per security margin for the near-pair queries.
-  Building a ``GeometryData`` costs ~30 us on the Panda's scenes and a
-  ``Data`` ~14 us; a scene of an existing layout costs a ``GeometryModel``
-  copy (~2 us) with its obstacle placements set, and its own broad-phase
-  manager per thread (~5 us).
+* per thread, a **shell** (:meth:`SceneLayout.shell`): a copy of that
+  ``GeometryModel``, the ``pinocchio.Data``, the ``GeometryData`` (collision
+  requests with ``security_margin = 0``) and the broad-phase manager over them,
+  plus one ``GeometryData`` / manager per security margin for the near-pair
+  queries, and which obstacles the shell's placements currently hold.
+  A query of a scene first makes the shell hold that scene's obstacles: the
+  placements of the obstacles that differ are set (~2 us each), nothing else.
 
-Sharing a ``GeometryData`` between scenes is sound because every query
-recomputes the placements it reads (``oMg``) from the scene's own
-``GeometryModel`` first; the per-pair functors of a ``GeometryData`` refer to
-the layout's geometry objects, whose shapes equal the scene's (same
-:func:`shape_signature`); and one thread runs one query at a time.
+A scene of an existing layout therefore allocates nothing in Pinocchio or coal
+(building a ``GeometryData`` costs ~30 us on the Panda's scenes, a ``Data``
+~14 us, a broad-phase manager ~5 us, and freeing them again when the scene
+cache drops the scene about as much). Sharing is sound because every query
+recomputes the world placements it reads (``oMg``) from the shell's
+``GeometryModel``; the per-pair narrow-phase functors refer to the layout's
+geometry objects, whose shapes equal every scene's (same
+:func:`shape_signature`); and a thread runs one query at a time.
 
 The **signature** of an obstacle is its kind and sizes (``Sphere``: radius;
 ``Box``: edges; ``Capsule``, ``Cylinder``: radius and length); a ``Mesh`` (or any
@@ -102,6 +105,9 @@ class SceneLayout:
 
         self.model = cmodel.model
         self.obstacles = obstacles
+        #: The coal geometry and the ``pinocchio.SE3`` pose of each obstacle of the layout's first scene.
+        self.obstacle_geometries = [shape.geometry() for shape in obstacles]
+        self.placements = [shape.placement() for shape in obstacles]
         gm = cmodel.geometry.copy()
         if not self_collision:
             gm.removeAllCollisionPairs()
@@ -112,7 +118,7 @@ class SceneLayout:
         pairs = list(cmodel.model_pairs) if self_collision else []
         for k, shape in enumerate(obstacles):
             name = obstacle_name(k, shape)
-            idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, shape.placement(), shape.geometry()))
+            idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, self.placements[k], self.obstacle_geometries[k]))
             names.append(name)
             joints.append(0)
             for i in moving:
@@ -140,31 +146,40 @@ class SceneLayout:
                 objects[k].placement = shape.placement()
         return gm
 
-    def workspace(self) -> tuple[pin.Data, pin.GeometryData]:
-        """This thread's ``(pinocchio.Data, GeometryData)`` (exact requests: ``security_margin = 0``)."""
-        ws = getattr(self._local, "ws", None)
+    def shell(self, obstacles: tuple, placements: list) -> list:
+        """This thread's shell ``[Data, GeometryData, broad-phase manager or None, GeometryModel, obstacles]``
+        with the obstacle placements of ``obstacles`` (``placements``: their ``pinocchio.SE3`` poses)."""
+        ws = getattr(self._local, "shell", None)
         if ws is None:
-            gd = pin.GeometryData(self.geometry)
+            gm = self.geometry.copy()  # the thread's own placements; shares the coal shapes
+            gd = pin.GeometryData(gm)
             _zero_security_margins(gd)
-            ws = self._local.ws = (self.model.createData(), gd)
+            bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
+            ws = self._local.shell = [self.model.createData(), gd, bpm, gm, self.obstacles]
+        held = ws[4]
+        if held is not obstacles:
+            objects = ws[3].geometryObjects
+            for k, (now, shape) in enumerate(zip(held, obstacles)):
+                if now is not shape:  # shapes are immutable: the same object, the same pose
+                    objects[self.n_robot + k].placement = placements[k]
+            ws[4] = obstacles
         return ws
 
-    def margin_data(self, threshold: float) -> pin.GeometryData:
-        """This thread's ``GeometryData`` whose collision requests use ``security_margin = threshold``
-        (and GJK distances to :data:`GJK_TOLERANCE`)."""
+    def margin_workspace(self, threshold: float) -> tuple[pin.GeometryData, Any, Any]:
+        """This thread's ``(GeometryData, broad-phase manager, pair collector)`` over the shell's geometry whose
+        collision requests use ``security_margin = threshold`` (the manager inflates every AABB by half of it;
+        GJK distances to :data:`GJK_TOLERANCE`). Call :meth:`shell` first: the placements are the shell's."""
         by_margin = getattr(self._local, "margin", None)
         if by_margin is None:
             by_margin = self._local.margin = {}
-        gd = by_margin.get(threshold)
-        if gd is None:
-            gd = pin.GeometryData(self.geometry)
+        entry = by_margin.get(threshold)
+        if entry is None:
+            gm = self._local.shell[3]
+            gd = pin.GeometryData(gm)
             for req in gd.collisionRequests:
                 req.security_margin = threshold
             for req in gd.distanceRequests:  # GJK to 1e-9 m (default 1e-6): smooth enough for step rows
                 req.gjk_tolerance = GJK_TOLERANCE
-            by_margin[threshold] = gd
-        return gd
-
-    def broad_phase_manager(self, geometry: pin.GeometryModel, gd: pin.GeometryData) -> Any:
-        """A broad-phase manager over ``geometry`` (this layout's or a :meth:`placed` copy) and ``gd``."""
-        return self.broad_phase(self.model, geometry, gd)
+            bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
+            entry = by_margin[threshold] = (gd, bpm, pin.CollisionCallBackCollect(gm, gd))
+        return entry

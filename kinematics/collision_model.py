@@ -70,13 +70,12 @@ def convex_hulls(geometry: pin.GeometryModel) -> dict[str, float]:
     return ratios
 
 
-def bounding_sphere(obj: pin.GeometryObject) -> tuple[np.ndarray, float]:
-    """Centre and radius (m) of a sphere containing ``obj`` at its placement (in its joint's frame, the world
-    for joint 0): coal's local AABB sphere (``aabb_center``, ``aabb_radius``; computed on first use)."""
-    geo = obj.geometry
-    if geo.aabb_radius < 0.0:
-        geo.computeLocalAABB()
-    return obj.placement.act(np.asarray(geo.aabb_center, dtype=float)), float(geo.aabb_radius)
+def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
+    """Centre and radius (m) of a sphere containing ``geometry`` placed at ``placement``: coal's local AABB
+    sphere (``aabb_center``, ``aabb_radius``; computed on first use) moved by the placement."""
+    if geometry.aabb_radius < 0.0:
+        geometry.computeLocalAABB()
+    return placement.act(np.asarray(geometry.aabb_center, dtype=float)), float(geometry.aabb_radius)
 
 
 def _shape_dict(g, link: str) -> dict:
@@ -196,7 +195,8 @@ class CollisionModel:
             cached = []
             for i, joint in enumerate(self.geometry_joints):
                 if joint == 0:
-                    centre, radius = bounding_sphere(self.geometry.geometryObjects[i])
+                    obj = self.geometry.geometryObjects[i]
+                    centre, radius = bounding_sphere(obj.geometry, obj.placement)
                     cached.append((i, centre, radius))
             self._base_spheres = cached
         return cached

@@ -37,16 +37,15 @@ Queries are single Pinocchio calls over all pairs:
 Each thread gets its own ``pinocchio.Data``, ``GeometryData`` and broad-phase
 manager (``threading.local``), so a scene - like a ``Robot`` - may be shared
 between threads. The geometry layout, the pair table and the per-thread
-``Data`` / ``GeometryData`` belong to a :class:`~.collision_layout.SceneLayout`
-shared by every scene whose obstacles have the same shapes (poses aside): a new
-scene of a known layout costs a ``GeometryModel`` copy with its obstacle
-placements (~10 us with its broad-phase manager, against ~190 us for a scene
-built from nothing on the Panda).
+workspaces belong to a :class:`~.collision_layout.SceneLayout` shared by every
+scene whose obstacles have the same shapes (poses aside); a scene holds its
+obstacles and their placements, which a query puts into its thread's workspace
+when another scene of the layout used it last. A new scene of a known layout
+costs a few microseconds (~190 us for a scene built from nothing on the Panda).
 """
 
 from __future__ import annotations
 
-import threading
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -75,51 +74,68 @@ class CollisionScene:
         self.layout = layout
         self.model = layout.model
         self.obstacles = obstacles
-        self.geometry = layout.placed(obstacles)
+        #: The ``pinocchio.SE3`` pose of each obstacle (the layout's own when the obstacle is the layout's).
+        self.placements: list[pin.SE3] = [
+            placed if shape is first else shape.placement()
+            for shape, first, placed in zip(obstacles, layout.obstacles, layout.placements)]
         self.n_robot = layout.n_robot
         self.geometry_owner: list[str] = layout.geometry_owner  #: link name (robot) or obstacle name, per geometry
         self.pairs = layout.pairs
         self.pair_names: list[tuple[str, str]] = layout.pair_names
         #: Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2).
         self.pair_joints = layout.pair_joints
-        self._local = threading.local()
+        self._local = layout._local  # the layout's per-thread state: its shell says whose obstacles it holds
 
     def __len__(self) -> int:
         return len(self.pairs)
 
+    @property
+    def geometry(self) -> pin.GeometryModel:
+        """The scene's ``GeometryModel``: robot geometry, then the obstacles at their poses (built on first use;
+        the queries run on the thread's workspace)."""
+        gm = self.__dict__.get("_geometry")
+        if gm is None:
+            gm = self._geometry = self.layout.placed(self.obstacles)
+        return gm
+
     def workspace(self) -> tuple[pin.Data, pin.GeometryData, Any]:
-        """This thread's ``(pinocchio.Data, GeometryData, broad-phase manager)`` (the first two: the layout's)."""
-        ws = getattr(self._local, "ws", None)
-        if ws is None:
-            data, gd = self.layout.workspace()
-            bpm = self.layout.broad_phase_manager(self.geometry, gd) if len(self.pairs) else None
-            ws = self._local.ws = (data, gd, bpm)
+        """This thread's ``(pinocchio.Data, GeometryData, broad-phase manager)``, holding this scene's obstacles
+        (shared with the other scenes of the layout)."""
+        return tuple(self._shell()[:3])
+
+    def _shell(self) -> list:
+        """This thread's shell of the layout with this scene's obstacles in place (:meth:`SceneLayout.shell`)."""
+        ws = getattr(self._local, "shell", None)
+        if ws is None or ws[4] is not self.obstacles:
+            ws = self.layout.shell(self.obstacles, self.placements)
         return ws
 
     # ----------------------------------------------------------------- queries
     def in_collision(self, q: np.ndarray) -> bool:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit)."""
-        ws = getattr(self._local, "ws", None) or self.workspace()
+        ws = getattr(self._local, "shell", None)
+        if ws is None or ws[4] is not self.obstacles:
+            ws = self.layout.shell(self.obstacles, self.placements)
         bpm = ws[2]
         return False if bpm is None else _compute_collisions(self.model, ws[0], bpm, q, True)
 
     def colliding(self, q: np.ndarray) -> list[int]:
         """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""
-        data, gd, _bpm = self.workspace()
+        data, gd, _bpm, gm, _ = self._shell()
         if not len(self.pairs):
             return []
-        _compute_collisions(self.model, data, self.geometry, gd, q, False)
+        _compute_collisions(self.model, data, gm, gd, q, False)
         return [k for k, res in enumerate(gd.collisionResults) if res.isCollision()]
 
     def distance_arrays(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(d, p1, p2, n)`` of every pair at ``q``: shapes ``(P,)``, ``(P, 3)``, ``(P, 3)``, ``(P, 3)``."""
-        data, gd, _bpm = self.workspace()
+        data, gd, _bpm, gm, _ = self._shell()
         P = len(self.pairs)
         d = np.empty(P)
         p1, p2, n = np.empty((P, 3)), np.empty((P, 3)), np.empty((P, 3))
         if not P:
             return d, p1, p2, n
-        pin.computeDistances(self.model, data, self.geometry, gd, q)
+        pin.computeDistances(self.model, data, gm, gd, q)
         for k, res in enumerate(gd.distanceResults):
             d[k] = res.min_distance
             p1[k] = res.getNearestPoint1()
@@ -134,26 +150,14 @@ class CollisionScene:
         """
         if not len(self.pairs):
             return float("inf"), -1
-        data, gd, _bpm = self.workspace()
-        k = pin.computeDistances(self.model, data, self.geometry, gd, q)
+        data, gd, _bpm, gm, _ = self._shell()
+        k = pin.computeDistances(self.model, data, gm, gd, q)
         return float(gd.distanceResults[k].min_distance), int(k)
-
-    def _margin_workspace(self, threshold: float) -> tuple[pin.GeometryData, Any, Any]:
-        """This thread's ``(GeometryData, broad-phase manager, pair collector)`` whose collision requests use
-        ``security_margin = threshold`` (the manager inflates every AABB by half of it)."""
-        ws = getattr(self._local, "margin", None)
-        if ws is None:
-            ws = self._local.margin = {}
-        entry = ws.get(threshold)
-        if entry is None:
-            gd = self.layout.margin_data(threshold)
-            bpm = self.layout.broad_phase_manager(self.geometry, gd) if len(self.pairs) else None
-            entry = ws[threshold] = (gd, bpm, pin.CollisionCallBackCollect(self.geometry, gd))
-        return entry
 
     def _margin_data(self, threshold: float) -> pin.GeometryData:
         """This thread's GeometryData whose collision requests use ``security_margin = threshold``."""
-        return self._margin_workspace(threshold)[0]
+        self._shell()
+        return self.layout.margin_workspace(threshold)[0]
 
     def near(self, threshold: float, q: np.ndarray | None = None, data: pin.Data | None = None) -> list[int]:
         """Indices of the pairs closer than ``threshold`` (m), at ``q`` or at the placements of ``data``.
@@ -170,19 +174,21 @@ class CollisionScene:
         the time on the Panda with three boxes and a 5 cm threshold (20 against
         60 µs).
         """
-        gd, bpm, collect = self._margin_workspace(threshold)
+        shell = self._shell()
+        geometry = shell[3]
+        gd, bpm, collect = self.layout.margin_workspace(threshold)
         if data is None:
-            data = self.workspace()[0]
+            data = shell[0]
             pin.forwardKinematics(self.model, data, q)
-        pin.updateGeometryPlacements(self.model, data, self.geometry, gd)
+        pin.updateGeometryPlacements(self.model, data, geometry, gd)
         if bpm is None:
             return []
         bpm.update(False)
         _compute_collisions(bpm, collect)
-        geometry = self.geometry
         return [k for k in sorted(collect.pair_indexes) if _compute_collision(geometry, gd, k)]
 
     def near_distance(self, threshold: float, k: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
         """``(d, p1, p2, n)`` of pair ``k`` at the placements of the last :meth:`near` call with ``threshold``."""
-        res = pin.computeDistance(self.geometry, self._margin_data(threshold), k)
+        gd = self._margin_data(threshold)
+        res = pin.computeDistance(self._local.shell[3], gd, k)
         return res.min_distance, res.getNearestPoint1(), res.getNearestPoint2(), res.normal

@@ -212,27 +212,27 @@ def _check_base(robot, scene) -> None:
                if shape.kind == "mesh" or cleared is None or shape not in cleared]
     if not pending:
         return
-    gm = scene.geometry
+    objects = cm.geometry.geometryObjects
     req, res = coal.DistanceRequest(), coal.DistanceResult()
     newly = []
     for k in pending:
         shape = scene.obstacles[k - n_robot]
-        by_value = shape.kind != "mesh"
-        ob = gm.geometryObjects[k]
-        c_ob, r_ob = bounding_sphere(ob)
+        # the layout's geometry of this slot: the same shape and size (the obstacle's own is built on demand)
+        geometry, placement = scene.layout.obstacle_geometries[k - n_robot], scene.placements[k - n_robot]
+        c_ob, r_ob = bounding_sphere(geometry, placement)
         for i, c, r in base:
             if math.dist(c, c_ob) > r + r_ob:  # bounding spheres apart: no overlap at all (GJK not needed)
                 continue
-            g = gm.geometryObjects[i]
+            g = objects[i]
             res.clear()
             d = coal.distance(g.geometry, coal.Transform3s(g.placement.rotation, g.placement.translation),
-                              ob.geometry, coal.Transform3s(ob.placement.rotation, ob.placement.translation), req, res)
+                              geometry, coal.Transform3s(placement.rotation, placement.translation), req, res)
             if d < -BASE_TOLERANCE:
                 raise InputError(
                     f"{scene.geometry_owner[k]} overlaps the robot's fixed base ({scene.geometry_owner[i]}) by "
                     f"{-d:.4g} m; the base cannot move out of it"
                 )
-        if by_value:
+        if shape.kind != "mesh":
             newly.append(shape)
     if newly:
         with _BASE_CLEAR_LOCK:
