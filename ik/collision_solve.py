@@ -2,20 +2,23 @@
 
 Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 
-1. **Unconstrained solves, then check** (half the time budget at most): the
-   ordinary solver (closed form, LM or QP with the requested options), then up
-   to :data:`UNCONSTRAINED_ATTEMPTS` - 1 more from collision-free starts (the
-   table's samples nearest the target pose, then random configurations);
-   an answer is kept when it and every iterate of the run that produced it pass
-   the broad-phase collision check
+1. **Unconstrained solves, then check** (half the time budget at most): up to
+   :data:`UNCONSTRAINED_ATTEMPTS` runs of the ordinary solver (LM, or QP with
+   the requested options), one start each, taken in the order the ordinary
+   solve would take them (``q0`` and the table's samples nearest the target
+   pose, then random configurations); a start in collision is skipped for the
+   price of one check, not a run. An answer is kept when it (checked first)
+   and every iterate of the run that produced it pass the broad-phase
+   collision check
    (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
-   In an open scene the first attempt is almost always enough; with an obstacle
-   in the way another branch often is.
+   A closed-form method answers the first attempt with the ordinary solve.
+   In an open scene the first run is almost always enough; with an obstacle
+   in the way another start often finds another branch.
 2. **Infeasible at once**: a target position inside an obstacle, for a frame
    whose origin lies inside the robot's own collision geometry, cannot be
    reached: ``Result(success=False)`` with the reason, no constrained solve.
 3. **Constrained solve**: otherwise (warm-started from the last collision-free
-   iterate of the first attempt) the QP method with
+   iterate of the first run that failed the check) the QP method with
    :class:`~kinserve.ik.constraints.collision.CollisionConstraint` rows (velocity
    dampers from witness points and normals, hard on every iterate, the step
    halved until the true check holds), restarting only from collision-free
