@@ -35,6 +35,7 @@ from __future__ import annotations
 import threading
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import pinocchio as pin
 
 if TYPE_CHECKING:
@@ -101,8 +102,6 @@ class SceneLayout:
     """
 
     def __init__(self, cmodel: "CollisionModel", obstacles: tuple, self_collision: bool) -> None:
-        import numpy as np
-
         self.model = cmodel.model
         self.obstacles = obstacles
         #: The coal geometry and the ``pinocchio.SE3`` pose of each obstacle of the layout's first scene.
