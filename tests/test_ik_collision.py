@@ -261,3 +261,25 @@ def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
     with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
         ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[*SCENE, base])
     assert base not in cc._BASE_CLEAR[panda.collision]
+
+
+def test_base_overlap_is_caught_for_a_moved_obstacle_of_a_known_layout(panda):
+    """A 20 cm box far from the base, then the same box moved onto it: the second scene shares the first's
+    layout (geometry objects) but the base check uses its own pose - and agrees with coal on that pose."""
+    T = panda.fk(panda.neutral())
+    far = ik.Box(_pose((0.5, 0.5, 0.9)), (0.2, 0.2, 0.2))
+    ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, far], max_time=0.2)
+    for z, overlaps in ((0.05, True), (0.45, False)):  # base link mesh: up to ~0.2 m high
+        moved = ik.Box(_pose((0.0, 0.0, z)), (0.2, 0.2, 0.2))
+        assert panda.collision_scene([*SCENE, moved]).layout is panda.collision_scene([*SCENE, far]).layout
+        base = panda.collision.geometry.geometryObjects[0]
+        assert base.parentJoint == 0
+        depth = coal.distance(base.geometry, coal.Transform3s(base.placement.rotation, base.placement.translation),
+                              coal.Box(0.2, 0.2, 0.2), coal.Transform3s(np.eye(3), np.array([0.0, 0.0, z])),
+                              coal.DistanceRequest(), coal.DistanceResult())
+        assert (depth < -1e-3) == overlaps  # an independent coal query on this pose
+        if overlaps:
+            with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
+                ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, moved], max_time=0.2)
+        else:
+            ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, moved], max_time=0.2)
