@@ -196,8 +196,8 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
                                  seed_table=False, **opts)
         if res.success and _path_is_free(constraint, res, start_checked=True):
             return _checked(res, attempt), None
-        if failed is None and res.history is not None and len(res.history.q):
-            failed = res.history.q
+        if failed is None and res.history is not None and len(res.history):
+            failed = res.history.iterates()  # the lazy list: no stacking unless the constrained solve needs it
     return None, (None if failed is None else _last_clear_iterate(constraint, failed))
 
 
