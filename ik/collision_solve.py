@@ -63,8 +63,10 @@ from .result import History, Result
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5
-#: Unconstrained solves (each checked) before the constrained one: the ordinary solve + collision-free retry starts.
-UNCONSTRAINED_ATTEMPTS = 8
+#: Unconstrained runs (each checked) before the constrained one. Measured on the Panda with a 10 cm cube on the
+#: first answer's elbow (100 targets, two seeds): 8 runs left 5-6 % of the targets to the constrained solve
+#: (3-10 ms each), 12 runs 3 % (mean 1.1 -> 0.8 ms, median slightly lower), 16 runs no fewer.
+UNCONSTRAINED_ATTEMPTS = 12
 
 
 def collision_options(self_collision: bool = False, obstacles: Sequence = (), collision_margin: float = 0.0,
