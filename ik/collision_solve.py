@@ -161,7 +161,8 @@ def _bound_constraint(robot: Robot, obs: tuple, self_collision: bool, margin: fl
 
 def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result], constraint: CollisionConstraint,
                             deadline: float, solver_opts: dict):
-    """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves, each answer checked.
+    """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves (or the ``max_starts`` option),
+    each answer checked.
 
     The solves run one start at a time, in the order the ordinary solve would take them (``q0`` and the
     target's ranked table samples, then random configurations; :func:`_free_starts`), skipping every
@@ -184,8 +185,11 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
         if res.history is not None and len(res.history.q):
             skip, failed = res.history.q[0], res.history.q
     run = None if closed else _lm_run(robot, p, solver_opts)
+    limit = UNCONSTRAINED_ATTEMPTS
+    if solver_opts.get("max_starts") is not None:  # the caller's cap on starts holds here too
+        limit = min(limit, int(solver_opts["max_starts"]))
     for start in _free_starts(robot, p, constraint, solver_opts, skip):
-        if attempt >= UNCONSTRAINED_ATTEMPTS:
+        if attempt >= limit:
             break
         left = deadline - time.perf_counter()
         if left <= 0.0:

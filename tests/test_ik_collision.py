@@ -283,3 +283,34 @@ def test_base_overlap_is_caught_for_a_moved_obstacle_of_a_known_layout(panda):
                 ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, moved], max_time=0.2)
         else:
             ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, moved], max_time=0.2)
+
+
+def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
+    """``max_starts=1``: one unconstrained run (from the first collision-free start), then the constrained solve."""
+    from kinserve.ik import collision_solve
+    from kinserve.ik import lm_solver
+
+    runs = []
+    real = lm_solver.solve_lm
+
+    def counting(*args, **kwargs):
+        runs.append(kwargs.get("max_starts"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(collision_solve, "solve_lm", counting)
+    rng = np.random.default_rng(8)
+    while True:  # a witness-feasible target: its generating configuration clears the box on the answer's elbow
+        q_gen = panda.random_q(rng)
+        T = panda.fk(q_gen)
+        free = ik.solve(panda, T, seed=0)
+        block = ik.Box(_pose(panda.fk(free.q, "panda_link4")[:3, 3]), (0.1, 0.1, 0.1))
+        if not panda.in_collision(q_gen, [block]):
+            break
+    assert panda.in_collision(free.q, [block])
+    runs.clear()
+    res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=1.0, max_starts=1)
+    assert runs == [1] and res.info["collision"] == "constrained"  # the one run met the block
+    runs.clear()
+    res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=1.0)
+    assert 2 <= len(runs) <= collision_solve.UNCONSTRAINED_ATTEMPTS and res.info["collision"] == "unconstrained, checked"
+    assert res.success and not panda.in_collision(res.q, [block])
