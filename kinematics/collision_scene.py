@@ -188,7 +188,8 @@ class CollisionScene:
         return [k for k in sorted(collect.pair_indexes) if _compute_collision(geometry, gd, k)]
 
     def near_distance(self, threshold: float, k: int) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-        """``(d, p1, p2, n)`` of pair ``k`` at the placements of the last :meth:`near` call with ``threshold``."""
+        """``(d, p1, p2, n)`` of pair ``k`` at the placements of the last :meth:`near` call with ``threshold`` on
+        this thread (by any scene of the layout: call it right after this scene's :meth:`near`)."""
         gd = self._margin_data(threshold)
         res = pin.computeDistance(self._local.shell[3], gd, k)
         return res.min_distance, res.getNearestPoint1(), res.getNearestPoint2(), res.normal
