@@ -340,14 +340,18 @@ def _path_is_free(constraint: CollisionConstraint, res: Result, start_checked: b
     first iterate (its start) was found clear before the run and is not checked again.
     """
     in_collision = constraint.in_collision
-    if in_collision(res.q):
+    q_answer = res.q
+    if in_collision(q_answer):
         return False
     hist = res.history.iterates() if res.history is not None else []
-    if hist and hist[-1].tolist() == res.q.tolist():
-        hist = hist[:-1]
-    if start_checked and hist:
-        hist = hist[1:]
-    return not any(in_collision(q) for q in reversed(hist))
+    last = len(hist) - 1
+    if last >= 0 and hist[last].tolist() == q_answer.tolist():
+        last -= 1
+    first = 1 if start_checked else 0
+    for k in range(last, first - 1, -1):
+        if in_collision(hist[k]):
+            return False
+    return True
 
 
 def _target_inside_obstacle(robot, constraint: CollisionConstraint, tgt) -> str:
