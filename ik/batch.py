@@ -31,7 +31,6 @@ Design
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
@@ -39,8 +38,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.errors import InputError, NonFiniteError
-from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_positive
 
 from .batch_pool import shutdown_pool
 from .batch_runners import BACKENDS, TimeLimits, run_serial
@@ -160,15 +159,8 @@ def _check_count(value, name: str) -> None:
 
 
 def _check_timeout(timeout) -> float | None:
-    if timeout is None:
-        return None
-    if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real):
-        raise InputError(f"timeout must be a positive number of seconds or None, got {timeout!r}")
-    if not math.isfinite(float(timeout)):
-        raise NonFiniteError(f"timeout must be finite (None for no overall limit), got {timeout!r}")
-    if timeout <= 0:
-        raise InputError(f"timeout must be positive, got {timeout!r}")
-    return float(timeout)
+    """None (no overall limit) or a positive finite number of seconds."""
+    return None if timeout is None else as_positive(timeout, "timeout")
 
 
 def chunk_bounds(n: int, processes: int, chunksize: int | None, vectorised: bool) -> list[tuple[int, int]]:

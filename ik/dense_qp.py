@@ -127,6 +127,12 @@ def _sense(k: int) -> np.ndarray:
     return a
 
 
+#: Tolerances of the iterative solvers reached through qpsolvers: their defaults (1e-5 for proxqp) leave
+#: steps microradians off the QP's solution, which the active-set solvers (daqp, quadprog) solve exactly.
+_TIGHT = {"osqp": {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 20000, "polishing": True},
+          "proxqp": {"eps_abs": 1e-9, "eps_rel": 0.0}}
+
+
 def _backend_solve(P, c, lb, ub, A, l, u, backend):
     _counter.n = getattr(_counter, "n", 0) + 1
     n = c.shape[0]
@@ -157,7 +163,7 @@ def _backend_solve(P, c, lb, ub, A, l, u, backend):
             Gi = h = None
     lbf = np.maximum(lb, -BIG)
     ubf = np.minimum(ub, BIG)
-    opts = {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 20000, "polishing": True} if backend == "osqp" else {}
+    opts = _TIGHT.get(backend, {})
     try:
         with warnings.catch_warnings():  # solver chatter (osqp's pending API change, qpsolvers' sparse hints)
             warnings.simplefilter("ignore", PendingDeprecationWarning)

@@ -13,8 +13,6 @@ from __future__ import annotations
 import numpy as np
 from typing import TYPE_CHECKING, Any
 
-from .constraints.obstacles import ObstacleAvoidance
-from .constraints.sphere_set import SphereSet
 from .dense_qp import DEFAULT_BACKEND, box_active_set
 from .problem import Problem
 from .result import Result, task_evaluator
@@ -37,11 +35,10 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
              q0_checked: bool = False, defer_starts: int = 0) -> Result:
     """QP-based IK of ``target`` with hard joint limits, optional obstacles and centring, and restarts.
 
-    ``spheres`` is an :class:`ObstacleAvoidance`, a legacy :class:`SphereSet`,
-    a list of constraints or None; ``weights`` the centring weights of
-    :func:`ik.centring.centring_weights` (None = off); ``warm_start`` a first
-    start tried before the usual ones, ``q0_checked`` (``q0`` found clear by the caller) and
-    ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.task_solver.solve_problem`.
+    ``spheres`` is a constraint (e.g. :class:`~kinserve.ik.constraints.obstacles.ObstacleAvoidance`), a list
+    of constraints or None; ``weights`` the centring weights of :func:`ik.centring.centring_weights` (None = off);
+    ``warm_start`` a first start tried before the usual ones, ``q0_checked`` (``q0`` found clear by the caller)
+    and ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.task_solver.solve_problem`.
     """
     from .tasks.centring_task import CentringTask
     from .tasks.frame_task import FrameTask
@@ -55,9 +52,7 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
         ct._model = robot.model
         tasks.append(ct)
     cons = []
-    if isinstance(spheres, SphereSet):
-        cons.append(ObstacleAvoidance(spheres.spheres, tool_frames=(target.frame,)))
-    elif isinstance(spheres, (list, tuple)):
+    if isinstance(spheres, (list, tuple)):
         cons.extend(spheres)
     elif spheres is not None:
         cons.append(spheres)

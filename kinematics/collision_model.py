@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import collision_cache
+from .collision_layout import SceneLayout, shape_signature
 from .collision_scene import CollisionScene
 from .collision_pairs import (
     ALGORITHM_VERSION,
@@ -44,7 +45,7 @@ from .collision_pairs import (
 )
 from .errors import ModelError
 
-#: Scenes (obstacle sets) kept per model, least recently used dropped first.
+#: Scenes (obstacle sets) kept per model, least recently used dropped first (also: layouts kept).
 SCENE_CACHE_SIZE = 32
 
 
@@ -67,6 +68,14 @@ def convex_hulls(geometry: pin.GeometryModel) -> dict[str, float]:
         ratios[g.name] = float(hull.computeVolume()) / vol if vol > 1e-15 else float("nan")
         g.geometry = hull
     return ratios
+
+
+def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
+    """Centre and radius (m) of a sphere containing ``geometry`` placed at ``placement``: coal's local AABB
+    sphere (``aabb_center``, ``aabb_radius``; computed on first use) moved by the placement."""
+    if geometry.aabb_radius < 0.0:
+        geometry.computeLocalAABB()
+    return placement.act(np.asarray(geometry.aabb_center, dtype=float)), float(geometry.aabb_radius)
 
 
 def _shape_dict(g, link: str) -> dict:
@@ -141,6 +150,7 @@ class CollisionModel:
         self.model_pairs: list[tuple[int, int]] = [(int(cp.first), int(cp.second)) for cp in gm.collisionPairs]
         self._scenes: OrderedDict = OrderedDict()  #: (self_collision, *ids) -> (scene, obstacles)
         self._scenes_by_value: OrderedDict = OrderedDict()  #: (self_collision, *shapes) -> scene
+        self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
         self._lock = threading.Lock()
 
     @classmethod
@@ -175,6 +185,20 @@ class CollisionModel:
         cached = self.__dict__.get("_shape_data")
         if cached is None:
             cached = self._shape_data = [_shape_dict(g, link) for g, link in zip(self.geometry.geometryObjects, self.links)]
+        return cached
+
+    def base_spheres(self) -> list[tuple[int, np.ndarray, float]]:
+        """``[(geometry index, centre (3,), radius), ...]``: a sphere (world, m) containing each geometry fixed
+        to the world (joint 0), from coal's local AABB sphere at the geometry's placement (computed once)."""
+        cached = self.__dict__.get("_base_spheres")
+        if cached is None:
+            cached = []
+            for i, joint in enumerate(self.geometry_joints):
+                if joint == 0:
+                    obj = self.geometry.geometryObjects[i]
+                    centre, radius = bounding_sphere(obj.geometry, obj.placement)
+                    cached.append((i, centre, radius))
+            self._base_spheres = cached
         return cached
 
     def __repr__(self) -> str:
@@ -214,12 +238,24 @@ class CollisionModel:
         vkey = (self_collision, *obs)
         scene = self._scenes_by_value.get(vkey) if by_value else None
         if scene is None:
-            scene = CollisionScene(self, obs, self_collision)
+            scene = CollisionScene(self, obs, self_collision, self.layout(obs, self_collision))
         with self._lock:
             _remember(self._scenes, key, (scene, obs))
             if by_value:
                 _remember(self._scenes_by_value, vkey, scene)
         return scene
+
+    def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:
+        """The :class:`~.collision_layout.SceneLayout` of obstacles shaped like ``obstacles`` (validated
+        shapes), cached by their signatures (:func:`~.collision_layout.shape_signature`): scenes whose
+        obstacles differ only by pose share it, so a moved obstacle does not rebuild a scene from nothing."""
+        key = (self_collision, *map(shape_signature, obstacles))
+        layout = self._layouts.get(key)
+        if layout is None:
+            layout = SceneLayout(self, obstacles, self_collision)
+            with self._lock:
+                _remember(self._layouts, key, layout)
+        return layout
 
 
 def _remember(cache: OrderedDict, key: tuple, value: Any) -> None:

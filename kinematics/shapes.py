@@ -392,3 +392,19 @@ def as_shape(value: Any, name: str = "obstacle") -> Shape:
 
         params = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
         raise InputError(f"{name} of kind {kind!r} takes {params}, got {sorted(args)}") from None
+
+
+def as_sphere(value: Any, name: str = "spheres") -> Sphere:
+    """A :class:`Sphere` from a sphere, a ``(center, radius)`` pair or a ``{"center", "radius", "frames"}`` dict."""
+    if isinstance(value, Sphere):
+        return value
+    if isinstance(value, dict):
+        try:
+            return Sphere(value["center"], value["radius"], value.get("frames"))
+        except KeyError as exc:
+            raise InputError(f"{name}: a sphere dict needs 'center' and 'radius', missing {exc}") from None
+    try:
+        center, radius = value
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be ik.Sphere objects or (center, radius) pairs, got {value!r}") from None
+    return Sphere(center, radius)

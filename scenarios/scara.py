@@ -67,7 +67,6 @@ from matplotlib.figure import Figure
 from kinserve import ik
 from kinserve import robots
 from kinserve import viz
-from kinserve.ik.constraints import SphereSet
 from kinserve.kinematics.errors import InputError
 
 from .artefacts import write_json
@@ -148,6 +147,17 @@ def xy_to_q12(x: float, y: float, elbow: float = 1.0) -> tuple[float, float]:
     return t1, t2
 
 
+def min_segment_clearance(robot, sphere: ik.Sphere, Q) -> float:
+    """Smallest clearance (m) between ``sphere`` and the arm's link, quill and tool segments over the
+    configurations ``Q`` (:class:`ik.ObstacleAvoidance`'s bare segments, ``link_radius=0``)."""
+    avoid = ik.ObstacleAvoidance([sphere], tool_frames=robot.tip).bind(robot)
+    out = math.inf
+    for q in Q:
+        robot.fk(q)  # forward kinematics on the robot's data, read by margin()
+        out = min(out, avoid.margin(robot, robot.data, q))
+    return float(out)
+
+
 def case_record(robot, result, target, sphere: ik.Sphere | None = None) -> dict:
     """Plain data of one IK run: iterations, final errors, every iterate and its tool position."""
     h = result.history
@@ -160,10 +170,9 @@ def case_record(robot, result, target, sphere: ik.Sphere | None = None) -> dict:
     }
     if sphere is not None:
         d = np.linalg.norm(P - np.asarray(sphere.center), axis=1)
-        clear = SphereSet(robot, [sphere], robot.tip)
         rec["tool_sphere_distance"] = d
         rec["min_tool_sphere_distance"] = float(d.min())
-        rec["min_clearance_all_segments"] = float(min(clear.clearances_at(q).min() for q in h.q))
+        rec["min_clearance_all_segments"] = min_segment_clearance(robot, sphere, h.q)
     return rec
 
 

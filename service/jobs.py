@@ -121,16 +121,24 @@ def result_out(res) -> dict:
         "success": bool(res.success), "q": np.asarray(res.q, dtype=float).tolist(),
         "position_error": float(res.position_error), "orientation_error": float(res.orientation_error),
         "iterations": int(res.iterations), "restarts": int(res.restarts), "elapsed": float(res.elapsed),
-        "message": str(res.message),
+        "message": str(res.message), "task_errors": list(res.task_errors),
     }
 
 
-def not_attempted(robot, target, frame: str | None, relax, q0, why: str) -> dict:
-    """The answer for a batch target the time cap left no time for: the start configuration, its residual."""
+def not_attempted(robot, problem: list, kwargs: dict, why: str) -> dict:
+    """The answer for a batch problem the time cap left no time for: the start configuration and its
+    residual (for several frame targets, the largest of their errors, as :class:`ik.Result` reports)."""
+    q0 = kwargs["q0"]
     q = robot.neutral() if q0 is None else np.clip(q0, robot.lower, robot.upper)
-    pe, re = ik.Target(robot, target, frame, relax).errors_at(robot, q)
+    if isinstance(problem[0], S.FrameTarget):
+        targets = [ik.Target(robot, np.asarray(t.pose, dtype=float), t.frame, tuple(t.relax), t.relax_frame)
+                   for t in problem]
+    else:
+        targets = [ik.Target(robot, np.asarray(problem, dtype=float), kwargs["frame"], kwargs["relax"])]
+    errors = np.array([t.errors_at(robot, q) for t in targets])
+    pe, re = errors.max(axis=0)
     return {"success": False, "q": q.tolist(), "position_error": float(pe), "orientation_error": float(re),
-            "iterations": 0, "restarts": 0, "elapsed": 0.0, "message": why}
+            "iterations": 0, "restarts": 0, "elapsed": 0.0, "message": why, "task_errors": []}
 
 
 def solve_ik(deadline: Deadline, req: S.IKRequest, max_time: float) -> dict:
@@ -143,44 +151,56 @@ def solve_ik(deadline: Deadline, req: S.IKRequest, max_time: float) -> dict:
     kwargs = ik_kwargs(r, req)
     if (req.target is None) == (req.targets is None):
         raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
-    obstacles = kwargs.pop("obstacles")
-    tasks = []
-    if req.targets is not None:
-        if req.method not in ("auto", "qp"):
-            raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
-        for i, t in enumerate(req.targets):
-            try:
-                task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
-                tasks.append(task.bind(r))
-            except FrameError as exc:
-                raise FieldError(f"targets[{i}].frame", exc) from None
-            except KinserveError as exc:
-                raise FieldError(f"targets[{i}]", exc) from None
-    tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
-    if (obstacles or kwargs["spheres"]) and not req.self_collision:
-        with field("obstacles" if obstacles else "spheres"):  # an obstacle containing the fixed base is a bad request
-            ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius, tool_frames=tool_frames).bind(r)
+    problem, loc = (req.target, "target") if req.target is not None else (req.targets, "targets")
+    if (kwargs["obstacles"] or kwargs["spheres"]) and not req.self_collision:
+        tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
+        with field("obstacles" if kwargs["obstacles"] else "spheres"):  # an obstacle containing the fixed base
+            ik.ObstacleAvoidance(kwargs["spheres"] + kwargs["obstacles"], link_radius=req.link_radius,
+                                 tool_frames=tool_frames).bind(r)
     if req.target is not None:
         prepare_starts(r, kwargs)
-        with field("target"):
-            budget = max(min(max_time, deadline.remaining), 1e-3)
-            res = ik.solve(r, np.asarray(req.target, dtype=float), max_time=budget, obstacles=obstacles,
-                           link_radius=req.link_radius, **kwargs)
+    return solve_problem(r, req, kwargs, problem, max(min(max_time, deadline.remaining), 1e-3), loc)
+
+
+def solve_problem(robot, req: S.IKOptions, kwargs: dict, problem: list, budget: float, loc: str) -> dict:
+    """One IK problem of a request: a 4x4 pose of ``kwargs["frame"]``, or a list of
+    :class:`~service.schemas.FrameTarget` solved together (one :class:`ik.FrameTask` each, plus the
+    request's centring task and obstacle constraints); errors name ``loc`` (``"target"``, ``"targets[3]"``).
+    """
+    if not isinstance(problem[0], S.FrameTarget):
+        with field(loc):
+            res = ik.solve(robot, np.asarray(problem, dtype=float), max_time=budget, link_radius=req.link_radius,
+                           **kwargs)
         return result_out(res)
+    if req.method not in ("auto", "qp"):
+        raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
+    tasks = frame_tasks(robot, problem, loc)
     if req.centring:
         tasks.append(ik.CentringTask(req.centring))
+    shapes = kwargs["spheres"] + kwargs["obstacles"]
     if req.self_collision:  # the robot's collision geometry, as ik.solve(self_collision=True)
-        constraints = [ik.CollisionConstraint(kwargs["spheres"] + obstacles, margin=req.collision_margin)]
+        constraints = [ik.CollisionConstraint(shapes, margin=req.collision_margin)]
     else:
-        constraints = [ik.ObstacleAvoidance(kwargs["spheres"] + obstacles, link_radius=req.link_radius,
-                                            tool_frames=tool_frames)] if obstacles or kwargs["spheres"] else []
-    with field("targets"):
-        budget = max(min(max_time, deadline.remaining), 1e-3)
-        res = ik.solve(r, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
+        constraints = [ik.ObstacleAvoidance(shapes, link_radius=req.link_radius,
+                                            tool_frames=[t.frame for t in problem])] if shapes else []
+    with field(loc):
+        res = ik.solve(robot, tasks=tasks, constraints=constraints, q0=kwargs["q0"], method=req.method,
                        tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed, max_time=budget)
-    out = result_out(res)
-    out["task_errors"] = res.task_errors
-    return out
+    return result_out(res)
+
+
+def frame_tasks(robot, targets: list[S.FrameTarget], loc: str) -> list:
+    """One bound :class:`ik.FrameTask` per frame target; errors name ``loc[i].frame`` or ``loc[i]``."""
+    tasks = []
+    for i, t in enumerate(targets):
+        try:
+            task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
+            tasks.append(task.bind(robot))
+        except FrameError as exc:
+            raise FieldError(f"{loc}[{i}].frame", exc) from None
+        except KinserveError as exc:
+            raise FieldError(f"{loc}[{i}]", exc) from None
+    return tasks
 
 
 def prepare_starts(robot, kwargs: dict) -> None:
@@ -205,17 +225,15 @@ def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
     per_target = capped(req.max_time)
     out = []
     attempted = 0
-    for i, target in enumerate(req.targets):
-        T = np.asarray(target, dtype=float)
+    for i, problem in enumerate(req.targets):
         left = deadline.remaining
-        with field(f"targets[{i}]"):
-            if left <= 1e-3:
-                out.append(not_attempted(r, T, kwargs["frame"], kwargs["relax"], kwargs["q0"],
+        if left <= 1e-3:
+            with field(f"targets[{i}]"):
+                out.append(not_attempted(r, problem, kwargs,
                                          f"not attempted: the request's time cap ({deadline.budget:g} s) was spent"))
-                continue
-            res = ik.solve(r, T, max_time=min(per_target, left), **kwargs)
+            continue
+        out.append(solve_problem(r, req, kwargs, problem, min(per_target, left), f"targets[{i}]"))
         attempted += 1
-        out.append(result_out(res))
     return {"results": out, "success_rate": sum(o["success"] for o in out) / len(out),
             "elapsed": time.perf_counter() - t0, "attempted": attempted,
             "stop_reason": "completed" if attempted == len(out) else "time_cap"}

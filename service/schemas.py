@@ -128,6 +128,9 @@ class IKOptions(Strict):
         default=0.0, description="clearance (m) kept from obstacles and between checked link pairs")
     tol_pos: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1.0)] = 1e-4
     tol_rot: Annotated[float, Field(allow_inf_nan=False, gt=0, le=3.2)] = 1e-3
+    link_radius: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+        default=0.0, description="radius (m) of the capsules around the link segments"
+    )
 
 
 class FrameTarget(Strict):
@@ -137,14 +140,13 @@ class FrameTarget(Strict):
     relax_frame: Literal["world", "target"] = "world"
 
 
+FrameTargets = Annotated[list[FrameTarget], Field(min_length=1, max_length=8,
+                                                   description="several frames at once (e.g. both hands), solved together")]
+
+
 class IKRequest(RobotRef, IKOptions):
     target: Pose | None = Field(default=None, description="pose of `frame`; or give `targets`")
-    targets: Annotated[list[FrameTarget], Field(min_length=1, max_length=8)] | None = Field(
-        default=None, description="several frames at once (e.g. both hands), solved together"
-    )
-    link_radius: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
-        default=0.0, description="radius (m) of the capsules around the link segments"
-    )
+    targets: FrameTargets | None = None
 
 
 class TaskErrorOut(BaseModel):
@@ -169,7 +171,8 @@ class IKResponse(BaseModel):
 
 
 class IKBatchRequest(RobotRef, IKOptions):
-    targets: Annotated[list[Pose], Field(min_length=1, max_length=1000)]
+    targets: Annotated[list[Pose | FrameTargets], Field(min_length=1, max_length=1000)] = Field(
+        description="one problem per item: a 4x4 pose of `frame`, or a list of frame targets solved together")
 
 
 class IKBatchResponse(BaseModel):

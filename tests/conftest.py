@@ -69,11 +69,18 @@ def _shut_down_persistent_pools() -> None:
         shutdown = getattr(sys.modules.get(module_name), "shutdown_pool", None)
         if shutdown is not None:
             shutdown()
-    # multiprocessing's resource tracker (started by the spawned solver processes of an in-process service)
-    # lives until the interpreter exits; stop it now so that the leak check below sees only real leftovers
+
+
+def _resource_tracker_pid() -> int | None:
+    """multiprocessing's resource tracker of this interpreter (started with the first spawned process).
+
+    It is not a leftover: it ends when this interpreter exits (its pipe closes), after the interpreter's
+    own finalizers have released the semaphores and shared memory it tracks. Stopping it earlier made it
+    unlink those resources while still in use, and the finalizers then printed FileNotFoundError
+    tracebacks at exit.
+    """
     tracker = sys.modules.get("multiprocessing.resource_tracker")
-    if tracker is not None and getattr(tracker._resource_tracker, "_pid", None) is not None:
-        tracker._resource_tracker._stop()
+    return None if tracker is None else getattr(tracker._resource_tracker, "_pid", None)
 
 
 def _report_leftovers(session, message: str) -> None:
@@ -107,6 +114,7 @@ def pytest_sessionfinish(session, exitstatus):
         return
     _shut_down_persistent_pools()
     left = leftovers(os.environ[TAG])
+    left.pop(_resource_tracker_pid(), None)
     still = wait_gone(left, timeout=5.0)  # give just-stopped servers (ray, uvicorn, chromium) a moment
     if not still:
         return

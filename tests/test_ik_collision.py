@@ -81,8 +81,8 @@ def test_damper_rows_match_finite_differences_of_the_distance(panda):
 
 
 def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
-    """Open scene: every answer and iterate clear; every other solve with one unconstrained attempt
-    (then a first answer in collision goes to the constrained path), the others with the default retries."""
+    """Open scene: every answer and iterate clear; every other solve without unconstrained attempts
+    (straight to the constrained path), the others with the default attempts."""
     from kinserve.ik import collision_solve
 
     default_attempts = collision_solve.UNCONSTRAINED_ATTEMPTS
@@ -94,7 +94,7 @@ def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
             targets.append(panda.fk(q))
     paths = set()
     for i, T in enumerate(targets):
-        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", 1 if i % 2 else default_attempts)
+        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", 0 if i % 2 else default_attempts)
         q0 = panda.random_q(rng)  # some starts are in collision: not an error
         res = ik.solve(panda, T, q0, self_collision=True, obstacles=SCENE, seed=3, max_time=1.0)
         assert res.success, res.summary()
@@ -105,12 +105,12 @@ def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
     assert paths == {"unconstrained, checked", "constrained"}  # both paths are exercised
 
 
-@pytest.mark.parametrize("attempts", [1, None])
+@pytest.mark.parametrize("attempts", [0, None])
 def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
     """A 10 cm box at the elbow of the unconstrained answer, cleared by the generating configuration.
 
-    ``attempts=1`` (one checked unconstrained solve) forces the constrained path; the default
-    may find another branch with its unconstrained restarts.
+    ``attempts=0`` (no unconstrained solve) forces the constrained path; the default
+    may find another branch with its unconstrained attempts.
     """
     from kinserve.ik import collision_solve
 
@@ -130,7 +130,7 @@ def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
             continue
         res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=2.0, collision_margin=0.01)
         assert res.success, res.summary()
-        if attempts == 1:
+        if attempts == 0:
             assert res.info["collision"] == "constrained"
         assert panda.min_distance(res.q, [block]) >= 0.01 - 1e-6
         assert all(panda.min_distance(q, [block]) >= 0.01 - 1e-6 for q in res.history.q[1:])
@@ -214,32 +214,42 @@ def test_control_loop_with_collision_constraints_stays_clear(panda):
     assert closest < 0.05
 
 
-def test_retry_starts_are_collision_free_table_starts_first(panda):
-    """The retries of the unconstrained path start from the target's ranked table samples (minus the first
-    attempt's start and the samples in collision), then from random collision-free configurations."""
+def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(panda):
+    """The unconstrained attempts start from the ordinary solve's starts (``q0`` and the target's ranked table
+    samples, then random configurations) in its order - ranked lazily, the same order - minus the ones in
+    collision (a ``q0`` in collision included) and the one to skip."""
     from kinserve.ik import collision_solve
     from kinserve.ik.multistart import frame_starts
     from kinserve.ik.solve import prepare
 
     rng = np.random.default_rng(4)
-    q_gen = panda.random_q(rng)
-    while panda.in_collision(q_gen, SCENE):
-        q_gen = panda.random_q(rng)
-    T = panda.fk(q_gen)
-    p = prepare(panda, T, None, seed=5)
-    tgt = p["target"]
     constraint = collision_solve._bound_constraint(panda, SCENE, True, 0.0)
-    table = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], True,
-                                               None, 5), 16))
-    skip = table[0]
-    starts = list(itertools.islice(collision_solve._retry_starts(panda, p, constraint, skip), 30))
-    assert len(starts) == 30
-    assert all(not panda.in_collision(q, SCENE) for q in starts)
-    assert not any(np.array_equal(q, skip) for q in starts)
-    free_table = [q for q in table[1:] if not panda.in_collision(q, SCENE)]
-    assert len(free_table) >= 4
-    np.testing.assert_array_equal(np.array(starts[: len(free_table)]), np.array(free_table))
-
+    q0_placed = 0
+    for case in range(6):
+        q_gen = panda.random_q(rng)
+        while panda.in_collision(q_gen, SCENE):
+            q_gen = panda.random_q(rng)
+        T = panda.fk(q_gen)
+        # q0: in collision, near the target (among the ranked table samples), far from it
+        q0 = (q_gen + rng.normal(0.0, 0.05 if case % 3 == 1 else 2.0, 7)).clip(panda.lower, panda.upper)
+        while (case % 3 == 0) != panda.in_collision(q0, SCENE):
+            q0 = panda.random_q(rng)
+        p = prepare(panda, T, q0, seed=5 + case)
+        tgt = p["target"]
+        ordinary = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3],
+                                                      True, q0, 5 + case), 40))
+        q0_placed += any(np.array_equal(q, q0) for q in ordinary[1:9])
+        skip = next(q for q in ordinary if not panda.in_collision(q, SCENE))
+        starts = list(itertools.islice(collision_solve._free_starts(panda, p, constraint, {}, skip), 30))
+        assert len(starts) == 30
+        assert all(not panda.in_collision(q, SCENE) for q in starts)
+        assert not any(np.array_equal(q, skip) for q in starts)
+        if case % 3 == 0:
+            assert not any(np.array_equal(q, q0) for q in starts)
+        expected = [q for q in ordinary if not panda.in_collision(q, SCENE) and not np.array_equal(q, skip)]
+        assert len(expected) >= 20
+        np.testing.assert_array_equal(np.array(starts[:20]), np.array(expected[:20]))
+    assert q0_placed >= 1  # q0 ranked among the table samples, not first: its place is checked too
 
 def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
     """Obstacles found clear of the fixed base are remembered (by value); a new one overlapping it still raises."""
@@ -251,3 +261,56 @@ def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
     with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
         ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[*SCENE, base])
     assert base not in cc._BASE_CLEAR[panda.collision]
+
+
+def test_base_overlap_is_caught_for_a_moved_obstacle_of_a_known_layout(panda):
+    """A 20 cm box far from the base, then the same box moved onto it: the second scene shares the first's
+    layout (geometry objects) but the base check uses its own pose - and agrees with coal on that pose."""
+    T = panda.fk(panda.neutral())
+    far = ik.Box(_pose((0.5, 0.5, 0.9)), (0.2, 0.2, 0.2))
+    ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, far], max_time=0.2)
+    for z, overlaps in ((0.05, True), (0.45, False)):  # base link mesh: up to ~0.2 m high
+        moved = ik.Box(_pose((0.0, 0.0, z)), (0.2, 0.2, 0.2))
+        assert panda.collision_scene([*SCENE, moved]).layout is panda.collision_scene([*SCENE, far]).layout
+        base = panda.collision.geometry.geometryObjects[0]
+        assert base.parentJoint == 0
+        depth = coal.distance(base.geometry, coal.Transform3s(base.placement.rotation, base.placement.translation),
+                              coal.Box(0.2, 0.2, 0.2), coal.Transform3s(np.eye(3), np.array([0.0, 0.0, z])),
+                              coal.DistanceRequest(), coal.DistanceResult())
+        assert (depth < -1e-3) == overlaps  # an independent coal query on this pose
+        if overlaps:
+            with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
+                ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, moved], max_time=0.2)
+        else:
+            ik.solve(panda, T, self_collision=True, obstacles=[*SCENE, moved], max_time=0.2)
+
+
+def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
+    """``max_starts=1``: one unconstrained run (from the first collision-free start), then the constrained solve."""
+    from kinserve.ik import collision_solve
+    from kinserve.ik import lm_solver
+
+    runs = []
+    real = lm_solver.solve_lm
+
+    def counting(*args, **kwargs):
+        runs.append(kwargs.get("max_starts"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(collision_solve, "solve_lm", counting)
+    rng = np.random.default_rng(8)
+    while True:  # a witness-feasible target: its generating configuration clears the box on the answer's elbow
+        q_gen = panda.random_q(rng)
+        T = panda.fk(q_gen)
+        free = ik.solve(panda, T, seed=0)
+        block = ik.Box(_pose(panda.fk(free.q, "panda_link4")[:3, 3]), (0.1, 0.1, 0.1))
+        if not panda.in_collision(q_gen, [block]):
+            break
+    assert panda.in_collision(free.q, [block])
+    runs.clear()
+    res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=1.0, max_starts=1)
+    assert runs == [1] and res.info["collision"] == "constrained"  # the one run met the block
+    runs.clear()
+    res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=1.0)
+    assert 2 <= len(runs) <= collision_solve.UNCONSTRAINED_ATTEMPTS and res.info["collision"] == "unconstrained, checked"
+    assert res.success and not panda.in_collision(res.q, [block])

@@ -6,10 +6,10 @@ import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik.constraints import robot_segments
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.constraints.segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
 from kinserve.kinematics.errors import InputError
+from segment_clearance import sampled_clearance
 
 
 @pytest.fixture(scope="module")
@@ -38,21 +38,6 @@ OBSTACLES = [
     _box((0.3, 0.3, 0.3), (0.1, 0.15, 0.08)),
     _cylinder((0.5, 0.0, 0.2), 0.05, 0.2),
 ]
-
-
-def sampled_clearance(robot, q, frame, obstacle, link_radius=0.0, n=801):
-    """Independent reference: the shape's own signed distance at densely sampled points of every link segment."""
-    data = robot.model.createData()
-    pin.forwardKinematics(robot.model, data, q)
-    best = np.inf
-    for seg in robot_segments(robot, frame):
-        if seg.ja == 0 and seg.jb == 0:
-            continue
-        a = data.oMi[seg.ja].act(seg.la) if seg.ja else seg.la
-        b = data.oMi[seg.jb].act(seg.lb) if seg.jb else seg.lb
-        pts = a + np.linspace(0, 1, n)[:, None] * (b - a)
-        best = min(best, float(obstacle.signed_distance(pts).min()))
-    return best - link_radius
 
 
 def test_closed_forms_against_dense_sampling():

@@ -1,10 +1,13 @@
-"""kinserve.ik.qp_backends: every backend solves the same QPs as a reference solver; workspaces are reused."""
+"""Every QP backend a user can name (``ik.solve(..., backend=...)``) solves the IK's QPs
+(:func:`kinserve.ik.dense_qp.solve_dense`) like an independent reference solver, with and without rows,
+with the shortcuts on and off; infeasible problems give None; unknown names are refused."""
 
 import numpy as np
 import pytest
 import qpsolvers
 
-from kinserve.ik.qp_backends import available_backends, make_backend
+from kinserve.ik.dense_qp import solve_dense
+from kinserve.ik.qp_backends import available_backends
 from kinserve.kinematics.errors import InputError
 
 
@@ -22,11 +25,12 @@ def _problems(rng, n, m, k=6):
 
 @pytest.mark.parametrize("name", available_backends()[:4])
 @pytest.mark.parametrize("m", [0, 3])
-def test_backend_matches_reference(name, m):
+@pytest.mark.parametrize("shortcut", [True, False])
+def test_backend_matches_reference(name, m, shortcut):
     rng = np.random.default_rng(m)
-    backend = make_backend(name, 7, m, role=f"test{m}")
     for P, c, G, l, u, lb, ub in _problems(rng, 7, m):
-        x = backend.solve(P, c, G if m else None, l if m else None, u if m else None, lb, ub)
+        x = solve_dense(P, c, lb, ub, G if m else None, l if m else None, u if m else None, backend=name,
+                        shortcut=shortcut)
         ref = qpsolvers.solve_qp(P, c, -G if m else None, -l if m else None, lb=lb, ub=ub, solver="quadprog")
         assert x is not None
         assert np.allclose(x, ref, atol=2e-6)
@@ -35,15 +39,20 @@ def test_backend_matches_reference(name, m):
             assert np.all(G @ x >= l - 1e-6)
 
 
-def test_workspaces_are_cached_and_unknown_names_rejected():
-    assert make_backend("osqp", 5, 2) is make_backend("osqp", 5, 2)
-    assert make_backend("osqp", 5, 2) is not make_backend("osqp", 5, 3)
-    with pytest.raises(InputError, match="not available"):
-        make_backend("gurobi-ultra", 5, 2)
-
-
-def test_infeasible_qp_returns_none():
-    backend = make_backend("osqp", 2, 1, role="infeasible")
+@pytest.mark.parametrize("name", available_backends()[:4])
+def test_infeasible_qp_returns_none(name):
     P = np.eye(2)
-    x = backend.solve(P, np.zeros(2), np.array([[1.0, 1.0]]), np.array([5.0]), np.array([np.inf]), -np.ones(2), np.ones(2))
+    x = solve_dense(P, np.zeros(2), -np.ones(2), np.ones(2), np.array([[1.0, 1.0]]), np.array([5.0]),
+                    np.array([np.inf]), backend=name)
     assert x is None
+
+
+def test_unknown_backend_is_refused_with_the_installed_names():
+    P = np.eye(2)
+    with pytest.raises(InputError, match="not available"):
+        solve_dense(P, np.ones(2), -np.ones(2), np.ones(2), np.array([[1.0, 1.0]]), np.array([5.0]),
+                    np.array([np.inf]), backend="gurobi-ultra")
+    from kinserve import ik, robots
+
+    with pytest.raises(InputError, match="backend must be one of the installed QP solvers"):
+        ik.solve(robots.load("planar4r"), np.eye(4), backend="gurobi-ultra")

@@ -5,10 +5,11 @@ import pytest
 
 from kinserve import ik
 from kinserve import robots
-from kinserve.ik.constraints import SphereSet
+from kinserve.ik.constraints import ObstacleAvoidance
 from kinserve.ik.qp_solver import solve_qp
 from kinserve.ik.targets import Target
 from kinserve.kinematics import se3
+from segment_clearance import sampled_clearance
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
 
@@ -77,8 +78,7 @@ def test_s9_relax_z_with_the_sphere_binding(scara, backend):
     assert d.min() >= SPHERE.radius  # on every iterate, not only at the end
     assert len(res.history) > 3
     # every link / quill segment stays outside too
-    sset = SphereSet(scara, [SPHERE], "tool")
-    assert min(sset.clearances_at(q).min() for q in res.history.q) >= 0.0
+    assert min(sampled_clearance(scara, q, "tool", SPHERE) for q in res.history.q) >= 0.0
     # the sphere binds: d3 moved towards 0.625 but stopped at the sphere's top (tool z ~ 0.698)
     z_top = SPHERE.center[2] + np.sqrt(SPHERE.radius**2 - (x - 0.4) ** 2 - (y + 0.7) ** 2)
     assert 0.25 < res.q[2] < 0.625
@@ -158,7 +158,7 @@ def test_no_start_outside_the_spheres_reports_finite_errors():
     panda = robots.load("panda", geometry=False)
     T = panda.fk(panda.neutral(), "panda_link8")
     target = Target(panda, T, "panda_link8")
-    spheres = SphereSet(panda, [ik.Sphere(T[:3, 3], 1.5, frames=["panda_link8"])], "panda_link8")
+    spheres = ObstacleAvoidance([ik.Sphere(T[:3, 3], 1.5, frames=["panda_link8"])], tool_frames="panda_link8")
     res = solve_qp(panda, target, spheres=spheres, max_time=0.05)
     assert not res.success and "no start configuration" in res.message
     pe, re = target.errors_at(panda, res.q)

@@ -373,3 +373,45 @@ def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
         return min(d.distance for (_, b), d in robot.distances(q, obstacles).items() if b == "obstacle[0]:box")
 
     assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
+
+
+PANDA = ("panda", "panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf",
+         ("panda_finger_joint1", "panda_finger_joint2"))
+
+
+def test_scenes_of_moved_obstacles_share_a_layout_and_answer_for_their_own_placements():
+    """A moved obstacle (same shape, new pose) gives a new scene on the same SceneLayout (geometry objects,
+    pairs, per-thread GeometryData): each scene answers like an independent coal model of its own obstacles,
+    with queries alternating between the scenes on one thread and spread over threads; another size is
+    another layout."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    robot = robots.load("panda")
+    rng = np.random.default_rng(21)
+    centres = rng.uniform((0.25, -0.35, 0.25), (0.55, 0.35, 0.65), size=(4, 3))
+    obstacle_sets = [SCENE + [Box(_pose(c), (0.15, 0.15, 0.15))] for c in centres]
+    obstacle_sets.append(SCENE + [Box(_pose(centres[0]), (0.25, 0.15, 0.15))])  # another size
+    scenes = [robot.collision_scene(obs) for obs in obstacle_sets]
+    assert all(s.layout is scenes[0].layout for s in scenes[:4]) and scenes[4].layout is not scenes[0].layout
+    assert len({id(s) for s in scenes}) == 5
+    refs = []
+    for obs in obstacle_sets:
+        model, geom = _independent(*PANDA, scene=obs)
+        refs.append((model, model.createData(), geom, pin.GeometryData(geom)))
+    Q = robot.random_q(rng, 150)
+
+    def answers(qs):
+        return [[s.in_collision(q) for s in scenes] for q in qs]  # alternate between the scenes per q
+
+    ours = np.array(answers(Q))
+    ref = np.array([[pin.computeCollisions(m, d, g, gd, q, True) for m, d, g, gd in refs] for q in Q])
+    assert np.array_equal(ours, ref)
+    assert (ours != ours[:, :1]).any(axis=1).sum() > 10  # the placements matter: scenes disagree on many q
+    assert 0 < ours.sum() < ours.size
+    for q in Q[:30]:  # signed distances too (pinocchio.computeDistances on the independent model)
+        for s, (m, d, g, gd) in zip(scenes, refs):
+            k = pin.computeDistances(m, d, g, gd, q)
+            assert s.min_distance(q)[0] == pytest.approx(gd.distanceResults[k].min_distance, abs=1e-5)
+    with ThreadPoolExecutor(3) as pool:
+        parallel = [row for part in pool.map(answers, np.array_split(Q, 6)) for row in part]
+    assert np.array_equal(np.array(parallel), ours)

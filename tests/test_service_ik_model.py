@@ -83,3 +83,53 @@ def test_errors_name_the_field(client):
         assert r.status_code == 422, (body, r.text)
         got = r.json()["detail"][0]["loc"]
         assert got[: len(loc)] == loc, (loc, got)
+
+
+def test_batch_mixes_poses_and_several_frame_targets(client):
+    """/ik/batch: an item is a pose of `frame` or a list of frame targets solved together; each answer is
+    checked by FK here, and a bad frame in the third item names that item."""
+    baxter = robots.load("baxter", geometry=False)
+    rng = np.random.default_rng(11)
+    q1, q2 = baxter.random_q(rng), baxter.random_q(rng)
+    hands = ("left_gripper", "right_gripper")
+    both = [{"frame": f, "pose": baxter.fk(q2, f).tolist()} for f in hands]
+    body = {"robot": "baxter", "frame": "left_gripper", "seed": 3,
+            "targets": [baxter.fk(q1, "left_gripper").tolist(), both]}
+    r = client.post("/ik/batch", json=body)
+    assert r.status_code == 200, r.text
+    single, pair = r.json()["results"]
+    assert single["success"] and pair["success"], (single["message"], pair["message"])
+    assert single["task_errors"] == []
+    assert [t["name"] for t in pair["task_errors"]] == ["frame left_gripper", "frame right_gripper"]
+    T1 = baxter.fk(np.array(single["q"]), "left_gripper")
+    assert np.linalg.norm(T1[:3, 3] - baxter.fk(q1, "left_gripper")[:3, 3]) < 1e-4
+    for t in both:
+        p = baxter.fk(np.array(pair["q"]), t["frame"])[:3, 3]
+        assert np.linalg.norm(p - np.array(t["pose"])[:3, 3]) < 1e-4
+
+    body["targets"].append([{"frame": "left_grip", "pose": np.eye(4).tolist()}])
+    r = client.post("/ik/batch", json=body)
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][:2] == ["body", "targets[2][0].frame"], r.text
+    body["targets"][2] = [[1, 0, 0], [0, 1, 0]]  # neither a 4x4 pose nor a list of frame targets
+    r = client.post("/ik/batch", json=body)
+    assert r.status_code == 422 and r.json()["detail"][0]["loc"][:3] == ["body", "targets", 2], r.text
+
+
+def test_not_attempted_frame_targets_report_the_largest_error_at_the_start():
+    """A batch item the time cap skipped reports the start and its residual: for several frame targets the
+    largest position / orientation error among them, computed here from FK."""
+    from kinserve.service import jobs, schemas
+
+    baxter = robots.load("baxter", geometry=False)
+    q0 = baxter.random_q(np.random.default_rng(12))
+    q = baxter.random_q(np.random.default_rng(13))
+    problem = [schemas.FrameTarget(frame=f, pose=baxter.fk(q, f).tolist()) for f in ("left_gripper", "right_gripper")]
+    out = jobs.not_attempted(baxter, problem, {"q0": q0, "frame": None, "relax": ()}, "skipped")
+    pos, rot = [], []
+    for t in problem:
+        A, B = baxter.fk(q0, t.frame), np.array(t.pose)
+        pos.append(np.linalg.norm(A[:3, 3] - B[:3, 3]))
+        rot.append(np.arccos(np.clip((np.trace(A[:3, :3].T @ B[:3, :3]) - 1) / 2, -1, 1)))
+    assert out["success"] is False and out["message"] == "skipped" and out["q"] == q0.tolist()
+    assert out["position_error"] == pytest.approx(max(pos), abs=1e-12)
+    assert out["orientation_error"] == pytest.approx(max(rot), abs=1e-9)

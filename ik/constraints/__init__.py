@@ -6,24 +6,22 @@
 * :mod:`.velocity_limits` - :class:`VelocityLimits` (``ik.step``);
 * :mod:`.obstacles` - :class:`ObstacleAvoidance`: any shape of
   :mod:`kinserve.kinematics.shapes` kept clear of the robot's link capsules;
-* :mod:`.link_capsules` - the robot body as skeleton segments, their end
-  points and distance-gradient rows;
+* :mod:`.link_segments` - the robot's links, sliders and tool as segments between body points;
+* :mod:`.link_capsules` - those segments as capsules: their end points and distance-gradient rows;
 * :mod:`.segment_distance` - vectorised point-segment and segment-segment closed forms;
-* :mod:`.sphere_set` - spheres against the link segments pair by pair (the
-  original ``"qp"`` constraint, kept for its users), the robot's segments, step bounds;
 * :mod:`.collision` - :class:`SelfCollision`, :class:`SceneCollision`, :class:`CollisionConstraint`:
   the robot's collision geometry (convex hulls) against itself and obstacles (coal witness points and normals).
 """
 
-from kinserve.kinematics.shapes import Sphere
+from kinserve.kinematics.shapes import Sphere, as_sphere
 
 from .base import DAMPER_GAIN, Constraint
 from .collision import CollisionConstraint, SceneCollision, SelfCollision
 from .joint_limits import JointLimits
 from .obstacles import ObstacleAvoidance, as_obstacle
-from .sphere_set import SphereSet, as_sphere, frame_points, joint_step_bounds, robot_segments
+from .link_segments import LinkSegment, frame_points, robot_segments
 from .velocity_limits import VelocityLimits
 
 __all__ = ["Constraint", "DAMPER_GAIN", "JointLimits", "VelocityLimits", "ObstacleAvoidance", "as_obstacle",
            "SelfCollision", "SceneCollision", "CollisionConstraint",
-           "Sphere", "SphereSet", "as_sphere", "frame_points", "joint_step_bounds", "robot_segments"]
+           "Sphere", "as_sphere", "LinkSegment", "frame_points", "robot_segments"]

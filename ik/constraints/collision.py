@@ -43,6 +43,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from kinserve.kinematics.collision_model import bounding_sphere
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
@@ -105,6 +106,8 @@ class CollisionConstraint(Constraint):
         bound.scene = scene
         bound.robot = robot
         bound._threshold = self.clearance + self.influence
+        if self.clearance == 0.0:  # the check is the scene's own: one call less per check (loops check every iterate)
+            bound.in_collision = scene.in_collision
         return bound
 
     def near_pairs(self, q: np.ndarray, data: pin.Data | None = None) -> list[tuple]:
@@ -198,33 +201,40 @@ def _check_base(robot, scene) -> None:
     An obstacle found clear is remembered per collision model (a table or wall shared by many
     scenes is checked once).
     """
-    gm = scene.geometry
-    base = [i for i in range(scene.n_robot) if gm.geometryObjects[i].parentJoint == 0]
-    if not base or scene.n_robot == gm.ngeoms:
+    cm = robot.collision
+    n_robot = scene.n_robot
+    base = cm.base_spheres()
+    if not base or not scene.obstacles:
         return
     try:
-        cleared = _BASE_CLEAR.get(robot.collision)
+        cleared = _BASE_CLEAR.get(cm)
     except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
         cleared = None
+    pending = [k for k, shape in enumerate(scene.obstacles, start=n_robot)
+               if shape.kind == "mesh" or cleared is None or shape not in cleared]
+    if not pending:
+        return
+    objects = cm.geometry.geometryObjects
     req, res = coal.DistanceRequest(), coal.DistanceResult()
     newly = []
-    for k in range(scene.n_robot, gm.ngeoms):
-        shape = scene.obstacles[k - scene.n_robot]
-        by_value = shape.kind != "mesh"
-        if by_value and cleared is not None and shape in cleared:
-            continue
-        ob = gm.geometryObjects[k]
-        for i in base:
-            g = gm.geometryObjects[i]
+    for k in pending:
+        shape = scene.obstacles[k - n_robot]
+        # the layout's geometry of this slot: the same shape and size (the obstacle's own is built on demand)
+        geometry, placement = scene.layout.obstacle_geometries[k - n_robot], scene.placements[k - n_robot]
+        c_ob, r_ob = bounding_sphere(geometry, placement)
+        for i, c, r in base:
+            if math.dist(c, c_ob) > r + r_ob:  # bounding spheres apart: no overlap at all (GJK not needed)
+                continue
+            g = objects[i]
             res.clear()
             d = coal.distance(g.geometry, coal.Transform3s(g.placement.rotation, g.placement.translation),
-                              ob.geometry, coal.Transform3s(ob.placement.rotation, ob.placement.translation), req, res)
+                              geometry, coal.Transform3s(placement.rotation, placement.translation), req, res)
             if d < -BASE_TOLERANCE:
                 raise InputError(
                     f"{scene.geometry_owner[k]} overlaps the robot's fixed base ({scene.geometry_owner[i]}) by "
                     f"{-d:.4g} m; the base cannot move out of it"
                 )
-        if by_value:
+        if shape.kind != "mesh":
             newly.append(shape)
     if newly:
         with _BASE_CLEAR_LOCK:

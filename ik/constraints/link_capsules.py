@@ -1,6 +1,6 @@
 """The robot body used for obstacle avoidance: its skeleton segments as capsules of radius ``link_radius``.
 
-Segments (see :func:`kinserve.ik.constraints.robot_segments`): every link
+Segments (see :mod:`.link_segments`): every link
 between consecutive joint origins, the sliding segment of each prismatic
 joint, and a tool segment from each tool frame's parent joint to the tool
 frame origin. Each segment is the core of a capsule of radius
@@ -31,7 +31,7 @@ import numpy as np
 import pinocchio as pin
 from typing import TYPE_CHECKING
 
-from .sphere_set import frame_points, robot_segments
+from .link_segments import frame_points, robot_segments
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -40,7 +40,7 @@ if TYPE_CHECKING:  # annotations only
 class LinkSkeleton:
     """Segments of a robot as arrays, with their world end points and distance-gradient rows.
 
-    ``segments`` is a list of :class:`~kinserve.ik.constraints.sphere_set._Segment`
+    ``segments`` is a list of :class:`~kinserve.ik.constraints.link_segments.LinkSegment`
     (from :func:`robot_segments` / :func:`frame_points`).
     """
 

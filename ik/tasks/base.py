@@ -75,6 +75,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.validation import as_positive
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -85,12 +86,7 @@ if TYPE_CHECKING:  # annotations only
 def check_weight(weight: float | Sequence[float], name: str = "weight") -> float | np.ndarray:
     """A positive finite number (float) or a 1-D array of them (validated task weight)."""
     if isinstance(weight, numbers.Real) and not isinstance(weight, bool):
-        w = float(weight)
-        if not math.isfinite(w):
-            raise NonFiniteError(f"{name} must be finite, got {weight!r}")
-        if w <= 0.0:
-            raise InputError(f"{name} must be positive, got {weight!r}")
-        return w
+        return as_positive(weight, name)
     try:
         w = np.array(weight, dtype=float)
     except (TypeError, ValueError):

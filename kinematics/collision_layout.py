@@ -1,0 +1,184 @@
+"""``SceneLayout``: what the collision scenes of one robot with obstacles of the same *shapes* share.
+
+Two obstacle sets whose shapes differ only by their poses (a 10 cm cube moved
+from one place to another, a table and a wall given again) give scenes with the
+same geometry objects, the same checked pairs, the same pair names and the same
+per-pair narrow-phase functors; only the placements of the obstacle objects
+differ. A layout holds all of that once:
+
+* the Pinocchio ``GeometryModel`` (robot geometry, then one object per obstacle
+  fixed to the universe, joint 0), the pair table and the names;
+* per thread, a **shell** (:meth:`SceneLayout.shell`): a copy of that
+  ``GeometryModel``, the ``pinocchio.Data``, the ``GeometryData`` (collision
+  requests with ``security_margin = 0``) and the broad-phase manager over them,
+  plus one ``GeometryData`` / manager per security margin for the near-pair
+  queries, and which obstacles the shell's placements currently hold.
+  A query of a scene first makes the shell hold that scene's obstacles: the
+  placements of the obstacles that differ are set (~2 us each), nothing else.
+
+A scene of an existing layout therefore allocates nothing in Pinocchio or coal
+(building a ``GeometryData`` costs ~30 us on the Panda's scenes, a ``Data``
+~14 us, a broad-phase manager ~5 us, and freeing them again when the scene
+cache drops the scene about as much). Sharing is sound because every query
+recomputes the world placements it reads (``oMg``) from the shell's
+``GeometryModel``; the per-pair narrow-phase functors refer to the layout's
+geometry objects, whose shapes equal every scene's (same
+:func:`shape_signature`); and a thread runs one query at a time.
+
+The **signature** of an obstacle is its kind and sizes (``Sphere``: radius;
+``Box``: edges; ``Capsule``, ``Cylinder``: radius and length); a ``Mesh`` (or any
+other shape) is its own signature (by identity: its file may change).
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pinocchio as pin
+
+if TYPE_CHECKING:
+    from .collision_model import CollisionModel
+    from .shapes import Shape
+
+#: Largest number of geometries (robot + obstacles) checked by coal's naive broad phase; more use the AABB tree.
+NAIVE_MAX_GEOMETRIES = 96
+
+#: Whether Pinocchio's fresh ``GeometryData`` requests have ``security_margin == 0`` (learnt on the first one).
+_FRESH_MARGINS_ZERO: list[bool] = []
+
+
+def broad_phase_manager_class(n_geometries: int) -> type:
+    """The Pinocchio broad-phase manager class for a scene of ``n_geometries`` (see :mod:`.collision_scene`)."""
+    if n_geometries <= NAIVE_MAX_GEOMETRIES:
+        return pin.BroadPhaseManager_NaiveCollisionManager
+    return pin.BroadPhaseManager_DynamicAABBTreeCollisionManager
+
+
+def _zero_security_margins(gd: pin.GeometryData) -> None:
+    """Set every collision request of a fresh ``gd`` to ``security_margin = 0`` (the exact check).
+
+    Pinocchio builds them with coal's default, 0: the first ``GeometryData`` is checked request by
+    request, later ones are left as built when that held.
+    """
+    if _FRESH_MARGINS_ZERO and _FRESH_MARGINS_ZERO[0]:
+        return
+    zero = all(req.security_margin == 0.0 for req in gd.collisionRequests)
+    for req in gd.collisionRequests:
+        req.security_margin = 0.0
+    if not _FRESH_MARGINS_ZERO:
+        _FRESH_MARGINS_ZERO.append(zero)
+
+
+#: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
+GJK_TOLERANCE = 1e-9
+
+
+def shape_signature(shape: "Shape") -> tuple:
+    """What makes two obstacles interchangeable up to their pose (see the module docstring)."""
+    kind = shape.kind
+    if kind == "box":
+        return ("box", shape.size)
+    if kind == "sphere":
+        return ("sphere", shape.radius)
+    if kind == "capsule":
+        return ("capsule", shape.radius, shape.length)
+    if kind == "cylinder":
+        return ("cylinder", shape.radius, shape.length)
+    return (kind, id(shape))  # meshes and unknown kinds: this very object (the layout keeps it alive)
+
+
+def obstacle_name(k: int, shape: "Shape") -> str:
+    """Name of obstacle ``k`` in pair names: ``obstacle[k]:<kind>``."""
+    return f"obstacle[{k}]:{shape.kind}"
+
+
+class SceneLayout:
+    """Geometry, pairs, names and per-thread workspaces shared by scenes of same-shaped obstacles.
+
+    Built by :meth:`CollisionModel.layout` from the first obstacle set of a signature (kept alive:
+    the layout's geometry objects are its shapes).
+    """
+
+    def __init__(self, cmodel: "CollisionModel", obstacles: tuple, self_collision: bool) -> None:
+        self.model = cmodel.model
+        self.obstacles = obstacles
+        #: The coal geometry and the ``pinocchio.SE3`` pose of each obstacle of the layout's first scene.
+        self.obstacle_geometries = [shape.geometry() for shape in obstacles]
+        self.placements = [shape.placement() for shape in obstacles]
+        gm = cmodel.geometry.copy()
+        if not self_collision:
+            gm.removeAllCollisionPairs()
+        n_robot = gm.ngeoms
+        names = list(cmodel.links)
+        joints = list(cmodel.geometry_joints)
+        moving = [i for i, j in enumerate(joints) if j != 0]
+        pairs = list(cmodel.model_pairs) if self_collision else []
+        for k, shape in enumerate(obstacles):
+            name = obstacle_name(k, shape)
+            idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, self.placements[k], self.obstacle_geometries[k]))
+            names.append(name)
+            joints.append(0)
+            for i in moving:
+                gm.addCollisionPair(pin.CollisionPair(i, idx))
+                pairs.append((i, idx))
+        if len(pairs) != len(gm.collisionPairs):  # pragma: no cover - Pinocchio dropped or reordered a pair
+            pairs = [(int(cp.first), int(cp.second)) for cp in gm.collisionPairs]
+        self.geometry = gm
+        self.n_robot = n_robot
+        self.geometry_owner: list[str] = names
+        self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
+        self.pair_names: list[tuple[str, str]] = [(names[a], names[b]) for a, b in pairs]
+        self.pair_joints = np.asarray(joints, dtype=int)[self.pairs].reshape(-1, 2)
+        self.broad_phase = broad_phase_manager_class(gm.ngeoms)
+        self._local = threading.local()
+
+    def placed(self, obstacles: tuple) -> pin.GeometryModel:
+        """A copy of the layout's ``GeometryModel`` with the obstacle objects at the poses of ``obstacles``."""
+        if obstacles is self.obstacles:
+            return self.geometry
+        gm = self.geometry.copy()  # shares the coal shapes; the placements are the copy's own
+        objects = gm.geometryObjects
+        for k, (shape, first) in enumerate(zip(obstacles, self.obstacles), start=self.n_robot):
+            if shape is not first:  # the layout's own obstacle objects are in place already (shapes are immutable)
+                objects[k].placement = shape.placement()
+        return gm
+
+    def shell(self, obstacles: tuple, placements: list) -> list:
+        """This thread's shell ``[Data, GeometryData, broad-phase manager or None, GeometryModel, obstacles]``
+        with the obstacle placements of ``obstacles`` (``placements``: their ``pinocchio.SE3`` poses)."""
+        ws = getattr(self._local, "shell", None)
+        if ws is None:
+            gm = self.geometry.copy()  # the thread's own placements; shares the coal shapes
+            gd = pin.GeometryData(gm)
+            _zero_security_margins(gd)
+            bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
+            ws = self._local.shell = [self.model.createData(), gd, bpm, gm, self.obstacles]
+        held = ws[4]
+        if held is not obstacles:
+            objects = ws[3].geometryObjects
+            for k, (now, shape) in enumerate(zip(held, obstacles)):
+                if now is not shape:  # shapes are immutable: the same object, the same pose
+                    objects[self.n_robot + k].placement = placements[k]
+            ws[4] = obstacles
+        return ws
+
+    def margin_workspace(self, threshold: float) -> tuple[pin.GeometryData, Any, Any]:
+        """This thread's ``(GeometryData, broad-phase manager, pair collector)`` over the shell's geometry whose
+        collision requests use ``security_margin = threshold`` (the manager inflates every AABB by half of it;
+        GJK distances to :data:`GJK_TOLERANCE`). Call :meth:`shell` first: the placements are the shell's."""
+        by_margin = getattr(self._local, "margin", None)
+        if by_margin is None:
+            by_margin = self._local.margin = {}
+        entry = by_margin.get(threshold)
+        if entry is None:
+            gm = self._local.shell[3]
+            gd = pin.GeometryData(gm)
+            for req in gd.collisionRequests:
+                req.security_margin = threshold
+            for req in gd.distanceRequests:  # GJK to 1e-9 m (default 1e-6): smooth enough for step rows
+                req.gjk_tolerance = GJK_TOLERANCE
+            bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
+            entry = by_margin[threshold] = (gd, bpm, pin.CollisionCallBackCollect(gm, gd))
+        return entry
