@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -68,6 +69,8 @@ STALL_PATIENCE = 2
 MAX_ITER = 60
 #: Default time budget of one solve (s).
 MAX_TIME = 0.1
+#: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
+NEAR = 2.5
 
 _posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
 _cjj = pin.computeJointJacobians
@@ -117,34 +120,51 @@ def _limited_step(J, e, lam, q, lo, hi, qn, qc):
     return qc
 
 
-def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
-    """One LM start on a full-pose target (LOCAL log6 error). Returns (converged, iterations, reason)."""
+def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, poses):
+    """One LM start on a full-pose target (LOCAL log6 error).
+
+    Returns ``(converged, iterations, reason, pe2, re2)``; the squared errors
+    are those of the last configuration when it converged (else None). Every
+    evaluated ``q`` and its pose error ``oMf^-1 oMd`` are appended to ``qs`` /
+    ``poses`` (the errors of the history are read off them lazily, see
+    :func:`_squared_errors`).
+
+    The merit is ``E = |e|^2`` with ``e = [v; w] = log6(oMf^-1 oMd)``. The
+    exact success test (``|t|^2 < tol_pos^2`` and ``|w|^2 < tol_rot^2``, ``t``
+    the translation of ``oMf^-1 oMd``) runs only when ``E`` is below
+    ``NEAR * tol_pos^2 + tol_rot^2``: since ``t = V(w) v`` with ``V`` the
+    left Jacobian of SO(3), whose singular values lie in ``[2/pi, 1]`` for
+    angles up to ``pi``, ``|v| <= (pi/2) |t|``, so every converged
+    configuration passes that cheap test.
+    """
     best = math.inf
+    near = NEAR * tp2 + tr2
     n1 = q.shape[0] + 1
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         _cjj(model, data, q)
         iMd = _ufp(model, data, fid).actInv(Td)
         e = _log6(iMd).vector
-        t = iMd.translation
-        pe2 = t.dot(t)
-        w = e[3:]
-        re2 = w.dot(w)
+        E = e.dot(e)
         qs.append(q)
-        pe2s.append(pe2)
-        re2s.append(re2)
-        if pe2 < tp2 and re2 < tr2:
-            return True, it, "converged"
+        poses.append(iMd)
+        if E < near:
+            t = iMd.translation
+            pe2 = t.dot(t)
+            if pe2 < tp2:
+                w = e[3:]
+                re2 = w.dot(w)
+                if re2 < tr2:
+                    return True, it, "converged", pe2, re2
         if it == max_iter:
             break
-        E = pe2 + re2
         if E < STALL_RATIO * best:
             best = E
             stalls = 0
         else:
             stalls += 1
             if stalls >= STALL_PATIENCE:
-                return False, it + 1, "stalled"
+                return False, it + 1, "stalled", None, None
         # _bounded_step inlined (the common case: the damped step stays inside the limits)
         J = _gfj(model, data, fid, _LOCAL)
         lam = DAMPING_GAIN * E + lam0
@@ -153,7 +173,18 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
         qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]
         qc = _clip(qn, lo, hi)
         q = qn if qc.tolist() == qn.tolist() else _limited_step(J, e, lam, q, lo, hi, qn, qc)
-    return False, max_iter, "iteration limit"
+    return False, max_iter, "iteration limit", None, None
+
+
+def _squared_errors(poses) -> tuple[list, list]:
+    """``(|t|^2, |w|^2)`` lists of pose errors ``oMf^-1 oMd`` (``t`` its translation, ``w = log6(.)`` angular part)."""
+    pos2, rot2 = [], []
+    for M in poses:
+        t = M.translation
+        w = _log6(M).vector[3:]
+        pos2.append(t.dot(t))
+        rot2.append(w.dot(w))
+    return pos2, rot2
 
 
 def _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
@@ -219,35 +250,56 @@ def solve_lm(
     tp2, tr2 = tol_pos * tol_pos, tol_rot * tol_rot
     full = target.full
 
+    starts = None
     if q0 is not None:
-        q0 = _clip(q0, lo, hi)
-    starts = frame_starts(robot, target.frame, fid, target.T[:3, :3], target.T[:3, 3], len(target.rot_rows) == 3, q0,
-                          seed, seed_table_enabled, prefer_q0)
+        q0 = _clip(q0, lo, hi)  # a fresh array
+    if prefer_q0 and q0 is not None:
+        q = q0  # the first start of every sequence with prefer_q0: the table is ranked only if a restart needs it
+    else:
+        starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
+        q = next(starts)
 
     best = None
     iterations = 0
     n_starts = 0
-    for q in starts:
+    while True:
         n_starts += 1
-        qs, pe2s, re2s = [], [], []
+        qs = []
         if full:
-            ok, it, reason = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter, damping, qs, pe2s, re2s)
+            poses = []
+            ok, it, reason, pe2, re2 = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter,
+                                                       damping, qs, poses)
+            if not ok:
+                pos2, rot2 = _squared_errors(poses)
         else:
-            ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pe2s, re2s)
+            pos2, rot2 = [], []
+            ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pos2, rot2)
         iterations += it
-        k = len(qs) - 1 if ok else int(np.argmin(np.add(pe2s, re2s)))
-        score = pe2s[k] + re2s[k]
-        if best is None or ok or score < best[0]:
-            best = (score, k, qs, pe2s, re2s, reason)
         if ok:
+            if full:  # the history's errors are read off ``poses`` only when asked for
+                best = (len(qs) - 1, qs, partial(_squared_errors, poses), None, pe2, re2)
+            else:
+                best = (len(qs) - 1, qs, pos2, rot2, pos2[-1], rot2[-1])
             break
+        k = int(np.argmin(np.add(pos2, rot2)))
+        if best is None or pos2[k] + rot2[k] < best[4] + best[5]:
+            best = (k, qs, pos2, rot2, pos2[k], rot2[k])
         if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
             break
+        if starts is None:
+            starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
+            next(starts)  # q0, already tried
+        q = next(starts)
 
-    _, k, qs, pe2s, re2s, reason = best
-    ok = reason == "converged"
+    k, qs, pos2, rot2, pe2, re2 = best
     q = qs[k]
-    pe, re = _sqrt(pe2s[k]), _sqrt(re2s[k])
+    pe, re = _sqrt(pe2), _sqrt(re2)
+    if rot2 is None:
+        hist = History.from_deferred(qs, pos2, k + 1, components=target.components,
+                                     evaluate=task_evaluator(robot, target))
+    else:
+        hist = History.from_squared(qs, pos2, rot2, k + 1, components=target.components,
+                                    evaluate=task_evaluator(robot, target))
     if ok:
         message = "converged"
     else:
@@ -256,9 +308,13 @@ def solve_lm(
             f"({iterations} iterations, {'time budget exhausted' if _now() > deadline else 'start limit reached'}); "
             f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
         )
-    hist = History.from_squared(qs, pe2s, re2s, k + 1, components=target.components,
-                                evaluate=task_evaluator(robot, target))
     return Result(
         q=q.copy(), success=ok, position_error=pe, orientation_error=re, iterations=iterations,
         restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist, method="lm", frame=target.frame,
     )
+
+
+def _starts(robot, target, q0, seed, table_enabled, prefer_q0):
+    """The start sequence of :func:`ik.multistart.frame_starts` for ``target``."""
+    return frame_starts(robot, target.frame, target.frame_id, target.T[:3, :3], target.T[:3, 3],
+                        len(target.rot_rows) == 3, q0, seed, table_enabled, prefer_q0)
