@@ -292,14 +292,12 @@ def solve_lm(
         q = next(starts)
 
     k, qs, pos2, rot2, pe2, re2 = best
-    q = qs[k]
     pe, re = _sqrt(pe2), _sqrt(re2)
+    evaluate = task_evaluator(robot, target)
     if rot2 is None:
-        hist = History.from_deferred(qs, pos2, k + 1, components=target.components,
-                                     evaluate=task_evaluator(robot, target))
+        hist = History.from_deferred(qs, pos2, k + 1, target.components, evaluate)
     else:
-        hist = History.from_squared(qs, pos2, rot2, k + 1, components=target.components,
-                                    evaluate=task_evaluator(robot, target))
+        hist = History.from_squared(qs, pos2, rot2, k + 1, target.components, evaluate)
     if ok:
         message = "converged"
     else:
@@ -308,10 +306,8 @@ def solve_lm(
             f"({iterations} iterations, {'time budget exhausted' if _now() > deadline else 'start limit reached'}); "
             f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
         )
-    return Result(
-        q=q.copy(), success=ok, position_error=pe, orientation_error=re, iterations=iterations,
-        restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist, method="lm", frame=target.frame,
-    )
+    # positional: the fields of Result in order (half the cost of keywords)
+    return Result(qs[k].copy(), ok, pe, re, iterations, n_starts - 1, _now() - t0, message, hist, "lm", target.frame)
 
 
 def _starts(robot, target, q0, seed, table_enabled, prefer_q0):

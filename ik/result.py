@@ -66,7 +66,7 @@ class History:
         """
         h = cls.__new__(cls)
         h._q = h._position_error = h._orientation_error = h._task_error = None
-        h.components = tuple(components)
+        h.components = components if type(components) is tuple else tuple(components)
         h._evaluate = evaluate
         h._raw = (qs, pos2, rot2, k)
         return h

@@ -167,6 +167,13 @@ def prepare(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = Non
     in the parent process. ``"spheres"`` holds the obstacle constraint
     (:class:`ik.constraints.ObstacleAvoidance` of the spheres and obstacles) or None.
     """
+    return _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method,
+                    backend, tol_pos, tol_rot, max_time, seed)
+
+
+def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method, backend,
+             tol_pos, tol_rot, max_time, seed) -> dict[str, Any]:
+    """:func:`prepare` with positional arguments (what :func:`solve` calls: no keyword packing per solve)."""
     _check_robot(robot)
     if method not in _METHOD_SET:
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
@@ -319,9 +326,8 @@ def solve(
     if self_collision or collision_margin:
         options.update(_collision_module().collision_options(self_collision, obstacles, collision_margin, spheres))
         spheres, obstacles = (), ()
-    p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
-                obstacles=obstacles, link_radius=link_radius, centring=centring, method=method, backend=backend,
-                tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
+    p = _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method, backend,
+                 tol_pos, tol_rot, max_time, seed)
     if constraints is not None:
         extra = [c for c in (constraints if not isinstance(constraints, (Shape,)) else [constraints])]
         if extra:
