@@ -22,7 +22,13 @@ Joint limits (projection with an active set): if ``q + dq`` leaves
 motion is removed from the residual (``e <- e - J_fixed dq_fixed``) and the
 step is re-solved for the remaining joints, at most three times; the final
 configuration is clipped into the limits. Plain clipping would stall at a
-bound, this keeps descending along the free joints.
+bound, this keeps descending along the free joints. When a single joint
+leaves its range (the common case) the re-solve is one triangular solve with
+the Cholesky factor of the free step (:func:`_one_joint_at_bound`).
+
+The success test of a full-pose start is exact but runs only when the merit
+``|e|^2`` says success is possible; the errors of the history are computed
+from the recorded poses when first read (:func:`_run_full_pose`).
 
 Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
 has not fallen below 0.85 of its best value so far for 2 iterations in a
@@ -72,7 +78,9 @@ MAX_TIME = 0.1
 #: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
 NEAR = 2.5
 
-_posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
+_posv, _potrs = get_lapack_funcs(("posv", "potrs"), (np.eye(2),))
+_dot = np.dot
+_add = np.add
 _cjj = pin.computeJointJacobians
 _ufp = pin.updateFramePlacement
 _gfj = pin.getFrameJacobian
@@ -101,11 +109,17 @@ def _bounded_step(J, e, lam, q, lo, hi):
     return _limited_step(J, e, lam, q, lo, hi, qn, qc)
 
 
-def _limited_step(J, e, lam, q, lo, hi, qn, qc):
-    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc`` clipped)."""
+def _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed=None, passes=3):
+    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc`` clipped).
+
+    ``fixed`` (bool mask, default: the joints the clip moved) are held at
+    their bound ``qc``; at most ``passes`` re-solves, each adding the joints
+    its step pushed out.
+    """
     n = q.shape[0]
-    fixed = qc != qn
-    for _ in range(3):
+    if fixed is None:
+        fixed = qc != qn
+    for _ in range(passes):
         free = 1.0 - fixed
         dfix = (qc - q) * fixed
         Jf = J * free
@@ -118,6 +132,34 @@ def _limited_step(J, e, lam, q, lo, hi, qn, qc):
             return qn
         fixed = fixed | (qc != qn)
     return qc
+
+
+def _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qnl, qcl, eye):
+    """:func:`_limited_step` for a free step ``qn = q + x`` that left the limits, cheaper when one joint did.
+
+    Fixing joint ``j`` at its bound ``b`` is the equality-constrained problem
+    ``min |J dq - e|^2 + lam |dq|^2`` s.t. ``q_j + dq_j = b``; with
+    ``A = J^T J + lam I`` its solution is ``x + mu A^-1 u_j`` (``u_j`` the
+    unit vector, ``mu`` such that the constraint holds) - the masked re-solve
+    over the other joints, from one triangular solve with the Cholesky
+    factor ``U`` of ``A`` that the free step left behind. Several joints out
+    (or a second one pushed out by this step) go to the masked re-solve.
+    ``qnl`` / ``qcl`` are ``qn`` / ``qc`` as lists.
+    """
+    out = [i for i, (a, b) in enumerate(zip(qnl, qcl)) if a != b]
+    if len(out) > 1:
+        return _limited_step(J, e, lam, q, lo, hi, qn, qc)
+    j = out[0]
+    c = _potrs(U, eye[j])[0]  # column j of A^-1
+    b = qcl[j]
+    qn = qn + ((b - qnl[j]) / c[j]) * c
+    qn[j] = b
+    qc = _clip(qn, lo, hi)
+    if qc.tolist() == qn.tolist():
+        return qn
+    fixed = qc != qn
+    fixed[j] = True
+    return _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed, 2)
 
 
 def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, poses):
@@ -139,7 +181,8 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
     """
     best = math.inf
     near = NEAR * tp2 + tr2
-    n1 = q.shape[0] + 1
+    n = q.shape[0]
+    A = eye = None
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         _cjj(model, data, q)
@@ -165,14 +208,24 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
             stalls += 1
             if stalls >= STALL_PATIENCE:
                 return False, it + 1, "stalled", None, None
-        # _bounded_step inlined (the common case: the damped step stays inside the limits)
+        # the damped step (_bounded_step inlined; A and its diagonal are buffers reused across iterations)
         J = _gfj(model, data, fid, _LOCAL)
         lam = DAMPING_GAIN * E + lam0
-        A = J.T.dot(J)
-        A.ravel()[::n1] += lam
-        qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]
+        if A is None:
+            A = np.empty((n, n))
+            Ad, At = A.reshape(n * n)[:: n + 1], A.T  # At: the Fortran-ordered view LAPACK takes without a copy
+        _dot(J.T, J, A)
+        _add(Ad, lam, Ad)
+        U, x, _ = _posv(At, e.dot(J), 0, 1, 1)  # (a, b, lower, overwrite_a, overwrite_b): U overwrites A
+        qn = q + x
         qc = _clip(qn, lo, hi)
-        q = qn if qc.tolist() == qn.tolist() else _limited_step(J, e, lam, q, lo, hi, qn, qc)
+        qnl, qcl = qn.tolist(), qc.tolist()
+        if qnl == qcl:  # on 7-vectors comparing Python lists is the cheapest test NumPy allows
+            q = qn
+        else:
+            if eye is None:
+                eye = np.eye(n)
+            q = _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qnl, qcl, eye)
     return False, max_iter, "iteration limit", None, None
 
 
