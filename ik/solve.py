@@ -178,20 +178,8 @@ def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, l
     if method not in _METHOD_SET:
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
     tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
-    if q0 is not None:
-        try:
-            q0 = robot.check_q(q0, "q0")
-        except KinserveError as exc:
-            _tag(exc, "q0")
-            raise
-    if tol_pos != 1e-4:
-        tol_pos = _check_positive(tol_pos, "tol_pos")
-    if tol_rot != 1e-3:
-        tol_rot = _check_positive(tol_rot, "tol_rot")
-    if max_time is not None:
-        max_time = _check_positive(max_time, "max_time")
-    if seed is not None:
-        seed = _check_seed(seed)
+    q0 = _checked_q0(robot, q0)
+    tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
     backend = DEFAULT_BACKEND if backend is None else _check_backend(backend)
     weights = None if type(centring) is float and centring == 0.0 else centring_weights(robot, centring)
     try:
@@ -205,6 +193,51 @@ def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, l
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=avoid, method=method)
+
+
+def _checked_q0(robot, q0):
+    """``q0`` checked by ``robot.check_q`` (errors name the argument ``q0``), or None."""
+    if q0 is None:
+        return None
+    try:
+        return robot.check_q(q0, "q0")
+    except KinserveError as exc:
+        _tag(exc, "q0")
+        raise
+
+
+def _checked_numbers(tol_pos, tol_rot, max_time, seed):
+    """``(tol_pos, tol_rot, max_time, seed)`` checked (the defaults pass on an equality test)."""
+    if tol_pos != 1e-4:
+        tol_pos = _check_positive(tol_pos, "tol_pos")
+    if tol_rot != 1e-3:
+        tol_rot = _check_positive(tol_rot, "tol_rot")
+    if max_time is not None:
+        max_time = _check_positive(max_time, "max_time")
+    if seed is not None:
+        seed = _check_seed(seed)
+    return tol_pos, tol_rot, max_time, seed
+
+
+def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed, options):
+    """The common request on a short path: one pose target, joint limits only, ``method`` "auto" or "lm".
+
+    The same checks as :func:`prepare` for the arguments given (the others
+    are at their defaults: no obstacle, no centring, default backend); then
+    Levenberg-Marquardt directly, or :func:`solve_prepared` when ``"auto"``
+    finds a closed form or an option only another method accepts.
+    """
+    _check_robot(robot)
+    tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
+    q0 = _checked_q0(robot, q0)
+    tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
+    if (options and not options.keys() <= _LM_OPTION_SET) or (method == "auto" and _closed_form(robot, tgt.frame) is not None):
+        p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                 backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
+        return solve_prepared(robot, p, **options)
+    if "seed_table" in options:
+        options["seed_table_enabled"] = bool(options.pop("seed_table"))
+    return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
 
 
 def solve(
@@ -323,6 +356,13 @@ def solve(
                            tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
     if target is None:
         raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
+    if (method == "auto" or method == "lm") and constraints is None and not self_collision and not collision_margin \
+            and type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
+            and type(link_radius) is float and link_radius == 0.0 and type(centring) is float and centring == 0.0 \
+            and backend is None:
+        # the defaults of everything but the pose: the short path (same checks, no dispatch)
+        return _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                           options)
     if self_collision or collision_margin:
         options.update(_collision_module().collision_options(self_collision, obstacles, collision_margin, spheres))
         spheres, obstacles = (), ()
