@@ -37,6 +37,7 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pinocchio as pin
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -68,12 +69,12 @@ class PerModel:
         self._entries: dict[int, tuple[weakref.ref, dict]] = {}
         self._lock = threading.Lock()
 
-    def get(self, model) -> dict | None:
+    def get(self, model: pin.Model) -> dict | None:
         """The dictionary of ``model``, or None when it has none yet."""
         entry = self._entries.get(id(model))
         return entry[1] if entry is not None and entry[0]() is model else None
 
-    def setdefault(self, model) -> dict:
+    def setdefault(self, model: pin.Model) -> dict:
         """The dictionary of ``model``, created empty if needed (thread-safe)."""
         with self._lock:
             key = id(model)

@@ -138,3 +138,23 @@ def test_one_joint_at_bound_equals_the_masked_re_solve():
         assert np.allclose(got, want, atol=1e-9)
         checked += 1
     assert checked > 20
+
+
+def test_near_bound_of_the_cheap_success_test():
+    """|t| <= |v| <= (pi/2)|t| for e = [v; w] = log6(M), t = M.translation: E < NEAR tp^2 + tr^2 never misses success."""
+    import pinocchio as pin
+
+    from kinserve.ik.lm_solver import NEAR
+
+    rng = np.random.default_rng(2)
+    worst = 0.0
+    for _ in range(2000):
+        angle = rng.uniform(0.0, np.pi)
+        axis = rng.normal(size=3)
+        R = pin.exp3(angle * axis / np.linalg.norm(axis))
+        M = pin.SE3(R, rng.normal(size=3))
+        e = pin.log6(M).vector
+        t, v = np.linalg.norm(M.translation), np.linalg.norm(e[:3])
+        assert t <= v * (1 + 1e-12)
+        worst = max(worst, v / t)
+    assert worst <= np.pi / 2 + 1e-9 and NEAR >= (np.pi / 2) ** 2
