@@ -157,7 +157,7 @@ def test_sphere_errors_name_their_argument(panda, T):
 
 @pytest.mark.parametrize("options", [dict(prefer_q0=True), dict(), dict(seed_table=False, max_iter=30), dict(max_starts=2)])
 def test_short_path_gives_the_general_path_answer(panda, options):
-    """ik.solve's short path (pose only, defaults elsewhere) answers exactly as prepare + solve_prepared."""
+    """The short path of ik.solve (pose only, defaults elsewhere) answers exactly as prepare + solve_prepared."""
     from kinserve.ik.solve import prepare, solve_prepared
 
     rng = np.random.default_rng(8)
