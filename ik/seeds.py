@@ -37,9 +37,9 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pinocchio as pin
 
 if TYPE_CHECKING:  # annotations only
+    import pinocchio as pin
     from kinserve.kinematics.robot import Robot
     from kinserve.kinematics.types import VectorLike
 
