@@ -77,6 +77,8 @@ MAX_ITER = 60
 MAX_TIME = 0.1
 #: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
 NEAR = 2.5
+#: Failed starts kept unscored (their errors computed only if no start converges) before they are scored.
+UNSCORED_RUNS = 16
 
 _posv, _potrs = get_lapack_funcs(("posv", "potrs"), (np.eye(2),))
 _dot = np.dot
@@ -312,7 +314,8 @@ def solve_lm(
         starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
         q = next(starts)
 
-    best = None
+    best = None  # (k, qs, pos2, rot2, pe2, re2): the run that answers and its best iterate k
+    unscored = []  # failed full-pose runs (qs, poses): scored only if no start converges
     iterations = 0
     n_starts = 0
     while True:
@@ -322,8 +325,6 @@ def solve_lm(
             poses = []
             ok, it, reason, pe2, re2 = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter,
                                                        damping, qs, poses)
-            if not ok:
-                pos2, rot2 = _squared_errors(poses)
         else:
             pos2, rot2 = [], []
             ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pos2, rot2)
@@ -334,15 +335,20 @@ def solve_lm(
             else:
                 best = (len(qs) - 1, qs, pos2, rot2, pos2[-1], rot2[-1])
             break
-        k = int(np.argmin(np.add(pos2, rot2)))
-        if best is None or pos2[k] + rot2[k] < best[4] + best[5]:
-            best = (k, qs, pos2, rot2, pos2[k], rot2[k])
+        if full:
+            unscored.append((qs, poses))
+            if len(unscored) >= UNSCORED_RUNS:
+                best = _best_run(unscored, best)
+        else:
+            best = _best_run([(qs, (pos2, rot2))], best)
         if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
             break
         if starts is None:
             starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
             next(starts)  # q0, already tried
         q = next(starts)
+    if not ok:
+        best = _best_run(unscored, best)
 
     k, qs, pos2, rot2, pe2, re2 = best
     pe, re = _sqrt(pe2), _sqrt(re2)
@@ -361,6 +367,20 @@ def solve_lm(
         )
     # positional: the fields of Result in order (half the cost of keywords)
     return Result(qs[k].copy(), ok, pe, re, iterations, n_starts - 1, _now() - t0, message, hist, "lm", target.frame)
+
+
+def _best_run(runs: list, best: tuple | None) -> tuple:
+    """``best`` updated with the failed runs ``[(qs, poses or (pos2, rot2)), ...]`` (emptied), in start order.
+
+    A run's best iterate has the least ``|t|^2 + |w|^2``; an earlier run wins ties.
+    """
+    for qs, errors in runs:
+        pos2, rot2 = errors if type(errors) is tuple else _squared_errors(errors)
+        k = int(np.argmin(np.add(pos2, rot2)))
+        if best is None or pos2[k] + rot2[k] < best[4] + best[5]:
+            best = (k, qs, pos2, rot2, pos2[k], rot2[k])
+    runs.clear()
+    return best
 
 
 def _starts(robot, target, q0, seed, table_enabled, prefer_q0):
