@@ -35,7 +35,9 @@ has not fallen below 0.85 of its best value so far for 2 iterations in a
 row - this also catches oscillations) or after ``max_iter`` iterations; the
 next start comes from :func:`ik.multistart.frame_starts` (``q0`` and the
 nearest FK samples by pose distance, then seeded random configurations)
-until a start converges or ``max_time`` is spent.
+until a start converges or ``max_time`` is spent. When none converges the
+answer is the iterate with the least squared position + orientation error
+over all starts (the runs are scored only then).
 
 The inner loop calls Pinocchio directly on ``robot.model`` / ``robot.data``
 (``computeJointJacobians``, ``updateFramePlacement``, ``getFrameJacobian``,
