@@ -22,14 +22,22 @@ Joint limits (projection with an active set): if ``q + dq`` leaves
 motion is removed from the residual (``e <- e - J_fixed dq_fixed``) and the
 step is re-solved for the remaining joints, at most three times; the final
 configuration is clipped into the limits. Plain clipping would stall at a
-bound, this keeps descending along the free joints.
+bound, this keeps descending along the free joints. When a single joint
+leaves its range (the common case) the re-solve is one triangular solve with
+the Cholesky factor of the free step (:func:`_one_joint_at_bound`).
+
+The success test of a full-pose start is exact but runs only when the merit
+``|e|^2`` says success is possible; the errors of the history are computed
+from the recorded poses when first read (:func:`_run_full_pose`).
 
 Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
 has not fallen below 0.85 of its best value so far for 2 iterations in a
 row - this also catches oscillations) or after ``max_iter`` iterations; the
 next start comes from :func:`ik.multistart.frame_starts` (``q0`` and the
 nearest FK samples by pose distance, then seeded random configurations)
-until a start converges or ``max_time`` is spent.
+until a start converges or ``max_time`` is spent. When none converges the
+answer is the iterate with the least squared position + orientation error
+over all starts (the runs are scored only then).
 
 The inner loop calls Pinocchio directly on ``robot.model`` / ``robot.data``
 (``computeJointJacobians``, ``updateFramePlacement``, ``getFrameJacobian``,
@@ -42,6 +50,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -68,8 +77,14 @@ STALL_PATIENCE = 2
 MAX_ITER = 60
 #: Default time budget of one solve (s).
 MAX_TIME = 0.1
+#: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
+NEAR = 2.5
+#: Failed starts kept unscored (their errors computed only if no start converges) before they are scored.
+UNSCORED_RUNS = 16
 
-_posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
+_posv, _potrs = get_lapack_funcs(("posv", "potrs"), (np.eye(2),))
+_dot = np.dot
+_add = np.add
 _cjj = pin.computeJointJacobians
 _ufp = pin.updateFramePlacement
 _gfj = pin.getFrameJacobian
@@ -98,11 +113,17 @@ def _bounded_step(J, e, lam, q, lo, hi):
     return _limited_step(J, e, lam, q, lo, hi, qn, qc)
 
 
-def _limited_step(J, e, lam, q, lo, hi, qn, qc):
-    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc`` clipped)."""
+def _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed=None, passes=3):
+    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc`` clipped).
+
+    ``fixed`` (bool mask, default: the joints the clip moved) are held at
+    their bound ``qc``; at most ``passes`` re-solves, each adding the joints
+    its step pushed out.
+    """
     n = q.shape[0]
-    fixed = qc != qn
-    for _ in range(3):
+    if fixed is None:
+        fixed = qc != qn
+    for _ in range(passes):
         free = 1.0 - fixed
         dfix = (qc - q) * fixed
         Jf = J * free
@@ -117,43 +138,110 @@ def _limited_step(J, e, lam, q, lo, hi, qn, qc):
     return qc
 
 
-def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
-    """One LM start on a full-pose target (LOCAL log6 error). Returns (converged, iterations, reason)."""
+def _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qnl, qcl, eye):
+    """:func:`_limited_step` for a free step ``qn = q + x`` that left the limits, cheaper when one joint did.
+
+    Fixing joint ``j`` at its bound ``b`` is the equality-constrained problem
+    ``min |J dq - e|^2 + lam |dq|^2`` s.t. ``q_j + dq_j = b``; with
+    ``A = J^T J + lam I`` its solution is ``x + mu A^-1 u_j`` (``u_j`` the
+    unit vector, ``mu`` such that the constraint holds) - the masked re-solve
+    over the other joints, from one triangular solve with the Cholesky
+    factor ``U`` of ``A`` that the free step left behind. Several joints out
+    (or a second one pushed out by this step) go to the masked re-solve.
+    ``qnl`` / ``qcl`` are ``qn`` / ``qc`` as lists.
+    """
+    out = [i for i, (a, b) in enumerate(zip(qnl, qcl)) if a != b]
+    if len(out) > 1:
+        return _limited_step(J, e, lam, q, lo, hi, qn, qc)
+    j = out[0]
+    c = _potrs(U, eye[j])[0]  # column j of A^-1
+    b = qcl[j]
+    qn = qn + ((b - qnl[j]) / c[j]) * c
+    qn[j] = b
+    qc = _clip(qn, lo, hi)
+    if qc.tolist() == qn.tolist():
+        return qn
+    fixed = qc != qn
+    fixed[j] = True
+    return _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed, 2)
+
+
+def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, poses):
+    """One LM start on a full-pose target (LOCAL log6 error).
+
+    Returns ``(converged, iterations, reason, pe2, re2)``; the squared errors
+    are those of the last configuration when it converged (else None). Every
+    evaluated ``q`` and its pose error ``oMf^-1 oMd`` are appended to ``qs`` /
+    ``poses`` (the errors of the history are read off them lazily, see
+    :func:`_squared_errors`).
+
+    The merit is ``E = |e|^2`` with ``e = [v; w] = log6(oMf^-1 oMd)``. The
+    exact success test (``|t|^2 < tol_pos^2`` and ``|w|^2 < tol_rot^2``, ``t``
+    the translation of ``oMf^-1 oMd``) runs only when ``E`` is below
+    ``NEAR * tol_pos^2 + tol_rot^2``: since ``t = V(w) v`` with ``V`` the
+    left Jacobian of SO(3), whose singular values lie in ``[2/pi, 1]`` for
+    angles up to ``pi``, ``|v| <= (pi/2) |t|``, so every converged
+    configuration passes that cheap test.
+    """
     best = math.inf
-    n1 = q.shape[0] + 1
+    near = NEAR * tp2 + tr2
+    n = q.shape[0]
+    A = eye = None
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         _cjj(model, data, q)
         iMd = _ufp(model, data, fid).actInv(Td)
         e = _log6(iMd).vector
-        t = iMd.translation
-        pe2 = t.dot(t)
-        w = e[3:]
-        re2 = w.dot(w)
+        E = e.dot(e)
         qs.append(q)
-        pe2s.append(pe2)
-        re2s.append(re2)
-        if pe2 < tp2 and re2 < tr2:
-            return True, it, "converged"
+        poses.append(iMd)
+        if E < near:
+            t = iMd.translation
+            pe2 = t.dot(t)
+            if pe2 < tp2:
+                w = e[3:]
+                re2 = w.dot(w)
+                if re2 < tr2:
+                    return True, it, "converged", pe2, re2
         if it == max_iter:
             break
-        E = pe2 + re2
         if E < STALL_RATIO * best:
             best = E
             stalls = 0
         else:
             stalls += 1
             if stalls >= STALL_PATIENCE:
-                return False, it + 1, "stalled"
-        # _bounded_step inlined (the common case: the damped step stays inside the limits)
+                return False, it + 1, "stalled", None, None
+        # the damped step (_bounded_step inlined; A and its diagonal are buffers reused across iterations)
         J = _gfj(model, data, fid, _LOCAL)
         lam = DAMPING_GAIN * E + lam0
-        A = J.T.dot(J)
-        A.ravel()[::n1] += lam
-        qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]
+        if A is None:
+            A = np.empty((n, n))
+            Ad, At = A.reshape(n * n)[:: n + 1], A.T  # At: the Fortran-ordered view LAPACK takes without a copy
+        _dot(J.T, J, A)
+        _add(Ad, lam, Ad)
+        U, x, _ = _posv(At, e.dot(J), 0, 1, 1)  # (a, b, lower, overwrite_a, overwrite_b): U overwrites A
+        qn = q + x
         qc = _clip(qn, lo, hi)
-        q = qn if qc.tolist() == qn.tolist() else _limited_step(J, e, lam, q, lo, hi, qn, qc)
-    return False, max_iter, "iteration limit"
+        qnl, qcl = qn.tolist(), qc.tolist()
+        if qnl == qcl:  # on 7-vectors comparing Python lists is the cheapest test NumPy allows
+            q = qn
+        else:
+            if eye is None:
+                eye = np.eye(n)
+            q = _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qnl, qcl, eye)
+    return False, max_iter, "iteration limit", None, None
+
+
+def _squared_errors(poses) -> tuple[list, list]:
+    """``(|t|^2, |w|^2)`` lists of pose errors ``oMf^-1 oMd`` (``t`` its translation, ``w = log6(.)`` angular part)."""
+    pos2, rot2 = [], []
+    for M in poses:
+        t = M.translation
+        w = _log6(M).vector[3:]
+        pos2.append(t.dot(t))
+        rot2.append(w.dot(w))
+    return pos2, rot2
 
 
 def _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
@@ -219,35 +307,58 @@ def solve_lm(
     tp2, tr2 = tol_pos * tol_pos, tol_rot * tol_rot
     full = target.full
 
+    starts = None
     if q0 is not None:
-        q0 = _clip(q0, lo, hi)
-    starts = frame_starts(robot, target.frame, fid, target.T[:3, :3], target.T[:3, 3], len(target.rot_rows) == 3, q0,
-                          seed, seed_table_enabled, prefer_q0)
+        q0 = _clip(q0, lo, hi)  # a fresh array
+    if prefer_q0 and q0 is not None:
+        q = q0  # the first start of every sequence with prefer_q0: the table is ranked only if a restart needs it
+    else:
+        starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
+        q = next(starts)
 
-    best = None
+    best = None  # (k, qs, pos2, rot2, pe2, re2): the run that answers and its best iterate k
+    unscored = []  # failed full-pose runs (qs, poses): scored only if no start converges
     iterations = 0
     n_starts = 0
-    for q in starts:
+    while True:
         n_starts += 1
-        qs, pe2s, re2s = [], [], []
+        qs = []
         if full:
-            ok, it, reason = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter, damping, qs, pe2s, re2s)
+            poses = []
+            ok, it, reason, pe2, re2 = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter,
+                                                       damping, qs, poses)
         else:
-            ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pe2s, re2s)
+            pos2, rot2 = [], []
+            ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pos2, rot2)
         iterations += it
-        k = len(qs) - 1 if ok else int(np.argmin(np.add(pe2s, re2s)))
-        score = pe2s[k] + re2s[k]
-        if best is None or ok or score < best[0]:
-            best = (score, k, qs, pe2s, re2s, reason)
         if ok:
+            if full:  # the history's errors are read off ``poses`` only when asked for
+                best = (len(qs) - 1, qs, partial(_squared_errors, poses), None, pe2, re2)
+            else:
+                best = (len(qs) - 1, qs, pos2, rot2, pos2[-1], rot2[-1])
             break
+        if full:
+            unscored.append((qs, poses))
+            if len(unscored) >= UNSCORED_RUNS:
+                best = _best_run(unscored, best)
+        else:
+            best = _best_run([(qs, (pos2, rot2))], best)
         if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
             break
+        if starts is None:
+            starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
+            next(starts)  # q0, already tried
+        q = next(starts)
+    if not ok:
+        best = _best_run(unscored, best)
 
-    _, k, qs, pe2s, re2s, reason = best
-    ok = reason == "converged"
-    q = qs[k]
-    pe, re = _sqrt(pe2s[k]), _sqrt(re2s[k])
+    k, qs, pos2, rot2, pe2, re2 = best
+    pe, re = _sqrt(pe2), _sqrt(re2)
+    evaluate = task_evaluator(robot, target)
+    if rot2 is None:
+        hist = History.from_deferred(qs, pos2, k + 1, target.components, evaluate)
+    else:
+        hist = History.from_squared(qs, pos2, rot2, k + 1, target.components, evaluate)
     if ok:
         message = "converged"
     else:
@@ -256,9 +367,25 @@ def solve_lm(
             f"({iterations} iterations, {'time budget exhausted' if _now() > deadline else 'start limit reached'}); "
             f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
         )
-    hist = History.from_squared(qs, pe2s, re2s, k + 1, components=target.components,
-                                evaluate=task_evaluator(robot, target))
-    return Result(
-        q=q.copy(), success=ok, position_error=pe, orientation_error=re, iterations=iterations,
-        restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist, method="lm", frame=target.frame,
-    )
+    # positional: the fields of Result in order (half the cost of keywords)
+    return Result(qs[k].copy(), ok, pe, re, iterations, n_starts - 1, _now() - t0, message, hist, "lm", target.frame)
+
+
+def _best_run(runs: list, best: tuple | None) -> tuple:
+    """``best`` updated with the failed runs ``[(qs, poses or (pos2, rot2)), ...]`` (emptied), in start order.
+
+    A run's best iterate has the least ``|t|^2 + |w|^2``; an earlier run wins ties.
+    """
+    for qs, errors in runs:
+        pos2, rot2 = errors if type(errors) is tuple else _squared_errors(errors)
+        k = int(np.argmin(np.add(pos2, rot2)))
+        if best is None or pos2[k] + rot2[k] < best[4] + best[5]:
+            best = (k, qs, pos2, rot2, pos2[k], rot2[k])
+    runs.clear()
+    return best
+
+
+def _starts(robot, target, q0, seed, table_enabled, prefer_q0):
+    """The start sequence of :func:`ik.multistart.frame_starts` for ``target``."""
+    return frame_starts(robot, target.frame, target.frame_id, target.T[:3, :3], target.T[:3, 3],
+                        len(target.rot_rows) == 3, q0, seed, table_enabled, prefer_q0)

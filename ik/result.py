@@ -66,13 +66,26 @@ class History:
         """
         h = cls.__new__(cls)
         h._q = h._position_error = h._orientation_error = h._task_error = None
-        h.components = tuple(components)
+        h.components = components if type(components) is tuple else tuple(components)
         h._evaluate = evaluate
         h._raw = (qs, pos2, rot2, k)
         return h
 
+    @classmethod
+    def from_deferred(cls, qs: list, squared_errors: Callable[[], tuple[list, list]], k: int,
+                      components: Sequence[str] = (), evaluate: Callable[[np.ndarray], np.ndarray] | None = None
+                      ) -> History:
+        """Like :meth:`from_squared`, the squared errors given by ``squared_errors()`` (called on first read).
+
+        A solver that tests convergence on a cheaper bound need not compute
+        the exact errors of every iterate unless somebody reads them.
+        """
+        return cls.from_squared(qs, squared_errors, None, k, components, evaluate)
+
     def _materialise(self) -> None:
         qs, pos2, rot2, k = self._raw
+        if rot2 is None:  # deferred (from_deferred)
+            pos2, rot2 = pos2()
         nq = len(qs[0]) if k else 0
         self._q = np.array(qs[:k], dtype=float).reshape(k, nq)
         self._position_error = np.sqrt(np.array(pos2[:k], dtype=float))

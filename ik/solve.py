@@ -36,7 +36,6 @@ collision-free starts and says so in ``Result.message``. Not reaching the target
 
 from __future__ import annotations
 
-import contextlib
 import numbers
 import time
 from typing import TYPE_CHECKING, Any
@@ -45,6 +44,7 @@ import numpy as np
 
 from kinserve.kinematics.errors import InputError, KinserveError
 from kinserve.kinematics.validation import as_positive
+from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import Shape
 
 from . import analytic as _analytic
@@ -59,6 +59,7 @@ from .lm_solver import solve_lm
 from .options import OPTIONS
 from .problem import Problem
 from .qp_backends import available_backends
+from .seeds import PerModel
 from .targets import Target
 from .qp_solver import solve_qp
 from .task_solver import MAX_TIME as QP_MAX_TIME
@@ -67,7 +68,6 @@ from .task_solver import solve_problem
 if TYPE_CHECKING:  # annotations only
     from collections.abc import Iterable
 
-    from kinserve.kinematics.robot import Robot
     from kinserve.kinematics.types import PoseLike, VectorLike
 
     from .result import Result
@@ -85,6 +85,8 @@ def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
 
 
 def _check_robot(robot):
+    if type(robot) is Robot:
+        return
     if not (hasattr(robot, "model") and hasattr(robot, "frame_id") and hasattr(robot, "nq")):
         raise InputError(f"robot must be a kinserve.kinematics.Robot (e.g. robots.load('panda')), got {type(robot).__name__}")
 
@@ -107,15 +109,25 @@ def _check_backend(backend):
     return backend.lower()
 
 
-@contextlib.contextmanager
-def _argument(name: str):
-    """Tag a :class:`KinserveError` raised inside with the argument it concerns (``exc.argument``)."""
+def _tag(exc: KinserveError, name: str) -> None:
+    """Name the argument a :class:`KinserveError` concerns (``exc.argument``) unless the raiser did."""
+    if exc.argument is None:
+        exc.argument = name
+
+
+def _closed_form(robot, frame):
+    """:func:`ik.analytic.closed_form_solver`, memoised per model by identity (see :class:`ik.seeds.PerModel`)."""
+    per_model = _solvers.get(robot.model)
+    if per_model is None:
+        per_model = _solvers.setdefault(robot.model)
     try:
-        yield
-    except KinserveError as exc:
-        if exc.argument is None:
-            exc.argument = name
-        raise
+        return per_model[frame]
+    except KeyError:
+        solver = per_model[frame] = _analytic.closed_form_solver(robot, frame)
+        return solver
+
+
+_solvers = PerModel()
 
 
 def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
@@ -155,30 +167,77 @@ def prepare(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = Non
     in the parent process. ``"spheres"`` holds the obstacle constraint
     (:class:`ik.constraints.ObstacleAvoidance` of the spheres and obstacles) or None.
     """
+    return _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method,
+                    backend, tol_pos, tol_rot, max_time, seed)
+
+
+def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method, backend,
+             tol_pos, tol_rot, max_time, seed) -> dict[str, Any]:
+    """:func:`prepare` with positional arguments (what :func:`solve` calls: no keyword packing per solve)."""
     _check_robot(robot)
     if method not in _METHOD_SET:
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
-    tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
-    if q0 is not None:
-        with _argument("q0"):
-            q0 = robot.check_q(q0, "q0")
-    if tol_pos != 1e-4:
-        tol_pos = _check_positive(tol_pos, "tol_pos")
-    if tol_rot != 1e-3:
-        tol_rot = _check_positive(tol_rot, "tol_rot")
-    if max_time is not None:
-        max_time = _check_positive(max_time, "max_time")
-    seed = _check_seed(seed)
-    backend = _check_backend(backend)
-    weights = centring_weights(robot, centring)
-    with _argument("spheres" if obstacles is None or (type(obstacles) is tuple and not obstacles) else "obstacles"):
+    tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
+    q0 = _checked_q0(robot, q0)
+    tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
+    backend = DEFAULT_BACKEND if backend is None else _check_backend(backend)
+    weights = None if type(centring) is float and centring == 0.0 else centring_weights(robot, centring)
+    try:
         avoid = _obstacle_constraint(robot, spheres, obstacles, link_radius, tgt.frame)
+    except KinserveError as exc:
+        _tag(exc, "spheres" if obstacles is None or (type(obstacles) is tuple and not obstacles) else "obstacles")
+        raise
     if weights is not None and method in _NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     if avoid is not None and method in _NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=avoid, method=method)
+
+
+def _checked_q0(robot, q0):
+    """``q0`` checked by ``robot.check_q`` (errors name the argument ``q0``), or None."""
+    if q0 is None:
+        return None
+    try:
+        return robot.check_q(q0, "q0")
+    except KinserveError as exc:
+        _tag(exc, "q0")
+        raise
+
+
+def _checked_numbers(tol_pos, tol_rot, max_time, seed):
+    """``(tol_pos, tol_rot, max_time, seed)`` checked (the defaults pass on an equality test)."""
+    if tol_pos != 1e-4:
+        tol_pos = _check_positive(tol_pos, "tol_pos")
+    if tol_rot != 1e-3:
+        tol_rot = _check_positive(tol_rot, "tol_rot")
+    if max_time is not None:
+        max_time = _check_positive(max_time, "max_time")
+    if seed is not None:
+        seed = _check_seed(seed)
+    return tol_pos, tol_rot, max_time, seed
+
+
+def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed, options):
+    """The common request on a short path: one pose target, joint limits only, ``method`` "auto" or "lm".
+
+    The same checks as :func:`prepare` for the arguments given (the others
+    are at their defaults: no obstacle, no centring, default backend); then
+    Levenberg-Marquardt directly, or :func:`solve_prepared` when ``"auto"``
+    finds a closed form or an option only another method accepts.
+    """
+    _check_robot(robot)
+    tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
+    q0 = _checked_q0(robot, q0)
+    tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
+    if (options and not options.keys() <= _LM_OPTION_SET) or (method == "auto" and _closed_form(robot, tgt.frame) is not None):
+        p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                 backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
+        return solve_prepared(robot, p, **options)
+    if "seed_table" in options:
+        options["seed_table_enabled"] = bool(options.pop("seed_table"))
+    return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
 
 
 def solve(
@@ -297,12 +356,18 @@ def solve(
                            tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
     if target is None:
         raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
+    if (method == "auto" or method == "lm") and constraints is None and not self_collision and not collision_margin \
+            and type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
+            and type(link_radius) is float and link_radius == 0.0 and type(centring) is float and centring == 0.0 \
+            and backend is None:
+        # the defaults of everything but the pose: the short path (same checks, no dispatch)
+        return _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                           options)
     if self_collision or collision_margin:
         options.update(_collision_module().collision_options(self_collision, obstacles, collision_margin, spheres))
         spheres, obstacles = (), ()
-    p = prepare(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres,
-                obstacles=obstacles, link_radius=link_radius, centring=centring, method=method, backend=backend,
-                tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed)
+    p = _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method, backend,
+                 tol_pos, tol_rot, max_time, seed)
     if constraints is not None:
         extra = [c for c in (constraints if not isinstance(constraints, (Shape,)) else [constraints])]
         if extra:
@@ -312,9 +377,6 @@ def solve(
     return solve_prepared(robot, p, **options)
 
 
-_TASK_OPTIONS = OPTIONS["qp"]
-
-
 def solve_tasks(robot: Robot, tasks: Any, constraints: Any = None, q0: VectorLike | None = None, *,
                 method: str = "auto", backend: str | None = None, tol_pos: float = 1e-4, tol_rot: float = 1e-3,
                 max_time: float | None = None, seed: int | None = None, **options: Any) -> Result:
@@ -322,7 +384,7 @@ def solve_tasks(robot: Robot, tasks: Any, constraints: Any = None, q0: VectorLik
     _check_robot(robot)
     if method not in ("auto", "qp"):
         raise InputError(f"method must be 'auto' or 'qp' for a composition of tasks, got {method!r}")
-    _check_options("qp", options, _TASK_OPTIONS)
+    _check_options("qp", options)
     if q0 is not None:
         q0 = robot.check_q(q0, "q0")
     tol_pos = _check_positive(tol_pos, "tol_pos")
@@ -445,13 +507,16 @@ def _collision_module():
 _COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 # accepted option names per method: one list, in ik.options
 _LM_OPTIONS, _QP_OPTIONS = OPTIONS["lm"], OPTIONS["qp"]
-_CLASSICAL_OPTIONS, _ANALYTIC_OPTIONS, _AUTO_OPTIONS = OPTIONS["dls"], OPTIONS["analytic"], OPTIONS["auto"]
+_ANALYTIC_OPTIONS = OPTIONS["analytic"]
 _LM_OPTION_SET = frozenset(_LM_OPTIONS)
+_OPTION_SETS = {method: frozenset(names) for method, names in OPTIONS.items()}
 
 
-def _check_options(method, options, allowed):
-    if not options:
+def _check_options(method, options):
+    """Raise :class:`InputError` for an option name ``method`` (a key of :data:`ik.options.OPTIONS`) does not accept."""
+    if not options or options.keys() <= _OPTION_SETS[method]:
         return
+    allowed = OPTIONS[method]
     bad = [k for k in options if k not in allowed]
     if bad:
         raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
@@ -468,26 +533,26 @@ def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:
     method = p["method"]
     tgt = p["target"]
     if method == "auto":
-        _check_options("auto", options, _AUTO_OPTIONS)
-        if p["spheres"] is not None and p["weights"] is None and not p.get("constraints"):
-            res = _solve_unconstrained_first(robot, p, {k: v for k, v in options.items() if k in _LM_OPTIONS})
-            if res is not None:
-                return res
-            method = "qp"
-        elif p["spheres"] is not None or p["weights"] is not None or p.get("constraints"):
-            method = "qp"
-        else:
-            solver = _analytic.closed_form_solver(robot, tgt.frame)
+        _check_options("auto", options)
+        constrained = p["spheres"] is not None or p["weights"] is not None or p.get("constraints")
+        if not constrained:
+            solver = _closed_form(robot, tgt.frame)
             # closed forms with finitely many branches; a sampled family (4R) is slower than LM in Python
             if solver is not None and solver.finite and solver.supports(tgt.relaxed):
                 res = _solve_analytic(robot, solver, p, **{k: v for k, v in options.items() if k in _ANALYTIC_OPTIONS})
                 if res is not None:
                     return res
             method = "lm"
+        else:
+            if p["weights"] is None and not p.get("constraints"):  # obstacles only
+                res = _solve_unconstrained_first(robot, p, {k: v for k, v in options.items() if k in _LM_OPTIONS})
+                if res is not None:
+                    return res
+            method = "qp"
         if options and not _LM_OPTION_SET.issuperset(options):
             options = {k: v for k, v in options.items() if k in (_QP_OPTIONS if method == "qp" else _LM_OPTIONS)}
     if method == "lm":
-        _check_options(method, options, _LM_OPTIONS)
+        _check_options(method, options)
         opts = options
         if "seed_table" in opts:
             opts = dict(options)
@@ -495,11 +560,11 @@ def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:
         return solve_lm(robot, tgt, p["q0"], tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
                         seed=p["seed"], **opts)
     if method == "qp":
-        _check_options(method, options, _QP_OPTIONS)
+        _check_options(method, options)
         return _solve_target_tasks(robot, p, options)
     if method == "analytic":
-        _check_options(method, options, _ANALYTIC_OPTIONS)
-        solver = _analytic.closed_form_solver(robot, tgt.frame)
+        _check_options(method, options)
+        solver = _closed_form(robot, tgt.frame)
         if solver is None:
             raise InputError(f"no closed-form solver for robot {robot.name!r} and frame {tgt.frame!r}; use 'auto', 'lm' or 'qp'")
         if not solver.supports(tgt.relaxed):
@@ -508,7 +573,7 @@ def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:
             )
         res = _solve_analytic(robot, solver, p, fallback=False, **options)
         return res
-    _check_options(method, options, _CLASSICAL_OPTIONS)
+    _check_options(method, options)
     q0 = p["q0"] if p["q0"] is not None else robot.neutral()
     return solve_classical(robot, tgt, q0, method, weights=p["weights"], tol_pos=p["tol_pos"], tol_rot=p["tol_rot"],
                            max_time=p["max_time"], **options)

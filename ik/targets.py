@@ -57,6 +57,7 @@ _log3 = pin.log3
 _ALL6 = np.arange(6)
 _ALL3 = np.arange(3)
 _EYE3 = np.eye(3)
+_F64 = np.dtype(np.float64)
 
 
 def _checked_pose(pose) -> np.ndarray:
@@ -66,10 +67,12 @@ def _checked_pose(pose) -> np.ndarray:
     anything else goes through :func:`kinematics.as_pose`, which raises the
     precise error (shape, NaN/inf, bottom row, rotation not orthonormal).
     """
+    if type(pose) is np.ndarray and pose.dtype is _F64 and pose.shape == (4, 4) and is_pose_fast(pose):
+        return pose.copy()  # C-ordered
     if isinstance(pose, pin.SE3):
         pose = pose.homogeneous
-    if type(pose) is np.ndarray and pose.shape == (4, 4) and pose.dtype == np.float64 and is_pose_fast(pose):
-        return np.array(pose, dtype=np.float64)
+        if is_pose_fast(pose):
+            return pose
     return np.array(as_pose(pose, "target"), dtype=np.float64)
 
 

@@ -109,3 +109,52 @@ def test_relaxed_targets_rank_starts_by_position_only():
     res = solve_lm(youbot, Target(youbot, T, relax=("roll", "pitch", "yaw")), q0)
     assert res.success and res.restarts == 0
     assert np.abs(res.q - q0).max() < 0.1
+
+
+def test_one_joint_at_bound_equals_the_masked_re_solve():
+    """The Cholesky shortcut for one joint out of range gives the masked active-set step (same math, other route)."""
+    from scipy.linalg import get_lapack_funcs
+
+    from kinserve.ik.lm_solver import _limited_step, _one_joint_at_bound
+
+    posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
+    rng = np.random.default_rng(11)
+    checked = 0
+    for _ in range(200):
+        J = rng.normal(size=(6, 7))
+        e = rng.normal(size=6) * 0.3
+        q = rng.uniform(-1.0, 1.0, 7)
+        lo, hi = np.full(7, -1.2), np.full(7, 1.2)
+        lam = 1e-3
+        A = J.T @ J + lam * np.eye(7)
+        U, x, info = posv(np.asfortranarray(A), e @ J)
+        qn = q + x
+        qc = np.clip(qn, lo, hi)
+        if np.count_nonzero(qc != qn) != 1:
+            continue
+        got = _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qn.tolist(), qc.tolist(), np.eye(7))
+        want = _limited_step(J, e, lam, q, lo, hi, qn, qc)
+        assert np.all(got >= lo) and np.all(got <= hi)
+        assert np.allclose(got, want, atol=1e-9)
+        checked += 1
+    assert checked > 20
+
+
+def test_near_bound_of_the_cheap_success_test():
+    """|t| <= |v| <= (pi/2)|t| for e = [v; w] = log6(M), t = M.translation: E < NEAR tp^2 + tr^2 never misses success."""
+    import pinocchio as pin
+
+    from kinserve.ik.lm_solver import NEAR
+
+    rng = np.random.default_rng(2)
+    worst = 0.0
+    for _ in range(2000):
+        angle = rng.uniform(0.0, np.pi)
+        axis = rng.normal(size=3)
+        R = pin.exp3(angle * axis / np.linalg.norm(axis))
+        M = pin.SE3(R, rng.normal(size=3))
+        e = pin.log6(M).vector
+        t, v = np.linalg.norm(M.translation), np.linalg.norm(e[:3])
+        assert t <= v * (1 + 1e-12)
+        worst = max(worst, v / t)
+    assert worst <= np.pi / 2 + 1e-9 and NEAR >= (np.pi / 2) ** 2

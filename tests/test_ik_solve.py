@@ -153,3 +153,29 @@ def test_sphere_errors_name_their_argument(panda, T):
     with pytest.raises(NonFiniteError) as info:
         ik.solve(panda, T, [0.0] * 6 + [float("nan")])
     assert info.value.argument == "q0"
+
+
+@pytest.mark.parametrize("options", [dict(prefer_q0=True), dict(), dict(seed_table=False, max_iter=30), dict(max_starts=2)])
+def test_short_path_gives_the_general_path_answer(panda, options):
+    """The short path of ik.solve (pose only, defaults elsewhere) answers exactly as prepare + solve_prepared."""
+    from kinserve.ik.solve import prepare, solve_prepared
+
+    rng = np.random.default_rng(8)
+    for _ in range(15):
+        T = panda.fk(panda.random_q(rng)).copy()
+        q0 = panda.random_q(rng)
+        for method in ("auto", "lm"):
+            a = ik.solve(panda, T, q0, method=method, seed=2, **options)
+            b = solve_prepared(panda, prepare(panda, T, q0, method=method, seed=2), **dict(options))
+            assert np.array_equal(a.q, b.q) and a.iterations == b.iterations and a.restarts == b.restarts
+            assert a.success == b.success and a.message == b.message and a.method == b.method == "lm"
+            assert np.array_equal(a.history.q, b.history.q)
+            assert np.array_equal(a.history.position_error, b.history.position_error)
+
+
+def test_short_path_errors_name_their_argument(panda, T):
+    with pytest.raises(ShapeError) as info:
+        ik.solve(panda, T, [0.0] * 3, prefer_q0=True)
+    assert info.value.argument == "q0"
+    with pytest.raises(InputError, match="max_step"):
+        ik.solve(panda, T, method="lm", max_step=0.1)  # a QP option: the general path names it
