@@ -89,6 +89,7 @@ _CHECKS = {
     "prefer_q0": _flag,
     "seed_table": _flag,
     "shortcut": _flag,
+    "lazy": _flag,
     "choose": _criteria,
 }
 

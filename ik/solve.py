@@ -56,7 +56,7 @@ from .constraints import as_sphere
 from .constraints.obstacles import ObstacleAvoidance, as_obstacle
 from .dense_qp import DEFAULT_BACKEND
 from .lm_solver import solve_lm
-from .options import OPTIONS
+from .options import OPTIONS, check_options
 from .problem import Problem
 from .qp_backends import available_backends
 from .seeds import PerModel
@@ -235,8 +235,10 @@ def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, t
         p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                  backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
         return solve_prepared(robot, p, **options)
-    if "seed_table" in options:
-        options["seed_table_enabled"] = bool(options.pop("seed_table"))
+    if options:
+        check_options("lm", options)
+        if "seed_table" in options:
+            options["seed_table_enabled"] = bool(options.pop("seed_table"))
     return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
 
 
@@ -513,13 +515,10 @@ _OPTION_SETS = {method: frozenset(names) for method, names in OPTIONS.items()}
 
 
 def _check_options(method, options):
-    """Raise :class:`InputError` for an option name ``method`` (a key of :data:`ik.options.OPTIONS`) does not accept."""
-    if not options or options.keys() <= _OPTION_SETS[method]:
-        return
-    allowed = OPTIONS[method]
-    bad = [k for k in options if k not in allowed]
-    if bad:
-        raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
+    """Raise :class:`InputError` for an option ``method`` (a key of :data:`ik.options.OPTIONS`) does not accept
+    or a value out of range (:func:`ik.options.check_options`; nothing to do without options)."""
+    if options:
+        check_options(method, options)
 
 
 def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:

@@ -54,3 +54,26 @@ def test_names_agree_with_what_ik_solve_accepts():
         for name in set(values) - set(names):
             with pytest.raises(InputError, match="unknown option"):
                 ik.solve(robot, T, method=method, max_time=0.01, **{name: values[name]})
+
+
+@pytest.mark.parametrize("method", ["auto", "lm", "qp"])
+@pytest.mark.parametrize("options, error, words", [
+    ({"prefer_q0": "yes"}, InputError, "prefer_q0 must be True or False"),
+    ({"max_iter": 0}, InputError, "max_iter must be an integer >= 1"),
+    ({"damping": -1.0}, InputError, "damping must be positive"),
+    ({"damping": float("inf")}, NonFiniteError, "damping must be finite"),
+    ({"max_starts": 0}, InputError, "max_starts must be an integer >= 1 or None"),
+    ({"seed_table": None}, InputError, "seed_table must be True or False"),
+])
+def test_ik_solve_checks_option_values_on_every_path(method, options, error, words):
+    """The values, not only the names: ik.solve's short LM path, "auto" and "qp" (with and without obstacles)
+    refuse a bad value before solving, with the option's name in the message."""
+    panda = robots.load("panda", geometry=False)
+    T = panda.fk(panda.random_q(np.random.default_rng(1)))
+    with_obstacles = () if method == "lm" else ({"obstacles": [ik.Sphere((0.5, 0.5, 0.9), 0.05)]},)  # lm: refused
+    for extra in ({}, *with_obstacles):
+        with pytest.raises(error) as info:
+            ik.solve(panda, T, method=method, **extra, **options)
+        assert words in str(info.value)
+    with pytest.raises(InputError, match="lazy must be True or False"):
+        ik.solve(panda, T, method="qp", lazy="x")
