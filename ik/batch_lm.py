@@ -15,8 +15,10 @@ The mathematics is the method of :mod:`ik.lm_solver`, written for stacks:
   ``theta = atan2(|v| / 2, (tr R - 1) / 2)``, ``w = theta v / |v|``, with
   Pinocchio's ``log3`` for the rare rotations within 1e-6 rad of ``pi``);
 * damped step ``(J^T J + lambda I) dq = J^T e`` with
-  ``lambda = 0.01 |e|^2 + 1e-5`` (``numpy.linalg.solve`` on the stack), the
-  same active-set handling of the joint limits, and the same stall rule and
+  ``lambda = 0.01 |e|^2 + 1e-5`` (``numpy.linalg.solve`` on the stack; the
+  scalar solver steps on the LOCAL ``log6`` error and damps with its
+  ``|log6|^2``, so single iterates differ slightly while the rule is the
+  same), the same active-set handling of the joint limits, the same stall rule and
   restart order (table samples and ``q0`` by pose distance, full-range
   samples, then seeded random configurations, see :mod:`ik.seeds`).
 
