@@ -116,7 +116,8 @@ def _local_extent(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
 
 def _bounding_radius(shape: Shape) -> float:
     if isinstance(shape, Box):
-        return float(np.linalg.norm(shape.half_extents))
+        x, y, z = shape.size  # half the diagonal, on floats (a NumPy norm costs more than the rest of the check)
+        return 0.5 * math.sqrt(x * x + y * y + z * z)
     if isinstance(shape, Cylinder):
         return math.hypot(shape.radius, 0.5 * shape.length)
     if isinstance(shape, Mesh):
@@ -252,6 +253,9 @@ class ObstacleAvoidance(Constraint):
             poses = np.array([ob.pose for _, ob, _ in box], dtype=float)
             self._boxes_R, self._boxes_t = poses[:, :3, :3], poses[:, None, :3, 3]  # per box (t: (boxes, 1, 3))
             self._box_row = row  # per pair: its box
+            # rows of (boxes * points) holding each pair's ends, a's then b's (one gather in _box_local)
+            n_pts = sk.n_points
+            self._box_iab = np.concatenate((row * n_pts + self._box_ia, row * n_pts + self._box_ib))
             self._box_R = self._boxes_R[row]
             self._box_t = poses[row, :3, 3]
             self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float)[row]
@@ -336,8 +340,12 @@ class ObstacleAvoidance(Constraint):
             if all(_separated(_to_local(T, a), _to_local(T, b), h, self.link_radius) for _, a, b in fixed):
                 return
         if isinstance(ob, Sphere):  # point-segment closed form, on plain floats (a few fixed segments)
-            d = np.array([_point_segment_distance(a, b, ob.center) - ob.radius for _, a, b in fixed])
-        elif isinstance(ob, Capsule):
+            for name, a, b in fixed:
+                if _point_segment_distance(a, b, ob.center) - ob.radius < self.link_radius:
+                    raise InputError(f"obstacles[{k}] ({ob!r}) contains the robot base ({name}); "
+                                     "the base cannot move out of it")
+            return
+        if isinstance(ob, Capsule):
             A, B = np.array([f[1] for f in fixed]), np.array([f[2] for f in fixed])
             _, _, X, Y = segment_segment(A, B, np.broadcast_to(np.asarray(ob.a), A.shape),
                                          np.broadcast_to(np.asarray(ob.b), A.shape))
@@ -484,7 +492,9 @@ class ObstacleAvoidance(Constraint):
         configuration) and the pairs' ends are picked out of that.
         """
         L = _matmul(P[..., None, :, :] - self._boxes_t, self._boxes_R)  # (..., boxes, points, 3)
-        return L[..., self._box_row, self._box_ia, :], L[..., self._box_row, self._box_ib, :]
+        L = L.reshape(L.shape[:-3] + (-1, 3)).take(self._box_iab, -2)  # (..., 2 pairs, 3): a's then b's
+        n = self._box_row.shape[0]
+        return L[..., :n, :], L[..., n:, :]
 
     def _box_min(self, P, best: float) -> np.ndarray:
         """Distances of the box pairs where only the smallest (and the others' lower bounds) must be right.
@@ -612,10 +622,11 @@ class ObstacleAvoidance(Constraint):
         model, data = robot.model, robot.data
         sk = self.skeleton
         fk = _pin().forwardKinematics
-        P = np.empty((len(Q), len(sk._translations) + len(sk._acts) + len(sk._world), 3))
+        P = np.empty((len(Q), sk.n_points, 3))
+        into = sk.points_into
         for k, q in enumerate(Q):
             fk(model, data, q)
-            P[k] = sk.points(data)
+            into(data, P[k])
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
         if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
@@ -806,10 +817,13 @@ def _skeleton(robot, tools, frames):
 
     ``fixed`` lists ``(name, a, b)`` of the segments fixed to the world (checked against the obstacles).
     """
+    key = (tuple(tools), tuple(frames))
+    last = _last_skeleton[0]
+    if last is not None and last[0]() is robot.model and last[1] == key:  # the usual case: no weak-key look-up
+        return last[2]
     per_model = _skeletons.get(robot.model)
     if per_model is None:
         per_model = _skeletons[robot.model] = {}
-    key = (tuple(tools), tuple(frames))
     hit = per_model.get(key)
     if hit is None:
         segs = skeleton_segments(robot, tools)
@@ -817,7 +831,11 @@ def _skeleton(robot, tools, frames):
         fixed = [(s.name, tuple(s.la.tolist()), tuple(s.lb.tolist())) for s in segs if s.fixed]  # (floats)
         pts = skeleton_segments(robot, frames=frames) if frames else []
         hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
+    _last_skeleton[0] = (weakref.ref(robot.model), key, hit)
     return hit
+
+
+_last_skeleton: list = [None]  # (weak reference to the model, key, skeleton entry) of the last _skeleton call
 
 
 _pin_module = None
