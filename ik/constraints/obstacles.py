@@ -154,7 +154,7 @@ class ObstacleAvoidance(Constraint):
             items = list(obstacles)
         except TypeError:
             raise InputError(f"obstacles must be a sequence of shapes, got {obstacles!r}") from None
-        self.obstacles = [as_obstacle(o, f"obstacles[{i}]") for i, o in enumerate(items)]
+        self.obstacles = [o if isinstance(o, Shape) else as_obstacle(o, f"obstacles[{i}]") for i, o in enumerate(items)]
         self.link_radius = _non_negative(link_radius, "link_radius")
         self.margin_required = _non_negative(margin, "margin")
         if isinstance(gain, bool) or not isinstance(gain, (int, float)) or not (0.0 < gain <= 1.0):
@@ -311,6 +311,7 @@ class ObstacleAvoidance(Constraint):
         self._sph_r_off = self._sph_r + self._offset
         self._sph_r_off2 = self._sph_r_off * self._sph_r_off  # (r + offset)^2: violations() compares squares
         self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
+        self._sph_iab = np.concatenate((self._sph_ia, self._sph_ib))  # both ends of every pair (one gather)
 
     @property
     def pair_names(self) -> list[tuple[int, str]]:
@@ -609,7 +610,8 @@ class ObstacleAvoidance(Constraint):
         return int(hits[0]) if hits.size else None
 
     def violations(self, robot: Robot, Q: np.ndarray, first_only: bool = False) -> np.ndarray:
-        """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``) has a negative clearance.
+        """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``, or a list of ``(nq,)`` arrays)
+        has a negative clearance.
 
         The sphere, capsule and box distances of all ``K`` configurations are evaluated at once (the
         same closed forms on ``(K, pairs)`` arrays; box pairs only where their axis-gap bound is below
@@ -630,8 +632,10 @@ class ObstacleAvoidance(Constraint):
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
         if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
-            A = P.take(self._sph_ia, 1)
-            AB = P.take(self._sph_ib, 1)
+            n = self._sph_seg.shape[0]
+            X = P.take(self._sph_iab, 1)  # both ends of every pair in one gather
+            A = X[:, :n]
+            AB = X[:, n:]
             AB -= A
             AC = self._sph_c - A
             inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
@@ -730,11 +734,10 @@ class ObstacleAvoidance(Constraint):
         ox, oy, oz = self._sph_c.T
         W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
         self._sph_S = self.skeleton.support[self.skeleton.ja[self._sph_seg]]
-        self._sph_iab = np.concatenate((self._sph_ia, self._sph_ib))
         self._sph_W = W
         shared = self.__dict__.get("_shared")
         if shared is not None:  # the next constraint bound to the same obstacles reuses them
-            for k in ("_sph_S", "_sph_iab", "_sph_W"):
+            for k in ("_sph_S", "_sph_W"):
                 shared[k] = getattr(self, k)
 
     def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -910,6 +913,8 @@ def _unit(V: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def _non_negative(value, name: str) -> float:
+    if type(value) is float and 0.0 <= value < math.inf:  # the common case, checked in one test
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise InputError(f"{name} must be a number >= 0 (m), got {value!r}")
     v = float(value)
