@@ -145,6 +145,14 @@ class LinkSkeleton:
         return np.array(pts + self._world) if self._world else np.array(pts)
 
     @property
+    def all_rigid(self) -> bool:
+        """True when no segment slides (every segment's ends on one body), cached."""
+        v = self.__dict__.get("_all_rigid")
+        if v is None:
+            v = self._all_rigid = bool(self.rigid.all())
+        return v
+
+    @property
     def n_points(self) -> int:
         """Number of rows of :meth:`points`."""
         return len(self._translations) + len(self._acts) + len(self._world)

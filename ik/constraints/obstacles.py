@@ -230,44 +230,46 @@ class ObstacleAvoidance(Constraint):
         other = ([i for _, _, ids in kinds[3] for i in ids], [ob for _, ob, ids in kinds[3] for _ in ids],
                  [k for k, _, ids in kinds[3] for _ in ids])
 
+        n_pts = sk.n_points
+
         def seg_and_rows(group):
-            """``(seg, row, ia, ib)``: segment ids of the group's pairs, the row of each pair's obstacle in the
-            group and the pairs' end-point rows (:meth:`LinkSkeleton.end_index`); cached per skeleton and
-            count when every obstacle of the group is kept clear of the default segments (the usual case)."""
+            """``(seg, row, ia, ib, iab, iab_grouped)``: segment ids of the group's pairs, the row of each pair's
+            obstacle in the group, the pairs' end-point rows (:meth:`LinkSkeleton.end_index`), both ends in one
+            index (``[ia, ib]``) and the same rows of a per-obstacle stack of the points (``row * points + ia``,
+            then ``+ ib``); cached per skeleton and count when every obstacle of the group is kept clear of the
+            default segments (the usual case)."""
             if not group:
-                return _NO_INT, _NO_INT, _NO_INT, _NO_INT
+                return _NO_INT, _NO_INT, _NO_INT, _NO_INT, _NO_INT, _NO_INT
             if all(ids is segs_default for _, _, ids in group):
                 key = (n_default, len(group))
                 hit = sk.__dict__.setdefault("_pair_index", {}).get(key)
                 if hit is None:
                     seg = np.tile(np.arange(n_default), len(group))
-                    hit = sk._pair_index[key] = (seg, np.repeat(np.arange(len(group)), n_default)) + sk.end_index(seg)
+                    hit = sk._pair_index[key] = _pair_index(sk, seg, np.repeat(np.arange(len(group)), n_default), n_pts)
                 return hit
             seg = np.array([i for _, _, ids in group for i in ids], dtype=int)
-            return (seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int)) \
-                + sk.end_index(seg)
+            return _pair_index(sk, seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int),
+                               n_pts)
 
-        self._box_seg, row, self._box_ia, self._box_ib = seg_and_rows(box)
+        # _box_iab: rows of (boxes * points) holding each pair's ends, a's then b's (one gather in _box_local)
+        self._box_seg, row, self._box_ia, self._box_ib, _, self._box_iab = seg_and_rows(box)
         self._box_ob = [ob for _, ob, ids in box for _ in ids]
         if box:
             poses = np.array([ob.pose for _, ob, _ in box], dtype=float)
             self._boxes_R, self._boxes_t = poses[:, :3, :3], poses[:, None, :3, 3]  # per box (t: (boxes, 1, 3))
             self._box_row = row  # per pair: its box
-            # rows of (boxes * points) holding each pair's ends, a's then b's (one gather in _box_local)
-            n_pts = sk.n_points
-            self._box_iab = np.concatenate((row * n_pts + self._box_ia, row * n_pts + self._box_ib))
             self._box_R = self._boxes_R[row]
             self._box_t = poses[row, :3, 3]
             self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float)[row]
         else:
             self._box_R, self._box_t, self._box_h = _NO_R, _NO_3, _NO_3
-        self._sph_seg, row, self._sph_ia, self._sph_ib = seg_and_rows(sph)
+        self._sph_seg, row, self._sph_ia, self._sph_ib, self._sph_iab, _ = seg_and_rows(sph)
         if sph:
             self._sph_c = np.array([ob.center for _, ob, _ in sph], dtype=float)[row]
             self._sph_r = np.array([ob.radius for _, ob, _ in sph], dtype=float)[row]
         else:
             self._sph_c, self._sph_r = _NO_3, _NO_1
-        self._cap_seg, row, self._cap_ia, self._cap_ib = seg_and_rows(cap)
+        self._cap_seg, row, self._cap_ia, self._cap_ib, _, _ = seg_and_rows(cap)
         if cap:
             self._cap_a = np.array([ob.a for _, ob, _ in cap], dtype=float)[row]
             self._cap_b = np.array([ob.b for _, ob, _ in cap], dtype=float)[row]
@@ -276,7 +278,7 @@ class ObstacleAvoidance(Constraint):
             self._cap_a, self._cap_b, self._cap_r = _NO_3, _NO_3, _NO_1
         self._oth_seg = np.array(other[0], dtype=int) if other[0] else _NO_INT
         # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
-        rigid = bool(sk.rigid[self._sph_seg].all()) if self._sph_seg.size else False
+        rigid = bool(self._sph_seg.size) and (sk.all_rigid or bool(sk.rigid[self._sph_seg].all()))
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         if other[0]:
             self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
@@ -303,7 +305,7 @@ class ObstacleAvoidance(Constraint):
             self._oth_center = self._oth_t = self._oth_lo = self._oth_hi = _NO_3
             self._oth_R = _NO_R
             self._oth_bound = _NO_1
-        self.m = sum(len(ids) for group in self._kinds for _, _, ids in group)
+        self.m = self._sph_seg.size + self._cap_seg.size + self._box_seg.size + self._oth_seg.size  # pairs
         self._offset = self.link_radius + self.margin_required
         # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._box_seg.size \
@@ -311,7 +313,6 @@ class ObstacleAvoidance(Constraint):
         self._sph_r_off = self._sph_r + self._offset
         self._sph_r_off2 = self._sph_r_off * self._sph_r_off  # (r + offset)^2: violations() compares squares
         self._sph_W = self._sph_S = None  # made by _sphere_rows on first use
-        self._sph_iab = np.concatenate((self._sph_ia, self._sph_ib))  # both ends of every pair (one gather)
 
     @property
     def pair_names(self) -> list[tuple[int, str]]:
@@ -632,10 +633,8 @@ class ObstacleAvoidance(Constraint):
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
         if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
-            n = self._sph_seg.shape[0]
-            X = P.take(self._sph_iab, 1)  # both ends of every pair in one gather
-            A = X[:, :n]
-            AB = X[:, n:]
+            A = P.take(self._sph_ia, 1)
+            AB = P.take(self._sph_ib, 1)  # (two contiguous gathers: cheaper arithmetic than views of one)
             AB -= A
             AC = self._sph_c - A
             inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
@@ -803,6 +802,12 @@ _UNBOUND = frozenset(("name", "obstacles", "link_radius", "margin_required", "ga
 #: coal capsule cores by length (segment lengths repeat from one call to the next)
 _CORES: dict = {}
 _balls: dict = {}
+
+
+def _pair_index(sk: LinkSkeleton, seg: np.ndarray, row: np.ndarray, n_pts: int) -> tuple:
+    """The tuple of ``seg_and_rows`` in :meth:`ObstacleAvoidance._bind_arrays` for pairs ``(seg, row)``."""
+    ia, ib = sk.end_index(seg)
+    return seg, row, ia, ib, np.concatenate((ia, ib)), np.concatenate((row * n_pts + ia, row * n_pts + ib))
 
 
 def fixed_ball(fixed: list) -> tuple[tuple[float, float, float], float]:
