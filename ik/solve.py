@@ -36,6 +36,7 @@ collision-free starts and says so in ``Result.message``. Not reaching the target
 
 from __future__ import annotations
 
+from itertools import islice
 import numbers
 import time
 from typing import TYPE_CHECKING, Any
@@ -56,6 +57,7 @@ from .constraints import as_sphere
 from .constraints.obstacles import ObstacleAvoidance, as_obstacle
 from .dense_qp import DEFAULT_BACKEND
 from .lm_solver import solve_lm
+from .multistart import frame_starts
 from .options import OPTIONS, check_options
 from .problem import Problem
 from .qp_backends import available_backends
@@ -76,6 +78,7 @@ METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
 _NO_CENTRING_METHODS = frozenset(("lm", "analytic", "jacobian_inverse", "jacobian_transpose"))
 _NO_OBSTACLE_METHODS = frozenset(("lm", "analytic") + CLASSICAL_METHODS)
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip  # np.clip without its dispatch
 
 
 def _check_positive(value, name: str, allow_none: bool = False) -> float | None:
@@ -148,7 +151,8 @@ def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):
         except TypeError:
             group = [group]
         for i, ob in enumerate(group):
-            items.append(as_sphere(ob) if name == "spheres" else as_obstacle(ob, f"obstacles[{i}]"))
+            items.append(as_sphere(ob) if name == "spheres" else ob if isinstance(ob, Shape)
+                         else as_obstacle(ob, f"obstacles[{i}]"))
     if not items:
         if link_radius not in (0, 0.0):
             ObstacleAvoidance([], link_radius=link_radius)  # validates the value
@@ -405,8 +409,11 @@ def _task_options(options: dict) -> dict:
     return options
 
 
-#: Starts tried without constraints before the constrained solve (``"auto"`` with obstacles).
-FREE_ATTEMPTS = 4
+#: Starts tried without constraints before the constrained solve (``"auto"`` with obstacles). An LM run
+#: costs a fraction of a QP solve, so runs that stall at a joint limit or whose answer is inside an obstacle
+#: are cheap to retry (measured on bench_ik_constrained, CPU time: 8 rather than 4 cut the 90th-95th
+#: percentiles by about a tenth, the median unchanged).
+FREE_ATTEMPTS = 8
 
 
 def _solve_unconstrained_first(robot, p: dict, options: dict):
@@ -427,34 +434,31 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     (measured: starting it from the last clear iterate of a free run is worse -
     that iterate faces the obstacle).
     """
-    from itertools import islice
-
-    from .multistart import frame_starts
-
     avoid = p["spheres"]
     opts = _task_options(options)
     tgt = p["target"]
     q0 = p["q0"]
     if q0 is not None:
-        q0 = np.clip(q0, robot.lower, robot.upper)
+        q0 = _clip(q0, robot.lower, robot.upper)
     q0_bad = None  # unknown until a run is checked
     starts = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3, q0,
                           p["seed"], opts.pop("seed_table_enabled", True), opts.pop("prefer_q0", False))
     opts.pop("max_starts", None)
     t0 = time.perf_counter()
     budget = p["max_time"] if p["max_time"] is not None else QP_MAX_TIME  # the whole solve's budget
+    tol_pos, tol_rot = p["tol_pos"], p["tol_rot"]
     attempt = -1
     for attempt, q in enumerate(islice(starts, FREE_ATTEMPTS)):
         left = budget - (time.perf_counter() - t0)
         if left <= 0.0:
             break
-        res = solve_lm(robot, tgt, q, tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=left,
+        res = solve_lm(robot, tgt, q, tol_pos=tol_pos, tol_rot=tol_rot, max_time=left,
                        prefer_q0=True, seed_table_enabled=False, max_starts=1, **opts)
         if not res.success:
             continue
-        Q = res.history.q
-        if q0 is not None and q0_bad is None and not np.array_equal(Q[0], q0):  # (q0 is checked once)
-            bad = avoid.violations(robot, np.concatenate((q0[None], Q)))
+        Q = res.history.iterates()  # the run's configurations, not stacked (the history stays lazy)
+        if q0 is not None and q0_bad is None and Q[0].tolist() != q0.tolist():  # (q0 is checked once)
+            bad = avoid.violations(robot, [q0, *Q])
             q0_bad, bad = bool(bad[0]), bad[1:]
         else:
             bad = avoid.violations(robot, Q)

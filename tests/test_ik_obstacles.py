@@ -382,3 +382,90 @@ def test_a_free_answer_reached_through_an_obstacle_is_only_a_warm_start(panda, m
     assert _all_clear(panda, res.history.q, panda.tip, [ob])
     again = ik.solve(panda, T, obstacles=[ob], seed=3)
     assert np.array_equal(again.q, res.q)
+
+
+def test_violations_of_a_list_of_iterates_match_independent_sampling(panda):
+    """violations() takes the lazy history's list of iterates as well as a stacked array; sphere and box
+    verdicts agree with the shapes' own signed distance sampled along every moving segment."""
+    rng = np.random.default_rng(91)
+    shapes = [ik.Sphere((0.35, 0.1, 0.55), 0.08), ik.Sphere((0.1, -0.35, 0.5), 0.07),
+              _box((0.3, 0.3, 0.3), (0.12, 0.15, 0.1)), _box((0.45, -0.1, 0.45), (0.12, 0.1, 0.2), 1.1)]
+    avoid = ObstacleAvoidance(shapes).bind(panda)
+    Q = panda.random_q(rng, 60)
+    ref = [min(sampled_clearance(panda, q, panda.tip, ob, n=401) for ob in shapes) for q in Q]
+    got = avoid.violations(panda, list(Q))
+    assert got.tolist() == avoid.violations(panda, Q).tolist()
+    assert any(r < -1e-3 for r in ref) and any(r > 1e-3 for r in ref)
+    for g, r in zip(got, ref):
+        if abs(r) > 1e-3:  # (sampling is exact up to its spacing; skip touching cases)
+            assert g == (r < 0.0), (g, r)
+
+
+def test_points_into_and_box_frames_match_the_plain_forms(panda):
+    """LinkSkeleton.points_into == points; the box pairs' ends in the box frames are R^T (x - t) of each pair."""
+    avoid = ObstacleAvoidance([_box((0.3, 0.3, 0.3), (0.1, 0.15, 0.08)), _box((0.4, -0.2, 0.5), (0.1, 0.1, 0.1), 0.7)]
+                              ).bind(panda)
+    sk = avoid.skeleton
+    Q = panda.random_q(np.random.default_rng(92), 5)
+    P = np.empty((len(Q), sk.n_points, 3))
+    for k, q in enumerate(Q):
+        pin.forwardKinematics(panda.model, panda.data, q)
+        sk.points_into(panda.data, P[k])
+        assert np.array_equal(P[k], sk.points(panda.data))
+    a, b = avoid._box_local(P)
+    for p, (box, ia, ib) in enumerate(zip(avoid._box_ob, avoid._box_ia, avoid._box_ib)):
+        R, t = box.pose[:3, :3], box.pose[:3, 3]
+        assert np.allclose(a[:, p], (P[:, ia] - t) @ R, atol=1e-14) and np.allclose(b[:, p], (P[:, ib] - t) @ R, atol=1e-14)
+
+
+def test_base_check_agrees_with_sampling_of_the_fixed_segments(panda):
+    """A sphere or box raises 'contains the robot base' exactly when it meets a fixed (base) segment."""
+    from kinserve.ik.constraints import robot_segments
+
+    fixed = [s for s in robot_segments(panda, panda.tip) if s.ja == 0 and s.jb == 0]
+    assert fixed
+    pts = np.concatenate([s.la + np.linspace(0, 1, 2001)[:, None] * (s.lb - s.la) for s in fixed])
+    rng = np.random.default_rng(93)
+    outcomes = set()
+    for _ in range(60):
+        c = rng.uniform([-0.15, -0.15, 0.0], [0.15, 0.15, 0.5])
+        ob = ik.Sphere(c, rng.uniform(0.02, 0.1)) if rng.random() < 0.5 else _box(c, rng.uniform(0.03, 0.2, 3))
+        d = float(ob.signed_distance(pts).min())
+        if abs(d) < 1e-3:
+            continue
+        try:
+            ObstacleAvoidance([ob]).bind(panda)
+            raised = False
+        except InputError as exc:
+            assert "base" in str(exc)
+            raised = True
+        assert raised == (d < 0.0), (ob, d)
+        outcomes.add(raised)
+    assert outcomes == {True, False}
+
+
+def test_skeleton_of_the_right_model_after_binding_another(panda):
+    """The skeleton look-up that skips the per-model cache for the last model never hands one robot's skeleton to another."""
+    ur5 = robots.load("ur5", geometry=False)
+    ob = ik.Sphere((0.4, 0.4, 0.6), 0.05)
+    names_panda = ObstacleAvoidance([ob]).bind(panda).skeleton.names
+    names_ur5 = ObstacleAvoidance([ob]).bind(ur5).skeleton.names
+    assert names_panda != names_ur5 and all("panda" in n for n in names_panda[:-1])
+    assert ObstacleAvoidance([ob]).bind(panda).skeleton.names == names_panda
+
+
+def test_obstacle_solves_are_deterministic(panda):
+    """Same seed, same request (fresh obstacle objects) -> the same bytes (no time budget cut)."""
+    rng = np.random.default_rng(94)
+    for _ in range(4):
+        T = panda.fk(panda.random_q(rng)).copy()
+        q0 = panda.random_q(rng)
+        p = T[:3, 3]
+        mk = lambda: [ik.Sphere(0.5 * p + np.array([0, 0, 0.17]), 0.05), _box(0.7 * p + np.array([0, 0, 0.1]), (0.08,) * 3)]  # noqa: E731
+        try:
+            a = ik.solve(panda, T, q0, obstacles=mk(), seed=5, max_time=10.0)
+        except InputError:
+            continue
+        b = ik.solve(panda, T, q0, obstacles=mk(), seed=5, max_time=10.0)
+        assert a.q.tobytes() == b.q.tobytes() and a.history.q.tobytes() == b.history.q.tobytes()
+        assert a.message == b.message and a.success == b.success

@@ -144,6 +144,33 @@ class LinkSkeleton:
         pts = cached[2] + [oMi[j].act(l) for j, l in self._acts]
         return np.array(pts + self._world) if self._world else np.array(pts)
 
+    @property
+    def all_rigid(self) -> bool:
+        """True when no segment slides (every segment's ends on one body), cached."""
+        v = self.__dict__.get("_all_rigid")
+        if v is None:
+            v = self._all_rigid = bool(self.rigid.all())
+        return v
+
+    @property
+    def n_points(self) -> int:
+        """Number of rows of :meth:`points`."""
+        return len(self._translations) + len(self._acts) + len(self._world)
+
+    def points_into(self, data: pin.Data, out: np.ndarray) -> None:
+        """:meth:`points` written into ``out`` (``(n_points, 3)``): no list of rows, no new array."""
+        cached = self._placements
+        if cached is None or cached[0] is not data:
+            self.points(data)  # (makes the references into data.oMi)
+            cached = self._placements
+        nt = len(cached[2])
+        out[:nt] = cached[2]
+        oMi = cached[1]
+        for r, (j, l) in enumerate(self._acts, nt):
+            out[r] = oMi[j].act(l)
+        if self._world:
+            out[nt + len(self._acts):] = self._world
+
     def gradient_rows(self, data: pin.Data, seg: np.ndarray, s: np.ndarray, A: np.ndarray, B: np.ndarray,
                       N: np.ndarray) -> np.ndarray:
         """Rows ``(P, nv)``: ``n_i . xdot_i / qdot`` for the point ``(1 - s_i) a + s_i b`` of segment ``seg_i``.

@@ -116,7 +116,8 @@ def _local_extent(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
 
 def _bounding_radius(shape: Shape) -> float:
     if isinstance(shape, Box):
-        return float(np.linalg.norm(shape.half_extents))
+        x, y, z = shape.size  # half the diagonal, on floats (a NumPy norm costs more than the rest of the check)
+        return 0.5 * math.sqrt(x * x + y * y + z * z)
     if isinstance(shape, Cylinder):
         return math.hypot(shape.radius, 0.5 * shape.length)
     if isinstance(shape, Mesh):
@@ -153,7 +154,7 @@ class ObstacleAvoidance(Constraint):
             items = list(obstacles)
         except TypeError:
             raise InputError(f"obstacles must be a sequence of shapes, got {obstacles!r}") from None
-        self.obstacles = [as_obstacle(o, f"obstacles[{i}]") for i, o in enumerate(items)]
+        self.obstacles = [o if isinstance(o, Shape) else as_obstacle(o, f"obstacles[{i}]") for i, o in enumerate(items)]
         self.link_radius = _non_negative(link_radius, "link_radius")
         self.margin_required = _non_negative(margin, "margin")
         if isinstance(gain, bool) or not isinstance(gain, (int, float)) or not (0.0 < gain <= 1.0):
@@ -229,24 +230,29 @@ class ObstacleAvoidance(Constraint):
         other = ([i for _, _, ids in kinds[3] for i in ids], [ob for _, ob, ids in kinds[3] for _ in ids],
                  [k for k, _, ids in kinds[3] for _ in ids])
 
+        n_pts = sk.n_points
+
         def seg_and_rows(group):
-            """``(seg, row, ia, ib)``: segment ids of the group's pairs, the row of each pair's obstacle in the
-            group and the pairs' end-point rows (:meth:`LinkSkeleton.end_index`); cached per skeleton and
-            count when every obstacle of the group is kept clear of the default segments (the usual case)."""
+            """``(seg, row, ia, ib, iab, iab_grouped)``: segment ids of the group's pairs, the row of each pair's
+            obstacle in the group, the pairs' end-point rows (:meth:`LinkSkeleton.end_index`), both ends in one
+            index (``[ia, ib]``) and the same rows of a per-obstacle stack of the points (``row * points + ia``,
+            then ``+ ib``); cached per skeleton and count when every obstacle of the group is kept clear of the
+            default segments (the usual case)."""
             if not group:
-                return _NO_INT, _NO_INT, _NO_INT, _NO_INT
+                return _NO_INT, _NO_INT, _NO_INT, _NO_INT, _NO_INT, _NO_INT
             if all(ids is segs_default for _, _, ids in group):
                 key = (n_default, len(group))
                 hit = sk.__dict__.setdefault("_pair_index", {}).get(key)
                 if hit is None:
                     seg = np.tile(np.arange(n_default), len(group))
-                    hit = sk._pair_index[key] = (seg, np.repeat(np.arange(len(group)), n_default)) + sk.end_index(seg)
+                    hit = sk._pair_index[key] = _pair_index(sk, seg, np.repeat(np.arange(len(group)), n_default), n_pts)
                 return hit
             seg = np.array([i for _, _, ids in group for i in ids], dtype=int)
-            return (seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int)) \
-                + sk.end_index(seg)
+            return _pair_index(sk, seg, np.array([r for r, (_, _, ids) in enumerate(group) for _ in ids], dtype=int),
+                               n_pts)
 
-        self._box_seg, row, self._box_ia, self._box_ib = seg_and_rows(box)
+        # _box_iab: rows of (boxes * points) holding each pair's ends, a's then b's (one gather in _box_local)
+        self._box_seg, row, self._box_ia, self._box_ib, _, self._box_iab = seg_and_rows(box)
         self._box_ob = [ob for _, ob, ids in box for _ in ids]
         if box:
             poses = np.array([ob.pose for _, ob, _ in box], dtype=float)
@@ -257,13 +263,13 @@ class ObstacleAvoidance(Constraint):
             self._box_h = 0.5 * np.array([ob.size for _, ob, _ in box], dtype=float)[row]
         else:
             self._box_R, self._box_t, self._box_h = _NO_R, _NO_3, _NO_3
-        self._sph_seg, row, self._sph_ia, self._sph_ib = seg_and_rows(sph)
+        self._sph_seg, row, self._sph_ia, self._sph_ib, self._sph_iab, _ = seg_and_rows(sph)
         if sph:
             self._sph_c = np.array([ob.center for _, ob, _ in sph], dtype=float)[row]
             self._sph_r = np.array([ob.radius for _, ob, _ in sph], dtype=float)[row]
         else:
             self._sph_c, self._sph_r = _NO_3, _NO_1
-        self._cap_seg, row, self._cap_ia, self._cap_ib = seg_and_rows(cap)
+        self._cap_seg, row, self._cap_ia, self._cap_ib, _, _ = seg_and_rows(cap)
         if cap:
             self._cap_a = np.array([ob.a for _, ob, _ in cap], dtype=float)[row]
             self._cap_b = np.array([ob.b for _, ob, _ in cap], dtype=float)[row]
@@ -272,7 +278,7 @@ class ObstacleAvoidance(Constraint):
             self._cap_a, self._cap_b, self._cap_r = _NO_3, _NO_3, _NO_1
         self._oth_seg = np.array(other[0], dtype=int) if other[0] else _NO_INT
         # 1 / |b - a|^2 of every sphere pair: constant when no segment slides (rigid link segments)
-        rigid = bool(sk.rigid[self._sph_seg].all()) if self._sph_seg.size else False
+        rigid = bool(self._sph_seg.size) and (sk.all_rigid or bool(sk.rigid[self._sph_seg].all()))
         self._sph_inv = sk.inv_len2[self._sph_seg] if rigid else None
         if other[0]:
             self._oth_ia, self._oth_ib = sk.end_index(self._oth_seg)
@@ -299,7 +305,7 @@ class ObstacleAvoidance(Constraint):
             self._oth_center = self._oth_t = self._oth_lo = self._oth_hi = _NO_3
             self._oth_R = _NO_R
             self._oth_bound = _NO_1
-        self.m = sum(len(ids) for group in self._kinds for _, _, ids in group)
+        self.m = self._sph_seg.size + self._cap_seg.size + self._box_seg.size + self._oth_seg.size  # pairs
         self._offset = self.link_radius + self.margin_required
         # only spheres on rigid segments: rows() takes the fused path of _sphere_rows
         self._sph_only = self._sph_inv is not None and not self._cap_seg.size and not self._box_seg.size \
@@ -336,8 +342,12 @@ class ObstacleAvoidance(Constraint):
             if all(_separated(_to_local(T, a), _to_local(T, b), h, self.link_radius) for _, a, b in fixed):
                 return
         if isinstance(ob, Sphere):  # point-segment closed form, on plain floats (a few fixed segments)
-            d = np.array([_point_segment_distance(a, b, ob.center) - ob.radius for _, a, b in fixed])
-        elif isinstance(ob, Capsule):
+            for name, a, b in fixed:
+                if _point_segment_distance(a, b, ob.center) - ob.radius < self.link_radius:
+                    raise InputError(f"obstacles[{k}] ({ob!r}) contains the robot base ({name}); "
+                                     "the base cannot move out of it")
+            return
+        if isinstance(ob, Capsule):
             A, B = np.array([f[1] for f in fixed]), np.array([f[2] for f in fixed])
             _, _, X, Y = segment_segment(A, B, np.broadcast_to(np.asarray(ob.a), A.shape),
                                          np.broadcast_to(np.asarray(ob.b), A.shape))
@@ -484,7 +494,9 @@ class ObstacleAvoidance(Constraint):
         configuration) and the pairs' ends are picked out of that.
         """
         L = _matmul(P[..., None, :, :] - self._boxes_t, self._boxes_R)  # (..., boxes, points, 3)
-        return L[..., self._box_row, self._box_ia, :], L[..., self._box_row, self._box_ib, :]
+        L = L.reshape(L.shape[:-3] + (-1, 3)).take(self._box_iab, -2)  # (..., 2 pairs, 3): a's then b's
+        n = self._box_row.shape[0]
+        return L[..., :n, :], L[..., n:, :]
 
     def _box_min(self, P, best: float) -> np.ndarray:
         """Distances of the box pairs where only the smallest (and the others' lower bounds) must be right.
@@ -599,7 +611,8 @@ class ObstacleAvoidance(Constraint):
         return int(hits[0]) if hits.size else None
 
     def violations(self, robot: Robot, Q: np.ndarray, first_only: bool = False) -> np.ndarray:
-        """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``) has a negative clearance.
+        """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``, or a list of ``(nq,)`` arrays)
+        has a negative clearance.
 
         The sphere, capsule and box distances of all ``K`` configurations are evaluated at once (the
         same closed forms on ``(K, pairs)`` arrays; box pairs only where their axis-gap bound is below
@@ -612,15 +625,16 @@ class ObstacleAvoidance(Constraint):
         model, data = robot.model, robot.data
         sk = self.skeleton
         fk = _pin().forwardKinematics
-        P = np.empty((len(Q), len(sk._translations) + len(sk._acts) + len(sk._world), 3))
+        P = np.empty((len(Q), sk.n_points, 3))
+        into = sk.points_into
         for k, q in enumerate(Q):
             fk(model, data, q)
-            P[k] = sk.points(data)
+            into(data, P[k])
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
         if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
             A = P.take(self._sph_ia, 1)
-            AB = P.take(self._sph_ib, 1)
+            AB = P.take(self._sph_ib, 1)  # (two contiguous gathers: cheaper arithmetic than views of one)
             AB -= A
             AC = self._sph_c - A
             inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
@@ -719,11 +733,10 @@ class ObstacleAvoidance(Constraint):
         ox, oy, oz = self._sph_c.T
         W[:, 0, 4], W[:, 0, 5], W[:, 1, 3], W[:, 1, 5], W[:, 2, 3], W[:, 2, 4] = oz, -oy, -oz, ox, oy, -ox
         self._sph_S = self.skeleton.support[self.skeleton.ja[self._sph_seg]]
-        self._sph_iab = np.concatenate((self._sph_ia, self._sph_ib))
         self._sph_W = W
         shared = self.__dict__.get("_shared")
         if shared is not None:  # the next constraint bound to the same obstacles reuses them
-            for k in ("_sph_S", "_sph_iab", "_sph_W"):
+            for k in ("_sph_S", "_sph_W"):
                 shared[k] = getattr(self, k)
 
     def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -791,6 +804,12 @@ _CORES: dict = {}
 _balls: dict = {}
 
 
+def _pair_index(sk: LinkSkeleton, seg: np.ndarray, row: np.ndarray, n_pts: int) -> tuple:
+    """The tuple of ``seg_and_rows`` in :meth:`ObstacleAvoidance._bind_arrays` for pairs ``(seg, row)``."""
+    ia, ib = sk.end_index(seg)
+    return seg, row, ia, ib, np.concatenate((ia, ib)), np.concatenate((row * n_pts + ia, row * n_pts + ib))
+
+
 def fixed_ball(fixed: list) -> tuple[tuple[float, float, float], float]:
     """A ball ``(centre, radius)`` enclosing the fixed segments ``(name, a, b)`` (cached per list)."""
     hit = _balls.get(id(fixed))
@@ -806,10 +825,13 @@ def _skeleton(robot, tools, frames):
 
     ``fixed`` lists ``(name, a, b)`` of the segments fixed to the world (checked against the obstacles).
     """
+    key = (tuple(tools), tuple(frames))
+    last = _last_skeleton[0]
+    if last is not None and last[0]() is robot.model and last[1] == key:  # the usual case: no weak-key look-up
+        return last[2]
     per_model = _skeletons.get(robot.model)
     if per_model is None:
         per_model = _skeletons[robot.model] = {}
-    key = (tuple(tools), tuple(frames))
     hit = per_model.get(key)
     if hit is None:
         segs = skeleton_segments(robot, tools)
@@ -817,7 +839,11 @@ def _skeleton(robot, tools, frames):
         fixed = [(s.name, tuple(s.la.tolist()), tuple(s.lb.tolist())) for s in segs if s.fixed]  # (floats)
         pts = skeleton_segments(robot, frames=frames) if frames else []
         hit = per_model[key] = (LinkSkeleton(robot, moving + pts), len(moving), fixed)
+    _last_skeleton[0] = (weakref.ref(robot.model), key, hit)
     return hit
+
+
+_last_skeleton: list = [None]  # (weak reference to the model, key, skeleton entry) of the last _skeleton call
 
 
 _pin_module = None
@@ -892,6 +918,8 @@ def _unit(V: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def _non_negative(value, name: str) -> float:
+    if type(value) is float and 0.0 <= value < math.inf:  # the common case, checked in one test
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise InputError(f"{name} must be a number >= 0 (m), got {value!r}")
     v = float(value)
