@@ -14,7 +14,8 @@ order) and grows when it is negative.
 The bound problem (tasks and constraints validated against the robot) is
 cached on the call's objects: calling ``ik.step`` again with the same task
 and constraint objects (targets moved with ``FrameTask.set_target``) skips
-the validation.
+the validation; an object changed in between (a new ``weight``,
+``priority``, ``q_ref``, ``v_max``) is validated and bound again.
 """
 
 from __future__ import annotations
@@ -39,21 +40,31 @@ if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
 
+def _version(obj: Any) -> int:
+    """The change counter of a task or constraint (0 for objects without one: shapes are immutable)."""
+    return getattr(obj, "_version", 0)
+
+
 def _problem(robot, tasks, constraints) -> Problem:
-    """The bound problem of these objects, cached by their ids.
+    """The bound problem of these objects, cached by their ids and rebuilt when one of them changed.
 
     The cache entry holds the robot, tasks and constraints themselves, so none
     of them can be collected while it exists and no other object can reuse
-    their ids: equal keys mean the very same objects.
+    their ids: equal keys mean the very same objects. Each entry also keeps
+    the objects' change counters (``_version``: bumped by a new ``weight``,
+    ``priority``, ``PostureTask.q_ref``, ``VelocityLimits.v_max``, ...), so an
+    object changed since the entry was made is bound (and validated) again.
+    A target moved with ``FrameTask.set_target`` needs no new bind.
     """
     key = (id(robot), id(robot.data), *map(id, tasks), None, *map(id, constraints))
+    versions = (*map(_version, tasks), *map(_version, constraints))
     entry = _cache.get(key)
-    if entry is not None:
+    if entry is not None and entry[2] == versions:
         return entry[1]
     pb = Problem(robot, tasks, constraints)
     if len(_cache) > 64:
         _cache.clear()
-    _cache[key] = ((robot, robot.data, list(tasks), list(constraints)), pb)
+    _cache[key] = ((robot, robot.data, list(tasks), list(constraints)), pb, versions)
     return pb
 
 

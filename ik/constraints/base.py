@@ -78,6 +78,10 @@ if TYPE_CHECKING:  # annotations only
 class Constraint:
     """Base class of hard IK constraints (the protocol of the module docstring)."""
 
+    #: Bumped by every change that needs a new bind (a subclass's bound inputs, e.g. ``VelocityLimits.v_max``):
+    #: :func:`kinserve.ik.step` rebuilds its cached problem when a constraint's version moved.
+    _version: int = 0
+
     def __init__(self, name: str | None = None):
         self.name = name if name is not None else type(self).__name__
 
