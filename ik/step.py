@@ -30,6 +30,7 @@ from kinserve.kinematics.errors import InputError
 from .dense_qp import DEFAULT_BACKEND
 from .hierarchy import hierarchical_step
 from .problem import Problem
+from .qp_backends import available_backends
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
@@ -68,18 +69,34 @@ def _problem(robot, tasks, constraints) -> Problem:
     return pb
 
 
+def _check_backend(backend: Any) -> str:
+    """A QP backend name installed on this machine (:func:`kinserve.ik.qp_backends.available_backends`)."""
+    if isinstance(backend, str) and backend.lower() in available_backends():
+        return backend.lower()
+    raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, got {backend!r}")
+
+
 def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None = None, dt: float = 0.01, *,
          damping: float = STEP_DAMPING,
          backend: str = DEFAULT_BACKEND) -> np.ndarray:
     """Joint velocity ``v`` (``nv``,) for one control period ``dt`` (module docstring).
 
-    ``q`` must lie inside the joint limits. Raises :class:`InputError` when
-    the constraints leave no feasible velocity.
+    ``q`` must lie inside the joint limits. ``damping`` (>= 0, finite) is the
+    floor of the Levenberg-Marquardt damping, ``backend`` the QP solver used
+    when the closed forms do not apply. Raises :class:`InputError` when an
+    argument is invalid or the constraints leave no feasible velocity.
     """
     if not (hasattr(robot, "model") and hasattr(robot, "check_q")):
         raise InputError(f"robot must be a kinserve.kinematics.Robot, got {type(robot).__name__}")
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
+    if type(dt) is not float and (isinstance(dt, bool) or not isinstance(dt, (int, float))):
         raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    if not 0.0 < dt < math.inf:  # NaN fails too
+        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    if damping is not STEP_DAMPING and (isinstance(damping, bool) or not isinstance(damping, (int, float))
+                                        or not 0.0 <= damping < math.inf):
+        raise InputError(f"damping must be a finite number >= 0, got {damping!r}")
+    if backend is not DEFAULT_BACKEND:
+        backend = _check_backend(backend)
     if q is None:
         raise InputError("q (the current configuration) is required")
     q = robot.check_q(q, "q")
@@ -89,8 +106,8 @@ def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None =
     q = _clip(q, robot.lower, robot.upper)
     levels, pe, re, _ = pb.evaluate(q)
     lb, ub, G, l, u = pb.box_and_rows(q, float(dt))
-    lam = 0.01 * (pe * pe + re * re) + damping
-    dq, _ = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=math.inf, backend=backend)
+    dq, _ = hierarchical_step(levels, lb, ub, G, l, u, lam=0.01 * (pe * pe + re * re) + damping, max_step=math.inf,
+                              backend=backend)
     if dq is None:
         raise InputError("the constraints leave no feasible velocity at q (QP infeasible)")
     return dq / dt

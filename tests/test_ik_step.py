@@ -206,3 +206,20 @@ def test_step_keeps_every_damper_row_and_the_hierarchy(panda):
         J = panda.jacobian(q)
         assert np.allclose(J @ v, J @ alone, atol=1e-7), k
     assert held >= 1  # some damper row was active: the check is not vacuous
+
+
+def test_step_validates_damping_and_backend(panda):
+    task = ik.FrameTask(None, panda.fk(panda.random_q(np.random.default_rng(24))).copy())
+    q = panda.neutral()
+    for bad in (-1.0, float("nan"), float("inf"), "0.1", True):
+        with pytest.raises(InputError, match="damping"):
+            ik.step(panda, [task], [], q, 0.01, damping=bad)
+    for bad in ("no-such-solver", 3, None):
+        with pytest.raises(InputError, match="backend"):
+            ik.step(panda, [task], [], q, 0.01, backend=bad)
+    for bad in (float("nan"), -0.01, float("inf"), "0.01", True):
+        with pytest.raises(InputError, match="dt"):
+            ik.step(panda, [task], [], q, bad)
+    assert np.isfinite(ik.step(panda, [task], [], q, 1, damping=0)).all()  # ints are numbers too
+    v1 = ik.step(panda, [task], [ik.VelocityLimits(1.0)], q, 0.01, backend="DAQP")  # any case
+    assert np.array_equal(v1, ik.step(panda, [task], [ik.VelocityLimits(1.0)], q, 0.01))
