@@ -102,9 +102,12 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
             break
         JZ = Jk.dot(Z)
         if LINE_LEVEL and dim == 1 and shortcut:  # one free direction: the QP on a line, in closed form
-            step = _line_level(Z[:, 0], JZ[:, 0], Jk.dot(dq) + ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
-            dq = dq + step
-            dq_lower = step if dq_lower is None else dq_lower + step
+            z0 = Z[:, 0]
+            z = _line_level(z0, JZ[:, 0], Jk, ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
+            if z != 0.0:  # (a line blocked by the bounds: nothing to add)
+                step = z0 * z
+                dq = dq + step
+                dq_lower = step if dq_lower is None else dq_lower + step
         else:
             Pz = JZ.T.dot(JZ)
             Pz.flat[:: dim + 1] += LOWER_DAMPING
@@ -185,19 +188,22 @@ def _line_interval(a: list, v: list, lo: list, hi: list, zlo: float, zhi: float)
     return zlo, zhi
 
 
-def _line_level(z0: np.ndarray, jz: np.ndarray, r: np.ndarray, dq: np.ndarray, lb: np.ndarray, ub: np.ndarray,
-                G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> np.ndarray:
-    """The lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
+def _line_level(z0: np.ndarray, jz: np.ndarray, Jk: np.ndarray, ek: np.ndarray, dq: np.ndarray, lb: np.ndarray,
+                ub: np.ndarray, G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> float:
+    """The coordinate ``z`` of the lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
 
     The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
-    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``, ``r = J_k dq + e_k``), the box
+    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``), the box
     ``lb <= dq + z0 z <= ub`` and the rows ``l <= G dq + (G z0) z <= u``,
-    solved exactly as :func:`line_qp` does: the box narrows the interval first, and
-    the rows are evaluated only when the box leaves the line some freedom.
+    solved exactly as :func:`line_qp` does: the box narrows the interval first, the
+    rows are evaluated only when the box leaves the line some freedom, and the
+    objective only when the rows do too (a line blocked at ``[0, 0]`` gives ``0.0``).
     """
-    p = float(jz.dot(jz)) + LOWER_DAMPING
-    c = float(r.dot(jz))
     zlo, zhi = _line_interval(z0.tolist(), dq.tolist(), lb.tolist(), ub.tolist(), -max_step, max_step)
     if G is not None and (zlo < 0.0 or zhi > 0.0):
         zlo, zhi = _line_interval(G.dot(z0).tolist(), G.dot(dq).tolist(), l.tolist(), u.tolist(), zlo, zhi)
-    return z0 * _clip_to(-c / p, zlo, zhi)
+    if zlo >= 0.0 and zhi <= 0.0:
+        return 0.0
+    p = float(jz.dot(jz)) + LOWER_DAMPING
+    c = float((Jk.dot(dq) + ek).dot(jz))
+    return _clip_to(-c / p, zlo, zhi)

@@ -167,8 +167,9 @@ def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
         G = rng.normal(size=(m, n))
         Gd = G @ dq
         l, u = Gd - rng.uniform(0.0, 0.05, m), np.where(rng.random(m) < 0.5, np.inf, Gd + rng.uniform(0.0, 0.05, m))
-        jz, r = rng.normal(size=3), rng.normal(size=3)
-        got = _line_level(z0, jz, r, dq, lb, ub, G, l, u, 0.5)
+        Jk, ek = rng.normal(size=(3, n)), rng.normal(size=3)
+        jz, r = Jk @ z0, Jk @ dq + ek
+        got = z0 * _line_level(z0, jz, Jk, ek, dq, lb, ub, G, l, u, 0.5)
         p, c = float(jz @ jz) + 1e-9, float(r @ jz)
         want = z0 * line_qp(p, c, z0.tolist() + (G @ z0).tolist(), dq.tolist() + Gd.tolist(),
                             lb.tolist() + l.tolist(), ub.tolist() + u.tolist(), 0.5)
