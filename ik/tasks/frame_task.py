@@ -12,10 +12,7 @@ It vanishes exactly when the kept components match. With the geometric
 ``log(exp(w) X) = log(X exp(X^T w)) ~= log X + Jlog3(X) X^T w``
 (``Jlog3`` = Pinocchio's inverse right Jacobian of SO(3)) and
 
-    J = [ A^T J_v ;  A^T Jlog3(X) X^T J_w ] = [ A^T J_v ;  A^T Jlog3(X)^T J_w ]        (kept rows)
-
-(``Jr^-1(theta) X^T = Jl^-1(theta) = Jr^-1(theta)^T`` for ``X = exp(theta)``: the
-left and right Jacobians of SO(3) are each other's transpose)
+    J = [ A^T J_v ;  A^T Jlog3(X) X^T J_w ]        (kept rows)
 
 exactly to first order: ``e(q + dq) = e(q) + J dq + O(|dq|^2)``. The success
 test uses the norms of the kept position rows (m) and rotation rows (rad):
@@ -126,7 +123,7 @@ class FrameTask(Task):
         X = R.dot(self._Rt)
         e = _concat((M.translation - self._p, _log3(X)))
         J = _gfj(model, data, self.frame_id, _LWA)  # a fresh array: its rotation rows are replaced in place
-        J[3:] = _Jlog3(X).T.dot(J[3:])  # Jlog3(X) X^T = Jlog3(X)^T (module docstring)
+        J[3:] = _Jlog3(X).dot(X.T).dot(J[3:])
         At = self._At
         if At is not None:
             e[:3] = At.dot(e[:3])
