@@ -36,6 +36,11 @@ Methods a task implements
     return the task to evaluate (``self`` or a bound copy). Called once per
     solve, before any iteration; raise
     :class:`kinserve.kinematics.errors.InputError` naming the argument.
+    :func:`kinserve.ik.step` keeps the bound problem of the same objects from
+    one call to the next and binds again only when a task's ``_version`` moved
+    (assigning ``weight`` or ``priority`` does that): a task whose ``bind``
+    depends on an attribute the user may change increments ``self._version``
+    when it changes (see ``PostureTask.q_ref``).
 ``compute(robot, data, q) -> (e, J)``
     The error and Jacobian at ``q``. ``data`` is ``robot.data`` holding the
     kinematics of ``q``: ``pinocchio.computeJointJacobians`` has run (joint
