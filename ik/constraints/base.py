@@ -33,6 +33,9 @@ Methods a constraint implements
     Validate against ``robot`` (frame names, obstacles containing the fixed
     base, vector lengths) and return the constraint to evaluate. Called once
     per solve; raises :class:`kinserve.kinematics.errors.InputError`.
+    :func:`kinserve.ik.step` binds the same objects again only when their
+    ``_version`` moved: increment it when an input of ``bind`` changes (as
+    assigning ``VelocityLimits.v_max`` does).
 ``rows(robot, data, q, dt=None) -> (G, lower, upper)``
     After ``pinocchio.computeJointJacobians(model, data, q)`` (joint
     placements ``data.oMi``, joint Jacobians ``data.J`` in world axes).
