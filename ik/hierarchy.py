@@ -81,7 +81,7 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
     J1, e1 = levels[0]
     n = J1.shape[1]
     P = J1.T.dot(J1)
-    P.flat[:: n + 1] += lam
+    P.ravel()[:: n + 1] += lam  # (a view: P is fresh and contiguous)
     dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
     if dq is None and G is not None and (l > 0.0).any():
         # rows that demand a violated constraint recover (l > 0) may conflict: ask only that it gets no worse
@@ -102,9 +102,12 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
             break
         JZ = Jk.dot(Z)
         if LINE_LEVEL and dim == 1 and shortcut:  # one free direction: the QP on a line, in closed form
-            step = _line_level(Z[:, 0], JZ[:, 0], Jk.dot(dq) + ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
-            dq = dq + step
-            dq_lower = step if dq_lower is None else dq_lower + step
+            z0 = Z[:, 0]
+            z = _line_level(z0, JZ[:, 0], Jk, ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
+            if z != 0.0:  # (a line blocked by the bounds: nothing to add)
+                step = z0 * z
+                dq = dq + step
+                dq_lower = step if dq_lower is None else dq_lower + step
         else:
             Pz = JZ.T.dot(JZ)
             Pz.flat[:: dim + 1] += LOWER_DAMPING
@@ -137,27 +140,12 @@ def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: flo
     interval is minimised by its unconstrained minimiser ``-c / p`` clipped to
     the interval. Rows with ``a_i = 0`` do not restrict ``z``.
     """
-    zlo, zhi = -limit, limit
-    for ai, vi, li, hi_ in zip(a, v, lo, hi):
-        # slacks clamped at 0 (a row at its bound by round-off does not push z away from 0), and a row the
-        # line barely moves (|a_i| <= LINE_ROW_TOL, e.g. 1e-17 of a basis vector) does not restrict z: a
-        # bound of (1e-16 / 1e-17) would be noise, as the QP solver's feasibility tolerance also treats it
-        below, above = min(li - vi, 0.0), max(hi_ - vi, 0.0)
-        if ai > LINE_ROW_TOL:
-            b = below / ai
-            if b > zlo:
-                zlo = b
-            b = above / ai
-            if b < zhi:
-                zhi = b
-        elif ai < -LINE_ROW_TOL:
-            b = above / ai
-            if b > zlo:
-                zlo = b
-            b = below / ai
-            if b < zhi:
-                zhi = b
-    z = -c / p
+    zlo, zhi = _line_interval(a, v, lo, hi, -limit, limit)
+    return _clip_to(-c / p, zlo, zhi)
+
+
+def _clip_to(z: float, zlo: float, zhi: float) -> float:
+    """``z`` clipped to ``[zlo, zhi]`` (an interval holding 0); an end at 0 gives exactly ``0.0``."""
     if z < zlo:
         return zlo if zlo < 0.0 else 0.0
     if z > zhi:
@@ -165,21 +153,57 @@ def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: flo
     return z
 
 
-def _line_level(z0: np.ndarray, jz: np.ndarray, r: np.ndarray, dq: np.ndarray, lb: np.ndarray, ub: np.ndarray,
-                G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> np.ndarray:
-    """The lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
+def _line_interval(a: list, v: list, lo: list, hi: list, zlo: float, zhi: float) -> tuple[float, float]:
+    """``[zlo, zhi]`` narrowed by the rows ``lo_i <= v_i + a_i z <= hi_i`` (slacks clamped at 0, see :func:`line_qp`).
+
+    Stops as soon as the interval is ``[0, 0]`` (the remaining rows cannot widen it).
+    """
+    for ai, vi, li, hi_ in zip(a, v, lo, hi):
+        # slacks clamped at 0 (a row at its bound by round-off does not push z away from 0), and a row the
+        # line barely moves (|a_i| <= LINE_ROW_TOL, e.g. 1e-17 of a basis vector) does not restrict z: a
+        # bound of (1e-16 / 1e-17) would be noise, as the QP solver's feasibility tolerance also treats it.
+        # For a_i > 0 the bounds are (lo_i - v_i) / a_i <= z <= (hi_i - v_i) / a_i, reversed for a_i < 0;
+        # written with conditionals, not min/max (this loop runs for every row of every line level)
+        if ai > LINE_ROW_TOL:
+            down, up = li - vi, hi_ - vi
+        elif ai < -LINE_ROW_TOL:
+            down, up = vi - hi_, vi - li
+            ai = -ai
+        else:
+            continue
+        if down < 0.0:
+            b = down / ai
+            if b > zlo:
+                zlo = b
+        elif zlo < 0.0:
+            zlo = 0.0
+        if up > 0.0:
+            b = up / ai
+            if b < zhi:
+                zhi = b
+        elif zhi > 0.0:
+            zhi = 0.0
+        if zlo >= 0.0 and zhi <= 0.0:  # collapsed to [0, 0]
+            break
+    return zlo, zhi
+
+
+def _line_level(z0: np.ndarray, jz: np.ndarray, Jk: np.ndarray, ek: np.ndarray, dq: np.ndarray, lb: np.ndarray,
+                ub: np.ndarray, G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> float:
+    """The coordinate ``z`` of the lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
 
     The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
-    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``, ``r = J_k dq + e_k``), the box
+    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``), the box
     ``lb <= dq + z0 z <= ub`` and the rows ``l <= G dq + (G z0) z <= u``,
-    solved exactly by :func:`line_qp`.
+    solved exactly as :func:`line_qp` does: the box narrows the interval first, the
+    rows are evaluated only when the box leaves the line some freedom, and the
+    objective only when the rows do too (a line blocked at ``[0, 0]`` gives ``0.0``).
     """
+    zlo, zhi = _line_interval(z0.tolist(), dq.tolist(), lb.tolist(), ub.tolist(), -max_step, max_step)
+    if G is not None and (zlo < 0.0 or zhi > 0.0):
+        zlo, zhi = _line_interval(G.dot(z0).tolist(), G.dot(dq).tolist(), l.tolist(), u.tolist(), zlo, zhi)
+    if zlo >= 0.0 and zhi <= 0.0:
+        return 0.0
     p = float(jz.dot(jz)) + LOWER_DAMPING
-    c = float(r.dot(jz))
-    a, v, lo, hi = z0.tolist(), dq.tolist(), lb.tolist(), ub.tolist()
-    if G is not None:
-        a += G.dot(z0).tolist()
-        v += G.dot(dq).tolist()
-        lo += l.tolist()
-        hi += u.tolist()
-    return z0 * line_qp(p, c, a, v, lo, hi, max_step)
+    c = float((Jk.dot(dq) + ek).dot(jz))
+    return _clip_to(-c / p, zlo, zhi)

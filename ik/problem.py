@@ -108,6 +108,10 @@ class Problem:
         # sqrt(weight) of every task, None for weight 1 (rows used as they are)
         self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else np.sqrt(t.weight) for t in lvl]
                               for lvl in self.levels]
+        # per level: the single task whose rows are used as they are, or None (stack the level's tasks)
+        self._single = [lvl[0] if len(lvl) == 1 and ws[0] is None else None
+                        for lvl, ws in zip(self.levels, self.level_weights)]
+        self._only_single = all(t is not None for t in self._single)
         self.goals = [t for t in self.tasks if t.goal]
         self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
         self.gain = min([getattr(c, "gain", DAMPER_GAIN) for c in self.checked] or [DAMPER_GAIN])
@@ -133,6 +137,18 @@ class Problem:
         levels = []
         es = []
         pe = re = 0.0
+        if self._only_single:  # one task per level, weight 1 (the usual composition): no stacking
+            for t in self._single:
+                e, J = t.compute(robot, data, q)
+                levels.append((J, e))
+                es.append(e)
+                if t.goal:
+                    p, r = t.errors(e)
+                    if p > pe:
+                        pe = p
+                    if r > re:
+                        re = r
+            return levels, pe, re, es
         for lvl, ws in zip(self.levels, self.level_weights):
             pairs = []
             for t in lvl:

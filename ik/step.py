@@ -14,7 +14,8 @@ order) and grows when it is negative.
 The bound problem (tasks and constraints validated against the robot) is
 cached on the call's objects: calling ``ik.step`` again with the same task
 and constraint objects (targets moved with ``FrameTask.set_target``) skips
-the validation.
+the validation; an object changed in between (a new ``weight``,
+``priority``, ``q_ref``, ``v_max``) is validated and bound again.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from kinserve.kinematics.errors import InputError
 from .dense_qp import DEFAULT_BACKEND
 from .hierarchy import hierarchical_step
 from .problem import Problem
+from .qp_backends import available_backends
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
@@ -39,22 +41,39 @@ if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
 
+def _version(obj: Any) -> int:
+    """The change counter of a task or constraint (0 for objects without one: shapes are immutable)."""
+    return getattr(obj, "_version", 0)
+
+
 def _problem(robot, tasks, constraints) -> Problem:
-    """The bound problem of these objects, cached by their ids.
+    """The bound problem of these objects, cached by their ids and rebuilt when one of them changed.
 
     The cache entry holds the robot, tasks and constraints themselves, so none
     of them can be collected while it exists and no other object can reuse
-    their ids: equal keys mean the very same objects.
+    their ids: equal keys mean the very same objects. Each entry also keeps
+    the objects' change counters (``_version``: bumped by a new ``weight``,
+    ``priority``, ``PostureTask.q_ref``, ``VelocityLimits.v_max``, ...), so an
+    object changed since the entry was made is bound (and validated) again.
+    A target moved with ``FrameTask.set_target`` needs no new bind.
     """
     key = (id(robot), id(robot.data), *map(id, tasks), None, *map(id, constraints))
+    versions = (*map(_version, tasks), *map(_version, constraints))
     entry = _cache.get(key)
-    if entry is not None:
+    if entry is not None and entry[2] == versions:
         return entry[1]
     pb = Problem(robot, tasks, constraints)
     if len(_cache) > 64:
         _cache.clear()
-    _cache[key] = ((robot, robot.data, list(tasks), list(constraints)), pb)
+    _cache[key] = ((robot, robot.data, list(tasks), list(constraints)), pb, versions)
     return pb
+
+
+def _check_backend(backend: Any) -> str:
+    """A QP backend name installed on this machine (:func:`kinserve.ik.qp_backends.available_backends`)."""
+    if isinstance(backend, str) and backend.lower() in available_backends():
+        return backend.lower()
+    raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, got {backend!r}")
 
 
 def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None = None, dt: float = 0.01, *,
@@ -62,13 +81,22 @@ def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None =
          backend: str = DEFAULT_BACKEND) -> np.ndarray:
     """Joint velocity ``v`` (``nv``,) for one control period ``dt`` (module docstring).
 
-    ``q`` must lie inside the joint limits. Raises :class:`InputError` when
-    the constraints leave no feasible velocity.
+    ``q`` must lie inside the joint limits. ``damping`` (>= 0, finite) is the
+    floor of the Levenberg-Marquardt damping, ``backend`` the QP solver used
+    when the closed forms do not apply. Raises :class:`InputError` when an
+    argument is invalid or the constraints leave no feasible velocity.
     """
     if not (hasattr(robot, "model") and hasattr(robot, "check_q")):
         raise InputError(f"robot must be a kinserve.kinematics.Robot, got {type(robot).__name__}")
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
+    if type(dt) is not float and (isinstance(dt, bool) or not isinstance(dt, (int, float))):
         raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    if not 0.0 < dt < math.inf:  # NaN fails too
+        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    if damping is not STEP_DAMPING and (isinstance(damping, bool) or not isinstance(damping, (int, float))
+                                        or not 0.0 <= damping < math.inf):
+        raise InputError(f"damping must be a finite number >= 0, got {damping!r}")
+    if backend is not DEFAULT_BACKEND:
+        backend = _check_backend(backend)
     if q is None:
         raise InputError("q (the current configuration) is required")
     q = robot.check_q(q, "q")
@@ -78,8 +106,8 @@ def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None =
     q = _clip(q, robot.lower, robot.upper)
     levels, pe, re, _ = pb.evaluate(q)
     lb, ub, G, l, u = pb.box_and_rows(q, float(dt))
-    lam = 0.01 * (pe * pe + re * re) + damping
-    dq, _ = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=math.inf, backend=backend)
+    dq, _ = hierarchical_step(levels, lb, ub, G, l, u, lam=0.01 * (pe * pe + re * re) + damping, max_step=math.inf,
+                              backend=backend)
     if dq is None:
         raise InputError("the constraints leave no feasible velocity at q (QP infeasible)")
     return dq / dt

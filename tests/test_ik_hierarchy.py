@@ -146,3 +146,33 @@ def test_line_qp_ignores_round_off_rows_at_their_bounds():
     # a genuine row (not round-off) still bounds the line
     z = line_qp(1.0, -0.3, [0.5, 1.0], [0.95, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
     assert z == pytest.approx(0.1)
+
+
+def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
+    """_line_level reads the box first and skips the rows once the line is blocked: the same bytes as
+    line_qp over every row, for steps inside the box, at vertices of the box and on its faces."""
+    from kinserve.ik.hierarchy import _line_level, line_qp
+
+    rng = np.random.default_rng(6)
+    blocked = 0
+    for k in range(400):
+        n, m = 7, 5
+        z0 = rng.normal(size=n)
+        z0[rng.random(n) < 0.15] = 0.0
+        z0 /= np.linalg.norm(z0)
+        lb, ub = -rng.uniform(0.01, 0.1, n), rng.uniform(0.01, 0.1, n)
+        dq = rng.uniform(lb, ub)
+        at = rng.random(n) < [0.0, 0.3, 1.0][k % 3]  # none, some, every coordinate at a bound
+        dq[at] = np.where(rng.random(at.sum()) < 0.5, lb[at], ub[at])
+        G = rng.normal(size=(m, n))
+        Gd = G @ dq
+        l, u = Gd - rng.uniform(0.0, 0.05, m), np.where(rng.random(m) < 0.5, np.inf, Gd + rng.uniform(0.0, 0.05, m))
+        Jk, ek = rng.normal(size=(3, n)), rng.normal(size=3)
+        jz, r = Jk @ z0, Jk @ dq + ek
+        got = z0 * _line_level(z0, jz, Jk, ek, dq, lb, ub, G, l, u, 0.5)
+        p, c = float(jz @ jz) + 1e-9, float(r @ jz)
+        want = z0 * line_qp(p, c, z0.tolist() + (G @ z0).tolist(), dq.tolist() + Gd.tolist(),
+                            lb.tolist() + l.tolist(), ub.tolist() + u.tolist(), 0.5)
+        assert np.array_equal(got, want), k
+        blocked += not got.any()
+    assert 50 < blocked < 390  # both the blocked line and the free one were exercised

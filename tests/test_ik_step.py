@@ -100,3 +100,126 @@ def test_step_validation(panda):
         ik.step(panda, [task], [ik.VelocityLimits([1.0, 2.0])], panda.neutral(), 0.01)
     assert np.allclose(ik.step(panda, [task], [], panda.neutral(), 0.01), 0.0, atol=1e-9)
     del T
+
+
+def _setup(panda, rng, level=2):
+    """Issue 10's control step: frame task, posture task, 3 spheres r 5 cm near the hand, velocity limits."""
+    q = panda.random_q(rng)
+    T = panda.fk(panda.random_q(rng)).copy()
+    hand = panda.fk(q)[:3, 3]
+    spheres = [ik.Sphere(hand + rng.normal(0.0, 0.12, 3), 0.05) for _ in range(3)]
+    tasks = [ik.FrameTask(None, T), ik.PostureTask(panda.middle(), weight=1.0 if level == 2 else 1e-2, priority=level)]
+    return q, T, spheres, tasks, [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(2.0)]
+
+
+def test_cached_step_is_the_step_of_fresh_objects(panda):
+    """Repeated calls on the same objects (the cached, bound problem) give the bytes of a first call on
+    freshly made objects, at every q, with the target moved by set_target in between."""
+    rng = np.random.default_rng(20)
+    for level in (1, 2):
+        q, T, spheres, tasks, cons = _setup(panda, rng, level)
+        for k in range(12):
+            q = panda.random_q(rng)
+            T = panda.fk(panda.random_q(rng)).copy()
+            tasks[0].set_target(T)
+            cached = ik.step(panda, tasks, cons, q, 0.01)
+            fresh = ik.step(panda, [ik.FrameTask(None, T), ik.PostureTask(panda.middle(), weight=tasks[1].weight,
+                                                                          priority=level)],
+                            [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(2.0)], q, 0.01)
+            assert np.array_equal(cached, fresh), (level, k)
+
+
+def test_cached_problem_is_rebuilt_when_a_task_or_constraint_changes(panda):
+    rng = np.random.default_rng(21)
+    q, T, spheres, tasks, cons = _setup(panda, rng)
+    frame, posture = tasks
+    vel = cons[1]
+    ik.step(panda, tasks, cons, q, 0.01)
+
+    def fresh(q_ref, weight, priority, v_max, target=T):
+        return ik.step(panda, [ik.FrameTask(None, target), ik.PostureTask(q_ref, weight=weight, priority=priority)],
+                       [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(v_max)], q, 0.01)
+
+    q_ref = panda.random_q(rng)
+    posture.q_ref = q_ref
+    assert np.array_equal(ik.step(panda, tasks, cons, q, 0.01), fresh(q_ref, 1.0, 2, 2.0))
+    posture.priority = 1
+    posture.weight = 0.1
+    one_level = ik.step(panda, tasks, cons, q, 0.01)
+    assert np.array_equal(one_level, fresh(q_ref, 0.1, 1, 2.0))
+    vel.v_max = 0.3
+    v = ik.step(panda, tasks, cons, q, 0.01)
+    assert np.array_equal(v, fresh(q_ref, 0.1, 1, 0.3)) and np.abs(v).max() <= 0.3 + 1e-12
+    T2 = panda.fk(panda.random_q(rng)).copy()
+    frame.T = T2  # assignment goes through set_target (validated)
+    assert np.array_equal(ik.step(panda, tasks, cons, q, 0.01), fresh(q_ref, 0.1, 1, 0.3, T2))
+    centring = ik.CentringTask(weights=1.0, priority=2)
+    both = [frame, centring]
+    ik.step(panda, both, cons, q, 0.01)
+    centring.weights = np.linspace(0.0, 1.0, 7)
+    assert np.array_equal(ik.step(panda, both, cons, q, 0.01),
+                          ik.step(panda, [ik.FrameTask(None, T2), ik.CentringTask(np.linspace(0.0, 1.0, 7))],
+                                  [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(0.3)], q, 0.01))
+
+
+def test_changed_inputs_are_validated_again(panda):
+    rng = np.random.default_rng(22)
+    q, T, spheres, tasks, cons = _setup(panda, rng)
+    ik.step(panda, tasks, cons, q, 0.01)
+    with pytest.raises(InputError, match="weight"):
+        tasks[1].weight = -1.0
+    with pytest.raises(InputError, match="priority"):
+        tasks[1].priority = 0
+    with pytest.raises(InputError, match="v_max"):
+        cons[1].v_max = [1.0, np.nan]
+    with pytest.raises(InputError, match="target"):
+        tasks[0].T = np.zeros((4, 4))
+    assert np.isfinite(ik.step(panda, tasks, cons, q, 0.01)).all()  # the failed assignments changed nothing
+    tasks[1].q_ref = [0.0, 0.0, 0.0]  # a vector, but not this robot's: the next bind names it
+    with pytest.raises(InputError, match="q_ref"):
+        ik.step(panda, tasks, cons, q, 0.01)
+    cons[1].v_max = [1.0, 2.0]
+    tasks[1].q_ref = panda.middle()
+    with pytest.raises(InputError, match="v_max"):
+        ik.step(panda, tasks, cons, q, 0.01)
+
+
+def test_step_keeps_every_damper_row_and_the_hierarchy(panda):
+    """At random q, the returned velocity keeps the obstacle rows ``n^T J v dt >= -xi c`` of every pair within
+    reach (independently of the rows the step used: the constraint's ``rows_all``), the velocity and joint
+    limits, and the frame task's first-order progress of the frame task alone (strict priority)."""
+    rng = np.random.default_rng(23)
+    held = 0
+    for k in range(30):
+        q, T, spheres, tasks, cons = _setup(panda, rng)
+        dt = 0.01
+        v = ik.step(panda, tasks, cons, q, dt)
+        assert np.abs(v).max() <= 2.0 + 1e-9
+        assert np.all(q + v * dt >= panda.lower - 1e-12) and np.all(q + v * dt <= panda.upper + 1e-12)
+        avoid = ik.ObstacleAvoidance(spheres).bind(panda)
+        pin.computeJointJacobians(panda.model, panda.data, q)
+        c, G = avoid.rows_all(panda, panda.data)
+        near = c < avoid.influence
+        assert np.all(G[near] @ (v * dt) >= -avoid.gain * c[near] - 1e-12), k
+        held += int(np.any(np.abs(G[near] @ (v * dt) + avoid.gain * c[near]) < 1e-9))
+        alone = ik.step(panda, tasks[:1], cons, q, dt)
+        J = panda.jacobian(q)
+        assert np.allclose(J @ v, J @ alone, atol=1e-7), k
+    assert held >= 1  # some damper row was active: the check is not vacuous
+
+
+def test_step_validates_damping_and_backend(panda):
+    task = ik.FrameTask(None, panda.fk(panda.random_q(np.random.default_rng(24))).copy())
+    q = panda.neutral()
+    for bad in (-1.0, float("nan"), float("inf"), "0.1", True):
+        with pytest.raises(InputError, match="damping"):
+            ik.step(panda, [task], [], q, 0.01, damping=bad)
+    for bad in ("no-such-solver", 3, None):
+        with pytest.raises(InputError, match="backend"):
+            ik.step(panda, [task], [], q, 0.01, backend=bad)
+    for bad in (float("nan"), -0.01, float("inf"), "0.01", True):
+        with pytest.raises(InputError, match="dt"):
+            ik.step(panda, [task], [], q, bad)
+    assert np.isfinite(ik.step(panda, [task], [], q, 1, damping=0)).all()  # ints are numbers too
+    v1 = ik.step(panda, [task], [ik.VelocityLimits(1.0)], q, 0.01, backend="DAQP")  # any case
+    assert np.array_equal(v1, ik.step(panda, [task], [ik.VelocityLimits(1.0)], q, 0.01))

@@ -33,6 +33,9 @@ Methods a constraint implements
     Validate against ``robot`` (frame names, obstacles containing the fixed
     base, vector lengths) and return the constraint to evaluate. Called once
     per solve; raises :class:`kinserve.kinematics.errors.InputError`.
+    :func:`kinserve.ik.step` binds the same objects again only when their
+    ``_version`` moved: increment it when an input of ``bind`` changes (as
+    assigning ``VelocityLimits.v_max`` does).
 ``rows(robot, data, q, dt=None) -> (G, lower, upper)``
     After ``pinocchio.computeJointJacobians(model, data, q)`` (joint
     placements ``data.oMi``, joint Jacobians ``data.J`` in world axes).
@@ -77,6 +80,10 @@ if TYPE_CHECKING:  # annotations only
 
 class Constraint:
     """Base class of hard IK constraints (the protocol of the module docstring)."""
+
+    #: Bumped by every change that needs a new bind (a subclass's bound inputs, e.g. ``VelocityLimits.v_max``):
+    #: :func:`kinserve.ik.step` rebuilds its cached problem when a constraint's version moved.
+    _version: int = 0
 
     def __init__(self, name: str | None = None):
         self.name = name if name is not None else type(self).__name__

@@ -26,6 +26,15 @@ class VelocityLimits(Constraint):
 
     def __init__(self, v_max: float | Sequence[float]) -> None:
         super().__init__(name="velocity limits")
+        self.v_max = v_max
+
+    @property
+    def v_max(self) -> np.ndarray:
+        """The limits (a 0-D array for one number, else one per joint); validated on assignment, re-bound by the solvers."""
+        return self._v_max
+
+    @v_max.setter
+    def v_max(self, v_max: float | Sequence[float]) -> None:
         try:
             v = np.array(v_max, dtype=float)
         except (TypeError, ValueError):
@@ -36,9 +45,11 @@ class VelocityLimits(Constraint):
             raise NonFiniteError(f"v_max must be finite, got {v.tolist()}")
         if np.any(v <= 0.0):
             raise InputError(f"v_max must be positive, got {v.tolist()}")
-        self.v_max = v
+        v.flags.writeable = False  # change the limits by assignment (validated, and the solvers re-bind)
+        self._v_max = v
         self._v = None
         self._box = None  # (dt, lower, upper) of the last call, read-only
+        self._version += 1
 
     def bind(self, robot: Robot) -> "VelocityLimits":
         if self.v_max.ndim == 0:

@@ -36,6 +36,11 @@ Methods a task implements
     return the task to evaluate (``self`` or a bound copy). Called once per
     solve, before any iteration; raise
     :class:`kinserve.kinematics.errors.InputError` naming the argument.
+    :func:`kinserve.ik.step` keeps the bound problem of the same objects from
+    one call to the next and binds again only when a task's ``_version`` moved
+    (assigning ``weight`` or ``priority`` does that): a task whose ``bind``
+    depends on an attribute the user may change increments ``self._version``
+    when it changes (see ``PostureTask.q_ref``).
 ``compute(robot, data, q) -> (e, J)``
     The error and Jacobian at ``q``. ``data`` is ``robot.data`` holding the
     kinematics of ``q``: ``pinocchio.computeJointJacobians`` has run (joint
@@ -117,10 +122,34 @@ class Task:
     #: True for a goal that must be met (success test), False for an objective.
     goal: bool = True
 
+    #: Bumped by every change that needs a new bind (``weight``, ``priority``, a subclass's bound inputs):
+    #: :func:`kinserve.ik.step` rebuilds its cached problem when a task's version moved.
+    _version: int = 0
+
     def __init__(self, weight: float | Sequence[float] = 1.0, priority: int = 1, name: str | None = None):
-        self.weight = check_weight(weight, f"{type(self).__name__} weight")
-        self.priority = check_priority(priority, f"{type(self).__name__} priority")
+        self.weight = weight
+        self.priority = priority
         self.name = name if name is not None else type(self).__name__
+
+    @property
+    def weight(self) -> float | np.ndarray:
+        """Weight of the task's rows inside its level: a positive number or one per row (validated on assignment)."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value: float | Sequence[float]) -> None:
+        self._weight = check_weight(value, f"{type(self).__name__} weight")
+        self._version += 1
+
+    @property
+    def priority(self) -> int:
+        """Priority level, an integer ``>= 1`` (1 = highest; validated on assignment)."""
+        return self._priority
+
+    @priority.setter
+    def priority(self, value: int) -> None:
+        self._priority = check_priority(value, f"{type(self).__name__} priority")
+        self._version += 1
 
     def bind(self, robot: Robot) -> "Task":
         """Validate against ``robot`` and return the task to evaluate (default: ``self``)."""

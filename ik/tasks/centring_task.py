@@ -35,7 +35,17 @@ class CentringTask(Task):
     def __init__(self, weights: float | Sequence[float] = 1.0, priority: int = 2, weight: float | Sequence[float] = 1.0, name: str = "centring"):
         super().__init__(weight, priority, name)
         self.weights = weights
-        self._model = None
+
+    @property
+    def weights(self) -> float | Sequence[float]:
+        """The per-joint centring weights as given (validated against the robot by :meth:`bind`)."""
+        return self._weights
+
+    @weights.setter
+    def weights(self, weights: float | Sequence[float]) -> None:
+        self._weights = weights
+        self._model = None  # bind again
+        self._version += 1
 
     def bind(self, robot: Robot) -> "CentringTask":
         if self._model is not robot.model:

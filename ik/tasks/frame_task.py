@@ -74,10 +74,19 @@ class FrameTask(Task):
     def set_target(self, target: np.ndarray | pin.SE3) -> None:
         """Move the target (validated 4x4 pose or ``SE3``); cheap enough for a control loop."""
         T = _checked_pose(target)
-        self.T = T
+        self._T = T
         self._p = T[:3, 3].copy()
         self._Rt = np.ascontiguousarray(T[:3, :3].T)
         self._At = None if self.relax_frame == "world" else self._Rt.copy()
+
+    @property
+    def T(self) -> np.ndarray:
+        """The target pose (4x4, the task's own copy); assigning a pose calls :meth:`set_target`."""
+        return self._T
+
+    @T.setter
+    def T(self, target: np.ndarray | pin.SE3) -> None:
+        self.set_target(target)
 
     @classmethod
     def from_target(cls, target: Target) -> "FrameTask":
@@ -89,7 +98,7 @@ class FrameTask(Task):
         self.n_pos = int((self.kept < 3).sum())
         self.components = target.components
         T = target.T
-        self.T = T
+        self._T = T
         self._p = T[:3, 3].copy()
         self._Rt = np.ascontiguousarray(T[:3, :3].T)
         self._At = None if target.relax_frame == "world" else self._Rt.copy()

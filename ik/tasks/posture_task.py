@@ -29,14 +29,27 @@ class PostureTask(Task):
 
     def __init__(self, q_ref: Sequence[float] | np.ndarray, weight: float | Sequence[float] = 1.0, priority: int = 2, name: str = "posture"):
         super().__init__(weight, priority, name)
-        self.q_ref = np.array(as_vector(q_ref, len(np.ravel(q_ref)), "q_ref"), dtype=float)
+        self.q_ref = q_ref
         self._I = None
 
+    @property
+    def q_ref(self) -> np.ndarray:
+        """The reference configuration (a private read-only copy); assign a new one to move it (validated)."""
+        return self._q_ref
+
+    @q_ref.setter
+    def q_ref(self, q_ref: Sequence[float] | np.ndarray) -> None:
+        q = np.array(as_vector(q_ref, len(np.ravel(q_ref)), "q_ref"), dtype=float)
+        q.flags.writeable = False
+        self._q_ref = q
+        self._version += 1  # the length is checked against the robot by the next bind
+
     def bind(self, robot: Robot) -> "PostureTask":
-        self.q_ref = robot.check_q(self.q_ref, "q_ref")
+        robot.check_q(self._q_ref, "q_ref")
         if self._I is None or self._I.shape[0] != robot.nq:
             self._I = np.eye(robot.nq)
+            self._I.flags.writeable = False
         return self
 
     def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return q - self.q_ref, self._I
+        return q - self._q_ref, self._I
