@@ -705,6 +705,11 @@ class ObstacleAvoidance(Constraint):
         With spheres and capsules only, the witness points are kept: :meth:`rows` at the same ``q``
         (same array object, same ``data``) reuses them instead of computing the distances again.
         """
+        if self._sph_only:  # the clearances, normals and near mask of _sphere_rows, kept for rows() at this q
+            w = self._sphere_geometry(data)
+            self._last = (data, q, w)
+            c = w[0]
+            return float(_min(c)) if c.size else math.inf
         if not self._oth_seg.size and not self._box_seg.size:
             w = self._pairs(data, True)
             self._last = (data, q, w)
@@ -715,10 +720,10 @@ class ObstacleAvoidance(Constraint):
 
     def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         last = self._last
+        if self._sph_only:
+            return self._sphere_rows(data, last[2] if last is not None and last[0] is data and last[1] is q else None)
         if last is not None and last[0] is data and last[1] is q:
             c, seg, s, N, A, B = last[2]
-        elif self._sph_only:
-            return self._sphere_rows(data)
         else:
             c, seg, s, N, A, B = self._pairs(data, True, min(self.influence, COAL_INFLUENCE))
         # rows of the pairs within reach; a witness exactly at the obstacle's core has no direction (skipped)
@@ -745,14 +750,10 @@ class ObstacleAvoidance(Constraint):
             for k in ("_sph_S", "_sph_W", "_sph_Wk"):
                 shared[k] = getattr(self, k)
 
-    def _sphere_rows(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
-
-        With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
-        (``V x n = 0``): the moment arm of every row is the sphere centre, a constant.
-        """
-        if self._sph_W is None:
-            self._sphere_constants()
+    def _sphere_geometry(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(c, N, near)`` of every sphere pair (rigid segments): clearances ``c = d - r - offset`` (m), unit
+        normals ``N`` (rows, from the centre to the witness point) and the mask of the pairs that give rows
+        (``c < influence`` and a defined normal). Forward kinematics only."""
         P = self.skeleton.points(data)
         n = self._sph_seg.shape[0]
         X = P.take(self._sph_iab, 0)  # both ends of every pair in one gather (take: cheaper than fancy indexing)
@@ -766,13 +767,25 @@ class ObstacleAvoidance(Constraint):
         d = _sqrt(_einsum("ij,ij->i", V, V))
         c = d - self._sph_r_off
         near = c < self.influence
-        # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint;
-        # computed for every pair (a few more rows of small products), then the far pairs are dropped
         if _min(d) > _EPS:
             V /= d[:, None]  # unit normals
         else:  # a witness at a sphere's centre has no direction: no row for it
             near &= d > _EPS
             V /= _fmax(d, _EPS)[:, None]
+        return c, V, near
+
+    def _sphere_rows(self, data: pin.Data, geometry: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
+
+        With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
+        (``V x n = 0``): the moment arm of every row is the sphere centre, a constant.
+        ``geometry``: :meth:`_sphere_geometry` at this configuration (kept by :meth:`margin`), or None.
+        """
+        if self._sph_W is None:
+            self._sphere_constants()
+        c, V, near = self._sphere_geometry(data) if geometry is None else geometry
+        # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint;
+        # computed for every pair (a few more rows of small products), then the far pairs are dropped
         blocks = self._sph_blocks
         if blocks is not None:
             # per sphere k once: M_k = W_k J (3 x nv, the Jacobian of a point at o_k moved by every joint), then
@@ -780,7 +793,7 @@ class ObstacleAvoidance(Constraint):
             # equal to ~1e-16 of the row)
             K, n_seg = blocks
             M = self._sph_Wk.dot(data.J)
-            G = _matmul(V.reshape(K, n_seg, 3), M.reshape(K, 3, -1)).reshape(n, -1)
+            G = _matmul(V.reshape(K, n_seg, 3), M.reshape(K, 3, -1)).reshape(c.shape[0], -1)
         else:
             G = _einsum("pi,pij->pj", V, self._sph_W).dot(data.J)
         G *= self._sph_S
