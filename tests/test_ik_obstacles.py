@@ -469,3 +469,28 @@ def test_obstacle_solves_are_deterministic(panda):
         b = ik.solve(panda, T, q0, obstacles=mk(), seed=5, max_time=10.0)
         assert a.q.tobytes() == b.q.tobytes() and a.history.q.tobytes() == b.history.q.tobytes()
         assert a.message == b.message and a.success == b.success
+
+
+@pytest.mark.parametrize("frames", [None, ("panda_link4", "panda_hand")])
+def test_sphere_rows_after_margin_match_fresh_rows_and_the_general_path(panda, frames):
+    """Spheres only: rows() reusing margin()'s geometry (same q object) equal rows() computed afresh, and both the
+    per-sphere batched product (spheres kept clear of the default segments) and the per-pair product (``frames``)
+    equal the general witness-point rows (LinkSkeleton.gradient_rows) of rows_all."""
+    rng = np.random.default_rng(5)
+    spheres = [ik.Sphere((0.35, 0.1, 0.55), 0.06), ik.Sphere((0.1, -0.3, 0.6), 0.05),
+               ik.Sphere((0.4, 0.2, 0.2), 0.08, frames)]
+    avoid = ObstacleAvoidance(spheres, link_radius=0.02, margin=0.01, gain=0.4, influence=0.25).bind(panda)
+    assert avoid._sph_only and (avoid._sph_blocks is None) == (frames is not None)
+    n_rows = 0
+    for q in panda.random_q(rng, 25):
+        pin.computeJointJacobians(panda.model, panda.data, q)
+        m = avoid.margin(panda, panda.data, q)
+        G, lo, hi = avoid.rows(panda, panda.data, q)  # the geometry kept by margin()
+        G2, lo2, _ = avoid.rows(panda, panda.data, q.copy())  # another q object: computed afresh
+        assert np.array_equal(G, G2) and np.array_equal(lo, lo2) and np.all(np.isinf(hi))
+        c, G_all = avoid.rows_all(panda, panda.data)
+        assert abs(m - c.min()) <= 1e-15
+        near = c < 0.25
+        assert np.allclose(G, G_all[near], rtol=0.0, atol=1e-14) and np.allclose(lo, -0.4 * c[near], rtol=0.0, atol=1e-15)
+        n_rows += G.shape[0]
+    assert n_rows > 10
