@@ -703,7 +703,9 @@ class ObstacleAvoidance(Constraint):
         """Smallest clearance (m), exact (box and coal pairs: only the smallest is computed exactly).
 
         With spheres and capsules only, the witness points are kept: :meth:`rows` at the same ``q``
-        (same array object, same ``data``) reuses them instead of computing the distances again.
+        (same array object, same ``data``) reuses them instead of computing the distances again. With
+        spheres only (on rigid segments) that is the lean :meth:`_sphere_geometry` (clearances, unit
+        normals, near mask), whose ``c = d - (r + offset)`` equals ``(d - r) - offset`` to ~1e-17 m.
         """
         if self._sph_only:  # the clearances, normals and near mask of _sphere_rows, kept for rows() at this q
             w = self._sphere_geometry(data)
