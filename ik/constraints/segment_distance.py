@@ -41,10 +41,13 @@ import math
 import numpy as np
 
 _EPS = 1e-18
+# NumPy's C einsum: what np.einsum (no ``optimize``) calls, without the Python wrapper (~1 us a call less)
+_c_einsum = getattr(getattr(np, "_core", None) or np.core, "_multiarray_umath").c_einsum
 
 
 def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return np.einsum("ij,ij->i", u, v)
+    """Row-wise dot products of ``(P, 3)`` arrays."""
+    return _c_einsum("ij,ij->i", u, v)
 
 
 def point_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
