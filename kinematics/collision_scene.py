@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .collision_layout import SceneLayout
+from .collision_layout import SceneLayout, _forward_kinematics, _update_placements, check_configurations
 
 if TYPE_CHECKING:
     from .collision_model import CollisionModel
@@ -112,16 +112,34 @@ class CollisionScene:
 
     # ----------------------------------------------------------------- queries
     def in_collision(self, q: np.ndarray) -> bool:
-        """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit)."""
+        """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
+
+        ``q``: a float ``(nq,)`` array (unchecked). :func:`~.collision_layout.check_configurations` on one
+        configuration, its steps inlined.
+        """
         ws = getattr(self._local, "shell", None)
         if ws is None or ws[4] is not self.obstacles:
             ws = self.layout.shell(self.obstacles, self.placements)
-        bpm = ws[2]
-        return False if bpm is None else _compute_collisions(self.model, ws[0], bpm, q, True)
+        check = ws[5]
+        if check is None:
+            return False
+        model, data, gm, gd, update, collide, callback = check
+        _forward_kinematics(model, data, q)
+        _update_placements(model, data, gm, gd)
+        update(False)
+        return collide(callback)
+
+    def first_collision(self, qs) -> int:
+        """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
+        in collision, -1 when none is: :meth:`in_collision` of each in one loop (stops at the first hit)."""
+        ws = getattr(self._local, "shell", None)
+        if ws is None or ws[4] is not self.obstacles:
+            ws = self.layout.shell(self.obstacles, self.placements)
+        return -1 if ws[5] is None else check_configurations(ws[5], qs)
 
     def colliding(self, q: np.ndarray) -> list[int]:
         """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""
-        data, gd, _bpm, gm, _ = self._shell()
+        data, gd, _bpm, gm = self._shell()[:4]
         if not len(self.pairs):
             return []
         _compute_collisions(self.model, data, gm, gd, q, False)
@@ -129,7 +147,7 @@ class CollisionScene:
 
     def distance_arrays(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(d, p1, p2, n)`` of every pair at ``q``: shapes ``(P,)``, ``(P, 3)``, ``(P, 3)``, ``(P, 3)``."""
-        data, gd, _bpm, gm, _ = self._shell()
+        data, gd, _bpm, gm = self._shell()[:4]
         P = len(self.pairs)
         d = np.empty(P)
         p1, p2, n = np.empty((P, 3)), np.empty((P, 3)), np.empty((P, 3))
@@ -150,7 +168,7 @@ class CollisionScene:
         """
         if not len(self.pairs):
             return float("inf"), -1
-        data, gd, _bpm, gm, _ = self._shell()
+        data, gd, _bpm, gm = self._shell()[:4]
         k = pin.computeDistances(self.model, data, gm, gd, q)
         return float(gd.distanceResults[k].min_distance), int(k)
 
