@@ -32,6 +32,7 @@ other shape) is its own signature (by identity: its file may change).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 import threading
 from typing import TYPE_CHECKING, Any
 
@@ -113,7 +114,7 @@ _forward_kinematics = pin.forwardKinematics
 _update_placements = pin.updateGeometryPlacements
 
 
-def check_configurations(check: tuple, qs) -> int:
+def check_configurations(check: tuple, qs: Iterable[np.ndarray]) -> int:
     """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
     in collision, or -1: per configuration forward kinematics, geometry placements, world AABBs, then
     broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`)."""

@@ -189,7 +189,7 @@ class CollisionConstraint(Constraint):
             return self.scene.in_collision(q)
         return self.margin(self.robot, None, q) < 0.0
 
-    def first_collision(self, qs) -> int:
+    def first_collision(self, qs: Sequence[np.ndarray]) -> int:
         """Index of the first configuration of ``qs`` (in the given order) that violates the constraint, or -1
         (with margin 0: :meth:`CollisionScene.first_collision`, one loop of broad-phase checks)."""
         if self.clearance == 0.0:
