@@ -60,6 +60,7 @@ from .qp_solver import solve_qp
 from .seeds import seed_table, start_sequence
 from .result import History, Result
 
+_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip  # the ufunc: no Python wrapper
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5
@@ -142,15 +143,16 @@ def _bound_constraint(robot: Robot, obs: tuple, self_collision: bool, margin: fl
     """The :class:`CollisionConstraint` of ``obs`` bound to ``robot``, reused by later solves on this thread.
 
     Its only state besides the scene is a memo keyed by the configuration's bytes, so reuse is exact;
-    per thread because that memo is written while solving.
+    per thread because that memo is written while solving. Keyed by the identities of the robot and the
+    obstacle objects (no scene lookup): the cached constraint keeps them alive, so no other object can
+    carry those ids.
     """
     cache = getattr(_BOUND, "cache", None)
     if cache is None:
         cache = _BOUND.cache = {}
-    scene = robot.collision.scene(obs, bool(self_collision))
-    key = (id(scene), float(margin))
+    key = (id(robot), self_collision is True or bool(self_collision), float(margin), *map(id, obs))
     hit = cache.get(key)
-    if hit is not None and hit.scene is scene and hit.robot is robot:
+    if hit is not None:  # it holds the robot and these obstacles alive: equal ids are the very same objects
         return hit
     bound = CollisionConstraint(obs, self_collision=self_collision, margin=margin).bind(robot)
     if len(cache) >= _BOUND_CACHE_SIZE:
@@ -263,7 +265,7 @@ def _free_starts(robot, p: dict, constraint: CollisionConstraint, solver_opts: d
     seed = p["seed"] or 0
     q0 = p["q0"]
     if q0 is not None:
-        q0 = np.clip(q0, robot.lower, robot.upper)
+        q0 = _clip(q0, robot.lower, robot.upper)
     table, prefer_q0 = bool(solver_opts.get("seed_table", True)), bool(solver_opts.get("prefer_q0", False))
     if getattr(tgt, "frame_id", None) is None or getattr(tgt, "T", None) is None:
         seq = start_sequence(robot, None, None, q0, seed, prefer_q0=prefer_q0)
@@ -339,19 +341,15 @@ def _path_is_free(constraint: CollisionConstraint, res: Result, start_checked: b
     The answer is usually the run's last iterate: it is checked once. ``start_checked``: the run's
     first iterate (its start) was found clear before the run and is not checked again.
     """
-    in_collision = constraint.in_collision
     q_answer = res.q
-    if in_collision(q_answer):
-        return False
     hist = res.history.iterates() if res.history is not None else []
     last = len(hist) - 1
     if last >= 0 and hist[last].tolist() == q_answer.tolist():
         last -= 1
     first = 1 if start_checked else 0
-    for k in range(last, first - 1, -1):
-        if in_collision(hist[k]):
-            return False
-    return True
+    # the answer, then the iterates ``last`` down to ``first``, in one loop of checks
+    rest = [] if last < first else hist[last:first - 1:-1] if first else hist[last::-1]
+    return constraint.first_collision([q_answer, *rest]) < 0
 
 
 def _target_inside_obstacle(robot, constraint: CollisionConstraint, tgt) -> str:

@@ -32,6 +32,7 @@ other shape) is its own signature (by identity: its file may change).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 import threading
 from typing import TYPE_CHECKING, Any
 
@@ -94,6 +95,40 @@ def obstacle_name(k: int, shape: "Shape") -> str:
     return f"obstacle[{k}]:{shape.kind}"
 
 
+def collision_check(model: pin.Model, data: pin.Data, gm: pin.GeometryModel, gd: pin.GeometryData,
+                    bpm: Any) -> tuple:
+    """The pieces of one broad-phase collision check, bound once: ``(model, data, gm, gd, bpm.update,
+    bpm.collide, callback)``; see :func:`check_configurations`.
+
+    Same answer as ``pinocchio.computeCollisions(model, data, bpm, q, True)`` (which runs these four steps
+    in C++), for a quarter fewer instructions: that call resolves among Pinocchio's 50 overloads of
+    ``computeCollisions`` on every call (boost.python compares the type names of the arguments of each
+    candidate, ~13k instructions of the ~45k of one Panda check); the member calls here have 1 to 3
+    overloads each. The callback (``CollisionCallBackDefault``, stop at the first collision) is reset
+    by the manager at the start of every ``collide``.
+    """
+    return (model, data, gm, gd, bpm.update, bpm.collide, pin.CollisionCallBackDefault(gm, gd, True))
+
+
+_forward_kinematics = pin.forwardKinematics
+_update_placements = pin.updateGeometryPlacements
+
+
+def check_configurations(check: tuple, qs: Iterable[np.ndarray]) -> int:
+    """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
+    in collision, or -1: per configuration forward kinematics, geometry placements, world AABBs, then
+    broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`)."""
+    model, data, gm, gd, update, collide, callback = check
+    fk, place = _forward_kinematics, _update_placements
+    for k, q in enumerate(qs):
+        fk(model, data, q)
+        place(model, data, gm, gd)
+        update(False)
+        if collide(callback):
+            return k
+    return -1
+
+
 class SceneLayout:
     """Geometry, pairs, names and per-thread workspaces shared by scenes of same-shaped obstacles.
 
@@ -146,15 +181,18 @@ class SceneLayout:
         return gm
 
     def shell(self, obstacles: tuple, placements: list) -> list:
-        """This thread's shell ``[Data, GeometryData, broad-phase manager or None, GeometryModel, obstacles]``
-        with the obstacle placements of ``obstacles`` (``placements``: their ``pinocchio.SE3`` poses)."""
+        """This thread's shell ``[Data, GeometryData, broad-phase manager or None, GeometryModel, obstacles,
+        check]`` with the obstacle placements of ``obstacles`` (``placements``: their ``pinocchio.SE3`` poses);
+        ``check`` is :func:`collision_check` over the shell (None without pairs)."""
         ws = getattr(self._local, "shell", None)
         if ws is None:
             gm = self.geometry.copy()  # the thread's own placements; shares the coal shapes
             gd = pin.GeometryData(gm)
             _zero_security_margins(gd)
+            data = self.model.createData()
             bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
-            ws = self._local.shell = [self.model.createData(), gd, bpm, gm, self.obstacles]
+            check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
+            ws = self._local.shell = [data, gd, bpm, gm, self.obstacles, check]
         held = ws[4]
         if held is not obstacles:
             objects = ws[3].geometryObjects

@@ -127,17 +127,17 @@ def test_equal_obstacles_built_anew_share_one_scene(panda):
 def test_every_iterate_is_still_checked(panda, monkeypatch):
     """The cheap path checks each run's start before running it, then the answer and every other iterate:
     every iterate of the returned run is checked, the answer once."""
-    from kinserve.kinematics import collision_scene
+    from kinserve.kinematics import collision_layout, collision_scene
 
     checked = []
-    real = collision_scene._compute_collisions
+    real = collision_layout._forward_kinematics
 
-    def recording(*args):
-        if len(args) == 5:  # (model, data, broad phase, q, stop at the first): the in_collision check
-            checked.append(np.array(args[3]))
-        return real(*args)
+    def recording(model, data, q):  # the first step of every broad-phase check (scene and path loops)
+        checked.append(np.array(q))
+        return real(model, data, q)
 
-    monkeypatch.setattr(collision_scene, "_compute_collisions", recording)
+    monkeypatch.setattr(collision_scene, "_forward_kinematics", recording)
+    monkeypatch.setattr(collision_layout, "_forward_kinematics", recording)
     rng = np.random.default_rng(6)
     T = panda.fk(panda.random_q(rng), FRAME).copy()
     res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, self_collision=True, seed=1, max_time=2.0)

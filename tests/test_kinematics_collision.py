@@ -415,3 +415,30 @@ def test_scenes_of_moved_obstacles_share_a_layout_and_answer_for_their_own_place
     with ThreadPoolExecutor(3) as pool:
         parallel = [row for part in pool.map(answers, np.array_split(Q, 6)) for row in part]
     assert np.array_equal(np.array(parallel), ours)
+
+
+def test_check_and_path_loop_agree_with_computecollisions_over_every_pair():
+    """The bound broad-phase check (fk, placements, AABBs, collide) and its path loop give the answer of
+    pinocchio.computeCollisions over every pair (no broad phase) on the scene's own GeometryModel."""
+    import pinocchio as pin
+
+    from kinserve import ik, robots
+
+    robot = robots.load("panda")
+    T = np.eye(4)
+    T[:3, 3] = (0.65, 0.0, -0.05)
+    W = np.eye(4)
+    W[:3, 3] = (0.0, -0.6, 0.5)
+    scene = robot.collision_scene([ik.Box(T, (0.7, 1.2, 0.1)), ik.Box(W, (1.5, 0.05, 1.0))])
+    gm = scene.geometry
+    gd = pin.GeometryData(gm)
+    data = robot.model.createData()
+    qs = list(robot.random_q(np.random.default_rng(21), 400))
+    truth = [bool(pin.computeCollisions(robot.model, data, gm, gd, q, True)) for q in qs]
+    assert 0 < sum(truth) < len(truth)
+    assert [scene.in_collision(q) for q in qs] == truth
+    for lo in range(0, 400, 40):
+        chunk = qs[lo:lo + 40]
+        expected = next((k for k, t in enumerate(truth[lo:lo + 40]) if t), -1)
+        assert scene.first_collision(chunk) == expected
+    assert scene.first_collision([]) == -1

@@ -106,8 +106,9 @@ class CollisionConstraint(Constraint):
         bound.scene = scene
         bound.robot = robot
         bound._threshold = self.clearance + self.influence
-        if self.clearance == 0.0:  # the check is the scene's own: one call less per check (loops check every iterate)
+        if self.clearance == 0.0:  # the checks are the scene's own: one call less per check (loops check every iterate)
             bound.in_collision = scene.in_collision
+            bound.first_collision = scene.first_collision
         return bound
 
     def near_pairs(self, q: np.ndarray, data: pin.Data | None = None) -> list[tuple]:
@@ -187,6 +188,16 @@ class CollisionConstraint(Constraint):
         if self.clearance == 0.0:
             return self.scene.in_collision(q)
         return self.margin(self.robot, None, q) < 0.0
+
+    def first_collision(self, qs: Sequence[np.ndarray]) -> int:
+        """Index of the first configuration of ``qs`` (in the given order) that violates the constraint, or -1
+        (with margin 0: :meth:`CollisionScene.first_collision`, one loop of broad-phase checks)."""
+        if self.clearance == 0.0:
+            return self.scene.first_collision(qs)
+        for k, q in enumerate(qs):
+            if self.in_collision(q):
+                return k
+        return -1
 
 
 #: Per collision model, the obstacles (by value; meshes never) already found clear of its fixed base.
