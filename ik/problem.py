@@ -112,6 +112,10 @@ class Problem:
         self._single = [lvl[0] if len(lvl) == 1 and ws[0] is None else None
                         for lvl, ws in zip(self.levels, self.level_weights)]
         self._only_single = all(t is not None for t in self._single)
+        # the tasks in level order (the order of evaluate()'s errors), and where user task i's error sits in it
+        self._ordered = [t for lvl in self.levels for t in lvl]
+        position = {id(t): k for k, t in enumerate(self._ordered)}
+        self._es_index = [position[id(t)] for t in self.tasks]
         self.goals = [t for t in self.tasks if t.goal]
         self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
         self.gain = min([getattr(c, "gain", DAMPER_GAIN) for c in self.checked] or [DAMPER_GAIN])
@@ -130,47 +134,38 @@ class Problem:
         return levels, pe, re, es, m
 
     def evaluate(self, q: np.ndarray) -> tuple[list, float, float, list]:
-        """``(levels, pe, re, es)``: stacked ``(J, e)`` per level, goal errors (m, rad), each task's error."""
+        """``(levels, pe, re, es)``: stacked ``(J, e)`` per level, goal errors (m, rad), each task's error
+        (in level order: highest priority first, the given order within a level)."""
         robot, data = self.robot, self.data
         _cjj(self.model, data, q)
         self.q_in_data = q
         levels = []
         es = []
-        pe = re = 0.0
         if self._only_single:  # one task per level, weight 1 (the usual composition): no stacking
             for t in self._single:
                 e, J = t.compute(robot, data, q)
                 levels.append((J, e))
                 es.append(e)
-                if t.goal:
-                    p, r = t.errors(e)
-                    if p > pe:
-                        pe = p
-                    if r > re:
-                        re = r
-            return levels, pe, re, es
-        for lvl, ws in zip(self.levels, self.level_weights):
-            pairs = []
-            for t in lvl:
-                e, J = t.compute(robot, data, q)
-                pairs.append((e, J))
-                es.append(e)
-                if t.goal:
-                    p, r = t.errors(e)
-                    if p > pe:
-                        pe = p
-                    if r > re:
-                        re = r
-            if len(pairs) == 1 and ws[0] is None:
-                levels.append((pairs[0][1], pairs[0][0]))
-            else:
+        else:
+            for lvl, ws in zip(self.levels, self.level_weights):
+                pairs = [t.compute(robot, data, q) for t in lvl]
+                es.extend([e for e, _ in pairs])
                 levels.append(stack_level(pairs, ws))
+        pe = re = 0.0  # the largest position / orientation error of the goal tasks
+        for t, e in zip(self._ordered, es):
+            if t.goal:
+                p, r = t.errors(e)
+                if p > pe:
+                    pe = p
+                if r > re:
+                    re = r
         return levels, pe, re, es
 
     def task_errors(self, es: list) -> list[dict]:
         """Per-task report for :attr:`Result.task_errors`."""
         out = []
-        for t, e in zip(self.tasks, es):
+        for t, k in zip(self.tasks, self._es_index):  # in the order the tasks were given
+            e = es[k]
             p, r = t.errors(e)
             out.append({"name": t.name, "priority": t.priority, "goal": t.goal, "error": float(np.linalg.norm(e)),
                         "position_error": float(p), "orientation_error": float(r)})

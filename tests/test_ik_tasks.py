@@ -136,3 +136,22 @@ def test_baxter_reaches_a_pose_with_each_hand_at_once():
         assert baxter.within_limits(res.q)
         assert len(res.task_errors) == 2 and res.frame == "left_gripper,right_gripper"
         assert res.history.task_error.shape[1] == 12
+
+
+@pytest.mark.parametrize("posture_first", [True, False])
+def test_task_errors_follow_the_given_order_whatever_the_priorities(posture_first):
+    """Result.task_errors lists the tasks as given, each with its own error (checked here by FK), even when a
+    lower-priority task comes first (the solver evaluates them by level)."""
+    panda = robots.load("panda", geometry=False)
+    q0 = panda.random_q(np.random.default_rng(0))
+    T = panda.fk(panda.random_q(np.random.default_rng(1)))
+    frame, posture = ik.FrameTask(panda.tip, T), ik.PostureTask(panda.middle())
+    tasks = [posture, frame] if posture_first else [frame, posture]
+    res = ik.solve(panda, tasks=tasks, q0=q0, seed=0)
+    assert res.success, res.message
+    names = [t["name"] for t in res.task_errors]
+    assert names == [t.name for t in tasks]
+    by_name = {t["name"]: t for t in res.task_errors}
+    p_true = np.linalg.norm(panda.fk(res.q)[:3, 3] - T[:3, 3])
+    assert by_name[frame.name]["position_error"] == pytest.approx(p_true, abs=1e-9) and p_true < 1e-4
+    assert by_name[posture.name]["error"] == pytest.approx(np.linalg.norm(res.q - panda.middle()), rel=1e-9)
