@@ -356,7 +356,7 @@ def _target_inside_obstacle(robot, constraint: CollisionConstraint, tgt) -> str:
     """Reason text when the target's position is inside an obstacle and the frame origin inside the body, else ""."""
     if not constraint.obstacles or any(k in tgt.relaxed for k in (0, 1, 2)):
         return ""
-    point = np.asarray(tgt._p, dtype=float)
+    point = tgt.T[:3, 3].copy()
     for k, ob in enumerate(constraint.obstacles):
         depth = float(ob.signed_distance(point)[0])
         if depth < 0.0 and _frame_origin_inside_body(robot, tgt.frame):
