@@ -51,7 +51,7 @@ from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
 
-from . import analytic
+from . import analytic, numpy_fast
 from .constraints.collision import CollisionConstraint, _length
 from .lm_solver import solve_lm
 from .multistart import frame_starts
@@ -60,7 +60,7 @@ from .qp_solver import solve_qp
 from .seeds import seed_table, start_sequence
 from .result import History, Result
 
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip  # the ufunc: no Python wrapper
+_clip = numpy_fast.clip
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5

@@ -26,8 +26,10 @@ from scipy.linalg import get_lapack_funcs
 
 from kinserve.kinematics.errors import InputError
 
+from . import numpy_fast
+
 _posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_clip = numpy_fast.clip
 
 #: Stand-in for an infinite bound in the solvers' arrays.
 BIG = 1e20

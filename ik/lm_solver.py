@@ -57,6 +57,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
+from . import numpy_fast
 from .result import History, Result, task_evaluator
 from .multistart import frame_starts
 
@@ -93,7 +94,7 @@ _LOCAL = pin.LOCAL
 _LWA = pin.LOCAL_WORLD_ALIGNED
 _now = time.perf_counter
 _sqrt = math.sqrt
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_clip = numpy_fast.clip
 
 
 def _bounded_step(J, e, lam, q, lo, hi):

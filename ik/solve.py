@@ -48,6 +48,7 @@ from kinserve.kinematics.validation import as_positive
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import Shape
 
+from . import numpy_fast
 from . import analytic as _analytic
 from .centring import centring_weights
 from .chooser import choose
@@ -78,7 +79,7 @@ METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
 _NO_CENTRING_METHODS = frozenset(("lm", "analytic", "jacobian_inverse", "jacobian_transpose"))
 _NO_OBSTACLE_METHODS = frozenset(("lm", "analytic") + CLASSICAL_METHODS)
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip  # np.clip without its dispatch
+_clip = numpy_fast.clip
 
 
 def _check_positive(value, name: str, allow_none: bool = False) -> float | None:

@@ -27,6 +27,7 @@ import numpy as np
 
 from kinserve.kinematics.errors import InputError
 
+from . import numpy_fast
 from .dense_qp import DEFAULT_BACKEND
 from .hierarchy import hierarchical_step
 from .problem import Problem
@@ -34,7 +35,7 @@ from .qp_backends import available_backends
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_clip = numpy_fast.clip
 _cache: dict = {}
 
 if TYPE_CHECKING:  # annotations only

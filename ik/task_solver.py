@@ -39,6 +39,7 @@ import time
 
 import numpy as np
 
+from . import numpy_fast
 from .dense_qp import DEFAULT_BACKEND, backend_calls
 from .hierarchy import hierarchical_step
 from .multistart import starts
@@ -74,7 +75,7 @@ STALL_PATIENCE = 2
 DEFER_BY = 8
 
 _now = time.perf_counter
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_clip = numpy_fast.clip
 
 
 class _Run:

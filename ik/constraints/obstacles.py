@@ -55,6 +55,7 @@ import numpy as np
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
 
+from .. import numpy_fast
 from .base import DAMPER_GAIN, Constraint
 from .link_capsules import LinkSkeleton, skeleton_segments
 from .segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
@@ -72,13 +73,12 @@ for _a in (_NO_INT, _NO_1, _NO_3, _NO_R):  # shared empty arrays of absent pair 
     _a.flags.writeable = False
 _INF = np.full(4096, np.inf)
 _INF.flags.writeable = False  # shared upper bounds of the damper rows (read-only)
-# NumPy's C einsum (np.einsum without ``optimize`` calls exactly this; skipping the Python wrapper saves ~1 us a call)
-_einsum = getattr(getattr(np, "_core", None) or np.core, "_multiarray_umath").c_einsum
+_einsum = numpy_fast.einsum
 _min = np.minimum.reduce
 _matmul = np.matmul
 _sqrt = np.sqrt
 _fmax = np.fmax
-_clip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_clip = numpy_fast.clip
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin

@@ -40,9 +40,10 @@ import math
 
 import numpy as np
 
+from .. import numpy_fast
+
 _EPS = 1e-18
-# NumPy's C einsum: what np.einsum (no ``optimize``) calls, without the Python wrapper (~1 us a call less)
-_c_einsum = getattr(getattr(np, "_core", None) or np.core, "_multiarray_umath").c_einsum
+_c_einsum = numpy_fast.einsum
 
 
 def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -85,7 +86,7 @@ def segment_segment(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray,
 
 
 _TINY = 1e-300
-_uclip = np._core.umath.clip if hasattr(np, "_core") else np.core.umath.clip
+_uclip = numpy_fast.clip
 _fmin, _fmax = np.fmin, np.fmax
 
 
