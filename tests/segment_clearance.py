@@ -21,3 +21,18 @@ def sampled_clearance(robot, q, frame, obstacle, link_radius=0.0, n=801):
         pts = a + np.linspace(0, 1, n)[:, None] * (b - a)
         best = min(best, float(obstacle.signed_distance(pts).min()))
     return best - link_radius
+
+
+def rows_and_finite_differences(robot, avoid, q, h):
+    """``(c, G, fd)`` of a bound :class:`ik.ObstacleAvoidance` at ``q``: its clearances and damper-row
+    gradients (``rows_all``), and central differences (step ``h``) of its exact clearance of every pair."""
+    model, data = robot.model, robot.data
+    pin.computeJointJacobians(model, data, q)
+    c, G = avoid.rows_all(robot, data)
+
+    def clear(qq):
+        pin.forwardKinematics(model, data, qq)
+        return avoid._pairs(data, False, np.inf)
+
+    fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(robot.nq)]).T
+    return c, G, fd

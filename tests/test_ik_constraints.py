@@ -9,7 +9,7 @@ from kinserve import ik
 from kinserve import robots
 from kinserve.ik.constraints import ObstacleAvoidance, as_sphere, robot_segments
 from kinserve.kinematics.errors import FrameError, InputError, NonFiniteError, ShapeError
-from segment_clearance import sampled_clearance
+from segment_clearance import rows_and_finite_differences, sampled_clearance
 
 
 def test_sphere_validation():
@@ -74,15 +74,7 @@ def test_ur5_sphere_clearance_and_gradient_against_independent_code():
     for q in robot.random_q(rng, 6):
         ref = min(sampled_clearance(robot, q, robot.tip, s, n=2001) for s in spheres)
         assert _margin(avoid, robot, q) == pytest.approx(ref, abs=1e-6)
-        pin.computeJointJacobians(robot.model, robot.data, q)
-        c, G = avoid.rows_all(robot, robot.data)
-        h = 1e-6
-
-        def clear(qq):
-            pin.forwardKinematics(robot.model, robot.data, qq)
-            return avoid.clearances(robot.data)
-
-        fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(robot.nq)]).T
+        c, G, fd = rows_and_finite_differences(robot, avoid, q, 1e-6)
         ok = c > 1e-3  # the distance to a segment is continuously differentiable away from contact
         assert np.allclose(G[ok], fd[ok], atol=1e-6)
         checked += int(ok.sum())

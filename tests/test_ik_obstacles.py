@@ -9,7 +9,7 @@ from kinserve import ik, robots
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.constraints.segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
 from kinserve.kinematics.errors import InputError
-from segment_clearance import sampled_clearance
+from segment_clearance import rows_and_finite_differences, sampled_clearance
 
 
 @pytest.fixture(scope="module")
@@ -82,14 +82,7 @@ def test_clearance_rows_match_finite_differences_of_the_true_distance(panda, k):
     h = 1e-6 if k < 2 else 1e-5
     checked = 0
     for q in panda.random_q(rng, 6):
-        pin.computeJointJacobians(panda.model, panda.data, q)
-        c, G = avoid.rows_all(panda, panda.data)
-
-        def clear(qq):
-            pin.forwardKinematics(panda.model, panda.data, qq)
-            return avoid._pairs(panda.data, False, np.inf)
-
-        fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(panda.nq)]).T
+        c, G, fd = rows_and_finite_differences(panda, avoid, q, h)
         ok = c > 1e-3  # away from contact (where the distance is not differentiable)
         assert np.allclose(G[ok], fd[ok], atol=2e-4 if k < 2 else 2e-3)
         checked += int(ok.sum())
@@ -189,14 +182,7 @@ def test_slider_rows_match_finite_differences():
     rng = np.random.default_rng(60)
     h = 1e-6
     for q in scara.random_q(rng, 6):
-        pin.computeJointJacobians(scara.model, scara.data, q)
-        c, G = avoid.rows_all(scara, scara.data)
-
-        def clear(qq):
-            pin.forwardKinematics(scara.model, scara.data, qq)
-            return avoid._pairs(scara.data, False, np.inf)
-
-        fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(scara.nq)]).T
+        c, G, fd = rows_and_finite_differences(scara, avoid, q, h)
         ok = c > 1e-3
         assert np.allclose(G[ok], fd[ok], atol=1e-5)
 
