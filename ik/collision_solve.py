@@ -55,7 +55,7 @@ from . import analytic, numpy_fast
 from .constraints.collision import CollisionConstraint, _length
 from .lm_solver import solve_lm
 from .multistart import frame_starts
-from .options import check_options
+from .options import check_options, solver_keywords
 from .qp_solver import solve_qp
 from .seeds import seed_table, start_sequence
 from .result import History, Result
@@ -119,9 +119,7 @@ def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Re
         return _failure(robot, tgt, p["q0"], t0, blocked)
 
     remaining = max(budget - (time.perf_counter() - t0), 1e-3)
-    opts = {k: v for k, v in solver_opts.items() if k in _QP_KEYS}
-    if "seed_table" in opts:
-        opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
+    opts = solver_keywords({k: v for k, v in solver_opts.items() if k in _QP_KEYS})
     q_start = p["q0"]
     if warm is not None and "prefer_q0" not in opts:  # the last collision-free iterate of the first attempt
         q_start, opts["prefer_q0"] = warm, True

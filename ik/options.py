@@ -104,3 +104,12 @@ def check_options(method: str, options: dict) -> None:
         raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
     for name, value in options.items():
         _CHECKS[name](name, value)
+
+
+def solver_keywords(options: dict) -> dict:
+    """``options`` as the solvers' keyword arguments: the user's ``seed_table`` is the solvers'
+    ``seed_table_enabled`` (a copy when renamed; ``options`` itself is left as it is)."""
+    if "seed_table" in options:
+        options = dict(options)
+        options["seed_table_enabled"] = bool(options.pop("seed_table"))
+    return options

@@ -59,7 +59,7 @@ from .constraints.obstacles import ObstacleAvoidance, as_obstacle
 from .dense_qp import DEFAULT_BACKEND
 from .lm_solver import solve_lm
 from .multistart import frame_starts
-from .options import OPTIONS, check_options
+from .options import OPTIONS, check_options, solver_keywords
 from .problem import Problem
 from .qp_backends import available_backends
 from .seeds import PerModel
@@ -240,11 +240,9 @@ def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, t
         p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                  backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
         return solve_prepared(robot, p, **options)
-    if options:
-        check_options("lm", options)
-        if "seed_table" in options:
-            options["seed_table_enabled"] = bool(options.pop("seed_table"))
-    return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, **options)
+    _check_options("lm", options)
+    return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                    **solver_keywords(options))
 
 
 def solve(
@@ -400,14 +398,7 @@ def solve_tasks(robot: Robot, tasks: Any, constraints: Any = None, q0: VectorLik
         max_time = _check_positive(max_time, "max_time")
     pb = Problem(robot, tasks, constraints)
     return solve_problem(pb, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=_check_seed(seed),
-                         backend=_check_backend(backend), **_task_options(options))
-
-
-def _task_options(options: dict) -> dict:
-    if "seed_table" in options:
-        options = dict(options)
-        options["seed_table_enabled"] = bool(options.pop("seed_table"))
-    return options
+                         backend=_check_backend(backend), **solver_keywords(options))
 
 
 #: Starts tried without constraints before the constrained solve (``"auto"`` with obstacles). An LM run
@@ -436,7 +427,7 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     that iterate faces the obstacle).
     """
     avoid = p["spheres"]
-    opts = _task_options(options)
+    opts = solver_keywords(options)
     tgt = p["target"]
     q0 = p["q0"]
     if q0 is not None:
@@ -491,7 +482,7 @@ def _solve_target_tasks(robot, p: dict, options: dict):
         spheres = as_constraints(([p["spheres"]] if p["spheres"] is not None else []) + list(extra), (tgt.frame,))
     else:
         spheres = p["spheres"]
-    opts = _task_options(options)
+    opts = solver_keywords(options)
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
                     warm_start=p.get("warm_start"), q0_checked=p.get("q0_checked", False),
@@ -516,7 +507,6 @@ _COLLISION_KEYS = frozenset(("self_collision", "obstacles", "collision_margin"))
 _LM_OPTIONS, _QP_OPTIONS = OPTIONS["lm"], OPTIONS["qp"]
 _ANALYTIC_OPTIONS = OPTIONS["analytic"]
 _LM_OPTION_SET = frozenset(_LM_OPTIONS)
-_OPTION_SETS = {method: frozenset(names) for method, names in OPTIONS.items()}
 
 
 def _check_options(method, options):
@@ -557,12 +547,8 @@ def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:
             options = {k: v for k, v in options.items() if k in (_QP_OPTIONS if method == "qp" else _LM_OPTIONS)}
     if method == "lm":
         _check_options(method, options)
-        opts = options
-        if "seed_table" in opts:
-            opts = dict(options)
-            opts["seed_table_enabled"] = bool(opts.pop("seed_table"))
         return solve_lm(robot, tgt, p["q0"], tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"],
-                        seed=p["seed"], **opts)
+                        seed=p["seed"], **solver_keywords(options))
     if method == "qp":
         _check_options(method, options)
         return _solve_target_tasks(robot, p, options)
