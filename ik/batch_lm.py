@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.batch_fk import joint_axis, joint_chain
+from kinserve.kinematics.serial_chain import joint_axis, joint_chain
 
 from .lm_solver import DAMPING, DAMPING_GAIN, MAX_ITER, STALL_PATIENCE, STALL_RATIO, solve_lm
 from .seeds import seed_table

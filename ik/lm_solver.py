@@ -58,8 +58,11 @@ import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
 from . import numpy_fast
+from kinserve.kinematics.serial_chain import serial_chain
+
 from .result import History, Result, task_evaluator
 from .multistart import frame_starts
+from .seeds import PerModel
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -80,6 +83,9 @@ MAX_ITER = 60
 MAX_TIME = 0.1
 #: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
 NEAR = 2.5
+#: Full-pose starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm_kernel`
+#: (False: always Pinocchio's algorithms from Python, e.g. to compare the two).
+COMPILED = True
 #: Failed starts kept unscored (their errors computed only if no start converges) before they are scored.
 UNSCORED_RUNS = 16
 
@@ -300,13 +306,15 @@ def solve_lm(
     ``q0`` and random configurations only; ``prefer_q0`` makes ``q0`` the first
     start even when a table sample is closer to the target.
     """
+    fid = target.frame_id
+    full = target.full
+    # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
+    compiled = _compiled_chain(robot, fid) if full else None
     t0 = _now()
     deadline = t0 + (MAX_TIME if max_time is None else max_time)
     model, data = robot.model, robot.data
-    fid = target.frame_id
     lo, hi = robot.lower, robot.upper
     tp2, tr2 = tol_pos * tol_pos, tol_rot * tol_rot
-    full = target.full
 
     starts = None
     if q0 is not None:
@@ -318,32 +326,22 @@ def solve_lm(
         q = next(starts)
 
     best = None  # (k, qs, pos2, rot2, pe2, re2): the run that answers and its best iterate k
-    unscored = []  # failed full-pose runs (qs, poses): scored only if no start converges
+    unscored = []  # failed runs (qs, (pos2, rot2) or poses): scored only if no start converges
     iterations = 0
     n_starts = 0
     while True:
         n_starts += 1
-        qs = []
-        if full:
-            poses = []
-            ok, it, reason, pe2, re2 = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter,
-                                                       damping, qs, poses)
+        if compiled is not None:
+            ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping)
         else:
-            pos2, rot2 = [], []
-            ok, it, reason = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pos2, rot2)
+            ok, it, run = _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping)
         iterations += it
         if ok:
-            if full:  # the history's errors are read off ``poses`` only when asked for
-                best = (len(qs) - 1, qs, partial(_squared_errors, poses), None, pe2, re2)
-            else:
-                best = (len(qs) - 1, qs, pos2, rot2, pos2[-1], rot2[-1])
+            best = run
             break
-        if full:
-            unscored.append((qs, poses))
-            if len(unscored) >= UNSCORED_RUNS:
-                best = _best_run(unscored, best)
-        else:
-            best = _best_run([(qs, (pos2, rot2))], best)
+        unscored.append(run)
+        if len(unscored) >= UNSCORED_RUNS:
+            best = _best_run(unscored, best)
         if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
             break
         if starts is None:
@@ -370,6 +368,74 @@ def solve_lm(
         )
     # positional: the fields of Result in order (half the cost of keywords)
     return Result(qs[k].copy(), ok, pe, re, iterations, n_starts - 1, _now() - t0, message, hist, "lm", target.frame)
+
+
+def _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
+    """One start with Pinocchio's algorithms (:func:`_run_full_pose` / :func:`_run_relaxed`).
+
+    Returns ``(converged, iterations, run)``: ``run`` is the answer tuple
+    ``(k, qs, pos2, rot2, pe2, re2)`` when converged, else ``(qs, errors)``
+    for :func:`_best_run` (``errors`` the recorded poses of a full-pose run,
+    scored only if needed, or the ``(pos2, rot2)`` lists of a relaxed one).
+    """
+    qs = []
+    if target.full:
+        poses = []
+        ok, it, _, pe2, re2 = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter, damping,
+                                             qs, poses)
+        if ok:  # the history's errors are read off ``poses`` only when asked for
+            return True, it, (len(qs) - 1, qs, partial(_squared_errors, poses), None, pe2, re2)
+        return False, it, (qs, poses)
+    pos2, rot2 = [], []
+    ok, it, _ = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pos2, rot2)
+    if ok:
+        return True, it, (len(qs) - 1, qs, pos2, rot2, pos2[-1], rot2[-1])
+    return False, it, (qs, (pos2, rot2))
+
+
+def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
+    """:func:`_python_run` for a full-pose target, as one call of :func:`ik.lm_kernel.run_full_pose`.
+
+    The iterates and their exact squared errors come back as arrays (``qs``
+    ``(k, nq)``), the same tuples as :func:`_python_run`'s.
+    """
+    run, geometry, joints = compiled
+    rows = max_iter + 1
+    qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
+    status, it, k = run(geometry, joints, q, lo, hi, target.T, tp2, tr2, float(damping), DAMPING_GAIN,
+                        STALL_RATIO, STALL_PATIENCE, int(max_iter), qs, errs)
+    qs, pos2, rot2 = qs[:k], errs[:k, 0], errs[:k, 1]
+    if status == 0:
+        return True, it, (k - 1, qs, pos2, rot2, pos2[k - 1], rot2[k - 1])
+    return False, it, (qs, (pos2, rot2))
+
+
+_chains = PerModel()
+
+
+def _compiled_chain(robot: Robot, fid: int) -> tuple | None:
+    """``(kernel, geometry, joints)`` of the chain to frame ``fid`` (cached per model), or None.
+
+    None when :data:`COMPILED` is off, Numba is not installed or the chain has
+    joints the kernel does not model
+    (:func:`kinserve.kinematics.serial_chain.serial_chain`).
+    """
+    if not COMPILED:
+        return None
+    entry = _chains.get(robot.model)
+    if entry is not None and fid in entry:
+        return entry[fid]
+    chain = serial_chain(robot.model, fid)
+    value = None
+    if chain is not None:
+        try:
+            from . import lm_kernel
+        except ImportError:  # Numba missing: Pinocchio's algorithms from Python
+            pass
+        else:
+            value = (lm_kernel.run_full_pose, *chain)
+    _chains.setdefault(robot.model)[fid] = value
+    return value
 
 
 def _best_run(runs: list, best: tuple | None) -> tuple:

@@ -20,38 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import ModelError
-
-_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
-
-
-def joint_axis(joint: pin.JointModel) -> tuple[str, np.ndarray] | None:
-    """``('R' | 'P', unit axis in the joint frame)`` of a one-DOF Pinocchio joint model, else None.
-
-    Revolute/prismatic joints about x, y, z and their unaligned variants;
-    anything else (spherical, free-flyer, unbounded, composite...) is None.
-    """
-    short = joint.shortname()
-    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return "R", np.array(_AXES[short[-1]])
-    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return "P", np.array(_AXES[short[-1]])
-    if short == "JointModelRevoluteUnaligned":
-        return "R", np.asarray(joint.extract().axis, dtype=float).copy()
-    if short == "JointModelPrismaticUnaligned":
-        return "P", np.asarray(joint.extract().axis, dtype=float).copy()
-    return None
-
-
-def joint_chain(model: pin.Model, frame_id: int) -> list[int]:
-    """Indices of the joints from the root to the parent joint of frame ``frame_id``, root first."""
-    chain = []
-    j = model.frames[frame_id].parentJoint
-    while j > 0:
-        chain.append(j)
-        j = model.parents[j]
-    chain.reverse()
-    return chain
-
+from .serial_chain import joint_axis, joint_chain
 
 class ChainFK:
     """Vectorised FK of frame ``frame_id`` of ``model``; call with ``Q`` (N, nq)."""

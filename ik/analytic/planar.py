@@ -55,7 +55,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics import Robot
-from kinserve.kinematics.batch_fk import joint_axis, joint_chain
+from kinserve.kinematics.serial_chain import joint_axis, joint_chain
 from kinserve.kinematics.types import VectorLike
 
 #: One closed-form branch: ``(q, label, free parameter value or None)``.
