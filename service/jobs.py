@@ -72,8 +72,11 @@ def pool() -> RobotPool:
 
 
 def warm(deadline: Deadline, robot: str = "panda") -> int:
-    """Load ``robot`` and its IK seed table for the tool frame (so the first request does not pay for
-    them: building the table takes ~0.1-0.3 s); returns the process id."""
+    """Load ``robot``, its IK seed table for the tool frame and the compiled IK kernels (so the first
+    request does not pay for them: building the table takes ~0.1-0.3 s, importing Numba and loading the
+    kernels from their cache ~0.5 s); returns the process id."""
+    from kinserve.ik.constraints import clearance_kernel  # noqa: F401 - loaded on import
+    from kinserve.ik import lm_kernel  # noqa: F401 - loaded on import
     from kinserve.ik.seeds import seed_table
 
     r = pool().get(robot, {})

@@ -127,6 +127,19 @@ def _bounding_radius(shape: Shape) -> float:
     raise TypeError(type(shape).__name__)
 
 
+_kernel_module = None
+
+
+def _clearance_kernel():
+    """:mod:`.clearance_kernel`, imported on first use (it imports Numba and loads its compiled code)."""
+    global _kernel_module
+    if _kernel_module is None:
+        from . import clearance_kernel
+
+        _kernel_module = clearance_kernel
+    return _kernel_module
+
+
 class ObstacleAvoidance(Constraint):
     """Keep ``obstacles`` (any :mod:`kinserve.kinematics.shapes` shape) clear of the robot (module docstring).
 
@@ -316,6 +329,7 @@ class ObstacleAvoidance(Constraint):
             and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
         self._sph_r_off2 = self._sph_r_off * self._sph_r_off  # (r + offset)^2: violations() compares squares
+        self._cap_r_off = self._cap_r + self._offset
         self._sph_W = self._sph_S = self._sph_Wk = None  # made by _sphere_rows on first use
 
     @property
@@ -618,60 +632,36 @@ class ObstacleAvoidance(Constraint):
         """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``, or a list of ``(nq,)`` arrays)
         has a negative clearance.
 
-        The sphere, capsule and box distances of all ``K`` configurations are evaluated at once (the
-        same closed forms on ``(K, pairs)`` arrays; box pairs only where their axis-gap bound is below
-        the offset, and a segment that meets a box counts as a violation - the penetration depth is not
-        needed for the verdict, only a tangential touch would have clearance 0); coal pairs (cylinders,
-        meshes) are checked per configuration where their bounding-sphere bound is negative.
+        The segments' end points of all ``K`` configurations come from one compiled forward kinematics
+        (:func:`.clearance_kernel.skeleton_points`; Pinocchio per configuration for joints it does not
+        model), and their sphere, capsule and box pairs are decided in one compiled call
+        (:func:`.clearance_kernel.violations`: the same closed forms, box pairs past a separating-axis
+        test only, and a segment that meets a box counts as a violation - the penetration depth is not
+        needed for the verdict); coal pairs (cylinders, meshes) are checked per configuration where their
+        bounding-sphere bound is negative.
         ``first_only``: only the first True entry must be right (coal pairs of later configurations are
         skipped).
         """
-        model, data = robot.model, robot.data
         sk = self.skeleton
-        fk = _pin().forwardKinematics
+        kernel = _clearance_kernel()
         P = np.empty((len(Q), sk.n_points, 3))
-        into = sk.points_into
-        for k, q in enumerate(Q):
-            fk(model, data, q)
-            into(data, P[k])
+        tree = sk.tree
+        if tree is not None:  # forward kinematics of every configuration in one compiled call
+            Qa = Q if type(Q) is np.ndarray and Q.flags.c_contiguous else np.array(Q, dtype=float)
+            kernel.skeleton_points(*tree, *sk.point_table, Qa, P)
+        else:  # joints the compiled tree does not model: Pinocchio, configuration by configuration
+            model, data = robot.model, robot.data
+            fk = _pin().forwardKinematics
+            into = sk.points_into
+            for k, q in enumerate(Q):
+                fk(model, data, q)
+                into(data, P[k])
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
-        if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
-            A = P.take(self._sph_ia, 1)
-            AB = P.take(self._sph_ib, 1)  # (two contiguous gathers: cheaper arithmetic than views of one)
-            AB -= A
-            AC = self._sph_c - A
-            inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
-            t = _einsum("kij,kij->ki", AC, AB)
-            t *= inv
-            _clip(t, 0.0, 1.0, out=t)
-            AB *= t[..., None]
-            AB -= AC  # x - c
-            d2 = _einsum("kij,kij->ki", AB, AB)
-            bad |= (d2 < self._sph_r_off2).any(axis=1)
-        if self._cap_seg.size:
-            K, n = len(Q), self._cap_seg.size
-            A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
-            _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
-            d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
-            bad |= (d - self._cap_r - off < 0.0).any(axis=1)
-        if self._box_seg.size:  # the separating-axis bound on all (K, pairs), then exact distances where below off
-            n = self._box_seg.size
-            a, b = self._box_local(P)  # (K, pairs, 3)
-            h = self._box_h
-            near = np.flatnonzero(_box_gap(a, b, h) < off)
-            if 0 < near.size <= _SCALAR_PAIRS:  # few left: separating axes, then the exact distance, on floats
-                a2, b2, rows = a.reshape(-1, 3)[near].tolist(), b.reshape(-1, 3)[near].tolist(), (near % n).tolist()
-                hl = h.tolist()
-                for j, r in enumerate(rows):
-                    if not _separated(a2[j], b2[j], hl[r], off):
-                        d = segment_box_distance(a2[j], b2[j], hl[r])[1]
-                        if d < off or d <= 0.0:
-                            bad[near[j] // n] = True
-            elif near.size:
-                k = near // n
-                d = segment_box(a.reshape(-1, 3)[near], b.reshape(-1, 3)[near], h[near % n])[1]
-                bad[k[(d < off) | (d <= 0.0)]] = True
+        if self._sph_seg.size or self._cap_seg.size or self._box_seg.size:
+            kernel.violations(P, self._sph_ia, self._sph_ib, self._sph_c, self._sph_r_off2, self._cap_ia,
+                                           self._cap_ib, self._cap_a, self._cap_b, self._cap_r_off, self._box_ia,
+                                           self._box_ib, self._box_R, self._box_t, self._box_h, off, bad)
         if self._oth_seg.size:
             import coal
 
