@@ -28,7 +28,10 @@ against it and against sampled distances in the tests).
 :func:`kinserve.kinematics.serial_chain.kinematic_tree`: ``oMj = oM(parent) Mj
 exp(a_j q_j)``; a point ``l`` fixed to joint ``j`` is at ``R_j l + p_j``), so a
 check of a run's iterates is two compiled calls and no Pinocchio call per
-configuration. Everything the kernels call is in this file (Numba's on-disk
+configuration. For the QP steps with spheres only, :func:`sphere_geometry`
+gives the clearances, unit normals and near pairs at one configuration and
+:func:`sphere_rows` the velocity-damper rows ``n^T J_v + (o x n)^T J_w`` from
+Pinocchio's joint Jacobians (see :meth:`..obstacles.ObstacleAvoidance._sphere_rows`). Everything the kernels call is in this file (Numba's on-disk
 cache is keyed by this file; the tree FK repeats the few lines of
 :func:`kinserve.kinematics.collision_spheres.tree_placements` for that reason).
 """
@@ -47,8 +50,59 @@ _F1, _F2, _F3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))
 _I1 = _t.Array(_t.int64, 1, "C", readonly=True)
 _SIGNATURE = _t.void(_F3, _I1, _I1, _F2, _F1, _I1, _I1, _F2, _F2, _F1, _I1, _I1, _F3, _F2, _F2, _t.float64,
                      _t.boolean[::1])
-_POINTS_SIGNATURE = _t.void(_F2, _t.Array(_t.int64, 2, "C", readonly=True), _I1, _F2, _F2, _t.float64[:, :, ::1])
+_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
+_POINTS_SIGNATURE = _t.void(_F2, _I2, _I1, _F2, _F2, _t.float64[:, :, ::1])
+_SPHERES_SIGNATURE = _t.float64(_F2, _I2, _I1, _F2, _t.Array(_t.float64, 1, "A", readonly=True), _I1, _I1, _F2, _F1, _F1, _t.float64, _t.float64[::1],
+                                _t.float64[:, ::1], _t.boolean[::1])
+_ROWS_SIGNATURE = _t.int64(_F2, _F2, _t.Array(_t.float64, 2, "A", readonly=True), _F2,
+                           _t.Array(_t.boolean, 1, "C", readonly=True), _t.float64[:, ::1])
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+
+@_jit
+def _points_at(tree, joints, point_joint, point_local, q, X, out):
+    """``out[i] = R_j l_i + p_j`` at configuration ``q`` (``X`` ``(J + 1, 12)``: the joints' world placements,
+    row 0 the identity, filled here)."""
+    for m in range(joints.shape[0]):
+        g = tree[m]
+        Pa = X[joints[m, 2]]
+        o = X[m + 1]
+        for i in range(3):  # o.t = P.t + P.R M.t ; o.R = P.R M.R (then the joint motion)
+            p0, p1, p2 = Pa[3 * i], Pa[3 * i + 1], Pa[3 * i + 2]
+            o[9 + i] = Pa[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
+            for c in range(3):
+                o[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
+        ax, ay, az = g[12], g[13], g[14]
+        qm = q[joints[m, 1]]
+        if joints[m, 0] == _REVOLUTE:  # R = T Rot(a, q), Rodrigues
+            s, co = math.sin(qm), math.cos(qm)
+            v = 1.0 - co
+            r00, r01, r02 = co + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
+            r10, r11, r12 = v * ax * ay + s * az, co + v * ay * ay, v * ay * az - s * ax
+            r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, co + v * az * az
+            for i in range(3):
+                t0, t1, t2 = o[3 * i], o[3 * i + 1], o[3 * i + 2]
+                o[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
+                o[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
+                o[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
+        else:  # p += T a q
+            for i in range(3):
+                o[9 + i] += (o[3 * i] * ax + o[3 * i + 1] * ay + o[3 * i + 2] * az) * qm
+    for i in range(point_joint.shape[0]):
+        Xj = X[point_joint[i]]
+        l0, l1, l2 = point_local[i, 0], point_local[i, 1], point_local[i, 2]
+        for r in range(3):
+            out[i, r] = Xj[9 + r] + Xj[3 * r] * l0 + Xj[3 * r + 1] * l1 + Xj[3 * r + 2] * l2
+
+
+@_jit
+def _identity_placements(J: int) -> np.ndarray:
+    """``(J + 1, 12)`` placements, row 0 (the universe) the identity; the rest filled by :func:`_points_at`."""
+    X = np.empty((J + 1, 12))
+    for c in range(12):
+        X[0, c] = 0.0
+    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
+    return X
 
 
 @numba.njit(_POINTS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
@@ -56,43 +110,56 @@ def skeleton_points(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarra
                     Q: np.ndarray, P: np.ndarray) -> None:
     """World points ``P[k, i] = R_j l_i + p_j`` (``j = point_joint[i]``, ``l_i = point_local[i]``; joint 0 is the
     world) of every configuration ``Q[k]``, by forward kinematics of the packed tree (module docstring)."""
-    J = joints.shape[0]
-    X = np.empty((J + 1, 12))
-    for c in range(12):
-        X[0, c] = 0.0
-    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
+    X = _identity_placements(joints.shape[0])
     for k in range(Q.shape[0]):
-        q = Q[k]
-        for m in range(J):
-            g = tree[m]
-            Pa = X[joints[m, 2]]
-            out = X[m + 1]
-            for i in range(3):  # out.t = P.t + P.R M.t ; out.R = P.R M.R (then the joint motion)
-                p0, p1, p2 = Pa[3 * i], Pa[3 * i + 1], Pa[3 * i + 2]
-                out[9 + i] = Pa[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
-                for c in range(3):
-                    out[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
-            ax, ay, az = g[12], g[13], g[14]
-            qm = q[joints[m, 1]]
-            if joints[m, 0] == _REVOLUTE:  # R = T Rot(a, q), Rodrigues
-                s, co = math.sin(qm), math.cos(qm)
-                v = 1.0 - co
-                r00, r01, r02 = co + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
-                r10, r11, r12 = v * ax * ay + s * az, co + v * ay * ay, v * ay * az - s * ax
-                r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, co + v * az * az
-                for i in range(3):
-                    t0, t1, t2 = out[3 * i], out[3 * i + 1], out[3 * i + 2]
-                    out[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
-                    out[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
-                    out[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
-            else:  # p += T a q
-                for i in range(3):
-                    out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qm
-        for i in range(point_joint.shape[0]):
-            Xj = X[point_joint[i]]
-            l0, l1, l2 = point_local[i, 0], point_local[i, 1], point_local[i, 2]
-            for r in range(3):
-                P[k, i, r] = Xj[9 + r] + Xj[3 * r] * l0 + Xj[3 * r + 1] * l1 + Xj[3 * r + 2] * l2
+        _points_at(tree, joints, point_joint, point_local, Q[k], X, P[k])
+
+
+@numba.njit(_SPHERES_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def sphere_geometry(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
+                    q: np.ndarray, ia: np.ndarray, ib: np.ndarray, centers: np.ndarray, inv_len2: np.ndarray,
+                    r_off: np.ndarray, influence: float, c: np.ndarray, V: np.ndarray, near: np.ndarray) -> float:
+    """Clearances ``c = |x - o| - (r + off)`` of the sphere pairs at ``q`` (rigid segments: ``1 / |b - a|^2``
+    given), the unit normals ``V`` (witness point ``x`` minus centre ``o``, rows) and the pairs within
+    ``influence`` with a defined normal (``near``); returns the smallest clearance (m)."""
+    X = _identity_placements(joints.shape[0])
+    P = np.empty((point_joint.shape[0], 3))
+    _points_at(tree, joints, point_joint, point_local, q, X, P)
+    lowest = np.inf
+    for p in range(ia.shape[0]):
+        A, B, o = P[ia[p]], P[ib[p]], centers[p]
+        ux, uy, uz = B[0] - A[0], B[1] - A[1], B[2] - A[2]
+        wx, wy, wz = o[0] - A[0], o[1] - A[1], o[2] - A[2]
+        s = min(max((wx * ux + wy * uy + wz * uz) * inv_len2[p], 0.0), 1.0)
+        vx, vy, vz = s * ux - wx, s * uy - wy, s * uz - wz  # x - o
+        d = math.sqrt(vx * vx + vy * vy + vz * vz)
+        c[p] = d - r_off[p]
+        lowest = min(lowest, c[p])
+        near[p] = c[p] < influence and d > 1e-12
+        f = 1.0 / max(d, 1e-12)
+        V[p, 0], V[p, 1], V[p, 2] = vx * f, vy * f, vz * f
+    return lowest
+
+
+@numba.njit(_ROWS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def sphere_rows(V: np.ndarray, centers: np.ndarray, J: np.ndarray, support: np.ndarray, near: np.ndarray,
+                G: np.ndarray) -> int:
+    """Rows ``n^T J_v + (o x n)^T J_w`` (masked by the support of the pair's segment) of the ``near`` pairs
+    into the first rows of ``G``; returns their number. ``J``: Pinocchio's WORLD joint Jacobians ``(6, nv)``
+    (``data.J``); the moment arm of a sphere row is its centre ``o`` (the witness point is ``o + d n``)."""
+    k = 0
+    nv = J.shape[1]
+    for p in range(V.shape[0]):
+        if not near[p]:
+            continue
+        n0, n1, n2 = V[p, 0], V[p, 1], V[p, 2]
+        o = centers[p]
+        m0, m1, m2 = o[1] * n2 - o[2] * n1, o[2] * n0 - o[0] * n2, o[0] * n1 - o[1] * n0
+        for j in range(nv):
+            G[k, j] = (n0 * J[0, j] + n1 * J[1, j] + n2 * J[2, j] + m0 * J[3, j] + m1 * J[4, j]
+                       + m2 * J[5, j]) * support[p, j]
+        k += 1
+    return k
 
 
 @_jit

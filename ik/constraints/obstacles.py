@@ -698,7 +698,7 @@ class ObstacleAvoidance(Constraint):
         normals, near mask), whose ``c = d - (r + offset)`` equals ``(d - r) - offset`` to ~1e-17 m.
         """
         if self._sph_only:  # the clearances, normals and near mask of _sphere_rows, kept for rows() at this q
-            w = self._sphere_geometry(data)
+            w = self._sphere_geometry(data, q)
             self._last = (data, q, w)
             c = w[0]
             return float(_min(c)) if c.size else math.inf
@@ -713,7 +713,7 @@ class ObstacleAvoidance(Constraint):
     def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         last = self._last
         if self._sph_only:
-            return self._sphere_rows(data, last[2] if last is not None and last[0] is data and last[1] is q else None)
+            return self._sphere_rows(data, q, last[2] if last is not None and last[0] is data and last[1] is q else None)
         if last is not None and last[0] is data and last[1] is q:
             c, seg, s, N, A, B = last[2]
         else:
@@ -742,11 +742,21 @@ class ObstacleAvoidance(Constraint):
             for k in ("_sph_S", "_sph_W", "_sph_Wk"):
                 shared[k] = getattr(self, k)
 
-    def _sphere_geometry(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(c, N, near)`` of every sphere pair (rigid segments): clearances ``c = d - r - offset`` (m), unit
-        normals ``N`` (rows, from the centre to the witness point) and the mask of the pairs that give rows
-        (``c < influence`` and a defined normal). Forward kinematics only."""
-        P = self.skeleton.points(data)
+    def _sphere_geometry(self, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(c, N, near)`` of every sphere pair (rigid segments) at ``q``: clearances ``c = d - r - offset`` (m),
+        unit normals ``N`` (rows, from the centre to the witness point) and the mask of the pairs that give rows
+        (``c < influence`` and a defined normal). One compiled call
+        (:func:`.clearance_kernel.sphere_geometry`); forward kinematics in ``data`` when the tree has joints it
+        does not model."""
+        sk = self.skeleton
+        tree = sk.tree
+        if tree is not None:
+            n = self._sph_seg.shape[0]
+            c, V, near = np.empty(n), np.empty((n, 3)), np.empty(n, dtype=bool)
+            _clearance_kernel().sphere_geometry(*tree, *sk.point_table, q, self._sph_ia, self._sph_ib, self._sph_c,
+                                                self._sph_inv, self._sph_r_off, self.influence, c, V, near)
+            return c, V, near
+        P = sk.points(data)
         n = self._sph_seg.shape[0]
         X = P.take(self._sph_iab, 0)  # both ends of every pair in one gather (take: cheaper than fancy indexing)
         A = X[:n]
@@ -766,7 +776,8 @@ class ObstacleAvoidance(Constraint):
             V /= _fmax(d, _EPS)[:, None]
         return c, V, near
 
-    def _sphere_rows(self, data: pin.Data, geometry: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _sphere_rows(self, data: pin.Data, q: np.ndarray,
+                     geometry: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
 
         With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
@@ -775,7 +786,12 @@ class ObstacleAvoidance(Constraint):
         """
         if self._sph_W is None:
             self._sphere_constants()
-        c, V, near = self._sphere_geometry(data) if geometry is None else geometry
+        c, V, near = self._sphere_geometry(data, q) if geometry is None else geometry
+        if self.skeleton.tree is not None:  # the rows of the near pairs in one compiled call
+            G = np.empty((c.shape[0], data.J.shape[1]))
+            k = _clearance_kernel().sphere_rows(V, self._sph_c, data.J, self._sph_S, near, G)
+            c = c.compress(near)
+            return G[:k], -self.gain * c, _INF[:k] if k <= _INF.shape[0] else np.full(k, np.inf)
         # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint;
         # computed for every pair (a few more rows of small products), then the far pairs are dropped
         blocks = self._sph_blocks
