@@ -309,7 +309,7 @@ def solve_lm(
     fid = target.frame_id
     full = target.full
     # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
-    compiled = _compiled_chain(robot, fid) if full else None
+    compiled = compiled_chain(robot, fid) if full else None
     t0 = _now()
     deadline = t0 + (MAX_TIME if max_time is None else max_time)
     model, data = robot.model, robot.data
@@ -413,7 +413,7 @@ def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> t
 _chains = PerModel()
 
 
-def _compiled_chain(robot: Robot, fid: int) -> tuple | None:
+def compiled_chain(robot: Robot, fid: int) -> tuple | None:
     """``(kernel, geometry, joints)`` of the chain to frame ``fid`` (cached per model), or None.
 
     None when :data:`COMPILED` is off, Numba is not installed or the chain has

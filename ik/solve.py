@@ -57,7 +57,7 @@ from .classical import solve_classical
 from .constraints import as_sphere
 from .constraints.obstacles import ObstacleAvoidance, as_obstacle
 from .dense_qp import DEFAULT_BACKEND
-from .lm_solver import solve_lm
+from .lm_solver import compiled_chain, solve_lm
 from .multistart import frame_starts
 from .options import OPTIONS, check_options, solver_keywords
 from .problem import Problem
@@ -196,6 +196,8 @@ def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, l
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     if avoid is not None and method in _NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
+    if tgt.full:
+        compiled_chain(robot, tgt.frame_id)  # the compiled LM loaded here, before any solver's clock starts
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=avoid, method=method)
 

@@ -132,7 +132,7 @@ def test_other_joints_keep_pinocchio_algorithms(joint):
     robot = _model_with(joint)
     fid = robot.frame_id("tool")
     assert serial_chain(robot.model, fid) is None
-    assert lm_solver._compiled_chain(robot, fid) is None
+    assert lm_solver.compiled_chain(robot, fid) is None
     q_goal = np.full(robot.nq, 0.3)
     T = robot.fk(q_goal, "tool")
     # (seed tables sample with the batch FK, which models revolute / prismatic joints only: start from q0)
@@ -168,3 +168,25 @@ def test_chain_with_a_joint_off_the_path():
     q0 = np.array([0.0, 0.0, 1.1])
     res = ik.solve(robot, T, q0, frame="tool", relax=(), method="lm", prefer_q0=True, seed=0)
     assert res.success and res.q[2] == 1.1  # the off-path joint never moves
+
+
+def test_a_fresh_process_loads_the_kernels_outside_the_time_budget():
+    """The first solve of a process (plain, then with obstacles) imports Numba and loads the compiled code before
+    any solver's clock starts: a 20 ms budget is enough for both."""
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np\n"
+        "from kinserve import ik, robots\n"
+        "r = robots.load('panda', geometry=False)\n"
+        "rng = np.random.default_rng(0)\n"
+        "q, q0 = r.random_q(rng, 2)\n"
+        "T = r.fk(q)\n"
+        "a = ik.solve(r, T, q0, max_time=0.02, seed=0)\n"
+        "b = ik.solve(r, T, q0, obstacles=[ik.Sphere((3.0, 3.0, 3.0), 0.1)], max_time=0.02, seed=0)\n"
+        "print(a.success, b.success, a.elapsed < 0.02, b.elapsed < 0.02)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["True"] * 4, out.stdout

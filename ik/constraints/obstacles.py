@@ -227,6 +227,8 @@ class ObstacleAvoidance(Constraint):
         extra = tuple(dict.fromkeys(f for ob in self.obstacles if ob.frames is not None for f in ob.frames))
         sk, n_default, fixed = _skeleton(robot, tools, extra)
         self.skeleton = sk
+        if sk.tree is not None:
+            _clearance_kernel()  # imported (Numba, the compiled code) now, not inside the first solve's time budget
         frame_index = {name: n_default + k for k, name in enumerate(extra)}
         segs_default = list(range(n_default))
         # per kind: (obstacle index, obstacle, segment ids); pairs are ordered spheres, capsules, boxes,
