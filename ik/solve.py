@@ -196,8 +196,7 @@ def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, l
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     if avoid is not None and method in _NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
-    if tgt.full:
-        compiled_chain(robot, tgt.frame_id)  # the compiled LM loaded here, before any solver's clock starts
+    compiled_chain(robot, tgt.frame_id)  # the compiled LM loaded here, before any solver's clock starts
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=avoid, method=method)
 
