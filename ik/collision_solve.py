@@ -84,14 +84,41 @@ def collision_options(self_collision: bool = False, obstacles: Sequence = (), co
     return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": margin}
 
 
+def ordinary_solve_checked(robot: Robot, tgt, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
+                           max_time: float | None, seed: int | None, lm_options: dict, *, self_collision: bool = False,
+                           obstacles: Sequence = (), collision_margin: float = 0.0) -> tuple:
+    """The first attempt of :func:`_unconstrained_attempts` on its own: the ordinary LM solve (``q0``, the
+    table's nearest samples, restarts; half the time budget at most), then one check of its answer and
+    iterates (:func:`_path_is_free`). Arguments are checked (``ik.solve``'s short path).
+
+    Returns ``(result, first, t0)``: the collision-free result, or None with ``first`` the ordinary
+    result to pass on (``p["first_attempt"]``, ``p["t0"]``) to :func:`solve_collision_free`; also None
+    and None when the robot has no collision model (the general path falls back to the link capsules).
+    """
+    t0 = time.perf_counter()
+    try:
+        constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
+    except ModelError:
+        return None, None, t0
+    budget = MAX_TIME if max_time is None else max_time
+    res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=0.5 * budget, seed=seed, **lm_options)
+    if res.success and _path_is_free(constraint, res):
+        res = _checked(res, 1 + res.restarts)
+        res.elapsed = time.perf_counter() - t0
+        return res, None, t0
+    return None, res, t0
+
+
 def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Result], *, self_collision: bool = False,
                          obstacles: Sequence = (), collision_margin: float = 0.0, **solver_opts: Any) -> Result:
     """Collision-free IK on arguments checked by :func:`ik.solve.prepare` (``p``); see the module docstring.
 
     ``solve_prepared`` is :func:`ik.solve.solve_prepared` (the solver without the collision layer), passed in
-    by the caller so that this module does not import :mod:`ik.solve` (no import circle).
+    by the caller so that this module does not import :mod:`ik.solve` (no import circle). ``p`` may carry
+    ``first_attempt`` (the ordinary solve, already run and found colliding by :func:`ordinary_solve_checked`)
+    and ``t0`` (when the solve started: the time budget counts from there).
     """
-    t0 = time.perf_counter()
+    t0 = p.get("t0") or time.perf_counter()
     obs = as_obstacles(obstacles)
     if p["spheres"] is not None:
         raise InputError("spheres cannot be combined with self_collision / obstacles in a prepared solve; "
@@ -193,10 +220,12 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
             skip, failed = res.history.q[0], res.history.q
     run = None if closed else _lm_run(robot, p, solver_opts)
     if run is not None:  # the ordinary solve first, exactly as without collision checking; then its run is checked
-        res = run.ordinary(max(deadline - time.perf_counter(), 1e-4))
+        res = p.get("first_attempt")  # (already run and checked by ordinary_solve_checked)
+        if res is None:
+            res = run.ordinary(max(deadline - time.perf_counter(), 1e-4))
+            if res.success and _path_is_free(constraint, res):
+                return _checked(res, 1 + res.restarts), None
         attempt = 1 + res.restarts
-        if res.success and _path_is_free(constraint, res):
-            return _checked(res, attempt), None
         if res.history is not None and len(res.history):
             failed = res.history.iterates()
             skip = failed[0]

@@ -246,6 +246,35 @@ def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, t
                     **solver_keywords(options))
 
 
+def _solve_pose_collision_free(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                               collision: dict, options: dict) -> Result:
+    """:func:`_solve_pose` with collision checking: the ordinary LM solve, then one check of its run.
+
+    The cheap path of :mod:`ik.collision_solve` without its general set-up: in an open scene the
+    ordinary answer and its iterates are almost always collision free
+    (:func:`ik.collision_solve.ordinary_solve_checked`). Otherwise, and whenever the robot has no
+    collision model, ``"auto"`` finds a closed form or an option only another method accepts, the
+    general path (:func:`solve_prepared`) runs - given the ordinary run already tried and the start
+    of the clock, so that nothing is solved twice and the time budget holds.
+    """
+    _check_robot(robot)
+    tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
+    q0 = _checked_q0(robot, q0)
+    tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
+    p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+             backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
+    if (options and not options.keys() <= _LM_OPTION_SET) or (method == "auto" and _closed_form(robot, tgt.frame) is not None):
+        return solve_prepared(robot, p, **collision, **options)
+    _check_options("lm", options)
+    compiled_chain(robot, tgt.frame_id)  # (loaded before the clock starts)
+    res, first, t0 = _collision_module().ordinary_solve_checked(robot, tgt, q0, tol_pos, tol_rot, max_time, seed,
+                                                                 solver_keywords(options), **collision)
+    if res is not None:
+        return res
+    p["first_attempt"], p["t0"] = first, t0
+    return solve_prepared(robot, p, **collision, **options)
+
+
 def solve(
     robot: Robot,
     target: PoseLike | Target | None = None,
@@ -370,7 +399,12 @@ def solve(
         return _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
                            options)
     if self_collision or collision_margin:
-        options.update(_collision_module().collision_options(self_collision, obstacles, collision_margin, spheres))
+        collision = _collision_module().collision_options(self_collision, obstacles, collision_margin, spheres)
+        if (method == "auto" or method == "lm") and constraints is None and type(link_radius) is float \
+                and link_radius == 0.0 and type(centring) is float and centring == 0.0 and backend is None:
+            return _solve_pose_collision_free(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot,
+                                              max_time, seed, collision, options)
+        options.update(collision)
         spheres, obstacles = (), ()
     p = _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method, backend,
                  tol_pos, tol_rot, max_time, seed)
