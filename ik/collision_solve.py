@@ -44,7 +44,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import coal
 import numpy as np
@@ -62,6 +62,9 @@ from .options import check_options, solver_keywords
 from .qp_solver import solve_qp
 from .seeds import seed_table, start_sequence
 from .result import History, Result
+
+if TYPE_CHECKING:  # annotations only
+    from .targets import Target
 
 _clip = numpy_fast.clip
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
@@ -84,7 +87,7 @@ def collision_options(self_collision: bool = False, obstacles: Sequence = (), co
     return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": margin}
 
 
-def ordinary_solve_checked(robot: Robot, tgt, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
+def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
                            max_time: float | None, seed: int | None, lm_options: dict, *, self_collision: bool = False,
                            obstacles: Sequence = (), collision_margin: float = 0.0) -> tuple:
     """The first attempt of :func:`_unconstrained_attempts` on its own: the ordinary LM solve (``q0``, the
