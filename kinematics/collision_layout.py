@@ -72,6 +72,8 @@ def _zero_security_margins(gd: pin.GeometryData) -> None:
         _FRESH_MARGINS_ZERO.append(zero)
 
 
+_UNBUILT = object()  #: marks a pre-check not built yet (None means: none possible)
+
 #: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
 GJK_TOLERANCE = 1e-9
 
@@ -114,12 +116,35 @@ _forward_kinematics = pin.forwardKinematics
 _update_placements = pin.updateGeometryPlacements
 
 
-def check_configurations(check: tuple, qs: Iterable[np.ndarray]) -> int:
+def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple | None = None) -> int:
     """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
     in collision, or -1: per configuration forward kinematics, geometry placements, world AABBs, then
-    broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`)."""
+    broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`).
+
+    With ``precheck`` (:meth:`.collision_spheres.ScenePrecheck.arguments` of the scene), every
+    configuration is first offered to the sphere pre-check in one compiled call; coal then runs only on
+    the configurations it does not certify free, in order - the same answer, since a certified
+    configuration is one coal finds free.
+    """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
+    if precheck is not None:
+        qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
+        if not len(qs):
+            return -1
+        try:
+            free = _certify(precheck, qs)
+        except (TypeError, ValueError):  # not a batch of float configurations of one size: coal decides (and raises)
+            free = None
+        if free is not None:
+            for k in np.flatnonzero(~free).tolist():
+                q = qs[k]
+                fk(model, data, q)
+                place(model, data, gm, gd)
+                update(False)
+                if collide(callback):
+                    return k
+            return -1
     for k, q in enumerate(qs):
         fk(model, data, q)
         place(model, data, gm, gd)
@@ -127,6 +152,13 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray]) -> int:
         if collide(callback):
             return k
     return -1
+
+
+def _certify(precheck: tuple, qs: Any) -> np.ndarray:
+    """Per configuration of ``qs``, True when the sphere pre-check certifies it free (one compiled call)."""
+    batch, arrays, tol = precheck[1], precheck[2:-1], precheck[-1]
+    Q = np.asarray(qs, dtype=float)
+    return batch(*arrays, Q if Q.ndim == 2 else Q.reshape(len(Q), -1), tol)
 
 
 class SceneLayout:
@@ -168,6 +200,26 @@ class SceneLayout:
         self.pair_joints = np.asarray(joints, dtype=int)[self.pairs].reshape(-1, 2)
         self.broad_phase = broad_phase_manager_class(gm.ngeoms)
         self._local = threading.local()
+        self._cmodel = cmodel
+        self._precheck: Any = _UNBUILT
+
+    def precheck(self) -> Any:
+        """The layout's sphere pre-check (:class:`.collision_spheres.ScenePrecheck`: the robot's spheres and
+        the pair table; built on first use), or None when the robot's tree or geometry has no sphere
+        packing (:func:`.collision_spheres.robot_spheres`), the layout has no pairs, or Numba is missing."""
+        pre = self._precheck
+        if pre is _UNBUILT:
+            pre = None
+            if len(self.pairs):
+                try:
+                    from . import collision_spheres
+                except ImportError:  # pragma: no cover - Numba is a dependency; without it coal alone decides
+                    collision_spheres = None
+                robot = None if collision_spheres is None else collision_spheres.robot_spheres_of(self._cmodel)
+                if robot is not None:
+                    pre = collision_spheres.ScenePrecheck(robot, self.pairs, self.n_robot, self.obstacle_geometries)
+            self._precheck = pre
+        return pre
 
     def placed(self, obstacles: tuple) -> pin.GeometryModel:
         """A copy of the layout's ``GeometryModel`` with the obstacle objects at the poses of ``obstacles``."""

@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .collision_layout import SceneLayout, _forward_kinematics, _update_placements, check_configurations
+from .collision_layout import _UNBUILT, SceneLayout, _forward_kinematics, _update_placements, check_configurations
 
 if TYPE_CHECKING:
     from .collision_model import CollisionModel
@@ -90,6 +90,7 @@ class CollisionScene:
         #: Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2).
         self.pair_joints = layout.pair_joints
         self._local = layout._local  # the layout's per-thread state: its shell says whose obstacles it holds
+        self._precheck: Any = _UNBUILT  # the sphere pre-check's arguments with these obstacle poses (first query)
 
     def __len__(self) -> int:
         return len(self.pairs)
@@ -115,13 +116,34 @@ class CollisionScene:
             ws = self.layout.shell(self.obstacles, self.placements)
         return ws
 
+    def precheck(self) -> tuple | None:
+        """The arguments of the compiled sphere pre-check with this scene's obstacle poses
+        (:meth:`.collision_spheres.ScenePrecheck.arguments`; built on first use), or None when the layout
+        has none (:meth:`.collision_layout.SceneLayout.precheck`)."""
+        pre = self._precheck
+        if pre is _UNBUILT:
+            layout_check = self.layout.precheck()
+            pre = self._precheck = None if layout_check is None else layout_check.arguments(self.placements)
+        return pre
+
     # ----------------------------------------------------------------- queries
     def in_collision(self, q: np.ndarray) -> bool:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
 
-        ``q``: a float ``(nq,)`` array (unchecked). :func:`~.collision_layout.check_configurations` on one
-        configuration, its steps inlined.
+        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`): a
+        configuration it certifies is free without coal; otherwise
+        :func:`~.collision_layout.check_configurations` on one configuration, its steps inlined.
         """
+        pre = self._precheck
+        if pre is _UNBUILT:
+            pre = self.precheck()
+        if pre is not None:
+            one, _batch, tree, joints, spheres, geoms, pairs, obstacles, tol = pre
+            try:
+                if one(tree, joints, spheres, geoms, pairs, obstacles, q, tol):
+                    return False
+            except TypeError:  # not a float vector: coal decides (and raises as before)
+                pass
         ws = getattr(self._local, "shell", None)
         if ws is None or ws[4] is not self.obstacles:
             ws = self.layout.shell(self.obstacles, self.placements)
@@ -136,11 +158,15 @@ class CollisionScene:
 
     def first_collision(self, qs: Sequence[np.ndarray]) -> int:
         """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
-        in collision, -1 when none is: :meth:`in_collision` of each in one loop (stops at the first hit)."""
+        in collision, -1 when none is: the sphere pre-check of all of them in one compiled call, then
+        :meth:`in_collision`'s coal check of each uncertified one in one loop (stops at the first hit)."""
         ws = getattr(self._local, "shell", None)
         if ws is None or ws[4] is not self.obstacles:
             ws = self.layout.shell(self.obstacles, self.placements)
-        return -1 if ws[5] is None else check_configurations(ws[5], qs)
+        if ws[5] is None:
+            return -1
+        pre = self._precheck
+        return check_configurations(ws[5], qs, self.precheck() if pre is _UNBUILT else pre)
 
     def colliding(self, q: np.ndarray) -> list[int]:
         """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""

@@ -16,10 +16,19 @@ The compiled kernels of :mod:`kinserve.ik.lm_kernel` evaluate the chain from
 these arrays (pose and Jacobian, checked against Pinocchio in the tests).
 Units: metres and radians.
 
+:func:`kinematic_tree` packs every joint of a model the same way (the whole
+tree, for the compiled collision pre-check of :mod:`.collision_spheres`):
+
+* ``geometry`` ``(J, 15)``: row ``k`` is Pinocchio joint ``k + 1`` (rows as
+  above: placement in its parent joint frame, unit axis);
+* ``joints`` ``(J, 3)`` integers: kind, index in ``q``, and the Pinocchio
+  index of the parent joint (``0`` = the universe; always below ``k + 1``, so
+  rows taken in order see their parent's world placement already computed).
+
 Only chains of one-degree-of-freedom revolute and prismatic joints (any
-axis) are packed; any other joint on the path (free-flyer, planar,
-spherical, continuous, mimic...) gives ``None`` and the caller keeps
-Pinocchio's own algorithms.
+axis) are packed; any other joint on the path - for the tree, anywhere in the
+model - (free-flyer, planar, spherical, continuous, mimic...) gives ``None``
+and the caller keeps Pinocchio's own algorithms.
 """
 
 from __future__ import annotations
@@ -87,4 +96,30 @@ def serial_chain(model: pin.Model, frame_id: int) -> tuple[np.ndarray, np.ndarra
         joints[k] = REVOLUTE if kind == "R" else PRISMATIC, model.joints[j].idx_q
     geometry[-1, :9] = frame.placement.rotation.reshape(9)
     geometry[-1, 9:12] = frame.placement.translation
+    return geometry, joints
+
+
+def kinematic_tree(model: pin.Model) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(geometry, joints)`` of every joint of ``model`` (module docstring), or None.
+
+    None when a joint is not a one-DoF revolute / prismatic joint, or when the
+    configuration and velocity sizes differ. A model without joints gives
+    arrays of zero rows.
+    """
+    if model.nq != model.nv:
+        return None
+    n = model.njoints - 1
+    geometry = np.zeros((n, 15))
+    joints = np.zeros((n, 3), dtype=np.int64)
+    for j in range(1, model.njoints):
+        kind_axis = joint_axis(model.joints[j])
+        if kind_axis is None:
+            return None
+        kind, axis = kind_axis
+        M = model.jointPlacements[j]
+        row = geometry[j - 1]
+        row[:9] = M.rotation.reshape(9)
+        row[9:12] = M.translation
+        row[12:] = axis / np.linalg.norm(axis)
+        joints[j - 1] = REVOLUTE if kind == "R" else PRISMATIC, model.joints[j].idx_q, model.parents[j]
     return geometry, joints
