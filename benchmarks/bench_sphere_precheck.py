@@ -59,9 +59,9 @@ def certified(scene, qs) -> np.ndarray | None:
     pre = getattr(scene, "precheck", None)
     if pre is None or pre() is None:
         return None
-    from kinserve.kinematics.collision_layout import _certify
+    from kinserve.kinematics.collision_spheres import certify
 
-    return _certify(pre(), np.asarray(qs))
+    return certify(pre(), np.asarray(qs))
 
 
 def rate(scene, qs, truth) -> float | None:

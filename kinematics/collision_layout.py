@@ -121,29 +121,34 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     in collision, or -1: per configuration forward kinematics, geometry placements, world AABBs, then
     broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`).
 
-    With ``precheck`` (:meth:`.collision_spheres.ScenePrecheck.arguments` of the scene), every
-    configuration is first offered to the sphere pre-check in one compiled call; coal then runs only on
-    the configurations it does not certify free, in order - the same answer, since a certified
-    configuration is one coal finds free.
+    With ``precheck`` (:meth:`.collision_spheres.ScenePrecheck.arguments` of the scene), the sphere
+    pre-check runs first, over the configurations in order in one compiled call
+    (:func:`.collision_spheres.first_uncertified`), and coal runs only on the first configuration it
+    cannot certify free; a free one there resumes the pre-check after it. The same answer, since a
+    certified configuration is one coal finds free; a path the pre-check certifies whole costs one
+    compiled call.
     """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
     if precheck is not None:
         qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
-        if not len(qs):
-            return -1
-        try:
-            free = _certify(precheck, qs)
-        except (TypeError, ValueError):  # not a batch of float configurations of one size: coal decides (and raises)
-            free = None
-        if free is not None:
-            for k in np.flatnonzero(~free).tolist():
-                q = qs[k]
-                fk(model, data, q)
+        N = len(qs)
+        Q = None
+        if N:
+            try:
+                Q = np.asarray(qs, dtype=float)
+            except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
+                pass
+        if Q is not None and Q.ndim == 2:
+            first, arrays, tol = precheck[1], precheck[2:-1], precheck[-1]
+            k = first(*arrays, Q, 0, tol)
+            while k < N:
+                fk(model, data, qs[k])
                 place(model, data, gm, gd)
                 update(False)
                 if collide(callback):
                     return k
+                k = first(*arrays, Q, k + 1, tol)
             return -1
     for k, q in enumerate(qs):
         fk(model, data, q)
@@ -152,13 +157,6 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
         if collide(callback):
             return k
     return -1
-
-
-def _certify(precheck: tuple, qs: Any) -> np.ndarray:
-    """Per configuration of ``qs``, True when the sphere pre-check certifies it free (one compiled call)."""
-    batch, arrays, tol = precheck[1], precheck[2:-1], precheck[-1]
-    Q = np.asarray(qs, dtype=float)
-    return batch(*arrays, Q if Q.ndim == 2 else Q.reshape(len(Q), -1), tol)
 
 
 class SceneLayout:

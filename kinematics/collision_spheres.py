@@ -49,8 +49,9 @@ to every radius.
   cylinder ``|(max(sqrt(p_x^2 + p_y^2) - r, 0), max(|p_z| - L, 0))| - rho``;
   any other shape: its AABB sphere, as a sphere.
 
-**The kernel** (:func:`certify_configurations`, :func:`certify_configuration`;
-Numba, one call over a batch of configurations) runs the forward kinematics
+**The kernels** (:func:`certify_configuration` for one configuration,
+:func:`first_uncertified` and :func:`certify_configurations` over a batch in
+one call; Numba) runs the forward kinematics
 of the whole tree (:func:`~.serial_chain.kinematic_tree`; joint ``j``'s
 world placement ``oMj = oM(parent) * Mj * exp(a_j q_j)``, as
 :mod:`kinserve.ik.lm_kernel`), moves every sphere centre to the world
@@ -317,12 +318,12 @@ class ScenePrecheck:
         self.obstacle_geometries = list(obstacle_geometries)
 
     def arguments(self, placements: list) -> tuple:
-        """``(certify_configuration, certify_configurations, tree, joints, spheres, geoms, pairs, obstacles,
+        """``(certify_configuration, first_uncertified, tree, joints, spheres, geoms, pairs, obstacles,
         tolerance)`` for the obstacles at ``placements`` (``pinocchio.SE3``, one per obstacle geometry)."""
         rows = [obstacle_row(g, M) for g, M in zip(self.obstacle_geometries, placements)]
         obstacles = np.array(rows).reshape(-1, 16)
         r = self.robot
-        return (certify_configuration, certify_configurations, r.tree, r.joints, r.spheres, r.geoms, self.pairs,
+        return (certify_configuration, first_uncertified, r.tree, r.joints, r.spheres, r.geoms, self.pairs,
                 obstacles, TOLERANCE)
 
 
@@ -337,6 +338,8 @@ _Q1 = _t.Array(_t.float64, 1, "A", readonly=True)
 _Q2 = _t.Array(_t.float64, 2, "A", readonly=True)
 _ONE_SIGNATURE = _t.boolean(_F2, _I2, _F2, _I2, _I2, _F2, _Q1, _t.float64)
 _BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F2, _I2, _F2, _I2, _I2, _F2, _Q2, _t.float64)
+_FIRST_SIGNATURE = _t.int64(_F2, _I2, _F2, _I2, _I2, _F2, _Q2, _t.int64, _t.float64)
+_BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F2, _I2, _F2, _I2, _I2, _F2, _Q1)
 _TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
 
 
@@ -493,14 +496,103 @@ def certify_configurations(tree: np.ndarray, joints: np.ndarray, spheres: np.nda
     return out
 
 
+@numba.njit(_FIRST_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def first_uncertified(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                      pairs: np.ndarray, obstacles: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
+    """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that :func:`certify_configuration` does
+    not certify, ``N`` when it certifies them all (``start`` when the rows have not one entry per joint)."""
+    n = joints.shape[0]
+    N = qs.shape[0]
+    if qs.shape[1] != n:
+        return max(start, 0)
+    X = np.empty((n + 1, 12))
+    W = np.empty((spheres.shape[0], 4))
+    placed = np.full(geoms.shape[0], -1, dtype=np.int64)
+    for k in range(max(start, 0), N):
+        if not _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k):
+            return k
+    return N
+
+
+@_inline
+def _gap(W, i, j):
+    """``|c_i - c_j| - r_i - r_j`` (m): a lower bound of the distance between what spheres ``i`` and ``j`` hold."""
+    dx, dy, dz = W[i, 0] - W[j, 0], W[i, 1] - W[j, 1], W[i, 2] - W[j, 2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz) - W[i, 3] - W[j, 3]
+
+
+@_inline
+def _obstacle_gap(W, i, obstacles, o):
+    """The exact distance (m) from sphere ``i``'s centre to obstacle ``o`` (a BALL: to its sphere), minus the
+    sphere's radius: a lower bound of the distance between what the sphere holds and the obstacle."""
+    dx, dy, dz = W[i, 0] - obstacles[o, 9], W[i, 1] - obstacles[o, 10], W[i, 2] - obstacles[o, 11]
+    kind = obstacles[o, KIND]
+    if kind == BALL:
+        return math.sqrt(dx * dx + dy * dy + dz * dz) - obstacles[o, 13] - W[i, 3]
+    px = obstacles[o, 0] * dx + obstacles[o, 3] * dy + obstacles[o, 6] * dz
+    py = obstacles[o, 1] * dx + obstacles[o, 4] * dy + obstacles[o, 7] * dz
+    pz = obstacles[o, 2] * dx + obstacles[o, 5] * dy + obstacles[o, 8] * dz
+    if kind == BOX:
+        qx, qy, qz = abs(px) - obstacles[o, 13], abs(py) - obstacles[o, 14], abs(pz) - obstacles[o, 15]
+        ex, ey, ez = max(qx, 0.0), max(qy, 0.0), max(qz, 0.0)
+        return math.sqrt(ex * ex + ey * ey + ez * ez) + min(max(qx, qy, qz), 0.0) - W[i, 3]
+    if kind == CAPSULE:
+        half = obstacles[o, 14]
+        ez = pz - min(max(pz, -half), half)
+        return math.sqrt(px * px + py * py + ez * ez) - obstacles[o, 13] - W[i, 3]
+    qr, qz = math.sqrt(px * px + py * py) - obstacles[o, 13], abs(pz) - obstacles[o, 14]
+    er, ez = max(qr, 0.0), max(qz, 0.0)
+    return math.sqrt(er * er + ez * ez) + min(max(qr, qz), 0.0) - W[i, 3]
+
+
+@numba.njit(_BOUNDS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def pair_lower_bounds(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                      pairs: np.ndarray, obstacles: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per pair, the lower bound (m) of its distance at ``q`` that the certification tests against the
+    tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover spheres of the two geometries,
+
+        self pair:      max(gap(B_a, B_b), min_i max(gap(i, B_b), min_j gap(i, j)))
+        obstacle pair:  max(gap(B_a, O), min_i gap(i, O))
+
+    (``gap``: centre distance minus radii; for an obstacle, the exact point distance minus the radius).
+    :func:`certify_configuration` certifies ``q`` exactly when every entry exceeds its tolerance (it compares
+    squares instead); this form is for tests and diagnostics.
+    """
+    n = joints.shape[0]
+    X = np.empty((n + 1, 12))
+    W = np.empty((spheres.shape[0], 4))
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        _place(X, geoms[g, 0], spheres, g, W)
+        for s in range(geoms[g, 1], geoms[g, 2]):
+            _place(X, geoms[g, 0], spheres, s, W)
+    out = np.empty(pairs.shape[0])
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] == SELF_PAIR:
+            parts = math.inf
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                inner = math.inf
+                for j in range(geoms[b, 1], geoms[b, 2]):
+                    inner = min(inner, _gap(W, i, j))
+                parts = min(parts, max(_gap(W, i, b), inner))
+            out[p] = max(_gap(W, a, b), parts)
+        else:
+            parts = math.inf
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                parts = min(parts, _obstacle_gap(W, i, obstacles, b))
+            out[p] = max(_obstacle_gap(W, a, obstacles, b), parts)
+    return out
+
+
 def certify(arguments: tuple, qs: Any) -> np.ndarray:
     """:func:`certify_configurations` with :meth:`ScenePrecheck.arguments` on configurations ``qs`` (a sequence
-    of ``(nq,)`` arrays or an ``(N, nq)`` array)."""
-    _one, batch, *arrays, tol = arguments
-    Q = np.ascontiguousarray(np.asarray(qs, dtype=float).reshape(len(qs), -1))
-    return batch(*arrays, Q, tol)
+    of ``(nq,)`` float arrays or an ``(N, nq)`` array): per configuration, True when certified free."""
+    arrays, tol = arguments[2:-1], arguments[-1]
+    Q = np.asarray(qs, dtype=float)
+    return certify_configurations(*arrays, Q.reshape(len(Q), -1), tol)
 
 
-__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "certify_configuration",
-           "certify_configurations", "enclosing_ball", "geometry_cover", "obstacle_row",
+__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "certify_configuration", "certify_configurations",
+           "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row", "pair_lower_bounds",
            "polytope_cover", "robot_spheres", "robot_spheres_of", "tree_placements"]
