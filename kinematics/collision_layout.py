@@ -140,15 +140,15 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
             except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
                 pass
         if Q is not None and Q.ndim == 2:
-            first, arrays, tol = precheck[1], precheck[2:-1], precheck[-1]
-            k = first(*arrays, Q, 0, tol)
+            _one, first, floats, ints, tol = precheck
+            k = first(floats, ints, Q, 0, tol)
             while k < N:
                 fk(model, data, qs[k])
                 place(model, data, gm, gd)
                 update(False)
                 if collide(callback):
                     return k
-                k = first(*arrays, Q, k + 1, tol)
+                k = first(floats, ints, Q, k + 1, tol)
             return -1
     for k, q in enumerate(qs):
         fk(model, data, q)

@@ -138,9 +138,8 @@ class CollisionScene:
         if pre is _UNBUILT:
             pre = self.precheck()
         if pre is not None:
-            one, _batch, tree, joints, spheres, geoms, pairs, obstacles, tol = pre
             try:
-                if one(tree, joints, spheres, geoms, pairs, obstacles, q, tol):
+                if pre[0](pre[2], pre[3], q, pre[4]):
                     return False
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass

@@ -301,6 +301,21 @@ def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.nda
     return row
 
 
+def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The kernels' two arguments ``(floats, ints)``, flat (a compiled call costs ~50 ns per array argument):
+
+    * ``floats``: ``tree`` ``(J, 15)``, ``spheres`` ``(S, 4)``, ``obstacles`` ``(O, 16)``, row-major, in turn;
+    * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 3)``, ``pairs`` ``(P, 3)``.
+
+    :func:`_unpack` gives the arrays back inside the kernels (views, no copy).
+    """
+    J, S, G, P, O = len(robot.joints), len(robot.spheres), len(robot.geoms), len(pairs), len(obstacles)
+    floats = np.concatenate([robot.tree.ravel(), robot.spheres.ravel(), np.asarray(obstacles, dtype=float).ravel()])
+    ints = np.concatenate([np.array([J, S, G, P, O], dtype=np.int64), robot.joints.ravel(), robot.geoms.ravel(),
+                           np.asarray(pairs, dtype=np.int64).ravel()])
+    return floats, ints
+
+
 class ScenePrecheck:
     """The pre-check of one :class:`~.collision_layout.SceneLayout`: the robot's spheres, the layout's pair
     table ``(P, 3)`` (first geometry, second geometry or obstacle index, :data:`SELF_PAIR` /
@@ -309,22 +324,19 @@ class ScenePrecheck:
     def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, obstacle_geometries: list) -> None:
         self.robot = robot
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-        table = np.zeros((len(pairs), 3), dtype=np.int64)
-        for k, (a, b) in enumerate(pairs):
-            if a >= n_robot:
-                a, b = b, a
-            table[k] = (a, b, SELF_PAIR) if b < n_robot else (a, b - n_robot, OBSTACLE_PAIR)
-        self.pairs = table
+        first = np.where(pairs[:, 0] < n_robot, pairs[:, 0], pairs[:, 1])  # the robot geometry first
+        second = np.where(pairs[:, 0] < n_robot, pairs[:, 1], pairs[:, 0])
+        obstacle = second >= n_robot
+        self.pairs = np.column_stack([first, np.where(obstacle, second - n_robot, second),
+                                      np.where(obstacle, OBSTACLE_PAIR, SELF_PAIR)]).astype(np.int64)
         self.obstacle_geometries = list(obstacle_geometries)
 
     def arguments(self, placements: list) -> tuple:
-        """``(certify_configuration, first_uncertified, tree, joints, spheres, geoms, pairs, obstacles,
-        tolerance)`` for the obstacles at ``placements`` (``pinocchio.SE3``, one per obstacle geometry)."""
+        """``(certify_configuration, first_uncertified, floats, ints, tolerance)`` for the obstacles at
+        ``placements`` (``pinocchio.SE3``, one per obstacle geometry); ``floats, ints``: :func:`pack`."""
         rows = [obstacle_row(g, M) for g, M in zip(self.obstacle_geometries, placements)]
-        obstacles = np.array(rows).reshape(-1, 16)
-        r = self.robot
-        return (certify_configuration, first_uncertified, r.tree, r.joints, r.spheres, r.geoms, self.pairs,
-                obstacles, TOLERANCE)
+        floats, ints = pack(self.robot, self.pairs, np.array(rows).reshape(-1, 16))
+        return certify_configuration, first_uncertified, floats, ints, TOLERANCE
 
 
 # ====================================================================== the kernel (Numba)
@@ -332,14 +344,16 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: Small helpers are inlined into their callers at Numba's IR level (a call passes whole array structures).
 _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 _t = numba.types
+_F1 = _t.Array(_t.float64, 1, "C", readonly=True)
+_I1 = _t.Array(_t.int64, 1, "C", readonly=True)
 _F2 = _t.Array(_t.float64, 2, "C", readonly=True)
 _I2 = _t.Array(_t.int64, 2, "C", readonly=True)
 _Q1 = _t.Array(_t.float64, 1, "A", readonly=True)
 _Q2 = _t.Array(_t.float64, 2, "A", readonly=True)
-_ONE_SIGNATURE = _t.boolean(_F2, _I2, _F2, _I2, _I2, _F2, _Q1, _t.float64)
-_BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F2, _I2, _F2, _I2, _I2, _F2, _Q2, _t.float64)
-_FIRST_SIGNATURE = _t.int64(_F2, _I2, _F2, _I2, _I2, _F2, _Q2, _t.int64, _t.float64)
-_BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F2, _I2, _F2, _I2, _I2, _F2, _Q1)
+_ONE_SIGNATURE = _t.boolean(_F1, _I1, _Q1, _t.float64)
+_BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F1, _I1, _Q2, _t.float64)
+_FIRST_SIGNATURE = _t.int64(_F1, _I1, _Q2, _t.int64, _t.float64)
+_BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
 _TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
 
 
@@ -376,6 +390,31 @@ def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.n
         else:  # prismatic: t += T a q, R = T
             for i in range(3):
                 out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qk
+
+
+@_inline
+def _unpack(floats, ints):
+    """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays (:func:`pack`)."""
+    J, S, G, P, O = ints[0], ints[1], ints[2], ints[3], ints[4]
+    tree = floats[:15 * J].reshape((J, 15))
+    spheres = floats[15 * J:15 * J + 4 * S].reshape((S, 4))
+    obstacles = floats[15 * J + 4 * S:15 * J + 4 * S + 16 * O].reshape((O, 16))
+    joints = ints[5:5 + 3 * J].reshape((J, 3))
+    geoms = ints[5 + 3 * J:5 + 3 * J + 3 * G].reshape((G, 3))
+    pairs = ints[5 + 3 * J + 3 * G:5 + 3 * J + 3 * G + 3 * P].reshape((P, 3))
+    return tree, joints, spheres, geoms, pairs, obstacles
+
+
+@_inline
+def _workspace(n, S, G):
+    """One allocation per call: joint placements ``X`` ``(n + 1, 12)``, world spheres ``W`` ``(S, 4)`` and the
+    per-geometry stamps ``placed`` ``(G,)`` (-1: cover not placed yet)."""
+    buffer = np.empty(12 * (n + 1) + 4 * S + G)
+    X = buffer[:12 * (n + 1)].reshape((n + 1, 12))
+    W = buffer[12 * (n + 1):12 * (n + 1) + 4 * S].reshape((S, 4))
+    placed = buffer[12 * (n + 1) + 4 * S:]
+    placed[:] = -1.0
+    return X, W, placed
 
 
 @_inline
@@ -466,48 +505,42 @@ def _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, q, tol,
 
 
 @numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def certify_configuration(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
-                          pairs: np.ndarray, obstacles: np.ndarray, q: np.ndarray, tol: float) -> bool:
+def certify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
     """True when configuration ``q`` is certified collision free (every pair's lower bound > ``tol``, m);
-    False when it is not, or when ``q`` has not one entry per joint."""
+    False when it is not, or when ``q`` has not one entry per joint. ``floats, ints``: :func:`pack`."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n = joints.shape[0]
     if q.shape[0] != n:
         return False
-    X = np.empty((n + 1, 12))
-    W = np.empty((spheres.shape[0], 4))
-    placed = np.full(geoms.shape[0], -1, dtype=np.int64)
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     return _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0)
 
 
 @numba.njit(_BATCH_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def certify_configurations(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
-                           pairs: np.ndarray, obstacles: np.ndarray, qs: np.ndarray, tol: float) -> np.ndarray:
+def certify_configurations(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, tol: float) -> np.ndarray:
     """:func:`certify_configuration` of every row of ``qs`` ``(N, nq)``: a boolean array ``(N,)``."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n = joints.shape[0]
     N = qs.shape[0]
     out = np.zeros(N, dtype=np.bool_)
     if qs.shape[1] != n:
         return out
-    X = np.empty((n + 1, 12))
-    W = np.empty((spheres.shape[0], 4))
-    placed = np.full(geoms.shape[0], -1, dtype=np.int64)
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     for k in range(N):
         out[k] = _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k)
     return out
 
 
 @numba.njit(_FIRST_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def first_uncertified(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
-                      pairs: np.ndarray, obstacles: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
+def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
     """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that :func:`certify_configuration` does
     not certify, ``N`` when it certifies them all (``start`` when the rows have not one entry per joint)."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n = joints.shape[0]
     N = qs.shape[0]
     if qs.shape[1] != n:
         return max(start, 0)
-    X = np.empty((n + 1, 12))
-    W = np.empty((spheres.shape[0], 4))
-    placed = np.full(geoms.shape[0], -1, dtype=np.int64)
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     for k in range(max(start, 0), N):
         if not _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k):
             return k
@@ -546,8 +579,7 @@ def _obstacle_gap(W, i, obstacles, o):
 
 
 @numba.njit(_BOUNDS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def pair_lower_bounds(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
-                      pairs: np.ndarray, obstacles: np.ndarray, q: np.ndarray) -> np.ndarray:
+def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Per pair, the lower bound (m) of its distance at ``q`` that the certification tests against the
     tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover spheres of the two geometries,
 
@@ -558,6 +590,7 @@ def pair_lower_bounds(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray,
     :func:`certify_configuration` certifies ``q`` exactly when every entry exceeds its tolerance (it compares
     squares instead); this form is for tests and diagnostics.
     """
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n = joints.shape[0]
     X = np.empty((n + 1, 12))
     W = np.empty((spheres.shape[0], 4))
@@ -588,11 +621,11 @@ def pair_lower_bounds(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray,
 def certify(arguments: tuple, qs: Any) -> np.ndarray:
     """:func:`certify_configurations` with :meth:`ScenePrecheck.arguments` on configurations ``qs`` (a sequence
     of ``(nq,)`` float arrays or an ``(N, nq)`` array): per configuration, True when certified free."""
-    arrays, tol = arguments[2:-1], arguments[-1]
+    floats, ints, tol = arguments[2:]
     Q = np.asarray(qs, dtype=float)
-    return certify_configurations(*arrays, Q.reshape(len(Q), -1), tol)
+    return certify_configurations(floats, ints, Q.reshape(len(Q), -1), tol)
 
 
-__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "certify_configuration", "certify_configurations",
+__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "pack", "certify_configuration", "certify_configurations",
            "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row", "pair_lower_bounds",
            "polytope_cover", "robot_spheres", "robot_spheres_of", "tree_placements"]
