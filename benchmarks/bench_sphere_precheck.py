@@ -13,8 +13,10 @@ Panda with its SRDF, the table and wall of ``bench_collision.py``. Figures (CPU 
   random configurations and of the path configurations, in the open scene and with a 10 cm cube centred
   on the elbow (origin of ``panda_joint4``) of each path's answer.
 
-Runs on a kinserve without the pre-check too (the rates are then absent), so that the same script gives
-the figures before and after: ``python benchmarks/bench_sphere_precheck.py --out bench-out/x.json``.
+Every timing is taken twice in the same process on the same inputs, alternating: with the pre-check
+(``..._us``) and with it switched off on the scenes (``..._coal_us``: coal alone, the code before the
+pre-check). Runs on a kinserve without the pre-check too (then only the coal figures):
+``python benchmarks/bench_sphere_precheck.py --out bench-out/x.json``.
 """
 
 from __future__ import annotations
@@ -52,6 +54,32 @@ def per_call_us(fn, items, rounds: int) -> float:
             fn(x)
         best = min(best, (time.process_time() - t0) / max(len(items), 1))
     return best * 1e6
+
+
+_BUILT: dict = {}
+
+
+def switch(scenes, on: bool) -> None:
+    """The pre-check on (the scene's own, built once) or off (coal alone) on ``scenes``."""
+    for s in scenes:
+        if hasattr(s, "precheck"):
+            if id(s) not in _BUILT:
+                _BUILT[id(s)] = (s, s.precheck())
+            s._precheck = _BUILT[id(s)][1] if on else None
+
+
+def both(out: dict, key: str, scenes, fn, items, rounds: int) -> None:
+    """``out[key + "_us"]`` with the pre-check, ``out[key + "_coal_us"]`` without, alternating rounds."""
+    on = off = float("inf")
+    for _ in range(rounds):
+        switch(scenes, True)
+        on = min(on, per_call_us(fn, items, 1))
+        switch(scenes, False)
+        off = min(off, per_call_us(fn, items, 1))
+    switch(scenes, True)
+    if hasattr(scenes[0], "precheck"):
+        out[key + "_us"] = on
+    out[key + "_coal_us"] = off
 
 
 def certified(scene, qs) -> np.ndarray | None:
@@ -98,13 +126,13 @@ def main() -> None:
     cert = certified(scene, Q)
     out: dict = {"load_before": open("/proc/loadavg").read().split()[:3], "precheck": cert is not None,
                  "configs": args.configs, "random_in_collision_pct": 100.0 * float(truth.mean())}
-    out["in_collision_random_us"] = per_call_us(scene.in_collision, list(Q), args.rounds)
+    both(out, "in_collision_random", [scene], scene.in_collision, list(Q), args.rounds)
+    both(out, "in_collision_free", [scene], scene.in_collision, list(Q[~truth]), args.rounds)
+    both(out, "in_collision_colliding", [scene], scene.in_collision, list(Q[truth]), args.rounds)
     if cert is not None:
-        out["in_collision_certified_us"] = per_call_us(scene.in_collision, list(Q[cert]), args.rounds)
-        out["in_collision_uncertified_free_us"] = per_call_us(scene.in_collision, list(Q[~cert & ~truth]), args.rounds)
+        both(out, "in_collision_certified", [scene], scene.in_collision, list(Q[cert]), args.rounds)
+        both(out, "in_collision_free_uncertified", [scene], scene.in_collision, list(Q[~cert & ~truth]), args.rounds)
         out["random_free_certified_pct"] = 100.0 * rate(scene, Q, truth)
-    else:
-        out["in_collision_free_us"] = per_call_us(scene.in_collision, list(Q[~truth]), args.rounds)
 
     # paths of unconstrained LM runs, in the order the collision-aware IK checks them
     paths, cubes = [], []
@@ -126,7 +154,7 @@ def main() -> None:
     flat = np.array([q for p in paths for q in p])
     truth_paths = coal_truth(scene, robot, flat)
     out["path_configs_in_collision_pct"] = 100.0 * float(truth_paths.mean())
-    out["first_collision_path_us"] = per_call_us(scene.first_collision, paths, args.rounds)
+    both(out, "first_collision_path", [scene], scene.first_collision, paths, args.rounds)
     if cert is not None:
         out["path_free_certified_pct"] = 100.0 * rate(scene, flat, truth_paths)
         fully = [bool(certified(scene, p).all()) for p in paths]
@@ -136,8 +164,9 @@ def main() -> None:
     for s, p in zip(cube_scenes, paths):
         s.first_collision(p)
     pairs = list(zip(cube_scenes, paths))
-    out["first_collision_path_cube_us"] = per_call_us(lambda sp: sp[0].first_collision(sp[1]), pairs, args.rounds)
+    both(out, "first_collision_path_cube", cube_scenes, lambda sp: sp[0].first_collision(sp[1]), pairs, args.rounds)
     if cert is not None:
+        switch(cube_scenes, True)
         free = cert_n = 0
         for s, p in pairs:
             t = coal_truth(s, robot, p)

@@ -43,6 +43,10 @@ if TYPE_CHECKING:
     from .collision_model import CollisionModel
     from .shapes import Shape
 
+#: Layouts built while this is True get the sphere pre-check of :mod:`.collision_spheres` (False: coal alone, e.g.
+#: to compare the two; read when a layout builds its pre-check).
+SPHERE_PRECHECK = True
+
 #: Largest number of geometries (robot + obstacles) checked by coal's naive broad phase; more use the AABB tree.
 NAIVE_MAX_GEOMETRIES = 96
 
@@ -204,11 +208,12 @@ class SceneLayout:
     def precheck(self) -> Any:
         """The layout's sphere pre-check (:class:`.collision_spheres.ScenePrecheck`: the robot's spheres and
         the pair table; built on first use), or None when the robot's tree or geometry has no sphere
-        packing (:func:`.collision_spheres.robot_spheres`), the layout has no pairs, or Numba is missing."""
+        packing (:func:`.collision_spheres.robot_spheres`), the layout has no pairs, Numba is missing or
+        :data:`SPHERE_PRECHECK` is off."""
         pre = self._precheck
         if pre is _UNBUILT:
             pre = None
-            if len(self.pairs):
+            if SPHERE_PRECHECK and len(self.pairs):
                 try:
                     from . import collision_spheres
                 except ImportError:  # pragma: no cover - Numba is a dependency; without it coal alone decides

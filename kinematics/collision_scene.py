@@ -123,7 +123,8 @@ class CollisionScene:
         pre = self._precheck
         if pre is _UNBUILT:
             layout_check = self.layout.precheck()
-            pre = self._precheck = None if layout_check is None else layout_check.arguments(self.placements)
+            pre = None if layout_check is None else layout_check.arguments([shape.pose for shape in self.obstacles])
+            self._precheck = pre
         return pre
 
     # ----------------------------------------------------------------- queries

@@ -281,12 +281,12 @@ def robot_spheres_of(cmodel: "CollisionModel") -> RobotSpheres | None:
     return value
 
 
-def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.ndarray:
-    """The obstacle table row ``(16,)`` of a coal geometry at ``placement`` (module docstring's bounds):
-    rotation, translation, kind, sizes. Shapes without a closed form become their AABB sphere."""
+def obstacle_template(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """``(row (16,), centre (3,))``: the obstacle table row of a coal geometry before its pose (kind and sizes;
+    module docstring's bounds) and the point of its frame that the row's translation must hold (zero, or
+    the centre of the AABB sphere that stands for a shape without a closed form)."""
     row = np.zeros(16)
-    row[:9] = placement.rotation.reshape(9)
-    row[9:12] = placement.translation
+    centre = np.zeros(3)
     swept = float(geometry.getSweptSphereRadius())
     if swept == 0.0 and isinstance(geometry, coal.Box):
         row[KIND], row[13:16] = BOX, np.asarray(geometry.halfSide, dtype=float)
@@ -297,15 +297,28 @@ def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.nda
         row[KIND], row[13] = BALL, float(geometry.radius) + swept
     else:
         ball = aabb_sphere(geometry)
-        row[KIND], row[9:12], row[13] = BALL, placement.act(ball[:3]), ball[3] + swept
-    return row
+        row[KIND], row[13], centre = BALL, ball[3] + swept, ball[:3]
+    return row, centre
+
+
+def obstacle_rows(templates: np.ndarray, centres: np.ndarray, poses: Any) -> np.ndarray:
+    """The obstacle table ``(O, 16)``: the rows of :func:`obstacle_template` placed at ``poses`` (``O`` 4x4
+    world poses): rotation (row-major) and translation ``t + R centre`` (:func:`placed_floats`)."""
+    P = np.ascontiguousarray(np.asarray(poses, dtype=float).reshape(-1, 4, 4))
+    return placed_floats(np.zeros(0), templates, centres, P).reshape(-1, 16)
+
+
+def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.ndarray:
+    """The obstacle table row ``(16,)`` of a coal geometry at ``placement``: rotation, translation, kind, sizes."""
+    row, centre = obstacle_template(geometry)
+    return obstacle_rows(row[None, :], centre[None, :], placement.homogeneous[None])[0]
 
 
 def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The kernels' two arguments ``(floats, ints)``, flat (a compiled call costs ~50 ns per array argument):
 
     * ``floats``: ``tree`` ``(J, 15)``, ``spheres`` ``(S, 4)``, ``obstacles`` ``(O, 16)``, row-major, in turn;
-    * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 3)``, ``pairs`` ``(P, 3)``.
+    * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 3)``, ``pairs`` ``(P, 4)``.
 
     :func:`_unpack` gives the arrays back inside the kernels (views, no copy).
     """
@@ -318,8 +331,9 @@ def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> tuple
 
 class ScenePrecheck:
     """The pre-check of one :class:`~.collision_layout.SceneLayout`: the robot's spheres, the layout's pair
-    table ``(P, 3)`` (first geometry, second geometry or obstacle index, :data:`SELF_PAIR` /
-    :data:`OBSTACLE_PAIR`) and its obstacle geometries; :meth:`arguments` adds a scene's obstacle poses."""
+    table ``(P, 4)`` (robot geometry, other geometry or obstacle index, :data:`SELF_PAIR` /
+    :data:`OBSTACLE_PAIR`, index of the pair in the scene) and its obstacle geometries; :meth:`arguments`
+    adds a scene's obstacle poses."""
 
     def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, obstacle_geometries: list) -> None:
         self.robot = robot
@@ -327,16 +341,24 @@ class ScenePrecheck:
         first = np.where(pairs[:, 0] < n_robot, pairs[:, 0], pairs[:, 1])  # the robot geometry first
         second = np.where(pairs[:, 0] < n_robot, pairs[:, 1], pairs[:, 0])
         obstacle = second >= n_robot
-        self.pairs = np.column_stack([first, np.where(obstacle, second - n_robot, second),
-                                      np.where(obstacle, OBSTACLE_PAIR, SELF_PAIR)]).astype(np.int64)
-        self.obstacle_geometries = list(obstacle_geometries)
+        table = np.column_stack([first, np.where(obstacle, second - n_robot, second),
+                                 np.where(obstacle, OBSTACLE_PAIR, SELF_PAIR), np.arange(len(pairs))]).astype(np.int64)
+        # obstacle pairs first (a configuration in collision usually hits an obstacle: found sooner), each
+        # kind in the scene's order; the verdict does not depend on the order
+        self.pairs = np.ascontiguousarray(table[np.argsort(~obstacle, kind="stable")])
+        made = [obstacle_template(g) for g in obstacle_geometries]
+        self.templates = np.array([row for row, _ in made]).reshape(-1, 16)
+        self.centres = np.array([centre for _, centre in made]).reshape(-1, 3)
+        # everything but the obstacle poses, packed once: a scene adds its rows (a few microseconds)
+        self._robot_floats, self._ints = pack(robot, self.pairs, self.templates)
+        self._robot_floats = self._robot_floats[:len(self._robot_floats) - self.templates.size]
 
-    def arguments(self, placements: list) -> tuple:
+    def arguments(self, poses: Any) -> tuple:
         """``(certify_configuration, first_uncertified, floats, ints, tolerance)`` for the obstacles at
-        ``placements`` (``pinocchio.SE3``, one per obstacle geometry); ``floats, ints``: :func:`pack`."""
-        rows = [obstacle_row(g, M) for g, M in zip(self.obstacle_geometries, placements)]
-        floats, ints = pack(self.robot, self.pairs, np.array(rows).reshape(-1, 16))
-        return certify_configuration, first_uncertified, floats, ints, TOLERANCE
+        ``poses`` (4x4 world poses, one per obstacle geometry); ``floats, ints``: :func:`pack`."""
+        P = np.asarray(poses, dtype=float).reshape(-1, 4, 4)
+        floats = placed_floats(self._robot_floats, self.templates, self.centres, P)
+        return certify_configuration, first_uncertified, floats, self._ints, TOLERANCE
 
 
 # ====================================================================== the kernel (Numba)
@@ -354,6 +376,25 @@ _ONE_SIGNATURE = _t.boolean(_F1, _I1, _Q1, _t.float64)
 _BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F1, _I1, _Q2, _t.float64)
 _FIRST_SIGNATURE = _t.int64(_F1, _I1, _Q2, _t.int64, _t.float64)
 _BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
+_PLACED_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _F2, _F2, _t.Array(_t.float64, 3, "A", readonly=True))
+
+
+@numba.njit(_PLACED_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def placed_floats(head: np.ndarray, templates: np.ndarray, centres: np.ndarray, poses: np.ndarray) -> np.ndarray:
+    """``head`` followed by the obstacle rows ``templates`` ``(O, 16)`` placed at ``poses`` ``(O, 4, 4)``:
+    rotation (row-major) into columns 0-8, ``t + R centre`` into 9-11 (a scene's floats in one call)."""
+    H = head.shape[0]
+    out = np.empty(H + 16 * templates.shape[0])
+    out[:H] = head
+    for o in range(templates.shape[0]):
+        row = out[H + 16 * o:H + 16 * (o + 1)]
+        row[:] = templates[o]
+        for i in range(3):
+            for c in range(3):
+                row[3 * i + c] = poses[o, i, c]
+            row[9 + i] = poses[o, i, 3] + poses[o, i, 0] * centres[o, 0] + poses[o, i, 1] * centres[o, 1] \
+                + poses[o, i, 2] * centres[o, 2]
+    return out
 _TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
 
 
@@ -401,7 +442,7 @@ def _unpack(floats, ints):
     obstacles = floats[15 * J + 4 * S:15 * J + 4 * S + 16 * O].reshape((O, 16))
     joints = ints[5:5 + 3 * J].reshape((J, 3))
     geoms = ints[5 + 3 * J:5 + 3 * J + 3 * G].reshape((G, 3))
-    pairs = ints[5 + 3 * J + 3 * G:5 + 3 * J + 3 * G + 3 * P].reshape((P, 3))
+    pairs = ints[5 + 3 * J + 3 * G:5 + 3 * J + 3 * G + 4 * P].reshape((P, 4))
     return tree, joints, spheres, geoms, pairs, obstacles
 
 
@@ -580,7 +621,7 @@ def _obstacle_gap(W, i, obstacles, o):
 
 @numba.njit(_BOUNDS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
 def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Per pair, the lower bound (m) of its distance at ``q`` that the certification tests against the
+    """Per pair of the scene (in the scene's order), the lower bound (m) of its distance at ``q`` that the certification tests against the
     tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover spheres of the two geometries,
 
         self pair:      max(gap(B_a, B_b), min_i max(gap(i, B_b), min_j gap(i, j)))
@@ -609,12 +650,12 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
                 for j in range(geoms[b, 1], geoms[b, 2]):
                     inner = min(inner, _gap(W, i, j))
                 parts = min(parts, max(_gap(W, i, b), inner))
-            out[p] = max(_gap(W, a, b), parts)
+            out[pairs[p, 3]] = max(_gap(W, a, b), parts)
         else:
             parts = math.inf
             for i in range(geoms[a, 1], geoms[a, 2]):
                 parts = min(parts, _obstacle_gap(W, i, obstacles, b))
-            out[p] = max(_obstacle_gap(W, a, obstacles, b), parts)
+            out[pairs[p, 3]] = max(_obstacle_gap(W, a, obstacles, b), parts)
     return out
 
 
@@ -627,5 +668,5 @@ def certify(arguments: tuple, qs: Any) -> np.ndarray:
 
 
 __all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "pack", "certify_configuration", "certify_configurations",
-           "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row", "pair_lower_bounds",
+           "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row", "obstacle_rows", "obstacle_template", "pair_lower_bounds", "placed_floats",
            "polytope_cover", "robot_spheres", "robot_spheres_of", "tree_placements"]
