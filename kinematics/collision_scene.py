@@ -11,7 +11,22 @@ otherwise put every configuration in collision.
 
 Queries are single Pinocchio calls over all pairs:
 
-* ``in_collision`` - ``pinocchio.computeCollisions`` through a broad phase
+* ``in_collision`` / ``first_collision`` start with the **sphere pre-check**
+  (:mod:`.collision_spheres`, compiled): spheres fixed in the joint frames that
+  contain every robot geometry, moved by the forward kinematics of the whole
+  tree, against each other and against the obstacles' exact point distances
+  give a lower bound of every checked pair's distance; a configuration whose
+  bounds all exceed 10 um is certified free and never reaches coal (the same
+  answer: a certified configuration is one coal finds free). ``first_collision``
+  offers its configurations to the pre-check in one compiled call and runs coal
+  on the ones it cannot certify, in order. On the Panda with the table and wall
+  it certifies 92 % of the collision-free random configurations; a certified
+  ``in_collision`` costs ~1.5 us instead of ~4 us, an uncertified one ~1.3 us more
+  than coal alone. Built per layout (robot spheres, pair table; the robot's spheres
+  once per collision model) and per scene (obstacle poses, ~5 us) on first use;
+  robots whose tree has other joints than one-DoF revolute / prismatic ones keep
+  coal alone (:meth:`CollisionScene.precheck` returns None);
+* ``in_collision`` (coal) - ``pinocchio.computeCollisions`` through a broad phase
   (``pinocchio.BroadPhaseManager``): every geometry gets its world AABB, only
   checked pairs whose AABBs overlap reach GJK, and the call stops at the first
   collision. Four C++ calls bound once per thread (forward kinematics,
@@ -19,7 +34,8 @@ Queries are single Pinocchio calls over all pairs:
   callback; :func:`.collision_layout.collision_check`): the same answer as
   ``pinocchio.computeCollisions(model, data, manager, q, True)`` without its
   50-overload dispatch (32k instead of 43k instructions per Panda check);
-  :meth:`CollisionScene.first_collision` loops over configurations. The manager is coal's *naive* one (every AABB against every other,
+  :meth:`CollisionScene.first_collision` loops over the configurations the pre-check leaves. The manager is coal's
+  *naive* one (every AABB against every other,
   no tree) up to :data:`.collision_layout.NAIVE_MAX_GEOMETRIES` geometries and the dynamic AABB
   tree above: on the Panda with a table and a wall (19 geometries, 76 pairs)
   the naive manager takes 4.8 µs per check against 12.2 µs for the tree, whose
@@ -29,7 +45,8 @@ Queries are single Pinocchio calls over all pairs:
   configurations in a test; the tests check the broad phase against
   pair-by-pair coal on scenes of 2 to 4 obstacles and on obstacles placed at
   the arm's surface.)
-* ``colliding`` - every pair (``computeCollisions`` without early stop);
+* ``colliding`` - every pair (``computeCollisions`` without early stop; no pre-check, nor in the queries
+  below, which need pairs, distances or a security margin);
 * ``near`` - the pairs closer than a threshold (the IK's rows): the same
   broad phase with AABBs inflated by the threshold collects the candidate
   pairs, GJK with that security margin decides on them only;
