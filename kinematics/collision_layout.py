@@ -126,26 +126,40 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`).
 
     With ``precheck`` (:meth:`.collision_spheres.ScenePrecheck.arguments` of the scene), the sphere
-    pre-check runs first, over the configurations in order in one compiled call
-    (:func:`.collision_spheres.first_uncertified`), and coal runs only on the first configuration it
-    cannot certify free; a free one there resumes the pre-check after it. The same answer, since a
-    certified configuration is one coal finds free; a path the pre-check certifies whole costs one
-    compiled call.
+    pre-check runs first and coal only on the configurations it cannot certify free, in order: the first
+    configuration alone (the IK checks its answer first, the likeliest to collide: when it does, no
+    array is built), then the rest in one compiled call
+    (:func:`.collision_spheres.first_uncertified`, resumed after an uncertified configuration coal finds
+    free). The same answer, since a certified configuration is one coal finds free.
     """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
+    start = 0
     if precheck is not None:
         qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
         N = len(qs)
-        Q = None
-        if N:
-            try:
-                Q = np.asarray(qs, dtype=float)
-            except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
-                pass
+        if not N:
+            return -1
+        one, first, floats, ints, tol = precheck
+        try:
+            clear = one(floats, ints, qs[0], tol)
+        except TypeError:  # not a float vector: coal decides (and raises as before)
+            clear = False
+        if not clear:
+            fk(model, data, qs[0])
+            place(model, data, gm, gd)
+            update(False)
+            if collide(callback):
+                return 0
+        if N == 1:
+            return -1
+        start = 1
+        try:
+            Q = np.asarray(qs, dtype=float)
+        except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
+            Q = None
         if Q is not None and Q.ndim == 2:
-            _one, first, floats, ints, tol = precheck
-            k = first(floats, ints, Q, 0, tol)
+            k = first(floats, ints, Q, 1, tol)
             while k < N:
                 fk(model, data, qs[k])
                 place(model, data, gm, gd)
@@ -155,6 +169,8 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
                 k = first(floats, ints, Q, k + 1, tol)
             return -1
     for k, q in enumerate(qs):
+        if k < start:
+            continue
         fk(model, data, q)
         place(model, data, gm, gd)
         update(False)
