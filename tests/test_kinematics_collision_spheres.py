@@ -340,7 +340,8 @@ def test_scene_checks_share_the_layout_precheck_and_follow_moved_obstacles():
 
 
 def test_unpackable_robots_keep_the_coal_path(monkeypatch):
-    """Without a packing (here: forced) the layout has no pre-check and the scene answers through coal alone."""
+    """Without a packing (here: forced) the layout has no pre-check and the scene answers through coal alone;
+    so with the module's switch off."""
     from kinserve.kinematics import collision_layout
 
     robot = robots.load("ur5")
@@ -355,6 +356,10 @@ def test_unpackable_robots_keep_the_coal_path(monkeypatch):
     truth = [bool(pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True)) for q in Q]
     assert [scene.in_collision(q) for q in Q] == truth and any(truth)
     assert scene.first_collision(list(Q)) == truth.index(True)
+    monkeypatch.undo()
+    monkeypatch.setattr(collision_layout, "SPHERE_PRECHECK", False)  # the switch: coal alone for new layouts
+    monkeypatch.setattr(layout, "_precheck", collision_layout._UNBUILT)
+    assert layout.precheck() is None
 
 
 def test_first_collision_on_threads_matches_serial():
