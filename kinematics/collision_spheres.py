@@ -271,7 +271,8 @@ _ROBOTS_LOCK = threading.Lock()
 
 
 def robot_spheres_of(cmodel: "CollisionModel") -> RobotSpheres | None:
-    """:func:`robot_spheres` of a :class:`~.collision_model.CollisionModel` (its hull geometry), built once per model."""
+    """:func:`robot_spheres` of a :class:`~.collision_model.CollisionModel` (its hull geometry), built once per
+    model (a weak reference to it keys the cache)."""
     with _ROBOTS_LOCK:
         if cmodel in _ROBOTS:
             return _ROBOTS[cmodel]
@@ -621,8 +622,9 @@ def _obstacle_gap(W, i, obstacles, o):
 
 @numba.njit(_BOUNDS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
 def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Per pair of the scene (in the scene's order), the lower bound (m) of its distance at ``q`` that the certification tests against the
-    tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover spheres of the two geometries,
+    """Per pair of the scene (in the scene's order), the lower bound (m) of its distance at ``q`` that the
+    certification tests against the tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover
+    spheres of the two geometries,
 
         self pair:      max(gap(B_a, B_b), min_i max(gap(i, B_b), min_j gap(i, j)))
         obstacle pair:  max(gap(B_a, O), min_i gap(i, O))
@@ -667,6 +669,7 @@ def certify(arguments: tuple, qs: Any) -> np.ndarray:
     return certify_configurations(floats, ints, Q.reshape(len(Q), -1), tol)
 
 
-__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "pack", "certify_configuration", "certify_configurations",
-           "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row", "obstacle_rows", "obstacle_template", "pair_lower_bounds", "placed_floats",
-           "polytope_cover", "robot_spheres", "robot_spheres_of", "tree_placements"]
+__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "certify_configuration",
+           "certify_configurations", "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row",
+           "obstacle_rows", "obstacle_template", "pack", "pair_lower_bounds", "placed_floats", "polytope_cover",
+           "robot_spheres", "robot_spheres_of", "tree_placements"]

@@ -188,7 +188,8 @@ def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
     says "clear" exactly when that bound exceeds the tolerance."""
     rng = np.random.default_rng(6)
     shapes = [Sphere((0.1, 0.2, 0.3), 0.15), Box(_pose((0.3, -0.1, 0.4), _rotation(rng)), (0.2, 0.5, 0.1)),
-              Capsule((0.1, 0.1, 0.1), (0.4, -0.2, 0.5), 0.06), Cylinder(_pose((0.0, 0.3, 0.2), _rotation(rng)), 0.1, 0.4),
+              Capsule((0.1, 0.1, 0.1), (0.4, -0.2, 0.5), 0.06),
+              Cylinder(_pose((0.0, 0.3, 0.2), _rotation(rng)), 0.1, 0.4),
               Mesh(_tetra(tmp_path), _pose((0.2, 0.2, 0.2), _rotation(rng)), scale=0.3)]
     obstacles = np.array([cs.obstacle_row(s.geometry(), s.placement()) for s in shapes])
     assert obstacles[:, cs.KIND].tolist() == [cs.BALL, cs.BOX, cs.CAPSULE, cs.CYLINDER, cs.BALL]
