@@ -46,6 +46,10 @@ if TYPE_CHECKING:
 #: Layouts built while this is True get the sphere pre-check of :mod:`.collision_spheres` (False: coal alone, e.g.
 #: to compare the two; read when a layout builds its pre-check).
 SPHERE_PRECHECK = True
+#: ``in_collision`` calls a layout answers with coal alone before it builds its pre-check (``first_collision``
+#: builds it at once): the first checks of a process - e.g. the start checks of its first IK solve, inside that
+#: solve's time budget - do not wait for Numba's import and the robot's spheres (~0.1-1 s, once per process).
+PRECHECK_AFTER = 32
 
 #: Largest number of geometries (robot + obstacles) checked by coal's naive broad phase; more use the AABB tree.
 NAIVE_MAX_GEOMETRIES = 96
@@ -220,6 +224,14 @@ class SceneLayout:
         self._local = threading.local()
         self._cmodel = cmodel
         self._precheck: Any = _UNBUILT
+        self.coal_checks = 0  #: ``in_collision`` calls answered by coal alone before the pre-check was built
+
+    def precheck_due(self) -> bool:
+        """Whether an ``in_collision`` call should build the pre-check now (:data:`PRECHECK_AFTER`); counts it."""
+        if self._precheck is not _UNBUILT:
+            return True
+        self.coal_checks += 1
+        return self.coal_checks > PRECHECK_AFTER
 
     def precheck(self) -> Any:
         """The layout's sphere pre-check (:class:`.collision_spheres.ScenePrecheck`: the robot's spheres and

@@ -23,7 +23,9 @@ Queries are single Pinocchio calls over all pairs:
   it certifies 92 % of the collision-free random configurations; a certified
   ``in_collision`` costs ~1.5 us instead of ~4 us, an uncertified one ~1.3 us more
   than coal alone. Built per layout (robot spheres, pair table; the robot's spheres
-  once per collision model) and per scene (obstacle poses, ~5 us) on first use;
+  once per collision model) and per scene (obstacle poses, ~5 us) by the first
+  ``first_collision`` or after a layout's first 32 ``in_collision`` calls (a
+  process's first checks do not wait for Numba's import);
   robots whose tree has other joints than one-DoF revolute / prismatic ones keep
   coal alone (:meth:`CollisionScene.precheck` returns None);
 * ``in_collision`` (coal) - ``pinocchio.computeCollisions`` through a broad phase
@@ -148,13 +150,14 @@ class CollisionScene:
     def in_collision(self, q: np.ndarray) -> bool:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
 
-        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`): a
-        configuration it certifies is free without coal; otherwise
+        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`; built
+        after the layout's first :data:`~.collision_layout.PRECHECK_AFTER` calls, or by
+        :meth:`first_collision`): a configuration it certifies is free without coal; otherwise
         :func:`~.collision_layout.check_configurations` on one configuration, its steps inlined.
         """
         pre = self._precheck
         if pre is _UNBUILT:
-            pre = self.precheck()
+            pre = self.precheck() if self.layout.precheck_due() else None
         if pre is not None:
             try:
                 if pre[0](pre[2], pre[3], q, pre[4]):

@@ -93,7 +93,7 @@ MAX_COVER_SPHERES = 6
 #: cylinder of radius R is at most sqrt(1.25) R).
 SLAB_RATIO = 1.0
 #: Iterations of the Badoiu-Clarkson enclosing-ball search.
-BALL_ITERATIONS = 200
+BALL_ITERATIONS = 64
 
 #: Obstacle kinds of the obstacle table (column :data:`KIND` of a row).
 BALL, BOX, CAPSULE, CYLINDER = 0, 1, 2, 3

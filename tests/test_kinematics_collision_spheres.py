@@ -387,3 +387,51 @@ def test_inputs_that_are_not_configurations_reach_coal():
     assert scene.in_collision(q.astype(np.float32)) == scene.in_collision(q)
     assert scene.first_collision([]) == -1
     assert scene.first_collision(iter([q, q])) == scene.first_collision([q, q])
+
+
+def test_precheck_is_built_by_first_collision_or_after_the_first_in_collision_calls():
+    """A new layout answers its first PRECHECK_AFTER in_collision calls with coal alone (a process's first
+    checks never wait for the build); the next call, or any first_collision, builds it."""
+    from kinserve.kinematics import collision_layout
+
+    robot = robots.load("panda")
+    Q = robot.random_q(np.random.default_rng(12), collision_layout.PRECHECK_AFTER + 1)
+    scene = robot.collision_scene([Sphere((0.5, 0.3, 0.4), 0.0731)])  # a shape of its own: a new layout
+    layout = scene.layout
+    assert layout.coal_checks == 0
+    for q in Q[:-1]:
+        scene.in_collision(q)
+    assert layout._precheck is collision_layout._UNBUILT and layout.coal_checks == collision_layout.PRECHECK_AFTER
+    scene.in_collision(Q[-1])
+    assert layout._precheck is not collision_layout._UNBUILT and scene._precheck is not collision_layout._UNBUILT
+    other = robot.collision_scene([Sphere((0.5, 0.3, 0.4), 0.0732)])
+    other.first_collision([Q[0]])
+    assert other.layout._precheck is not collision_layout._UNBUILT and other.layout.coal_checks == 0
+
+
+def test_first_checks_of_a_process_do_not_load_the_precheck():
+    """In a fresh interpreter a scene's first in_collision calls are coal's alone - the pre-check module (and
+    Numba) is not even imported, so the start checks of a process's first IK solve, inside its time budget, do
+    not pay for it - and the first collision-aware solve succeeds (its path check builds the pre-check)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from kinserve import robots, ik\n"
+        "robot = robots.load('panda')\n"
+        "T = np.eye(4); T[:3, 3] = (0.65, 0.0, -0.05)\n"
+        "table = [ik.Box(T, (0.7, 1.2, 0.1))]\n"
+        "scene = robot.collision_scene(table)\n"
+        "answers = [scene.in_collision(q) for q in robot.random_q(np.random.default_rng(0), 10)]\n"
+        "print('kinserve.kinematics.collision_spheres' in sys.modules)\n"
+        "q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])\n"
+        "res = ik.solve(robot, robot.fk(q, 'panda_link8'), robot.neutral(), frame='panda_link8',\n"
+        "               self_collision=True, obstacles=table, seed=0, max_time=2.0)\n"
+        "print(res.success, res.info.get('collision') == 'unconstrained, checked')\n"
+        "print('kinserve.kinematics.collision_spheres' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["False", "True", "True", "True"]
