@@ -51,14 +51,21 @@ to every radius.
 
 **The kernels** (:func:`certify_configuration` for one configuration,
 :func:`first_uncertified` and :func:`certify_configurations` over a batch in
-one call; Numba) runs the forward kinematics
-of the whole tree (:func:`~.serial_chain.kinematic_tree`; joint ``j``'s
-world placement ``oMj = oM(parent) * Mj * exp(a_j q_j)``, as
-:mod:`kinserve.ik.lm_kernel`), moves every sphere centre to the world
-(``c_world = oMj * c``; joint 0 is the world) and tests the scene's pairs in
-order, stopping at the first pair it cannot certify. Workspaces are allocated
-per call: one kernel may run on many threads at once. Everything the kernels
-call is in this file (Numba's on-disk cache is keyed by the file).
+one call; Numba) run the forward kinematics of the whole tree
+(:func:`~.serial_chain.kinematic_tree`; joint ``j``'s world placement
+``oMj = oM(parent) * Mj * exp(a_j q_j)``, as :mod:`kinserve.ik.lm_kernel`),
+move the bounding spheres to the world (``c_world = oMj * c``; joint 0 is the
+world) - a geometry's cover spheres only when one of its pairs needs them -
+and test the scene's pairs, obstacle pairs first (a configuration in
+collision usually hits an obstacle), stopping at the first pair they cannot
+certify. Their arguments are two flat arrays (:func:`pack`: a compiled call
+costs ~50 ns per array argument), the robot half packed once per layout, the
+obstacle rows added per scene (:func:`placed_floats`). Each call allocates
+its own workspace: one kernel may run on many threads at once. Everything
+the kernels call is in this file (Numba's on-disk cache is keyed by the
+file). Measured on the Panda with the table and wall (76 pairs, 70 spheres):
+~0.7 us per configuration in a batch, ~1.5 us for ``in_collision`` on a
+certified configuration (coal: ~4 us).
 
 Units: metres and radians.
 """
