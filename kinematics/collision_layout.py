@@ -248,7 +248,8 @@ class SceneLayout:
                     collision_spheres = None
                 robot = None if collision_spheres is None else collision_spheres.robot_spheres_of(self._cmodel)
                 if robot is not None:
-                    pre = collision_spheres.ScenePrecheck(robot, self.pairs, self.n_robot, self.obstacle_geometries)
+                    pre = collision_spheres.ScenePrecheck(robot, self.pairs, self.n_robot, self.obstacle_geometries,
+                                                          self.obstacles)
             self._precheck = pre
         return pre
 

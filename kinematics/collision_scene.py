@@ -143,7 +143,7 @@ class CollisionScene:
         pre = self._precheck
         if pre is _UNBUILT:
             layout_check = self.layout.precheck()
-            pre = None if layout_check is None else layout_check.arguments([shape.pose for shape in self.obstacles])
+            pre = None if layout_check is None else layout_check.arguments(self.obstacles)
             self._precheck = pre
         return pre
 

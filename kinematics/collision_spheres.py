@@ -343,7 +343,8 @@ class ScenePrecheck:
     :data:`OBSTACLE_PAIR`, index of the pair in the scene) and its obstacle geometries; :meth:`arguments`
     adds a scene's obstacle poses."""
 
-    def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, obstacle_geometries: list) -> None:
+    def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, obstacle_geometries: list,
+                 obstacles: tuple = ()) -> None:
         self.robot = robot
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         first = np.where(pairs[:, 0] < n_robot, pairs[:, 0], pairs[:, 1])  # the robot geometry first
@@ -360,12 +361,31 @@ class ScenePrecheck:
         # everything but the obstacle poses, packed once: a scene adds its rows (a few microseconds)
         self._robot_floats, self._ints = pack(robot, self.pairs, self.templates)
         self._robot_floats = self._robot_floats[:len(self._robot_floats) - self.templates.size]
+        # the layout's own obstacles (shapes with a 4x4 ``pose``) placed once: a scene sharing some of them
+        # copies their rows and places only the others
+        self._reference = tuple(obstacles)
+        self._reference_floats = self._floats([shape.pose for shape in obstacles]) if obstacles else None
+        self._centred = ~self.centres.any(axis=1)
 
-    def arguments(self, poses: Any) -> tuple:
-        """``(certify_configuration, first_uncertified, floats, ints, tolerance)`` for the obstacles at
-        ``poses`` (4x4 world poses, one per obstacle geometry); ``floats, ints``: :func:`pack`."""
+    def _floats(self, poses: Any) -> np.ndarray:
         P = np.asarray(poses, dtype=float).reshape(-1, 4, 4)
-        floats = placed_floats(self._robot_floats, self.templates, self.centres, P)
+        return placed_floats(self._robot_floats, self.templates, self.centres, P)
+
+    def arguments(self, obstacles: Any) -> tuple:
+        """``(certify_configuration, first_uncertified, floats, ints, tolerance)`` for ``obstacles`` (one
+        per obstacle geometry: shapes with a 4x4 world ``pose``); ``floats, ints``: :func:`pack`. The rows
+        of the obstacles that are the layout's own (same objects) are copied, the others placed."""
+        if self._reference_floats is None or len(obstacles) != len(self._reference):
+            floats = self._floats([shape.pose for shape in obstacles])
+        else:
+            floats = self._reference_floats.copy()
+            start = len(self._robot_floats)
+            for k, (shape, own) in enumerate(zip(obstacles, self._reference)):
+                if shape is not own:
+                    T = shape.pose
+                    row = floats[start + 16 * k:start + 16 * k + 16]
+                    row[:9] = T[:3, :3].reshape(9)
+                    row[9:12] = T[:3, 3] if self._centred[k] else T[:3, 3] + T[:3, :3] @ self.centres[k]
         return certify_configuration, first_uncertified, floats, self._ints, TOLERANCE
 
 
