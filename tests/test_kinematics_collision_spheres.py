@@ -335,6 +335,12 @@ def test_scene_checks_share_the_layout_precheck_and_follow_moved_obstacles():
     away = robot.collision_scene(SCENE + [Box(_pose(elbow + (0.0, 0.0, 0.6)), (0.1, 0.1, 0.1))])
     onto = robot.collision_scene(SCENE + [Box(_pose(elbow), (0.1, 0.1, 0.1))])
     assert away.layout is onto.layout and away.layout.precheck() is onto.layout.precheck()
+    layout_check = away.layout.precheck()
+    for scene in (away, onto):  # rows copied from the layout's own obstacles or placed: as packed from scratch
+        rows = np.array([cs.obstacle_row(shape.geometry(), shape.placement()) for shape in scene.obstacles])
+        floats, ints = cs.pack(layout_check.robot, layout_check.pairs, rows)
+        assert np.allclose(scene.precheck()[2], floats, rtol=0, atol=1e-15)
+        assert np.array_equal(scene.precheck()[3], ints)
     assert cs.certify(away.precheck(), [q])[0] and not cs.certify(onto.precheck(), [q])[0]
     assert not away.in_collision(q) and onto.in_collision(q)
     assert away.first_collision([q, q]) == -1 and onto.first_collision([q, q]) == 0
