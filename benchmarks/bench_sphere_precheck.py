@@ -13,6 +13,12 @@ Panda with its SRDF, the table and wall of ``bench_collision.py``. Figures (CPU 
   random configurations and of the path configurations, in the open scene and with a 10 cm cube centred
   on the elbow (origin of ``panda_joint4``) of each path's answer.
 
+With ``--ik N``: collision-aware ``ik.solve`` (flange targets of ``N`` collision-free configurations,
+random starts; the open scene, and a 10 cm cube on the elbow of each target's unconstrained answer), per
+target the best CPU time of 3 solves with the pre-check and 3 without, alternating; the medians, their
+ratios to the unconstrained solve and the median per-target difference. ``--fresh`` empties the scene
+caches before every cube solve (as in ``bench_collision.py`` with more targets than the 32 cached scenes).
+
 Every timing is taken twice in the same process on the same inputs, alternating: with the pre-check
 (``..._us``) and with it switched off on the scenes (``..._coal_us``: coal alone, the code before the
 pre-check). Runs on a kinserve without the pre-check too (then only the coal figures):
@@ -56,16 +62,12 @@ def per_call_us(fn, items, rounds: int) -> float:
     return best * 1e6
 
 
-_BUILT: dict = {}
-
-
 def switch(scenes, on: bool) -> None:
     """The pre-check on (the scene's own, built once) or off (coal alone) on ``scenes``."""
     for s in scenes:
         if hasattr(s, "precheck"):
-            if id(s) not in _BUILT:
-                _BUILT[id(s)] = (s, s.precheck())
-            s._precheck = _BUILT[id(s)][1] if on else None
+            s.precheck()
+            switch_object(s, on)
 
 
 def both(out: dict, key: str, scenes, fn, items, rounds: int) -> None:
@@ -106,6 +108,89 @@ def coal_truth(scene, robot, qs) -> np.ndarray:
     return np.array([bool(pin.computeCollisions(robot.model, data, gm, gd, q, True)) for q in qs])
 
 
+def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
+    """Per-target best-of-3 CPU times (us) of collision-aware solves with and without the pre-check (module
+    docstring, ``--ik``); the pre-check objects once built are kept and put back when switched on."""
+    from kinserve.ik import collision_solve
+
+    cm = robot.collision
+    scene = robot.collision_scene(obstacles)
+    rng = np.random.default_rng(seed)
+    data = robot.model.createData()
+    elbow = robot.model.getJointId("panda_joint4")
+    cases = []
+    while len(cases) < n:
+        q = robot.random_q(rng)
+        if scene.in_collision(q):
+            continue
+        T, start = robot.fk(q, FRAME), robot.random_q(rng)
+        pin.forwardKinematics(robot.model, data, ik.solve(robot, T, start, frame=FRAME, seed=len(cases)).q)
+        cube = ik.Box(_pose(data.oMi[elbow].translation), (0.1, 0.1, 0.1))
+        if robot.collision_scene([*obstacles, cube]).in_collision(q):
+            continue  # the target must stay feasible
+        cases.append((T, start, cube))
+
+    def objects():
+        return [*cm._layouts.values(), *(s for s, _ in cm._scenes.values()), *cm._scenes_by_value.values()]
+
+    def put(on: bool) -> None:
+        for o in objects():
+            if hasattr(o, "_precheck"):
+                switch_object(o, on)
+
+    times = {(w, on): [] for w in ("plain", "open", "cube") for on in (True, False)}
+    for i, (T, start, cube) in enumerate(cases):
+        for w in ("plain", "open", "cube"):
+            best = {True: float("inf"), False: float("inf")}
+            for r in range(6):
+                on = r % 2 == 0
+                put(on)
+                if w == "cube" and fresh:
+                    cm._scenes.clear()
+                    cm._scenes_by_value.clear()
+                    getattr(collision_solve._BOUND, "cache", {}).clear()
+                obs = obstacles if w == "open" else [*obstacles, cube]
+                t0 = time.process_time()
+                if w == "plain":
+                    ik.solve(robot, T, start, frame=FRAME, seed=i)
+                else:
+                    ik.solve(robot, T, start, frame=FRAME, self_collision=True, obstacles=obs, seed=i, max_time=0.5)
+                best[on] = min(best[on], time.process_time() - t0)
+            for on in (True, False):
+                times[(w, on)].append(best[on])
+    put(True)
+    out = {}
+    for on, tag in ((True, "precheck"), (False, "coal")):
+        med = {w: float(np.median(times[(w, on)])) * 1e6 for w in ("plain", "open", "cube")}
+        out[f"ik_{tag}_median_us"] = med
+        out[f"ik_{tag}_open_vs_unconstrained"] = med["open"] / med["plain"]
+        out[f"ik_{tag}_cube_vs_unconstrained"] = med["cube"] / med["plain"]
+    for w in ("open", "cube"):
+        diff = np.array(times[(w, True)]) - np.array(times[(w, False)])
+        out[f"ik_{w}_per_target_difference_us"] = float(np.median(diff)) * 1e6
+    return out
+
+
+_SAVED: dict = {}
+
+
+def switch_object(o, on: bool) -> None:
+    """A layout's or scene's pre-check off (None) or back on: as built before, else built on its next use."""
+    from kinserve.kinematics.collision_layout import _UNBUILT
+
+    current = o._precheck
+    if current is not None and current is not _UNBUILT:
+        _SAVED[id(o)] = (o, current)
+    if not on:
+        o._precheck = None
+        return
+    saved = _SAVED.get(id(o))
+    if saved is not None and saved[0] is o:
+        o._precheck = saved[1]
+    elif current is None:
+        o._precheck = _UNBUILT
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--configs", type=int, default=400)
@@ -113,6 +198,8 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=7)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", help="JSON file for the figures")
+    ap.add_argument("--ik", type=int, default=0, help="targets of the IK comparison (0: none)")
+    ap.add_argument("--fresh", action="store_true", help="IK comparison: a new cube scene for every solve")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
     robot = robots.load("panda")
@@ -175,6 +262,8 @@ def main() -> None:
             free += int((~t).sum())
             cert_n += int(c[~t].sum())
         out["path_free_certified_cube_pct"] = 100.0 * cert_n / max(free, 1)
+    if args.ik and cert is not None:
+        out.update(ik_comparison(robot, obstacles, args.ik, args.fresh, args.seed))
     out["load_after"] = open("/proc/loadavg").read().split()[:3]
     for k, v in out.items():
         print(f"{k:36s} {v if not isinstance(v, float) else round(v, 2)}")
