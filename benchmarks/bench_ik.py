@@ -9,16 +9,18 @@ limits - checked with *our* forward kinematics on every library's answer.
 
 Libraries and settings:
 
-* kinserve ``ik.solve`` with ``method="auto"`` (here: ``"lm"``), ``"lm"`` and
-  ``"qp"`` (OSQP, the default backend; also DAQP for reference), default
+* kinserve ``ik.solve`` with ``method="auto"`` (here: ``"lm"``, whose starts run in
+  the compiled kernel of :mod:`ik.lm_kernel`), ``"lm"`` and
+  ``"qp"`` (the default backend: DAQP, installed with kinserve; ``qp (daqp)`` names it explicitly), default
   options (tol_pos 1e-4 m, tol_rot 1e-3 rad). Note: ours starts from the
   seed *or* from the nearest sample of a precomputed table of FK samples
   (:mod:`ik.seeds`), whichever is closer to the target; the row
   ``lm (seed only)`` disables the table for transparency. ``qp`` skips the
   QP solver when the unconstrained minimiser of a step is feasible (exact,
-  see :mod:`ik.qp_solver`); ``qp (QP every step)`` calls OSQP at every step.
-* Robotics Toolbox ``Robot.ik_LM`` (C++), robot built from the same URDF,
-  ``end="panda_link8"``, ``tol=5e-9``: its stopping test is
+  see :mod:`ik.qp_solver`); ``qp (QP every step)`` calls the QP solver at every step.
+* Robotics Toolbox ``ik_LM`` (C++), robot built from the same URDF, called on
+  the chain ``robot.ets(end="panda_link8")`` built once (``Robot.ik_LM(end=...)``
+  rebuilds it on every call, ~35 us, more than the solve), ``tol=5e-9``: its stopping test is
   ``E = 1/2 |e|^2 < tol`` with ``e = [position; angle-axis]``, so 5e-9 means
   ``|e| < 1e-4``, which implies our success test. (With its default
   ``tol=1e-6`` it stops at ``|e| ~ 1.4e-3`` - also reported.)

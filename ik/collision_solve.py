@@ -2,7 +2,10 @@
 
 Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 
-1. **Unconstrained solves, then check** (half the time budget at most): up to
+1. **Unconstrained solves, then check** (half the time budget at most): the
+   ordinary LM solve first, exactly as ``ik.solve`` runs it without collision
+   options (its starts and restarts), its answer and the iterates of the run
+   that produced it checked; then, if they collide, up to
    :data:`UNCONSTRAINED_ATTEMPTS` runs of the ordinary solver (LM, or QP with
    the requested options), one start each, taken in the order the ordinary
    solve would take them (``q0`` and the table's samples nearest the target
@@ -62,6 +65,7 @@ from .result import History, Result
 
 _clip = numpy_fast.clip
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
+_LM_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
 MAX_TIME = 0.5
 #: Unconstrained runs (each checked) before the constrained one. Measured on the Panda with a 10 cm cube on the
@@ -164,10 +168,13 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
     """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves (or the ``max_starts`` option),
     each answer checked.
 
-    The solves run one start at a time, in the order the ordinary solve would take them (``q0`` and the
-    target's ranked table samples, then random configurations; :func:`_free_starts`), skipping every
-    start in collision at the price of one check instead of a run. A closed-form method (no starts, no
-    iterates) makes the first attempt the ordinary solve. An answer counts when it and every iterate of
+    With LM, the first attempt is the ordinary solve itself (:func:`_lm_run`'s ``ordinary``: the same
+    starts and restarts as without collision options), so that an open scene costs that solve plus one
+    check of its run. Then the solves run one start at a time, in the order the ordinary solve would
+    take them (``q0`` and the target's ranked table samples, then random configurations;
+    :func:`_free_starts`), skipping the start already tried and every start in collision at the price
+    of one check instead of a run. A closed-form method (no starts, no iterates) makes the first attempt
+    the ordinary solve. An answer counts when it and every iterate of
     its run are collision free (:func:`_path_is_free`: the answer first, then the iterates, last first).
     Returns ``(result, warm)``: the qualifying result or None, and the constrained solve's warm start
     (:func:`_last_clear_iterate` of the first run that failed the check; None when there is none).
@@ -185,6 +192,14 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
         if res.history is not None and len(res.history.q):
             skip, failed = res.history.q[0], res.history.q
     run = None if closed else _lm_run(robot, p, solver_opts)
+    if run is not None:  # the ordinary solve first, exactly as without collision checking; then its run is checked
+        res = run.ordinary(max(deadline - time.perf_counter(), 1e-4))
+        attempt = 1 + res.restarts
+        if res.success and _path_is_free(constraint, res):
+            return _checked(res, attempt), None
+        if res.history is not None and len(res.history):
+            failed = res.history.iterates()
+            skip = failed[0]
     limit = UNCONSTRAINED_ATTEMPTS
     if solver_opts.get("max_starts") is not None:  # the caller's cap on starts holds here too
         limit = min(limit, int(solver_opts["max_starts"]))
@@ -223,6 +238,14 @@ def _lm_run(robot, p: dict, solver_opts: dict) -> Callable[[np.ndarray, float], 
         return solve_lm(robot, tgt, start, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                         max_starts=1, prefer_q0=True, seed_table_enabled=False, **tuning)
 
+    ordinary_opts = solver_keywords({k: solver_opts[k] for k in _LM_KEYS if k in solver_opts})
+
+    def ordinary(max_time: float) -> Result:
+        """The solve ``ik.solve`` would run without collision checking (its starts and restarts), within ``max_time``."""
+        return solve_lm(robot, tgt, p["q0"], tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                        **ordinary_opts)
+
+    run.ordinary = ordinary
     return run
 
 

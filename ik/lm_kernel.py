@@ -1,7 +1,9 @@
-"""One Levenberg-Marquardt start on a full-pose target, compiled (Numba) for serial chains.
+"""One Levenberg-Marquardt start, compiled (Numba) for serial chains.
 
-The same iteration as :func:`ik.lm_solver._run_full_pose` - the LOCAL
-``log6`` error, the damped step ``(J^T J + lambda I) dq = J^T e`` with
+The same iteration as :func:`ik.lm_solver._run_full_pose` (full pose) and
+:func:`ik.lm_solver._run_relaxed` (relaxed components: the kept rows of the
+world- or target-axis error of :mod:`ik.targets` with the world-aligned
+Jacobian) - the LOCAL ``log6`` error, the damped step ``(J^T J + lambda I) dq = J^T e`` with
 ``lambda = DAMPING_GAIN |e|^2 + lambda_0``, the active-set projection on the
 joint limits, the stall test - run as one compiled call instead of a dozen
 Pinocchio / NumPy calls per iteration. The chain comes from
@@ -52,9 +54,10 @@ REASONS = ("converged", "stalled", "iteration limit")
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _t = numba.types
 _IN1, _IN2 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2))  # inputs: writable arrays convert
-#: The one signature of :func:`run_full_pose`, compiled (or loaded from the cache) when this module is imported.
+#: The one signature of :func:`run_start`, compiled (or loaded from the cache) when this module is imported.
 _RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(
     _IN2, _t.Array(_t.int64, 2, "C", readonly=True), _IN1, _IN1, _IN1, _IN2,
+    _t.boolean, _IN2, _t.Array(_t.int64, 1, "C", readonly=True),
     _t.float64, _t.float64, _t.float64, _t.float64, _t.float64, _t.int64, _t.int64,
     _t.float64[:, ::1], _t.float64[:, ::1],
 )
@@ -62,12 +65,13 @@ _RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(
 
 @_jit
 def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R: np.ndarray, p: np.ndarray,
-                      J: np.ndarray) -> None:
-    """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its LOCAL Jacobian into ``J`` (6 x n).
+                      J: np.ndarray, local: bool = True) -> None:
+    """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n).
 
     ``J``'s column ``k`` belongs to the chain's joint ``k`` (``q`` index
     ``joints[k, 1]``); rows are linear (m/s per joint unit) then angular
-    (rad/s per joint unit) velocity in the frame's own axes.
+    (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL) or,
+    with ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED).
     """
     n = joints.shape[0]
     # running world placement (Rw, pw); joint world axes z and origins o, kept for the Jacobian
@@ -121,23 +125,18 @@ def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R
         else:
             vx, vy, vz = zx, zy, zz
             wx = wy = wz = 0.0
-        for i in range(3):  # R_f^T applied to both halves
-            J[i, k] = R[0, i] * vx + R[1, i] * vy + R[2, i] * vz
-            J[3 + i, k] = R[0, i] * wx + R[1, i] * wy + R[2, i] * wz
+        if local:
+            for i in range(3):  # R_f^T applied to both halves
+                J[i, k] = R[0, i] * vx + R[1, i] * vy + R[2, i] * vz
+                J[3 + i, k] = R[0, i] * wx + R[1, i] * wy + R[2, i] * wz
+        else:
+            J[0, k], J[1, k], J[2, k], J[3, k], J[4, k], J[5, k] = vx, vy, vz, wx, wy, wz
 
 
 
 @_jit
-def _log6(Rf, pf, Rd, pd, e):
-    """``e = [v; w] = log6(oMf^-1 oMd)``; returns ``|t|^2`` (``t = R_f^T (p_d - p_f)``)."""
-    Re = np.empty((3, 3))
-    for i in range(3):
-        for c in range(3):
-            Re[i, c] = Rf[0, i] * Rd[0, c] + Rf[1, i] * Rd[1, c] + Rf[2, i] * Rd[2, c]
-    dx, dy, dz = pd[0] - pf[0], pd[1] - pf[1], pd[2] - pf[2]
-    tx = Rf[0, 0] * dx + Rf[1, 0] * dy + Rf[2, 0] * dz
-    ty = Rf[0, 1] * dx + Rf[1, 1] * dy + Rf[2, 1] * dz
-    tz = Rf[0, 2] * dx + Rf[1, 2] * dy + Rf[2, 2] * dz
+def _log3(Re, w) -> float:
+    """``w = log3(Re)`` (rotation vector, module docstring); returns the angle ``|w|``."""
     c = 0.5 * (Re[0, 0] + Re[1, 1] + Re[2, 2] - 1.0)
     c = min(1.0, max(-1.0, c))
     sx, sy, sz = 0.5 * (Re[2, 1] - Re[1, 2]), 0.5 * (Re[0, 2] - Re[2, 0]), 0.5 * (Re[1, 0] - Re[0, 1])
@@ -164,6 +163,24 @@ def _log6(Rf, pf, Rd, pd, e):
     else:
         f = theta / s
         wx, wy, wz = f * sx, f * sy, f * sz
+    w[0], w[1], w[2] = wx, wy, wz
+    return theta
+
+
+@_jit
+def _log6(Rf, pf, Rd, pd, e):
+    """``e = [v; w] = log6(oMf^-1 oMd)``; returns ``|t|^2`` (``t = R_f^T (p_d - p_f)``)."""
+    Re = np.empty((3, 3))
+    for i in range(3):
+        for c in range(3):
+            Re[i, c] = Rf[0, i] * Rd[0, c] + Rf[1, i] * Rd[1, c] + Rf[2, i] * Rd[2, c]
+    dx, dy, dz = pd[0] - pf[0], pd[1] - pf[1], pd[2] - pf[2]
+    tx = Rf[0, 0] * dx + Rf[1, 0] * dy + Rf[2, 0] * dz
+    ty = Rf[0, 1] * dx + Rf[1, 1] * dy + Rf[2, 1] * dz
+    tz = Rf[0, 2] * dx + Rf[1, 2] * dy + Rf[2, 2] * dz
+    w = np.empty(3)
+    theta = _log3(Re, w)
+    wx, wy, wz = w[0], w[1], w[2]
     t2 = theta * theta
     if theta < 1e-2:  # series of (1 - x cot x) / theta^2, x = theta / 2: no cancellation
         b = 1.0 / 12.0 + t2 / 720.0 + t2 * t2 / 30240.0
@@ -188,13 +205,13 @@ def _solve_damped(J, r, lam, free, x, A):
         for b in range(a + 1):
             s = 0.0
             if free[a] and free[b]:
-                for i in range(6):
+                for i in range(J.shape[0]):
                     s += J[i, a] * J[i, b]
             A[a, b] = s
         A[a, a] += lam
         s = 0.0
         if free[a]:
-            for i in range(6):
+            for i in range(J.shape[0]):
                 s += J[i, a] * r[i]
         x[a] = s
     for a in range(n):  # A = L L^T in the lower triangle
@@ -219,24 +236,59 @@ def _solve_damped(J, r, lam, free, x, A):
         x[a] = s / A[a, a]
 
 
+@_jit
+def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
+    """The kept rows of ``e6 = [A^T (p* - p); A^T log3(R* R^T)]`` into ``e`` and of ``blockdiag(A^T, A^T) J``
+    (``J`` world-aligned) into ``Jt``; returns the squared position and orientation errors (kept rows)."""
+    M = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            M[a, b] = Rd[a, 0] * R[b, 0] + Rd[a, 1] * R[b, 1] + Rd[a, 2] * R[b, 2]
+    w = np.empty(3)
+    _log3(M, w)
+    e6 = np.empty(6)
+    for a in range(3):
+        e6[a] = Aw[0, a] * (pd[0] - p[0]) + Aw[1, a] * (pd[1] - p[1]) + Aw[2, a] * (pd[2] - p[2])
+        e6[3 + a] = Aw[0, a] * w[0] + Aw[1, a] * w[1] + Aw[2, a] * w[2]
+    pe2 = re2 = 0.0
+    n = J.shape[1]
+    for r in range(kept.shape[0]):
+        i = kept[r]
+        e[r] = e6[i]
+        if i < 3:
+            pe2 += e6[i] * e6[i]
+        else:
+            re2 += e6[i] * e6[i]
+        base, a = (0, i) if i < 3 else (3, i - 3)
+        for k in range(n):
+            Jt[r, k] = Aw[0, a] * J[base, k] + Aw[1, a] * J[base + 1, k] + Aw[2, a] * J[base + 2, k]
+    return pe2, re2
+
+
 @numba.njit(_RUN_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def run_full_pose(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                  Td: np.ndarray, tp2: float, tr2: float, lam0: float, gain: float, stall_ratio: float, patience: int,
-                  max_iter: int, qs: np.ndarray, errs: np.ndarray) -> tuple[int, int, int]:
+def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+              Td: np.ndarray, relaxed: bool, Aw: np.ndarray, kept: np.ndarray, tp2: float, tr2: float, lam0: float,
+              gain: float, stall_ratio: float, patience: int, max_iter: int, qs: np.ndarray,
+              errs: np.ndarray) -> tuple[int, int, int]:
     """One start from ``q0`` on the target pose ``Td`` (4x4): returns ``(status, iterations, rows)``.
 
-    ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``),
-    ``errs[:rows]`` their squared position / orientation errors ``(|t|^2, |w|^2)``.
+    Full pose (``relaxed`` False): the LOCAL ``log6`` error and Jacobian, errors ``(|t|^2, |w|^2)`` of
+    ``oMf^-1 oMd``. Relaxed: the kept rows ``kept`` of the world- or target-axis error of
+    :mod:`ik.targets` (axes ``Aw``: the identity or the target rotation) and of the world-aligned
+    Jacobian, errors the squared norms of the kept position and rotation rows.
+    ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``), ``errs[:rows]`` their squared errors.
     """
     n = joints.shape[0]
     nq = q0.shape[0]
+    m = kept.shape[0] if relaxed else 6
     Rd = Td[:3, :3]
     pd = Td[:3, 3]
     R = np.empty((3, 3))
     p = np.empty(3)
     J = np.empty((6, n))
+    Jt = J if not relaxed else np.empty((m, n))
     e = np.empty(6)
-    r = np.empty(6)
+    r = np.empty(m)
     x = np.empty(n)
     A = np.empty((n, n))
     free = np.ones(n, dtype=np.bool_)
@@ -254,16 +306,20 @@ def run_full_pose(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: 
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         q = qs[it]
-        pose_and_jacobian(geometry, joints, q, R, p, J)
-        pe2 = _log6(R, p, Rd, pd, e)
-        re2 = e[3] * e[3] + e[4] * e[4] + e[5] * e[5]
+        pose_and_jacobian(geometry, joints, q, R, p, J, not relaxed)
+        if relaxed:
+            pe2, re2 = _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e)
+            E = pe2 + re2
+        else:
+            pe2 = _log6(R, p, Rd, pd, e)
+            re2 = e[3] * e[3] + e[4] * e[4] + e[5] * e[5]
+            E = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + re2
         errs[it, 0] = pe2
         errs[it, 1] = re2
         if pe2 < tp2 and re2 < tr2:
             return CONVERGED, it, it + 1
         if it == max_iter:
             break
-        E = e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + re2
         if E < stall_ratio * best:
             best = E
             stalls = 0
@@ -276,13 +332,13 @@ def run_full_pose(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: 
             qk[k] = q[joints[k, 1]]
             free[k] = True
         # free step, then at most three re-solves with the joints that left their range fixed at the bound
-        for i in range(6):
+        for i in range(m):
             r[i] = e[i]
         qn = qs[it + 1]
         for i in range(nq):
             qn[i] = q[i]
         for attempt in range(4):
-            _solve_damped(J, r, lam, free, x, A)
+            _solve_damped(Jt, r, lam, free, x, A)
             inside = True
             for k in range(n):
                 if free[k]:
@@ -303,10 +359,10 @@ def run_full_pose(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: 
                 if free[k] and (qn[j] < lok[k] or qn[j] > hik[k]):
                     free[k] = False
                     qn[j] = min(max(qn[j], lok[k]), hik[k])
-            for i in range(6):
+            for i in range(m):
                 s = e[i]
                 for k in range(n):
                     if not free[k]:
-                        s -= J[i, k] * (qn[joints[k, 1]] - qk[k])
+                        s -= Jt[i, k] * (qn[joints[k, 1]] - qk[k])
                 r[i] = s
     return ITERATION_LIMIT, max_iter, max_iter + 1

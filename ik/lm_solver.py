@@ -83,8 +83,8 @@ MAX_ITER = 60
 MAX_TIME = 0.1
 #: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
 NEAR = 2.5
-#: Full-pose starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm_kernel`
-#: (False: always Pinocchio's algorithms from Python, e.g. to compare the two).
+#: Starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm_kernel`, full pose or
+#: relaxed (False: always Pinocchio's algorithms from Python, e.g. to compare the two).
 COMPILED = True
 #: Failed starts kept unscored (their errors computed only if no start converges) before they are scored.
 UNSCORED_RUNS = 16
@@ -307,9 +307,8 @@ def solve_lm(
     start even when a table sample is closer to the target.
     """
     fid = target.frame_id
-    full = target.full
     # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
-    compiled = _compiled_chain(robot, fid) if full else None
+    compiled = compiled_chain(robot, fid)
     t0 = _now()
     deadline = t0 + (MAX_TIME if max_time is None else max_time)
     model, data = robot.model, robot.data
@@ -394,7 +393,7 @@ def _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping
 
 
 def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
-    """:func:`_python_run` for a full-pose target, as one call of :func:`ik.lm_kernel.run_full_pose`.
+    """:func:`_python_run` as one call of :func:`ik.lm_kernel.run_start` (full pose or relaxed).
 
     The iterates and their exact squared errors come back as arrays (``qs``
     ``(k, nq)``), the same tuples as :func:`_python_run`'s.
@@ -402,8 +401,8 @@ def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> t
     run, geometry, joints = compiled
     rows = max_iter + 1
     qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
-    status, it, k = run(geometry, joints, q, lo, hi, target.T, tp2, tr2, float(damping), DAMPING_GAIN,
-                        STALL_RATIO, STALL_PATIENCE, int(max_iter), qs, errs)
+    status, it, k = run(geometry, joints, q, lo, hi, target.T, not target.full, target.A, target.kept, tp2, tr2,
+                        float(damping), DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, int(max_iter), qs, errs)
     qs, pos2, rot2 = qs[:k], errs[:k, 0], errs[:k, 1]
     if status == 0:
         return True, it, (k - 1, qs, pos2, rot2, pos2[k - 1], rot2[k - 1])
@@ -413,7 +412,7 @@ def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> t
 _chains = PerModel()
 
 
-def _compiled_chain(robot: Robot, fid: int) -> tuple | None:
+def compiled_chain(robot: Robot, fid: int) -> tuple | None:
     """``(kernel, geometry, joints)`` of the chain to frame ``fid`` (cached per model), or None.
 
     None when :data:`COMPILED` is off, Numba is not installed or the chain has
@@ -433,7 +432,7 @@ def _compiled_chain(robot: Robot, fid: int) -> tuple | None:
         except ImportError:  # Numba missing: Pinocchio's algorithms from Python
             pass
         else:
-            value = (lm_kernel.run_full_pose, *chain)
+            value = (lm_kernel.run_start, *chain)
     _chains.setdefault(robot.model)[fid] = value
     return value
 

@@ -31,14 +31,12 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
              tol_pos: float = 1e-4, tol_rot: float = 1e-3, max_time: float | None = None, seed: int | None = None,
              max_iter: int = MAX_ITER, max_step: float = MAX_STEP, damping: float = DAMPING,
              max_starts: int | None = None, seed_table_enabled: bool = True, prefer_q0: bool = False,
-             shortcut: bool = True, lazy: bool = True, warm_start: np.ndarray | None = None,
-             q0_checked: bool = False, defer_starts: int = 0) -> Result:
+             shortcut: bool = True, lazy: bool = True, defer_starts: int = 0) -> Result:
     """QP-based IK of ``target`` with hard joint limits, optional obstacles and centring, and restarts.
 
     ``spheres`` is a constraint (e.g. :class:`~kinserve.ik.constraints.obstacles.ObstacleAvoidance`), a list
     of constraints or None; ``weights`` the centring weights of :func:`ik.centring.centring_weights` (None = off);
-    ``warm_start`` a first start tried before the usual ones, ``q0_checked`` (``q0`` found clear by the caller)
-    and ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.task_solver.solve_problem`.
+    ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.task_solver.solve_problem`.
     """
     from .tasks.centring_task import CentringTask
     from .tasks.frame_task import FrameTask
@@ -60,7 +58,6 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
     return solve_problem(pb, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, max_iter=max_iter,
                          max_step=max_step, damping=damping, max_starts=max_starts,
                          seed_table_enabled=seed_table_enabled, prefer_q0=prefer_q0, backend=backend,
-                         shortcut=shortcut, lazy=lazy, warm_start=warm_start, q0_checked=q0_checked,
-                         defer_starts=defer_starts,
+                         shortcut=shortcut, lazy=lazy, defer_starts=defer_starts,
                          evaluate=task_evaluator(robot, target),
                          components=target.components)

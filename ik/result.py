@@ -133,6 +133,18 @@ class History:
     def __len__(self) -> int:
         return self._raw[3] if self._raw is not None else int(self._q.shape[0])
 
+    def final(self) -> History:
+        """A history of this one's last iteration alone (the configuration a converged run answers with)."""
+        if self._raw is not None:
+            qs, pos2, rot2, k = self._raw
+            if rot2 is None:  # deferred errors: computed now (the run's few iterates)
+                pos2, rot2 = pos2()
+            return History.from_squared([qs[k - 1]], [pos2[k - 1]], [rot2[k - 1]], 1, self.components,
+                                        self._evaluate)
+        te = None if self._task_error is None else self._task_error[-1:]
+        return History(self._q[-1:], self._position_error[-1:], self._orientation_error[-1:], te, self.components,
+                       self._evaluate)
+
     def __getstate__(self):
         if self._raw is not None:
             self._materialise()

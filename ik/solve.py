@@ -57,7 +57,7 @@ from .classical import solve_classical
 from .constraints import as_sphere
 from .constraints.obstacles import ObstacleAvoidance, as_obstacle
 from .dense_qp import DEFAULT_BACKEND
-from .lm_solver import solve_lm
+from .lm_solver import compiled_chain, solve_lm
 from .multistart import frame_starts
 from .options import OPTIONS, check_options, solver_keywords
 from .problem import Problem
@@ -196,6 +196,7 @@ def _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, l
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     if avoid is not None and method in _NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); use 'qp' or 'auto'")
+    compiled_chain(robot, tgt.frame_id)  # the compiled LM loaded here, before any solver's clock starts
     return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                 backend=backend, weights=weights, spheres=avoid, method=method)
 
@@ -419,12 +420,14 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
     of the run's (one vectorised check of ``q0`` and all the iterates).
 
     A converged run whose *answer* is clear but whose path was not ends the
-    free attempts: its answer becomes the constrained solve's first start
-    (``p["warm_start"]``; a clear configuration within tolerance, which that
-    solve checks and returns with a history of clear iterates only).
-    Otherwise None: the caller runs the constrained solve on the usual starts
-    (measured: starting it from the last clear iterate of a free run is worse -
-    that iterate faces the obstacle).
+    free attempts too: its answer, a clear configuration within tolerance, is
+    a start that already meets the target and every constraint - the
+    constrained solve given it as a warm start would return it at once, with a
+    history of that one configuration. That answer and history are returned
+    here directly (no QP problem is built for it). Otherwise None: the caller
+    runs the constrained solve on the usual starts (measured: starting it from
+    the last clear iterate of a free run is worse - that iterate faces the
+    obstacle).
     """
     avoid = p["spheres"]
     opts = solver_keywords(options)
@@ -463,12 +466,17 @@ def _solve_unconstrained_first(robot, p: dict, options: dict):
             res.restarts = attempt
             res.elapsed = time.perf_counter() - t0
             return res
-        if not bad[-1]:
-            p["warm_start"] = res.q
-            p["q0_checked"] = q0_bad is False  # the constrained solve need not check q0 for its message
-            break
+        if not bad[-1]:  # the answer is clear, its path was not: the answer alone (see the docstring)
+            res.history = res.history.final()
+            res.message = ("converged: an unconstrained run's answer, clear of the obstacles, taken as a start of its "
+                           "own (the run's path was not clear; the history is that configuration alone)")
+            if q0_bad:
+                res.message += "; q0 is inside an obstacle: started from a configuration clear of them"
+            res.restarts = attempt
+            res.elapsed = time.perf_counter() - t0
+            return res
     p["max_time"] = max(budget - (time.perf_counter() - t0), 1e-3)  # the constrained solve gets what is left
-    p["tried_starts"] = attempt + 1 if "warm_start" not in p else 0  # (the constrained solve retries them later)
+    p["tried_starts"] = attempt + 1  # (the constrained solve retries them later)
     return None
 
 
@@ -485,7 +493,6 @@ def _solve_target_tasks(robot, p: dict, options: dict):
     opts = solver_keywords(options)
     return solve_qp(robot, tgt, p["q0"], spheres=spheres, weights=p["weights"], backend=p["backend"],
                     tol_pos=p["tol_pos"], tol_rot=p["tol_rot"], max_time=p["max_time"], seed=p["seed"],
-                    warm_start=p.get("warm_start"), q0_checked=p.get("q0_checked", False),
                     defer_starts=p.get("tried_starts", 0), **opts)
 
 

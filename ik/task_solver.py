@@ -217,18 +217,12 @@ def solve_problem(
     method: str = "qp",
     evaluate: Callable[[np.ndarray], np.ndarray] | None = None,
     components: tuple | None = None,
-    warm_start: np.ndarray | None = None,
-    q0_checked: bool = False,
     defer_starts: int = 0,
 ) -> Result:
     """Solve a bound :class:`Problem` from the starts of :func:`ik.multistart.starts` (module docstring).
 
     ``evaluate``/``components`` define :attr:`History.task_error` (default:
-    the goal tasks' errors, sign ``desired - current``). ``warm_start``: a
-    configuration tried before those starts (e.g. the answer of an
-    unconstrained run; skipped like any start when it violates a constraint).
-    ``q0_checked``: the caller has found ``q0`` to satisfy the checked
-    constraints (no check for the message's note). ``defer_starts``: the first
+    the goal tasks' errors, sign ``desired - current``). ``defer_starts``: the first
     so many starts were already tried by the caller (e.g. the unconstrained
     attempts of ``ik.solve``); they come after the next :data:`DEFER_BY`.
     """
@@ -242,29 +236,21 @@ def solve_problem(
     note = ""
     if q0 is not None:
         q0 = np.clip(q0, lo, hi)
-        if pb.checked and not q0_checked and pb.margin(q0) < 0.0:
+        if pb.checked and pb.margin(q0) < 0.0:
             note = f"q0 violates a constraint ({pb.describe(q0)}); started from configurations that satisfy them"
     best = None
     iterations = n_starts = skipped = 0
-    if warm_start is None:
-        sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
-        if defer_starts > 0:
-            sequence = _deferred(sequence, int(defer_starts), DEFER_BY)
-    else:  # the usual starts are ranked only if the warm start does not do
-        sequence = itertools.chain((np.clip(warm_start, lo, hi),),
-                                   _later(starts, robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0))
-    warm = warm_start is not None
+    sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
+    if defer_starts > 0:
+        sequence = _deferred(sequence, int(defer_starts), DEFER_BY)
     for q in sequence:
         st = pb.state(q)  # (its margin decides whether the start is used; the start's first iteration reuses it)
         if st[4] < 0.0:
             skipped += 1
-            warm = False  # (the warm start is the first of the sequence: skipped, or already past)
             if skipped > 10000 or _now() > deadline:
                 break
             continue
         n_starts += 1
-        if n_starts > 1:
-            warm = False
         record = ([], [], [])
         ok, it, reason, k, es = _run_start(run, q, record, st)
         iterations += it
@@ -294,8 +280,6 @@ def solve_problem(
         _, _, _, es = pb.evaluate(q)
     if ok:
         message = reason
-        if warm and n_starts == 1:
-            message += " (from the warm start: an unconstrained run's answer, clear of the constraints)"
     else:
         message = (f"no start reached tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad in {n_starts} starts "
                    f"({iterations} iterations; last start: {reason}); best residual {pes[k]:.3g} m / {res[k]:.3g} rad")
@@ -315,11 +299,6 @@ def _deferred(sequence, n: int, by: int):
     yield from itertools.islice(it, by)
     yield from first
     yield from it
-
-
-def _later(make, *args):
-    """The items of ``make(*args)``, which is called only when the first item is asked for."""
-    yield from make(*args)
 
 
 def _frame_of(pb: Problem) -> str:

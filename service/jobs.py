@@ -57,6 +57,7 @@ def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENES
     exit_with_parent()
     _settings = ServiceSettings(**__import__("json").loads(settings_json)) if settings_json else ServiceSettings()
     _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
+    load_compiled_kernels()
     if niceness and hasattr(os, "nice"):
         try:
             os.nice(niceness)
@@ -69,6 +70,13 @@ def pool() -> RobotPool:
     if _pool is None:
         _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
     return _pool
+
+
+def load_compiled_kernels() -> None:
+    """Import Numba and load the compiled IK kernels (~0.5 s from their cache) when a solver process starts,
+    before it takes a job: a job that loaded them would overrun its request's time cap."""
+    from kinserve.ik.constraints import clearance_kernel  # noqa: F401 - loaded on import
+    from kinserve.ik import lm_kernel  # noqa: F401 - loaded on import
 
 
 def warm(deadline: Deadline, robot: str = "panda") -> int:

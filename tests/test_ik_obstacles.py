@@ -336,9 +336,10 @@ def test_bind_is_shared_by_constraints_on_the_same_shapes(panda):
     assert np.array_equal(a._pairs(panda.data, False, np.inf), c._pairs(panda.data, False, np.inf))
 
 
-def test_a_free_answer_reached_through_an_obstacle_is_only_a_warm_start(panda, monkeypatch):
-    """The free LM attempts of ik.solve: a converged run whose path enters an obstacle is not returned; its clear
-    answer starts the constrained solve, whose history holds clear configurations only."""
+def test_a_free_answer_reached_through_an_obstacle_is_only_a_start(panda, monkeypatch):
+    """The free LM attempts of ik.solve: a converged run whose path enters an obstacle is not returned as it is;
+    its clear answer is a start of its own that already meets the target, returned with a history of clear
+    configurations only (that answer alone)."""
     import sys
 
     from kinserve.ik.result import History, Result
@@ -363,7 +364,7 @@ def test_a_free_answer_reached_through_an_obstacle_is_only_a_warm_start(panda, m
     monkeypatch.setattr(solve_module, "solve_lm", fake_lm)
     res = ik.solve(panda, T, obstacles=[ob], seed=3)
     assert len(calls) == 1  # the clear answer ends the free attempts
-    assert res.success and "warm start" in res.message, res.message
+    assert res.success and "start of its own" in res.message, res.message
     assert np.array_equal(res.q, q_goal) and len(res.history.q) == 1
     assert _all_clear(panda, res.history.q, panda.tip, [ob])
     again = ik.solve(panda, T, obstacles=[ob], seed=3)

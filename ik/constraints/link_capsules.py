@@ -31,6 +31,8 @@ import numpy as np
 import pinocchio as pin
 from typing import TYPE_CHECKING
 
+from kinserve.kinematics.serial_chain import kinematic_tree
+
 from .link_segments import frame_points, robot_segments
 
 if TYPE_CHECKING:  # annotations only
@@ -46,6 +48,7 @@ class LinkSkeleton:
 
     def __init__(self, robot: Robot, segments: list) -> None:
         model = robot.model
+        self._model = model
         self.names = [s.name for s in segments]
         self.ja = np.array([s.ja for s in segments], dtype=int)
         self.jb = np.array([s.jb for s in segments], dtype=int)
@@ -121,6 +124,26 @@ class LinkSkeleton:
 
     def __len__(self) -> int:
         return len(self.names)
+
+    @property
+    def tree(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The model's whole tree packed for compiled kernels (:func:`kinserve.kinematics.serial_chain.kinematic_tree`),
+        or None when it has joints they do not model."""
+        if "_tree" not in self.__dict__:
+            self._tree = kinematic_tree(self._model)
+        return self._tree
+
+    @property
+    def point_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(joint, local)``: the rows of :meth:`points` as ``(n_points,)`` Pinocchio joint indices and
+        ``(n_points, 3)`` points in those joints' frames (joint 0: a world point), for compiled kernels."""
+        table = self.__dict__.get("_point_table")
+        if table is None:
+            joint = [j for j in self._translations] + [j for j, _ in self._acts] + [0] * len(self._world)
+            local = [np.zeros(3)] * len(self._translations) + [l for _, l in self._acts] + list(self._world)
+            table = self._point_table = (np.array(joint, dtype=np.int64),
+                                         np.array(local, dtype=float).reshape(len(joint), 3))
+        return table
 
     def endpoints(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """World end points ``(A, B)``, each ``(S, 3)``, after forward kinematics in ``data``."""

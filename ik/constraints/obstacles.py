@@ -127,6 +127,19 @@ def _bounding_radius(shape: Shape) -> float:
     raise TypeError(type(shape).__name__)
 
 
+_kernel_module = None
+
+
+def _clearance_kernel():
+    """:mod:`.clearance_kernel`, imported on first use (it imports Numba and loads its compiled code)."""
+    global _kernel_module
+    if _kernel_module is None:
+        from . import clearance_kernel
+
+        _kernel_module = clearance_kernel
+    return _kernel_module
+
+
 class ObstacleAvoidance(Constraint):
     """Keep ``obstacles`` (any :mod:`kinserve.kinematics.shapes` shape) clear of the robot (module docstring).
 
@@ -214,6 +227,8 @@ class ObstacleAvoidance(Constraint):
         extra = tuple(dict.fromkeys(f for ob in self.obstacles if ob.frames is not None for f in ob.frames))
         sk, n_default, fixed = _skeleton(robot, tools, extra)
         self.skeleton = sk
+        if sk.tree is not None:
+            _clearance_kernel()  # imported (Numba, the compiled code) now, not inside the first solve's time budget
         frame_index = {name: n_default + k for k, name in enumerate(extra)}
         segs_default = list(range(n_default))
         # per kind: (obstacle index, obstacle, segment ids); pairs are ordered spheres, capsules, boxes,
@@ -316,6 +331,7 @@ class ObstacleAvoidance(Constraint):
             and not self._oth_seg.size
         self._sph_r_off = self._sph_r + self._offset
         self._sph_r_off2 = self._sph_r_off * self._sph_r_off  # (r + offset)^2: violations() compares squares
+        self._cap_r_off = self._cap_r + self._offset
         self._sph_W = self._sph_S = self._sph_Wk = None  # made by _sphere_rows on first use
 
     @property
@@ -618,60 +634,36 @@ class ObstacleAvoidance(Constraint):
         """``(K,)`` booleans: True where configuration ``k`` of ``Q`` (``(K, nq)``, or a list of ``(nq,)`` arrays)
         has a negative clearance.
 
-        The sphere, capsule and box distances of all ``K`` configurations are evaluated at once (the
-        same closed forms on ``(K, pairs)`` arrays; box pairs only where their axis-gap bound is below
-        the offset, and a segment that meets a box counts as a violation - the penetration depth is not
-        needed for the verdict, only a tangential touch would have clearance 0); coal pairs (cylinders,
-        meshes) are checked per configuration where their bounding-sphere bound is negative.
+        The segments' end points of all ``K`` configurations come from one compiled forward kinematics
+        (:func:`.clearance_kernel.skeleton_points`; Pinocchio per configuration for joints it does not
+        model), and their sphere, capsule and box pairs are decided in one compiled call
+        (:func:`.clearance_kernel.violations`: the same closed forms, box pairs past a separating-axis
+        test only, and a segment that meets a box counts as a violation - the penetration depth is not
+        needed for the verdict); coal pairs (cylinders, meshes) are checked per configuration where their
+        bounding-sphere bound is negative.
         ``first_only``: only the first True entry must be right (coal pairs of later configurations are
         skipped).
         """
-        model, data = robot.model, robot.data
         sk = self.skeleton
-        fk = _pin().forwardKinematics
+        kernel = _clearance_kernel()
         P = np.empty((len(Q), sk.n_points, 3))
-        into = sk.points_into
-        for k, q in enumerate(Q):
-            fk(model, data, q)
-            into(data, P[k])
+        tree = sk.tree
+        if tree is not None:  # forward kinematics of every configuration in one compiled call
+            Qa = Q if type(Q) is np.ndarray and Q.flags.c_contiguous else np.array(Q, dtype=float)
+            kernel.skeleton_points(*tree, *sk.point_table, Qa, P)
+        else:  # joints the compiled tree does not model: Pinocchio, configuration by configuration
+            model, data = robot.model, robot.data
+            fk = _pin().forwardKinematics
+            into = sk.points_into
+            for k, q in enumerate(Q):
+                fk(model, data, q)
+                into(data, P[k])
         bad = np.zeros(len(Q), dtype=bool)
         off = self._offset
-        if self._sph_seg.size:  # squared distances against (r + offset)^2 (r > 0, offset >= 0)
-            A = P.take(self._sph_ia, 1)
-            AB = P.take(self._sph_ib, 1)  # (two contiguous gathers: cheaper arithmetic than views of one)
-            AB -= A
-            AC = self._sph_c - A
-            inv = self._sph_inv if self._sph_inv is not None else 1.0 / np.maximum(_einsum("kij,kij->ki", AB, AB), 1e-300)
-            t = _einsum("kij,kij->ki", AC, AB)
-            t *= inv
-            _clip(t, 0.0, 1.0, out=t)
-            AB *= t[..., None]
-            AB -= AC  # x - c
-            d2 = _einsum("kij,kij->ki", AB, AB)
-            bad |= (d2 < self._sph_r_off2).any(axis=1)
-        if self._cap_seg.size:
-            K, n = len(Q), self._cap_seg.size
-            A, B = P[:, self._cap_ia].reshape(-1, 3), P[:, self._cap_ib].reshape(-1, 3)
-            _, _, X, Y = segment_segment(A, B, np.tile(self._cap_a, (K, 1)), np.tile(self._cap_b, (K, 1)))
-            d = np.linalg.norm(X - Y, axis=1).reshape(K, n)
-            bad |= (d - self._cap_r - off < 0.0).any(axis=1)
-        if self._box_seg.size:  # the separating-axis bound on all (K, pairs), then exact distances where below off
-            n = self._box_seg.size
-            a, b = self._box_local(P)  # (K, pairs, 3)
-            h = self._box_h
-            near = np.flatnonzero(_box_gap(a, b, h) < off)
-            if 0 < near.size <= _SCALAR_PAIRS:  # few left: separating axes, then the exact distance, on floats
-                a2, b2, rows = a.reshape(-1, 3)[near].tolist(), b.reshape(-1, 3)[near].tolist(), (near % n).tolist()
-                hl = h.tolist()
-                for j, r in enumerate(rows):
-                    if not _separated(a2[j], b2[j], hl[r], off):
-                        d = segment_box_distance(a2[j], b2[j], hl[r])[1]
-                        if d < off or d <= 0.0:
-                            bad[near[j] // n] = True
-            elif near.size:
-                k = near // n
-                d = segment_box(a.reshape(-1, 3)[near], b.reshape(-1, 3)[near], h[near % n])[1]
-                bad[k[(d < off) | (d <= 0.0)]] = True
+        if self._sph_seg.size or self._cap_seg.size or self._box_seg.size:
+            kernel.violations(P, self._sph_ia, self._sph_ib, self._sph_c, self._sph_r_off2, self._cap_ia,
+                                           self._cap_ib, self._cap_a, self._cap_b, self._cap_r_off, self._box_ia,
+                                           self._box_ib, self._box_R, self._box_t, self._box_h, off, bad)
         if self._oth_seg.size:
             import coal
 
@@ -708,7 +700,7 @@ class ObstacleAvoidance(Constraint):
         normals, near mask), whose ``c = d - (r + offset)`` equals ``(d - r) - offset`` to ~1e-17 m.
         """
         if self._sph_only:  # the clearances, normals and near mask of _sphere_rows, kept for rows() at this q
-            w = self._sphere_geometry(data)
+            w = self._sphere_geometry(data, q)
             self._last = (data, q, w)
             c = w[0]
             return float(_min(c)) if c.size else math.inf
@@ -723,7 +715,7 @@ class ObstacleAvoidance(Constraint):
     def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         last = self._last
         if self._sph_only:
-            return self._sphere_rows(data, last[2] if last is not None and last[0] is data and last[1] is q else None)
+            return self._sphere_rows(data, q, last[2] if last is not None and last[0] is data and last[1] is q else None)
         if last is not None and last[0] is data and last[1] is q:
             c, seg, s, N, A, B = last[2]
         else:
@@ -752,11 +744,21 @@ class ObstacleAvoidance(Constraint):
             for k in ("_sph_S", "_sph_W", "_sph_Wk"):
                 shared[k] = getattr(self, k)
 
-    def _sphere_geometry(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(c, N, near)`` of every sphere pair (rigid segments): clearances ``c = d - r - offset`` (m), unit
-        normals ``N`` (rows, from the centre to the witness point) and the mask of the pairs that give rows
-        (``c < influence`` and a defined normal). Forward kinematics only."""
-        P = self.skeleton.points(data)
+    def _sphere_geometry(self, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(c, N, near)`` of every sphere pair (rigid segments) at ``q``: clearances ``c = d - r - offset`` (m),
+        unit normals ``N`` (rows, from the centre to the witness point) and the mask of the pairs that give rows
+        (``c < influence`` and a defined normal). One compiled call
+        (:func:`.clearance_kernel.sphere_geometry`); forward kinematics in ``data`` when the tree has joints it
+        does not model."""
+        sk = self.skeleton
+        tree = sk.tree
+        if tree is not None:
+            n = self._sph_seg.shape[0]
+            c, V, near = np.empty(n), np.empty((n, 3)), np.empty(n, dtype=bool)
+            _clearance_kernel().sphere_geometry(*tree, *sk.point_table, q, self._sph_ia, self._sph_ib, self._sph_c,
+                                                self._sph_inv, self._sph_r_off, self.influence, c, V, near)
+            return c, V, near
+        P = sk.points(data)
         n = self._sph_seg.shape[0]
         X = P.take(self._sph_iab, 0)  # both ends of every pair in one gather (take: cheaper than fancy indexing)
         A = X[:n]
@@ -776,7 +778,8 @@ class ObstacleAvoidance(Constraint):
             V /= _fmax(d, _EPS)[:, None]
         return c, V, near
 
-    def _sphere_rows(self, data: pin.Data, geometry: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _sphere_rows(self, data: pin.Data, q: np.ndarray,
+                     geometry: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`rows` when every pair is a sphere on a rigid segment: the same rows in fewer array passes.
 
         With ``V = x - o = d n`` the witness point is ``x = o + V``, so ``x x n = o x n``
@@ -785,7 +788,12 @@ class ObstacleAvoidance(Constraint):
         """
         if self._sph_W is None:
             self._sphere_constants()
-        c, V, near = self._sphere_geometry(data) if geometry is None else geometry
+        c, V, near = self._sphere_geometry(data, q) if geometry is None else geometry
+        if self.skeleton.tree is not None:  # the rows of the near pairs in one compiled call
+            G = np.empty((c.shape[0], data.J.shape[1]))
+            k = _clearance_kernel().sphere_rows(V, self._sph_c, data.J, self._sph_S, near, G)
+            c = c.compress(near)
+            return G[:k], -self.gain * c, _INF[:k] if k <= _INF.shape[0] else np.full(k, np.inf)
         # row p: n^T [I, -[o]x] J = n^T J_v + (o x n)^T J_w, masked by the support of the segment's joint;
         # computed for every pair (a few more rows of small products), then the far pairs are dropped
         blocks = self._sph_blocks

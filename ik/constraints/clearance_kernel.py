@@ -1,0 +1,304 @@
+"""Which configurations put a link segment inside an obstacle: sphere, capsule and box pairs, compiled (Numba).
+
+:meth:`ik.constraints.obstacles.ObstacleAvoidance.violations` checks the
+iterates of a run: for ``K`` configurations and every (segment, obstacle)
+pair whether the segment comes closer than the obstacle's size plus the
+offset ``off`` (link radius + required margin). This kernel takes the
+segments' end points of all configurations at once (``P``, ``(K, points, 3)``,
+world, m) and the pair tables of the bound constraint, and decides each
+configuration in one compiled call, stopping at its first violated pair:
+
+* sphere (centre ``c``, radius ``r``): the point-segment distance
+  ``|a + s (b - a) - c|``, ``s = clamp((c - a).(b - a) / |b - a|^2, 0, 1)``,
+  violated when its square is below ``(r + off)^2``;
+* capsule (core ``[p, q]``, radius ``r``): the segment-segment distance
+  (Ericson, *Real-Time Collision Detection*, 5.1.9, as
+  :func:`..segment_distance.segment_segment`), violated below ``r + off``;
+* box (pose ``R, t``, half extents ``h``): the segment in the box frame
+  ``R^T (x - t)``; the separating-axis test against the box grown by ``off``
+  (:func:`..obstacles._separated`) clears most pairs; the others get the exact
+  segment-box distance of :func:`..segment_distance.segment_box_distance`
+  (violated below ``off``, or at 0: the segment meets the box).
+
+The same formulas as the NumPy code of :mod:`..segment_distance` (checked
+against it and against sampled distances in the tests).
+
+:func:`skeleton_points` computes those end points from the configurations
+(forward kinematics of the whole tree packed by
+:func:`kinserve.kinematics.serial_chain.kinematic_tree`: ``oMj = oM(parent) Mj
+exp(a_j q_j)``; a point ``l`` fixed to joint ``j`` is at ``R_j l + p_j``), so a
+check of a run's iterates is two compiled calls and no Pinocchio call per
+configuration. For the QP steps with spheres only, :func:`sphere_geometry`
+gives the clearances, unit normals and near pairs at one configuration and
+:func:`sphere_rows` the velocity-damper rows ``n^T J_v + (o x n)^T J_w`` from
+Pinocchio's joint Jacobians (see :meth:`..obstacles.ObstacleAvoidance._sphere_rows`). Everything the kernels call is in this file (Numba's on-disk
+cache is keyed by this file; the tree FK repeats the few lines of
+:func:`kinserve.kinematics.collision_spheres.tree_placements` for that reason).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from kinserve.kinematics.serial_chain import REVOLUTE as _REVOLUTE
+
+_t = numba.types
+_F1, _F2, _F3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))
+_I1 = _t.Array(_t.int64, 1, "C", readonly=True)
+_SIGNATURE = _t.void(_F3, _I1, _I1, _F2, _F1, _I1, _I1, _F2, _F2, _F1, _I1, _I1, _F3, _F2, _F2, _t.float64,
+                     _t.boolean[::1])
+_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
+_POINTS_SIGNATURE = _t.void(_F2, _I2, _I1, _F2, _F2, _t.float64[:, :, ::1])
+_SPHERES_SIGNATURE = _t.float64(_F2, _I2, _I1, _F2, _t.Array(_t.float64, 1, "A", readonly=True), _I1, _I1, _F2, _F1, _F1, _t.float64, _t.float64[::1],
+                                _t.float64[:, ::1], _t.boolean[::1])
+_ROWS_SIGNATURE = _t.int64(_F2, _F2, _t.Array(_t.float64, 2, "A", readonly=True), _F2,
+                           _t.Array(_t.boolean, 1, "C", readonly=True), _t.float64[:, ::1])
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+
+@_jit
+def _points_at(tree, joints, point_joint, point_local, q, X, out):
+    """``out[i] = R_j l_i + p_j`` at configuration ``q`` (``X`` ``(J + 1, 12)``: the joints' world placements,
+    row 0 the identity, filled here)."""
+    for m in range(joints.shape[0]):
+        g = tree[m]
+        Pa = X[joints[m, 2]]
+        o = X[m + 1]
+        for i in range(3):  # o.t = P.t + P.R M.t ; o.R = P.R M.R (then the joint motion)
+            p0, p1, p2 = Pa[3 * i], Pa[3 * i + 1], Pa[3 * i + 2]
+            o[9 + i] = Pa[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
+            for c in range(3):
+                o[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
+        ax, ay, az = g[12], g[13], g[14]
+        qm = q[joints[m, 1]]
+        if joints[m, 0] == _REVOLUTE:  # R = T Rot(a, q), Rodrigues
+            s, co = math.sin(qm), math.cos(qm)
+            v = 1.0 - co
+            r00, r01, r02 = co + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
+            r10, r11, r12 = v * ax * ay + s * az, co + v * ay * ay, v * ay * az - s * ax
+            r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, co + v * az * az
+            for i in range(3):
+                t0, t1, t2 = o[3 * i], o[3 * i + 1], o[3 * i + 2]
+                o[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
+                o[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
+                o[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
+        else:  # p += T a q
+            for i in range(3):
+                o[9 + i] += (o[3 * i] * ax + o[3 * i + 1] * ay + o[3 * i + 2] * az) * qm
+    for i in range(point_joint.shape[0]):
+        Xj = X[point_joint[i]]
+        l0, l1, l2 = point_local[i, 0], point_local[i, 1], point_local[i, 2]
+        for r in range(3):
+            out[i, r] = Xj[9 + r] + Xj[3 * r] * l0 + Xj[3 * r + 1] * l1 + Xj[3 * r + 2] * l2
+
+
+@_jit
+def _identity_placements(J: int) -> np.ndarray:
+    """``(J + 1, 12)`` placements, row 0 (the universe) the identity; the rest filled by :func:`_points_at`."""
+    X = np.empty((J + 1, 12))
+    for c in range(12):
+        X[0, c] = 0.0
+    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
+    return X
+
+
+@numba.njit(_POINTS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def skeleton_points(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
+                    Q: np.ndarray, P: np.ndarray) -> None:
+    """World points ``P[k, i] = R_j l_i + p_j`` (``j = point_joint[i]``, ``l_i = point_local[i]``; joint 0 is the
+    world) of every configuration ``Q[k]``, by forward kinematics of the packed tree (module docstring)."""
+    X = _identity_placements(joints.shape[0])
+    for k in range(Q.shape[0]):
+        _points_at(tree, joints, point_joint, point_local, Q[k], X, P[k])
+
+
+@numba.njit(_SPHERES_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def sphere_geometry(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
+                    q: np.ndarray, ia: np.ndarray, ib: np.ndarray, centers: np.ndarray, inv_len2: np.ndarray,
+                    r_off: np.ndarray, influence: float, c: np.ndarray, V: np.ndarray, near: np.ndarray) -> float:
+    """Clearances ``c = |x - o| - (r + off)`` of the sphere pairs at ``q`` (rigid segments: ``1 / |b - a|^2``
+    given), the unit normals ``V`` (witness point ``x`` minus centre ``o``, rows) and the pairs within
+    ``influence`` with a defined normal (``near``); returns the smallest clearance (m)."""
+    X = _identity_placements(joints.shape[0])
+    P = np.empty((point_joint.shape[0], 3))
+    _points_at(tree, joints, point_joint, point_local, q, X, P)
+    lowest = np.inf
+    for p in range(ia.shape[0]):
+        A, B, o = P[ia[p]], P[ib[p]], centers[p]
+        ux, uy, uz = B[0] - A[0], B[1] - A[1], B[2] - A[2]
+        wx, wy, wz = o[0] - A[0], o[1] - A[1], o[2] - A[2]
+        s = min(max((wx * ux + wy * uy + wz * uz) * inv_len2[p], 0.0), 1.0)
+        vx, vy, vz = s * ux - wx, s * uy - wy, s * uz - wz  # x - o
+        d = math.sqrt(vx * vx + vy * vy + vz * vz)
+        c[p] = d - r_off[p]
+        lowest = min(lowest, c[p])
+        near[p] = c[p] < influence and d > 1e-12
+        f = 1.0 / max(d, 1e-12)
+        V[p, 0], V[p, 1], V[p, 2] = vx * f, vy * f, vz * f
+    return lowest
+
+
+@numba.njit(_ROWS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def sphere_rows(V: np.ndarray, centers: np.ndarray, J: np.ndarray, support: np.ndarray, near: np.ndarray,
+                G: np.ndarray) -> int:
+    """Rows ``n^T J_v + (o x n)^T J_w`` (masked by the support of the pair's segment) of the ``near`` pairs
+    into the first rows of ``G``; returns their number. ``J``: Pinocchio's WORLD joint Jacobians ``(6, nv)``
+    (``data.J``); the moment arm of a sphere row is its centre ``o`` (the witness point is ``o + d n``)."""
+    k = 0
+    nv = J.shape[1]
+    for p in range(V.shape[0]):
+        if not near[p]:
+            continue
+        n0, n1, n2 = V[p, 0], V[p, 1], V[p, 2]
+        o = centers[p]
+        m0, m1, m2 = o[1] * n2 - o[2] * n1, o[2] * n0 - o[0] * n2, o[0] * n1 - o[1] * n0
+        for j in range(nv):
+            G[k, j] = (n0 * J[0, j] + n1 * J[1, j] + n2 * J[2, j] + m0 * J[3, j] + m1 * J[4, j]
+                       + m2 * J[5, j]) * support[p, j]
+        k += 1
+    return k
+
+
+@_jit
+def _point_segment2(a, b, c) -> float:
+    """Squared distance from point ``c`` to the segment ``[a, b]`` (3-vectors)."""
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    wx, wy, wz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    L2 = ux * ux + uy * uy + uz * uz
+    s = 0.0
+    if L2 > 1e-18:
+        s = min(max((wx * ux + wy * uy + wz * uz) / L2, 0.0), 1.0)
+    vx, vy, vz = wx - s * ux, wy - s * uy, wz - s * uz
+    return vx * vx + vy * vy + vz * vz
+
+
+@_jit
+def _segment_segment(p1, q1, p2, q2) -> float:
+    """Distance between the segments ``[p1, q1]`` and ``[p2, q2]`` (module docstring)."""
+    d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
+    d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
+    rx, ry, rz = p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
+    b = d1x * d2x + d1y * d2y + d1z * d2z
+    c = d1x * rx + d1y * ry + d1z * rz
+    if e <= 1e-18:  # the second segment is a point
+        s = min(max(-c / a, 0.0), 1.0) if a > 1e-18 else 0.0
+        t = 0.0
+    else:
+        den = a * e - b * b
+        s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-18 * max(a * e, 1.0) else 0.0
+        t = (b * s + f) / e
+        if t < 0.0 or t > 1.0:
+            t = min(max(t, 0.0), 1.0)
+            s = min(max((b * t - c) / a, 0.0), 1.0) if a > 1e-18 else 0.0
+    vx = p1[0] + s * d1x - p2[0] - t * d2x
+    vy = p1[1] + s * d1y - p2[1] - t * d2y
+    vz = p1[2] + s * d1z - p2[2] - t * d2z
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
+@_jit
+def _phi(x: float, h: float) -> float:
+    """``x - clamp(x, -h, h)``."""
+    return x - h if x > h else x + h if x < -h else 0.0
+
+
+@_jit
+def _segment_box(a, b, h) -> float:
+    """Distance from the segment ``[a, b]`` to the box ``|y| <= h`` (its frame; 0 when they meet)."""
+    u0, u1, u2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    cands = np.empty(8)
+    n = 0
+    cands[n] = 0.0
+    n += 1
+    for i in range(3):
+        ui = b[i] - a[i]
+        if ui != 0.0:
+            for e in (h[i], -h[i]):
+                t = (e - a[i]) / ui
+                if 0.0 < t < 1.0:
+                    cands[n] = t
+                    n += 1
+    cands[n] = 1.0
+    n += 1
+    cands[:n].sort()
+    s = 1.0
+    t0 = 0.0
+    f0 = u0 * _phi(a[0], h[0]) + u1 * _phi(a[1], h[1]) + u2 * _phi(a[2], h[2])
+    if f0 > 0.0:
+        s = 0.0
+    else:
+        for k in range(1, n):
+            t1 = cands[k]
+            f1 = (u0 * _phi(a[0] + t1 * u0, h[0]) + u1 * _phi(a[1] + t1 * u1, h[1])
+                  + u2 * _phi(a[2] + t1 * u2, h[2]))
+            if f1 > 0.0:
+                s = min(max(t0 - f0 * (t1 - t0) / (f1 - f0), 0.0), 1.0)
+                break
+            t0, f0 = t1, f1
+    v0 = _phi(a[0] + s * u0, h[0])
+    v1 = _phi(a[1] + s * u1, h[1])
+    v2 = _phi(a[2] + s * u2, h[2])
+    return math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+
+
+@_jit
+def _separated(a, b, h, off: float) -> bool:
+    """The separating-axis test of :func:`..obstacles._separated` (segment vs. box grown by ``off``)."""
+    e0, e1, e2 = h[0] + off, h[1] + off, h[2] + off
+    c0, c1, c2 = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])
+    w0, w1, w2 = 0.5 * (b[0] - a[0]), 0.5 * (b[1] - a[1]), 0.5 * (b[2] - a[2])
+    v0, v1, v2 = abs(w0) + 1e-12, abs(w1) + 1e-12, abs(w2) + 1e-12
+    return (abs(c0) > e0 + v0 or abs(c1) > e1 + v1 or abs(c2) > e2 + v2
+            or abs(c1 * w2 - c2 * w1) > e1 * v2 + e2 * v1
+            or abs(c2 * w0 - c0 * w2) > e0 * v2 + e2 * v0
+            or abs(c0 * w1 - c1 * w0) > e0 * v1 + e1 * v0)
+
+
+@numba.njit(_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def violations(P: np.ndarray, sph_ia: np.ndarray, sph_ib: np.ndarray, sph_c: np.ndarray, sph_r_off2: np.ndarray,
+               cap_ia: np.ndarray, cap_ib: np.ndarray, cap_a: np.ndarray, cap_b: np.ndarray, cap_r_off: np.ndarray,
+               box_ia: np.ndarray, box_ib: np.ndarray, box_R: np.ndarray, box_t: np.ndarray, box_h: np.ndarray,
+               off: float, bad: np.ndarray) -> None:
+    """``bad[k] |= True`` where configuration ``k`` violates a sphere, capsule or box pair (module docstring).
+
+    ``P`` ``(K, points, 3)``: segment end points per configuration; pair
+    ``i`` of a kind joins the points ``ia[i]`` and ``ib[i]``. Spheres: centres
+    ``(n, 3)`` and ``(r + off)^2``; capsules: cores ``[a, b]`` and ``r + off``;
+    boxes: rotations ``(n, 3, 3)``, centres and half extents ``(n, 3)``.
+    """
+    la = np.empty(3)
+    lb = np.empty(3)
+    for k in range(P.shape[0]):
+        if bad[k]:
+            continue
+        X = P[k]
+        hit = False
+        for i in range(sph_ia.shape[0]):
+            if _point_segment2(X[sph_ia[i]], X[sph_ib[i]], sph_c[i]) < sph_r_off2[i]:
+                hit = True
+                break
+        if not hit:
+            for i in range(cap_ia.shape[0]):
+                if _segment_segment(X[cap_ia[i]], X[cap_ib[i]], cap_a[i], cap_b[i]) < cap_r_off[i]:
+                    hit = True
+                    break
+        if not hit:
+            for i in range(box_ia.shape[0]):
+                R, t = box_R[i], box_t[i]
+                A, B = X[box_ia[i]], X[box_ib[i]]
+                for c in range(3):  # R^T (x - t)
+                    la[c] = R[0, c] * (A[0] - t[0]) + R[1, c] * (A[1] - t[1]) + R[2, c] * (A[2] - t[2])
+                    lb[c] = R[0, c] * (B[0] - t[0]) + R[1, c] * (B[1] - t[1]) + R[2, c] * (B[2] - t[2])
+                if _separated(la, lb, box_h[i], off):
+                    continue
+                d = _segment_box(la, lb, box_h[i])
+                if d < off or d <= 0.0:
+                    hit = True
+                    break
+        bad[k] = hit
