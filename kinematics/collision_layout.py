@@ -43,6 +43,14 @@ if TYPE_CHECKING:
     from .collision_model import CollisionModel
     from .shapes import Shape
 
+#: Layouts built while this is True get the sphere pre-check of :mod:`.collision_spheres` (False: coal alone, e.g.
+#: to compare the two; read when a layout builds its pre-check).
+SPHERE_PRECHECK = True
+#: ``in_collision`` calls a layout answers with coal alone before it builds its pre-check (``first_collision``
+#: builds it at once): the first checks of a process - e.g. the start checks of its first IK solve, inside that
+#: solve's time budget - do not wait for Numba's import and the robot's spheres (~0.1-1 s, once per process).
+PRECHECK_AFTER = 32
+
 #: Largest number of geometries (robot + obstacles) checked by coal's naive broad phase; more use the AABB tree.
 NAIVE_MAX_GEOMETRIES = 96
 
@@ -71,6 +79,8 @@ def _zero_security_margins(gd: pin.GeometryData) -> None:
     if not _FRESH_MARGINS_ZERO:
         _FRESH_MARGINS_ZERO.append(zero)
 
+
+_UNBUILT = object()  #: marks a pre-check not built yet (None means: none possible)
 
 #: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
 GJK_TOLERANCE = 1e-9
@@ -114,13 +124,57 @@ _forward_kinematics = pin.forwardKinematics
 _update_placements = pin.updateGeometryPlacements
 
 
-def check_configurations(check: tuple, qs: Iterable[np.ndarray]) -> int:
+def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple | None = None) -> int:
     """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
     in collision, or -1: per configuration forward kinematics, geometry placements, world AABBs, then
-    broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`)."""
+    broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`).
+
+    With ``precheck`` (:meth:`.collision_spheres.ScenePrecheck.arguments` of the scene), the sphere
+    pre-check runs first and coal only on the configurations it cannot certify free, in order: the first
+    configuration alone (the IK checks its answer first, the likeliest to collide: when it does, no
+    array is built), then the rest in one compiled call
+    (:func:`.collision_spheres.first_uncertified`, resumed after an uncertified configuration coal finds
+    free). The same answer, since a certified configuration is one coal finds free.
+    """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
+    start = 0
+    if precheck is not None:
+        qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
+        N = len(qs)
+        if not N:
+            return -1
+        one, first, floats, ints, tol = precheck
+        try:
+            clear = one(floats, ints, qs[0], tol)
+        except TypeError:  # not a float vector: coal decides (and raises as before)
+            clear = False
+        if not clear:
+            fk(model, data, qs[0])
+            place(model, data, gm, gd)
+            update(False)
+            if collide(callback):
+                return 0
+        if N == 1:
+            return -1
+        start = 1
+        try:
+            Q = np.asarray(qs, dtype=float)
+        except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
+            Q = None
+        if Q is not None and Q.ndim == 2:
+            k = first(floats, ints, Q, 1, tol)
+            while k < N:
+                fk(model, data, qs[k])
+                place(model, data, gm, gd)
+                update(False)
+                if collide(callback):
+                    return k
+                k = first(floats, ints, Q, k + 1, tol)
+            return -1
     for k, q in enumerate(qs):
+        if k < start:
+            continue
         fk(model, data, q)
         place(model, data, gm, gd)
         update(False)
@@ -168,6 +222,36 @@ class SceneLayout:
         self.pair_joints = np.asarray(joints, dtype=int)[self.pairs].reshape(-1, 2)
         self.broad_phase = broad_phase_manager_class(gm.ngeoms)
         self._local = threading.local()
+        self._cmodel = cmodel
+        self._precheck: Any = _UNBUILT
+        self.coal_checks = 0  #: ``in_collision`` calls answered by coal alone before the pre-check was built
+
+    def precheck_due(self) -> bool:
+        """Whether an ``in_collision`` call should build the pre-check now (:data:`PRECHECK_AFTER`); counts it."""
+        if self._precheck is not _UNBUILT:
+            return True
+        self.coal_checks += 1
+        return self.coal_checks > PRECHECK_AFTER
+
+    def precheck(self) -> Any:
+        """The layout's sphere pre-check (:class:`.collision_spheres.ScenePrecheck`: the robot's spheres and
+        the pair table; built on first use), or None when the robot's tree or geometry has no sphere
+        packing (:func:`.collision_spheres.robot_spheres`), the layout has no pairs, Numba is missing or
+        :data:`SPHERE_PRECHECK` is off."""
+        pre = self._precheck
+        if pre is _UNBUILT:
+            pre = None
+            if SPHERE_PRECHECK and len(self.pairs):
+                try:
+                    from . import collision_spheres
+                except ImportError:  # pragma: no cover - Numba is a dependency; without it coal alone decides
+                    collision_spheres = None
+                robot = None if collision_spheres is None else collision_spheres.robot_spheres_of(self._cmodel)
+                if robot is not None:
+                    pre = collision_spheres.ScenePrecheck(robot, self.pairs, self.n_robot, self.obstacle_geometries,
+                                                          self.obstacles)
+            self._precheck = pre
+        return pre
 
     def placed(self, obstacles: tuple) -> pin.GeometryModel:
         """A copy of the layout's ``GeometryModel`` with the obstacle objects at the poses of ``obstacles``."""

@@ -11,7 +11,25 @@ otherwise put every configuration in collision.
 
 Queries are single Pinocchio calls over all pairs:
 
-* ``in_collision`` - ``pinocchio.computeCollisions`` through a broad phase
+* ``in_collision`` / ``first_collision`` start with the **sphere pre-check**
+  (:mod:`.collision_spheres`, compiled): spheres fixed in the joint frames that
+  contain every robot geometry, moved by the forward kinematics of the whole
+  tree, against each other and against the obstacles' exact point distances
+  give a lower bound of every checked pair's distance; a configuration whose
+  bounds all exceed 10 um is certified free and never reaches coal (the same
+  answer: a certified configuration is one coal finds free). ``first_collision``
+  offers its first configuration alone (the IK's answer, the likeliest to
+  collide), the rest in one compiled call, and runs coal on the ones the
+  pre-check cannot certify, in order. On the Panda with the table and wall
+  it certifies 92 % of the collision-free random configurations; a certified
+  ``in_collision`` costs ~1.5 us instead of ~4 us, an uncertified one ~1.3 us more
+  than coal alone. Built per layout (robot spheres, pair table; the robot's spheres
+  once per collision model) and per scene (obstacle poses, ~5 us) by the first
+  ``first_collision`` or after a layout's first 32 ``in_collision`` calls (a
+  process's first checks do not wait for Numba's import);
+  robots whose tree has other joints than one-DoF revolute / prismatic ones keep
+  coal alone (:meth:`CollisionScene.precheck` returns None);
+* ``in_collision`` (coal) - ``pinocchio.computeCollisions`` through a broad phase
   (``pinocchio.BroadPhaseManager``): every geometry gets its world AABB, only
   checked pairs whose AABBs overlap reach GJK, and the call stops at the first
   collision. Four C++ calls bound once per thread (forward kinematics,
@@ -19,7 +37,8 @@ Queries are single Pinocchio calls over all pairs:
   callback; :func:`.collision_layout.collision_check`): the same answer as
   ``pinocchio.computeCollisions(model, data, manager, q, True)`` without its
   50-overload dispatch (32k instead of 43k instructions per Panda check);
-  :meth:`CollisionScene.first_collision` loops over configurations. The manager is coal's *naive* one (every AABB against every other,
+  :meth:`CollisionScene.first_collision` loops over the configurations the pre-check leaves. The manager is coal's
+  *naive* one (every AABB against every other,
   no tree) up to :data:`.collision_layout.NAIVE_MAX_GEOMETRIES` geometries and the dynamic AABB
   tree above: on the Panda with a table and a wall (19 geometries, 76 pairs)
   the naive manager takes 4.8 µs per check against 12.2 µs for the tree, whose
@@ -29,7 +48,8 @@ Queries are single Pinocchio calls over all pairs:
   configurations in a test; the tests check the broad phase against
   pair-by-pair coal on scenes of 2 to 4 obstacles and on obstacles placed at
   the arm's surface.)
-* ``colliding`` - every pair (``computeCollisions`` without early stop);
+* ``colliding`` - every pair (``computeCollisions`` without early stop; no pre-check, nor in the queries
+  below, which need pairs, distances or a security margin);
 * ``near`` - the pairs closer than a threshold (the IK's rows): the same
   broad phase with AABBs inflated by the threshold collects the candidate
   pairs, GJK with that security margin decides on them only;
@@ -56,7 +76,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pinocchio as pin
 
-from .collision_layout import SceneLayout, _forward_kinematics, _update_placements, check_configurations
+from .collision_layout import _UNBUILT, SceneLayout, _forward_kinematics, _update_placements, check_configurations
 
 if TYPE_CHECKING:
     from .collision_model import CollisionModel
@@ -90,6 +110,7 @@ class CollisionScene:
         #: Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2).
         self.pair_joints = layout.pair_joints
         self._local = layout._local  # the layout's per-thread state: its shell says whose obstacles it holds
+        self._precheck: Any = _UNBUILT  # the sphere pre-check's arguments with these obstacle poses (first query)
 
     def __len__(self) -> int:
         return len(self.pairs)
@@ -115,13 +136,35 @@ class CollisionScene:
             ws = self.layout.shell(self.obstacles, self.placements)
         return ws
 
+    def precheck(self) -> tuple | None:
+        """The arguments of the compiled sphere pre-check with this scene's obstacle poses
+        (:meth:`.collision_spheres.ScenePrecheck.arguments`; built on first use), or None when the layout
+        has none (:meth:`.collision_layout.SceneLayout.precheck`)."""
+        pre = self._precheck
+        if pre is _UNBUILT:
+            layout_check = self.layout.precheck()
+            pre = None if layout_check is None else layout_check.arguments(self.obstacles)
+            self._precheck = pre
+        return pre
+
     # ----------------------------------------------------------------- queries
     def in_collision(self, q: np.ndarray) -> bool:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
 
-        ``q``: a float ``(nq,)`` array (unchecked). :func:`~.collision_layout.check_configurations` on one
-        configuration, its steps inlined.
+        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`; built
+        after the layout's first :data:`~.collision_layout.PRECHECK_AFTER` calls, or by
+        :meth:`first_collision`): a configuration it certifies is free without coal; otherwise
+        :func:`~.collision_layout.check_configurations` on one configuration, its steps inlined.
         """
+        pre = self._precheck
+        if pre is _UNBUILT:
+            pre = self.precheck() if self.layout.precheck_due() else None
+        if pre is not None:
+            try:
+                if pre[0](pre[2], pre[3], q, pre[4]):
+                    return False
+            except TypeError:  # not a float vector: coal decides (and raises as before)
+                pass
         ws = getattr(self._local, "shell", None)
         if ws is None or ws[4] is not self.obstacles:
             ws = self.layout.shell(self.obstacles, self.placements)
@@ -136,11 +179,16 @@ class CollisionScene:
 
     def first_collision(self, qs: Sequence[np.ndarray]) -> int:
         """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
-        in collision, -1 when none is: :meth:`in_collision` of each in one loop (stops at the first hit)."""
+        in collision, -1 when none is: the sphere pre-check (the first configuration alone, the rest in one
+        compiled call), and :meth:`in_collision`'s coal check of each uncertified one, in order, stopping at
+        the first hit (:func:`~.collision_layout.check_configurations`)."""
         ws = getattr(self._local, "shell", None)
         if ws is None or ws[4] is not self.obstacles:
             ws = self.layout.shell(self.obstacles, self.placements)
-        return -1 if ws[5] is None else check_configurations(ws[5], qs)
+        if ws[5] is None:
+            return -1
+        pre = self._precheck
+        return check_configurations(ws[5], qs, self.precheck() if pre is _UNBUILT else pre)
 
     def colliding(self, q: np.ndarray) -> list[int]:
         """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""
