@@ -187,6 +187,8 @@ def _bound_constraint(robot: Robot, obs: tuple, self_collision: bool, margin: fl
     if hit is not None:  # it holds the robot and these obstacles alive: equal ids are the very same objects
         return hit
     bound = CollisionConstraint(obs, self_collision=self_collision, margin=margin).bind(robot)
+    if bound.clearance == 0.0:
+        bound.scene.precheck()  # the compiled sphere pre-check built now, not inside the first solve's budget
     if len(cache) >= _BOUND_CACHE_SIZE:
         cache.clear()
     cache[key] = bound
@@ -396,10 +398,14 @@ def _path_is_free(constraint: CollisionConstraint, res: Result, start_checked: b
     """
     q_answer = res.q
     hist = res.history.iterates() if res.history is not None else []
-    last = len(hist) - 1
+    n = len(hist)
+    first = 1 if start_checked else 0
+    if type(hist) is np.ndarray and n > first and hist[n - 1].tolist() == q_answer.tolist():
+        # the compiled LM's iterates: the answer (its last row), then the others last first, as one array view
+        return constraint.first_collision(hist[n - 1:0:-1] if first else hist[::-1]) < 0
+    last = n - 1
     if last >= 0 and hist[last].tolist() == q_answer.tolist():
         last -= 1
-    first = 1 if start_checked else 0
     # the answer, then the iterates ``last`` down to ``first``, in one loop of checks
     rest = [] if last < first else hist[last:first - 1:-1] if first else hist[last::-1]
     return constraint.first_collision([q_answer, *rest]) < 0
