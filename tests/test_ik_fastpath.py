@@ -125,19 +125,24 @@ def test_equal_obstacles_built_anew_share_one_scene(panda):
 
 
 def test_every_iterate_is_still_checked(panda, monkeypatch):
-    """The cheap path checks each run's start before running it, then the answer and every other iterate:
-    every iterate of the returned run is checked, the answer once."""
-    from kinserve.kinematics import collision_layout, collision_scene
+    """The cheap path checks the answer and every other iterate of the returned run (the sphere pre-check or
+    coal: whatever the scene's checks decide), the answer once."""
+    from kinserve.kinematics import collision_scene
 
     checked = []
-    real = collision_layout._forward_kinematics
+    scene_cls = collision_scene.CollisionScene
+    real_first, real_one = scene_cls.first_collision, scene_cls.in_collision
 
-    def recording(model, data, q):  # the first step of every broad-phase check (scene and path loops)
+    def first_collision(self, qs):
+        checked.extend(np.array(q) for q in qs)
+        return real_first(self, qs)
+
+    def in_collision(self, q):
         checked.append(np.array(q))
-        return real(model, data, q)
+        return real_one(self, q)
 
-    monkeypatch.setattr(collision_scene, "_forward_kinematics", recording)
-    monkeypatch.setattr(collision_layout, "_forward_kinematics", recording)
+    monkeypatch.setattr(scene_cls, "first_collision", first_collision)
+    monkeypatch.setattr(scene_cls, "in_collision", in_collision)
     rng = np.random.default_rng(6)
     T = panda.fk(panda.random_q(rng), FRAME).copy()
     res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, self_collision=True, seed=1, max_time=2.0)
