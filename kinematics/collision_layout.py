@@ -130,9 +130,10 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`).
 
     With ``precheck`` (:meth:`.collision_spheres.ScenePrecheck.arguments` of the scene), the sphere
-    pre-check runs first and coal only on the configurations it cannot certify free, in order: the first
-    configuration alone (the IK checks its answer first, the likeliest to collide: when it does, no
-    array is built), then the rest in one compiled call
+    pre-check runs first and coal only on the configurations it cannot certify free, in order: a stacked
+    ``(K, nq)`` float array in one compiled call; otherwise the first configuration alone (the IK checks
+    its answer first, the likeliest to collide: when it does, no array is built), then the rest in one
+    compiled call
     (:func:`.collision_spheres.first_uncertified`, resumed after an uncertified configuration coal finds
     free). The same answer, since a certified configuration is one coal finds free.
     """
@@ -140,11 +141,22 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     fk, place = _forward_kinematics, _update_placements
     start = 0
     if precheck is not None:
+        one, first, floats, ints, tol = precheck
+        if type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:  # rows already stacked: one call
+            N = qs.shape[0]
+            k = first(floats, ints, qs, 0, tol) if N else N
+            while k < N:
+                fk(model, data, qs[k])
+                place(model, data, gm, gd)
+                update(False)
+                if collide(callback):
+                    return k
+                k = first(floats, ints, qs, k + 1, tol)
+            return -1
         qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
         N = len(qs)
         if not N:
             return -1
-        one, first, floats, ints, tol = precheck
         try:
             clear = one(floats, ints, qs[0], tol)
         except TypeError:  # not a float vector: coal decides (and raises as before)
