@@ -139,20 +139,17 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
-    start = 0
+
+    def hits(q) -> bool:  # coal: forward kinematics, placements, broad phase, narrow phase
+        fk(model, data, q)
+        place(model, data, gm, gd)
+        update(False)
+        return collide(callback)
+
     if precheck is not None:
         one, first, floats, ints, tol = precheck
         if type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:  # rows already stacked: one call
-            N = qs.shape[0]
-            k = first(floats, ints, qs, 0, tol) if N else N
-            while k < N:
-                fk(model, data, qs[k])
-                place(model, data, gm, gd)
-                update(False)
-                if collide(callback):
-                    return k
-                k = first(floats, ints, qs, k + 1, tol)
-            return -1
+            return _first_hit_after_precheck(hits, first, floats, ints, tol, qs, qs, 0)
         qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
         N = len(qs)
         if not N:
@@ -161,37 +158,29 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
             clear = one(floats, ints, qs[0], tol)
         except TypeError:  # not a float vector: coal decides (and raises as before)
             clear = False
-        if not clear:
-            fk(model, data, qs[0])
-            place(model, data, gm, gd)
-            update(False)
-            if collide(callback):
-                return 0
+        if not clear and hits(qs[0]):
+            return 0
         if N == 1:
             return -1
-        start = 1
         try:
             Q = np.asarray(qs, dtype=float)
         except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
             Q = None
         if Q is not None and Q.ndim == 2:
-            k = first(floats, ints, Q, 1, tol)
-            while k < N:
-                fk(model, data, qs[k])
-                place(model, data, gm, gd)
-                update(False)
-                if collide(callback):
-                    return k
-                k = first(floats, ints, Q, k + 1, tol)
-            return -1
-    for k, q in enumerate(qs):
-        if k < start:
-            continue
-        fk(model, data, q)
-        place(model, data, gm, gd)
-        update(False)
-        if collide(callback):
+            return _first_hit_after_precheck(hits, first, floats, ints, tol, Q, qs, 1)
+        return next((k for k in range(1, N) if hits(qs[k])), -1)
+    return next((k for k, q in enumerate(qs) if hits(q)), -1)
+
+
+def _first_hit_after_precheck(hits, first, floats, ints, tol, Q: np.ndarray, qs, start: int) -> int:
+    """The first row ``k >= start`` of ``Q`` that coal finds in collision, coal running only on the rows the
+    compiled pre-check ``first`` cannot certify (``qs[k]`` is the configuration handed to coal)."""
+    N = Q.shape[0]
+    k = first(floats, ints, Q, start, tol) if N > start else N
+    while k < N:
+        if hits(qs[k]):
             return k
+        k = first(floats, ints, Q, k + 1, tol)
     return -1
 
 

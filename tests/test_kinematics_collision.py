@@ -11,19 +11,11 @@ import pytest
 from kinserve import robots
 from kinserve.kinematics import errors
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
+from collision_scenes import SCENE
+from collision_scenes import pose as _pose
 from kinserve.robots import paths
 
 
-def _pose(xyz, R=None):
-    T = np.eye(4)
-    T[:3, 3] = xyz
-    if R is not None:
-        T[:3, :3] = R
-    return T
-
-
-#: The issue's Panda scene: a table top and a wall.
-SCENE = [Box(_pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)), Box(_pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
 #: Two more obstacles in the arm's workspace (a broad phase must handle any number).
 EXTRA = [Box(_pose((0.4, 0.1, 0.5)), (0.1, 0.1, 0.1)), Sphere((0.3, 0.3, 0.3), 0.08)]
 

@@ -22,18 +22,10 @@ from kinserve import robots
 from kinserve.kinematics import collision_spheres as cs
 from kinserve.kinematics.serial_chain import kinematic_tree, serial_chain
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
+from collision_scenes import SCENE
+from collision_scenes import pose as _pose
 
 
-def _pose(xyz, R=None):
-    T = np.eye(4)
-    T[:3, 3] = xyz
-    if R is not None:
-        T[:3, :3] = R
-    return T
-
-
-#: The benchmark's table top and wall.
-SCENE = [Box(_pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)), Box(_pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
 
 
 def _rotation(rng):
