@@ -62,7 +62,6 @@ from .multistart import frame_starts
 from .options import OPTIONS, check_options, solver_keywords
 from .problem import Problem
 from .qp_backends import available_backends
-from .seeds import PerModel
 from .targets import Target
 from .qp_solver import solve_qp
 from .task_solver import MAX_TIME as QP_MAX_TIME
@@ -119,19 +118,7 @@ def _tag(exc: KinserveError, name: str) -> None:
         exc.argument = name
 
 
-def _closed_form(robot, frame):
-    """:func:`ik.analytic.closed_form_solver`, memoised per model by identity (see :class:`ik.seeds.PerModel`)."""
-    per_model = _solvers.get(robot.model)
-    if per_model is None:
-        per_model = _solvers.setdefault(robot.model)
-    try:
-        return per_model[frame]
-    except KeyError:
-        solver = per_model[frame] = _analytic.closed_form_solver(robot, frame)
-        return solver
-
-
-_solvers = PerModel()
+_closed_form = _analytic.closed_form_solver  # (memoised per model by identity and frame)
 
 
 def _obstacle_constraint(robot, spheres, obstacles, link_radius, frame):

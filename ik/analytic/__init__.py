@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import threading
 import time
-import weakref
 from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
 from ..result import History, Result
+from ..seeds import PerModel
 from .planar import PlanarChain, two_link, wrap_into
 from .youbot import YOUBOT_DH, YouBotArm
 
@@ -38,7 +38,8 @@ Branch = tuple[np.ndarray, str, Union[float, None], Union[str, None]]
 __all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
 
 _SOLVERS = (PlanarChain, YouBotArm)
-_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: Per model (by identity: a WeakKeyDictionary would compare models deeply on every look-up, ~7 us), per frame.
+_cache = PerModel()
 _cache_lock = threading.Lock()
 
 
@@ -52,7 +53,7 @@ def closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | None:
     if per_model is not None and frame in per_model:
         return per_model[frame]
     with _cache_lock:
-        per_model = _cache.setdefault(robot.model, {})
+        per_model = _cache.setdefault(robot.model)
         if frame in per_model:
             return per_model[frame]
         solver = None
