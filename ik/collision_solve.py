@@ -90,13 +90,18 @@ def collision_options(self_collision: bool = False, obstacles: Sequence = (), co
 def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
                            max_time: float | None, seed: int | None, lm_options: dict, *, self_collision: bool = False,
                            obstacles: Sequence = (), collision_margin: float = 0.0) -> tuple:
-    """The first attempt of :func:`_unconstrained_attempts` on its own: the ordinary LM solve (``q0``, the
-    table's nearest samples, restarts; half the time budget at most), then one check of its answer and
-    iterates (:func:`_path_is_free`). Arguments are checked (``ik.solve``'s short path).
+    """:func:`_unconstrained_attempts` for a plain LM solve, as one call of the ordinary solver: its starts
+    (``q0``, the table's nearest samples, then random ones; half the time budget and 1 +
+    :data:`UNCONSTRAINED_ATTEMPTS` starts at most), each converged run accepted only when its answer and
+    every iterate are collision free (``solve_lm(accept=...)``, :func:`_path_is_free`'s check), so a run
+    whose answer or path collides is followed by the next start at once. Arguments are checked
+    (``ik.solve``'s short path).
 
-    Returns ``(result, first, t0)``: the collision-free result, or None with ``first`` the ordinary
-    result to pass on (``p["first_attempt"]``, ``p["t0"]``) to :func:`solve_collision_free`; also None
-    and None when the robot has no collision model (the general path falls back to the link capsules).
+    Returns ``(result, first, t0)``: the collision-free result, or None with ``first`` =
+    ``{"first_attempt": ordinary result, "failed_path": the first rejected run's configurations (or None),
+    "t0": t0}`` to pass on in ``p`` to :func:`solve_collision_free` (which then goes on to the
+    constrained solve); also None and None when the robot has no collision model (the general path
+    falls back to the link capsules).
     """
     t0 = time.perf_counter()
     try:
@@ -104,12 +109,26 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     except ModelError:
         return None, None, t0
     budget = MAX_TIME if max_time is None else max_time
-    res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=0.5 * budget, seed=seed, **lm_options)
-    if res.success and _path_is_free(constraint, res):
+    rejected: list = []
+
+    def accept(qs) -> bool:  # the run's configurations, start first: the answer, then the others last first
+        if constraint.first_collision(qs[::-1]) < 0:
+            return True
+        if not rejected:
+            rejected.append(qs)
+        return False
+
+    opts = dict(lm_options)
+    cap = 1 + UNCONSTRAINED_ATTEMPTS
+    opts["max_starts"] = cap if opts.get("max_starts") is None else min(int(opts["max_starts"]), cap)
+    res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=0.5 * budget, seed=seed,
+                   accept=accept, **opts)
+    if res.success:
         res = _checked(res, 1 + res.restarts)
         res.elapsed = time.perf_counter() - t0
         return res, None, t0
-    return None, res, t0
+    failed = rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
+    return None, {"first_attempt": res, "failed_path": failed, "t0": t0}, t0
 
 
 def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Result], *, self_collision: bool = False,
@@ -224,8 +243,11 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
         if res.history is not None and len(res.history.q):
             skip, failed = res.history.q[0], res.history.q
     run = None if closed else _lm_run(robot, p, solver_opts)
+    if "failed_path" in p:  # the attempts ran in ordinary_solve_checked: on to the constrained solve
+        failed = p["failed_path"]
+        return None, (None if failed is None or not len(failed) else _last_clear_iterate(constraint, failed))
     if run is not None:  # the ordinary solve first, exactly as without collision checking; then its run is checked
-        res = p.get("first_attempt")  # (already run and checked by ordinary_solve_checked)
+        res = p.get("first_attempt")
         if res is None:
             res = run.ordinary(max(deadline - time.perf_counter(), 1e-4))
             if res.success and _path_is_free(constraint, res):

@@ -51,6 +51,7 @@ from __future__ import annotations
 import math
 import time
 from functools import partial
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -297,6 +298,7 @@ def solve_lm(
     max_starts: int | None = None,
     seed_table_enabled: bool = True,
     prefer_q0: bool = False,
+    accept: Callable[[Sequence[np.ndarray]], bool] | None = None,
 ) -> Result:
     """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
 
@@ -304,7 +306,12 @@ def solve_lm(
     :data:`MAX_TIME`) bounds the restarts; ``max_starts`` optionally caps their
     number (deterministic stopping). ``seed_table_enabled=False`` restarts from
     ``q0`` and random configurations only; ``prefer_q0`` makes ``q0`` the first
-    start even when a table sample is closer to the target.
+    start even when a table sample is closer to the target. ``accept``: a test
+    of a converged run's configurations (start first, answer last); a run it
+    rejects counts as not converged and the next start is tried (e.g. a
+    collision check of every iterate, :mod:`ik.collision_solve`). When no run
+    is accepted the answer is the best unconverged run's, or the first rejected
+    run's when every run converged.
     """
     fid = target.frame_id
     # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
@@ -326,6 +333,7 @@ def solve_lm(
 
     best = None  # (k, qs, pos2, rot2, pe2, re2): the run that answers and its best iterate k
     unscored = []  # failed runs (qs, (pos2, rot2) or poses): scored only if no start converges
+    rejected = None  # the first converged run ``accept`` rejected
     iterations = 0
     n_starts = 0
     while True:
@@ -336,9 +344,14 @@ def solve_lm(
             ok, it, run = _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping)
         iterations += it
         if ok:
-            best = run
-            break
-        unscored.append(run)
+            if accept is None or accept(run[1][: run[0] + 1]):
+                best = run
+                break
+            ok = False
+            if rejected is None:
+                rejected = run
+        else:
+            unscored.append(run)
         if len(unscored) >= UNSCORED_RUNS:
             best = _best_run(unscored, best)
         if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
@@ -348,7 +361,7 @@ def solve_lm(
             next(starts)  # q0, already tried
         q = next(starts)
     if not ok:
-        best = _best_run(unscored, best)
+        best = _best_run(unscored, best) if unscored or best is not None else rejected
 
     k, qs, pos2, rot2, pe2, re2 = best
     pe, re = _sqrt(pe2), _sqrt(re2)
@@ -359,6 +372,9 @@ def solve_lm(
         hist = History.from_squared(qs, pos2, rot2, k + 1, target.components, evaluate)
     if ok:
         message = "converged"
+    elif best is rejected:
+        message = (f"every start that converged ({n_starts} starts, {iterations} iterations) was rejected "
+                   "(its answer or path failed the caller's test)")
     else:
         message = (
             f"no start converged to tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad in {n_starts} starts "

@@ -241,8 +241,8 @@ def _solve_pose_collision_free(robot, target, q0, frame, relax, relax_frame, met
     ordinary answer and its iterates are almost always collision free
     (:func:`ik.collision_solve.ordinary_solve_checked`). Otherwise, and whenever the robot has no
     collision model, ``"auto"`` finds a closed form or an option only another method accepts, the
-    general path (:func:`solve_prepared`) runs - given the ordinary run already tried and the start
-    of the clock, so that nothing is solved twice and the time budget holds.
+    general path (:func:`solve_prepared`) runs - given the runs already tried and the start of the
+    clock, so that nothing is solved twice and the time budget holds.
     """
     _check_robot(robot)
     tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
@@ -258,7 +258,7 @@ def _solve_pose_collision_free(robot, target, q0, frame, relax, relax_frame, met
                                                                  solver_keywords(options), **collision)
     if res is not None:
         return res
-    p["first_attempt"], p["t0"] = first, t0
+    p.update(first if first is not None else {"t0": t0})
     return solve_prepared(robot, p, **collision, **options)
 
 

@@ -158,3 +158,30 @@ def test_near_bound_of_the_cheap_success_test():
         assert t <= v * (1 + 1e-12)
         worst = max(worst, v / t)
     assert worst <= np.pi / 2 + 1e-9 and NEAR >= (np.pi / 2) ** 2
+
+
+def test_accept_rejects_converged_runs_and_tries_the_next_start():
+    """``solve_lm(accept=...)``: the test sees each converged run (start first, answer last); a rejected run is
+    followed by the next start; when every converged run is rejected the result says so and fails."""
+    from kinserve import robots
+    from kinserve.ik.lm_solver import solve_lm
+    from kinserve.ik.targets import Target
+
+    robot = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(21)
+    T = robot.fk(robot.random_q(rng))
+    tgt = Target(robot, T)
+    seen = []
+
+    def second_only(qs):
+        seen.append(np.array(qs))
+        return len(seen) >= 2
+
+    res = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=second_only)
+    assert res.success and len(seen) == 2 and res.restarts >= 1
+    assert np.array_equal(seen[1][-1], res.q) and np.array_equal(res.history.q, seen[1])
+    for run in seen:  # every run converged: its last configuration meets the target
+        pe, re = tgt.errors_at(robot, run[-1])
+        assert pe < 1e-4 and re < 1e-3
+    never = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=lambda qs: False, max_starts=3)
+    assert not never.success and "rejected" in never.message and never.restarts == 2
