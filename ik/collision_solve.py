@@ -94,8 +94,8 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     (``q0``, the table's nearest samples, then random ones; half the time budget and 1 +
     :data:`UNCONSTRAINED_ATTEMPTS` starts at most), each converged run accepted only when its answer and
     every iterate are collision free (``solve_lm(accept=...)``, :func:`_path_is_free`'s check), so a run
-    whose answer or path collides is followed by the next start at once. Arguments are checked
-    (``ik.solve``'s short path).
+    whose answer or path collides is followed by the next start at once; a start in collision is skipped
+    for the price of one check (``admit``). Arguments are checked (``ik.solve``'s short path).
 
     Returns ``(result, first, t0)``: the collision-free result, or None with ``first`` =
     ``{"first_attempt": ordinary result, "failed_path": the first rejected run's configurations (or None),
@@ -108,6 +108,8 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
         constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
     except ModelError:
         return None, None, t0
+    if UNCONSTRAINED_ATTEMPTS <= 0:  # no unconstrained solve at all: the constrained one from the usual starts
+        return None, {"failed_path": None, "t0": t0}, t0
     budget = MAX_TIME if max_time is None else max_time
     rejected: list = []
 
@@ -122,7 +124,7 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     cap = 1 + UNCONSTRAINED_ATTEMPTS
     opts["max_starts"] = cap if opts.get("max_starts") is None else min(int(opts["max_starts"]), cap)
     res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=0.5 * budget, seed=seed,
-                   accept=accept, **opts)
+                   accept=accept, admit=lambda q: not constraint.in_collision(q), **opts)
     if res.success:
         res = _checked(res, 1 + res.restarts)
         res.elapsed = time.perf_counter() - t0

@@ -87,6 +87,8 @@ NEAR = 2.5
 #: Starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm_kernel`, full pose or
 #: relaxed (False: always Pinocchio's algorithms from Python, e.g. to compare the two).
 COMPILED = True
+#: Consecutive starts ``admit`` may refuse before :func:`solve_lm` gives up (the caller's scene leaves little room).
+ADMIT_MISSES = 20
 #: Failed starts kept unscored (their errors computed only if no start converges) before they are scored.
 UNSCORED_RUNS = 16
 
@@ -299,6 +301,7 @@ def solve_lm(
     seed_table_enabled: bool = True,
     prefer_q0: bool = False,
     accept: Callable[[Sequence[np.ndarray]], bool] | None = None,
+    admit: Callable[[np.ndarray], bool] | None = None,
 ) -> Result:
     """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
 
@@ -311,7 +314,9 @@ def solve_lm(
     rejects counts as not converged and the next start is tried (e.g. a
     collision check of every iterate, :mod:`ik.collision_solve`). When no run
     is accepted the answer is the best unconverged run's, or the first rejected
-    run's when every run converged.
+    run's when every run converged. ``admit``: a test of a start before its
+    run (e.g. a collision check); a start it refuses is skipped without a run
+    and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
     """
     fid = target.frame_id
     # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
@@ -336,7 +341,19 @@ def solve_lm(
     rejected = None  # the first converged run ``accept`` rejected
     iterations = 0
     n_starts = 0
+    misses = 0
+    ok = False
     while True:
+        if admit is not None and not admit(q):
+            misses += 1
+            if misses >= ADMIT_MISSES or _now() > deadline:
+                break
+            if starts is None:
+                starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
+                next(starts)  # q0, already refused
+            q = next(starts)
+            continue
+        misses = 0
         n_starts += 1
         if compiled is not None:
             ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping)
@@ -362,6 +379,10 @@ def solve_lm(
         q = next(starts)
     if not ok:
         best = _best_run(unscored, best) if unscored or best is not None else rejected
+    if best is None:  # every start refused: the (clipped) first one, evaluated
+        ok, _, run = _python_run(model, data, fid, target, q0 if q0 is not None else q, lo, hi, tp2, tr2, 0, damping)
+        best = run if ok else _best_run([run], None)
+        ok = False
 
     k, qs, pos2, rot2, pe2, re2 = best
     pe, re = _sqrt(pe2), _sqrt(re2)
@@ -372,6 +393,8 @@ def solve_lm(
         hist = History.from_squared(qs, pos2, rot2, k + 1, target.components, evaluate)
     if ok:
         message = "converged"
+    elif not n_starts:
+        message = f"no start was admitted ({misses} refused in a row by the caller's test)"
     elif best is rejected:
         message = (f"every start that converged ({n_starts} starts, {iterations} iterations) was rejected "
                    "(its answer or path failed the caller's test)")
@@ -382,7 +405,8 @@ def solve_lm(
             f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
         )
     # positional: the fields of Result in order (half the cost of keywords)
-    return Result(qs[k].copy(), ok, pe, re, iterations, n_starts - 1, _now() - t0, message, hist, "lm", target.frame)
+    return Result(qs[k].copy(), ok, pe, re, iterations, max(n_starts - 1, 0), _now() - t0, message, hist, "lm",
+                  target.frame)
 
 
 def _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:

@@ -185,3 +185,27 @@ def test_accept_rejects_converged_runs_and_tries_the_next_start():
         assert pe < 1e-4 and re < 1e-3
     never = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=lambda qs: False, max_starts=3)
     assert not never.success and "rejected" in never.message and never.restarts == 2
+
+
+def test_admit_skips_starts_without_running_them():
+    """``solve_lm(admit=...)``: refused starts cost no run and no start; all refused: a failed result, not a crash."""
+    from kinserve import robots
+    from kinserve.ik.lm_solver import ADMIT_MISSES, solve_lm
+    from kinserve.ik.targets import Target
+
+    robot = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(22)
+    tgt = Target(robot, robot.fk(robot.random_q(rng)))
+    q0 = robot.random_q(rng)
+    offered = []
+
+    def not_first_two(q):
+        offered.append(np.array(q))
+        return len(offered) > 2
+
+    res = solve_lm(robot, tgt, q0, seed=5, admit=not_first_two)
+    assert res.success and np.array_equal(res.history.q[0], offered[2])  # the run began at the first admitted start
+    assert res.restarts == len(offered) - 3  # refused starts are not counted
+    none = solve_lm(robot, tgt, q0, seed=5, admit=lambda q: False)
+    assert not none.success and "admitted" in none.message and none.restarts == 0
+    assert f"{ADMIT_MISSES} refused" in none.message and np.all(np.isfinite(none.q))
