@@ -344,35 +344,31 @@ def solve_lm(
     misses = 0
     ok = False
     while True:
-        if admit is not None and not admit(q):
+        if admit is None or admit(q):
+            misses = 0
+            n_starts += 1
+            if compiled is not None:
+                ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping)
+            else:
+                ok, it, run = _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping)
+            iterations += it
+            if ok:
+                if accept is None or accept(run[1][: run[0] + 1]):
+                    best = run
+                    break
+                ok = False
+                if rejected is None:
+                    rejected = run
+            else:
+                unscored.append(run)
+            if len(unscored) >= UNSCORED_RUNS:
+                best = _best_run(unscored, best)
+            if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
+                break
+        else:  # refused: no run, not counted as a start
             misses += 1
             if misses >= ADMIT_MISSES or _now() > deadline:
                 break
-            if starts is None:
-                starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
-                next(starts)  # q0, already refused
-            q = next(starts)
-            continue
-        misses = 0
-        n_starts += 1
-        if compiled is not None:
-            ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping)
-        else:
-            ok, it, run = _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping)
-        iterations += it
-        if ok:
-            if accept is None or accept(run[1][: run[0] + 1]):
-                best = run
-                break
-            ok = False
-            if rejected is None:
-                rejected = run
-        else:
-            unscored.append(run)
-        if len(unscored) >= UNSCORED_RUNS:
-            best = _best_run(unscored, best)
-        if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
-            break
         if starts is None:
             starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
             next(starts)  # q0, already tried
