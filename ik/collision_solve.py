@@ -2,21 +2,19 @@
 
 Strategy (the cheap path first, as roboplan's ``SimpleIk`` does):
 
-1. **Unconstrained solves, then check** (half the time budget at most): the
-   ordinary LM solve first, exactly as ``ik.solve`` runs it without collision
-   options (its starts and restarts), its answer and the iterates of the run
-   that produced it checked; then, if they collide, up to
-   :data:`UNCONSTRAINED_ATTEMPTS` runs of the ordinary solver (LM, or QP with
-   the requested options), one start each, taken in the order the ordinary
-   solve would take them (``q0`` and the table's samples nearest the target
-   pose, then random configurations); a start in collision is skipped for the
-   price of one check, not a run. An answer is kept when it (checked first)
-   and every iterate of the run that produced it pass the broad-phase
-   collision check
-   (:meth:`kinserve.kinematics.collision_scene.CollisionScene.in_collision`).
-   A closed-form method answers the first attempt with the ordinary solve.
-   In an open scene the first run is almost always enough; with an obstacle
-   in the way another start often finds another branch.
+1. **Unconstrained solves, then check** (half the time budget at most). With
+   LM, the ordinary solve exactly as ``ik.solve`` runs it without collision
+   options (``q0``, the table's samples nearest the target pose, then random
+   configurations), each converged run accepted only when its answer and every
+   iterate pass the collision check
+   (:meth:`kinserve.kinematics.collision_scene.CollisionScene.first_collision`):
+   a run that collides is followed by the next start, a start in collision is
+   skipped for one check, at most 1 + :data:`UNCONSTRAINED_ATTEMPTS` starts.
+   With a closed form or QP, the ordinary solve, then up to
+   :data:`UNCONSTRAINED_ATTEMPTS` solves from one start each, in the same order,
+   the starts in collision skipped. In an open scene the first run is almost
+   always enough; with an obstacle in the way another start often finds another
+   branch.
 2. **Infeasible at once**: a target position inside an obstacle, for a frame
    whose origin lies inside the robot's own collision geometry, cannot be
    reached: ``Result(success=False)`` with the reason, no constrained solve.
@@ -56,7 +54,7 @@ from kinserve.kinematics.robot import Robot
 
 from . import analytic, numpy_fast
 from .constraints.collision import CollisionConstraint, _length
-from .lm_solver import solve_lm
+from .lm_solver import ADMIT_MISSES, solve_lm
 from .multistart import frame_starts
 from .options import check_options, solver_keywords
 from .qp_solver import solve_qp
@@ -90,27 +88,42 @@ def collision_options(self_collision: bool = False, obstacles: Sequence = (), co
 def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
                            max_time: float | None, seed: int | None, lm_options: dict, *, self_collision: bool = False,
                            obstacles: Sequence = (), collision_margin: float = 0.0) -> tuple:
-    """:func:`_unconstrained_attempts` for a plain LM solve, as one call of the ordinary solver: its starts
-    (``q0``, the table's nearest samples, then random ones; half the time budget and 1 +
-    :data:`UNCONSTRAINED_ATTEMPTS` starts at most), each converged run accepted only when its answer and
-    every iterate are collision free (``solve_lm(accept=...)``, :func:`_path_is_free`'s check), so a run
-    whose answer or path collides is followed by the next start at once; a start in collision is skipped
-    for the price of one check (``admit``). Arguments are checked (``ik.solve``'s short path).
+    """The unconstrained attempts of a plain LM solve (:func:`_checked_lm_solve`) without the general set-up of
+    :func:`solve_collision_free`. Arguments are checked (``ik.solve``'s short path).
 
-    Returns ``(result, first, t0)``: the collision-free result, or None with ``first`` =
-    ``{"first_attempt": ordinary result, "failed_path": the first rejected run's configurations (or None),
-    "t0": t0}`` to pass on in ``p`` to :func:`solve_collision_free` (which then goes on to the
-    constrained solve); also None and None when the robot has no collision model (the general path
-    falls back to the link capsules).
+    Returns ``(result, handover, t0)``: the collision-free result, or None with ``handover`` =
+    ``{"failed_path": the warm start's source (or None), "t0": t0}`` to pass on in ``p`` to
+    :func:`solve_collision_free`, which then goes on to the constrained solve; ``handover`` is None when the
+    robot has no collision model (the general path falls back to the link capsules).
     """
     t0 = time.perf_counter()
     try:
         constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
     except ModelError:
         return None, None, t0
-    if UNCONSTRAINED_ATTEMPTS <= 0:  # no unconstrained solve at all: the constrained one from the usual starts
-        return None, {"failed_path": None, "t0": t0}, t0
     budget = MAX_TIME if max_time is None else max_time
+    res, failed = _checked_lm_solve(robot, tgt, q0, tol_pos, tol_rot, 0.5 * budget, seed, lm_options, constraint)
+    if res is not None:
+        res.elapsed = time.perf_counter() - t0
+        return res, None, t0
+    return None, {"failed_path": failed, "t0": t0}, t0
+
+
+def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
+                      max_time: float, seed: int | None, lm_options: dict, constraint: CollisionConstraint) -> tuple:
+    """The unconstrained attempts with LM, as one call of the ordinary solver: its starts (``q0``, the table's
+    nearest samples, then random ones; ``max_time`` and 1 + :data:`UNCONSTRAINED_ATTEMPTS` starts at most),
+    each converged run accepted only when its answer and every iterate are collision free
+    (``solve_lm(accept=...)``, :func:`_path_is_free`'s check), so a run whose answer or path collides is
+    followed by the next start at once; a start in collision is skipped for one check (``admit``).
+
+    ``lm_options``: the solver's keywords (``max_iter``, ``damping``, ``max_starts``, ``prefer_q0``,
+    ``seed_table_enabled``). Returns ``(result, failed)``: the checked collision-free result, or None and the
+    configurations of the first run that collided (else the returned run's; the constrained solve's warm start
+    comes from them), None when no attempt ran (:data:`UNCONSTRAINED_ATTEMPTS` = 0).
+    """
+    if UNCONSTRAINED_ATTEMPTS <= 0:  # no unconstrained solve at all: the constrained one from the usual starts
+        return None, None
     rejected: list = []
 
     def accept(qs) -> bool:  # the run's configurations, start first: the answer, then the others last first
@@ -123,14 +136,11 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     opts = dict(lm_options)
     cap = 1 + UNCONSTRAINED_ATTEMPTS
     opts["max_starts"] = cap if opts.get("max_starts") is None else min(int(opts["max_starts"]), cap)
-    res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=0.5 * budget, seed=seed,
+    res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                    accept=accept, admit=lambda q: not constraint.in_collision(q), **opts)
     if res.success:
-        res = _checked(res, 1 + res.restarts)
-        res.elapsed = time.perf_counter() - t0
-        return res, None, t0
-    failed = rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
-    return None, {"first_attempt": res, "failed_path": failed, "t0": t0}, t0
+        return _checked(res, 1 + res.restarts), None
+    return None, rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
 
 
 def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Result], *, self_collision: bool = False,
@@ -139,8 +149,9 @@ def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Re
 
     ``solve_prepared`` is :func:`ik.solve.solve_prepared` (the solver without the collision layer), passed in
     by the caller so that this module does not import :mod:`ik.solve` (no import circle). ``p`` may carry
-    ``first_attempt`` (the ordinary solve, already run and found colliding by :func:`ordinary_solve_checked`)
-    and ``t0`` (when the solve started: the time budget counts from there).
+    ``failed_path`` (the unconstrained attempts already ran in :func:`ordinary_solve_checked`; the
+    configurations the warm start comes from) and ``t0`` (when the solve started: the time budget counts
+    from there).
     """
     t0 = p.get("t0") or time.perf_counter()
     obs = as_obstacles(obstacles)
@@ -221,22 +232,33 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
     """The cheap path: up to :data:`UNCONSTRAINED_ATTEMPTS` unconstrained solves (or the ``max_starts`` option),
     each answer checked.
 
-    With LM, the first attempt is the ordinary solve itself (:func:`_lm_run`'s ``ordinary``: the same
-    starts and restarts as without collision options), so that an open scene costs that solve plus one
-    check of its run. Then the solves run one start at a time, in the order the ordinary solve would
-    take them (``q0`` and the target's ranked table samples, then random configurations;
-    :func:`_free_starts`), skipping the start already tried and every start in collision at the price
-    of one check instead of a run. A closed-form method (no starts, no iterates) makes the first attempt
-    the ordinary solve. An answer counts when it and every iterate of
-    its run are collision free (:func:`_path_is_free`: the answer first, then the iterates, last first).
-    Returns ``(result, warm)``: the qualifying result or None, and the constrained solve's warm start
-    (:func:`_last_clear_iterate` of the first run that failed the check; None when there is none).
+    With LM: :func:`_checked_lm_solve` (the ordinary solve, its restarts taking the place of the attempts).
+    With a closed form (no starts, no iterates) the first attempt is the ordinary solve; then, as with any
+    other method (QP), the solves run one start at a time, in the order the ordinary solve would take them
+    (``q0`` and the target's ranked table samples, then random configurations; :func:`_free_starts`),
+    skipping the start already tried and every start in collision at the price of one check instead of a
+    run. An answer counts when it and every iterate of its run are collision free (:func:`_path_is_free`:
+    the answer first, then the iterates, last first). Returns ``(result, warm)``: the qualifying result or
+    None, and the constrained solve's warm start (:func:`_last_clear_iterate` of the first run that failed
+    the check; None when there is none).
     """
+    if "failed_path" in p:  # the attempts ran in ordinary_solve_checked: on to the constrained solve
+        failed = p["failed_path"]
+        return None, (None if failed is None or not len(failed) else _last_clear_iterate(constraint, failed))
+    closed = _closed_form_answers(robot, p)
+    method = p["method"]
+    if not closed and method in ("auto", "lm") and p["weights"] is None and not p.get("constraints"):
+        if solver_opts:
+            check_options(method, solver_opts)
+        lm_options = solver_keywords({k: solver_opts[k] for k in _LM_KEYS if k in solver_opts})
+        res, failed = _checked_lm_solve(robot, p["target"], p["q0"], p["tol_pos"], p["tol_rot"],
+                                        max(deadline - time.perf_counter(), 1e-4), p["seed"], lm_options, constraint)
+        return res, (None if res is not None or failed is None or not len(failed)
+                     else _last_clear_iterate(constraint, failed))
     opts = {k: v for k, v in solver_opts.items() if k not in ("prefer_q0", "max_starts", "seed_table")}
     failed = None  # iterates of the first run whose answer or path collided
     attempt = 0
     skip = None
-    closed = _closed_form_answers(robot, p)
     if closed:
         res = solve_prepared(robot, dict(p, max_time=max(deadline - time.perf_counter(), 1e-4)), **solver_opts)
         attempt = 1
@@ -244,20 +266,6 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
             return _checked(res, attempt), None
         if res.history is not None and len(res.history.q):
             skip, failed = res.history.q[0], res.history.q
-    run = None if closed else _lm_run(robot, p, solver_opts)
-    if "failed_path" in p:  # the attempts ran in ordinary_solve_checked: on to the constrained solve
-        failed = p["failed_path"]
-        return None, (None if failed is None or not len(failed) else _last_clear_iterate(constraint, failed))
-    if run is not None:  # the ordinary solve first, exactly as without collision checking; then its run is checked
-        res = p.get("first_attempt")
-        if res is None:
-            res = run.ordinary(max(deadline - time.perf_counter(), 1e-4))
-            if res.success and _path_is_free(constraint, res):
-                return _checked(res, 1 + res.restarts), None
-        attempt = 1 + res.restarts
-        if res.history is not None and len(res.history):
-            failed = res.history.iterates()
-            skip = failed[0]
     limit = UNCONSTRAINED_ATTEMPTS
     if solver_opts.get("max_starts") is not None:  # the caller's cap on starts holds here too
         limit = min(limit, int(solver_opts["max_starts"]))
@@ -268,43 +276,13 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
         if left <= 0.0:
             break
         attempt += 1
-        if run is not None:
-            res = run(start, left)
-        else:
-            res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
-                                 seed_table=False, **opts)
+        res = solve_prepared(robot, dict(p, q0=start, max_time=left), prefer_q0=True, max_starts=1,
+                             seed_table=False, **opts)
         if res.success and _path_is_free(constraint, res, start_checked=True):
             return _checked(res, attempt), None
         if failed is None and res.history is not None and len(res.history):
             failed = res.history.iterates()  # the lazy list: no stacking unless the constrained solve needs it
     return None, (None if failed is None else _last_clear_iterate(constraint, failed))
-
-
-def _lm_run(robot, p: dict, solver_opts: dict) -> Callable[[np.ndarray, float], Result] | None:
-    """``run(start, max_time)``: one Levenberg-Marquardt run from ``start`` (:func:`ik.lm_solver.solve_lm`, the
-    solver ``solve_prepared`` would pick), or None when the ordinary solve is not LM (QP, centring, extra
-    constraints). Calling the solver directly spares a dispatch per attempt; the options are checked once."""
-    method = p["method"]
-    if method not in ("auto", "lm") or p["weights"] is not None or p.get("constraints"):
-        return None
-    if solver_opts:
-        check_options(method, solver_opts)
-    tuning = {k: solver_opts[k] for k in ("max_iter", "damping") if k in solver_opts}
-    tgt, tol_pos, tol_rot, seed = p["target"], p["tol_pos"], p["tol_rot"], p["seed"]
-
-    def run(start: np.ndarray, max_time: float) -> Result:
-        return solve_lm(robot, tgt, start, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                        max_starts=1, prefer_q0=True, seed_table_enabled=False, **tuning)
-
-    ordinary_opts = solver_keywords({k: solver_opts[k] for k in _LM_KEYS if k in solver_opts})
-
-    def ordinary(max_time: float) -> Result:
-        """The solve ``ik.solve`` would run without collision checking (its starts and restarts), within ``max_time``."""
-        return solve_lm(robot, tgt, p["q0"], tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                        **ordinary_opts)
-
-    run.ordinary = ordinary
-    return run
 
 
 def _checked(res: Result, attempt: int) -> Result:
@@ -328,8 +306,9 @@ def _closed_form_answers(robot, p: dict) -> bool:
     return solver is not None and solver.finite and solver.supports(tgt.relaxed)
 
 
-#: Consecutive candidate starts in collision after which the attempts give up (the scene leaves little room).
-RANDOM_TRIES = 20
+#: Consecutive candidate starts in collision after which the attempts give up (the scene leaves little room):
+#: the limit of ``solve_lm(admit=...)``.
+RANDOM_TRIES = ADMIT_MISSES
 
 
 def _free_starts(robot, p: dict, constraint: CollisionConstraint, solver_opts: dict, skip: np.ndarray | None = None):

@@ -212,53 +212,47 @@ def _checked_numbers(tol_pos, tol_rot, max_time, seed):
     return tol_pos, tol_rot, max_time, seed
 
 
-def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed, options):
+def _pose_request(tgt, q0, tol_pos, tol_rot, max_time, seed, method) -> dict[str, Any]:
+    """What :func:`prepare` returns for checked pose arguments with every other argument at its default."""
+    return dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
+
+
+def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed, options,
+                collision: dict | None = None):
     """The common request on a short path: one pose target, joint limits only, ``method`` "auto" or "lm".
 
     The same checks as :func:`prepare` for the arguments given (the others
     are at their defaults: no obstacle, no centring, default backend); then
     Levenberg-Marquardt directly, or :func:`solve_prepared` when ``"auto"``
     finds a closed form or an option only another method accepts.
-    """
-    _check_robot(robot)
-    tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
-    q0 = _checked_q0(robot, q0)
-    tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
-    if (options and not options.keys() <= _LM_OPTION_SET) or (method == "auto" and _closed_form(robot, tgt.frame) is not None):
-        p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                 backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
-        return solve_prepared(robot, p, **options)
-    _check_options("lm", options)
-    return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                    **solver_keywords(options))
 
-
-def _solve_pose_collision_free(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
-                               collision: dict, options: dict) -> Result:
-    """:func:`_solve_pose` with collision checking: the ordinary LM solve, then one check of its run.
-
-    The cheap path of :mod:`ik.collision_solve` without its general set-up: in an open scene the
-    ordinary answer and its iterates are almost always collision free
-    (:func:`ik.collision_solve.ordinary_solve_checked`). Otherwise, and whenever the robot has no
-    collision model, ``"auto"`` finds a closed form or an option only another method accepts, the
-    general path (:func:`solve_prepared`) runs - given the runs already tried and the start of the
+    With ``collision`` (the checked collision options): the unconstrained attempts of
+    :mod:`ik.collision_solve` without its general set-up
+    (:func:`ik.collision_solve.ordinary_solve_checked`); in an open scene the ordinary answer and its
+    iterates are almost always collision free. Otherwise, and whenever the robot has no collision model,
+    the general path (:func:`solve_prepared`) runs - given the runs already tried and the start of the
     clock, so that nothing is solved twice and the time budget holds.
     """
     _check_robot(robot)
     tgt = target if type(target) is Target or isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
     q0 = _checked_q0(robot, q0)
     tol_pos, tol_rot, max_time, seed = _checked_numbers(tol_pos, tol_rot, max_time, seed)
-    p = dict(target=tgt, q0=q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-             backend=DEFAULT_BACKEND, weights=None, spheres=None, method=method)
+    collision = collision or {}
     if (options and not options.keys() <= _LM_OPTION_SET) or (method == "auto" and _closed_form(robot, tgt.frame) is not None):
-        return solve_prepared(robot, p, **collision, **options)
+        return solve_prepared(robot, _pose_request(tgt, q0, tol_pos, tol_rot, max_time, seed, method), **collision,
+                              **options)
     _check_options("lm", options)
+    if not collision:
+        return solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                        **solver_keywords(options))
     compiled_chain(robot, tgt.frame_id)  # (loaded before the clock starts)
-    res, first, t0 = _collision_module().ordinary_solve_checked(robot, tgt, q0, tol_pos, tol_rot, max_time, seed,
-                                                                 solver_keywords(options), **collision)
+    res, handover, t0 = _collision_module().ordinary_solve_checked(robot, tgt, q0, tol_pos, tol_rot, max_time, seed,
+                                                                    solver_keywords(options), **collision)
     if res is not None:
         return res
-    p.update(first if first is not None else {"t0": t0})
+    p = _pose_request(tgt, q0, tol_pos, tol_rot, max_time, seed, method)
+    p.update(handover if handover is not None else {"t0": t0})
     return solve_prepared(robot, p, **collision, **options)
 
 
@@ -389,8 +383,8 @@ def solve(
         collision = _collision_module().collision_options(self_collision, obstacles, collision_margin, spheres)
         if (method == "auto" or method == "lm") and constraints is None and type(link_radius) is float \
                 and link_radius == 0.0 and type(centring) is float and centring == 0.0 and backend is None:
-            return _solve_pose_collision_free(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot,
-                                              max_time, seed, collision, options)
+            return _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                               options, collision)
         options.update(collision)
         spheres, obstacles = (), ()
     p = _prepare(robot, target, q0, frame, relax, relax_frame, spheres, obstacles, link_radius, centring, method, backend,
