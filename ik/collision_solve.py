@@ -46,7 +46,6 @@ from typing import TYPE_CHECKING, Any
 
 import coal
 import numpy as np
-import pinocchio as pin
 
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
@@ -58,7 +57,7 @@ from .lm_solver import ADMIT_MISSES, solve_lm
 from .multistart import frame_starts
 from .options import check_options, solver_keywords
 from .qp_solver import solve_qp
-from .seeds import seed_table, start_sequence
+from .seeds import start_sequence
 from .result import History, Result
 
 if TYPE_CHECKING:  # annotations only
@@ -327,8 +326,6 @@ def _free_starts(robot, p: dict, constraint: CollisionConstraint, solver_opts: d
     table, prefer_q0 = bool(solver_opts.get("seed_table", True)), bool(solver_opts.get("prefer_q0", False))
     if getattr(tgt, "frame_id", None) is None or getattr(tgt, "T", None) is None:
         seq = start_sequence(robot, None, None, q0, seed, prefer_q0=prefer_q0)
-    elif table and not prefer_q0:
-        seq = _lazily_ranked_starts(robot, tgt, q0, seed)
     else:
         seq = frame_starts(robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3,
                            q0, seed, table, prefer_q0)
@@ -344,45 +341,6 @@ def _free_starts(robot, p: dict, constraint: CollisionConstraint, solver_opts: d
             continue
         misses = 0
         yield q
-
-
-def _lazily_ranked_starts(robot, tgt, q0: np.ndarray | None, seed: int, n_table: int = 8):
-    """The start order of :func:`kinserve.ik.multistart.frame_starts` (table on, ``prefer_q0`` off), ranked lazily.
-
-    Same sequence as :func:`kinserve.ik.seeds.start_sequence`: ``q0`` where its pose distance puts it
-    among the ``n_table`` table samples nearest the target, those samples nearest first, then the
-    ``n_table`` nearest full-range samples, then seeded random configurations. Each next sample is one
-    ``argmin`` over the scores instead of a partition of the whole table (2000 samples: 26 us) - the
-    attempts usually stop after a few starts, several of them skipped for one collision check each.
-    """
-    table = seed_table(robot, tgt.frame)
-    f = table.features(tgt.T[:3, :3], tgt.T[:3, 3], rotation=len(tgt.rot_rows) == 3)
-    f2 = float(f[:12].dot(f[:12]))
-    q0_dist = None
-    if q0 is not None:
-        data = robot.data
-        pin.forwardKinematics(robot.model, data, q0)
-        M = pin.updateFramePlacement(robot.model, data, tgt.frame_id)
-        q0_dist = table.distance(f, table.features(M.rotation, M.translation))
-    score = table.G.dot(f)
-    pending = q0 is not None
-    for rank in range(min(n_table, len(score))):
-        i = int(score.argmin())
-        if pending and q0_dist <= float(score[i]) + f2:
-            pending = False
-            yield np.array(q0, dtype=float)
-        yield table.Q[i].copy()
-        score[i] = np.inf
-    if pending:
-        yield np.array(q0, dtype=float)
-    score = table.G_full.dot(f)
-    for rank in range(min(n_table, len(score))):
-        i = int(score.argmin())
-        yield table.Q_full[i].copy()
-        score[i] = np.inf
-    rng = np.random.default_rng(seed)
-    while True:
-        yield robot.random_q(rng)
 
 
 def _last_clear_iterate(constraint: CollisionConstraint, qs) -> np.ndarray | None:

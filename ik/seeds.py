@@ -202,39 +202,35 @@ def start_sequence(robot: Robot, table: SeedTable | None, f_target: np.ndarray |
     """Generator of start configurations (fresh arrays) for one solve; see the module docstring.
 
     ``q0_distance`` is ``D`` of ``q0`` (None when ``q0`` is None). With
-    ``prefer_q0`` the caller's ``q0`` always goes first. The table ranking is
-    computed lazily: the nearest sample costs one matrix-vector product, the
-    next ``n_table - 1`` are only ranked when a restart needs them.
+    ``prefer_q0`` the caller's ``q0`` always goes first. The ranking is
+    lazy: the scores of all samples are one matrix-vector product, and each
+    next sample is one ``argmin`` over them (the sample taken is then set to
+    ``inf``): most solves take one or two starts, and a partition of the
+    2000 scores (``numpy.argpartition``, ~17 us) would cost more than the
+    kernel's whole run.
     """
     if table is not None:
-        score = table.G.dot(f_target)
-        i0 = int(score.argmin())
+        score = table.G.dot(f_target)  # a fresh array: taken samples are marked in it
         f2 = float(f_target[:12].dot(f_target[:12]))
-        d0 = float(score[i0]) + f2
-        q0_first = q0 is not None and (prefer_q0 or q0_distance is None or q0_distance <= d0)
-        if q0_first:
+        pending_q0 = q0 is not None
+        if pending_q0 and (prefer_q0 or q0_distance is None):
+            pending_q0 = False
             yield np.array(q0, dtype=float)
-        yield table.Q[i0].copy()
-        pending_q0 = q0 is not None and not q0_first
-        k = min(n_table, len(score))
-        if k > 1:
-            idx = np.argpartition(score, k - 1)[:k]
-            idx = idx[np.argsort(score[idx])]
-            for i in idx:
-                if i == i0:
-                    continue
-                if pending_q0 and q0_distance <= float(score[i]) + f2:
-                    pending_q0 = False
-                    yield np.array(q0, dtype=float)
-                yield table.Q[i].copy()
+        for _ in range(min(n_table, len(score))):
+            i = int(score.argmin())
+            if pending_q0 and q0_distance <= float(score[i]) + f2:
+                pending_q0 = False
+                yield np.array(q0, dtype=float)
+            yield table.Q[i].copy()
+            score[i] = math.inf
         if pending_q0:
             yield np.array(q0, dtype=float)
         # then the nearest full-range samples (solutions close to a joint limit)
         score = table.G_full.dot(f_target)
-        k = min(n_table, len(score))
-        idx = np.argpartition(score, k - 1)[:k] if k < len(score) else np.arange(len(score))
-        for i in idx[np.argsort(score[idx])]:
+        for _ in range(min(n_table, len(score))):
+            i = int(score.argmin())
             yield table.Q_full[i].copy()
+            score[i] = math.inf
     elif q0 is not None:
         yield np.array(q0, dtype=float)
     rng = np.random.default_rng(rng_seed)

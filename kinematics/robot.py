@@ -171,6 +171,8 @@ class Robot(CollisionQueries):
             )
         self.nq = model.nq
         self._shape = (self.nq,)
+        self._span = self.upper - self.lower  # of random_q
+        self._span.flags.writeable = False
         self.tip = tip if tip is not None else model.frames[model.nframes - 1].name
         self._tip_id = self.frame_id(self.tip)
         self._chains: dict[int, ChainFK] = {}
@@ -246,7 +248,9 @@ class Robot(CollisionQueries):
         """
         rng = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
         size = self._shape if n is None else (int(n), self.nq)
-        return rng.uniform(self.lower, self.upper, size=size)
+        # ``rng.uniform(lower, upper, size)`` computes ``lower + (upper - lower) * u`` from the same doubles
+        # ``u``: the same values, bit for bit, at a sixth of its cost (~1.4 instead of ~8 us per draw)
+        return self.lower + self._span * rng.random(size)
 
     def frame_id(self, frame: str) -> int:
         """Pinocchio index of a frame name; :class:`FrameError` if unknown."""

@@ -41,6 +41,12 @@ def test_start_sequence_order_and_determinism():
     idx, dist = table.ranked(f, 8)
     far = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=1e9), 10))
     assert all(np.array_equal(far[i], table.Q[idx[i]]) for i in range(8)) and np.array_equal(far[8], q0)
+    # then the 8 full-range samples nearest by the pose distance, brute force here
+    T_full = robot.fk_batch(table.Q_full, "tool0")
+    d_full = (np.sum((T_full[:, :3, 3] - T[:3, 3]) ** 2, axis=1)
+              + table.weight * np.sum((T_full[:, :3, :3] - T[:3, :3]) ** 2, axis=(1, 2)))
+    after = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=1e9), 9, 17))
+    assert all(np.array_equal(a, table.Q_full[i]) for a, i in zip(after, np.argsort(d_full)[:8]))
     mid = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=0.5 * (dist[2] + dist[3])), 5))
     assert np.array_equal(mid[2], table.Q[idx[2]]) and np.array_equal(mid[3], q0)  # q0 ranked by its distance
     near = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=0.0), 2))

@@ -182,6 +182,10 @@ def test_random_q_within_limits_and_deterministic(panda):
     Q = panda.random_q(7, n=500)
     assert np.all(Q >= panda.lower) and np.all(Q <= panda.upper)
     assert np.array_equal(panda.random_q(7), panda.random_q(7))
+    # the same numbers as numpy's uniform draw within the limits, bit for bit (one and many)
+    a, b = np.random.default_rng(11), np.random.default_rng(11)
+    assert np.array_equal(panda.random_q(a), b.uniform(panda.lower, panda.upper))
+    assert np.array_equal(panda.random_q(a, n=50), b.uniform(panda.lower, panda.upper, size=(50, panda.nq)))
     assert panda.within_limits(panda.middle())
 
 
