@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from itertools import chain
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -88,6 +89,13 @@ def _translation(t: np.ndarray) -> np.ndarray:
     return T
 
 
+def _hashable(value: Any) -> Any:
+    """A field of :meth:`Shape._fields` as a hashable value: a list (of lists: a pose's rows) as one flat tuple."""
+    if type(value) is not list:
+        return value
+    return tuple(chain.from_iterable(value)) if value and type(value[0]) is list else tuple(value)
+
+
 class Shape:
     """Common behaviour of the solid shapes (not instantiated directly)."""
 
@@ -117,6 +125,24 @@ class Shape:
         return g
 
     def _make_geometry(self):  # pragma: no cover - every subclass overrides
+        raise NotImplementedError
+
+    def bounding_ball(self) -> tuple[tuple[float, float, float], float]:
+        """``(centre, radius)`` (world, m) of a ball that contains the shape (computed once): the local ball of
+        :meth:`_local_ball` moved by the pose. Cheap tests of "certainly apart" (the base-overlap check)."""
+        ball = self.__dict__.get("_ball")
+        if ball is None:
+            c, r = self._local_ball()
+            t = self.pose[:3, 3] if c is None else self.pose[:3, 3] + self.pose[:3, :3] @ c
+            ball = (tuple(t.tolist()), float(r))
+            object.__setattr__(self, "_ball", ball)
+        return ball
+
+    def _local_ball(self) -> tuple[np.ndarray | None, float]:
+        """Centre (shape frame; None: the origin) and radius (m) of a ball containing the shape."""
+        return None, self._radius_about_origin()
+
+    def _radius_about_origin(self) -> float:  # pragma: no cover - every subclass overrides one of the two
         raise NotImplementedError
 
     def placement(self) -> pin.SE3:
@@ -161,15 +187,16 @@ class Shape:
         return type(other) is type(self) and other.to_dict() == self.to_dict()
 
     def __hash__(self) -> int:
-        """Hash of the plain data, computed once (the shape is immutable; scene caches hash it per solve)."""
+        """Hash of the plain data (the kind, the frames and the constructor's numbers, consistent with ``==``),
+        computed once: the shape is immutable and the scene caches hash it per solve."""
         h = self.__dict__.get("_hash")
         if h is None:
-            h = hash(repr(self.to_dict()))
+            h = hash((self.kind, self.frames, *map(_hashable, self._fields().values())))
             object.__setattr__(self, "_hash", h)
         return h
 
     def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
-        return {k: v for k, v in self.__dict__.items() if k not in ("_geometry", "_hash")}
+        return {k: v for k, v in self.__dict__.items() if k not in ("_geometry", "_hash", "_ball")}
 
     def __setstate__(self, state: dict) -> None:
         self._set(**state)
@@ -191,6 +218,9 @@ class Sphere(Shape):
         import coal
 
         return coal.Sphere(self.radius)
+
+    def _radius_about_origin(self) -> float:
+        return self.radius
 
     def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
         return np.linalg.norm(p, axis=1) - self.radius
@@ -222,6 +252,9 @@ class Box(Shape):
         import coal
 
         return coal.Box(*self.size)
+
+    def _radius_about_origin(self) -> float:  # half the diagonal
+        return 0.5 * math.sqrt(sum(v * v for v in self.size))
 
     def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
         q = np.abs(p) - self.half_extents
@@ -258,6 +291,9 @@ class Capsule(Shape):
 
         return coal.Capsule(self.radius, self.length)
 
+    def _radius_about_origin(self) -> float:  # the pose's origin is the segment's midpoint
+        return 0.5 * self.length + self.radius
+
     def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
         half = 0.5 * self.length
         z = np.clip(p[:, 2], -half, half)
@@ -282,6 +318,9 @@ class Cylinder(Shape):
         import coal
 
         return coal.Cylinder(self.radius, self.length)
+
+    def _radius_about_origin(self) -> float:  # a rim point
+        return math.hypot(self.radius, 0.5 * self.length)
 
     def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
         q = np.stack([np.hypot(p[:, 0], p[:, 1]) - self.radius, np.abs(p[:, 2]) - 0.5 * self.length], axis=1)
@@ -323,6 +362,11 @@ class Mesh(Shape):
         hull.endModel()
         hull.buildConvexHull(False, "Qt")
         return hull.convex
+
+    def _local_ball(self) -> tuple[np.ndarray, float]:  # about the hull's bounding-box centre
+        V = self.hull_vertices
+        c = 0.5 * (V.min(axis=0) + V.max(axis=0))
+        return c, float(np.sqrt(((V - c) ** 2).sum(axis=1).max()))
 
     def _local_signed_distance(self, p: np.ndarray) -> np.ndarray:
         # signed distance to the hull's planes n.x - d: exact inside, a lower bound outside (face planes only)

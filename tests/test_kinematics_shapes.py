@@ -54,6 +54,23 @@ def test_outside_distances_equal_coal(rng, ico_path):
             np.testing.assert_allclose(sd[outside], ref, atol=1e-8)
 
 
+def test_bounding_ball_contains_the_shape_and_is_tight(rng, ico_path):
+    """Every point outside the ball is outside the shape (coal's signed distance), and the shape reaches
+    close to the ball: the farthest inside point is at least 80 % of the radius from the centre."""
+    for shape in shapes(rng, ico_path):
+        c, r = shape.bounding_ball()
+        pts = np.asarray(c) + rng.uniform(-2.0 * r, 2.0 * r, size=(20000, 3))
+        far = np.linalg.norm(pts - c, axis=1)
+        out = far > r
+        assert out.sum() > 1000 and np.all(shape.signed_distance(pts[out]) > 0.0), shape.kind
+        assert np.all([coal_distance(shape, p) > 0.0 for p in pts[out][:200]])
+        inside = shape.signed_distance(pts) <= 0.0
+        assert inside.sum() > 20 and far[inside].max() > 0.8 * r, shape.kind
+    box = Box(random_pose(rng), [0.3, 0.2, 0.5])
+    corner = box.pose[:3, :3] @ (0.5 * np.array([0.3, -0.2, 0.5])) + box.pose[:3, 3]
+    assert np.isclose(np.linalg.norm(corner - box.bounding_ball()[0]), box.bounding_ball()[1])  # a corner is on it
+
+
 def test_inside_points_are_negative_and_depth_is_exact_for_primitives():
     box = Box(np.eye(4), [0.4, 0.2, 1.0])
     assert box.signed_distance([0.0, 0.0, 0.0])[0] == pytest.approx(-0.1)   # nearest face y = 0.1
@@ -107,8 +124,12 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
     a = Box(np.eye(4), (0.1, 0.2, 0.3))
     b = Box(np.eye(4), (0.1, 0.2, 0.3))
     c = Box(np.eye(4), (0.1, 0.2, 0.31))
-    assert hash(a) == hash(b) == hash(repr(b.to_dict()))
+    assert hash(a) == hash(b) and a == b
     assert hash(a) != hash(c) and a != c
+    signed_zero = np.eye(4)
+    signed_zero[0, 1] = -0.0  # == 0.0: equal shapes, so equal hashes
+    assert Box(signed_zero, (0.1, 0.2, 0.3)) == a and hash(Box(signed_zero, (0.1, 0.2, 0.3))) == hash(a)
+    assert hash(Cylinder(np.eye(4), 0.1, 0.2)) != hash(Box(np.eye(4), (0.1, 0.2, 0.2)))
     assert a.__dict__["_hash"] == hash(a)  # cached after the first call
     assert "_hash" not in a.__getstate__()  # str hashes differ between processes
     clone = pickle.loads(pickle.dumps(a))

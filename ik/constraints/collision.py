@@ -43,7 +43,6 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.collision_model import bounding_sphere
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
@@ -209,11 +208,11 @@ _BASE_CLEAR_LOCK = threading.Lock()
 def _check_base(robot, scene) -> None:
     """InputError when an obstacle overlaps a geometry fixed to the world by more than BASE_TOLERANCE.
 
-    An obstacle found clear is remembered per collision model (a table or wall shared by many
-    scenes is checked once).
+    Coal decides only where an obstacle's bounding ball (:meth:`~kinserve.kinematics.shapes.Shape.bounding_ball`)
+    meets the ball of a base geometry. An obstacle found clear is remembered per collision model (a table
+    or wall shared by many scenes is checked once).
     """
     cm = robot.collision
-    n_robot = scene.n_robot
     base = cm.base_spheres()
     if not base or not scene.obstacles:
         return
@@ -221,21 +220,22 @@ def _check_base(robot, scene) -> None:
         cleared = _BASE_CLEAR.get(cm)
     except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
         cleared = None
-    pending = [k for k, shape in enumerate(scene.obstacles, start=n_robot)
-               if shape.kind == "mesh" or cleared is None or shape not in cleared]
-    if not pending:
-        return
-    objects = cm.geometry.geometryObjects
-    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    n_robot = scene.n_robot
+    req = res = None
     newly = []
-    for k in pending:
-        shape = scene.obstacles[k - n_robot]
-        # the layout's geometry of this slot: the same shape and size (the obstacle's own is built on demand)
-        geometry, placement = scene.layout.obstacle_geometries[k - n_robot], scene.placements[k - n_robot]
-        c_ob, r_ob = bounding_sphere(geometry, placement)
+    for k, shape in enumerate(scene.obstacles, start=n_robot):
+        mesh = shape.kind == "mesh"
+        if not mesh and cleared is not None and shape in cleared:
+            continue
+        c_ob, r_ob = shape.bounding_ball()
         for i, c, r in base:
-            if math.dist(c, c_ob) > r + r_ob:  # bounding spheres apart: no overlap at all (GJK not needed)
+            if math.dist(c, c_ob) > r + r_ob:  # balls apart: no overlap at all (GJK not needed)
                 continue
+            if req is None:
+                req, res = coal.DistanceRequest(), coal.DistanceResult()
+                objects = cm.geometry.geometryObjects
+            # the layout's geometry of this slot: the same shape and size (the obstacle's own is built on demand)
+            geometry, placement = scene.layout.obstacle_geometries[k - n_robot], scene.placements[k - n_robot]
             g = objects[i]
             res.clear()
             d = coal.distance(g.geometry, coal.Transform3s(g.placement.rotation, g.placement.translation),
@@ -245,7 +245,7 @@ def _check_base(robot, scene) -> None:
                     f"{scene.geometry_owner[k]} overlaps the robot's fixed base ({scene.geometry_owner[i]}) by "
                     f"{-d:.4g} m; the base cannot move out of it"
                 )
-        if shape.kind != "mesh":
+        if not mesh:
             newly.append(shape)
     if newly:
         with _BASE_CLEAR_LOCK:
