@@ -179,16 +179,23 @@ class CollisionScene:
 
     def first_collision(self, qs: Sequence[np.ndarray]) -> int:
         """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
-        in collision, -1 when none is: the sphere pre-check (the first configuration alone, the rest in one
-        compiled call), and :meth:`in_collision`'s coal check of each uncertified one, in order, stopping at
-        the first hit (:func:`~.collision_layout.check_configurations`)."""
-        ws = getattr(self._local, "shell", None)
-        if ws is None or ws[4] is not self.obstacles:
-            ws = self.layout.shell(self.obstacles, self.placements)
-        if ws[5] is None:
-            return -1
+        in collision, -1 when none is: the sphere pre-check (rows stacked in a float ``(N, nq)`` array in one
+        compiled call; a sequence: the first configuration alone, the rest in one call), and
+        :meth:`in_collision`'s coal check of each uncertified one, in order, stopping at the first hit
+        (:func:`~.collision_layout.check_configurations`)."""
         pre = self._precheck
-        return check_configurations(ws[5], qs, self.precheck() if pre is _UNBUILT else pre)
+        if pre is _UNBUILT:
+            pre = self.precheck()
+        if pre is not None and type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:
+            # stacked rows (the IK's runs): one compiled call; coal only from the first uncertified row on
+            k = pre[1](pre[2], pre[3], qs, 0, pre[4])
+            if k >= qs.shape[0]:
+                return -1
+            check = self._shell()[5]
+            hit = -1 if check is None else check_configurations(check, qs[k:], pre)  # rows before k: certified
+            return hit if hit < 0 else k + hit
+        check = self._shell()[5]
+        return -1 if check is None else check_configurations(check, qs, pre)
 
     def colliding(self, q: np.ndarray) -> list[int]:
         """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""

@@ -299,6 +299,7 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(collision_solve, "solve_lm", counting)
+    monkeypatch.setattr(collision_solve, "UNCERTIFIED_SKIPS", 0)  # the run from the start next to the block
     rng = np.random.default_rng(8)
     while True:  # a witness-feasible target: its generating configuration clears the box on the answer's elbow
         q_gen = panda.random_q(rng)
@@ -317,3 +318,37 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
     assert runs == [1 + collision_solve.UNCONSTRAINED_ATTEMPTS] and res.info["collision"] == "unconstrained, checked"
     assert 1 <= res.restarts <= collision_solve.UNCONSTRAINED_ATTEMPTS and res.info["collision_attempts"] == res.restarts + 1
     assert res.success and not panda.in_collision(res.q, [block])
+
+
+def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
+    """The checked LM's admission: a start the sphere pre-check certifies runs; the first UNCERTIFIED_SKIPS
+    uncertified ones are refused without coal, later ones (and the caller's q0 with prefer_q0) go to coal."""
+    from kinserve.ik import collision_solve
+    from kinserve.kinematics.collision_spheres import certify
+
+    wall = ik.Box(_pose((0.45, 0.0, 0.5)), (0.05, 1.0, 1.0))
+    con = collision_solve._bound_constraint(panda, (wall,), True, 0.0)
+    pre = con.scene.precheck()
+    rng = np.random.default_rng(4)
+    Q = panda.random_q(rng, 3000)
+    ok = certify(pre, Q)
+    hit = np.array([con.scene.in_collision(q) for q in Q])
+    near = Q[~ok & ~hit][:4]  # free, but not certified: within centimetres of the wall or of the arm itself
+    inside = Q[~ok & hit][:4]
+    clear = Q[ok][:2]
+    assert len(near) == 4 and len(inside) == 4 and not hit[ok].any()  # certified means free (coal agrees)
+    coal_calls = []
+    real = con.in_collision
+    con.in_collision = lambda q: coal_calls.append(q) or real(q)
+    try:
+        admit = collision_solve._start_admission(con)
+        assert admit(clear[0]) and not coal_calls  # certified: no coal
+        skips = collision_solve.UNCERTIFIED_SKIPS
+        assert skips >= 1
+        assert [admit(q) for q in near[:skips]] == [False] * skips and not coal_calls  # skipped unasked
+        assert admit(near[skips]) and len(coal_calls) == 1  # then coal decides: free, admitted
+        assert not admit(inside[0]) and len(coal_calls) == 2  # ... and in collision, refused
+        chosen = collision_solve._start_admission(con, near[3])
+        assert chosen(near[3].copy()) and len(coal_calls) == 3  # the caller's q0 is never skipped unasked
+    finally:
+        con.in_collision = real
