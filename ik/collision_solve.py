@@ -77,10 +77,14 @@ UNCONSTRAINED_ATTEMPTS = 12
 def collision_options(self_collision: bool = False, obstacles: Sequence = (), collision_margin: float = 0.0,
                       spheres: Sequence = ()) -> dict:
     """Validated collision options for :func:`solve_collision_free` (``spheres`` join the obstacles)."""
-    obs = as_obstacles(obstacles) + as_obstacles(spheres, "spheres")
+    obs = as_obstacles(obstacles)
+    if spheres is not None and (type(spheres) is not tuple or spheres):
+        obs += as_obstacles(spheres, "spheres")
     if not isinstance(self_collision, (bool, np.bool_)):
         raise InputError(f"self_collision must be True or False, got {self_collision!r}")
-    margin = _length(collision_margin, "collision margin")  # the check CollisionConstraint makes
+    # the check CollisionConstraint makes (the default 0.0 needs none)
+    margin = 0.0 if type(collision_margin) is float and collision_margin == 0.0 else _length(collision_margin,
+                                                                                             "collision margin")
     return {"self_collision": bool(self_collision), "obstacles": obs, "collision_margin": margin}
 
 
@@ -125,6 +129,8 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
         return None, None
     rejected: list = []
     first_collision = constraint.first_collision
+    chosen = _clip(q0, robot.lower, robot.upper) if q0 is not None and lm_options.get("prefer_q0") else None
+    admit = _start_admission(constraint, chosen)
 
     def accept(qs) -> bool:
         # the run's configurations, start first: the answer, then the others last first, down to the one
@@ -137,8 +143,6 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
 
     cap = 1 + UNCONSTRAINED_ATTEMPTS
     starts = lm_options.get("max_starts")
-    chosen = _clip(q0, robot.lower, robot.upper) if q0 is not None and lm_options.get("prefer_q0") else None
-    admit = _start_admission(constraint, chosen)
     res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                    accept=accept, admit=admit,
                    **{**lm_options, "max_starts": cap if starts is None else min(int(starts), cap)})
