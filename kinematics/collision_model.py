@@ -237,12 +237,13 @@ class CollisionModel:
         by_value = all(shape.kind != "mesh" for shape in obs)
         vkey = (self_collision, *obs)
         scene = self._scenes_by_value.get(vkey) if by_value else None
-        if scene is None:
+        scene_is_new = scene is None
+        if scene_is_new:
             scene = CollisionScene(self, obs, self_collision, self.layout(obs, self_collision))
-        with self._lock:
-            _remember(self._scenes, key, (scene, obs))
+        with self._lock:  # the identity key was absent above (and the value key too when no scene was found)
+            _remember(self._scenes, key, (scene, obs), new=True)
             if by_value:
-                _remember(self._scenes_by_value, vkey, scene)
+                _remember(self._scenes_by_value, vkey, scene, new=scene_is_new)
         return scene
 
     def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:
@@ -258,9 +259,11 @@ class CollisionModel:
         return layout
 
 
-def _remember(cache: OrderedDict, key: tuple, value: Any) -> None:
-    """Put ``key`` last in ``cache`` and drop the oldest entries beyond :data:`SCENE_CACHE_SIZE`."""
+def _remember(cache: OrderedDict, key: tuple, value: Any, new: bool = False) -> None:
+    """Put ``key`` last in ``cache`` and drop the oldest entries beyond :data:`SCENE_CACHE_SIZE` (``new``: the
+    caller just found ``key`` absent, so the insertion puts it last; no move)."""
     cache[key] = value
-    cache.move_to_end(key)
+    if not new:
+        cache.move_to_end(key)
     while len(cache) > SCENE_CACHE_SIZE:
         cache.popitem(last=False)

@@ -71,6 +71,7 @@ costs a few microseconds (~190 us for a scene built from nothing on the Panda).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -99,10 +100,6 @@ class CollisionScene:
         self.layout = layout
         self.model = layout.model
         self.obstacles = obstacles
-        #: The ``pinocchio.SE3`` pose of each obstacle (the layout's own when the obstacle is the layout's).
-        self.placements: list[pin.SE3] = [
-            placed if shape is first else shape.placement()
-            for shape, first, placed in zip(obstacles, layout.obstacles, layout.placements)]
         self.n_robot = layout.n_robot
         self.geometry_owner: list[str] = layout.geometry_owner  #: link name (robot) or obstacle name, per geometry
         self.pairs = layout.pairs
@@ -111,6 +108,14 @@ class CollisionScene:
         self.pair_joints = layout.pair_joints
         self._local = layout._local  # the layout's per-thread state: its shell says whose obstacles it holds
         self._precheck: Any = _UNBUILT  # the sphere pre-check's arguments with these obstacle poses (first query)
+
+    @cached_property
+    def placements(self) -> list[pin.SE3]:
+        """The ``pinocchio.SE3`` pose of each obstacle (the layout's own when the obstacle is the layout's);
+        made when coal first needs them (a scene the sphere pre-check answers for never does)."""
+        layout = self.layout
+        return [placed if shape is first else shape.placement()
+                for shape, first, placed in zip(self.obstacles, layout.obstacles, layout.placements)]
 
     def __len__(self) -> int:
         return len(self.pairs)

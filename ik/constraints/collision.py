@@ -96,7 +96,7 @@ class CollisionConstraint(Constraint):
     # ------------------------------------------------------------------ protocol
     def bind(self, robot: Robot) -> "CollisionConstraint":
         """Build the robot's collision scene; :class:`InputError` when an obstacle contains the fixed base."""
-        scene = robot.collision_scene(self.obstacles, self.self_collision)
+        scene = robot.collision.scene(self.obstacles, self.self_collision)  # obstacles validated by __init__
         if not getattr(scene, "base_checked", False):  # once per scene (scenes are cached per obstacle set)
             _check_base(robot, scene)
             scene.base_checked = True
