@@ -135,41 +135,52 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     its answer first, the likeliest to collide: when it does, no array is built), then the rest in one
     compiled call
     (:func:`.collision_spheres.first_uncertified`, resumed after an uncertified configuration coal finds
-    free). The same answer, since a certified configuration is one coal finds free.
+    free). An uncertified configuration goes to :func:`.collision_spheres.certainly_colliding` first (a point
+    inside the robot deep in an obstacle: in collision, no coal). The same answer as coal alone, since a
+    certified configuration is one coal finds free and a certain one is one coal finds in collision.
     """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
 
-    def hits(q) -> bool:  # coal: forward kinematics, placements, broad phase, narrow phase
+    def coal_hits(q) -> bool:  # coal: forward kinematics, placements, broad phase, narrow phase
         fk(model, data, q)
         place(model, data, gm, gd)
         update(False)
         return collide(callback)
 
-    if precheck is not None:
-        one, first, floats, ints, tol = precheck
-        if type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:  # rows already stacked: one call
-            return _first_hit_after_precheck(hits, first, floats, ints, tol, qs, qs, 0)
-        qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
-        N = len(qs)
-        if not N:
-            return -1
+    if precheck is None:
+        return next((k for k, q in enumerate(qs) if coal_hits(q)), -1)
+    one, first, floats, ints, tol, certain = precheck
+
+    def hits(q) -> bool:  # an inner point deep in an obstacle answers without coal
         try:
-            clear = one(floats, ints, qs[0], tol)
+            if certain(floats, ints, q, tol):
+                return True
         except TypeError:  # not a float vector: coal decides (and raises as before)
-            clear = False
-        if not clear and hits(qs[0]):
-            return 0
-        if N == 1:
-            return -1
-        try:
-            Q = np.asarray(qs, dtype=float)
-        except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
-            Q = None
-        if Q is not None and Q.ndim == 2:
-            return _first_hit_after_precheck(hits, first, floats, ints, tol, Q, qs, 1)
-        return next((k for k in range(1, N) if hits(qs[k])), -1)
-    return next((k for k, q in enumerate(qs) if hits(q)), -1)
+            pass
+        return coal_hits(q)
+
+    if type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:  # rows already stacked: one call
+        return _first_hit_after_precheck(hits, first, floats, ints, tol, qs, qs, 0)
+    qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
+    N = len(qs)
+    if not N:
+        return -1
+    try:
+        clear = one(floats, ints, qs[0], tol)
+    except TypeError:  # not a float vector: coal decides (and raises as before)
+        clear = False
+    if not clear and hits(qs[0]):
+        return 0
+    if N == 1:
+        return -1
+    try:
+        Q = np.asarray(qs, dtype=float)
+    except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
+        Q = None
+    if Q is not None and Q.ndim == 2:
+        return _first_hit_after_precheck(hits, first, floats, ints, tol, Q, qs, 1)
+    return next((k for k in range(1, N) if hits(qs[k])), -1)
 
 
 def _first_hit_after_precheck(hits, first, floats, ints, tol, Q: np.ndarray, qs, start: int) -> int:

@@ -168,6 +168,8 @@ class CollisionScene:
             try:
                 if pre[0](pre[2], pre[3], q, pre[4]):
                     return False
+                if pre[5](pre[2], pre[3], q, pre[4]):  # a point inside the robot deep in an obstacle
+                    return True
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass
         ws = getattr(self._local, "shell", None)

@@ -104,8 +104,12 @@ BALL_ITERATIONS = 64
 
 #: Obstacle kinds of the obstacle table (column :data:`KIND` of a row).
 BALL, BOX, CAPSULE, CYLINDER = 0, 1, 2, 3
-#: Columns of an obstacle row: rotation (row-major) 0-8, translation 9-11, kind 12, sizes 13-15.
+#: Columns of an obstacle row: rotation (row-major) 0-8, translation 9-11, kind 12, sizes 13-15 (a BALL: its
+#: radius, then :data:`EXACT`).
 KIND = 12
+#: Column of a BALL row: 1 when the ball is the obstacle itself, 0 when it stands for a shape without a closed
+#: form (its AABB sphere: a point inside it need not be inside the shape). Other kinds are always exact.
+EXACT = 14
 #: Pair kinds of the pair table (column 2).
 SELF_PAIR, OBSTACLE_PAIR = 0, 1
 
@@ -154,6 +158,21 @@ def _slab_points(V: np.ndarray, s: np.ndarray, edges: np.ndarray, lo: float, hi:
     return np.concatenate(out)
 
 
+def _slab_planes(V: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(s, planes, every_pair)`` of a vertex set ``V`` ``(n, 3)``: the projections on the principal axis, the
+    ``k + 1`` slab planes along it (module docstring) and every vertex pair ``(n (n - 1) / 2, 2)``."""
+    X = V - V.mean(axis=0)
+    _, U = np.linalg.eigh(X.T @ X)
+    a = U[:, -1]
+    s = X @ a
+    R = float(np.linalg.norm(X - np.outer(s, a), axis=1).max())
+    lo, hi = float(s.min()), float(s.max())
+    k = int(np.clip(math.ceil((hi - lo) / max(SLAB_RATIO * R, 1e-12)), 1, MAX_COVER_SPHERES))
+    planes = lo + (hi - lo) * np.arange(k + 1) / k
+    planes[0], planes[-1] = lo, hi
+    return s, planes, np.array(np.triu_indices(len(V), 1)).T
+
+
 def polytope_cover(vertices: np.ndarray, triangles: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(bounding (4,), cover (k, 4))`` spheres ``(centre, radius)`` containing the convex hull of ``vertices``
     ``(n, 3)``, in the vertices' frame (module docstring: slabs along the principal axis).
@@ -164,20 +183,34 @@ def polytope_cover(vertices: np.ndarray, triangles: np.ndarray | None = None) ->
     crossings of their sides (fewer points, the same hull).
     """
     V = np.asarray(vertices, dtype=float)
-    X = V - V.mean(axis=0)
-    _, U = np.linalg.eigh(X.T @ X)
-    a = U[:, -1]
-    s = X @ a
-    R = float(np.linalg.norm(X - np.outer(s, a), axis=1).max())
-    lo, hi = float(s.min()), float(s.max())
-    k = int(np.clip(math.ceil((hi - lo) / max(SLAB_RATIO * R, 1e-12)), 1, MAX_COVER_SPHERES))
-    planes = lo + (hi - lo) * np.arange(k + 1) / k
-    planes[0], planes[-1] = lo, hi
-    every_pair = np.array(np.triu_indices(len(V), 1)).T
+    s, planes, every_pair = _slab_planes(V)
     sides = every_pair if triangles is None else triangle_sides(triangles)
-    cover = np.array([enclosing_ball(_slab_points(V, s, sides, planes[i], planes[i + 1]),
-                                     _slab_points(V, s, every_pair, planes[i], planes[i + 1])) for i in range(k)])
+    cover = np.array([enclosing_ball(_slab_points(V, s, sides, lo, hi), _slab_points(V, s, every_pair, lo, hi))
+                      for lo, hi in zip(planes[:-1], planes[1:])])
     return enclosing_ball(V), cover
+
+
+def polytope_inner_points(vertices: np.ndarray) -> np.ndarray:
+    """Points ``(k, 3)`` inside the convex hull of ``vertices``, one per slab of :func:`polytope_cover`: the mean
+    of the slab's points (its vertices and the crossings of every vertex pair with its planes, all in the
+    hull; a mean of points of a convex set lies in it)."""
+    V = np.asarray(vertices, dtype=float)
+    s, planes, every_pair = _slab_planes(V)
+    return np.array([_slab_points(V, s, every_pair, lo, hi).mean(axis=0) for lo, hi in zip(planes[:-1], planes[1:])])
+
+
+def geometry_inner_points(geometry: coal.CollisionGeometry) -> np.ndarray:
+    """Points ``(k, 3)`` inside a coal geometry, in its own frame (``(0, 3)`` for a shape without a closed
+    form): the centre of a sphere or box, the slab centres of a cylinder or capsule's axis, the slab means of
+    :func:`polytope_inner_points` for a convex hull. A point inside an obstacle is a collision for certain
+    (:func:`certainly_colliding`)."""
+    if isinstance(geometry, (coal.Sphere, coal.Box)):
+        return np.zeros((1, 3))
+    if isinstance(geometry, (coal.Capsule, coal.Cylinder)):
+        return _axis_cover(geometry.radius, geometry.halfLength, False)[1][:, :3].copy()
+    if isinstance(geometry, coal.Convex) and geometry.num_points >= 4:
+        return polytope_inner_points(np.asarray(geometry.points(), dtype=float))
+    return np.zeros((0, 3))
 
 
 def _axis_cover(radius: float, half_length: float, end_balls: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -242,13 +275,17 @@ class RobotSpheres:
     * ``spheres`` ``(G + S, 4)``: centre in the geometry's joint frame and radius (m); row ``g < G`` is
       geometry ``g``'s bounding sphere, the cover spheres follow;
     * ``geoms`` ``(G, 3)`` integers: the geometry's Pinocchio joint (0 = fixed in the world), first and
-      end row of its cover spheres in ``spheres``.
+      end row of its cover spheres in ``spheres``;
+    * ``inner`` ``(I, 3)``: points inside the geometries (:func:`geometry_inner_points`) in their joint
+      frames, ``inner_ranges`` ``(G, 2)`` the first and end row of each geometry's.
     """
 
     tree: np.ndarray
     joints: np.ndarray
     spheres: np.ndarray
     geoms: np.ndarray
+    inner: np.ndarray
+    inner_ranges: np.ndarray
 
 
 def robot_spheres(model: pin.Model, geometry: pin.GeometryModel) -> RobotSpheres | None:
@@ -257,12 +294,14 @@ def robot_spheres(model: pin.Model, geometry: pin.GeometryModel) -> RobotSpheres
     packed = kinematic_tree(model)
     if packed is None:
         return None
-    bounds, covers, joints = [], [], []
+    bounds, covers, joints, inner = [], [], [], []
     for g in geometry.geometryObjects:
         bounding, cover = geometry_cover(g.geometry)
         bounds.append(_moved(bounding[None, :], g.placement)[0])
         covers.append(_moved(cover, g.placement))
         joints.append(int(g.parentJoint))
+        points = geometry_inner_points(g.geometry)
+        inner.append(points @ g.placement.rotation.T + g.placement.translation if len(points) else points)
     G = len(bounds)
     spheres = np.concatenate([np.array(bounds).reshape(-1, 4), *covers]) if G else np.zeros((0, 4))
     if not np.all(np.isfinite(spheres)):
@@ -270,7 +309,14 @@ def robot_spheres(model: pin.Model, geometry: pin.GeometryModel) -> RobotSpheres
     ends = G + np.cumsum([len(c) for c in covers], dtype=np.int64)
     geoms = np.column_stack([np.array(joints, dtype=np.int64), ends - [len(c) for c in covers], ends]) \
         if G else np.zeros((0, 3), dtype=np.int64)
-    return RobotSpheres(packed[0], packed[1], np.ascontiguousarray(spheres), np.ascontiguousarray(geoms))
+    inner_ends = np.cumsum([len(p) for p in inner], dtype=np.int64)
+    inner_ranges = np.column_stack([inner_ends - [len(p) for p in inner], inner_ends]) if G \
+        else np.zeros((0, 2), dtype=np.int64)
+    points = np.concatenate(inner).reshape(-1, 3) if G else np.zeros((0, 3))
+    if not np.all(np.isfinite(points)):
+        return None
+    return RobotSpheres(packed[0], packed[1], np.ascontiguousarray(spheres), np.ascontiguousarray(geoms),
+                        np.ascontiguousarray(points), np.ascontiguousarray(inner_ranges.astype(np.int64)))
 
 
 _ROBOTS: "weakref.WeakKeyDictionary[CollisionModel, RobotSpheres | None]" = weakref.WeakKeyDictionary()
@@ -302,7 +348,7 @@ def obstacle_template(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.
         row[KIND] = CAPSULE if isinstance(geometry, coal.Capsule) else CYLINDER
         row[13], row[14] = float(geometry.radius), float(geometry.halfLength)
     elif isinstance(geometry, coal.Sphere):
-        row[KIND], row[13] = BALL, float(geometry.radius) + swept
+        row[KIND], row[13], row[EXACT] = BALL, float(geometry.radius) + swept, 1.0
     else:
         ball = aabb_sphere(geometry)
         row[KIND], row[13], centre = BALL, ball[3] + swept, ball[:3]
@@ -325,14 +371,19 @@ def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.nda
 def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The kernels' two arguments ``(floats, ints)``, flat (a compiled call costs ~50 ns per array argument):
 
-    * ``floats``: ``tree`` ``(J, 15)``, ``spheres`` ``(S, 4)``, ``obstacles`` ``(O, 16)``, row-major, in turn;
-    * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 3)``, ``pairs`` ``(P, 4)``.
+    * ``floats``: ``tree`` ``(J, 15)``, ``spheres`` ``(S, 4)`` (the robot's spheres, then its inner points with
+      radius 0), ``obstacles`` ``(O, 16)``, row-major, in turn;
+    * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 5)`` (joint, first and end
+      cover row, first and end inner point row), ``pairs`` ``(P, 4)``.
 
     :func:`_unpack` gives the arrays back inside the kernels (views, no copy).
     """
-    J, S, G, P, O = len(robot.joints), len(robot.spheres), len(robot.geoms), len(pairs), len(obstacles)
-    floats = np.concatenate([robot.tree.ravel(), robot.spheres.ravel(), np.asarray(obstacles, dtype=float).ravel()])
-    ints = np.concatenate([np.array([J, S, G, P, O], dtype=np.int64), robot.joints.ravel(), robot.geoms.ravel(),
+    n_spheres = len(robot.spheres)
+    rows = np.concatenate([robot.spheres, np.column_stack([robot.inner, np.zeros(len(robot.inner))])])
+    geoms = np.column_stack([robot.geoms, robot.inner_ranges + n_spheres]).astype(np.int64)
+    J, S, G, P, O = len(robot.joints), len(rows), len(robot.geoms), len(pairs), len(obstacles)
+    floats = np.concatenate([robot.tree.ravel(), rows.ravel(), np.asarray(obstacles, dtype=float).ravel()])
+    ints = np.concatenate([np.array([J, S, G, P, O], dtype=np.int64), robot.joints.ravel(), geoms.ravel(),
                            np.asarray(pairs, dtype=np.int64).ravel()])
     return floats, ints
 
@@ -372,7 +423,8 @@ class ScenePrecheck:
         return placed_floats(self._robot_floats, self.templates, self.centres, P)
 
     def arguments(self, obstacles: Any) -> tuple:
-        """``(certify_configuration, first_uncertified, floats, ints, tolerance)`` for ``obstacles`` (one
+        """``(certify_configuration, first_uncertified, floats, ints, tolerance, certainly_colliding)`` for
+        ``obstacles`` (one
         per obstacle geometry: shapes with a 4x4 world ``pose``); ``floats, ints``: :func:`pack`. The rows
         of the obstacles that are the layout's own (same objects) are copied, the others placed."""
         if self._reference_floats is None or len(obstacles) != len(self._reference):
@@ -386,7 +438,7 @@ class ScenePrecheck:
                     row = floats[start + 16 * k:start + 16 * k + 16]
                     row[:9] = T[:3, :3].reshape(9)
                     row[9:12] = T[:3, 3] if self._centred[k] else T[:3, 3] + T[:3, :3] @ self.centres[k]
-        return certify_configuration, first_uncertified, floats, self._ints, TOLERANCE
+        return certify_configuration, first_uncertified, floats, self._ints, TOLERANCE, certainly_colliding
 
 
 # ====================================================================== the kernel (Numba)
@@ -469,8 +521,8 @@ def _unpack(floats, ints):
     spheres = floats[15 * J:15 * J + 4 * S].reshape((S, 4))
     obstacles = floats[15 * J + 4 * S:15 * J + 4 * S + 16 * O].reshape((O, 16))
     joints = ints[5:5 + 3 * J].reshape((J, 3))
-    geoms = ints[5 + 3 * J:5 + 3 * J + 3 * G].reshape((G, 3))
-    pairs = ints[5 + 3 * J + 3 * G:5 + 3 * J + 3 * G + 4 * P].reshape((P, 4))
+    geoms = ints[5 + 3 * J:5 + 3 * J + 5 * G].reshape((G, 5))
+    pairs = ints[5 + 3 * J + 5 * G:5 + 3 * J + 5 * G + 4 * P].reshape((P, 4))
     return tree, joints, spheres, geoms, pairs, obstacles
 
 
@@ -688,15 +740,42 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
     return out
 
 
+@numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
+    """True when configuration ``q`` is in collision for certain: a point inside a robot geometry (its inner
+    points, :func:`geometry_inner_points`) lies deeper than ``tol`` (m) inside an obstacle of a checked pair
+    whose exact signed distance the kernel has (every kind but a BALL that stands for another shape). Then
+    the two shapes share that point: coal finds them in collision. False says nothing (coal decides), also
+    when ``q`` has not one entry per joint. ``floats, ints``: :func:`pack`."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    if q.shape[0] != n:
+        return False
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    tree_placements(tree, joints, q, X)
+    for p in range(pairs.shape[0]):
+        if pairs[p, 2] != OBSTACLE_PAIR:
+            continue
+        a, o = pairs[p, 0], pairs[p, 1]
+        if obstacles[o, KIND] == BALL and obstacles[o, EXACT] != 1.0:
+            continue
+        j = geoms[a, 0]
+        for i in range(geoms[a, 3], geoms[a, 4]):
+            _place(X, j, spheres, i, W)  # radius 0: the gap is the point's signed distance
+            if _obstacle_gap(W, i, obstacles, o) < -tol:
+                return True
+    return False
+
+
 def certify(arguments: tuple, qs: Any) -> np.ndarray:
     """:func:`certify_configurations` with :meth:`ScenePrecheck.arguments` on configurations ``qs`` (a sequence
     of ``(nq,)`` float arrays or an ``(N, nq)`` array): per configuration, True when certified free."""
-    floats, ints, tol = arguments[2:]
+    floats, ints, tol = arguments[2:5]
     Q = np.asarray(qs, dtype=float)
     return certify_configurations(floats, ints, Q.reshape(len(Q), -1), tol)
 
 
-__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certify", "certify_configuration",
+__all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certainly_colliding", "certify", "certify_configuration",
            "certify_configurations", "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row",
            "obstacle_rows", "obstacle_template", "pack", "pair_lower_bounds", "placed_floats", "polytope_cover",
            "robot_spheres", "robot_spheres_of", "tree_placements"]
