@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 import coal
 import numpy as np
 
+from kinserve.kinematics.collision_layout import shape_signature
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
@@ -264,7 +265,17 @@ def _bound_constraint(robot: Robot, obs: tuple, self_collision: bool, margin: fl
     hit = cache.get(key)
     if hit is not None:  # it holds the robot and these obstacles alive: equal ids are the very same objects
         return hit
-    bound = CollisionConstraint(obs, self_collision=self_collision, margin=margin).bind(robot)
+    # obstacles shaped like those of a constraint bound before (the same layout, other poses): that one moved
+    layouts = _BOUND.layouts if hasattr(_BOUND, "layouts") else _BOUND.__dict__.setdefault("layouts", {})
+    shape_key = (key[0], key[1], key[2], *map(shape_signature, obs))
+    template = layouts.get(shape_key)
+    if template is not None and template.robot is robot:
+        bound = template.moved(obs)
+    else:
+        bound = CollisionConstraint(obs, self_collision=self_collision, margin=margin).bind(robot)
+        if len(layouts) >= _BOUND_CACHE_SIZE:
+            layouts.clear()
+        layouts[shape_key] = bound
     if bound.clearance == 0.0:
         bound.scene.precheck()  # the compiled sphere pre-check built now, not inside the first solve's budget
     if len(cache) >= _BOUND_CACHE_SIZE:

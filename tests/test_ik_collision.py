@@ -352,3 +352,34 @@ def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
         assert chosen(near[3].copy()) and len(coal_calls) == 3  # the caller's q0 is never skipped unasked
     finally:
         con.in_collision = real
+
+
+def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
+    """A new pose of known obstacle shapes binds by moving a constraint of the same layout (no scene caches);
+    its checks, distances and damper rows equal those of a constraint bound from nothing for the same
+    obstacles, and ik.solve takes that path for the second scene."""
+    from kinserve.ik import collision_solve
+
+    rng = np.random.default_rng(12)
+    first = [*SCENE, ik.Box(_pose((0.5, 0.3, 0.6)), (0.1, 0.1, 0.1))]
+    template = collision_solve._bound_constraint(panda, tuple(first), True, 0.0)
+    moved_obs = (*SCENE, ik.Box(_pose((0.4, -0.2, 0.5)), (0.1, 0.1, 0.1)))
+    moved = collision_solve._bound_constraint(panda, moved_obs, True, 0.0)
+    assert moved.scene.layout is template.scene.layout and moved.scene is not template.scene
+    assert panda.collision.cached_scene(moved_obs) is None  # built without the model's scene caches
+    fresh = CollisionConstraint(moved_obs, self_collision=True).bind(panda)
+    Q = panda.random_q(rng, 300)
+    assert [moved.in_collision(q) for q in Q] == [fresh.in_collision(q) for q in Q]
+    assert 10 < sum(fresh.in_collision(q) for q in Q) < 290
+    for lo in range(0, 300, 10):
+        assert moved.first_collision(Q[lo:lo + 10]) == fresh.first_collision(Q[lo:lo + 10])
+    data = panda.model.createData()
+    for q in Q[:40]:
+        pin.forwardKinematics(panda.model, data, q)
+        a, b = moved.near_pairs(q), fresh.near_pairs(q)
+        assert [p[0] for p in a] == [p[0] for p in b]
+        assert np.allclose([p[1] for p in a], [p[1] for p in b], atol=1e-9)
+    # a moved copy onto the fixed base is still refused
+    onto_base = (*SCENE, ik.Box(_pose((0.0, 0.0, 0.05)), (0.1, 0.1, 0.1)))
+    with pytest.raises(errors.InputError, match="fixed base"):
+        collision_solve._bound_constraint(panda, onto_base, True, 0.0)

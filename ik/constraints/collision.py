@@ -44,6 +44,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.collision_queries import as_obstacles
+from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
 
@@ -106,6 +107,27 @@ class CollisionConstraint(Constraint):
         bound.robot = robot
         bound._threshold = self.clearance + self.influence
         if self.clearance == 0.0:  # the checks are the scene's own: one call less per check (loops check every iterate)
+            bound.in_collision = scene.in_collision
+            bound.first_collision = scene.first_collision
+        return bound
+
+    def moved(self, obstacles: tuple) -> "CollisionConstraint":
+        """This bound constraint with ``obstacles`` instead of its own: validated shapes, each the same shape
+        and size as the obstacle in its place here (the same :func:`~kinserve.kinematics.collision_layout.
+        shape_signature`), at any pose. Its scene shares this one's layout and is built without the collision
+        model's scene caches (a few microseconds); the base-overlap check runs on the obstacles that are not
+        this constraint's own objects."""
+        old = self.scene
+        scene = CollisionScene(self.robot.collision, obstacles, self.self_collision, old.layout)
+        _check_base(self.robot, scene, known=old.obstacles)
+        scene.base_checked = True
+        bound = object.__new__(type(self))
+        state = bound.__dict__
+        state.update(self.__dict__)
+        state.pop("_memo", None)  # of this constraint's scene
+        bound.obstacles = obstacles
+        bound.scene = scene
+        if self.clearance == 0.0:
             bound.in_collision = scene.in_collision
             bound.first_collision = scene.first_collision
         return bound
@@ -205,25 +227,31 @@ _BASE_CLEAR_SIZE = 256
 _BASE_CLEAR_LOCK = threading.Lock()
 
 
-def _check_base(robot, scene) -> None:
+def _check_base(robot, scene, known: tuple = ()) -> None:
     """InputError when an obstacle overlaps a geometry fixed to the world by more than BASE_TOLERANCE.
 
     Coal decides only where an obstacle's bounding ball (:meth:`~kinserve.kinematics.shapes.Shape.bounding_ball`)
     meets the ball of a base geometry. An obstacle found clear is remembered per collision model (a table
-    or wall shared by many scenes is checked once).
+    or wall shared by many scenes is checked once). With ``known`` (the obstacles of a scene already
+    checked, in their places: :meth:`CollisionConstraint.moved`), an obstacle that is ``known[k]`` itself is
+    skipped and nothing is looked up or remembered (the others are moved copies, usually seen once).
     """
     cm = robot.collision
     base = cm.base_spheres()
     if not base or not scene.obstacles:
         return
-    try:
-        cleared = _BASE_CLEAR.get(cm)
-    except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
-        cleared = None
+    cleared = None
+    if not known:
+        try:
+            cleared = _BASE_CLEAR.get(cm)
+        except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
+            pass
     n_robot = scene.n_robot
     req = res = None
     newly = []
     for k, shape in enumerate(scene.obstacles, start=n_robot):
+        if k - n_robot < len(known) and known[k - n_robot] is shape:
+            continue
         mesh = shape.kind == "mesh"
         if not mesh and cleared is not None and shape in cleared:
             continue
@@ -245,7 +273,7 @@ def _check_base(robot, scene) -> None:
                     f"{scene.geometry_owner[k]} overlaps the robot's fixed base ({scene.geometry_owner[i]}) by "
                     f"{-d:.4g} m; the base cannot move out of it"
                 )
-        if not mesh:
+        if not mesh and not known:
             newly.append(shape)
     if newly:
         with _BASE_CLEAR_LOCK:
