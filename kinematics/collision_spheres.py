@@ -49,6 +49,13 @@ to every radius.
   cylinder ``|(max(sqrt(p_x^2 + p_y^2) - r, 0), max(|p_z| - L, 0))| - rho``;
   any other shape: its AABB sphere, as a sphere.
 
+**Certain collisions** (the other verdict, for configurations not certified): each robot geometry also
+gets points *inside* it (:func:`geometry_inner_points`: the mean of each slab's points for a hull, axis
+points for a cylinder or capsule, the centre of a sphere or box); when one of them lies deeper than
+:data:`TOLERANCE` inside an obstacle whose exact distance the table has, the two shapes share that point
+and coal would report the collision: :func:`certainly_colliding` answers without it (on the Panda, 95 % of
+the unconstrained answers put in collision by a 10 cm box on their elbow).
+
 **The kernels** (:func:`certify_configuration` for one configuration,
 :func:`first_uncertified` and :func:`certify_configurations` over a batch in
 one call; Numba) run the forward kinematics of the whole tree

@@ -383,3 +383,40 @@ def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
     onto_base = (*SCENE, ik.Box(_pose((0.0, 0.0, 0.05)), (0.1, 0.1, 0.1)))
     with pytest.raises(errors.InputError, match="fixed base"):
         collision_solve._bound_constraint(panda, onto_base, True, 0.0)
+
+
+def test_table_starts_are_certified_once_a_scene_keeps_serving(panda):
+    """After TABLE_CERTIFY_AFTER solves on the same obstacles the seed table's samples are certified in one
+    call: the set holds exactly the samples the pre-check certifies (coal finds them free), admission takes
+    them without a check, and a moved copy of the constraint starts without the set."""
+    from kinserve.ik import collision_solve
+    from kinserve.ik.seeds import seed_table
+    from kinserve.kinematics.collision_spheres import certify
+
+    frame = "panda_link8"
+    obs = (*SCENE, ik.Box(_pose((0.45, 0.25, 0.45)), (0.12, 0.12, 0.12)))
+    con = collision_solve._bound_constraint(panda, obs, True, 0.0)
+    sets = [collision_solve._certified_table_starts(panda, con, frame)
+            for _ in range(collision_solve.TABLE_CERTIFY_AFTER + 1)]
+    assert all(x is None for x in sets[:-1]) and sets[-1] is not None
+    assert collision_solve._certified_table_starts(panda, con, frame) is sets[-1]  # built once
+    table = seed_table(panda, frame)
+    Q = np.concatenate([table.Q, table.Q_full])
+    ok = certify(con.scene.precheck(), Q)
+    assert sets[-1] == frozenset(q.tobytes() for q in Q[ok]) and 0 < ok.sum() < len(Q)
+    rng = np.random.default_rng(3)
+    for i in rng.choice(np.flatnonzero(ok), 30, replace=False):
+        assert not con.scene.in_collision(Q[i])
+    calls = []
+    pre = con.scene.precheck()
+    real_certify = pre[0]
+    con.scene._precheck = (lambda *a: calls.append(1) or real_certify(*a), *pre[1:])
+    try:
+        admit = collision_solve._start_admission(con, None, sets[-1])
+        assert admit(Q[np.flatnonzero(ok)[0]].copy()) and not calls  # a certified table sample: no check
+        admit(Q[np.flatnonzero(~ok)[0]].copy())
+        assert calls  # any other start is checked
+    finally:
+        con.scene._precheck = pre
+    moved = con.moved((*SCENE, ik.Box(_pose((0.45, -0.25, 0.45)), (0.12, 0.12, 0.12))))
+    assert collision_solve._certified_table_starts(panda, moved, frame) is None

@@ -126,10 +126,25 @@ def test_equal_obstacles_built_anew_share_one_scene(panda):
 
 def test_every_iterate_is_still_checked(panda, monkeypatch):
     """The cheap path checks the answer and every other iterate of the returned run (the sphere pre-check or
-    coal: whatever the scene's checks decide), the answer once."""
+    coal: whatever the scene's checks decide; the start by the admission before its run), the answer once."""
+    from kinserve.ik import collision_solve
     from kinserve.kinematics import collision_scene
 
     checked = []
+    real_admission = collision_solve._start_admission
+
+    def admission(*args, **kwargs):
+        admit = real_admission(*args, **kwargs)
+
+        def spied(q):
+            ok = admit(q)
+            if ok:
+                checked.append(np.array(q))
+            return ok
+
+        return spied
+
+    monkeypatch.setattr(collision_solve, "_start_admission", admission)
     scene_cls = collision_scene.CollisionScene
     real_first, real_one = scene_cls.first_collision, scene_cls.in_collision
 

@@ -125,6 +125,7 @@ class CollisionConstraint(Constraint):
         state = bound.__dict__
         state.update(self.__dict__)
         state.pop("_memo", None)  # of this constraint's scene
+        state.pop("_table_starts", None)
         bound.obstacles = obstacles
         bound.scene = scene
         if self.clearance == 0.0:
