@@ -73,6 +73,7 @@ if TYPE_CHECKING:  # annotations only
     from .targets import Target
 
 _clip = numpy_fast.clip
+_now = time.perf_counter
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 _LM_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
@@ -108,15 +109,19 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     :func:`solve_collision_free`, which then goes on to the constrained solve; ``handover`` is None when the
     robot has no collision model (the general path falls back to the link capsules).
     """
-    t0 = time.perf_counter()
-    try:
-        constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
-    except ModelError:
-        return None, None, t0
-    budget = MAX_TIME if max_time is None else max_time
-    res, failed = _checked_lm_solve(robot, tgt, q0, tol_pos, tol_rot, 0.5 * budget, seed, lm_options, constraint)
+    t0 = _now()
+    cache = getattr(_BOUND, "cache", None)  # _bound_constraint's cache, looked up here first (the common hit)
+    constraint = None if cache is None else cache.get(
+        (id(robot), self_collision is True or bool(self_collision), float(collision_margin), *map(id, obstacles)))
+    if constraint is None:
+        try:
+            constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
+        except ModelError:
+            return None, None, t0
+    res, failed = _checked_lm_solve(robot, tgt, q0, tol_pos, tol_rot, 0.5 * (MAX_TIME if max_time is None else max_time),
+                                    seed, lm_options, constraint)
     if res is not None:
-        res.elapsed = time.perf_counter() - t0
+        res.elapsed = _now() - t0
         return res, None, t0
     return None, {"failed_path": failed, "t0": t0}, t0
 
@@ -138,7 +143,8 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
         return None, None
     rejected: list = []
     first_collision = constraint.first_collision
-    chosen = _clip(q0, robot.lower, robot.upper) if q0 is not None and lm_options.get("prefer_q0") else None
+    chosen = _clip(q0, robot.lower, robot.upper) if q0 is not None and lm_options and lm_options.get("prefer_q0") \
+        else None
     admit = _start_admission(constraint, chosen, _certified_table_starts(robot, constraint, tgt.frame))
 
     def accept(qs) -> bool:
@@ -151,10 +157,14 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
         return False
 
     cap = 1 + UNCONSTRAINED_ATTEMPTS
-    starts = lm_options.get("max_starts")
-    res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                   accept=accept, admit=admit,
-                   **{**lm_options, "max_starts": cap if starts is None else min(int(starts), cap)})
+    if not lm_options:  # the common call: no keyword dictionary to build
+        res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                       accept=accept, admit=admit, max_starts=cap)
+    else:
+        starts = lm_options.get("max_starts")
+        res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                       accept=accept, admit=admit,
+                       **{**lm_options, "max_starts": cap if starts is None else min(int(starts), cap)})
     if res.success:
         return _checked(res, 1 + res.restarts), None
     return None, rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
