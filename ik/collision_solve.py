@@ -74,6 +74,7 @@ if TYPE_CHECKING:  # annotations only
 
 _clip = numpy_fast.clip
 _now = time.perf_counter
+_CHECKED = "; collision free (unconstrained answer and iterates checked)"
 _QP_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table", "max_step", "shortcut", "lazy")
 _LM_KEYS = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
 #: Time budget (s) when the caller gives none (as the constrained ``"qp"`` method).
@@ -224,14 +225,17 @@ def _start_admission(constraint: CollisionConstraint, q0: np.ndarray | None = No
     that can never certify a pair - coal decides every start, as it always does without a pre-check and
     for the caller's ``q0`` given with ``prefer_q0`` (``q0``, clipped: that start is the caller's choice).
     """
-    in_collision = constraint.in_collision
-    pre = constraint.scene.precheck() if constraint.clearance == 0.0 else None
-    if pre is None:
+    parts = constraint.__dict__.get("_admission")  # what every solve's admission needs, taken once
+    if parts is None:
+        pre = constraint.scene.precheck() if constraint.clearance == 0.0 else None
+        parts = constraint._admission = (constraint.in_collision,) + (() if pre is None else pre[:5])
+    in_collision = parts[0]
+    if len(parts) == 1:
         return lambda q: not in_collision(q)
-    certify, floats, ints, tol = pre[0], pre[2], pre[3], pre[4]
+    _, certify, _, floats, ints, tol = parts
     chosen = None if q0 is None else q0.tolist()
     skips = [0]
-    known = frozenset() if certified is None else certified
+    known = _NOTHING if certified is None else certified
 
     def admit(q: np.ndarray) -> bool:
         if q.tobytes() in known or certify(floats, ints, q, tol):
@@ -242,6 +246,9 @@ def _start_admission(constraint: CollisionConstraint, q0: np.ndarray | None = No
         return not in_collision(q)
 
     return admit
+
+
+_NOTHING: frozenset = frozenset()
 
 
 def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Result], *, self_collision: bool = False,
@@ -398,7 +405,7 @@ def _unconstrained_attempts(robot, p: dict, solve_prepared: Callable[..., Result
 
 def _checked(res: Result, attempt: int) -> Result:
     res.message += (f"; collision free (unconstrained answer and iterates checked, attempt {attempt})" if attempt > 1
-                    else "; collision free (unconstrained answer and iterates checked)")
+                    else _CHECKED)
     info = res.info
     info["collision"] = "unconstrained, checked"
     info["collision_attempts"] = attempt

@@ -126,6 +126,7 @@ class CollisionConstraint(Constraint):
         state.update(self.__dict__)
         state.pop("_memo", None)  # of this constraint's scene
         state.pop("_table_starts", None)
+        state.pop("_admission", None)
         bound.obstacles = obstacles
         bound.scene = scene
         if self.clearance == 0.0:
