@@ -57,13 +57,12 @@ import numpy as np
 
 from kinserve.kinematics.collision_layout import shape_signature
 from kinserve.kinematics.collision_queries import as_obstacles
-from kinserve.kinematics.serial_chain import joint_chain
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
 
 from . import analytic, numpy_fast
 from .constraints.collision import CollisionConstraint, _length
-from .lm_solver import ADMIT_MISSES, compiled_chain, solve_lm
+from .lm_solver import ADMIT_MISSES, solve_lm
 from .multistart import frame_starts
 from .options import check_options, solver_keywords
 from .qp_solver import solve_qp
@@ -148,52 +147,28 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
     chosen = _clip(q0, robot.lower, robot.upper) if q0 is not None and lm_options and lm_options.get("prefer_q0") \
         else None
     admit = _start_admission(constraint, chosen, _certified_table_starts(robot, constraint, tgt.frame))
-    placed = _placed_check(robot, constraint, tgt.frame_id)
 
-    def accept(qs, frames=None) -> bool:
+    def accept(qs) -> bool:
         # the run's configurations, start first: the answer, then the others last first, down to the one
-        # after the start (``admit`` found the start clear); with the compiled run's joint placements, the
-        # pre-check reads them instead of running forward kinematics again
-        if (first_collision(qs[:0:-1]) if frames is None else placed(qs[:0:-1], frames[:0:-1])) < 0:
+        # after the start (``admit`` found the start clear)
+        if first_collision(qs[:0:-1]) < 0:
             return True
         if not rejected:
             rejected.append(qs)
         return False
 
     cap = 1 + UNCONSTRAINED_ATTEMPTS
-    with_frames = placed is not None
     if not lm_options:  # the common call: no keyword dictionary to build
         res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                       accept=accept, admit=admit, max_starts=cap, placements=with_frames)
+                       accept=accept, admit=admit, max_starts=cap)
     else:
         starts = lm_options.get("max_starts")
         res = solve_lm(robot, tgt, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
-                       accept=accept, admit=admit, placements=with_frames,
+                       accept=accept, admit=admit,
                        **{**lm_options, "max_starts": cap if starts is None else min(int(starts), cap)})
     if res.success:
         return _checked(res, 1 + res.restarts), None
     return None, rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
-
-
-#: Whether the compiled LM's joint placements serve the sphere pre-check (False: it runs its own forward
-#: kinematics, e.g. to compare the two).
-PLACED_CHECKS = True
-
-
-def _placed_check(robot: Robot, constraint: CollisionConstraint, fid: int) -> Callable | None:
-    """The constraint scene's :meth:`~kinserve.kinematics.collision_scene.CollisionScene.first_collision_placed`
-    when the compiled LM's run to frame ``fid`` records the placements that check needs - the chain to the
-    frame is the model's whole tree, joints ``1..J`` in order, and the scene has a pre-check with checks of
-    its own (no margin) - else None (decided once per constraint and frame)."""
-    memo = constraint.__dict__.get("_placed")
-    if memo is None:
-        memo = constraint._placed = {}
-    usable = memo.get(fid)
-    if usable is None:
-        usable = memo[fid] = constraint.clearance == 0.0 and compiled_chain(robot, fid) is not None \
-            and constraint.scene.precheck() is not None \
-            and joint_chain(robot.model, fid) == list(range(1, robot.model.njoints))
-    return constraint.scene.first_collision_placed if usable and PLACED_CHECKS else None
 
 
 #: Starts the sphere pre-check cannot certify free that one solve skips without asking coal (see

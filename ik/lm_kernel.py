@@ -59,21 +59,19 @@ _RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(
     _IN2, _t.Array(_t.int64, 2, "C", readonly=True), _IN1, _IN1, _IN1, _IN2,
     _t.boolean, _IN2, _t.Array(_t.int64, 1, "C", readonly=True),
     _t.float64, _t.float64, _t.float64, _t.float64, _t.float64, _t.int64, _t.int64,
-    _t.float64[:, ::1], _t.float64[:, ::1], _t.float64[:, :, ::1], _t.boolean,
+    _t.float64[:, ::1], _t.float64[:, ::1],
 )
 
 
 @_jit
 def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R: np.ndarray, p: np.ndarray,
-                      J: np.ndarray, local: bool = True, X: np.ndarray | None = None) -> None:
+                      J: np.ndarray, local: bool = True) -> None:
     """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n).
 
     ``J``'s column ``k`` belongs to the chain's joint ``k`` (``q`` index
     ``joints[k, 1]``); rows are linear (m/s per joint unit) then angular
     (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL) or,
     with ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED).
-    ``X`` (``(n, 12)``, optional): row ``k`` receives joint ``k``'s world placement ``oMk``, rotation
-    row-major then translation (Pinocchio's ``data.oMi`` of the chain's joints).
     """
     n = joints.shape[0]
     # running world placement (Rw, pw); joint world axes z and origins o, kept for the Jacobian
@@ -113,12 +111,6 @@ def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R
                     Rw[i, c] = T[i, c]
         for i in range(3):
             o[k, i] = pw[i]
-        if X is not None:
-            for i in range(3):
-                X[k, 3 * i] = Rw[i, 0]
-                X[k, 3 * i + 1] = Rw[i, 1]
-                X[k, 3 * i + 2] = Rw[i, 2]
-                X[k, 9 + i] = pw[i]
     g = geometry[n]
     for i in range(3):
         p[i] = pw[i] + Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
@@ -277,16 +269,14 @@ def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
 def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
               Td: np.ndarray, relaxed: bool, Aw: np.ndarray, kept: np.ndarray, tp2: float, tr2: float, lam0: float,
               gain: float, stall_ratio: float, patience: int, max_iter: int, qs: np.ndarray,
-              errs: np.ndarray, frames: np.ndarray, record: bool) -> tuple[int, int, int]:
+              errs: np.ndarray) -> tuple[int, int, int]:
     """One start from ``q0`` on the target pose ``Td`` (4x4): returns ``(status, iterations, rows)``.
 
     Full pose (``relaxed`` False): the LOCAL ``log6`` error and Jacobian, errors ``(|t|^2, |w|^2)`` of
     ``oMf^-1 oMd``. Relaxed: the kept rows ``kept`` of the world- or target-axis error of
     :mod:`ik.targets` (axes ``Aw``: the identity or the target rotation) and of the world-aligned
     Jacobian, errors the squared norms of the kept position and rotation rows.
-    ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``), ``errs[:rows]`` their squared errors;
-    with ``record``, ``frames[:rows]`` (``(rows, n, 12)``) the chain joints' world placements at each
-    (:func:`pose_and_jacobian`'s ``X``: a collision pre-check needs no forward kinematics of its own).
+    ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``), ``errs[:rows]`` their squared errors.
     """
     n = joints.shape[0]
     nq = q0.shape[0]
@@ -316,10 +306,7 @@ def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.n
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         q = qs[it]
-        if record:
-            pose_and_jacobian(geometry, joints, q, R, p, J, not relaxed, frames[it])
-        else:
-            pose_and_jacobian(geometry, joints, q, R, p, J, not relaxed)
+        pose_and_jacobian(geometry, joints, q, R, p, J, not relaxed)
         if relaxed:
             pe2, re2 = _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e)
             E = pe2 + re2

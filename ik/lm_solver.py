@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 import time
 from functools import partial
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -300,9 +300,8 @@ def solve_lm(
     max_starts: int | None = None,
     seed_table_enabled: bool = True,
     prefer_q0: bool = False,
-    accept: Callable[..., bool] | None = None,
+    accept: Callable[[Sequence[np.ndarray]], bool] | None = None,
     admit: Callable[[np.ndarray], bool] | None = None,
-    placements: bool = False,
 ) -> Result:
     """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
 
@@ -317,15 +316,11 @@ def solve_lm(
     is accepted the answer is the best unconverged run's, or the first rejected
     run's when every run converged. ``admit``: a test of a start before its
     run (e.g. a collision check); a start it refuses is skipped without a run
-    and without counting as a start (at most :data:`ADMIT_MISSES` in a row). ``placements``: ``accept`` is
-    called with a second argument, the run's joint placements ``(k, n, 12)`` (``oMi`` of the chain's joints,
-    rotation row-major then translation, one block per configuration; :func:`ik.lm_kernel.run_start`), or
-    None when the run was not compiled.
+    and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
     """
     fid = target.frame_id
     # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
     compiled = compiled_chain(robot, fid)
-    frames = np.empty((max_iter + 1, compiled[2].shape[0], 12)) if placements and compiled is not None else None
     t0 = _now()
     deadline = t0 + (MAX_TIME if max_time is None else max_time)
     model, data = robot.model, robot.data
@@ -353,13 +348,12 @@ def solve_lm(
             misses = 0
             n_starts += 1
             if compiled is not None:
-                ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping, frames)
+                ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping)
             else:
                 ok, it, run = _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping)
             iterations += it
             if ok:
-                if accept is None or (accept(run[1][: run[0] + 1]) if not placements else
-                                      accept(run[1][: run[0] + 1], None if frames is None else frames[: run[0] + 1])):
+                if accept is None or accept(run[1][: run[0] + 1]):
                     best = run
                     break
                 ok = False
@@ -434,27 +428,21 @@ def _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping
     return False, it, (qs, (pos2, rot2))
 
 
-def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping,
-                  frames: np.ndarray | None = None) -> tuple[bool, int, tuple]:
+def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
     """:func:`_python_run` as one call of :func:`ik.lm_kernel.run_start` (full pose or relaxed).
 
     The iterates and their exact squared errors come back as arrays (``qs``
-    ``(k, nq)``), the same tuples as :func:`_python_run`'s. ``frames`` (``(max_iter + 1, n, 12)``, optional)
-    receives the chain joints' world placements at each iterate.
+    ``(k, nq)``), the same tuples as :func:`_python_run`'s.
     """
     run, geometry, joints = compiled
     rows = max_iter + 1
     qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
     status, it, k = run(geometry, joints, q, lo, hi, target.T, not target.full, target.A, target.kept, tp2, tr2,
-                        float(damping), DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, int(max_iter), qs, errs,
-                        _NO_FRAMES if frames is None else frames, frames is not None)
+                        float(damping), DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, int(max_iter), qs, errs)
     qs, pos2, rot2 = qs[:k], errs[:k, 0], errs[:k, 1]
     if status == 0:
         return True, it, (k - 1, qs, pos2, rot2, pos2[k - 1], rot2[k - 1])
     return False, it, (qs, (pos2, rot2))
-
-
-_NO_FRAMES = np.empty((1, 1, 12))  # run_start's frames when none are recorded
 
 
 _chains = PerModel()

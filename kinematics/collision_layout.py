@@ -150,7 +150,7 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
 
     if precheck is None:
         return next((k for k, q in enumerate(qs) if coal_hits(q)), -1)
-    one, first, floats, ints, tol, certain = precheck[:6]
+    one, first, floats, ints, tol, certain = precheck
 
     def hits(q) -> bool:  # an inner point deep in an obstacle answers without coal
         try:

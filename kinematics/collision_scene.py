@@ -207,24 +207,6 @@ class CollisionScene:
         check = self._shell()[5]
         return -1 if check is None else check_configurations(check, qs, pre)
 
-    def first_collision_placed(self, qs: np.ndarray, frames: np.ndarray) -> int:
-        """:meth:`first_collision` of the stacked configurations ``qs`` ``(N, nq)`` whose joint placements are
-        ``frames`` ``(N, J, 12)`` (the world placements of the tree's joints ``1..J`` in order, rotation
-        row-major then translation, e.g. the IK's compiled run's): the sphere pre-check reads them instead of
-        running forward kinematics (:func:`.collision_spheres.first_uncertified_placed`); coal and the
-        certain-collision test take the configurations from the first uncertified one on."""
-        pre = self._precheck
-        if pre is _UNBUILT:
-            pre = self.precheck()
-        if pre is None:
-            return self.first_collision(qs)
-        k = pre[6](pre[2], pre[3], frames, 0, pre[4])
-        if k >= qs.shape[0]:
-            return -1
-        check = self._shell()[5]
-        hit = -1 if check is None else check_configurations(check, qs[k:], pre)  # rows before k: certified
-        return hit if hit < 0 else k + hit
-
     def colliding(self, q: np.ndarray) -> list[int]:
         """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""
         data, gd, _bpm, gm = self._shell()[:4]

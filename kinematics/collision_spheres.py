@@ -430,8 +430,8 @@ class ScenePrecheck:
         return placed_floats(self._robot_floats, self.templates, self.centres, P)
 
     def arguments(self, obstacles: Any) -> tuple:
-        """``(certify_configuration, first_uncertified, floats, ints, tolerance, certainly_colliding,
-        first_uncertified_placed)`` for ``obstacles`` (one
+        """``(certify_configuration, first_uncertified, floats, ints, tolerance, certainly_colliding)`` for
+        ``obstacles`` (one
         per obstacle geometry: shapes with a 4x4 world ``pose``); ``floats, ints``: :func:`pack`. The rows
         of the obstacles that are the layout's own (same objects) are copied, the others placed."""
         if self._reference_floats is None or len(obstacles) != len(self._reference):
@@ -445,8 +445,7 @@ class ScenePrecheck:
                     row = floats[start + 16 * k:start + 16 * k + 16]
                     row[:9] = T[:3, :3].reshape(9)
                     row[9:12] = T[:3, 3] if self._centred[k] else T[:3, 3] + T[:3, :3] @ self.centres[k]
-        return (certify_configuration, first_uncertified, floats, self._ints, TOLERANCE, certainly_colliding,
-                first_uncertified_placed)
+        return certify_configuration, first_uncertified, floats, self._ints, TOLERANCE, certainly_colliding
 
 
 # ====================================================================== the kernel (Numba)
@@ -463,7 +462,6 @@ _Q2 = _t.Array(_t.float64, 2, "A", readonly=True)
 _ONE_SIGNATURE = _t.boolean(_F1, _I1, _Q1, _t.float64)
 _BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F1, _I1, _Q2, _t.float64)
 _FIRST_SIGNATURE = _t.int64(_F1, _I1, _Q2, _t.int64, _t.float64)
-_PLACED_FIRST_SIGNATURE = _t.int64(_F1, _I1, _t.Array(_t.float64, 3, "A", readonly=True), _t.int64, _t.float64)
 _BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
 _PLACED_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _F2, _F2, _t.Array(_t.float64, 3, "A", readonly=True))
 
@@ -605,17 +603,10 @@ def _clear_of_obstacle(W, i, obstacles, o, tol):
 
 @_jit
 def _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, stamp):
-    """Every pair's lower bound at ``q`` exceeds ``tol``: forward kinematics into ``X``, then
-    :func:`_placed_clear`."""
-    tree_placements(tree, joints, q, X)
-    return _placed_clear(spheres, geoms, pairs, obstacles, tol, X, W, placed, stamp)
-
-
-@_jit
-def _placed_clear(spheres, geoms, pairs, obstacles, tol, X, W, placed, stamp):
-    """Every pair's lower bound exceeds ``tol`` with the joints at the placements ``X``: the bounding spheres
+    """Every pair's lower bound at ``q`` exceeds ``tol``: forward kinematics into ``X``, the bounding spheres
     into ``W``, then per pair the bounding spheres and, when they are not apart, the cover spheres (placed on
     first need, marked with ``stamp`` in ``placed``)."""
+    tree_placements(tree, joints, q, X)
     for g in range(geoms.shape[0]):
         _place(X, geoms[g, 0], spheres, g, W)
     for p in range(pairs.shape[0]):
@@ -680,31 +671,6 @@ def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, star
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     for k in range(max(start, 0), N):
         if not _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k):
-            return k
-    return N
-
-
-@numba.njit(_PLACED_FIRST_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def first_uncertified_placed(floats: np.ndarray, ints: np.ndarray, frames: np.ndarray, start: int, tol: float) -> int:
-    """:func:`first_uncertified` on configurations given by their joint placements: ``frames`` ``(N, J, 12)``,
-    block ``k`` the world placements of the tree's joints ``1..J`` (rotation row-major, then translation:
-    Pinocchio's ``oMi``), e.g. recorded by the IK's compiled run, so no forward kinematics runs here. The
-    first block from ``start`` on not certified, ``N`` when all are (``start`` when the blocks are not
-    ``J x 12``)."""
-    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
-    n = joints.shape[0]
-    N = frames.shape[0]
-    if frames.shape[1] != n or frames.shape[2] != 12:
-        return max(start, 0)
-    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
-    for c in range(12):
-        X[0, c] = 0.0
-    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
-    for k in range(max(start, 0), N):
-        for j in range(n):
-            for c in range(12):
-                X[j + 1, c] = frames[k, j, c]
-        if not _placed_clear(spheres, geoms, pairs, obstacles, tol, X, W, placed, k):
             return k
     return N
 
@@ -817,7 +783,6 @@ def certify(arguments: tuple, qs: Any) -> np.ndarray:
 
 
 __all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certainly_colliding", "certify", "certify_configuration",
-           "certify_configurations", "enclosing_ball", "first_uncertified", "first_uncertified_placed",
-           "geometry_cover", "obstacle_row",
+           "certify_configurations", "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row",
            "obstacle_rows", "obstacle_template", "pack", "pair_lower_bounds", "placed_floats", "polytope_cover",
            "robot_spheres", "robot_spheres_of", "tree_placements"]

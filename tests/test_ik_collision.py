@@ -420,34 +420,3 @@ def test_table_starts_are_certified_once_a_scene_keeps_serving(panda):
         con.scene._precheck = pre
     moved = con.moved((*SCENE, ik.Box(_pose((0.45, -0.25, 0.45)), (0.12, 0.12, 0.12))))
     assert collision_solve._certified_table_starts(panda, moved, frame) is None
-
-
-def test_placed_checks_give_the_same_answers_as_their_own_forward_kinematics(panda, monkeypatch):
-    """The pre-check reading the compiled run's joint placements decides like the one that runs its own
-    forward kinematics: the same answers, starts and paths over targets with a box in the way."""
-    from kinserve.ik import collision_solve
-
-    robot = robots.load("panda", tip="panda_link8")  # fingers locked: the chain is the whole tree
-    rng = np.random.default_rng(21)
-    box = ik.Box(_pose((0.45, 0.0, 0.45)), (0.15, 0.15, 0.15))
-    used = []
-    real = collision_solve._placed_check
-
-    def spy(*args):
-        check = real(*args)
-        used.append(check is not None)
-        return check
-
-    monkeypatch.setattr(collision_solve, "_placed_check", spy)
-    for k in range(12):
-        T = robot.fk(robot.random_q(rng), "panda_link8")
-        q0 = robot.random_q(rng)
-        out = []
-        for placed in (True, False):
-            monkeypatch.setattr(collision_solve, "PLACED_CHECKS", placed)
-            res = ik.solve(robot, T, q0, frame="panda_link8", self_collision=True, obstacles=[*SCENE, box], seed=k)
-            out.append(res)
-        a, b = out
-        assert np.array_equal(a.q, b.q) and a.restarts == b.restarts and a.info == b.info
-        assert np.array_equal(a.history.q, b.history.q)
-    assert used and all(used[::2])  # the placed check was the one used when on

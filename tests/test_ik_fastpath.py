@@ -156,13 +156,6 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
         checked.append(np.array(q))
         return real_one(self, q)
 
-    real_placed = scene_cls.first_collision_placed
-
-    def first_collision_placed(self, qs, frames):  # the compiled run's placements: checked the same
-        checked.extend(np.array(q) for q in qs)
-        return real_placed(self, qs, frames)
-
-    monkeypatch.setattr(scene_cls, "first_collision_placed", first_collision_placed)
     monkeypatch.setattr(scene_cls, "first_collision", first_collision)
     monkeypatch.setattr(scene_cls, "in_collision", in_collision)
     rng = np.random.default_rng(6)

@@ -17,7 +17,7 @@ from kinserve import ik, robots
 from kinserve.ik import lm_kernel, lm_solver
 from kinserve.ik.targets import Target
 from kinserve.kinematics import Robot, se3
-from kinserve.kinematics.serial_chain import PRISMATIC, REVOLUTE, joint_chain, serial_chain
+from kinserve.kinematics.serial_chain import PRISMATIC, REVOLUTE, serial_chain
 
 
 @pytest.fixture
@@ -50,42 +50,6 @@ def test_pose_and_jacobian_match_pinocchio(name):
         assert np.abs(J - J_pin[:, joints[:, 1]]).max() < 1e-12
         others = np.setdiff1d(np.arange(model.nv), joints[:, 1])
         assert not np.any(J_pin[:, others])  # the columns the kernel leaves out are zero
-
-
-@pytest.mark.parametrize("name", ["panda", "scara"])
-def test_recorded_joint_placements_are_pinocchios(name):
-    """``solve_lm(placements=True)``: every run's configurations come to ``accept`` with the chain joints'
-    world placements, equal to Pinocchio's ``oMi`` at each; a run of the Python iteration brings None."""
-    robot = robots.load(name, geometry=False)
-    model, data = robot.model, robot.model.createData()
-    fid = robot.frame_id(robot.tip)
-    chain = joint_chain(model, fid)
-    rng = np.random.default_rng(2)
-    seen = []
-
-    def accept(qs, frames):
-        seen.append((np.array(qs), None if frames is None else np.array(frames)))
-        return len(seen) > 1  # the first converged run is rejected: two runs recorded
-
-    tgt = Target(robot, robot.fk(robot.random_q(rng)), robot.tip)
-    res = lm_solver.solve_lm(robot, tgt, robot.random_q(rng), seed=3, accept=accept, placements=True)
-    assert res.success and len(seen) == 2
-    for qs, frames in seen:
-        assert frames.shape == (len(qs), len(chain), 12)
-        for q, X in zip(qs, frames):
-            pin.forwardKinematics(model, data, q)
-            for k, j in enumerate(chain):
-                M = data.oMi[j]
-                assert np.abs(X[k, :9] - M.rotation.reshape(9)).max() < 1e-12
-                assert np.abs(X[k, 9:] - M.translation).max() < 1e-12
-    seen.clear()
-    compiled = lm_solver.COMPILED
-    lm_solver.COMPILED = False
-    try:
-        lm_solver.solve_lm(robot, tgt, robot.random_q(rng), seed=3, accept=accept, placements=True)
-    finally:
-        lm_solver.COMPILED = compiled
-    assert seen and all(frames is None for _, frames in seen)
 
 
 def test_prismatic_and_unaligned_joints_are_modelled():

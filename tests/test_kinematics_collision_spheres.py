@@ -297,19 +297,10 @@ def _check_scene(robot, scene, Q):
         truth.append(bool(hit.any()))
     truth = np.array(truth)
     assert [scene.in_collision(q) for q in Q] == truth.tolist()
-    # the joint placements of every configuration, by Pinocchio: the placed pre-check reads them
-    frames = np.empty((len(Q), scene.model.njoints - 1, 12))
-    for r, q in enumerate(Q):
-        pin.forwardKinematics(scene.model, data, q)
-        for j in range(1, scene.model.njoints):
-            frames[r, j - 1, :9] = data.oMi[j].rotation.reshape(9)
-            frames[r, j - 1, 9:] = data.oMi[j].translation
     for lo in range(0, len(Q), 6):  # paths of six, the answer of each is its first collision
         chunk = list(Q[lo:lo + 6])
         expected = next((k for k, t in enumerate(truth[lo:lo + 6]) if t), -1)
         assert scene.first_collision(chunk) == expected
-        assert scene.first_collision_placed(Q[lo:lo + 6], frames[lo:lo + 6]) == expected
-        assert pre[6](*arrays, frames[lo:lo + 6], 0, cs.TOLERANCE) == pre[1](*arrays, Q[lo:lo + 6], 0, cs.TOLERANCE)
     return certified, truth
 
 

@@ -127,7 +127,6 @@ class CollisionConstraint(Constraint):
         state.pop("_memo", None)  # of this constraint's scene
         state.pop("_table_starts", None)
         state.pop("_admission", None)
-        state.pop("_placed", None)
         bound.obstacles = obstacles
         bound.scene = scene
         if self.clearance == 0.0:
