@@ -327,7 +327,9 @@ def _bound_constraint(robot: Robot, obs: tuple, self_collision: bool, margin: fl
     if hit is not None:  # it holds the robot and these obstacles alive: equal ids are the very same objects
         return hit
     # obstacles shaped like those of a constraint bound before (the same layout, other poses): that one moved
-    layouts = _BOUND.layouts if hasattr(_BOUND, "layouts") else _BOUND.__dict__.setdefault("layouts", {})
+    layouts = getattr(_BOUND, "layouts", None)
+    if layouts is None:
+        layouts = _BOUND.layouts = {}
     shape_key = (key[0], key[1], key[2], *map(shape_signature, obs))
     template = layouts.get(shape_key)
     if template is not None and template.robot is robot:

@@ -189,21 +189,27 @@ def polytope_cover(vertices: np.ndarray, triangles: np.ndarray | None = None) ->
     edges are; ``triangles`` (the hull's faces, e.g. coal's, optional) only place the centre, on the
     crossings of their sides (fewer points, the same hull).
     """
-    V = np.asarray(vertices, dtype=float)
-    s, planes, every_pair = _slab_planes(V)
-    sides = every_pair if triangles is None else triangle_sides(triangles)
-    cover = np.array([enclosing_ball(_slab_points(V, s, sides, lo, hi), _slab_points(V, s, every_pair, lo, hi))
-                      for lo, hi in zip(planes[:-1], planes[1:])])
-    return enclosing_ball(V), cover
+    return _polytope_slabs(np.asarray(vertices, dtype=float), triangles)[:2]
 
 
 def polytope_inner_points(vertices: np.ndarray) -> np.ndarray:
     """Points ``(k, 3)`` inside the convex hull of ``vertices``, one per slab of :func:`polytope_cover`: the mean
     of the slab's points (its vertices and the crossings of every vertex pair with its planes, all in the
     hull; a mean of points of a convex set lies in it)."""
-    V = np.asarray(vertices, dtype=float)
+    return _polytope_slabs(np.asarray(vertices, dtype=float), None)[2]
+
+
+def _polytope_slabs(V: np.ndarray, triangles: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(bounding, cover, inner)`` of :func:`polytope_cover` and :func:`polytope_inner_points`, each slab's
+    points computed once."""
     s, planes, every_pair = _slab_planes(V)
-    return np.array([_slab_points(V, s, every_pair, lo, hi).mean(axis=0) for lo, hi in zip(planes[:-1], planes[1:])])
+    sides = None if triangles is None else triangle_sides(triangles)
+    cover, inner = [], []
+    for lo, hi in zip(planes[:-1], planes[1:]):
+        points = _slab_points(V, s, every_pair, lo, hi)
+        cover.append(enclosing_ball(points if sides is None else _slab_points(V, s, sides, lo, hi), points))
+        inner.append(points.mean(axis=0))
+    return enclosing_ball(V), np.array(cover), np.array(inner)
 
 
 def geometry_inner_points(geometry: coal.CollisionGeometry) -> np.ndarray:
@@ -211,13 +217,7 @@ def geometry_inner_points(geometry: coal.CollisionGeometry) -> np.ndarray:
     form): the centre of a sphere or box, the slab centres of a cylinder or capsule's axis, the slab means of
     :func:`polytope_inner_points` for a convex hull. A point inside an obstacle is a collision for certain
     (:func:`certainly_colliding`)."""
-    if isinstance(geometry, (coal.Sphere, coal.Box)):
-        return np.zeros((1, 3))
-    if isinstance(geometry, (coal.Capsule, coal.Cylinder)):
-        return _axis_cover(geometry.radius, geometry.halfLength, False)[1][:, :3].copy()
-    if isinstance(geometry, coal.Convex) and geometry.num_points >= 4:
-        return polytope_inner_points(np.asarray(geometry.points(), dtype=float))
-    return np.zeros((0, 3))
+    return geometry_spheres(geometry)[2]
 
 
 def _axis_cover(radius: float, half_length: float, end_balls: bool) -> tuple[np.ndarray, np.ndarray]:
@@ -245,26 +245,35 @@ def aabb_sphere(geometry: coal.CollisionGeometry) -> np.ndarray:
 
 def geometry_cover(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.ndarray]:
     """``(bounding (4,), cover (k, 4))`` spheres (centre, radius; m) containing a coal geometry, in its own frame."""
+    return geometry_spheres(geometry)[:2]
+
+
+def geometry_spheres(geometry: coal.CollisionGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(bounding, cover, inner)``: :func:`geometry_cover`'s spheres and :func:`geometry_inner_points`'s
+    points of a coal geometry in one pass (a hull's slabs are cut once)."""
+    inner = np.zeros((0, 3))
     if isinstance(geometry, coal.Sphere):
         ball = np.array([0.0, 0.0, 0.0, float(geometry.radius) + PAD])
-        bounding, cover = ball, ball[None, :]
+        bounding, cover, inner = ball, ball[None, :], np.zeros((1, 3))
     elif isinstance(geometry, coal.Box):
         h = np.asarray(geometry.halfSide, dtype=float)
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * h
         bounding, cover = polytope_cover(corners)
+        inner = np.zeros((1, 3))
     elif isinstance(geometry, (coal.Capsule, coal.Cylinder)):
         bounding, cover = _axis_cover(geometry.radius, geometry.halfLength, isinstance(geometry, coal.Capsule))
+        inner = _axis_cover(geometry.radius, geometry.halfLength, False)[1][:, :3].copy()
     elif isinstance(geometry, coal.Convex) and geometry.num_points >= 4:
         V = np.asarray(geometry.points(), dtype=float)
         triangles = [list(geometry.polygons(i)[k] for k in range(3)) for i in range(geometry.num_polygons)]
-        bounding, cover = polytope_cover(V, np.array(triangles, dtype=np.int64) if triangles else None)
+        bounding, cover, inner = _polytope_slabs(V, np.array(triangles, dtype=np.int64) if triangles else None)
     else:
         bounding = aabb_sphere(geometry)
         cover = bounding[None, :]
     swept = float(geometry.getSweptSphereRadius())
     if swept > 0.0:
         bounding, cover = bounding + [0, 0, 0, swept], cover + [0, 0, 0, swept]
-    return bounding, cover
+    return bounding, cover, inner
 
 
 def _moved(spheres: np.ndarray, placement: pin.SE3) -> np.ndarray:
@@ -303,11 +312,10 @@ def robot_spheres(model: pin.Model, geometry: pin.GeometryModel) -> RobotSpheres
         return None
     bounds, covers, joints, inner = [], [], [], []
     for g in geometry.geometryObjects:
-        bounding, cover = geometry_cover(g.geometry)
+        bounding, cover, points = geometry_spheres(g.geometry)
         bounds.append(_moved(bounding[None, :], g.placement)[0])
         covers.append(_moved(cover, g.placement))
         joints.append(int(g.parentJoint))
-        points = geometry_inner_points(g.geometry)
         inner.append(points @ g.placement.rotation.T + g.placement.translation if len(points) else points)
     G = len(bounds)
     spheres = np.concatenate([np.array(bounds).reshape(-1, 4), *covers]) if G else np.zeros((0, 4))
@@ -783,6 +791,7 @@ def certify(arguments: tuple, qs: Any) -> np.ndarray:
 
 
 __all__ = ["TOLERANCE", "RobotSpheres", "ScenePrecheck", "certainly_colliding", "certify", "certify_configuration",
-           "certify_configurations", "enclosing_ball", "first_uncertified", "geometry_cover", "obstacle_row",
+           "certify_configurations", "enclosing_ball", "first_uncertified", "geometry_cover", "geometry_inner_points",
+           "geometry_spheres", "obstacle_row",
            "obstacle_rows", "obstacle_template", "pack", "pair_lower_bounds", "placed_floats", "polytope_cover",
            "robot_spheres", "robot_spheres_of", "tree_placements"]
