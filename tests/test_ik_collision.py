@@ -142,6 +142,7 @@ def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
 def test_target_inside_an_obstacle_is_a_failed_result_not_a_hang(panda):
     T = panda.fk(panda.neutral())
     wall = ik.Box(_pose(T[:3, 3]), (0.3, 0.3, 0.3))
+    panda.collision_scene([wall]).precheck()  # the one-time model, layout and pre-check builds: not the budget's
     res = ik.solve(panda, T, self_collision=True, obstacles=[wall], max_time=0.2)
     assert not res.success
     assert "inside obstacle[0]:box" in res.message
