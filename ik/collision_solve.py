@@ -111,14 +111,10 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     robot has no collision model (the general path falls back to the link capsules).
     """
     t0 = _now()
-    cache = getattr(_BOUND, "cache", None)  # _bound_constraint's cache, looked up here first (the common hit)
-    constraint = None if cache is None else cache.get(
-        (id(robot), self_collision is True or bool(self_collision), float(collision_margin), *map(id, obstacles)))
-    if constraint is None:
-        try:
-            constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
-        except ModelError:
-            return None, None, t0
+    try:
+        constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
+    except ModelError:
+        return None, None, t0
     res, failed = _checked_lm_solve(robot, tgt, q0, tol_pos, tol_rot, 0.5 * (MAX_TIME if max_time is None else max_time),
                                     seed, lm_options, constraint)
     if res is not None:

@@ -124,7 +124,8 @@ _forward_kinematics = pin.forwardKinematics
 _update_placements = pin.updateGeometryPlacements
 
 
-def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple | None = None) -> int:
+def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple | None = None,
+                         uncertified: int | None = None) -> int:
     """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
     in collision, or -1: per configuration forward kinematics, geometry placements, world AABBs, then
     broad and narrow phase, stopping at the first colliding pair (``check`` from :func:`collision_check`).
@@ -138,6 +139,8 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     free). An uncertified configuration goes to :func:`.collision_spheres.certainly_colliding` first (a point
     inside the robot deep in an obstacle: in collision, no coal). The same answer as coal alone, since a
     certified configuration is one coal finds free and a certain one is one coal finds in collision.
+    ``uncertified``: for stacked rows, the first row the pre-check cannot certify when the caller has found it
+    already (the rows before it are certified).
     """
     model, data, gm, gd, update, collide, callback = check
     fk, place = _forward_kinematics, _update_placements
@@ -161,7 +164,8 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
         return coal_hits(q)
 
     if type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:  # rows already stacked: one call
-        return _first_hit_after_precheck(hits, first, floats, ints, tol, qs, qs, 0)
+        k = first(floats, ints, qs, 0, tol) if uncertified is None else uncertified
+        return _first_hit_after_precheck(hits, first, floats, ints, tol, qs, qs, k)
     qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
     N = len(qs)
     if not N:
@@ -179,15 +183,15 @@ def check_configurations(check: tuple, qs: Iterable[np.ndarray], precheck: tuple
     except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
         Q = None
     if Q is not None and Q.ndim == 2:
-        return _first_hit_after_precheck(hits, first, floats, ints, tol, Q, qs, 1)
+        return _first_hit_after_precheck(hits, first, floats, ints, tol, Q, qs, first(floats, ints, Q, 1, tol))
     return next((k for k in range(1, N) if hits(qs[k])), -1)
 
 
-def _first_hit_after_precheck(hits, first, floats, ints, tol, Q: np.ndarray, qs, start: int) -> int:
-    """The first row ``k >= start`` of ``Q`` that coal finds in collision, coal running only on the rows the
-    compiled pre-check ``first`` cannot certify (``qs[k]`` is the configuration handed to coal)."""
+def _first_hit_after_precheck(hits, first, floats, ints, tol, Q: np.ndarray, qs, k: int) -> int:
+    """The first row of ``Q`` from ``k`` (the first row the compiled pre-check ``first`` cannot certify, ``N``
+    when none) on that coal finds in collision, coal running only on the rows ``first`` cannot certify
+    (``qs[k]`` is the configuration handed to coal)."""
     N = Q.shape[0]
-    k = first(floats, ints, Q, start, tol) if N > start else N
     while k < N:
         if hits(qs[k]):
             return k

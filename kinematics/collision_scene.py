@@ -202,8 +202,7 @@ class CollisionScene:
             if k >= qs.shape[0]:
                 return -1
             check = self._shell()[5]
-            hit = -1 if check is None else check_configurations(check, qs[k:], pre)  # rows before k: certified
-            return hit if hit < 0 else k + hit
+            return -1 if check is None else check_configurations(check, qs, pre, uncertified=k)
         check = self._shell()[5]
         return -1 if check is None else check_configurations(check, qs, pre)
 

@@ -101,15 +101,7 @@ class CollisionConstraint(Constraint):
         if not getattr(scene, "base_checked", False):  # once per scene (scenes are cached per obstacle set)
             _check_base(robot, scene)
             scene.base_checked = True
-        bound = object.__new__(type(self))
-        bound.__dict__.update(self.__dict__)
-        bound.scene = scene
-        bound.robot = robot
-        bound._threshold = self.clearance + self.influence
-        if self.clearance == 0.0:  # the checks are the scene's own: one call less per check (loops check every iterate)
-            bound.in_collision = scene.in_collision
-            bound.first_collision = scene.first_collision
-        return bound
+        return self._on_scene(robot, scene)
 
     def moved(self, obstacles: tuple) -> "CollisionConstraint":
         """This bound constraint with ``obstacles`` instead of its own: validated shapes, each the same shape
@@ -121,15 +113,20 @@ class CollisionConstraint(Constraint):
         scene = CollisionScene(self.robot.collision, obstacles, self.self_collision, old.layout)
         _check_base(self.robot, scene, known=old.obstacles)
         scene.base_checked = True
-        bound = object.__new__(type(self))
-        state = bound.__dict__
-        state.update(self.__dict__)
-        state.pop("_memo", None)  # of this constraint's scene
-        state.pop("_table_starts", None)
-        state.pop("_admission", None)
+        bound = self._on_scene(self.robot, scene)
         bound.obstacles = obstacles
+        return bound
+
+    def _on_scene(self, robot: Robot, scene) -> "CollisionConstraint":
+        """A constraint with this one's settings (its public attributes) bound to ``robot`` and ``scene``; no
+        state of another scene comes along (memos, caches kept on a bound constraint by its users)."""
+        bound = object.__new__(type(self))
+        bound.__dict__.update((k, v) for k, v in self.__dict__.items()
+                              if not k.startswith("_") and k not in ("in_collision", "first_collision"))
         bound.scene = scene
-        if self.clearance == 0.0:
+        bound.robot = robot
+        bound._threshold = self.clearance + self.influence
+        if self.clearance == 0.0:  # the checks are the scene's own: one call less per check (loops check every iterate)
             bound.in_collision = scene.in_collision
             bound.first_collision = scene.first_collision
         return bound
