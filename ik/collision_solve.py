@@ -87,7 +87,38 @@ UNCONSTRAINED_ATTEMPTS = 12
 
 def collision_options(self_collision: bool = False, obstacles: Sequence = (), collision_margin: float = 0.0,
                       spheres: Sequence = ()) -> dict:
-    """Validated collision options for :func:`solve_collision_free` (``spheres`` join the obstacles)."""
+    """Validated collision options for :func:`solve_collision_free` (``spheres`` join the obstacles).
+
+    The options of a list or tuple of shapes (immutable) with the flags as plain ``bool`` / ``float`` are
+    remembered per thread by the shapes' identities (the entry holds them alive): a request repeated with the
+    same obstacle objects - a work cell - is one lookup. The dictionary returned is shared: read it, never
+    change it.
+    """
+    plain = (type(obstacles) is list or type(obstacles) is tuple) and type(spheres) is tuple and not spheres \
+        and type(self_collision) is bool and type(collision_margin) is float
+    if plain:
+        memo = getattr(_OPTIONS, "memo", None)
+        if memo is None:
+            memo = _OPTIONS.memo = {}
+        key = (self_collision, collision_margin, *map(id, obstacles))
+        hit = memo.get(key)
+        if hit is not None:  # equal ids: the very objects the entry holds
+            return hit
+    options = _collision_options(self_collision, obstacles, collision_margin, spheres)
+    held = options["obstacles"]
+    if plain and len(held) == len(obstacles) and all(o is h for o, h in zip(obstacles, held)):  # the caller's shapes
+        if len(memo) >= _BOUND_CACHE_SIZE:
+            memo.clear()
+        memo[key] = options
+    return options
+
+
+#: This thread's validated collision options (:func:`collision_options`), by the obstacles' identities.
+_OPTIONS = threading.local()
+
+
+def _collision_options(self_collision: bool, obstacles: Sequence, collision_margin: float, spheres: Sequence) -> dict:
+    """:func:`collision_options` without the memo."""
     obs = as_obstacles(obstacles)
     if spheres is not None and (type(spheres) is not tuple or spheres):
         obs += as_obstacles(spheres, "spheres")
@@ -139,19 +170,31 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
     if UNCONSTRAINED_ATTEMPTS <= 0:  # no unconstrained solve at all: the constrained one from the usual starts
         return None, None
     rejected: list = []
-    first_collision = constraint.first_collision
     chosen = _clip(q0, robot.lower, robot.upper) if q0 is not None and lm_options and lm_options.get("prefer_q0") \
         else None
-    admit = _start_admission(constraint, chosen, _certified_table_starts(robot, constraint, tgt.frame))
+    parts = _check_parts(constraint)
+    admit = _start_admission(constraint, chosen, _certified_table_starts(robot, constraint, tgt.frame), parts)
+    first_collision = constraint.first_collision
+    if len(parts) == 1:
+        def accept(qs) -> bool:
+            # the run's configurations, start first: the answer, then the others last first, down to the one
+            # after the start (``admit`` found the start clear)
+            if first_collision(qs[:0:-1]) < 0:
+                return True
+            if not rejected:
+                rejected.append(qs)
+            return False
+    else:
+        _, _, first, floats, ints, tol = parts
 
-    def accept(qs) -> bool:
-        # the run's configurations, start first: the answer, then the others last first, down to the one
-        # after the start (``admit`` found the start clear)
-        if first_collision(qs[:0:-1]) < 0:
-            return True
-        if not rejected:
-            rejected.append(qs)
-        return False
+        def accept(qs) -> bool:  # as above; the sphere pre-check called directly, coal only when it cannot certify
+            rows = qs[:0:-1]
+            k = first(floats, ints, rows, 0, tol)  # the rows before k are certified free
+            if k >= rows.shape[0] or first_collision(rows[k:]) < 0:
+                return True
+            if not rejected:
+                rejected.append(qs)
+            return False
 
     cap = 1 + UNCONSTRAINED_ATTEMPTS
     if not lm_options:  # the common call: no keyword dictionary to build
@@ -209,8 +252,19 @@ def _certified_table_starts(robot: Robot, constraint: CollisionConstraint, frame
     return entry
 
 
+def _check_parts(constraint: CollisionConstraint) -> tuple:
+    """What every checked solve on ``constraint`` needs, taken once (kept on the constraint):
+    ``(in_collision,)``, or with the sphere pre-check (margin 0) ``(in_collision, certify, first_uncertified,
+    floats, ints, tolerance)`` (:meth:`~kinserve.kinematics.collision_spheres.ScenePrecheck.arguments`)."""
+    parts = constraint.__dict__.get("_admission")
+    if parts is None:
+        pre = constraint.scene.precheck() if constraint.clearance == 0.0 else None
+        parts = constraint._admission = (constraint.in_collision,) + (() if pre is None else pre[:5])
+    return parts
+
+
 def _start_admission(constraint: CollisionConstraint, q0: np.ndarray | None = None,
-                     certified: frozenset | None = None) -> Callable[[np.ndarray], bool]:
+                     certified: frozenset | None = None, parts: tuple | None = None) -> Callable[[np.ndarray], bool]:
     """``admit(q)`` of the checked LM solve: True when start ``q`` may run.
 
     A start the sphere pre-check certifies free runs at once (~1.4 us; a seed-table sample of ``certified``,
@@ -220,11 +274,10 @@ def _start_admission(constraint: CollisionConstraint, q0: np.ndarray | None = No
     skipped without coal's check (~5-10 us each near contact); after that - a cramped scene, or covers
     that can never certify a pair - coal decides every start, as it always does without a pre-check and
     for the caller's ``q0`` given with ``prefer_q0`` (``q0``, clipped: that start is the caller's choice).
+    ``parts``: :func:`_check_parts` of ``constraint`` when the caller has them.
     """
-    parts = constraint.__dict__.get("_admission")  # what every solve's admission needs, taken once
     if parts is None:
-        pre = constraint.scene.precheck() if constraint.clearance == 0.0 else None
-        parts = constraint._admission = (constraint.in_collision,) + (() if pre is None else pre[:5])
+        parts = _check_parts(constraint)
     in_collision = parts[0]
     if len(parts) == 1:
         return lambda q: not in_collision(q)

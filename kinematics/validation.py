@@ -128,6 +128,8 @@ def is_pose_fast(T: np.ndarray) -> bool:
 
 def as_positive(value: object, name: str) -> float:
     """``value`` as a float if it is a finite real number > 0 (bools are not numbers here); else the named error."""
+    if type(value) is float and 0.0 < value < math.inf:  # the common case without the abstract-class checks
+        return value
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InputError(f"{name} must be a positive number, got {value!r}")
     v = float(value)

@@ -145,6 +145,22 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
         return spied
 
     monkeypatch.setattr(collision_solve, "_start_admission", admission)
+    real_parts = collision_solve._check_parts
+
+    def parts(constraint):  # the pre-check the accept test calls directly: the rows it certifies
+        got = real_parts(constraint)
+        if len(got) == 1:
+            return got
+        first = got[2]
+
+        def spied_first(floats, ints, qs, start, tol):
+            k = first(floats, ints, qs, start, tol)
+            checked.extend(np.array(q) for q in qs[start:k])
+            return k
+
+        return got[:2] + (spied_first,) + got[3:]
+
+    monkeypatch.setattr(collision_solve, "_check_parts", parts)
     scene_cls = collision_scene.CollisionScene
     real_first, real_one = scene_cls.first_collision, scene_cls.in_collision
 
