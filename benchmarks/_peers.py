@@ -44,8 +44,10 @@ class PeerError(RuntimeError):
 class PeerWorker:
     """A peer solver in its own venv, driven over JSON lines (see the module docstring)."""
 
-    def __init__(self, peer: str, timeout: float = 120.0):
-        py = peer_python(peer)
+    def __init__(self, peer: str, timeout: float = 120.0, python: str | None = None):
+        """``python``: the interpreter to run the worker with (a peer that works with kinserve's Pinocchio
+        runs in the main venv's, apart all the same); by default ``bench-out/venvs/<peer>``'s."""
+        py = python or peer_python(peer)
         if py is None:
             raise PeerError(f"no venv {VENVS / peer} (run `make bench` to create it)")
         script = HERE / f"worker_{peer}.py"
@@ -99,14 +101,14 @@ class PeerWorker:
         self.close()
 
 
-def start_peer(peer: str) -> PeerWorker | None:
-    """Start a worker or print why the peer is skipped (None)."""
+def start_peer(peer: str, python: str | None = None) -> PeerWorker | None:
+    """Start a worker (with ``python``, else in its own venv) or print why the peer is skipped (None)."""
     try:
-        w = PeerWorker(peer)
+        w = PeerWorker(peer, python=python)
     except (PeerError, OSError, json.JSONDecodeError) as exc:
         print(f"SKIP {peer}: {exc}".strip().splitlines()[0], flush=True)
         return None
-    print(f"{peer} {w.version} running in {VENVS / peer}", flush=True)
+    print(f"{peer} {w.version} running in {python or VENVS / peer}", flush=True)
     return w
 
 

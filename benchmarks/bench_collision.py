@@ -36,7 +36,11 @@ Contenders:
 * Pink ``SelfCollisionBarrier`` over every active pair (self + scene) of the
   convex collision geometry, ``safe_displacement_gain=0`` (``_pink_peer.py``;
   Pink is an optional extra, ``pip install -e .[bench]``: skipped with a message
-  when it is not installed).
+  when it is not installed). It works with kinserve's Pinocchio but runs in a
+  worker process of its own all the same (``worker_pink.py``, the main venv's
+  interpreter), timed inside it as roboplan is: in this process its solves
+  (milliseconds of Python each) evicted the caches of the in-process solvers
+  timed after its blocks.
 
 Success is decided by code written here (``_obstacle_check.CoalChecker``):
 ``pin.buildGeomFromUrdf`` on the URDF's meshes, all pairs of non-adjacent
@@ -44,7 +48,7 @@ bodies minus the SRDF's (``pin.removeCollisionPairs``), robot x scene pairs,
 ``pin.computeCollisions``; plus the pose within 0.1 mm / 1 mrad and q within
 the limits.
 
-Times are wall clock around each solve (roboplan: inside its worker) and,
+Times are wall clock around each solve (roboplan and Pink: inside their workers) and,
 alongside, CPU time (``time.process_time``; long solves are preempted on a
 shared machine, short ones rarely). The answers are judged after the timed
 loop of each workload, not between two timed calls: the judge's coal meshes
@@ -74,6 +78,7 @@ roboplan and Pink; collision check no slower than roboplan's.
 from __future__ import annotations
 
 import os
+import sys
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -155,13 +160,17 @@ def kinserve_solvers(robot, budget):
     shapes: dict = {}
 
     def prepare(extra) -> None:
-        """kinserve's obstacle objects for the specs, built before the timed call (as roboplan moves its box)."""
+        """kinserve's obstacle objects for the specs, built and listed before the timed call (as roboplan moves
+        its box outside its timing)."""
         for b in SCENE + tuple(extra):
             if b not in shapes:
                 shapes[b] = kinserve_box(b)
+        constrained.obstacles = (extra, [shapes[b] for b in SCENE + tuple(extra)])
 
     def constrained(T, q0, i, extra):
-        obs = [shapes[b] for b in SCENE + tuple(extra)]
+        listed, obs = constrained.obstacles
+        if listed is not extra:  # called without prepare (a warm-up): listed here
+            obs = [shapes[b] for b in SCENE + tuple(extra)]
         constrained.last = None
         try:
             res = ik.solve(robot, T, q0, frame=FRAME, self_collision=True, obstacles=obs, seed=i, max_time=budget)
@@ -173,6 +182,7 @@ def kinserve_solvers(robot, budget):
 
     constrained.errors = []
     constrained.last = None
+    constrained.obstacles = (None, [])
     constrained.prepare = prepare
     solvers["kinserve"] = constrained
     return solvers
@@ -220,50 +230,44 @@ def roboplan_solver(w, budget):
     return solve
 
 
-def pink_solver(urdf_path, srdf_path, package_dirs, budget):
+def pink_worker(urdf_path, srdf_path, package_dirs):
+    """Pink's barrier IK in a worker process of its own (``worker_pink.py``, the main venv's interpreter), or
+    None. Like roboplan's, its solves are timed inside the worker: run in this process, Pink's milliseconds of
+    Python per solve evicted the caches of the in-process solvers timed after its blocks."""
     if importlib.util.find_spec("pink") is None:
         print("SKIP pink: not installed (an optional extra: pip install -e '.[bench]')")
         return None
-    from _pink_peer import PinkBarrierIK
+    w = start_peer("pink", python=sys.executable)
+    if w is None:
+        return None
+    boxes = [{"pose": b.T.tolist(), "size": list(b.size)}
+             for b in SCENE + (box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3),)]
+    try:
+        w.pairs = w.call({"cmd": "setup", "urdf": urdf_path, "srdf": srdf_path, "package_dirs": package_dirs,
+                          "locked": LOCKED, "frame": FRAME, "boxes": boxes})["pairs"]
+    except Exception as exc:  # noqa: BLE001
+        print(f"SKIP pink: setup failed: {exc}")
+        w.close()
+        return None
+    return w
 
-    full = pin.buildModelFromUrdf(urdf_path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        geom = pin.buildGeomFromUrdf(full, urdf_path, pin.GeometryType.COLLISION, package_dirs)
-    q_ref = pin.neutral(full)
-    lock = [full.getJointId(n) for n in LOCKED]
-    model, (geom,) = pin.buildReducedModel(full, [geom], lock, q_ref)
-    import coal
 
-    for go in geom.geometryObjects:  # convex hulls: the Panda's meshes are convex already
-        if isinstance(go.geometry, coal.BVHModelBase):
-            go.geometry.buildConvexRepresentation(False)
-            go.geometry = go.geometry.convex
-    geom.addAllCollisionPairs()
-    pin.removeCollisionPairs(model, geom, srdf_path)
-    n_robot = geom.ngeoms
-    from _obstacle_check import coal_shape
-
-    ids = []
-    for k, ob in enumerate(SCENE + (box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3),)):
-        shape, placement = coal_shape(ob)
-        ids.append(geom.addGeometryObject(pin.GeometryObject(f"scene_{k}", 0, placement, shape)))
-    for g in range(n_robot):
-        for oid in ids:
-            geom.addCollisionPair(pin.CollisionPair(g, oid))
-    p = PinkBarrierIK(model, FRAME, geom)
-    cube_id = ids[-1]
+def pink_solver(w, budget):
+    state = {"cube": None}
 
     def solve(T, q0, i, extra):
         cube = extra[0] if extra else box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
-        geom.geometryObjects[cube_id].placement = pin.SE3(np.eye(3), cube.T[:3, 3].copy())
-        t0, c0 = time.perf_counter(), time.process_time()
-        q = p.solve(T, q0, i, budget, TOL_POS, TOL_ROT)
-        solve.inner_time, solve.inner_cpu = time.perf_counter() - t0, time.process_time() - c0
-        return q
+        if state["cube"] != cube:  # not timed
+            w.try_call({"cmd": "move_box", "center": cube.T[:3, 3].tolist()})
+            state["cube"] = cube
+        a = w.try_call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
+                        "tol_pos": TOL_POS, "tol_rot": TOL_ROT})
+        solve.inner_time = budget if a is None else a["time"]
+        solve.inner_cpu = budget if a is None else a["cpu"]
+        return None if a is None else np.asarray(a["q"])
 
     solve.inner_time = solve.inner_cpu = None
-    solve.pairs = len(geom.collisionPairs)
+    solve.pairs = w.pairs
     return solve
 
 
@@ -533,23 +537,25 @@ def main() -> None:
 
     solvers = kinserve_solvers(robot, args.budget)
     rp = None if args.no_roboplan else roboplan_worker(robot, urdf_text, srdf_text, package_dirs)
+    pk = None
     results, info = {}, {}
     try:
         if not args.check_only:
             if rp is not None:
                 solvers["roboplan SimpleIk"] = roboplan_solver(rp, args.budget)
-            pink_fn = None if args.no_pink else pink_solver(urdf_path, srdf_path, package_dirs, args.budget)
-            if pink_fn is not None:
-                solvers["pink SelfCollisionBarrier"] = pink_fn
-                print(f"pink barrier over {pink_fn.pairs} pairs")
+            pk = None if args.no_pink else pink_worker(urdf_path, srdf_path, package_dirs)
+            if pk is not None:
+                solvers["pink SelfCollisionBarrier"] = pink_solver(pk, args.budget)
+                print(f"pink barrier over {pk.pairs} pairs")
             results, info = run_workloads(args, robot, judge, solvers)
         qs = robot.random_q(np.random.default_rng(5), args.configs)
         load = os.getloadavg()
         checks, about = time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs, args.rounds)
         load = tuple(max(a, b) for a, b in zip(load, os.getloadavg()))
     finally:
-        if rp is not None:
-            rp.close()
+        for w in (rp, pk):
+            if w is not None:
+                w.close()
     print_checks(checks, len(qs), load)
     print("  " + "; ".join(f"{k}: {v:.1f}" if isinstance(v, float) else f"{k}: {v}" for k, v in about.items()))
     verdict = verdicts(results, checks)
