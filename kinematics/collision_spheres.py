@@ -293,7 +293,9 @@ class RobotSpheres:
     * ``geoms`` ``(G, 3)`` integers: the geometry's Pinocchio joint (0 = fixed in the world), first and
       end row of its cover spheres in ``spheres``;
     * ``inner`` ``(I, 3)``: points inside the geometries (:func:`geometry_inner_points`) in their joint
-      frames, ``inner_ranges`` ``(G, 2)`` the first and end row of each geometry's.
+      frames, ``inner_ranges`` ``(G, 2)`` the first and end row of each geometry's;
+    * ``reach`` ``(J,)``: per joint, a bound (m per unit of the joint's coordinate) of how far a change of
+      that coordinate moves any sphere centre (:func:`joint_reach`).
     """
 
     tree: np.ndarray
@@ -302,6 +304,44 @@ class RobotSpheres:
     geoms: np.ndarray
     inner: np.ndarray
     inner_ranges: np.ndarray
+    reach: np.ndarray
+
+
+#: Stands for an unbounded reach (a prismatic joint without limits below a revolute one): finite, so that a
+#: zero change of that joint's coordinate still contributes zero.
+UNBOUNDED_REACH = 1e30
+
+
+def joint_reach(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """``R`` ``(J,)``: changing joint ``k``'s coordinate by ``dq`` moves no sphere centre farther than
+    ``R[k] |dq|`` (m), whatever the other coordinates; so ``sum_k R[k] |q'_k - q_k|`` bounds every centre's
+    displacement between ``q`` and ``q'`` (change the coordinates one at a time: triangle inequality).
+
+    Revolute ``k``: a centre turns about the joint's axis, which passes through the joint's origin, along an
+    arc of radius at most its distance to that origin, itself at most the centre's offset in its own joint
+    frame plus the offsets ``|t_m|`` of the joints ``m`` on the path down to that frame (plus the largest
+    travel ``max(|lower|, |upper|)`` of a prismatic joint on it; :data:`UNBOUNDED_REACH` without limits).
+    Prismatic ``k``: everything below translates by exactly ``|dq|``: ``R[k] = 1``. ``lower``, ``upper``: the
+    model's limits, indexed by the joints' configuration index (``joints[:, 1]``).
+    """
+    J = len(joints)
+    reach = np.zeros(J)
+    for g in range(len(geoms)):
+        row = int(geoms[g, 0])  # the geometry's joint (placement row; 0 = the world)
+        rows = [g, *range(int(geoms[g, 1]), int(geoms[g, 2]))]
+        offset = max(float(np.linalg.norm(spheres[s, :3])) for s in rows)
+        while row > 0:
+            k = row - 1
+            if joints[k, 0] != _REVOLUTE:
+                reach[k] = max(reach[k], 1.0)
+                travel = max(abs(float(lower[joints[k, 1]])), abs(float(upper[joints[k, 1]])))
+                offset += travel if math.isfinite(travel) else UNBOUNDED_REACH
+            else:
+                reach[k] = max(reach[k], offset)
+            offset += float(np.linalg.norm(tree[k, 9:12]))
+            row = int(joints[k, 2])
+    return np.minimum(reach, UNBOUNDED_REACH)
 
 
 def robot_spheres(model: pin.Model, geometry: pin.GeometryModel) -> RobotSpheres | None:
@@ -330,8 +370,9 @@ def robot_spheres(model: pin.Model, geometry: pin.GeometryModel) -> RobotSpheres
     points = np.concatenate(inner).reshape(-1, 3) if G else np.zeros((0, 3))
     if not np.all(np.isfinite(points)):
         return None
+    reach = joint_reach(packed[0], packed[1], spheres, geoms, model.lowerPositionLimit, model.upperPositionLimit)
     return RobotSpheres(packed[0], packed[1], np.ascontiguousarray(spheres), np.ascontiguousarray(geoms),
-                        np.ascontiguousarray(points), np.ascontiguousarray(inner_ranges.astype(np.int64)))
+                        np.ascontiguousarray(points), np.ascontiguousarray(inner_ranges.astype(np.int64)), reach)
 
 
 _ROBOTS: "weakref.WeakKeyDictionary[CollisionModel, RobotSpheres | None]" = weakref.WeakKeyDictionary()
@@ -386,8 +427,8 @@ def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.nda
 def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The kernels' two arguments ``(floats, ints)``, flat (a compiled call costs ~50 ns per array argument):
 
-    * ``floats``: ``tree`` ``(J, 15)``, ``spheres`` ``(S, 4)`` (the robot's spheres, then its inner points with
-      radius 0), ``obstacles`` ``(O, 16)``, row-major, in turn;
+    * ``floats``: ``tree`` ``(J, 15)``, ``reach`` ``(J,)``, ``spheres`` ``(S, 4)`` (the robot's spheres, then its
+      inner points with radius 0), ``obstacles`` ``(O, 16)``, row-major, in turn;
     * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 5)`` (joint, first and end
       cover row, first and end inner point row), ``pairs`` ``(P, 4)``.
 
@@ -397,7 +438,7 @@ def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> tuple
     rows = np.concatenate([robot.spheres, np.column_stack([robot.inner, np.zeros(len(robot.inner))])])
     geoms = np.column_stack([robot.geoms, robot.inner_ranges + n_spheres]).astype(np.int64)
     J, S, G, P, O = len(robot.joints), len(rows), len(robot.geoms), len(pairs), len(obstacles)
-    floats = np.concatenate([robot.tree.ravel(), rows.ravel(), np.asarray(obstacles, dtype=float).ravel()])
+    floats = np.concatenate([robot.tree.ravel(), robot.reach, rows.ravel(), np.asarray(obstacles, dtype=float).ravel()])
     ints = np.concatenate([np.array([J, S, G, P, O], dtype=np.int64), robot.joints.ravel(), geoms.ravel(),
                            np.asarray(pairs, dtype=np.int64).ravel()])
     return floats, ints
@@ -533,8 +574,8 @@ def _unpack(floats, ints):
     """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays (:func:`pack`)."""
     J, S, G, P, O = ints[0], ints[1], ints[2], ints[3], ints[4]
     tree = floats[:15 * J].reshape((J, 15))
-    spheres = floats[15 * J:15 * J + 4 * S].reshape((S, 4))
-    obstacles = floats[15 * J + 4 * S:15 * J + 4 * S + 16 * O].reshape((O, 16))
+    spheres = floats[16 * J:16 * J + 4 * S].reshape((S, 4))
+    obstacles = floats[16 * J + 4 * S:16 * J + 4 * S + 16 * O].reshape((O, 16))
     joints = ints[5:5 + 3 * J].reshape((J, 3))
     geoms = ints[5 + 3 * J:5 + 3 * J + 5 * G].reshape((G, 5))
     pairs = ints[5 + 3 * J + 5 * G:5 + 3 * J + 5 * G + 4 * P].reshape((P, 4))
@@ -573,22 +614,35 @@ def _place_cover(X, spheres, geoms, g, W, placed, stamp):
 
 
 @_inline
-def _apart(W, i, j, tol):
-    """Spheres ``i`` and ``j`` of ``W`` are farther apart than ``tol`` (m); False on NaN."""
-    dx, dy, dz = W[i, 0] - W[j, 0], W[i, 1] - W[j, 1], W[i, 2] - W[j, 2]
-    s = W[i, 3] + W[j, 3] + tol
-    return dx * dx + dy * dy + dz * dz > s * s
+def _slack(d2, need, m):
+    """The margin ``m`` (m) after a test that passes when ``d2 > need^2`` (``d2``: a squared distance, m^2):
+    ``min(m, sqrt(d2) - need)`` (at least 0) when it passes, -1.0 when it fails (also on NaN). The square
+    root is taken only when the slack is below ``m``."""
+    reach = need + m
+    if d2 > reach * reach:
+        return m
+    if d2 > need * need:
+        return max(math.sqrt(d2) - need, 0.0)
+    return -1.0
 
 
 @_inline
-def _clear_of_obstacle(W, i, obstacles, o, tol):
-    """Sphere ``i`` of ``W`` is farther than ``tol`` (m) from obstacle ``o`` (module docstring); False on NaN."""
+def _sphere_slack(W, i, j, tol, m):
+    """:func:`_slack` of spheres ``i`` and ``j`` of ``W`` being farther apart than ``tol`` (m)."""
+    dx, dy, dz = W[i, 0] - W[j, 0], W[i, 1] - W[j, 1], W[i, 2] - W[j, 2]
+    return _slack(dx * dx + dy * dy + dz * dz, W[i, 3] + W[j, 3] + tol, m)
+
+
+@_inline
+def _obstacle_slack(W, i, obstacles, o, tol, m):
+    """:func:`_slack` of sphere ``i`` of ``W`` being farther than ``tol`` (m) from obstacle ``o`` (module
+    docstring: the squared distance of the centre to the obstacle's core against the sphere's radius plus
+    ``tol`` plus the core's radius)."""
     dx, dy, dz = W[i, 0] - obstacles[o, 9], W[i, 1] - obstacles[o, 10], W[i, 2] - obstacles[o, 11]
     kind = obstacles[o, KIND]
     need = W[i, 3] + tol
     if kind == BALL:
-        need += obstacles[o, 13]
-        return dx * dx + dy * dy + dz * dz > need * need
+        return _slack(dx * dx + dy * dy + dz * dz, need + obstacles[o, 13], m)
     # the centre in the obstacle's frame: p = R^T (c - t)
     px = obstacles[o, 0] * dx + obstacles[o, 3] * dy + obstacles[o, 6] * dz
     py = obstacles[o, 1] * dx + obstacles[o, 4] * dy + obstacles[o, 7] * dz
@@ -597,47 +651,66 @@ def _clear_of_obstacle(W, i, obstacles, o, tol):
         ex = max(abs(px) - obstacles[o, 13], 0.0)
         ey = max(abs(py) - obstacles[o, 14], 0.0)
         ez = max(abs(pz) - obstacles[o, 15], 0.0)
-        return ex * ex + ey * ey + ez * ez > need * need
+        return _slack(ex * ex + ey * ey + ez * ez, need, m)
     if kind == CAPSULE:
         half = obstacles[o, 14]
         ez = pz - min(max(pz, -half), half)
-        need += obstacles[o, 13]
-        return px * px + py * py + ez * ez > need * need
+        return _slack(px * px + py * py + ez * ez, need + obstacles[o, 13], m)
     # cylinder
     er = max(math.sqrt(px * px + py * py) - obstacles[o, 13], 0.0)
     ez = max(abs(pz) - obstacles[o, 14], 0.0)
-    return er * er + ez * ez > need * need
+    return _slack(er * er + ez * ez, need, m)
+
+
+#: Factor on the displacement bound of :func:`first_uncertified` (rounding of the bound and of the margin).
+LIPSCHITZ_SAFETY = 1.0 + 1e-9
+
+
+#: The largest margin (m) :func:`_configuration_margin` reports: tests farther apart than this need no
+#: square root.
+MARGIN_CAP = 1.0
 
 
 @_jit
-def _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, stamp):
-    """Every pair's lower bound at ``q`` exceeds ``tol``: forward kinematics into ``X``, the bounding spheres
-    into ``W``, then per pair the bounding spheres and, when they are not apart, the cover spheres (placed on
-    first need, marked with ``stamp`` in ``placed``)."""
+def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, stamp):
+    """The certificate of ``q``: -1.0 when some pair's lower bound does not exceed ``tol``, else the margin
+    ``m >= 0`` (m, at most :data:`MARGIN_CAP`): the smallest slack of the sphere tests that certified the
+    pairs - every sphere may move by up to ``m / 2`` and those tests still pass (:func:`first_uncertified`).
+    Forward kinematics into ``X``, the bounding spheres into ``W``, then per pair the bounding spheres and,
+    when they are not apart, the cover spheres (placed on first need, marked with ``stamp`` in ``placed``)."""
     tree_placements(tree, joints, q, X)
     for g in range(geoms.shape[0]):
         _place(X, geoms[g, 0], spheres, g, W)
+    m = MARGIN_CAP
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
         if pairs[p, 2] == SELF_PAIR:
-            if _apart(W, a, b, tol):
+            r = _sphere_slack(W, a, b, tol, m)
+            if r >= 0.0:
+                m = r
                 continue
             _place_cover(X, spheres, geoms, a, W, placed, stamp)
             _place_cover(X, spheres, geoms, b, W, placed, stamp)
             for i in range(geoms[a, 1], geoms[a, 2]):
-                if _apart(W, i, b, tol):
+                r = _sphere_slack(W, i, b, tol, m)
+                if r >= 0.0:
+                    m = r
                     continue
                 for j in range(geoms[b, 1], geoms[b, 2]):
-                    if not _apart(W, i, j, tol):
-                        return False
+                    m = _sphere_slack(W, i, j, tol, m)
+                    if m < 0.0:
+                        return -1.0
         else:
-            if _clear_of_obstacle(W, a, obstacles, b, tol):
+            r = _obstacle_slack(W, a, obstacles, b, tol, m)
+            if r >= 0.0:
+                m = r
                 continue
             _place_cover(X, spheres, geoms, a, W, placed, stamp)
             for i in range(geoms[a, 1], geoms[a, 2]):
-                if not _clear_of_obstacle(W, i, obstacles, b, tol):
-                    return False
-    return True
+                m = _obstacle_slack(W, i, obstacles, b, tol, m)
+                if m < 0.0:
+                    return -1.0
+    return m
 
 
 @numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
@@ -649,7 +722,7 @@ def certify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, t
     if q.shape[0] != n:
         return False
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
-    return _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0)
+    return _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0
 
 
 @numba.njit(_BATCH_SIGNATURE, cache=True, nogil=True, error_model="numpy")
@@ -663,23 +736,43 @@ def certify_configurations(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray,
         return out
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     for k in range(N):
-        out[k] = _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k)
+        out[k] = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed,
+                                      k) >= 0.0
     return out
 
 
 @numba.njit(_FIRST_SIGNATURE, cache=True, nogil=True, error_model="numpy")
 def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
-    """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that :func:`certify_configuration` does
-    not certify, ``N`` when it certifies them all (``start`` when the rows have not one entry per joint)."""
+    """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that is not certified, ``N`` when every
+    one is (``start`` when the rows have not one entry per joint).
+
+    A row is certified by :func:`_configuration_margin` or, without forward kinematics, by the last row so
+    certified (``q_ref``, margin ``m``) when ``2 sum_k R_k |q_k - q_ref,k| < m`` (``R``: the packed
+    :func:`joint_reach`): no sphere centre has moved by half the margin, so every test that certified
+    ``q_ref`` still passes (the distance between two spheres, or from a sphere's centre to an obstacle, changes
+    by at most the sum of the two displacements). The iterates of a converging solve lie close together:
+    on the Panda's IK paths about a fifth of the rows need no forward kinematics.
+    """
     tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n = joints.shape[0]
     N = qs.shape[0]
     if qs.shape[1] != n:
         return max(start, 0)
+    reach = floats[15 * n:16 * n]
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    ref, m = -1, 0.0
     for k in range(max(start, 0), N):
-        if not _configuration_clear(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k):
+        if ref >= 0:
+            moved = 0.0
+            for j in range(n):
+                c = joints[j, 1]
+                moved += reach[j] * abs(qs[k, c] - qs[ref, c])
+            if 2.0 * moved * LIPSCHITZ_SAFETY < m:  # NaN: not skipped
+                continue
+        m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k)
+        if m < 0.0:
             return k
+        ref = k
     return N
 
 

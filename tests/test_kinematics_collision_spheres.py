@@ -209,7 +209,8 @@ def _tetra(tmp_path):
 def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
     """For sphere centres around every obstacle kind: the bound is the shape's closed-form signed distance
     minus the radius (a mesh: its bounding sphere, a lower bound), and the squared test of the certification
-    says "clear" exactly when that bound exceeds the tolerance."""
+    says "clear" exactly when that bound exceeds the tolerance, with the bound minus the tolerance as its slack
+    (capped by the margin so far)."""
     rng = np.random.default_rng(6)
     shapes = [Sphere((0.1, 0.2, 0.3), 0.15), Box(_pose((0.3, -0.1, 0.4), _rotation(rng)), (0.2, 0.5, 0.1)),
               Capsule((0.1, 0.1, 0.1), (0.4, -0.2, 0.5), 0.06),
@@ -232,8 +233,12 @@ def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
                 assert gap <= d + 1e-9
             else:
                 assert gap == pytest.approx(float(shape.signed_distance(c)[0]) - W[0, 3], abs=1e-12)
-            if abs(gap - tol) > 1e-9:
-                assert cs._clear_of_obstacle(W, 0, obstacles, o, tol) == (gap > tol)
+            if abs(gap - tol) > 1e-9:  # the squared test, and the slack it reports when it passes
+                slack = cs._obstacle_slack(W, 0, obstacles, o, tol, cs.MARGIN_CAP)
+                assert (slack >= 0.0) == (gap > tol)
+                if slack >= 0.0:
+                    assert slack == pytest.approx(min(gap - tol, cs.MARGIN_CAP), abs=1e-9)
+                    assert cs._obstacle_slack(W, 0, obstacles, o, tol, 0.5 * slack) == 0.5 * slack
 
 
 # ------------------------------------------------------------------ conservativeness against coal
@@ -475,3 +480,117 @@ def test_first_checks_of_a_process_do_not_load_the_precheck():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["False", "True", "True", "True"]
+
+
+# ------------------------------------------------------------------ paths: rows certified by displacement
+def _world_centres(spheres, q) -> np.ndarray:
+    """Every sphere centre of ``spheres`` (a RobotSpheres) in the world at ``q``: the packed tree's forward
+    kinematics, then ``oMj * c`` per sphere."""
+    X = np.empty((len(spheres.joints) + 1, 12))
+    cs.tree_placements(spheres.tree, spheres.joints, q, X)
+    out = []
+    for g, (row, first, end) in enumerate(spheres.geoms):
+        for s in (g, *range(first, end)):
+            R, t = X[row, :9].reshape(3, 3), X[row, 9:12]
+            out.append(t + R @ spheres.spheres[s, :3])
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "scara", "pr"])
+def test_joint_reach_bounds_every_sphere_displacement(name):
+    """``sum_k R_k |dq_k|`` bounds how far any sphere centre moves from ``q`` to ``q + dq``, for steps from a
+    microradian to the whole joint range, one joint or all at once; and the bound of a typical revolute joint is
+    within a factor of ~5 of the largest displacement seen (not vacuous)."""
+    robot = robots.load(name)
+    spheres = cs.robot_spheres_of(robot.collision)
+    assert spheres is not None and spheres.reach.shape == (len(spheres.joints),)
+    assert np.all(spheres.reach >= 0.0) and np.all(spheres.reach < cs.UNBOUNDED_REACH)  # 0: nothing below
+    rng = np.random.default_rng(11)
+    idx = spheres.joints[:, 1]
+    ratio = np.zeros(len(idx))
+    for _ in range(300):
+        q = robot.random_q(rng)
+        scale = 10.0 ** rng.uniform(-6, 0)
+        if rng.random() < 0.5:  # one joint
+            k = rng.integers(len(idx))
+            q2 = q.copy()
+            q2[idx[k]] = rng.uniform(robot.lower[idx[k]], robot.upper[idx[k]])
+        else:
+            q2 = np.clip(q + scale * rng.normal(size=robot.nq), robot.lower, robot.upper)
+        moved = np.linalg.norm(_world_centres(spheres, q2) - _world_centres(spheres, q), axis=1).max()
+        bound = float(np.sum(spheres.reach * np.abs(q2[idx] - q[idx])))
+        assert moved <= bound * (1 + 1e-9) + 1e-12
+        if rng.random() < 0.5:
+            continue
+        for k in range(len(idx)):  # a small turn of joint k alone: the tightness of its bound
+            q3 = q.copy()
+            q3[idx[k]] = min(q[idx[k]] + 1e-3, robot.upper[idx[k]])
+            step = q3[idx[k]] - q[idx[k]]
+            if step > 0 and spheres.reach[k] > 0.0:
+                moved = np.linalg.norm(_world_centres(spheres, q3) - _world_centres(spheres, q), axis=1).max()
+                ratio[k] = max(ratio[k], moved / (spheres.reach[k] * step))
+    revolute = spheres.joints[:, 0] == 0
+    # a wrist's spheres may sit on its axis (the bound counts their distance to the joint's origin): the
+    # typical joint, not every one
+    moving = revolute & (spheres.reach > 0.0)
+    assert np.median(ratio[moving]) > 0.2 and ratio[moving][0] > 0.2, ratio
+
+
+def _coal_hits(scene, Q) -> np.ndarray:
+    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+    return np.array([pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True) for q in Q])
+
+
+def test_first_uncertified_on_converging_paths_matches_every_row_certified(tmp_path):
+    """IK-like paths (rows closing in geometrically on an answer near the arm's obstacles, the answer first, as
+    the IK checks them): the index ``first_uncertified`` returns - skipping rows close to one it certified -
+    is the first row that certification row by row (``certify_configurations``) does not certify, and coal
+    finds every row before it free."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(12)
+    checked = stopped = 0
+    for _ in range(3):
+        q_s = robot.random_q(rng)
+        scene = robot.collision_scene(SCENE + _near_obstacles(robot, q_s, rng, 5, tmp_path))
+        pre = scene.precheck()
+        floats, ints, tol = pre[2], pre[3], pre[4]
+        for _ in range(40):
+            answer = np.clip(q_s + rng.normal(scale=0.3, size=robot.nq), robot.lower, robot.upper)
+            start = robot.random_q(rng)
+            rows = np.array([answer + (start - answer) * 0.5 ** (12 - k) for k in range(13)])
+            rows = np.clip(rows, robot.lower, robot.upper)
+            k = cs.first_uncertified(floats, ints, rows, 0, tol)
+            each = cs.certify_configurations(floats, ints, rows, tol)
+            assert k == (len(rows) if each.all() else int(np.argmin(each)))
+            assert not _coal_hits(scene, rows[:k]).any()
+            checked += k
+            stopped += int(k < len(rows))
+    assert checked > 300 and stopped > 10, (checked, stopped)  # rows certified, and paths stopped short
+
+
+def test_first_uncertified_skips_rows_near_a_certified_one():
+    """A path of 3000 rows within a micro-radian of each other costs a small fraction of certifying each row:
+    the rows after the first are certified by their displacement, without forward kinematics."""
+    import time
+
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    floats, ints, tol = pre[2], pre[3], pre[4]
+    rng = np.random.default_rng(13)
+    q = next(q for q in robot.random_q(rng, 50) if cs.certify_configuration(floats, ints, q, tol))
+    rows = q + 1e-9 * np.arange(3000)[:, None]
+    assert cs.first_uncertified(floats, ints, rows, 0, tol) == 3000 and cs.certify_configurations(
+        floats, ints, rows, tol).all()
+
+    def best(fn):
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
+    skip = best(lambda: cs.first_uncertified(floats, ints, rows, 0, tol))
+    each = best(lambda: cs.certify_configurations(floats, ints, rows, tol))
+    assert skip < 0.25 * each, (skip, each)
