@@ -131,10 +131,10 @@ def _collision_options(self_collision: bool, obstacles: Sequence, collision_marg
 
 
 def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos: float, tol_rot: float,
-                           max_time: float | None, seed: int | None, lm_options: dict, *, self_collision: bool = False,
-                           obstacles: Sequence = (), collision_margin: float = 0.0) -> tuple:
+                           max_time: float | None, seed: int | None, lm_options: dict, collision: dict) -> tuple:
     """The unconstrained attempts of a plain LM solve (:func:`_checked_lm_solve`) without the general set-up of
-    :func:`solve_collision_free`. Arguments are checked (``ik.solve``'s short path).
+    :func:`solve_collision_free`. Arguments are checked (``ik.solve``'s short path); ``collision``: the
+    options of :func:`collision_options`.
 
     Returns ``(result, handover, t0)``: the collision-free result, or None with ``handover`` =
     ``{"failed_path": the warm start's source (or None), "t0": t0}`` to pass on in ``p`` to
@@ -142,9 +142,8 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
     robot has no collision model (the general path falls back to the link capsules).
     """
     t0 = _now()
-    try:
-        constraint = _bound_constraint(robot, obstacles, self_collision, collision_margin)
-    except ModelError:
+    constraint = _request_constraint(robot, collision)
+    if constraint is None:
         return None, None, t0
     res, failed = _checked_lm_solve(robot, tgt, q0, tol_pos, tol_rot, 0.5 * (MAX_TIME if max_time is None else max_time),
                                     seed, lm_options, constraint)
@@ -152,6 +151,29 @@ def ordinary_solve_checked(robot: Robot, tgt: Target, q0: np.ndarray | None, tol
         res.elapsed = _now() - t0
         return res, None, t0
     return None, {"failed_path": failed, "t0": t0}, t0
+
+
+def _request_constraint(robot: Robot, collision: dict) -> CollisionConstraint | None:
+    """:func:`_bound_constraint` of the options ``collision`` on ``robot`` (None when the robot has no
+    collision model), remembered per thread by the identities of the two - :func:`collision_options`
+    returns the same dictionary for the same obstacle objects, so a repeated request is one lookup (the entry
+    holds both objects: their identities stay theirs)."""
+    memo = getattr(_BOUND, "requests", None)
+    if memo is None:
+        memo = _BOUND.requests = {}
+    key = (id(robot), id(collision))
+    hit = memo.get(key)
+    if hit is not None:
+        return hit[2]
+    try:
+        bound = _bound_constraint(robot, collision["obstacles"], collision["self_collision"],
+                                  collision["collision_margin"])
+    except ModelError:
+        return None
+    if len(memo) >= _BOUND_CACHE_SIZE:
+        memo.clear()
+    memo[key] = (robot, collision, bound)
+    return bound
 
 
 def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos: float, tol_rot: float,

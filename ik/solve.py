@@ -250,7 +250,7 @@ def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, t
                         **solver_keywords(options))
     compiled_chain(robot, tgt.frame_id)  # (loaded before the clock starts)
     res, handover, t0 = _collision_module().ordinary_solve_checked(robot, tgt, q0, tol_pos, tol_rot, max_time, seed,
-                                                                    solver_keywords(options), **collision)
+                                                                    solver_keywords(options), collision)
     if res is not None:
         return res
     p = _pose_request(tgt, q0, tol_pos, tol_rot, max_time, seed, method)
