@@ -112,6 +112,31 @@ def start_peer(peer: str, python: str | None = None) -> PeerWorker | None:
     return w
 
 
+def peer_solve(w: PeerWorker, solve, request: dict, budget: float) -> np.ndarray | None:
+    """One ``solve`` request (``request``: its fields but ``cmd``) to worker ``w``, on behalf of the benchmark's
+    solver function ``solve``: returns the peer's answer ``q`` (None when the call failed or it found none)
+    and sets ``solve.inner_time`` / ``solve.inner_cpu`` to the worker's own measurement around its solver
+    (``budget`` when the call failed), which :func:`_common.timed` reports instead of the pipe's."""
+    a = w.try_call({"cmd": "solve", **request})
+    solve.inner_time = budget if a is None else a["time"]
+    solve.inner_cpu = budget if a is None else a.get("cpu", a["time"])
+    return None if a is None or a.get("q") is None else np.asarray(a["q"])
+
+
+def setup_or_skip(w: PeerWorker, request: dict, check=None) -> dict | None:
+    """``w``'s answer to its ``setup`` ``request`` (then ``check(w)``, e.g. its FK against ours), or None after
+    printing why the peer is skipped and closing its worker."""
+    try:
+        answer = w.call(request)
+        if check is not None:
+            check(w)
+    except Exception as exc:  # noqa: BLE001 - any failure of a peer skips it, never the benchmark
+        print(f"SKIP {w.peer}: setup failed: {exc}")
+        w.close()
+        return None
+    return answer
+
+
 # --------------------------------------------------------------------------- models for the peers
 def _rpy_of(R: np.ndarray) -> tuple[float, float, float]:
     """URDF ``rpy`` of a rotation (``R = Rz(y) Ry(p) Rx(r)``), gimbal lock handled by Pinocchio."""

@@ -102,7 +102,6 @@ import importlib.util  # noqa: E402
 import math  # noqa: E402
 import statistics  # noqa: E402
 import time  # noqa: E402
-import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
@@ -110,7 +109,7 @@ import pinocchio as pin  # noqa: E402
 from kinserve import ik, robots  # noqa: E402
 from _common import interleaved, machine, timed, write_json  # noqa: E402
 from _obstacle_check import BoxSpec, CoalChecker  # noqa: E402
-from _peers import start_peer  # noqa: E402
+from _peers import peer_solve, setup_or_skip, start_peer  # noqa: E402
 
 FRAME = "panda_link8"
 ELBOW = "panda_joint4"
@@ -209,20 +208,16 @@ def roboplan_worker(robot, urdf_text, srdf_text, package_dirs):
     boxes = [{"name": "table", "pose": TABLE.T.tolist(), "size": list(TABLE.size)},
              {"name": "wall", "pose": WALL.T.tolist(), "size": list(WALL.size)},
              {"name": "cube", "pose": far.T.tolist(), "size": list(far.size)}]
-    try:
-        w.call({"cmd": "setup", "urdf": urdf_text, "package_paths": package_dirs, "srdf": srdf_text,
-                "joints": robot.joint_names, "frame": FRAME, "base": "panda_link0", "boxes": boxes})
+    setup = {"cmd": "setup", "urdf": urdf_text, "package_paths": package_dirs, "srdf": srdf_text,
+             "joints": robot.joint_names, "frame": FRAME, "base": "panda_link0", "boxes": boxes}
+
+    def same_fk(w) -> None:
         diff = max(float(np.abs(np.asarray(w.call({"cmd": "fk", "q": q.tolist()})["T"]) - robot.fk(q, FRAME)).max())
                    for q in robot.random_q(np.random.default_rng(99), 20))
-    except Exception as exc:  # noqa: BLE001
-        print(f"SKIP roboplan: setup failed: {exc}")
-        w.close()
-        return None
-    if diff > 1e-9:
-        print(f"SKIP roboplan: its FK differs from ours by {diff:g}")
-        w.close()
-        return None
-    return w
+        if diff > 1e-9:
+            raise RuntimeError(f"its FK differs from ours by {diff:g}")
+
+    return w if setup_or_skip(w, setup, same_fk) is not None else None
 
 
 def roboplan_solver(w, budget):
@@ -233,11 +228,8 @@ def roboplan_solver(w, budget):
         if state["cube"] != cube:  # not timed
             w.try_call({"cmd": "move_box", "name": "cube", "pose": cube.T.tolist()})
             state["cube"] = cube
-        a = w.try_call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                        "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "check_collisions": True})
-        solve.inner_time = budget if a is None else a["time"]
-        solve.inner_cpu = budget if a is None else a["cpu"]
-        return None if a is None or a["q"] is None else np.asarray(a["q"])
+        return peer_solve(w, solve, {"T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
+                                     "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "check_collisions": True}, budget)
 
     solve.inner_time = solve.inner_cpu = None
     return solve
@@ -255,13 +247,11 @@ def pink_worker(urdf_path, srdf_path, package_dirs):
         return None
     boxes = [{"pose": b.T.tolist(), "size": list(b.size)}
              for b in SCENE + (box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3),)]
-    try:
-        w.pairs = w.call({"cmd": "setup", "urdf": urdf_path, "srdf": srdf_path, "package_dirs": package_dirs,
-                          "locked": LOCKED, "frame": FRAME, "boxes": boxes})["pairs"]
-    except Exception as exc:  # noqa: BLE001
-        print(f"SKIP pink: setup failed: {exc}")
-        w.close()
+    answer = setup_or_skip(w, {"cmd": "setup", "urdf": urdf_path, "srdf": srdf_path, "package_dirs": package_dirs,
+                               "locked": LOCKED, "frame": FRAME, "boxes": boxes})
+    if answer is None:
         return None
+    w.pairs = answer["pairs"]
     return w
 
 
@@ -273,11 +263,8 @@ def pink_solver(w, budget):
         if state["cube"] != cube:  # not timed
             w.try_call({"cmd": "move_box", "center": cube.T[:3, 3].tolist()})
             state["cube"] = cube
-        a = w.try_call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                        "tol_pos": TOL_POS, "tol_rot": TOL_ROT})
-        solve.inner_time = budget if a is None else a["time"]
-        solve.inner_cpu = budget if a is None else a["cpu"]
-        return None if a is None else np.asarray(a["q"])
+        return peer_solve(w, solve, {"T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
+                                     "tol_pos": TOL_POS, "tol_rot": TOL_ROT}, budget)
 
     solve.inner_time = solve.inner_cpu = None
     solve.pairs = w.pairs

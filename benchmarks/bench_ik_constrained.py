@@ -79,7 +79,7 @@ import pinocchio as pin  # noqa: E402
 from kinserve import ik, robots  # noqa: E402
 from _common import cpu_per_call_seconds, interleaved, machine, per_call_seconds, timed, write_json  # noqa: E402
 from _obstacle_check import BoxSpec, CoalChecker, Skeleton, SphereSpec  # noqa: E402
-from _peers import arm_urdf, start_peer  # noqa: E402
+from _peers import arm_urdf, peer_solve, start_peer  # noqa: E402
 
 FRAME = "panda_link8"
 TOL_POS, TOL_ROT = 1e-4, 1e-3
@@ -228,11 +228,8 @@ def placo_solver(robot, urdf_text, budget):
             worker.try_call({"cmd": "setup", "urdf": u, "pairs": pairs, "frame": FRAME, "joints": robot.joint_names,
                              "avoid": True, "margin": 0.0, "trigger": 0.05})
             state["key"] = key
-        a = worker.try_call({"cmd": "solve", "T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                             "tol_pos": TOL_POS, "tol_rot": TOL_ROT})
-        solve.inner_time = budget if a is None else a["time"]
-        solve.inner_cpu = budget if a is None else a["cpu"]
-        return None if a is None else np.asarray(a["q"])
+        return peer_solve(worker, solve, {"T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
+                                          "tol_pos": TOL_POS, "tol_rot": TOL_ROT}, budget)
 
     solve.inner_time = solve.inner_cpu = None
     return solve, worker
