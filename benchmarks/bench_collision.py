@@ -53,7 +53,7 @@ the interleaved order; a target's time is the median of its passes, and the
 figures are the statistics of those per-target times (success: over every
 answer of every pass). The machine is shared: within one pass its speed changed
 by up to 1.7x from minute to minute, and one pass's median ratio to kinserve's
-unconstrained solve ranged from 1.24 to 1.83 over seven runs of the same solver
+unconstrained solve ranged from 1.24 to 1.83 over twelve runs of the same solver
 code (open scene; 1.37-1.44 in the four after the harness stopped holding
 results, below); the first pass's figures are reported alongside
 (``median_vs_unconstrained_first_pass``).
