@@ -185,3 +185,37 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
     assert sum(np.array_equal(res.q, c) for c in checked) == 1
     monkeypatch.undo()
     assert not any(panda.in_collision(q) for q in hist)
+
+
+def test_collision_options_are_remembered_by_the_shapes_identities(panda):
+    """The same shape objects give the same validated options (one lookup); other objects - equal or not - are
+    validated anew, and so is anything that is not a list or tuple of shapes (a dict can change between calls:
+    a bad size raises every time)."""
+    from kinserve.ik.collision_solve import _request_constraint, collision_options
+
+    T = np.eye(4)
+    T[:3, 3] = (0.65, 0.0, -0.05)
+    table = ik.Box(T, (0.7, 1.2, 0.1))
+    a = collision_options(True, [table], 0.0, ())
+    assert collision_options(True, [table], 0.0, ()) is a and collision_options(True, (table,), 0.0, ()) is a
+    assert a["obstacles"] == (table,) and a["self_collision"] is True
+    assert collision_options(False, [table], 0.0, ()) is not a
+    assert collision_options(True, [ik.Box(T, (0.7, 1.2, 0.1))], 0.0, ()) is not a
+    spec = {"kind": "box", "pose": T.tolist(), "size": [0.7, 1.2, 0.1]}
+    assert collision_options(True, [spec], 0.0, ()) is not collision_options(True, [spec], 0.0, ())
+    spec["size"] = [0.7, -1.2, 0.1]
+    for _ in range(2):
+        with pytest.raises(errors.InputError):
+            collision_options(True, [spec], 0.0, ())
+    # the bound constraint of one options dictionary is found by identity, and is that scene's
+    bound = _request_constraint(panda, a)
+    assert _request_constraint(panda, a) is bound and bound.obstacles == (table,)
+    T2 = T.copy()
+    T2[2, 3] = 0.3  # the table raised into the arm's way: a different scene, a different answer
+    other = _request_constraint(panda, collision_options(True, [ik.Box(T2, (0.7, 1.2, 0.1))], 0.0, ()))
+    assert other is not bound and other.obstacles[0].pose[2, 3] == 0.3
+    rng = np.random.default_rng(4)
+    raised = other.obstacles[0]
+    q = next(q for q in panda.random_q(rng, 500)
+             if panda.in_collision(q, [raised]) and not panda.in_collision(q, [table]))
+    assert other.in_collision(q) and not bound.in_collision(q)
