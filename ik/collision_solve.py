@@ -181,8 +181,9 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
     """The unconstrained attempts with LM, as one call of the ordinary solver: its starts (``q0``, the table's
     nearest samples, then random ones; ``max_time`` and 1 + :data:`UNCONSTRAINED_ATTEMPTS` starts at most),
     each converged run accepted only when its answer and every iterate are collision free
-    (``solve_lm(accept=...)``, :func:`_path_is_free`'s check), so a run whose answer or path collides is
-    followed by the next start at once; a start in collision is skipped for one check (``admit``).
+    (``solve_lm(accept=...)``: the sphere pre-check over the stacked run, then the scene's check from the
+    first row it cannot certify), so a run whose answer or path collides is followed by the next start at
+    once; a start in collision is skipped for one check (``admit``).
 
     ``lm_options``: the solver's keywords (``max_iter``, ``damping``, ``max_starts``, ``prefer_q0``,
     ``seed_table_enabled``). Returns ``(result, failed)``: the checked collision-free result, or None and the
@@ -196,8 +197,9 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
         else None
     parts = _check_parts(constraint)
     admit = _start_admission(constraint, chosen, _certified_table_starts(robot, constraint, tgt.frame), parts)
-    first_collision = constraint.first_collision
     if len(parts) == 1:
+        first_collision = constraint.first_collision
+
         def accept(qs) -> bool:
             # the run's configurations, start first: the answer, then the others last first, down to the one
             # after the start (``admit`` found the start clear)
@@ -208,11 +210,12 @@ def _checked_lm_solve(robot: Robot, tgt: Target, q0: np.ndarray | None, tol_pos:
             return False
     else:
         _, _, first, floats, ints, tol = parts
+        scene_first = constraint.scene.first_collision  # margin 0: the constraint's check is the scene's
 
         def accept(qs) -> bool:  # as above; the sphere pre-check called directly, coal only when it cannot certify
             rows = qs[:0:-1]
             k = first(floats, ints, rows, 0, tol)  # the rows before k are certified free
-            if k >= rows.shape[0] or first_collision(rows[k:]) < 0:
+            if k >= rows.shape[0] or scene_first(rows, k) < 0:
                 return True
             if not rejected:
                 rejected.append(qs)

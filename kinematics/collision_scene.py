@@ -187,18 +187,19 @@ class CollisionScene:
         update(False)
         return collide(callback)
 
-    def first_collision(self, qs: Sequence[np.ndarray]) -> int:
+    def first_collision(self, qs: Sequence[np.ndarray], uncertified: int | None = None) -> int:
         """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
         in collision, -1 when none is: the sphere pre-check (rows stacked in a float ``(N, nq)`` array in one
         compiled call; a sequence: the first configuration alone, the rest in one call), and
         :meth:`in_collision`'s coal check of each uncertified one, in order, stopping at the first hit
-        (:func:`~.collision_layout.check_configurations`)."""
+        (:func:`~.collision_layout.check_configurations`). ``uncertified``: for stacked rows, the index the
+        caller's own pre-check call returned (the rows before it are certified; not certified again)."""
         pre = self._precheck
         if pre is _UNBUILT:
             pre = self.precheck()
         if pre is not None and type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:
             # stacked rows (the IK's runs): one compiled call; coal only from the first uncertified row on
-            k = pre[1](pre[2], pre[3], qs, 0, pre[4])
+            k = pre[1](pre[2], pre[3], qs, 0, pre[4]) if uncertified is None else uncertified
             if k >= qs.shape[0]:
                 return -1
             check = self._shell()[5]

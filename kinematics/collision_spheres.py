@@ -583,6 +583,13 @@ def _unpack(floats, ints):
 
 
 @_inline
+def _reach(floats, ints):
+    """The packed :func:`joint_reach` ``(J,)`` (:func:`pack`; a view): only :func:`first_uncertified` reads it."""
+    J = ints[0]
+    return floats[15 * J:16 * J]
+
+
+@_inline
 def _workspace(n, S, G):
     """One allocation per call: joint placements ``X`` ``(n + 1, 12)``, world spheres ``W`` ``(S, 4)`` and the
     per-geometry stamps ``placed`` ``(G,)`` (-1: cover not placed yet)."""
@@ -758,7 +765,7 @@ def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, star
     N = qs.shape[0]
     if qs.shape[1] != n:
         return max(start, 0)
-    reach = floats[15 * n:16 * n]
+    reach = _reach(floats, ints)
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     ref, m = -1, 0.0
     for k in range(max(start, 0), N):
