@@ -1,6 +1,9 @@
 """Pink as a collision-avoiding IK contender: barrier model, multistart driver, one control step.
 
-Pink (``pin-pink``) works with the main venv's Pinocchio, so it runs in-process.
+Pink (``pin-pink``) works with the main venv's Pinocchio, so it needs no venv of its own:
+``bench_ik_constrained`` runs it in-process, ``bench_collision`` in a worker
+process (``worker_pink.py``, the main venv's interpreter) so that its solves do
+not evict the caches of the solvers timed beside it.
 Obstacles and self-collision are both expressed the way Pink supports them: a
 Pinocchio ``GeometryModel`` whose collision pairs feed one
 ``SelfCollisionBarrier`` (``safe_displacement_gain=0``, ``d_min=0``; the

@@ -129,6 +129,8 @@ def box(center, size) -> BoxSpec:
 TABLE = box((0.65, 0.0, -0.05), (0.7, 1.2, 0.1))
 WALL = box((0.0, -0.6, 0.5), (1.5, 0.05, 1.0))
 SCENE = (TABLE, WALL)
+#: Where the peers park their movable cube when a workload has none (the open scene): far from everything.
+FAR_CUBE = box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
 
 
 def kinserve_box(spec: BoxSpec) -> ik.Box:
@@ -205,10 +207,9 @@ def roboplan_worker(robot, urdf_text, srdf_text, package_dirs):
     w = start_peer("roboplan")
     if w is None:
         return None
-    far = box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
     boxes = [{"name": "table", "pose": TABLE.T.tolist(), "size": list(TABLE.size)},
              {"name": "wall", "pose": WALL.T.tolist(), "size": list(WALL.size)},
-             {"name": "cube", "pose": far.T.tolist(), "size": list(far.size)}]
+             {"name": "cube", "pose": FAR_CUBE.T.tolist(), "size": list(FAR_CUBE.size)}]
     setup = {"cmd": "setup", "urdf": urdf_text, "package_paths": package_dirs, "srdf": srdf_text,
              "joints": robot.joint_names, "frame": FRAME, "base": "panda_link0", "boxes": boxes}
 
@@ -221,19 +222,28 @@ def roboplan_worker(robot, urdf_text, srdf_text, package_dirs):
     return w if setup_or_skip(w, setup, same_fk) is not None else None
 
 
-def roboplan_solver(w, budget):
+def worker_solver(w, budget, move_cube, **fields):
+    """The benchmark's solver function for a peer worker ``w`` with a movable cube: the cube moved where the
+    workload puts it (``move_cube(cube)``: the worker's request, sent only when the cube changes - not timed),
+    then one solve request (``fields`` added), timed inside the worker (``_peers.peer_solve``)."""
     state = {"cube": None}
 
     def solve(T, q0, i, extra):
-        cube = extra[0] if extra else box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
+        cube = extra[0] if extra else FAR_CUBE
         if state["cube"] != cube:  # not timed
-            w.try_call({"cmd": "move_box", "name": "cube", "pose": cube.T.tolist()})
+            w.try_call(move_cube(cube))
             state["cube"] = cube
         return peer_solve(w, solve, {"T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                                     "tol_pos": TOL_POS, "tol_rot": TOL_ROT, "check_collisions": True}, budget)
+                                     "tol_pos": TOL_POS, "tol_rot": TOL_ROT, **fields}, budget)
 
     solve.inner_time = solve.inner_cpu = None
     return solve
+
+
+def roboplan_solver(w, budget):
+    """roboplan's ``SimpleIk`` with its collision check (``worker_roboplan.py``)."""
+    return worker_solver(w, budget, lambda cube: {"cmd": "move_box", "name": "cube", "pose": cube.T.tolist()},
+                         check_collisions=True)
 
 
 def pink_worker(urdf_path, srdf_path, package_dirs):
@@ -247,7 +257,7 @@ def pink_worker(urdf_path, srdf_path, package_dirs):
     if w is None:
         return None
     boxes = [{"pose": b.T.tolist(), "size": list(b.size)}
-             for b in SCENE + (box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3),)]
+             for b in SCENE + (FAR_CUBE,)]
     answer = setup_or_skip(w, {"cmd": "setup", "urdf": urdf_path, "srdf": srdf_path, "package_dirs": package_dirs,
                                "locked": LOCKED, "frame": FRAME, "boxes": boxes})
     if answer is None:
@@ -257,17 +267,8 @@ def pink_worker(urdf_path, srdf_path, package_dirs):
 
 
 def pink_solver(w, budget):
-    state = {"cube": None}
-
-    def solve(T, q0, i, extra):
-        cube = extra[0] if extra else box((10.0, 10.0, 10.0), (CUBE_EDGE,) * 3)
-        if state["cube"] != cube:  # not timed
-            w.try_call({"cmd": "move_box", "center": cube.T[:3, 3].tolist()})
-            state["cube"] = cube
-        return peer_solve(w, solve, {"T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
-                                     "tol_pos": TOL_POS, "tol_rot": TOL_ROT}, budget)
-
-    solve.inner_time = solve.inner_cpu = None
+    """Pink's barrier IK (``worker_pink.py``)."""
+    solve = worker_solver(w, budget, lambda cube: {"cmd": "move_box", "center": cube.T[:3, 3].tolist()})
     solve.pairs = w.pairs
     return solve
 
