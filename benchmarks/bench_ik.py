@@ -10,14 +10,14 @@ limits - checked with *our* forward kinematics on every library's answer.
 Libraries and settings:
 
 * kinserve ``ik.solve`` with ``method="auto"`` (here: ``"lm"``, whose starts run in
-  the compiled kernel of :mod:`ik.lm_kernel`), ``"lm"`` and
+  the compiled kernel of :mod:`ik.lm.kernel`), ``"lm"`` and
   ``"qp"`` (the default backend: DAQP, installed with kinserve; ``qp (daqp)`` names it explicitly), default
   options (tol_pos 1e-4 m, tol_rot 1e-3 rad). Note: ours starts from the
   seed *or* from the nearest sample of a precomputed table of FK samples
-  (:mod:`ik.seeds`), whichever is closer to the target; the row
+  (:mod:`ik.starts.seed_table`), whichever is closer to the target; the row
   ``lm (seed only)`` disables the table for transparency. ``qp`` skips the
   QP solver when the unconstrained minimiser of a step is feasible (exact,
-  see :mod:`ik.qp_solver`); ``qp (QP every step)`` calls the QP solver at every step.
+  see :mod:`ik.qp.target_solver`); ``qp (QP every step)`` calls the QP solver at every step.
 * Robotics Toolbox ``ik_LM`` (C++), robot built from the same URDF, called on
   the chain ``robot.ets(end="panda_link8")`` built once (``Robot.ik_LM(end=...)``
   rebuilds it on every call, ~35 us, more than the solve), ``tol=5e-9``: its stopping test is
@@ -44,7 +44,7 @@ delivers (two CPU-bound processes vs one).
 
 Same-start rows (issue 10: kinserve's lead comes from its table of starts):
 for each target the start kinserve itself would try first
-(:func:`kinserve.ik.seeds.start_sequence` on its table, given the random
+(:func:`kinserve.ik.starts.seed_table.start_sequence` on its table, given the random
 seed) is computed once, and every "(same start)" row starts from it:
 ``auto (same start)`` with ``prefer_q0=True``, ``lm (seed only, same start)``
 with ``seed_table=False`` (no table at all: the comparison is explicit),
@@ -186,7 +186,7 @@ def batch_throughput(robot, sizes, seed: int, repeats: int = 3) -> dict:
     two free cores (a lower bound: the parent's work overlaps the workers').
     Issue 13's target: 2 processes >= 1.8x one process.
     """
-    from kinserve.ik import batch_pool
+    from kinserve.ik.batch import pool as batch_pool
 
     rng = np.random.default_rng(seed + 1)
     warm = robot.fk_batch(robot.random_q(rng, 200), FRAME)
@@ -283,8 +283,8 @@ def optional_peer(label: str, make):
 def kinserve_first_starts(robot, targets, q0s) -> np.ndarray:
     """The start kinserve's ``lm`` tries first for each target: its table's nearest sample or ``q0``.
 
-    Mirrors :func:`kinserve.ik.lm_solver.solve_lm`: the pose distance ``D`` of
-    ``q0`` against the nearest table sample, :func:`ik.seeds.start_sequence`'s first yield.
+    Mirrors :func:`kinserve.ik.lm.solver.solve_lm`: the pose distance ``D`` of
+    ``q0`` against the nearest table sample, :func:`ik.starts.seed_table.start_sequence`'s first yield.
     """
     table = ik_seeds.seed_table(robot, FRAME)
     out = np.empty_like(q0s)

@@ -18,7 +18,7 @@ gets the same time budget (``--budget``, 0.5 s) with restarts:
 
 * kinserve ``ik.solve(robot, T, q0, frame=..., obstacles=[...], seed=i,
   max_time=budget)`` (the obstacle objects are built before the timed call);
-  its start table (:mod:`kinserve.ik.seeds`) is part of the method;
+  its start table (:mod:`kinserve.ik.starts.seed_table`) is part of the method;
 * kinserve unconstrained ``ik.solve(robot, T, q0, frame=..., seed=i)``: the
   reference of the ratios;
 * Pink: ``SelfCollisionBarrier`` over (skeleton capsule r = 1 mm, obstacle)

@@ -6,7 +6,7 @@ Panda with its SRDF, the table and wall of ``bench_collision.py``. Figures (CPU 
 * ``scene.in_collision(q)`` on configurations the pre-check certifies, on ones it does not, and on
   uniform random configurations;
 * ``scene.first_collision(path)`` on the paths the collision-aware IK checks: the answer then the
-  iterates of an unconstrained LM run, last first (``ik.collision_solve._path_is_free``'s order), for
+  iterates of an unconstrained LM run, last first (``ik.collision.solve._path_is_free``'s order), for
   flange targets of collision-free random configurations and random starts (``--paths`` of them; the
   median path length is reported);
 * the certification rate (share of the configurations coal finds free that the pre-check certifies) of
@@ -111,7 +111,7 @@ def coal_truth(scene, robot, qs) -> np.ndarray:
 def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
     """Per-target best-of-3 CPU times (us) of collision-aware solves with and without the pre-check (module
     docstring, ``--ik``); the pre-check objects once built are kept and put back when switched on."""
-    from kinserve.ik import collision_solve
+    from kinserve.ik.collision import solve as collision_solve
 
     cm = robot.collision
     scene = robot.collision_scene(obstacles)

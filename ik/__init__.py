@@ -20,32 +20,32 @@ One concept per module: :mod:`ik.tasks` (the :class:`Task` protocol,
 :mod:`ik.constraints` (the :class:`Constraint` protocol, :class:`JointLimits`,
 :class:`VelocityLimits`, :class:`ObstacleAvoidance` against any shape of
 :mod:`kinserve.kinematics.shapes`), :mod:`ik.problem` (tasks and constraints
-bound to a robot), :mod:`ik.hierarchy` (one prioritised step),
-:mod:`ik.dense_qp`, :mod:`ik.task_solver` (iterations, back-off, restarts),
-:mod:`ik.multistart`, :mod:`ik.step`, :mod:`ik.targets`, :mod:`ik.centring`,
-:mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.classical`,
-:mod:`ik.analytic`, :mod:`ik.chooser`, :mod:`ik.seeds`, :mod:`ik.qp_backends`,
-:mod:`ik.solve`, :mod:`ik.options`, :mod:`ik.result`, :mod:`ik.batch` (with
-:mod:`ik.batch_worker`, :mod:`ik.batch_runners`, :mod:`ik.batch_pool`).
+bound to a robot), :mod:`ik.qp.hierarchy` (one prioritised step),
+:mod:`ik.qp.dense_qp`, :mod:`ik.qp.task_solver` (iterations, back-off, restarts),
+:mod:`ik.starts.multistart`, :mod:`ik.step`, :mod:`ik.targets`, :mod:`ik.tasks.centring_weights`,
+:mod:`ik.qp.target_solver`, :mod:`ik.lm.solver`, :mod:`ik.classical.methods`,
+:mod:`ik.closed_form`, :mod:`ik.closed_form.chooser`, :mod:`ik.starts.seed_table`, :mod:`ik.qp.backends`,
+:mod:`ik.solve`, :mod:`ik.options`, :mod:`ik.result`, :mod:`ik.batch.solve_many` (with
+:mod:`ik.batch.worker`, :mod:`ik.batch.runners`, :mod:`ik.batch.pool`).
 """
 
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
-from .batch import solve_many
-from .chooser import CRITERIA, choose
-from .constraints import CollisionConstraint, Constraint, SceneCollision, SelfCollision
-from .constraints.joint_limits import JointLimits
-from .constraints.obstacles import ObstacleAvoidance
-from .constraints.velocity_limits import VelocityLimits
-from .qp_backends import available_backends
-from .result import History, Result
-from .solve import METHODS, solve, solve_all
-from .step import step
-from .targets import RELAX_NAMES, Target
-from .tasks import Task
-from .tasks.centring_task import CentringTask
-from .tasks.frame_task import FrameTask
-from .tasks.posture_task import PostureTask
+from kinserve.ik.batch.solve_many import solve_many
+from kinserve.ik.closed_form.chooser import CRITERIA, choose
+from kinserve.ik.constraints import CollisionConstraint, Constraint, SceneCollision, SelfCollision
+from kinserve.ik.constraints.joint_limits import JointLimits
+from kinserve.ik.constraints.obstacles import ObstacleAvoidance
+from kinserve.ik.constraints.velocity_limits import VelocityLimits
+from kinserve.ik.qp.backends import available_backends
+from kinserve.ik.result import History, Result
+from kinserve.ik.solve import METHODS, solve, solve_all
+from kinserve.ik.step import step
+from kinserve.ik.targets import RELAX_NAMES, Target
+from kinserve.ik.tasks import Task
+from kinserve.ik.tasks.centring_task import CentringTask
+from kinserve.ik.tasks.frame_task import FrameTask
+from kinserve.ik.tasks.posture_task import PostureTask
 
 __all__ = [
     "solve", "solve_all", "solve_many", "step", "Result", "History",

@@ -12,13 +12,13 @@ option              meaning                                     accepted values
 ``damping``         damping ``lambda_0`` (LM / QP / DLS)        finite number > 0
 ``max_starts``      cap on the number of starts                 integer >= 1 or None
 ``prefer_q0``       start from ``q0`` first                     bool
-``seed_table``      use the table of starts (:mod:`ik.seeds`)   bool
+``seed_table``      use the table of starts (:mod:`ik.starts.seed_table`)   bool
 ``max_step``        bound on each joint step (QP, rad or m)     finite number > 0
 ``shortcut``        skip the QP when the free step is feasible  bool
 ``lazy``            add obstacle rows only when a step needs    bool
 ``gain``            step gain of the classical methods          finite number > 0
 ``samples``         samples of a closed-form family             integer >= 2
-``choose``          chooser criteria (:mod:`ik.chooser`)        name or sequence of names
+``choose``          chooser criteria (:mod:`ik.closed_form.chooser`)        name or sequence of names
 ==================  ==========================================  ==============================
 
 Accepted names per method are :data:`OPTIONS`; ``"auto"`` accepts the union
@@ -32,7 +32,7 @@ import numbers
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import as_positive
 
-from .chooser import CRITERIA
+from kinserve.ik.closed_form.chooser import CRITERIA
 
 _LM = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
 _QP = _LM + ("max_step", "shortcut", "lazy")

@@ -26,11 +26,11 @@ import pinocchio as pin
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Shape
 
-from .constraints.base import DAMPER_GAIN, Constraint
-from .constraints.joint_limits import JointLimits
-from .constraints.obstacles import ObstacleAvoidance
-from .hierarchy import stack_level
-from .tasks.base import Task
+from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
+from kinserve.ik.constraints.joint_limits import JointLimits
+from kinserve.ik.constraints.obstacles import ObstacleAvoidance
+from kinserve.ik.qp.hierarchy import stack_level
+from kinserve.ik.tasks.base import Task
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot

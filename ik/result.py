@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike
 if TYPE_CHECKING:
     from kinserve.kinematics import Robot
 
-    from .targets import Target
+    from kinserve.ik.targets import Target
 
 
 class History:

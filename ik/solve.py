@@ -16,12 +16,12 @@ Methods
 3. otherwise -> ``"lm"`` (joint limits are the only inequalities).
 
 ``ik.solve(robot, tasks=[...], constraints=[...])`` solves any composition of
-tasks and constraints on the task model (:mod:`ik.task_solver`).
+tasks and constraints on the task model (:mod:`ik.qp.task_solver`).
 
 ``"qp"``, ``"lm"``, ``"analytic"`` and the classical ``"jacobian_inverse"``,
 ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"`` can be named
-directly (see :mod:`ik.qp_solver`, :mod:`ik.lm_solver`, :mod:`ik.analytic`,
-:mod:`ik.classical`).
+directly (see :mod:`ik.qp.target_solver`, :mod:`ik.lm.solver`, :mod:`ik.closed_form`,
+:mod:`ik.classical.methods`).
 
 Validation (once, before any solver runs; errors from :mod:`kinematics.errors`):
 the target pose (shape, NaN/inf, rotation orthonormal), ``q0`` (shape,
@@ -48,31 +48,31 @@ from kinserve.kinematics.validation import as_positive
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import Shape
 
-from . import numpy_fast
-from . import analytic as _analytic
-from .centring import centring_weights
-from .chooser import choose
-from .classical import METHODS as CLASSICAL_METHODS
-from .classical import solve_classical
-from .constraints import as_sphere
-from .constraints.obstacles import ObstacleAvoidance, as_obstacle
-from .dense_qp import DEFAULT_BACKEND
-from .lm_solver import compiled_chain, solve_lm
-from .multistart import frame_starts
-from .options import OPTIONS, check_options, solver_keywords
-from .problem import Problem
-from .qp_backends import available_backends
-from .targets import Target
-from .qp_solver import solve_qp
-from .task_solver import MAX_TIME as QP_MAX_TIME
-from .task_solver import solve_problem
+from kinserve.ik import numpy_fast
+from kinserve.ik import closed_form as _analytic
+from kinserve.ik.tasks.centring_weights import centring_weights
+from kinserve.ik.closed_form.chooser import choose
+from kinserve.ik.classical.methods import METHODS as CLASSICAL_METHODS
+from kinserve.ik.classical.methods import solve_classical
+from kinserve.ik.constraints import as_sphere
+from kinserve.ik.constraints.obstacles import ObstacleAvoidance, as_obstacle
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
+from kinserve.ik.lm.solver import compiled_chain, solve_lm
+from kinserve.ik.starts.multistart import frame_starts
+from kinserve.ik.options import OPTIONS, check_options, solver_keywords
+from kinserve.ik.problem import Problem
+from kinserve.ik.qp.backends import available_backends
+from kinserve.ik.targets import Target
+from kinserve.ik.qp.target_solver import solve_qp
+from kinserve.ik.qp.task_solver import MAX_TIME as QP_MAX_TIME
+from kinserve.ik.qp.task_solver import solve_problem
 
 if TYPE_CHECKING:  # annotations only
     from collections.abc import Iterable
 
     from kinserve.kinematics.types import PoseLike, VectorLike
 
-    from .result import Result
+    from kinserve.ik.result import Result
 
 METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
 _METHOD_SET = frozenset(METHODS)
@@ -157,7 +157,7 @@ def prepare(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = Non
             max_time: float | None = None, seed: int | None = None) -> dict[str, Any]:
     """Validate every argument of :func:`solve`; return a dict of checked values.
 
-    Exposed so that batch solving (:mod:`ik.batch`) validates each target once
+    Exposed so that batch solving (:mod:`ik.batch.solve_many`) validates each target once
     in the parent process. ``"spheres"`` holds the obstacle constraint
     (:class:`ik.constraints.ObstacleAvoidance` of the spheres and obstacles) or None.
     """
@@ -230,8 +230,8 @@ def _solve_pose(robot, target, q0, frame, relax, relax_frame, method, tol_pos, t
     finds a closed form or an option only another method accepts.
 
     With ``collision`` (the checked collision options): the unconstrained attempts of
-    :mod:`ik.collision_solve` without its general set-up
-    (:func:`ik.collision_solve.ordinary_solve_checked`); in an open scene the ordinary answer and its
+    :mod:`ik.collision.solve` without its general set-up
+    (:func:`ik.collision.solve.ordinary_solve_checked`); in an open scene the ordinary answer and its
     iterates are almost always collision free. Otherwise, and whenever the robot has no collision model,
     the general path (:func:`solve_prepared`) runs - given the runs already tried and the start of the
     clock, so that nothing is solved twice and the time budget holds.
@@ -305,7 +305,7 @@ def solve(
     q0:
         Start / current configuration (``nq`` values; clipped into the joint
         limits if outside). The iterative solvers try ``q0`` and the nearest
-        samples of a precomputed table of configurations (:mod:`ik.seeds`) in
+        samples of a precomputed table of configurations (:mod:`ik.starts.seed_table`) in
         order of their pose distance to the target; pass ``prefer_q0=True`` to
         always start from ``q0``. A ``q0`` inside an obstacle is not an error:
         the solve starts from collision-free configurations and says so in
@@ -330,7 +330,7 @@ def solve(
         Radius (m) of the capsules around the link segments (0 = bare segments).
     centring:
         Weight(s) of the joint-limit centring objective, strictly below the
-        target (0 = off). See :mod:`ik.centring`.
+        target (0 = off). See :mod:`ik.tasks.centring_weights`.
     method:
         ``"auto"``, ``"qp"``, ``"lm"``, ``"analytic"``, ``"jacobian_inverse"``,
         ``"jacobian_transpose"``, ``"pseudo_inverse"``, ``"dls"``.
@@ -354,7 +354,7 @@ def solve(
         ``obstacles`` and ``spheres`` - against the real geometry instead of the
         link capsules. The unconstrained answer and its iterates are checked
         first; a constrained solve (hard on every iterate) runs only when needed.
-        See :mod:`ik.collision_solve`. (``constraints=[ik.SceneCollision(obstacles)]``
+        See :mod:`ik.collision.solve`. (``constraints=[ik.SceneCollision(obstacles)]``
         uses the real geometry for obstacles alone.)
     options:
         Method-specific: ``max_iter``, ``damping`` (``lm``/``qp``; DLS ``lambda``
@@ -502,7 +502,7 @@ def _solve_target_tasks(robot, p: dict, options: dict):
     tgt = p["target"]
     extra = p.get("constraints")
     if extra:
-        from .problem import as_constraints
+        from kinserve.ik.problem import as_constraints
 
         spheres = as_constraints(([p["spheres"]] if p["spheres"] is not None else []) + list(extra), (tgt.frame,))
     else:
@@ -517,10 +517,10 @@ _collision_solve = None
 
 
 def _collision_module():
-    """:mod:`ik.collision_solve`, imported on first use (it loads coal) and then held: no import per solve."""
+    """:mod:`ik.collision.solve`, imported on first use (it loads coal) and then held: no import per solve."""
     global _collision_solve
     if _collision_solve is None:
-        from . import collision_solve
+        from kinserve.ik.collision import solve as collision_solve
 
         _collision_solve = collision_solve
     return _collision_solve
@@ -544,7 +544,7 @@ def solve_prepared(robot: Robot, p: dict, **options: Any) -> Result:
     """Run the solver on arguments already checked by :func:`prepare`.
 
     ``options`` may hold the collision options of :func:`solve` (``self_collision``, ``obstacles``,
-    ``collision_margin``): the solve then goes through :mod:`ik.collision_solve` (so does ``ik.solve_many``).
+    ``collision_margin``): the solve then goes through :mod:`ik.collision.solve` (so does ``ik.solve_many``).
     """
     if options and not _COLLISION_KEYS.isdisjoint(options):
         return _collision_module().solve_collision_free(robot, p, solve_prepared, **options)
@@ -611,7 +611,7 @@ def _solve_analytic(robot, solver, p, fallback: bool = True, samples: int = 24, 
     """
     import time
 
-    from .result import History, Result
+    from kinserve.ik.result import History, Result
 
     t0 = time.perf_counter()
     tgt = p["target"]

@@ -4,7 +4,7 @@ At the current configuration ``q`` and control period ``dt`` (s), with the
 tasks grouped by priority and every constraint's rows at ``q`` (joint
 limits as ``lower - q <= dq <= upper - q``, velocity limits as
 ``|dq| <= v_max dt``, obstacle dampers ``g^T dq >= -xi c``), the step ``dq``
-is the hierarchical least-squares step of :mod:`ik.hierarchy` with the
+is the hierarchical least-squares step of :mod:`ik.qp.hierarchy` with the
 Levenberg-Marquardt damping ``lambda = 0.01 |e_1|^2 + damping``, and the
 returned velocity is ``v = dq / dt`` (rad/s or m/s). Integrating
 ``q + v dt`` keeps the joint limits; the obstacle rows are first order, so
@@ -27,11 +27,11 @@ import numpy as np
 
 from kinserve.kinematics.errors import InputError
 
-from . import numpy_fast
-from .dense_qp import DEFAULT_BACKEND
-from .hierarchy import hierarchical_step
-from .problem import Problem
-from .qp_backends import available_backends
+from kinserve.ik import numpy_fast
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
+from kinserve.ik.qp.hierarchy import hierarchical_step
+from kinserve.ik.problem import Problem
+from kinserve.ik.qp.backends import available_backends
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
@@ -71,7 +71,7 @@ def _problem(robot, tasks, constraints) -> Problem:
 
 
 def _check_backend(backend: Any) -> str:
-    """A QP backend name installed on this machine (:func:`kinserve.ik.qp_backends.available_backends`)."""
+    """A QP backend name installed on this machine (:func:`kinserve.ik.qp.backends.available_backends`)."""
     if isinstance(backend, str) and backend.lower() in available_backends():
         return backend.lower()
     raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, got {backend!r}")

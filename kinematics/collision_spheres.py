@@ -60,7 +60,7 @@ the unconstrained answers put in collision by a 10 cm box on their elbow).
 :func:`first_uncertified` and :func:`certify_configurations` over a batch in
 one call; Numba) run the forward kinematics of the whole tree
 (:func:`~.serial_chain.kinematic_tree`; joint ``j``'s world placement
-``oMj = oM(parent) * Mj * exp(a_j q_j)``, as :mod:`kinserve.ik.lm_kernel`),
+``oMj = oM(parent) * Mj * exp(a_j q_j)``, as :mod:`kinserve.ik.lm.kernel`),
 move the bounding spheres to the world (``c_world = oMj * c``; joint 0 is the
 world) - a geometry's cover spheres only when one of its pairs needs them -
 and test the scene's pairs, obstacle pairs first (a configuration in

@@ -12,7 +12,7 @@ that moves the frame, in order from the root - and packs it as
 * ``joints`` ``(n, 2)`` integers: the joint's kind (:data:`REVOLUTE` or
   :data:`PRISMATIC`) and its index in ``q`` (= its index in ``v``).
 
-The compiled kernels of :mod:`kinserve.ik.lm_kernel` evaluate the chain from
+The compiled kernels of :mod:`kinserve.ik.lm.kernel` evaluate the chain from
 these arrays (pose and Jacobian, checked against Pinocchio in the tests).
 Units: metres and radians.
 

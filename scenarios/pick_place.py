@@ -44,7 +44,7 @@ therefore not drawn: it would reach 0.1 m below the flange, through the floor.
    sample's solution, iterated to ``tol_pos``/``tol_rot``. The Panda is
    redundant (7 joints, 6 task rows): with ``centring > 0`` each DLS step also
    moves the joints towards mid-range inside the Jacobian's null space
-   (strict priority, the task is unaffected; :mod:`ik.centring`), which keeps
+   (strict priority, the task is unaffected; :mod:`ik.tasks.centring_weights`), which keeps
    them off their limits and brings the arm back to ``q_start`` at the end
    (``final_configuration_drift``; without it the self-motion drifts by
    about 1.8 rad). ``tracking_*`` are the pose errors of ``FK(q_k)`` against

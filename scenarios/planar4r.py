@@ -7,7 +7,7 @@ lengths ``l1..l4`` (default 1.0, 0.8, 0.6, 0.4 m), joint limits ``+-pi``::
 
 The task ``(x, y, theta_e)`` has 3 constraints for 4 joints, so its solution
 set is a *one-parameter family*, not two configurations (seed 000 claims two;
-seed 001 proves infinitely many). Closed form (:mod:`ik.analytic.planar`):
+seed 001 proves infinitely many). Closed form (:mod:`ik.closed_form.planar`):
 the wrist point ``w = (x, y) - l4 (cos theta_e, sin theta_e)`` is fixed by the
 task; the free parameter is ``q1``, which places the elbow
 ``c2 = l1 (cos q1, sin q1)``; the remaining 2R problem ``c2 -> w`` (links
@@ -53,7 +53,7 @@ from matplotlib.patches import Circle as CirclePatch
 from kinserve import ik
 from kinserve import robots
 from kinserve import viz
-from kinserve.ik.chooser import joint_limit_distance, self_overlap
+from kinserve.ik.closed_form.chooser import joint_limit_distance, self_overlap
 from kinserve.kinematics import se3
 
 #: Default task (x m, y m, theta_e rad).

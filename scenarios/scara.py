@@ -27,7 +27,7 @@ Arm (``robots.load("scara")``, seed 004): standard DH rows ``(a, alpha, d, theta
    identically zero) and ``Robot.analytic_jacobian`` (RPY rates), plus
    central finite differences of ``(x, y, z, phi)(q)``.
 3. *IK by Jacobian inverse and transpose* (and pseudo-inverse, DLS), all from
-   the same start ``q0`` to the same target (:mod:`ik.classical`):
+   the same start ``q0`` to the same target (:mod:`ik.classical.methods`):
    ``dq = J^-1 e``, ``dq = alpha J^T e`` (``alpha`` minimising the linearised
    error), ``dq = J^+ e``, ``dq = J^T (J J^T + lambda^2 I)^-1 e``; the joint
    variables and the operational-space errors ``(e_x, e_y, e_z, e_phi)`` at

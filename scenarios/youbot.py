@@ -24,7 +24,7 @@ A3 -151..146, A4 +-102.5, A5 +-167.5.
    the stretched elbow ``q3 = 0`` is singular (rank 4), detected by the sweep
    of ``q3`` over its range (``manipulability.png``).
 4. *Closed-form IK* (:func:`ik.solve_all`, kinematic decoupling, see
-   :mod:`ik.analytic.youbot`): ``theta1 = atan2(p_y, p_x)`` and the
+   :mod:`ik.closed_form.youbot`): ``theta1 = atan2(p_y, p_x)`` and the
    reach-over-the-back ``theta1 + pi``; the wrist point ``W = p - d5 z5``;
    law of cosines for ``theta3`` (+-), ``theta2``; ``theta4 = Theta - theta2 -
    theta3``; ``theta5`` from the orientation. Every branch inside the limits

@@ -11,7 +11,7 @@ from .cli_types import positive_float, positive_int
 
 
 def cmd_reach(args) -> int:
-    from kinserve.ik.reachability import reachability_map
+    from kinserve.ik.batch.reachability import reachability_map
     from kinserve.service.cli import load_robot
     from kinserve.viz import save_png
     from kinserve.viz.reachability_plot import reachability_figure

@@ -25,7 +25,7 @@ import threading
 from collections import OrderedDict
 
 from kinserve import robots
-from kinserve.ik.seeds import cached_tables
+from kinserve.ik.starts.seed_table import cached_tables
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import UnknownRobotError, suggest
 

@@ -65,7 +65,7 @@ os.environ[TAG] = f"{os.getpid()}-{os.urandom(6).hex()}"
 
 def _shut_down_persistent_pools() -> None:
     """Worker pools the library keeps on purpose between calls are stopped through their public API."""
-    for module_name in ("kinserve.ik.batch",):
+    for module_name in ("kinserve.ik.batch.solve_many",):
         shutdown = getattr(sys.modules.get(module_name), "shutdown_pool", None)
         if shutdown is not None:
             shutdown()

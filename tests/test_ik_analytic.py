@@ -1,4 +1,4 @@
-"""kinserve.ik.analytic: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA; 2R/3R."""
+"""kinserve.ik.closed_form: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA; 2R/3R."""
 
 import math
 import re
@@ -9,7 +9,7 @@ import pytest
 
 from kinserve import ik
 from kinserve import robots
-from kinserve.ik.analytic import PlanarChain, YouBotArm, closed_form_solver, two_link, wrap_into
+from kinserve.ik.closed_form import PlanarChain, YouBotArm, closed_form_solver, two_link, wrap_into
 from kinserve.kinematics import Robot, se3
 from kinserve.kinematics.errors import InputError
 

@@ -1,4 +1,4 @@
-"""kinserve.ik.batch.solve_many: same answers as one-by-one solving, in order, on 2 processes; validation up front."""
+"""kinserve.ik.batch.solve_many.solve_many: same answers as one-by-one solving, in order, on 2 processes; validation up front."""
 
 import numpy as np
 import pytest
@@ -87,7 +87,7 @@ def test_targets_validated_all_at_once_agree_with_target(ur5):
     """checked_poses accepts exactly what ik.targets.Target accepts; errors name the index."""
     import pinocchio as pin
 
-    from kinserve.ik.batch import checked_poses
+    from kinserve.ik.batch.solve_many import checked_poses
     from kinserve.ik.targets import Target
     from kinserve.kinematics.validation import ROTATION_TOL
 
@@ -134,7 +134,7 @@ def test_targets_validated_all_at_once_agree_with_target(ur5):
 
 
 def test_options_are_checked_without_a_trial_solve(ur5, monkeypatch):
-    from kinserve.ik import batch_worker
+    from kinserve.ik.batch import worker as batch_worker
 
     calls = []
     real = batch_worker.solve_prepared

@@ -1,4 +1,4 @@
-"""kinserve.ik.batch_pool: a stalled (SIGSTOPped) worker raises a clear error in time and leaves no process;
+"""kinserve.ik.batch.pool: a stalled (SIGSTOPped) worker raises a clear error in time and leaves no process;
 a killed worker is replaced and its chunk retried once; BLAS is single-threaded in the workers."""
 
 import os
@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik import batch_pool, batch_runners
+from kinserve.ik.batch import pool as batch_pool
+from kinserve.ik.batch import runners as batch_runners
 from kinserve.kinematics.errors import WorkerError, WorkerTimeoutError
 
 
@@ -178,7 +179,7 @@ def test_workers_run_single_threaded_blas():
     code = (
         "import numpy, scipy.linalg\n"
         "from threadpoolctl import threadpool_info\n"
-        "from kinserve.ik.batch_worker import limit_blas_threads\n"
+        "from kinserve.ik.batch.worker import limit_blas_threads\n"
         "before = max(i['num_threads'] for i in threadpool_info())\n"
         "limit_blas_threads()\n"
         "info = threadpool_info()\n"

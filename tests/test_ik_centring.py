@@ -1,10 +1,10 @@
-"""kinserve.ik.centring: weights, null-space basis, strict priority of the secondary step."""
+"""kinserve.ik.tasks.centring_weights: weights, null-space basis, strict priority of the secondary step."""
 
 import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.ik.centring import centring_objective, centring_weights, null_space_basis, null_space_correction
+from kinserve.ik.tasks.centring_weights import centring_objective, centring_weights, null_space_basis, null_space_correction
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
 

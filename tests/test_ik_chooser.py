@@ -1,4 +1,4 @@
-"""kinserve.ik.chooser: named criteria pick the expected branch; the self-overlap filter detects crossing links."""
+"""kinserve.ik.closed_form.chooser: named criteria pick the expected branch; the self-overlap filter detects crossing links."""
 
 import math
 
@@ -7,7 +7,7 @@ import pytest
 
 from kinserve import ik
 from kinserve import robots
-from kinserve.ik.chooser import choose, joint_limit_distance, scores, self_overlap
+from kinserve.ik.closed_form.chooser import choose, joint_limit_distance, scores, self_overlap
 from kinserve.kinematics.errors import InputError
 
 

@@ -83,7 +83,7 @@ def test_damper_rows_match_finite_differences_of_the_distance(panda):
 def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
     """Open scene: every answer and iterate clear; every other solve without unconstrained attempts
     (straight to the constrained path), the others with the default attempts."""
-    from kinserve.ik import collision_solve
+    from kinserve.ik.collision import solve as collision_solve
 
     default_attempts = collision_solve.UNCONSTRAINED_ATTEMPTS
     rng = np.random.default_rng(11)
@@ -112,7 +112,7 @@ def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
     ``attempts=0`` (no unconstrained solve) forces the constrained path; the default
     may find another branch with its unconstrained attempts.
     """
-    from kinserve.ik import collision_solve
+    from kinserve.ik.collision import solve as collision_solve
 
     if attempts is not None:
         monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", attempts)
@@ -187,7 +187,7 @@ def test_solve_many_forwards_the_collision_options(panda):
 
 
 def test_reach_map_counts_collision_free_solutions_only(panda):
-    from kinserve.ik.reachability import reachability_map
+    from kinserve.ik.batch.reachability import reachability_map
 
     block = ik.Box(_pose((0.5, 0.0, 0.6)), (0.6, 1.6, 0.4))
     rmap = reachability_map(panda, 60, processes=1, max_time=0.05, seed=1, self_collision=True, obstacles=[block])
@@ -219,8 +219,8 @@ def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(pa
     """The unconstrained attempts start from the ordinary solve's starts (``q0`` and the target's ranked table
     samples, then random configurations) in its order - ranked lazily, the same order - minus the ones in
     collision (a ``q0`` in collision included) and the one to skip."""
-    from kinserve.ik import collision_solve
-    from kinserve.ik.multistart import frame_starts
+    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.starts.multistart import frame_starts
     from kinserve.ik.solve import prepare
 
     rng = np.random.default_rng(4)
@@ -289,8 +289,8 @@ def test_base_overlap_is_caught_for_a_moved_obstacle_of_a_known_layout(panda):
 def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
     """``max_starts=1``: one unconstrained run, then the constrained solve; without it, one unconstrained solve whose
     starts are capped at 1 + UNCONSTRAINED_ATTEMPTS, a run that meets the block followed by the next start."""
-    from kinserve.ik import collision_solve
-    from kinserve.ik import lm_solver
+    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.lm import solver as lm_solver
 
     runs = []
     real = lm_solver.solve_lm
@@ -324,7 +324,7 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
 def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     """The checked LM's admission: a start the sphere pre-check certifies runs; the first UNCERTIFIED_SKIPS
     uncertified ones are refused without coal, later ones (and the caller's q0 with prefer_q0) go to coal."""
-    from kinserve.ik import collision_solve
+    from kinserve.ik.collision import solve as collision_solve
     from kinserve.kinematics.collision_spheres import certify
 
     wall = ik.Box(_pose((0.45, 0.0, 0.5)), (0.05, 1.0, 1.0))
@@ -359,7 +359,7 @@ def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
     """A new pose of known obstacle shapes binds by moving a constraint of the same layout (no scene caches);
     its checks, distances and damper rows equal those of a constraint bound from nothing for the same
     obstacles, and ik.solve takes that path for the second scene."""
-    from kinserve.ik import collision_solve
+    from kinserve.ik.collision import solve as collision_solve
 
     rng = np.random.default_rng(12)
     first = [*SCENE, ik.Box(_pose((0.5, 0.3, 0.6)), (0.1, 0.1, 0.1))]
@@ -390,8 +390,8 @@ def test_table_starts_are_certified_once_a_scene_keeps_serving(panda):
     """After TABLE_CERTIFY_AFTER solves on the same obstacles the seed table's samples are certified in one
     call: the set holds exactly the samples the pre-check certifies (coal finds them free), admission takes
     them without a check, and a moved copy of the constraint starts without the set."""
-    from kinserve.ik import collision_solve
-    from kinserve.ik.seeds import seed_table
+    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.starts.seed_table import seed_table
     from kinserve.kinematics.collision_spheres import certify
 
     frame = "panda_link8"

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik.multistart import frame_starts
+from kinserve.ik.starts.multistart import frame_starts
 from kinserve.ik.result import History
-from kinserve.ik.seeds import seed_table, start_sequence
+from kinserve.ik.starts.seed_table import seed_table, start_sequence
 from kinserve.kinematics import errors
 from kinserve.kinematics.validation import ROTATION_TOL, as_pose, as_vector, is_pose_fast
 
@@ -127,7 +127,7 @@ def test_equal_obstacles_built_anew_share_one_scene(panda):
 def test_every_iterate_is_still_checked(panda, monkeypatch):
     """The cheap path checks the answer and every other iterate of the returned run (the sphere pre-check or
     coal: whatever the scene's checks decide; the start by the admission before its run), the answer once."""
-    from kinserve.ik import collision_solve
+    from kinserve.ik.collision import solve as collision_solve
     from kinserve.kinematics import collision_scene
 
     checked = []
@@ -191,7 +191,7 @@ def test_collision_options_are_remembered_by_the_shapes_identities(panda):
     """The same shape objects give the same validated options (one lookup); other objects - equal or not - are
     validated anew, and so is anything that is not a list or tuple of shapes (a dict can change between calls:
     a bad size raises every time)."""
-    from kinserve.ik.collision_solve import _request_constraint, collision_options
+    from kinserve.ik.collision.solve import _request_constraint, collision_options
 
     T = np.eye(4)
     T[:3, 3] = (0.65, 0.0, -0.05)

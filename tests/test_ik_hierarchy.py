@@ -1,11 +1,11 @@
-"""kinserve.ik.hierarchy: strict priorities never degrade a higher level; weights inside a level."""
+"""kinserve.ik.qp.hierarchy: strict priorities never degrade a higher level; weights inside a level."""
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik.hierarchy import hierarchical_step, stack_level
+from kinserve.ik.qp.hierarchy import hierarchical_step, stack_level
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +88,7 @@ def test_three_levels_in_a_full_solve(panda):
 def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda, monkeypatch):
     """6-D frame task on 7 joints: the posture level has one free direction; its closed form (line_qp)
     agrees with the QP solver (shortcut=False) and keeps every bound and row."""
-    from kinserve.ik import hierarchy
+    from kinserve.ik.qp import hierarchy as hierarchy
 
     monkeypatch.setattr(hierarchy, "LINE_LEVEL", True)
     rng = np.random.default_rng(4)
@@ -116,7 +116,7 @@ def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda, 
 
 
 def test_line_qp_matches_brute_force():
-    from kinserve.ik.hierarchy import line_qp
+    from kinserve.ik.qp.hierarchy import line_qp
 
     rng = np.random.default_rng(5)
     grid = np.linspace(-3, 3, 60001)
@@ -138,7 +138,7 @@ def test_line_qp_matches_brute_force():
 def test_line_qp_ignores_round_off_rows_at_their_bounds():
     """A joint at its bound (by round-off just past it) with a 1e-17 component along the line must not freeze
     the line (the S9 relax-z regression: centring stopped 5 cm short of the sphere)."""
-    from kinserve.ik.hierarchy import line_qp
+    from kinserve.ik.qp.hierarchy import line_qp
 
     # row 0: the line barely touches it and it sits 1e-16 past its lower bound; row 1: the joint that moves
     z = line_qp(1.0, -0.3, [1e-17, 1.0], [-1.0 - 4.5e-16, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
@@ -151,7 +151,7 @@ def test_line_qp_ignores_round_off_rows_at_their_bounds():
 def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
     """_line_level reads the box first and skips the rows once the line is blocked: the same bytes as
     line_qp over every row, for steps inside the box, at vertices of the box and on its faces."""
-    from kinserve.ik.hierarchy import _line_level, line_qp
+    from kinserve.ik.qp.hierarchy import _line_level, line_qp
 
     rng = np.random.default_rng(6)
     blocked = 0

@@ -14,7 +14,8 @@ import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik import lm_kernel, lm_solver
+from kinserve.ik.lm import kernel as lm_kernel
+from kinserve.ik.lm import solver as lm_solver
 from kinserve.ik.targets import Target
 from kinserve.kinematics import Robot, se3
 from kinserve.kinematics.serial_chain import PRISMATIC, REVOLUTE, serial_chain

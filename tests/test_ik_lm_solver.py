@@ -1,10 +1,10 @@
-"""kinserve.ik.lm_solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic."""
+"""kinserve.ik.lm.solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic."""
 
 import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.ik.lm_solver import _bounded_step, solve_lm
+from kinserve.ik.lm.solver import _bounded_step, solve_lm
 from kinserve.ik.targets import Target
 from kinserve.kinematics import se3
 
@@ -115,7 +115,7 @@ def test_one_joint_at_bound_equals_the_masked_re_solve():
     """The Cholesky shortcut for one joint out of range gives the masked active-set step (same math, other route)."""
     from scipy.linalg import get_lapack_funcs
 
-    from kinserve.ik.lm_solver import _limited_step, _one_joint_at_bound
+    from kinserve.ik.lm.solver import _limited_step, _one_joint_at_bound
 
     posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
     rng = np.random.default_rng(11)
@@ -144,7 +144,7 @@ def test_near_bound_of_the_cheap_success_test():
     """|t| <= |v| <= (pi/2)|t| for e = [v; w] = log6(M), t = M.translation: E < NEAR tp^2 + tr^2 never misses success."""
     import pinocchio as pin
 
-    from kinserve.ik.lm_solver import NEAR
+    from kinserve.ik.lm.solver import NEAR
 
     rng = np.random.default_rng(2)
     worst = 0.0
@@ -164,7 +164,7 @@ def test_accept_rejects_converged_runs_and_tries_the_next_start():
     """``solve_lm(accept=...)``: the test sees each converged run (start first, answer last); a rejected run is
     followed by the next start; when every converged run is rejected the result says so and fails."""
     from kinserve import robots
-    from kinserve.ik.lm_solver import solve_lm
+    from kinserve.ik.lm.solver import solve_lm
     from kinserve.ik.targets import Target
 
     robot = robots.load("panda", geometry=False)
@@ -190,7 +190,7 @@ def test_accept_rejects_converged_runs_and_tries_the_next_start():
 def test_admit_skips_starts_without_running_them():
     """``solve_lm(admit=...)``: refused starts cost no run and no start; all refused: a failed result, not a crash."""
     from kinserve import robots
-    from kinserve.ik.lm_solver import ADMIT_MISSES, solve_lm
+    from kinserve.ik.lm.solver import ADMIT_MISSES, solve_lm
     from kinserve.ik.targets import Target
 
     robot = robots.load("panda", geometry=False)

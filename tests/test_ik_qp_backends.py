@@ -1,13 +1,13 @@
 """Every QP backend a user can name (``ik.solve(..., backend=...)``) solves the IK's QPs
-(:func:`kinserve.ik.dense_qp.solve_dense`) like an independent reference solver, with and without rows,
+(:func:`kinserve.ik.qp.dense_qp.solve_dense`) like an independent reference solver, with and without rows,
 with the shortcuts on and off; infeasible problems give None; unknown names are refused."""
 
 import numpy as np
 import pytest
 import qpsolvers
 
-from kinserve.ik.dense_qp import solve_dense
-from kinserve.ik.qp_backends import available_backends
+from kinserve.ik.qp.dense_qp import solve_dense
+from kinserve.ik.qp.backends import available_backends
 from kinserve.kinematics.errors import InputError
 
 

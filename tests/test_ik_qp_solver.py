@@ -1,4 +1,4 @@
-"""kinserve.ik.qp_solver: convergence on random targets for every backend; S9 relaxed tasks with centring and the sphere."""
+"""kinserve.ik.qp.target_solver: convergence on random targets for every backend; S9 relaxed tasks with centring and the sphere."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ import pytest
 from kinserve import ik
 from kinserve import robots
 from kinserve.ik.constraints import ObstacleAvoidance
-from kinserve.ik.qp_solver import solve_qp
+from kinserve.ik.qp.target_solver import solve_qp
 from kinserve.ik.targets import Target
 from kinserve.kinematics import se3
 from segment_clearance import sampled_clearance
@@ -135,7 +135,7 @@ def test_shortcut_is_exact():
 def test_box_active_set_matches_a_qp_solver():
     import qpsolvers
 
-    from kinserve.ik.qp_solver import box_active_set
+    from kinserve.ik.qp.target_solver import box_active_set
 
     rng = np.random.default_rng(0)
     exact = 0

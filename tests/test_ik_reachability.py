@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.ik.reachability import reachability_map, workspace_box
+from kinserve.ik.batch.reachability import reachability_map, workspace_box
 from kinserve.kinematics import InputError, RotationError
 
 

@@ -1,11 +1,11 @@
-"""kinserve.ik.seeds: the table ranks samples by the stated pose distance; start sequences are deterministic."""
+"""kinserve.ik.starts.seed_table: the table ranks samples by the stated pose distance; start sequences are deterministic."""
 
 import itertools
 
 import numpy as np
 
 from kinserve import robots
-from kinserve.ik.seeds import SeedTable, seed_table, start_sequence
+from kinserve.ik.starts.seed_table import SeedTable, seed_table, start_sequence
 
 
 def test_ranking_matches_brute_force_pose_distance():
@@ -66,7 +66,7 @@ def test_per_model_cache_is_by_identity_and_forgets_freed_models():
 
     import pinocchio as pin
 
-    from kinserve.ik.seeds import PerModel
+    from kinserve.ik.starts.seed_table import PerModel
 
     cache = PerModel()
     a = pin.buildSampleModelManipulator()

@@ -75,7 +75,7 @@ def test_posture_centring_and_user_com_jacobians(panda):
             e, J = _e(panda, task, q)
             assert np.allclose(J, _fd_jacobian(panda, task, q), atol=1e-6)
     # the centring task is today's objective: 1/2 |e|^2 = h(q)
-    from kinserve.ik.centring import centring_objective, centring_weights
+    from kinserve.ik.tasks.centring_weights import centring_objective, centring_weights
 
     w = [1, 2, 0, 1, 1, 3, 1]
     e, _ = _e(panda, ik.CentringTask(w).bind(panda), q)

@@ -1,10 +1,7 @@
-"""Typed public signatures: every public function and method of robots, kinematics and planners, and
-of the ik modules in :data:`TYPED_IK`, annotates its parameters and its return type; py.typed ships
-(see the wheel test).
+"""Typed public signatures: every public function and method of robots, kinematics, planners and ik
+annotates its parameters and its return type; py.typed ships (see the wheel test).
 
 Public: names not starting with ``_`` (plus ``__init__`` and ``__call__``), in public classes.
-ik is being reshaped (tasks, constraints, solvers, batch); its modules join :data:`TYPED_IK` once
-annotated, and the list may only grow.
 """
 
 from __future__ import annotations
@@ -16,20 +13,6 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("robots", "kinematics", "planners", "ik")  # every public signature of these is annotated
-TYPED_IK = ("ik/analytic/planar.py", "ik/chooser.py", "ik/reachability.py", "ik/result.py", "ik/targets.py",
-            # the IK model (issue 10)
-            "ik/tasks/__init__.py", "ik/tasks/base.py", "ik/tasks/frame_task.py", "ik/tasks/posture_task.py",
-            "ik/tasks/centring_task.py", "ik/constraints/__init__.py", "ik/constraints/base.py",
-            "ik/constraints/joint_limits.py", "ik/constraints/velocity_limits.py", "ik/constraints/obstacles.py",
-            "ik/constraints/link_capsules.py", "ik/constraints/segment_distance.py", "ik/problem.py", "ik/hierarchy.py",
-            "ik/dense_qp.py", "ik/task_solver.py", "ik/multistart.py", "ik/step.py", "ik/qp_solver.py",
-            # collision (issue 11)
-            "ik/constraints/collision.py", "ik/collision_solve.py",
-            # the front door, solvers, seeds and batch solving
-            "ik/solve.py", "ik/centring.py", "ik/seeds.py", "ik/analytic/__init__.py", "ik/analytic/youbot.py",
-            "ik/batch.py", "ik/batch_lm.py", "ik/ray_backend.py", "ik/qp_backends.py", "ik/lm_solver.py",
-            "ik/classical.py", "ik/batch_worker.py", "ik/batch_pool.py", "ik/batch_runners.py",
-            "ik/__init__.py", "ik/options.py")
 
 
 def unannotated(path: Path) -> list[str]:
@@ -71,6 +54,6 @@ def test_the_checker_sees_missing_annotations(tmp_path):
     assert unannotated(f) == ["f: a", "C.g: return", "k: args, kw", "D.__init__: n"]
 
 
-@pytest.mark.parametrize("module", [*modules(), *TYPED_IK])
+@pytest.mark.parametrize("module", modules())
 def test_public_signatures_are_annotated(module):
     assert unannotated(ROOT / module) == []

@@ -15,12 +15,12 @@
 
 from kinserve.kinematics.shapes import Sphere, as_sphere
 
-from .base import DAMPER_GAIN, Constraint
-from .collision import CollisionConstraint, SceneCollision, SelfCollision
-from .joint_limits import JointLimits
-from .obstacles import ObstacleAvoidance, as_obstacle
-from .link_segments import LinkSegment, frame_points, robot_segments
-from .velocity_limits import VelocityLimits
+from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
+from kinserve.ik.constraints.collision import CollisionConstraint, SceneCollision, SelfCollision
+from kinserve.ik.constraints.joint_limits import JointLimits
+from kinserve.ik.constraints.obstacles import ObstacleAvoidance, as_obstacle
+from kinserve.ik.constraints.link_segments import LinkSegment, frame_points, robot_segments
+from kinserve.ik.constraints.velocity_limits import VelocityLimits
 
 __all__ = ["Constraint", "DAMPER_GAIN", "JointLimits", "VelocityLimits", "ObstacleAvoidance", "as_obstacle",
            "SelfCollision", "SceneCollision", "CollisionConstraint",

@@ -48,7 +48,7 @@ from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
 
-from .base import DAMPER_GAIN, Constraint
+from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
 
 #: Pairs closer than ``margin + INFLUENCE`` (m) contribute rows.
 INFLUENCE = 0.05

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from typing import TYPE_CHECKING
 
-from .base import Constraint
+from kinserve.ik.constraints.base import Constraint
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin

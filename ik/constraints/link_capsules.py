@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 
 from kinserve.kinematics.serial_chain import kinematic_tree
 
-from .link_segments import frame_points, robot_segments
+from kinserve.ik.constraints.link_segments import frame_points, robot_segments
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot

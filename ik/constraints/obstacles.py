@@ -55,10 +55,10 @@ import numpy as np
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
 
-from .. import numpy_fast
-from .base import DAMPER_GAIN, Constraint
-from .link_capsules import LinkSkeleton, skeleton_segments
-from .segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
+from kinserve.ik import numpy_fast
+from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
+from kinserve.ik.constraints.link_capsules import LinkSkeleton, skeleton_segments
+from kinserve.ik.constraints.segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
 
 #: Pairs whose clearance is below this (m) contribute rows to the QP.
 INFLUENCE = 0.3
@@ -134,7 +134,7 @@ def _clearance_kernel():
     """:mod:`.clearance_kernel`, imported on first use (it imports Numba and loads its compiled code)."""
     global _kernel_module
     if _kernel_module is None:
-        from . import clearance_kernel
+        from kinserve.ik.constraints import clearance_kernel
 
         _kernel_module = clearance_kernel
     return _kernel_module

@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from .. import numpy_fast
+from kinserve.ik import numpy_fast
 
 _EPS = 1e-18
 _c_einsum = numpy_fast.einsum

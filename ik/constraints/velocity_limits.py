@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
-from .base import Constraint
+from kinserve.ik.constraints.base import Constraint
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin

@@ -6,9 +6,9 @@
 * :mod:`.centring_task` - :class:`CentringTask` (joints towards mid-range).
 """
 
-from .base import Task, check_priority, check_weight
-from .centring_task import CentringTask
-from .frame_task import FrameTask
-from .posture_task import PostureTask
+from kinserve.ik.tasks.base import Task, check_priority, check_weight
+from kinserve.ik.tasks.centring_task import CentringTask
+from kinserve.ik.tasks.frame_task import FrameTask
+from kinserve.ik.tasks.posture_task import PostureTask
 
 __all__ = ["Task", "FrameTask", "PostureTask", "CentringTask", "check_priority", "check_weight"]

@@ -11,7 +11,7 @@ The differential IK step of one priority level minimises the weighted sum
     1/2 sum_tasks | sqrt(W) (e + J dq) |^2          (W = diag(weight))
 
 over the joint steps ``dq`` the higher levels leave free (strict priority,
-see :mod:`kinserve.ik.hierarchy`), subject to every hard constraint.
+see :mod:`kinserve.ik.qp.hierarchy`), subject to every hard constraint.
 
 Attributes every task has
 -------------------------

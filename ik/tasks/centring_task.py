@@ -6,7 +6,7 @@ With ``m = (lower + upper) / 2``, ``r = upper - lower`` and per-joint weights
 
     e_i = sqrt(w_i) (q_i - m_i) / r_i,      J = diag(sqrt(w_i) / r_i)
 
-(:mod:`kinserve.ik.centring`). An objective at priority 2 by default: only
+(:mod:`kinserve.ik.tasks.centring_weights`). An objective at priority 2 by default: only
 the relative weights matter under strict priority.
 """
 
@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError
 
-from ..centring import centring_weights
-from .base import Task
+from kinserve.ik.tasks.centring_weights import centring_weights
+from kinserve.ik.tasks.base import Task
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin

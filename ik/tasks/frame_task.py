@@ -30,8 +30,8 @@ import pinocchio as pin
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import TASK_AXES, Robot
 
-from ..targets import RELAX_FRAMES, Target, _checked_pose, parse_relax
-from .base import Task
+from kinserve.ik.targets import RELAX_FRAMES, Target, _checked_pose, parse_relax
+from kinserve.ik.tasks.base import Task
 
 _LWA = pin.LOCAL_WORLD_ALIGNED
 _log3 = pin.log3

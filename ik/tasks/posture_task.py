@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from kinserve.kinematics.validation import as_vector
 
-from .base import Task
+from kinserve.ik.tasks.base import Task
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin

@@ -13,7 +13,7 @@ tolerance:
 * ``"dls"``:                ``dq = K J^T (J J^T + lambda^2 I)^-1 e``   (damped least squares, damping ``lambda``)
 
 ``K`` is the ``gain`` (default 1). For ``pseudo_inverse`` and ``dls`` a
-``centring`` weight adds the null-space term of :mod:`ik.centring`
+``centring`` weight adds the null-space term of :mod:`ik.tasks.centring_weights`
 (``dq += Z z``, in the null space of ``J``), which is how seed 004 keeps
 ``theta4`` (relax phi) or ``d3`` (relax z) mid-range. The secondary step
 asks for ``CENTRING_GAIN * (mid - q)`` per iteration and its joint motion is
@@ -41,13 +41,13 @@ import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
 
-from .centring import null_space_basis, null_space_correction
-from .result import History, Result
+from kinserve.ik.tasks.centring_weights import null_space_basis, null_space_correction
+from kinserve.ik.result import History, Result
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
-    from .targets import Target
+    from kinserve.ik.targets import Target
 
 METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
 

@@ -3,11 +3,11 @@
 Each backend is one function ``runner(job, chunks, processes, on_done, limits)``
 in :data:`BACKENDS`; ``chunks`` are ``(start, stop)`` index pairs into
 ``job.poses``, ``on_done`` takes the compact result of one chunk
-(:func:`ik.batch_worker.solve_chunk`), ``limits`` is a :class:`TimeLimits`.
+(:func:`ik.batch.worker.solve_chunk`), ``limits`` is a :class:`TimeLimits`.
 
-* ``"processes"``: the persistent local pool of :mod:`ik.batch_pool`;
+* ``"processes"``: the persistent local pool of :mod:`ik.batch.pool`;
 * ``"serial"``: this process, chunk after chunk;
-* ``"ray"``: Ray actors (:mod:`ik.ray_backend`, ``ray_address=`` joins a cluster).
+* ``"ray"``: Ray actors (:mod:`ik.batch.ray_backend`, ``ray_address=`` joins a cluster).
 
 Time limits
 -----------
@@ -37,7 +37,7 @@ Four causes, measured on the shared 2-core machine:
    1 process 7.2k, 2 processes 5.2k targets/s; with one BLAS thread per
    process 10-13k and 20k (same run, load 3.4). Workers now make their
    BLAS and OpenMP single-threaded (``threadpoolctl``,
-   :func:`ik.batch_worker.limit_blas_threads`); the caller's process is
+   :func:`ik.batch.worker.limit_blas_threads`); the caller's process is
    left as the user configured it.
 2. **The parent's serial work.** Validating every target with a
    ``Target`` object (about 8 us each) and building one ``Result`` per
@@ -47,7 +47,7 @@ Four causes, measured on the shared 2-core machine:
 3. **A round trip per chunk.** A worker that finished a chunk waited for the
    parent to wake up, read the result and send the next chunk - twice a
    scheduling latency, tens of milliseconds on a loaded machine. Each
-   worker now holds its next chunk already (:data:`ik.batch_pool.PREFETCH`).
+   worker now holds its next chunk already (:data:`ik.batch.pool.PREFETCH`).
 4. **The machine itself.** The kernel groups the processes of a session
    (``/proc/sys/kernel/sched_autogroup_enabled`` = 1 here) and shares the
    CPU fairly between sessions: while other sessions keep both cores busy,
@@ -72,9 +72,9 @@ from dataclasses import dataclass
 
 from kinserve.kinematics.errors import WorkerTimeoutError
 
-from .batch_pool import acquire_pool, current_pool
-from .batch_worker import Job, solve_chunk, write_job
-from .ray_backend import run_ray_chunks
+from kinserve.ik.batch.pool import acquire_pool, current_pool
+from kinserve.ik.batch.worker import Job, solve_chunk, write_job
+from kinserve.ik.batch.ray_backend import run_ray_chunks
 
 #: Time budget (s) of one solve per method when ``max_time`` is not given (the solvers' defaults).
 DEFAULT_BUDGET = {"lm": 0.1, "qp": 0.5, "auto": 0.5, "analytic": 0.1}
@@ -119,7 +119,7 @@ def run_serial(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_d
 
 def run_processes(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
                   limits: TimeLimits) -> None:
-    """Solve the chunks on the persistent local pool (:mod:`ik.batch_pool`)."""
+    """Solve the chunks on the persistent local pool (:mod:`ik.batch.pool`)."""
     path = write_job(job)
     pool = None
     try:
@@ -139,7 +139,7 @@ def run_processes(job: Job, chunks: Sequence[tuple[int, int]], processes: int, o
 
 def run_ray(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
             limits: TimeLimits) -> None:
-    """Solve the chunks on Ray actors (:mod:`ik.ray_backend`)."""
+    """Solve the chunks on Ray actors (:mod:`ik.batch.ray_backend`)."""
     common = {"frame": job.frame, "kwargs": job.kwargs}
     ray_chunks = [(start, *job.chunk(start, stop)) for start, stop in chunks]
     run_ray_chunks(job.robot, ray_chunks, common, job.options, job.keep_history, processes, on_done,

@@ -1,6 +1,6 @@
 """The start configurations of one solve, for any set of goal tasks (the one multistart order).
 
-* One frame task (the common case): :func:`ik.seeds.start_sequence` - ``q0``
+* One frame task (the common case): :func:`ik.starts.seed_table.start_sequence` - ``q0``
   and the nearest samples of the frame's seed table by pose distance, then
   full-range samples, then seeded random configurations.
 * Several frame tasks (two hands): the tables of the frames share their
@@ -19,14 +19,14 @@ import numpy as np
 import pinocchio as pin
 from typing import TYPE_CHECKING
 
-from .seeds import seed_table, start_sequence
+from kinserve.ik.starts.seed_table import seed_table, start_sequence
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
 
 def _frame_tasks(goals):
-    from .tasks.frame_task import FrameTask
+    from kinserve.ik.tasks.frame_task import FrameTask
 
     return [t for t in goals if isinstance(t, FrameTask)]
 

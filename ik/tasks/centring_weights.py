@@ -20,7 +20,7 @@ primary task leaves, so it never degrades the task:
   where ``m - q`` is the Newton step of ``h`` (its Hessian is ``W``, so the
   unconstrained step is simply ``m - q`` on every weighted joint). For equal
   weights this is the classical ``dq = J^+ e + (I - J^+ J)(m - q)``.
-* Second QP level (QP method, :mod:`ik.hierarchy`): with the primary step ``dq1`` and an
+* Second QP level (QP method, :mod:`ik.qp.hierarchy`): with the primary step ``dq1`` and an
   orthonormal basis ``Z`` of the null space of ``J`` (the right singular
   vectors of its zero singular values), solve for ``z``
 

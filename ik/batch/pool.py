@@ -8,7 +8,7 @@ tell; that is what the time limits need:
 
 * **chunk limit**: a worker that has not finished its chunk within the limit
   the runner gives for that chunk (derived from the per-target time budget,
-  see :mod:`ik.batch_runners`) is *stalled*;
+  see :mod:`ik.batch.runners`) is *stalled*;
 * **stopped worker**: a worker seen in the stopped state (``SIGSTOP``,
   ``/proc/<pid>/stat`` state ``T``) for :data:`STOPPED_GRACE` seconds is
   stalled too, without waiting for the chunk limit;
@@ -23,14 +23,14 @@ chunk that kills two workers raises :class:`WorkerError`.
 Messages on the pipes are a few dozen bytes (below ``PIPE_BUF``, written
 atomically), so the parent never blocks on a worker stopped in the middle of
 a message; the bulk data travels through files in ``/dev/shm``: the job
-(written once per call, see :func:`ik.batch_worker.write_job`) and one result
+(written once per call, see :func:`ik.batch.worker.write_job`) and one result
 file per chunk.
 
 Every worker makes its BLAS single-threaded first
-(:func:`ik.batch_worker.limit_blas_threads`): with the default of one
+(:func:`ik.batch.worker.limit_blas_threads`): with the default of one
 OpenBLAS thread per core, two workers on two cores ran four BLAS threads
 that spin while they wait for work, and two processes were *slower* than one
-(see :mod:`ik.batch_runners`).
+(see :mod:`ik.batch.runners`).
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ from multiprocessing.connection import wait
 
 from kinserve.kinematics.errors import WorkerError, WorkerTimeoutError
 
-from .batch_worker import limit_blas_threads, worker_chunk
+from kinserve.ik.batch.worker import limit_blas_threads, worker_chunk
 
 #: Seconds a worker may stay in the stopped state before it counts as stalled.
 STOPPED_GRACE = 2.0

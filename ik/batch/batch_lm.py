@@ -4,7 +4,7 @@
 ``"auto"`` on a robot without a finite closed form; no relaxation, spheres
 or centring): instead of one Python loop per target, every iteration
 advances *all* unfinished targets with NumPy operations on stacked arrays.
-The mathematics is the method of :mod:`ik.lm_solver`, written for stacks:
+The mathematics is the method of :mod:`ik.lm.solver`, written for stacks:
 
 * kinematics of the chain for ``N`` configurations (:class:`BatchChain`):
   joint frames by the product of the fixed placements and the joint motions
@@ -20,10 +20,10 @@ The mathematics is the method of :mod:`ik.lm_solver`, written for stacks:
   ``|log6|^2``, so single iterates differ slightly while the rule is the
   same), the same active-set handling of the joint limits, the same stall rule and
   restart order (table samples and ``q0`` by pose distance, full-range
-  samples, then seeded random configurations, see :mod:`ik.seeds`).
+  samples, then seeded random configurations, see :mod:`ik.starts.seed_table`).
 
 Targets that are still unsolved when only a few remain are finished by the
-scalar :func:`ik.lm_solver.solve_lm` (a stacked iteration has a fixed cost
+scalar :func:`ik.lm.solver.solve_lm` (a stacked iteration has a fixed cost
 that only pays off on many rows). The answers are valid solutions within
 the same tolerances, but - the restarts being interleaved differently - not
 necessarily the very configurations ``ik.solve`` returns one by one.
@@ -40,8 +40,8 @@ import pinocchio as pin
 
 from kinserve.kinematics.serial_chain import joint_axis, joint_chain
 
-from .lm_solver import DAMPING, DAMPING_GAIN, MAX_ITER, STALL_PATIENCE, STALL_RATIO, solve_lm
-from .seeds import seed_table
+from kinserve.ik.lm.solver import DAMPING, DAMPING_GAIN, MAX_ITER, STALL_PATIENCE, STALL_RATIO, solve_lm
+from kinserve.ik.starts.seed_table import seed_table
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -129,7 +129,7 @@ def log3_batch(R: np.ndarray) -> np.ndarray:
 
 
 class _Starts:
-    """The restart order of :func:`ik.seeds.start_sequence` for every target, computed lazily.
+    """The restart order of :func:`ik.starts.seed_table.start_sequence` for every target, computed lazily.
 
     The first start of every target costs one matrix product and an
     ``argmin`` over the table; the full ordered list (8 nearest interior
@@ -294,7 +294,7 @@ def solve_batch(robot: Robot, frame: str, targets: np.ndarray, q0s: np.ndarray |
         rows = rows[keep]
 
     # the last few rows: the scalar solver (same method) with what is left of their starts
-    from .targets import Target
+    from kinserve.ik.targets import Target
 
     for j, i in enumerate(rows):
         res = solve_lm(robot, Target(robot, targets[i], frame), Q[j], tol_pos=tol_pos, tol_rot=tol_rot,
@@ -318,7 +318,7 @@ def solve_batch(robot: Robot, frame: str, targets: np.ndarray, q0s: np.ndarray |
 
 
 def _bounded_steps(J, e, lam, Q, lo, hi, eye):
-    """Stacked version of :func:`ik.lm_solver._bounded_step` (same active-set rule for the limits)."""
+    """Stacked version of :func:`ik.lm.solver._bounded_step` (same active-set rule for the limits)."""
     JT = J.transpose(0, 2, 1)
     A = JT @ J + lam[:, None, None] * eye
     dq = np.linalg.solve(A, (JT @ e[:, :, None]))[:, :, 0]

@@ -3,7 +3,7 @@
 Each iteration at ``q``:
 
 1. :meth:`Problem.evaluate` - every task's error and Jacobian, per level.
-2. The step of :func:`ik.hierarchy.hierarchical_step`. **Lazy rows**: the
+2. The step of :func:`ik.qp.hierarchy.hierarchical_step`. **Lazy rows**: the
    constraints with a true check (obstacles) are first left out; the trial
    iterate ``q + dq`` is checked, and if every margin still holds
    ``m(q + dq) >= (1 - xi) m(q)`` (what the velocity damper would have asked
@@ -21,7 +21,7 @@ Each iteration at ``q``:
 
 Stopping: goals within tolerance (and, with objectives, the step below
 :data:`STEP_TOL`); otherwise a stall or the iteration cap ends the start and
-the next start of :func:`ik.multistart.starts` begins, until ``max_time``.
+the next start of :func:`ik.starts.multistart.starts` begins, until ``max_time``.
 Starts whose margin is negative (in collision) are skipped; a ``q0`` in
 collision is not an error - the message says the solve began elsewhere.
 
@@ -39,12 +39,12 @@ import time
 
 import numpy as np
 
-from . import numpy_fast
-from .dense_qp import DEFAULT_BACKEND, backend_calls
-from .hierarchy import hierarchical_step
-from .multistart import starts
-from .problem import Problem
-from .result import History, Result
+from kinserve.ik import numpy_fast
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, backend_calls
+from kinserve.ik.qp.hierarchy import hierarchical_step
+from kinserve.ik.starts.multistart import starts
+from kinserve.ik.problem import Problem
+from kinserve.ik.result import History, Result
 
 #: Floor of the first level's Levenberg-Marquardt damping.
 DAMPING = 1e-5
@@ -219,7 +219,7 @@ def solve_problem(
     components: tuple | None = None,
     defer_starts: int = 0,
 ) -> Result:
-    """Solve a bound :class:`Problem` from the starts of :func:`ik.multistart.starts` (module docstring).
+    """Solve a bound :class:`Problem` from the starts of :func:`ik.starts.multistart.starts` (module docstring).
 
     ``evaluate``/``components`` define :attr:`History.task_error` (default:
     the goal tasks' errors, sign ``desired - current``). ``defer_starts``: the first

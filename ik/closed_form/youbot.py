@@ -49,7 +49,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .planar import two_link, wrap_into
+from kinserve.ik.closed_form.planar import two_link, wrap_into
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot

@@ -19,15 +19,15 @@ from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
-from ..result import History, Result
-from ..seeds import PerModel
-from .planar import PlanarChain, two_link, wrap_into
-from .youbot import YOUBOT_DH, YouBotArm
+from kinserve.ik.result import History, Result
+from kinserve.ik.starts.seed_table import PerModel
+from kinserve.ik.closed_form.planar import PlanarChain, two_link, wrap_into
+from kinserve.ik.closed_form.youbot import YOUBOT_DH, YouBotArm
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
-    from ..targets import Target
+    from kinserve.ik.targets import Target
 
 #: A closed-form solver: one of :data:`_SOLVERS`.
 ClosedFormSolver = Union[PlanarChain, YouBotArm]

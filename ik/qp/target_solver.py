@@ -3,9 +3,9 @@
 Kept as the entry point of the single-target QP method: :func:`solve_qp`
 builds an :class:`ik.FrameTask`, an :class:`ik.CentringTask` at priority 2
 (when ``weights`` are given) and the obstacle constraint, and runs
-:func:`ik.task_solver.solve_problem` - the iteration, step back-off,
+:func:`ik.qp.task_solver.solve_problem` - the iteration, step back-off,
 restarts and determinism are documented there; the per-step QP is
-:mod:`ik.hierarchy` / :mod:`ik.dense_qp`.
+:mod:`ik.qp.hierarchy` / :mod:`ik.qp.dense_qp`.
 """
 
 from __future__ import annotations
@@ -13,17 +13,17 @@ from __future__ import annotations
 import numpy as np
 from typing import TYPE_CHECKING, Any
 
-from .dense_qp import DEFAULT_BACKEND, box_active_set
-from .problem import Problem
-from .result import Result, task_evaluator
-from .task_solver import DAMPING, MAX_ITER, MAX_STEP, solve_problem
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, box_active_set
+from kinserve.ik.problem import Problem
+from kinserve.ik.result import Result, task_evaluator
+from kinserve.ik.qp.task_solver import DAMPING, MAX_ITER, MAX_STEP, solve_problem
 
 __all__ = ["solve_qp", "box_active_set"]
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
-    from .targets import Target
+    from kinserve.ik.targets import Target
 
 
 def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, spheres: Any = None,
@@ -35,11 +35,11 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
     """QP-based IK of ``target`` with hard joint limits, optional obstacles and centring, and restarts.
 
     ``spheres`` is a constraint (e.g. :class:`~kinserve.ik.constraints.obstacles.ObstacleAvoidance`), a list
-    of constraints or None; ``weights`` the centring weights of :func:`ik.centring.centring_weights` (None = off);
-    ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.task_solver.solve_problem`.
+    of constraints or None; ``weights`` the centring weights of :func:`ik.tasks.centring_weights.centring_weights` (None = off);
+    ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.qp.task_solver.solve_problem`.
     """
-    from .tasks.centring_task import CentringTask
-    from .tasks.frame_task import FrameTask
+    from kinserve.ik.tasks.centring_task import CentringTask
+    from kinserve.ik.tasks.frame_task import FrameTask
 
     tasks = [FrameTask.from_target(target)]
     if weights is not None:

@@ -1,6 +1,6 @@
 """Names of the QP solvers the differential IK can use (``ik.solve(..., backend=...)``).
 
-The QPs themselves are solved by :func:`kinserve.ik.dense_qp.solve_dense`:
+The QPs themselves are solved by :func:`kinserve.ik.qp.dense_qp.solve_dense`:
 DAQP (the default) through its own interface, any other name through
 ``qpsolvers.solve_qp``. Both are called statelessly, so the same problem
 always gives the same answer (issue 10's determinism); a persistent solver

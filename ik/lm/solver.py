@@ -33,7 +33,7 @@ from the recorded poses when first read (:func:`_run_full_pose`).
 Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
 has not fallen below 0.85 of its best value so far for 2 iterations in a
 row - this also catches oscillations) or after ``max_iter`` iterations; the
-next start comes from :func:`ik.multistart.frame_starts` (``q0`` and the
+next start comes from :func:`ik.starts.multistart.frame_starts` (``q0`` and the
 nearest FK samples by pose distance, then seeded random configurations)
 until a start converges or ``max_time`` is spent. When none converges the
 answer is the iterate with the least squared position + orientation error
@@ -58,17 +58,17 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
-from . import numpy_fast
+from kinserve.ik import numpy_fast
 from kinserve.kinematics.serial_chain import serial_chain
 
-from .result import History, Result, task_evaluator
-from .multistart import frame_starts
-from .seeds import PerModel
+from kinserve.ik.result import History, Result, task_evaluator
+from kinserve.ik.starts.multistart import frame_starts
+from kinserve.ik.starts.seed_table import PerModel
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
-    from .targets import Target
+    from kinserve.ik.targets import Target
 
 #: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
 DAMPING = 1e-5
@@ -84,7 +84,7 @@ MAX_ITER = 60
 MAX_TIME = 0.1
 #: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
 NEAR = 2.5
-#: Starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm_kernel`, full pose or
+#: Starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm.kernel`, full pose or
 #: relaxed (False: always Pinocchio's algorithms from Python, e.g. to compare the two).
 COMPILED = True
 #: Consecutive starts ``admit`` may refuse before :func:`solve_lm` gives up (the caller's scene leaves little room).
@@ -312,7 +312,7 @@ def solve_lm(
     start even when a table sample is closer to the target. ``accept``: a test
     of a converged run's configurations (start first, answer last); a run it
     rejects counts as not converged and the next start is tried (e.g. a
-    collision check of every iterate, :mod:`ik.collision_solve`). When no run
+    collision check of every iterate, :mod:`ik.collision.solve`). When no run
     is accepted the answer is the best unconverged run's, or the first rejected
     run's when every run converged. ``admit``: a test of a start before its
     run (e.g. a collision check); a start it refuses is skipped without a run
@@ -429,7 +429,7 @@ def _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping
 
 
 def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
-    """:func:`_python_run` as one call of :func:`ik.lm_kernel.run_start` (full pose or relaxed).
+    """:func:`_python_run` as one call of :func:`ik.lm.kernel.run_start` (full pose or relaxed).
 
     The iterates and their exact squared errors come back as arrays (``qs``
     ``(k, nq)``), the same tuples as :func:`_python_run`'s.
@@ -464,7 +464,7 @@ def compiled_chain(robot: Robot, fid: int) -> tuple | None:
     value = None
     if chain is not None:
         try:
-            from . import lm_kernel
+            from kinserve.ik.lm import kernel as lm_kernel
         except ImportError:  # Numba missing: Pinocchio's algorithms from Python
             pass
         else:
@@ -488,6 +488,6 @@ def _best_run(runs: list, best: tuple | None) -> tuple:
 
 
 def _starts(robot, target, q0, seed, table_enabled, prefer_q0):
-    """The start sequence of :func:`ik.multistart.frame_starts` for ``target``."""
+    """The start sequence of :func:`ik.starts.multistart.frame_starts` for ``target``."""
     return frame_starts(robot, target.frame, target.frame_id, target.T[:3, :3], target.T[:3, 3],
                         len(target.rot_rows) == 3, q0, seed, table_enabled, prefer_q0)

@@ -10,14 +10,14 @@ messages - far cheaper to pickle than one ``Result`` per target.
 Plain pose targets (method ``"lm"``, or ``"auto"`` on a robot without a
 finite closed form; no relaxation, spheres, centring or history) are solved
 a whole chunk at a time by the stacked Levenberg-Marquardt of
-:mod:`ik.batch_lm`; anything else goes target by target through
+:mod:`ik.batch.batch_lm`; anything else goes target by target through
 ``ik.solve``'s own code path (:func:`ik.solve.solve_prepared`).
 
-Worker processes (:mod:`ik.batch_pool`) receive a job once, as a file
+Worker processes (:mod:`ik.batch.pool`) receive a job once, as a file
 written by :func:`write_job` (in ``/dev/shm`` when available), and keep the
 last :data:`WORKER_JOBS` jobs loaded: the robot is rebuilt once per worker
 and job, never per chunk. :func:`limit_blas_threads` runs first in every
-worker (see :mod:`ik.batch_pool` for why).
+worker (see :mod:`ik.batch.pool` for why).
 """
 
 from __future__ import annotations
@@ -31,11 +31,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .analytic import closed_form_solver
-from .batch_lm import BatchChain, solve_batch
-from .seeds import install_table, seed_table
-from .solve import prepare, solve_prepared
-from .targets import Target
+from kinserve.ik.closed_form import closed_form_solver
+from kinserve.ik.batch.batch_lm import BatchChain, solve_batch
+from kinserve.ik.starts.seed_table import install_table, seed_table
+from kinserve.ik.solve import prepare, solve_prepared
+from kinserve.ik.targets import Target
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -80,7 +80,7 @@ class Job:
         return self._prepared
 
     def vectorised(self) -> bool:
-        """Whether the targets go through the stacked LM of :mod:`ik.batch_lm` (module docstring)."""
+        """Whether the targets go through the stacked LM of :mod:`ik.batch.batch_lm` (module docstring)."""
         if self._vectorised is None:
             self._vectorised = _vectorisable(self)
         return self._vectorised

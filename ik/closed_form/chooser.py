@@ -26,8 +26,8 @@ from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.types import VectorLike
 
-from .constraints import robot_segments
-from .result import Result
+from kinserve.ik.constraints import robot_segments
+from kinserve.ik.result import Result
 
 CRITERIA = ("joint_limit_distance", "displacement", "manipulability", "no_self_overlap")
 FILTERS = ("no_self_overlap",)

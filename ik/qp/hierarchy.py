@@ -12,7 +12,7 @@ Level 1 - a Levenberg-Marquardt step with hard inequalities::
 
 Level k > 1 - in the null space of every higher level: with ``Z`` an
 orthonormal basis of the null space of ``[J_1; ...; J_{k-1}]`` (rank-revealing,
-built level by level: :func:`~kinserve.ik.centring.null_space_basis`),
+built level by level: :func:`~kinserve.ik.tasks.centring_weights.null_space_basis`),
 ``dq = dq_{k-1} + Z z`` and::
 
     z = argmin 1/2 |J_k (dq_{k-1} + Z z) + e_k|^2 + 1/2 eps |z|^2
@@ -35,10 +35,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .centring import null_space_basis
+from kinserve.ik.tasks.centring_weights import null_space_basis
 
 _concat = np.concatenate
-from .dense_qp import DEFAULT_BACKEND, solve_dense
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, solve_dense
 
 #: Damping of the lower levels (regularises the null-space coordinates).
 LOWER_DAMPING = 1e-9

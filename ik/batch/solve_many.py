@@ -8,11 +8,11 @@ Design
   (:func:`checked_poses`), the method options directly
   (:func:`ik.options.check_options`, no trial solve).
 * Targets are cut into chunks (:func:`chunk_bounds`) and solved by an
-  execution backend of :mod:`ik.batch_runners`: a persistent pool of worker
-  processes (:mod:`ik.batch_pool`; default), this process (``"serial"``), or
-  Ray actors (:mod:`ik.ray_backend`). The work of a chunk, wherever it runs,
-  is :mod:`ik.batch_worker`: plain pose targets go through the stacked
-  Levenberg-Marquardt of :mod:`ik.batch_lm`, anything else target by target
+  execution backend of :mod:`ik.batch.runners`: a persistent pool of worker
+  processes (:mod:`ik.batch.pool`; default), this process (``"serial"``), or
+  Ray actors (:mod:`ik.batch.ray_backend`). The work of a chunk, wherever it runs,
+  is :mod:`ik.batch.worker`: plain pose targets go through the stacked
+  Levenberg-Marquardt of :mod:`ik.batch.batch_lm`, anything else target by target
   through ``ik.solve``'s own code path. The stacked answers are valid
   solutions within the same tolerances, not necessarily the very
   configurations ``ik.solve`` returns one by one.
@@ -23,7 +23,7 @@ Design
   ``timeout=`` bounds the whole call: a stalled worker (e.g. stopped by
   ``SIGSTOP``) raises :class:`kinserve.kinematics.errors.WorkerTimeoutError`
   naming the worker and its chunk, and the pool is terminated; a killed
-  worker is replaced and its chunk retried once (:mod:`ik.batch_pool`).
+  worker is replaced and its chunk retried once (:mod:`ik.batch.pool`).
 * A ``tqdm`` progress bar (on stderr) follows the completed chunks of long
   batches.
 """
@@ -41,13 +41,13 @@ import pinocchio as pin
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_positive
 
-from .batch_pool import shutdown_pool
-from .batch_runners import BACKENDS, TimeLimits, run_serial
-from .batch_worker import Job
-from .options import check_options
-from .result import Result
-from .solve import prepare
-from .targets import Target
+from kinserve.ik.batch.pool import shutdown_pool
+from kinserve.ik.batch.runners import BACKENDS, TimeLimits, run_serial
+from kinserve.ik.batch.worker import Job
+from kinserve.ik.options import check_options
+from kinserve.ik.result import Result
+from kinserve.ik.solve import prepare
+from kinserve.ik.targets import Target
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -220,14 +220,14 @@ def solve_many(
         Show a tqdm bar (default: for batches of at least 500 targets).
     backend:
         Execution backend, ``"processes"`` (default; a persistent pool, see
-        :mod:`ik.batch_pool`), ``"serial"`` or ``"ray"`` (:mod:`ik.ray_backend`;
+        :mod:`ik.batch.pool`), ``"serial"`` or ``"ray"`` (:mod:`ik.batch.ray_backend`;
         ``ray_address`` joins a running cluster). Not to be confused with
         ``qp_backend``, the QP solver of method ``"qp"`` (``ik.solve``'s ``backend``).
     keep_history:
         Return each ``Result.history`` (costs pickling time); by default ``history`` is None.
     timeout:
         Overall limit in seconds (None: none beyond the per-chunk limits of
-        :mod:`ik.batch_runners`). When it expires, or a worker stalls,
+        :mod:`ik.batch.runners`). When it expires, or a worker stalls,
         :class:`~kinserve.kinematics.errors.WorkerTimeoutError` is raised and
         the workers are terminated.
     The remaining keywords are those of :func:`ik.solve`, shared by every target.
@@ -238,7 +238,7 @@ def solve_many(
     _check_count(chunksize, "chunksize")
     timeout = _check_timeout(timeout)
     if self_collision or collision_margin:  # as ik.solve: the robot's collision geometry keeps clear of everything
-        from .collision_solve import collision_options
+        from kinserve.ik.collision.solve import collision_options
 
         collision = collision_options(self_collision, obstacles, collision_margin, spheres)
         spheres, obstacles = (), ()

@@ -60,17 +60,18 @@ from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ModelError
 from kinserve.kinematics.robot import Robot
 
-from . import analytic, numpy_fast
-from .constraints.collision import CollisionConstraint, _length
-from .lm_solver import ADMIT_MISSES, solve_lm
-from .multistart import frame_starts
-from .options import check_options, solver_keywords
-from .qp_solver import solve_qp
-from .seeds import seed_table, start_sequence
-from .result import History, Result
+from kinserve.ik import closed_form as analytic
+from kinserve.ik import numpy_fast
+from kinserve.ik.constraints.collision import CollisionConstraint, _length
+from kinserve.ik.lm.solver import ADMIT_MISSES, solve_lm
+from kinserve.ik.starts.multistart import frame_starts
+from kinserve.ik.options import check_options, solver_keywords
+from kinserve.ik.qp.target_solver import solve_qp
+from kinserve.ik.starts.seed_table import seed_table, start_sequence
+from kinserve.ik.result import History, Result
 
 if TYPE_CHECKING:  # annotations only
-    from .targets import Target
+    from kinserve.ik.targets import Target
 
 _clip = numpy_fast.clip
 _now = time.perf_counter
@@ -250,7 +251,7 @@ TABLE_CERTIFY_AFTER = 8
 
 
 def _certified_table_starts(robot: Robot, constraint: CollisionConstraint, frame: str) -> frozenset | None:
-    """The byte strings of the seed-table samples of ``frame`` (:func:`kinserve.ik.seeds.seed_table`, both sets)
+    """The byte strings of the seed-table samples of ``frame`` (:func:`kinserve.ik.starts.seed_table.seed_table`, both sets)
     that the sphere pre-check certifies free in the constraint's scene, or None.
 
     Built on the constraint's :data:`TABLE_CERTIFY_AFTER`-th solve for the frame (a scene that keeps serving
@@ -344,7 +345,7 @@ def solve_collision_free(robot: Robot, p: dict, solve_prepared: Callable[..., Re
         robot.collision
     except ModelError as exc:
         if not self_collision and obs:
-            from .constraints.obstacles import ObstacleAvoidance
+            from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 
             avoid = ObstacleAvoidance(list(obs), tool_frames=(p["target"].frame,))
             return solve_prepared(robot, dict(p, spheres=avoid), **solver_opts)
@@ -509,7 +510,7 @@ RANDOM_TRIES = ADMIT_MISSES
 def _free_starts(robot, p: dict, constraint: CollisionConstraint, solver_opts: dict, skip: np.ndarray | None = None):
     """The collision-free starts of the unconstrained attempts, in the ordinary solve's order.
 
-    :func:`kinserve.ik.multistart.frame_starts` with the solve's ``q0``, ``seed`` and the options
+    :func:`kinserve.ik.starts.multistart.frame_starts` with the solve's ``q0``, ``seed`` and the options
     ``seed_table`` / ``prefer_q0``: ``q0`` and the target's table samples ranked by pose distance, then
     random configurations. ``skip`` (a start already tried) and the starts in collision are left out
     (each costs one check); the sequence stops after :data:`RANDOM_TRIES` candidates in a row collide.

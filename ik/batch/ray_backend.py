@@ -3,11 +3,11 @@
 The batch is cut into the same chunks as the local backends. One Ray actor
 per worker receives the robot **once** (Ray pickles a ``Robot`` as its
 kinematic model, without meshes) together with the solve options, then
-solves whole chunks (:func:`ik.batch_worker.actor_chunk`) and returns the
+solves whole chunks (:func:`ik.batch.worker.actor_chunk`) and returns the
 same compact arrays as a local worker, so results are identical, target for
 target, to the ``"processes"`` backend for the same seed.
 
-Time limits are those of the local pool (:mod:`ik.batch_runners`): an actor
+Time limits are those of the local pool (:mod:`ik.batch.runners`): an actor
 still on its chunk after ``chunk_limit(n)`` seconds, or the overall
 ``deadline``, kills every actor and raises
 :class:`kinserve.kinematics.errors.WorkerTimeoutError`.
@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
 
-from .batch_worker import actor_chunk, limit_blas_threads
-from .seeds import seed_table
+from kinserve.ik.batch.worker import actor_chunk, limit_blas_threads
+from kinserve.ik.starts.seed_table import seed_table
 
 if TYPE_CHECKING:  # annotations only
     import numpy as np

@@ -26,7 +26,7 @@ from scipy.linalg import get_lapack_funcs
 
 from kinserve.kinematics.errors import InputError
 
-from . import numpy_fast
+from kinserve.ik import numpy_fast
 
 _posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
 _clip = numpy_fast.clip

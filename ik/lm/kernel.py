@@ -1,7 +1,7 @@
 """One Levenberg-Marquardt start, compiled (Numba) for serial chains.
 
-The same iteration as :func:`ik.lm_solver._run_full_pose` (full pose) and
-:func:`ik.lm_solver._run_relaxed` (relaxed components: the kept rows of the
+The same iteration as :func:`ik.lm.solver._run_full_pose` (full pose) and
+:func:`ik.lm.solver._run_relaxed` (relaxed components: the kept rows of the
 world- or target-axis error of :mod:`ik.targets` with the world-aligned
 Jacobian) - the LOCAL ``log6`` error, the damped step ``(J^T J + lambda I) dq = J^T e`` with
 ``lambda = DAMPING_GAIN |e|^2 + lambda_0``, the active-set projection on the
@@ -33,7 +33,7 @@ the chain's ``n x n`` matrix.
 
 Everything the kernel calls is in this file, so that Numba's on-disk cache
 (keyed by this file's time stamp) is never stale. This module imports Numba;
-:mod:`ik.lm_solver` imports it on the first full-pose solve, not when
+:mod:`ik.lm.solver` imports it on the first full-pose solve, not when
 :mod:`kinserve.ik` is imported, and keeps its Python iteration when Numba is
 missing or the chain has other joints. Units: metres and radians.
 """
