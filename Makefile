@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 DEMO_OUT ?= demo-out
 
-.PHONY: demo test bench peers gallery install install-test browser clean
+.PHONY: demo lint test bench peers gallery install install-test browser clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -38,7 +38,11 @@ browser:
 demo: $(VENV)/.installed
 	$(VENV)/bin/kinserve demo all --out $(DEMO_OUT)
 
-test: $(VENV)/.installed-test browser
+# Style contract ([tool.ruff] in pyproject.toml): any violation fails `make test` before the suite runs.
+lint: $(VENV)/.installed-test
+	$(PY) -m ruff check .
+
+test: $(VENV)/.installed-test browser lint
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
 # README gallery: one plot per scenario + browser screenshots of two scenes (needs chromium).

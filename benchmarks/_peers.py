@@ -190,7 +190,7 @@ def arm_urdf(urdf_text: str, base: str = "panda_link0", tip: str = "panda_link8"
     link with collision geometry and every obstacle.
     """
     src = ET.fromstring(urdf_text)
-    links = {l.get("name"): l for l in src.findall("link")}
+    links = {el.get("name"): el for el in src.findall("link")}
     by_parent = {j.find("parent").get("link"): j for j in src.findall("joint")}
     robot = ET.Element("robot", name="arm")
     chain_links, joints, link = [base], [], base

@@ -98,19 +98,20 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import importlib.util  # noqa: E402
-import math  # noqa: E402
-import statistics  # noqa: E402
-import time  # noqa: E402
+import argparse
+import importlib.util
+import math
+import statistics
+import time
 
-import numpy as np  # noqa: E402
-import pinocchio as pin  # noqa: E402
+import numpy as np
+import pinocchio as pin
 
-from kinserve import ik, robots  # noqa: E402
-from _common import interleaved, machine, timed, write_json  # noqa: E402
-from _obstacle_check import BoxSpec, CoalChecker  # noqa: E402
-from _peers import peer_solve, setup_or_skip, start_peer  # noqa: E402
+from kinserve import ik, robots
+
+from _common import interleaved, machine, timed, write_json
+from _obstacle_check import BoxSpec, CoalChecker
+from _peers import peer_solve, setup_or_skip, start_peer
 
 FRAME = "panda_link8"
 ELBOW = "panda_joint4"

@@ -76,20 +76,19 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import time  # noqa: E402
-import warnings  # noqa: E402
+import argparse
+import time
+import warnings
 
-import numpy as np  # noqa: E402
-import pinocchio as pin  # noqa: E402
+import numpy as np
+import pinocchio as pin
 
+from kinserve import ik, robots
+from kinserve.ik import seeds as ik_seeds
+from kinserve.kinematics import se3
 
-from kinserve import ik  # noqa: E402
-from kinserve import robots  # noqa: E402
-from _common import interleaved, machine, timed, write_json  # noqa: E402
-from _peers import arm_urdf, start_peer  # noqa: E402
-from kinserve.ik import seeds as ik_seeds  # noqa: E402
-from kinserve.kinematics import se3  # noqa: E402
+from _common import interleaved, machine, timed, write_json
+from _peers import arm_urdf, start_peer
 
 FRAME = "panda_link8"
 TOL_POS, TOL_ROT = 1e-4, 1e-3

@@ -68,18 +68,19 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("MKL_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import importlib.util  # noqa: E402
-import math  # noqa: E402
-import time  # noqa: E402
+import argparse
+import importlib.util
+import math
+import time
 
-import numpy as np  # noqa: E402
-import pinocchio as pin  # noqa: E402
+import numpy as np
+import pinocchio as pin
 
-from kinserve import ik, robots  # noqa: E402
-from _common import cpu_per_call_seconds, interleaved, machine, per_call_seconds, timed, write_json  # noqa: E402
-from _obstacle_check import BoxSpec, CoalChecker, Skeleton, SphereSpec  # noqa: E402
-from _peers import arm_urdf, peer_solve, start_peer  # noqa: E402
+from kinserve import ik, robots
+
+from _common import cpu_per_call_seconds, interleaved, machine, per_call_seconds, timed, write_json
+from _obstacle_check import BoxSpec, CoalChecker, Skeleton, SphereSpec
+from _peers import arm_urdf, peer_solve, start_peer
 
 FRAME = "panda_link8"
 TOL_POS, TOL_ROT = 1e-4, 1e-3

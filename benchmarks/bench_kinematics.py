@@ -16,9 +16,9 @@ import time
 import numpy as np
 import pinocchio as pin
 
+from kinserve import robots
 
-from kinserve import robots  # noqa: E402
-from _common import machine, per_call_seconds, write_json  # noqa: E402
+from _common import machine, per_call_seconds, write_json
 
 
 def main() -> None:

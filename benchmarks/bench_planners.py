@@ -26,15 +26,15 @@ import time
 
 import numpy as np
 
+from kinserve.planners.checkpoint_order import shortest_order
+from kinserve.planners.mobile import mall
+from kinserve.planners.mobile.astar import astar
+from kinserve.planners.mobile.coverage import boustrophedon_coverage
+from kinserve.planners.mobile.sequencing import plan_waypoints
 
-from _common import load_test_helper, machine, write_json  # noqa: E402
+from _common import load_test_helper, machine, write_json
+
 sparse_lattice_graph = load_test_helper("lattice_graph").sparse_lattice_graph
-from kinserve.planners.checkpoint_order import shortest_order  # noqa: E402
-from kinserve.planners.mobile import mall  # noqa: E402
-from kinserve.planners.mobile.astar import astar  # noqa: E402
-from kinserve.planners.mobile.coverage import boustrophedon_coverage  # noqa: E402
-from kinserve.planners.mobile.sequencing import plan_waypoints  # noqa: E402
-
 
 
 def timed(fn, repeats):

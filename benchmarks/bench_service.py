@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from kinserve import ik, robots
+
 from _common import load_test_helper, machine, write_json
 
 HERE = Path(__file__).resolve().parent

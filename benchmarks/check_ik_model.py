@@ -16,11 +16,6 @@ from __future__ import annotations
 import json
 import sys
 import time
-
-#: CPU time of this process: the machine is shared, wall time measures the neighbours too
-clock = time.process_time
-#: Each solve is timed this many times, the smallest time kept (noise of the shared machine).
-REPEATS = 3
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +23,11 @@ import pinocchio as pin
 
 from kinserve import ik, robots
 from kinserve.ik.constraints import robot_segments
+
+#: CPU time of this process: the machine is shared, wall time measures the neighbours too
+clock = time.process_time
+#: Each solve is timed this many times, the smallest time kept (noise of the shared machine).
+REPEATS = 3
 
 
 def link_points(robot, q, frame, n=41):

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import cpu_per_call_seconds
-
 from kinserve import ik, robots
+
+from _common import cpu_per_call_seconds
 
 REPEATS = 7
 

@@ -52,8 +52,8 @@ class PlacoIK:
         self.joints = list(req["joints"])
         self.frame = req["frame"]
         lim = [self.robot.get_joint_limits(j) for j in self.joints]
-        self.lower = np.array([l[0] for l in lim])
-        self.upper = np.array([l[1] for l in lim])
+        self.lower = np.array([bounds[0] for bounds in lim])
+        self.upper = np.array([bounds[1] for bounds in lim])
         self.avoid = bool(req.get("avoid")) and bool(pairs)
         solver = self.solver = placo.KinematicsSolver(self.robot)
         solver.mask_fbase(True)
@@ -139,8 +139,8 @@ class _Handler:
 
     def __call__(self, cmd: str, req: dict) -> dict:
         if cmd == "version":
-            import placo
             import pinocchio
+            import placo
 
             ans = {"version": f"placo {getattr(placo, '__version__', '?')} / pin {pinocchio.__version__}"}
             try:

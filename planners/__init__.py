@@ -53,6 +53,8 @@ __all__ = [
     "se3_polynomial_trajectory", "SE3PolynomialTrajectory", "poses_along",
     # ordering
     "shortest_order", "OrderResult", "held_karp", "path_cost", "euclidean_cost_matrix",
+    # Cartesian path -> joint trajectory
+    "cartesian_to_joint", "CartesianPlan",
     # resolved rate
     "resolved_rate", "track_reference", "follow_circle", "ResolvedRateResult", "SingularityEvent",
     "damped_pseudo_inverse", "task_coordinates",

@@ -12,8 +12,8 @@
 """
 
 from .dh import check_dh_table, dh_fk, dh_matrix, dh_to_urdf, from_dh
-from .paths import example_robot_data_dir, example_robot_data_package_dir, models_dir
 from .packages import PackageFinder
+from .paths import example_robot_data_dir, example_robot_data_package_dir, models_dir
 from .registry import ENTRIES, available, canonical_name, clear_cache, load, parameters
 from .srdf import find_srdf, read_srdf
 from .urdf_loader import CONTINUOUS_LIMIT, MissingMeshWarning, load_urdf

@@ -8,13 +8,17 @@ name (ROS conventions). Packages are searched, first hit wins, in:
    itself, a folder whose subfolder ``<pkg>`` holds the files (Pinocchio's
    convention, no ``package.xml`` needed), or a workspace searched
    recursively for ``package.xml`` files;
-2. ``$ROS_PACKAGE_PATH`` (ROS 1): colon-separated folders, each searched
+2. the folder that holds the model file and its ancestors (a ROS package
+   that contains its own URDF, e.g. ``my_robot/urdf/robot.urdf`` with
+   ``package://my_robot/...``): the nearest one whose ``package.xml`` names
+   the package, else the nearest one named like the package;
+3. ``$ROS_PACKAGE_PATH`` (ROS 1): colon-separated folders, each searched
    recursively for ``package.xml`` files;
-3. ``$AMENT_PREFIX_PATH`` (ROS 2): colon-separated install prefixes; package
+4. ``$AMENT_PREFIX_PATH`` (ROS 2): colon-separated install prefixes; package
    ``<pkg>`` is ``<prefix>/share/<pkg>``;
-4. the folders that contain the model file (a ROS package that contains its
-   own URDF, e.g. ``my_robot/urdf/robot.urdf`` with ``package://my_robot/...``);
 5. example-robot-data's ``share`` folder when it is installed.
+
+Meshes are resolved with this order by :mod:`robots.mesh_resolver`.
 
 The recursive search does not enter hidden folders, stops at a folder that
 is a package (packages do not nest, as in ``rospack``), and stops at depth
@@ -129,6 +133,9 @@ class PackageFinder:
             hit = self._scan(d).get(pkg)
             if hit is not None:
                 return hit
+        hit = self._model_package(pkg)
+        if hit is not None:
+            return hit
         for d in self.ros_dirs:
             hit = self._scan(d).get(pkg)
             if hit is not None:
@@ -136,23 +143,32 @@ class PackageFinder:
         for prefix in self.ament_prefixes:
             if (prefix / "share" / pkg).is_dir():
                 return prefix / "share" / pkg
-        if self.model_dir is not None:
-            for anc in (self.model_dir, *self.model_dir.parents):
-                if package_name(anc) == pkg or anc.name == pkg:
-                    return anc
         for d in self.extra_dirs:
             if (d / pkg).is_dir():
                 return d / pkg
         return None
 
+    def _model_package(self, pkg: str) -> Path | None:
+        """The model's folder or an ancestor: the nearest whose package.xml names ``pkg``, else named ``pkg``."""
+        if self.model_dir is None:
+            return None
+        ancestors = (self.model_dir, *self.model_dir.parents)
+        for anc in ancestors:
+            if package_name(anc) == pkg:
+                return anc
+        for anc in ancestors:
+            if anc.name == pkg:
+                return anc
+        return None
+
     def searched(self) -> list[str]:
-        """Human-readable list of where packages are searched (for messages)."""
-        out = [f"package_dirs: {', '.join(map(str, self.package_dirs)) or '(none given)'}"]
+        """Human-readable list of where packages are searched, in search order (for messages)."""
+        out = [f"package_dirs= (CLI: --package-dir): {', '.join(map(str, self.package_dirs)) or '(none given)'}"]
+        if self.model_dir is not None:
+            out.append(f"the folder holding the model and its ancestors ({self.model_dir})")
         out.append(f"${ROS_PACKAGE_PATH}: {', '.join(map(str, self.ros_dirs)) or '(not set)'}")
         out.append(f"${AMENT_PREFIX_PATH}: {', '.join(str(p / 'share') for p in self.ament_prefixes) or '(not set)'}")
-        if self.model_dir is not None:
-            out.append(f"the folders containing {self.model_dir}")
-        out.extend(str(d) for d in self.extra_dirs)
+        out.extend(f"searched last (example-robot-data share): {d}" for d in self.extra_dirs)
         return out
 
     def roots(self) -> list[Path]:

@@ -38,13 +38,19 @@ Artefacts: ``map.png``, ``best_order.png``, ``speed.png``, ``wheels.png``,
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
 from kinserve import viz
-from kinserve.planners.mobile import DiffDrive, drive_through, mall, pairwise_costs, plan_waypoints, smooth_path
+from kinserve.planners.mobile import (
+    DiffDrive,
+    drive_through,
+    mall,
+    pairwise_costs,
+    plan_waypoints,
+    smooth_path,
+)
 
 from .map_drawing import draw_keep_out, map_scene, resample_motion, viz_obstacles
 

@@ -74,7 +74,6 @@ Units: metres, radians, seconds. Artefacts: ``joints.png``,
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -83,9 +82,7 @@ import pinocchio as pin
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from kinserve import ik
-from kinserve import robots
-from kinserve import viz
+from kinserve import ik, robots, viz
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory, se3_polynomial_trajectory

@@ -50,9 +50,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle as CirclePatch
 
-from kinserve import ik
-from kinserve import robots
-from kinserve import viz
+from kinserve import ik, robots, viz
 from kinserve.ik.closed_form.chooser import joint_limit_distance, self_overlap
 from kinserve.kinematics import se3
 

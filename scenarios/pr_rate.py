@@ -55,8 +55,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.planners import follow_circle, resolved_rate
 
 #: The document's table: (v [m/s], q_init [d1 m, theta2 deg], n steps, Delta s).

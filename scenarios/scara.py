@@ -64,9 +64,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from kinserve import ik
-from kinserve import robots
-from kinserve import viz
+from kinserve import ik, robots, viz
 from kinserve.kinematics.errors import InputError
 
 from .artefacts import write_json

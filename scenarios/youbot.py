@@ -56,9 +56,7 @@ import pinocchio as pin
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from kinserve import ik
-from kinserve import robots
-from kinserve import viz
+from kinserve import ik, robots, viz
 from kinserve.kinematics import se3, singularity
 from kinserve.robots.youbot import YOUBOT_DH
 

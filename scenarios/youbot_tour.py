@@ -43,9 +43,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from kinserve import planners
-from kinserve import robots
-from kinserve import viz
+from kinserve import planners, robots, viz
 from kinserve.kinematics.errors import InputError
 
 from .checkpoint_file import load_checkpoints

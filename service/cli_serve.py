@@ -6,8 +6,12 @@ import argparse
 import os
 import socket
 import sys
+from typing import TYPE_CHECKING
 
 from .cli_types import port_number, positive_float, positive_int
+
+if TYPE_CHECKING:
+    from .settings import ServiceSettings
 
 
 def tcp_listener(config) -> socket.socket:
@@ -24,9 +28,6 @@ def tcp_listener(config) -> socket.socket:
         fixed = socket.socket(fileno=sock.detach())
         fixed.set_inheritable(True)
         return fixed
-    return sock
-
-
     return sock
 
 
@@ -50,7 +51,8 @@ def check_address(host: str, port: int) -> None:
             raise OSError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
 
 
-def settings_of(args) -> "ServiceSettings":
+def settings_of(args: argparse.Namespace) -> ServiceSettings:
+    """The service settings given by the parsed ``kinserve serve`` arguments ``args``."""
     from kinserve.service.settings import ServiceSettings
 
     return ServiceSettings(

@@ -13,6 +13,7 @@ from pydantic import BaseModel, Field
 
 from .schemas import JointVector, Obstacles, RobotRef, Strict
 
+
 class CollisionOptions(Strict):
     """Collision options shared by ``/collision`` and ``/ik``."""
 

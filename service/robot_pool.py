@@ -29,7 +29,6 @@ from kinserve.ik.starts.seed_table import cached_tables
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import UnknownRobotError, suggest
 
-
 _sizes: dict[tuple, tuple[int, int]] = {}
 
 

@@ -170,8 +170,8 @@ def test_planar4r_sum_of_angles(lengths):
     robot = robots.load("planar4r", geometry=False, **params)
     for q in samples(robot, 6):
         cum = np.cumsum(q)
-        x = sum(l * math.cos(c) for l, c in zip(lengths, cum))
-        y = sum(l * math.sin(c) for l, c in zip(lengths, cum))
+        x = sum(length * math.cos(c) for length, c in zip(lengths, cum))
+        y = sum(length * math.sin(c) for length, c in zip(lengths, cum))
         T = robot.fk(q)
         np.testing.assert_allclose(T[:3, 3], [x, y, 0.0], atol=ATOL)
         np.testing.assert_allclose(T[:3, :3], rot_z(cum[-1])[:3, :3], atol=ATOL)

@@ -7,8 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 from kinserve.ik.closed_form import PlanarChain, YouBotArm, closed_form_solver, two_link, wrap_into
 from kinserve.kinematics import Robot, se3
 from kinserve.kinematics.errors import InputError

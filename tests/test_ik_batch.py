@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError, NonFiniteError
 

@@ -4,7 +4,12 @@ import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.ik.tasks.centring_weights import centring_objective, centring_weights, null_space_basis, null_space_correction
+from kinserve.ik.tasks.centring_weights import (
+    centring_objective,
+    centring_weights,
+    null_space_basis,
+    null_space_correction,
+)
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
 

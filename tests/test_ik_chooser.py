@@ -5,8 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 from kinserve.ik.closed_form.chooser import choose, joint_limit_distance, scores, self_overlap
 from kinserve.kinematics.errors import InputError
 

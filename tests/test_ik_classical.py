@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 from kinserve.kinematics.errors import InputError
 
 #: S9 task (x, y, z, phi): the SCARA's roll / pitch rows are identically zero, so they are relaxed

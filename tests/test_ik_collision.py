@@ -2,6 +2,7 @@
 iterates (checked with an independent coal model), infeasible targets, the constraint protocol, solve_many."""
 
 import itertools
+
 import coal
 import numpy as np
 import pinocchio as pin
@@ -220,8 +221,8 @@ def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(pa
     samples, then random configurations) in its order - ranked lazily, the same order - minus the ones in
     collision (a ``q0`` in collision included) and the one to skip."""
     from kinserve.ik.collision import solve as collision_solve
-    from kinserve.ik.starts.multistart import frame_starts
     from kinserve.ik.solve import prepare
+    from kinserve.ik.starts.multistart import frame_starts
 
     rng = np.random.default_rng(4)
     constraint = collision_solve._bound_constraint(panda, SCENE, True, 0.0)

@@ -5,10 +5,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 from kinserve.ik.constraints import ObstacleAvoidance, as_sphere, robot_segments
 from kinserve.kinematics.errors import FrameError, InputError, NonFiniteError, ShapeError
+
 from segment_clearance import rows_and_finite_differences, sampled_clearance
 
 

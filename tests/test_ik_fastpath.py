@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik.starts.multistart import frame_starts
 from kinserve.ik.result import History
+from kinserve.ik.starts.multistart import frame_starts
 from kinserve.ik.starts.seed_table import seed_table, start_sequence
 from kinserve.kinematics import errors
 from kinserve.kinematics.validation import ROTATION_TOL, as_pose, as_vector, is_pose_fast

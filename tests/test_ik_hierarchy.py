@@ -52,11 +52,11 @@ def test_priorities_hold_with_constraints(panda):
     lv = _levels(panda, q, [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")), ik.PostureTask(panda.neutral())])
     lb, ub = np.maximum(panda.lower - q, -0.2), np.minimum(panda.upper - q, 0.2)
     G = rng.normal(size=(3, panda.nq))
-    l, u = np.full(3, -0.05), np.full(3, np.inf)
-    one, _ = hierarchical_step(lv[:1], lb, ub, G, l, u, lam=1e-4)
-    two, _ = hierarchical_step(lv, lb, ub, G, l, u, lam=1e-4)
+    gl, gu = np.full(3, -0.05), np.full(3, np.inf)
+    one, _ = hierarchical_step(lv[:1], lb, ub, G, gl, gu, lam=1e-4)
+    two, _ = hierarchical_step(lv, lb, ub, G, gl, gu, lam=1e-4)
     for dq in (one, two):
-        assert np.all(dq >= lb - 1e-9) and np.all(dq <= ub + 1e-9) and np.all(G @ dq >= l - 1e-9)
+        assert np.all(dq >= lb - 1e-9) and np.all(dq <= ub + 1e-9) and np.all(G @ dq >= gl - 1e-9)
     assert np.allclose(lv[0][0] @ two, lv[0][0] @ one, atol=1e-8)
 
 
@@ -102,14 +102,14 @@ def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda, 
         step = [0.05, 0.2, 1.0][k % 3]
         lb, ub = np.maximum(panda.lower - q, -step), np.minimum(panda.upper - q, step)
         G = rng.normal(size=(3, panda.nq))
-        l = -rng.uniform(0.02, 1.0, 3)  # from binding to loose
-        u = np.where(rng.random(3) < 0.5, np.inf, -l)
-        fast, low = hierarchical_step(lv, lb, ub, G, l, u, lam=1e-4, max_step=0.5)
-        slow, _ = hierarchical_step(lv, lb, ub, G, l, u, lam=1e-4, max_step=0.5, shortcut=False)
-        one, _ = hierarchical_step(lv[:1], lb, ub, G, l, u, lam=1e-4, shortcut=False)
+        gl = -rng.uniform(0.02, 1.0, 3)  # from binding to loose
+        gu = np.where(rng.random(3) < 0.5, np.inf, -gl)
+        fast, low = hierarchical_step(lv, lb, ub, G, gl, gu, lam=1e-4, max_step=0.5)
+        slow, _ = hierarchical_step(lv, lb, ub, G, gl, gu, lam=1e-4, max_step=0.5, shortcut=False)
+        one, _ = hierarchical_step(lv[:1], lb, ub, G, gl, gu, lam=1e-4, shortcut=False)
         assert np.allclose(fast, slow, atol=1e-7), (k, fast - slow)
         assert np.all(fast >= lb - 1e-9) and np.all(fast <= ub + 1e-9)
-        assert np.all(G @ fast >= l - 1e-9) and np.all(G @ fast <= u + 1e-9)
+        assert np.all(G @ fast >= gl - 1e-9) and np.all(G @ fast <= gu + 1e-9)
         assert np.allclose(lv[0][0] @ fast, lv[0][0] @ one, atol=1e-9)  # the frame task's velocity is kept
         lines += np.linalg.norm(low) > 1e-9
     assert lines >= 5  # the posture level moved in several cases (not a vacuous comparison)
@@ -166,13 +166,13 @@ def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
         dq[at] = np.where(rng.random(at.sum()) < 0.5, lb[at], ub[at])
         G = rng.normal(size=(m, n))
         Gd = G @ dq
-        l, u = Gd - rng.uniform(0.0, 0.05, m), np.where(rng.random(m) < 0.5, np.inf, Gd + rng.uniform(0.0, 0.05, m))
+        gl, gu = Gd - rng.uniform(0.0, 0.05, m), np.where(rng.random(m) < 0.5, np.inf, Gd + rng.uniform(0.0, 0.05, m))
         Jk, ek = rng.normal(size=(3, n)), rng.normal(size=3)
         jz, r = Jk @ z0, Jk @ dq + ek
-        got = z0 * _line_level(z0, jz, Jk, ek, dq, lb, ub, G, l, u, 0.5)
+        got = z0 * _line_level(z0, jz, Jk, ek, dq, lb, ub, G, gl, gu, 0.5)
         p, c = float(jz @ jz) + 1e-9, float(r @ jz)
         want = z0 * line_qp(p, c, z0.tolist() + (G @ z0).tolist(), dq.tolist() + Gd.tolist(),
-                            lb.tolist() + l.tolist(), ub.tolist() + u.tolist(), 0.5)
+                            lb.tolist() + gl.tolist(), ub.tolist() + gu.tolist(), 0.5)
         assert np.array_equal(got, want), k
         blocked += not got.any()
     assert 50 < blocked < 390  # both the blocked line and the free one were exercised

@@ -7,8 +7,14 @@ import pytest
 
 from kinserve import ik, robots
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
-from kinserve.ik.constraints.segment_distance import point_segment, segment_box, segment_box_distance, segment_segment
+from kinserve.ik.constraints.segment_distance import (
+    point_segment,
+    segment_box,
+    segment_box_distance,
+    segment_segment,
+)
 from kinserve.kinematics.errors import InputError
+
 from segment_clearance import rows_and_finite_differences, sampled_clearance
 
 

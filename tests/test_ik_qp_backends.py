@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import qpsolvers
 
-from kinserve.ik.qp.dense_qp import solve_dense
 from kinserve.ik.qp.backends import available_backends
+from kinserve.ik.qp.dense_qp import solve_dense
 from kinserve.kinematics.errors import InputError
 
 
@@ -17,10 +17,10 @@ def _problems(rng, n, m, k=6):
         P = J.T @ J + 1e-3 * np.eye(n)
         c = rng.normal(size=n)
         G = rng.normal(size=(m, n))
-        l = -rng.random(m) * 0.05
-        u = np.full(m, np.inf)
+        gl = -rng.random(m) * 0.05
+        gu = np.full(m, np.inf)
         lb, ub = -rng.random(n) * 0.3, rng.random(n) * 0.3
-        yield P, c, G, l, u, lb, ub
+        yield P, c, G, gl, gu, lb, ub
 
 
 @pytest.mark.parametrize("name", available_backends()[:4])
@@ -28,15 +28,15 @@ def _problems(rng, n, m, k=6):
 @pytest.mark.parametrize("shortcut", [True, False])
 def test_backend_matches_reference(name, m, shortcut):
     rng = np.random.default_rng(m)
-    for P, c, G, l, u, lb, ub in _problems(rng, 7, m):
-        x = solve_dense(P, c, lb, ub, G if m else None, l if m else None, u if m else None, backend=name,
+    for P, c, G, gl, gu, lb, ub in _problems(rng, 7, m):
+        x = solve_dense(P, c, lb, ub, G if m else None, gl if m else None, gu if m else None, backend=name,
                         shortcut=shortcut)
-        ref = qpsolvers.solve_qp(P, c, -G if m else None, -l if m else None, lb=lb, ub=ub, solver="quadprog")
+        ref = qpsolvers.solve_qp(P, c, -G if m else None, -gl if m else None, lb=lb, ub=ub, solver="quadprog")
         assert x is not None
         assert np.allclose(x, ref, atol=2e-6)
         assert np.all(x >= lb - 1e-6) and np.all(x <= ub + 1e-6)
         if m:
-            assert np.all(G @ x >= l - 1e-6)
+            assert np.all(G @ x >= gl - 1e-6)
 
 
 @pytest.mark.parametrize("name", available_backends()[:4])

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 from kinserve.ik.constraints import ObstacleAvoidance
 from kinserve.ik.qp.target_solver import solve_qp
 from kinserve.ik.targets import Target
 from kinserve.kinematics import se3
+
 from segment_clearance import sampled_clearance
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)

@@ -4,8 +4,7 @@ import pickle
 
 import numpy as np
 
-from kinserve import ik
-from kinserve import robots
+from kinserve import ik, robots
 
 
 def test_history_lazy_task_error_and_pickle():

@@ -4,9 +4,15 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinserve import ik
-from kinserve import robots
-from kinserve.kinematics.errors import FrameError, InputError, KinserveError, NonFiniteError, RotationError, ShapeError
+from kinserve import ik, robots
+from kinserve.kinematics.errors import (
+    FrameError,
+    InputError,
+    KinserveError,
+    NonFiniteError,
+    RotationError,
+    ShapeError,
+)
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
 

@@ -11,10 +11,10 @@ import pytest
 from kinserve import robots
 from kinserve.kinematics import errors
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
-from collision_scenes import SCENE
-from collision_scenes import pose as _pose
 from kinserve.robots import paths
 
+from collision_scenes import SCENE
+from collision_scenes import pose as _pose
 
 #: Two more obstacles in the arm's workspace (a broad phase must handle any number).
 EXTRA = [Box(_pose((0.4, 0.1, 0.5)), (0.1, 0.1, 0.1)), Sphere((0.3, 0.3, 0.3), 0.08)]
@@ -77,14 +77,17 @@ def test_in_collision_agrees_with_independent_coal_model(name, urdf, srdf, locke
     ref4 = np.array([pin.computeCollisions(model4, data, geom4, gdata4, q, True) for q in Q])
     assert np.array_equal(ours4, ref4) and ours4.sum() > ours_scene.sum()
     # named pairs: every reported pair really collides in the independent model
+    def name_of(g):
+        if g.parentJoint or not g.name.startswith("box"):
+            return model.frames[g.parentFrame].name
+        return f"obstacle[{int(g.name[3:])}]:box"
+
     for q in Q[ours_scene][:20]:
         pin.computeCollisions(model, data, geom, gdata, q, False)
         ref_links = set()
         for k, cp in enumerate(geom.collisionPairs):
             if gdata.collisionResults[k].isCollision():
                 a, b = (geom.geometryObjects[i] for i in (cp.first, cp.second))
-                name_of = lambda g: model.frames[g.parentFrame].name if g.parentJoint or not g.name.startswith("box") \
-                    else f"obstacle[{int(g.name[3:])}]:box"
                 ref_links.add((name_of(a), name_of(b)))
         assert set(robot.collisions(q, SCENE)) == ref_links
 

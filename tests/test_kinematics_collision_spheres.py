@@ -22,10 +22,9 @@ from kinserve import robots
 from kinserve.kinematics import collision_spheres as cs
 from kinserve.kinematics.serial_chain import kinematic_tree, serial_chain
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
+
 from collision_scenes import SCENE
 from collision_scenes import pose as _pose
-
-
 
 
 def _rotation(rng):

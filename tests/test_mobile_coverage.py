@@ -5,7 +5,13 @@ import pytest
 
 from kinserve.kinematics.errors import InputError
 from kinserve.planners.mobile import mall
-from kinserve.planners.mobile.coverage import boustrophedon_coverage, coverable_pixels, decompose, lane_intervals, swept_coverage
+from kinserve.planners.mobile.coverage import (
+    boustrophedon_coverage,
+    coverable_pixels,
+    decompose,
+    lane_intervals,
+    swept_coverage,
+)
 from kinserve.planners.mobile.maps import OccupancyGrid
 from kinserve.planners.mobile.shapes import Rectangle
 

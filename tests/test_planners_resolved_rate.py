@@ -8,7 +8,12 @@ import pytest
 
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.planners.resolved_rate import damped_pseudo_inverse, follow_circle, resolved_rate, track_reference
+from kinserve.planners.resolved_rate import (
+    damped_pseudo_inverse,
+    follow_circle,
+    resolved_rate,
+    track_reference,
+)
 
 # (v, q_init = [d1, theta2 in degrees], n, dt) - SCENARIOS.md S5
 S5_RUNS = [

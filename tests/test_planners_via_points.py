@@ -26,9 +26,9 @@ def test_velocity_and_acceleration_continuous_at_vias(method):
     for tv in TIMES[1:-1]:
         left = tr.evaluate(tv - eps)
         right = tr.evaluate(tv + eps)
-        for k, (l, r) in enumerate(zip(left, right)):
+        for k, (lf, rt) in enumerate(zip(left, right)):
             # a jump would show as O(1); continuity leaves O(eps * next derivative)
-            assert np.abs(l - r).max() < 1e-4, (method, tv, k)
+            assert np.abs(lf - rt).max() < 1e-4, (method, tv, k)
     # derivatives are the derivatives (central differences inside segments and across vias)
     t = np.linspace(0.05, 4.15, 37)
     h = 1e-5

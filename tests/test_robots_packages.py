@@ -20,7 +20,13 @@ import pytest
 
 from kinserve import robots
 from kinserve.kinematics.errors import ModelError
-from kinserve.robots.packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH, PackageFinder, is_within, scan_packages
+from kinserve.robots.packages import (
+    AMENT_PREFIX_PATH,
+    ROS_PACKAGE_PATH,
+    PackageFinder,
+    is_within,
+    scan_packages,
+)
 from kinserve.robots.urdf_loader import MissingMeshWarning
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -4,14 +4,13 @@ import math
 import re
 
 import numpy as np
-
 import pytest
 
 from kinserve import robots
 from kinserve.kinematics.errors import FrameError, ModelError
 from kinserve.robots import load_urdf, load_xacro, process_xacro
-from kinserve.robots.urdf_loader import PLACEHOLDER_RADIUS, MissingMeshWarning
 from kinserve.robots.paths import models_dir
+from kinserve.robots.urdf_loader import PLACEHOLDER_RADIUS, MissingMeshWarning
 
 GOOD = """<?xml version="1.0"?>
 <robot name="two_link">

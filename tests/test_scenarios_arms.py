@@ -24,12 +24,12 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from kinserve import robots
-from kinserve import scenarios
-from scenario_runs import assert_readme_row, figures, run_scenario
+from kinserve import robots, scenarios
 from kinserve.kinematics.errors import InputError
 from kinserve.planners import JointTrajectory
 from kinserve.scenarios.checkpoint_file import load_checkpoints, parse_csv, parse_json
+
+from scenario_runs import assert_readme_row, figures, run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 LENGTHS = np.array([1.0, 0.8, 0.6, 0.4])
@@ -309,7 +309,6 @@ def test_youbot_singularity_by_singular_values_not_det(youbot):
 
 def test_youbot_every_branch_satisfies_fk_and_the_limits(youbot):
     _, r = youbot
-    robot = robots.load("youbot", geometry=False)
     lo = np.radians([lo for lo, _ in YOUBOT_LIMITS_DEG])
     hi = np.radians([hi for _, hi in YOUBOT_LIMITS_DEG])
     labels = {}
@@ -369,9 +368,10 @@ def test_youbot_scene_frames_every_branch_centred_and_filling_the_view(youbot):
     """Every frame of every drawn arm (bases read from the page, q from result.json, FK here) projects
     inside a 4:3 window with the page's camera, centred, spanning most of it both ways: not a
     strip in the lower half with the top 40 % empty."""
-    from browser_checks import project
-    from browser_checks import page_camera as exported_camera
     from kinserve import viz
+
+    from browser_checks import page_camera as exported_camera
+    from browser_checks import project
 
     out, r = youbot
     commands = viz.read_html_commands(out / "scene.html")
@@ -570,7 +570,7 @@ def test_scara_relax_z_sphere_never_entered_and_centring_where_free(scara):
         assert d_tool.min() >= SPHERE_R - 1e-9  # on every iterate
         # the quill, from the arm plane (z = 1) down to the tool, and the horizontal links at z = 1
         for q in Q:
-            t1, t2 = q[0], q[1]
+            t1 = q[0]
             elbow = np.array([0.5 * math.cos(t1), 0.5 * math.sin(t1), 1.0])
             tool = scara_tool(q)
             top = np.array([tool[0], tool[1], 1.0])

@@ -19,8 +19,7 @@ import re
 import numpy as np
 import pytest
 
-from kinserve import scenarios
-from kinserve import viz
+from kinserve import scenarios, viz
 from kinserve.planners import JointTrajectory
 from kinserve.viz.export import pack_commands
 

@@ -27,6 +27,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from kinserve import scenarios
 from kinserve.kinematics.errors import InputError
+
 from scenario_runs import assert_readme_row, run_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

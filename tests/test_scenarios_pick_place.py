@@ -17,14 +17,13 @@ import pytest
 from PIL import Image
 from scipy.linalg import expm
 
-from scenario_runs import figures, run_into
-from kinserve import robots
-from kinserve import scenarios
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.planners import JointTrajectory
 from kinserve.scenarios import pick_place, pick_place_clearance
 from kinserve.service.cli_demo import _summary
 from kinserve.viz.animation import pose_at
+
+from scenario_runs import figures, run_into
 
 HOME = np.array([[1, 0, 0, 0.088], [0, -1, 0, 0], [0, 0, -1, 0.926], [0, 0, 0, 1.0]])
 GRASP = np.array([[1, 0, 0, 0.65], [0, -1, 0, 0.095], [0, 0, -1, 0.05], [0, 0, 0, 1.0]])

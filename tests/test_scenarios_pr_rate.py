@@ -9,9 +9,9 @@ tracking errors from the saved joint histories with these formulas.
 from __future__ import annotations
 
 import json
-import re
 import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from scenario_runs import figures, run_into
 from kinserve import robots
-from kinserve import scenarios
+
+from scenario_runs import figures, run_into
 
 ROOT = Path(__file__).resolve().parents[1]
 D2 = 1.0

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from kinserve import robots
+
 from service_server import ROOT, Server
 
 

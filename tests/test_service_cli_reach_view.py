@@ -11,6 +11,7 @@ import time
 import httpx
 import numpy as np
 import pytest
+
 from process_leaks import alive, parent_of, wait_gone
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -9,6 +9,7 @@ import uvicorn
 
 from kinserve import robots
 from kinserve.service.cli_serve import tcp_listener
+
 from service_server import Server
 
 

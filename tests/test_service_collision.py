@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from kinserve import ik, robots
+
 from service_server import ROOT, Server
 
 TABLE = {"kind": "box", "pose": [[1, 0, 0, 0.65], [0, 1, 0, 0], [0, 0, 1, -0.05], [0, 0, 0, 1]], "size": [0.7, 1.2, 0.1]}

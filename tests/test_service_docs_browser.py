@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import httpx
 import pytest
-from browser_checks import open_offline
-from service_server import Server
 
 from kinserve.viz import find_browser
+
+from browser_checks import open_offline
+from service_server import Server
 
 pytestmark = pytest.mark.skipif(find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
 

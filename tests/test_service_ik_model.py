@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from kinserve import ik, robots
+
 from service_server import Server
 
 

@@ -11,6 +11,7 @@ import httpx
 import pytest
 
 from kinserve import robots
+
 from service_server import Server
 
 BODY_TIMEOUT = 1.0

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from kinserve import robots
+
 from service_server import KeepAliveClient, Server
 
 REQUEST_CAP = 2.0

@@ -11,6 +11,7 @@ import pytest
 
 from kinserve import robots
 from kinserve.service.responses import json_response
+
 from service_server import Server
 
 

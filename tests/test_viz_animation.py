@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.kinematics import InputError, se3
 from kinserve.viz.animation import pose_at
 

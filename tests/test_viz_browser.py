@@ -10,8 +10,7 @@ meshes, a sphere, a path, an animation) and the same scene without the robot.
 import numpy as np
 import pytest
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.kinematics import se3
 
 from browser_checks import assert_panda_drawn, robot_mask

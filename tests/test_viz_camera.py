@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 import umsgpack
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.kinematics.errors import InputError
 from kinserve.viz import camera
 

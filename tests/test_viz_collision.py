@@ -7,7 +7,7 @@ import pytest
 from kinserve import ik, robots
 from kinserve.kinematics.errors import InputError
 from kinserve.viz import colors
-from kinserve.viz.collision_drawing import COLLIDING_COLOR, CLEAR_COLOR, OBSTACLE_COLOR, draw_shape
+from kinserve.viz.collision_drawing import CLEAR_COLOR, COLLIDING_COLOR, OBSTACLE_COLOR, draw_shape
 from kinserve.viz.scene import Scene
 
 Q_DOWN = [0.0, 1.5, 0.0, -0.5, 0.0, 1.0, 0.0]

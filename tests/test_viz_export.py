@@ -5,8 +5,7 @@ import re
 import numpy as np
 import pytest
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.kinematics import InputError
 from kinserve.viz.export import VIEWER_JS, pack_commands, unpack_commands
 

@@ -7,8 +7,7 @@ import urllib.request
 import numpy as np
 import pytest
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 
 
 @pytest.fixture(scope="module")

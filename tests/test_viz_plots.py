@@ -7,8 +7,7 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 from PIL import Image
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.kinematics import InputError, ShapeError
 
 

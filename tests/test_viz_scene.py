@@ -5,8 +5,7 @@ import pinocchio as pin
 import pytest
 import umsgpack
 
-from kinserve import robots
-from kinserve import viz
+from kinserve import robots, viz
 from kinserve.kinematics import InputError, Robot, RotationError, se3
 from kinserve.viz.scene import CAMERA_FOV_DEG
 

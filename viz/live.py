@@ -42,7 +42,6 @@ from kinserve.kinematics.errors import InputError
 
 from .scene import ROOT, Scene
 
-
 #: Linux prctl option: the signal the kernel sends a child when the thread that started it dies.
 _PR_SET_PDEATHSIG = 1
 

@@ -2,7 +2,14 @@
 
 from . import mall
 from .astar import GridPath, astar, path_length_lower_bound
-from .coverage import CoverageResult, boustrophedon_coverage, coverable_pixels, decompose, lane_intervals, swept_coverage
+from .coverage import (
+    CoverageResult,
+    boustrophedon_coverage,
+    coverable_pixels,
+    decompose,
+    lane_intervals,
+    swept_coverage,
+)
 from .diff_drive import DiffDrive
 from .footprint import Penetration, footprint_outline, footprint_penetration
 from .maps import OccupancyGrid

@@ -270,16 +270,16 @@ def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray, r
         H = heading[s : s + chunk]
         pj = np.floor((P[:, 0] - x0) / res - 0.5).astype(np.int64)
         pi = np.floor((P[:, 1] - y0) / res - 0.5).astype(np.int64)
-        J = pj[:, None] + ox[None, :]
-        I = pi[:, None] + oy[None, :]
-        cx = x0 + (J + 0.5) * res - P[:, :1]
-        cy = y0 + (I + 0.5) * res - P[:, 1:2]
+        cols = pj[:, None] + ox[None, :]
+        rows = pi[:, None] + oy[None, :]
+        cx = x0 + (cols + 0.5) * res - P[:, :1]
+        cy = y0 + (rows + 0.5) * res - P[:, 1:2]
         c, sn = np.cos(H)[:, None], np.sin(H)[:, None]
         u = c * cx + sn * cy
         v = -sn * cx + c * cy
         inside = (np.abs(u) <= half + 1e-9) & (np.abs(v) <= half + 1e-9)
-        inside &= (I >= 0) & (I < ny - 1) & (J >= 0) & (J < nx - 1)
-        cov[I[inside], J[inside]] = True
+        inside &= (rows >= 0) & (rows < ny - 1) & (cols >= 0) & (cols < nx - 1)
+        cov[rows[inside], cols[inside]] = True
     return cov
 
 
