@@ -84,7 +84,8 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve import ik, robots
-from kinserve.ik import seeds as ik_seeds
+from kinserve.ik.starts import seed_table as ik_seeds
+from kinserve.ik import state as ik_state_module
 from kinserve.kinematics import se3
 
 from _common import interleaved, machine, timed, write_json
@@ -285,7 +286,7 @@ def kinserve_first_starts(robot, targets, q0s) -> np.ndarray:
     Mirrors :func:`kinserve.ik.lm.solver.solve_lm`: the pose distance ``D`` of
     ``q0`` against the nearest table sample, :func:`ik.starts.seed_table.start_sequence`'s first yield.
     """
-    table = ik_seeds.seed_table(robot, FRAME)
+    table = ik_state_module.seed_table(robot, FRAME)
     out = np.empty_like(q0s)
     for i, (T, q0) in enumerate(zip(targets, q0s)):
         f = table.features(T[:3, :3], T[:3, 3])

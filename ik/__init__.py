@@ -39,7 +39,9 @@ from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.constraints.velocity_limits import VelocityLimits
 from kinserve.ik.qp.backends import available_backends
 from kinserve.ik.result import History, Result
-from kinserve.ik.solve import METHODS, solve, solve_all
+from kinserve.ik.options import METHODS
+from kinserve.ik.solve import solve, solve_all
+from kinserve.ik.state import warm
 from kinserve.ik.step import step
 from kinserve.ik.targets import RELAX_NAMES, Target
 from kinserve.ik.tasks import Task
@@ -48,7 +50,7 @@ from kinserve.ik.tasks.frame_task import FrameTask
 from kinserve.ik.tasks.posture_task import PostureTask
 
 __all__ = [
-    "solve", "solve_all", "solve_many", "step", "Result", "History",
+    "solve", "solve_all", "solve_many", "step", "warm", "Result", "History",
     "Task", "FrameTask", "PostureTask", "CentringTask",
     "Constraint", "JointLimits", "VelocityLimits", "ObstacleAvoidance",
     "SelfCollision", "SceneCollision", "CollisionConstraint",

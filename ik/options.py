@@ -5,21 +5,23 @@ of method ``m``. :func:`check_options` validates them *without solving*
 (:func:`ik.solve_many` checks them once in the calling process, before any
 worker starts):
 
-==================  ==========================================  ==============================
-option              meaning                                     accepted values
-==================  ==========================================  ==============================
-``max_iter``        iteration cap of one start                  integer >= 1
-``damping``         damping ``lambda_0`` (LM / QP / DLS)        finite number > 0
-``max_starts``      cap on the number of starts                 integer >= 1 or None
-``prefer_q0``       start from ``q0`` first                     bool
-``seed_table``      use the table of starts (:mod:`ik.starts.seed_table`)   bool
-``max_step``        bound on each joint step (QP, rad or m)     finite number > 0
-``shortcut``        skip the QP when the free step is feasible  bool
-``lazy``            add obstacle rows only when a step needs    bool
-``gain``            step gain of the classical methods          finite number > 0
-``samples``         samples of a closed-form family             integer >= 2
-``choose``          chooser criteria (:mod:`ik.closed_form.chooser`)        name or sequence of names
-==================  ==========================================  ==============================
+======================  ==========================================  ==============================
+option                  meaning                                     accepted values
+======================  ==========================================  ==============================
+``max_iter``            iteration cap of one start                  integer >= 1
+``iteration_budget``    total iterations over all starts; the       integer >= 1
+                        clock is not read without ``max_time``
+``damping``             damping ``lambda_0`` (LM / QP / DLS)        finite number > 0
+``max_starts``          cap on the number of starts                 integer >= 1 or None
+``prefer_q0``           start from ``q0`` first                     bool
+``seed_table``          use the table of starts (:mod:`ik.starts.seed_table`)   bool
+``max_step``            bound on each joint step (QP, rad or m)     finite number > 0
+``shortcut``            skip the QP when the free step is feasible  bool
+``lazy``                add obstacle rows only when a step needs    bool
+``gain``                step gain of the classical methods          finite number > 0
+``samples``             samples of a closed-form family             integer >= 2
+``choose``              chooser criteria (:mod:`ik.closed_form.chooser`)        name or sequence of names
+======================  ==========================================  ==============================
 
 Accepted names per method are :data:`OPTIONS`; ``"auto"`` accepts the union
 of the methods it may pick (``qp``, ``lm``, ``analytic``).
@@ -28,15 +30,47 @@ of the methods it may pick (``qp``, ``lm``, ``analytic``).
 from __future__ import annotations
 
 import numbers
+from collections.abc import Mapping
+from typing import Any
 
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import as_positive
 
 from kinserve.ik.closed_form.chooser import CRITERIA
 
-_LM = ("max_iter", "damping", "max_starts", "prefer_q0", "seed_table")
+#: Every IK method ``ik.solve(method=...)`` names; the last four are the classical iterations.
+CLASSICAL_METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
+METHODS = ("auto", "qp", "lm", "analytic") + CLASSICAL_METHODS
+#: Methods that cannot honour centring / obstacle constraints.
+NO_CENTRING_METHODS = frozenset(("lm", "analytic", "jacobian_inverse", "jacobian_transpose"))
+NO_OBSTACLE_METHODS = frozenset(("lm", "analytic") + CLASSICAL_METHODS)
+
+#: Default success thresholds: position (m) and orientation (rad) errors.
+DEFAULT_TOL_POS = 1e-4
+DEFAULT_TOL_ROT = 1e-3
+#: Default time budgets (s) when ``max_time`` is None: Levenberg-Marquardt (joint limits only), and every
+#: request that may need the QP (centring, obstacles, collision, tasks), whose iterations cost more.
+MAX_TIME_LM = 0.1
+MAX_TIME_QP = 0.5
+#: Initial damping ``lambda_0`` of the LM / QP steps, its gain on the squared error, the stall test (a run
+#: stalls when its error falls by less than ``STALL_RATIO`` for ``STALL_PATIENCE`` iterations in a row).
+DAMPING = 1e-5
+DAMPING_GAIN = 0.01
+STALL_RATIO = 0.85
+STALL_PATIENCE = 2
+#: Iteration caps of one start (LM, QP) and the QP's bound on each joint step (rad or m).
+MAX_ITER_LM = 60
+MAX_ITER_QP = 200
+MAX_STEP = 1.0
+#: Starts of the unconstrained solve tried, each checked, before the constrained one (obstacles, collision);
+#: they get at most this share of the time budget.
+CHECKED_ATTEMPTS = 12
+CHECKED_BUDGET_SHARE = 0.5
+
+
+_LM = ("max_iter", "iteration_budget", "damping", "max_starts", "prefer_q0", "seed_table")
 _QP = _LM + ("max_step", "shortcut", "lazy")
-_CLASSICAL = ("gain", "damping", "max_iter")
+_CLASSICAL = ("gain", "damping", "max_iter", "iteration_budget")
 _ANALYTIC = ("samples", "choose")
 
 #: Accepted option names per method.
@@ -81,6 +115,7 @@ def _criteria(name, value):
 
 _CHECKS = {
     "max_iter": lambda n, v: _integer(n, v, 1),
+    "iteration_budget": lambda n, v: _integer(n, v, 1),
     "max_starts": lambda n, v: _integer(n, v, 1, allow_none=True),
     "samples": lambda n, v: _integer(n, v, 2),
     "damping": _positive,
@@ -104,6 +139,16 @@ def check_options(method: str, options: dict) -> None:
         raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
     for name, value in options.items():
         _CHECKS[name](name, value)
+
+
+def options_for(method: str, options: Mapping[str, Any]) -> dict:
+    """The options of ``options`` (checked) that ``method``'s solver takes, as its keywords
+    (:func:`solver_keywords`); a strategy of ``"auto"`` passes each solver its own. ``iteration_budget`` is
+    left out: the strategies hand each stage its share (:mod:`kinserve.ik.strategies.budget`)."""
+    if not options:
+        return {}
+    allowed = OPTIONS[method]
+    return solver_keywords({k: v for k, v in options.items() if k in allowed and k != "iteration_budget"})
 
 
 def solver_keywords(options: dict) -> dict:

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from types import MappingProxyType
 
 import numpy as np
@@ -54,6 +54,20 @@ _forward_kinematics = pin.forwardKinematics
 _update_frame_placement = pin.updateFramePlacement
 _frame_jacobian = pin.computeFrameJacobian
 _LWA = pin.LOCAL_WORLD_ALIGNED
+
+
+class Extensions:
+    """State that higher layers keep for one robot, shared by every :meth:`Robot.copy`.
+
+    ``ik``: the :class:`kinserve.ik.state.IKState` (seed tables, closed-form solvers, bound collision
+    constraints), set by :func:`kinserve.ik.state.ik_state`; None until the first solve or
+    ``ik.warm(robot)``. Pickling a robot drops it (a worker builds or receives its own).
+    """
+
+    __slots__ = ("ik",)
+
+    def __init__(self) -> None:
+        self.ik: object | None = None
 
 
 class _PerThreadData(threading.local):
@@ -101,6 +115,12 @@ class Robot(CollisionQueries):
         The URDF text the model was built from (for export and viewers).
     package_dirs:
         Directories used to resolve ``package://`` mesh URIs of ``source``.
+    resolve_meshes:
+        The loader's mesh resolver for a collision model built later from
+        ``source``: URDF text in, the same text with every collision mesh an
+        absolute file path out (``kinserve.robots.mesh_resolver.MeshResolver.collision_urdf``),
+        so the later build reads the files the load found. None: Pinocchio
+        resolves ``package://`` URIs against ``package_dirs``.
     srdf:
         SRDF text whose ``<disable_collisions>`` name the link pairs not checked
         for self-collision (None: computed MoveIt-style, see
@@ -120,6 +140,9 @@ class Robot(CollisionQueries):
     groups = MappingProxyType({})
     #: Where ``named_states`` and ``groups`` came from (None without an SRDF).
     srdf_path: str | None = None
+    #: The compiled-LM chains of the model's frames (``kinserve.ik.lm.chains.CompiledChains``), set by
+    #: ``kinserve.ik.lm.warm(robot)``; None until then (shared by copies, pickled with the robot).
+    lm_chains: object | None = None
 
     def __init__(
         self,
@@ -134,6 +157,7 @@ class Robot(CollisionQueries):
         source: str | None = None,
         package_dirs: Sequence[str] = (),
         srdf: str | None = None,
+        resolve_meshes: Callable[[str], str] | None = None,
     ) -> None:
         if model.nq != model.nv:
             raise ModelError(
@@ -151,8 +175,10 @@ class Robot(CollisionQueries):
         self.collision_model = collision_model
         self.source = source
         self.package_dirs = tuple(package_dirs)
+        self.resolve_meshes = resolve_meshes
         self.srdf = srdf
         self._collision_holder = [None]  # the CollisionModel, built on first use, shared by copies
+        self.extensions = Extensions()  # higher layers' state (the IK's), shared by copies
         self.task_axes = tuple("yaw" if a == "phi" else a for a in task_axes)
         axis_rows(self.task_axes)
         self._frame_ids: dict[str, int] = {}
@@ -216,11 +242,14 @@ class Robot(CollisionQueries):
             state[key] = None
         state["_chains"] = {}
         state["_collision_holder"] = [None]
+        state["extensions"] = Extensions()
         return state
 
     def __setstate__(self, state: dict) -> None:
         state.setdefault("srdf", None)
+        state.setdefault("resolve_meshes", None)
         state.setdefault("_collision_holder", [None])
+        state.setdefault("extensions", Extensions())
         self.__dict__.update(state)
         self._tls = _PerThreadData(self.model)
 

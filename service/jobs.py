@@ -83,7 +83,7 @@ def load_compiled_kernels() -> None:
 def warm(deadline: Deadline, robot: str = "panda") -> int:
     """Load ``robot`` and its IK seed table for the tool frame (so the first request does not pay for
     them: building the table takes ~0.1-0.3 s); returns the process id."""
-    from kinserve.ik.starts.seed_table import seed_table
+    from kinserve.ik.state import seed_table
 
     r = pool().get(robot, {})
     seed_table(r, r.tip)
@@ -219,7 +219,7 @@ def prepare_starts(robot, kwargs: dict) -> None:
     (0.1-0.3 s), not part of any one solve; charged to ``max_time`` it would
     make the first request for a variant fail on a short budget.
     """
-    from kinserve.ik.starts.seed_table import seed_table
+    from kinserve.ik.state import seed_table
 
     if kwargs["method"] in ("auto", "lm", "qp"):
         seed_table(robot, kwargs["frame"] or robot.tip)

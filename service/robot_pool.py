@@ -25,7 +25,7 @@ import threading
 from collections import OrderedDict
 
 from kinserve import robots
-from kinserve.ik.starts.seed_table import cached_tables
+from kinserve.ik.state import ik_state
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import UnknownRobotError, suggest
 
@@ -59,7 +59,7 @@ class _Variant:
         self.fixed_bytes = model_bytes + len(base.source or "")
 
     def nbytes(self) -> int:
-        tables = sum(t.nbytes for t in cached_tables(self.base))
+        tables = sum(t.nbytes for t in ik_state(self.base).seed_tables.values())
         return self.fixed_bytes + (1 + len(self.copies)) * self.data_bytes + tables
 
 

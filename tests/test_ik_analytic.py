@@ -8,7 +8,8 @@ import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik.closed_form import PlanarChain, YouBotArm, closed_form_solver, two_link, wrap_into
+from kinserve.ik.closed_form import PlanarChain, YouBotArm, two_link, wrap_into
+from kinserve.ik.state import closed_form_solver
 from kinserve.kinematics import Robot, se3
 from kinserve.kinematics.errors import InputError
 

@@ -84,9 +84,9 @@ def test_damper_rows_match_finite_differences_of_the_distance(panda):
 def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
     """Open scene: every answer and iterate clear; every other solve without unconstrained attempts
     (straight to the constrained path), the others with the default attempts."""
-    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.strategies import checked as collision_solve
 
-    default_attempts = collision_solve.UNCONSTRAINED_ATTEMPTS
+    default_attempts = collision_solve.CHECKED_ATTEMPTS
     rng = np.random.default_rng(11)
     targets = []
     while len(targets) < 25:
@@ -95,7 +95,7 @@ def test_answers_and_every_iterate_are_collision_free(panda, monkeypatch):
             targets.append(panda.fk(q))
     paths = set()
     for i, T in enumerate(targets):
-        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", 0 if i % 2 else default_attempts)
+        monkeypatch.setattr(collision_solve, "CHECKED_ATTEMPTS", 0 if i % 2 else default_attempts)
         q0 = panda.random_q(rng)  # some starts are in collision: not an error
         res = ik.solve(panda, T, q0, self_collision=True, obstacles=SCENE, seed=3, max_time=1.0)
         assert res.success, res.summary()
@@ -113,10 +113,10 @@ def test_obstacle_in_the_way_is_avoided(panda, attempts, monkeypatch):
     ``attempts=0`` (no unconstrained solve) forces the constrained path; the default
     may find another branch with its unconstrained attempts.
     """
-    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.strategies import checked as collision_solve
 
     if attempts is not None:
-        monkeypatch.setattr(collision_solve, "UNCONSTRAINED_ATTEMPTS", attempts)
+        monkeypatch.setattr(collision_solve, "CHECKED_ATTEMPTS", attempts)
     rng = np.random.default_rng(8)
     cases = 0
     for _ in range(40):
@@ -217,15 +217,14 @@ def test_control_loop_with_collision_constraints_stays_clear(panda):
 
 
 def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(panda):
-    """The unconstrained attempts start from the ordinary solve's starts (``q0`` and the target's ranked table
-    samples, then random configurations) in its order - ranked lazily, the same order - minus the ones in
-    collision (a ``q0`` in collision included) and the one to skip."""
-    from kinserve.ik.collision import solve as collision_solve
-    from kinserve.ik.solve import prepare
+    """The checked QP's attempts start from the ordinary solve's starts (``q0`` and the target's ranked table
+    samples, then random configurations) in its order - ranked lazily, the same order - minus the ones its
+    checker does not admit (a ``q0`` in collision included)."""
+    from kinserve.ik.request import target_request
     from kinserve.ik.starts.multistart import frame_starts
+    from kinserve.ik.strategies import checked
 
     rng = np.random.default_rng(4)
-    constraint = collision_solve._bound_constraint(panda, SCENE, True, 0.0)
     q0_placed = 0
     for case in range(6):
         q_gen = panda.random_q(rng)
@@ -236,19 +235,19 @@ def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(pa
         q0 = (q_gen + rng.normal(0.0, 0.05 if case % 3 == 1 else 2.0, 7)).clip(panda.lower, panda.upper)
         while (case % 3 == 0) != panda.in_collision(q0, SCENE):
             q0 = panda.random_q(rng)
-        p = prepare(panda, T, q0, seed=5 + case)
-        tgt = p["target"]
+        req = target_request(panda, T, q0, seed=5 + case, self_collision=True, obstacles=SCENE)
+        tgt = req.target
         ordinary = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3],
                                                       True, q0, 5 + case), 40))
         q0_placed += any(np.array_equal(q, q0) for q in ordinary[1:9])
-        skip = next(q for q in ordinary if not panda.in_collision(q, SCENE))
-        starts = list(itertools.islice(collision_solve._free_starts(panda, p, constraint, {}, skip), 30))
+        checker = checked.ClearanceChecker(panda, None)  # admits every start: the order alone
+        checker.admit = lambda q: not panda.in_collision(q, SCENE)
+        starts = list(itertools.islice(checked._admissible_starts(req, checker), 30))
         assert len(starts) == 30
         assert all(not panda.in_collision(q, SCENE) for q in starts)
-        assert not any(np.array_equal(q, skip) for q in starts)
         if case % 3 == 0:
             assert not any(np.array_equal(q, q0) for q in starts)
-        expected = [q for q in ordinary if not panda.in_collision(q, SCENE) and not np.array_equal(q, skip)]
+        expected = [q for q in ordinary if not panda.in_collision(q, SCENE)]
         assert len(expected) >= 20
         np.testing.assert_array_equal(np.array(starts[:20]), np.array(expected[:20]))
     assert q0_placed >= 1  # q0 ranked among the table samples, not first: its place is checked too
@@ -289,9 +288,11 @@ def test_base_overlap_is_caught_for_a_moved_obstacle_of_a_known_layout(panda):
 
 def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
     """``max_starts=1``: one unconstrained run, then the constrained solve; without it, one unconstrained solve whose
-    starts are capped at 1 + UNCONSTRAINED_ATTEMPTS, a run that meets the block followed by the next start."""
-    from kinserve.ik.collision import solve as collision_solve
+    starts are capped at 1 + CHECKED_ATTEMPTS, a run that meets the block followed by the next start."""
+    from kinserve.ik.collision import checkers
     from kinserve.ik.lm import solver as lm_solver
+    from kinserve.ik.strategies import checked as collision_solve
+    from kinserve.ik.strategies import direct
 
     runs = []
     real = lm_solver.solve_lm
@@ -300,8 +301,8 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
         runs.append(kwargs.get("max_starts"))
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(collision_solve, "solve_lm", counting)
-    monkeypatch.setattr(collision_solve, "UNCERTIFIED_SKIPS", 0)  # the run from the start next to the block
+    monkeypatch.setattr(direct, "solve_lm", counting)
+    monkeypatch.setattr(checkers, "UNCERTIFIED_SKIPS", 0)  # the run from the start next to the block
     rng = np.random.default_rng(8)
     while True:  # a witness-feasible target: its generating configuration clears the box on the answer's elbow
         q_gen = panda.random_q(rng)
@@ -317,19 +318,20 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
     runs.clear()
     res = ik.solve(panda, T, self_collision=True, obstacles=[block], seed=0, max_time=1.0)
     # one solve, its starts capped; the first converged run met the block, a later start's run is the answer
-    assert runs == [1 + collision_solve.UNCONSTRAINED_ATTEMPTS] and res.info["collision"] == "unconstrained, checked"
-    assert 1 <= res.restarts <= collision_solve.UNCONSTRAINED_ATTEMPTS and res.info["collision_attempts"] == res.restarts + 1
+    assert runs == [1 + collision_solve.CHECKED_ATTEMPTS] and res.info["collision"] == "unconstrained, checked"
+    assert 1 <= res.restarts <= collision_solve.CHECKED_ATTEMPTS and res.info["collision_attempts"] == res.restarts + 1
     assert res.success and not panda.in_collision(res.q, [block])
 
 
 def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     """The checked LM's admission: a start the sphere pre-check certifies runs; the first UNCERTIFIED_SKIPS
     uncertified ones are refused without coal, later ones (and the caller's q0 with prefer_q0) go to coal."""
-    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.collision import checkers
+    from kinserve.ik.state import ik_state
     from kinserve.kinematics.collision_spheres import certify
 
     wall = ik.Box(_pose((0.45, 0.0, 0.5)), (0.05, 1.0, 1.0))
-    con = collision_solve._bound_constraint(panda, (wall,), True, 0.0)
+    con = ik_state(panda).collision_constraint((wall,), True, 0.0)
     pre = con.scene.precheck()
     rng = np.random.default_rng(4)
     Q = panda.random_q(rng, 3000)
@@ -343,14 +345,14 @@ def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     real = con.in_collision
     con.in_collision = lambda q: coal_calls.append(q) or real(q)
     try:
-        admit = collision_solve._start_admission(con)
+        admit = checkers.CollisionChecker(panda, con).admit
         assert admit(clear[0]) and not coal_calls  # certified: no coal
-        skips = collision_solve.UNCERTIFIED_SKIPS
+        skips = checkers.UNCERTIFIED_SKIPS
         assert skips >= 1
         assert [admit(q) for q in near[:skips]] == [False] * skips and not coal_calls  # skipped unasked
         assert admit(near[skips]) and len(coal_calls) == 1  # then coal decides: free, admitted
         assert not admit(inside[0]) and len(coal_calls) == 2  # ... and in collision, refused
-        chosen = collision_solve._start_admission(con, near[3])
+        chosen = checkers.CollisionChecker(panda, con, near[3]).admit
         assert chosen(near[3].copy()) and len(coal_calls) == 3  # the caller's q0 is never skipped unasked
     finally:
         con.in_collision = real
@@ -360,13 +362,14 @@ def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
     """A new pose of known obstacle shapes binds by moving a constraint of the same layout (no scene caches);
     its checks, distances and damper rows equal those of a constraint bound from nothing for the same
     obstacles, and ik.solve takes that path for the second scene."""
-    from kinserve.ik.collision import solve as collision_solve
+    from kinserve.ik.state import ik_state
 
     rng = np.random.default_rng(12)
+    state = ik_state(panda)
     first = [*SCENE, ik.Box(_pose((0.5, 0.3, 0.6)), (0.1, 0.1, 0.1))]
-    template = collision_solve._bound_constraint(panda, tuple(first), True, 0.0)
+    template = state.collision_constraint(tuple(first), True, 0.0)
     moved_obs = (*SCENE, ik.Box(_pose((0.4, -0.2, 0.5)), (0.1, 0.1, 0.1)))
-    moved = collision_solve._bound_constraint(panda, moved_obs, True, 0.0)
+    moved = state.collision_constraint(moved_obs, True, 0.0)
     assert moved.scene.layout is template.scene.layout and moved.scene is not template.scene
     assert panda.collision.cached_scene(moved_obs) is None  # built without the model's scene caches
     fresh = CollisionConstraint(moved_obs, self_collision=True).bind(panda)
@@ -384,41 +387,6 @@ def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
     # a moved copy onto the fixed base is still refused
     onto_base = (*SCENE, ik.Box(_pose((0.0, 0.0, 0.05)), (0.1, 0.1, 0.1)))
     with pytest.raises(errors.InputError, match="fixed base"):
-        collision_solve._bound_constraint(panda, onto_base, True, 0.0)
+        state.collision_constraint(onto_base, True, 0.0)
 
 
-def test_table_starts_are_certified_once_a_scene_keeps_serving(panda):
-    """After TABLE_CERTIFY_AFTER solves on the same obstacles the seed table's samples are certified in one
-    call: the set holds exactly the samples the pre-check certifies (coal finds them free), admission takes
-    them without a check, and a moved copy of the constraint starts without the set."""
-    from kinserve.ik.collision import solve as collision_solve
-    from kinserve.ik.starts.seed_table import seed_table
-    from kinserve.kinematics.collision_spheres import certify
-
-    frame = "panda_link8"
-    obs = (*SCENE, ik.Box(_pose((0.45, 0.25, 0.45)), (0.12, 0.12, 0.12)))
-    con = collision_solve._bound_constraint(panda, obs, True, 0.0)
-    sets = [collision_solve._certified_table_starts(panda, con, frame)
-            for _ in range(collision_solve.TABLE_CERTIFY_AFTER + 1)]
-    assert all(x is None for x in sets[:-1]) and sets[-1] is not None
-    assert collision_solve._certified_table_starts(panda, con, frame) is sets[-1]  # built once
-    table = seed_table(panda, frame)
-    Q = np.concatenate([table.Q, table.Q_full])
-    ok = certify(con.scene.precheck(), Q)
-    assert sets[-1] == frozenset(q.tobytes() for q in Q[ok]) and 0 < ok.sum() < len(Q)
-    rng = np.random.default_rng(3)
-    for i in rng.choice(np.flatnonzero(ok), 30, replace=False):
-        assert not con.scene.in_collision(Q[i])
-    calls = []
-    pre = con.scene.precheck()
-    real_certify = pre[0]
-    con.scene._precheck = (lambda *a: calls.append(1) or real_certify(*a), *pre[1:])
-    try:
-        admit = collision_solve._start_admission(con, None, sets[-1])
-        assert admit(Q[np.flatnonzero(ok)[0]].copy()) and not calls  # a certified table sample: no check
-        admit(Q[np.flatnonzero(~ok)[0]].copy())
-        assert calls  # any other start is checked
-    finally:
-        con.scene._precheck = pre
-    moved = con.moved((*SCENE, ik.Box(_pose((0.45, -0.25, 0.45)), (0.12, 0.12, 0.12))))
-    assert collision_solve._certified_table_starts(panda, moved, frame) is None

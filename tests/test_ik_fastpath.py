@@ -10,7 +10,8 @@ import pytest
 from kinserve import ik, robots
 from kinserve.ik.result import History
 from kinserve.ik.starts.multistart import frame_starts
-from kinserve.ik.starts.seed_table import seed_table, start_sequence
+from kinserve.ik.starts.seed_table import start_sequence
+from kinserve.ik.state import seed_table
 from kinserve.kinematics import errors
 from kinserve.kinematics.validation import ROTATION_TOL, as_pose, as_vector, is_pose_fast
 
@@ -125,16 +126,16 @@ def test_equal_obstacles_built_anew_share_one_scene(panda):
 
 
 def test_every_iterate_is_still_checked(panda, monkeypatch):
-    """The cheap path checks the answer and every other iterate of the returned run (the sphere pre-check or
-    coal: whatever the scene's checks decide; the start by the admission before its run), the answer once."""
-    from kinserve.ik.collision import solve as collision_solve
-    from kinserve.kinematics import collision_scene
+    """The checked LM checks the answer and every other iterate of the returned run (the checker's
+    ``first_violation``: the sphere pre-check, then coal), the start by the admission before its run, the
+    answer once."""
+    from kinserve.ik.collision import checkers
 
     checked = []
-    real_admission = collision_solve._start_admission
+    real_admission = checkers._admission
 
-    def admission(*args, **kwargs):
-        admit = real_admission(*args, **kwargs)
+    def admission(*args):
+        admit = real_admission(*args)
 
         def spied(q):
             ok = admit(q)
@@ -144,36 +145,15 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
 
         return spied
 
-    monkeypatch.setattr(collision_solve, "_start_admission", admission)
-    real_parts = collision_solve._check_parts
+    real_first = checkers.CollisionChecker.first_violation
 
-    def parts(constraint):  # the pre-check the accept test calls directly: the rows it certifies
-        got = real_parts(constraint)
-        if len(got) == 1:
-            return got
-        first = got[2]
+    def first_violation(self, rows):
+        k = real_first(self, rows)
+        checked.extend(np.array(q) for q in (rows if k < 0 else rows[:k + 1]))
+        return k
 
-        def spied_first(floats, ints, qs, start, tol):
-            k = first(floats, ints, qs, start, tol)
-            checked.extend(np.array(q) for q in qs[start:k])
-            return k
-
-        return got[:2] + (spied_first,) + got[3:]
-
-    monkeypatch.setattr(collision_solve, "_check_parts", parts)
-    scene_cls = collision_scene.CollisionScene
-    real_first, real_one = scene_cls.first_collision, scene_cls.in_collision
-
-    def first_collision(self, qs, uncertified=None):  # the rows before ``uncertified``: the caller certified them
-        checked.extend(np.array(q) for q in qs[uncertified or 0:])
-        return real_first(self, qs, uncertified)
-
-    def in_collision(self, q):
-        checked.append(np.array(q))
-        return real_one(self, q)
-
-    monkeypatch.setattr(scene_cls, "first_collision", first_collision)
-    monkeypatch.setattr(scene_cls, "in_collision", in_collision)
+    monkeypatch.setattr(checkers, "_admission", admission)
+    monkeypatch.setattr(checkers.CollisionChecker, "first_violation", first_violation)
     rng = np.random.default_rng(6)
     T = panda.fk(panda.random_q(rng), FRAME).copy()
     res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, self_collision=True, seed=1, max_time=2.0)
@@ -187,35 +167,29 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
     assert not any(panda.in_collision(q) for q in hist)
 
 
-def test_collision_options_are_remembered_by_the_shapes_identities(panda):
-    """The same shape objects give the same validated options (one lookup); other objects - equal or not - are
-    validated anew, and so is anything that is not a list or tuple of shapes (a dict can change between calls:
-    a bad size raises every time)."""
-    from kinserve.ik.collision.solve import _request_constraint, collision_options
+def test_bound_constraints_are_found_by_the_shapes_values(panda):
+    """The robot's IK state keeps one bound constraint per obstacle set: the same shapes, or equal new ones,
+    find it; other flags, other sizes or a dict spec with a bad size are another scene or an error."""
+    from kinserve.ik.collision.request import collision_request
+    from kinserve.ik.state import ik_state
 
     T = np.eye(4)
     T[:3, 3] = (0.65, 0.0, -0.05)
     table = ik.Box(T, (0.7, 1.2, 0.1))
-    a = collision_options(True, [table], 0.0, ())
-    assert collision_options(True, [table], 0.0, ()) is a and collision_options(True, (table,), 0.0, ()) is a
-    assert a["obstacles"] == (table,) and a["self_collision"] is True
-    assert collision_options(False, [table], 0.0, ()) is not a
-    assert collision_options(True, [ik.Box(T, (0.7, 1.2, 0.1))], 0.0, ()) is not a
-    spec = {"kind": "box", "pose": T.tolist(), "size": [0.7, 1.2, 0.1]}
-    assert collision_options(True, [spec], 0.0, ()) is not collision_options(True, [spec], 0.0, ())
-    spec["size"] = [0.7, -1.2, 0.1]
+    state = ik_state(panda)
+    a = state.collision_constraint((table,), True, 0.0)
+    assert state.collision_constraint((table,), True, 0.0) is a
+    assert state.collision_constraint((ik.Box(T, (0.7, 1.2, 0.1)),), True, 0.0) is a  # equal shapes
+    assert state.collision_constraint((table,), False, 0.0) is not a
+    assert a.obstacles == (table,)
+    spec = {"kind": "box", "pose": T.tolist(), "size": [0.7, -1.2, 0.1]}
     for _ in range(2):
         with pytest.raises(errors.InputError):
-            collision_options(True, [spec], 0.0, ())
-    # the bound constraint of one options dictionary is found by identity, and is that scene's
-    bound = _request_constraint(panda, a)
-    assert _request_constraint(panda, a) is bound and bound.obstacles == (table,)
+            collision_request(True, [spec], 0.0)
     T2 = T.copy()
-    T2[2, 3] = 0.3  # the table raised into the arm's way: a different scene, a different answer
-    other = _request_constraint(panda, collision_options(True, [ik.Box(T2, (0.7, 1.2, 0.1))], 0.0, ()))
-    assert other is not bound and other.obstacles[0].pose[2, 3] == 0.3
-    rng = np.random.default_rng(4)
-    raised = other.obstacles[0]
-    q = next(q for q in panda.random_q(rng, 500)
-             if panda.in_collision(q, [raised]) and not panda.in_collision(q, [table]))
-    assert other.in_collision(q) and not bound.in_collision(q)
+    T2[2, 3] = 0.3  # the table raised into the arm's way: another pose of the same layout, moved
+    b = state.collision_constraint((ik.Box(T2, (0.7, 1.2, 0.1)),), True, 0.0)
+    assert b is not a and b.scene.layout is a.scene.layout
+    q = panda.neutral()
+    assert b.in_collision(q) == panda.in_collision(q, [ik.Box(T2, (0.7, 1.2, 0.1))])
+

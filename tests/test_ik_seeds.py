@@ -5,7 +5,8 @@ import itertools
 import numpy as np
 
 from kinserve import robots
-from kinserve.ik.starts.seed_table import SeedTable, seed_table, start_sequence
+from kinserve.ik.starts.seed_table import SeedTable, start_sequence
+from kinserve.ik.state import seed_table
 
 
 def test_ranking_matches_brute_force_pose_distance():

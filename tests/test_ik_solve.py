@@ -163,8 +163,9 @@ def test_sphere_errors_name_their_argument(panda, T):
 
 @pytest.mark.parametrize("options", [dict(prefer_q0=True), dict(), dict(seed_table=False, max_iter=30), dict(max_starts=2)])
 def test_short_path_gives_the_general_path_answer(panda, options):
-    """The short path of ik.solve (pose only, defaults elsewhere) answers exactly as prepare + solve_prepared."""
-    from kinserve.ik.solve import prepare, solve_prepared
+    """The pose request of ik.solve (defaults elsewhere) answers exactly as the general target request."""
+    from kinserve.ik.request import target_request
+    from kinserve.ik.solve import run
 
     rng = np.random.default_rng(8)
     for _ in range(15):
@@ -172,7 +173,7 @@ def test_short_path_gives_the_general_path_answer(panda, options):
         q0 = panda.random_q(rng)
         for method in ("auto", "lm"):
             a = ik.solve(panda, T, q0, method=method, seed=2, **options)
-            b = solve_prepared(panda, prepare(panda, T, q0, method=method, seed=2), **dict(options))
+            b = run(target_request(panda, T, q0, method=method, seed=2, options=dict(options)))
             assert np.array_equal(a.q, b.q) and a.iterations == b.iterations and a.restarts == b.restarts
             assert a.success == b.success and a.message == b.message and a.method == b.method == "lm"
             assert np.array_equal(a.history.q, b.history.q)

@@ -143,8 +143,8 @@ def test_copy_and_pickle_give_fresh_per_thread_workspaces(panda):
 
 
 def test_first_use_of_a_new_model_builds_one_seed_table_and_one_solver(panda, fast_switching):
-    from kinserve.ik.closed_form import closed_form_solver
-    from kinserve.ik.starts.seed_table import seed_table
+    from kinserve.ik.state import closed_form_solver
+    from kinserve.ik.state import seed_table
     from kinserve.kinematics import Robot
 
     fresh = Robot(panda.model.copy(), tip=panda.tip, name="panda-copy")  # a model no cache has seen

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.ik.starts.seed_table import seed_table
+from kinserve.ik.state import seed_table
 from kinserve.kinematics.errors import ModelError, UnknownRobotError
 from kinserve.robots.paths import models_dir
 from kinserve.service.robot_pool import RobotPool

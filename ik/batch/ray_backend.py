@@ -2,9 +2,9 @@
 
 The batch is cut into the same chunks as the local backends. One Ray actor
 per worker receives the robot **once** (Ray pickles a ``Robot`` as its
-kinematic model, without meshes) together with the solve options, then
-solves whole chunks (:func:`ik.batch.worker.actor_chunk`) and returns the
-same compact arrays as a local worker, so results are identical, target for
+kinematic model, without meshes) together with the solve options, builds
+its :class:`ik.batch.worker.Job` once, then solves whole chunks
+(:func:`ik.batch.worker.solve_chunk`) and returns the same compact arrays as a local worker, so results are identical, target for
 target, to the ``"processes"`` backend for the same seed.
 
 Time limits are those of the local pool (:mod:`ik.batch.runners`): an actor
@@ -25,10 +25,8 @@ from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING
 
+from kinserve.ik.batch.worker import Job, limit_blas_threads, solve_chunk
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
-
-from kinserve.ik.batch.worker import actor_chunk, limit_blas_threads
-from kinserve.ik.starts.seed_table import seed_table
 
 if TYPE_CHECKING:  # annotations only
     import numpy as np
@@ -57,17 +55,15 @@ def ensure_ray(address: str | None = None, num_cpus: int | None = None) -> Modul
 
 
 class _ChunkSolver:
-    """Body of the Ray actor: holds the robot and the options, solves chunks."""
+    """Body of the Ray actor: holds the job (robot, keywords, options) built once, solves its chunks."""
 
     def __init__(self, robot, common, options, keep_history):
         limit_blas_threads()
-        self.robot = robot
-        self.args = (common, options, keep_history)
-        seed_table(robot, common["frame"])  # once per actor, as a forked worker inherits it
+        # the request built here warms the robot's IK state (seed table, compiled chains) once per actor
+        self.job = Job(robot, common["kwargs"], options, keep_history, common["frame"])
 
     def solve(self, start, poses, q0s):
-        common, options, keep_history = self.args
-        return actor_chunk(self.robot, common, options, keep_history, start, poses, q0s)
+        return solve_chunk(self.job, start, poses, q0s)
 
 
 def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, np.ndarray, np.ndarray | None]], common: dict,

@@ -70,11 +70,10 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from kinserve.kinematics.errors import WorkerTimeoutError
-
 from kinserve.ik.batch.pool import acquire_pool, current_pool
-from kinserve.ik.batch.worker import Job, solve_chunk, write_job
 from kinserve.ik.batch.ray_backend import run_ray_chunks
+from kinserve.ik.batch.worker import Job, solve_chunk, write_job
+from kinserve.kinematics.errors import WorkerTimeoutError
 
 #: Time budget (s) of one solve per method when ``max_time`` is not given (the solvers' defaults).
 DEFAULT_BUDGET = {"lm": 0.1, "qp": 0.5, "auto": 0.5, "analytic": 0.1}
@@ -98,7 +97,7 @@ class TimeLimits:
     def for_job(cls, job: Job, timeout: float | None) -> "TimeLimits":
         """The limits of ``job`` with the module's current ``CHUNK_FACTOR`` / ``CHUNK_SLACK``."""
         p = job.prepared()
-        budget = p["max_time"] if p["max_time"] is not None else DEFAULT_BUDGET.get(p["method"], CLASSICAL_BUDGET)
+        budget = p.max_time if p.max_time is not None else DEFAULT_BUDGET.get(p.method, CLASSICAL_BUDGET)
         deadline = None if timeout is None else time.monotonic() + timeout
         return cls(budget, deadline, CHUNK_FACTOR, CHUNK_SLACK)
 

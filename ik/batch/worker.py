@@ -1,4 +1,4 @@
-"""The work of :func:`ik.solve_many`, wherever it runs: a job, its chunks, and a worker process's job cache.
+"""The work of :func:`ik.solve_many`, wherever it runs: a job, its chunks, and a worker process's loaded jobs.
 
 A :class:`Job` is everything needed to solve the targets of one
 ``solve_many`` call: the robot, the validated ``ik.solve`` keywords, the
@@ -7,46 +7,50 @@ method options, the (validated) target poses and start configurations.
 and returns compact arrays (joint vectors, flags, errors, counters) plus the
 messages - far cheaper to pickle than one ``Result`` per target.
 
-Plain pose targets (method ``"lm"``, or ``"auto"`` on a robot without a
-finite closed form; no relaxation, spheres, centring or history) are solved
-a whole chunk at a time by the stacked Levenberg-Marquardt of
-:mod:`ik.batch.batch_lm`; anything else goes target by target through
-``ik.solve``'s own code path (:func:`ik.solve.solve_prepared`).
+Targets whose ``ik.solve`` strategy is plain Levenberg-Marquardt (method ``"lm"``, or ``"auto"`` without a
+usable closed form, obstacles, collision, centring or history; relaxed components allowed) on a chain the
+compiled kernel models are solved a whole chunk at a time in one compiled call
+(:func:`kinserve.ik.lm.many.solve_lm_many`): the answers ``ik.solve`` gives one by one, without its Python
+work per target. Anything else goes target by target through ``ik.solve``'s own code path
+(:func:`kinserve.ik.solve.run`).
 
 Worker processes (:mod:`ik.batch.pool`) receive a job once, as a file
 written by :func:`write_job` (in ``/dev/shm`` when available), and keep the
-last :data:`WORKER_JOBS` jobs loaded: the robot is rebuilt once per worker
-and job, never per chunk. :func:`limit_blas_threads` runs first in every
-worker (see :mod:`ik.batch.pool` for why).
+last :data:`WORKER_JOBS` jobs loaded (:class:`LoadedJobs`, owned by the
+worker's loop): the robot is rebuilt once per worker and job, never per
+chunk. :func:`limit_blas_threads` runs first in every worker (see
+:mod:`ik.batch.pool` for why).
 """
 
 from __future__ import annotations
 
-import itertools
 import os
 import pickle
 import tempfile
+import uuid
 from collections import OrderedDict
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from kinserve.ik.closed_form import closed_form_solver
-from kinserve.ik.batch.batch_lm import BatchChain, solve_batch
-from kinserve.ik.starts.seed_table import install_table, seed_table
-from kinserve.ik.solve import prepare, solve_prepared
+from kinserve.ik.lm.chains import compiled_chain
+from kinserve.ik.lm.many import ManySettings, solve_lm_many
+from kinserve.ik.plan import LM, choose_strategy
+from kinserve.ik.request import SolveRequest, target_request
+from kinserve.ik.solve import run
+from kinserve.ik.state import ik_state, seed_table
 from kinserve.ik.targets import Target
 
 if TYPE_CHECKING:  # annotations only
+    from kinserve.ik.result import Result
     from kinserve.kinematics.robot import Robot
 
 #: Jobs a worker keeps loaded (least recently used first out).
 WORKER_JOBS = 2
 
-#: Options of ``ik.solve`` the stacked LM understands.
-VECTOR_OPTIONS = frozenset({"max_iter", "damping"})
-
-_job_ids = itertools.count()
+#: Options of ``ik.solve`` the compiled batch understands (those of method ``"lm"``).
+VECTOR_OPTIONS = frozenset({"max_iter", "damping", "max_starts", "prefer_q0", "seed_table",
+                            "iteration_budget"})
 
 
 class Job:
@@ -60,8 +64,8 @@ class Job:
 
     def __init__(self, robot: Robot, kwargs: dict, options: dict, keep_history: bool, frame: str,
                  poses: np.ndarray | None = None, q0s: np.ndarray | None = None,
-                 prepared: dict | None = None) -> None:
-        self.id = (os.getpid(), next(_job_ids))
+                 prepared: SolveRequest | None = None) -> None:
+        self.id = (os.getpid(), uuid.uuid4().int)  #: unique across processes and calls
         self.robot = robot
         self.kwargs = kwargs
         self.options = options
@@ -70,20 +74,16 @@ class Job:
         self.poses = poses
         self.q0s = q0s
         self.ray_address = None  #: Ray cluster to join (``backend="ray"``)
-        self._prepared = prepared  # from the caller's own prepare(**kwargs), if it has one
-        self._vectorised = None
+        #: The request of ``ik.solve`` shared by every target (:func:`kinserve.ik.request.target_request`;
+        #: each target replaces its pose and start): the caller's, or built here (warming the IK state).
+        self.request = prepared if prepared is not None else target_request(robot, np.eye(4), None, **kwargs,
+                                                                             options=options)
+        #: Whether the chunks go through the compiled batch (module docstring).
+        self.vectorised = _vectorisable(self)
 
-    def prepared(self) -> dict:
-        """The checked arguments of ``ik.solve`` shared by every target (:func:`ik.solve.prepare`)."""
-        if self._prepared is None:
-            self._prepared = prepare(self.robot, np.eye(4), None, **self.kwargs)
-        return self._prepared
-
-    def vectorised(self) -> bool:
-        """Whether the targets go through the stacked LM of :mod:`ik.batch.batch_lm` (module docstring)."""
-        if self._vectorised is None:
-            self._vectorised = _vectorisable(self)
-        return self._vectorised
+    def prepared(self) -> SolveRequest:
+        """The request of ``ik.solve`` shared by every target (:attr:`request`)."""
+        return self.request
 
     def chunk(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray | None]:
         """``(poses, q0s)`` of targets ``start .. stop``."""
@@ -91,22 +91,12 @@ class Job:
 
 
 def _vectorisable(job: Job) -> bool:
-    p = job.prepared()
-    if job.keep_history or p["spheres"] is not None or p["weights"] is not None or job.kwargs["relax"]:
+    """Whether ``ik.solve`` would answer the job's targets with plain LM on a chain the compiled kernel
+    models, with options the compiled batch takes."""
+    if job.keep_history or not VECTOR_OPTIONS.issuperset(job.options):
         return False
-    if set(job.options) - VECTOR_OPTIONS:
-        return False
-    if p["method"] == "auto":
-        solver = closed_form_solver(job.robot, job.frame)
-        if solver is not None and solver.finite:
-            return False  # "auto" answers with the closed form
-    elif p["method"] != "lm":
-        return False
-    try:
-        BatchChain(job.robot, job.frame)
-    except ValueError:
-        return False
-    return True
+    req = job.request
+    return choose_strategy(req) is LM and compiled_chain(job.robot, req.target.frame_id) is not None
 
 
 def _empty_out(n: int, nq: int, start: int, keep_history: bool) -> dict:
@@ -130,23 +120,14 @@ def solve_chunk(job: Job, start: int, poses: np.ndarray, q0s: np.ndarray | None)
     """Solve targets ``start .. start + len(poses)`` of ``job``; return compact arrays (module docstring)."""
     robot = job.robot
     n = len(poses)
-    base = job.prepared()
-    if job.vectorised():
-        b = solve_batch(robot, job.frame, np.asarray(poses), None if q0s is None else np.asarray(q0s),
-                        tol_pos=base["tol_pos"], tol_rot=base["tol_rot"], seed=base["seed"],
-                        max_time=base["max_time"], **job.options)
-        b["start"] = start
-        b["method"] = ["lm"] * n
-        b["info"] = None  # the parent fills {"batched": True}: nothing to pickle per target
-        b["history"] = None
-        return b
+    base = job.request
+    if job.vectorised:
+        return _compiled_chunk(job, start, poses, q0s)
     out = _empty_out(n, robot.nq, start, job.keep_history)
     relax, relax_frame = job.kwargs["relax"], job.kwargs["relax_frame"]
     for i in range(n):
-        p = dict(base)
-        p["target"] = Target(robot, poses[i], job.frame, relax, relax_frame)
-        p["q0"] = None if q0s is None else q0s[i]
-        r = solve_prepared(robot, p, **job.options)
+        r = run(base._replace(target=Target(robot, poses[i], job.frame, relax, relax_frame),
+                              q0=None if q0s is None else q0s[i]))
         out["q"][i] = r.q
         out["success"][i] = r.success
         out["position_error"][i] = r.position_error
@@ -162,6 +143,33 @@ def solve_chunk(job: Job, start: int, poses: np.ndarray, q0s: np.ndarray | None)
     return out
 
 
+def _settings(req: SolveRequest, options: dict) -> ManySettings:
+    """The compiled batch's settings for the request's tolerances, budget and seed and the LM ``options``."""
+    lm = {k: v for k, v in options.items() if k != "seed_table"}
+    return ManySettings(tol_pos=req.tol_pos, tol_rot=req.tol_rot, max_time=req.max_time, seed=req.seed,
+                        seed_table_enabled=options.get("seed_table", True), **lm)
+
+
+def _compiled_chunk(job: Job, start: int, poses: np.ndarray, q0s: np.ndarray | None) -> dict:
+    """:func:`solve_chunk` in one compiled call (:func:`kinserve.ik.lm.many.solve_lm_many`); a target whose
+    prepared starts run out is solved by ``ik.solve``'s own path."""
+    robot, base = job.robot, job.request
+    relax, relax_frame = job.kwargs["relax"], job.kwargs["relax_frame"]
+
+    def one(i: int) -> Result:
+        return run(base._replace(target=Target(robot, poses[i], job.frame, relax, relax_frame),
+                                 q0=None if q0s is None else q0s[i]))
+
+    a = solve_lm_many(robot, job.frame, np.asarray(poses), None if q0s is None else np.asarray(q0s),
+                      relax=relax, relax_frame=relax_frame, settings=_settings(base, job.options),
+                      fallback=one)
+    n = len(poses)
+    # the parent fills info {"batched": True}: nothing to pickle per target
+    return {"start": start, "q": a.q, "success": a.success, "position_error": a.position_error,
+            "orientation_error": a.orientation_error, "iterations": a.iterations, "restarts": a.restarts,
+            "elapsed": a.elapsed, "message": a.message, "method": ["lm"] * n, "info": None, "history": None}
+
+
 # ------------------------------------------------------------ job files (to worker processes)
 def write_job(job: Job) -> str:
     """Write the job (robot, options, targets, the robot's seed table for the frame) to a temporary file.
@@ -170,8 +178,8 @@ def write_job(job: Job) -> str:
     file lives in ``/dev/shm`` (memory) when it is writable.
     """
     table = seed_table(job.robot, job.frame)
-    data = pickle.dumps((job.id, job.robot, job.kwargs, job.options, job.keep_history, job.frame, job.poses, job.q0s,
-                         table), protocol=pickle.HIGHEST_PROTOCOL)
+    data = pickle.dumps((job.id, job.robot, job.kwargs, job.options, job.keep_history, job.frame, job.poses,
+                         job.q0s, table), protocol=pickle.HIGHEST_PROTOCOL)
     shm = "/dev/shm" if os.path.isdir("/dev/shm") and os.access("/dev/shm", os.W_OK) else None
     fd, path = tempfile.mkstemp(prefix="kinserve-ik-job-", suffix=".pkl", dir=shm)
     with os.fdopen(fd, "wb") as fh:
@@ -183,45 +191,35 @@ def read_job(path: str) -> Job:
     """The :class:`Job` of a file from :func:`write_job` (installs its seed table in this process)."""
     with open(path, "rb") as fh:
         job_id, robot, kwargs, options, keep_history, frame, poses, q0s, table = pickle.load(fh)
-    install_table(robot, frame, table)
+    ik_state(robot).install_seed_table(frame, table)
     job = Job(robot, kwargs, options, keep_history, frame, poses, q0s)
     job.id = job_id
     return job
 
 
-_worker_jobs: OrderedDict = OrderedDict()
+class LoadedJobs:
+    """The jobs one worker process has loaded (least recently used dropped first), owned by its loop."""
+
+    def __init__(self, size: int = WORKER_JOBS) -> None:
+        self.size = size
+        self.jobs: OrderedDict[tuple, Job] = OrderedDict()
+
+    def get(self, job_id: tuple, path: str) -> Job:
+        """The job ``job_id``, read from ``path`` the first time."""
+        job = self.jobs.get(job_id)
+        if job is None:
+            job = self.jobs[job_id] = read_job(path)
+            while len(self.jobs) > self.size:
+                self.jobs.popitem(last=False)
+        else:
+            self.jobs.move_to_end(job_id)
+        return job
 
 
-def worker_chunk(job_id: tuple[int, int], path: str, start: int, stop: int) -> dict:
-    """Solve targets ``start .. stop`` of the job ``job_id`` stored at ``path`` (loaded once per process)."""
-    job = _worker_jobs.get(job_id)
-    if job is None:
-        job = _worker_jobs[job_id] = read_job(path)
-        while len(_worker_jobs) > WORKER_JOBS:
-            _worker_jobs.popitem(last=False)
-    else:
-        _worker_jobs.move_to_end(job_id)
+def worker_chunk(jobs: LoadedJobs, job_id: tuple, path: str, start: int, stop: int) -> dict:
+    """Solve targets ``start .. stop`` of the job ``job_id`` stored at ``path`` (``jobs`` loads it once)."""
+    job = jobs.get(job_id, path)
     poses, q0s = job.chunk(start, stop)
-    return solve_chunk(job, start, poses, q0s)
-
-
-# ------------------------------------------------------------ actors holding a robot (Ray)
-_actor_jobs: OrderedDict = OrderedDict()
-
-
-def actor_chunk(robot: Robot, common: dict, options: dict, keep_history: bool, start: int, poses: np.ndarray,
-                q0s: np.ndarray | None) -> dict:
-    """Solve one chunk for a runner that holds ``(robot, common, options, keep_history)`` (a Ray actor).
-
-    ``common`` carries ``"kwargs"`` (the validated ``ik.solve`` keywords) and
-    ``"frame"``; the job is rebuilt once per ``common`` object and robot, not per chunk.
-    """
-    key = (id(robot), id(common))
-    job = _actor_jobs.get(key)
-    if job is None:
-        job = _actor_jobs[key] = Job(robot, common["kwargs"], options, keep_history, common["frame"])
-        while len(_actor_jobs) > WORKER_JOBS:
-            _actor_jobs.popitem(last=False)
     return solve_chunk(job, start, poses, q0s)
 
 

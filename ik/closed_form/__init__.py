@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Union
 import numpy as np
 
 from kinserve.ik.result import History, Result
-from kinserve.ik.starts.seed_table import PerModel
 from kinserve.ik.closed_form.planar import PlanarChain, two_link, wrap_into
 from kinserve.ik.closed_form.youbot import YOUBOT_DH, YouBotArm
 
@@ -35,36 +34,23 @@ ClosedFormSolver = Union[PlanarChain, YouBotArm]
 #: One raw branch ``(q, label, free_parameter, note)`` from :func:`raw_branches`.
 Branch = tuple[np.ndarray, str, Union[float, None], Union[str, None]]
 
-__all__ = ["closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
+__all__ = ["build_closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
 
 _SOLVERS = (PlanarChain, YouBotArm)
-#: Per model (by identity: a WeakKeyDictionary would compare models deeply on every look-up, ~7 us), per frame.
-_cache = PerModel()
-_cache_lock = threading.Lock()
 
 
-def closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | None:
+def build_closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | None:
     """The closed-form solver of ``robot`` for ``frame``, or None when there is none.
 
-    Solvers are immutable once built; the per-model cache is filled under a
-    lock, so threads sharing a robot share its solvers.
+    Built anew on each call: the robot's IK state (:mod:`kinserve.ik.state`) keeps the one each frame uses.
+    Solvers are immutable once built.
     """
-    per_model = _cache.get(robot.model)
-    if per_model is not None and frame in per_model:
-        return per_model[frame]
-    with _cache_lock:
-        per_model = _cache.setdefault(robot.model)
-        if frame in per_model:
-            return per_model[frame]
-        solver = None
-        for cls in _SOLVERS:
-            try:
-                solver = cls(robot, frame)
-                break
-            except (ValueError, np.linalg.LinAlgError):
-                continue
-        per_model[frame] = solver
-    return solver
+    for cls in _SOLVERS:
+        try:
+            return cls(robot, frame)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+    return None
 
 
 def raw_branches(robot: Robot, solver: ClosedFormSolver, target: Target,

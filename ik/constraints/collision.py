@@ -58,7 +58,8 @@ BASE_TOLERANCE = 1e-3
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
 
-def _length(value, name: str, positive: bool = False) -> float:
+def check_length(value: object, name: str, positive: bool = False) -> float:
+    """``value`` as a finite length in metres (>= 0, or > 0 with ``positive``); errors name ``name``."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -90,8 +91,8 @@ class CollisionConstraint(Constraint):
         super().__init__(name=name or ("self-collision" if self_collision and not obstacles else "collision"))
         self.obstacles = as_obstacles(obstacles)
         self.self_collision = bool(self_collision)
-        self.clearance = _length(margin, "collision margin")
-        self.influence = _length(influence, "collision influence", positive=True)
+        self.clearance = check_length(margin, "collision margin")
+        self.influence = check_length(influence, "collision influence", positive=True)
         self.scene = None
 
     # ------------------------------------------------------------------ protocol

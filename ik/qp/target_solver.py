@@ -29,26 +29,23 @@ if TYPE_CHECKING:  # annotations only
 def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, spheres: Any = None,
              weights: np.ndarray | None = None, backend: str = DEFAULT_BACKEND,
              tol_pos: float = 1e-4, tol_rot: float = 1e-3, max_time: float | None = None, seed: int | None = None,
-             max_iter: int = MAX_ITER, max_step: float = MAX_STEP, damping: float = DAMPING,
+             max_iter: int = MAX_ITER, iteration_budget: int | None = None, max_step: float = MAX_STEP,
+             damping: float = DAMPING,
              max_starts: int | None = None, seed_table_enabled: bool = True, prefer_q0: bool = False,
              shortcut: bool = True, lazy: bool = True, defer_starts: int = 0) -> Result:
     """QP-based IK of ``target`` with hard joint limits, optional obstacles and centring, and restarts.
 
     ``spheres`` is a constraint (e.g. :class:`~kinserve.ik.constraints.obstacles.ObstacleAvoidance`), a list
     of constraints or None; ``weights`` the centring weights of :func:`ik.tasks.centring_weights.centring_weights` (None = off);
-    ``defer_starts`` (starts the caller tried), see :func:`~kinserve.ik.qp.task_solver.solve_problem`.
+    ``defer_starts`` (starts the caller tried) and ``iteration_budget`` (the iterations of all starts;
+    without ``max_time`` the clock decides nothing), see :func:`~kinserve.ik.qp.task_solver.solve_problem`.
     """
     from kinserve.ik.tasks.centring_task import CentringTask
     from kinserve.ik.tasks.frame_task import FrameTask
 
     tasks = [FrameTask.from_target(target)]
     if weights is not None:
-        ct = CentringTask(1.0, priority=2)
-        ct._sqrt_w = np.sqrt(weights)
-        ct._J = np.diag(ct._sqrt_w)
-        ct._mid = robot.middle()
-        ct._model = robot.model
-        tasks.append(ct)
+        tasks.append(CentringTask.bound(robot, weights))
     cons = []
     if isinstance(spheres, (list, tuple)):
         cons.extend(spheres)
@@ -56,7 +53,7 @@ def solve_qp(robot: Robot, target: Target, q0: np.ndarray | None = None, *, sphe
         cons.append(spheres)
     pb = Problem(robot, tasks, cons)
     return solve_problem(pb, q0, tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed, max_iter=max_iter,
-                         max_step=max_step, damping=damping, max_starts=max_starts,
+                         iteration_budget=iteration_budget, max_step=max_step, damping=damping, max_starts=max_starts,
                          seed_table_enabled=seed_table_enabled, prefer_q0=prefer_q0, backend=backend,
                          shortcut=shortcut, lazy=lazy, defer_starts=defer_starts,
                          evaluate=task_evaluator(robot, target),

@@ -19,7 +19,8 @@ import numpy as np
 import pinocchio as pin
 from typing import TYPE_CHECKING
 
-from kinserve.ik.starts.seed_table import seed_table, start_sequence
+from kinserve.ik.starts.seed_table import start_sequence
+from kinserve.ik.state import seed_table
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot

@@ -91,8 +91,6 @@ class PerModel:
             return entry[1]
 
 
-_tables = PerModel()
-_tables_lock = threading.Lock()
 
 
 class SeedTable:
@@ -165,35 +163,6 @@ class SeedTable:
             idx = np.arange(len(score))
         idx = idx[np.argsort(score[idx])]
         return idx, score[idx] + float(f_target[:12] @ f_target[:12])
-
-
-def seed_table(robot: Robot, frame: str) -> SeedTable:
-    """The cached :class:`SeedTable` of ``robot`` for ``frame`` (built on first use).
-
-    Cached per Pinocchio model (weakly), so every ``robot.copy()`` - and every
-    ``robots.load`` of the same model - shares one table. Built under a lock:
-    threads asking for the same new table build it once.
-    """
-    per_robot = _tables.get(robot.model)
-    table = None if per_robot is None else per_robot.get(frame)
-    if table is None:
-        with _tables_lock:
-            per_robot = _tables.setdefault(robot.model)
-            table = per_robot.get(frame)
-            if table is None:
-                table = per_robot[frame] = SeedTable(robot, frame)
-    return table
-
-
-def cached_tables(robot: Robot) -> list[SeedTable]:
-    """The tables already built for ``robot``'s model (any frame); builds nothing."""
-    return list((_tables.get(robot.model) or {}).values())
-
-
-def install_table(robot: Robot, frame: str, table: SeedTable) -> None:
-    """Register an existing table for ``robot`` (e.g. one shipped to a worker process)."""
-    with _tables_lock:
-        _tables.setdefault(robot.model)[frame] = table
 
 
 def start_sequence(robot: Robot, table: SeedTable | None, f_target: np.ndarray | None, q0: VectorLike | None,

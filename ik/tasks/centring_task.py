@@ -47,6 +47,17 @@ class CentringTask(Task):
         self._model = None  # bind again
         self._version += 1
 
+    @classmethod
+    def bound(cls, robot: Robot, scaled: np.ndarray, priority: int = 2) -> "CentringTask":
+        """A task already bound to ``robot`` with the scaled weights ``w_i / r_i^2`` of
+        :func:`~kinserve.ik.tasks.centring_weights.centring_weights` (validated: no second pass)."""
+        task = cls(1.0, priority=priority)
+        task._sqrt_w = np.sqrt(scaled)
+        task._J = np.diag(task._sqrt_w)
+        task._mid = robot.middle()
+        task._model = robot.model
+        return task
+
     def bind(self, robot: Robot) -> "CentringTask":
         if self._model is not robot.model:
             w = centring_weights(robot, self.weights)

@@ -1,0 +1,39 @@
+"""The collision part of an IK request: ``self_collision``, ``obstacles`` and ``collision_margin``, validated."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from kinserve.ik.constraints.collision import check_length
+from kinserve.kinematics.collision_queries import as_obstacles
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Shape
+
+
+class CollisionRequest(NamedTuple):
+    """Validated collision options of one solve.
+
+    ``obstacles``: shapes of :mod:`kinserve.kinematics.shapes` (``spheres=`` given with collision options
+    join them); ``self_collision``: keep the robot's checked link pairs apart; ``margin`` (m): the clearance
+    kept from obstacles and between checked pairs.
+    """
+
+    self_collision: bool
+    obstacles: tuple[Shape, ...]
+    margin: float
+
+
+def collision_request(self_collision: Any = False, obstacles: Sequence[Any] = (), collision_margin: Any = 0.0,
+                      spheres: Sequence[Any] = ()) -> CollisionRequest:
+    """Validate the collision options of ``ik.solve`` (errors name the argument and the expected form)."""
+    obs = as_obstacles(obstacles)
+    if spheres is not None and (type(spheres) is not tuple or spheres):
+        obs += as_obstacles(spheres, "spheres")
+    if not isinstance(self_collision, (bool, np.bool_)):
+        raise InputError(f"self_collision must be True or False, got {self_collision!r}")
+    margin = 0.0 if type(collision_margin) is float and collision_margin == 0.0 \
+        else check_length(collision_margin, "collision margin")
+    return CollisionRequest(bool(self_collision), tuple(obs), margin)

@@ -1,0 +1,197 @@
+"""One IK request: every argument of ``ik.solve`` validated once, into an immutable :class:`SolveRequest`.
+
+``ik.solve``, ``ik.solve_many``, the CLI and the service build the request here; nothing downstream checks
+an argument again or changes the request (a batch makes one request per target with ``_replace``).
+Building it also warms the robot's IK state for the request's frame and scene (:mod:`kinserve.ik.state`),
+so the one-time set-up never counts against the solve's time budget.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from types import MappingProxyType
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from kinserve.ik.arguments import (check_backend, check_max_time, check_method, check_q0, check_robot,
+                                   check_seed, check_tolerances, tag)
+from kinserve.ik.collision.request import CollisionRequest, collision_request
+from kinserve.ik.constraints.base import Constraint
+from kinserve.ik.constraints.obstacles import ObstacleAvoidance
+from kinserve.ik.lm.solver import compiled_chain
+from kinserve.ik.obstacle_arguments import link_obstacles
+from kinserve.ik.options import (DEFAULT_TOL_POS, DEFAULT_TOL_ROT, NO_CENTRING_METHODS, NO_OBSTACLE_METHODS,
+                                 check_options)
+from kinserve.ik.problem import Problem, as_constraints
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
+from kinserve.ik.state import ik_state
+from kinserve.ik.targets import Target
+from kinserve.ik.tasks.centring_weights import centring_weights
+from kinserve.kinematics.errors import InputError, KinserveError, ModelError
+from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.shapes import Shape
+
+_NO_OPTIONS: Mapping[str, Any] = MappingProxyType({})
+
+
+class SolveRequest(NamedTuple):
+    """A validated IK request (immutable).
+
+    Exactly one of ``target`` (one frame at one pose) and ``problem`` (tasks and constraints bound to the
+    robot) is set. ``weights``: centring weights (None = off); ``avoid``: obstacles kept clear of the link
+    capsules (bound :class:`ObstacleAvoidance`, None = none); ``extra``: further constraints of a target
+    request; ``collision``: the collision options (None = none); ``collision_constraint``: their constraint
+    bound to the robot (None when the robot has no collision model: then ``avoid`` holds the obstacles);
+    ``options``: the method's options (names and values checked by :func:`kinserve.ik.options.check_options`).
+    ``max_time`` None means the method's default budget (:mod:`kinserve.ik.options`).
+    """
+
+    robot: Robot
+    target: Target | None
+    problem: Problem | None
+    q0: np.ndarray | None
+    method: str
+    backend: str
+    tol_pos: float
+    tol_rot: float
+    max_time: float | None
+    seed: int | None
+    weights: np.ndarray | None
+    avoid: ObstacleAvoidance | None
+    extra: tuple[Constraint, ...]
+    collision: CollisionRequest | None
+    collision_constraint: Any
+    options: Mapping[str, Any]
+
+
+def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = None, relax: Any = (),
+                 relax_frame: str = "world", method: str = "auto", tol_pos: float = DEFAULT_TOL_POS,
+                 tol_rot: float = DEFAULT_TOL_ROT, max_time: float | None = None, seed: int | None = None,
+                 options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
+    """The request of a pose target with every other argument at its default (the common call)."""
+    check_robot(robot)
+    tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
+    tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
+    req = SolveRequest(robot, tgt, None, check_q0(robot, q0), check_method(method), DEFAULT_BACKEND, tol_pos,
+                       tol_rot, check_max_time(max_time), check_seed(seed), None, None, (), None, None,
+                       _checked_options(method, options))
+    _warm(req)
+    return req
+
+
+def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | None = None, relax: Any = (),
+                   relax_frame: str = "world", spheres: Any = (), obstacles: Any = (), link_radius: Any = 0.0,
+                   centring: Any = 0.0, method: str = "auto", backend: str | None = None,
+                   tol_pos: float = DEFAULT_TOL_POS, tol_rot: float = DEFAULT_TOL_ROT,
+                   max_time: float | None = None, seed: int | None = None, constraints: Any = None,
+                   self_collision: Any = False, collision_margin: Any = 0.0,
+                   options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
+    """The request of ``ik.solve(robot, target, ...)`` (see :func:`kinserve.ik.solve`)."""
+    req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                       options)
+    weights = None if type(centring) is float and centring == 0.0 else centring_weights(robot, centring)
+    if weights is not None and method in NO_CENTRING_METHODS:
+        raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
+    collision, bound, avoid = None, None, None
+    if self_collision or collision_margin:
+        collision = collision_request(self_collision, obstacles, collision_margin, spheres)
+        bound, avoid = _bind_collision(robot, collision, req.target.frame)
+    else:
+        avoid = _link_obstacles(robot, spheres, obstacles, link_radius, req.target.frame)
+    if avoid is not None and method in NO_OBSTACLE_METHODS:
+        raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
+                         "use 'qp' or 'auto'")
+    extra = _extra_constraints(constraints, method, req.target.frame)
+    req = req._replace(backend=check_backend(backend), weights=weights, avoid=avoid, extra=extra,
+                       collision=collision, collision_constraint=bound)
+    return req
+
+
+def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = None, *, method: str = "auto",
+                 backend: str | None = None, tol_pos: float = DEFAULT_TOL_POS, tol_rot: float = DEFAULT_TOL_ROT,
+                 max_time: float | None = None, seed: int | None = None,
+                 options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
+    """The request of ``ik.solve(robot, tasks=[...], constraints=[...])``: the tasks and constraints bound."""
+    check_robot(robot)
+    if method not in ("auto", "qp"):
+        raise InputError(f"method must be 'auto' or 'qp' for a composition of tasks, got {method!r}")
+    tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
+    problem = Problem(robot, tasks, constraints)
+    req = SolveRequest(robot, None, problem, check_q0(robot, q0), "qp", check_backend(backend), tol_pos, tol_rot,
+                       check_max_time(max_time), check_seed(seed), None, None, (), None, None,
+                       _checked_options("qp", options))
+    for task in problem.tasks:
+        frame = getattr(task, "frame_name", None)
+        if frame is not None:
+            ik_state(robot).seed_table(frame)
+    return req
+
+
+def _checked_options(method: str, options: Mapping[str, Any]) -> Mapping[str, Any]:
+    if not options:
+        return _NO_OPTIONS
+    check_options(method, options)
+    return MappingProxyType(dict(options))
+
+
+def _warm(req: SolveRequest) -> None:
+    """The one-time set-up of the request's frame, before any clock starts; a clear error when ``"analytic"``
+    is named for a frame without a usable closed form."""
+    state = ik_state(req.robot)
+    tgt = req.target
+    state.seed_table(tgt.frame)
+    solver = state.closed_form(tgt.frame)
+    compiled_chain(req.robot, tgt.frame_id)
+    if req.method != "analytic":
+        return
+    if solver is None:
+        raise InputError(f"no closed-form solver for robot {req.robot.name!r} and frame {tgt.frame!r}; "
+                         "use 'auto', 'lm' or 'qp'")
+    if not solver.supports(tgt.relaxed):
+        names = ", ".join(TASK_AXES[i] for i in tgt.relaxed)
+        raise InputError(f"the closed-form solver of {req.robot.name!r} does not handle relaxing {names}; "
+                         "use 'lm' or 'qp'")
+
+
+def _link_obstacles(robot: Robot, spheres: Any, obstacles: Any, link_radius: Any,
+                    frame: str) -> ObstacleAvoidance | None:
+    try:
+        return link_obstacles(robot, spheres, obstacles, link_radius, frame)
+    except KinserveError as exc:
+        empty = obstacles is None or (type(obstacles) is tuple and not obstacles)
+        tag(exc, "spheres" if empty else "obstacles")
+        raise
+
+
+def _bind_collision(robot: Robot, collision: CollisionRequest, frame: str) -> tuple:
+    """``(bound collision constraint, None)``; a robot without collision geometry keeps obstacles clear of
+    its link capsules instead (``(None, ObstacleAvoidance)``) and refuses ``self_collision``."""
+    try:
+        robot.collision
+    except ModelError as exc:
+        if not collision.self_collision and collision.obstacles:
+            return None, ObstacleAvoidance(list(collision.obstacles), tool_frames=(frame,)).bind(robot)
+        raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to the "
+                         "link capsules of ik.ObstacleAvoidance)") from None
+    bound = ik_state(robot).collision_constraint(collision.obstacles, collision.self_collision, collision.margin)
+    return bound, None
+
+
+def _extra_constraints(constraints: Any, method: str, frame: str) -> tuple[Constraint, ...]:
+    if constraints is None:
+        return ()
+    items = [constraints] if isinstance(constraints, Shape) else list(_iterable(constraints))
+    if not items:
+        return ()
+    if method not in ("auto", "qp"):
+        raise InputError(f"method {method!r} cannot honour constraints; use 'qp' or 'auto'")
+    return tuple(as_constraints(items, (frame,)))
+
+
+def _iterable(value: Any) -> Iterable[Any]:
+    try:
+        return iter(value)
+    except TypeError:
+        raise InputError(f"constraints must be a sequence of ik.Constraint objects or shapes, "
+                         f"got {value!r}") from None

@@ -1,0 +1,174 @@
+"""The IK state a robot owns: its seed tables, closed-form solvers and bound collision constraints.
+
+Everything the solvers reuse between calls belongs to one :class:`IKState`, held by the robot
+(``robot.extensions.ik``, shared by every ``robot.copy()`` and so by every ``robots.load`` of one cached
+model) and built outside any solve's time budget:
+
+* :func:`warm` builds it explicitly - the seed table and closed-form solver of each frame, and with
+  ``self_collision`` / ``obstacles`` the robot's collision model, its sphere pre-check and the bound
+  collision constraint of that scene;
+* :func:`ik_state` returns it, and every front door (:func:`kinserve.ik.solve`, ``solve_many``, ``step``)
+  warms the frames of its request while validating it, before the clock of the solve starts.
+
+Seed tables and solvers are immutable once built and shared by all threads (built under the state's lock).
+Bound collision constraints keep a memo of their last configuration while solving, so each thread has its
+own store (:class:`BoundConstraints`, a few per thread, least recently used dropped first).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any
+
+from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
+from kinserve.ik.starts.seed_table import SeedTable
+from kinserve.kinematics.robot import Robot
+
+if TYPE_CHECKING:
+    from kinserve.ik.constraints.collision import CollisionConstraint
+
+#: Bound collision constraints one thread keeps per robot (least recently used dropped first).
+BOUND_CONSTRAINTS_PER_THREAD = 16
+
+_CREATE_LOCK = threading.Lock()  # makes the one IKState of a robot (a lock, not a cache)
+
+
+class BoundConstraints:
+    """One thread's collision constraints bound to one robot, by obstacle set (value equality of shapes).
+
+    Shapes are immutable and hash by value, so a request repeating a scene - the same objects or equal
+    ones - finds its bound constraint; a scene whose obstacles have the shapes and sizes of one bound before
+    at other poses is bound by moving that one (:meth:`CollisionConstraint.moved`).
+    """
+
+    def __init__(self, size: int = BOUND_CONSTRAINTS_PER_THREAD) -> None:
+        self.size = size
+        self.by_scene: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
+        self.by_layout: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
+
+    def get(self, robot: Robot, obstacles: tuple, self_collision: bool, margin: float) -> CollisionConstraint:
+        """The constraint of ``obstacles`` (validated shapes) bound to ``robot``."""
+        key = (self_collision, margin, obstacles)
+        bound = self.by_scene.get(key)
+        if bound is not None:
+            self.by_scene.move_to_end(key)
+            return bound
+        from kinserve.ik.constraints.collision import CollisionConstraint
+        from kinserve.kinematics.collision_layout import shape_signature
+
+        layout = (self_collision, margin, tuple(shape_signature(o) for o in obstacles))
+        template = self.by_layout.get(layout)
+        if template is not None:
+            bound = template.moved(obstacles)
+        else:
+            bound = CollisionConstraint(obstacles, self_collision=self_collision, margin=margin).bind(robot)
+            _remember(self.by_layout, layout, bound, self.size)
+        if bound.clearance == 0.0:
+            bound.scene.precheck()  # the compiled sphere pre-check built with the constraint
+        _remember(self.by_scene, key, bound, self.size)
+        return bound
+
+
+def _remember(store: OrderedDict, key: tuple, value: Any, size: int) -> None:
+    store[key] = value
+    while len(store) > size:
+        store.popitem(last=False)
+
+
+class IKState:
+    """Per-robot IK state (see the module docstring). Made by :func:`ik_state`; filled by :func:`warm`."""
+
+    def __init__(self, robot: Robot) -> None:
+        self.robot = robot
+        self.lock = threading.Lock()
+        self.seed_tables: dict[str, SeedTable] = {}
+        self.closed_forms: dict[str, ClosedFormSolver | None] = {}
+        self.threads = threading.local()  # .bound: this thread's BoundConstraints
+
+    def seed_table(self, frame: str) -> SeedTable:
+        """The :class:`SeedTable` of ``frame`` (built once, under the lock)."""
+        table = self.seed_tables.get(frame)
+        if table is None:
+            with self.lock:
+                table = self.seed_tables.get(frame)
+                if table is None:
+                    table = self.seed_tables[frame] = SeedTable(self.robot, frame)
+        return table
+
+    def install_seed_table(self, frame: str, table: SeedTable) -> None:
+        """Use an existing table for ``frame`` (one shipped to a worker process)."""
+        with self.lock:
+            self.seed_tables[frame] = table
+
+    def closed_form(self, frame: str) -> ClosedFormSolver | None:
+        """The closed-form solver of ``frame``, or None when the robot has none (decided once)."""
+        if frame in self.closed_forms:
+            return self.closed_forms[frame]
+        with self.lock:
+            if frame not in self.closed_forms:
+                self.closed_forms[frame] = build_closed_form_solver(self.robot, frame)
+            return self.closed_forms[frame]
+
+    def bound_constraints(self) -> BoundConstraints:
+        """This thread's :class:`BoundConstraints`."""
+        store = getattr(self.threads, "bound", None)
+        if store is None:
+            store = self.threads.bound = BoundConstraints()
+        return store
+
+    def collision_constraint(self, obstacles: tuple, self_collision: bool, margin: float) -> CollisionConstraint:
+        """The collision constraint of the validated ``obstacles`` bound to the robot (this thread's)."""
+        return self.bound_constraints().get(self.robot, obstacles, self_collision, margin)
+
+
+def ik_state(robot: Robot) -> IKState:
+    """The :class:`IKState` of ``robot`` (an empty one is made on first use; nothing is built)."""
+    ext = robot.extensions
+    state = ext.ik
+    if state is None:
+        with _CREATE_LOCK:
+            state = ext.ik
+            if state is None:
+                state = ext.ik = IKState(robot)
+    return state
+
+
+def warm(robot: Robot, frames: str | Iterable[str] | None = None, *, self_collision: bool = False,
+         obstacles: Sequence[Any] = (), collision_margin: float = 0.0) -> IKState:
+    """Build the robot's IK state for ``frames`` (default ``robot.tip``) now: seed tables, closed forms and,
+    with ``self_collision`` or ``obstacles``, the collision model, its compiled pre-check and the bound
+    constraint of that scene. Every later solve of those frames (and that scene) starts at once.
+
+    ``ik.solve`` does the same for its own request before its clock starts, so calling this is never needed
+    for correct answers; it moves the one-time cost (a fraction of a second per frame; seconds for the first
+    collision model of a large robot) to a moment of the caller's choosing.
+    """
+    from kinserve.ik.collision.request import collision_request
+
+    state = ik_state(robot)
+    names = [robot.tip] if frames is None else [frames] if isinstance(frames, str) else list(frames)
+    for frame in names:
+        robot.frame_id(frame)  # a clear FrameError for an unknown name
+        state.seed_table(frame)
+        state.closed_form(frame)
+    if self_collision or len(obstacles):
+        req = collision_request(self_collision, obstacles, collision_margin)
+        state.collision_constraint(req.obstacles, req.self_collision, req.margin)
+    return state
+
+
+def clear(robot: Robot) -> None:
+    """Drop the IK state of ``robot`` (and of every copy sharing it); the next solve builds it again."""
+    robot.extensions.ik = None
+
+
+def seed_table(robot: Robot, frame: str) -> SeedTable:
+    """The seed table of ``robot`` for ``frame`` (``ik_state(robot).seed_table(frame)``)."""
+    return ik_state(robot).seed_table(frame)
+
+
+def closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | None:
+    """The closed-form solver of ``robot`` for ``frame``, or None (``ik_state(robot).closed_form(frame)``)."""
+    return ik_state(robot).closed_form(frame)

@@ -1,0 +1,199 @@
+"""Unconstrained first, then constrain: the strategy of every request with obstacles or collision checks.
+
+Obstacles rarely bind. So the request is first solved without them, from the usual starts (``q0``, the seed
+table's samples nearest the target, random configurations), and an answer counts when it and every iterate of
+its run pass the request's checker (:mod:`kinserve.ik.collision.checkers`: obstacles against the link capsules,
+or the robot's collision model). A converged run whose answer passes while its path does not is the answer
+alone (a clear configuration within tolerance: the constrained solve started there would return it at once;
+its history is that configuration). At most :data:`~kinserve.ik.options.CHECKED_ATTEMPTS` starts and
+:data:`~kinserve.ik.options.CHECKED_BUDGET_SHARE` of the budget go to these attempts:
+
+* ``"lm"``: one LM call whose ``accept`` / ``admit`` tests are the checker's;
+* ``"closed_form"``: the best closed-form branch among those the checker passes (LM attempts when none);
+* ``"qp"``: the QP (centring, extra constraints) from one start at a time, inadmissible starts skipped.
+
+A target the checker calls infeasible (its position inside an obstacle with the frame's origin on the body)
+fails at once with the reason. Otherwise the constrained QP imposes the checker's constraint on every iterate,
+warm-started from the last clear iterate of the first run that failed.
+"""
+
+from __future__ import annotations
+
+import time
+from itertools import islice
+from typing import Any
+
+import numpy as np
+
+from kinserve.ik.lm.solver import ADMIT_MISSES
+from kinserve.ik.collision.checkers import ClearanceChecker, CollisionChecker, last_clear
+from kinserve.ik.options import CHECKED_ATTEMPTS, CHECKED_BUDGET_SHARE
+from kinserve.ik.request import SolveRequest
+from kinserve.ik.result import History, Result
+from kinserve.ik.starts.multistart import frame_starts
+from kinserve.ik.strategies.budget import Budget, request_budget
+from kinserve.ik.strategies.closed_form import closed_form
+from kinserve.ik.strategies.direct import levenberg_marquardt, target_qp
+
+Checker = ClearanceChecker | CollisionChecker
+_CLEAR = "unconstrained, checked"
+
+
+def make_checker(req: SolveRequest) -> Checker:
+    """The request's checker: the collision model's when it has one bound, else the link capsules'."""
+    if req.collision_constraint is not None:
+        chosen = req.q0 if req.q0 is not None and req.options.get("prefer_q0") else None
+        if chosen is not None:
+            chosen = np.clip(chosen, req.robot.lower, req.robot.upper)
+        return CollisionChecker(req.robot, req.collision_constraint, chosen)
+    return ClearanceChecker(req.robot, req.avoid)
+
+
+def checked_first(req: SolveRequest, attempts: str) -> Result:
+    """Solve ``req`` as the module docstring says; ``attempts``: ``"lm"``, ``"closed_form"`` or ``"qp"``."""
+    t0 = time.perf_counter()
+    checker = make_checker(req)
+    reason = checker.infeasible(req.target)
+    if reason:
+        return _infeasible(req, t0, reason)
+    budget = request_budget(req)
+    found, failed, used, tried = None, None, 0, 0
+    if CHECKED_ATTEMPTS > 0:  # (0: straight to the constrained solve)
+        run = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}[attempts]
+        found, failed, used, tried = run(req, checker, budget.share(CHECKED_BUDGET_SHARE))
+    if found is not None:
+        if req.q0 is not None and checker.first_violation(np.clip(req.q0, req.robot.lower, req.robot.upper)[None]) == 0:
+            found.message += ("; q0 is inside an obstacle: started from a configuration clear of them"
+                              if checker.name == "obstacles" else "; q0 is in collision: started from a collision-free "
+                              "configuration")
+        found.elapsed = time.perf_counter() - t0
+        return found
+    warm = None if failed is None else last_clear(checker, failed)
+    res = _constrained(req, checker, warm, budget.after(t0, used), tried)
+    res.elapsed = time.perf_counter() - t0
+    return res
+
+
+def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> Result:
+    """Mark a result that passed the checker (``answer_only``: its path did not; its history is the answer)."""
+    what = "clear of the obstacles" if checker.name == "obstacles" else "collision free"
+    if answer_only:
+        res.history = res.history.final()
+        res.message = (f"converged: an unconstrained run's answer, {what}, taken as a start of its own (the run's "
+                       "path was not; the history is that configuration alone)")
+    else:
+        res.message += f"; {what} (unconstrained answer and every iterate checked, attempt {attempt})"
+    res.info["strategy"] = _CLEAR
+    if checker.name == "collision":
+        res.info["collision"] = _CLEAR
+        res.info["collision_attempts"] = attempt
+    return res
+
+
+def _cap(req: SolveRequest) -> int:
+    starts = req.options.get("max_starts")
+    return 1 + CHECKED_ATTEMPTS if starts is None else min(int(starts), 1 + CHECKED_ATTEMPTS)
+
+
+def _lm_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
+    """One LM call: each converged run accepted when the checker passes its rows (answer first)."""
+    rejected: list = []
+    verdict: list = []
+    skip_start = checker.admit is not None  # an admitted start was checked before its run
+
+    def accept(qs: np.ndarray) -> bool:
+        k = checker.first_violation(qs[:0:-1] if skip_start else qs[::-1])
+        if k == 0:  # the answer itself violates: the next start
+            if not rejected:
+                rejected.append(qs)
+            return False
+        verdict.append(k > 0)  # True: the answer passes, its path does not
+        return True
+
+    res = levenberg_marquardt(req, budget, accept=accept, admit=checker.admit, max_starts=_cap(req))
+    if res.success:
+        return _passed(res, checker, 1 + res.restarts, verdict[-1]), None, res.iterations, 1 + res.restarts
+    failed = rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
+    return None, failed, res.iterations, 1 + res.restarts
+
+
+def _closed_form_attempt(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
+    """The chosen closed-form branch among those the checker passes; LM attempts when no branch is usable."""
+    res = closed_form(req, fallback=True, admissible=lambda q: checker.first_violation(q[None, :]) < 0)
+    if res is not None and res.success:
+        return _passed(res, checker, 1, False), None, 0, 1
+    if req.method == "analytic":
+        return None, None, 0, 1
+    return _lm_attempts(req, checker, budget)
+
+
+def _qp_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
+    """The QP from one admissible start at a time, in the usual order, each answer checked."""
+    t0 = time.perf_counter()
+    failed, used, attempt = None, 0, 0
+    skip_start = checker.admit is not None
+    for start in islice(_admissible_starts(req, checker), _cap(req)):
+        if not _within(budget, t0, used):
+            break
+        attempt += 1
+        res = target_qp(req, req.extra, budget.after(t0, used), start, prefer_q0=True, max_starts=1,
+                        seed_table_enabled=False)
+        used += res.iterations
+        if res.success:
+            qs = np.asarray(res.history.iterates()).reshape(-1, req.robot.nq)
+            rows = np.concatenate([res.q[None, :], qs[:0:-1] if skip_start else qs[::-1]])
+            k = checker.first_violation(rows)
+            if k != 0:
+                return _passed(res, checker, attempt, k > 0), None, used, attempt
+        if failed is None and res.history is not None and len(res.history):
+            failed = np.asarray(res.history.iterates())
+    return None, failed, used, attempt
+
+
+def _within(budget: Budget, t0: float, used: int) -> bool:
+    """True while ``budget`` (from ``t0``, ``used`` iterations spent) is not spent."""
+    if budget.seconds is not None and time.perf_counter() - t0 >= budget.seconds:
+        return False
+    return budget.iterations is None or used < budget.iterations
+
+
+def _admissible_starts(req: SolveRequest, checker: Checker) -> Any:
+    tgt = req.target
+    q0 = None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
+    seq = frame_starts(req.robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3,
+                       q0, req.seed or 0, bool(req.options.get("seed_table", True)),
+                       bool(req.options.get("prefer_q0", False)))
+    admit, misses = checker.admit, 0
+    for q in seq:
+        if admit is None or admit(q):
+            misses = 0
+            yield q
+        else:
+            misses += 1
+            if misses >= ADMIT_MISSES:  # the scene leaves no room for starts
+                return
+
+
+def _constrained(req: SolveRequest, checker: Checker, warm: np.ndarray | None, budget: Budget,
+                 tried: int) -> Result:
+    """The QP with the checker's constraint hard on every iterate (warm-started at ``warm``)."""
+    extra: dict = {"defer_starts": tried}
+    q_start = None
+    if warm is not None and "prefer_q0" not in req.options:
+        q_start, extra["prefer_q0"] = warm, True
+    res = target_qp(req, (checker.constraint,) + req.extra, budget, q_start, **extra)
+    res.info["strategy"] = "constrained"
+    if checker.name == "collision":
+        res.info["collision"] = "constrained"
+        if res.message.startswith("no start configuration outside the spheres"):
+            res.message = "no collision-free start configuration was found within the time budget"
+    return res
+
+
+def _infeasible(req: SolveRequest, t0: float, reason: str) -> Result:
+    robot, tgt = req.robot, req.target
+    q = np.clip(robot.neutral() if req.q0 is None else req.q0, robot.lower, robot.upper)
+    return Result(q=q, success=False, position_error=float("nan"), orientation_error=float("nan"),
+                  elapsed=time.perf_counter() - t0, message=reason, method="qp", frame=tgt.frame,
+                  history=History.empty(robot.nq, tgt.components), info={"strategy": "infeasible",
+                                                                         "collision": "infeasible"})
