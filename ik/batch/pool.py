@@ -47,9 +47,8 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from multiprocessing.connection import wait
 
+from kinserve.ik.batch.worker import LoadedJobs, limit_blas_threads, worker_chunk
 from kinserve.kinematics.errors import WorkerError, WorkerTimeoutError
-
-from kinserve.ik.batch.worker import limit_blas_threads, worker_chunk
 
 #: Seconds a worker may stay in the stopped state before it counts as stalled.
 STOPPED_GRACE = 2.0
@@ -69,6 +68,7 @@ def _worker_main(conn) -> None:
     """Loop of a worker process: receive ``(job_id, path, start, stop)``, solve, write the result file, notify."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     limit_blas_threads()
+    jobs = LoadedJobs()  # the jobs this worker has read, most recent last
     while True:
         try:
             msg = conn.recv()
@@ -78,7 +78,7 @@ def _worker_main(conn) -> None:
             return
         job_id, path, start, stop = msg
         try:
-            out = worker_chunk(job_id, path, start, stop)
+            out = worker_chunk(jobs, job_id, path, start, stop)
             out_path = f"{path}.{start}.out"
             with open(out_path + ".tmp", "wb") as fh:
                 pickle.dump(out, fh, protocol=pickle.HIGHEST_PROTOCOL)
@@ -287,41 +287,58 @@ class WorkerPool:
         self.terminate()
 
 
-_pool: WorkerPool | None = None
-_pool_lock = threading.Lock()
+class PoolKeeper:
+    """The persistent pool of one process (at most one at a time): made on demand by :meth:`acquire`, replaced
+    when a run needs another size or a worker died, stopped by :meth:`shutdown` (and at exit)."""
+
+    def __init__(self) -> None:
+        self.pool: WorkerPool | None = None
+        self.lock = threading.Lock()  # guards ``pool``
+
+    def acquire(self, processes: int, deadline: float | None = None) -> WorkerPool:
+        """The pool of ``processes`` workers, locked for one run (release ``pool.lock`` after).
+
+        A pool of another size, or one with a dead worker, is replaced. Waits for
+        another thread's run to finish (until ``deadline``).
+        """
+        while True:
+            with self.lock:
+                current = self.pool
+                if current is None or current.processes != processes or not current.workers:
+                    if current is not None and current.lock.acquire(blocking=False):
+                        current.close()
+                        current.lock.release()
+                    self.pool = WorkerPool(processes)
+                pool = self.pool
+            timeout = -1 if deadline is None else max(0.0, deadline - time.monotonic())
+            if not pool.lock.acquire(timeout=timeout):
+                raise WorkerTimeoutError("ik.solve_many: the overall timeout expired while another batch held the "
+                                         "worker pool")
+            if pool.workers:
+                return pool
+            pool.lock.release()  # terminated by the run that held it: make a new one
+
+    def shutdown(self) -> None:
+        """Stop the workers (a later :meth:`acquire` starts new ones)."""
+        with self.lock:
+            pool, self.pool = self.pool, None
+        if pool is not None:
+            with pool.lock:
+                pool.close()
+
+
+#: This process's worker pool (the workers are a resource of the process, shared by every batch).
+POOL_KEEPER = PoolKeeper()
 
 
 def acquire_pool(processes: int, deadline: float | None = None) -> WorkerPool:
-    """The persistent pool of ``processes`` workers, locked for one run (release ``pool.lock`` after).
-
-    A pool of another size, or one with a dead worker, is replaced. Waits for
-    another thread's run to finish (until ``deadline``).
-    """
-    global _pool
-    while True:
-        with _pool_lock:
-            if _pool is None or _pool.processes != processes or not _pool.workers:
-                if _pool is not None and _pool.lock.acquire(blocking=False):
-                    _pool.close()
-                    _pool.lock.release()
-                _pool = WorkerPool(processes)
-            pool = _pool
-        timeout = -1 if deadline is None else max(0.0, deadline - time.monotonic())
-        if not pool.lock.acquire(timeout=timeout):
-            raise WorkerTimeoutError("ik.solve_many: the overall timeout expired while another batch held the worker pool")
-        if pool.workers:
-            return pool
-        pool.lock.release()  # terminated by the run that held it: make a new one
+    """:meth:`PoolKeeper.acquire` of this process's pool."""
+    return POOL_KEEPER.acquire(processes, deadline)
 
 
 def shutdown_pool() -> None:
     """Stop the persistent worker processes (they are started again on demand)."""
-    global _pool
-    with _pool_lock:
-        pool, _pool = _pool, None
-    if pool is not None:
-        with pool.lock:
-            pool.close()
+    POOL_KEEPER.shutdown()
 
 
 atexit.register(shutdown_pool)
@@ -329,4 +346,4 @@ atexit.register(shutdown_pool)
 
 def current_pool() -> WorkerPool | None:
     """The persistent pool, if one is running (for tests and diagnostics)."""
-    return _pool
+    return POOL_KEEPER.pool

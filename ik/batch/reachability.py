@@ -25,11 +25,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike
 
+from kinserve.ik.batch.solve_many import solve_many
 from kinserve.kinematics import Robot, as_matrix
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import check_rotation
-
-from kinserve.ik.batch.solve_many import solve_many
 
 _POSITION_AXES = ("x", "y", "z")
 _ROTATION_AXES = ("roll", "pitch", "yaw")

@@ -1,41 +1,29 @@
-"""One Levenberg-Marquardt start, compiled (Numba) for serial chains.
+"""Levenberg-Marquardt compiled (Numba) for serial chains: one start (:func:`run_start`), many targets
+(:func:`run_many`) - the one compiled LM iteration (:func:`_iterate`) of ``ik.solve`` (:mod:`ik.lm.solver`),
+``ik.solve_many`` (:mod:`ik.lm.many`) and the service; :func:`ik.lm.solver.python_start` is the same
+iteration with Pinocchio's algorithms, for chains this kernel does not model.
 
-The same iteration as :func:`ik.lm.solver._run_full_pose` (full pose) and
-:func:`ik.lm.solver._run_relaxed` (relaxed components: the kept rows of the
-world- or target-axis error of :mod:`ik.targets` with the world-aligned
-Jacobian) - the LOCAL ``log6`` error, the damped step ``(J^T J + lambda I) dq = J^T e`` with
-``lambda = DAMPING_GAIN |e|^2 + lambda_0``, the active-set projection on the
-joint limits, the stall test - run as one compiled call instead of a dozen
-Pinocchio / NumPy calls per iteration. The chain comes from
-:func:`kinserve.kinematics.serial_chain.serial_chain` (the path of one-DoF
-joints from the root to the frame, as arrays). Its pose and LOCAL Jacobian
-(:func:`pose_and_jacobian`, checked against Pinocchio in the tests): with
-``oMk`` the world placement of joint ``k`` after its motion
-(``oMk = oM(k-1) * Mk * exp(axis * q_k)``, a rotation about the axis for a
-revolute joint, a translation along it for a prismatic one) and
-``oMf = oMn * Mf``, the column of joint ``k`` is
+* Full pose: the LOCAL error ``e = log6(oMf^-1 oMd)`` and Jacobian; errors ``(|t|^2, |w|^2)`` of
+  ``oMf^-1 oMd = (R_e, t)``, ``w = log3(R_e)``. Relaxed: the kept rows of ``e6 = [A^T (p* - p);
+  A^T log3(R* R^T)]`` (:mod:`ik.targets`; ``A`` the identity or the target rotation) and of
+  ``blockdiag(A^T, A^T) J`` (``J`` world-aligned).
+* The damped step ``(J^T J + lambda I) dq = J^T e``, ``lambda = gain |e|^2 + lambda_0`` (Cholesky written out
+  for the chain's ``n x n`` matrix); a joint the step takes out of its range is fixed at its bound, its
+  motion removed from the residual (``e <- e - J_fixed dq_fixed``) and the step re-solved over the others,
+  at most three times, then clipped. A start ends when both squared errors are below their tolerances, when
+  ``|e|^2`` has not fallen below ``stall_ratio`` times its best for ``patience`` iterations in a row
+  (stalled), or after ``max_iter`` steps.
 
-    revolute:   R_f^T [ z_k x (p_f - o_k) ; z_k ]
-    prismatic:  R_f^T [ z_k ; 0 ]
+The chain: :func:`kinserve.kinematics.serial_chain.serial_chain`'s arrays. With ``oMk = oM(k-1) Mk
+exp(axis q_k)`` and ``oMf = oMn Mf``, the LOCAL Jacobian column of joint ``k`` is ``R_f^T [z_k x (p_f - o_k);
+z_k]`` (revolute) or ``R_f^T [z_k; 0]`` (prismatic), ``z_k`` its world axis, ``o_k`` its world origin. The
+SE(3) logarithm: ``w = log3(R) = theta / sin(theta) vee(R - R^T) / 2``, ``v = V(w)^-1 t`` with
+``V^-1 = I - [w]x / 2 + (1 - (theta/2) cot(theta/2)) / theta^2 [w]x^2`` (series below ``theta = 1e-4`` and,
+for the last coefficient, ``1e-2``; near ``theta = pi`` the axis from ``(R + R^T) / 2 - cos(theta) I =
+(1 - cos(theta)) a a^T``).
 
-with ``z_k`` the joint's world axis, ``o_k`` its world origin, ``p_f`` and
-``R_f`` the frame's world position and rotation - Pinocchio's
-``getFrameJacobian(..., LOCAL)`` restricted to the chain's columns (the
-other columns are zero). The SE(3) logarithm is written out as
-
-    w = log3(R),  theta = |w|:  w = theta / sin(theta) * vee(R - R^T) / 2
-    v = V(w)^-1 t,  V^-1 = I - [w]x / 2 + (1 - (theta/2) cot(theta/2)) / theta^2 [w]x^2
-
-(series below ``theta = 1e-4`` and, for the last coefficient, ``1e-2``; near ``theta = pi`` the axis is read off the
-symmetric part ``(R + R^T) / 2 - cos(theta) I = (1 - cos(theta)) a a^T``).
-The normal equations are solved by a Cholesky factorisation written out for
-the chain's ``n x n`` matrix.
-
-Everything the kernel calls is in this file, so that Numba's on-disk cache
-(keyed by this file's time stamp) is never stale. This module imports Numba;
-:mod:`ik.lm.solver` imports it on the first full-pose solve, not when
-:mod:`kinserve.ik` is imported, and keeps its Python iteration when Numba is
-missing or the chain has other joints. Units: metres and radians.
+Every function the kernels call is in this file, so that Numba's on-disk cache (keyed by this file's time
+stamp) is never stale; the constants it imports (joint kinds, status codes) are fixed. Metres, radians.
 """
 
 from __future__ import annotations
@@ -45,22 +33,73 @@ import math
 import numba
 import numpy as np
 
+from kinserve.ik.lm import status as _status
 from kinserve.kinematics.serial_chain import REVOLUTE as _REVOLUTE
 
-#: Status codes returned by the kernel.
-CONVERGED, STALLED, ITERATION_LIMIT = 0, 1, 2
-REASONS = ("converged", "stalled", "iteration limit")
+#: Entries of :func:`run_many`'s ``params`` (floats) ...
+TP2, TR2, LAMBDA0, GAIN, STALL_RATIO, ROTATION_SCALE = range(6)
+#: ... and of its ``limits`` (integers; ``MAX_STARTS`` / ``BUDGET`` negative: none). ``Q0_MODE``: 0 no
+#: ``q0``, 1 ``q0`` first, 2 ``q0`` ranked among the table's samples by its pose distance.
+PATIENCE, MAX_ITER, MAX_STARTS, BUDGET, Q0_MODE, N_TABLE, N_FULL, ROTATION = range(8)
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 _t = numba.types
-_IN1, _IN2 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2))  # inputs: writable arrays convert
-#: The one signature of :func:`run_start`, compiled (or loaded from the cache) when this module is imported.
-_RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(
-    _IN2, _t.Array(_t.int64, 2, "C", readonly=True), _IN1, _IN1, _IN1, _IN2,
-    _t.boolean, _IN2, _t.Array(_t.int64, 1, "C", readonly=True),
-    _t.float64, _t.float64, _t.float64, _t.float64, _t.float64, _t.int64, _t.int64,
-    _t.float64[:, ::1], _t.float64[:, ::1],
-)
+_IN1, _IN2, _IN3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))  # writable arrays convert
+_INT1, _INT2 = (_t.Array(_t.int64, d, "C", readonly=True) for d in (1, 2))
+_OUT2 = _t.float64[:, ::1]
+#: The signatures of :func:`run_start` and :func:`run_many`, compiled (or loaded from the cache) on import.
+_RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(_IN2, _INT2, _IN1, _IN1, _IN1, _IN2, _t.boolean, _IN2, _INT1,
+                                          *(_t.float64,) * 5, _t.int64, _t.int64, _OUT2, _OUT2)
+_MANY_SIGNATURE = _t.void(_IN2, _INT2, _IN1, _IN1, _IN3, _t.boolean, _t.boolean, _INT1, _IN1, _INT1,
+                          *(_IN2,) * 6, _OUT2, _OUT2, _t.int64[:, ::1])
+
+
+@_jit
+def _place(Rw, pw, g, c0) -> None:
+    """``(Rw, pw) <- (Rw, pw) * (R_g, t_g)``, the placement of geometry row ``g``; ``c0`` receives ``Rw R_g``
+    (the same as ``Rw`` afterwards)."""
+    for i in range(3):
+        pw[i] += Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
+    for i in range(3):
+        for c in range(3):
+            c0[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
+    Rw[:, :] = c0
+
+
+@_jit
+def _rotate(T, ax, ay, az, qk, Rw) -> None:
+    """``Rw = T @ Rot(a, qk)`` by Rodrigues' formula ``I + s [a]x + (1 - c) [a]x^2``."""
+    s, c = math.sin(qk), math.cos(qk)
+    v = 1.0 - c
+    r00, r01, r02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
+    r10, r11, r12 = v * ax * ay + s * az, c + v * ay * ay, v * ay * az - s * ax
+    r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, c + v * az * az
+    for i in range(3):
+        t0, t1, t2 = T[i, 0], T[i, 1], T[i, 2]
+        Rw[i, 0] = t0 * r00 + t1 * r10 + t2 * r20
+        Rw[i, 1] = t0 * r01 + t1 * r11 + t2 * r21
+        Rw[i, 2] = t0 * r02 + t1 * r12 + t2 * r22
+
+
+@_jit
+def _forward(geometry, joints, q, R, p, z, o) -> None:
+    """The frame's world pose into ``R``, ``p``; joint k's world axis into ``z[k]``, origin ``o[k]``."""
+    n = joints.shape[0]
+    Rw, pw, T = np.eye(3), np.zeros(3), np.empty((3, 3))
+    for k in range(n):
+        g = geometry[k]
+        _place(Rw, pw, g, T)
+        for i in range(3):
+            z[k, i] = T[i, 0] * g[12] + T[i, 1] * g[13] + T[i, 2] * g[14]
+        qk = q[joints[k, 1]]
+        if joints[k, 0] == _REVOLUTE:
+            _rotate(T, g[12], g[13], g[14], qk, Rw)
+        else:
+            for i in range(3):
+                pw[i] += z[k, i] * qk
+        o[k, :] = pw
+    _place(Rw, pw, geometry[n], R)
+    p[:] = pw
 
 
 @_jit
@@ -68,54 +107,13 @@ def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R
                       J: np.ndarray, local: bool = True) -> None:
     """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n).
 
-    ``J``'s column ``k`` belongs to the chain's joint ``k`` (``q`` index
-    ``joints[k, 1]``); rows are linear (m/s per joint unit) then angular
-    (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL) or,
-    with ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED).
+    ``J``'s column ``k`` belongs to the chain's joint ``k`` (``q`` index ``joints[k, 1]``); rows are linear
+    (m/s per joint unit) then angular (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL)
+    or, with ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED).
     """
     n = joints.shape[0]
-    # running world placement (Rw, pw); joint world axes z and origins o, kept for the Jacobian
-    Rw = np.eye(3)
-    pw = np.zeros(3)
-    z = np.empty((n, 3))
-    o = np.empty((n, 3))
-    T = np.empty((3, 3))
-    for k in range(n):
-        g = geometry[k]
-        # pw += Rw @ t_k ; Rw = Rw @ R_k
-        for i in range(3):
-            pw[i] += Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
-        for i in range(3):
-            for c in range(3):
-                T[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
-        ax, ay, az = g[12], g[13], g[14]
-        for i in range(3):
-            z[k, i] = T[i, 0] * ax + T[i, 1] * ay + T[i, 2] * az
-        qk = q[joints[k, 1]]
-        if joints[k, 0] == _REVOLUTE:
-            # Rw = T @ Rot(a, qk), Rodrigues: I + s [a]x + (1 - c) [a]x^2
-            s, c = math.sin(qk), math.cos(qk)
-            v = 1.0 - c
-            r00, r01, r02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
-            r10, r11, r12 = v * ax * ay + s * az, c + v * ay * ay, v * ay * az - s * ax
-            r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, c + v * az * az
-            for i in range(3):
-                t0, t1, t2 = T[i, 0], T[i, 1], T[i, 2]
-                Rw[i, 0] = t0 * r00 + t1 * r10 + t2 * r20
-                Rw[i, 1] = t0 * r01 + t1 * r11 + t2 * r21
-                Rw[i, 2] = t0 * r02 + t1 * r12 + t2 * r22
-        else:
-            for i in range(3):
-                pw[i] += z[k, i] * qk
-                for c in range(3):
-                    Rw[i, c] = T[i, c]
-        for i in range(3):
-            o[k, i] = pw[i]
-    g = geometry[n]
-    for i in range(3):
-        p[i] = pw[i] + Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
-        for c in range(3):
-            R[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
+    z, o = np.empty((n, 3)), np.empty((n, 3))
+    _forward(geometry, joints, q, R, p, z, o)
     for k in range(n):
         zx, zy, zz = z[k, 0], z[k, 1], z[k, 2]
         if joints[k, 0] == _REVOLUTE:
@@ -133,7 +131,6 @@ def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R
             J[0, k], J[1, k], J[2, k], J[3, k], J[4, k], J[5, k] = vx, vy, vz, wx, wy, wz
 
 
-
 @_jit
 def _log3(Re, w) -> float:
     """``w = log3(Re)`` (rotation vector, module docstring); returns the angle ``|w|``."""
@@ -148,11 +145,8 @@ def _log3(Re, w) -> float:
     elif theta > math.pi - 1e-3:
         # axis from the symmetric part (1 - c) a a^T, largest diagonal entry first; sign from vee(R - R^T)
         d = 1.0 - c
-        k = 0
-        if Re[1, 1] > Re[k, k]:
-            k = 1
-        if Re[2, 2] > Re[k, k]:
-            k = 2
+        k = 0 if Re[0, 0] >= Re[1, 1] else 1
+        k = 2 if Re[2, 2] > Re[k, k] else k
         ak = math.sqrt(max((Re[k, k] - c) / d, 0.0))
         a = np.empty(3)
         for i in range(3):
@@ -199,7 +193,7 @@ def _log6(Rf, pf, Rd, pd, e):
 
 @_jit
 def _solve_damped(J, r, lam, free, x, A):
-    """``x = (Jf^T Jf + lam I)^-1 Jf^T r`` with ``Jf = J * free`` (columns of fixed joints zeroed); Cholesky."""
+    """``x = (Jf^T Jf + lam I)^-1 Jf^T r``, ``Jf = J * free`` (fixed joints' columns zeroed); Cholesky."""
     n = J.shape[1]
     for a in range(n):
         for b in range(a + 1):
@@ -265,43 +259,65 @@ def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
     return pe2, re2
 
 
-@numba.njit(_RUN_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-              Td: np.ndarray, relaxed: bool, Aw: np.ndarray, kept: np.ndarray, tp2: float, tr2: float, lam0: float,
-              gain: float, stall_ratio: float, patience: int, max_iter: int, qs: np.ndarray,
-              errs: np.ndarray) -> tuple[int, int, int]:
-    """One start from ``q0`` on the target pose ``Td`` (4x4): returns ``(status, iterations, rows)``.
-
-    Full pose (``relaxed`` False): the LOCAL ``log6`` error and Jacobian, errors ``(|t|^2, |w|^2)`` of
-    ``oMf^-1 oMd``. Relaxed: the kept rows ``kept`` of the world- or target-axis error of
-    :mod:`ik.targets` (axes ``Aw``: the identity or the target rotation) and of the world-aligned
-    Jacobian, errors the squared norms of the kept position and rotation rows.
-    ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``), ``errs[:rows]`` their squared errors.
-    """
+@_jit
+def _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk) -> None:
+    """Fix the free joints now out of range at their bound; ``r = e - J dfix`` over every fixed joint."""
     n = joints.shape[0]
-    nq = q0.shape[0]
-    m = kept.shape[0] if relaxed else 6
-    Rd = Td[:3, :3]
-    pd = Td[:3, 3]
-    R = np.empty((3, 3))
-    p = np.empty(3)
-    J = np.empty((6, n))
-    Jt = J if not relaxed else np.empty((m, n))
-    e = np.empty(6)
-    r = np.empty(m)
-    x = np.empty(n)
-    A = np.empty((n, n))
-    free = np.ones(n, dtype=np.bool_)
-    qk = np.empty(n)
-    lok = np.empty(n)
-    hik = np.empty(n)
     for k in range(n):
         j = joints[k, 1]
-        lok[k] = lo[j]
-        hik[k] = hi[j]
-    q = qs[0]
-    for i in range(nq):
-        q[i] = q0[i]
+        if free[k] and (qn[j] < lok[k] or qn[j] > hik[k]):
+            free[k] = False
+            qn[j] = min(max(qn[j], lok[k]), hik[k])
+    for i in range(m):
+        s = e[i]
+        for k in range(n):
+            if not free[k]:
+                s -= Jt[i, k] * (qn[joints[k, 1]] - qk[k])
+        r[i] = s
+
+
+@_jit
+def _bounded_step(Jt, e, lam, q, qn, joints, lok, hik, m, free, x, A, r, qk) -> None:
+    """``qn = q + dq``: the damped step on the first ``m`` rows of ``Jt`` / ``e``, the active set's limits."""
+    n = joints.shape[0]
+    for k in range(n):
+        qk[k] = q[joints[k, 1]]
+        free[k] = True
+    r[:m] = e[:m]
+    qn[:] = q
+    for attempt in range(4):  # the free step, then at most three re-solves
+        _solve_damped(Jt, r, lam, free, x, A)
+        inside = True
+        for k in range(n):
+            if free[k]:
+                v = qk[k] + x[k]
+                inside = inside and lok[k] <= v <= hik[k]
+                qn[joints[k, 1]] = v
+        if inside:
+            return
+        if attempt == 3:  # still out after three re-solves: clip
+            for k in range(n):
+                j = joints[k, 1]
+                qn[j] = min(max(qn[j], lok[k]), hik[k])
+            return
+        _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk)
+
+
+@_jit
+def _iterate(geometry, joints, q0, lo, hi, Rd, pd, relaxed, Aw, kept, tp2, tr2, lam0, gain, stall_ratio,
+             patience, max_iter, qs, errs) -> tuple[int, int, int]:
+    """One start from ``q0``: ``(status, iterations, rows)``, ``qs[:rows]`` / ``errs[:rows]`` its iterates.
+
+    The iteration of the module docstring on the target ``(Rd, pd)``; ``errs`` rows are the squared
+    position and orientation errors of the ``qs`` rows (``qs[0] = q0``).
+    """
+    n = joints.shape[0]
+    m = kept.shape[0] if relaxed else 6
+    R, p, J, e = np.empty((3, 3)), np.empty(3), np.empty((6, n)), np.empty(6)
+    Jt = J if not relaxed else np.empty((m, n))
+    r, x, A, free, qk = np.empty(m), np.empty(n), np.empty((n, n)), np.ones(n, dtype=np.bool_), np.empty(n)
+    lok, hik = lo[joints[:, 1]], hi[joints[:, 1]]
+    qs[0, :] = q0
     best = math.inf
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
@@ -317,52 +333,167 @@ def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.n
         errs[it, 0] = pe2
         errs[it, 1] = re2
         if pe2 < tp2 and re2 < tr2:
-            return CONVERGED, it, it + 1
+            return _status.CONVERGED, it, it + 1
         if it == max_iter:
             break
-        if E < stall_ratio * best:
-            best = E
-            stalls = 0
+        stalls = 0 if E < stall_ratio * best else stalls + 1
+        best = min(best, E) if stalls == 0 else best
+        if stalls >= patience:
+            return _status.STALLED, it + 1, it + 1
+        _bounded_step(Jt, e, gain * E + lam0, q, qs[it + 1], joints, lok, hik, m, free, x, A, r, qk)
+    return _status.ITERATION_LIMIT, max_iter, max_iter + 1
+
+
+@numba.njit(_RUN_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+              Td: np.ndarray, relaxed: bool, Aw: np.ndarray, kept: np.ndarray, tp2: float, tr2: float,
+              lam0: float, gain: float, stall_ratio: float, patience: int, max_iter: int, qs: np.ndarray,
+              errs: np.ndarray) -> tuple[int, int, int]:
+    """One start from ``q0`` on the target pose ``Td`` (4x4): returns ``(status, iterations, rows)``.
+
+    ``relaxed``: the kept rows ``kept`` of the error in the axes ``Aw`` (module docstring), else the full
+    pose. ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``), ``errs[:rows]`` their squared
+    errors; both need ``max_iter + 1`` rows.
+    """
+    return _iterate(geometry, joints, q0, lo, hi, Td[:3, :3], Td[:3, 3], relaxed, Aw, kept, tp2, tr2, lam0,
+                    gain, stall_ratio, patience, max_iter, qs, errs)
+
+
+@_jit
+def _scores(Gt, f, S) -> None:
+    """``S_j = sum_c Gt[c, j] f[c]``: a seed table's ``D_j - |f*|^2`` (``Gt`` its ``G`` transposed)."""
+    S[:] = 0.0
+    for c in range(Gt.shape[0]):
+        fc = f[c]
+        for j in range(Gt.shape[1]):
+            S[j] += Gt[c, j] * fc
+
+
+@_jit
+def _next_start(st, q, q0, D0, f, tables, S, limits) -> bool:
+    """The next start of :func:`ik.starts.seed_table.start_sequence` into ``q``; False when none is left.
+
+    ``st = [stage, taken, q0 pending (a Q0_MODE)]``; stages: 0 ``q0`` first, 1 the nearest interior
+    samples (``q0`` before the first one farther than its distance ``D0``), 2 ``q0`` if still pending,
+    3 the nearest full-range samples, 4 the random configurations, 5 none left. ``tables`` =
+    ``(G^T interior, Q interior, G^T full, Q full, random starts)``; ``S`` the two score buffers.
+    """
+    table_Gt, table_Q, full_Gt, full_Q, randoms = tables
+    while True:
+        stage = st[0]
+        if stage == 0 or stage == 2:
+            st[0] += 1
+            _scores(table_Gt if stage == 0 else full_Gt, f, S[0] if stage == 0 else S[1])
+            if st[2] == 1 or (stage == 2 and st[2] == 2):
+                st[2] = 0
+                q[:] = q0
+                return True
+        elif stage == 1 or stage == 3:
+            if st[1] < limits[N_TABLE if stage == 1 else N_FULL]:
+                Sx = S[0] if stage == 1 else S[1]
+                j = np.argmin(Sx)  # the first sample of least score
+                if stage == 1 and st[2] == 2 and D0 <= Sx[j] + f[13]:
+                    st[2] = 0
+                    q[:] = q0
+                else:
+                    q[:] = (table_Q if stage == 1 else full_Q)[j]
+                    Sx[j] = math.inf
+                    st[1] += 1
+                return True
+            st[0] += 1
+            st[1] = 0
+        elif stage == 4 and st[1] < randoms.shape[0]:
+            q[:] = randoms[st[1]]
+            st[1] += 1
+            return True
         else:
-            stalls += 1
-            if stalls >= patience:
-                return STALLED, it + 1, it + 1
-        lam = gain * E + lam0
-        for k in range(n):
-            qk[k] = q[joints[k, 1]]
-            free[k] = True
-        # free step, then at most three re-solves with the joints that left their range fixed at the bound
-        for i in range(m):
-            r[i] = e[i]
-        qn = qs[it + 1]
-        for i in range(nq):
-            qn[i] = q[i]
-        for attempt in range(4):
-            _solve_damped(Jt, r, lam, free, x, A)
-            inside = True
-            for k in range(n):
-                if free[k]:
-                    v = qk[k] + x[k]
-                    if v < lok[k] or v > hik[k]:
-                        inside = False
-                    qn[joints[k, 1]] = v
-            if inside:
-                break
-            if attempt == 3:  # still out after three re-solves: clip
-                for k in range(n):
-                    j = joints[k, 1]
-                    qn[j] = min(max(qn[j], lok[k]), hik[k])
-                break
-            # fix the joints now out at their bound; r = e - J dfix over all fixed joints
-            for k in range(n):
-                j = joints[k, 1]
-                if free[k] and (qn[j] < lok[k] or qn[j] > hik[k]):
-                    free[k] = False
-                    qn[j] = min(max(qn[j], lok[k]), hik[k])
-            for i in range(m):
-                s = e[i]
-                for k in range(n):
-                    if not free[k]:
-                        s -= Jt[i, k] * (qn[joints[k, 1]] - qk[k])
-                r[i] = s
-    return ITERATION_LIMIT, max_iter, max_iter + 1
+            return False
+
+
+@_jit
+def _features(Td, scale, rotation, f) -> None:
+    """``f[:13]`` = the seed-table feature ``[p, scale vec(R), 1]`` of ``Td`` (rotation part zero without
+    ``rotation``, :meth:`ik.starts.seed_table.SeedTable.features`), ``f[13] = |f[:12]|^2``."""
+    for i in range(3):
+        f[i] = Td[i, 3]
+        for c in range(3):
+            f[3 + 3 * i + c] = Td[i, c] * scale if rotation else 0.0
+    f[12] = 1.0
+    f[13] = (f[:12] * f[:12]).sum()
+
+
+@_jit
+def _q0_distance(geometry, joints, q0, f, scale) -> float:
+    """Pose distance ``D`` (m^2) of the frame at ``q0`` (its full feature) from the target feature ``f``."""
+    n = joints.shape[0]
+    R, p = np.empty((3, 3)), np.empty(3)
+    _forward(geometry, joints, q0, R, p, np.empty((n, 3)), np.empty((n, 3)))
+    D = 0.0
+    for i in range(3):
+        D += (p[i] - f[i]) ** 2
+        for c in range(3):
+            D += (R[i, c] * scale - f[3 + 3 * i + c]) ** 2
+    return D
+
+
+@_jit
+def _solve_target(geometry, joints, lo, hi, Td, relaxed, Aw, kept, params, limits, starts, qs, errs, q_out,
+                  err_out) -> tuple[int, int, int]:
+    """Starts from ``starts = (st, q, q0, D0, f, tables, S)`` (:func:`_next_start`) until one converges or a
+    limit is met: ``(status, iterations, starts)``; the answer (the converged iterate, else the first iterate
+    of least ``|t|^2 + |w|^2`` over every start) into ``q_out``, its squared errors into ``err_out``."""
+    st, q, q0, D0, f, tables, S = starts
+    budget, max_starts, max_iter = limits[BUDGET], limits[MAX_STARTS], limits[MAX_ITER]
+    best = math.inf
+    used = n = 0
+    while _next_start(st, q, q0, D0, f, tables, S, limits):
+        cap = max_iter if budget < 0 else min(max_iter, budget - used)
+        status, it, k = _iterate(geometry, joints, q, lo, hi, Td[:3, :3], Td[:3, 3], relaxed, Aw, kept,
+                                 params[TP2], params[TR2], params[LAMBDA0], params[GAIN], params[STALL_RATIO],
+                                 limits[PATIENCE], cap, qs, errs)
+        used += it
+        n += 1
+        for r in range(k - 1 if status == _status.CONVERGED else 0, k):
+            if status == _status.CONVERGED or errs[r, 0] + errs[r, 1] < best:
+                best = errs[r, 0] + errs[r, 1]
+                q_out[:] = qs[r]
+                err_out[:] = errs[r]
+        if status == _status.CONVERGED:
+            return _status.CONVERGED, used, n
+        if budget >= 0 and used >= budget:
+            return _status.BUDGET_EXHAUSTED, used, n
+        if 0 <= max_starts <= n:
+            return _status.START_LIMIT, used, n
+    return _status.STARTS_EXHAUSTED, used, n
+
+
+@numba.njit(_MANY_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def run_many(geometry: np.ndarray, joints: np.ndarray, lo: np.ndarray, hi: np.ndarray, targets: np.ndarray,
+             relaxed: bool, target_axes: bool, kept: np.ndarray, params: np.ndarray, limits: np.ndarray,
+             q0s: np.ndarray, table_Gt: np.ndarray, table_Q: np.ndarray, full_Gt: np.ndarray,
+             full_Q: np.ndarray, randoms: np.ndarray, q_out: np.ndarray, err_out: np.ndarray,
+             counts: np.ndarray) -> None:
+    """Every target pose ``targets[i]`` (4x4) from its own start sequence (that of
+    :func:`ik.starts.seed_table.start_sequence`): ``q0s[i]`` (``limits[Q0_MODE]``), the ``limits[N_TABLE]``
+    interior samples ``table_Q`` nearest the target (scores from ``table_Gt``, the table's ``G`` transposed),
+    the ``limits[N_FULL]`` nearest full-range ones, then ``randoms``. Each start runs :func:`_iterate`
+    (``target_axes``: the relaxed rows in the target's axes) with the ``params`` / ``limits`` named by the
+    index constants; ``limits[BUDGET]`` caps a target's iterations over all its starts. Writes the answer,
+    its squared errors and ``(status, iterations, starts)`` into row ``i`` of ``q_out``, ``err_out``,
+    ``counts``.
+    """
+    qs, errs = np.empty((limits[MAX_ITER] + 1, lo.shape[0])), np.empty((limits[MAX_ITER] + 1, 2))
+    S = (np.empty(table_Gt.shape[1]), np.empty(full_Gt.shape[1]))
+    tables = (table_Gt, table_Q, full_Gt, full_Q, randoms)
+    f, q, st, Aw = np.empty(14), np.empty(lo.shape[0]), np.empty(3, dtype=np.int64), np.eye(3)
+    scale = params[ROTATION_SCALE]
+    for i in range(targets.shape[0]):
+        Td = targets[i]
+        _features(Td, scale, limits[ROTATION] != 0, f)
+        D0 = _q0_distance(geometry, joints, q0s[i], f, scale) if limits[Q0_MODE] == 2 else 0.0
+        if target_axes:
+            Aw[:, :] = Td[:3, :3]
+        st[0], st[1], st[2] = 0, 0, limits[Q0_MODE]
+        status, it, n = _solve_target(geometry, joints, lo, hi, Td, relaxed, Aw, kept, params, limits,
+                                      (st, q, q0s[i], D0, f, tables, S), qs, errs, q_out[i], err_out[i])
+        counts[i, 0], counts[i, 1], counts[i, 2] = status, it, n

@@ -12,8 +12,8 @@ positive definite at singular configurations, so the step never explodes).
 * Full pose (nothing relaxed): ``e = log6(oMf^-1 oMd)`` is the twist that
   takes the frame to the target, in the frame's own axes, and ``J`` is the
   frame Jacobian in the same (LOCAL) axes. The position error is
-  ``|R^T (p* - p)| = |p* - p|`` and the orientation error ``|e_w|`` is the
-  geodesic angle, read off the same quantities at no extra cost.
+  ``|R^T (p* - p)| = |p* - p|`` and the orientation error ``|e_w|`` the
+  geodesic angle.
 * Relaxed components: the world- or target-axis error and Jacobian rows of
   :mod:`ik.targets`.
 
@@ -22,35 +22,32 @@ Joint limits (projection with an active set): if ``q + dq`` leaves
 motion is removed from the residual (``e <- e - J_fixed dq_fixed``) and the
 step is re-solved for the remaining joints, at most three times; the final
 configuration is clipped into the limits. Plain clipping would stall at a
-bound, this keeps descending along the free joints. When a single joint
-leaves its range (the common case) the re-solve is one triangular solve with
-the Cholesky factor of the free step (:func:`_one_joint_at_bound`).
+bound, this keeps descending along the free joints.
 
-The success test of a full-pose start is exact but runs only when the merit
-``|e|^2`` says success is possible; the errors of the history are computed
-from the recorded poses when first read (:func:`_run_full_pose`).
+One iteration, two implementations: the compiled kernel of :mod:`ik.lm.kernel`
+for chains of one-DoF revolute / prismatic joints (every robot kinserve loads),
+and :func:`python_start` with Pinocchio's algorithms for any other chain (the
+same steps, the same iterates to rounding).
 
 Restarts: a start is abandoned when the error stops decreasing (``|e|^2``
 has not fallen below 0.85 of its best value so far for 2 iterations in a
 row - this also catches oscillations) or after ``max_iter`` iterations; the
 next start comes from :func:`ik.starts.multistart.frame_starts` (``q0`` and the
 nearest FK samples by pose distance, then seeded random configurations)
-until a start converges or ``max_time`` is spent. When none converges the
-answer is the iterate with the least squared position + orientation error
-over all starts (the runs are scored only then).
+until a start converges or a limit is met: ``max_time`` (s), ``max_starts``,
+or ``iteration_budget`` (iterations over all starts together; with it and no
+``max_time`` the clock is never read, so the answer depends only on the
+inputs and the seed). When none converges the answer is the iterate with the
+least squared position + orientation error over all starts.
 
-The inner loop calls Pinocchio directly on ``robot.model`` / ``robot.data``
-(``computeJointJacobians``, ``updateFramePlacement``, ``getFrameJacobian``,
-``SE3.actInv``, ``log6``) and LAPACK's Cholesky solver ``posv`` on the
-``nq x nq`` normal equations; nothing is validated inside the loop (inputs
-are validated once by :func:`ik.solve`).
+Nothing is validated inside the loop (inputs are validated once by the request
+of :func:`ik.solve`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from functools import partial
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
@@ -59,16 +56,18 @@ import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
 from kinserve.ik import numpy_fast
-from kinserve.kinematics.serial_chain import serial_chain
-
+from kinserve.ik.lm.chains import compiled_chain
+from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, STALLED
 from kinserve.ik.result import History, Result, task_evaluator
 from kinserve.ik.starts.multistart import frame_starts
-from kinserve.ik.starts.seed_table import PerModel
 
 if TYPE_CHECKING:  # annotations only
-    from kinserve.kinematics.robot import Robot
+    from collections.abc import Iterator
 
     from kinserve.ik.targets import Target
+    from kinserve.kinematics.robot import Robot
+
+__all__ = ["solve_lm", "python_start", "compiled_chain", "failure_message"]
 
 #: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
 DAMPING = 1e-5
@@ -82,19 +81,13 @@ STALL_PATIENCE = 2
 MAX_ITER = 60
 #: Default time budget of one solve (s).
 MAX_TIME = 0.1
-#: The exact success test runs once ``|e|^2 < NEAR tol_pos^2 + tol_rot^2`` (``NEAR >= (pi/2)^2``, see :func:`_run_full_pose`).
-NEAR = 2.5
-#: Starts on chains of revolute / prismatic joints run in the compiled kernel of :mod:`ik.lm.kernel`, full pose or
-#: relaxed (False: always Pinocchio's algorithms from Python, e.g. to compare the two).
-COMPILED = True
-#: Consecutive starts ``admit`` may refuse before :func:`solve_lm` gives up (the caller's scene leaves little room).
+#: Consecutive starts ``admit`` may refuse before :func:`solve_lm` gives up (the caller's scene leaves little
+#: room).
 ADMIT_MISSES = 20
-#: Failed starts kept unscored (their errors computed only if no start converges) before they are scored.
+#: Failed starts kept unscored (their best iterate found only if no start converges) before they are scored.
 UNSCORED_RUNS = 16
 
-_posv, _potrs = get_lapack_funcs(("posv", "potrs"), (np.eye(2),))
-_dot = np.dot
-_add = np.add
+_posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
 _cjj = pin.computeJointJacobians
 _ufp = pin.updateFramePlacement
 _gfj = pin.getFrameJacobian
@@ -107,32 +100,26 @@ _clip = numpy_fast.clip
 
 
 def _bounded_step(J, e, lam, q, lo, hi):
-    """``q + dq`` for the damped step, with the active-set handling of the limits (module docstring).
-
-    Masks are float/bool vectors (``J * free`` rather than fancy indexing) and
-    the "did the clip change anything" test compares Python lists: on 7-vectors
-    these are the cheapest operations NumPy offers.
-    """
+    """``q + dq`` for the damped step, with the active-set handling of the limits (module docstring)."""
     n = q.shape[0]
     A = J.T.dot(J)  # C-ordered and symmetric: A.T is the Fortran-ordered view LAPACK takes without a copy
     A.ravel()[:: n + 1] += lam
-    qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]  # (a, b, lower, overwrite_a, overwrite_b): positional is cheaper
+    qn = q + _posv(A.T, e.dot(J), 0, 1, 1)[1]  # (a, b, lower, overwrite_a, overwrite_b): positional, cheaper
     qc = _clip(qn, lo, hi)
     if qc.tolist() == qn.tolist():
         return qn
     return _limited_step(J, e, lam, q, lo, hi, qn, qc)
 
 
-def _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed=None, passes=3):
-    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc`` clipped).
+def _limited_step(J, e, lam, q, lo, hi, qn, qc, passes=3):
+    """The active-set re-solve of :func:`_bounded_step` once the free step ``qn`` left the limits (``qc``:
+    clipped).
 
-    ``fixed`` (bool mask, default: the joints the clip moved) are held at
-    their bound ``qc``; at most ``passes`` re-solves, each adding the joints
-    its step pushed out.
+    The joints the clip moved are held at their bound ``qc``; at most
+    ``passes`` re-solves, each adding the joints its step pushed out.
     """
     n = q.shape[0]
-    if fixed is None:
-        fixed = qc != qn
+    fixed = qc != qn
     for _ in range(passes):
         free = 1.0 - fixed
         dfix = (qc - q) * fixed
@@ -148,71 +135,42 @@ def _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed=None, passes=3):
     return qc
 
 
-def _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qnl, qcl, eye):
-    """:func:`_limited_step` for a free step ``qn = q + x`` that left the limits, cheaper when one joint did.
+def _linearise(model, data, fid: int, target: Target, q: np.ndarray) -> tuple:
+    """``(e, J, |t|^2, |w|^2, |e|^2)`` at ``q``: the error and Jacobian rows of the step, the squared errors.
 
-    Fixing joint ``j`` at its bound ``b`` is the equality-constrained problem
-    ``min |J dq - e|^2 + lam |dq|^2`` s.t. ``q_j + dq_j = b``; with
-    ``A = J^T J + lam I`` its solution is ``x + mu A^-1 u_j`` (``u_j`` the
-    unit vector, ``mu`` such that the constraint holds) - the masked re-solve
-    over the other joints, from one triangular solve with the Cholesky
-    factor ``U`` of ``A`` that the free step left behind. Several joints out
-    (or a second one pushed out by this step) go to the masked re-solve.
-    ``qnl`` / ``qcl`` are ``qn`` / ``qc`` as lists.
+    Full pose: ``e = log6(oMf^-1 oMd)`` and the LOCAL Jacobian (errors of ``oMf^-1 oMd``); relaxed: the kept
+    rows of :meth:`ik.targets.Target.error6` and of the world-aligned Jacobian in the target's axes.
     """
-    out = [i for i, (a, b) in enumerate(zip(qnl, qcl)) if a != b]
-    if len(out) > 1:
-        return _limited_step(J, e, lam, q, lo, hi, qn, qc)
-    j = out[0]
-    c = _potrs(U, eye[j])[0]  # column j of A^-1
-    b = qcl[j]
-    qn = qn + ((b - qnl[j]) / c[j]) * c
-    qn[j] = b
-    qc = _clip(qn, lo, hi)
-    if qc.tolist() == qn.tolist():
-        return qn
-    fixed = qc != qn
-    fixed[j] = True
-    return _limited_step(J, e, lam, q, lo, hi, qn, qc, fixed, 2)
+    _cjj(model, data, q)
+    M = _ufp(model, data, fid)
+    if target.full:
+        iMd = M.actInv(target.se3)
+        e = _log6(iMd).vector
+        t, w = iMd.translation, e[3:]
+        return e, _gfj(model, data, fid, _LOCAL), t.dot(t), w.dot(w), e.dot(e)
+    e6 = target.error6(M.rotation, M.translation)
+    ep, ew = e6[:3][target.pos_rows], e6[3:][target.rot_rows]
+    pe2, re2 = ep.dot(ep), ew.dot(ew)
+    return e6[target.kept], target.jacobian(_gfj(model, data, fid, _LWA)), pe2, re2, pe2 + re2
 
 
-def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs, poses):
-    """One LM start on a full-pose target (LOCAL log6 error).
-
-    Returns ``(converged, iterations, reason, pe2, re2)``; the squared errors
-    are those of the last configuration when it converged (else None). Every
-    evaluated ``q`` and its pose error ``oMf^-1 oMd`` are appended to ``qs`` /
-    ``poses`` (the errors of the history are read off them lazily, see
-    :func:`_squared_errors`).
-
-    The merit is ``E = |e|^2`` with ``e = [v; w] = log6(oMf^-1 oMd)``. The
-    exact success test (``|t|^2 < tol_pos^2`` and ``|w|^2 < tol_rot^2``, ``t``
-    the translation of ``oMf^-1 oMd``) runs only when ``E`` is below
-    ``NEAR * tol_pos^2 + tol_rot^2``: since ``t = V(w) v`` with ``V`` the
-    left Jacobian of SO(3), whose singular values lie in ``[2/pi, 1]`` for
-    angles up to ``pi``, ``|v| <= (pi/2) |t|``, so every converged
-    configuration passes that cheap test.
-    """
+def python_start(model: pin.Model, data: pin.Data, target: Target, q0: np.ndarray, lo: np.ndarray,
+                 hi: np.ndarray, tp2: float, tr2: float, lam0: float, max_iter: int, qs: np.ndarray,
+                 errs: np.ndarray) -> tuple[int, int, int]:
+    """One start from ``q0`` with Pinocchio's algorithms: the iteration of :func:`ik.lm.kernel.run_start`, for
+    any chain, with its contract: ``(status, iterations, rows)`` (:mod:`ik.lm.status`), ``qs[:rows]`` the
+    evaluated configurations (``qs[0] = q0``) and ``errs[:rows]`` their squared position / orientation
+    errors (both need ``max_iter + 1`` rows); converged when ``|t|^2 < tp2`` and ``|w|^2 < tr2``."""
+    fid = target.frame_id
+    qs[0] = q0
     best = math.inf
-    near = NEAR * tp2 + tr2
-    n = q.shape[0]
-    A = eye = None
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
-        _cjj(model, data, q)
-        iMd = _ufp(model, data, fid).actInv(Td)
-        e = _log6(iMd).vector
-        E = e.dot(e)
-        qs.append(q)
-        poses.append(iMd)
-        if E < near:
-            t = iMd.translation
-            pe2 = t.dot(t)
-            if pe2 < tp2:
-                w = e[3:]
-                re2 = w.dot(w)
-                if re2 < tr2:
-                    return True, it, "converged", pe2, re2
+        q = qs[it]
+        e, J, pe2, re2, E = _linearise(model, data, fid, target, q)
+        errs[it, 0], errs[it, 1] = pe2, re2
+        if pe2 < tp2 and re2 < tr2:
+            return CONVERGED, it, it + 1
         if it == max_iter:
             break
         if E < STALL_RATIO * best:
@@ -221,69 +179,115 @@ def _run_full_pose(model, data, fid, Td, q, lo, hi, tp2, tr2, max_iter, lam0, qs
         else:
             stalls += 1
             if stalls >= STALL_PATIENCE:
-                return False, it + 1, "stalled", None, None
-        # the damped step (_bounded_step inlined; A and its diagonal are buffers reused across iterations)
-        J = _gfj(model, data, fid, _LOCAL)
-        lam = DAMPING_GAIN * E + lam0
-        if A is None:
-            A = np.empty((n, n))
-            Ad, At = A.reshape(n * n)[:: n + 1], A.T  # At: the Fortran-ordered view LAPACK takes without a copy
-        _dot(J.T, J, A)
-        _add(Ad, lam, Ad)
-        U, x, _ = _posv(At, e.dot(J), 0, 1, 1)  # (a, b, lower, overwrite_a, overwrite_b): U overwrites A
-        qn = q + x
-        qc = _clip(qn, lo, hi)
-        qnl, qcl = qn.tolist(), qc.tolist()
-        if qnl == qcl:  # on 7-vectors comparing Python lists is the cheapest test NumPy allows
-            q = qn
-        else:
-            if eye is None:
-                eye = np.eye(n)
-            q = _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qnl, qcl, eye)
-    return False, max_iter, "iteration limit", None, None
+                return STALLED, it + 1, it + 1
+        qs[it + 1] = _bounded_step(J, e, DAMPING_GAIN * E + lam0, q, lo, hi)
+    return ITERATION_LIMIT, max_iter, max_iter + 1
 
 
-def _squared_errors(poses) -> tuple[list, list]:
-    """``(|t|^2, |w|^2)`` lists of pose errors ``oMf^-1 oMd`` (``t`` its translation, ``w = log6(.)`` angular part)."""
-    pos2, rot2 = [], []
-    for M in poses:
-        t = M.translation
-        w = _log6(M).vector[3:]
-        pos2.append(t.dot(t))
-        rot2.append(w.dot(w))
-    return pos2, rot2
+def _run_start(problem: tuple, q: np.ndarray, max_iter: int) -> tuple[bool, int, tuple]:
+    """One start: ``(converged, iterations, run)``; ``run`` is ``(k, qs, pos2, rot2, pe2, re2)`` (the answer
+    row ``k``) when converged, else ``(qs, pos2, rot2)`` for :func:`_best_run`."""
+    robot, target, chain, tp2, tr2, damping = problem[:6]
+    rows = max_iter + 1
+    qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
+    if chain is not None:
+        status, it, k = chain.kernel.run_start(chain.geometry, chain.joints, q, robot.lower, robot.upper,
+                                               target.T, not target.full, target.A, target.kept, tp2, tr2,
+                                               damping, DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, max_iter,
+                                               qs, errs)
+    else:
+        status, it, k = python_start(robot.model, robot.data, target, q, robot.lower, robot.upper, tp2, tr2,
+                                     damping, max_iter, qs, errs)
+    qs, pos2, rot2 = qs[:k], errs[:k, 0], errs[:k, 1]
+    if status == CONVERGED:
+        return True, it, (k - 1, qs, pos2, rot2, pos2[k - 1], rot2[k - 1])
+    return False, it, (qs, pos2, rot2)
 
 
-def _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, lam0, qs, pe2s, re2s):
-    """One LM start on the kept rows of a relaxed target (world/target axes)."""
-    best = math.inf
-    stalls = 0
-    kept = target.kept
-    it = 0
+def _best_run(runs: list, best: tuple | None) -> tuple:
+    """``best`` updated with the failed runs ``[(qs, pos2, rot2), ...]`` (emptied), in start order.
+
+    A run's best iterate has the least ``|t|^2 + |w|^2`` (its first such row); an earlier run wins ties.
+    """
+    for qs, pos2, rot2 in runs:
+        k = int(np.argmin(pos2 + rot2))
+        if best is None or pos2[k] + rot2[k] < best[4] + best[5]:
+            best = (k, qs, pos2, rot2, pos2[k], rot2[k])
+    runs.clear()
+    return best
+
+
+def _stop_reason(deadline: float | None, n_starts: int, max_starts: int | None, iterations: int,
+                 budget: int | None) -> str:
+    """Why the search stops after a failed start ("" when it goes on); reads the clock for a deadline only."""
+    if budget is not None and iterations >= budget:
+        return f"iteration budget exhausted ({iterations} iterations)"
+    if max_starts is not None and n_starts >= max_starts:
+        return "start limit reached"
+    if deadline is not None and _now() > deadline:
+        return "time budget exhausted"
+    return ""
+
+
+def _search(problem: tuple, first: np.ndarray | None, starts: Callable[[], Iterator[np.ndarray]],
+            limits: tuple, accept, admit) -> tuple:
+    """Starts until one converges (and ``accept`` takes it) or a limit is met (see :func:`solve_lm`).
+
+    ``first``: the first start when the sequence need not be built for it (``prefer_q0``); ``limits`` =
+    ``(deadline or None, max_starts, iteration_budget, max_iter)``. Returns ``(converged, best run, first
+    rejected run, starts, iterations, refused in a row, stop reason, last start offered)``.
+    """
+    deadline, max_starts, budget, max_iter = limits
+    sequence = None
+    q = first
+    if q is None:
+        sequence = starts()
+        q = next(sequence)
+    best = rejected = None
+    unscored: list = []  # failed runs: scored only if no start converges (or when many have piled up)
+    iterations = n_starts = misses = 0
     while True:
-        _cjj(model, data, q)
-        M = _ufp(model, data, fid)
-        e6 = target.error6(M.rotation, M.translation)
-        pe, re = target.errors_from6(e6)
-        pe2, re2 = pe * pe, re * re
-        qs.append(q)
-        pe2s.append(pe2)
-        re2s.append(re2)
-        if pe2 < tp2 and re2 < tr2:
-            return True, it, "converged"
-        if it >= max_iter:
-            return False, it, "iteration limit"
-        E = pe2 + re2
-        if E < STALL_RATIO * best:
-            best = E
-            stalls = 0
-        else:
-            stalls += 1
-            if stalls >= STALL_PATIENCE:
-                return False, it + 1, "stalled"
-        J = target.jacobian(_gfj(model, data, fid, _LWA))
-        q = _bounded_step(J, e6[kept], DAMPING_GAIN * E + lam0, q, lo, hi)
-        it += 1
+        if admit is None or admit(q):
+            misses = 0
+            n_starts += 1
+            cap = max_iter if budget is None else min(max_iter, budget - iterations)
+            ok, it, run = _run_start(problem, q, cap)
+            iterations += it
+            if ok and (accept is None or accept(run[1][: run[0] + 1])):
+                return True, run, rejected, n_starts, iterations, 0, "converged", q
+            if ok:
+                rejected = run if rejected is None else rejected
+            else:
+                unscored.append(run)
+            if len(unscored) >= UNSCORED_RUNS:
+                best = _best_run(unscored, best)
+            stop = _stop_reason(deadline, n_starts, max_starts, iterations, budget)
+        else:  # refused: no run, not counted as a start
+            misses += 1
+            stop = _refusal_stop(deadline, misses)
+        if stop:
+            best = _best_run(unscored, best) if unscored or best is not None else None
+            return False, best, rejected, n_starts, iterations, misses, stop, q
+        if sequence is None:
+            sequence = starts()
+            next(sequence)  # q0, already tried
+        q = next(sequence)
+
+
+def _refusal_stop(deadline: float | None, misses: int) -> str:
+    """Why the search stops after a refused start ("" when it goes on)."""
+    if deadline is not None and _now() > deadline:
+        return "time budget exhausted"
+    return f"{misses} starts refused in a row by the caller's test" if misses >= ADMIT_MISSES else ""
+
+
+def failure_message(tol_pos: float, tol_rot: float, n_starts: int, iterations: int, stop: str, pe: float,
+                    re: float) -> str:
+    """The message of an LM solve in which no start converged (``stop``: why the search stopped)."""
+    where = (f"in {n_starts} starts: {stop}" if stop.startswith("iteration budget")
+             else f"in {n_starts} starts ({iterations} iterations, {stop})")
+    return (f"no start converged to tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad {where}; "
+            f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)")
 
 
 def solve_lm(
@@ -300,93 +304,51 @@ def solve_lm(
     max_starts: int | None = None,
     seed_table_enabled: bool = True,
     prefer_q0: bool = False,
+    iteration_budget: int | None = None,
     accept: Callable[[Sequence[np.ndarray]], bool] | None = None,
     admit: Callable[[np.ndarray], bool] | None = None,
 ) -> Result:
     """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
 
-    ``q0`` must already be validated (or None). ``max_time`` (s, default
-    :data:`MAX_TIME`) bounds the restarts; ``max_starts`` optionally caps their
-    number (deterministic stopping). ``seed_table_enabled=False`` restarts from
-    ``q0`` and random configurations only; ``prefer_q0`` makes ``q0`` the first
-    start even when a table sample is closer to the target. ``accept``: a test
-    of a converged run's configurations (start first, answer last); a run it
-    rejects counts as not converged and the next start is tried (e.g. a
-    collision check of every iterate, :mod:`ik.collision.solve`). When no run
-    is accepted the answer is the best unconverged run's, or the first rejected
-    run's when every run converged. ``admit``: a test of a start before its
-    run (e.g. a collision check); a start it refuses is skipped without a run
-    and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
+    ``q0`` must already be validated (or None). Limits: ``max_time`` (s, default :data:`MAX_TIME`; with
+    ``iteration_budget`` and no ``max_time`` there is no time limit and the clock is never read),
+    ``max_starts`` (starts), ``iteration_budget`` (iterations over all starts; message "iteration budget
+    exhausted (N iterations)"). ``seed_table_enabled=False`` restarts from ``q0`` and random configurations
+    only; ``prefer_q0`` makes ``q0`` the first start even when a table sample is closer to the target.
+    ``accept``: a test of a converged run's configurations (start first, answer last); a run it rejects
+    counts as not converged and the next start is tried (e.g. a collision check of every iterate). When no
+    run is accepted the answer is the best unconverged run's, or the first rejected run's when every run
+    converged. ``admit``: a test of a start before its run (e.g. a collision check); a start it refuses is
+    skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
     """
-    fid = target.frame_id
-    # before the clock starts: the first call in a process imports the kernel (loaded from Numba's cache or compiled)
-    compiled = compiled_chain(robot, fid)
+    chain = compiled_chain(robot, target.frame_id)  # (warmed before the clock starts)
     t0 = _now()
-    deadline = t0 + (MAX_TIME if max_time is None else max_time)
-    model, data = robot.model, robot.data
-    lo, hi = robot.lower, robot.upper
-    tp2, tr2 = tol_pos * tol_pos, tol_rot * tol_rot
-
-    starts = None
+    clocked = max_time is not None or iteration_budget is None
+    deadline = t0 + (MAX_TIME if max_time is None else max_time) if clocked else None
     if q0 is not None:
-        q0 = _clip(q0, lo, hi)  # a fresh array
-    if prefer_q0 and q0 is not None:
-        q = q0  # the first start of every sequence with prefer_q0: the table is ranked only if a restart needs it
-    else:
-        starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
-        q = next(starts)
+        q0 = _clip(q0, robot.lower, robot.upper)  # a fresh array
+    problem = (robot, target, chain, tol_pos * tol_pos, tol_rot * tol_rot, float(damping), tol_pos, tol_rot)
 
-    best = None  # (k, qs, pos2, rot2, pe2, re2): the run that answers and its best iterate k
-    unscored = []  # failed runs (qs, (pos2, rot2) or poses): scored only if no start converges
-    rejected = None  # the first converged run ``accept`` rejected
-    iterations = 0
-    n_starts = 0
-    misses = 0
-    ok = False
-    while True:
-        if admit is None or admit(q):
-            misses = 0
-            n_starts += 1
-            if compiled is not None:
-                ok, it, run = _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping)
-            else:
-                ok, it, run = _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping)
-            iterations += it
-            if ok:
-                if accept is None or accept(run[1][: run[0] + 1]):
-                    best = run
-                    break
-                ok = False
-                if rejected is None:
-                    rejected = run
-            else:
-                unscored.append(run)
-            if len(unscored) >= UNSCORED_RUNS:
-                best = _best_run(unscored, best)
-            if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
-                break
-        else:  # refused: no run, not counted as a start
-            misses += 1
-            if misses >= ADMIT_MISSES or _now() > deadline:
-                break
-        if starts is None:
-            starts = _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
-            next(starts)  # q0, already tried
-        q = next(starts)
-    if not ok:
-        best = _best_run(unscored, best) if unscored or best is not None else rejected
-    if best is None:  # every start refused: the (clipped) first one, evaluated
-        ok, _, run = _python_run(model, data, fid, target, q0 if q0 is not None else q, lo, hi, tp2, tr2, 0, damping)
-        best = run if ok else _best_run([run], None)
-        ok = False
+    def starts():
+        return _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
 
+    outcome = _search(problem, q0 if prefer_q0 else None, starts,
+                      (deadline, max_starts, iteration_budget, int(max_iter)), accept, admit)
+    return _result(problem, outcome, q0, t0)
+
+
+def _result(problem: tuple, outcome: tuple, q0: np.ndarray | None, t0: float) -> Result:
+    """The :class:`Result` of a search (:func:`_search`): its answer, history and message."""
+    robot, target, tol_pos, tol_rot = problem[0], problem[1], problem[6], problem[7]
+    ok, best, rejected, n_starts, iterations, misses, stop, q_last = outcome
+    if best is None:
+        best = rejected
+    if best is None:  # every start refused: the (clipped) q0 or the last start offered, evaluated
+        done, _, run = _run_start(problem, q0 if q0 is not None else q_last, 0)
+        best = run if done else _best_run([run], None)
     k, qs, pos2, rot2, pe2, re2 = best
     pe, re = _sqrt(pe2), _sqrt(re2)
-    evaluate = task_evaluator(robot, target)
-    if rot2 is None:
-        hist = History.from_deferred(qs, pos2, k + 1, target.components, evaluate)
-    else:
-        hist = History.from_squared(qs, pos2, rot2, k + 1, target.components, evaluate)
+    hist = History.from_squared(qs, pos2, rot2, k + 1, target.components, task_evaluator(robot, target))
     if ok:
         message = "converged"
     elif not n_starts:
@@ -395,99 +357,14 @@ def solve_lm(
         message = (f"every start that converged ({n_starts} starts, {iterations} iterations) was rejected "
                    "(its answer or path failed the caller's test)")
     else:
-        message = (
-            f"no start converged to tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad in {n_starts} starts "
-            f"({iterations} iterations, {'time budget exhausted' if _now() > deadline else 'start limit reached'}); "
-            f"best residual {pe:.3g} m / {re:.3g} rad (target may be out of reach)"
-        )
+        message = failure_message(tol_pos, tol_rot, n_starts, iterations, stop, pe, re)
     # positional: the fields of Result in order (half the cost of keywords)
-    return Result(qs[k].copy(), ok, pe, re, iterations, max(n_starts - 1, 0), _now() - t0, message, hist, "lm",
-                  target.frame)
-
-
-def _python_run(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
-    """One start with Pinocchio's algorithms (:func:`_run_full_pose` / :func:`_run_relaxed`).
-
-    Returns ``(converged, iterations, run)``: ``run`` is the answer tuple
-    ``(k, qs, pos2, rot2, pe2, re2)`` when converged, else ``(qs, errors)``
-    for :func:`_best_run` (``errors`` the recorded poses of a full-pose run,
-    scored only if needed, or the ``(pos2, rot2)`` lists of a relaxed one).
-    """
-    qs = []
-    if target.full:
-        poses = []
-        ok, it, _, pe2, re2 = _run_full_pose(model, data, fid, target.se3, q, lo, hi, tp2, tr2, max_iter, damping,
-                                             qs, poses)
-        if ok:  # the history's errors are read off ``poses`` only when asked for
-            return True, it, (len(qs) - 1, qs, partial(_squared_errors, poses), None, pe2, re2)
-        return False, it, (qs, poses)
-    pos2, rot2 = [], []
-    ok, it, _ = _run_relaxed(model, data, fid, target, q, lo, hi, tp2, tr2, max_iter, damping, qs, pos2, rot2)
-    if ok:
-        return True, it, (len(qs) - 1, qs, pos2, rot2, pos2[-1], rot2[-1])
-    return False, it, (qs, (pos2, rot2))
-
-
-def _compiled_run(compiled, q, lo, hi, target, tp2, tr2, max_iter, damping) -> tuple[bool, int, tuple]:
-    """:func:`_python_run` as one call of :func:`ik.lm.kernel.run_start` (full pose or relaxed).
-
-    The iterates and their exact squared errors come back as arrays (``qs``
-    ``(k, nq)``), the same tuples as :func:`_python_run`'s.
-    """
-    run, geometry, joints = compiled
-    rows = max_iter + 1
-    qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
-    status, it, k = run(geometry, joints, q, lo, hi, target.T, not target.full, target.A, target.kept, tp2, tr2,
-                        float(damping), DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, int(max_iter), qs, errs)
-    qs, pos2, rot2 = qs[:k], errs[:k, 0], errs[:k, 1]
-    if status == 0:
-        return True, it, (k - 1, qs, pos2, rot2, pos2[k - 1], rot2[k - 1])
-    return False, it, (qs, (pos2, rot2))
-
-
-_chains = PerModel()
-
-
-def compiled_chain(robot: Robot, fid: int) -> tuple | None:
-    """``(kernel, geometry, joints)`` of the chain to frame ``fid`` (cached per model), or None.
-
-    None when :data:`COMPILED` is off, Numba is not installed or the chain has
-    joints the kernel does not model
-    (:func:`kinserve.kinematics.serial_chain.serial_chain`).
-    """
-    if not COMPILED:
-        return None
-    entry = _chains.get(robot.model)
-    if entry is not None and fid in entry:
-        return entry[fid]
-    chain = serial_chain(robot.model, fid)
-    value = None
-    if chain is not None:
-        try:
-            from kinserve.ik.lm import kernel as lm_kernel
-        except ImportError:  # Numba missing: Pinocchio's algorithms from Python
-            pass
-        else:
-            value = (lm_kernel.run_start, *chain)
-    _chains.setdefault(robot.model)[fid] = value
-    return value
-
-
-def _best_run(runs: list, best: tuple | None) -> tuple:
-    """``best`` updated with the failed runs ``[(qs, poses or (pos2, rot2)), ...]`` (emptied), in start order.
-
-    A run's best iterate has the least ``|t|^2 + |w|^2``; an earlier run wins ties.
-    """
-    for qs, errors in runs:
-        pos2, rot2 = errors if type(errors) is tuple else _squared_errors(errors)
-        k = int(np.argmin(np.add(pos2, rot2)))
-        if best is None or pos2[k] + rot2[k] < best[4] + best[5]:
-            best = (k, qs, pos2, rot2, pos2[k], rot2[k])
-    runs.clear()
-    return best
+    return Result(qs[k].copy(), ok, pe, re, iterations, max(n_starts - 1, 0), _now() - t0, message, hist,
+                  "lm", target.frame)
 
 
 def _starts(robot, target, q0, seed, table_enabled, prefer_q0):
     """The start sequence of :func:`ik.starts.multistart.frame_starts` for ``target``."""
     return frame_starts(robot, target.frame, target.frame_id, target.T[:3, :3], target.T[:3, 3],
                         len(target.rot_rows) == 3, q0, seed, table_enabled, prefer_q0)
+
