@@ -27,7 +27,22 @@ except PackageNotFoundError:  # pragma: no cover - running from a tree that was 
     __version__ = "0+unknown"
 
 SUBPACKAGES = ("robots", "kinematics", "ik", "planners", "viz", "scenarios", "service")
-__all__ = ["__version__", *SUBPACKAGES]
+__all__ = ["__version__", "clear_caches", *SUBPACKAGES]
+
+
+def clear_caches(*robots: object) -> None:
+    """Forget what kinserve keeps between calls, so the next call builds it again.
+
+    Process-wide: the registry's parsed models (:func:`kinserve.robots.registry.clear_cache`). Per robot,
+    for each robot given: its IK state (seed tables, closed-form solvers, bound collision constraints; shared
+    with its copies). Files cached on disk (collision models) stay: delete the cache folder to drop them.
+    """
+    from kinserve.ik.state import clear
+    from kinserve.robots.registry import clear_cache
+
+    clear_cache()
+    for robot in robots:
+        clear(robot)
 
 
 def __getattr__(name: str) -> ModuleType:

@@ -1,0 +1,102 @@
+"""The strategy table of ik.solve (ik/plan.py): it covers every request, agrees with its docstring, and the
+answers it leads to are right - including a target inside an obstacle, refused at once with the reason."""
+
+from __future__ import annotations
+
+import itertools
+import re
+
+import numpy as np
+import pytest
+
+import kinserve
+from kinserve import ik, robots
+from kinserve.ik import plan
+from kinserve.ik.request import pose_request, target_request, task_request
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda")
+
+
+def test_every_feature_combination_has_a_strategy():
+    methods = ("auto", "qp", "lm", "analytic", "classical")
+    for row in itertools.product(("target",), methods, (False, True), (False, True), (False, True), (False, True)):
+        strategy = next(s for want, s in plan.TABLE if all(w is plan.ANY or w == g for w, g in zip(want, row)))
+        assert strategy.name
+    assert plan.TABLE[0][1] is plan.TASK_QP
+
+
+def test_the_docstring_table_is_the_table():
+    """Each data row of the module docstring's table equals the row of TABLE at the same place."""
+    lines = [ln.split() for ln in plan.__doc__.splitlines() if re.match(r"^(tasks|target)\s", ln)]
+    assert len(lines) == len(plan.TABLE)
+    spell = {None: "*", True: "yes", False: "no"}
+    for words, (row, strategy) in zip(lines, plan.TABLE):
+        cols = [w if isinstance(w, str) else spell[w] for w in row]
+        assert words[:6] == cols
+        assert " ".join(words[6:]) == strategy.name
+
+
+def test_requests_pick_the_documented_strategy(panda):
+    T = panda.fk(panda.random_q(0), "panda_link8")
+    sphere = ik.Sphere((0.5, 0.4, 0.4), 0.05)
+    cases = [
+        (pose_request(panda, T, frame="panda_link8"), plan.LM),
+        (pose_request(panda, T, frame="panda_link8", method="dls"), plan.CLASSICAL),
+        (target_request(panda, T, frame="panda_link8", spheres=[sphere]), plan.CHECKED_LM),
+        (target_request(panda, T, frame="panda_link8", centring=1.0), plan.QP),
+        (target_request(panda, T, frame="panda_link8", method="qp", spheres=[sphere]), plan.QP),
+        (target_request(panda, T, frame="panda_link8", self_collision=True), plan.CHECKED_LM),
+        (target_request(panda, T, frame="panda_link8", self_collision=True, centring=1.0), plan.CHECKED_QP),
+        (task_request(panda, [ik.FrameTask("panda_link8", T)]), plan.TASK_QP),
+    ]
+    for req, expected in cases:
+        assert plan.choose_strategy(req) is expected, (plan.features(req), expected.name)
+    youbot = robots.load("youbot")
+    Ty = youbot.fk(youbot.random_q(1))
+    assert plan.choose_strategy(pose_request(youbot, Ty)) is plan.CLOSED_FORM_OR_LM
+
+
+def test_the_request_is_immutable(panda):
+    req = pose_request(panda, panda.fk(panda.neutral()))
+    with pytest.raises(AttributeError):
+        req.method = "qp"  # a NamedTuple
+    with pytest.raises(TypeError):
+        req.options["max_iter"] = 3  # a read-only mapping
+
+
+def _inside_target(panda, frame):
+    """A pose whose position lies 3 cm inside a 20 cm cube."""
+    T = panda.fk(panda.random_q(5), frame)
+    box_pose = np.eye(4)
+    box_pose[:3, 3] = T[:3, 3] + np.array([0.03, 0.0, 0.0])
+    return T, ik.Box(box_pose, (0.2, 0.2, 0.2))
+
+
+@pytest.mark.parametrize("door", ["obstacles", "spheres", "self_collision"])
+def test_a_target_inside_an_obstacle_is_refused_with_the_reason(panda, door):
+    """Every door says why, without spending its budget: no solver iteration runs."""
+    frame = "panda_link8"
+    T, box = _inside_target(panda, frame)
+    if door == "obstacles":
+        res = ik.solve(panda, T, frame=frame, obstacles=[box], max_time=30.0)
+    elif door == "spheres":
+        sphere = ik.Sphere(box.pose[:3, 3], 0.1)
+        res = ik.solve(panda, T, frame=frame, spheres=[sphere], max_time=30.0)
+    else:
+        res = ik.solve(panda, T, frame="panda_hand", self_collision=True, obstacles=[box], max_time=30.0)
+    assert not res.success
+    assert "lies inside obstacle[0]" in res.message, res.message
+    assert res.iterations == 0 and res.info["strategy"] == "infeasible"
+
+
+def test_clear_caches_drops_the_ik_state(panda):
+    ik.warm(panda, "panda_link8")
+    state = panda.extensions.ik
+    assert "panda_link8" in state.seed_tables
+    kinserve.clear_caches(panda)
+    assert panda.extensions.ik is None
+    ik.solve(panda, panda.fk(panda.neutral(), "panda_link8"), frame="panda_link8")
+    assert panda.extensions.ik is not state and "panda_link8" in panda.extensions.ik.seed_tables
