@@ -85,6 +85,7 @@ class CollisionQueries:
     collision_model: Any
     source: str | None
     package_dirs: tuple
+    resolve_meshes: Any
     srdf: str | None
     lower: np.ndarray
     upper: np.ndarray
@@ -112,7 +113,8 @@ class CollisionQueries:
             return CollisionModel(self.model, self.collision_model, self.lower, self.upper, **kw)
         if self.source is None:
             raise ModelError(f"robot {self.name!r} has no collision geometry and no URDF text to build it from")
-        return CollisionModel.from_urdf(self.model, self.source, self.package_dirs, self.lower, self.upper, **kw)
+        urdf = self.source if self.resolve_meshes is None else self.resolve_meshes(self.source)  # the loader's meshes
+        return CollisionModel.from_urdf(self.model, urdf, self.package_dirs, self.lower, self.upper, **kw)
 
     def collision_scene(self, obstacles: Any = (), self_collision: bool = True) -> "CollisionScene":
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (cached by identity)."""

@@ -83,7 +83,8 @@ def scan_packages(root: Path, max_depth: int = MAX_DEPTH) -> dict[str, Path]:
 def env_dirs(variable: str, environ: Mapping[str, str] | None = None) -> list[Path]:
     """The existing folders listed (colon-separated) in an environment variable."""
     text = (os.environ if environ is None else environ).get(variable, "")
-    return [Path(p).expanduser() for p in text.split(os.pathsep) if p.strip() and Path(p).expanduser().is_dir()]
+    listed = [Path(p).expanduser() for p in text.split(os.pathsep) if p.strip()]
+    return [p for p in listed if p.is_dir()]
 
 
 @dataclass
@@ -149,7 +150,7 @@ class PackageFinder:
         return None
 
     def _model_package(self, pkg: str) -> Path | None:
-        """The model's folder or an ancestor: the nearest whose package.xml names ``pkg``, else named ``pkg``."""
+        """The model's folder or an ancestor: the nearest whose package.xml names ``pkg``, else named so."""
         if self.model_dir is None:
             return None
         ancestors = (self.model_dir, *self.model_dir.parents)
@@ -163,11 +164,13 @@ class PackageFinder:
 
     def searched(self) -> list[str]:
         """Human-readable list of where packages are searched, in search order (for messages)."""
-        out = [f"package_dirs= (CLI: --package-dir): {', '.join(map(str, self.package_dirs)) or '(none given)'}"]
+        given = ", ".join(map(str, self.package_dirs)) or "(none given)"
+        out = [f"package_dirs= (CLI: --package-dir): {given}"]
         if self.model_dir is not None:
             out.append(f"the folder holding the model and its ancestors ({self.model_dir})")
         out.append(f"${ROS_PACKAGE_PATH}: {', '.join(map(str, self.ros_dirs)) or '(not set)'}")
-        out.append(f"${AMENT_PREFIX_PATH}: {', '.join(str(p / 'share') for p in self.ament_prefixes) or '(not set)'}")
+        shares = ", ".join(str(p / "share") for p in self.ament_prefixes) or "(not set)"
+        out.append(f"${AMENT_PREFIX_PATH}: {shares}")
         out.extend(f"searched last (example-robot-data share): {d}" for d in self.extra_dirs)
         return out
 
@@ -180,7 +183,8 @@ class PackageFinder:
                 if package_name(anc) is not None:
                     roots.append(anc)
                     break
-        roots += [*self.package_dirs, *self.ros_dirs, *(p / "share" for p in self.ament_prefixes), *self.extra_dirs]
+        roots += [*self.package_dirs, *self.ros_dirs, *(p / "share" for p in self.ament_prefixes)]
+        roots += self.extra_dirs
         roots += list(self.found.values())
         return list(dict.fromkeys(r.resolve() for r in roots))
 

@@ -46,8 +46,9 @@ from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.validation import MAX_ABS
 
 from . import packages
+from .mesh_resolver import default_package_dirs
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
-from .urdf_loader import UrdfSource, default_package_dirs, load_urdf
+from .urdf_loader import UrdfSource, load_urdf
 
 XACRO_NS = "http://www.ros.org/wiki/xacro"
 
