@@ -14,6 +14,10 @@ from kinserve.kinematics.errors import InputError, NonFiniteError
     ("analytic", {"samples": 12, "choose": ("displacement", "joint_limit_distance")}),
     ("auto", {"choose": "manipulability", "max_iter": 10}),
     ("dls", {"gain": 0.5, "damping": 0.1, "max_iter": 100}),
+    ("qp", {"iteration_budget": 1}),
+    ("lm", {"iteration_budget": 250, "max_iter": 20}),
+    ("auto", {"iteration_budget": np.int64(40)}),
+    ("jacobian_transpose", {"iteration_budget": 7}),
 ])
 def test_accepted_options(method, options):
     check_options(method, options)
@@ -33,6 +37,12 @@ def test_accepted_options(method, options):
     ("analytic", {"choose": ["nearest"]}, InputError, "choose must name criteria"),
     ("analytic", {"choose": []}, InputError, "choose must name criteria"),
     ("frob", {}, InputError, "method must be one of"),
+    ("qp", {"iteration_budget": 0}, InputError, "option iteration_budget must be an integer >= 1, got 0"),
+    ("lm", {"iteration_budget": -3}, InputError, "option iteration_budget must be an integer >= 1"),
+    ("auto", {"iteration_budget": 2.0}, InputError, "option iteration_budget must be an integer >= 1"),
+    ("dls", {"iteration_budget": True}, InputError, "option iteration_budget must be an integer >= 1"),
+    ("qp", {"iteration_budget": None}, InputError, "option iteration_budget must be an integer >= 1"),
+    ("analytic", {"iteration_budget": 5}, InputError, "unknown option(s) ['iteration_budget']"),
 ])
 def test_rejected_options_name_the_option(method, options, error, words):
     with pytest.raises(error) as info:
@@ -45,7 +55,8 @@ def test_names_agree_with_what_ik_solve_accepts():
     ur5 = robots.load("ur5", geometry=False)
     planar = robots.load("scara", geometry=False)
     values = {"max_iter": 5, "damping": 1e-3, "max_starts": 1, "prefer_q0": False, "seed_table": True,
-              "max_step": 0.3, "shortcut": True, "lazy": True, "gain": 0.5, "samples": 4, "choose": "joint_limit_distance"}
+              "max_step": 0.3, "shortcut": True, "lazy": True, "gain": 0.5, "samples": 4, "choose": "joint_limit_distance",
+              "iteration_budget": 3}
     for method, names in OPTIONS.items():
         robot = planar if method == "analytic" else ur5
         T = robot.fk(robot.random_q(np.random.default_rng(0)))
@@ -64,6 +75,7 @@ def test_names_agree_with_what_ik_solve_accepts():
     ({"damping": float("inf")}, NonFiniteError, "damping must be finite"),
     ({"max_starts": 0}, InputError, "max_starts must be an integer >= 1 or None"),
     ({"seed_table": None}, InputError, "seed_table must be True or False"),
+    ({"iteration_budget": 0}, InputError, "iteration_budget must be an integer >= 1"),
 ])
 def test_ik_solve_checks_option_values_on_every_path(method, options, error, words):
     """The values, not only the names: ik.solve's short LM path, "auto" and "qp" (with and without obstacles)

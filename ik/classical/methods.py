@@ -82,8 +82,14 @@ def solve_classical(
     tol_rot: float = 1e-3,
     max_iter: int | None = None,
     max_time: float | None = None,
+    iteration_budget: int | None = None,
 ) -> Result:
-    """Run one classical iteration from ``q0`` (validated, required). See the module docstring."""
+    """Run one classical iteration from ``q0`` (validated, required). See the module docstring.
+
+    The run ends after ``max_iter`` iterations (default :data:`MAX_ITER` of the method), ``iteration_budget``
+    iterations (one start: the smaller of the two caps) or ``max_time`` seconds; without ``max_time`` the
+    clock is not read and the answer depends only on the inputs.
+    """
     if method not in METHODS:
         raise InputError(f"classical method must be one of {METHODS}, got {method!r}")
     if gain is not None and not (isinstance(gain, (int, float)) and math.isfinite(gain) and gain > 0):
@@ -104,15 +110,15 @@ def solve_classical(
     if weights is not None and method in ("jacobian_inverse", "jacobian_transpose"):
         raise InputError(f"centring needs a null-space method ('pseudo_inverse' or 'dls'), not {method!r}")
     t0 = time.perf_counter()
-    deadline = t0 + (math.inf if max_time is None else max_time)
+    deadline = None if max_time is None else t0 + max_time
     max_iter = MAX_ITER[method] if max_iter is None else int(max_iter)
+    cap, message = _iteration_cap(max_iter, iteration_budget)
     K = 1.0 if gain is None else float(gain)
     model, data, fid = robot.model, robot.data, target.frame_id
     lo, hi = robot.lower, robot.upper
     q = np.clip(np.array(q0, dtype=float), lo, hi)
     qs, pes, res, tes = [], [], [], []
     ok = False
-    message = f"iteration limit ({max_iter}) reached"
     it = 0
     # max-norm of the last centring correction: the loop goes on while centring still moves the joints
     centring_left = math.inf if weights is not None else 0.0
@@ -130,10 +136,10 @@ def solve_classical(
         if task_ok and centring_left <= CENTRING_TOL:
             ok, message = True, "converged"
             break
-        if it >= max_iter or time.perf_counter() > deadline:
+        if it >= cap or (deadline is not None and time.perf_counter() > deadline):
             if task_ok:  # the task is met; only the secondary centring was still moving
                 ok, message = True, "converged (centring stopped by the iteration/time limit)"
-            elif it < max_iter:
+            elif it < cap:
                 message = "time budget exhausted"
             break
         J = target.jacobian(pin.getFrameJacobian(model, data, fid, _LWA))
@@ -177,3 +183,10 @@ def solve_classical(
         iterations=it, restarts=0, elapsed=time.perf_counter() - t0, message=message, history=hist,
         method=method, frame=target.frame, info={"gain": gain, "damping": damping if method == "dls" else None},
     )
+
+
+def _iteration_cap(max_iter: int, iteration_budget: int | None) -> tuple[int, str]:
+    """``(cap, message)``: the iterations a run may take and the message of a run that ends on that cap."""
+    if iteration_budget is not None and int(iteration_budget) <= max_iter:
+        return int(iteration_budget), f"iteration budget exhausted ({int(iteration_budget)} iterations)"
+    return max_iter, f"iteration limit ({max_iter}) reached"

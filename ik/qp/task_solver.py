@@ -21,13 +21,17 @@ Each iteration at ``q``:
 
 Stopping: goals within tolerance (and, with objectives, the step below
 :data:`STEP_TOL`); otherwise a stall or the iteration cap ends the start and
-the next start of :func:`ik.starts.multistart.starts` begins, until ``max_time``.
+the next start of :func:`ik.starts.multistart.starts` begins, until ``max_time``
+or the ``iteration_budget`` (the iterations of every start together) is spent.
+With an ``iteration_budget`` and no ``max_time`` the clock is never read to
+decide anything: the answer depends only on the inputs and ``seed``.
 Starts whose margin is negative (in collision) are skipped; a ``q0`` in
 collision is not an error - the message says the solve began elsewhere.
 
 Determinism: no state survives between solves (the QP solver is called
 statelessly, the starts come from a fixed table and ``seed``), so the same
-inputs give bit-identical answers unless the time budget cut the solve.
+inputs give bit-identical answers unless the time budget cut the solve (it
+cannot with an ``iteration_budget`` alone).
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from collections.abc import Callable
 import itertools
 import math
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -81,12 +86,15 @@ _clip = numpy_fast.clip
 class _Run:
     """Settings of one solve shared by its starts."""
 
-    __slots__ = ("pb", "tp", "tr", "max_iter", "deadline", "damping", "max_step", "backend", "shortcut", "lazy",
-                 "lo", "hi", "gain", "stall_ratio", "stall_patience", "lazy_wait")
+    __slots__ = ("pb", "tp", "tr", "max_iter", "deadline", "budget", "left", "damping", "max_step", "backend",
+                 "shortcut", "lazy", "lo", "hi", "gain", "stall_ratio", "stall_patience", "lazy_wait")
 
-    def __init__(self, pb, tp, tr, max_iter, deadline, damping, max_step, backend, shortcut, lazy):
+    def __init__(self, pb, tp, tr, max_iter, deadline, damping, max_step, backend, shortcut, lazy, budget=None):
         self.pb, self.tp, self.tr = pb, tp, tr
+        # deadline: perf_counter time, None = the clock is not read; budget / left: the iteration budget
+        # and what the starts so far left of it (None = no budget)
         self.max_iter, self.deadline = max_iter, deadline
+        self.budget = self.left = budget
         self.damping, self.max_step, self.backend, self.shortcut, self.lazy = damping, max_step, backend, shortcut, lazy
         self.lo, self.hi = pb.robot.lower, pb.robot.upper
         self.gain = pb.gain
@@ -144,7 +152,8 @@ def _run_start(run: _Run, q, record, st=None):
     run.lazy_wait = 0
     if st is None:
         st = pb.state(q)
-    for it in range(run.max_iter + 1):
+    cap = run.max_iter if run.left is None else min(run.max_iter, run.left)
+    for it in range(cap + 1):
         levels, pe, re, es, m_q = st
         qs.append(q)
         pes.append(pe)
@@ -155,7 +164,7 @@ def _run_start(run: _Run, q, record, st=None):
             best_es = es
             if not pb.has_objectives:
                 return True, it, "converged", best_ok, es
-        if it == run.max_iter:
+        if it == cap:
             break
         E = pe * pe + re * re
         if not within:
@@ -190,11 +199,21 @@ def _run_start(run: _Run, q, record, st=None):
         if qn is None:
             return best_ok is not None, it, "step blocked by a constraint", best_ok, best_es
         q, st = qn, st_n
-        if _now() > run.deadline:
+        if _out_of_time(run):
             return best_ok is not None, it + 1, "time budget exhausted", best_ok, best_es
-    if best_ok is not None:
-        return True, run.max_iter, "converged (iteration limit reached while improving objectives)", best_ok, best_es
-    return False, run.max_iter, "iteration limit", None, None
+    return best_ok is not None, cap, _cap_reason(run, cap, best_ok is not None), best_ok, best_es
+
+
+def _out_of_time(run: _Run) -> bool:
+    """Whether the solve's deadline has passed (never, without one: the clock is then not read)."""
+    return run.deadline is not None and _now() > run.deadline
+
+
+def _cap_reason(run: _Run, cap: int, within: bool) -> str:
+    """Why a start that ran ``cap`` iterations ended: the iteration budget or the per-start cap."""
+    if run.left is not None and cap >= run.left:
+        return f"iteration budget exhausted ({run.budget} iterations)"
+    return "converged (iteration limit reached while improving objectives)" if within else "iteration limit"
 
 
 def solve_problem(
@@ -206,6 +225,7 @@ def solve_problem(
     max_time: float | None = None,
     seed: int | None = None,
     max_iter: int = MAX_ITER,
+    iteration_budget: int | None = None,
     max_step: float = MAX_STEP,
     damping: float = DAMPING,
     max_starts: int | None = None,
@@ -225,45 +245,28 @@ def solve_problem(
     the goal tasks' errors, sign ``desired - current``). ``defer_starts``: the first
     so many starts were already tried by the caller (e.g. the unconstrained
     attempts of ``ik.solve``); they come after the next :data:`DEFER_BY`.
+    ``iteration_budget``: the iterations of all starts together (None = no
+    budget); with it and no ``max_time``, no deadline (an infinite ``max_time``
+    is none either) and the clock decides nothing.
     """
     t0 = _now()
     calls0 = backend_calls()
-    deadline = t0 + (MAX_TIME if max_time is None else max_time)
+    if max_time is None and iteration_budget is None:
+        max_time = MAX_TIME
+    deadline = t0 + max_time if max_time is not None and math.isfinite(max_time) else None
     robot = pb.robot
     run = _Run(pb, tol_pos, tol_rot, int(max_iter), deadline, float(damping), float(max_step), backend,
-               bool(shortcut), bool(lazy))
+               bool(shortcut), bool(lazy), None if iteration_budget is None else int(iteration_budget))
     lo, hi = robot.lower, robot.upper
     note = ""
     if q0 is not None:
         q0 = np.clip(q0, lo, hi)
         if pb.checked and pb.margin(q0) < 0.0:
             note = f"q0 violates a constraint ({pb.describe(q0)}); started from configurations that satisfy them"
-    best = None
-    iterations = n_starts = skipped = 0
     sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
     if defer_starts > 0:
         sequence = _deferred(sequence, int(defer_starts), DEFER_BY)
-    for q in sequence:
-        st = pb.state(q)  # (its margin decides whether the start is used; the start's first iteration reuses it)
-        if st[4] < 0.0:
-            skipped += 1
-            if skipped > 10000 or _now() > deadline:
-                break
-            continue
-        n_starts += 1
-        record = ([], [], [])
-        ok, it, reason, k, es = _run_start(run, q, record, st)
-        iterations += it
-        qs, pes, res = record
-        if k is None:
-            k = int(np.argmin(np.square(pes) + np.square(res)))
-        score = pes[k] ** 2 + res[k] ** 2
-        if best is None or ok or score < best[0]:
-            best = (score, k, record, reason, ok, es)
-        if ok:
-            break
-        if _now() > deadline or (max_starts is not None and n_starts >= max_starts):
-            break
+    best, iterations, n_starts, skipped = _run_starts(run, sequence, max_starts)
     comps = components if components is not None else _components(pb)
     evaluate = evaluate if evaluate is not None else goal_evaluator(pb)
     frame = _frame_of(pb)
@@ -290,6 +293,48 @@ def solve_problem(
                   iterations=iterations, restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist,
                   method=method, frame=frame, info={"backend": backend, "qp_calls": backend_calls() - calls0, "skipped_starts": skipped},
                   task_errors=pb.task_errors(es))
+
+
+class _Starts(NamedTuple):
+    """What the starts of one solve gave: the best start's ``(score, answer index, record, reason, ok,
+    task errors)`` (None when no start was usable), and the counts."""
+
+    best: tuple | None
+    iterations: int
+    n_starts: int
+    skipped: int
+
+
+def _run_starts(run: _Run, sequence, max_starts: int | None) -> _Starts:
+    """Run the starts of ``sequence`` until one succeeds, ``max_starts`` ran, or the time or the iteration
+    budget is spent; the best start is a successful one, else the one with the smallest goal error."""
+    pb = run.pb
+    best = None
+    iterations = n_starts = skipped = 0
+    for q in sequence:
+        st = pb.state(q)  # (its margin decides whether the start is used; the start's first iteration reuses it)
+        if st[4] < 0.0:
+            skipped += 1
+            if skipped > 10000 or _out_of_time(run):
+                break
+            continue
+        n_starts += 1
+        record = ([], [], [])
+        ok, it, reason, k, es = _run_start(run, q, record, st)
+        iterations += it
+        if run.left is not None:
+            run.left -= it
+        qs, pes, res = record
+        if k is None:
+            k = int(np.argmin(np.square(pes) + np.square(res)))
+        score = pes[k] ** 2 + res[k] ** 2
+        if best is None or ok or score < best[0]:
+            best = (score, k, record, reason, ok, es)
+        if ok or _out_of_time(run) or run.left == 0 or (max_starts is not None and n_starts >= max_starts):
+            break
+    if best is not None and not best[4] and run.left == 0 and "iteration budget" not in best[3]:
+        best = (*best[:3], f"{best[3]}; iteration budget exhausted ({run.budget} iterations)", *best[4:])
+    return _Starts(best, iterations, n_starts, skipped)
 
 
 def _deferred(sequence, n: int, by: int):
