@@ -1,4 +1,5 @@
-"""The ``spheres`` / ``obstacles`` / ``link_radius`` arguments of ``ik.solve`` as one bound obstacle constraint."""
+"""The ``spheres`` / ``obstacles`` / ``link_radius`` arguments of ``ik.solve`` as one bound obstacle
+constraint."""
 
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ def _group(name: str, group: Any) -> list[Any]:
 def link_obstacles(robot: Robot, spheres: Any, obstacles: Any, link_radius: Any,
                    frame: str) -> ObstacleAvoidance | None:
     """One :class:`ObstacleAvoidance` of ``spheres`` (``ik.Sphere`` or ``(center, radius)``) and ``obstacles``
-    (any shape or its ``to_dict()`` form) bound to ``robot``, keeping them clear of the link capsules of radius
+    (any shape or its ``to_dict()`` form) bound to ``robot``, keeping them clear of the link capsules of
+    radius
     ``link_radius`` (m) up to ``frame``; None when there is no obstacle."""
     if type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
             and type(link_radius) in (float, int) and link_radius == 0:

@@ -14,15 +14,28 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from kinserve.ik.arguments import (check_backend, check_max_time, check_method, check_q0, check_robot,
-                                   check_seed, check_tolerances, tag)
+from kinserve.ik.arguments import (
+    check_backend,
+    check_max_time,
+    check_method,
+    check_q0,
+    check_robot,
+    check_seed,
+    check_tolerances,
+    tag,
+)
 from kinserve.ik.collision.request import CollisionRequest, collision_request
 from kinserve.ik.constraints.base import Constraint
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.lm.solver import compiled_chain
 from kinserve.ik.obstacle_arguments import link_obstacles
-from kinserve.ik.options import (DEFAULT_TOL_POS, DEFAULT_TOL_ROT, NO_CENTRING_METHODS, NO_OBSTACLE_METHODS,
-                                 check_options)
+from kinserve.ik.options import (
+    DEFAULT_TOL_POS,
+    DEFAULT_TOL_ROT,
+    NO_CENTRING_METHODS,
+    NO_OBSTACLE_METHODS,
+    check_options,
+)
 from kinserve.ik.problem import Problem, as_constraints
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
 from kinserve.ik.state import ik_state
@@ -109,8 +122,8 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
 
 
 def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = None, *, method: str = "auto",
-                 backend: str | None = None, tol_pos: float = DEFAULT_TOL_POS, tol_rot: float = DEFAULT_TOL_ROT,
-                 max_time: float | None = None, seed: int | None = None,
+                 backend: str | None = None, tol_pos: float = DEFAULT_TOL_POS,
+                 tol_rot: float = DEFAULT_TOL_ROT, max_time: float | None = None, seed: int | None = None,
                  options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
     """The request of ``ik.solve(robot, tasks=[...], constraints=[...])``: the tasks and constraints bound."""
     check_robot(robot)
@@ -118,8 +131,8 @@ def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = No
         raise InputError(f"method must be 'auto' or 'qp' for a composition of tasks, got {method!r}")
     tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
     problem = Problem(robot, tasks, constraints)
-    req = SolveRequest(robot, None, problem, check_q0(robot, q0), "qp", check_backend(backend), tol_pos, tol_rot,
-                       check_max_time(max_time), check_seed(seed), None, None, (), None, None,
+    req = SolveRequest(robot, None, problem, check_q0(robot, q0), "qp", check_backend(backend), tol_pos,
+                       tol_rot, check_max_time(max_time), check_seed(seed), None, None, (), None, None,
                        _checked_options("qp", options))
     for task in problem.tasks:
         frame = getattr(task, "frame_name", None)
@@ -174,8 +187,8 @@ def _bind_collision(robot: Robot, collision: CollisionRequest, frame: str) -> tu
             return None, ObstacleAvoidance(list(collision.obstacles), tool_frames=(frame,)).bind(robot)
         raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to the "
                          "link capsules of ik.ObstacleAvoidance)") from None
-    bound = ik_state(robot).collision_constraint(collision.obstacles, collision.self_collision, collision.margin)
-    return bound, None
+    state = ik_state(robot)
+    return state.collision_constraint(collision.obstacles, collision.self_collision, collision.margin), None
 
 
 def _extra_constraints(constraints: Any, method: str, frame: str) -> tuple[Constraint, ...]:

@@ -26,6 +26,7 @@ from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.types import PoseLike, VectorLike
 
+
 def run(req: SolveRequest) -> Result:
     """Solve a validated request: the strategy of :func:`kinserve.ik.plan.choose_strategy`."""
     return choose_strategy(req).run(req)
@@ -146,27 +147,30 @@ def solve(
     """
     if tasks is not None:
         if target is not None:
-            raise InputError("give either a target pose or tasks=[...], not both (add a FrameTask to the tasks)")
-        return run(task_request(robot, tasks, constraints, q0, method=method, backend=backend, tol_pos=tol_pos,
-                                tol_rot=tol_rot, max_time=max_time, seed=seed, options=options))
+            raise InputError("give either a target pose or tasks=[...], not both "
+                             "(add a FrameTask to the tasks)")
+        return run(task_request(robot, tasks, constraints, q0, method=method, backend=backend,
+                                tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                                options=options))
     if target is None:
         raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
     if type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
             and link_radius == 0.0 and type(centring) is float and centring == 0.0 and backend is None \
             and constraints is None and self_collision is False and collision_margin == 0.0:
-        req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
-                           options)
+        req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
+                           seed, options)
     else:
         req = target_request(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame,
                              spheres=spheres, obstacles=obstacles, link_radius=link_radius, centring=centring,
                              method=method, backend=backend, tol_pos=tol_pos, tol_rot=tol_rot,
                              max_time=max_time, seed=seed, constraints=constraints,
-                             self_collision=self_collision, collision_margin=collision_margin, options=options)
+                             self_collision=self_collision, collision_margin=collision_margin,
+                             options=options)
     return run(req)
 
 
-def solve_all(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = None, *, frame: str | None = None,
-              relax: str | Iterable[str] | None = (), relax_frame: str = "world",
+def solve_all(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = None, *,
+              frame: str | None = None, relax: str | Iterable[str] | None = (), relax_frame: str = "world",
               tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
     """Every closed-form branch for ``target`` (list of :class:`ik.Result`, each verified by FK).
 

@@ -118,7 +118,8 @@ class IKState:
             store = self.threads.bound = BoundConstraints()
         return store
 
-    def collision_constraint(self, obstacles: tuple, self_collision: bool, margin: float) -> CollisionConstraint:
+    def collision_constraint(self, obstacles: tuple, self_collision: bool,
+                             margin: float) -> CollisionConstraint:
         """The collision constraint of the validated ``obstacles`` bound to the robot (this thread's)."""
         return self.bound_constraints().get(self.robot, obstacles, self_collision, margin)
 

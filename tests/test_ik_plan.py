@@ -22,8 +22,10 @@ def panda():
 
 def test_every_feature_combination_has_a_strategy():
     methods = ("auto", "qp", "lm", "analytic", "classical")
-    for row in itertools.product(("target",), methods, (False, True), (False, True), (False, True), (False, True)):
-        strategy = next(s for want, s in plan.TABLE if all(w is plan.ANY or w == g for w, g in zip(want, row)))
+    flags = (False, True)
+    for row in itertools.product(("target",), methods, flags, flags, flags, flags):
+        strategy = next(s for want, s in plan.TABLE
+                        if all(w is plan.ANY or w == g for w, g in zip(want, row)))
         assert strategy.name
     assert plan.TABLE[0][1] is plan.TASK_QP
 

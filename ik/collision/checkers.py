@@ -1,4 +1,5 @@
-"""Path checkers of the "unconstrained first, then constrain" strategy (:mod:`kinserve.ik.strategies.checked`).
+"""Path checkers of the "unconstrained first, then constrain" strategy
+(:mod:`kinserve.ik.strategies.checked`).
 
 A checker answers four questions about one request's obstacles:
 
@@ -61,21 +62,24 @@ class ClearanceChecker:
         for k, ob in enumerate(self.constraint.obstacles):
             depth = float(ob.signed_distance(point)[0]) - float(self.constraint.link_radius)
             if depth < 0.0:
-                return (f"the target position {np.round(point, 4).tolist()} lies inside obstacle[{k}]:{ob.kind} "
+                where = f"the target position {np.round(point, 4).tolist()}"
+                return (f"{where} lies inside obstacle[{k}]:{ob.kind} "
                         f"({-depth:.4g} m deep, link radius included) and frame {target.frame!r} ends a link "
                         "segment: no configuration clear of the obstacles reaches it")
         return ""
 
 
 class CollisionChecker:
-    """Self-collision and obstacles against the robot's collision model (a bound :class:`CollisionConstraint`).
+    """Self-collision and obstacles against the robot's collision model (a bound
+    :class:`CollisionConstraint`).
 
     ``chosen``: the caller's ``q0`` when it must run first (``prefer_q0``): never skipped without coal's word.
     """
 
     name = "collision"
 
-    def __init__(self, robot: Robot, constraint: CollisionConstraint, chosen: np.ndarray | None = None) -> None:
+    def __init__(self, robot: Robot, constraint: CollisionConstraint,
+                 chosen: np.ndarray | None = None) -> None:
         self.robot = robot
         self.constraint = constraint
         pre = constraint.scene.precheck() if constraint.clearance == 0.0 else None
@@ -106,13 +110,15 @@ class CollisionChecker:
         for k, ob in enumerate(constraint.obstacles):
             depth = float(ob.signed_distance(point)[0])
             if depth < 0.0 and frame_origin_inside_body(self.robot, target.frame):
-                return (f"the target position {np.round(point, 4).tolist()} lies inside obstacle[{k}]:{ob.kind} "
+                where = f"the target position {np.round(point, 4).tolist()}"
+                return (f"{where} lies inside obstacle[{k}]:{ob.kind} "
                         f"({-depth:.4g} m deep) and frame {target.frame!r} has its origin inside the robot's "
                         "collision geometry: no collision-free configuration reaches it")
         return ""
 
 
-def _admission(constraint: CollisionConstraint, pre: Any, chosen: np.ndarray | None) -> Callable[[np.ndarray], bool]:
+def _admission(constraint: CollisionConstraint, pre: Any,
+               chosen: np.ndarray | None) -> Callable[[np.ndarray], bool]:
     """``admit(q)``: a start the pre-check certifies runs at once; the first :data:`UNCERTIFIED_SKIPS` it
     cannot certify are skipped without coal (except ``chosen``); later ones run when coal finds them free."""
     in_collision = constraint.in_collision

@@ -1,4 +1,5 @@
-"""The collision part of an IK request: ``self_collision``, ``obstacles`` and ``collision_margin``, validated."""
+"""The collision part of an IK request: ``self_collision``, ``obstacles`` and ``collision_margin``,
+validated."""
 
 from __future__ import annotations
 

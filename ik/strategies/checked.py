@@ -2,7 +2,8 @@
 
 Obstacles rarely bind. So the request is first solved without them, from the usual starts (``q0``, the seed
 table's samples nearest the target, random configurations), and an answer counts when it and every iterate of
-its run pass the request's checker (:mod:`kinserve.ik.collision.checkers`: obstacles against the link capsules,
+its run pass the request's checker (:mod:`kinserve.ik.collision.checkers`: obstacles against the link
+capsules,
 or the robot's collision model). A converged run whose answer passes while its path does not is the answer
 alone (a clear configuration within tolerance: the constrained solve started there would return it at once;
 its history is that configuration). At most :data:`~kinserve.ik.options.CHECKED_ATTEMPTS` starts and
@@ -25,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from kinserve.ik.lm.solver import ADMIT_MISSES
 from kinserve.ik.collision.checkers import ClearanceChecker, CollisionChecker, last_clear
+from kinserve.ik.lm.solver import ADMIT_MISSES
 from kinserve.ik.options import CHECKED_ATTEMPTS, CHECKED_BUDGET_SHARE
 from kinserve.ik.request import SolveRequest
 from kinserve.ik.result import History, Result
@@ -62,10 +63,7 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
         run = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}[attempts]
         found, failed, used, tried = run(req, checker, budget.share(CHECKED_BUDGET_SHARE))
     if found is not None:
-        if req.q0 is not None and checker.first_violation(np.clip(req.q0, req.robot.lower, req.robot.upper)[None]) == 0:
-            found.message += ("; q0 is inside an obstacle: started from a configuration clear of them"
-                              if checker.name == "obstacles" else "; q0 is in collision: started from a collision-free "
-                              "configuration")
+        found.message += _q0_note(req, checker)
         found.elapsed = time.perf_counter() - t0
         return found
     warm = None if failed is None else last_clear(checker, failed)
@@ -74,13 +72,25 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
     return res
 
 
+def _q0_note(req: SolveRequest, checker: Checker) -> str:
+    """What the message says of a ``q0`` that violates the checker ("" when there is none)."""
+    if req.q0 is None:
+        return ""
+    if checker.first_violation(np.clip(req.q0, req.robot.lower, req.robot.upper)[None]) != 0:
+        return ""
+    if checker.name == "obstacles":
+        return "; q0 is inside an obstacle: started from a configuration clear of them"
+    return "; q0 is in collision: started from a collision-free configuration"
+
+
 def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> Result:
-    """Mark a result that passed the checker (``answer_only``: its path did not; its history is the answer)."""
+    """Mark a result that passed the checker (``answer_only``: its path did not; its history is the
+    answer)."""
     what = "clear of the obstacles" if checker.name == "obstacles" else "collision free"
     if answer_only:
         res.history = res.history.final()
-        res.message = (f"converged: an unconstrained run's answer, {what}, taken as a start of its own (the run's "
-                       "path was not; the history is that configuration alone)")
+        res.message = (f"converged: an unconstrained run's answer, {what}, taken as a start of its own "
+                       "(the run's path was not; the history is that configuration alone)")
     else:
         res.message += f"; {what} (unconstrained answer and every iterate checked, attempt {attempt})"
     res.info["strategy"] = _CLEAR
@@ -160,8 +170,8 @@ def _within(budget: Budget, t0: float, used: int) -> bool:
 def _admissible_starts(req: SolveRequest, checker: Checker) -> Any:
     tgt = req.target
     q0 = None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
-    seq = frame_starts(req.robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3], len(tgt.rot_rows) == 3,
-                       q0, req.seed or 0, bool(req.options.get("seed_table", True)),
+    seq = frame_starts(req.robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3],
+                       len(tgt.rot_rows) == 3, q0, req.seed or 0, bool(req.options.get("seed_table", True)),
                        bool(req.options.get("prefer_q0", False)))
     admit, misses = checker.admit, 0
     for q in seq:

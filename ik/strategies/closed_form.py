@@ -28,7 +28,8 @@ def _default_criteria(q0: np.ndarray | None) -> tuple[str, ...]:
 def _choose_index(robot: Any, pool: list, criteria: Any, q0: np.ndarray | None, frame: str) -> int:
     i = choose(robot, pool, criteria, q_current=q0, frame=frame)
     if i is None:  # a filter dropped every branch: rank without the filters
-        rest = tuple(c for c in ((criteria,) if isinstance(criteria, str) else criteria) if c != "no_self_overlap")
+        names = (criteria,) if isinstance(criteria, str) else criteria
+        rest = tuple(c for c in names if c != "no_self_overlap")
         i = choose(robot, pool, rest or _default_criteria(q0), q_current=q0, frame=frame)
     return i
 
@@ -38,8 +39,9 @@ def _no_branch(req: SolveRequest, note: str | None, extra: dict) -> Result:
     q = robot.neutral() if req.q0 is None else np.clip(req.q0, robot.lower, robot.upper)
     T = robot.fk(q, tgt.frame)
     pe, re = tgt.errors(T[:3, :3], T[:3, 3])
-    return Result(q=q, success=False, position_error=pe, orientation_error=re, method="analytic", frame=tgt.frame,
-                  message="no closed-form branch inside the joint limits" + (f"; {note}" if note else ""),
+    message = "no closed-form branch inside the joint limits" + (f"; {note}" if note else "")
+    return Result(q=q, success=False, position_error=pe, orientation_error=re, method="analytic",
+                  frame=tgt.frame, message=message,
                   history=History.empty(robot.nq, tgt.components), info={"note": note, **extra})
 
 

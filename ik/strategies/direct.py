@@ -33,7 +33,8 @@ def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, **extra
 def target_qp(req: SolveRequest, constraints: tuple | None = None, budget: Budget | None = None,
               q_start: np.ndarray | None = None, **extra: Any) -> Result:
     """The QP on the request's frame task (with its centring) under ``constraints`` (None: every constraint of
-    the request - link obstacles, collision, extra constraints); ``q_start`` replaces ``q0`` (``extra``: solver
+    the request - link obstacles, collision, extra constraints); ``q_start`` replaces ``q0`` (``extra``:
+    solver
     keywords)."""
     if constraints is None:
         constraints = tuple(c for c in (req.avoid, req.collision_constraint) if c is not None) + req.extra
@@ -45,9 +46,11 @@ def target_qp(req: SolveRequest, constraints: tuple | None = None, budget: Budge
 
 
 def task_qp(req: SolveRequest) -> Result:
-    """The QP on the request's bound tasks and constraints (:func:`kinserve.ik.qp.task_solver.solve_problem`)."""
+    """The QP on the request's bound tasks and constraints
+    (:func:`kinserve.ik.qp.task_solver.solve_problem`)."""
     return solve_problem(req.problem, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
-                         backend=req.backend, **request_budget(req).keywords(), **options_for("qp", req.options))
+                         backend=req.backend, **request_budget(req).keywords(),
+                         **options_for("qp", req.options))
 
 
 def classical(req: SolveRequest) -> Result:
