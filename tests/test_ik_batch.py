@@ -1,4 +1,5 @@
-"""kinserve.ik.batch.solve_many.solve_many: same answers as one-by-one solving, in order, on 2 processes; validation up front."""
+"""kinserve.ik.batch.solve_many.solve_many: the answers of ik.solve one by one, in order, on 2 processes (plain LM targets
+in one compiled call per chunk); validation up front."""
 
 import numpy as np
 import pytest
@@ -34,20 +35,52 @@ def test_solve_many_on_two_processes(ur5):
     assert kept[0].history is not None and _valid(ur5, poses[0], kept[0])
 
 
-def test_stacked_lm_on_a_large_chunk():
+def _same_as_solve(many, one_by_one):
+    for a, b in zip(many, one_by_one):
+        assert np.array_equal(a.q, b.q) and a.success == b.success and a.message == b.message
+        assert a.iterations == b.iterations and a.restarts == b.restarts and a.method == b.method == "lm"
+
+
+def test_compiled_batch_on_a_large_chunk_answers_as_ik_solve():
+    """Plain LM targets go through one compiled call per chunk and get ik.solve's own answers (same starts,
+    same seed); an unreachable target is a failure with the best configuration, not an exception."""
     panda = robots.load("panda", geometry=False)
     rng = np.random.default_rng(8)
     poses = panda.fk_batch(panda.random_q(rng, 150), "panda_hand")
-    res = ik.solve_many(panda, poses, panda.random_q(rng, 150), processes=1, progress=False)
+    q0 = panda.random_q(rng, 150)
+    res = ik.solve_many(panda, poses, q0, processes=1, progress=False, seed=4)
     assert all(r.info.get("batched") for r in res)
     assert all(_valid(panda, poses[i], r) for i, r in enumerate(res))
-    assert all(r.elapsed > 0 and r.iterations >= 0 for r in res)
-    # an unreachable target in the batch is a failure with the best configuration, not an exception
+    assert all(r.elapsed > 0 and r.iterations >= 0 and r.history is None for r in res)
+    _same_as_solve(res, [ik.solve(panda, T, q, seed=4) for T, q in zip(poses, q0)])
     bad = poses[:30].copy()
     bad[5, :3, 3] = (3.0, 0.0, 0.5)
     out = ik.solve_many(panda, bad, processes=1, progress=False, max_time=0.01)
     assert not out[5].success and out[5].position_error > 1.0 and panda.within_limits(out[5].q)
+    assert "out of reach" in out[5].message
     assert all(out[i].success for i in range(30) if i != 5)
+
+
+def test_relaxed_targets_and_lm_options_go_through_the_compiled_batch(ur5):
+    panda = robots.load("panda", geometry=False)
+    rng = np.random.default_rng(12)
+    poses = panda.fk_batch(panda.random_q(rng, 40))
+    poses[:, :3, :3] = poses[::-1, :3, :3]  # orientations off their positions: only the yaw-free rows count
+    q0 = panda.random_q(rng, 40)
+    kw = dict(relax=("yaw",), relax_frame="target", seed=3, max_starts=5, prefer_q0=True)
+    res = ik.solve_many(panda, poses, q0, processes=1, progress=False, **kw)
+    assert all(r.info.get("batched") for r in res)
+    _same_as_solve(res, [ik.solve(panda, T, q, **kw) for T, q in zip(poses, q0)])
+
+
+def test_iteration_budget_in_solve_many_is_ik_solves(ur5):
+    rng = np.random.default_rng(13)
+    poses = ur5.fk_batch(ur5.random_q(rng, 20))
+    poses[:4, :3, 3] = (2.0, 0.0, 0.3)  # unreachable: the budget ends their search
+    res = ik.solve_many(ur5, poses, processes=1, progress=False, seed=1, iteration_budget=25)
+    _same_as_solve(res, [ik.solve(ur5, T, seed=1, iteration_budget=25) for T in poses])
+    assert all(r.iterations == 25 and "iteration budget exhausted (25 iterations)" in r.message for r in res[:4])
+    assert all(r.success and r.iterations <= 25 for r in res[4:] if r.success)
 
 
 def test_analytic_robots_and_relaxed_targets_go_target_by_target():
@@ -136,16 +169,18 @@ def test_options_are_checked_without_a_trial_solve(ur5, monkeypatch):
     from kinserve.ik.batch import worker as batch_worker
 
     calls = []
-    real = batch_worker.solve_prepared
-    monkeypatch.setattr(batch_worker, "solve_prepared", lambda *a, **k: calls.append(1) or real(*a, **k))
+    real = batch_worker.run
+    monkeypatch.setattr(batch_worker, "run", lambda *a, **k: calls.append(1) or real(*a, **k))
     poses = ur5.fk_batch(ur5.random_q(np.random.default_rng(6), 5))
     with pytest.raises(InputError, match="max_iter must be an integer"):
         ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=0)
     with pytest.raises(NonFiniteError, match="damping"):
         ik.solve_many(ur5, poses, processes=1, damping=float("nan"))
     assert calls == []
-    res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, progress=False)
+    res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, keep_history=True, progress=False)
     assert len(calls) == 5 and all(r.success for r in res)  # one solve per target, none to test the options
+    res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, progress=False)
+    assert len(calls) == 5 and all(r.success for r in res)  # the compiled batch: no ik.solve per target
 
 
 def test_timeout_and_q0_rows_are_validated(ur5):

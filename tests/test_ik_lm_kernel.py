@@ -1,11 +1,14 @@
-"""The compiled LM kernel (ik.lm_kernel) against Pinocchio and against the Python iteration it replaces.
+"""The compiled LM kernel (ik.lm.kernel) and the robot's compiled chains (ik.lm.chains), against Pinocchio and
+against the Python iteration.
 
 * the chain's pose and LOCAL Jacobian against Pinocchio's ``updateFramePlacement`` /
   ``getFrameJacobian`` on arms with revolute (aligned and unaligned axes) and prismatic joints;
 * its SE(3) logarithm against ``pinocchio.log6``, including angles near 0 and near pi;
 * whole solves, full pose and relaxed (world and target axes): the same starts, iterations and answers (to
-  rounding) as the Python iteration (``lm_solver.COMPILED = False``), every iterate inside the joint limits,
+  rounding) as the Python iteration (no compiled chain), every iterate inside the joint limits,
   history errors equal to FK's;
+* every frame's packed chain equals ``serial_chain``; ``ik.lm.warm`` gives the robot (and its copies) its
+  chains, which survive pickling;
 * chains the kernel does not model (free-flyer, continuous joints) keep Pinocchio's algorithms.
 """
 
@@ -23,13 +26,11 @@ from kinserve.kinematics.serial_chain import PRISMATIC, REVOLUTE, serial_chain
 
 @pytest.fixture
 def python_lm(monkeypatch):
-    """Solve with the Python iteration (Pinocchio calls) instead of the kernel."""
+    """Solve with the Python iteration (Pinocchio calls) instead of the kernel: the solver finds no chain."""
     def solve(*args, **kwargs):
-        monkeypatch.setattr(lm_solver, "COMPILED", False)
-        try:
+        with monkeypatch.context() as m:
+            m.setattr(lm_solver, "compiled_chain", lambda robot, fid: None)
             return ik.solve(*args, **kwargs)
-        finally:
-            monkeypatch.setattr(lm_solver, "COMPILED", True)
     return solve
 
 
@@ -146,8 +147,10 @@ def test_other_joints_keep_pinocchio_algorithms(joint):
     assert lm_solver.compiled_chain(robot, fid) is None
     q_goal = np.full(robot.nq, 0.3)
     T = robot.fk(q_goal, "tool")
-    # (seed tables sample with the batch FK, which models revolute / prismatic joints only: start from q0)
-    res = ik.solve(robot, T, np.full(robot.nq, 0.2), method="lm", seed_table=False, prefer_q0=True, seed=0)
+    # (seed tables sample with the batch FK, which models revolute / prismatic joints only: start from q0;
+    # the solver itself, as the front door's request builds a seed table for the frame)
+    res = lm_solver.solve_lm(robot, Target(robot, T, "tool"), np.full(robot.nq, 0.2), seed_table_enabled=False,
+                             prefer_q0=True, seed=0)
     assert res.success and se3.pose_error(robot.fk(res.q), T)[0] < 1e-4
 
 
@@ -201,3 +204,37 @@ def test_a_fresh_process_loads_the_kernels_outside_the_time_budget():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["True"] * 4, out.stdout
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "scara", "baxter", "finger_edu"])
+def test_every_frame_packs_the_chain_of_serial_chain(name):
+    from kinserve.ik.lm.chains import packed_chains
+
+    robot = robots.load(name, geometry=False)
+    packed = packed_chains(robot.model)
+    assert len(packed) == robot.model.nframes
+    for fid, chain in enumerate(packed):
+        want = serial_chain(robot.model, fid)
+        assert (chain is None) == (want is None)
+        if want is not None:
+            assert np.array_equal(chain[0], want[0]) and np.array_equal(chain[1], want[1])
+            assert chain[1].dtype == np.int64 and chain[1].flags.c_contiguous
+
+
+def test_warm_gives_the_robot_its_chains_shared_by_copies_and_pickles():
+    import pickle
+
+    from kinserve.ik import lm
+    from kinserve.ik.lm.chains import compiled_chain
+
+    robot = robots.load("ur5", geometry=False)
+    chains = lm.warm(robot)
+    assert robot.lm_chains is chains and robot.copy().lm_chains is chains
+    fid = robot.frame_id(robot.tip)
+    assert compiled_chain(robot, fid) is chains.chain(fid) and chains.chain(fid).kernel is lm_kernel
+    other = pickle.loads(pickle.dumps(robot))
+    back = other.lm_chains.chain(fid)
+    assert back.kernel is lm_kernel and np.array_equal(back.geometry, chains.chain(fid).geometry)
+    T = robot.fk(robot.random_q(np.random.default_rng(1)))
+    a, b = ik.solve(robot, T, seed=0), ik.solve(other, T, seed=0)
+    assert a.success and np.array_equal(a.q, b.q)

@@ -1,4 +1,5 @@
-"""kinserve.ik.lm.solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic."""
+"""kinserve.ik.lm.solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic;
+the Python iteration equals the compiled one; an iteration budget bounds the work and never reads the clock."""
 
 import numpy as np
 import pytest
@@ -111,55 +112,6 @@ def test_relaxed_targets_rank_starts_by_position_only():
     assert np.abs(res.q - q0).max() < 0.1
 
 
-def test_one_joint_at_bound_equals_the_masked_re_solve():
-    """The Cholesky shortcut for one joint out of range gives the masked active-set step (same math, other route)."""
-    from scipy.linalg import get_lapack_funcs
-
-    from kinserve.ik.lm.solver import _limited_step, _one_joint_at_bound
-
-    posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
-    rng = np.random.default_rng(11)
-    checked = 0
-    for _ in range(200):
-        J = rng.normal(size=(6, 7))
-        e = rng.normal(size=6) * 0.3
-        q = rng.uniform(-1.0, 1.0, 7)
-        lo, hi = np.full(7, -1.2), np.full(7, 1.2)
-        lam = 1e-3
-        A = J.T @ J + lam * np.eye(7)
-        U, x, info = posv(np.asfortranarray(A), e @ J)
-        qn = q + x
-        qc = np.clip(qn, lo, hi)
-        if np.count_nonzero(qc != qn) != 1:
-            continue
-        got = _one_joint_at_bound(U, J, e, lam, q, lo, hi, qn, qc, qn.tolist(), qc.tolist(), np.eye(7))
-        want = _limited_step(J, e, lam, q, lo, hi, qn, qc)
-        assert np.all(got >= lo) and np.all(got <= hi)
-        assert np.allclose(got, want, atol=1e-9)
-        checked += 1
-    assert checked > 20
-
-
-def test_near_bound_of_the_cheap_success_test():
-    """|t| <= |v| <= (pi/2)|t| for e = [v; w] = log6(M), t = M.translation: E < NEAR tp^2 + tr^2 never misses success."""
-    import pinocchio as pin
-
-    from kinserve.ik.lm.solver import NEAR
-
-    rng = np.random.default_rng(2)
-    worst = 0.0
-    for _ in range(2000):
-        angle = rng.uniform(0.0, np.pi)
-        axis = rng.normal(size=3)
-        R = pin.exp3(angle * axis / np.linalg.norm(axis))
-        M = pin.SE3(R, rng.normal(size=3))
-        e = pin.log6(M).vector
-        t, v = np.linalg.norm(M.translation), np.linalg.norm(e[:3])
-        assert t <= v * (1 + 1e-12)
-        worst = max(worst, v / t)
-    assert worst <= np.pi / 2 + 1e-9 and NEAR >= (np.pi / 2) ** 2
-
-
 def test_accept_rejects_converged_runs_and_tries_the_next_start():
     """``solve_lm(accept=...)``: the test sees each converged run (start first, answer last); a rejected run is
     followed by the next start; when every converged run is rejected the result says so and fails."""
@@ -209,3 +161,80 @@ def test_admit_skips_starts_without_running_them():
     none = solve_lm(robot, tgt, q0, seed=5, admit=lambda q: False)
     assert not none.success and "admitted" in none.message and none.restarts == 0
     assert f"{ADMIT_MISSES} refused" in none.message and np.all(np.isfinite(none.q))
+
+
+def _start_buffers(robot, max_iter):
+    return np.empty((max_iter + 1, robot.nq)), np.empty((max_iter + 1, 2))
+
+
+@pytest.mark.parametrize("name, relax, relax_frame", [
+    ("panda", (), "world"), ("ur5", (), "world"), ("panda", ("roll", "pitch", "yaw"), "world"),
+    ("panda", ("yaw",), "target"), ("ur5", ("z", "roll"), "target"), ("scara", ("roll", "pitch"), "world"),
+])
+def test_python_iteration_equals_the_compiled_one(name, relax, relax_frame):
+    """python_start (Pinocchio's algorithms) and the kernel's run_start take the same iterates from the same
+    start: same status and count, every configuration and squared error to 1e-10, starts at and beyond the
+    limits included (the active-set re-solve runs)."""
+    from kinserve.ik.lm.chains import compiled_chain
+    from kinserve.ik.lm.solver import DAMPING, DAMPING_GAIN, STALL_PATIENCE, STALL_RATIO, python_start
+
+    robot = robots.load(name, geometry=False)
+    rng = np.random.default_rng(4)
+    chain = compiled_chain(robot, robot.frame_id(robot.tip))
+    assert chain is not None
+    lo, hi = robot.lower, robot.upper
+    checked = steps = 0
+    for T, q0 in zip(robot.fk_batch(robot.random_q(rng, 25)), robot.random_q(rng, 25)):
+        q0 = np.where(rng.random(robot.nq) < 0.3, np.where(rng.random(robot.nq) < 0.5, lo, hi), q0)
+        tgt = Target(robot, T, relax=relax, relax_frame=relax_frame)
+        qa, ea = _start_buffers(robot, 40)
+        qb, eb = _start_buffers(robot, 40)
+        a = chain.kernel.run_start(chain.geometry, chain.joints, q0, lo, hi, tgt.T, not tgt.full, tgt.A, tgt.kept,
+                                   1e-8, 1e-6, DAMPING, DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, 40, qa, ea)
+        b = python_start(robot.model, robot.model.createData(), tgt, q0, lo, hi, 1e-8, 1e-6, DAMPING, 40, qb, eb)
+        assert a == b
+        k = a[2]
+        assert np.abs(qa[:k] - qb[:k]).max() < 1e-10 and np.abs(ea[:k] - eb[:k]).max() < 1e-10
+        assert np.all(qa[:k] >= lo) and np.all(qa[:k] <= hi)
+        checked += 1
+        steps += k
+    assert checked == 25 and steps > 100  # real runs, not one-row stalls
+
+
+def _unreachable(robot):
+    T = np.eye(4)
+    T[:3, 3] = (2.0, 0.0, 0.5)
+    return Target(robot, T)
+
+
+def test_iteration_budget_bounds_every_start_together():
+    robot = robots.load("panda", geometry=False)
+    tgt = _unreachable(robot)
+    for budget in (1, 7, 60, 130):
+        res = solve_lm(robot, tgt, robot.neutral(), seed=1, iteration_budget=budget)
+        assert not res.success and res.iterations == budget
+        assert f"iteration budget exhausted ({budget} iterations)" in res.message
+    # a reachable target converges within a generous budget as without one: the same answer
+    rng = np.random.default_rng(6)
+    T = robot.fk(robot.random_q(rng))
+    q0 = robot.random_q(rng)
+    free = solve_lm(robot, Target(robot, T), q0, seed=2)
+    capped = solve_lm(robot, Target(robot, T), q0, seed=2, iteration_budget=10_000)
+    assert capped.success and np.array_equal(free.q, capped.q) and free.iterations == capped.iterations
+
+
+def test_iteration_budget_never_lets_the_clock_decide(monkeypatch):
+    """With iteration_budget and no max_time the answer is that of the inputs and seed alone: a clock that
+    jumps by an hour at every reading changes nothing (with a time budget it would stop after one start)."""
+    from kinserve.ik.lm import solver as lm_solver
+
+    robot = robots.load("ur5", geometry=False)
+    tgt = _unreachable(robot)
+    calm = solve_lm(robot, tgt, robot.neutral(), seed=3, iteration_budget=200)
+    ticks = iter(range(0, 10**9, 3600))
+    monkeypatch.setattr(lm_solver, "_now", lambda: float(next(ticks)))
+    jumpy = solve_lm(robot, tgt, robot.neutral(), seed=3, iteration_budget=200)
+    assert np.array_equal(calm.q, jumpy.q) and calm.iterations == jumpy.iterations == 200
+    assert calm.restarts == jumpy.restarts > 1 and calm.message == jumpy.message
+    timed = solve_lm(robot, tgt, robot.neutral(), seed=3, max_time=1.0, iteration_budget=200)
+    assert timed.restarts == 0 and "time budget exhausted" in timed.message  # the clock counts only with max_time
