@@ -16,21 +16,20 @@ joint limits always on, and offers the three things an iteration needs:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
-
-from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.shapes import Shape
 
 from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
 from kinserve.ik.constraints.joint_limits import JointLimits
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.qp.hierarchy import stack_level
 from kinserve.ik.tasks.base import Task
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Shape
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -45,7 +44,8 @@ def _is_checked(c: Constraint) -> bool:
 
 
 def as_constraints(constraints: Any, tool_frames: Sequence[str] = ()) -> list[Constraint]:
-    """Constraint objects from a sequence of constraints and shapes (shapes become one :class:`ObstacleAvoidance`)."""
+    """Constraint objects from a sequence of constraints and shapes (shapes become one
+    :class:`ObstacleAvoidance`)."""
     if constraints is None:
         return []
     if isinstance(constraints, (Constraint, Shape)):
@@ -53,7 +53,8 @@ def as_constraints(constraints: Any, tool_frames: Sequence[str] = ()) -> list[Co
     try:
         items = list(constraints)
     except TypeError:
-        raise InputError(f"constraints must be a sequence of ik.Constraint objects or shapes, got {constraints!r}") from None
+        raise InputError(f"constraints must be a sequence of ik.Constraint objects or shapes, "
+                         f"got {constraints!r}") from None
     out, shapes = [], []
     for i, c in enumerate(items):
         if isinstance(c, Shape):
@@ -61,8 +62,8 @@ def as_constraints(constraints: Any, tool_frames: Sequence[str] = ()) -> list[Co
         elif isinstance(c, Constraint):
             out.append(c)
         else:
-            raise InputError(f"constraints[{i}] must be an ik.Constraint or a shape (ik.Sphere, ik.Box, ...), "
-                             f"got {type(c).__name__}")
+            raise InputError(f"constraints[{i}] must be an ik.Constraint or a shape (ik.Sphere, ik.Box, "
+                             f"...), got {type(c).__name__}")
     if shapes:
         out.append(ObstacleAvoidance(shapes, tool_frames=tuple(tool_frames) or None))
     return out
@@ -106,17 +107,21 @@ class Problem:
         self.priorities = sorted({t.priority for t in self.tasks})
         self.levels = [[t for t in self.tasks if t.priority == p] for p in self.priorities]
         # sqrt(weight) of every task, None for weight 1 (rows used as they are)
-        self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else np.sqrt(t.weight) for t in lvl]
-                              for lvl in self.levels]
+        self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else np.sqrt(t.weight)
+                               for t in lvl] for lvl in self.levels]
         # per level: the single task whose rows are used as they are, or None (stack the level's tasks)
         self._single = [lvl[0] if len(lvl) == 1 and ws[0] is None else None
                         for lvl, ws in zip(self.levels, self.level_weights)]
         self._only_single = all(t is not None for t in self._single)
-        # the tasks in level order (the order of evaluate()'s errors), and where user task i's error sits in it
+        # the tasks in level order (the order of evaluate()'s errors), and where user task i's error is
         self._ordered = [t for lvl in self.levels for t in lvl]
         position = {id(t): k for k, t in enumerate(self._ordered)}
         self._es_index = [position[id(t)] for t in self.tasks]
         self.goals = [t for t in self.tasks if t.goal]
+        # the levels (indices into self.levels) holding a goal task; each level's slice of evaluate()'s errors
+        self.goal_levels = [j for j, lvl in enumerate(self.levels) if any(t.goal for t in lvl)]
+        ends = np.cumsum([len(lvl) for lvl in self.levels]).tolist()
+        self._level_slices = list(zip([0] + ends[:-1], ends))
         self.has_objectives = any(not t.goal for t in self.tasks) or len(self.levels) > 1
         self.gain = min([getattr(c, "gain", DAMPER_GAIN) for c in self.checked] or [DAMPER_GAIN])
         self.nv = robot.model.nv
@@ -161,14 +166,30 @@ class Problem:
                     re = r
         return levels, pe, re, es
 
+    def level_goal_errors(self, es: list) -> list[tuple[float, float]]:
+        """Per level (highest first), the largest position / orientation error (m, rad) of its goal tasks,
+        ``(0.0, 0.0)`` for a level without goals; ``es`` are :meth:`evaluate`'s task errors."""
+        out = []
+        tasks = self._ordered
+        for i, j in self._level_slices:
+            pe = re = 0.0
+            for k in range(i, j):
+                t = tasks[k]
+                if t.goal:
+                    p, r = t.errors(es[k])
+                    pe, re = max(pe, p), max(re, r)
+            out.append((pe, re))
+        return out
+
     def task_errors(self, es: list) -> list[dict]:
         """Per-task report for :attr:`Result.task_errors`."""
         out = []
         for t, k in zip(self.tasks, self._es_index):  # in the order the tasks were given
             e = es[k]
             p, r = t.errors(e)
-            out.append({"name": t.name, "priority": t.priority, "goal": t.goal, "error": float(np.linalg.norm(e)),
-                        "position_error": float(p), "orientation_error": float(r)})
+            out.append({"name": t.name, "priority": t.priority, "goal": t.goal,
+                        "error": float(np.linalg.norm(e)), "position_error": float(p),
+                        "orientation_error": float(r)})
         return out
 
     # ------------------------------------------------------------------------- constraints
@@ -187,7 +208,8 @@ class Problem:
             G, lo, hi = c.rows(robot, data, q, dt)
             if G is None:
                 if lb is None:  # JointLimits' arrays are fresh; copy anyone else's before writing into them
-                    lb, ub = (lo, hi) if type(c) is JointLimits else (np.array(lo, dtype=float), np.array(hi, dtype=float))
+                    lb, ub = (lo, hi) if type(c) is JointLimits else \
+                        (np.array(lo, dtype=float), np.array(hi, dtype=float))
                 else:
                     np.maximum(lb, lo, out=lb)
                     np.minimum(ub, hi, out=ub)
@@ -210,7 +232,8 @@ class Problem:
         return self._check_data
 
     def margin(self, q: np.ndarray) -> float:
-        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics only."""
+        """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics
+        only."""
         if not self.checked:
             return math.inf
         d = self.data

@@ -22,8 +22,9 @@ so ``J_j dq`` is unchanged for every higher level ``j`` (the higher levels'
 first-order progress is kept exactly) and the constraints hold at every
 level. When the first level is infeasible because rows demand that violated
 constraints recover (``l > 0``, a start in collision), those rows are relaxed
-to ``l = 0`` (get no worse) and the level is solved again. A level whose QP is infeasible (the higher levels leave it no
-feasible freedom) contributes nothing. This is the nullspace form of a
+to ``l = 0`` (get no worse) and the level is solved again. A level whose QP
+is infeasible (the higher levels leave it no feasible freedom) contributes
+nothing (:func:`level_steps` gives each level's part). This is the nullspace form of a
 hierarchical QP; it needs no more than one small QP per level. When the
 freedom left is a line (``Z`` has one column: a 6-D task on a 7-joint arm)
 the level's QP is one-dimensional and is solved exactly in closed form
@@ -33,12 +34,14 @@ interval).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, solve_dense
 from kinserve.ik.tasks.centring_weights import null_space_basis
 
 _concat = np.concatenate
-from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, solve_dense
 
 #: Damping of the lower levels (regularises the null-space coordinates).
 LOWER_DAMPING = 1e-9
@@ -69,15 +72,57 @@ def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray
     return _concat(Js), _concat(es)
 
 
+class LevelSteps(NamedTuple):
+    """The step of :func:`level_steps`, level by level.
+
+    ``total = first + sum(d for d in lower if d is not None)``: ``first`` is
+    level 1's step, ``lower[k - 2]`` level ``k``'s contribution ``Z z`` (None
+    when the level added nothing: no freedom left, an infeasible level QP, a
+    line blocked by the bounds).
+    """
+
+    total: np.ndarray
+    first: np.ndarray
+    lower: list
+
+
 def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
-                      l: np.ndarray | None = None, u: np.ndarray | None = None, *, lam: float, max_step: float = 1.0,
-                      backend: str = DEFAULT_BACKEND, shortcut: bool = True) -> tuple[np.ndarray | None, np.ndarray | None]:
+                      l: np.ndarray | None = None, u: np.ndarray | None = None, *,  # noqa: E741
+                      lam: float, max_step: float = 1.0, backend: str = DEFAULT_BACKEND,
+                      shortcut: bool = True) -> tuple[np.ndarray | None, np.ndarray | None]:
     """``(dq, dq_lower)``: the step and the part of it contributed by levels below the first; ``(None, None)``
-    when the first level's QP is infeasible.
+    when the first level's QP is infeasible (``dq_lower`` is None with one level).
 
     ``levels`` is a list of ``(J, e)`` ordered by priority; ``lam`` the
-    first level's damping.
+    first level's damping. The parts summed of :func:`level_steps`.
     """
+    out = _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut)
+    if out is None:
+        return None, None
+    dq, first, lower = out
+    if not lower:
+        return dq, None
+    if len(lower) == 1:  # (two levels: the second's part as it is)
+        return dq, (lower[0] if lower[0] is not None else np.zeros(dq.shape[0]))
+    return dq, dq - first
+
+
+def level_steps(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
+                l: np.ndarray | None = None, u: np.ndarray | None = None, *, lam: float,  # noqa: E741
+                max_step: float = 1.0, backend: str = DEFAULT_BACKEND,
+                shortcut: bool = True) -> LevelSteps | None:
+    """The step of the module docstring, level by level (:class:`LevelSteps`); None when the first level's QP
+    is infeasible.
+
+    ``levels`` is a list of ``(J, e)`` ordered by priority; ``lam`` the
+    first level's damping; ``max_step`` bounds ``|z|`` of the lower levels.
+    """
+    out = _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut)
+    return None if out is None else LevelSteps(*out)
+
+
+def _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut):  # noqa: E741
+    """``(total, first, lower)`` of :class:`LevelSteps`, or None (:func:`level_steps`)."""
     J1, e1 = levels[0]
     n = J1.shape[1]
     P = J1.T.dot(J1)
@@ -85,53 +130,60 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
     dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
     if dq is None and G is not None and (l > 0.0).any():
         # rows that demand a violated constraint recover (l > 0) may conflict: ask only that it gets no worse
-        l = np.minimum(l, 0.0)
+        l = np.minimum(l, 0.0)  # noqa: E741
         dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
     if dq is None:
-        return None, None
+        return None
+    first = dq
+    lower = []
     if len(levels) == 1:
-        return dq, None
-    dq_lower = None
+        return dq, first, lower
     Z = null_space_basis(J1)
     last = len(levels) - 1
-    has_rows = G is not None and G.shape[0] > 0
+    if G is not None and G.shape[0] == 0:
+        G = None
     for k in range(1, last + 1):
         Jk, ek = levels[k]
-        dim = Z.shape[1]
-        if dim == 0:
+        if Z.shape[1] == 0:
+            lower.extend([None] * (last + 1 - k))
             break
         JZ = Jk.dot(Z)
-        if LINE_LEVEL and dim == 1 and shortcut:  # one free direction: the QP on a line, in closed form
-            z0 = Z[:, 0]
-            z = _line_level(z0, JZ[:, 0], Jk, ek, dq, lb, ub, G if has_rows else None, l, u, max_step)
-            if z != 0.0:  # (a line blocked by the bounds: nothing to add)
-                step = z0 * z
-                dq = dq + step
-                dq_lower = step if dq_lower is None else dq_lower + step
-        else:
-            Pz = JZ.T.dot(JZ)
-            Pz.flat[:: dim + 1] += LOWER_DAMPING
-            cz = (Jk.dot(dq) + ek).dot(JZ)
-            if has_rows:
-                Gd = G.dot(dq)
-                A = np.concatenate((Z, G.dot(Z)))
-                lo = np.concatenate((lb - dq, l - Gd))
-                hi = np.concatenate((ub - dq, u - Gd))
-            else:
-                A, lo, hi = Z, lb - dq, ub - dq
-            zlim = np.full(dim, max_step)
-            z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
-            if z is not None:
-                step = Z.dot(z)
-                dq = dq + step
-                dq_lower = step if dq_lower is None else dq_lower + step
+        step = _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut)
+        lower.append(step)
+        if step is not None:
+            dq = dq + step
         if k < last:  # the next level moves in the null space of this one too (none after the last)
             Z = Z.dot(null_space_basis(JZ))
-    return dq, (np.zeros(n) if dq_lower is None else dq_lower)
+    return dq, first, lower
+
+
+def _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut):  # noqa: E741
+    """Level ``k``'s contribution ``Z z`` (module docstring) on top of the step ``dq`` of the levels above
+    (``G`` None without rows); None when it adds nothing (its QP infeasible, or a line blocked by the
+    bounds)."""
+    dim = Z.shape[1]
+    if LINE_LEVEL and dim == 1 and shortcut:  # one free direction: the QP on a line, in closed form
+        z0 = Z[:, 0]
+        z = _line_level(z0, JZ[:, 0], Jk, ek, dq, lb, ub, G, l, u, max_step)
+        return z0 * z if z != 0.0 else None
+    Pz = JZ.T.dot(JZ)
+    Pz.flat[:: dim + 1] += LOWER_DAMPING
+    cz = (Jk.dot(dq) + ek).dot(JZ)
+    if G is not None:
+        Gd = G.dot(dq)
+        A = np.concatenate((Z, G.dot(Z)))
+        lo = np.concatenate((lb - dq, l - Gd))
+        hi = np.concatenate((ub - dq, u - Gd))
+    else:
+        A, lo, hi = Z, lb - dq, ub - dq
+    zlim = np.full(dim, max_step)
+    z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
+    return None if z is None else Z.dot(z)
 
 
 def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: float) -> float:
-    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= v_i + a_i z <= hi_i`` and ``|z| <= limit``.
+    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= v_i + a_i z <= hi_i`` and
+    ``|z| <= limit``.
 
     ``p > 0``; ``v`` are the rows' values at ``z = 0``, taken as feasible
     (``lo_i <= v_i <= hi_i``: the rows at a feasible step, round-off included),
@@ -154,7 +206,8 @@ def _clip_to(z: float, zlo: float, zhi: float) -> float:
 
 
 def _line_interval(a: list, v: list, lo: list, hi: list, zlo: float, zhi: float) -> tuple[float, float]:
-    """``[zlo, zhi]`` narrowed by the rows ``lo_i <= v_i + a_i z <= hi_i`` (slacks clamped at 0, see :func:`line_qp`).
+    """``[zlo, zhi]`` narrowed by the rows ``lo_i <= v_i + a_i z <= hi_i`` (slacks clamped at 0, see
+    :func:`line_qp`).
 
     Stops as soon as the interval is ``[0, 0]`` (the remaining rows cannot widen it).
     """
@@ -188,9 +241,11 @@ def _line_interval(a: list, v: list, lo: list, hi: list, zlo: float, zhi: float)
     return zlo, zhi
 
 
-def _line_level(z0: np.ndarray, jz: np.ndarray, Jk: np.ndarray, ek: np.ndarray, dq: np.ndarray, lb: np.ndarray,
-                ub: np.ndarray, G: np.ndarray | None, l: np.ndarray | None, u: np.ndarray | None, max_step: float) -> float:
-    """The coordinate ``z`` of the lower level's step ``z z0`` when its freedom is the line along the unit vector ``z0``.
+def _line_level(z0: np.ndarray, jz: np.ndarray, Jk: np.ndarray, ek: np.ndarray, dq: np.ndarray,
+                lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None, l: np.ndarray | None,  # noqa: E741
+                u: np.ndarray | None, max_step: float) -> float:
+    """The coordinate ``z`` of the lower level's step ``z z0`` when its freedom is the line along the unit
+    vector ``z0``.
 
     The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
     ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``), the box

@@ -1,9 +1,10 @@
-"""Iterated hierarchical IK on tasks and constraints, with restarts (``ik.solve(robot, tasks=..., constraints=...)``).
+"""Iterated hierarchical IK on tasks and constraints, with restarts (``ik.solve(robot, tasks=...,
+constraints=...)``).
 
 Each iteration at ``q``:
 
 1. :meth:`Problem.evaluate` - every task's error and Jacobian, per level.
-2. The step of :func:`ik.qp.hierarchy.hierarchical_step`. **Lazy rows**: the
+2. The step of :func:`ik.qp.hierarchy.level_steps`, level by level. **Lazy rows**: the
    constraints with a true check (obstacles) are first left out; the trial
    iterate ``q + dq`` is checked, and if every margin still holds
    ``m(q + dq) >= (1 - xi) m(q)`` (what the velocity damper would have asked
@@ -14,13 +15,22 @@ Each iteration at ``q``:
    iteration, no gradient and no QP.
 3. Step back-off: the step is halved until the true margin at ``q + alpha dq``
    is ``>= min(0, m(q))`` - an iterate never enters an obstacle, and a start
-   that is already inside one may only get out. Once the goals are within
-   tolerance, the lower-level part of a step is halved until the goals stay
-   within tolerance (the null space is only tangent to the self-motion
-   manifold).
+   that is already inside one may only get out. The lower levels' parts of a
+   step are scaled down (or corrected to second order) until no goal level
+   above them loses more than it may - what it keeps is judged on its own
+   residual, and goals already met stay met
+   (:class:`~kinserve.ik.qp.level_progress.LowerShares`: the null space is only
+   tangent to the set where the higher levels keep their values). A start
+   whose goals were not met although the lower levels moved before they were
+   is run again with those levels held until the goals are met: from there it
+   follows the path of the goal levels alone, so a lower level never keeps a
+   start from meeting the goals it meets alone.
 
-Stopping: goals within tolerance (and, with objectives, the step below
-:data:`STEP_TOL`); otherwise a stall or the iteration cap ends the start and
+Stopping: goals within tolerance (and, with objectives, their merits no longer
+improving or the step below :data:`STEP_TOL`:
+:class:`~kinserve.ik.qp.level_progress.ObjectiveWatch`); otherwise a stall of
+the first unmet goal level (:class:`~kinserve.ik.qp.level_progress.LevelStall`)
+or the iteration cap ends the start and
 the next start of :func:`ik.starts.multistart.starts` begins, until ``max_time``
 or the ``iteration_budget`` (the iterations of every start together) is spent.
 With an ``iteration_budget`` and no ``max_time`` the clock is never read to
@@ -36,20 +46,21 @@ cannot with an ``iteration_budget`` alone).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 import itertools
 import math
 import time
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 
 from kinserve.ik import numpy_fast
-from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, backend_calls
-from kinserve.ik.qp.hierarchy import hierarchical_step
-from kinserve.ik.starts.multistart import starts
 from kinserve.ik.problem import Problem
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, backend_calls
+from kinserve.ik.qp.hierarchy import LevelSteps, level_steps
+from kinserve.ik.qp.level_progress import LevelStall, LowerShares, ObjectiveWatch, Trial
 from kinserve.ik.result import History, Result
+from kinserve.ik.starts.multistart import starts
 
 #: Floor of the first level's Levenberg-Marquardt damping.
 DAMPING = 1e-5
@@ -89,42 +100,60 @@ class _Run:
     __slots__ = ("pb", "tp", "tr", "max_iter", "deadline", "budget", "left", "damping", "max_step", "backend",
                  "shortcut", "lazy", "lo", "hi", "gain", "stall_ratio", "stall_patience", "lazy_wait")
 
-    def __init__(self, pb, tp, tr, max_iter, deadline, damping, max_step, backend, shortcut, lazy, budget=None):
+    def __init__(self, pb, tp, tr, max_iter, deadline, damping, max_step, backend, shortcut, lazy,
+                 budget=None):
         self.pb, self.tp, self.tr = pb, tp, tr
         # deadline: perf_counter time, None = the clock is not read; budget / left: the iteration budget
         # and what the starts so far left of it (None = no budget)
         self.max_iter, self.deadline = max_iter, deadline
         self.budget = self.left = budget
-        self.damping, self.max_step, self.backend, self.shortcut, self.lazy = damping, max_step, backend, shortcut, lazy
+        self.damping, self.max_step, self.backend = damping, max_step, backend
+        self.shortcut, self.lazy = shortcut, lazy
         self.lo, self.hi = pb.robot.lower, pb.robot.upper
         self.gain = pb.gain
         self.lazy_wait = 0
         self.stall_ratio, self.stall_patience = STALL_RATIO, STALL_PATIENCE
 
 
-def _step(run: _Run, q, levels, E, m_q):
-    """``(dq, dq_lower, next)`` - ``next = (q + dq, state)`` when the lazy trial was accepted; dq None if infeasible."""
+def _step(run: _Run, q, levels, E, m_q) -> tuple[LevelSteps | None, tuple | None]:
+    """``(steps, next)``: ``steps`` the step level by level (:func:`level_steps`; None if infeasible),
+    ``next = (q + dq, state)`` when the lazy trial was accepted. ``E``: the first level's squared goal
+    error (its damping)."""
     pb = run.pb
     lam = DAMPING_GAIN * E + run.damping
     if run.lazy and pb.checked and m_q > 0.0 and run.lazy_wait <= 0:
-        lb, ub, G, l, u = pb.box_and_rows(q, None, run.max_step, with_checked_rows=False)
-        dq, dq2 = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=run.max_step, backend=run.backend,
-                                    shortcut=run.shortcut)
-        if dq is not None:
-            qn = _clip(q + dq, run.lo, run.hi)
+        lb, ub, G, gl, gu = pb.box_and_rows(q, None, run.max_step, with_checked_rows=False)
+        steps = level_steps(levels, lb, ub, G, gl, gu, lam=lam, max_step=run.max_step, backend=run.backend,
+                            shortcut=run.shortcut)
+        if steps is not None:
+            qn = _clip(q + steps.total, run.lo, run.hi)
             st = pb.state(qn)
             if st[4] >= (1.0 - run.gain) * m_q:
-                return dq, dq2, (qn, st)
+                return steps, (qn, st)
         run.lazy_wait = LAZY_WAIT  # an obstacle is in the way: take the constrained step for a while
     run.lazy_wait -= 1
-    lb, ub, G, l, u = pb.box_and_rows(q, None, run.max_step)
-    dq, dq2 = hierarchical_step(levels, lb, ub, G, l, u, lam=lam, max_step=run.max_step, backend=run.backend,
-                                shortcut=run.shortcut)
-    return dq, dq2, None
+    lb, ub, G, gl, gu = pb.box_and_rows(q, None, run.max_step)
+    return level_steps(levels, lb, ub, G, gl, gu, lam=lam, max_step=run.max_step, backend=run.backend,
+                       shortcut=run.shortcut), None
+
+
+def _corrected(run: _Run, q, m_q, qt, st_t, j):
+    """``qt`` (a trial from ``q``) corrected by the step of levels ``0..j`` at ``qt`` (its state ``st_t``),
+    as :func:`_accept` takes it from ``q``: the second-order correction of the higher levels' error that
+    the lower levels' steps caused (:mod:`ik.qp.level_progress`)."""
+    pb = run.pb
+    lb, ub, G, gl, gu = pb.box_and_rows(qt, None, run.max_step, with_checked_rows=False)
+    lam = DAMPING_GAIN * (st_t[1] ** 2 + st_t[2] ** 2) + run.damping
+    steps = level_steps(st_t[0][: j + 1], lb, ub, G, gl, gu, lam=lam, max_step=run.max_step,
+                        backend=run.backend, shortcut=run.shortcut)
+    if steps is None:
+        return None, None
+    return _accept(run, q, (qt - q) + steps.total, m_q)
 
 
 def _accept(run: _Run, q, dq, m_q):
-    """``(q + alpha dq, state)`` with the largest ``alpha in {1, 1/2, ...}`` keeping the margin ``>= min(0, m_q)``."""
+    """``(q + alpha dq, state)`` with the largest ``alpha in {1, 1/2, ...}`` keeping the margin
+    ``>= min(0, m_q)``."""
     pb = run.pb
     floor = min(0.0, m_q)
     alpha = 1.0
@@ -140,68 +169,99 @@ def _accept(run: _Run, q, dq, m_q):
 def _run_start(run: _Run, q, record, st=None):
     """One start (``st``: its state when already evaluated).
 
-    Returns (ok, iterations, reason, index of the answer in the record, task errors of it).
+    Returns (ok, iterations, reason, index of the answer in the record, task errors of it). When the
+    goals were not met and the levels below them took part of a step before they were, the start is run
+    again with those levels held until the goals are met - from there on the path is the one the goal
+    levels take alone - so the lower levels never keep a start from meeting the goals
+    (:mod:`ik.qp.level_progress`). ``record`` then holds the second run.
     """
     pb = run.pb
-    best_E = math.inf
-    stalls = 0
-    best_ok = None
-    best_es = None
-    beta_prev = 1.0
-    qs, pes, res = record
-    run.lazy_wait = 0
     if st is None:
         st = pb.state(q)
-    cap = run.max_iter if run.left is None else min(run.max_iter, run.left)
+    first = _iterate(run, q, record, st, False, 0)
+    if first.ok or not first.lower_before_goals:
+        return first[:5]
+    for rows in record:
+        del rows[:]
+    again = _iterate(run, q, record, st, True, first.iterations)
+    return again.ok, first.iterations + again.iterations, again.reason, again.answer, again.errors
+
+
+class _StartEnd(NamedTuple):
+    """How one run of a start ended: :func:`_run_start`'s five values, and whether a level below the goals
+    took part of a step before the goals were met."""
+
+    ok: bool
+    iterations: int
+    reason: str
+    answer: int | None
+    errors: list | None
+    lower_before_goals: bool
+
+
+def _iterate(run: _Run, q, record, st, hold: bool, spent: int) -> _StartEnd:
+    """The iterations of one start from ``q`` (its state ``st``); ``hold``: the levels below the last goal
+    level are left out until the goals are met; ``spent``: iterations of the budget this start used."""
+    pb = run.pb
+    stall = LevelStall(len(pb.levels), run.stall_ratio, run.stall_patience)
+    objectives = ObjectiveWatch(pb)
+    shares = LowerShares(pb, run.tp, run.tr) if len(pb.levels) > 1 else None
+    held = len(pb.levels) if not (hold and pb.goal_levels) else pb.goal_levels[-1] + 1
+    by_level = len(pb.goal_levels) > 1  # goals on several levels: each judged by its own errors
+    own = by_level and pb.goal_levels[0] == 0  # (the first level's damping from its own goals)
+    best_ok = best_es = None
+    early = False  # a lower level took part of a step before the goals were met
+    qs, pes, res = record
+    run.lazy_wait = 0
+    cap = run.max_iter if run.left is None else max(0, min(run.max_iter, run.left - spent))
     for it in range(cap + 1):
         levels, pe, re, es, m_q = st
-        qs.append(q)
-        pes.append(pe)
-        res.append(re)
+        qs.append(q), pes.append(pe), res.append(re)
         within = pe < run.tp and re < run.tr
         if within:
-            best_ok = len(qs) - 1
-            best_es = es
+            best_ok, best_es = len(qs) - 1, es
             if not pb.has_objectives:
-                return True, it, "converged", best_ok, es
+                return _StartEnd(True, it, "converged", best_ok, es, early)
         if it == cap:
             break
-        E = pe * pe + re * re
-        if not within:
-            if E < run.stall_ratio * best_E:
-                best_E = E
-                stalls = 0
-            else:
-                stalls += 1
-                if stalls >= run.stall_patience:
-                    return best_ok is not None, it, "stalled", best_ok, best_es
-        dq, dq2, nxt = _step(run, q, levels, E, m_q)
-        if dq is None:
-            return best_ok is not None, it, "the constraints leave no feasible step (QP infeasible)", best_ok, best_es
-        if within and float(np.abs(dq).max()) < STEP_TOL:
-            return True, it, "converged (goals within tolerance, objectives stationary)", best_ok, best_es
-        if within and dq2 is not None:
-            # strict priority along the path: a lower-level step may not take the goals out of tolerance
-            dq1 = dq - dq2
-            beta = min(1.0, 2.0 * beta_prev)
-            for _ in range(MAX_BACKTRACK):
-                qn, st_n = _accept(run, q, dq1 + beta * dq2, m_q)
-                if qn is None or (st_n[1] < run.tp and st_n[2] < run.tr):
-                    break
-                beta *= 0.5
-            else:
-                return True, it, "converged (objectives stopped by the goal tolerance)", best_ok, best_es
-            beta_prev = beta
-        elif nxt is not None:
-            qn, st_n = nxt
-        else:
-            qn, st_n = _accept(run, q, dq, m_q)
-        if qn is None:
-            return best_ok is not None, it, "step blocked by a constraint", best_ok, best_es
-        q, st = qn, st_n
+        if within and objectives.stationary(levels):
+            return _StartEnd(True, it, "converged (goals within tolerance, objectives stationary)", best_ok,
+                             best_es, early)
+        level_errors = pb.level_goal_errors(es) if by_level else [(pe, re)]
+        if not within and stall.stalled(level_errors, run.tp, run.tr):
+            return _StartEnd(best_ok is not None, it, "stalled", best_ok, best_es, early)
+        p1, r1 = level_errors[0] if own else (pe, re)
+        steps, nxt = _step(run, q, levels if within else levels[:held], p1 * p1 + r1 * r1, m_q)
+        if steps is None:
+            reason = "the constraints leave no feasible step (QP infeasible)"
+            return _StartEnd(best_ok is not None, it, reason, best_ok, best_es, early)
+        if within and float(np.abs(steps.total).max()) < STEP_TOL:
+            return _StartEnd(True, it, "converged (goals within tolerance, objectives stationary)", best_ok,
+                             best_es, early)
+        trial = _move(run, q, st, steps, nxt, shares)
+        if within and trial.stopped:
+            return _StartEnd(True, it, "converged (objectives stopped by the goal tolerance)", best_ok,
+                             best_es, early)
+        early = early or (trial.taken and not within)
+        if trial.q is None:
+            return _StartEnd(best_ok is not None, it, "step blocked by a constraint", best_ok, best_es, early)
+        q, st = trial.q, trial.state
         if _out_of_time(run):
-            return best_ok is not None, it + 1, "time budget exhausted", best_ok, best_es
-    return best_ok is not None, cap, _cap_reason(run, cap, best_ok is not None), best_ok, best_es
+            return _StartEnd(best_ok is not None, it + 1, "time budget exhausted", best_ok, best_es, early)
+    met = best_ok is not None
+    return _StartEnd(met, cap, _cap_reason(run, spent + cap, met), best_ok, best_es, early)
+
+
+def _move(run: _Run, q, st, steps: LevelSteps, nxt, shares: LowerShares | None) -> Trial:
+    """The iterate after ``q`` (its state ``st``): the step with the lower levels' shares of
+    :class:`LowerShares` (strict priority along the path), or the whole step with one level (``nxt``: the
+    lazy trial, when taken)."""
+    m_q = st[4]
+    if shares is not None and steps.lower:
+        return shares.take(q, st, steps, lambda dq: _accept(run, q, dq, m_q), nxt,
+                           lambda qt, st_t, j: _corrected(run, q, m_q, qt, st_t, j))
+    qn, st_n = nxt if nxt is not None else _accept(run, q, steps.total, m_q)
+    return Trial(qn, st_n, (), False, False)
 
 
 def _out_of_time(run: _Run) -> bool:
@@ -209,9 +269,10 @@ def _out_of_time(run: _Run) -> bool:
     return run.deadline is not None and _now() > run.deadline
 
 
-def _cap_reason(run: _Run, cap: int, within: bool) -> str:
-    """Why a start that ran ``cap`` iterations ended: the iteration budget or the per-start cap."""
-    if run.left is not None and cap >= run.left:
+def _cap_reason(run: _Run, used: int, within: bool) -> str:
+    """Why a start that reached its cap ended (``used``: the budget's iterations the start has taken,
+    its runs together): the iteration budget, or else the per-start cap."""
+    if run.left is not None and used >= run.left:
         return f"iteration budget exhausted ({run.budget} iterations)"
     return "converged (iteration limit reached while improving objectives)" if within else "iteration limit"
 
