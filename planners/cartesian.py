@@ -89,6 +89,7 @@ def cartesian_to_joint(
     seed: int | None = 0,
     total_time: float | None = None,
     stop_on_failure: bool = False,
+    iteration_budget: int | None = None,
 ) -> CartesianPlan:
     """Joint trajectory through ``poses`` (a list of 4x4), ``steps`` interpolated poses per segment.
 
@@ -97,6 +98,8 @@ def cartesian_to_joint(
     time between consecutive points. ``max_time`` (s) is each pose's IK budget,
     ``total_time`` (s, None = unbounded) the whole plan's; ``stop_on_failure``
     ends the plan at the first pose not reached (module docstring).
+    ``iteration_budget`` (None = none) is each pose's IK option of that name;
+    with ``max_time=None`` and no ``total_time`` the clock then decides nothing.
     """
     if isinstance(poses, np.ndarray) and poses.ndim == 3:
         poses = list(poses)
@@ -134,7 +137,8 @@ def cartesian_to_joint(
                 break
             budget = left if budget is None else min(budget, left)
         res = ik.solve(robot, T, q_prev, frame=frame, relax=relax, spheres=spheres, centring=centring,
-                       method=method, max_time=budget, tol_pos=tol_pos, tol_rot=tol_rot, seed=seed)
+                       method=method, max_time=budget, tol_pos=tol_pos, tol_rot=tol_rot, seed=seed,
+                       **({} if iteration_budget is None else {"iteration_budget": iteration_budget}))
         done = i + 1
         Q[i] = res.q
         pos_err[i], rot_err[i] = res.position_error, res.orientation_error

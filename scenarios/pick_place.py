@@ -251,16 +251,23 @@ def document_cubic_twist_error(T0, T1, V0, V1, tf: float, h: float = 1e-6) -> fl
 
 
 # ------------------------------------------------------------------ tracking
+#: Iterations the solve of the start configuration may take, all its starts together (an iteration budget:
+#: the answer depends on the inputs only, not on the machine's speed or load).
+START_ITERATION_BUDGET = 2000
+
+
 def start_configuration(robot) -> tuple[np.ndarray, float, float]:
-    """``(q_start, position error, orientation error)``: an in-limits configuration with the home flange pose."""
+    """``(q_start, position error, orientation error)``: an in-limits configuration with the home flange pose
+    (Levenberg-Marquardt ended by :data:`START_ITERATION_BUDGET` iterations, never by the clock)."""
     res = ik.solve(robot, DOC_HOME, HOME_SEED, frame=FLANGE, method="lm", prefer_q0=True, seed_table=False,
-                   tol_pos=1e-9, tol_rot=1e-9, max_iter=200)
+                   tol_pos=1e-9, tol_rot=1e-9, max_iter=200, iteration_budget=START_ITERATION_BUDGET)
     return res.q, res.position_error, res.orientation_error
 
 
 def track(robot, poses, q_start, *, damping: float, tol_pos: float, tol_rot: float, max_iter: int,
           centring: float = 0.0):
-    """DLS IK of every pose, warm started: ``(Q, position errors, orientation errors, iterations, failures)``."""
+    """DLS IK of every pose, warm started: ``(Q, position errors, orientation errors, iterations, failures)``;
+    each pose's run is ended by ``max_iter`` iterations (its iteration budget), never by the clock."""
     n = len(poses)
     Q = np.empty((n, robot.nq))
     pe, re, its = np.empty(n), np.empty(n), np.empty(n, dtype=int)
@@ -268,7 +275,7 @@ def track(robot, poses, q_start, *, damping: float, tol_pos: float, tol_rot: flo
     q = q_start
     for k, T in enumerate(poses):
         res = ik.solve(robot, T, q, frame=FLANGE, method="dls", damping=damping, tol_pos=tol_pos, tol_rot=tol_rot,
-                       max_iter=max_iter, centring=centring)
+                       max_iter=max_iter, iteration_budget=max_iter, centring=centring)
         q = res.q
         Q[k], pe[k], re[k], its[k] = q, res.position_error, res.orientation_error, res.iterations
         if not res.success:

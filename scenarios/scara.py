@@ -66,6 +66,7 @@ from matplotlib.figure import Figure
 
 from kinserve import ik, robots, viz
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.robot import Robot
 
 from .artefacts import write_json
 
@@ -90,6 +91,9 @@ Q_START_PHI = (0.2, 0.6, 0.4, 1.5)
 XY_NEAR_SPHERE = (0.42, -0.68)
 Q_FREE_TARGET = (1.0, 0.8, 0.3, 0.4)
 Q_START_Z = (0.0, 0.5, 0.25, 0.0)
+#: Iterations each IK solve of S9 may take, all its starts together. The budget, not a wall-clock limit,
+#: ends every solve: the answers depend on the inputs only, never on the machine's speed or load.
+ITERATION_BUDGET = 1000
 
 
 def fk_formula(q, a1: float = A1, a2: float = A2, base_z: float = BASE_Z) -> tuple[np.ndarray, float]:
@@ -143,6 +147,22 @@ def xy_to_q12(x: float, y: float, elbow: float = 1.0) -> tuple[float, float]:
     t2 = elbow * math.acos(c2)
     t1 = math.atan2(y, x) - math.atan2(A2 * math.sin(t2), A1 + A2 * math.cos(t2))
     return t1, t2
+
+
+def relax_z_solve(robot: Robot, T: np.ndarray, q_start: np.ndarray, sphere: ik.Sphere,
+                  iteration_budget: int = ITERATION_BUDGET) -> ik.Result:
+    """The relax-z case (module docstring, 5): the QP with ``(x, y, phi)`` at level 1, ``d3`` centring at
+    level 2 and ``sphere`` a hard constraint, from ``q_start`` first (then seeded random starts), ended by
+    ``iteration_budget`` iterations over all its starts (no time limit)."""
+    return ik.solve(robot, T, q_start, method="qp", relax=TASK_RELAX + ("z",), centring=1.0, spheres=[sphere],
+                    prefer_q0=True, seed_table=False, iteration_budget=iteration_budget)
+
+
+def near_sphere_target(robot: Robot, xy: tuple = XY_NEAR_SPHERE) -> np.ndarray:
+    """The relax-z target whose ``(x, y)`` is above the sphere (the tool at the top of the quill's stroke,
+    ``d3`` at its lower limit, ``theta4 = 0``): centring ``d3`` would take the tool into the sphere."""
+    t1, t2 = xy_to_q12(*xy)
+    return robot.fk(np.array([t1, t2, robot.lower[2], 0.0])).copy()
 
 
 def min_segment_clearance(robot, sphere: ik.Sphere, Q) -> float:
@@ -264,7 +284,8 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
     methods = {}
     for m in METHOD_NAMES:
         kw = {"damping": dls_damping} if m == "dls" else {}
-        res = ik.solve(robot, T_goal, q_start, method=m, relax=TASK_RELAX, **kw)
+        res = ik.solve(robot, T_goal, q_start, method=m, relax=TASK_RELAX, iteration_budget=ITERATION_BUDGET,
+                       **kw)
         methods[m] = case_record(robot, res, T_goal)
         _plot_case(robot, methods[m], out / f"ik_{m}.png", f"S9 {METHOD_NAMES[m]}: {res.iterations} iterations")
     viz.save_png(_methods_figure(methods), out / "methods.png")
@@ -274,7 +295,8 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
     qs_phi = np.asarray(q_start_phi, float)
     for m in ("pseudo_inverse", "qp"):
         kw = {"prefer_q0": True, "seed_table": False} if m == "qp" else {}
-        res = ik.solve(robot, T_goal, qs_phi, method=m, relax=TASK_RELAX + ("yaw",), centring=1.0, **kw)
+        res = ik.solve(robot, T_goal, qs_phi, method=m, relax=TASK_RELAX + ("yaw",), centring=1.0,
+                       iteration_budget=ITERATION_BUDGET, **kw)
         rec = case_record(robot, res, T_goal)
         rec["theta4_final"] = float(res.q[3])
         rec["theta4_mid"] = float(mid[3])
@@ -286,14 +308,12 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
 
     # 5. relax z, centring d3, the sphere
     sphere = ik.Sphere(SPHERE_CENTER, SPHERE_RADIUS)
-    t1, t2 = xy_to_q12(*xy_near_sphere)
-    T_near = robot.fk(np.array([t1, t2, lo[2], 0.0])).copy()
+    T_near = near_sphere_target(robot, xy_near_sphere)
     T_free = robot.fk(np.asarray(q_free_target, float)).copy()
     qs_z = np.asarray(q_start_z, float)
     relax_z = {}
     for case, T in (("near_sphere", T_near), ("away_from_sphere", T_free)):
-        res = ik.solve(robot, T, qs_z, method="qp", relax=TASK_RELAX + ("z",), centring=1.0, spheres=[sphere],
-                       prefer_q0=True, seed_table=False)
+        res = relax_z_solve(robot, T, qs_z, sphere)
         rec = case_record(robot, res, T, sphere)
         rec["d3_final"] = float(res.q[2])
         rec["d3_mid"] = float(mid[2])
@@ -301,7 +321,8 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
         rec["phi_residual"] = float(abs(wrap(yaw_of(robot.fk(res.q)) - yaw_of(T))))
         rec["tool_height"] = float(robot.fk(res.q)[2, 3])
         relax_z[case] = rec
-    res = ik.solve(robot, T_near, qs_z, method="pseudo_inverse", relax=TASK_RELAX + ("z",), centring=1.0)
+    res = ik.solve(robot, T_near, qs_z, method="pseudo_inverse", relax=TASK_RELAX + ("z",), centring=1.0,
+                   iteration_budget=ITERATION_BUDGET)
     unconstrained = case_record(robot, res, T_near, sphere)
     unconstrained["d3_final"] = float(res.q[2])
     cx, cy, cz = SPHERE_CENTER

@@ -23,7 +23,8 @@
    the Jacobian pseudo-inverse ``dq = J^+ e`` (the seed's method;
    ``ik_method`` picks another) warm started from the previous solution
    (:func:`planners.cartesian_to_joint`), so the arm follows one continuous
-   branch. The position error of every point is re-measured here with FK.
+   branch; each solve is ended by :data:`IK_ITERATION_BUDGET` iterations, not
+   by the clock. The position error of every point is re-measured here with FK.
 6. *Trajectory* - a :class:`planners.JointTrajectory` (joint names, points with
    positions, finite-difference velocities and ``time_from_start = i dt``)
    saved as ``trajectory.json`` and ``trajectory.csv``.
@@ -89,6 +90,11 @@ def _path_figure(P_desired, P_tool, positions, names, order):
     return fig
 
 
+#: Iterations each pose's IK may take, all its starts together: the budget, not a wall-clock limit, ends
+#: every solve, so the trajectory depends on the inputs only, never on the machine's speed or load.
+IK_ITERATION_BUDGET = 500
+
+
 def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, interpolation: str = "decoupled",
         ik_method: str = "pseudo_inverse", tol_pos: float = 1e-6, fps: float | None = None, scene: bool = True) -> dict:
     """Run S3 into ``out``; returns the key numbers (see the module docstring).
@@ -112,7 +118,8 @@ def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, int
     # interpolation + position-only IK with warm start -> joint trajectory
     tour = [poses[i] for i in best.order]
     plan = planners.cartesian_to_joint(robot, tour, cf.current, steps=int(n), dt=float(dt), interpolation=interpolation,
-                                       relax=RELAX, method=ik_method, tol_pos=tol_pos)
+                                       relax=RELAX, method=ik_method, tol_pos=tol_pos, max_time=None,
+                                       iteration_budget=IK_ITERATION_BUDGET)
     traj = plan.trajectory
     traj.save(out / "trajectory.json")
     traj.save(out / "trajectory.csv")

@@ -1,4 +1,4 @@
-"""The ``iteration_budget`` option: the iterations of every start together; alone, no clock decides the answer.
+"""The ``iteration_budget`` option: the iterations of all starts together; alone, no clock decides the answer.
 
 With ``iteration_budget`` and no ``max_time`` an answer must depend only on the
 inputs and the seed. Checked by running each solve twice: on the real clock and
@@ -70,7 +70,8 @@ def targets(panda):
 
 def assert_same_answer(a: ik.Result, b: ik.Result) -> None:
     assert a.q.tobytes() == b.q.tobytes()
-    assert (a.success, a.iterations, a.restarts, a.message) == (b.success, b.iterations, b.restarts, b.message)
+    assert (a.success, a.iterations, a.restarts) == (b.success, b.iterations, b.restarts)
+    assert a.message == b.message
     assert (a.position_error, a.orientation_error) == (b.position_error, b.orientation_error)
 
 
@@ -143,7 +144,7 @@ def test_tasks_api_takes_the_budget(panda, targets):
 
 @pytest.mark.parametrize("method", ["jacobian_transpose", "pseudo_inverse", "dls"])
 def test_classical_methods_run_one_start_within_the_budget(method):
-    """One start: the run ends on the smaller of ``max_iter`` and the budget, its history one iterate longer."""
+    """One start: the run ends on the smaller of ``max_iter`` and the budget (one iterate more in history)."""
     scara = robots.load("scara", geometry=False)
     T = scara.fk(np.array([0.6, 1.1, 0.55, 0.4]))
     q0 = np.array([0.2, 0.6, 0.4, 0.0])
