@@ -12,6 +12,7 @@
 """
 
 from .dh import check_dh_table, dh_fk, dh_matrix, dh_to_urdf, from_dh
+from .mesh_resolver import MeshResolver
 from .packages import PackageFinder
 from .paths import example_robot_data_dir, example_robot_data_package_dir, models_dir
 from .registry import ENTRIES, available, canonical_name, clear_cache, load, parameters
@@ -21,7 +22,7 @@ from .xacro_loader import declared_args, load_xacro, process_xacro
 
 __all__ = [
     "load", "available", "parameters", "clear_cache", "canonical_name", "ENTRIES",
-    "PackageFinder", "MissingMeshWarning", "find_srdf", "read_srdf",
+    "PackageFinder", "MeshResolver", "MissingMeshWarning", "find_srdf", "read_srdf",
     "load_urdf", "load_xacro", "process_xacro", "declared_args", "CONTINUOUS_LIMIT",
     "from_dh", "dh_to_urdf", "dh_matrix", "dh_fk", "check_dh_table",
     "example_robot_data_dir", "example_robot_data_package_dir", "models_dir",

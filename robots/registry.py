@@ -358,8 +358,8 @@ def load(
     * ``tip``: default tool frame; ``geometry``: build the meshes for viewers
       (kinematics never needs them; a missing mesh is then a warning and a
       placeholder); ``package_dirs``: folders resolving ``package://`` URIs
-      and ``$(find)``, searched before ``$ROS_PACKAGE_PATH`` and
-      ``$AMENT_PREFIX_PATH`` (:mod:`robots.packages`).
+      and ``$(find)``, searched before the model's own folders,
+      ``$ROS_PACKAGE_PATH`` and ``$AMENT_PREFIX_PATH`` (:mod:`robots.mesh_resolver`).
     * ``task_axes``: the task components singularity measures use (e.g.
       ``("x", "y", "z")`` or ``"x,y,z"``); default: the built-in's, or
       detected from the model (:mod:`kinematics.task_axes`).

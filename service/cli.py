@@ -91,8 +91,9 @@ def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
     p.add_argument("robot", help="built-in robot name (see `kinserve models`), or a .urdf/.xacro path")
     p.add_argument("--param", action="append", metavar="KEY=VALUE", help="model parameter / xacro arg (repeatable)")
     p.add_argument("--package-dir", action="append", metavar="DIR",
-                   help="folder resolving package://PKG/... and $(find PKG): a package, a folder of packages or a "
-                        "workspace (repeatable; searched before $ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH)")
+                   help="folder resolving package://PKG/... and $(find PKG): a package, a folder of "
+                        "packages or a workspace (repeatable; searched before the model's own folders, "
+                        "$ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH)")
     p.add_argument("--srdf", metavar="FILE", help="SRDF with named states and groups (default: the one beside the model)")
     p.add_argument("--allow-outside", action="store_true",
                    help="let the model read mesh and xacro-included files outside its own folder and the package folders")
