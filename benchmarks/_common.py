@@ -27,7 +27,8 @@ def machine() -> dict:
                 break
     except OSError:
         pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "platform": platform.platform()}
 
 
 def per_call_seconds(fn, calls: int = 20000, repeats: int = 7) -> float:
@@ -42,7 +43,8 @@ def per_call_seconds(fn, calls: int = 20000, repeats: int = 7) -> float:
 
 
 def cpu_per_call_seconds(fn: Callable[[], Any], calls: int, repeats: int = 5) -> float:
-    """Smallest over ``repeats`` of the mean CPU time (``time.process_time``) of one call over ``calls`` calls.
+    """Smallest over ``repeats`` of the mean CPU time (``time.process_time``) of one call over ``calls``
+    calls.
 
     CPU time, not wall time: on a shared machine the neighbours' time slices do not count.
     """

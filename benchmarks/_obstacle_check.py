@@ -276,7 +276,8 @@ class CoalChecker:
                 go = self.geom.geometryObjects[gid]
                 M = self.gdata.oMg[gid]
                 res = coal.CollisionResult()
-                if coal.collide(go.geometry, coal.Transform3s(M.rotation, M.translation), shape, tf, req, res):
+                if coal.collide(go.geometry, coal.Transform3s(M.rotation, M.translation), shape,
+                                tf, req, res):
                     return True
         return False
 
@@ -285,5 +286,6 @@ class CoalChecker:
         out = []
         for k, cp in enumerate(self.geom.collisionPairs):
             if self.gdata.collisionResults[k].isCollision():
-                out.append((self.geom.geometryObjects[cp.first].name, self.geom.geometryObjects[cp.second].name))
+                out.append((self.geom.geometryObjects[cp.first].name,
+                            self.geom.geometryObjects[cp.second].name))
         return out

@@ -74,7 +74,8 @@ class PeerWorker:
         return answer
 
     def try_call(self, request: dict) -> dict | None:
-        """:meth:`call`, or None once the worker has failed (reported once; later calls return None at once)."""
+        """:meth:`call`, or None once the worker has failed (reported once; later calls return None at
+        once)."""
         if getattr(self, "failed", None):
             return None
         try:
@@ -113,10 +114,10 @@ def start_peer(peer: str, python: str | None = None) -> PeerWorker | None:
 
 
 def peer_solve(w: PeerWorker, solve, request: dict, budget: float) -> np.ndarray | None:
-    """One ``solve`` request (``request``: its fields but ``cmd``) to worker ``w``, on behalf of the benchmark's
-    solver function ``solve``: returns the peer's answer ``q`` (None when the call failed or it found none)
-    and sets ``solve.inner_time`` / ``solve.inner_cpu`` to the worker's own measurement around its solver
-    (``budget`` when the call failed), which :func:`_common.timed` reports instead of the pipe's."""
+    """One ``solve`` request (``request``: its fields but ``cmd``) to worker ``w``, on behalf of the
+    benchmark's solver function ``solve``: returns the peer's answer ``q`` (None when the call failed or it
+    found none) and sets ``solve.inner_time`` / ``solve.inner_cpu`` to the worker's own measurement around its
+    solver (``budget`` when the call failed), which :func:`_common.timed` reports instead of the pipe's."""
     a = w.try_call({"cmd": "solve", **request})
     solve.inner_time = budget if a is None else a["time"]
     solve.inner_cpu = budget if a is None else a.get("cpu", a["time"])
@@ -124,8 +125,8 @@ def peer_solve(w: PeerWorker, solve, request: dict, budget: float) -> np.ndarray
 
 
 def setup_or_skip(w: PeerWorker, request: dict, check=None) -> dict | None:
-    """``w``'s answer to its ``setup`` ``request`` (then ``check(w)``, e.g. its FK against ours), or None after
-    printing why the peer is skipped and closing its worker."""
+    """``w``'s answer to its ``setup`` ``request`` (then ``check(w)``, e.g. its FK against ours), or None
+    after printing why the peer is skipped and closing its worker."""
     try:
         answer = w.call(request)
         if check is not None:
@@ -179,7 +180,8 @@ def segment_cylinders(urdf_text: str, base: str, tip: str) -> list[tuple[str, np
 
 
 def arm_urdf(urdf_text: str, base: str = "panda_link0", tip: str = "panda_link8", *,
-             segment_radius: float | None = None, obstacles=(), keep_collision: bool = False) -> tuple[str, list]:
+             segment_radius: float | None = None, obstacles=(),
+             keep_collision: bool = False) -> tuple[str, list]:
     """The chain ``base .. tip`` of ``urdf_text`` as a URDF of its own; returns ``(text, collision_pairs)``.
 
     Visuals are dropped; ``keep_collision`` keeps the URDF's collision meshes,
@@ -216,7 +218,8 @@ def arm_urdf(urdf_text: str, base: str = "panda_link0", tip: str = "panda_link8"
             r, p, y = _rpy_z_to(end)
             c = ET.SubElement(el, "collision")
             mid = 0.5 * end
-            ET.SubElement(c, "origin", xyz=" ".join(f"{v:.9g}" for v in mid), rpy=f"{r:.12g} {p:.12g} {y:.12g}")
+            ET.SubElement(c, "origin", xyz=" ".join(f"{v:.9g}" for v in mid),
+                          rpy=f"{r:.12g} {p:.12g} {y:.12g}")
             g = ET.SubElement(c, "geometry")
             ET.SubElement(g, "cylinder", radius=f"{segment_radius:g}", length=f"{np.linalg.norm(end):.9g}")
             colliding.append(name)

@@ -34,8 +34,10 @@ POSTURE_COST = 1e-3
 BARRIER_GAIN = 0.5
 
 
-def skeleton_capsules(model: pin.Model, flange: str, obstacles, radius: float = SEGMENT_RADIUS) -> pin.GeometryModel:
-    """Capsules along the segments joint origin -> next joint origin (and joint -> flange) + obstacles, paired."""
+def skeleton_capsules(model: pin.Model, flange: str, obstacles,
+                      radius: float = SEGMENT_RADIUS) -> pin.GeometryModel:
+    """Capsules along the segments joint origin -> next joint origin (and joint -> flange) + obstacles,
+    paired."""
     import coal
 
     from _obstacle_check import coal_shape
@@ -84,8 +86,8 @@ class PinkBarrierIK:
         self.limits = [ConfigurationLimit(model)]
         self.barriers = []
         if geom is not None and len(geom.collisionPairs):
-            self.barriers = [SelfCollisionBarrier(n_collision_pairs=len(geom.collisionPairs), gain=BARRIER_GAIN,
-                                                  safe_displacement_gain=0.0, d_min=0.0)]
+            self.barriers = [SelfCollisionBarrier(n_collision_pairs=len(geom.collisionPairs),
+                                                  gain=BARRIER_GAIN, safe_displacement_gain=0.0, d_min=0.0)]
         self.task = FrameTask(frame, position_cost=1.0, orientation_cost=1.0)
         self.posture = PostureTask(cost=POSTURE_COST)
         self.max_iter, self.solver = max_iter, solver

@@ -23,7 +23,8 @@ async def fk() -> dict:
 
 
 def main() -> None:
-    """``python benchmarks/bare_app.py --port P [--workers N]``: serve this app the way ``kinserve serve`` serves its own."""
+    """``python benchmarks/bare_app.py --port P [--workers N]``: serve this app the way ``kinserve serve``
+    serves its own."""
     import argparse
 
     from kinserve.service.cli_serve import serve
@@ -33,8 +34,8 @@ def main() -> None:
     ap.add_argument("--port", type=int, required=True)
     ap.add_argument("--workers", type=int, default=1)
     args = ap.parse_args()
-    serve("bare_app:app" if args.workers > 1 else app, ServiceSettings(), port=args.port, workers=args.workers,
-          log_level="warning")
+    serve("bare_app:app" if args.workers > 1 else app, ServiceSettings(), port=args.port,
+          workers=args.workers, log_level="warning")
 
 
 if __name__ == "__main__":

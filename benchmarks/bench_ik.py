@@ -1,4 +1,5 @@
-"""Inverse kinematics of the Panda flange: kinserve (auto, lm, qp) vs Robotics Toolbox ik_LM, TRAC-IK and Pink.
+"""Inverse kinematics of the Panda flange: kinserve (auto, lm, qp) vs Robotics Toolbox ik_LM, TRAC-IK and
+Pink.
 
 Workload (issue 3): robot Panda, frame ``panda_link8`` (the flange), ``--n``
 targets = FK of configurations drawn uniformly within the joint limits,
@@ -59,8 +60,8 @@ after the table, ``median_cpu_vs_ik_LM_same_start`` in the JSON) in CPU time,
 which a shared machine disturbs less.
 
 Targets (issue 3): ``auto`` success >= 99.9 % with median time <= 1.0x
-ik_LM's; (issue 10) ``auto (same start)`` median <= 1.0x ``ik_LM (same start)``; ``qp`` at least 20x faster than Pink (mean time per solve, the
-figure the issue quotes for Pink) at equal or better success;
+ik_LM's; (issue 10) ``auto (same start)`` median <= 1.0x ``ik_LM (same start)``; ``qp`` at least 20x faster
+than Pink (mean time per solve, the figure the issue quotes for Pink) at equal or better success;
 ``solve_many`` on 2 cores >= 2x the throughput of ik_LM one by one;
 (issue 13) ``solve_many`` on 2 processes >= 1.8x one process.
 
@@ -84,8 +85,8 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve import ik, robots
-from kinserve.ik.starts import seed_table as ik_seeds
 from kinserve.ik import state as ik_state_module
+from kinserve.ik.starts import seed_table as ik_seeds
 from kinserve.kinematics import se3
 
 from _common import interleaved, machine, timed, write_json
@@ -113,7 +114,8 @@ def make_rtb(urdf_path: str):
     import roboticstoolbox as rtb
     from xacrodoc import packages
 
-    packages.update_package_cache({"example-robot-data": str(robots.example_robot_data_package_dir() / "example-robot-data")})
+    packages.update_package_cache({"example-robot-data": str(robots.example_robot_data_package_dir()
+                                                             / "example-robot-data")})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return rtb.Robot.URDF(urdf_path)
@@ -172,7 +174,8 @@ class PinkSolver:
 
 
 def batch_throughput(robot, sizes, seed: int, repeats: int = 3) -> dict:
-    """``ik.solve_many`` targets/s on 1 and 2 processes for each batch size (best of ``repeats``), and the ratio.
+    """``ik.solve_many`` targets/s on 1 and 2 processes for each batch size (best of ``repeats``), and the
+    ratio.
 
     The same targets (FK of uniform random configurations of the flange) and
     start configurations for both; runs alternate 1 / 2 processes so that
@@ -217,8 +220,9 @@ def batch_throughput(robot, sizes, seed: int, repeats: int = 3) -> dict:
                "cpu_ratio": cpu[1] / cpu[2], "machine_parallel_scaling": max(machine), "load": _loadavg()}
         out["runs"].append(run)
         print(f"solve_many n={n}: 1 process {rate[1]:,.0f}/s, 2 processes {rate[2]:,.0f}/s, "
-              f"ratio {run['ratio_2_vs_1']:.2f} (target >= 1.8; the machine gave {run['machine_parallel_scaling']:.2f}x "
-              f"to 2 CPU-bound processes); CPU-time ratio {run['cpu_ratio']:.2f}; success {ok[1]:.1f} / {ok[2]:.1f} %; "
+              f"ratio {run['ratio_2_vs_1']:.2f} (target >= 1.8; "
+              f"the machine gave {run['machine_parallel_scaling']:.2f}x to 2 CPU-bound processes); "
+              f"CPU-time ratio {run['cpu_ratio']:.2f}; success {ok[1]:.1f} / {ok[2]:.1f} %; "
               f"load {run['load']}", flush=True)
     out["load_after"] = _loadavg()
     out["machine_parallel_scaling_2_processes"] = max(r["machine_parallel_scaling"] for r in out["runs"])
@@ -303,7 +307,8 @@ def make_placo(robot, urdf_text: str):
         return None
     u, pairs = arm_urdf(urdf_text)
     worker.call({"cmd": "setup", "urdf": u, "pairs": pairs, "frame": FRAME, "joints": robot.joint_names})
-    diff = max(float(np.abs(np.asarray(worker.call({"cmd": "fk", "q": q.tolist()})["T"]) - robot.fk(q, FRAME)).max())
+    diff = max(float(np.abs(np.asarray(worker.call({"cmd": "fk", "q": q.tolist()})["T"])
+                            - robot.fk(q, FRAME)).max())
                for q in robot.random_q(np.random.default_rng(99), 20))
     if diff > 1e-9:
         print(f"SKIP placo: its FK differs from ours by {diff:g}")
@@ -325,7 +330,8 @@ def placo_solve_fn(worker, max_time: float = 0.1):
 
 # --------------------------------------------------------------------------- main
 def summarise(times, oks, cpu=None) -> dict:
-    """Success and wall-time figures; with ``cpu`` (CPU seconds per solve, NaN where unknown) its median and mean."""
+    """Success and wall-time figures; with ``cpu`` (CPU seconds per solve, NaN where unknown) its median and
+    mean."""
     t = np.asarray(times) * 1e3
     out = {
         "success_pct": 100.0 * float(np.mean(oks)),
@@ -375,11 +381,13 @@ def main() -> None:
     for q in robot.random_q(np.random.default_rng(99), 50):
         ours = robot.fk(q, FRAME)
         if rtb_robot is not None:
-            fk_diff["ik_LM"] = max(fk_diff.get("ik_LM", 0.0), float(np.abs(rtb_robot.fkine(q, end=FRAME).A - ours).max()))
+            fk_diff["ik_LM"] = max(fk_diff.get("ik_LM", 0.0),
+                                   float(np.abs(rtb_robot.fkine(q, end=FRAME).A - ours).max()))
         if tracik is not None:
             import pytracik
 
-            fk_diff["trac_ik"] = max(fk_diff.get("trac_ik", 0.0), float(np.abs(pytracik.fk(tracik, q) - ours).max()))
+            fk_diff["trac_ik"] = max(fk_diff.get("trac_ik", 0.0),
+                                     float(np.abs(pytracik.fk(tracik, q) - ours).max()))
     print(f"FK agreement with ours (max abs entry difference over 50 configurations): {fk_diff}")
     if fk_diff and max(fk_diff.values()) > 1e-9:
         raise SystemExit("a peer library models a different robot: FK differs from ours")
@@ -387,14 +395,16 @@ def main() -> None:
     pink_solver = None if args.no_pink else PinkSolver(robot)
     starts = kinserve_first_starts(robot, targets, seeds)
     from_table = float(np.mean(np.any(starts != seeds, axis=1))) * 100
-    print(f"kinserve's first start is a table sample for {from_table:.1f} % of the targets (else the given seed)")
+    print(f"kinserve's first start is a table sample for {from_table:.1f} % of the targets (else the given "
+          "seed)")
     placo = None if args.no_placo else make_placo(robot, urdf_text)
     solvers = {
         "auto": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME).q,
         "lm": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, method="lm").q,
         "qp": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, method="qp").q,
         "qp (daqp)": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, method="qp", backend="daqp").q,
-        "qp (QP every step)": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, method="qp", shortcut=False).q,
+        "qp (QP every step)": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, method="qp",
+                                                     shortcut=False).q,
         "lm (seed only)": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, method="lm", seed_table=False).q,
         # same start for everyone: the one kinserve picks from its table (kinserve_first_starts)
         "auto (same start)": lambda T, q0: ik.solve(robot, T, q0, frame=FRAME, prefer_q0=True).q,
@@ -443,7 +453,8 @@ def main() -> None:
         if k in same_start:
             s["median_vs_ik_LM_same_start"] = s["median_ms"] / ref_same["median_ms"]
             s["mean_vs_ik_LM_same_start"] = s["mean_ms"] / ref_same["mean_ms"]
-            if "median_cpu_ms" in s and "median_cpu_ms" in ref_same:  # the same ratio in CPU time (shared machines)
+            if "median_cpu_ms" in s and "median_cpu_ms" in ref_same:
+                # the same ratio in CPU time (shared machines)
                 s["median_cpu_vs_ik_LM_same_start"] = s["median_cpu_ms"] / ref_same["median_cpu_ms"]
 
     # ---- batch throughput: solve_many on 1 and 2 processes (and vs ik_LM one by one)
@@ -456,7 +467,8 @@ def main() -> None:
     scaling = batch["machine_parallel_scaling_2_processes"]
 
     m = machine()
-    print(f"\nmachine: {m['cpu']} ({m['cores']} cores), Python {m['python']}; {args.n} targets, seed {args.seed}")
+    print(f"\nmachine: {m['cpu']} ({m['cores']} cores), Python {m['python']}; {args.n} targets, "
+          f"seed {args.seed}")
     print(f"{'solver':28}{'success %':>10}{'median ms':>11}{'p95 ms':>9}{'mean ms':>9}{'median/ik_LM':>14}"
           f"{'mean/ik_LM':>12}{'median/ik_LM same start':>25}")
     for k, s in stats.items():
@@ -465,7 +477,8 @@ def main() -> None:
               f"{s['median_vs_ik_LM']:14.2f}{s['mean_vs_ik_LM']:12.2f}{same}")
     print(f"\nsolve_many (2 processes): {rate_many:,.0f} targets/s, success {batch_ok:.1f} %"
           f" | solve_many (1 process): {rates[1]:,.0f}/s | ik_LM one by one: {rate_iklm:,.0f}/s"
-          f" | ours one by one (auto): {rate_auto:,.0f}/s | ratio solve_many / ik_LM = {rate_many / rate_iklm:.2f}")
+          f" | ours one by one (auto): {rate_auto:,.0f}/s | ratio solve_many / ik_LM = "
+          f"{rate_many / rate_iklm:.2f}")
     print(f"machine check: 2 CPU-bound Python processes deliver {scaling:.2f}x the throughput of one "
           "(2.0 on two free cores)")
 

@@ -139,7 +139,8 @@ class Judge:
         self.fid = self.model.getFrameId(FRAME)
         self.lower, self.upper = self.model.lowerPositionLimit, self.model.upperPositionLimit
         self.skeleton = Skeleton(self.model, FRAME)
-        self.coal = CoalChecker(urdf_path, package_dirs, locked={"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0})
+        self.coal = CoalChecker(urdf_path, package_dirs,
+                                locked={"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0})
 
     def pose_ok(self, T, q) -> bool:
         pin.framesForwardKinematics(self.model, self.data, q)
@@ -171,7 +172,8 @@ def kinserve_solvers(robot, budget: float) -> dict:
     shapes: dict = {}
 
     def prepare(obs) -> None:
-        """kinserve's obstacle objects for the specs, built before the timed call (the peers' setup is untimed too)."""
+        """kinserve's obstacle objects for the specs, built before the timed call (the peers' setup is untimed
+        too)."""
         for ob in obs:
             if ob not in shapes:
                 shapes[ob] = kinserve_obstacles([ob])[0]
@@ -226,8 +228,8 @@ def placo_solver(robot, urdf_text, budget):
         key = tuple(o.to_dict().__repr__() for o in obs)
         if state["key"] != key:  # obstacles are part of PlaCo's URDF: reload (not timed)
             u, pairs = arm_urdf(urdf_text, segment_radius=1e-3, obstacles=[o.to_dict() for o in obs])
-            worker.try_call({"cmd": "setup", "urdf": u, "pairs": pairs, "frame": FRAME, "joints": robot.joint_names,
-                             "avoid": True, "margin": 0.0, "trigger": 0.05})
+            worker.try_call({"cmd": "setup", "urdf": u, "pairs": pairs, "frame": FRAME,
+                             "joints": robot.joint_names, "avoid": True, "margin": 0.0, "trigger": 0.05})
             state["key"] = key
         return peer_solve(worker, solve, {"T": T.tolist(), "q0": q0.tolist(), "seed": i, "max_time": budget,
                                           "tol_pos": TOL_POS, "tol_rot": TOL_ROT}, budget)
@@ -257,7 +259,8 @@ def time_steps(robot, shoulder, calls: int, with_pink: bool) -> dict:
     from _pink_peer import PinkBarrierIK, skeleton_capsules
 
     for label, geom in (("pink step (frame + posture)", None),
-                        ("pink step (frame + posture + barrier, 3 spheres)", skeleton_capsules(robot.model, FRAME, obs))):
+                        ("pink step (frame + posture + barrier, 3 spheres)",
+                         skeleton_capsules(robot.model, FRAME, obs))):
         p = PinkBarrierIK(robot.model, FRAME, geom)
         p.task.set_target(pin.SE3(T[:3, :3].copy(), T[:3, 3].copy()))
         p.posture.set_target(robot.middle())
@@ -277,9 +280,9 @@ def time_steps(robot, shoulder, calls: int, with_pink: bool) -> dict:
 def summarise(times, oks, unc_median, unc_p95) -> dict:
     t = np.asarray(times) * 1e3
     med, p95 = float(np.median(t)), float(np.percentile(t, 95))
-    return {"success_pct": 100.0 * float(np.mean(oks)), "median_ms": med, "p95_ms": p95, "mean_ms": float(np.mean(t)),
-            "median_vs_unconstrained": med / unc_median, "p95_vs_unconstrained_p95": p95 / unc_p95,
-            "p95_vs_unconstrained_median": p95 / unc_median}
+    return {"success_pct": 100.0 * float(np.mean(oks)), "median_ms": med, "p95_ms": p95,
+            "mean_ms": float(np.mean(t)), "median_vs_unconstrained": med / unc_median,
+            "p95_vs_unconstrained_p95": p95 / unc_p95, "p95_vs_unconstrained_median": p95 / unc_median}
 
 
 def run_workload(name, targets, seeds, obstacles, solvers, judge, witness, with_mesh: bool) -> dict:
@@ -353,7 +356,8 @@ def main() -> None:
     shoulder = shoulder_of(robot)
     judge = Judge(robot, urdf_path, package_dirs)
     workloads = {
-        "A: 3 spheres r 5 cm at 0.3/0.5/0.7 of shoulder->target": [spheres_for(shoulder, T[:3, 3]) for T in targets],
+        "A: 3 spheres r 5 cm at 0.3/0.5/0.7 of shoulder->target": [spheres_for(shoulder, T[:3, 3])
+                                                                   for T in targets],
         "B: 2 cubes 8 cm at 0.35/0.65 of shoulder->target": [boxes_for(shoulder, T[:3, 3]) for T in targets],
     }
 
@@ -380,7 +384,8 @@ def main() -> None:
             stats = run_workload(wname, targets, seeds, obstacles, solvers, judge, witness, not args.no_mesh)
             print_table(wname, stats, args.n, int(witness.sum()))
             if base["kinserve"].errors:
-                print(f"  kinserve raised on {len(base['kinserve'].errors)} targets, e.g. {base['kinserve'].errors[0]}")
+                print(f"  kinserve raised on {len(base['kinserve'].errors)} targets, "
+                      f"e.g. {base['kinserve'].errors[0]}")
             results[wname] = {"n": args.n, "witness_feasible": int(witness.sum()), "per_solver": stats,
                               "kinserve_errors": list(base["kinserve"].errors)[:5]}
             base["kinserve"].errors.clear()
@@ -402,19 +407,23 @@ def main() -> None:
     verdict["A_p95_le_10x_unconstrained_median"] = a["p95_vs_unconstrained_median"] <= 10.0
     verdict["ik_step_le_100us"] = steps["kinserve ik.step (frame + posture + 3 spheres)"] <= 100.0
     verdict["ik_step_cpu_le_100us"] = steps["kinserve ik.step (frame + posture + 3 spheres), CPU best of 5"] <= 100.0
-    print("targets:", ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
+    print("targets:",
+          ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
     m = machine()
     write_json(args.out, {
         "machine": m, "versions": versions,
-        "workload": {"robot": "panda", "frame": FRAME, "n": args.n, "seed": args.seed, "budget_s": args.budget,
-                     "shoulder": shoulder.tolist(),
+        "workload": {"robot": "panda", "frame": FRAME, "n": args.n, "seed": args.seed,
+                     "budget_s": args.budget, "shoulder": shoulder.tolist(),
                      "spheres": {"fractions": SPHERE_FRACTIONS, "radius_m": SPHERE_RADIUS},
                      "boxes": {"fractions": BOX_FRACTIONS, "edge_m": BOX_EDGE,
                                "orientation": "x along shoulder->target, y = normalise(e_z x x), z = x x y"},
-                     "success": "pose within 0.1 mm / 1 mrad (Pinocchio FK), q within limits, skeleton segments "
-                                "(joint origins -> flange) outside every obstacle (closed forms, _obstacle_check.py)",
-                     "mesh_clear": "URDF collision meshes vs obstacles with coal, over all targets (valid answers only)"},
-        "pink": "measured" if with_pink else "skipped (not installed or --no-pink)", "workloads": results, "step_us": steps, "targets_met": verdict,
+                     "success": "pose within 0.1 mm / 1 mrad (Pinocchio FK), q within limits, "
+                                "skeleton segments (joint origins -> flange) outside every obstacle (closed "
+                                "forms, _obstacle_check.py)",
+                     "mesh_clear": "URDF collision meshes vs obstacles with coal, "
+                                   "over all targets (valid answers only)"},
+        "pink": "measured" if with_pink else "skipped (not installed or --no-pink)", "workloads": results,
+        "step_us": steps, "targets_met": verdict,
     })
 
 

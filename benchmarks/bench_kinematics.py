@@ -38,7 +38,8 @@ def main() -> None:
         return qs[next(it) & 63]
 
     q = qs[0]
-    raw_fk = per_call_seconds(lambda: (pin.forwardKinematics(model, data, q), pin.updateFramePlacement(model, data, fid).homogeneous))
+    raw_fk = per_call_seconds(lambda: (pin.forwardKinematics(model, data, q),
+                                       pin.updateFramePlacement(model, data, fid).homogeneous))
     ours_fk = per_call_seconds(lambda: robot.fk(q, frame))
     raw_j = per_call_seconds(lambda: pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL_WORLD_ALIGNED))
     ours_j = per_call_seconds(lambda: robot.jacobian(q, frame))
@@ -67,11 +68,13 @@ def main() -> None:
         "raw_pinocchio_loop_per_s": loop_rate,
         "targets": {"ratio_max": 1.5, "fk_batch_min_per_s": 300_000},
     }
-    print(f"machine: {res['machine']['cpu']} ({res['machine']['cores']} cores), Python {res['machine']['python']}")
+    print(f"machine: {res['machine']['cpu']} ({res['machine']['cores']} cores), "
+          f"Python {res['machine']['python']}")
     print(f"{'':22}{'Robot':>10}{'raw pin':>10}{'ratio':>8}   target")
     print(f"{'fk (us)':22}{ours_fk*1e6:10.3f}{raw_fk*1e6:10.3f}{ours_fk/raw_fk:8.2f}   <= 1.5")
     print(f"{'jacobian (us)':22}{ours_j*1e6:10.3f}{raw_j*1e6:10.3f}{ours_j/raw_j:8.2f}   <= 1.5")
-    print(f"fk_batch: {batch_rate:,.0f} configurations/s (raw Pinocchio Python loop: {loop_rate:,.0f}/s)   target >= 300,000")
+    print(f"fk_batch: {batch_rate:,.0f} configurations/s (raw Pinocchio Python loop: "
+          f"{loop_rate:,.0f}/s)   target >= 300,000")
     write_json(args.out, res)
 
 

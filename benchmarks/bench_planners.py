@@ -125,7 +125,8 @@ def main() -> None:
     print(f"{'ours: same, plain A* (no jump points)':44}{plain_t:10.4f}")
     print(f"{'networkx astar_path (graph build excluded)':44}{nx_t:10.4f}{nx_min:10.4f}")
     print(f"ratio networkx / ours: {ratio:.1f}x   (target >= 10x)")
-    print(f"path costs: {[round(c, 4) for c in ours_costs]}  total {sum(ours_costs):.4f}  (equal to networkx)")
+    print(f"path costs: {[round(c, 4) for c in ours_costs]}  total {sum(ours_costs):.4f}  (equal to "
+          "networkx)")
     print(f"info: best order of S7 {order_t:.3f} s, Held-Karp 12 points {hk_t:.3f} s, "
           f"S8 coverage {cov_t:.2f} s ({cov.covered_fraction:.1%} of the free floor, path {cov.length:.0f})")
     write_json(args.out, res)

@@ -39,7 +39,8 @@ from _common import load_test_helper, machine, write_json
 
 HERE = Path(__file__).resolve().parent
 helpers = load_test_helper("service_server")
-# the tests' raw keep-alive client: one HTTP/1.1 connection, cheap enough on the client side to time the server
+# the tests' raw keep-alive client: one HTTP/1.1 connection, cheap enough on the client side to time the
+# server
 Server, free_port, KeepAliveClient = helpers.Server, helpers.free_port, helpers.KeepAliveClient
 
 
@@ -64,11 +65,12 @@ def tree_cpu_seconds(pid: int) -> float:
 
 def percentiles(lat: list[float]) -> dict:
     lat = sorted(lat)
-    return {"n": len(lat), "p50_ms": 1e3 * lat[len(lat) // 2], "p95_ms": 1e3 * lat[int(0.95 * (len(lat) - 1))],
-            "mean_ms": 1e3 * statistics.fmean(lat)}
+    return {"n": len(lat), "p50_ms": 1e3 * lat[len(lat) // 2],
+            "p95_ms": 1e3 * lat[int(0.95 * (len(lat) - 1))], "mean_ms": 1e3 * statistics.fmean(lat)}
 
 
-def load_test(port: int, method: str, path: str, bodies: list[bytes], clients: int, pid: int | None = None) -> dict:
+def load_test(port: int, method: str, path: str, bodies: list[bytes], clients: int,
+              pid: int | None = None) -> dict:
     """Send every body once from ``clients`` threads, each on its own keep-alive connection.
 
     With the server's ``pid``, also its CPU time per request (load-robust where latency is not).
@@ -116,8 +118,9 @@ class BareServer:
 
     def __init__(self, workers: int):
         self.port = free_port()
-        self.proc = subprocess.Popen([sys.executable, str(HERE / "bare_app.py"), "--port", str(self.port), "--workers",
-                                      str(workers)], cwd=HERE, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+        self.proc = subprocess.Popen([sys.executable, str(HERE / "bare_app.py"), "--port", str(self.port),
+                                      "--workers", str(workers)], cwd=HERE, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.STDOUT)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             try:
@@ -145,8 +148,8 @@ def panda_bodies(n: int) -> tuple[list[bytes], list[bytes]]:
     panda = robots.load("panda", geometry=False)
     Q = panda.random_q(0, n=n)
     fk = [json.dumps({"robot": "panda", "q": q.tolist(), "frame": "panda_link8"}).encode() for q in Q]
-    ik_ = [json.dumps({"robot": "panda", "target": panda.fk(q, "panda_link8").tolist(), "frame": "panda_link8",
-                       "seed": i}).encode() for i, q in enumerate(Q)]
+    ik_ = [json.dumps({"robot": "panda", "target": panda.fk(q, "panda_link8").tolist(),
+                       "frame": "panda_link8", "seed": i}).encode() for i, q in enumerate(Q)]
     return fk, ik_
 
 
@@ -156,12 +159,14 @@ def bench_latency(n: int, client_counts=(1, 8, 32)) -> list[dict]:
     rows = []
     for workers in (1, 2):
         for server_name in ("bare", "kinserve"):
-            srv = BareServer(workers) if server_name == "bare" else Server("--workers", str(workers), max_time_cap=1.0)
+            srv = (BareServer(workers) if server_name == "bare"
+                   else Server("--workers", str(workers), max_time_cap=1.0))
             try:
                 cases = [("GET", "/health", health), ("POST", "/fk", fk_bodies)]
                 if server_name == "kinserve":
                     cases.append(("POST", "/ik", ik_bodies))
-                    load_test(srv.port, "POST", "/ik", ik_bodies[:50], 8)  # warm every worker (model, seed table)
+                    # warm every worker (model, seed table)
+                    load_test(srv.port, "POST", "/ik", ik_bodies[:50], 8)
                 for method, path, bodies in cases:
                     load_test(srv.port, method, path, bodies[:50], 4)  # warm up
                     for clients in client_counts:
@@ -170,8 +175,8 @@ def bench_latency(n: int, client_counts=(1, 8, 32)) -> list[dict]:
                         rows.append(row)
                         print(f"  {server_name:<8} workers={workers} {path:<8} clients={clients:>2}: "
                               f"p50 {row['p50_ms']:7.3f} ms  p95 {row['p95_ms']:7.3f} ms  "
-                              f"{row['requests_per_s']:8.0f} req/s  server CPU {row['server_cpu_us_per_request']:6.0f} us/req  "
-                              f"failures {row['failures']}")
+                              f"{row['requests_per_s']:8.0f} req/s  server CPU "
+                              f"{row['server_cpu_us_per_request']:6.0f} us/req  failures {row['failures']}")
             finally:
                 srv.stop()
     return rows
@@ -223,9 +228,11 @@ def bench_starvation(n_ik: int = 45, max_time: float = 0.5) -> dict:
     finally:
         srv.stop()
     out = {"unreachable_ik": n_ik, "max_time": max_time, "wall_s": wall, "health": percentiles(health),
-           "ik": percentiles(ik_times), "ik_status_counts": {str(s): statuses.count(s) for s in sorted(set(statuses))}}
-    print(f"  /health while {n_ik} unreachable /ik run: p50 {out['health']['p50_ms']:.2f} ms  p95 {out['health']['p95_ms']:.2f} ms "
-          f"(n={out['health']['n']}); /ik statuses {out['ik_status_counts']}, p95 {out['ik']['p95_ms']:.0f} ms, wall {wall:.1f} s")
+           "ik": percentiles(ik_times),
+           "ik_status_counts": {str(s): statuses.count(s) for s in sorted(set(statuses))}}
+    print(f"  /health while {n_ik} unreachable /ik run: p50 {out['health']['p50_ms']:.2f} ms  p95 "
+          f"{out['health']['p95_ms']:.2f} ms (n={out['health']['n']}); "
+          f"/ik statuses {out['ik_status_counts']}, p95 {out['ik']['p95_ms']:.0f} ms, wall {wall:.1f} s")
     return out
 
 
@@ -249,13 +256,15 @@ def bench_batch(n: int, with_ray: bool) -> dict:
                 import ray
 
                 ray.init(num_cpus=procs, include_dashboard=False, log_to_driver=False)
-            ik.solve_many(panda, targets[:200], frame="panda_link8", backend=backend, processes=procs, seed=0, progress=False)
+            ik.solve_many(panda, targets[:200], frame="panda_link8", backend=backend, processes=procs, seed=0,
+                          progress=False)
             t0 = time.perf_counter()
             res = ik.solve_many(panda, targets, frame="panda_link8", backend=backend, processes=procs, seed=0,
                                 progress=False)
             dt = time.perf_counter() - t0
             out[label] = {"seconds": dt, "targets_per_s": n / dt, "success": sum(r.success for r in res) / n}
-            print(f"  solve_many {backend} x{procs}: {n / dt:9.0f} targets/s  success {100 * out[label]['success']:.1f} %")
+            print(f"  solve_many {backend} x{procs}: {n / dt:9.0f} targets/s  success "
+                  f"{100 * out[label]['success']:.1f} %")
         except Exception as exc:  # noqa: BLE001 - an optional backend must not sink the whole benchmark
             out[label] = f"failed: {type(exc).__name__}: {exc}"
             print(f"  solve_many {backend} x{procs}: {out[label]}")
@@ -282,7 +291,8 @@ def summary(rows: list[dict], starvation: dict, batch: dict) -> dict:
                                                   "met": starvation["health"]["p95_ms"] <= 50.0},
     }
     if "speedup_2_over_1" in batch:
-        out["solve_many_2_over_1"] = {"value": batch["speedup_2_over_1"], "target": 1.8, "met": batch["speedup_2_over_1"] >= 1.8}
+        out["solve_many_2_over_1"] = {"value": batch["speedup_2_over_1"], "target": 1.8,
+                                      "met": batch["speedup_2_over_1"] >= 1.8}
     for k, v in out.items():
         print(f"  {k}: {v['value']:.3g} (target {v['target']}) {'met' if v['met'] else 'NOT met'}")
     return out
@@ -305,7 +315,8 @@ def main() -> None:
     batch = bench_batch(args.batch, with_ray=not args.no_ray)
     print("targets")
     targets = summary(rows, starvation, batch)
-    write_json(args.out, {"machine": m, "latency": rows, "starvation": starvation, "batch": batch, "targets": targets})
+    write_json(args.out, {"machine": m, "latency": rows, "starvation": starvation, "batch": batch,
+                          "targets": targets})
 
 
 if __name__ == "__main__":

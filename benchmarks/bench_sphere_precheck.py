@@ -48,7 +48,8 @@ def _pose(xyz) -> np.ndarray:
 
 
 def scene_obstacles() -> list:
-    return [ik.Box(_pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)), ik.Box(_pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
+    return [ik.Box(_pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)),
+            ik.Box(_pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
 
 
 def per_call_us(fn, items, rounds: int) -> float:
@@ -154,7 +155,8 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
                 if w == "plain":
                     ik.solve(robot, T, start, frame=FRAME, seed=i)
                 else:
-                    ik.solve(robot, T, start, frame=FRAME, self_collision=True, obstacles=obs, seed=i, max_time=0.5)
+                    ik.solve(robot, T, start, frame=FRAME, self_collision=True, obstacles=obs, seed=i,
+                             max_time=0.5)
                 best[on] = min(best[on], time.process_time() - t0)
             for on in (True, False):
                 times[(w, on)].append(best[on])
@@ -218,7 +220,8 @@ def main() -> None:
     both(out, "in_collision_colliding", [scene], scene.in_collision, list(Q[truth]), args.rounds)
     if cert is not None:
         both(out, "in_collision_certified", [scene], scene.in_collision, list(Q[cert]), args.rounds)
-        both(out, "in_collision_free_uncertified", [scene], scene.in_collision, list(Q[~cert & ~truth]), args.rounds)
+        both(out, "in_collision_free_uncertified", [scene], scene.in_collision,
+             list(Q[~cert & ~truth]), args.rounds)
         out["random_free_certified_pct"] = 100.0 * rate(scene, Q, truth)
 
     # paths of unconstrained LM runs, in the order the collision-aware IK checks them
@@ -251,7 +254,8 @@ def main() -> None:
     for s, p in zip(cube_scenes, paths):
         s.first_collision(p)
     pairs = list(zip(cube_scenes, paths))
-    both(out, "first_collision_path_cube", cube_scenes, lambda sp: sp[0].first_collision(sp[1]), pairs, args.rounds)
+    both(out, "first_collision_path_cube", cube_scenes, lambda sp: sp[0].first_collision(sp[1]),
+         pairs, args.rounds)
     if cert is not None:
         switch(cube_scenes, True)
         free = cert_n = 0

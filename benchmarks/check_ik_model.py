@@ -87,7 +87,8 @@ def run(n, kind, robot, seed=0):
     return {"n": n, "success": float(ok.mean()), "median_ms": 1e3 * float(np.median(tc)),
             "p95_ms": 1e3 * float(np.percentile(tc, 95)), "mean_ms": 1e3 * float(tc.mean()),
             "free_median_ms": 1e3 * float(np.median(tf)),
-            "median_ratio": float(np.median(tc) / np.median(tf)), "p95_ratio": float(np.percentile(tc, 95) / np.median(tf))}
+            "median_ratio": float(np.median(tc) / np.median(tf)),
+            "p95_ratio": float(np.percentile(tc, 95) / np.median(tf))}
 
 
 def time_step(robot, reps=2000):

@@ -50,12 +50,14 @@ def _targets(d: dict) -> list[str]:
 
 def render_ik(d: dict) -> list[str]:
     w = d["workload"]
-    out = [f"### IK (bench_ik.py): Panda `{w['frame']}`, {w['n']} targets, seed {w['seed']}", "", _machine(d), "",
+    out = [f"### IK (bench_ik.py): Panda `{w['frame']}`, {w['n']} targets, seed {w['seed']}", "",
+           _machine(d), "",
            "| solver | success | median | p95 | mean | median / ik_LM | median / ik_LM same start |",
            "|---|---|---|---|---|---|---|"]
     for k, s in d["per_solve"].items():
-        out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s['median_ms'])} | {_ms(s['p95_ms'])} | {_ms(s['mean_ms'])} "
-                   f"| {_x(s.get('median_vs_ik_LM'))} | {_x(s.get('median_vs_ik_LM_same_start'))} |")
+        out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s['median_ms'])} | {_ms(s['p95_ms'])} | "
+                   f"{_ms(s['mean_ms'])} | {_x(s.get('median_vs_ik_LM'))} | "
+                   f"{_x(s.get('median_vs_ik_LM_same_start'))} |")
     sm = d.get("solve_many")
     if sm:
         out += ["", f"solve_many on {sm['processes']} processes: {sm['targets_per_s']:,.0f} targets/s "
@@ -63,8 +65,8 @@ def render_ik(d: dict) -> list[str]:
                     f"{sm['machine_parallel_scaling_2_processes']:.2f}× on 2 processes)"]
     ss = d.get("same_start")
     if ss:
-        out += ["", f"Same start = the start kinserve picks first (a table sample for {ss['table_start_pct']:.0f} % "
-                    f"of the targets); PlaCo: {ss['placo']}."]
+        out += ["", "Same start = the start kinserve picks first (a table sample for "
+                    f"{ss['table_start_pct']:.0f} % of the targets); PlaCo: {ss['placo']}."]
     return out + _targets(d)
 
 
@@ -75,10 +77,11 @@ def render_ik_constrained(d: dict) -> list[str]:
     for note in d.get("notes", []):
         out.append(f"- {note}")
     for name, r in d["workloads"].items():
-        out += ["", f"**{name}**: figures over the {r['witness_feasible']} witness-feasible targets of {r['n']} "
-                    "(success over all targets in the third column)", "",
-                "| solver | success [≥ 99 %] | all targets | mesh-clear | median | p95 | mean | median / unconstrained "
-                "[≤ 3×] | p95 / unconstrained [≤ 10×] | p95 / unconstrained p95 | median CPU | CPU / unconstrained |",
+        out += ["", f"**{name}**: figures over the {r['witness_feasible']} witness-feasible targets of "
+                    f"{r['n']} (success over all targets in the third column)", "",
+                "| solver | success [≥ 99 %] | all targets | mesh-clear | median | p95 | mean | median / "
+                "unconstrained [≤ 3×] | p95 / unconstrained [≤ 10×] | p95 / unconstrained p95 | median CPU | "
+                "CPU / unconstrained |",
                 "|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for k, s in r["per_solver"].items():
             out.append(f"| {k} | {_pct(s['success_pct'])} | {_pct(s.get('success_all_targets_pct'))} "
@@ -98,19 +101,20 @@ def render_collision(d: dict) -> list[str]:
     passes = w.get("passes", 1)
     out = [f"### Collision-aware IK (bench_collision.py): {w['robot']}, table + wall, budget {w['budget_s']} s",
            "", _machine(d), "", f"Starts in collision: {w['starts_in_collision_pct']:.1f} %."
-           + (f" {passes} passes over the targets: a target's time is the median of its passes (success over every "
-              "answer); the last column is the first pass alone." if passes > 1 else "")]
+           + (f" {passes} passes over the targets: a target's time is the median of its passes (success over "
+              "every answer); the last column is the first pass alone." if passes > 1 else "")]
     for name, r in d["workloads"].items():
-        extra = f", from {r['collision_free_draws']} collision-free draws" if "collision_free_draws" in r else ""
+        extra = (f", from {r['collision_free_draws']} collision-free draws"
+                 if "collision_free_draws" in r else "")
         out += ["", f"**{name}** ({r['n']} targets{extra})", "",
                 "| solver | success | median | p95 | mean | median / unconstrained | p95 / unconstrained p95 "
                 "| median CPU | CPU / unconstrained | pass 1: median / unconstrained |",
                 "|---|---|---|---|---|---|---|---|---|---|"]
         for k, s in r["per_solver"].items():
-            out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s.get('median_ms'))} | {_ms(s.get('p95_ms'))} "
-                       f"| {_ms(s.get('mean_ms'))} | {_x(s.get('median_vs_unconstrained'))} "
-                       f"| {_x(s.get('p95_vs_unconstrained_p95'))} | {_ms(s.get('median_cpu_ms'))} "
-                       f"| {_x(s.get('median_cpu_vs_unconstrained'))} "
+            out.append(f"| {k} | {_pct(s['success_pct'])} | {_ms(s.get('median_ms'))} | "
+                       f"{_ms(s.get('p95_ms'))} | {_ms(s.get('mean_ms'))} | "
+                       f"{_x(s.get('median_vs_unconstrained'))} | {_x(s.get('p95_vs_unconstrained_p95'))} | "
+                       f"{_ms(s.get('median_cpu_ms'))} | {_x(s.get('median_cpu_vs_unconstrained'))} "
                        f"| {_x(s.get('median_vs_unconstrained_first_pass'))} |")
     checks = d.get("collision_check_us") or {}
     if checks:
@@ -132,7 +136,8 @@ def _flatten(prefix: str, v, out: list[str]) -> None:
         out.append(f"- `{prefix}` = {'yes' if v else 'no'}")
 
 
-RENDERERS = {"ik.json": render_ik, "ik_constrained.json": render_ik_constrained, "collision.json": render_collision}
+RENDERERS = {"ik.json": render_ik, "ik_constrained.json": render_ik_constrained,
+             "collision.json": render_collision}
 
 
 def render(folder: Path) -> str:

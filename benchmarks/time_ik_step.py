@@ -1,9 +1,9 @@
-"""CPU time of one ``ik.step`` call in the setups of issue 10 (Panda, FrameTask + PostureTask + 3 spheres r 5 cm):
-with velocity limits, the posture task at priority 1 (one level, ``check_ik_model.py``'s setup) and at its default
-priority 2 (two levels); and ``bench_ik_constrained.py``'s own control step (flange frame, the spheres at 0.3 / 0.5
-/ 0.7 of the shoulder -> target segment, posture at priority 2, no velocity limits). Best of REPEATS batches of
-CALLS calls, CPU seconds of this process (the machine is shared). Writes bench-out/ik_step_time.json with the load
-average.
+"""CPU time of one ``ik.step`` call in the setups of issue 10 (Panda, FrameTask + PostureTask + 3 spheres r 5
+cm): with velocity limits, the posture task at priority 1 (one level, ``check_ik_model.py``'s setup) and at
+its default priority 2 (two levels); and ``bench_ik_constrained.py``'s own control step (flange frame, the
+spheres at 0.3 / 0.5 / 0.7 of the shoulder -> target segment, posture at priority 2, no velocity limits). Best
+of REPEATS batches of CALLS calls, CPU seconds of this process (the machine is shared). Writes
+bench-out/ik_step_time.json with the load average.
 
     python benchmarks/time_ik_step.py [CALLS]
 """
@@ -34,7 +34,8 @@ def setups(robot):
     cons = [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(2.0)]
     one = [ik.FrameTask(robot.tip, T), ik.PostureTask(robot.neutral(), weight=1e-2, priority=1)]
     two = [ik.FrameTask(robot.tip, T), ik.PostureTask(robot.middle())]
-    out = {"one level (posture priority 1)": (one, cons, q), "two levels (posture priority 2)": (two, cons, q)}
+    out = {"one level (posture priority 1)": (one, cons, q),
+           "two levels (posture priority 2)": (two, cons, q)}
     out["bench_ik_constrained step (two levels, no velocity limits)"] = bench_setup(robot)
     return out
 
@@ -56,7 +57,8 @@ def main():
     out = {"loadavg_before": os.getloadavg()}
     for name, (tasks, cons, q) in setups(robot).items():
         ik.step(robot, tasks, cons, q, 0.01)  # warm-up: binds and caches the problem
-        out[name + " us"] = 1e6 * cpu_per_call_seconds(lambda: ik.step(robot, tasks, cons, q, 0.01), calls, REPEATS)
+        out[name + " us"] = 1e6 * cpu_per_call_seconds(lambda: ik.step(robot, tasks, cons, q, 0.01),
+                                                       calls, REPEATS)
     out["loadavg_after"] = os.getloadavg()
     Path("bench-out").mkdir(exist_ok=True)
     Path("bench-out/ik_step_time.json").write_text(json.dumps(out, indent=2))

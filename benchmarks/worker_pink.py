@@ -78,7 +78,8 @@ class _Handler:
             self.ik = PinkBarrierIK(model, req["frame"], self.geom)
             return {"pairs": len(self.geom.collisionPairs)}
         if cmd == "move_box":
-            self.geom.geometryObjects[self.box].placement = pin.SE3(np.eye(3), np.asarray(req["center"], dtype=float))
+            self.geom.geometryObjects[self.box].placement = pin.SE3(np.eye(3),
+                                                                    np.asarray(req["center"], dtype=float))
             return {}
         if cmd == "solve":
             T, q0 = np.asarray(req["T"], dtype=float), np.asarray(req["q0"], dtype=float)

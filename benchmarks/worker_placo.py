@@ -6,12 +6,13 @@ Requests (one JSON object per line; see benchmarks/_peers.py):
 * ``{"cmd": "setup", "urdf": TEXT, "pairs": [[link, link], ...], "frame": NAME, "joints": [NAMES],
   "avoid": bool, "margin": m, "trigger": m, "posture_weight": w}`` - load the robot (PlaCo adds a
   floating base; it is masked), one frame task (soft, weight 1), optionally a joints (posture) task
-  towards the start of each attempt (weight ``w``, default 0 = none), joint limits on, and with ``avoid`` PlaCo's hard self-collision avoidance
-  constraint over ``pairs`` (the benchmark's obstacles are links of the URDF fixed to the base).
+  towards the start of each attempt (weight ``w``, default 0 = none), joint limits on, and with ``avoid``
+  PlaCo's hard self-collision avoidance constraint over ``pairs`` (the benchmark's obstacles are links of the
+  URDF fixed to the base).
 * ``{"cmd": "fk", "q": [...]}`` -> ``{"T": 4x4}``
 * ``{"cmd": "solve", "T": 4x4, "q0": [...], "seed": int, "max_time": s, "max_iter": n,
-  "tol_pos": m, "tol_rot": rad, "restarts": bool}`` -> ``{"q": [...], "time": s, "cpu": s, "starts": n, "ok": bool}``:
-  iterate ``solver.solve(True)`` from ``q0`` until the frame error is within tolerance (and, with
+  "tol_pos": m, "tol_rot": rad, "restarts": bool}`` -> ``{"q": [...], "time": s, "cpu": s, "starts": n, "ok":
+  bool}``: iterate ``solver.solve(True)`` from ``q0`` until the frame error is within tolerance (and, with
   avoidance, every pair distance >= 0), at most ``max_iter`` steps per start; then restart from a
   uniform random configuration (``numpy.random.default_rng(seed)``; starts in collision are redrawn)
   until ``max_time`` s are spent. Wall and CPU time (``time.process_time``) are measured here, around the
@@ -152,7 +153,8 @@ class _Handler:
             return ans
         if cmd == "setup":
             self.ik = PlacoIK(req)
-            return {"nq": len(self.ik.joints), "lower": self.ik.lower.tolist(), "upper": self.ik.upper.tolist()}
+            return {"nq": len(self.ik.joints), "lower": self.ik.lower.tolist(),
+                    "upper": self.ik.upper.tolist()}
         if cmd == "fk":
             return {"T": self.ik.fk(req["q"]).tolist()}
         if cmd == "solve":

@@ -1,4 +1,5 @@
-"""roboplan worker: runs in bench-out/venvs/roboplan (roboplan pins its own Pinocchio), JSON lines on stdin/stdout.
+"""roboplan worker: runs in bench-out/venvs/roboplan (roboplan pins its own Pinocchio), JSON lines on
+stdin/stdout.
 
 Requests (one JSON object per line; see benchmarks/_peers.py):
 
@@ -13,8 +14,8 @@ Requests (one JSON object per line; see benchmarks/_peers.py):
 * ``{"cmd": "time_collision", "qs": [[...], ...], "repeats": n}`` -> ``{"us": ..., "cpu_us": ...}``: median
   over the repeats of the wall / CPU time per call
 * ``{"cmd": "solve", "T": 4x4, "q0": [...], "seed": int, "max_time": s, "tol_pos": m, "tol_rot": rad,
-  "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "cpu": s, "ok": bool}``: ``SimpleIk.solveIk``
-  with ``max_time`` and unlimited restarts, ``fast_return``, errors bounded by ``tol_pos``/``tol_rot``.
+  "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "cpu": s, "ok":
+  bool}``: ``SimpleIk.solveIk`` with ``max_time`` and unlimited restarts, ``fast_return``, errors bounded by ``tol_pos``/``tol_rot``.
   Wall and CPU time are measured here, around ``solveIk`` only.
 * ``{"cmd": "quit"}``
 """
@@ -71,7 +72,8 @@ class RoboplanIK:
             check_collisions=bool(req.get("check_collisions", True)))
         ik = simple_ik.SimpleIk(self.scene, opts)  # built per solve (not timed): options and seed per target
         ik.setRngSeed(int(req.get("seed", 0)))
-        goal = core.CartesianConfiguration(self.base, self.frame, np.asfortranarray(np.asarray(req["T"], dtype=float)))
+        goal = core.CartesianConfiguration(self.base, self.frame,
+                                           np.asfortranarray(np.asarray(req["T"], dtype=float)))
         start = core.JointConfiguration(self.joints, np.asarray(req["q0"], dtype=float))
         sol = core.JointConfiguration()
         t0, c0 = time.perf_counter(), time.process_time()
@@ -80,7 +82,8 @@ class RoboplanIK:
         q = np.asarray(sol.positions, dtype=float)
         if q.size == len(self.q_full):
             q = q[self.idx]
-        return {"q": q.tolist() if q.size == len(self.joints) else None, "time": dt, "cpu": dc, "ok": bool(ok)}
+        return {"q": q.tolist() if q.size == len(self.joints) else None, "time": dt, "cpu": dc,
+                "ok": bool(ok)}
 
 
 class _Handler:

@@ -44,13 +44,14 @@ from .via_points import ViaPointTrajectory, via_point_trajectory
 __all__ = [
     "mobile",
     # time scaling
-    "TimeScaling", "PolynomialTimeScaling", "TrapezoidalTimeScaling", "cubic_time_scaling", "quintic_time_scaling",
-    "trapezoidal_time_scaling", "minimum_time", "time_scaling", "cubic_coefficients", "quintic_coefficients",
+    "TimeScaling", "PolynomialTimeScaling", "TrapezoidalTimeScaling", "cubic_time_scaling",
+    "quintic_time_scaling", "trapezoidal_time_scaling", "minimum_time", "time_scaling", "cubic_coefficients",
+    "quintic_coefficients",
     # trajectories
     "ViaPointTrajectory", "via_point_trajectory", "JointTrajectory", "finite_difference_velocities",
     # SE(3)
-    "decoupled_interpolation", "screw_interpolation", "interpolate", "intermediate_poses", "interpolate_checkpoints",
-    "se3_polynomial_trajectory", "SE3PolynomialTrajectory", "poses_along",
+    "decoupled_interpolation", "screw_interpolation", "interpolate", "intermediate_poses",
+    "interpolate_checkpoints", "se3_polynomial_trajectory", "SE3PolynomialTrajectory", "poses_along",
     # ordering
     "shortest_order", "OrderResult", "held_karp", "path_cost", "euclidean_cost_matrix",
     # Cartesian path -> joint trajectory

@@ -91,7 +91,8 @@ def _cost_matrix(points, cost) -> np.ndarray:
         if points is None:
             raise InputError("a cost function needs the points it is evaluated on")
         n = len(points)
-        C = np.array([[0.0 if i == j else float(cost(points[i], points[j])) for j in range(n)] for i in range(n)])
+        C = np.array([[0.0 if i == j else float(cost(points[i], points[j])) for j in range(n)]
+                      for i in range(n)])
     else:
         C = np.asarray(cost, dtype=float)
         if C.ndim != 2 or C.shape[0] != C.shape[1]:

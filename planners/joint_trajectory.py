@@ -31,7 +31,8 @@ from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.validation import as_matrix
 
 
-def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *, zero_ends: bool = False) -> np.ndarray:
+def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *,
+                                 zero_ends: bool = False) -> np.ndarray:
     """Velocities ``(N, nq)`` from positions by second-order finite differences.
 
     Interior points use the non-uniform central difference of
@@ -89,8 +90,10 @@ class JointTrajectory:
     # ----------------------------------------------------------- constructors
     @classmethod
     def from_positions(cls, joint_names: Sequence[str], positions: ArrayLike, dt: float, *,
-                       velocities: str | None = "finite_difference", zero_end_velocities: bool = False) -> JointTrajectory:
-        """Points at ``time_from_start = i * dt``; velocities by finite differences unless ``velocities=None``."""
+                       velocities: str | None = "finite_difference",
+                       zero_end_velocities: bool = False) -> JointTrajectory:
+        """Points at ``time_from_start = i * dt``; velocities by finite differences unless
+        ``velocities=None``."""
         if not (isinstance(dt, (int, float)) and np.isfinite(dt) and dt > 0):
             raise InputError(f"dt must be a finite number > 0, got {dt!r}")
         Q = as_matrix(positions, (-1, len(list(joint_names))), "positions")
@@ -155,11 +158,13 @@ class JointTrajectory:
             t = [float(p["time_from_start"]) for p in pts]
             Q = [p["positions"] for p in pts]
         except (KeyError, TypeError, ValueError) as exc:
-            raise InputError(f"every point needs 'positions' and a numeric 'time_from_start' ({exc!r})") from None
+            raise InputError("every point needs 'positions' and a numeric 'time_from_start' "
+                             f"({exc!r})") from None
         V = [p["velocities"] for p in pts] if all("velocities" in p for p in pts) else None
         A = [p["accelerations"] for p in pts] if all("accelerations" in p for p in pts) else None
         return cls(list(d["joint_names"]), np.array(t), np.array(Q, dtype=float),
-                   None if V is None else np.array(V, dtype=float), None if A is None else np.array(A, dtype=float))
+                   None if V is None else np.array(V, dtype=float),
+                   None if A is None else np.array(A, dtype=float))
 
     @classmethod
     def from_json(cls, source: str | os.PathLike) -> JointTrajectory:
@@ -223,12 +228,14 @@ class JointTrajectory:
         for k, h in enumerate(header[1:], start=1):
             kind, _, name = h.partition(":")
             if kind not in cols or not name:
-                raise InputError(f"unknown trajectory CSV column {h!r}; expected position:/velocity:/acceleration:<joint>")
+                raise InputError(f"unknown trajectory CSV column {h!r}; "
+                                 "expected position:/velocity:/acceleration:<joint>")
             cols[kind].append((name, k))
         names = [n for n, _ in cols["position"]]
         for kind in ("velocity", "acceleration"):
             if cols[kind] and [n for n, _ in cols[kind]] != names:
-                raise InputError(f"{kind} columns must name the same joints as the position columns, in order")
+                raise InputError(f"{kind} columns must name the same joints as the position columns, "
+                                 "in order")
 
         def block(kind):
             return data[:, [k for _, k in cols[kind]]] if cols[kind] else None

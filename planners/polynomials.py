@@ -22,7 +22,8 @@ def _duration(T) -> float:
     return T
 
 
-def cubic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike = 0.0, v1: ArrayLike = 0.0) -> np.ndarray:
+def cubic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike = 0.0,
+                       v1: ArrayLike = 0.0) -> np.ndarray:
     """Coefficients ``(4, ...)`` of the cubic with ``x(0)=x0, x(T)=x1, x'(0)=v0, x'(T)=v1``.
 
     ``c0 = x0, c1 = v0``,
@@ -47,7 +48,8 @@ def quintic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike =
     ``c5 = (12 dx - 6 (v1 + v0) T - (a0 - a1) T^2) / (2 T^5)``
     """
     T = _duration(T)
-    x0, x1, v0, v1, a0, a1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (x0, x1, v0, v1, a0, a1)))
+    x0, x1, v0, v1, a0, a1 = np.broadcast_arrays(*(np.asarray(a, dtype=float)
+                                                   for a in (x0, x1, v0, v1, a0, a1)))
     dx = x1 - x0
     c3 = (20.0 * dx - (8.0 * v1 + 12.0 * v0) * T - (3.0 * a0 - a1) * T**2) / (2.0 * T**3)
     c4 = (-30.0 * dx + (14.0 * v1 + 16.0 * v0) * T + (3.0 * a0 - 2.0 * a1) * T**2) / (2.0 * T**4)

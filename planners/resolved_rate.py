@@ -145,14 +145,16 @@ def _check_axes(robot: Robot, axes) -> tuple[str, ...]:
     bad = [a for a in axes if a in ("roll", "pitch")]
     if bad:
         raise InputError(
-            f"resolved-rate task axes must be among x, y, z, yaw; got {axes} ({bad} have no integrable coordinate)"
+            f"resolved-rate task axes must be among x, y, z, yaw; got {axes} ({bad} have no integrable "
+            "coordinate)"
         )
     if not axes:
         raise InputError("axes must name at least one task component")
     return axes
 
 
-def task_coordinates(robot: Robot, q: VectorLike, axes: Sequence[str], frame: str | None = None) -> np.ndarray:
+def task_coordinates(robot: Robot, q: VectorLike, axes: Sequence[str],
+                     frame: str | None = None) -> np.ndarray:
     """Task coordinates ``x(q)``: tool position components and/or yaw (see module docstring)."""
     T = robot.fk(q, frame)
     out = np.empty(len(axes))
@@ -167,7 +169,8 @@ def _wrap_task_error(e: np.ndarray, yaw_index: list[int]) -> np.ndarray:
     return e
 
 
-def damped_pseudo_inverse(J: np.ndarray, damping: float = 0.0, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+def damped_pseudo_inverse(J: np.ndarray, damping: float = 0.0,
+                          rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
     """``(J^+, sigma)``: ``V diag(sigma/(sigma^2 + damping^2)) U^T`` and the singular values.
 
     With ``damping = 0`` singular values below ``rcond * sigma_max`` are
@@ -187,7 +190,8 @@ def _pinv_from_svd(U, s, Vt, damping: float, rcond: float = 1e-12) -> np.ndarray
 
 
 def adaptive_damping(sigma_min: float, sigma_threshold: float, lambda_max: float) -> float:
-    """``lambda`` with ``lambda^2 = (1 - (sigma_min/sigma_threshold)^2) lambda_max^2`` below the threshold, else 0."""
+    """``lambda`` with ``lambda^2 = (1 - (sigma_min/sigma_threshold)^2) lambda_max^2`` below the threshold,
+    else 0."""
     if sigma_min >= sigma_threshold:
         return 0.0
     r = sigma_min / sigma_threshold
@@ -262,9 +266,11 @@ def track_reference(
             big = moved > 0.0 and miss > max_step_error * moved
             if big and not big_prev:
                 events.append(SingularityEvent(k - 1, float(times[k - 1]), "large_step", miss / moved,
-                                               f"step {k - 1} (t={times[k - 1]:.4g}s): the task moved {miss:.3g} away from the "
-                                               f"Jacobian's prediction ({miss / moved:.0%} of the step); the step crosses a "
-                                               f"singularity or is too large for dt={dt:g}"))
+                                               f"step {k - 1} (t={times[k - 1]:.4g}s): "
+                                               f"the task moved {miss:.3g} away from the Jacobian's "
+                                               f"prediction ({miss / moved:.0%} of the step); "
+                                               "the step crosses a singularity or is too large for "
+                                               f"dt={dt:g}"))
             big_prev = big
         J = robot.jacobian(q, frame)[rows]
         U, s, Vt = np.linalg.svd(J, full_matrices=False)
@@ -276,8 +282,9 @@ def track_reference(
         low = sig < sigma_threshold
         if low and not low_prev:
             events.append(SingularityEvent(k, float(times[k]), "low_manipulability", sig,
-                                           f"step {k} (t={times[k]:.4g}s): smallest singular value of the task Jacobian "
-                                           f"{sig:.3g} < {sigma_threshold:g}; manipulability {manip[k]:.3g}"))
+                                           f"step {k} (t={times[k]:.4g}s): smallest singular value of the "
+                                           f"task Jacobian {sig:.3g} < {sigma_threshold:g}; "
+                                           f"manipulability {manip[k]:.3g}"))
         low_prev = low
         if k == n:
             break
@@ -293,11 +300,13 @@ def track_reference(
             xdot_cmd = xd_ref
         qdot = Jp @ xdot_cmd
         rate = float(np.linalg.norm(qdot))
-        limit = max_joint_rate if max_joint_rate is not None else float(np.linalg.norm(xdot_cmd)) / sigma_threshold
+        limit = (max_joint_rate if max_joint_rate is not None
+                 else float(np.linalg.norm(xdot_cmd)) / sigma_threshold)
         high = rate > limit and rate > 0.0
         if high and not rate_prev:
             events.append(SingularityEvent(k, float(times[k]), "joint_rate", rate,
-                                           f"step {k} (t={times[k]:.4g}s): joint-rate norm {rate:.3g} exceeds {limit:.3g}"))
+                                           f"step {k} (t={times[k]:.4g}s): "
+                                           f"joint-rate norm {rate:.3g} exceeds {limit:.3g}"))
         rate_prev = high
         rates[k] = qdot
         lams[k] = lam
@@ -306,9 +315,11 @@ def track_reference(
         outside = not robot.within_limits(q)
         if outside and not limit_prev:
             bad = [robot.joint_names[i] for i in np.flatnonzero((q < robot.lower) | (q > robot.upper))]
-            events.append(SingularityEvent(k + 1, float(times[k + 1]), "joint_limit", float(np.linalg.norm(q)),
-                                           f"step {k + 1} (t={times[k + 1]:.4g}s): joint(s) {', '.join(bad)} left their "
-                                           "limits (not enforced by resolved-rate control)"))
+            events.append(SingularityEvent(k + 1, float(times[k + 1]), "joint_limit",
+                                           float(np.linalg.norm(q)),
+                                           f"step {k + 1} (t={times[k + 1]:.4g}s): "
+                                           f"joint(s) {', '.join(bad)} left their limits (not enforced by "
+                                           "resolved-rate control)"))
         limit_prev = outside
         if not np.all(np.isfinite(q)):
             events.append(SingularityEvent(k, float(times[k]), "joint_rate", math.inf,
@@ -318,13 +329,14 @@ def track_reference(
         x_ref, xd_ref = x_next, xd_next
     events.sort(key=lambda e: e.step)
     sl = slice(0, last + 1)
-    errors = np.linalg.norm(np.array([_wrap_task_error(r - x, yaw_index) for r, x in zip(R[sl], X[sl])]), axis=1)
+    errors = np.linalg.norm(np.array([_wrap_task_error(r - x, yaw_index)
+                                      for r, x in zip(R[sl], X[sl])]), axis=1)
     return ResolvedRateResult(axes, times[sl], Q[sl], X[sl], R[sl], errors, manip[sl], smin[sl],
                               rates[:last], lams[:last], events, closed_loop, stopped)
 
 
-def resolved_rate(robot: Robot, velocity: VectorLike, q0: VectorLike, n: int, dt: float, *, closed_loop: bool = False,
-                  **kwargs: Any) -> ResolvedRateResult:
+def resolved_rate(robot: Robot, velocity: VectorLike, q0: VectorLike, n: int, dt: float, *,
+                  closed_loop: bool = False, **kwargs: Any) -> ResolvedRateResult:
     """Move the tool along the constant task velocity ``velocity`` for ``n`` steps of ``dt``.
 
     Open loop by default (``q_{k+1} = q_k + J^+ v dt``, the seed's scheme);
@@ -335,7 +347,8 @@ def resolved_rate(robot: Robot, velocity: VectorLike, q0: VectorLike, n: int, dt
     frame = kwargs.get("frame")
     v = as_vector(velocity, len(axes), "velocity")
     x0 = task_coordinates(robot, robot.check_q(q0, "q0"), axes, frame)
-    return track_reference(robot, lambda t: (x0 + v * t, v), q0, n, dt, closed_loop=closed_loop, axes=axes, **kwargs)
+    return track_reference(robot, lambda t: (x0 + v * t, v), q0, n, dt, closed_loop=closed_loop,
+                           axes=axes, **kwargs)
 
 
 def circle_reference(centre: VectorLike, radius: float, period: float, phase: float = 0.0) -> Reference:
@@ -385,6 +398,7 @@ def follow_circle(
     c = as_vector(centre, 2, "centre")
     phase = math.atan2(x0[1] - c[1], x0[0] - c[0])
     if not (math.isfinite(angular_velocity) and angular_velocity != 0):
-        raise InputError(f"angular_velocity must be a finite non-zero number (rad/s), got {angular_velocity!r}")
+        raise InputError("angular_velocity must be a finite non-zero number (rad/s), "
+                         f"got {angular_velocity!r}")
     ref = circle_reference(c, radius, 2.0 * math.pi / angular_velocity, phase)
     return track_reference(robot, ref, q0, n, dt, closed_loop=closed_loop, axes=axes, **kwargs)

@@ -94,7 +94,8 @@ def interpolate(T0: PoseLike, T1: PoseLike, s: ArrayLike, method: str = "decoupl
     raise InputError(f"method must be one of {METHODS}, got {method!r}")
 
 
-def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoupled", include_ends: bool = False) -> np.ndarray:
+def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoupled",
+                       include_ends: bool = False) -> np.ndarray:
     """``n`` poses strictly between ``T0`` and ``T1`` at ``s = k/(n+1)``, ``k = 1..n``.
 
     With ``include_ends`` the result also starts with ``T0`` and ends with ``T1``
@@ -210,7 +211,8 @@ def se3_polynomial_trajectory(
     return SE3PolynomialTrajectory(A, B, tf, c, order)
 
 
-def poses_along(T0: PoseLike, T1: PoseLike, scaling: Callable[[np.ndarray], ArrayLike], times: ArrayLike, method: str = "screw") -> np.ndarray:
+def poses_along(T0: PoseLike, T1: PoseLike, scaling: Callable[[np.ndarray], ArrayLike], times: ArrayLike,
+                method: str = "screw") -> np.ndarray:
     """Poses ``interpolate(T0, T1, s(t))`` at ``times`` for a time scaling ``s`` (``(N, 4, 4)``).
 
     E.g. ``poses_along(Ts, Tg, quintic_time_scaling(5.0), t)`` is Lynch & Park's

@@ -100,7 +100,8 @@ def cubic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0) -> Polynomial
     return PolynomialTimeScaling(polynomials.cubic_coefficients(T, 0.0, 1.0, v0, v1), T, "cubic")
 
 
-def quintic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0, a0: float = 0.0, a1: float = 0.0) -> PolynomialTimeScaling:
+def quintic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0, a0: float = 0.0,
+                         a1: float = 0.0) -> PolynomialTimeScaling:
     """Quintic ``s(t)`` meeting ``s, s', s''`` at both ends (zero rates by default)."""
     T = _positive(T, "T")
     return PolynomialTimeScaling(polynomials.quintic_coefficients(T, 0.0, 1.0, v0, v1, a0, a1), T, "quintic")
@@ -129,7 +130,8 @@ class TrapezoidalTimeScaling(TimeScaling):
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         a, ta, vp, T = self.a_max, self.t_a, self.v_peak, self.duration
         td = T - t
-        s = np.where(t <= ta, 0.5 * a * t**2, np.where(td <= ta, 1.0 - 0.5 * a * td**2, 0.5 * a * ta**2 + vp * (t - ta)))
+        s = np.where(t <= ta, 0.5 * a * t**2,
+                     np.where(td <= ta, 1.0 - 0.5 * a * td**2, 0.5 * a * ta**2 + vp * (t - ta)))
         sd = np.where(t <= ta, a * t, np.where(td <= ta, a * td, vp))
         sdd = np.where(t < ta, a, np.where(td < ta, -a, 0.0))
         return s, sd, sdd
@@ -182,7 +184,8 @@ def minimum_time(kind: str, distance: ArrayLike, v_max: ArrayLike, a_max: ArrayL
         D, v, a = np.broadcast_arrays(D, v, a)
     except ValueError:
         raise InputError(
-            f"distance, v_max and a_max must have compatible shapes, got {np.shape(distance)}, {np.shape(v_max)}, {np.shape(a_max)}"
+            f"distance, v_max and a_max must have compatible shapes, got {np.shape(distance)}, "
+            f"{np.shape(v_max)}, {np.shape(a_max)}"
         ) from None
     if kind == "trapezoidal":
         T = np.where(D >= v * v / a, D / v + v / a, 2.0 * np.sqrt(D / a))
@@ -192,8 +195,8 @@ def minimum_time(kind: str, distance: ArrayLike, v_max: ArrayLike, a_max: ArrayL
     return float(np.max(T)) if T.size else 0.0
 
 
-def time_scaling(kind: str, T: float | None = None, *, distance: ArrayLike | None = None, v_max: ArrayLike | None = None,
-                 a_max: ArrayLike | None = None) -> TimeScaling:
+def time_scaling(kind: str, T: float | None = None, *, distance: ArrayLike | None = None,
+                 v_max: ArrayLike | None = None, a_max: ArrayLike | None = None) -> TimeScaling:
     """Build a rest-to-rest scaling by name.
 
     ``time_scaling("quintic", T=2.0)``; or with limits instead of ``T``:

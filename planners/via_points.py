@@ -104,7 +104,8 @@ class ViaPointTrajectory:
         return JointTrajectory(list(joint_names), t - t[0], q, qd, qdd)
 
 
-def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0: ArrayLike, v1: ArrayLike) -> np.ndarray:
+def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0: ArrayLike,
+                             v1: ArrayLike) -> np.ndarray:
     """Via velocities ``(K, n)``: mean of adjacent slopes when they agree in sign, else 0."""
     slopes = np.diff(points, axis=0) / np.diff(times)[:, None]
     v = np.zeros_like(points)

@@ -100,10 +100,12 @@ def check_dh_rows(rows: ArrayLike, joint_types: str | None = None) -> tuple[np.n
     if table.ndim == 1 and table.size == 4:
         table = table.reshape(1, 4)
     if table.ndim != 2 or table.shape[1] != 4 or table.shape[0] == 0:
-        raise ModelError(f"DH table: rows must have shape (n, 4) with columns (a, alpha, d, theta), got shape {table.shape}")
+        raise ModelError("DH table: rows must have shape (n, 4) with columns (a, alpha, d, theta), "
+                         f"got shape {table.shape}")
     if not np.all(np.isfinite(table)):
         r, c = np.argwhere(~np.isfinite(table))[0]
-        raise ModelError(f"DH table: entry row {r + 1}, column {'a alpha d theta'.split()[c]} is {table[r, c]}; entries must be finite")
+        raise ModelError(f"DH table: entry row {r + 1}, column {'a alpha d theta'.split()[c]} is "
+                         f"{table[r, c]}; entries must be finite")
     n = table.shape[0]
     if joint_types is None:
         joint_types = "R" * n
@@ -111,13 +113,15 @@ def check_dh_rows(rows: ArrayLike, joint_types: str | None = None) -> tuple[np.n
         try:
             joint_types = "".join(str(t) for t in joint_types)
         except TypeError:
-            raise ModelError(f"DH table: joint_types must be a string of R/P letters, got {joint_types!r}") from None
+            raise ModelError("DH table: joint_types must be a string of R/P letters, "
+                             f"got {joint_types!r}") from None
     types = joint_types.upper()
     if len(types) != n:
         raise ModelError(f"DH table: joint_types {joint_types!r} has {len(types)} letters for {n} rows")
     bad = [f"{i + 1}:{c!r}" for i, c in enumerate(types) if c not in "RP"]
     if bad:
-        raise ModelError(f"DH table: joint_types letters must be R (revolute) or P (prismatic); bad: {', '.join(bad)}")
+        raise ModelError("DH table: joint_types letters must be R (revolute) or P (prismatic); bad: "
+                         f"{', '.join(bad)}")
     return table, types
 
 
@@ -135,12 +139,14 @@ def check_dh_table(rows: ArrayLike, joint_types: str | None = None, lower: Vecto
     if lower is None or upper is None:
         missing = [i + 1 for i, c in enumerate(types) if c == "P"]
         if missing:
-            raise ModelError(f"DH table: prismatic joint(s) {missing} need explicit lower and upper limits (metres)")
+            raise ModelError(f"DH table: prismatic joint(s) {missing} need explicit lower and upper limits "
+                             "(metres)")
     lo = _vector(lower, n, "lower", [DEFAULT_REVOLUTE_LIMITS[0]] * n)
     hi = _vector(upper, n, "upper", [DEFAULT_REVOLUTE_LIMITS[1]] * n)
     wrong = [i + 1 for i in range(n) if lo[i] > hi[i]]
     if wrong:
-        raise ModelError(f"DH table: lower > upper for joint(s) {wrong}: lower={lo.tolist()}, upper={hi.tolist()}")
+        raise ModelError(f"DH table: lower > upper for joint(s) {wrong}: lower={lo.tolist()}, "
+                         f"upper={hi.tolist()}")
     return table, types, lo, hi
 
 
@@ -185,7 +191,9 @@ def _visual(link, shape: str, material: str, xyz=(0, 0, 0), rpy=(0, 0, 0), **dim
     vis = etree.SubElement(link, "visual")
     etree.SubElement(vis, "origin", xyz=" ".join(map(_vnum, xyz)), rpy=" ".join(map(_vnum, rpy)))
     geo = etree.SubElement(vis, "geometry")
-    etree.SubElement(geo, shape, **{k: (" ".join(map(_vnum, v)) if isinstance(v, (tuple, list)) else _vnum(v)) for k, v in dims.items()})
+    etree.SubElement(geo, shape,
+                     **{k: (" ".join(map(_vnum, v)) if isinstance(v, (tuple, list))
+                            else _vnum(v)) for k, v in dims.items()})
     etree.SubElement(vis, "material", name=material)
 
 
@@ -275,9 +283,11 @@ def dh_to_urdf(
     links = ["world"] + [f"link{i}" for i in range(n + 1)] + [f"joint{i + 1}_link" for i in range(n)]
     all_names = links + names + [f"joint{i + 1}_dh" for i in range(n)] + ["base_joint", "tool_joint"]
     if tip_name in links:
-        raise ModelError(f"DH table: tip_name {tip_name!r} collides with a generated link name ({', '.join(links)})")
+        raise ModelError(f"DH table: tip_name {tip_name!r} collides with a generated link name "
+                         f"({', '.join(links)})")
     if len(set(names)) != n or set(names) & (set(all_names) - set(names)):
-        raise ModelError(f"DH table: joint_names must be unique and differ from the generated names, got {names}")
+        raise ModelError("DH table: joint_names must be unique and differ from the generated names, "
+                         f"got {names}")
     vel = _vector(velocity, n, "velocity", None)
     eff = _vector(effort, n, "effort", None)
     if radius is None:
@@ -326,9 +336,11 @@ def dh_to_urdf(
         j = joint(names[i], "revolute" if kind == "R" else "prismatic", prev.get("name"), moving.get("name"),
                   xyz=(0.0, 0.0, d), rpy=(0.0, 0.0, theta))
         etree.SubElement(j, "axis", xyz="0 0 1")
-        etree.SubElement(j, "limit", lower=_num(lo[i]), upper=_num(hi[i]), effort=_num(eff[i]), velocity=_num(vel[i]))
+        etree.SubElement(j, "limit", lower=_num(lo[i]), upper=_num(hi[i]), effort=_num(eff[i]),
+                         velocity=_num(vel[i]))
         nxt = link(f"link{i + 1}")
-        joint(f"joint{i + 1}_dh", "fixed", moving.get("name"), nxt.get("name"), xyz=(a, 0.0, 0.0), rpy=(alpha, 0.0, 0.0))
+        joint(f"joint{i + 1}_dh", "fixed", moving.get("name"), nxt.get("name"), xyz=(a, 0.0, 0.0),
+              rpy=(alpha, 0.0, 0.0))
         prev = nxt
     _segment(prev, (0, 0, 0), tool_T[:3, 3], r)
     tip = link(tip_name)
@@ -373,4 +385,5 @@ def from_dh(
 
     xml = dh_to_urdf(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names,
                      velocity=velocity, effort=effort, radius=radius)
-    return load_urdf(xml, tip=tip_name, name=name, description=description, task_axes=task_axes, geometry=geometry)
+    return load_urdf(xml, tip=tip_name, name=name, description=description, task_axes=task_axes,
+                     geometry=geometry)

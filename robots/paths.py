@@ -49,7 +49,8 @@ def models_dir() -> Path:
 
 def _as_robots_dir(path: Path) -> Path | None:
     """``path`` normalised to an ERD ``robots`` directory, or None if it is not one."""
-    for cand in (path, path / "robots", path / ERD_PACKAGE / "robots", path / "share" / ERD_PACKAGE / "robots"):
+    for cand in (path, path / "robots", path / ERD_PACKAGE / "robots",
+                 path / "share" / ERD_PACKAGE / "robots"):
         if cand.is_dir() and ((cand / _PROBE).is_file() or any(cand.glob("*_description"))):
             return cand.resolve()
     return None

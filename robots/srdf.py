@@ -136,18 +136,21 @@ def read_srdf(source: str | os.PathLike, robot: Robot) -> Srdf:
         line, col = exc.position if exc.position else (exc.lineno, 0)
         raise ModelError(f"{label}: malformed XML at line {line}, column {col}: {exc.msg}") from None
     if root.tag != "robot":
-        raise ModelError(f"{_where(label, root)}: the root element of an SRDF must be <robot>, got <{root.tag}>")
+        raise ModelError(f"{_where(label, root)}: the root element of an SRDF must be <robot>, "
+                         f"got <{root.tag}>")
     urdf = _UrdfTree(robot)
     groups = _groups(root, label, urdf, robot)
     states, state_groups = _states(root, label, urdf, robot, groups)
     frame_names = [f.name for f in robot.model.frames]
-    srdf_disabled_pairs(text.decode("utf-8"), frame_names, label)  # unknown links in <disable_collisions>: ModelError
+    # unknown links in <disable_collisions>: ModelError
+    srdf_disabled_pairs(text.decode("utf-8"), frame_names, label)
     return Srdf(label, groups, states, state_groups, text.decode("utf-8"))
 
 
 def _check_joint(name, el, label: str, urdf: _UrdfTree) -> str:
     if name not in urdf.joints:
-        raise ModelError(f"{_where(label, el)}: joint {name!r} is not a joint of the URDF.{suggest(str(name), urdf.joints)}")
+        raise ModelError(f"{_where(label, el)}: joint {name!r} is not a joint of the "
+                         f"URDF.{suggest(str(name), urdf.joints)}")
     return name
 
 
@@ -164,7 +167,8 @@ def _groups(root, label: str, urdf: _UrdfTree, robot: Robot) -> dict[str, tuple[
         if name in resolved:
             return resolved[name]
         if name in stack:
-            raise ModelError(f"{_where(label, elements[name])}: group {name!r} contains itself ({' -> '.join((*stack, name))})")
+            raise ModelError(f"{_where(label, elements[name])}: group {name!r} contains itself "
+                             f"({' -> '.join((*stack, name))})")
         joints: list[str] = []
         for el in elements[name]:
             if el.tag == "joint":
@@ -172,22 +176,26 @@ def _groups(root, label: str, urdf: _UrdfTree, robot: Robot) -> dict[str, tuple[
             elif el.tag == "link":
                 link = el.get("name")
                 if link not in urdf.links:
-                    raise ModelError(f"{_where(label, el)}: link {link!r} is not a link of the URDF.{suggest(str(link), urdf.links)}")
+                    raise ModelError(f"{_where(label, el)}: link {link!r} is not a link of the "
+                                     f"URDF.{suggest(str(link), urdf.links)}")
                 if link in urdf.joint_of_child:
                     joints.append(urdf.joint_of_child[link])
             elif el.tag == "chain":
                 base, tip = el.get("base_link"), el.get("tip_link")
                 for link in (base, tip):
                     if link not in urdf.links:
-                        raise ModelError(f"{_where(label, el)}: <chain> link {link!r} is not a link of the URDF.{suggest(str(link), urdf.links)}")
+                        raise ModelError(f"{_where(label, el)}: <chain> link {link!r} is not a link of the "
+                                         f"URDF.{suggest(str(link), urdf.links)}")
                 chain = urdf.chain(base, tip)
                 if chain is None:
-                    raise ModelError(f"{_where(label, el)}: <chain> tip_link {tip!r} is not below base_link {base!r}")
+                    raise ModelError(f"{_where(label, el)}: <chain> tip_link {tip!r} is not below base_link "
+                                     f"{base!r}")
                 joints += chain
             elif el.tag == "group":
                 sub = el.get("name")
                 if sub not in elements:
-                    raise ModelError(f"{_where(label, el)}: subgroup {sub!r} is not defined.{suggest(str(sub), elements)}")
+                    raise ModelError(f"{_where(label, el)}: "
+                                     f"subgroup {sub!r} is not defined.{suggest(str(sub), elements)}")
                 joints += resolve(sub, (*stack, name))
         resolved[name] = joints
         return joints
@@ -223,8 +231,8 @@ def _states(root, label: str, urdf: _UrdfTree, robot: Robot, groups: dict) -> tu
         if not name:
             raise ModelError(f"{_where(label, st)}: <group_state> without a name attribute")
         if group is not None and group not in groups:
-            raise ModelError(f"{_where(label, st)}: <group_state name={name!r}> names group {group!r}, which is not defined."
-                             f"{suggest(group, groups)}")
+            raise ModelError(f"{_where(label, st)}: <group_state name={name!r}> names group {group!r}, "
+                             f"which is not defined.{suggest(group, groups)}")
         q = robot.neutral()
         touched = False
         for el in st.findall("joint"):
@@ -237,8 +245,8 @@ def _states(root, label: str, urdf: _UrdfTree, robot: Robot, groups: dict) -> tu
             if urdf.types.get(joint) == "revolute" and not (lo - LIMIT_TOL <= v <= hi + LIMIT_TOL):
                 v = _wrap_into(v, lo, hi)  # the same angle, 2 pi k away, when that lies within the limits
             if not (lo - LIMIT_TOL <= v <= hi + LIMIT_TOL):
-                raise ModelError(f"{_where(label, el)}: <group_state name={name!r}>: joint {joint!r} = {v!r} is outside "
-                                 f"its limits [{lo}, {hi}]")
+                raise ModelError(f"{_where(label, el)}: <group_state name={name!r}>: "
+                                 f"joint {joint!r} = {v!r} is outside its limits [{lo}, {hi}]")
             q[i] = min(max(v, lo), hi)
             touched = True
         if not touched:

@@ -153,7 +153,8 @@ def validate_urdf(root: etree._Element, label: str) -> None:
         if not name:
             raise ModelError(f"{where(label, link)}: <link> without a name attribute")
         if name in links:
-            raise ModelError(f"{where(label, link)}: duplicate link name {name!r} (first at line {links[name].sourceline})")
+            raise ModelError(f"{where(label, link)}: duplicate link name {name!r} (first at line "
+                             f"{links[name].sourceline})")
         links[name] = link
     if not links:
         raise ModelError(f"{label}: the URDF defines no <link>")
@@ -165,7 +166,8 @@ def validate_urdf(root: etree._Element, label: str) -> None:
         if not name:
             raise ModelError(f"{where(label, joint)}: <joint> without a name attribute")
         if name in joints:
-            raise ModelError(f"{where(label, joint)}: duplicate joint name {name!r} (first at line {joints[name].sourceline})")
+            raise ModelError(f"{where(label, joint)}: duplicate joint name {name!r} (first at line "
+                             f"{joints[name].sourceline})")
         joints[name] = joint
         jtype = joint.get("type")
         if jtype in _UNSUPPORTED_JOINT_TYPES:
@@ -174,17 +176,19 @@ def validate_urdf(root: etree._Element, label: str) -> None:
                 f"{', '.join(SUPPORTED_JOINT_TYPES)} joints (a fixed-base arm; nq == nv)"
             )
         if jtype not in SUPPORTED_JOINT_TYPES:
-            raise ModelError(f"{where(label, joint)}: {describe(joint)} has unknown type {jtype!r}; expected one of {SUPPORTED_JOINT_TYPES}")
+            raise ModelError(f"{where(label, joint)}: {describe(joint)} has unknown type {jtype!r}; "
+                             f"expected one of {SUPPORTED_JOINT_TYPES}")
         ends = {}
         for role in ("parent", "child"):
             el = joint.find(role)
             if el is None or not el.get("link"):
-                raise ModelError(f"{where(label, joint)}: {describe(joint)} needs a <{role} link=...> element")
+                raise ModelError(f"{where(label, joint)}: {describe(joint)} needs a <{role} link=...> "
+                                 "element")
             lname = el.get("link")
             if lname not in links:
                 raise ModelError(
-                    f"{where(label, el)}: {describe(joint)} names {role} link {lname!r}, which is not defined."
-                    f"{suggest(lname, links)}"
+                    f"{where(label, el)}: {describe(joint)} names {role} link {lname!r}, "
+                    f"which is not defined.{suggest(lname, links)}"
                 )
             ends[role] = lname
         if ends["child"] in parent_of:
@@ -193,7 +197,8 @@ def validate_urdf(root: etree._Element, label: str) -> None:
                 f"({joints[parent_of[ends['child']]].get('name')!r} and {name!r}); a URDF must be a tree"
             )
         if ends["child"] == ends["parent"]:
-            raise ModelError(f"{where(label, joint)}: {describe(joint)} connects link {ends['child']!r} to itself")
+            raise ModelError(f"{where(label, joint)}: {describe(joint)} connects link {ends['child']!r} to "
+                             "itself")
         parent_of[ends["child"]] = name
         origin = joint.find("origin")
         if origin is not None:
@@ -204,25 +209,29 @@ def validate_urdf(root: etree._Element, label: str) -> None:
             if axis is not None:
                 xyz = attribute_floats(axis, "xyz", 3, label, joint)
                 if xyz is not None and np.linalg.norm(xyz) < 1e-12:
-                    raise ModelError(f"{where(label, axis)}: {describe(joint)}: joint axis must be non-zero, got {axis.get('xyz')!r}")
+                    raise ModelError(f"{where(label, axis)}: {describe(joint)}: joint axis must be non-zero, "
+                                     f"got {axis.get('xyz')!r}")
             limit = joint.find("limit")
             if jtype in ("revolute", "prismatic") and limit is None:
-                raise ModelError(f"{where(label, joint)}: {jtype} {describe(joint)} needs a <limit lower= upper= effort= velocity=> element")
+                raise ModelError(f"{where(label, joint)}: {jtype} {describe(joint)} needs a <limit lower= "
+                                 "upper= effort= velocity=> element")
             if limit is not None:
                 lo = attribute_floats(limit, "lower", 1, label, joint, default=[0.0])
                 hi = attribute_floats(limit, "upper", 1, label, joint, default=[0.0])
                 for attr in ("effort", "velocity"):
                     if limit.get(attr) is None and jtype != "continuous":
-                        raise ModelError(f"{where(label, limit)}: {describe(joint)}: <limit> needs a {attr}= attribute (URDF requires it)")
+                        raise ModelError(f"{where(label, limit)}: {describe(joint)}: "
+                                         f"<limit> needs a {attr}= attribute (URDF requires it)")
                     attribute_floats(limit, attr, 1, label, joint)
                 if jtype != "continuous" and lo[0] > hi[0]:
-                    raise ModelError(f"{where(label, limit)}: {describe(joint)}: lower limit {lo[0]} > upper limit {hi[0]}")
+                    raise ModelError(f"{where(label, limit)}: {describe(joint)}: "
+                                     f"lower limit {lo[0]} > upper limit {hi[0]}")
     for joint in joints.values():
         mimic = joint.find("mimic")
         if mimic is not None and mimic.get("joint") not in joints:
             raise ModelError(
-                f"{where(label, mimic)}: {describe(joint)} mimics joint {mimic.get('joint')!r}, which is not defined."
-                f"{suggest(str(mimic.get('joint')), joints)}"
+                f"{where(label, mimic)}: {describe(joint)} mimics joint {mimic.get('joint')!r}, "
+                f"which is not defined.{suggest(str(mimic.get('joint')), joints)}"
             )
     roots = [n for n in links if n not in parent_of]
     if len(roots) != 1:
@@ -274,7 +283,8 @@ def lock_joints(root: etree._Element, locked: Mapping[str, float], label: str) -
         if joint is None or joint.get("type") not in ("revolute", "prismatic"):
             why = "is not a joint" if joint is None else f"is a {joint.get('type')} joint"
             raise ModelError(
-                f"{label}: cannot lock {name!r}: it {why} of the model; movable joints: {movable}.{suggest(name, movable)}"
+                f"{label}: cannot lock {name!r}: it {why} of the model; movable joints: "
+                f"{movable}.{suggest(name, movable)}"
             )
         try:
             v = float(value)
@@ -285,7 +295,8 @@ def lock_joints(root: etree._Element, locked: Mapping[str, float], label: str) -
         if not math.isfinite(v) or v < lo - LOCK_TOL or v > hi + LOCK_TOL:
             raise ModelError(f"{label}: locked joint {name!r} = {v!r} is outside its limits [{lo}, {hi}]")
         axis_el = joint.find("axis")
-        axis = np.array([float(a) for a in axis_el.get("xyz").split()]) if axis_el is not None else np.array([1.0, 0, 0])
+        axis = (np.array([float(a) for a in axis_el.get("xyz").split()]) if axis_el is not None
+                else np.array([1.0, 0, 0]))
         axis = axis / np.linalg.norm(axis)
         motion = np.eye(4)
         unit = "rad" if joint.get("type") == "revolute" else "m"
@@ -328,8 +339,10 @@ def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
 
             _MESH_LOADER = coal.CachedMeshLoader()
         try:
-            visual = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL, package_dirs=dirs, mesh_loader=_MESH_LOADER)
-            collision = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=dirs, mesh_loader=_MESH_LOADER)
+            visual = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL, package_dirs=dirs,
+                                                 mesh_loader=_MESH_LOADER)
+            collision = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=dirs,
+                                                    mesh_loader=_MESH_LOADER)
         except (ValueError, RuntimeError, OSError) as exc:
             raise ModelError(f"{label}: cannot build the visual/collision geometry: {exc}") from None
     return visual, collision
@@ -344,8 +357,10 @@ class PreparedUrdf:
     package_dirs: tuple[Path, ...]  #: folders that resolve its ``package://`` URIs (``Robot.package_dirs``)
     robot_name: str
     continuous: tuple[str, ...]
-    resolver: MeshResolver  #: resolves its meshes, now and for a later geometry build (``Robot.resolve_meshes``)
-    geometry_xml: str | None = None  #: for the geometry builder (:meth:`MeshResolver.geometry_xml`); None without meshes
+    #: resolves its meshes, now and for a later geometry build (``Robot.resolve_meshes``)
+    resolver: MeshResolver
+    #: for the geometry builder (:meth:`MeshResolver.geometry_xml`); None without meshes
+    geometry_xml: str | None = None
     missing_meshes: tuple[str, ...] = ()  #: one message per mesh file that was not found
     base_dir: Path | None = None  #: folder of the model file
 
@@ -370,7 +385,8 @@ def prepare_urdf(
     """
     src = read_urdf(source)
     root = parse_xml(src.text, src.label)
-    resolver = MeshResolver.for_model(src.base_dir, package_dirs, allow_outside=allow_outside, label=src.label)
+    resolver = MeshResolver.for_model(src.base_dir, package_dirs, allow_outside=allow_outside,
+                                      label=src.label)
     finder = resolver.finder
     validate_urdf(root, src.label)
     missing = resolver.check_meshes(root, src.label) if check_meshes else []
@@ -380,7 +396,8 @@ def prepare_urdf(
     continuous = continuous_to_revolute(root)
     if locked_joints:
         if not isinstance(locked_joints, Mapping):
-            raise ModelError(f"locked_joints must be a mapping joint name -> value, got {type(locked_joints).__name__}")
+            raise ModelError("locked_joints must be a mapping joint name -> value, "
+                             f"got {type(locked_joints).__name__}")
         lock_joints(root, locked_joints, src.label)
     changed = bool(continuous or locked_joints)
     if check_meshes:
@@ -392,7 +409,8 @@ def prepare_urdf(
         used.append(src.base_dir)  # absolutised relative meshes stay readable when `xml` is loaded again
     return PreparedUrdf(
         xml, src.label, tuple(dict.fromkeys(used)), name, tuple(continuous), resolver,
-        resolver.geometry_xml(root) if check_meshes else None, tuple(m.message for m in missing), src.base_dir,
+        resolver.geometry_xml(root) if check_meshes else None, tuple(m.message for m in missing),
+        src.base_dir,
     )
 
 

@@ -108,11 +108,14 @@ def _arg_text(path: Path, name: str, value, default: str | None) -> str:
     elif isinstance(value, str):
         text = value
     else:
-        raise ModelError(f"{path}: xacro arg {name!r} must be a number or a string, got {type(value).__name__} {value!r}")
+        raise ModelError(f"{path}: xacro arg {name!r} must be a number or a string, "
+                         f"got {type(value).__name__} {value!r}")
     if default is not None and _is_number(default) and not _is_number(text):
-        raise ModelError(f"{path}: xacro arg {name!r} = {value!r} does not parse as a finite number (its default is {default})")
+        raise ModelError(f"{path}: xacro arg {name!r} = {value!r} does not parse as a finite number (its "
+                         f"default is {default})")
     if _is_number(text) and abs(float(text)) > MAX_ABS:
-        raise ModelError(f"{path}: xacro arg {name!r} = {value!r} is beyond any physical size (|value| <= {MAX_ABS:g})")
+        raise ModelError(f"{path}: xacro arg {name!r} = {value!r} is beyond any physical size (|value| <= "
+                         f"{MAX_ABS:g})")
     return text
 
 
@@ -145,14 +148,16 @@ def process_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
     Files it includes or loads must lie in the model's folders or the
     package folders unless ``allow_outside``.
     """
-    text, _ = expand_xacro(path, args, package_dirs=package_dirs, time_limit=time_limit, allow_outside=allow_outside)
+    text, _ = expand_xacro(path, args, package_dirs=package_dirs, time_limit=time_limit,
+                           allow_outside=allow_outside)
     return text
 
 
 def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
                  package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
                  allow_outside: bool = False) -> tuple[str, list[Path]]:
-    """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see :func:`process_xacro`)."""
+    """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see
+    :func:`process_xacro`)."""
     p = _existing(path)
     mappings = check_args(p, args)
     limit = XACRO_TIME_LIMIT if time_limit is None else float(time_limit)
@@ -162,20 +167,21 @@ def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
         package_dirs = [package_dirs]
     request = {
         "path": str(p), "mappings": mappings, "packages_module": packages.__file__,
-        "package_dirs": [str(Path(d).expanduser().resolve()) for d in package_dirs], "model_dir": str(p.parent),
-        "extra_dirs": [str(d) for d in default_package_dirs()],
+        "package_dirs": [str(Path(d).expanduser().resolve()) for d in package_dirs],
+        "model_dir": str(p.parent), "extra_dirs": [str(d) for d in default_package_dirs()],
         "environ": {k: os.environ[k] for k in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH) if k in os.environ},
         "memory_limit": XACRO_MEMORY_LIMIT, "allow_outside": bool(allow_outside),
     }
     try:
-        done = subprocess.run([sys.executable, "-I", str(_WORKER)], input=json.dumps(request), capture_output=True,
-                              text=True, timeout=limit, check=False)
+        done = subprocess.run([sys.executable, "-I", str(_WORKER)], input=json.dumps(request),
+                              capture_output=True, text=True, timeout=limit, check=False)
     except subprocess.TimeoutExpired:  # subprocess.run killed the process
         raise ModelError(f"{p}: xacro expansion took longer than {limit:g} s and was stopped") from None
     try:
         answer = json.loads(done.stdout)
     except ValueError:
-        raise ModelError(f"{p}: xacro expansion stopped without an answer (exit status {done.returncode})") from None
+        raise ModelError(f"{p}: xacro expansion stopped without an answer (exit status "
+                         f"{done.returncode})") from None
     if answer["ok"]:
         return answer["xml"], [Path(f) for f in answer["found"].values()]
     raise ModelError(_failure_message(p, answer))
@@ -192,8 +198,8 @@ def _failure_message(p: Path, answer: dict) -> str:
         return f"{p}: xacro expansion ran out of memory (limit {XACRO_MEMORY_LIMIT / 1024**3:g} GiB)"
     if answer["reads_other_files"]:
         where = answer["file"] if answer["file"] != str(p) else "it or a file it reads"
-        return (f"{p}: xacro processing failed ({kind} in {where}); the details are not shown because they may "
-                f"quote files this one includes or loads - run `xacro {p}` to see them")
+        return (f"{p}: xacro processing failed ({kind} in {where}); the details are not shown because they "
+                f"may quote files this one includes or loads - run `xacro {p}` to see them")
     return f"{p}: xacro processing failed: {kind}: {answer['message']}"
 
 
@@ -213,7 +219,8 @@ def load_xacro(
 ) -> Robot:
     """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`)."""
     p = _existing(path)
-    text, found = expand_xacro(p, args, package_dirs=package_dirs, time_limit=time_limit, allow_outside=allow_outside)
+    text, found = expand_xacro(p, args, package_dirs=package_dirs, time_limit=time_limit,
+                               allow_outside=allow_outside)
     label = f"{p} (expanded xacro)"
     if isinstance(package_dirs, (str, Path)):
         package_dirs = [package_dirs]

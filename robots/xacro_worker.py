@@ -90,7 +90,8 @@ def expand(req: dict) -> dict:
     def eval_find(pkg: str) -> str:
         folder = finder.find(pkg)
         if folder is None:
-            raise xacro.XacroException(f"$(find {pkg}): package {pkg!r} not found; searched: " + "; ".join(finder.searched()))
+            raise xacro.XacroException(f"$(find {pkg}): package {pkg!r} not found; searched: "
+                                       + "; ".join(finder.searched()))
         return str(folder)
 
     substitution_args._eval_find = eval_find
@@ -98,12 +99,14 @@ def expand(req: dict) -> dict:
         _guard_file_access(xacro, finder, sys.modules["_kinserve_packages"].is_within)
     try:
         doc = xacro.process_file(req["path"], mappings=req["mappings"], verbosity=0)
-        return {"ok": True, "xml": doc.toprettyxml(indent="  "), "found": {k: str(v) for k, v in finder.found.items()}}
+        return {"ok": True, "xml": doc.toprettyxml(indent="  "),
+                "found": {k: str(v) for k, v in finder.found.items()}}
     except BaseException as exc:  # noqa: BLE001 - every failure is reported, the parent decides what to show
         stack = list(xacro.filestack or [])
         outside = _cause(exc, OutsideError)
         if outside is not None:
-            return {"ok": False, "error": "OutsideError", "message": str(outside), "roots": [str(r) for r in finder.roots()],
+            return {"ok": False, "error": "OutsideError", "message": str(outside),
+                    "roots": [str(r) for r in finder.roots()],
                     "reads_other_files": len(stack) > 1 or bool(xacro.all_includes), "file": req["path"]}
         return {
             "ok": False,
@@ -120,7 +123,8 @@ def main() -> int:
     try:
         answer = expand(req)
     except MemoryError:
-        answer = {"ok": False, "error": "MemoryError", "message": "", "reads_other_files": False, "file": req["path"]}
+        answer = {"ok": False, "error": "MemoryError", "message": "", "reads_other_files": False,
+                  "file": req["path"]}
     sys.stdout.write(json.dumps(answer))
     return 0
 

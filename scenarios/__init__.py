@@ -19,15 +19,28 @@ from .artefacts import write_json
 
 #: name -> (module, one-line description)
 SCENARIOS: dict[str, tuple[str, str]] = {
-    "planar4r": ("kinserve.scenarios.planar4r", "S1 redundant 4R planar arm: the one-parameter IK family, both elbow branches, a chooser"),
-    "youbot": ("kinserve.scenarios.youbot", "S2 KUKA youBot 5-DOF: DH FK = URDF, Jacobian rank, closed-form IK branches, nearest reachable pose"),
-    "youbot-tour": ("kinserve.scenarios.youbot_tour", "S3 youBot checkpoint tour: shortest order, SE(3) interpolation, position-only IK trajectory"),
-    "pick-place": ("kinserve.scenarios.pick_place", "S4 Franka Panda pick-and-place: SE(3) quintic trajectories with boundary twists, DLS tracking, grasp/release"),
-    "pr-rate": ("kinserve.scenarios.pr_rate", "S5 PR planar robot: resolved-rate runs, singularity detection, circle following open vs closed loop"),
-    "omni": ("kinserve.scenarios.omni", "S6 three-wheel omnidirectional base: wheel-speed kinematics and simulated motion"),
-    "mall": ("kinserve.scenarios.mall", "S7 cleaning robot in a mall: A* between waypoints, best order, smoothing and time scaling"),
-    "coverage": ("kinserve.scenarios.coverage", "S8 cleaning robot floor coverage: boustrophedon lanes, detours, covered fraction"),
-    "scara": ("kinserve.scenarios.scara", "S9 SCARA RRPR: Jacobian methods, relaxed phi / z with joint centring and a sphere obstacle"),
+    "planar4r": ("kinserve.scenarios.planar4r",
+                 "S1 redundant 4R planar arm: the one-parameter IK family, both elbow branches, a chooser"),
+    "youbot": ("kinserve.scenarios.youbot",
+               "S2 KUKA youBot 5-DOF: DH FK = URDF, Jacobian rank, closed-form IK branches, "
+               "nearest reachable pose"),
+    "youbot-tour": ("kinserve.scenarios.youbot_tour",
+                    "S3 youBot checkpoint tour: shortest order, SE(3) interpolation, "
+                    "position-only IK trajectory"),
+    "pick-place": ("kinserve.scenarios.pick_place",
+                   "S4 Franka Panda pick-and-place: SE(3) quintic trajectories with boundary twists, "
+                   "DLS tracking, grasp/release"),
+    "pr-rate": ("kinserve.scenarios.pr_rate",
+                "S5 PR planar robot: resolved-rate runs, singularity detection, "
+                "circle following open vs closed loop"),
+    "omni": ("kinserve.scenarios.omni",
+             "S6 three-wheel omnidirectional base: wheel-speed kinematics and simulated motion"),
+    "mall": ("kinserve.scenarios.mall",
+             "S7 cleaning robot in a mall: A* between waypoints, best order, smoothing and time scaling"),
+    "coverage": ("kinserve.scenarios.coverage",
+                 "S8 cleaning robot floor coverage: boustrophedon lanes, detours, covered fraction"),
+    "scara": ("kinserve.scenarios.scara",
+              "S9 SCARA RRPR: Jacobian methods, relaxed phi / z with joint centring and a sphere obstacle"),
 }
 
 
@@ -41,7 +54,8 @@ def run(name: str, out, **options) -> dict:
     from kinserve.kinematics.errors import InputError, suggest
 
     if name not in SCENARIOS:
-        raise InputError(f"unknown scenario {name!r}.{suggest(name, SCENARIOS)} Known: {', '.join(SCENARIOS)}")
+        raise InputError(f"unknown scenario {name!r}.{suggest(name, SCENARIOS)} Known: "
+                         f"{', '.join(SCENARIOS)}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     module = importlib.import_module(SCENARIOS[name][0])

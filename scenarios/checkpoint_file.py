@@ -86,7 +86,8 @@ def _angle_scale(units) -> float:
 def _pose_from_json(value, where: str, scale: float) -> np.ndarray:
     if isinstance(value, dict):
         if "position" not in value:
-            raise InputError(f"{where}: a pose needs 'position' [x, y, z] (m) and 'rpy' [roll, pitch, yaw] or 'matrix'")
+            raise InputError(f"{where}: a pose needs 'position' [x, y, z] (m) and 'rpy' [roll, pitch, "
+                             "yaw] or 'matrix'")
         if "matrix" in value:
             return as_pose(value["matrix"], where)
         p = as_vector(value["position"], 3, f"{where} position")
@@ -171,10 +172,12 @@ def parse_csv(text: str, nq: int | None = None, source: str = "<csv>", units: st
         if bool(has_q) == bool(has_pose):
             raise InputError(f"{where}: fill either the joint columns or the pose columns (exactly one)")
         if has_q:
-            points.append(Checkpoint(name, q=as_vector(np.array(numbers(qv, where)) * scale, len(qcols), f"{where} q")))
+            points.append(Checkpoint(name, q=as_vector(np.array(numbers(qv, where)) * scale, len(qcols),
+                                                       f"{where} q")))
         else:
             x, y, z, r, p, yw = numbers(pv, where)
-            points.append(Checkpoint(name, pose=se3.pose(se3.matrix_from_rpy(r * scale, p * scale, yw * scale), (x, y, z))))
+            points.append(Checkpoint(name, pose=se3.pose(se3.matrix_from_rpy(r * scale,
+                                                                             p * scale, yw * scale), (x, y, z))))
     if points[0].q is None:
         raise InputError(f"{source}: the first row (the current configuration) must be a joint vector")
     return CheckpointFile(points[0].q, points[1:], source)

@@ -1,4 +1,5 @@
-"""S8: the cleaning robot covers the mall floor - boustrophedon lanes, detours, smooth U-turns (SCENARIOS.md S8).
+"""S8: the cleaning robot covers the mall floor - boustrophedon lanes, detours, smooth U-turns (SCENARIOS.md
+S8).
 
 Map (:func:`planners.mobile.mall.s8_map`), in map units (u): 480 x 480,
 stores 1-4 on the left (x 0-120), stores 5-8 on the right (x 360-480), the
@@ -66,8 +67,8 @@ def drop_collinear(points, tol: float = 1e-9) -> np.ndarray:
     return P[keep]
 
 
-def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_speedup: float = 4.0, fps: float = 30.0,
-        padding: str = "width", scene: bool = True) -> dict:
+def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_speedup: float = 4.0,
+        fps: float = 30.0, padding: str = "width", scene: bool = True) -> dict:
     """Run S8 into ``out``; returns the key numbers (see the module docstring).
 
     ``speed`` (u/s) is the cleaning speed used for the animation and the
@@ -100,12 +101,14 @@ def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_spe
                                f"turning footprint reaches {reach.depth:.2f} u into obstacles/walls at most")
     ax = fig.axes[0]
     ax.lines[0].set_linewidth(0.7)
-    ax.imshow(np.where(missed, 1.0, np.nan), origin="lower", extent=(grid.bounds[0], grid.bounds[2], grid.bounds[1],
-              grid.bounds[3]), cmap=ListedColormap(["#e41a1c"]), vmin=0, vmax=1, alpha=0.9, interpolation="nearest", zorder=1)
+    ax.imshow(np.where(missed, 1.0, np.nan), origin="lower",
+              extent=(grid.bounds[0], grid.bounds[2], grid.bounds[1],
+              grid.bounds[3]), cmap=ListedColormap(["#e41a1c"]), vmin=0, vmax=1, alpha=0.9,
+              interpolation="nearest", zorder=1)
     for z in viz_obstacles(mall.S8_NO_GO):
         x0, y0, x1, y1 = z["rect"]
-        ax.fill([x0, x1, x1, x0], [y0, y0, y1, y1], facecolor="none", edgecolor="#7f7f7f", hatch="///", linewidth=0.8,
-                zorder=2)
+        ax.fill([x0, x1, x1, x0], [y0, y0, y1, y1], facecolor="none", edgecolor="#7f7f7f", hatch="///",
+                linewidth=0.8, zorder=2)
     ax.fill([], [], facecolor="none", edgecolor="#7f7f7f", hatch="///", label="no-go zone (padded)")
     draw_keep_out(ax, grid, label="keep-out for the centre (padded shapes, walls)")
     ax.fill([], [], color="#74c476", alpha=0.7, label=f"covered ({res.covered_area:.0f} u²)")
@@ -129,11 +132,13 @@ def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_spe
         for iv in cell:
             ax.plot([iv.x0, iv.x1], [iv.y, iv.y], color=color, linewidth=2.2, solid_capstyle="butt")
         mid = cell[len(cell) // 2]
-        ax.text(0.5 * (mid.x0 + mid.x1), mid.y, str(rank + 1), ha="center", va="center", fontsize=9, weight="bold",
+        ax.text(0.5 * (mid.x0 + mid.x1), mid.y, str(rank + 1), ha="center", va="center", fontsize=9,
+                weight="bold",
                 bbox=dict(facecolor="white", edgecolor=color, boxstyle="circle,pad=0.25"), zorder=6)
     for z in viz_obstacles(mall.S8_NO_GO):
         x0, y0, x1, y1 = z["rect"]
-        ax.fill([x0, x1, x1, x0], [y0, y0, y1, y1], facecolor="none", edgecolor="#7f7f7f", hatch="///", linewidth=0.8)
+        ax.fill([x0, x1, x1, x0], [y0, y0, y1, y1], facecolor="none", edgecolor="#7f7f7f", hatch="///",
+                linewidth=0.8)
     draw_keep_out(ax, grid, label="keep-out for the centre")
     ax.plot([], [], color="grey", linewidth=2.2, label="lanes of a cell (20 u apart)")
     fig.set_size_inches(6.4, 6.9)
@@ -145,8 +150,9 @@ def run(out: Path, *, resolution: float = 1.0, speed: float = 50.0, playback_spe
         s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(res.path, axis=0), axis=1))])
         motion = resample_motion(s / float(speed), res.path[:, 0], res.path[:, 1], res.heading, fps,
                                  speedup=playback_speedup)
-        sc = map_scene("kinserve S8 floor coverage: boustrophedon path and swept area", mall.S7_OBSTACLES, mall.BOUNDS,
-                       zones=mall.S8_NO_GO, inflate=mall.s8_padding(padding), motion=motion, fps=fps, robot_width=mall.ROBOT_WIDTH, paths={"coverage": path},
+        sc = map_scene("kinserve S8 floor coverage: boustrophedon path and swept area", mall.S7_OBSTACLES,
+                       mall.BOUNDS, zones=mall.S8_NO_GO, inflate=mall.s8_padding(padding), motion=motion,
+                       fps=fps, robot_width=mall.ROBOT_WIDTH, paths={"coverage": path},
                        waypoints={"start": start},
                        coverage=viz.Grid(covered, (grid.bounds[0], grid.bounds[1]), pix))
         viz.export_html(sc, out / "scene.html")

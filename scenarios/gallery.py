@@ -28,7 +28,8 @@ CHOSEN = {
     "coverage": "coverage.png",
     "scara": "relax_z_near_sphere.png",
 }
-SCREENSHOTS = {"pick-place": 7000, "scara": 0}  # scene -> ms of animation played before the capture (0 = first frame)
+# scene -> ms of animation played before the capture (0 = first frame)
+SCREENSHOTS = {"pick-place": 7000, "scara": 0}
 
 
 def main(argv=None) -> int:

@@ -70,10 +70,10 @@ def _polyline_length(P) -> float:
     return float(np.sum(np.linalg.norm(np.diff(np.asarray(P, dtype=float), axis=0), axis=1)))
 
 
-def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float = 25.0, omega_max: float = 1.0,
-        wheel_radius: float = 3.0, track: float = 20.0, heuristic: str = "euclidean", turn_penalty: float = 0.0,
-        proximity_weight: float = 0.0, smoothing_margin: float = 6.0, knot_spacing: float = 12.0, dt: float = 0.02,
-        fps: float = 30.0, scene: bool = True) -> dict:
+def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float = 25.0,
+        omega_max: float = 1.0, wheel_radius: float = 3.0, track: float = 20.0, heuristic: str = "euclidean",
+        turn_penalty: float = 0.0, proximity_weight: float = 0.0, smoothing_margin: float = 6.0,
+        knot_spacing: float = 12.0, dt: float = 0.02, fps: float = 30.0, scene: bool = True) -> dict:
     """Run S7 into ``out``; returns the key numbers (see the module docstring)."""
     out = Path(out)
     grid = mall.s7_map(resolution)
@@ -86,7 +86,8 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
     C, _ = pairwise_costs(grid, W, **astar_kw)
 
     # 3: smoothing, leg by leg (the robot stops at every waypoint)
-    legs = [smooth_path(grid, seg.points, margin=smoothing_margin, knot_spacing=knot_spacing) for seg in given.segments]
+    legs = [smooth_path(grid, seg.points, margin=smoothing_margin, knot_spacing=knot_spacing)
+            for seg in given.segments]
     smoothed = _join([leg.points for leg in legs])
 
     # 4: time scaling with the turn cap
@@ -108,8 +109,9 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
                           rtol=1e-8, atol=1e-8)
     ref = np.c_[np.interp(t_check, traj.t, traj.x), np.interp(t_check, traj.t, traj.y)]
     dead_reckoning = float(np.max(np.linalg.norm(X[:, :2] - ref, axis=1)))
-    np.savetxt(out / "trajectory.csv", np.c_[traj.t, traj.x, traj.y, traj.heading, traj.v, traj.a, traj.omega, phi],
-               delimiter=",", fmt="%.12g", comments="",
+    np.savetxt(out / "trajectory.csv",
+               np.c_[traj.t, traj.x, traj.y, traj.heading, traj.v, traj.a, traj.omega, phi], delimiter=",",
+               fmt="%.12g", comments="",
                header="t_s,x_u,y_u,heading_rad,v_u_s,a_u_s2,omega_rad_s,phi_left_rad_s,phi_right_rad_s")
 
     # plots
@@ -138,10 +140,12 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
     ax.legend(loc="lower right", fontsize=8, framealpha=0.9)
     viz.save_png(fig, out / "best_order.png")
 
-    fig = viz.series_figure(traj.t, {"speed v (u/s)": traj.v, "angular velocity ω (rad/s) × 10": 10 * traj.omega,
+    fig = viz.series_figure(traj.t, {"speed v (u/s)": traj.v,
+                                     "angular velocity ω (rad/s) × 10": 10 * traj.omega,
                                      "acceleration a (u/s²)": traj.a},
                             xlabel="time (s)", ylabel="v (u/s), 10·ω (rad/s), a (u/s²)",
-                            title=f"Speed profile: v ≤ {v_max:g} u/s, |a| ≤ {a_max:g} u/s², |ω| ≤ {omega_max:g} rad/s")
+                            title=f"Speed profile: v ≤ {v_max:g} u/s, |a| ≤ {a_max:g} u/s², "
+                                  f"|ω| ≤ {omega_max:g} rad/s")
     ax = fig.axes[0]
     for c in (+1, -1):
         ax.axhline(10 * c * omega_max, color="grey", linestyle="--", linewidth=0.8)
@@ -154,15 +158,16 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
     ax.legend(loc="upper center", fontsize=8, ncol=3, framealpha=0.9)
     viz.save_png(fig, out / "speed.png")
 
-    fig = viz.series_figure(traj.t, {"left wheel φ_L": phi[:, 0], "right wheel φ_R": phi[:, 1]}, xlabel="time (s)",
-                            ylabel="wheel speed (rad/s)",
-                            title=f"Differential drive: φ_R,L = (v ± ω b/2) / r  (r = {wheel_radius:g} u, b = {track:g} u)")
+    fig = viz.series_figure(traj.t, {"left wheel φ_L": phi[:, 0], "right wheel φ_R": phi[:, 1]},
+                            xlabel="time (s)", ylabel="wheel speed (rad/s)",
+                            title=f"Differential drive: φ_R,L = (v ± ω b/2) / r  (r = {wheel_radius:g} u, "
+                                  f"b = {track:g} u)")
     viz.save_png(fig, out / "wheels.png")
 
     if scene:
         motion = resample_motion(traj.t, traj.x, traj.y, traj.heading, fps)
-        sc = map_scene("kinserve S7 mall: A* path, smoothed path, base driving", obstacles, mall.BOUNDS, motion=motion,
-                       fps=fps, robot_width=mall.ROBOT_WIDTH, inflate=mall.S7_INFLATION,
+        sc = map_scene("kinserve S7 mall: A* path, smoothed path, base driving", obstacles, mall.BOUNDS,
+                       motion=motion, fps=fps, robot_width=mall.ROBOT_WIDTH, inflate=mall.S7_INFLATION,
                        paths={"astar": given.points, "smoothed": smoothed}, waypoints=wp)
         viz.export_html(sc, out / "scene.html")
 

@@ -57,8 +57,8 @@ def resample_motion(t, x, y, heading, fps: float, speedup: float = 1.0) -> np.nd
     return np.c_[np.interp(tf, t, x), np.interp(tf, t, y), np.interp(tf, t, h)]
 
 
-def map_scene(title: str, obstacles, bounds, *, zones=(), motion=None, fps: float = 30.0, robot_width: float = 20.0,
-              **map_kwargs) -> viz.Scene:
+def map_scene(title: str, obstacles, bounds, *, zones=(), motion=None, fps: float = 30.0,
+              robot_width: float = 20.0, **map_kwargs) -> viz.Scene:
     """A :class:`viz.Scene` of the 2-D map (``viz.Scene.add_map`` arguments in ``map_kwargs``) with a
     square base ``robot_width`` wide - blue body, yellow nose at the front, the dark vacuum bar at the
     back - keyed along ``motion`` (rows ``(x, y, heading)``, one per frame at ``fps``).
@@ -72,7 +72,8 @@ def map_scene(title: str, obstacles, bounds, *, zones=(), motion=None, fps: floa
     w = float(robot_width)
     scene.add_box("map/robot/body", [w, w, 0.4 * w], [0.0, 0.0, 0.2 * w], color="blue")
     scene.add_box("map/robot/nose", [0.15 * w, 0.3 * w, 0.1 * w], [0.42 * w, 0.0, 0.45 * w], color="yellow")
-    scene.add_box("map/robot/vacuum", [0.15 * w, 0.9 * w, 0.1 * w], [-0.55 * w, 0.0, 0.05 * w], color="darkgrey")
+    scene.add_box("map/robot/vacuum", [0.15 * w, 0.9 * w, 0.1 * w], [-0.55 * w, 0.0, 0.05 * w],
+                  color="darkgrey")
     if motion is not None:
         anim = viz.Animation(scene, fps=fps)
         anim.planar("map/robot", motion)
@@ -81,6 +82,7 @@ def map_scene(title: str, obstacles, bounds, *, zones=(), motion=None, fps: floa
         scene["map/robot"].set_transform(np.eye(4))
     x0, y0, x1, y1 = (float(v) for v in bounds)
     cx, cy, size = 0.5 * (x0 + x1) * SCALE, 0.5 * (y0 + y1) * SCALE, max(x1 - x0, y1 - y0) * SCALE
-    # shapes under the scaled map node would make the automatic framing too wide: look at the map from the front, above
+    # shapes under the scaled map node would make the automatic framing too wide: look at the map from the
+    # front, above
     scene.set_camera([cx, cy - 0.6 * size, 0.75 * size], [cx, cy + 0.03 * size, 0.0])
     return scene

@@ -98,7 +98,8 @@ def _draw_bases(ax, base: OmniBase, poses, color="grey"):
         ax.plot(W[0, 0], W[0, 1], "o", color="#d62728", markersize=4, label="wheel A" if k == 0 else None)
         ax.plot(W[1:, 0], W[1:, 1], "o", color="black", markersize=3)
         x, y, th = pose
-        ax.annotate("", xy=(x + 0.6 * base.center_distance * math.cos(th), y + 0.6 * base.center_distance * math.sin(th)),
+        ax.annotate("", xy=(x + 0.6 * base.center_distance * math.cos(th),
+                            y + 0.6 * base.center_distance * math.sin(th)),
                     xytext=(x, y), arrowprops=dict(arrowstyle="->", color=color, linewidth=0.9))
 
 
@@ -114,7 +115,8 @@ def _rotation_in_place(base: OmniBase, phi: float, duration: float) -> dict:
         "theta_rate_expected": expected,
         "final_theta": float(X[-1, 2]),
         "max_centre_displacement": float(np.max(np.hypot(X[:, 0], X[:, 1]))),
-        "sense": "opposite to the wheels" if rate * phi < 0 else ("same as the wheels" if rate * phi > 0 else "none"),
+        "sense": "opposite to the wheels" if rate * phi < 0 else ("same as the wheels"
+                                                                  if rate * phi > 0 else "none"),
         "samples": np.c_[t, X][::10],
         "_t": t,
         "_X": X,
@@ -122,7 +124,8 @@ def _rotation_in_place(base: OmniBase, phi: float, duration: float) -> dict:
 
 
 def run(out: Path, *, center_distance: float = CENTER_DISTANCE, wheel_radius: float = WHEEL_RADIUS,
-        equal_speed: float = 0.1, single_wheel_speed: float = math.pi / 2, initial_heading_deg: float = 30.0) -> dict:
+        equal_speed: float = 0.1, single_wheel_speed: float = math.pi / 2,
+        initial_heading_deg: float = 30.0) -> dict:
     """Run S6 into ``out``; returns the key numbers (see the module docstring)."""
     out = Path(out)
     base = OmniBase(wheel_radius=float(wheel_radius), center_distance=float(center_distance))
@@ -136,7 +139,8 @@ def run(out: Path, *, center_distance: float = CENTER_DISTANCE, wheel_radius: fl
          f"heading θ, φ = −{equal_speed:g} rad/s (all wheels)": rot[-1]["_X"][:, 2],
          "centre x (φ = +)": rot[+1]["_X"][:, 0], "centre y (φ = +)": rot[+1]["_X"][:, 1]},
         xlabel="time (s)", ylabel="rad or m",
-        title=f"Equal wheel speeds: rotation in place, θ̇ = −Rφ/D = {rot[+1]['theta_rate_expected']:+.3f} rad/s")
+        title=f"Equal wheel speeds: rotation in place, θ̇ = −Rφ/D = {rot[+1]['theta_rate_expected']:+.3f} "
+              "rad/s")
     viz.save_png(fig, out / "rotation.png")
 
     # (b) wheel A alone: a circle
@@ -213,15 +217,18 @@ def run(out: Path, *, center_distance: float = CENTER_DISTANCE, wheel_radius: fl
     for k, c in enumerate(commands):
         marks.setdefault(tuple(np.round(c["start_pose"][:2], 6)), []).append(f"{k + 1}: {c['label']}")
     marks.setdefault(tuple(np.round(X[-1, :2], 6)), []).append("end")
-    fig = viz.xy_figure({"centre path": X[:, :2]}, points={", ".join(v): np.array(k) for k, v in marks.items()},
+    fig = viz.xy_figure({"centre path": X[:, :2]},
+                        points={", ".join(v): np.array(k) for k, v in marks.items()},
                         title="Body-twist command sequence (simulated with solve_ivp)")
     ax = fig.axes[0]
-    _draw_bases(ax, base, [c["start_pose"] for c in commands if abs(c["body_twist"][0]) + abs(c["body_twist"][1]) > 0]
+    _draw_bases(ax, base, [c["start_pose"] for c in commands
+                           if abs(c["body_twist"][0]) + abs(c["body_twist"][1]) > 0]
                 + [X[-1]])
     ax.legend(loc="best", fontsize=8)
     ax.autoscale()
     viz.save_png(fig, out / "sequence.png")
-    fig = viz.series_figure(T, {f"wheel {n}": PHI[:, i] for i, n in enumerate(WHEEL_NAMES)} | {"heading θ (rad)": X[:, 2]},
+    fig = viz.series_figure(T, {f"wheel {n}": PHI[:, i] for i, n in enumerate(WHEEL_NAMES)} | {"heading θ "
+                                                                                               "(rad)": X[:, 2]},
                             xlabel="time (s)", ylabel="wheel speed (rad/s)",
                             title="Wheel speeds φ = H(0)·(v_x, v_y, ω) of the command sequence")
     ax = fig.axes[0]

@@ -1,4 +1,5 @@
-"""S4 clearance: the smallest distance between the arm (and the carried cylinder) and the scene along the motion.
+"""S4 clearance: the smallest distance between the arm (and the carried cylinder) and the scene along the
+motion.
 
 The scene is a **table top** under the robot and the objects (top face at
 ``z = 0``, :data:`TABLE_CENTRE`, :data:`TABLE_SIZE`) and the **open box** (a
@@ -41,7 +42,8 @@ def box_plates(centre, size: float, wall: float) -> list[Box]:
     plates = [Box(se3.pose(p=c + [0, 0, -size / 2 + wall / 2]), (size, size, wall))]
     for dx, dy in ((1, 0), (-1, 0), (0, 1), (0, -1)):
         sx, sy = (wall, size) if dx else (size, wall)
-        plates.append(Box(se3.pose(p=c + [dx * (size - wall) / 2, dy * (size - wall) / 2, 0]), (sx, sy, size)))
+        plates.append(Box(se3.pose(p=c + [dx * (size - wall) / 2, dy * (size - wall) / 2, 0]),
+                          (sx, sy, size)))
     return plates
 
 
@@ -69,7 +71,8 @@ def _cylinder_distance(pose: np.ndarray, radius: float, height: float, obstacles
     best = np.inf
     for ob in obstacles:
         res.clear()
-        d = coal.distance(cyl.geometry(), T, ob.geometry(), coal.Transform3s(ob.pose[:3, :3], ob.pose[:3, 3]), req, res)
+        d = coal.distance(cyl.geometry(), T, ob.geometry(),
+                          coal.Transform3s(ob.pose[:3, :3], ob.pose[:3, 3]), req, res)
         best = min(best, d)
     return float(best)
 

@@ -1,4 +1,5 @@
-"""S1: the redundant planar 4R arm - the one-parameter IK family, both elbow branches, a chooser (SCENARIOS.md S1).
+"""S1: the redundant planar 4R arm - the one-parameter IK family, both elbow branches, a chooser (SCENARIOS.md
+S1).
 
 Arm (``robots.load("planar4r")``): four revolute joints about ``z``, link
 lengths ``l1..l4`` (default 1.0, 0.8, 0.6, 0.4 m), joint limits ``+-pi``::
@@ -114,11 +115,13 @@ def boundary_sweep(robot, lengths, direction: float, gaps, samples: int) -> dict
     rows = []
     for gap in gaps:
         d = L - gap
-        fam = ik.solve_all(robot, planar_pose(d * math.cos(direction), d * math.sin(direction), direction), samples=samples)
+        fam = ik.solve_all(robot, planar_pose(d * math.cos(direction), d * math.sin(direction), direction),
+                           samples=samples)
         Q = np.array([r.q for r in fam])
         q1 = np.array([r.info["free_parameter"] for r in fam])
         sep = max((float(np.abs(fam[i].q - fam[j].q).max()) for i, j in branch_pairs(fam)), default=0.0)
-        pe, _ = fk_residuals(robot, Q, planar_pose(d * math.cos(direction), d * math.sin(direction), direction))
+        pe, _ = fk_residuals(robot, Q, planar_pose(d * math.cos(direction),
+                                                   d * math.sin(direction), direction))
         rows.append({"gap": float(gap), "reach": d, "family_size": len(fam), "distinct": distinct(Q),
                      "free_parameter_width": float(q1.max() - q1.min()), "branch_separation": sep,
                      "max_fk_position_residual": float(pe.max())})
@@ -157,18 +160,20 @@ def family_figure(lengths, Q, labels, overlap, target) -> Figure:
     for b in ("elbow up", "elbow down"):
         mine = labels == b
         n, n_cross = int(mine.sum()), int((mine & overlap).sum())
-        groups[f"{b}: {n} members" + (f" ({n_cross} with crossing links, drawn apart)" if n_cross else "")] = \
+        groups[f"{b}: {n} members"
+               + (f" ({n_cross} with crossing links, drawn apart)" if n_cross else "")] = \
             Q[mine & ~overlap]
     if overlap.any():
         groups[f"links cross: {int(overlap.sum())} members (rejected by no_self_overlap)"] = Q[overlap]
     fig = viz.planar_arm_figure(lengths, groups, target=target, max_per_branch=24, count_in_label=False,
-                                title=f"S1 4R family for (x, y, θe) = ({target[0]:g}, {target[1]:g}, {target[2]:.3g}): "
-                                      f"{len(Q)} members")
+                                title=f"S1 4R family for (x, y, θe) = ({target[0]:g}, {target[1]:g}, "
+                                      f"{target[2]:.3g}): {len(Q)} members")
     ax = fig.axes[0]
     _zoom(ax, np.vstack([viz.planar_chain(lengths, q) for q in Q]))
     handles, names = ax.get_legend_handles_labels()
     ax.get_legend().remove()
-    fig.legend(handles, names, loc="outside lower center", fontsize=8, frameon=False)  # below the arms, not on them
+    # below the arms, not on them
+    fig.legend(handles, names, loc="outside lower center", fontsize=8, frameon=False)
     fig.set_size_inches(6.4, 7.2)
     return fig
 
@@ -184,18 +189,20 @@ def _family_joints_figure(family, overlap, chosen, target):
             sel = labels == label
             order = np.argsort(q1[sel])
             x, y = _broken(q1[sel][order], Q[sel][order, k])
-            ax.plot(x, y, marker=m, markersize=3, linewidth=0.8, linestyle="-", color=viz.colors.to_rgb(c), label=label)
+            ax.plot(x, y, marker=m, markersize=3, linewidth=0.8, linestyle="-",
+                    color=viz.colors.to_rgb(c), label=label)
         if overlap.any():
             ax.plot(q1[overlap], Q[overlap, k], "x", color="black", markersize=6, label="links cross")
         for i, (name, idx) in enumerate(chosen.items()):
             ax.plot([q1[idx]], [Q[idx, k]], marker="*", markersize=12, linestyle="none",
-                    color=viz.colors.to_rgb(viz.colors.PALETTE[2 + i]), markeredgecolor="black", label=f"pick: {name}")
+                    color=viz.colors.to_rgb(viz.colors.PALETTE[2 + i]), markeredgecolor="black",
+                    label=f"pick: {name}")
         ax.set_xlabel("free parameter q1 (rad)")
         ax.set_ylabel(f"q{k + 1} (rad)")
         ax.grid(True, alpha=0.3)
     axes[0].legend(fontsize=7, loc="best")
-    fig.suptitle(f"S1 solution family of (x, y, θe) = ({target[0]:g} m, {target[1]:g} m, {target[2]:.3g} rad): "
-                 "q2, q3, q4 as functions of q1", fontsize=10)
+    fig.suptitle(f"S1 solution family of (x, y, θe) = ({target[0]:g} m, {target[1]:g} m, "
+                 f"{target[2]:.3g} rad): q2, q3, q4 as functions of q1", fontsize=10)
     return fig
 
 
@@ -211,8 +218,8 @@ def _chosen_figure(lengths, family, chosen, q_current, target, scores):
     ax.plot(P[:, 0], P[:, 1], "--o", color="black", linewidth=1.4, markersize=4, label="q_current")
     for i, (name, idx) in enumerate(chosen.items()):
         P = viz.planar_chain(lengths, family[idx].q)
-        ax.plot(P[:, 0], P[:, 1], "-o", color=viz.colors.to_rgb(viz.colors.PALETTE[2 + i]), linewidth=2.6, markersize=5,
-                label=f"{name} ({family[idx].info['branch']}, {scores[name]})")
+        ax.plot(P[:, 0], P[:, 1], "-o", color=viz.colors.to_rgb(viz.colors.PALETTE[2 + i]), linewidth=2.6,
+                markersize=5, label=f"{name} ({family[idx].info['branch']}, {scores[name]})")
     _zoom(ax, np.vstack([viz.planar_chain(lengths, q) for q in np.vstack([Q, q_current])]))
     ax.legend(loc="lower left", fontsize=7, framealpha=0.9)
     return fig
@@ -225,7 +232,8 @@ def _boundary_figure(sweep, lengths, families):
     width = np.array([r["free_parameter_width"] for r in rows])
     sep = np.array([r["branch_separation"] for r in rows])
     ax.loglog(gap, width, "o-", color=viz.colors.to_rgb("blue"), label="width of the q1 interval (rad)")
-    ax.loglog(gap, sep, "s-", color=viz.colors.to_rgb("orange"), label="max |q_up − q_down| at equal q1 (rad)")
+    ax.loglog(gap, sep, "s-", color=viz.colors.to_rgb("orange"),
+              label="max |q_up − q_down| at equal q1 (rad)")
     ref = width[-1] * np.sqrt(gap / gap[-1])
     ax.loglog(gap, ref, ":", color="grey", label="∝ √gap")
     ax.set_xlabel("gap to full reach  L − |p|  (m)")
@@ -239,8 +247,8 @@ def _boundary_figure(sweep, lengths, families):
         idx = np.unique(np.linspace(0, len(Q) - 1, min(len(Q), 10)).round().astype(int))
         for j, k in enumerate(idx):
             P = viz.planar_chain(lengths, Q[k])
-            arm.plot(P[:, 0], P[:, 1], "-o", color=c, markersize=2.5, linewidth=1.1 if len(Q) > 1 else 2.4, alpha=0.8,
-                     label=label if j == 0 else None)
+            arm.plot(P[:, 0], P[:, 1], "-o", color=c, markersize=2.5, linewidth=1.1 if len(Q) > 1 else 2.4,
+                     alpha=0.8, label=label if j == 0 else None)
     arm.add_patch(CirclePatch((0, 0), L, fill=False, linestyle=":", edgecolor="grey"))
     arm.plot([0], [0], "ks", markersize=7)
     arm.set_aspect("equal")
@@ -281,9 +289,9 @@ def run(out: Path, *, target=TARGET, q_current=Q_CURRENT, lengths=(1.0, 0.8, 0.6
         q = family[i].q
         picks[name] = {
             "criteria": list(criteria), "index": i, "q": q, "branch": labels[i], "free_parameter": q1[i],
-            "joint_limit_distance": joint_limit_distance(robot, q), "displacement": float(np.linalg.norm(q - q_current)),
-            "manipulability": robot.manipulability(q), "self_overlap": bool(overlap[i]),
-            "fk_position_residual": pe[i], "fk_orientation_residual": re[i],
+            "joint_limit_distance": joint_limit_distance(robot, q),
+            "displacement": float(np.linalg.norm(q - q_current)), "manipulability": robot.manipulability(q),
+            "self_overlap": bool(overlap[i]), "fk_position_residual": pe[i], "fk_orientation_residual": re[i],
         }
     scores = {
         "joint_limit_distance": f"limit distance {picks['joint_limit_distance']['joint_limit_distance']:.3f}",
@@ -305,7 +313,8 @@ def run(out: Path, *, target=TARGET, q_current=Q_CURRENT, lengths=(1.0, 0.8, 0.6
     for gap in (0.3, 0.08, 0.0):
         d = L - gap
         fam = ik.solve_all(robot, planar_pose(d * math.cos(a), d * math.sin(a), a), samples=samples)
-        boundary_families[f"|p| = {d:g} m ({len(fam)} sampled)" if gap else f"|p| = {d:g} m = L: stretched"] = np.array(
+        boundary_families[f"|p| = {d:g} m ({len(fam)} sampled)" if gap
+                          else f"|p| = {d:g} m = L: stretched"] = np.array(
             [r.q for r in fam])
 
     # plots

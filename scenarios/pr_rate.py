@@ -1,4 +1,5 @@
-"""S5: the PR planar robot - resolved-rate motion, singularities, circle following (SCENARIOS.md S5, seed 003).
+"""S5: the PR planar robot - resolved-rate motion, singularities, circle following (SCENARIOS.md S5, seed
+003).
 
 Robot (``robots.load("pr", d2=...)``): ``T = Tx(d1) Rz(theta2) Tx(d2)``, tool
 at ``x = d1 + d2 cos theta2``, ``y = d2 sin theta2``; position Jacobian
@@ -163,13 +164,15 @@ def circle_run(robot, d2: float, centre, radius: float, n: int, dt: float) -> tu
     q0 = inverse_kinematics((centre[0] + radius, centre[1]), d2)
     res = {}
     for key, closed in (("open", False), ("closed", True)):
-        res[key] = follow_circle(robot, centre, radius, q0, n, dt, closed_loop=closed, sigma_threshold=SIGMA_THRESHOLD)
+        res[key] = follow_circle(robot, centre, radius, q0, n, dt, closed_loop=closed,
+                                 sigma_threshold=SIGMA_THRESHOLD)
     row = {"centre": list(centre), "radius": radius, "n": n, "dt": dt, "q0": q0,
            "touches_singularity": bool(centre[1] + radius >= d2 - 1e-12)}
     for key, r in res.items():
         radial = np.abs(np.linalg.norm(r.positions - np.asarray(centre), axis=1) - radius)
         row[key] = {"max_error": r.max_error, "rms_error": r.rms_error, "final_error": r.final_error,
-                    "max_radial_error": float(radial.max()), "min_manipulability": float(r.manipulability.min()),
+                    "max_radial_error": float(radial.max()),
+                    "min_manipulability": float(r.manipulability.min()),
                     "max_joint_rate": float(_rate_norms(r).max()), "events": _events(r)}
     row["closed_beats_open"] = bool(row["closed"]["max_error"] < row["open"]["max_error"]
                                     and row["closed"]["rms_error"] < row["open"]["rms_error"])
@@ -190,7 +193,8 @@ def _color(i):
 
 
 def plot_runs_xy(rows, results, d2: float, path: Path) -> None:
-    """One panel per run: the followed path (markers at the steps) against the ideal line, the band ``|y| <= d2``."""
+    """One panel per run: the followed path (markers at the steps) against the ideal line, the band
+    ``|y| <= d2``."""
     fig, axes = _figure(3, 4, (13.0, 9.0))
     for ax, row, res in zip(axes.flat, rows, results):
         P, R = res.positions, res.reference
@@ -202,14 +206,17 @@ def plot_runs_xy(rows, results, d2: float, path: Path) -> None:
         ax.axhspan(-d2, d2, color="green", alpha=0.07, linewidth=0)
         ax.axhline(d2, color="green", linewidth=0.6, alpha=0.6)
         ax.axhline(-d2, color="green", linewidth=0.6, alpha=0.6)
-        ax.plot(R[:, 0], R[:, 1], linestyle="--", color="black", linewidth=1.0, label="ideal line x(q0) + v t")
-        ax.plot(P[:, 0], P[:, 1], marker=".", markersize=4, color=_color(0), linewidth=1.3, label="tool (open loop)")
+        ax.plot(R[:, 0], R[:, 1], linestyle="--", color="black", linewidth=1.0,
+                label="ideal line x(q0) + v t")
+        ax.plot(P[:, 0], P[:, 1], marker=".", markersize=4, color=_color(0), linewidth=1.3,
+                label="tool (open loop)")
         for s in row["singular_steps"][:3]:
             ax.plot(P[s, 0], P[s, 1], marker="o", markersize=8, markerfacecolor="none", color="red")
         ax.set_xlim(lo[0] - pad, hi[0] + pad)
         ax.set_ylim(lo[1] - pad, hi[1] + pad)
         v, qi = row["v"], row["q_init"]
-        ax.set_title(f"run {row['run']}: v=({v[0]:g}, {v[1]:g}), θ₀={qi[1]:g}°, n={row['n']}, Δ={row['dt']:g}", fontsize=9)
+        ax.set_title(f"run {row['run']}: v=({v[0]:g}, {v[1]:g}), θ₀={qi[1]:g}°, n={row['n']}, "
+                     f"Δ={row['dt']:g}", fontsize=9)
         note = f"final error {row['final_error']:.3g} m"
         if row["leaves_workspace_step"] is not None:
             note += f"\nline leaves |y|≤d₂ at step {row['leaves_workspace_step']}"
@@ -223,7 +230,8 @@ def plot_runs_xy(rows, results, d2: float, path: Path) -> None:
     ax.axis("off")
     ax.plot([], [], linestyle="--", color="black", label="ideal straight line x(q₀) + v t")
     ax.plot([], [], marker=".", color=_color(0), label="tool, open loop J⁺ v Δ (damped)")
-    ax.plot([], [], marker="o", markerfacecolor="none", linestyle="none", color="red", label="singularity event (σ_min < 0.05)")
+    ax.plot([], [], marker="o", markerfacecolor="none", linestyle="none", color="red",
+            label="singularity event (σ_min < 0.05)")
     ax.fill_between([], [], color="green", alpha=0.15, label=f"reachable band |y| ≤ d₂ = {d2:g} m")
     ax.legend(loc="center", fontsize=9)
     fig.suptitle("S5 PR robot: the document's resolved-rate runs (x, y in m)", fontsize=12)
@@ -254,15 +262,16 @@ def runs_joints_figure(rows, results) -> Figure:
         ax.plot(steps, res.q[:, 0], color=_color(0), linewidth=1.3, marker=".", markersize=3, label="d₁ (m)")
         ax.set_ylabel("d₁ (m)", color=_color(0), fontsize=8)
         tw = ax.twinx()
-        tw.plot(*_wrapped_degrees(steps, res.q[:, 1]), color=_color(1), linewidth=0.9, marker="o", markersize=2.5,
-                label="θ₂ (deg)")
+        tw.plot(*_wrapped_degrees(steps, res.q[:, 1]), color=_color(1), linewidth=0.9, marker="o",
+                markersize=2.5, label="θ₂ (deg)")
         for s in (90, -90):
             tw.axhline(s, color="red", linestyle="--", linewidth=0.8)
         tw.set_ylim(-185, 185)
         tw.set_yticks([-180, -90, 0, 90, 180])
         tw.set_ylabel("θ₂ (deg)", color=_color(1), fontsize=8)
         v, qi = row["v"], row["q_init"]
-        ax.set_title(f"run {row['run']}: v=({v[0]:g}, {v[1]:g}), θ₀={qi[1]:g}°, n={row['n']}, Δ={row['dt']:g}", fontsize=9)
+        ax.set_title(f"run {row['run']}: v=({v[0]:g}, {v[1]:g}), θ₀={qi[1]:g}°, n={row['n']}, "
+                     f"Δ={row['dt']:g}", fontsize=9)
         ax.set_xlabel("step k", fontsize=8)
         for a in (ax, tw):
             a.tick_params(labelsize=7)
@@ -283,8 +292,8 @@ def plot_step_size(study: dict, path: Path) -> None:
     dts = [r["dt"] for r in study["rows"]]
     ax.loglog(dts, [r["open_loop_final_error"] for r in study["rows"]], marker="o", color=_color(0),
               label="open loop (the document's scheme)")
-    ax.loglog(dts, [max(r["closed_loop_final_error"], 1e-16) for r in study["rows"]], marker="s", color=_color(2),
-              label="closed loop (error feedback)")
+    ax.loglog(dts, [max(r["closed_loop_final_error"], 1e-16) for r in study["rows"]], marker="s",
+              color=_color(2), label="closed loop (error feedback)")
     ref = np.array(dts)
     c = study["rows"][-1]["open_loop_final_error"] / dts[-1]
     ax.loglog(ref, c * ref, linestyle=":", color="grey", label="∝ Δ")
@@ -308,18 +317,22 @@ def plot_circles(rows, runs, d2: float, path: Path) -> None:
         ax.plot(cl.positions[:, 0], cl.positions[:, 1], color=_color(0), linewidth=1.0, linestyle="--")
         ax.plot(*op.positions[0], marker="o", color="black", markersize=4)
         ax.set_aspect("equal", adjustable="datalim")
-        ax.set_title(f"centre ({c[0]:g}, {c[1]:g}), r = {r:g}, n = {row['n']}, Δ = {row['dt']:g}", fontsize=10)
-        ax.text(0.02, 0.9, f"max error\nopen {row['open']['max_error']:.2g} m\nclosed {row['closed']['max_error']:.2g} m",
-                transform=ax.transAxes, fontsize=8, va="top",
+        ax.set_title(f"centre ({c[0]:g}, {c[1]:g}), r = {r:g}, n = {row['n']}, "
+                     f"Δ = {row['dt']:g}", fontsize=10)
+        ax.text(0.02, 0.9,
+                f"max error\nopen {row['open']['max_error']:.2g} m\nclosed {row['closed']['max_error']:.2g} m", transform=ax.transAxes, fontsize=8, va="top",
                 bbox=dict(boxstyle="round", facecolor="white", alpha=0.85, linewidth=0.3))
         ax.grid(True, alpha=0.3)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
     handles = [
-        axes[0, 0].plot([], [], color="black", linewidth=2.6, alpha=0.25, label="reference circle (1 rad/s, start ●)")[0],
+        axes[0, 0].plot([], [], color="black", linewidth=2.6, alpha=0.25,
+                        label="reference circle (1 rad/s, start ●)")[0],
         axes[0, 0].plot([], [], color=_color(1), label="open loop: J⁺ ẋ_ref Δ (the document's scheme)")[0],
-        axes[0, 0].plot([], [], color=_color(0), linestyle="--", label="closed loop: J⁺ (x_ref(k+1) − x_ref(k) + e_k)")[0],
-        axes[0, 0].plot([], [], color="red", linestyle="--", label=f"y = d₂ = {d2:g} m (θ₂ = 90°, singular)")[0],
+        axes[0, 0].plot([], [], color=_color(0), linestyle="--",
+                        label="closed loop: J⁺ (x_ref(k+1) − x_ref(k) + e_k)")[0],
+        axes[0, 0].plot([], [], color="red", linestyle="--",
+                        label=f"y = d₂ = {d2:g} m (θ₂ = 90°, singular)")[0],
     ]
     fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=9)
     fig.suptitle("S5 circle following: reference vs open loop vs closed loop", fontsize=12)
@@ -330,7 +343,8 @@ def plot_circle_errors(rows, runs, path: Path) -> None:
     fig, ((ax,),) = _figure(1, 1, (8.0, 4.8))
     for i, (row, (op, cl)) in enumerate(zip(rows, runs)):
         lab = f"c=({row['centre'][0]:g}, {row['centre'][1]:g}) r={row['radius']:g} Δ={row['dt']:g}"
-        ax.semilogy(op.times, np.maximum(op.errors, 1e-16), color=_color(i), linewidth=1.2, label=f"open, {lab}")
+        ax.semilogy(op.times, np.maximum(op.errors, 1e-16), color=_color(i), linewidth=1.2,
+                    label=f"open, {lab}")
         ax.semilogy(cl.times, np.maximum(cl.errors, 1e-16), color=_color(i), linewidth=1.0, linestyle=":",
                     label=f"closed, {lab}")
     ax.set_xlabel("time (s)")
@@ -342,12 +356,15 @@ def plot_circle_errors(rows, runs, path: Path) -> None:
 
 
 def plot_manipulability(rows, results, circle_rows, circle_runs, path: Path, which=(1, 2, 5, 9, 10)) -> None:
-    """``w = |det J|`` along the straight-line runs (singularity events circled) and along the circles' first turn."""
+    """``w = |det J|`` along the straight-line runs (singularity events circled) and along the circles' first
+    turn."""
     fig, ((a1,), (a2,)) = _figure(2, 1, (8.0, 7.0))
     for i, k in enumerate(which):
         row, res = rows[k - 1], results[k - 1]
-        a1.plot(np.arange(len(res.manipulability)), res.manipulability, color=_color(i), marker=".", markersize=3,
-                label=f"run {k}: v=({row['v'][0]:g}, {row['v'][1]:g}), θ₀={row['q_init'][1]:g}°, Δ={row['dt']:g}")
+        a1.plot(np.arange(len(res.manipulability)), res.manipulability, color=_color(i), marker=".",
+                markersize=3,
+                label=f"run {k}: v=({row['v'][0]:g}, {row['v'][1]:g}), θ₀={row['q_init'][1]:g}°, "
+                      f"Δ={row['dt']:g}")
         for s in row["singular_steps"]:
             a1.plot(s, res.manipulability[s], marker="o", markersize=9, markerfacecolor="none", color="red")
     a1.plot([], [], marker="o", markerfacecolor="none", linestyle="none", color="red",
@@ -358,7 +375,8 @@ def plot_manipulability(rows, results, circle_rows, circle_runs, path: Path, whi
     a1.set_ylim(0, 1.5)
     a1.legend(fontsize=7, loc="upper center", ncol=2)
     for i, (row, (op, cl)) in enumerate(zip(circle_rows, circle_runs)):
-        a2.plot(cl.times, cl.manipulability, color=_color(i), linewidth=1.4 if i != 1 else 2.6, alpha=1 if i != 1 else 0.6,
+        a2.plot(cl.times, cl.manipulability, color=_color(i), linewidth=1.4 if i != 1 else 2.6,
+                alpha=1 if i != 1 else 0.6,
                 label=f"c=({row['centre'][0]:g}, {row['centre'][1]:g}) r={row['radius']:g} Δ={row['dt']:g}")
     a2.set_xlim(0, 2 * np.pi)
     a2.set_xlabel("time (s) = angle along the circle (rad), first turn")

@@ -25,34 +25,43 @@ from kinserve.kinematics.errors import InputError
 
 from . import SCENARIOS, run
 
-BEGIN = "<!-- scenario-table: generated from demo-out/*/result.json by `python -m kinserve.scenarios.readme_table` -->"
+BEGIN = ("<!-- scenario-table: generated from demo-out/*/result.json by `python -m "
+         "kinserve.scenarios.readme_table` -->")
 END = "<!-- /scenario-table -->"
 HEADER = "| scenario | what it shows | key numbers (demo defaults) |\n|---|---|---|"
 
 #: scenario -> seed label and what the scenario demonstrates (prose, not numbers)
 SHOWS: dict[str, tuple[str, str]] = {
-    "planar4r": ("S1", "redundant 4R: the one-parameter IK family with both elbow branches, a chooser by joint-limit "
-                       "distance / displacement / manipulability / no self-overlap, the collapse at the workspace boundary"),
-    "youbot": ("S2", "DH FK = URDF model; 6×5 Jacobian = column formula; rank (never `det`) finds the q3 = 0 singularity; "
-                     "closed-form branches incl. reach-over-the-back; nearest reachable pose for a 6-D target off the 5-D set"),
-    "youbot-tour": ("S3", "checkpoints read from JSON/CSV, exact shortest order (Euclidean, not ½·squared), decoupled SE(3) "
-                          "interpolation, position-only IK warm started, `trajectory.json`/`.csv`"),
-    "pick-place": ("S4", "Panda: SE(3) quintic segments with boundary twists (not the seed's global exponential-coordinate "
-                         "cubic), DLS tracking with Pinocchio's Jacobian, grasp/release events, cylinder carried in the animation"),
-    "pr-rate": ("S5", "resolved-rate table of runs, singularity detected (θ2 = 90° at step 0) and damped, circle following "
-                      "open vs closed loop"),
-    "omni": ("S6", "three-wheel omni base: heading-dependent (not position-dependent) wheel kinematics, `solve_ivp` simulation"),
-    "mall": ("S7", "A* (8-connected, optimal) through the waypoints, best order of the intermediate ones, smoothed path clear "
-                   "of the inflated obstacles, time scaling with a turn-rate cap"),
-    "coverage": ("S8", "boustrophedon lanes of 20 with detours, no-go zones, smooth U-turns; the turning 20×20 footprint's "
-                       "reach into obstacles is measured (`padding=\"diagonal\"` pads by 10√2 instead)"),
-    "scara": ("S9", "Jacobian inverse / transpose / pseudo-inverse / DLS histories; relax φ → θ4 centred; relax z → d3 centred "
-                    "at 0.625 unless the sphere (0.4, −0.7, 0.5), r 0.2 binds, never entered on any iterate"),
+    "planar4r": ("S1", "redundant 4R: the one-parameter IK family with both elbow branches, "
+                       "a chooser by joint-limit distance / displacement / manipulability / no self-overlap, "
+                       "the collapse at the workspace boundary"),
+    "youbot": ("S2", "DH FK = URDF model; 6×5 Jacobian = column formula; rank (never `det`) finds the q3 = 0 "
+                     "singularity; closed-form branches incl. reach-over-the-back; "
+                     "nearest reachable pose for a 6-D target off the 5-D set"),
+    "youbot-tour": ("S3", "checkpoints read from JSON/CSV, exact shortest order (Euclidean, not ½·squared), "
+                          "decoupled SE(3) interpolation, position-only IK warm started, "
+                          "`trajectory.json`/`.csv`"),
+    "pick-place": ("S4", "Panda: SE(3) quintic segments with boundary twists (not the seed's global "
+                         "exponential-coordinate cubic), DLS tracking with Pinocchio's Jacobian, "
+                         "grasp/release events, cylinder carried in the animation"),
+    "pr-rate": ("S5", "resolved-rate table of runs, singularity detected (θ2 = 90° at step 0) and damped, "
+                      "circle following open vs closed loop"),
+    "omni": ("S6", "three-wheel omni base: heading-dependent (not position-dependent) wheel kinematics, "
+                   "`solve_ivp` simulation"),
+    "mall": ("S7", "A* (8-connected, optimal) through the waypoints, best order of the intermediate ones, "
+                   "smoothed path clear of the inflated obstacles, time scaling with a turn-rate cap"),
+    "coverage": ("S8", "boustrophedon lanes of 20 with detours, no-go zones, smooth U-turns; "
+                       "the turning 20×20 footprint's reach into obstacles is measured "
+                       "(`padding=\"diagonal\"` pads by 10√2 instead)"),
+    "scara": ("S9", "Jacobian inverse / transpose / pseudo-inverse / DLS histories; relax φ → θ4 centred; "
+                    "relax z → d3 centred at 0.625 unless the sphere (0.4, −0.7, 0.5), r 0.2 binds, "
+                    "never entered on any iterate"),
 }
 
 
 def roundoff(x: float, floor: float = 1e-12) -> str:
-    """``"< 1e-15"`` (the next power of ten above) for ``|x| < floor``, else ``x`` with two significant digits."""
+    """``"< 1e-15"`` (the next power of ten above) for ``|x| < floor``, else ``x`` with two significant
+    digits."""
     x = abs(float(x))
     if x < floor:
         return "0" if x == 0 else f"< 1e{math.floor(math.log10(x)) + 1}"
@@ -73,8 +82,10 @@ def _planar4r(r: Mapping) -> str:
 def _youbot(r: Mapping) -> str:
     off = r["off_reachable"]
     return (f"DH vs URDF {roundoff(r['fk_max_difference'])}; rank {r['singular']['rank']} at q3 = 0; "
-            f"closed-form branches: {r['branches_forward']} for a target in front, {r['branches_above']} above the base; nearest pose's orientation error "
-            f"{r['off_set_orientation_error']:.4f} rad = its lower bound {off['orientation_error_bound']:.4f}")
+            f"closed-form branches: {r['branches_forward']} for a target in front, "
+            f"{r['branches_above']} above the base; nearest pose's orientation error "
+            f"{r['off_set_orientation_error']:.4f} rad = its lower bound "
+            f"{off['orientation_error_bound']:.4f}")
 
 
 def _tour(r: Mapping) -> str:
@@ -93,36 +104,40 @@ def _pr_rate(r: Mapping) -> str:
     circles = r["circles"]
     beats = "beats" if r["closed_beats_open_on_all_circles"] else "does NOT beat"
     first = circles[0]
-    return (f"closed loop {beats} open loop on all {len(circles)} circles (circle 1: {sig(first['open']['max_error'], 1)} → "
-            f"{sig(first['closed']['max_error'], 1)} m); singular start found at step {r['singular_start_event_step']}")
+    return (f"closed loop {beats} open loop on all {len(circles)} circles (circle 1: "
+            f"{sig(first['open']['max_error'], 1)} → {sig(first['closed']['max_error'], 1)} m); "
+            f"singular start found at step {r['singular_start_event_step']}")
 
 
 def _omni(r: Mapping) -> str:
-    return (f"equal wheels → rotation in place (centre moves {roundoff(r['rotation_max_centre_displacement'])} m); "
+    return ("equal wheels → rotation in place (centre moves "
+            f"{roundoff(r['rotation_max_centre_displacement'])} m); "
             f"one wheel → circle r = {r['circle_radius_fit']:.4f} m (2D = {2 * r['center_distance']:g} m)")
 
 
 def _mall(r: Mapping) -> str:
-    return (f"{r['length']:.1f} given order, {r['best_order_length']:.1f} best order, {r['smoothed_length']:.1f} smoothed, "
-            f"{r['duration']:.0f} s")
+    return (f"{r['length']:.1f} given order, {r['best_order_length']:.1f} best order, "
+            f"{r['smoothed_length']:.1f} smoothed, {r['duration']:.0f} s")
 
 
 def _coverage(r: Mapping) -> str:
     length = f"{r['length']:,.0f}".replace(",", " ")  # 10 161
     return (f"{100 * r['coverage_fraction']:.1f} % of the free floor, path {length}; "
-            f"footprint corners reach {r['max_corner_penetration']:.2f} into obstacles/walls (padding {r['padding']})")
+            f"footprint corners reach {r['max_corner_penetration']:.2f} into obstacles/walls (padding "
+            f"{r['padding']})")
 
 
 def _scara(r: Mapping) -> str:
     it = r["iterations"]
-    counts = " / ".join(str(it[m]) for m in ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls"))
+    counts = " / ".join(str(it[m])
+                        for m in ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls"))
     return f"iterations {counts}; min tool–sphere distance {r['min_tool_sphere_distance']:.6f}"
 
 
 #: scenario -> the "key numbers" cell, computed from its result.json
 KEY_NUMBERS: dict[str, Callable[[Mapping], str]] = {
-    "planar4r": _planar4r, "youbot": _youbot, "youbot-tour": _tour, "pick-place": _pick_place, "pr-rate": _pr_rate,
-    "omni": _omni, "mall": _mall, "coverage": _coverage, "scara": _scara,
+    "planar4r": _planar4r, "youbot": _youbot, "youbot-tour": _tour, "pick-place": _pick_place,
+    "pr-rate": _pr_rate, "omni": _omni, "mall": _mall, "coverage": _coverage, "scara": _scara,
 }
 
 
@@ -176,7 +191,8 @@ def load_results(demo: Path) -> dict[str, dict]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description="Regenerate the README's scenario table from demo results.")
-    ap.add_argument("--demo", default="demo-out", help="folder of `kinserve demo all` output (default demo-out)")
+    ap.add_argument("--demo", default="demo-out",
+                    help="folder of `kinserve demo all` output (default demo-out)")
     ap.add_argument("--readme", default="README.md")
     ap.add_argument("--check", action="store_true", help="only compare; exit 1 if the README differs")
     args = ap.parse_args(argv)

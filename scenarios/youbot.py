@@ -1,4 +1,5 @@
-"""S2: the KUKA youBot 5-DOF arm - DH forward kinematics, Jacobian, singularity, closed-form IK (SCENARIOS.md S2).
+"""S2: the KUKA youBot 5-DOF arm - DH forward kinematics, Jacobian, singularity, closed-form IK (SCENARIOS.md
+S2).
 
 Model (``robots.load("youbot")``, :mod:`robots.youbot`): standard DH
 ``A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`` with
@@ -95,7 +96,8 @@ def measures(J: np.ndarray) -> dict:
     """Rank, singular values, ``sigma_min``, manipulability and condition number of ``J``."""
     s = singularity.singular_values(J)
     return {"rank": singularity.rank(J, RANK_TOL), "singular_values": s, "sigma_min": float(s[-1]),
-            "manipulability": singularity.manipulability(J), "condition_number": singularity.condition_number(J),
+            "manipulability": singularity.manipulability(J),
+            "condition_number": singularity.condition_number(J),
             "singular": singularity.is_singular(J, RANK_TOL)}
 
 
@@ -105,8 +107,9 @@ def solve_branches(robot, T) -> dict:
     rows = []
     for r in res:
         pe, re = se3.pose_error(robot.fk(r.q), T)
-        rows.append({"branch": r.info["branch"], "q": r.q, "fk_position_error": pe, "fk_orientation_error": re,
-                     "within_limits": robot.within_limits(r.q), "success": r.success, "message": r.message})
+        rows.append({"branch": r.info["branch"], "q": r.q, "fk_position_error": pe,
+                     "fk_orientation_error": re, "within_limits": robot.within_limits(r.q),
+                     "success": r.success, "message": r.message})
     return {"target": T, "branches": rows, "n_branches": len(rows),
             "max_fk_position_error": max((b["fk_position_error"] for b in rows), default=math.nan),
             "max_fk_orientation_error": max((b["fk_orientation_error"] for b in rows), default=math.nan)}
@@ -124,14 +127,17 @@ def _sweep_figure(q3, w, smin, q_ref, tol_line):
     top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2, sharex=None)
     deg = np.degrees(q3)
     top.plot(deg, w, color=viz.colors.to_rgb("blue"), linewidth=1.8, label="w = √det(JᵀJ) = ∏σᵢ (6×5 J)")
-    bottom.plot(deg, smin, color=viz.colors.to_rgb("orange"), linewidth=1.8, label="σ_min (5th singular value)")
-    bottom.axhline(tol_line, color="red", linestyle="--", linewidth=1.0, label=f"rank tolerance {RANK_TOL:g}·σ₁")
+    bottom.plot(deg, smin, color=viz.colors.to_rgb("orange"), linewidth=1.8,
+                label="σ_min (5th singular value)")
+    bottom.axhline(tol_line, color="red", linestyle="--", linewidth=1.0,
+                   label=f"rank tolerance {RANK_TOL:g}·σ₁")
     for ax in (top, bottom):
         ax.axvline(0.0, color="black", linestyle=":", linewidth=1.0)
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize=8)
-    top.annotate("q3 = 0: elbow stretched,\nrank 4 (singular)", xy=(0.0, 0.0), xytext=(25, 0.6 * float(np.max(w))),
-                 fontsize=8, arrowprops=dict(arrowstyle="->", color="black"))
+    top.annotate("q3 = 0: elbow stretched,\nrank 4 (singular)", xy=(0.0, 0.0),
+                 xytext=(25, 0.6 * float(np.max(w))), fontsize=8,
+                 arrowprops=dict(arrowstyle="->", color="black"))
     top.set_ylabel("w (mixed linear/angular units)")
     bottom.set_ylabel("σ_min")
     bottom.set_xlabel("q3 (deg), over its limits; q1, q2, q4, q5 fixed")
@@ -146,14 +152,15 @@ def _branches_figure(robot, cases):
     ax = fig.add_subplot(1, 1, 1)
     x = np.arange(robot.nq)
     lo, hi = np.degrees(robot.lower), np.degrees(robot.upper)
-    ax.bar(x, hi - lo, bottom=lo, width=0.7, color="lightgrey", edgecolor="grey", label="joint range (limits)")
+    ax.bar(x, hi - lo, bottom=lo, width=0.7, color="lightgrey", edgecolor="grey",
+           label="joint range (limits)")
     rows = [(name, b) for name, case in cases.items() for b in case["branches"]]
     offsets = np.linspace(-0.28, 0.28, max(len(rows), 1))
     markers = "o^sDvP*X"
     for k, ((name, b), dx) in enumerate(zip(rows, offsets)):
         ax.plot(x + dx, np.degrees(b["q"]), marker=markers[k % len(markers)], linestyle="none", markersize=7,
-                color=viz.colors.to_rgb(viz.colors.PALETTE[k % len(viz.colors.PALETTE)]), markeredgecolor="black",
-                label=f"{name}: {b['branch']}")
+                color=viz.colors.to_rgb(viz.colors.PALETTE[k % len(viz.colors.PALETTE)]),
+                markeredgecolor="black", label=f"{name}: {b['branch']}")
     ax.set_xticks(x, [f"A{i + 1}" for i in x])
     ax.set_xlabel("joint (A1-A5 = q1-q5; markers side by side within a joint's range bar)")
     ax.set_ylabel("joint value (deg)")
@@ -214,13 +221,15 @@ def run(out: Path, *, n_random: int = 500, q_forward=Q_FORWARD, q_above=Q_ABOVE,
                          "error_to_reached_pose": max(pr, rr), "within_limits": robot.within_limits(r.q)})
 
     # plots
-    viz.save_png(_sweep_figure(q3, w, smin, q_ref, RANK_TOL * float(np.max([m["singular_values"][0] for m in sweep]))),
+    viz.save_png(_sweep_figure(q3, w, smin, q_ref,
+                               RANK_TOL * float(np.max([m["singular_values"][0] for m in sweep]))),
                  out / "manipulability.png")
     viz.save_png(_branches_figure(robot, cases), out / "branches.png")
 
     if scene:
-        sc = viz.Scene("kinserve S2 youBot: closed-form IK branches, one row per target (front: forward target, "
-                       "then the off-set target's nearest pose in grey; back: target above the base)")
+        sc = viz.Scene("kinserve S2 youBot: closed-form IK branches, one row per target (front: "
+                       "forward target, then the off-set target's nearest pose in grey; back: "
+                       "target above the base)")
 
         def slot(row: int, col: int) -> np.ndarray:  # rows 0.8 m apart along -x, robots 0.6 m apart along +y
             base = np.eye(4)
@@ -252,7 +261,8 @@ def run(out: Path, *, n_random: int = 500, q_forward=Q_FORWARD, q_above=Q_ABOVE,
         "off_set_orientation_error": off_rows[0]["orientation_error"] if off_rows else None,
         "convention": "standard DH, every joint about +z of the previous DH frame (URDF joint 1 axis +z); "
                       "the youBot's own URDF turns joint 1 about -z",
-        "dh": {"a": [r[0] for r in YOUBOT_DH], "alpha": [r[1] for r in YOUBOT_DH], "d": [r[2] for r in YOUBOT_DH]},
+        "dh": {"a": [r[0] for r in YOUBOT_DH], "alpha": [r[1] for r in YOUBOT_DH],
+               "d": [r[2] for r in YOUBOT_DH]},
         "limits_deg": {"lower": np.degrees(robot.lower), "upper": np.degrees(robot.upper)},
         "random": {"min_rank": int(min(ranks)), "min_sigma_min": float(min(sig_min))},
         "reference": {"q": q_ref, **at_ref},

@@ -2,8 +2,8 @@
 
 Endpoints: ``GET /health``, ``GET /robots``, ``GET /robots/{name}``,
 ``POST /fk``, ``POST /jacobian``, ``POST /ik``, ``POST /ik/batch``,
-``POST /plan/cartesian``, ``POST /collision`` (:mod:`.collision_endpoint`). Poses are 4x4 row-major lists; joint vectors are
-lists of ``nq`` numbers (rad / m).
+``POST /plan/cartesian``, ``POST /collision`` (:mod:`.collision_endpoint`). Poses are 4x4 row-major lists;
+joint vectors are lists of ``nq`` numbers (rad / m).
 
 Errors are JSON ``{"detail": [{"loc": [...], "msg": ..., "type": ...}]}``:
 422 for a malformed or invalid field (schema violations, wrong lengths,
@@ -61,7 +61,8 @@ __all__ = ["create_app", "app", "FieldError", "field"]
 def solver_executor(settings: ServiceSettings) -> BoundedExecutor:
     """``settings.threads`` solver processes (spawned: no fork of a running event loop) and their queue."""
     def factory():
-        return ProcessPoolExecutor(max_workers=settings.threads, mp_context=multiprocessing.get_context("spawn"),
+        return ProcessPoolExecutor(max_workers=settings.threads,
+                                   mp_context=multiprocessing.get_context("spawn"),
                                    initializer=jobs.init_worker, initargs=(settings.to_env(),))
 
     return BoundedExecutor(factory, settings.threads, settings.queue, name="solver")
@@ -69,8 +70,8 @@ def solver_executor(settings: ServiceSettings) -> BoundedExecutor:
 
 def loader_executor(settings: ServiceSettings) -> BoundedExecutor:
     """One thread loading models for the inline endpoints."""
-    return BoundedExecutor(lambda: ThreadPoolExecutor(1, thread_name_prefix="kinserve-loader"), 1, settings.queue,
-                           name="loader")
+    return BoundedExecutor(lambda: ThreadPoolExecutor(1, thread_name_prefix="kinserve-loader"), 1,
+                           settings.queue, name="loader")
 
 
 def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float | None = None) -> FastAPI:
@@ -99,7 +100,8 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
     app = FastAPIOffline(
         title="kinserve",
         version="0.1.0",
-        description="Forward kinematics, Jacobians, constrained inverse kinematics and Cartesian plans over HTTP.",
+        description="Forward kinematics, Jacobians, constrained inverse kinematics and Cartesian plans over "
+                    "HTTP.",
         swagger_ui_parameters={"validatorUrl": None},
         lifespan=lifespan,
     )
@@ -114,14 +116,16 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
     async def _validation_error(request: Request, exc: RequestValidationError):
         # The default handler echoes the offending input, which cannot be JSON-encoded when it is NaN/inf.
         detail = [
-            {"loc": json_safe(list(e.get("loc", ()))), "msg": str(e.get("msg", "")), "type": str(e.get("type", ""))}
+            {"loc": json_safe(list(e.get("loc", ()))), "msg": str(e.get("msg", "")),
+             "type": str(e.get("type", ""))}
             for e in exc.errors()
         ]
         return json_response({"detail": detail}, 422)
 
     @app.exception_handler(FieldError)
     async def _field_error(request: Request, exc: FieldError):
-        return json_response(error_body(["body", exc.field], str(exc.error), type(exc.error).__name__), exc.status)
+        return json_response(error_body(["body", exc.field], str(exc.error),
+                                        type(exc.error).__name__), exc.status)
 
     @app.exception_handler(KinserveError)
     async def _kinserve_error(request: Request, exc: KinserveError):
@@ -129,13 +133,15 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
 
     @app.exception_handler(ServiceBusy)
     async def _busy(request: Request, exc: ServiceBusy):
-        return json_response(error_body([], str(exc), "ServiceBusy"), 503, headers={"Retry-After": str(exc.retry_after)})
+        return json_response(error_body([], str(exc), "ServiceBusy"), 503,
+                             headers={"Retry-After": str(exc.retry_after)})
 
     @app.exception_handler(ArithmeticError)
     @app.exception_handler(np.linalg.LinAlgError)
     async def _numerical(request: Request, exc: Exception):
         log.warning("numerical failure answered as 422: %s: %s", type(exc).__name__, exc)
-        return json_response(error_body(["body"], f"the computation failed numerically ({type(exc).__name__}: {exc}); "
+        return json_response(error_body(["body"], "the computation failed numerically "
+                                                  f"({type(exc).__name__}: {exc}); "
                                         "the model or inputs are degenerate", "NumericalError"), 422)
 
     # ------------------------------------------------------------------ helpers
@@ -202,7 +208,8 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
     # ------------------------------------------------------ solver endpoints
     @app.post("/ik", response_model=S.IKResponse, responses=_HEAVY_ERRORS)
     async def solve_ik(req: S.IKRequest):
-        return await heavy(req, jobs.solve_ik, settings.request_time_cap, jobs.capped_by(settings, req.max_time))
+        return await heavy(req, jobs.solve_ik, settings.request_time_cap,
+                           jobs.capped_by(settings, req.max_time))
 
     @app.post("/ik/batch", response_model=S.IKBatchResponse, responses=_HEAVY_ERRORS)
     async def solve_ik_batch(req: S.IKBatchRequest):
@@ -210,7 +217,8 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
 
     @app.post("/plan/cartesian", response_model=S.CartesianPlanResponse, responses=_HEAVY_ERRORS)
     async def plan_cartesian(req: S.CartesianPlanRequest):
-        budget = settings.request_time_cap if req.max_time is None else min(req.max_time, settings.request_time_cap)
+        budget = (settings.request_time_cap if req.max_time is None
+                  else min(req.max_time, settings.request_time_cap))
         return await heavy(req, jobs.plan_cartesian, budget)
 
     return app

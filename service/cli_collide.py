@@ -1,4 +1,5 @@
-"""``kinserve collide ROBOT --q ... [--box ...] [--sphere ...]``: self-collision and obstacle check at one configuration.
+"""``kinserve collide ROBOT --q ... [--box ...] [--sphere ...]``: self-collision and obstacle check at one
+configuration.
 
 Obstacles: ``--box CX CY CZ SX SY SZ`` (axis-aligned box: centre and full edge
 lengths, m), ``--sphere CX CY CZ R``, ``--cylinder CX CY CZ R L`` (vertical),
@@ -72,9 +73,11 @@ def cmd_collide(args) -> int:
              f"({len(dist)} pairs checked, {len(obstacles)} obstacle(s))"]
     lines += [f"  colliding: {a} / {b}" for a, b in pairs]
     if closest:
-        lines.append(f"  min distance {closest[1].distance:.6f} m between {closest[0][0]} and {closest[0][1]}")
+        lines.append(f"  min distance {closest[1].distance:.6f} m between {closest[0][0]} and "
+                     f"{closest[0][1]}")
     if args.distances:
-        lines += [f"  {a} / {b}: {d.distance:.6f} m" for (a, b), d in sorted(dist.items(), key=lambda kv: kv[1].distance)]
+        lines += [f"  {a} / {b}: {d.distance:.6f} m"
+                  for (a, b), d in sorted(dist.items(), key=lambda kv: kv[1].distance)]
     emit(args, payload, "\n".join(lines))
     return 1 if (pairs and args.fail_on_collision) else 0
 
@@ -82,11 +85,13 @@ def cmd_collide(args) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     from kinserve.service.cli import add_robot_args
 
-    p = sub.add_parser("collide", help="self-collision and obstacle check at a configuration (coal, convex hulls)")
+    p = sub.add_parser("collide",
+                       help="self-collision and obstacle check at a configuration (coal, convex hulls)")
     add_robot_args(p)
     p.add_argument("--box", nargs=6, action="append", metavar="V", help="box obstacle: CX CY CZ SX SY SZ (m)")
     p.add_argument("--sphere", nargs=4, action="append", metavar="V", help="sphere obstacle: CX CY CZ R (m)")
-    p.add_argument("--cylinder", nargs=5, action="append", metavar="V", help="vertical cylinder: CX CY CZ R L (m)")
+    p.add_argument("--cylinder", nargs=5, action="append", metavar="V",
+                   help="vertical cylinder: CX CY CZ R L (m)")
     p.add_argument("--no-self", action="store_true", help="skip self-collision (obstacles only)")
     p.add_argument("--distances", action="store_true", help="list every checked pair's distance")
     p.add_argument("--fail-on-collision", action="store_true", help="exit status 1 when in collision")

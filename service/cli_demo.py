@@ -10,7 +10,8 @@ from pathlib import Path
 
 def _summary(result: dict) -> str:
     keys = [k for k, v in result.items() if isinstance(v, (int, float, bool, str)) and k not in ("scenario",)]
-    return ", ".join(f"{k}={result[k]:.6g}" if isinstance(result[k], float) else f"{k}={result[k]}" for k in keys[:8])
+    return ", ".join(f"{k}={result[k]:.6g}" if isinstance(result[k], float) else f"{k}={result[k]}"
+                     for k in keys[:8])
 
 
 def cmd_demo(args) -> int:

@@ -32,7 +32,8 @@ def describe(robot) -> dict:
     frames = []
     for name in robot.frame_names:
         f = model.frames[robot.frame_id(name)]
-        frames.append({"name": name, "type": str(f.type).rsplit(".", 1)[-1], "moved_by": model.names[f.parentJoint]})
+        frames.append({"name": name, "type": str(f.type).rsplit(".", 1)[-1],
+                       "moved_by": model.names[f.parentJoint]})
     return {
         "robot": robot.name, "nq": robot.nq, "tool_frame": robot.tip, "joints": joints, "frames": frames,
         "task_axes": list(robot.task_axes), "task_axes_origin": task_axes_origin(robot, None),

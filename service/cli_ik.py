@@ -67,10 +67,11 @@ def cmd_ik(args) -> int:
         f"reached pose:\n{fmt_matrix(robot.fk(res.q, frame))}"
     )
     payload = {
-        "robot": robot.name, "frame": frame, "method": res.method, "relax": list(relax), "success": bool(res.success),
-        "q": np.asarray(res.q).tolist(), "position_error": float(res.position_error),
-        "orientation_error": float(res.orientation_error), "iterations": int(res.iterations),
-        "restarts": int(res.restarts), "elapsed": float(res.elapsed), "message": res.message,
+        "robot": robot.name, "frame": frame, "method": res.method, "relax": list(relax),
+        "success": bool(res.success), "q": np.asarray(res.q).tolist(),
+        "position_error": float(res.position_error), "orientation_error": float(res.orientation_error),
+        "iterations": int(res.iterations), "restarts": int(res.restarts), "elapsed": float(res.elapsed),
+        "message": res.message,
     }
     emit(args, payload, text)
     return 0 if res.success else 1
@@ -84,11 +85,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--frame", help="frame to place (default: the robot's tool frame)")
     p.add_argument("--target", nargs="+", metavar="T", help="4x4 pose, 16 numbers row major (or a JSON list)")
     p.add_argument("--xyz", nargs="+", metavar="P", help="target position (m)")
-    p.add_argument("--rpy", nargs="+", metavar="A", help="target roll pitch yaw (rad); omitted = orientation free")
-    p.add_argument("--relax", nargs="+", choices=["x", "y", "z", "roll", "pitch", "yaw", "phi"], help="task components left free")
+    p.add_argument("--rpy", nargs="+", metavar="A",
+                   help="target roll pitch yaw (rad); omitted = orientation free")
+    p.add_argument("--relax", nargs="+", choices=["x", "y", "z", "roll", "pitch", "yaw", "phi"],
+                   help="task components left free")
     p.add_argument("--q0", nargs="+", metavar="Q", help="initial guess")
     p.add_argument("--sphere", action="append", metavar="CX,CY,CZ,R", help="spherical obstacle (repeatable)")
-    p.add_argument("--centring", type=non_negative_float, default=0.0, help="weight of joint-range centring in the free DOF")
+    p.add_argument("--centring", type=non_negative_float, default=0.0,
+                   help="weight of joint-range centring in the free DOF")
     p.add_argument("--method", default="auto")
     p.add_argument("--max-time", type=positive_float, default=None, help="time budget (s)")
     p.add_argument("--seed", type=int, default=0)

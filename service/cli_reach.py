@@ -21,10 +21,10 @@ def cmd_reach(args) -> int:
     from kinserve.service.cli_collide import obstacles_from_args
 
     obstacles = obstacles_from_args(args)
-    rmap = reachability_map(robot, args.samples, frame=args.frame, resolution=args.resolution, orientation=orientation,
-                            backend=args.backend, processes=args.processes, ray_address=args.ray_address,
-                            max_time=args.max_time, seed=args.seed, self_collision=args.self_collision,
-                            obstacles=obstacles)
+    rmap = reachability_map(robot, args.samples, frame=args.frame, resolution=args.resolution,
+                            orientation=orientation, backend=args.backend, processes=args.processes,
+                            ray_address=args.ray_address, max_time=args.max_time, seed=args.seed,
+                            self_collision=args.self_collision, obstacles=obstacles)
     out = Path(args.out)
     npz = rmap.save(out.with_suffix(".npz"))
     png = save_png(reachability_figure(rmap.edges, rmap.counts, rmap.hits,
@@ -32,7 +32,8 @@ def cmd_reach(args) -> int:
     print(f"{robot.name} frame {rmap.frame}: {rmap.reached.sum()}/{rmap.reached.size} sampled poses reached "
           f"({100 * rmap.overall:.1f} %), orientation {args.orientation}, backend {args.backend}"
           + (f", collision-free solutions only ({len(obstacles)} obstacle(s)"
-             f"{', self-collision' if args.self_collision else ''})" if args.self_collision or obstacles else ""))
+             f"{', self-collision' if args.self_collision else ''})"
+             if args.self_collision or obstacles else ""))
     print(f"wrote {npz}\nwrote {png}")
     return 0
 
@@ -53,8 +54,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-time", type=positive_float, default=0.05, help="IK time budget per sample (s)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="reach", help="output path stem: writes STEM.npz and STEM.png")
-    p.add_argument("--self-collision", action="store_true", help="count only solutions free of self-collision")
-    p.add_argument("--box", nargs=6, action="append", metavar="V", help="box obstacle CX CY CZ SX SY SZ (m), repeatable")
-    p.add_argument("--sphere", nargs=4, action="append", metavar="V", help="sphere obstacle CX CY CZ R (m), repeatable")
-    p.add_argument("--cylinder", nargs=5, action="append", metavar="V", help="vertical cylinder CX CY CZ R L (m)")
+    p.add_argument("--self-collision", action="store_true",
+                   help="count only solutions free of self-collision")
+    p.add_argument("--box", nargs=6, action="append", metavar="V",
+                   help="box obstacle CX CY CZ SX SY SZ (m), repeatable")
+    p.add_argument("--sphere", nargs=4, action="append", metavar="V",
+                   help="sphere obstacle CX CY CZ R (m), repeatable")
+    p.add_argument("--cylinder", nargs=5, action="append", metavar="V",
+                   help="vertical cylinder CX CY CZ R L (m)")
     p.set_defaults(func=cmd_reach)

@@ -61,7 +61,8 @@ def settings_of(args: argparse.Namespace) -> ServiceSettings:
         max_connections=args.max_connections, queue=args.queue,
         # the cores are shared by the worker processes: each gets its share of solver processes
         solver_threads=args.solver_threads or max(1, (os.cpu_count() or 1) // max(1, args.workers)),
-        robot_cache=args.robot_cache, robot_cache_bytes=int(args.robot_cache_mb * (1 << 20)), access_log=args.access_log,
+        robot_cache=args.robot_cache, robot_cache_bytes=int(args.robot_cache_mb * (1 << 20)),
+        access_log=args.access_log,
     )
 
 
@@ -71,13 +72,15 @@ def uvicorn_options(settings) -> dict:
     return dict(
         http="kinserve.service.connection:GuardedH11Protocol",  # reads its bounds from the environment
         timeout_keep_alive=settings.keep_alive,
-        limit_concurrency=settings.max_connections + 1,  # uvicorn answers 503 from this many connections or tasks
+        # uvicorn answers 503 from this many connections or tasks
+        limit_concurrency=settings.max_connections + 1,
         h11_max_incomplete_event_size=64 * 1024,  # request line + headers
         access_log=settings.access_log,
     )
 
 
-def serve(app, settings, *, host: str = "127.0.0.1", port: int = 8000, workers: int = 1, log_level: str = "info") -> None:
+def serve(app, settings, *, host: str = "127.0.0.1", port: int = 8000, workers: int = 1,
+          log_level: str = "info") -> None:
     """Run ``app`` with uvicorn under ``settings``' bounds, as ``kinserve serve`` does.
 
     ``app`` is an ASGI application, or its import string (required with
@@ -133,21 +136,28 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
-    p.add_argument("--workers", type=positive_int, default=1, help="worker processes (each with its own robot cache)")
-    p.add_argument("--max-time-cap", type=positive_float, default=D.max_time_cap, help="upper bound on any IK request's max_time (s)")
+    p.add_argument("--workers", type=positive_int, default=1,
+                   help="worker processes (each with its own robot cache)")
+    p.add_argument("--max-time-cap", type=positive_float, default=D.max_time_cap,
+                   help="upper bound on any IK request's max_time (s)")
     p.add_argument("--request-time-cap", type=float, default=D.request_time_cap,
                    help="upper bound on a whole /ik/batch or /plan/cartesian request, queueing included (s)")
-    p.add_argument("--max-body", type=_size, default=D.max_body, help="largest request body accepted (bytes; 413 above)")
-    p.add_argument("--body-timeout", type=float, default=D.body_timeout, help="time to receive a whole body (s; 408 after)")
+    p.add_argument("--max-body", type=_size, default=D.max_body,
+                   help="largest request body accepted (bytes; 413 above)")
+    p.add_argument("--body-timeout", type=float, default=D.body_timeout,
+                   help="time to receive a whole body (s; 408 after)")
     p.add_argument("--header-timeout", type=float, default=D.header_timeout,
                    help="time for a connection to send complete request headers (s; closed after)")
-    p.add_argument("--keep-alive", type=float, default=D.keep_alive, help="idle keep-alive connections are closed after this (s)")
+    p.add_argument("--keep-alive", type=float, default=D.keep_alive,
+                   help="idle keep-alive connections are closed after this (s)")
     p.add_argument("--max-connections", type=int, default=D.max_connections,
                    help="open connections beyond this are closed at accept; requests beyond it get 503")
     p.add_argument("--solver-threads", type=int, default=D.solver_threads,
                    help="IK/plan solver processes per worker (0 = the cores divided among the workers)")
-    p.add_argument("--queue", type=int, default=D.queue, help="heavy requests waiting for a solver process (503 beyond)")
-    p.add_argument("--robot-cache", type=int, default=D.robot_cache, help="robot variants (name + params) kept loaded")
+    p.add_argument("--queue", type=int, default=D.queue,
+                   help="heavy requests waiting for a solver process (503 beyond)")
+    p.add_argument("--robot-cache", type=int, default=D.robot_cache,
+                   help="robot variants (name + params) kept loaded")
     p.add_argument("--robot-cache-mb", type=float, default=D.robot_cache_bytes / (1 << 20),
                    help="estimated memory of the cached robot variants, seed tables included (MiB)")
     p.add_argument("--access-log", action="store_true", help="log every request (off by default)")

@@ -22,7 +22,8 @@ def port_number(text: str) -> int:
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a port number 0..{MAX_PORT}, got {text!r}") from None
     if not 0 <= port <= MAX_PORT:
-        raise argparse.ArgumentTypeError(f"expected a port number 0..{MAX_PORT} (0 = any free port), got {port}")
+        raise argparse.ArgumentTypeError(f"expected a port number 0..{MAX_PORT} (0 = any free port), "
+                                         f"got {port}")
     return port
 
 

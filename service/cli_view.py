@@ -46,14 +46,19 @@ def cmd_view(args) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     from kinserve.service.cli import add_robot_args
 
-    p = sub.add_parser("view", help="show a robot in the browser (live meshcat viewer, or --html for a static page)")
+    p = sub.add_parser("view", help="show a robot in the browser (live meshcat viewer, "
+                                    "or --html for a static page)")
     add_robot_args(p)
     p.add_argument("--html", metavar="FILE", type=file_in_existing_folder,
                    help="write a self-contained HTML page instead of serving (its folder must exist)")
     p.add_argument("--zmq-url", help="use an existing meshcat server instead of starting one")
     p.add_argument("--collision", action="store_true",
-                   help="also draw the collision shapes and the --box/--sphere/--cylinder obstacles, colliding ones red")
-    p.add_argument("--box", nargs=6, action="append", metavar="V", help="box obstacle CX CY CZ SX SY SZ (m), with --collision")
-    p.add_argument("--sphere", nargs=4, action="append", metavar="V", help="sphere obstacle CX CY CZ R (m), with --collision")
-    p.add_argument("--cylinder", nargs=5, action="append", metavar="V", help="vertical cylinder CX CY CZ R L (m)")
+                   help="also draw the collision shapes and the --box/--sphere/--cylinder obstacles, "
+                        "colliding ones red")
+    p.add_argument("--box", nargs=6, action="append", metavar="V",
+                   help="box obstacle CX CY CZ SX SY SZ (m), with --collision")
+    p.add_argument("--sphere", nargs=4, action="append", metavar="V",
+                   help="sphere obstacle CX CY CZ R (m), with --collision")
+    p.add_argument("--cylinder", nargs=5, action="append", metavar="V",
+                   help="vertical cylinder CX CY CZ R L (m)")
     p.set_defaults(func=cmd_view)

@@ -1,4 +1,5 @@
-"""``POST /collision``: is the robot at ``q`` in collision with itself or with obstacles; which pairs; how far.
+"""``POST /collision``: is the robot at ``q`` in collision with itself or with obstacles; which pairs; how
+far.
 
 A separate ``APIRouter`` (included by :func:`kinserve.service.app.create_app`).
 Errors follow the service's convention: 422 naming the field (``q``,

@@ -18,12 +18,14 @@ class CollisionOptions(Strict):
     """Collision options shared by ``/collision`` and ``/ik``."""
 
     obstacles: Obstacles = Field(default_factory=list)
-    self_collision: bool = Field(default=True, description="check the robot's own link pairs (SRDF / MoveIt-style)")
+    self_collision: bool = Field(default=True,
+                                 description="check the robot's own link pairs (SRDF / MoveIt-style)")
 
 
 class CollisionRequest(RobotRef, CollisionOptions):
     q: JointVector
-    distances: bool = Field(default=False, description="also return every checked pair's distance and witness points")
+    distances: bool = Field(default=False,
+                            description="also return every checked pair's distance and witness points")
 
 
 class PairDistanceOut(BaseModel):
@@ -38,6 +40,7 @@ class PairDistanceOut(BaseModel):
 class CollisionResponse(BaseModel):
     in_collision: bool
     pairs: list[list[str]] = Field(description="colliding pairs, named by link / obstacle[k]:kind")
-    min_distance: float | None = Field(description="smallest signed distance (m) over the checked pairs; null if none")
+    min_distance: float | None = (Field(description="smallest signed distance (m) over the checked pairs; "
+                                                    "null if none"))
     closest_pair: list[str] | None
     distances: list[PairDistanceOut] | None = None

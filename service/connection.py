@@ -55,7 +55,8 @@ class GuardedH11Protocol(H11Protocol):
         if self.transport.is_closing():
             return
         if self.conn.their_state is h11.IDLE:
-            # headers still incomplete: the clock started at accept or with the first byte after a keep-alive gap
+            # headers still incomplete: the clock started at accept or with the first byte after a keep-alive
+            # gap
             if self._header_timer is None:
                 self._arm_header_timer()
         else:

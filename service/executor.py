@@ -134,13 +134,14 @@ class BoundedExecutor:
         except asyncio.TimeoutError:  # TimeoutError on Python >= 3.11
             if cf.cancel():  # still waiting for a worker: give up on it
                 raise ServiceBusy(
-                    f"no {self.name} worker became free within the request's time cap ({deadline.budget:.3g} s); "
-                    "the server is overloaded, retry later", self.retry_after()) from None
+                    f"no {self.name} worker became free within the request's time cap ({deadline.budget:.3g} "
+                    "s); the server is overloaded, retry later", self.retry_after()) from None
             result, _ = await fut  # running: the job's own budget ends by the deadline
             return result
         except BrokenProcessPool:
             self._replace_broken()
-            raise ServiceBusy(f"a {self.name} process died during the request and was replaced; retry") from None
+            raise ServiceBusy(f"a {self.name} process died during the request and was replaced; "
+                              "retry") from None
 
     def _on_done(self, cf) -> None:
         duration = None

@@ -86,12 +86,14 @@ class BodyLimitMiddleware:
         if not chunked and not length:  # no body announced (None or 0)
             return await self.app(scope, receive, send)
         if length is not None and length > self.max_body:
-            return await send_error(send, 413, f"request body of {length} bytes exceeds the limit of {self.max_body} bytes",
-                                    "body_too_large")
+            return await send_error(send, 413,
+                                    f"request body of {length} bytes exceeds the limit of {self.max_body} "
+                                    "bytes", "body_too_large")
         try:
             body = await self._read_body(receive)
         except BodyTimeout:
-            return await send_error(send, 408, f"the request body did not arrive within {self.body_timeout:g} s",
+            return await send_error(send, 408,
+                                    f"the request body did not arrive within {self.body_timeout:g} s",
                                     "body_timeout")
         except OverflowError:
             return await send_error(send, 413, f"request body exceeds the limit of {self.max_body} bytes",

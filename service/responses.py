@@ -28,7 +28,8 @@ try:
 except ImportError:  # pragma: no cover - orjson is a dependency; keep working without it
     orjson = None
 
-_std_encode = json.JSONEncoder(allow_nan=False, separators=(",", ":"), ensure_ascii=False, default=lambda o: o.tolist()).encode
+_std_encode = json.JSONEncoder(allow_nan=False, separators=(",", ":"), ensure_ascii=False,
+                               default=lambda o: o.tolist()).encode
 
 
 def error_body(loc: list, msg: str, kind: str) -> dict:

@@ -113,7 +113,8 @@ class RobotPool:
             return robots.canonical_name(name)
         except UnknownRobotError:
             raise UnknownRobotError(
-                f"unknown robot {name!r}.{suggest(str(name), self.catalogue)} Known robots: {', '.join(self.catalogue)}"
+                f"unknown robot {name!r}.{suggest(str(name), self.catalogue)} Known robots: "
+                f"{', '.join(self.catalogue)}"
             ) from None
 
     def cached(self, name: str, params: dict | None = None) -> Robot | None:

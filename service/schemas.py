@@ -18,9 +18,11 @@ BOUND = MAX_ABS
 Number = Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
 Row4 = Annotated[list[Number], Field(min_length=4, max_length=4)]
 Pose = Annotated[list[Row4], Field(min_length=4, max_length=4, description="homogeneous 4x4 pose, row major")]
-JointVector = Annotated[list[Number], Field(min_length=1, max_length=64, description="joint values (rad / m)")]
+JointVector = Annotated[list[Number], Field(min_length=1, max_length=64,
+                                            description="joint values (rad / m)")]
 Name = Annotated[str, Field(min_length=1, max_length=200)]
-ParamValue = Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)] | Annotated[str, Field(max_length=200)]
+ParamValue = (Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
+              | Annotated[str, Field(max_length=200)])
 RelaxName = Literal["x", "y", "z", "roll", "pitch", "yaw", "phi"]
 Method = Literal["auto", "qp", "lm", "dls", "pseudo_inverse", "jacobian_inverse", "jacobian_transpose", "analytic"]
 
@@ -32,7 +34,8 @@ class Strict(BaseModel):
 class RobotRef(Strict):
     robot: Name = Field(description="built-in robot name (GET /robots)")
     params: dict[Annotated[str, Field(max_length=50)], ParamValue] = Field(
-        default_factory=dict, max_length=16, description="model parameters of a parametric robot (e.g. l1 for planar4r)"
+        default_factory=dict, max_length=16,
+        description="model parameters of a parametric robot (e.g. l1 for planar4r)"
     )
 
 
@@ -81,7 +84,8 @@ class SphereObstacle(Strict):
 class BoxObstacle(Strict):
     kind: Literal["box"]
     pose: Pose
-    size: Annotated[list[Length], Field(min_length=3, max_length=3, description="full edge lengths (m), as URDF")]
+    size: Annotated[list[Length], Field(min_length=3, max_length=3,
+                                        description="full edge lengths (m), as URDF")]
     frames: Frames = None
 
 
@@ -101,7 +105,8 @@ class CylinderObstacle(Strict):
     frames: Frames = None
 
 
-Obstacle = Annotated[SphereObstacle | BoxObstacle | CapsuleObstacle | CylinderObstacle, Field(discriminator="kind")]
+Obstacle = Annotated[SphereObstacle | BoxObstacle | CapsuleObstacle
+                     | CylinderObstacle, Field(discriminator="kind")]
 
 
 Obstacles = Annotated[list[Obstacle], Field(max_length=32)]
@@ -119,10 +124,12 @@ class IKOptions(Strict):
     )
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
     self_collision: bool = Field(
-        default=False, description="keep the robot's collision geometry free of self-collision; obstacles are then "
+        default=False,
+        description="keep the robot's collision geometry free of self-collision; obstacles are then "
                                    "kept clear of that geometry (not of the link capsules)")
     obstacles: Obstacles = Field(
-        default_factory=list, description="shapes kept clear of the robot's links (kind: sphere, box, capsule, cylinder)"
+        default_factory=list,
+        description="shapes kept clear of the robot's links (kind: sphere, box, capsule, cylinder)"
     )
     collision_margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
         default=0.0, description="clearance (m) kept from obstacles and between checked link pairs")
@@ -141,7 +148,8 @@ class FrameTarget(Strict):
 
 
 FrameTargets = Annotated[list[FrameTarget], Field(min_length=1, max_length=8,
-                                                   description="several frames at once (e.g. both hands), solved together")]
+                                                   description="several frames at once (e.g. both hands), "
+                                                               "solved together")]
 
 
 class IKRequest(RobotRef, IKOptions):
@@ -184,17 +192,21 @@ class IKBatchResponse(BaseModel):
 
 
 class CartesianPlanRequest(RobotRef):
-    poses: Annotated[list[Pose], Field(min_length=2, max_length=200, description="poses to pass through, in order")]
+    poses: Annotated[list[Pose], Field(min_length=2, max_length=200,
+                                       description="poses to pass through, in order")]
     q0: JointVector | None = None
     frame: Name | None = None
-    steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10, description="interpolated poses per segment")
+    steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10,
+                                                       description="interpolated poses per segment")
     dt: Annotated[float, Field(allow_inf_nan=False, gt=0, le=60)] = 0.1
     interpolation: Literal["decoupled", "screw"] = "decoupled"
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
     max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
-        default=None, description="seconds for the whole plan; default and upper bound: the server's request time cap"
+        default=None,
+        description="seconds for the whole plan; default and upper bound: the server's request time cap"
     )
-    stop_on_failure: bool = Field(default=True, description="stop at the first pose not reached (false: try every pose)")
+    stop_on_failure: bool = Field(default=True,
+                                  description="stop at the first pose not reached (false: try every pose)")
 
 
 class JointTrajectoryOut(BaseModel):

@@ -6,7 +6,8 @@ Every request is bounded in time and memory (ARCHITECTURE.md). The knobs:
 field                  ``kinserve serve`` option  meaning
 =====================  =========================  ==========================================================
 max_time_cap           ``--max-time-cap``         upper bound (s) on one IK solve's ``max_time``
-request_time_cap       ``--request-time-cap``     upper bound (s) on a whole ``/ik/batch`` or ``/plan/cartesian``
+request_time_cap       ``--request-time-cap``     upper bound (s) on a whole ``/ik/batch`` or
+``/plan/cartesian``
                                                   request, queueing included
 max_body               ``--max-body``             request bodies above this many bytes get 413
 body_timeout           ``--body-timeout``         a body not fully received within this many s gets 408

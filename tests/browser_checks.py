@@ -30,18 +30,22 @@ def project(points, eye, target, size) -> np.ndarray:
 
 
 def page_camera(commands) -> tuple[np.ndarray, np.ndarray]:
-    """(eye, target) of a page's replayed commands: the drawing is shifted by -target, the camera sits at eye - target."""
+    """(eye, target) of a page's replayed commands: the drawing is shifted by -target, the camera sits at
+    eye - target."""
     shift = next(c for c in commands if c["type"] == "set_transform" and c["path"] == "/meshcat")
     target = -np.asarray(shift["matrix"], dtype=float).reshape(4, 4).T[:3, 3]
-    pos = next(c for c in commands if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
+    pos = next(c for c in commands
+               if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
     p = np.asarray(pos["value"], dtype=float)  # three.js y-up: (x, z, -y) of the world
     return target + np.array([p[0], -p[2], p[1]]), target
 
 
 def robot_mask(viz, full_html, bare_html, out, size) -> tuple[np.ndarray, np.ndarray]:
     """(screenshot with the robot as an int RGB array, boolean mask of the robot's pixels)."""
-    a = np.asarray(Image.open(viz.screenshot(full_html, out / "full.png", size=size)).convert("RGB")).astype(int)
-    b = np.asarray(Image.open(viz.screenshot(bare_html, out / "bare.png", size=size)).convert("RGB")).astype(int)
+    a = np.asarray(Image.open(viz.screenshot(full_html,
+                                             out / "full.png", size=size)).convert("RGB")).astype(int)
+    b = np.asarray(Image.open(viz.screenshot(bare_html,
+                                             out / "bare.png", size=size)).convert("RGB")).astype(int)
     assert a.shape == b.shape == (size[1], size[0], 3)
     # the WebGL canvas rendered the rest of the scene: not one flat colour
     assert len(np.unique(b.reshape(-1, 3), axis=0)) > 50
@@ -66,7 +70,8 @@ def assert_panda_drawn(image: np.ndarray, robot: np.ndarray, fk: dict, project, 
 
 #: Chromium with no way out but loopback: every host name fails to resolve and any other request
 #: goes to a closed local proxy port (loopback itself bypasses the proxy).
-OFFLINE_FLAGS = ("--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1", "--proxy-server=http://127.0.0.1:9")
+OFFLINE_FLAGS = ("--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1",
+                 "--proxy-server=http://127.0.0.1:9")
 
 
 def open_offline(url: str, ready_js: str, *, size=(1200, 900), timeout: float = 60.0):
@@ -80,7 +85,8 @@ def open_offline(url: str, ready_js: str, *, size=(1200, 900), timeout: float = 
     import importlib
     import time
 
-    screenshot = importlib.import_module("kinserve.viz.screenshot")  # kinserve.viz.screenshot is also a function
+    # kinserve.viz.screenshot is also a function
+    screenshot = importlib.import_module("kinserve.viz.screenshot")
 
     browser = screenshot.find_browser()
     dt = screenshot._DevTools(browser, size, timeout, extra_flags=OFFLINE_FLAGS)
@@ -98,7 +104,8 @@ def open_offline(url: str, ready_js: str, *, size=(1200, 900), timeout: float = 
             if not value:
                 dt._remaining()
                 time.sleep(0.1)
-        requested = [ev["params"]["request"]["url"] for ev in dt.events if ev.get("method") == "Network.requestWillBeSent"]
+        requested = [ev["params"]["request"]["url"] for ev in dt.events
+                     if ev.get("method") == "Network.requestWillBeSent"]
         return value, requested, dt.errors()
     finally:
         dt.close()

@@ -120,8 +120,8 @@ def pytest_sessionfinish(session, exitstatus):
         return
     worker = getattr(config, "workerinput", {}).get("workerid", "")
     lines = [f"  pid {pid}: {left[pid][:200]}" for pid in sorted(still)]
-    message = (f"processes started by the tests{' on xdist worker ' + worker if worker else ''} were still alive "
-               "at the end of the session (now killed):\n" + "\n".join(lines))
+    message = (f"processes started by the tests{' on xdist worker ' + worker if worker else ''} were still "
+               "alive at the end of the session (now killed):\n" + "\n".join(lines))
     for pid in still:
         with contextlib.suppress(OSError):
             os.kill(pid, signal.SIGKILL)

@@ -34,7 +34,8 @@ def sparse_lattice_graph(grid):
         rows.append(idx[ii, jj])
         cols.append(idx[ii + di, jj + dj])
         ws.append(np.full(len(ii), grid.resolution * (SQ2 if di and dj else 1.0)))
-    M = sparse.coo_array((np.concatenate(ws), (np.concatenate(rows), np.concatenate(cols))), shape=(ny * nx_,) * 2)
+    M = sparse.coo_array((np.concatenate(ws), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(ny * nx_,) * 2)
     G = nx.from_scipy_sparse_array(M)
     G.remove_nodes_from(np.flatnonzero(~F.ravel()).tolist())
     return G

@@ -26,10 +26,11 @@ class Server:
     def __init__(self, *extra: str, max_time_cap: float = 1.0):
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
-        cmd = [sys.executable, "-m", "kinserve.service.cli", "serve", "--port", str(self.port), "--log-level", "warning",
-               "--max-time-cap", str(max_time_cap), *extra]
+        cmd = [sys.executable, "-m", "kinserve.service.cli", "serve", "--port", str(self.port), "--log-level",
+               "warning", "--max-time-cap", str(max_time_cap), *extra]
         env = dict(os.environ)
-        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if self.proc.poll() is not None:

@@ -76,7 +76,8 @@ def test_segment_box_clearance_closed_form_cases():
     T = np.eye(4)
     size = (0.2, 0.2, 0.2)
     # parallel to a face, 0.1 m above it
-    assert oc.segment_box_clearance(np.array([-1, 0, 0.2]), np.array([1, 0, 0.2]), T, size) == pytest.approx(0.1)
+    assert oc.segment_box_clearance(np.array([-1, 0, 0.2]),
+                                    np.array([1, 0, 0.2]), T, size) == pytest.approx(0.1)
     # passing a corner: closest box point (0.1, 0.1, 0.1), segment along x at y = z = 0.4
     assert oc.segment_box_clearance(np.array([-1, 0.4, 0.4]), np.array([1, 0.4, 0.4]), T, size) == \
         pytest.approx(np.hypot(0.3, 0.3))
@@ -86,7 +87,8 @@ def test_segment_box_clearance_closed_form_cases():
 
 def test_segment_sphere_clearance():
     c = np.array([0.0, 0.3, 0.0])
-    assert oc.segment_sphere_clearance(np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), c, 0.1) == pytest.approx(0.2)
+    assert oc.segment_sphere_clearance(np.array([-1.0, 0, 0]),
+                                       np.array([1.0, 0, 0]), c, 0.1) == pytest.approx(0.2)
     # closest point is an end point
     assert oc.segment_sphere_clearance(np.array([0.5, 0, 0]), np.array([1.0, 0, 0]), c, 0.1) == \
         pytest.approx(np.hypot(0.5, 0.3) - 0.1)
@@ -185,7 +187,8 @@ def test_render_tables_copies_the_figures(tmp_path):
         "workloads": {"open scene": {"n": 4, "per_solver": {
             "kinserve": {"success_pct": 100.0, "median_ms": 0.1234, "p95_ms": 0.5, "mean_ms": 0.2,
                          "median_vs_unconstrained": 1.25, "p95_vs_unconstrained_p95": 2.0}}}},
-        "collision_check_us": {"roboplan Scene.hasCollisions": 6.04, "roboplan Scene.hasCollisions: CPU": 5.96},
+        "collision_check_us": {"roboplan Scene.hasCollisions": 6.04,
+                               "roboplan Scene.hasCollisions: CPU": 5.96},
         "targets_met": {"open_100pct": True, "open_median_le_1.5x_unconstrained": False},
     }
     (tmp_path / "collision.json").write_text(json.dumps(payload))
@@ -209,8 +212,8 @@ def test_benchmark_runs_end_to_end_and_renders(tmp_path, script, args, sections)
     import subprocess
 
     out = tmp_path / ("ik_constrained.json" if "constrained" in script else "collision.json")
-    proc = subprocess.run([sys.executable, str(BENCH / script), *args, "--out", str(out)], capture_output=True,
-                          text=True, timeout=300, cwd=tmp_path)
+    proc = subprocess.run([sys.executable, str(BENCH / script), *args, "--out", str(out)],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     data = json.loads(out.read_text())
     for key in sections:

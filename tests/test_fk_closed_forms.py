@@ -145,7 +145,8 @@ def test_scara_closed_form(a1, a2, base_z):
     assert robot.lower[2] == 0.25 and robot.upper[2] == 1.0
     for t1, t2, d3, t4 in samples(robot, 4):
         T = robot.fk([t1, t2, d3, t4])
-        p = [a1 * math.cos(t1) + a2 * math.cos(t1 + t2), a1 * math.sin(t1) + a2 * math.sin(t1 + t2), base_z - d3]
+        p = [a1 * math.cos(t1) + a2 * math.cos(t1 + t2),
+             a1 * math.sin(t1) + a2 * math.sin(t1 + t2), base_z - d3]
         np.testing.assert_allclose(T[:3, 3], p, atol=ATOL)
         phi = t1 + t2 - t4
         # tool x axis at yaw phi in the horizontal plane, tool z pointing down

@@ -1,4 +1,5 @@
-"""kinserve.ik.closed_form: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA; 2R/3R."""
+"""kinserve.ik.closed_form: closed-form branches verified by FK; the 4R family; every youBot branch; SCARA;
+2R/3R."""
 
 import math
 import re
@@ -42,7 +43,8 @@ def test_two_link_law_of_cosines():
 
 
 def test_wrap_into():
-    assert wrap_into(3.0 * math.pi, -math.pi, math.pi) == pytest.approx([-math.pi, math.pi])  # both ends of the range
+    # both ends of the range
+    assert wrap_into(3.0 * math.pi, -math.pi, math.pi) == pytest.approx([-math.pi, math.pi])
     assert wrap_into(0.5, -2 * math.pi, 2 * math.pi) == pytest.approx([0.5 - 2 * math.pi, 0.5])
     assert wrap_into(2.0, -1.0, 1.0) == []
 
@@ -95,7 +97,8 @@ def test_planar_4r_family_spans_the_one_parameter_set():
         gap = np.abs(np.angle(np.exp(1j * (feasible[:, None] - q1s[None, :])))).min(axis=1)
         total = len(feasible) / len(grid) * 2 * math.pi
         assert gap.max() < 1.5 * total / 40 + 1e-3  # the samples cover the whole feasible set
-        assert np.abs(np.angle(np.exp(1j * (q1s - q[0])))).min() < 1.5 * total / 40 + 1e-3  # incl. the generating q1
+        # incl. the generating q1
+        assert np.abs(np.angle(np.exp(1j * (q1s - q[0])))).min() < 1.5 * total / 40 + 1e-3
 
 
 def test_scara_closed_form_matches_the_s9_formulas():
@@ -106,7 +109,8 @@ def test_scara_closed_form_matches_the_s9_formulas():
         T = scara.fk(q).copy()
         x, y, z = T[:3, 3]
         phi = q[0] + q[1] - q[3]  # tool yaw of S9
-        # independent S9 formulas: d3 = 1 - z, theta2 = +-acos(...), theta1 = atan2(y, x) - atan2(...), theta4 = t1 + t2 - phi
+        # independent S9 formulas: d3 = 1 - z, theta2 = +-acos(...), theta1 = atan2(y, x) - atan2(...), theta4
+        # = t1 + t2 - phi
         res = ik.solve_all(scara, T)
         assert res and all(r.success for r in res)
         c2 = (x * x + y * y - a1 * a1 - a2 * a2) / (2 * a1 * a2)
@@ -114,7 +118,9 @@ def test_scara_closed_form_matches_the_s9_formulas():
             t1, t2, d3, t4 = r.q
             assert d3 == pytest.approx(1.0 - z, abs=1e-12)
             assert math.cos(t2) == pytest.approx(c2, abs=1e-9)
-            assert t1 == pytest.approx(math.remainder(math.atan2(y, x) - math.atan2(a2 * math.sin(t2), a1 + a2 * math.cos(t2)), 2 * math.pi), abs=1e-9)
+            assert t1 == pytest.approx(math.remainder(math.atan2(y, x)
+                                                      - math.atan2(a2 * math.sin(t2),
+                                                                   a1 + a2 * math.cos(t2)), 2 * math.pi), abs=1e-9)
             assert math.remainder(t1 + t2 - t4 - phi, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
         assert any(np.allclose(r.q, q, atol=1e-9) for r in res)
 
@@ -205,7 +211,8 @@ def test_youbot_branches_carry_their_own_notes_exact_first():
     res = ik.solve_all(youbot, T)
     assert [r.success for r in res] == [True, False]
     exact, near = res
-    assert exact.message == "closed form" and exact.info["note"] == "" and exact.info["branch"].startswith("back")
+    assert (exact.message == "closed form" and exact.info["note"] == ""
+            and exact.info["branch"].startswith("back"))
     assert np.allclose(exact.q, q, atol=1e-8)
     assert near.info["branch"].startswith("front") and "out of reach of the front branches" in near.message
     assert "nearest reachable position" in near.message and "stretched arm" in near.message
@@ -216,7 +223,8 @@ def test_youbot_branches_carry_their_own_notes_exact_first():
     assert abs(near.q[2]) < 1e-9 or abs(abs(near.q[2]) - math.pi) < 1e-9
     # ik.solve picks an exact branch when there is one, whatever the criteria rank first
     for criteria in ("joint_limit_distance", "displacement"):
-        best = ik.solve(youbot, T, q0=near.q, method="analytic", choose=criteria) if criteria == "displacement" else \
+        best = ik.solve(youbot, T, q0=near.q, method="analytic",
+                        choose=criteria) if criteria == "displacement" else \
             ik.solve(youbot, T, method="analytic", choose=criteria)
         assert best.success and best.message == "closed form"
 
@@ -231,5 +239,6 @@ def test_youbot_off_set_target_branches_are_ordered_by_residual_and_labelled():
     residual = [r.position_error + r.orientation_error for r in res]
     assert residual == sorted(residual)
     assert "this branch reaches the nearest reachable pose" in res[0].message
-    assert "off the 5-DOF reachable set" in res[1].message and "out of reach of the front branches" in res[1].message
+    assert ("off the 5-DOF reachable set" in res[1].message
+            and "out of reach of the front branches" in res[1].message)
     assert "this branch reaches" not in res[1].message

@@ -1,5 +1,5 @@
-"""kinserve.ik.batch.solve_many.solve_many: the answers of ik.solve one by one, in order, on 2 processes (plain LM targets
-in one compiled call per chunk); validation up front."""
+"""kinserve.ik.batch.solve_many.solve_many: the answers of ik.solve one by one, in order, on 2 processes
+(plain LM targets in one compiled call per chunk); validation up front."""
 
 import numpy as np
 import pytest
@@ -30,7 +30,8 @@ def test_solve_many_on_two_processes(ur5):
         assert _valid(ur5, poses[i], res)
         assert res.history is None and res.method == "lm"
     serial = ik.solve_many(ur5, poses, q0, processes=1, chunksize=5, progress=False, seed=2)
-    assert all(np.array_equal(a.q, b.q) for a, b in zip(many, serial))  # deterministic for a chunking and seed
+    # deterministic for a chunking and seed
+    assert all(np.array_equal(a.q, b.q) for a, b in zip(many, serial))
     kept = ik.solve_many(ur5, poses[:3], q0[:3], backend="serial", keep_history=True, progress=False)
     assert kept[0].history is not None and _valid(ur5, poses[0], kept[0])
 
@@ -79,7 +80,8 @@ def test_iteration_budget_in_solve_many_is_ik_solves(ur5):
     poses[:4, :3, 3] = (2.0, 0.0, 0.3)  # unreachable: the budget ends their search
     res = ik.solve_many(ur5, poses, processes=1, progress=False, seed=1, iteration_budget=25)
     _same_as_solve(res, [ik.solve(ur5, T, seed=1, iteration_budget=25) for T in poses])
-    assert all(r.iterations == 25 and "iteration budget exhausted (25 iterations)" in r.message for r in res[:4])
+    assert all(r.iterations == 25 and "iteration budget exhausted (25 iterations)" in r.message
+               for r in res[:4])
     assert all(r.success and r.iterations <= 25 for r in res[4:] if r.success)
 
 
@@ -92,7 +94,8 @@ def test_analytic_robots_and_relaxed_targets_go_target_by_target():
 
 def test_solve_many_shared_q0_and_options(ur5):
     poses = ur5.fk_batch(ur5.random_q(np.random.default_rng(4), 6))
-    res = ik.solve_many(ur5, list(poses), ur5.neutral(), processes=1, method="qp", qp_backend="daqp", relax=("yaw",))
+    res = ik.solve_many(ur5, list(poses), ur5.neutral(), processes=1, method="qp", qp_backend="daqp",
+                        relax=("yaw",))
     assert all(r.success and r.method == "qp" for r in res)
 
 
@@ -177,7 +180,8 @@ def test_options_are_checked_without_a_trial_solve(ur5, monkeypatch):
     with pytest.raises(NonFiniteError, match="damping"):
         ik.solve_many(ur5, poses, processes=1, damping=float("nan"))
     assert calls == []
-    res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, keep_history=True, progress=False)
+    res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, keep_history=True,
+                        progress=False)
     assert len(calls) == 5 and all(r.success for r in res)  # one solve per target, none to test the options
     res = ik.solve_many(ur5, poses, processes=1, relax=("yaw",), max_iter=50, progress=False)
     assert len(calls) == 5 and all(r.success for r in res)  # the compiled batch: no ik.solve per target

@@ -27,7 +27,8 @@ def slow_batch(panda):
     """200 unreachable targets solved one by one (yaw relaxed): each spends its whole 0.05 s budget."""
     poses = np.repeat(np.eye(4)[None], 200, axis=0)
     poses[:, :3, 3] = (3.0, 0.0, 0.5)
-    return dict(robot=panda, targets=poses, relax=("yaw",), max_time=0.05, chunksize=10, processes=2, progress=False)
+    return dict(robot=panda, targets=poses, relax=("yaw",), max_time=0.05, chunksize=10, processes=2,
+                progress=False)
 
 
 @pytest.fixture(autouse=True)
@@ -106,8 +107,8 @@ def test_stopped_worker_raises_a_clear_error_and_is_reaped(slow_batch):
     assert detected < batch_pool.STOPPED_GRACE + 3
     assert not any(_exists(p) for p in pids)  # every worker killed and reaped, the stopped one too
     # the next batch gets a fresh pool
-    again = ik.solve_many(slow_batch["robot"], slow_batch["targets"][:4], relax=("yaw",), max_time=0.01, processes=2,
-                          progress=False)
+    again = ik.solve_many(slow_batch["robot"], slow_batch["targets"][:4], relax=("yaw",), max_time=0.01,
+                          processes=2, progress=False)
     assert len(again) == 4 and not any(r.success for r in again)
 
 
@@ -145,7 +146,8 @@ def test_killed_worker_is_retried_once(slow_batch):
     t_end = time.monotonic() + 2.0  # the parent may still be in the middle of handing them out
     while time.monotonic() < t_end and [len(w.queue) for w in batch_pool.current_pool().workers] != [2, 2]:
         time.sleep(0.002)
-    assert [len(w.queue) for w in batch_pool.current_pool().workers] == [batch_pool.PREFETCH] * 2  # the next chunk too
+    # the next chunk too
+    assert [len(w.queue) for w in batch_pool.current_pool().workers] == [batch_pool.PREFETCH] * 2
     os.kill(pid, signal.SIGKILL)  # the chunk it was solving is retried, the one behind it goes back in line
     thread.join(30)
     assert "error" not in box, box.get("error")

@@ -1,4 +1,5 @@
-"""kinserve.ik.closed_form.chooser: named criteria pick the expected branch; the self-overlap filter detects crossing links."""
+"""kinserve.ik.closed_form.chooser: named criteria pick the expected branch; the self-overlap filter detects
+crossing links."""
 
 import math
 

@@ -1,4 +1,5 @@
-"""kinserve.ik.classical.methods on S9 (seed 004): Jacobian inverse vs transpose vs DLS, with their convergence histories."""
+"""kinserve.ik.classical.methods on S9 (seed 004): Jacobian inverse vs transpose vs DLS, with their
+convergence histories."""
 
 import numpy as np
 import pytest

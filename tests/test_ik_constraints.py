@@ -1,5 +1,5 @@
-"""kinserve.ik.constraints: sphere validation, the link segments (links, quill, tool, frame points), clearances
-against dense sampling and their gradients against finite differences."""
+"""kinserve.ik.constraints: sphere validation, the link segments (links, quill, tool, frame points),
+clearances against dense sampling and their gradients against finite differences."""
 
 import numpy as np
 import pinocchio as pin
@@ -52,7 +52,8 @@ def test_scara_segments_cover_links_quill_and_tool():
     avoid = ObstacleAvoidance([sphere], tool_frames="tool").bind(scara)
     assert _margin(avoid, scara, q) < 0
     assert _margin(avoid, scara, q) == pytest.approx(sampled_clearance(scara, q, "tool", sphere), abs=1e-6)
-    only_tool = ObstacleAvoidance([ik.Sphere((1.0, 0.0, 0.6), 0.05, frames=["tool"])], tool_frames="tool").bind(scara)
+    only_tool = ObstacleAvoidance([ik.Sphere((1.0, 0.0, 0.6), 0.05, frames=["tool"])],
+                                  tool_frames="tool").bind(scara)
     assert _margin(only_tool, scara, q) == pytest.approx(0.4 - 0.05)
 
 

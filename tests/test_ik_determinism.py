@@ -53,5 +53,6 @@ def test_osqp_backend_is_deterministic_too():
     panda = robots.load("panda", geometry=False)
     rng = np.random.default_rng(12)
     T = panda.fk(panda.random_q(rng)).copy()
-    runs = [ik.solve(panda, T, centring=1.0, backend="osqp", seed=3, max_time=30).q.tobytes() for _ in range(2)]
+    runs = [ik.solve(panda, T, centring=1.0, backend="osqp", seed=3, max_time=30).q.tobytes()
+            for _ in range(2)]
     assert runs[0] == runs[1]

@@ -29,7 +29,8 @@ def test_prefer_q0_starts_are_the_eager_sequence(panda):
     T = panda.fk(panda.random_q(rng), FRAME).copy()
     q0 = panda.random_q(rng)
     table = seed_table(panda, FRAME)
-    eager = start_sequence(panda, table, table.features(T[:3, :3], T[:3, 3]), q0, 5, q0_distance=1e9, prefer_q0=True)
+    eager = start_sequence(panda, table, table.features(T[:3, :3], T[:3, 3]), q0, 5, q0_distance=1e9,
+                           prefer_q0=True)
     lazy = frame_starts(panda, FRAME, panda.frame_id(FRAME), T[:3, :3], T[:3, 3], True, q0, 5, prefer_q0=True)
     a, b = list(itertools.islice(eager, 25)), list(itertools.islice(lazy, 25))
     assert np.array_equal(a[0], q0) and a[0] is not q0
@@ -42,7 +43,8 @@ def test_lazy_history_equals_the_recorded_iterates(panda):
     h = History.from_squared(qs, pos2, rot2, 3, components=("x", "y"))
     assert len(h) == 3
     assert np.array_equal(h.q, np.array(qs[:3]))
-    assert np.allclose(h.position_error, [2.0, 1.0, 0.5]) and np.allclose(h.orientation_error, [3.0, 2.0, 1.0])
+    assert (np.allclose(h.position_error, [2.0, 1.0, 0.5])
+            and np.allclose(h.orientation_error, [3.0, 2.0, 1.0]))
     h2 = pickle.loads(pickle.dumps(History.from_squared(qs, pos2, rot2, 2)))
     assert h2.q.shape == (2, 7) and np.allclose(h2.position_error, [2.0, 1.0])
     empty = History.from_squared([], [], [], 0)

@@ -29,8 +29,8 @@ def test_lower_levels_never_change_the_higher_levels_velocity(panda):
         q = panda.random_q(rng)
         # level 1: position of the hand (3 rows), level 2: orientation (3 rows), level 3: posture
         T = panda.fk(panda.random_q(rng)).copy()
-        tasks = [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")), ik.FrameTask(None, T, relax=("x", "y", "z")),
-                 ik.PostureTask(panda.random_q(rng))]
+        tasks = [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")),
+                 ik.FrameTask(None, T, relax=("x", "y", "z")), ik.PostureTask(panda.random_q(rng))]
         lv = _levels(panda, q, tasks)
         lb, ub = -big, big
         one, _ = hierarchical_step(lv[:1], lb, ub, lam=1e-6)
@@ -49,7 +49,8 @@ def test_priorities_hold_with_constraints(panda):
     rng = np.random.default_rng(1)
     q = panda.random_q(rng)
     T = panda.fk(panda.random_q(rng)).copy()
-    lv = _levels(panda, q, [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")), ik.PostureTask(panda.neutral())])
+    lv = _levels(panda, q, [ik.FrameTask(None, T, relax=("roll", "pitch", "yaw")),
+                            ik.PostureTask(panda.neutral())])
     lb, ub = np.maximum(panda.lower - q, -0.2), np.minimum(panda.upper - q, 0.2)
     G = rng.normal(size=(3, panda.nq))
     gl, gu = np.full(3, -0.05), np.full(3, np.inf)
@@ -126,9 +127,11 @@ def test_line_qp_matches_brute_force():
         lo, hi = -rng.random(5), rng.random(5)
         lo[rng.random(5) < 0.2] = -np.inf
         p, c = rng.random() + 0.1, rng.normal()
-        v = rng.uniform(np.maximum(lo, -1.0), hi)  # rows' values at z = 0 (feasible): the bounds on a z are lo - v, hi - v
+        # rows' values at z = 0 (feasible): the bounds on a z are lo - v, hi - v
+        v = rng.uniform(np.maximum(lo, -1.0), hi)
         z = line_qp(p, c, a.tolist(), v.tolist(), (lo + v).tolist(), (hi + v).tolist(), 2.5)
-        ok = (np.abs(grid) <= 2.5) & np.all((a[:, None] * grid >= lo[:, None]) & (a[:, None] * grid <= hi[:, None]), axis=0)
+        ok = ((np.abs(grid) <= 2.5)
+              & np.all((a[:, None] * grid >= lo[:, None]) & (a[:, None] * grid <= hi[:, None]), axis=0))
         f = 0.5 * p * grid ** 2 + c * grid
         best = grid[ok][np.argmin(f[ok])]
         assert abs(z - best) < 2e-4 and abs(z) <= 2.5
@@ -166,7 +169,8 @@ def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
         dq[at] = np.where(rng.random(at.sum()) < 0.5, lb[at], ub[at])
         G = rng.normal(size=(m, n))
         Gd = G @ dq
-        gl, gu = Gd - rng.uniform(0.0, 0.05, m), np.where(rng.random(m) < 0.5, np.inf, Gd + rng.uniform(0.0, 0.05, m))
+        gl, gu = Gd - rng.uniform(0.0, 0.05, m), np.where(rng.random(m) < 0.5, np.inf,
+                                                          Gd + rng.uniform(0.0, 0.05, m))
         Jk, ek = rng.normal(size=(3, n)), rng.normal(size=3)
         jz, r = Jk @ z0, Jk @ dq + ek
         got = z0 * _line_level(z0, jz, Jk, ek, dq, lb, ub, G, gl, gu, 0.5)

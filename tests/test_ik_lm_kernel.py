@@ -75,9 +75,11 @@ def test_log6_matches_pinocchio(regime):
         A, B = pin.SE3.Random(), pin.SE3.Random()
         if regime != "random":  # oMf^-1 oMd at an angle close to 0 or to pi
             angle = 10 ** rng.uniform(-11, -1)
-            B.rotation = A.rotation @ _random_rotation_at(rng, angle if regime == "near_zero" else np.pi - angle)
+            B.rotation = (A.rotation
+                          @ _random_rotation_at(rng, angle if regime == "near_zero" else np.pi - angle))
         e = np.empty(6)
-        t2 = lm_kernel._log6(A.rotation.copy(), A.translation.copy(), B.rotation.copy(), B.translation.copy(), e)
+        t2 = lm_kernel._log6(A.rotation.copy(), A.translation.copy(), B.rotation.copy(),
+                             B.translation.copy(), e)
         M = A.actInv(B)
         worst = max(worst, np.abs(e - pin.log6(M).vector).max())
         assert t2 == pytest.approx(M.translation @ M.translation, rel=1e-12, abs=1e-15)
@@ -132,8 +134,8 @@ def _model_with(joint_model) -> Robot:
     base = model.addJoint(0, joint_model, pin.SE3.Identity(), "base")
     arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.3, 0.0, 0.0])), "arm")
     model.addJointFrame(arm)
-    model.addFrame(pin.Frame("tool", arm, model.getFrameId("arm"), pin.SE3(np.eye(3), np.array([0.4, 0.0, 0.0])),
-                             pin.FrameType.OP_FRAME))
+    model.addFrame(pin.Frame("tool", arm, model.getFrameId("arm"),
+                             pin.SE3(np.eye(3), np.array([0.4, 0.0, 0.0])), pin.FrameType.OP_FRAME))
     model.lowerPositionLimit[:] = -3.0
     model.upperPositionLimit[:] = 3.0
     return Robot(model, tip="tool", name="toy")
@@ -149,8 +151,8 @@ def test_other_joints_keep_pinocchio_algorithms(joint):
     T = robot.fk(q_goal, "tool")
     # (seed tables sample with the batch FK, which models revolute / prismatic joints only: start from q0;
     # the solver itself, as the front door's request builds a seed table for the frame)
-    res = lm_solver.solve_lm(robot, Target(robot, T, "tool"), np.full(robot.nq, 0.2), seed_table_enabled=False,
-                             prefer_q0=True, seed=0)
+    res = lm_solver.solve_lm(robot, Target(robot, T, "tool"), np.full(robot.nq, 0.2),
+                             seed_table_enabled=False, prefer_q0=True, seed=0)
     assert res.success and se3.pose_error(robot.fk(res.q), T)[0] < 1e-4
 
 
@@ -167,7 +169,8 @@ def test_chain_with_a_joint_off_the_path():
     model = pin.Model()
     a = model.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "a")
     b = model.addJoint(a, pin.JointModelRY(), pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.3])), "b")
-    c = model.addJoint(a, pin.JointModelRX(), pin.SE3(np.eye(3), np.array([0.0, 0.2, 0.0])), "c")  # off the path
+    # off the path
+    c = model.addJoint(a, pin.JointModelRX(), pin.SE3(np.eye(3), np.array([0.0, 0.2, 0.0])), "c")
     for j in (b, c):
         model.addJointFrame(j)
     model.addFrame(pin.Frame("tool", b, model.getFrameId("b"), pin.SE3(np.eye(3), np.array([0.3, 0.0, 0.0])),
@@ -185,8 +188,8 @@ def test_chain_with_a_joint_off_the_path():
 
 
 def test_a_fresh_process_loads_the_kernels_outside_the_time_budget():
-    """The first solve of a process (plain, then with obstacles) imports Numba and loads the compiled code before
-    any solver's clock starts: a 20 ms budget is enough for both."""
+    """The first solve of a process (plain, then with obstacles) imports Numba and loads the compiled code
+    before any solver's clock starts: a 20 ms budget is enough for both."""
     import subprocess
     import sys
 

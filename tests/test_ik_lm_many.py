@@ -25,7 +25,8 @@ def _targets(robot, rng, n, unreachable=3):
 def _alone(robot, poses, q0s, relax, relax_frame, settings, i):
     tgt = Target(robot, poses[i], robot.tip, relax, relax_frame)
     kw = {k: getattr(settings, k) for k in ("tol_pos", "tol_rot", "seed", "max_iter", "damping", "max_starts",
-                                             "seed_table_enabled", "prefer_q0", "iteration_budget", "max_time")}
+                                             "seed_table_enabled", "prefer_q0",
+                                            "iteration_budget", "max_time")}
     return solve_lm(robot, tgt, None if q0s is None else q0s[i], **kw)
 
 
@@ -41,7 +42,8 @@ def _same(robot, poses, q0s, relax, relax_frame, settings):
 
 
 @pytest.mark.parametrize("name, relax, relax_frame", [
-    ("panda", (), "world"), ("ur5", ("z",), "world"), ("panda", ("yaw",), "target"), ("scara", ("roll", "pitch"),
+    ("panda", (), "world"), ("ur5", ("z",), "world"), ("panda", ("yaw",), "target"),
+    ("scara", ("roll", "pitch"),
                                                                                          "world"),
 ])
 @pytest.mark.parametrize("options, with_q0", [
@@ -70,7 +72,8 @@ def test_targets_whose_prepared_starts_run_out_go_to_the_fallback(monkeypatch):
     poses, q0s = _targets(robot, np.random.default_rng(9), 20, unreachable=4)
     monkeypatch.setattr(many, "TABLE_STARTS", 1)
     monkeypatch.setattr(many, "RANDOM_STARTS", 0)
-    settings = ManySettings(iteration_budget=300, seed=1)  # more than three starts' worth on an unreachable one
+    # more than three starts' worth on an unreachable one
+    settings = ManySettings(iteration_budget=300, seed=1)
     asked = []
 
     def fallback(i):
@@ -83,5 +86,6 @@ def test_targets_whose_prepared_starts_run_out_go_to_the_fallback(monkeypatch):
     for i in range(20):  # the fallback's answers, and those of the first start (common to both sequences)
         if i in asked or a.restarts[i] == 0:
             b = _alone(robot, poses, q0s, (), "world", settings, i)
-            assert np.array_equal(a.q[i], b.q) and a.message[i] == b.message and a.iterations[i] == b.iterations
+            assert (np.array_equal(a.q[i], b.q) and a.message[i] == b.message
+                    and a.iterations[i] == b.iterations)
     assert all("iteration budget exhausted (300 iterations)" in a.message[i] for i in range(4))

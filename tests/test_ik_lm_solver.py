@@ -1,5 +1,6 @@
-"""kinserve.ik.lm.solver: random reachable targets converge within tolerance, limits hold, restarts are deterministic;
-the Python iteration equals the compiled one; an iteration budget bounds the work and never reads the clock."""
+"""kinserve.ik.lm.solver: random reachable targets converge within tolerance, limits hold, restarts are
+deterministic; the Python iteration equals the compiled one; an iteration budget bounds the work and never
+reads the clock."""
 
 import numpy as np
 import pytest
@@ -113,8 +114,8 @@ def test_relaxed_targets_rank_starts_by_position_only():
 
 
 def test_accept_rejects_converged_runs_and_tries_the_next_start():
-    """``solve_lm(accept=...)``: the test sees each converged run (start first, answer last); a rejected run is
-    followed by the next start; when every converged run is rejected the result says so and fails."""
+    """``solve_lm(accept=...)``: the test sees each converged run (start first, answer last); a rejected run
+    is followed by the next start; when every converged run is rejected the result says so and fails."""
     from kinserve import robots
     from kinserve.ik.lm.solver import solve_lm
     from kinserve.ik.targets import Target
@@ -140,7 +141,8 @@ def test_accept_rejects_converged_runs_and_tries_the_next_start():
 
 
 def test_admit_skips_starts_without_running_them():
-    """``solve_lm(admit=...)``: refused starts cost no run and no start; all refused: a failed result, not a crash."""
+    """``solve_lm(admit=...)``: refused starts cost no run and no start; all refused: a failed result, not a
+    crash."""
     from kinserve import robots
     from kinserve.ik.lm.solver import ADMIT_MISSES, solve_lm
     from kinserve.ik.targets import Target
@@ -156,7 +158,8 @@ def test_admit_skips_starts_without_running_them():
         return len(offered) > 2
 
     res = solve_lm(robot, tgt, q0, seed=5, admit=not_first_two)
-    assert res.success and np.array_equal(res.history.q[0], offered[2])  # the run began at the first admitted start
+    # the run began at the first admitted start
+    assert res.success and np.array_equal(res.history.q[0], offered[2])
     assert res.restarts == len(offered) - 3  # refused starts are not counted
     none = solve_lm(robot, tgt, q0, seed=5, admit=lambda q: False)
     assert not none.success and "admitted" in none.message and none.restarts == 0
@@ -189,9 +192,11 @@ def test_python_iteration_equals_the_compiled_one(name, relax, relax_frame):
         tgt = Target(robot, T, relax=relax, relax_frame=relax_frame)
         qa, ea = _start_buffers(robot, 40)
         qb, eb = _start_buffers(robot, 40)
-        a = chain.kernel.run_start(chain.geometry, chain.joints, q0, lo, hi, tgt.T, not tgt.full, tgt.A, tgt.kept,
-                                   1e-8, 1e-6, DAMPING, DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, 40, qa, ea)
-        b = python_start(robot.model, robot.model.createData(), tgt, q0, lo, hi, 1e-8, 1e-6, DAMPING, 40, qb, eb)
+        a = chain.kernel.run_start(chain.geometry, chain.joints, q0, lo, hi, tgt.T, not tgt.full, tgt.A,
+                                   tgt.kept, 1e-8, 1e-6, DAMPING, DAMPING_GAIN, STALL_RATIO,
+                                   STALL_PATIENCE, 40, qa, ea)
+        b = python_start(robot.model, robot.model.createData(), tgt, q0, lo, hi, 1e-8, 1e-6,
+                         DAMPING, 40, qb, eb)
         assert a == b
         k = a[2]
         assert np.abs(qa[:k] - qb[:k]).max() < 1e-10 and np.abs(ea[:k] - eb[:k]).max() < 1e-10
@@ -237,4 +242,5 @@ def test_iteration_budget_never_lets_the_clock_decide(monkeypatch):
     assert np.array_equal(calm.q, jumpy.q) and calm.iterations == jumpy.iterations == 200
     assert calm.restarts == jumpy.restarts > 1 and calm.message == jumpy.message
     timed = solve_lm(robot, tgt, robot.neutral(), seed=3, max_time=1.0, iteration_budget=200)
-    assert timed.restarts == 0 and "time budget exhausted" in timed.message  # the clock counts only with max_time
+    # the clock counts only with max_time
+    assert timed.restarts == 0 and "time budget exhausted" in timed.message

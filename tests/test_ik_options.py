@@ -1,4 +1,5 @@
-"""kinserve.ik.options: method options are checked by name and value without solving, and agree with ik.solve."""
+"""kinserve.ik.options: method options are checked by name and value without solving, and agree with
+ik.solve."""
 
 import numpy as np
 import pytest
@@ -55,8 +56,8 @@ def test_names_agree_with_what_ik_solve_accepts():
     ur5 = robots.load("ur5", geometry=False)
     planar = robots.load("scara", geometry=False)
     values = {"max_iter": 5, "damping": 1e-3, "max_starts": 1, "prefer_q0": False, "seed_table": True,
-              "max_step": 0.3, "shortcut": True, "lazy": True, "gain": 0.5, "samples": 4, "choose": "joint_limit_distance",
-              "iteration_budget": 3}
+              "max_step": 0.3, "shortcut": True, "lazy": True, "gain": 0.5, "samples": 4,
+              "choose": "joint_limit_distance", "iteration_budget": 3}
     for method, names in OPTIONS.items():
         robot = planar if method == "analytic" else ur5
         T = robot.fk(robot.random_q(np.random.default_rng(0)))
@@ -82,7 +83,8 @@ def test_ik_solve_checks_option_values_on_every_path(method, options, error, wor
     refuse a bad value before solving, with the option's name in the message."""
     panda = robots.load("panda", geometry=False)
     T = panda.fk(panda.random_q(np.random.default_rng(1)))
-    with_obstacles = () if method == "lm" else ({"obstacles": [ik.Sphere((0.5, 0.5, 0.9), 0.05)]},)  # lm: refused
+    # lm: refused
+    with_obstacles = () if method == "lm" else ({"obstacles": [ik.Sphere((0.5, 0.5, 0.9), 0.05)]},)
     for extra in ({}, *with_obstacles):
         with pytest.raises(error) as info:
             ik.solve(panda, T, method=method, **extra, **options)

@@ -1,4 +1,5 @@
-"""kinserve.ik.qp.target_solver: convergence on random targets for every backend; S9 relaxed tasks with centring and the sphere."""
+"""kinserve.ik.qp.target_solver: convergence on random targets for every backend; S9 relaxed tasks with
+centring and the sphere."""
 
 import numpy as np
 import pytest

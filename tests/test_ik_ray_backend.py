@@ -30,8 +30,10 @@ def test_ray_matches_local_backends(local_ray, robot_name, relax):
     Q = robot.random_q(3, n=40)
     targets = robot.fk_batch(Q)
     serial = solve_many(robot, targets, backend="serial", seed=4, relax=relax, chunksize=5, progress=False)
-    local = solve_many(robot, targets, backend="processes", processes=2, seed=4, relax=relax, chunksize=5, progress=False)
-    remote = solve_many(robot, targets, backend="ray", processes=2, seed=4, relax=relax, chunksize=5, progress=False)
+    local = solve_many(robot, targets, backend="processes", processes=2, seed=4, relax=relax, chunksize=5,
+                       progress=False)
+    remote = solve_many(robot, targets, backend="ray", processes=2, seed=4, relax=relax, chunksize=5,
+                        progress=False)
     assert len(remote) == 40
     for a, b, c in zip(serial, local, remote):
         assert a.success == b.success == c.success

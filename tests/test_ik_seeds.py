@@ -1,4 +1,5 @@
-"""kinserve.ik.starts.seed_table: the table ranks samples by the stated pose distance; start sequences are deterministic."""
+"""kinserve.ik.starts.seed_table: the table ranks samples by the stated pose distance; start sequences are
+deterministic."""
 
 import itertools
 
@@ -48,7 +49,8 @@ def test_start_sequence_order_and_determinism():
               + table.weight * np.sum((T_full[:, :3, :3] - T[:3, :3]) ** 2, axis=(1, 2)))
     after = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=1e9), 9, 17))
     assert all(np.array_equal(a, table.Q_full[i]) for a, i in zip(after, np.argsort(d_full)[:8]))
-    mid = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=0.5 * (dist[2] + dist[3])), 5))
+    mid = list(itertools.islice(start_sequence(robot, table, f, q0, 0,
+                                               q0_distance=0.5 * (dist[2] + dist[3])), 5))
     assert np.array_equal(mid[2], table.Q[idx[2]]) and np.array_equal(mid[3], q0)  # q0 ranked by its distance
     near = list(itertools.islice(start_sequence(robot, table, f, q0, 0, q0_distance=0.0), 2))
     assert np.array_equal(near[0], q0)

@@ -1,4 +1,5 @@
-"""kinserve.ik.solve: every bad input of the issue raises from kinematics.errors; method "auto" dispatch; Result fields."""
+"""kinserve.ik.solve: every bad input of the issue raises from kinematics.errors; method "auto" dispatch;
+Result fields."""
 
 import numpy as np
 import pinocchio as pin
@@ -161,7 +162,9 @@ def test_sphere_errors_name_their_argument(panda, T):
     assert info.value.argument == "q0"
 
 
-@pytest.mark.parametrize("options", [dict(prefer_q0=True), dict(), dict(seed_table=False, max_iter=30), dict(max_starts=2)])
+@pytest.mark.parametrize("options",
+                         [dict(prefer_q0=True), dict(), dict(seed_table=False, max_iter=30),
+                          dict(max_starts=2)])
 def test_short_path_gives_the_general_path_answer(panda, options):
     """The pose request of ik.solve (defaults elsewhere) answers exactly as the general target request."""
     from kinserve.ik.request import target_request

@@ -50,7 +50,8 @@ def test_steps_converge_and_stay_clear(panda):
     q = panda.random_q(rng)
     T = panda.fk(panda.random_q(rng)).copy()
     mid = 0.5 * (panda.fk(q)[:3, 3] + T[:3, 3])
-    avoid = ik.ObstacleAvoidance([ik.Sphere(mid + [0.0, 0.1, 0.0], 0.05), ik.Sphere(mid - [0.0, 0.1, 0.0], 0.05),
+    avoid = ik.ObstacleAvoidance([ik.Sphere(mid + [0.0, 0.1, 0.0], 0.05),
+                                  ik.Sphere(mid - [0.0, 0.1, 0.0], 0.05),
                                   ik.Sphere(mid + [0.0, 0.0, 0.1], 0.05)]).bind(panda)
     tasks = [ik.FrameTask(None, T), ik.PostureTask(panda.neutral(), weight=1e-3, priority=2)]
     cons = [avoid, ik.VelocityLimits(2.0)]
@@ -83,7 +84,8 @@ def test_user_constraint_in_step_and_solve(panda):
         assert panda.fk(q_next)[2, 3] > 0.3 - 1e-3
         T2 = T.copy()
         T2[2, 3] = 0.5
-        res = ik.solve(panda, tasks=[ik.FrameTask(None, T2, relax=("roll", "pitch", "yaw"))], constraints=[table], seed=k)
+        res = ik.solve(panda, tasks=[ik.FrameTask(None, T2, relax=("roll", "pitch", "yaw"))],
+                       constraints=[table], seed=k)
         assert all(panda.fk(qi)[2, 3] >= 0.3 - 1e-9 for qi in res.history.q[1:])
 
 
@@ -108,7 +110,8 @@ def _setup(panda, rng, level=2):
     T = panda.fk(panda.random_q(rng)).copy()
     hand = panda.fk(q)[:3, 3]
     spheres = [ik.Sphere(hand + rng.normal(0.0, 0.12, 3), 0.05) for _ in range(3)]
-    tasks = [ik.FrameTask(None, T), ik.PostureTask(panda.middle(), weight=1.0 if level == 2 else 1e-2, priority=level)]
+    tasks = [ik.FrameTask(None, T),
+             ik.PostureTask(panda.middle(), weight=1.0 if level == 2 else 1e-2, priority=level)]
     return q, T, spheres, tasks, [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(2.0)]
 
 
@@ -123,7 +126,8 @@ def test_cached_step_is_the_step_of_fresh_objects(panda):
             T = panda.fk(panda.random_q(rng)).copy()
             tasks[0].set_target(T)
             cached = ik.step(panda, tasks, cons, q, 0.01)
-            fresh = ik.step(panda, [ik.FrameTask(None, T), ik.PostureTask(panda.middle(), weight=tasks[1].weight,
+            fresh = ik.step(panda, [ik.FrameTask(None, T),
+                                    ik.PostureTask(panda.middle(), weight=tasks[1].weight,
                                                                           priority=level)],
                             [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(2.0)], q, 0.01)
             assert np.array_equal(cached, fresh), (level, k)
@@ -137,7 +141,8 @@ def test_cached_problem_is_rebuilt_when_a_task_or_constraint_changes(panda):
     ik.step(panda, tasks, cons, q, 0.01)
 
     def fresh(q_ref, weight, priority, v_max, target=T):
-        return ik.step(panda, [ik.FrameTask(None, target), ik.PostureTask(q_ref, weight=weight, priority=priority)],
+        return ik.step(panda, [ik.FrameTask(None, target),
+                               ik.PostureTask(q_ref, weight=weight, priority=priority)],
                        [ik.ObstacleAvoidance(spheres), ik.VelocityLimits(v_max)], q, 0.01)
 
     q_ref = panda.random_q(rng)

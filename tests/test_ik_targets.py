@@ -1,4 +1,5 @@
-"""kinserve.ik.targets: relax names, task error, task Jacobian rows (finite differences), world vs target axes."""
+"""kinserve.ik.targets: relax names, task error, task Jacobian rows (finite differences), world vs target
+axes."""
 
 import numpy as np
 import pinocchio as pin
@@ -72,7 +73,9 @@ def _task_error_at(panda, tgt, q):
     return tgt.residual(T[:3, :3], T[:3, 3])
 
 
-@pytest.mark.parametrize("relax,axes", [((), "world"), (("yaw",), "world"), (("z", "roll"), "target"), (("roll", "pitch", "yaw"), "world")])
+@pytest.mark.parametrize("relax,axes",
+                         [((), "world"), (("yaw",), "world"), (("z", "roll"), "target"),
+                          (("roll", "pitch", "yaw"), "world")])
 def test_task_jacobian_is_minus_derivative_of_error_at_the_target(panda, rng, relax, axes):
     # at (and near) the target, d e / d q = -J_task (first order): finite differences
     q = panda.random_q(rng)

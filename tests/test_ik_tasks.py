@@ -117,7 +117,8 @@ def test_user_task_centre_of_mass_is_reached(panda):
     reached = pin.centerOfMass(panda.model, panda.model.createData(), res.q)
     assert np.linalg.norm(reached - com) < 1e-4
     assert [t["name"] for t in res.task_errors] == ["com", "posture"]
-    assert res.task_errors[0]["error"] < 1e-4 and res.task_errors[0]["goal"] and not res.task_errors[1]["goal"]
+    assert (res.task_errors[0]["error"] < 1e-4 and res.task_errors[0]["goal"]
+            and not res.task_errors[1]["goal"])
 
 
 def test_baxter_reaches_a_pose_with_each_hand_at_once():
@@ -127,7 +128,8 @@ def test_baxter_reaches_a_pose_with_each_hand_at_once():
     for k in range(3):
         q = baxter.random_q(rng)
         TL, TR = baxter.fk(q, "left_gripper").copy(), baxter.fk(q, "right_gripper").copy()
-        res = ik.solve(baxter, tasks=[ik.FrameTask("left_gripper", TL), ik.FrameTask("right_gripper", TR)], seed=k)
+        res = ik.solve(baxter, tasks=[ik.FrameTask("left_gripper", TL),
+                                      ik.FrameTask("right_gripper", TR)], seed=k)
         assert res.success, res.message
         for frame, T in (("left_gripper", TL), ("right_gripper", TR)):
             got = baxter.fk(res.q, frame)

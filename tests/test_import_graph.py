@@ -109,14 +109,16 @@ def find_cycle(graph) -> list[str] | None:
 def test_the_cycle_finder_finds_cycles():
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set(), "c": {"a", "b"}}) is None
-    mods = {"kinserve.ik": (None, True), "kinserve.ik.batch.solve_many": (None, False), "kinserve.ik.batch.ray_backend": (None, False)}
+    mods = {"kinserve.ik": (None, True), "kinserve.ik.batch.solve_many": (None, False),
+            "kinserve.ik.batch.ray_backend": (None, False)}
     lazy = ast.parse("def f():\n    from .batch import run\n").body[0].body[0]
     assert _targets("kinserve.ik.batch.ray_backend", False, lazy, mods) == ["kinserve.ik.batch.solve_many"]
 
 
 def test_every_module_imports_and_no_import_cycle():
     mods = kinserve_modules()
-    assert {"kinserve.ik.batch.solve_many", "kinserve.ik.batch.ray_backend", "kinserve.kinematics.robot", "kinserve.service.app"} <= set(mods)
+    assert {"kinserve.ik.batch.solve_many", "kinserve.ik.batch.ray_backend", "kinserve.kinematics.robot",
+            "kinserve.service.app"} <= set(mods)
     for name in sorted(mods):
         importlib.import_module(name)
     graph = import_graph(mods)

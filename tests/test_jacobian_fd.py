@@ -66,7 +66,8 @@ def test_local_and_spatial_jacobians_match_their_definitions(name):
         np.testing.assert_allclose(J_local[:3], R.T @ lin, atol=TOL, err_msg=f"{name} local linear")
         np.testing.assert_allclose(J_local[3:], ang_local, atol=TOL, err_msg=f"{name} local angular")
         J_spatial = robot.jacobian(q, reference="spatial")
-        np.testing.assert_allclose(J_spatial[:3], lin + np.cross(p, ang_world.T).T, atol=TOL, err_msg=f"{name} spatial linear")
+        np.testing.assert_allclose(J_spatial[:3], lin + np.cross(p, ang_world.T).T, atol=TOL,
+                                   err_msg=f"{name} spatial linear")
         np.testing.assert_allclose(J_spatial[3:], ang_world, atol=TOL, err_msg=f"{name} spatial angular")
 
 

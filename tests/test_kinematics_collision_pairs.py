@@ -1,4 +1,5 @@
-"""MoveIt-style disabled-pair computation: adjacency, determinism with the stated seed, the on-disk cache, SRDF parsing."""
+"""MoveIt-style disabled-pair computation: adjacency, determinism with the stated seed, the on-disk cache,
+SRDF parsing."""
 
 import json
 
@@ -78,7 +79,8 @@ def test_cache_hit_and_bad_cache_file(cache):
     assert second.pair_source == "cache" and second.disabled == first.disabled
     assert second.self_pairs == first.self_pairs
     # another model text -> another key; a corrupt file is recomputed, not an error
-    assert collision_cache.cache_key(robot.source + " ", 1, 0, 1) != collision_cache.cache_key(robot.source, 1, 0, 1)
+    assert collision_cache.cache_key(robot.source
+                                     + " ", 1, 0, 1) != collision_cache.cache_key(robot.source, 1, 0, 1)
     files[0].write_text("{not json")
     third = _fresh(robot, model_text=robot.source)
     assert third.pair_source == "computed" and third.disabled == first.disabled
@@ -88,9 +90,11 @@ def test_cache_hit_and_bad_cache_file(cache):
 def test_srdf_parsing_errors_are_named():
     links = ["a", "b", "c"]
     assert collision_pairs.srdf_disabled_pairs(
-        '<robot name="r"><disable_collisions link1="b" link2="a" reason="Never"/></robot>', links) == {("a", "b"): "Never"}
+        '<robot name="r"><disable_collisions link1="b" link2="a" '
+        'reason="Never"/></robot>', links) == {("a", "b"): "Never"}
     with pytest.raises(errors.ModelError, match="line 1.*'d'"):
-        collision_pairs.srdf_disabled_pairs('<robot name="r"><disable_collisions link1="a" link2="d"/></robot>', links)
+        collision_pairs.srdf_disabled_pairs('<robot name="r"><disable_collisions link1="a" '
+                                            'link2="d"/></robot>', links)
     with pytest.raises(errors.ModelError, match="needs link1= and link2="):
         collision_pairs.srdf_disabled_pairs('<robot name="r"><disable_collisions link1="a"/></robot>', links)
     with pytest.raises(errors.ModelError, match="malformed XML"):

@@ -48,8 +48,8 @@ def test_tree_placements_match_pinocchio_omi(name):
             assert np.abs(X[j, 9:] - M.translation).max() < 1e-12
 
 
-@pytest.mark.parametrize("joint", [pin.JointModelFreeFlyer(), pin.JointModelRUBZ(), pin.JointModelSphericalZYX(),
-                                   pin.JointModelPlanar()])
+@pytest.mark.parametrize("joint", [pin.JointModelFreeFlyer(), pin.JointModelRUBZ(),
+                                   pin.JointModelSphericalZYX(), pin.JointModelPlanar()])
 def test_models_with_other_joints_are_not_packed(joint):
     """A tree with any joint other than a one-DoF revolute / prismatic one has no packing, wherever it is;
     the chain to a frame that avoids it still packs when the sizes allow (serial_chain unchanged)."""
@@ -208,8 +208,8 @@ def _tetra(tmp_path):
 def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
     """For sphere centres around every obstacle kind: the bound is the shape's closed-form signed distance
     minus the radius (a mesh: its bounding sphere, a lower bound), and the squared test of the certification
-    says "clear" exactly when that bound exceeds the tolerance, with the bound minus the tolerance as its slack
-    (capped by the margin so far)."""
+    says "clear" exactly when that bound exceeds the tolerance, with the bound minus the tolerance as its
+    slack (capped by the margin so far)."""
     rng = np.random.default_rng(6)
     shapes = [Sphere((0.1, 0.2, 0.3), 0.15), Box(_pose((0.3, -0.1, 0.4), _rotation(rng)), (0.2, 0.5, 0.1)),
               Capsule((0.1, 0.1, 0.1), (0.4, -0.2, 0.5), 0.06),
@@ -276,7 +276,8 @@ def _coal_pairs(scene, q, data, gd):
 
 
 def _check_scene(robot, scene, Q):
-    """The conservativeness checks of one scene over configurations ``Q``; returns (certified, in collision)."""
+    """The conservativeness checks of one scene over configurations ``Q``; returns (certified, in
+    collision)."""
     pre = scene.precheck()
     assert pre is not None
     arrays = pre[2:4]
@@ -374,7 +375,8 @@ def test_scene_checks_share_the_layout_precheck_and_follow_moved_obstacles():
     onto = robot.collision_scene(SCENE + [Box(_pose(elbow), (0.1, 0.1, 0.1))])
     assert away.layout is onto.layout and away.layout.precheck() is onto.layout.precheck()
     layout_check = away.layout.precheck()
-    for scene in (away, onto):  # rows copied from the layout's own obstacles or placed: as packed from scratch
+    for scene in (away, onto):
+        # rows copied from the layout's own obstacles or placed: as packed from scratch
         rows = np.array([cs.obstacle_row(shape.geometry(), shape.placement()) for shape in scene.obstacles])
         floats, ints = cs.pack(layout_check.robot, layout_check.pairs, rows)
         assert np.allclose(scene.precheck()[2], floats, rtol=0, atol=1e-15)
@@ -445,9 +447,11 @@ def test_precheck_is_built_by_first_collision_or_after_the_first_in_collision_ca
     assert layout.coal_checks == 0
     for q in Q[:-1]:
         scene.in_collision(q)
-    assert layout._precheck is collision_layout._UNBUILT and layout.coal_checks == collision_layout.PRECHECK_AFTER
+    assert (layout._precheck is collision_layout._UNBUILT
+            and layout.coal_checks == collision_layout.PRECHECK_AFTER)
     scene.in_collision(Q[-1])
-    assert layout._precheck is not collision_layout._UNBUILT and scene._precheck is not collision_layout._UNBUILT
+    assert (layout._precheck is not collision_layout._UNBUILT
+            and scene._precheck is not collision_layout._UNBUILT)
     other = robot.collision_scene([Sphere((0.5, 0.3, 0.4), 0.0732)])
     other.first_collision([Q[0]])
     assert other.layout._precheck is not collision_layout._UNBUILT and other.layout.coal_checks == 0
@@ -498,8 +502,8 @@ def _world_centres(spheres, q) -> np.ndarray:
 @pytest.mark.parametrize("name", ["panda", "ur5", "scara", "pr"])
 def test_joint_reach_bounds_every_sphere_displacement(name):
     """``sum_k R_k |dq_k|`` bounds how far any sphere centre moves from ``q`` to ``q + dq``, for steps from a
-    microradian to the whole joint range, one joint or all at once; and the bound of a typical revolute joint is
-    within a factor of ~5 of the largest displacement seen (not vacuous)."""
+    microradian to the whole joint range, one joint or all at once; and the bound of a typical revolute joint
+    is within a factor of ~5 of the largest displacement seen (not vacuous)."""
     robot = robots.load(name)
     spheres = cs.robot_spheres_of(robot.collision)
     assert spheres is not None and spheres.reach.shape == (len(spheres.joints),)
@@ -541,10 +545,10 @@ def _coal_hits(scene, Q) -> np.ndarray:
 
 
 def test_first_uncertified_on_converging_paths_matches_every_row_certified(tmp_path):
-    """IK-like paths (rows closing in geometrically on an answer near the arm's obstacles, the answer first, as
-    the IK checks them): the index ``first_uncertified`` returns - skipping rows close to one it certified -
-    is the first row that certification row by row (``certify_configurations``) does not certify, and coal
-    finds every row before it free."""
+    """IK-like paths (rows closing in geometrically on an answer near the arm's obstacles, the answer first,
+    as the IK checks them): the index ``first_uncertified`` returns - skipping rows close to one it
+    certified - is the first row that certification row by row (``certify_configurations``) does not certify,
+    and coal finds every row before it free."""
     robot = robots.load("panda")
     rng = np.random.default_rng(12)
     checked = stopped = 0

@@ -68,7 +68,8 @@ def test_bounding_ball_contains_the_shape_and_is_tight(rng, ico_path):
         assert inside.sum() > 20 and far[inside].max() > 0.8 * r, shape.kind
     box = Box(random_pose(rng), [0.3, 0.2, 0.5])
     corner = box.pose[:3, :3] @ (0.5 * np.array([0.3, -0.2, 0.5])) + box.pose[:3, 3]
-    assert np.isclose(np.linalg.norm(corner - box.bounding_ball()[0]), box.bounding_ball()[1])  # a corner is on it
+    # a corner is on it
+    assert np.isclose(np.linalg.norm(corner - box.bounding_ball()[0]), box.bounding_ball()[1])
 
 
 def test_inside_points_are_negative_and_depth_is_exact_for_primitives():
@@ -138,7 +139,8 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
 
 
 def test_pose_arrays_are_read_only(rng, ico_path):
-    """A shape's arrays cannot be changed in place (its hash and the scenes cached by value depend on them)."""
+    """A shape's arrays cannot be changed in place (its hash and the scenes cached by value depend on
+    them)."""
     for shape in shapes(rng, ico_path):
         with pytest.raises(ValueError):
             shape.pose[0, 3] = 1.0

@@ -46,7 +46,8 @@ def fast_switching():
 
 
 def run_threads(work, n_items: int) -> list:
-    """``work(i)`` for ``i in range(n_items)``, items dealt round-robin to THREADS threads started together."""
+    """``work(i)`` for ``i in range(n_items)``, items dealt round-robin to THREADS threads started
+    together."""
     out = [None] * n_items
     errors = []
     barrier = threading.Barrier(THREADS)
@@ -93,7 +94,8 @@ def test_jacobians_and_fk_all_bit_identical(panda, fast_switching):
     # fk_all and the analytic Jacobian read the thread's data after their own kinematics pass
     ref_all = [panda.fk_all(Q[i])["panda_link5"].copy() for i in range(400)]
     ref_a = [panda.analytic_jacobian(Q[i]).copy() for i in range(400)]
-    got2 = run_threads(lambda i: (panda.fk_all(Q[i])["panda_link5"].copy(), panda.analytic_jacobian(Q[i]).copy()), 400)
+    got2 = run_threads(lambda i: (panda.fk_all(Q[i])["panda_link5"].copy(),
+                                  panda.analytic_jacobian(Q[i]).copy()), 400)
     assert all(np.array_equal(g[0], r) for g, r in zip(got2, ref_all))
     assert all(np.array_equal(g[1], r) for g, r in zip(got2, ref_a))
 
@@ -104,14 +106,16 @@ def test_ik_identical_over_600_solves(panda, fast_switching):
     q0s = panda.random_q(rng, 600)
 
     def solve(i):
-        # a generous time budget: the answer then depends on the seed only, not on the thread's share of the CPU
+        # a generous time budget: the answer then depends on the seed only, not on the thread's share of the
+        # CPU
         r = ik.solve(panda, targets[i], q0s[i], seed=i, max_time=30.0)
         return r.q.copy(), r.success, r.iterations
 
     ref = [solve(i) for i in range(600)]
     got = run_threads(solve, 600)
     assert all(r[1] for r in ref)
-    differ = [i for i in range(600) if not (np.array_equal(got[i][0], ref[i][0]) and got[i][1:] == ref[i][1:])]
+    differ = [i for i in range(600)
+              if not (np.array_equal(got[i][0], ref[i][0]) and got[i][1:] == ref[i][1:])]
     assert differ == []
 
 
@@ -143,8 +147,7 @@ def test_copy_and_pickle_give_fresh_per_thread_workspaces(panda):
 
 
 def test_first_use_of_a_new_model_builds_one_seed_table_and_one_solver(panda, fast_switching):
-    from kinserve.ik.state import closed_form_solver
-    from kinserve.ik.state import seed_table
+    from kinserve.ik.state import closed_form_solver, seed_table
     from kinserve.kinematics import Robot
 
     fresh = Robot(panda.model.copy(), tip=panda.tip, name="panda-copy")  # a model no cache has seen

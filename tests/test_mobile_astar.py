@@ -1,4 +1,5 @@
-"""A* on occupancy grids: optimal costs equal networkx's on the same 8-connected graph; valid paths; errors."""
+"""A* on occupancy grids: optimal costs equal networkx's on the same 8-connected graph; valid paths;
+errors."""
 
 import math
 
@@ -48,7 +49,8 @@ def _random_grid(rng):
         else:
             shapes.append(Circle(x, y, rng.uniform(0.5, 4)))
     res = float(rng.choice([1.0, 0.5]))
-    return OccupancyGrid.from_shapes((W, H), shapes, resolution=res, inflation=float(rng.choice([0.0, 0.5, 1.0])))
+    return OccupancyGrid.from_shapes((W, H), shapes, resolution=res,
+                                     inflation=float(rng.choice([0.0, 0.5, 1.0])))
 
 
 def _check_path(grid, path, start, goal):
@@ -129,7 +131,8 @@ def test_proximity_cost_equals_networkx(s7):
             ref = nx.dijkstra_path_length(G, tuple(a), tuple(b), weight="weight")
         except nx.NetworkXNoPath:
             continue
-        p = astar(grid, grid.index_to_world(*a)[0], grid.index_to_world(*b)[0], proximity_weight=w, proximity_range=rngd)
+        p = astar(grid, grid.index_to_world(*a)[0], grid.index_to_world(*b)[0], proximity_weight=w,
+                  proximity_range=rngd)
         assert p.method == "plain" and p.cost == pytest.approx(ref, rel=1e-12)
 
 

@@ -1,4 +1,5 @@
-"""Boustrophedon coverage: S8 covers >= 95 % of the free floor; the coverage measure checked by brute force."""
+"""Boustrophedon coverage: S8 covers >= 95 % of the free floor; the coverage measure checked by brute
+force."""
 
 import numpy as np
 import pytest
@@ -81,7 +82,8 @@ def test_open_room_is_covered_fully():
 
 
 def test_decomposition_splits_at_an_obstacle():
-    g = OccupancyGrid.from_shapes((100, 60), [Rectangle(40, 20, 60, 40)], resolution=1.0, border_clearance=5.0)
+    g = OccupancyGrid.from_shapes((100, 60), [Rectangle(40, 20, 60, 40)], resolution=1.0,
+                                  border_clearance=5.0)
     cells = decompose(lane_intervals(g, 5.0, 10.0))
     # below, left, right, above the block
     assert len(cells) == 4

@@ -50,7 +50,8 @@ def test_turning_in_place_between_samples_is_swept():
     """Two samples at one point, headings 0 then 90 deg: both axis-aligned, yet the turn passes 45 deg."""
     pen = footprint_penetration([[10.0, 50.0], [10.0, 50.0]], [0.0, math.pi / 2], [], length=20.0,
                                 bounds=(0, 0, 100, 100))
-    # headings every <= 2 deg: the 45 deg pose is missed by at most 1 deg, the reach by 10 sqrt 2 (1 - cos 1 deg)
+    # headings every <= 2 deg: the 45 deg pose is missed by at most 1 deg, the reach by 10 sqrt 2 (1 - cos 1
+    # deg)
     tol = HALF_DIAG * (1 - math.cos(math.radians(1.0))) + 1e-9
     assert HALF_DIAG - 10 - tol <= pen.depth <= HALF_DIAG - 10 and pen.shape == "walls" and pen.index == 1
     assert abs(pen.pose[2] - math.pi / 4) < math.radians(2.0)
@@ -64,8 +65,9 @@ def test_polygon_obstacle_and_deepest_point():
     tri = Polygon([(0, 0), (30, 0), (0, 30)], "triangle")
     # a heading-0 square centred at (-5, 10) overlaps the triangle by 5 along x: its right edge at x = 5
     pen = footprint_penetration([[-5.0, 10.0]], [0.0], [tri], length=20.0)
-    # deepest outline point of the right edge x = 5, y in [0, 20], inside the triangle: distance to x = 0 is 5,
-    # to the hypotenuse (x + y = 30)/sqrt 2 is (25 - y)/sqrt 2 >= 5 for y <= 17.9, to y = 0 is y: best 5 at y in [5, 17.9]
+    # deepest outline point of the right edge x = 5, y in [0, 20], inside the triangle: distance to x = 0 is
+    # 5, to the hypotenuse (x + y = 30)/sqrt 2 is (25 - y)/sqrt 2 >= 5 for y <= 17.9, to y = 0 is y: best 5 at
+    # y in [5, 17.9]
     assert pen.depth == pytest.approx(5.0, abs=1e-9)
 
 

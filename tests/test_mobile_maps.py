@@ -8,7 +8,8 @@ from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.planners.mobile.maps import OccupancyGrid
 from kinserve.planners.mobile.shapes import Circle, Polygon, Rectangle
 
-SHAPES = (Rectangle(10, 10, 20, 15, "box"), Circle(30, 30, 5, "disc"), Polygon([(40, 5), (48, 5), (44, 14)], name="tri"))
+SHAPES = (Rectangle(10, 10, 20, 15, "box"), Circle(30, 30, 5, "disc"),
+          Polygon([(40, 5), (48, 5), (44, 14)], name="tri"))
 
 
 @pytest.fixture(scope="module")
@@ -40,8 +41,10 @@ def test_raster_rule_between_lattice_points(grid):
     rng = np.random.default_rng(0)
     P = rng.uniform([0, 0], [50, 40], (3000, 2))
     u, v = P[:, 0] / 0.5, P[:, 1] / 0.5
-    expect = (grid.free[np.floor(v).astype(int), np.floor(u).astype(int)] & grid.free[np.ceil(v).astype(int), np.floor(u).astype(int)]
-              & grid.free[np.floor(v).astype(int), np.ceil(u).astype(int)] & grid.free[np.ceil(v).astype(int), np.ceil(u).astype(int)])
+    expect = (grid.free[np.floor(v).astype(int), np.floor(u).astype(int)]
+              & grid.free[np.ceil(v).astype(int), np.floor(u).astype(int)]
+              & grid.free[np.floor(v).astype(int), np.ceil(u).astype(int)]
+              & grid.free[np.ceil(v).astype(int), np.ceil(u).astype(int)])
     np.testing.assert_array_equal(grid.is_free(P), expect)
     assert not grid.is_free([[-0.1, 5], [51, 5]]).any()  # outside the map
 

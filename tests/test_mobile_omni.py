@@ -1,4 +1,5 @@
-"""Three-wheel omni base (S6): heading-only Jacobian, equal wheels rotate in place, one wheel draws a circle."""
+"""Three-wheel omni base (S6): heading-only Jacobian, equal wheels rotate in place, one wheel draws a
+circle."""
 
 import math
 
@@ -12,12 +13,14 @@ BASE = OmniBase(wheel_radius=0.05, center_distance=0.2)
 
 
 def _rim_speeds_from_rigid_motion(base, pose, twist):
-    """Independent: velocity of each wheel centre from the rigid-body motion, projected on its rolling direction."""
+    """Independent: velocity of each wheel centre from the rigid-body motion, projected on its rolling
+    direction."""
     x, y, th = pose
     xd, yd, thd = twist
     out = []
     for b in base.wheel_angles:
-        p = np.array([x + base.center_distance * math.cos(th + b), y + base.center_distance * math.sin(th + b)])
+        p = np.array([x + base.center_distance * math.cos(th + b),
+                      y + base.center_distance * math.sin(th + b)])
         v = np.array([xd, yd]) + thd * np.array([-(p[1] - y), p[0] - x])  # v_c + omega z x (p - c)
         u = np.array([-math.sin(th + b), math.cos(th + b)])  # rolling direction
         out.append(-(u @ v) / base.wheel_radius)  # positive about the outward axle drives the hub along -u
@@ -27,7 +30,8 @@ def _rim_speeds_from_rigid_motion(base, pose, twist):
 @pytest.mark.parametrize("pose", [(0, 0, 0.0), (3.0, -7.0, 0.0), (3.0, -7.0, 1.1), (-50, 20, -2.5)])
 def test_wheel_speeds_depend_on_heading_not_position(pose, rng):
     tw = rng.normal(size=3)
-    np.testing.assert_allclose(BASE.wheel_speeds(tw, pose[2]), _rim_speeds_from_rigid_motion(BASE, pose, tw), atol=1e-12)
+    np.testing.assert_allclose(BASE.wheel_speeds(tw, pose[2]),
+                               _rim_speeds_from_rigid_motion(BASE, pose, tw), atol=1e-12)
 
 
 def test_forward_is_inverse_of_inverse(rng):

@@ -1,4 +1,5 @@
-"""Time scaling along paths: limits (speed, acceleration, turn rate), continuity of v and a, rest at the ends."""
+"""Time scaling along paths: limits (speed, acceleration, turn rate), continuity of v and a, rest at the
+ends."""
 
 import math
 
@@ -18,7 +19,8 @@ def _arc_path(radius=5.0, angle=math.pi, n=2001):
     th = np.linspace(0, angle, n)
     pts = np.stack([radius * np.sin(th), radius * (1 - np.cos(th))], axis=1)
     s = radius * th
-    return SmoothPath(pts, s, th, np.full(n, 1.0 / radius), pts[[0, -1]], "spline", np.array([0.0, s[-1]]), True)
+    return SmoothPath(pts, s, th, np.full(n, 1.0 / radius), pts[[0, -1]], "spline",
+                      np.array([0.0, s[-1]]), True)
 
 
 def _check_limits_and_continuity(tr, v_max, a_max, omega_max, dt):

@@ -1,4 +1,5 @@
-"""Waypoint sequencing on the S7 mall: given order, and the best order by A* costs (checked by brute force)."""
+"""Waypoint sequencing on the S7 mall: given order, and the best order by A* costs (checked by brute
+force)."""
 
 import itertools
 
@@ -37,7 +38,8 @@ def test_optimal_order_is_the_brute_force_optimum(s7):
     C, _ = pairwise_costs(s7, wp)
     np.testing.assert_allclose(C, C.T)
     best = min(
-        sum(C[a, b] for a, b in zip((0, *p, 5)[:-1], (0, *p, 5)[1:])) for p in itertools.permutations(range(1, 5))
+        sum(C[a, b] for a, b in zip((0, *p, 5)[:-1], (0, *p, 5)[1:]))
+        for p in itertools.permutations(range(1, 5))
     )
     plan = plan_waypoints(s7, wp, order="optimal", names=NAMES)
     assert plan.order[0] == 0 and plan.order[-1] == 5 and sorted(plan.order) == list(range(6))

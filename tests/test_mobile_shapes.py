@@ -25,7 +25,8 @@ def test_polygon_matches_rectangle_and_handles_concavity(rng):
     rect = Rectangle(-1, -2, 3, 1)
     poly = Polygon([(-1, -2), (3, -2), (3, 1), (-1, 1)])
     P = rng.uniform(-5, 5, (500, 2))
-    np.testing.assert_allclose(poly.signed_distance(P[:, 0], P[:, 1]), rect.signed_distance(P[:, 0], P[:, 1]), atol=1e-12)
+    np.testing.assert_allclose(poly.signed_distance(P[:, 0], P[:, 1]),
+                               rect.signed_distance(P[:, 0], P[:, 1]), atol=1e-12)
     assert poly.area == pytest.approx(rect.area)
     L = Polygon([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)])  # an L shape
     d = L.signed_distance(np.array([0.5, 1.5, 1.5]), np.array([1.5, 1.5, 0.5]))

@@ -49,18 +49,21 @@ def test_spline_heading_and_curvature_are_continuous(s7, s7_plan):
     dk = np.abs(np.diff(sp.curvature))
     assert dk.max() < 0.05  # no curvature jumps at the knots
     # curvature agrees with the heading's rate of change
-    np.testing.assert_allclose(np.diff(np.unwrap(sp.heading)) / ds, 0.5 * (sp.curvature[1:] + sp.curvature[:-1]), atol=2e-3)
+    np.testing.assert_allclose(np.diff(np.unwrap(sp.heading)) / ds,
+                               0.5 * (sp.curvature[1:] + sp.curvature[:-1]), atol=2e-3)
 
 
 @pytest.mark.parametrize("seed", range(6))
 def test_random_maps_stay_free(seed):
     rng = np.random.default_rng(100 + seed)
-    shapes = [Rectangle(x, y, x + w, y + h) for x, y, w, h in rng.uniform([5, 5, 3, 3], [45, 45, 12, 12], (6, 4))]
+    shapes = [Rectangle(x, y, x + w, y + h)
+              for x, y, w, h in rng.uniform([5, 5, 3, 3], [45, 45, 12, 12], (6, 4))]
     shapes += [Circle(*rng.uniform([5, 5], [45, 45]), rng.uniform(2, 6)) for _ in range(3)]
     g = OccupancyGrid.from_shapes((60, 60), shapes, resolution=1.0, inflation=2.0)
     free = np.argwhere(g.free)
     for _ in range(3):
-        a, b = g.index_to_world(*free[rng.integers(len(free))])[0], g.index_to_world(*free[rng.integers(len(free))])[0]
+        a, b = (g.index_to_world(*free[rng.integers(len(free))])[0],
+                g.index_to_world(*free[rng.integers(len(free))])[0])
         try:
             p = astar(g, a, b)
         except Exception:

@@ -1,4 +1,5 @@
-"""Regression: the turn-rate cap of planners.mobile.time_scale_path holds at curvature peaks between its grid nodes.
+"""Regression: the turn-rate cap of planners.mobile.time_scale_path holds at curvature peaks between its grid
+nodes.
 
 The speed profile is built on a grid every 0.05 along the path; the path's
 curvature is piecewise linear between *its own* samples, so a sharp peak at a

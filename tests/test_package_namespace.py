@@ -1,4 +1,5 @@
-"""One import package, ``kinserve``: proven for a built wheel, for the editable (dev) install, and in the source.
+"""One import package, ``kinserve``: proven for a built wheel, for the editable (dev) install, and in the
+source.
 
 - The wheel (``pip wheel --no-deps``, offline: ``--no-build-isolation``) holds
   ``kinserve/...`` and its ``.dist-info`` only; ``top_level.txt`` is ``kinserve``.
@@ -26,8 +27,8 @@ import kinserve
 
 ROOT = Path(__file__).resolve().parents[1]
 SUBPACKAGES = ("robots", "kinematics", "ik", "planners", "viz", "scenarios", "service")
-NOT_SHIPPED = (".venv", ".git", "build", "dist", "*.egg-info", "__pycache__", "demo-out", "bench-out", "tests",
-               "benchmarks", ".pytest_cache", ".hypothesis", ".schemathesis")
+NOT_SHIPPED = (".venv", ".git", "build", "dist", "*.egg-info", "__pycache__", "demo-out", "bench-out",
+               "tests", "benchmarks", ".pytest_cache", ".hypothesis", ".schemathesis")
 
 #: Imports ``kinserve``, prints where from, and checks that no bare subpackage name resolves.
 PROBE = """
@@ -42,8 +43,8 @@ print(json.dumps({"file": kinserve.__file__, "ik": kinserve.ik.__file__, "versio
 def python(code: str, cwd: Path, **env: str) -> dict:
     import json
 
-    out = subprocess.run([sys.executable, "-c", code], cwd=cwd, env={**os.environ, **env}, capture_output=True,
-                         text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", code], cwd=cwd, env={**os.environ, **env},
+                         capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -54,8 +55,9 @@ def wheel(tmp_path_factory) -> Path:
     work = tmp_path_factory.mktemp("wheel")
     src = work / "src"
     shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(*NOT_SHIPPED))
-    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "--no-index",
-                          "-w", str(work / "dist"), str(src)], capture_output=True, text=True, timeout=300)
+    out = subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation",
+                          "--no-index", "-w", str(work / "dist"), str(src)], capture_output=True,
+                         text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
     (whl,) = (work / "dist").glob("kinserve-*.whl")
     return whl
@@ -65,8 +67,8 @@ def wheel(tmp_path_factory) -> Path:
 def installed(wheel, tmp_path_factory) -> Path:
     """The wheel installed (no dependencies) into a temporary ``--target`` folder."""
     target = tmp_path_factory.mktemp("target")
-    out = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-index", "--target", str(target),
-                          str(wheel)], capture_output=True, text=True, timeout=300)
+    out = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--no-index", "--target",
+                          str(target), str(wheel)], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
     return target
 
@@ -95,7 +97,8 @@ def test_installed_wheel_imports_as_kinserve_from_outside_the_repo(installed, tm
     assert Path(info["ik"]) == installed / "kinserve" / "ik" / "__init__.py"
     assert info["version"] == kinserve.__version__ and info["nq"] == 4
     assert info["bare"] == dict.fromkeys(SUBPACKAGES), info["bare"]  # `import ik` does not resolve
-    assert sorted(p.name for p in installed.iterdir() if not p.name.endswith(".dist-info")) in (["kinserve"], ["bin", "kinserve"])
+    assert sorted(p.name for p in installed.iterdir()
+                  if not p.name.endswith(".dist-info")) in (["kinserve"], ["bin", "kinserve"])
 
 
 def user_folder(tmp_path: Path) -> Path:
@@ -116,8 +119,8 @@ def user_folder(tmp_path: Path) -> Path:
 def run_script(folder: Path, **env: str) -> dict:
     import json
 
-    out = subprocess.run([sys.executable, "script.py"], cwd=folder, env={**os.environ, **env}, capture_output=True,
-                         text=True, timeout=120)
+    out = subprocess.run([sys.executable, "script.py"], cwd=folder, env={**os.environ, **env},
+                         capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -129,8 +132,8 @@ def test_installed_wheel_coexists_with_a_users_kinematics_module(installed, tmp_
 
 def test_editable_install_imports_from_any_folder(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
-    out = subprocess.run([sys.executable, "-c", "import kinserve, kinserve.ik; print(kinserve.__file__)"], cwd=tmp_path,
-                         env=env, capture_output=True, text=True, timeout=120)
+    out = subprocess.run([sys.executable, "-c", "import kinserve, kinserve.ik; print(kinserve.__file__)"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert Path(out.stdout.strip()) == ROOT / "__init__.py"
     info = python(PROBE, tmp_path)
@@ -146,19 +149,22 @@ def test_editable_install_coexists_with_a_users_kinematics_module(tmp_path):
 # --------------------------------------------------------------- the source tree cannot regress
 BARE = "|".join(SUBPACKAGES)
 FORBIDDEN = {
-    "sys.path edit": re.compile(r"\bsys\.path\s*(\.\s*(insert|append|extend|remove|pop|clear)\b|\+?=|\[[^\]]*\]\s*=)"),
+    "sys.path "
+    "edit": re.compile(r"\bsys\.path\s*(\.\s*(insert|append|extend|remove|pop|clear)\b|\+?=|\[[^\]]*\]\s*=)"),
     "site.addsitedir": re.compile(r"\baddsitedir\s*\("),
     # setting it (a keyword, an item assignment, setenv); removing it from a child's environment is fine
     "PYTHONPATH set": re.compile(r"PYTHONPATH\s*=|\[\s*[\"']PYTHONPATH[\"']\s*\]\s*=|[\"']PYTHONPATH[\"']\s*:|setenv\(\s*[\"']PYTHONPATH"),
     "bare import": re.compile(rf"^\s*(import\s+({BARE})\b|from\s+({BARE})(\.\w+)*\s+import\b)", re.M),
     # a dotted module name in quotes, not a file name such as "ik.json"
-    "bare module string": re.compile(rf"[\"'](-m\s+)?({BARE})\.(?!(json|csv|png|html|npz|md|txt|urdf|srdf|xacro|py)[\"'])\w+(\.\w+)*(:\w+)?[\"']"),
+    "bare module "
+    "string": re.compile(rf"[\"'](-m\s+)?({BARE})\.(?!(json|csv|png|html|npz|md|txt|urdf|srdf|xacro|py)[\"'])\w+(\.\w+)*(:\w+)?[\"']"),
     "python -m bare": re.compile(rf"python3?\s+-m\s+({BARE})\b"),
 }
 
 
 def source_files() -> list[Path]:
-    skip = {".venv", ".git", "build", "dist", "demo-out", "bench-out", "__pycache__", ".pytest_cache", ".hypothesis"}
+    skip = {".venv", ".git", "build", "dist", "demo-out", "bench-out", "__pycache__", ".pytest_cache",
+            ".hypothesis"}
     files = []
     for dirpath, dirnames, filenames in os.walk(ROOT):
         dirnames[:] = [d for d in dirnames if d not in skip and not d.endswith(".egg-info")]
@@ -169,7 +175,8 @@ def source_files() -> list[Path]:
 
 def test_the_forbidden_patterns_are_caught():
     samples = {
-        "sys.path edit": ["sys.path.insert(0, ROOT)", "sys.path.append('x')", "sys.path[:0] = [r]", "sys.path += [r]"],
+        "sys.path edit": ["sys.path.insert(0, ROOT)", "sys.path.append('x')", "sys.path[:0] = [r]",
+                          "sys.path += [r]"],
         "PYTHONPATH set": ["env = dict(os.environ, PYTHONPATH=ROOT)", "env['PYTHONPATH'] = x",
                            "monkeypatch.setenv('PYTHONPATH', r)"],
         "bare import": ["import robots", "from ik import solve", "from kinematics.errors import InputError",
@@ -180,12 +187,14 @@ def test_the_forbidden_patterns_are_caught():
     for kind, lines in samples.items():
         for line in lines:
             assert FORBIDDEN[kind].search(line), (kind, line)
-    allowed = {"PYTHONPATH set": ['env.pop("PYTHONPATH", None)'], "bare module string": ['"kinematics.json"', "'ik.json'"]}
+    allowed = {"PYTHONPATH set": ['env.pop("PYTHONPATH", None)'],
+               "bare module string": ['"kinematics.json"', "'ik.json'"]}
     for kind, lines in allowed.items():
         for line in lines:
             assert not FORBIDDEN[kind].search(line), (kind, line)
-    for fine in ["from kinserve import robots", "from . import ik", "dirs = list(sys.path)", "for entry in sys.path:",
-                 '"kinserve.service.app:app"', "python -m kinserve.service.cli", "from .ik import x"]:
+    for fine in ["from kinserve import robots", "from . import ik", "dirs = list(sys.path)",
+                 "for entry in sys.path:", '"kinserve.service.app:app"', "python -m kinserve.service.cli",
+                 "from .ik import x"]:
         assert not any(p.search(fine) for p in FORBIDDEN.values()), fine
 
 

@@ -49,8 +49,9 @@ def modules() -> list[str]:
 
 def test_the_checker_sees_missing_annotations(tmp_path):
     f = tmp_path / "m.py"
-    f.write_text("def f(a, b: int) -> int: ...\nclass C:\n    def g(self, x: int): ...\n    def _h(self, y): ...\n"
-                 "def _private(z): ...\ndef k(*args, **kw) -> None: ...\nclass D:\n    def __init__(self, n): ...\n")
+    f.write_text("def f(a, b: int) -> int: ...\nclass C:\n    def g(self, x: int): ...\n    def _h(self, y): "
+                 "...\ndef _private(z): ...\ndef k(*args, **kw) -> None: "
+                 "...\nclass D:\n    def __init__(self, n): ...\n")
     assert unannotated(f) == ["f: a", "C.g: return", "k: args, kw", "D.__init__: n"]
 
 

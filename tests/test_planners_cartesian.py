@@ -28,7 +28,8 @@ def line(panda, delta, rot=None):
 @pytest.mark.parametrize("interpolation", ["decoupled", "screw"])
 def test_straight_line_is_followed_continuously(panda, interpolation):
     T0, T1 = line(panda, [0.1, 0.15, -0.1], se3.rot_z(0.4))
-    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=15, dt=0.05, interpolation=interpolation)
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=15, dt=0.05,
+                              interpolation=interpolation)
     assert plan.success and not plan.events
     Q = plan.trajectory.positions
     assert Q.shape == (17, 7)
@@ -76,7 +77,8 @@ def test_events_for_jumps_limits_and_singularity(panda):
     T0, T1 = line(panda, [0.05, 0.0, 0.0])
     plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, jump_threshold=1e-9,
                               limit_margin=10.0, singular_tol=10.0)
-    kinds = {k: [e["index"] for e in plan.events if e["kind"] == k] for k in ("joint_jump", "limit_contact", "singular")}
+    kinds = {k: [e["index"] for e in plan.events if e["kind"] == k] for k in ("joint_jump",
+                                                                              "limit_contact", "singular")}
     assert kinds["joint_jump"] == [1, 2, 3, 4]
     assert kinds["limit_contact"] == [0, 1, 2, 3, 4] and kinds["singular"] == [0, 1, 2, 3, 4]
     assert not plan.success  # jumps make the path discontinuous
@@ -103,7 +105,8 @@ def test_bad_input(panda):
 
 def test_stop_on_failure_ends_the_plan_at_the_first_pose_not_reached(panda):
     T0, T1 = line(panda, [2.0, 0.0, 0.0])
-    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=8, max_time=0.05, stop_on_failure=True)
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=8, max_time=0.05,
+                              stop_on_failure=True)
     failed = [e["index"] for e in plan.events if e["kind"] == "ik_failed"]
     assert plan.stop_reason == "ik_failed" and len(failed) == 1
     assert len(plan.poses) == plan.trajectory.n_points == failed[0] + 1 < plan.total_poses == 10
@@ -115,7 +118,8 @@ def test_total_time_caps_the_whole_plan(panda):
 
     T0, T1 = line(panda, [2.0, 0.0, 0.0])
     t0 = time.perf_counter()
-    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=40, max_time=0.1, total_time=0.5)
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=40, max_time=0.1,
+                              total_time=0.5)
     dt = time.perf_counter() - t0
     assert dt < 0.5 * 1.1 + 0.1, f"{dt:.2f} s"
     assert plan.stop_reason == "time_cap" and len(plan.poses) < plan.total_poses == 42

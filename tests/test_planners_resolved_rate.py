@@ -17,12 +17,14 @@ from kinserve.planners.resolved_rate import (
 
 # (v, q_init = [d1, theta2 in degrees], n, dt) - SCENARIOS.md S5
 S5_RUNS = [
-    ([2, 0], [1, 0], 50, 0.2), ([0.2, 4], [1, 0], 25, 0.2), ([0.2, 4], [1, 0], 25, 1), ([0.2, 4], [1, 0], 25, 0.5),
-    ([0.2, 4], [1, 0], 25, 0.75), ([1, 4], [1, 0], 15, 0.75), ([4, 4], [1, 0], 15, 0.75), ([4, 4], [1, 0], 35, 0.75),
-    ([4, 4], [1, 90], 35, 0.75), ([0.2, 0.2], [1, 45], 35, 0.75), ([0.5, 1], [1, 45], 35, 0.75),
+    ([2, 0], [1, 0], 50, 0.2), ([0.2, 4], [1, 0], 25, 0.2), ([0.2, 4], [1, 0], 25, 1),
+    ([0.2, 4], [1, 0], 25, 0.5), ([0.2, 4], [1, 0], 25, 0.75), ([1, 4], [1, 0], 15, 0.75),
+    ([4, 4], [1, 0], 15, 0.75), ([4, 4], [1, 0], 35, 0.75), ([4, 4], [1, 90], 35, 0.75),
+    ([0.2, 0.2], [1, 45], 35, 0.75), ([0.5, 1], [1, 45], 35, 0.75),
 ]
 # (centre, radius, n, dt)
-S5_CIRCLES = [([1, 0.25], 0.2, 5000, 0.001), ([1, 0.5], 0.5, 5000, 0.001), ([1, 0.5], 0.5, 5000, 0.01), ([1, 0.3], 0.3, 5000, 0.001)]
+S5_CIRCLES = [([1, 0.25], 0.2, 5000, 0.001), ([1, 0.5], 0.5, 5000, 0.001), ([1, 0.5], 0.5, 5000, 0.01),
+              ([1, 0.3], 0.3, 5000, 0.001)]
 
 
 def _pr_from_pinocchio(d2=1.0):
@@ -149,7 +151,8 @@ def test_damped_pseudo_inverse_formulas(rng):
     J = rng.normal(size=(2, 4))
     np.testing.assert_allclose(damped_pseudo_inverse(J)[0], np.linalg.pinv(J), atol=1e-12)
     lam = 0.3
-    np.testing.assert_allclose(damped_pseudo_inverse(J, lam)[0], J.T @ np.linalg.inv(J @ J.T + lam**2 * np.eye(2)), atol=1e-12)
+    np.testing.assert_allclose(damped_pseudo_inverse(J, lam)[0],
+                               J.T @ np.linalg.inv(J @ J.T + lam**2 * np.eye(2)), atol=1e-12)
 
 
 def test_track_reference_with_callable(pr):

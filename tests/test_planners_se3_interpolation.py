@@ -1,4 +1,5 @@
-"""SE(3) interpolation and polynomial trajectories: exact ends, on SO(3), boundary twists by finite differences."""
+"""SE(3) interpolation and polynomial trajectories: exact ends, on SO(3), boundary twists by finite
+differences."""
 
 import numpy as np
 import pinocchio as pin
@@ -25,7 +26,8 @@ def _random_pose(rng):
 def _on_so3(T):
     R = T[..., :3, :3]
     eye = np.broadcast_to(np.eye(3), R.shape)
-    return np.abs(np.swapaxes(R, -1, -2) @ R - eye).max() < 1e-10 and np.all(np.abs(np.linalg.det(R) - 1) < 1e-10)
+    return (np.abs(np.swapaxes(R, -1, -2) @ R - eye).max() < 1e-10
+            and np.all(np.abs(np.linalg.det(R) - 1) < 1e-10))
 
 
 @pytest.mark.parametrize("fn", [decoupled_interpolation, screw_interpolation])
@@ -87,7 +89,8 @@ def test_polynomial_trajectory_meets_poses_and_twists(order, rng):
     np.testing.assert_allclose(_twist_fd(tr, tf), V1, atol=2e-5)
     # body_twist() is the derivative of pose() everywhere
     for t in (0.3, 1.1, 1.7):
-        np.testing.assert_allclose(tr.body_twist(t), (_twist_fd(tr, t, 1e-6) + _twist_fd(tr, t - 1e-6, 1e-6)) / 2, atol=1e-4)
+        np.testing.assert_allclose(tr.body_twist(t),
+                                   (_twist_fd(tr, t, 1e-6) + _twist_fd(tr, t - 1e-6, 1e-6)) / 2, atol=1e-4)
 
 
 def test_quintic_boundary_accelerations(rng):
@@ -105,7 +108,8 @@ def test_rest_to_rest_polynomial_equals_screw_with_time_scaling(rng):
     A, B = _random_pose(rng), _random_pose(rng)
     tr = se3_polynomial_trajectory(A, B, 3.0, order="quintic")
     t = np.linspace(0, 3, 7)
-    np.testing.assert_allclose(tr.pose(t), poses_along(A, B, quintic_time_scaling(3.0), t, "screw"), atol=1e-10)
+    np.testing.assert_allclose(tr.pose(t),
+                               poses_along(A, B, quintic_time_scaling(3.0), t, "screw"), atol=1e-10)
 
 
 def test_bad_inputs(rng):

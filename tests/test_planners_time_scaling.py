@@ -41,7 +41,8 @@ def test_closed_forms():
     t = np.linspace(0, T, 11)
     tau = t / T
     np.testing.assert_allclose(cubic_time_scaling(T).s(t), 3 * tau**2 - 2 * tau**3, atol=1e-12)
-    np.testing.assert_allclose(quintic_time_scaling(T).s(t), 10 * tau**3 - 15 * tau**4 + 6 * tau**5, atol=1e-12)
+    np.testing.assert_allclose(quintic_time_scaling(T).s(t),
+                               10 * tau**3 - 15 * tau**4 + 6 * tau**5, atol=1e-12)
 
 
 def test_nonzero_boundary_rates():
@@ -85,7 +86,8 @@ def test_trapezoid_and_triangle():
 
 def test_minimum_time_per_joint_takes_the_slowest():
     T = minimum_time("quintic", [0.1, 2.0, -1.0], [1.0, 1.0, 0.2], 5.0)
-    assert T == pytest.approx(max(minimum_time("quintic", 2.0, 1.0, 5.0), minimum_time("quintic", 1.0, 0.2, 5.0)))
+    assert T == pytest.approx(max(minimum_time("quintic", 2.0, 1.0, 5.0),
+                                  minimum_time("quintic", 1.0, 0.2, 5.0)))
     assert minimum_time("trapezoidal", 0.0, 1.0, 1.0) == 0.0
 
 

@@ -111,7 +111,8 @@ def test_every_generated_link_on_the_chain_has_a_visual(table):
 
 
 def test_joint_names_and_tip_name():
-    robot = from_dh([(1, 0, 0, 0), (1, 0, 0, 0)], "RR", joint_names=["shoulder", "elbow"], tip_name="hand", geometry=False)
+    robot = from_dh([(1, 0, 0, 0), (1, 0, 0, 0)], "RR", joint_names=["shoulder", "elbow"], tip_name="hand",
+                    geometry=False)
     assert robot.joint_names == ["shoulder", "elbow"]
     assert robot.tip == "hand"
     np.testing.assert_allclose(robot.fk([math.pi / 2, 0])[:3, 3], [0, 2, 0], atol=1e-14)

@@ -154,7 +154,8 @@ def test_xacro_and_built_in_robots_keep_their_resolver(tmp_path):
     pkg = make_package(tmp_path)
     xacro = pkg.package / "urdf" / "robot.urdf.xacro"
     xacro.write_text(pkg.urdf.read_text().replace('<robot name="my_bot">',
-                                                  '<robot name="my_bot" xmlns:xacro="http://www.ros.org/wiki/xacro">'))
+                                                  '<robot name="my_bot" '
+                                                  'xmlns:xacro="http://www.ros.org/wiki/xacro">'))
     robot = robots.load(xacro, geometry=False)
     assert robot.resolve_meshes is not None and robot.in_collision(Q_COLLIDING)
     panda = robots.load("panda", geometry=False)

@@ -49,7 +49,8 @@ def write_binary_stl(path: Path) -> None:
 
 
 def package_xml(name: str) -> str:
-    return f'<?xml version="1.0"?>\n<package format="3"><name>{name}</name><version>0.1.0</version></package>\n'
+    return ('<?xml version="1.0"?>\n<package '
+            f'format="3"><name>{name}</name><version>0.1.0</version></package>\n')
 
 
 def arm_urdf(mesh_uri: str) -> str:
@@ -59,8 +60,10 @@ def arm_urdf(mesh_uri: str) -> str:
     for i, (parent, child, xyz) in enumerate([("base", "link1", "0 0 0.1"), ("link1", "link2", "0.5 0 0"),
                                               ("link2", "tool", "0.4 0 0")], start=1):
         joints += (f'<joint name="j{i}" type="revolute"><origin xyz="{xyz}"/><parent link="{parent}"/>'
-                   f'<child link="{child}"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>')
-    return f'<?xml version="1.0"?>\n<robot name="arm"><link name="base"/>{link1}<link name="link2"/><link name="tool"/>{joints}</robot>\n'
+                   f'<child link="{child}"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" '
+                   'velocity="1"/></joint>')
+    return (f'<?xml version="1.0"?>\n<robot name="arm"><link name="base"/>{link1}<link name="link2"/><link '
+            f'name="tool"/>{joints}</robot>\n')
 
 
 @pytest.fixture
@@ -105,7 +108,8 @@ def load_quietly(*args, **kwargs):
 def test_scan_reads_package_names_and_does_not_enter_packages_or_hidden_folders(tmp_path):
     (tmp_path / "a" / "nested").mkdir(parents=True)
     (tmp_path / "a" / "package.xml").write_text(package_xml("pkg_a"))
-    (tmp_path / "a" / "nested" / "package.xml").write_text(package_xml("inner"))  # inside a package: not a package
+    # inside a package: not a package
+    (tmp_path / "a" / "nested" / "package.xml").write_text(package_xml("inner"))
     (tmp_path / ".hidden" / "h").mkdir(parents=True)
     (tmp_path / ".hidden" / "h" / "package.xml").write_text(package_xml("hidden"))
     (tmp_path / "deep" / "x" / "y").mkdir(parents=True)
@@ -145,9 +149,11 @@ def test_is_within_is_lexical_and_follows_symlinks(tmp_path):
 # ------------------------------------------------------------ loading a workspace
 def test_meshes_in_another_package_load_through_package_dirs(workspace):
     src, urdf, stl = workspace
-    assert_mesh_is_the_stl(load_quietly(urdf, package_dirs=[src]), stl)  # a workspace, searched for package.xml
+    # a workspace, searched for package.xml
+    assert_mesh_is_the_stl(load_quietly(urdf, package_dirs=[src]), stl)
     robots.clear_cache()
-    assert_mesh_is_the_stl(load_quietly(urdf, package_dirs=str(src / "meshes_repo")), stl)  # the package itself
+    # the package itself
+    assert_mesh_is_the_stl(load_quietly(urdf, package_dirs=str(src / "meshes_repo")), stl)
 
 
 def test_package_dirs_is_an_option_not_a_joint_lock(workspace):
@@ -204,7 +210,8 @@ def test_cli_package_dir_flag(workspace, tmp_path):
     assert with_flag.returncode == 0, with_flag.stderr
     assert "not found" not in with_flag.stderr and page.stat().st_size > 0
     # without the flag the same command warns (test_meshes_load_through_ros_package_path has the library side)
-    frames = cli("frames", str(urdf), "--allow-outside")  # kinematics only: no mesh, no warning, flags accepted
+    # kinematics only: no mesh, no warning, flags accepted
+    frames = cli("frames", str(urdf), "--allow-outside")
     assert frames.returncode == 0 and "not found" not in frames.stderr and "link1" in frames.stdout
 
 
@@ -221,7 +228,8 @@ def test_mesh_outside_the_model_folders_is_refused_whether_it_exists_or_not(work
     message = str(err.value)
     assert "outside the folders this model may read from" in message and "allow_outside=True" in message
     # the same message for the existing and the missing file: nothing to learn about the file system
-    twin = uri.replace("passwd", "kinserve-no-such-file") if "passwd" in uri else uri.replace("kinserve-no-such-file", "passwd")
+    twin = (uri.replace("passwd", "kinserve-no-such-file") if "passwd" in uri
+            else uri.replace("kinserve-no-such-file", "passwd"))
     urdf.write_text(arm_urdf(twin))
     robots.clear_cache()
     with pytest.raises(ModelError) as err2:

@@ -40,7 +40,8 @@ def test_not_found_lists_where_it_looked(tmp_path, monkeypatch):
     with pytest.raises(ModelError) as err:
         paths.example_robot_data_dir()
     msg = str(err.value)
-    assert paths.ENV_VAR in msg and str(tmp_path / "nothing") in msg and str(tmp_path / "opt" / "share") in msg
+    assert (paths.ENV_VAR in msg and str(tmp_path / "nothing") in msg
+            and str(tmp_path / "opt" / "share") in msg)
 
 
 def test_search_covers_env_module_site_packages_and_prefixes():

@@ -71,7 +71,9 @@ def test_panda_has_flange_and_hand():
     # the hand is the flange turned by -45 deg about its z axis (Franka URDF)
     np.testing.assert_allclose(T8[:3, 3], Th[:3, 3], atol=1e-12)
     c = math.cos(-math.pi / 4)
-    np.testing.assert_allclose(T8[:3, :3].T @ Th[:3, :3], [[c, -math.sin(-math.pi / 4), 0], [math.sin(-math.pi / 4), c, 0], [0, 0, 1]], atol=1e-9)
+    np.testing.assert_allclose(T8[:3, :3].T @ Th[:3, :3],
+                               [[c, -math.sin(-math.pi / 4), 0],
+                                [math.sin(-math.pi / 4), c, 0], [0, 0, 1]], atol=1e-9)
 
 
 def test_continuous_joints_become_bounded_revolute():
@@ -196,8 +198,8 @@ def test_options_and_parameters_never_share_a_namespace(tmp_path):
     # locks= also after a xacro expansion, next to its args
     arm = robots.load("planar4r", params={"l1": 2.0}, locks={"joint4": 0.5}, geometry=False)
     assert arm.nq == 3
-    np.testing.assert_allclose(arm.fk(np.zeros(3)), robots.load("planar4r", l1=2.0, geometry=False).fk([0, 0, 0, 0.5]),
-                               atol=1e-14)
+    np.testing.assert_allclose(arm.fk(np.zeros(3)),
+                               robots.load("planar4r", l1=2.0, geometry=False).fk([0, 0, 0, 0.5]), atol=1e-14)
 
 
 def test_neutral_is_the_zero_pose_clipped_into_the_limits():

@@ -1,4 +1,5 @@
-"""kinserve.robots.srdf: named states and groups, checked against the SRDF text; every bad entry is a named error."""
+"""kinserve.robots.srdf: named states and groups, checked against the SRDF text; every bad entry is a named
+error."""
 
 from __future__ import annotations
 
@@ -48,7 +49,8 @@ def fresh_cache():
 def test_panda_named_state_matches_the_srdf_file_text():
     srdf = erd_file("panda_description/srdf/panda.srdf")
     text = srdf.read_text()
-    block = re.search(r'<group_state name="default" group="arm_and_hand">(.*?)</group_state>', text, re.S).group(1)
+    block = re.search(r'<group_state name="default" '
+                      r'group="arm_and_hand">(.*?)</group_state>', text, re.S).group(1)
     values = {m[0]: float(m[1]) for m in re.findall(r'<joint name="([^"]+)" value="([^"]+)"', block)}
     panda = robots.load("panda", geometry=False)
     assert panda.srdf_path == str(srdf)
@@ -89,12 +91,16 @@ def test_srdf_found_beside_the_urdf_in_the_example_robot_data_layout(tmp_path):
 
 
 @pytest.mark.parametrize("old, new, fragment", [
-    ('<joint name="j2" value="0.4"/>', '<joint name="j22" value="0.4"/>', r"line 7: joint 'j22' is not a joint of the URDF. Did you mean: j2"),
+    ('<joint name="j2" value="0.4"/>', '<joint name="j22" value="0.4"/>',
+     r"line 7: joint 'j22' is not a joint of the URDF. Did you mean: j2"),
     ('value="0.4"', 'value="fast"', r"line 7: joint 'j2' value 'fast' must be one number"),
     ('value="0.4"', 'value="nan"', r"joint 'j2' value 'nan' must be finite"),
-    ('value="0.4"', 'value="0.9"', r"line 7: <group_state name='ready'>: joint 'j2' = 0.9 is outside its limits \[0.0, 0.5\]"),
-    ('group="arm">', 'group="legs">', r"line 6: <group_state name='ready'> names group 'legs', which is not defined"),
-    ('<group name="wrist"/>', '<group name="wirst"/>', r"line 5: subgroup 'wirst' is not defined. Did you mean: wrist"),
+    ('value="0.4"', 'value="0.9"',
+     r"line 7: <group_state name='ready'>: joint 'j2' = 0.9 is outside its limits \[0.0, 0.5\]"),
+    ('group="arm">', 'group="legs">',
+     r"line 6: <group_state name='ready'> names group 'legs', which is not defined"),
+    ('<group name="wrist"/>', '<group name="wirst"/>',
+     r"line 5: subgroup 'wirst' is not defined. Did you mean: wrist"),
     ('tip_link="c"', 'tip_link="cc"', r"line 3: <chain> link 'cc' is not a link of the URDF"),
     ('<link name="c"/></group>', '<link name="c"></group>', r"malformed XML at line \d+"),
 ])

@@ -23,14 +23,16 @@ def test_locked_joints_match_pinocchio_reduced_model():
     q_lock[full.joints[ids[0]].idx_q] = 0.03
     q_lock[full.joints[ids[1]].idx_q] = 0.01
     reduced = pin.buildReducedModel(full, ids, q_lock)
-    robot = load_urdf(path, locked_joints={"panda_finger_joint1": 0.03, "panda_finger_joint2": 0.01}, geometry=False)
+    robot = load_urdf(path, locked_joints={"panda_finger_joint1": 0.03, "panda_finger_joint2": 0.01},
+                      geometry=False)
     assert robot.nq == reduced.nq == 7
     data = reduced.createData()
     bodies = [f.name for f in reduced.frames if f.type == pin.FrameType.BODY]
     for q in robot.random_q(np.random.default_rng(0), n=20):
         pin.framesForwardKinematics(reduced, data, q)
         for name in bodies:
-            np.testing.assert_allclose(robot.fk(q, name), data.oMf[reduced.getFrameId(name)].homogeneous, atol=1e-12)
+            np.testing.assert_allclose(robot.fk(q, name),
+                                       data.oMf[reduced.getFrameId(name)].homogeneous, atol=1e-12)
 
 
 def test_continuous_joint_equals_unbounded_revolute():
@@ -55,7 +57,8 @@ def test_source_round_trip_and_package_dirs():
     robot = load_urdf(erd_file(KINOVA), tip="j2s6s200_end_effector", geometry=False)
     assert 'type="continuous"' not in robot.source
     assert str(example_robot_data_package_dir()) in robot.package_dirs
-    again = load_urdf(robot.source, tip="j2s6s200_end_effector", package_dirs=robot.package_dirs, geometry=True)
+    again = load_urdf(robot.source, tip="j2s6s200_end_effector", package_dirs=robot.package_dirs,
+                      geometry=True)
     q = robot.random_q(2)
     np.testing.assert_array_equal(again.fk(q), robot.fk(q))
     assert again.visual_model.ngeoms > 0 and again.collision_model.ngeoms > 0
@@ -72,7 +75,8 @@ def test_package_uri_resolved_through_an_ancestor_directory(tmp_path):
     (pkg / "urdf").mkdir(parents=True)
     (pkg / "meshes").mkdir()
     (pkg / "meshes" / "tri.stl").write_text(
-        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 "
+        "0\nendloop\nendfacet\nendsolid t\n"
     )
     urdf = pkg / "urdf" / "r.urdf"
     urdf.write_text(
@@ -91,10 +95,11 @@ def test_lock_prismatic_and_revolute_with_origin(tmp_path):
     """The locked origin is origin * motion: check against the hand-composed transform."""
     text = (
         '<robot name="r"><link name="a"/><link name="b"/><link name="c"/>'
-        '<joint name="p" type="prismatic"><origin xyz="0.1 0.2 0.3" rpy="0.3 -0.2 0.1"/><parent link="a"/><child link="b"/>'
-        '<axis xyz="0 1 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
-        '<joint name="r" type="revolute"><origin xyz="0 0 1" rpy="0 0.5 0"/><parent link="b"/><child link="c"/>'
-        '<axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint></robot>'
+        '<joint name="p" type="prismatic"><origin xyz="0.1 0.2 0.3" rpy="0.3 -0.2 0.1"/><parent '
+        'link="a"/><child link="b"/><axis xyz="0 1 1"/><limit lower="-1" upper="1" effort="1" '
+        'velocity="1"/></joint><joint name="r" type="revolute"><origin xyz="0 0 1" rpy="0 0.5 0"/><parent '
+        'link="b"/><child link="c"/><axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" '
+        'velocity="1"/></joint></robot>'
     )
     free = load_urdf(text, geometry=False)
     locked = load_urdf(text, locked_joints={"p": 0.4}, tip="c", geometry=False)

@@ -87,14 +87,16 @@ def test_missing_mesh_file(tmp_path):
     shape = robot.visual_model.geometryObjects[0].geometry
     assert type(shape).__name__ == "Sphere" and shape.radius == PLACEHOLDER_RADIUS
     pkg = text.replace("meshes/arm.stl", "package://example-robot-data/robots/nowhere/arm.stl")
-    with pytest.warns(MissingMeshWarning, match="package://example-robot-data/robots/nowhere/arm.stl.*looked in"):
+    with pytest.warns(MissingMeshWarning,
+                      match="package://example-robot-data/robots/nowhere/arm.stl.*looked in"):
         load_urdf(write(tmp_path, pkg, "pkg.urdf"), geometry=True)
 
 
 def test_existing_relative_mesh_loads_with_geometry(tmp_path):
     (tmp_path / "meshes").mkdir()
     (tmp_path / "meshes" / "tri.stl").write_text(
-        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 "
+        "0\nendloop\nendfacet\nendsolid t\n"
     )
     text = GOOD.replace(
         '<link name="l1"/>',
@@ -120,15 +122,22 @@ def test_nonexistent_path():
         ('name="j2"', 'name="j1"', "duplicate joint name 'j1'"),
         ('type="revolute">\n    <origin', 'type="floating">\n    <origin', "type 'floating'"),
         ('type="revolute">\n    <origin', 'type="hinge">\n    <origin', "unknown type 'hinge'"),
-        ('<limit lower="-1" upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>', "</joint>\n</robot>", "needs a <limit"),
-        ('upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>', 'upper="-2" effort="1" velocity="1"/>\n  </joint>\n</robot>', "lower limit -1.0 > upper limit -2.0"),
-        ('effort="1" velocity="1"/>\n  </joint>\n</robot>', 'velocity="1"/>\n  </joint>\n</robot>', "needs a effort="),
+        ('<limit lower="-1" upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>', "</joint>\n</robot>",
+         "needs a <limit"),
+        ('upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>',
+         'upper="-2" effort="1" velocity="1"/>\n  </joint>\n</robot>', "lower limit -1.0 > upper limit -2.0"),
+        ('effort="1" velocity="1"/>\n  </joint>\n</robot>', 'velocity="1"/>\n  </joint>\n</robot>',
+         "needs a effort="),
         ('xyz="1 0 0"', 'xyz="1 0"', "must be 3 finite number(s)"),
-        ('<axis xyz="0 0 1"/>\n    <limit lower="-1" upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>',
-         '<axis xyz="0 0 0"/>\n    <limit lower="-1" upper="1" effort="1" velocity="1"/>\n  </joint>\n</robot>', "axis must be non-zero"),
+        ('<axis xyz="0 0 1"/>\n    <limit lower="-1" upper="1" effort="1" velocity="1"/>\n  '
+         '</joint>\n</robot>',
+         '<axis xyz="0 0 0"/>\n    <limit lower="-1" upper="1" effort="1" velocity="1"/>\n  '
+         '</joint>\n</robot>', "axis must be non-zero"),
         ('<child link="l2"/>', '<child link="l1"/>', "child of two joints"),
         ('<link name="l2"/>', '<link name="l2"/><link name="stray"/>', "2 root links"),
-        ('<robot name="two_link">', '<robot name="two_link" xmlns:xacro="http://www.ros.org/wiki/xacro"><xacro:property name="a" value="1"/>', "xacro"),
+        ('<robot name="two_link">',
+         '<robot name="two_link" xmlns:xacro="http://www.ros.org/wiki/xacro"><xacro:property name="a" '
+         'value="1"/>', "xacro"),
         ('xyz="1 0 0"', 'xyz="${a} 0 0"', "xacro"),
     ],
 )
@@ -202,7 +211,8 @@ def test_xacro_required_arg_and_expression_errors(tmp_path):
     path.write_text(
         '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
         '<xacro:arg name="length" default="1"/><xacro:arg name="width" default="0.1"/>'
-        '<link name="a"><visual><geometry><box size="$(arg length) ${undefined_thing} 1"/></geometry></visual></link>'
+        '<link name="a"><visual><geometry><box size="$(arg length) ${undefined_thing} '
+        '1"/></geometry></visual></link>'
         "</robot>"
     )
     with pytest.raises(ModelError) as err:

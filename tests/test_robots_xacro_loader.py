@@ -31,7 +31,8 @@ def test_bool_and_int_values_are_accepted(tmp_path):
     path.write_text(
         '<robot name="r" xmlns:xacro="http://www.ros.org/wiki/xacro">'
         '<xacro:arg name="n" default="2"/><xacro:arg name="flag" default="false"/>'
-        '<link name="a"/><xacro:if value="$(arg flag)"><link name="extra_${$(arg n) * 2}"/></xacro:if></robot>'
+        '<link name="a"/><xacro:if value="$(arg flag)"><link name="extra_${$(arg n) * '
+        '2}"/></xacro:if></robot>'
     )
     assert "extra_6" in process_xacro(path, {"flag": True, "n": 3})
     assert "extra" not in process_xacro(path)
@@ -102,7 +103,8 @@ def test_text_of_included_or_loaded_files_never_appears_in_errors(tmp_path):
     cases = {
         "expression in an include": f'<xacro:include filename="{secret}"/>',
         "include of a text file": f'<xacro:include filename="{plain}"/>',
-        "yaml load": f'<xacro:property name="c" value="${{xacro.load_yaml(\'{yaml_file}\')}}"/><link name="${{c}}"/>',
+        "yaml load": f'<xacro:property name="c" value="${{xacro.load_yaml(\'{yaml_file}\')}}"/><link '
+                     'name="${c}"/>',
     }
     for what, body in cases.items():
         path = tmp_path / "top.urdf.xacro"

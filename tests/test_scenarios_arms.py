@@ -103,14 +103,16 @@ def segments_cross(P):
 
     def on(a, b, c):
         e = 1e-12
-        return min(a[0], b[0]) - e <= c[0] <= max(a[0], b[0]) + e and min(a[1], b[1]) - e <= c[1] <= max(a[1], b[1]) + e
+        return (min(a[0], b[0]) - e <= c[0] <= max(a[0], b[0]) + e
+                and min(a[1], b[1]) - e <= c[1] <= max(a[1], b[1]) + e)
 
     for i in range(len(P) - 1):
         for j in range(i + 2, len(P) - 1):
             a, b, c, d = P[i], P[i + 1], P[j], P[j + 1]
             o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
             eps = 1e-12
-            if (o1 > eps and o2 < -eps or o1 < -eps and o2 > eps) and (o3 > eps and o4 < -eps or o3 < -eps and o4 > eps):
+            if ((o1 > eps and o2 < -eps or o1 < -eps and o2 > eps)
+                and (o3 > eps and o4 < -eps or o3 < -eps and o4 > eps)):
                 return True
             if (abs(o1) <= eps and on(a, b, c)) or (abs(o2) <= eps and on(a, b, d)) or \
                (abs(o3) <= eps and on(c, d, a)) or (abs(o4) <= eps and on(c, d, b)):
@@ -155,10 +157,13 @@ def test_planar_family_is_a_one_parameter_set_with_both_branches(planar):
         assert len(idx) <= 2
         if len(idx) == 2:
             assert abs(math.remainder(Q[idx[0], 2] + Q[idx[1], 2], 2 * math.pi)) < 1e-7
-            if set(branch[idx]) != {"elbow up", "elbow down"}:  # folded end, q3 = +-pi: one pose, two joint values
-                assert np.abs(np.remainder(Q[idx[0]] - Q[idx[1]] + math.pi, 2 * math.pi) - math.pi).max() < 1e-9
+            if set(branch[idx]) != {"elbow up", "elbow down"}:
+                # folded end, q3 = +-pi: one pose, two joint values
+                assert np.abs(np.remainder(Q[idx[0]] - Q[idx[1]]
+                                           + math.pi, 2 * math.pi) - math.pi).max() < 1e-9
     # a continuum: between neighbouring samples every q1 has a solution (2R law of cosines, written out here)
-    w = np.array(r["target"][:2]) - LENGTHS[3] * np.array([math.cos(r["target"][2]), math.sin(r["target"][2])])
+    w = np.array(r["target"][:2]) - LENGTHS[3] * np.array([math.cos(r["target"][2]),
+                                                           math.sin(r["target"][2])])
     vals = np.unique(np.round(q1, 12))
     mids = [(a + b) / 2 for a, b in zip(vals[:-1], vals[1:]) if b - a < 0.1]
     assert len(mids) > 30
@@ -168,7 +173,8 @@ def test_planar_family_is_a_one_parameter_set_with_both_branches(planar):
         assert -1 <= c3 <= 1
         for s in (1, -1):
             q3 = s * math.acos(c3)
-            a12 = math.atan2(d[1], d[0]) - math.atan2(LENGTHS[2] * math.sin(q3), LENGTHS[1] + LENGTHS[2] * math.cos(q3))
+            a12 = math.atan2(d[1], d[0]) - math.atan2(LENGTHS[2] * math.sin(q3),
+                                                      LENGTHS[1] + LENGTHS[2] * math.cos(q3))
             q = np.array([m, a12 - m, q3, r["target"][2] - a12 - q3])
             assert max(task_residual(q, r["target"])) < 1e-9
 
@@ -190,7 +196,8 @@ def test_planar_chooser_picks_the_best_member_for_each_criterion(planar):
 
     w = np.array([manip(q) for q in Q])
     crossing = np.array([segments_cross(chain_points(q)) for q in Q])
-    assert np.isclose(limit_distance[chosen["joint_limit_distance"]["index"]], limit_distance.max(), atol=1e-12)
+    assert np.isclose(limit_distance[chosen["joint_limit_distance"]["index"]],
+                      limit_distance.max(), atol=1e-12)
     assert np.isclose(disp[chosen["displacement"]["index"]], disp.min(), atol=1e-12)
     assert np.isclose(w[chosen["manipulability"]["index"]], w.max(), rtol=1e-9)
     k = chosen["no_self_overlap"]["index"]
@@ -240,9 +247,11 @@ def test_planar_family_plot_legend_counts_come_from_the_result(planar):
     assert f"{r['self_overlapping']} members" in cross
     # the numbers in parentheses are the crossing members of each branch, as result.json lists them
     branch, overlap = np.array(r["family_branch"]), np.array(r["family_self_overlap"], dtype=bool)
-    n_up, n_down = int((overlap & (branch == "elbow up")).sum()), int((overlap & (branch == "elbow down")).sum())
+    n_up, n_down = (int((overlap & (branch == "elbow up")).sum()),
+                    int((overlap & (branch == "elbow down")).sum()))
     assert f"({n_up} with crossing" in up and f"({n_down} with crossing" in down
-    assert r["elbow_up"] == int((branch == "elbow up").sum()) and r["elbow_down"] == int((branch == "elbow down").sum())
+    assert (r["elbow_up"] == int((branch == "elbow up").sum())
+            and r["elbow_down"] == int((branch == "elbow down").sum()))
 
 
 def test_planar_artefacts(planar):
@@ -262,7 +271,8 @@ def dh_chain(q):
     T, out = np.eye(4), [np.eye(4)]
     for (a, al, d), th in zip(YOUBOT_DH, q):
         ct, st, ca, sa = math.cos(th), math.sin(th), math.cos(al), math.sin(al)
-        T = T @ np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1]])
+        T = T @ np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d],
+                          [0, 0, 0, 1]])
         out.append(T)
     return out
 
@@ -376,7 +386,8 @@ def test_youbot_scene_frames_every_branch_centred_and_filling_the_view(youbot):
     out, r = youbot
     commands = viz.read_html_commands(out / "scene.html")
     eye, target = exported_camera(commands)
-    qs = {f"branch{k}": b["q"] for k, b in enumerate(b for case in r["ik"].values() for b in case["branches"])}
+    qs = {f"branch{k}": b["q"] for k, b in enumerate(b for case in r["ik"].values()
+                                                     for b in case["branches"])}
     qs["nearest_reachable"] = r["off_reachable"]["branches"][0]["q"]
     arm = robots.load("youbot", geometry=False)
     points = []
@@ -418,7 +429,8 @@ def test_tour_order_is_optimal_by_brute_force_with_euclidean_distances(tour):
     # the seed's 0.5 * squared metric picks another order here, longer in travelled distance
     sq = min(perms, key=lambda o: length(o, lambda a, b: 0.5 * float(np.sum((a - b) ** 2))))
     assert list(sq) == r["order_squared_metric"] != r["order"]
-    assert r["squared_metric_length"] == pytest.approx(length(sq, euclid)) and length(sq, euclid) > r["tour_length"]
+    assert (r["squared_metric_length"] == pytest.approx(length(sq, euclid))
+            and length(sq, euclid) > r["tour_length"])
 
 
 def test_tour_trajectory_files_reload_and_follow_the_straight_legs(tour):
@@ -436,9 +448,11 @@ def test_tour_trajectory_files_reload_and_follow_the_straight_legs(tour):
     assert all(len(p["positions"]) == 5 and len(p["velocities"]) == 5 for p in doc["points"])
     with open(out / "trajectory.csv") as fh:
         rows = list(csv.reader(fh))
-    assert rows[0][0] == "time_from_start" and rows[0][1] == "position:arm_joint_1" and len(rows) == tj.n_points + 1
+    assert (rows[0][0] == "time_from_start" and rows[0][1] == "position:arm_joint_1"
+            and len(rows) == tj.n_points + 1)
     # velocities are the finite differences of the positions
-    np.testing.assert_allclose(tj.velocities[1:-1], (tj.positions[2:] - tj.positions[:-2]) / (2 * dt), atol=1e-9)
+    np.testing.assert_allclose(tj.velocities[1:-1],
+                               (tj.positions[2:] - tj.positions[:-2]) / (2 * dt), atol=1e-9)
     # FK of every point lies on the straight leg between its checkpoints, checkpoints hit
     P = np.array(r["checkpoint_positions"])[r["order"]]
     tool = np.array([dh_chain(q)[-1][:3, 3] for q in tj.positions])
@@ -454,10 +468,12 @@ def test_tour_trajectory_files_reload_and_follow_the_straight_legs(tour):
 
 def test_tour_from_the_csv_file_with_a_cartesian_checkpoint(tour, tmp_path):
     _, r = tour
-    r2 = scenarios.run("youbot-tour", tmp_path, checkpoints=ROOT / "scenarios/data/youbot_checkpoints.csv", scene=False)
+    r2 = scenarios.run("youbot-tour", tmp_path,
+                       checkpoints=ROOT / "scenarios/data/youbot_checkpoints.csv", scene=False)
     assert r2["checkpoint_kinds"] == ["q", "q", "q", "q", "pose"]
     assert r2["order"] == r["order"]
-    assert r2["tour_length"] == pytest.approx(r["tour_length"], abs=1e-5)  # the CSV pose is the FK rounded to 1e-6 m
+    # the CSV pose is the FK rounded to 1e-6 m
+    assert r2["tour_length"] == pytest.approx(r["tour_length"], abs=1e-5)
     assert r2["max_position_error"] < 1e-5
 
 
@@ -472,13 +488,15 @@ def test_checkpoint_file_readers_and_their_errors(tmp_path):
     assert D.kind == "pose" and np.allclose(D.pose[:3, 3], [0.325253, -0.100613, 0.229506])
     # degrees and an explicit pose in JSON
     j = parse_json(json.dumps({"units": "deg", "current": [0, 90, 0, 0, 0],
-                               "checkpoints": [{"name": "P", "pose": {"position": [0.1, 0, 0.3], "rpy": [0, 90, 0]}}]}), 5)
+                               "checkpoints": [{"name": "P",
+                                                "pose": {"position": [0.1, 0, 0.3], "rpy": [0, 90, 0]}}]}), 5)
     assert j.current[1] == pytest.approx(math.pi / 2)
     assert np.allclose(j.checkpoints[0].pose[:3, 2], [1, 0, 0], atol=1e-12)  # Ry(90 deg) turns z onto +x
     bad = [
         ('{"current": [0, 0, 0, 0, 0]}', "checkpoints"),
         ('{"current": [0, 0, 0], "checkpoints": [[0, 0, 0, 0, 0]]}', "shape"),
-        ('{"current": [0, 0, 0, 0, 0], "checkpoints": [{"q": [0, 0, 0, 0, 0], "pose": [[1]]}]}', "exactly one"),
+        ('{"current": [0, 0, 0, 0, 0], "checkpoints": [{"q": [0, 0, 0, 0, 0], "pose": [[1]]}]}',
+         "exactly one"),
         ('{"current": [0, 0, 0, 0, 0], "units": "grad", "checkpoints": [[0, 0, 0, 0, 0]]}', "units"),
         ("{not json", "malformed"),
     ]
@@ -509,7 +527,8 @@ SPHERE_R = 0.2
 
 def scara_tool(q):
     t1, t2, d3, t4 = q
-    return np.array([0.5 * math.cos(t1) + 0.5 * math.cos(t1 + t2), 0.5 * math.sin(t1) + 0.5 * math.sin(t1 + t2), 1.0 - d3])
+    return np.array([0.5 * math.cos(t1) + 0.5 * math.cos(t1 + t2),
+                     0.5 * math.sin(t1) + 0.5 * math.sin(t1 + t2), 1.0 - d3])
 
 
 def point_segment_distance(c, a, b):
@@ -603,7 +622,8 @@ def test_scara_artefacts(scara):
 
 def test_cli_demo_scara_end_to_end(tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "scara", "--out", str(tmp_path)], cwd=ROOT,
+    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "scara", "--out",
+                           str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "[scara]" in proc.stdout

@@ -26,14 +26,16 @@ from kinserve.viz.export import pack_commands
 from browser_checks import assert_panda_drawn, robot_mask
 from browser_checks import project as camera_project
 
-pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
+pytestmark = pytest.mark.skipif(viz.find_browser() is None,
+                                reason="no Chromium binary found (apt-get install chromium)")
 
 SIZE = (800, 600)
 ROBOT = "/meshcat/panda"
 
 
 def without_robot(src, dst):
-    """Copy the exported page ``src`` to ``dst`` with every command (and animation track) of the robot removed."""
+    """Copy the exported page ``src`` to ``dst`` with every command (and animation track) of the robot
+    removed."""
     text = src.read_text(encoding="utf-8")
     keep = []
     for c in viz.read_html_commands(src):
@@ -52,10 +54,12 @@ def without_robot(src, dst):
 
 
 def camera(commands):
-    """(eye, target) of an exported page: the drawing is shifted by -target, the camera sits at eye - target."""
+    """(eye, target) of an exported page: the drawing is shifted by -target, the camera sits at eye -
+    target."""
     shift = next(c for c in commands if c["type"] == "set_transform" and c["path"] == "/meshcat")
     target = -np.asarray(shift["matrix"], dtype=float).reshape(4, 4).T[:3, 3]
-    pos = next(c for c in commands if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
+    pos = next(c for c in commands
+               if c.get("property") == "position" and c["path"].startswith("/Cameras/default"))
     p = np.asarray(pos["value"], dtype=float)  # three.js y-up: (x, z, -y) of the world
     return target + np.array([p[0], -p[2], p[1]]), target
 
@@ -94,4 +98,5 @@ def test_pick_place_screenshot_shows_the_robot(pick_place):
     # the robot is where the page's camera puts the arm at the first frame (q_start, home pose)
     eye, target = camera(viz.read_html_commands(full))
     fk = robots.load("panda").fk_all(q0)
-    assert_panda_drawn(image, robot, fk, lambda pts: project(pts, eye, target), ("panda_link0", "panda_link4", "panda_link8"))
+    assert_panda_drawn(image, robot, fk, lambda pts: project(pts, eye, target),
+                       ("panda_link0", "panda_link4", "panda_link8"))

@@ -30,13 +30,15 @@ GRASP = np.array([[1, 0, 0, 0.65], [0, -1, 0, 0.095], [0, 0, -1, 0.05], [0, 0, 0
 RELEASE = np.array([[0, 0, 1, 0.45], [0, -1, 0, 0.5], [1, 0, 0, 0.35], [0, 0, 0, 1.0]])
 CYLINDER = np.array([[1, 0, 0, 0.695], [0, 1, 0, 0.095], [0, 0, 1, 0.025], [0, 0, 0, 1.0]])
 #: Space-frame screw axes (w, v) of the URDF: the document's, with S4 at x = 0.0825 and S7 reversed.
-SCREWS = np.array([[0, 0, 1, 0, 0, 0], [0, 1, 0, -0.333, 0, 0], [0, 0, 1, 0, 0, 0], [0, -1, 0, 0.649, 0, -0.0825],
-                   [0, 0, 1, 0, 0, 0], [0, -1, 0, 1.033, 0, 0], [0, 0, -1, 0, 0.088, 0]], dtype=float)
+SCREWS = np.array([[0, 0, 1, 0, 0, 0], [0, 1, 0, -0.333, 0, 0], [0, 0, 1, 0, 0, 0],
+                   [0, -1, 0, 0.649, 0, -0.0825], [0, 0, 1, 0, 0, 0], [0, -1, 0, 1.033, 0, 0],
+                   [0, 0, -1, 0, 0.088, 0]], dtype=float)
 
 
 def pos_rot_error(A, B):
     dR = A[:3, :3].T @ B[:3, :3]
-    return float(np.linalg.norm(A[:3, 3] - B[:3, 3])), float(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)))
+    return (float(np.linalg.norm(A[:3, 3] - B[:3, 3])),
+            float(np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1))))
 
 
 def twist_matrix(S):
@@ -81,7 +83,8 @@ def test_screw_axes_document_vs_urdf(s4):
     for k in range(0, traj.n_points, 50):  # the corrected product of exponentials is the URDF's FK
         np.testing.assert_allclose(poe(SCREWS, traj.positions[k], HOME), flange[k], atol=1e-10)
     doc = np.array(r["screw_axes_document"])
-    worst = max(pos_rot_error(poe(doc, traj.positions[k], HOME), flange[k])[0] for k in range(0, traj.n_points, 10))
+    worst = max(pos_rot_error(poe(doc, traj.positions[k], HOME), flange[k])[0]
+                for k in range(0, traj.n_points, 10))
     assert worst > 1e-3  # the document's axes are off by cm along this motion ...
     assert r["poe_document_max_position_error"] >= worst - 1e-12  # ... and the result says so
     assert r["poe_urdf_axes_max_error"] < 1e-12
@@ -89,13 +92,15 @@ def test_screw_axes_document_vs_urdf(s4):
 
 def test_segments_start_and_end_at_their_boundary_poses_and_twists():
     wps = pick_place.waypoints(0.12, 0.05)
-    assert [w.name for w in wps] == ["home", "pre-grasp", "grasp", "lift", "pre-release", "release", "retreat", "home"]
+    assert [w.name for w in wps] == ["home", "pre-grasp", "grasp", "lift", "pre-release", "release",
+                                     "retreat", "home"]
     np.testing.assert_array_equal(wps[2].pose, GRASP)
     np.testing.assert_array_equal(wps[5].pose, RELEASE)
     durations = pick_place.segment_durations(wps, 3.0, 1.5)
     h = 1e-5
     for order in ("quintic", "cubic"):
-        for seg, a, b, d in zip(pick_place.plan_segments(wps, durations, order), wps[:-1], wps[1:], durations):
+        for seg, a, b, d in zip(pick_place.plan_segments(wps, durations, order), wps[:-1],
+                                wps[1:], durations):
             np.testing.assert_allclose(seg.pose(0.0), a.pose, atol=1e-12)
             np.testing.assert_allclose(seg.pose(d), b.pose, atol=1e-12)
             for t, V, sign in ((0.0, a.twist, 1), (d, b.twist, -1)):
@@ -154,8 +159,8 @@ def test_cylinder_ends_within_5_mm_of_the_release(s4):
     p, a = pos_rot_error(carried, exact)
     assert p < 5e-3 and a < 0.02
     assert r["cylinder_release_error"] == pytest.approx(p, abs=1e-9)
-    np.testing.assert_allclose([r["cylinder_final_x"], r["cylinder_final_y"], r["cylinder_final_z"]], carried[:3, 3],
-                               atol=1e-12)
+    np.testing.assert_allclose([r["cylinder_final_x"], r["cylinder_final_y"], r["cylinder_final_z"]],
+                               carried[:3, 3], atol=1e-12)
 
 
 def test_demo_summary_prints_the_events_and_the_cylinder(s4):
@@ -184,7 +189,8 @@ def test_scene_html_is_self_contained_and_animates_the_carried_cylinder(s4):
     objects = [c["path"] for c in cmds if c["type"] == "set_object"]
     meshes = [p for p in objects if p.startswith("/meshcat/panda/visuals/")]
     assert len(meshes) == 8 and not any("hand" in p or "finger" in p for p in meshes)  # arm up to the flange
-    for name in ("/meshcat/cylinder", "/meshcat/tool_path", "/meshcat/box/bottom", "/meshcat/targets/grasp/x"):
+    for name in ("/meshcat/cylinder", "/meshcat/tool_path", "/meshcat/box/bottom",
+                 "/meshcat/targets/grasp/x"):
         assert name in objects
     (anim,) = [c for c in cmds if c["type"] == "set_animation"]
     last = traj.n_points - 1
@@ -236,7 +242,8 @@ def test_readme_row_matches_a_fresh_run(s4):
 
 
 def test_clearance_between_arm_and_scene_matches_independent_coal(s4):
-    """result.json's smallest arm-scene distance, recomputed with coal on the saved trajectory (links 0-7 hulls)."""
+    """result.json's smallest arm-scene distance, recomputed with coal on the saved trajectory (links 0-7
+    hulls)."""
     import coal
     import pinocchio as pin
 
@@ -261,7 +268,8 @@ def test_clearance_between_arm_and_scene_matches_independent_coal(s4):
             M = data.oMi[g.parentJoint] * g.placement
             for box, T in boxes:
                 res.clear()
-                best = min(best, coal.distance(hull, coal.Transform3s(M.rotation, M.translation), box, T, req, res))
+                best = min(best, coal.distance(hull, coal.Transform3s(M.rotation, M.translation),
+                                               box, T, req, res))
         return best
 
     k = c["min_arm_scene_distance_step"]

@@ -1,4 +1,5 @@
-"""S5 (PR robot, resolved rate) end to end: ``scenarios.run("pr-rate")`` once per module, checked independently.
+"""S5 (PR robot, resolved rate) end to end: ``scenarios.run("pr-rate")`` once per module, checked
+independently.
 
 The robot's kinematics are written out here from SCENARIOS.md
 (``x = d1 + d2 cos t2``, ``y = d2 sin t2``, ``J = [[1, -d2 sin t2], [0, d2 cos t2]]``);
@@ -126,8 +127,9 @@ def test_run_starting_at_90_degrees_reports_the_singularity_at_step_0(s5):
 
 
 def test_damping_bounds_the_joint_rates(s5):
-    """|qdot| <= |v| / sigma_threshold with the adaptive damping; the plain inverse far exceeds it near theta2 = 90 deg
-    (the two runs part ways after the first near-singular step, so only the largest ratio is compared)."""
+    """|qdot| <= |v| / sigma_threshold with the adaptive damping; the plain inverse far exceeds it near theta2
+    = 90 deg (the two runs part ways after the first near-singular step, so only the largest ratio is
+    compared)."""
     r, _ = s5
     for row in r["table"]:
         assert row["max_joint_rate"] <= np.linalg.norm(row["v"]) / SIGMA * (1 + 1e-9)
@@ -190,7 +192,8 @@ def test_pngs_are_real_plots(s5):
 
 def test_cli_demo_pr_rate_end_to_end(tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg")
-    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "pr-rate", "--out", str(tmp_path)], cwd=ROOT,
+    proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "demo", "pr-rate", "--out",
+                           str(tmp_path)], cwd=ROOT,
                           env=env, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "[pr-rate]" in proc.stdout and "singular_start_event_step=0" in proc.stdout

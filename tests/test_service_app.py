@@ -69,7 +69,8 @@ def test_ik_round_trip(client, panda):
     for _ in range(5):
         q = panda.random_q(rng)
         T = panda.fk(q, "panda_link8")
-        r = post(client, "/ik", {"robot": "panda", "target": T.tolist(), "frame": "panda_link8", "seed": 1, "max_time": 0.2})
+        r = post(client, "/ik",
+                 {"robot": "panda", "target": T.tolist(), "frame": "panda_link8", "seed": 1, "max_time": 0.2})
         body = r.json()
         assert r.status_code == 200 and body["success"], body
         assert np.allclose(panda.fk(np.array(body["q"]), "panda_link8"), T, atol=1e-3)
@@ -105,10 +106,12 @@ def test_scara_relaxed_ik_over_http(client):
         ("/fk", '{"robot": "panda", "q": [Infinity, 0, 0, 0, 0, 0, 0]}', 422, "q"),
         ("/fk", '{"robot": "panda", "q": [0, 0', 422, None),
         ("/fk", {"robot": "panda"}, 422, "q"),
-        ("/ik", {"robot": "panda", "target": [[2, 0, 0, 0.3], [0, 1, 0, 0], [0, 0, 1, 0.5], [0, 0, 0, 1]]}, 422, "target"),
+        ("/ik", {"robot": "panda", "target": [[2, 0, 0, 0.3], [0, 1, 0, 0], [0, 0, 1, 0.5], [0, 0, 0, 1]]},
+         422, "target"),
         ("/ik", {"robot": "panda", "target": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}, 422, "target"),
         ("/ik", {"robot": "panda", "target": np.eye(4).tolist(), "relax": ["w"]}, 422, "relax"),
-        ("/ik", {"robot": "panda", "target": np.eye(4).tolist(), "spheres": [{"center": [0, 0, 0], "radius": -1}]}, 422, "spheres"),
+        ("/ik", {"robot": "panda", "target": np.eye(4).tolist(),
+                 "spheres": [{"center": [0, 0, 0], "radius": -1}]}, 422, "spheres"),
         ("/ik", {"robot": "panda", "target": np.eye(4).tolist(), "q0": [0.0] * 3}, 422, "q0"),
         ("/jacobian", {"robot": "panda", "q": [0.0] * 7, "reference": "globe"}, 422, "reference"),
     ],
@@ -133,8 +136,8 @@ def test_unreachable_target_is_a_result_not_an_error(client):
 def test_400_concurrent_ik_requests(server, panda):
     rng = np.random.default_rng(11)
     Q = panda.random_q(rng, n=400)
-    bodies = [json.dumps({"robot": "panda", "target": panda.fk(q, "panda_link8").tolist(), "frame": "panda_link8",
-                          "seed": i, "max_time": 0.2}) for i, q in enumerate(Q)]
+    bodies = [json.dumps({"robot": "panda", "target": panda.fk(q, "panda_link8").tolist(),
+                          "frame": "panda_link8", "seed": i, "max_time": 0.2}) for i, q in enumerate(Q)]
 
     def call(body):
         with httpx.Client(base_url=server.url, timeout=60) as c:
@@ -148,14 +151,16 @@ def test_400_concurrent_ik_requests(server, panda):
     assert ok >= 396, f"{ok}/400 solved"
     for (code, body), q in zip(results[:20], Q[:20]):
         if body["success"]:
-            assert np.allclose(panda.fk(np.array(body["q"]), "panda_link8"), panda.fk(q, "panda_link8"), atol=1e-3)
+            assert np.allclose(panda.fk(np.array(body["q"]), "panda_link8"),
+                               panda.fk(q, "panda_link8"), atol=1e-3)
     assert server.alive()
 
 
 def test_fuzz_openapi_no_server_errors(server):
     """schemathesis generates requests from the OpenAPI document; none may answer 5xx."""
-    cmd = [sys.executable, "-m", "schemathesis.cli", "run", f"{server.url}/openapi.json", "--checks", "not_a_server_error",
-           "--max-examples", "25", "--seed", "7", "--request-timeout", "30", "--generation-deterministic"]
+    cmd = [sys.executable, "-m", "schemathesis.cli", "run", f"{server.url}/openapi.json", "--checks",
+           "not_a_server_error", "--max-examples", "25", "--seed", "7", "--request-timeout", "30",
+           "--generation-deterministic"]
     proc = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
     assert httpx.get(server.url + "/health", timeout=5).status_code == 200

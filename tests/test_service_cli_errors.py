@@ -32,22 +32,29 @@ def takes_robot(sub: argparse.ArgumentParser) -> bool:
 #: Bad arguments per sub-command and a piece of the expected message.
 BAD = {
     "models": [(["--json", "extra"], "unrecognized arguments")],
-    "fk": [(["panda", "--q", "1", "2"], "q must have shape (7,)"), (["panda", "--q", "nan,0,0,0,0,0,0"], "finite"),
-           (["panda", "--frame", "hand"], "unknown frame 'hand'"), (["planar4r", "--param", "l1"], "KEY=VALUE")],
-    "jacobian": [(["panda", "--reference", "body"], "invalid choice"), (["pr", "--q", "a,b"], "expected numbers")],
+    "fk": [(["panda", "--q", "1", "2"], "q must have shape (7,)"),
+           (["panda", "--q", "nan,0,0,0,0,0,0"], "finite"),
+           (["panda", "--frame", "hand"], "unknown frame 'hand'"),
+           (["planar4r", "--param", "l1"], "KEY=VALUE")],
+    "jacobian": [(["panda", "--reference", "body"], "invalid choice"),
+                 (["pr", "--q", "a,b"], "expected numbers")],
     "ik": [(["panda", "--xyz", "1", "2"], "--xyz expects 3 numbers"), (["panda"], "a target is needed"),
            (["panda", "--xyz", "0.4", "0", "0.5", "--max-time", "-1"], "argument --max-time"),
            (["panda", "--xyz", "0.4", "0", "0.5", "--centring", "inf"], "argument --centring"),
            (["panda", "--xyz", "0.4", "0", "0.5", "--sphere", "1,2,3"], "--sphere expects"),
            (["panda", "--target", "1", "2", "3"], "16 numbers")],
-    "demo": [(["S10"], "invalid choice"), (["scara", "--out", "/proc/nope"], "/proc/nope: No such file or directory")],
+    "demo": [(["S10"], "invalid choice"),
+             (["scara", "--out", "/proc/nope"], "/proc/nope: No such file or directory")],
     "view": [(["scara", "--html", "/nonexistent/dir/x.html"], "'/nonexistent/dir' does not exist"),
-             (["scara", "--html", "/"], "expected a file path"), (["scara", "--q", "1"], "q must have shape (4,)")],
+             (["scara", "--html", "/"], "expected a file path"),
+             (["scara", "--q", "1"], "q must have shape (4,)")],
     "serve": [(["--port", "99999"], "port number 0..65535"), (["--port", "-1"], "port number"),
               (["--port", "http"], "port number"), (["--workers", "0"], "argument --workers"),
               (["--max-time-cap", "nan"], "argument --max-time-cap")],
-    "reach": [(["pr", "--samples", "0"], "argument --samples"), (["pr", "--resolution", "x"], "argument --resolution"),
-              (["pr", "--max-time", "inf"], "argument --max-time"), (["pr", "--orientation", "up"], "invalid choice")],
+    "reach": [(["pr", "--samples", "0"], "argument --samples"),
+              (["pr", "--resolution", "x"], "argument --resolution"),
+              (["pr", "--max-time", "inf"], "argument --max-time"),
+              (["pr", "--orientation", "up"], "invalid choice")],
 }
 
 
@@ -138,6 +145,7 @@ def test_serve_on_a_busy_port_or_unknown_host_is_one_line_exit_2(tmp_path):
         port = str(busy.getsockname()[1])
         for extra in ([], ["--workers", "2"]):
             out = kinserve("serve", "--port", port, *extra, cwd=tmp_path)
-            assert_one_line_error(out.returncode, out.stdout, out.stderr, f"cannot listen on 127.0.0.1:{port}")
+            assert_one_line_error(out.returncode, out.stdout, out.stderr,
+                                  f"cannot listen on 127.0.0.1:{port}")
     out = kinserve("serve", "--host", "no-such-host.invalid", "--port", "0", cwd=tmp_path)
     assert_one_line_error(out.returncode, out.stdout, out.stderr, "cannot listen on no-such-host.invalid:0")

@@ -39,7 +39,8 @@ def test_frames_panda_json_matches_the_urdf():
     assert len(names) == 26 and {"panda_link8", "panda_hand", "panda_hand_tcp"} <= set(names)
     assert {f["name"]: f["moved_by"] for f in d["frames"]}["panda_hand"] == "panda_joint7"
     assert d["task_axes"] == ["x", "y", "z", "roll", "pitch", "yaw"]
-    assert d["named_states"]["default"] == robots.load("panda", geometry=False).named_states["default"].tolist()
+    assert (d["named_states"]["default"]
+            == robots.load("panda", geometry=False).named_states["default"].tolist())
     assert d["groups"]["arm"] == arm
 
 

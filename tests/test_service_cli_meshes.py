@@ -45,7 +45,8 @@ def q_arg(q) -> list[str]:
 
 def assert_collide_answers(urdf: Path, cwd: Path, ros_package_path: Path | None = None) -> None:
     """``kinserve collide`` at q = 0 (clear by CLEARANCE_AT_ZERO) and at Q_COLLIDING (base / l2 collide)."""
-    clear = kinserve("collide", str(urdf), *q_arg([0, 0]), "--json", cwd=cwd, ros_package_path=ros_package_path)
+    clear = kinserve("collide", str(urdf), *q_arg([0, 0]), "--json", cwd=cwd,
+                     ros_package_path=ros_package_path)
     assert clear.returncode == 0, clear.stderr
     answer = json.loads(clear.stdout)
     assert answer["in_collision"] is False and sorted(answer["closest_pair"]) == ["base", "l2"]
@@ -94,7 +95,8 @@ def test_ros_package_path_from_another_working_directory(package, tmp_path):
                  "package_dirs=", "--package-dir", "$ROS_PACKAGE_PATH"):
         assert part in message, part
     with_flag = kinserve("collide", str(outside), "--package-dir", str(package.workspace), "--json", cwd=cwd)
-    assert with_flag.returncode == 0 and json.loads(with_flag.stdout)["in_collision"] is False, with_flag.stderr
+    assert (with_flag.returncode == 0
+            and json.loads(with_flag.stdout)["in_collision"] is False), with_flag.stderr
 
 
 def test_view_html_draws_the_packages_meshes_without_package_dir(package, tmp_path):

@@ -20,9 +20,9 @@ ENV = dict(os.environ, MPLBACKEND="Agg")
 
 def test_reach_writes_npz_and_png(tmp_path):
     stem = tmp_path / "pr_reach"
-    out = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "reach", "pr", "--samples", "80", "--resolution", "4",
-                          "--backend", "serial", "--out", str(stem)], cwd=ROOT, env=ENV, capture_output=True, text=True,
-                         timeout=300)
+    out = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "reach", "pr", "--samples", "80",
+                          "--resolution", "4", "--backend", "serial", "--out", str(stem)], cwd=ROOT, env=ENV,
+                         capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert "sampled poses reached" in out.stdout
     data = np.load(stem.with_suffix(".npz"))
@@ -71,7 +71,8 @@ def running_view(*args: str, sigint_ignored: bool = False):
 
 
 @pytest.mark.parametrize("sig, status", [(signal.SIGTERM, 128 + signal.SIGTERM), (signal.SIGINT, 0),
-                                         (signal.SIGHUP, 128 + signal.SIGHUP)], ids=["SIGTERM", "SIGINT", "SIGHUP"])
+                                         (signal.SIGHUP, 128 + signal.SIGHUP)],
+                         ids=["SIGTERM", "SIGINT", "SIGHUP"])
 def test_view_serves_the_robot_until_signalled_and_stops_its_server(sig, status):
     with running_view("scara", "--q", "0.3", "0.5", "0.4", "0.1") as (proc, url, server):
         assert alive(server) and parent_of(server) == proc.pid
@@ -85,7 +86,8 @@ def test_view_serves_the_robot_until_signalled_and_stops_its_server(sig, status)
 
 
 def test_ctrl_c_stops_a_viewer_started_with_sigint_ignored():
-    """A background job of a non-interactive shell inherits SIGINT ignored; Ctrl-C must still stop the viewer."""
+    """A background job of a non-interactive shell inherits SIGINT ignored; Ctrl-C must still stop the
+    viewer."""
     with running_view("planar4r", sigint_ignored=True) as (proc, _, server):
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=20) == 0
@@ -101,7 +103,8 @@ def test_viewer_killed_outright_still_takes_its_server_down():
 
 
 def test_view_html_writes_a_static_page(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "view", "planar4r", "--html", str(tmp_path / "p.html")],
+    out = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "view", "planar4r", "--html",
+                          str(tmp_path / "p.html")],
                          cwd=ROOT, env=ENV, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     text = (tmp_path / "p.html").read_text()

@@ -1,4 +1,5 @@
-"""POST /collision and the collision options of /ik, /ik/batch on a real server; `kinserve collide` end to end."""
+"""POST /collision and the collision options of /ik, /ik/batch on a real server; `kinserve collide` end to
+end."""
 
 from __future__ import annotations
 
@@ -15,8 +16,10 @@ from kinserve import ik, robots
 
 from service_server import ROOT, Server
 
-TABLE = {"kind": "box", "pose": [[1, 0, 0, 0.65], [0, 1, 0, 0], [0, 0, 1, -0.05], [0, 0, 0, 1]], "size": [0.7, 1.2, 0.1]}
-WALL = {"kind": "box", "pose": [[1, 0, 0, 0], [0, 1, 0, -0.6], [0, 0, 1, 0.5], [0, 0, 0, 1]], "size": [1.5, 0.05, 1.0]}
+TABLE = {"kind": "box", "pose": [[1, 0, 0, 0.65], [0, 1, 0, 0], [0, 0, 1, -0.05], [0, 0, 0, 1]],
+         "size": [0.7, 1.2, 0.1]}
+WALL = {"kind": "box", "pose": [[1, 0, 0, 0], [0, 1, 0, -0.6], [0, 0, 1, 0.5], [0, 0, 0, 1]],
+        "size": [1.5, 0.05, 1.0]}
 Q_DOWN = [0.0, 1.5, 0.0, -0.5, 0.0, 1.0, 0.0]  # the hand reaches into the table
 
 
@@ -36,7 +39,8 @@ def panda():
 def test_collision_endpoint_matches_the_library(client, panda):
     scene = [ik.Box(np.array(o["pose"]), o["size"]) for o in (TABLE, WALL)]
     for q in (panda.neutral().tolist(), Q_DOWN):
-        r = client.post("/collision", json={"robot": "panda", "q": q, "obstacles": [TABLE, WALL], "distances": True})
+        r = client.post("/collision",
+                        json={"robot": "panda", "q": q, "obstacles": [TABLE, WALL], "distances": True})
         assert r.status_code == 200, r.text
         body = r.json()
         assert body["in_collision"] == panda.in_collision(q, scene)
@@ -44,7 +48,8 @@ def test_collision_endpoint_matches_the_library(client, panda):
         assert body["min_distance"] == pytest.approx(panda.min_distance(q, scene), abs=1e-9)
         assert len(body["distances"]) == len(panda.distances(q, scene))
     assert ["panda_hand", "obstacle[0]:box"] in body["pairs"]
-    r = client.post("/collision", json={"robot": "panda", "q": Q_DOWN, "obstacles": [TABLE], "self_collision": False})
+    r = client.post("/collision",
+                    json={"robot": "panda", "q": Q_DOWN, "obstacles": [TABLE], "self_collision": False})
     assert all(p[1].startswith("obstacle") for p in r.json()["pairs"])
 
 
@@ -52,7 +57,8 @@ def test_collision_endpoint_matches_the_library(client, panda):
     ({"robot": "panda", "q": [0.0] * 6}, 422, "q"),
     ({"robot": "panda", "q": [0.0] * 7, "obstacles": [dict(TABLE, size=[0.7, 0.0, 0.1])]}, 422, "obstacles"),
     ({"robot": "panda", "q": [0.0] * 7, "obstacles": [{"kind": "box", "size": [1, 1, 1]}]}, 422, "pose"),
-    ({"robot": "panda", "q": [0.0] * 7, "obstacles": [{"kind": "mesh", "path": "/etc/passwd"}]}, 422, "obstacles"),
+    ({"robot": "panda", "q": [0.0] * 7, "obstacles": [{"kind": "mesh", "path": "/etc/passwd"}]},
+     422, "obstacles"),
     ({"robot": "pandaa", "q": [0.0] * 7}, 404, "robot"),
 ])
 def test_bad_collision_requests_name_the_field(client, body, status, field):
@@ -75,7 +81,8 @@ def test_ik_and_batch_accept_collision_options(client, panda):
     assert r.status_code == 200, r.text
     for res in r.json()["results"]:
         assert res["success"] and panda.min_distance(res["q"], scene) >= 0.005 - 1e-6
-    r = client.post("/ik", json={"robot": "panda", "target": targets[0], "collision_margin": -1, "obstacles": [TABLE]})
+    r = client.post("/ik", json={"robot": "panda", "target": targets[0], "collision_margin": -1,
+                                 "obstacles": [TABLE]})
     assert r.status_code == 422 and "collision_margin" in json.dumps(r.json())
 
 
@@ -87,7 +94,8 @@ def kinserve(*args: str) -> subprocess.CompletedProcess:
 
 def test_cli_collide_end_to_end(panda):
     q = " ".join(map(str, Q_DOWN))
-    out = kinserve("collide", "panda", "--q", *q.split(), "--box", "0.65", "0", "-0.05", "0.7", "1.2", "0.1", "--json")
+    out = kinserve("collide", "panda", "--q", *q.split(), "--box", "0.65", "0", "-0.05", "0.7", "1.2",
+                   "0.1", "--json")
     assert out.returncode == 0, out.stderr
     body = json.loads(out.stdout)
     table = ik.Box(np.array(TABLE["pose"]), TABLE["size"])
@@ -114,8 +122,8 @@ def test_cli_reach_with_collision_options(tmp_path):
 def test_cli_view_collision_html(tmp_path):
     page = tmp_path / "c.html"
     q = " ".join(map(str, Q_DOWN)).split()
-    out = kinserve("view", "panda", "--q", *q, "--collision", "--box", "0.65", "0", "-0.05", "0.7", "1.2", "0.1",
-                   "--html", str(page))
+    out = kinserve("view", "panda", "--q", *q, "--collision", "--box", "0.65", "0", "-0.05", "0.7", "1.2",
+                   "0.1", "--html", str(page))
     assert out.returncode == 0, out.stderr
     plain = tmp_path / "p.html"
     assert kinserve("view", "panda", "--q", *q, "--html", str(plain)).returncode == 0

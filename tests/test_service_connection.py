@@ -24,7 +24,8 @@ def server():
 
 
 def closed_after(sock: socket.socket, limit: float) -> float | None:
-    """Seconds until the server closes ``sock`` (reading and discarding), None if still open after ``limit``."""
+    """Seconds until the server closes ``sock`` (reading and discarding), None if still open after
+    ``limit``."""
     t0 = time.perf_counter()
     sock.settimeout(0.05)
     while time.perf_counter() - t0 < limit:

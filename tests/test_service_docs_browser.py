@@ -15,7 +15,8 @@ from kinserve.viz import find_browser
 from browser_checks import open_offline
 from service_server import Server
 
-pytestmark = pytest.mark.skipif(find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
+pytestmark = pytest.mark.skipif(find_browser() is None,
+                                reason="no Chromium binary found (apt-get install chromium)")
 
 SWAGGER_PATHS_JS = """(() => {
   const blocks = document.querySelectorAll('.opblock .opblock-summary-path');

@@ -41,12 +41,14 @@ def test_obstacles_of_every_kind_are_kept_clear(client):
                  {"kind": "sphere", "center": [0.4, 0.5, 0.2], "radius": 0.05},
                  {"kind": "capsule", "a": [0.7, 0.3, 0.0], "b": [0.7, 0.3, 0.4], "radius": 0.03},
                  {"kind": "cylinder", "pose": C.tolist(), "radius": 0.05, "length": 0.2}]
-    r = post(client, {"robot": "panda", "target": T.tolist(), "obstacles": obstacles, "link_radius": 0.02, "seed": 1})
+    r = post(client, {"robot": "panda", "target": T.tolist(), "obstacles": obstacles,
+                      "link_radius": 0.02, "seed": 1})
     assert r.status_code == 200, r.text
     body = r.json()
     assert body["success"], body["message"]
     avoid = ik.ObstacleAvoidance([ik.Box(B, (0.05, 0.05, 0.05)), ik.Sphere((0.4, 0.5, 0.2), 0.05),
-                                  ik.Capsule((0.7, 0.3, 0.0), (0.7, 0.3, 0.4), 0.03), ik.Cylinder(C, 0.05, 0.2)],
+                                  ik.Capsule((0.7, 0.3, 0.0), (0.7, 0.3, 0.4), 0.03),
+                                  ik.Cylinder(C, 0.05, 0.2)],
                                  link_radius=0.02).bind(panda)
     panda.fk(np.array(body["q"]))
     assert avoid._pairs(panda.data, False, np.inf).min() >= -1e-9
@@ -62,7 +64,8 @@ def test_two_hands_at_once(client):
     assert body["success"], body["message"]
     assert [t["name"] for t in body["task_errors"]] == ["frame left_gripper", "frame right_gripper"]
     for t in targets:
-        assert np.linalg.norm(baxter.fk(np.array(body["q"]), t["frame"])[:3, 3] - np.array(t["pose"])[:3, 3]) < 1e-4
+        assert np.linalg.norm(baxter.fk(np.array(body["q"]), t["frame"])[:3, 3]
+                              - np.array(t["pose"])[:3, 3]) < 1e-4
 
 
 def test_errors_name_the_field(client):
@@ -70,13 +73,17 @@ def test_errors_name_the_field(client):
     cases = [
         ({"robot": "panda", "target": T, "obstacles": [{"kind": "box", "pose": T, "size": [0.1, -0.1, 0.1]}]},
          ["body", "obstacles", 0, "box", "size", 1]),
-        ({"robot": "panda", "target": T, "obstacles": [{"kind": "cone", "radius": 1}]}, ["body", "obstacles", 0]),
-        ({"robot": "panda", "target": T, "obstacles": [{"kind": "sphere", "center": [0, 0, 0.1], "radius": 0.2}]},
+        ({"robot": "panda", "target": T, "obstacles": [{"kind": "cone", "radius": 1}]},
+         ["body", "obstacles", 0]),
+        ({"robot": "panda", "target": T,
+          "obstacles": [{"kind": "sphere", "center": [0, 0, 0.1], "radius": 0.2}]},
          ["body", "obstacles"]),
         ({"robot": "baxter", "targets": [{"frame": "left_grip", "pose": T}]}, ["body", "targets[0].frame"]),
         ({"robot": "panda"}, ["body", "target"]),
-        ({"robot": "panda", "target": T, "targets": [{"frame": "panda_hand", "pose": T}]}, ["body", "target"]),
-        ({"robot": "panda", "targets": [{"frame": "panda_hand", "pose": T}], "method": "lm"}, ["body", "method"]),
+        ({"robot": "panda", "target": T, "targets": [{"frame": "panda_hand", "pose": T}]},
+         ["body", "target"]),
+        ({"robot": "panda", "targets": [{"frame": "panda_hand", "pose": T}], "method": "lm"},
+         ["body", "method"]),
         ({"robot": "panda", "target": T, "link_radius": -1}, ["body", "link_radius"]),
     ]
     for body, loc in cases:
@@ -110,7 +117,8 @@ def test_batch_mixes_poses_and_several_frame_targets(client):
 
     body["targets"].append([{"frame": "left_grip", "pose": np.eye(4).tolist()}])
     r = client.post("/ik/batch", json=body)
-    assert r.status_code == 422 and r.json()["detail"][0]["loc"][:2] == ["body", "targets[2][0].frame"], r.text
+    assert (r.status_code == 422
+            and r.json()["detail"][0]["loc"][:2] == ["body", "targets[2][0].frame"]), r.text
     body["targets"][2] = [[1, 0, 0], [0, 1, 0]]  # neither a 4x4 pose nor a list of frame targets
     r = client.post("/ik/batch", json=body)
     assert r.status_code == 422 and r.json()["detail"][0]["loc"][:3] == ["body", "targets", 2], r.text
@@ -124,7 +132,8 @@ def test_not_attempted_frame_targets_report_the_largest_error_at_the_start():
     baxter = robots.load("baxter", geometry=False)
     q0 = baxter.random_q(np.random.default_rng(12))
     q = baxter.random_q(np.random.default_rng(13))
-    problem = [schemas.FrameTarget(frame=f, pose=baxter.fk(q, f).tolist()) for f in ("left_gripper", "right_gripper")]
+    problem = [schemas.FrameTarget(frame=f, pose=baxter.fk(q, f).tolist())
+               for f in ("left_gripper", "right_gripper")]
     out = jobs.not_attempted(baxter, problem, {"q0": q0, "frame": None, "relax": ()}, "skipped")
     pos, rot = [], []
     for t in problem:

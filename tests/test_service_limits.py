@@ -72,7 +72,8 @@ def test_50_mb_body_is_refused_early_without_memory_or_latency_cost(server):
     try:
         for framing in ("length", "chunked"):
             sock = socket.create_connection(("127.0.0.1", server.port))
-            extra = f"Content-Length: {len(body)}\r\n" if framing == "length" else "Transfer-Encoding: chunked\r\n"
+            extra = (f"Content-Length: {len(body)}\r\n" if framing == "length"
+                     else "Transfer-Encoding: chunked\r\n")
             sock.sendall(head("/ik", extra))
 
             def send_body():
@@ -111,8 +112,10 @@ def test_body_within_limit_is_served_and_limit_is_configurable(server):
     ok = json.dumps({"robot": "panda", "q": q}).encode()
     r = httpx.post(server.url + "/fk", content=ok, headers={"content-type": "application/json"}, timeout=10)
     assert r.status_code == 200, r.text
-    padded = json.dumps({"robot": "panda", "q": q, "frame": "panda_link8" + " " * 0}).encode() + b" " * (70 << 10)
-    r = httpx.post(server.url + "/fk", content=padded, headers={"content-type": "application/json"}, timeout=10)
+    padded = json.dumps({"robot": "panda", "q": q,
+                         "frame": "panda_link8" + " " * 0}).encode() + b" " * (70 << 10)
+    r = httpx.post(server.url + "/fk", content=padded,
+                   headers={"content-type": "application/json"}, timeout=10)
     assert r.status_code == 413 and r.json()["detail"][0]["type"] == "body_too_large"
 
 

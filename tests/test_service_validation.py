@@ -86,7 +86,8 @@ def test_large_but_bounded_params_answer_finite_numbers(client):
 def test_frame_only_sphere_containing_the_target_answers_finite_errors(client, panda):
     T = panda.fk(panda.neutral(), "panda_link8")
     r = post(client, "/ik", {"robot": "panda", "target": T.tolist(), "frame": "panda_link8",
-                             "spheres": [{"center": T[:3, 3].tolist(), "radius": 1.5, "frames": ["panda_link8"]}]})
+                             "spheres": [{"center": T[:3, 3].tolist(), "radius": 1.5,
+                                          "frames": ["panda_link8"]}]})
     assert r.status_code == 200
     out = r.json()
     assert out["success"] is False
@@ -108,7 +109,8 @@ def test_q_with_large_entries_is_accepted_as_the_library_does(client, panda):
 def test_sphere_errors_point_at_spheres(client, panda):
     T = panda.fk(panda.neutral(), "panda_link8")
     base = {"robot": "panda", "target": T.tolist()}
-    r = post(client, "/ik", {**base, "spheres": [{"center": [0, 0, 0], "radius": 0.1, "frames": ["no_such_frame"]}]})
+    r = post(client, "/ik",
+             {**base, "spheres": [{"center": [0, 0, 0], "radius": 0.1, "frames": ["no_such_frame"]}]})
     assert r.status_code == 422 and loc(r) == ["body", "spheres"] and "no_such_frame" in r.text
     r = post(client, "/ik", {**base, "spheres": [{"center": [0, 0, 0], "radius": 0.2}]})  # around the base
     assert r.status_code == 422 and loc(r) == ["body", "spheres"] and "base" in r.text

@@ -44,7 +44,8 @@ def test_robot_keyframes_equal_fk(panda):
             path = arm.nodes[g.name]
             keyed = pose_at(cmd, path, int(frames[i]))          # relative to the robot root (the base)
             np.testing.assert_allclose(keyed, link_pose_from_fk(panda, Q[i], g), atol=1e-6)
-            np.testing.assert_allclose(anim.world_pose(path, int(frames[i])), base @ link_pose_from_fk(panda, Q[i], g), atol=1e-6)
+            np.testing.assert_allclose(anim.world_pose(path, int(frames[i])),
+                                       base @ link_pose_from_fk(panda, Q[i], g), atol=1e-6)
     for entry in cmd["animations"]:
         clip = entry["clip"]
         assert clip["fps"] == 20
@@ -79,7 +80,8 @@ def test_attached_object_follows_the_tool_between_grasp_and_release(panda):
             np.testing.assert_allclose(world[k], tool[release] @ offset, atol=1e-9)
         np.testing.assert_allclose(anim.world_pose("can", k), world[k], atol=1e-9)
     anim.apply()
-    np.testing.assert_allclose(pose_at(scene.animation, "/meshcat/can", len(Q) - 1), tool[release] @ offset, atol=1e-6)
+    np.testing.assert_allclose(pose_at(scene.animation, "/meshcat/can", len(Q) - 1),
+                               tool[release] @ offset, atol=1e-6)
 
 
 def test_attach_under_a_transformed_parent(panda):

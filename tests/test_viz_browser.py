@@ -16,7 +16,8 @@ from kinserve.kinematics import se3
 from browser_checks import assert_panda_drawn, robot_mask
 from browser_checks import project as camera_project
 
-pytestmark = pytest.mark.skipif(viz.find_browser() is None, reason="no Chromium binary found (apt-get install chromium)")
+pytestmark = pytest.mark.skipif(viz.find_browser() is None,
+                                reason="no Chromium binary found (apt-get install chromium)")
 
 SIZE = (800, 600)
 EYE, TARGET = np.array([1.25, 0.85, 0.85]), np.array([0.25, 0.0, 0.4])
@@ -46,7 +47,8 @@ def build(with_robot: bool, panda, q0, Q):
 def pages(tmp_path_factory):
     panda = robots.load("panda")
     q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.8])
-    Q = q0 + np.outer(np.sin(np.linspace(0, np.pi, 31)), [0.5, 0.3, 0.0, 0.3, 0.0, 0.0, 0.0])  # ends back at q0
+    # ends back at q0
+    Q = q0 + np.outer(np.sin(np.linspace(0, np.pi, 31)), [0.5, 0.3, 0.0, 0.3, 0.0, 0.0, 0.0])
     out = tmp_path_factory.mktemp("browser")
     full = viz.export_html(build(True, panda, q0, Q), out / "full.html")
     bare = viz.export_html(build(False, panda, q0, Q), out / "bare.html")
@@ -57,7 +59,8 @@ def test_page_loads_without_errors_and_plays_the_animation(pages):
     _, _, full, _, _ = pages
     status = viz.page_status(full, play=True)
     assert status["status"] == "ready", status
-    assert status["errors"] == "0" and status["console-errors"] == "0", status  # no uncaught error, no console error
+    # no uncaught error, no console error
+    assert status["errors"] == "0" and status["console-errors"] == "0", status
     assert int(status["commands"]) == len(viz.read_html_commands(full))
     assert int(status["animation-clips"]) == 11  # one clip per Panda visual mesh
     assert float(status["animation-duration"]) == pytest.approx(30 / 30, rel=1e-3)

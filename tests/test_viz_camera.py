@@ -24,7 +24,8 @@ SIZE = (800, 600)  # a 4:3 window, the framing's design aspect
 
 
 def mesh_vertices_world(scene_robot) -> np.ndarray:
-    """Every vertex of every drawn mesh/primitive of a scene robot, in the world (from coal's own vertices)."""
+    """Every vertex of every drawn mesh/primitive of a scene robot, in the world (from coal's own
+    vertices)."""
     poses = scene_robot.geometry_poses(scene_robot.q)
     out = []
     for g in scene_robot.geometry.geometryObjects:
@@ -60,7 +61,8 @@ def test_fit_points_centres_the_projection_and_fills_the_limiting_axis(rng):
         d = rng.normal(size=3)
         d[2] = abs(d[2]) + 0.2
         eye, target = camera.fit_points(P, d, aspect=4 / 3, fill=0.9)
-        np.testing.assert_allclose(np.cross(eye - target, d), 0.0, atol=1e-9 * np.linalg.norm(eye - target) * np.linalg.norm(d))
+        np.testing.assert_allclose(np.cross(eye - target, d), 0.0,
+                                   atol=1e-9 * np.linalg.norm(eye - target) * np.linalg.norm(d))
         px = pixel_project(P, eye, target, SIZE)
         x = px[:, 0] / SIZE[0] * 2 - 1
         y = 1 - px[:, 1] / SIZE[1] * 2
@@ -139,21 +141,24 @@ def server_commands(static_html: str) -> list[dict]:
 def camera_part(commands) -> list[dict]:
     keep = ("/meshcat", "/Grid", "/Axes")
     return sorted(
-        (c for c in commands if (c["type"] == "set_transform" and c["path"] in keep) or c["path"].startswith("/Cameras")),
+        (c for c in commands
+         if (c["type"] == "set_transform" and c["path"] in keep) or c["path"].startswith("/Cameras")),
         key=lambda c: (c["path"], c["type"]))
 
 
 def test_live_view_and_html_export_send_the_same_camera(tmp_path):
-    """`kinserve view youbot` on a live server (ours, 127.0.0.1) shows the camera of `kinserve view youbot --html`."""
+    """`kinserve view youbot` on a live server (ours, 127.0.0.1) shows the camera of `kinserve view youbot
+    --html`."""
     page = tmp_path / "youbot.html"
-    cli = [sys.executable, "-m", "kinserve.service.cli", "view", "youbot", "--q", "0.3", "0.5", "-0.8", "0.4", "0.1"]
+    cli = [sys.executable, "-m", "kinserve.service.cli", "view", "youbot", "--q", "0.3", "0.5", "-0.8",
+           "0.4", "0.1"]
     done = subprocess.run(cli + ["--html", str(page)], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     exported = camera_part(viz.read_html_commands(page))
     assert len(exported) == 5
     with viz.LiveViewer() as server:
-        proc = subprocess.Popen(cli + ["--zmq-url", server.zmq_url], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                text=True, start_new_session=True)
+        proc = subprocess.Popen(cli + ["--zmq-url", server.zmq_url], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, start_new_session=True)
         try:
             line = proc.stdout.readline()  # announced once the scene has been sent
             assert "meshcat viewer" in line, proc.stderr.read() if proc.poll() is not None else line
@@ -176,8 +181,10 @@ def test_the_automatic_camera_frames_the_whole_animation():
     anim.robot("planar4r", Q)
     anim.apply()
     eye, target = exported_camera(scene.commands())
-    V = np.array([T[:3, 3] for q in Q for T in arm.fk_all(q).values()])  # every frame at every sample (base at 0)
+    # every frame at every sample (base at 0)
+    V = np.array([T[:3, 3] for q in Q for T in arm.fk_all(q).values()])
     px = pixel_project(V, eye, target, SIZE)
-    assert px[:, 0].min() >= 0 and px[:, 0].max() <= SIZE[0] and px[:, 1].min() >= 0 and px[:, 1].max() <= SIZE[1]
+    assert (px[:, 0].min() >= 0 and px[:, 0].max() <= SIZE[0] and px[:, 1].min() >= 0
+            and px[:, 1].max() <= SIZE[1])
     scene.delete("planar4r")  # the motion's extent goes with the robot
     assert scene.bounds() is None

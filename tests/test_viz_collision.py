@@ -1,4 +1,5 @@
-"""Scene.for_robot(..., collision=True): the collision shapes and obstacles are drawn, colliding bodies highlighted."""
+"""Scene.for_robot(..., collision=True): the collision shapes and obstacles are drawn, colliding bodies
+highlighted."""
 
 import numpy as np
 import pinocchio as pin
@@ -43,13 +44,15 @@ def test_collision_shapes_drawn_at_their_poses_with_colliding_links_highlighted(
     assert _color(scene, "obstacles/1") == colors.to_int(OBSTACLE_COLOR)
     # a collision-free configuration: nothing red
     free = Scene.for_robot(panda, panda.neutral(), collision=True, obstacles=[table])
-    assert all(_color(free, f"panda_collision/{g.name}") == colors.to_int(CLEAR_COLOR) for g in gm.geometryObjects)
+    assert all(_color(free, f"panda_collision/{g.name}") == colors.to_int(CLEAR_COLOR)
+               for g in gm.geometryObjects)
 
 
 def test_primitive_robot_and_default_scene_without_collision():
     scara = robots.load("scara")
     scene = Scene.for_robot(scara, collision=True)
-    assert {p.rsplit("/", 1)[1] for p in scene.paths() if "/scara_collision/" in p} == set(scara.collision.geometry_names)
+    assert {p.rsplit("/", 1)[1] for p in scene.paths()
+            if "/scara_collision/" in p} == set(scara.collision.geometry_names)
     assert not any("_collision" in p for p in Scene.for_robot(scara).paths())
 
 

@@ -56,7 +56,8 @@ def test_gzip_and_raw_payloads_decode_to_the_same_commands(panda_scene):
 
 
 def test_pack_roundtrip_and_errors():
-    cmds = [{"type": "set_property", "path": "/a", "property": "visible", "value": bool(i % 2)} for i in range(5)]
+    cmds = [{"type": "set_property", "path": "/a", "property": "visible", "value": bool(i % 2)}
+            for i in range(5)]
     assert unpack_commands(pack_commands(cmds)) == cmds
     with pytest.raises(InputError):
         viz.static_html("not a scene")

@@ -37,7 +37,8 @@ def test_live_viewer_serves_the_scene(scene):
 def test_serve_announces_and_stops(scene):
     lines, stop = [], threading.Event()
     result = {}
-    thread = threading.Thread(target=lambda: result.setdefault("url", viz.serve(scene, announce=lines.append, stop=stop, poll=0.05)))
+    thread = threading.Thread(target=lambda: result.setdefault("url", viz.serve(scene, announce=lines.append,
+                                                                                stop=stop, poll=0.05)))
     thread.start()
     for _ in range(200):
         if lines:
@@ -56,8 +57,10 @@ def test_a_viewer_never_closed_stops_its_server_when_python_exits(tmp_path):
 
     from process_leaks import alive, wait_gone
 
-    code = "from kinserve.viz import LiveViewer; v = LiveViewer(); print(v.server_pid, flush=True); assert v.running"
-    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=60)
+    code = ("from kinserve.viz import LiveViewer; v = LiveViewer(); print(v.server_pid, flush=True); "
+            "assert v.running")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                         text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     server = int(out.stdout.split()[0])
     assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived its Python process"

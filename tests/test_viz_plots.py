@@ -73,11 +73,14 @@ def test_series_and_xy_figures(tmp_path):
 
 
 def test_map_figure_artists(tmp_path):
-    obstacles = [viz.Rect(220, 100, 260, 140, "hot-dog 1"), {"rect": [160, 160, 200, 200]}, {"circle": [240, 240, 40]}]
+    obstacles = [viz.Rect(220, 100, 260, 140, "hot-dog 1"), {"rect": [160, 160, 200, 200]},
+                 {"circle": [240, 240, 40]}]
     mask = np.zeros((48, 48), bool)
     mask[:10, :20] = True
-    fig = viz.map_figure(obstacles, (0, 0, 480, 480), paths={"leg 1": [[260, 60], [360, 170]], "leg 2": [[360, 170], [150, 70]]},
-                         waypoints={"start": (260, 60), "1": (360, 170)}, coverage=viz.Grid(mask, cell=10.0), inflate=10)
+    fig = viz.map_figure(obstacles, (0, 0, 480, 480),
+                         paths={"leg 1": [[260, 60], [360, 170]], "leg 2": [[360, 170], [150, 70]]},
+                         waypoints={"start": (260, 60), "1": (360, 170)},
+                         coverage=viz.Grid(mask, cell=10.0), inflate=10)
     ax = fig.axes[0]
     rects = [p for p in ax.patches if isinstance(p, Rectangle)]
     circles = [p for p in ax.patches if isinstance(p, CirclePatch)]
@@ -106,7 +109,8 @@ def test_planar_arm_family_figure(tmp_path):
     lengths = [1.0, 0.8, 0.6, 0.4]
     up = np.random.default_rng(1).uniform(-1, 1, size=(40, 4))
     down = np.random.default_rng(2).uniform(-1, 1, size=(7, 4))
-    fig = viz.planar_arm_figure(lengths, {"elbow up": up, "elbow down": down}, target=(1.2, 0.8, 0.3), max_per_branch=10)
+    fig = viz.planar_arm_figure(lengths, {"elbow up": up, "elbow down": down}, target=(1.2, 0.8, 0.3),
+                                max_per_branch=10)
     ax = fig.axes[0]
     arms = [ln for ln in ax.lines if len(ln.get_xdata()) == 5]
     assert len(arms) == 10 + 7
@@ -135,7 +139,8 @@ def test_layout_checks_catch_a_cut_title_and_a_legend_on_the_curves():
     t = np.linspace(0, 15, 501)
     e = np.where(t > 14.5, 1e-6, 1e-16)  # a spike at the right end, under an upper-right legend
     fig = viz.errors_figure(t, {"position": e, "orientation": 0.5 * e}, xlabel="time (s)",
-                            title="S4 tracking errors of DLS IK (λ = 0.05, warm started, null-space centring, 501 samples)")
+                            title="S4 tracking errors of DLS IK (λ = 0.05, warm started, "
+                                  "null-space centring, 501 samples)")
     fig.axes[0].legend(loc="upper right")
     with pytest.raises(AssertionError, match="outside the figure"):
         titles_inside(fig)
@@ -145,7 +150,8 @@ def test_layout_checks_catch_a_cut_title_and_a_legend_on_the_curves():
     with pytest.raises(AssertionError, match="no x label"):
         axis_labels(fig.axes[0])
     # the same data with a short title and the legend below the axes passes
-    fig = viz.errors_figure(t, {"position": e, "orientation": 0.5 * e}, xlabel="time (s)", title="S4 tracking errors")
+    fig = viz.errors_figure(t, {"position": e, "orientation": 0.5 * e}, xlabel="time (s)",
+                            title="S4 tracking errors")
     fig.axes[0].get_legend().remove()
     fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=2)
     titles_inside(fig)

@@ -42,7 +42,8 @@ def test_panda_links_are_drawn_with_meshes_at_fk(panda, rng):
         assert obj["object"]["object"]["type"] == "_meshfile_object"
         assert obj["object"]["object"]["format"] == "dae"
         scale = np.diag(np.r_[g.meshScale, 1.0])
-        np.testing.assert_allclose(scene.world_transform(path), expected_geometry_pose(panda, q, g) @ scale, atol=1e-9)
+        np.testing.assert_allclose(scene.world_transform(path),
+                                   expected_geometry_pose(panda, q, g) @ scale, atol=1e-9)
 
 
 def test_base_pose_and_set_q_move_every_link(panda, rng):
@@ -112,7 +113,8 @@ def test_triad_axes_follow_the_pose():
         np.testing.assert_allclose(W[:3, 2], T[:3, k], atol=1e-12)
         np.testing.assert_allclose(W[:3, 3], T[:3, 3] + 0.1 * T[:3, k], atol=1e-12)
         geom = scene.object(f"target/{axis}")["object"]
-        assert geom["geometries"][0]["type"] == "CylinderGeometry" and geom["geometries"][0]["height"] == pytest.approx(0.2)
+        assert (geom["geometries"][0]["type"] == "CylinderGeometry"
+                and geom["geometries"][0]["height"] == pytest.approx(0.2))
         # the intrinsic matrix turns three.js's y-axis cylinder onto z
         M = np.array(geom["object"]["matrix"]).reshape(4, 4)
         np.testing.assert_allclose(M[:3, :3] @ [0, 1, 0], [0, 0, 1], atol=1e-12)
@@ -158,14 +160,15 @@ def _positions(obj) -> np.ndarray:
 
 def test_map_is_scaled_and_complete():
     scene = viz.Scene()
-    obstacles = [viz.Rect(220, 100, 260, 140, "hotdog"), {"circle": [240, 240, 40]}, {"min": [135, 375], "max": [185, 425]}]
+    obstacles = [viz.Rect(220, 100, 260, 140, "hotdog"), {"circle": [240, 240, 40]},
+                 {"min": [135, 375], "max": [185, 425]}]
     mask = np.zeros((48, 48), dtype=bool)
     mask[0, 0:5] = True      # one run
     mask[3, 2:4] = True      # another
     mask[3, 10:12] = True    # and a third on the same row
     root = scene.add_map("mall", obstacles, (0, 0, 480, 480), paths={"leg 1": [[260, 60], [360, 170]]},
-                         waypoints={"start": (260, 60), "end": (230, 430)}, coverage=viz.Grid(mask, (0, 0), 10.0),
-                         inflate=10, scale=0.01)
+                         waypoints={"start": (260, 60), "end": (230, 430)},
+                         coverage=viz.Grid(mask, (0, 0), 10.0), inflate=10, scale=0.01)
     assert root == "/meshcat/mall"
     np.testing.assert_allclose(scene.transform("mall"), np.diag([0.01, 0.01, 0.01, 1]))
     assert len([p for p in scene.paths() if p.startswith("/meshcat/mall/obstacles/")]) == 3
@@ -179,9 +182,11 @@ def test_map_is_scaled_and_complete():
     assert scene.object("mall/inflated/1")["object"]["geometries"][0]["radiusTop"] == 50
     # coverage: two triangles per merged row run
     cov = scene.object("mall/coverage")["object"]["geometries"][0]["data"]
-    assert len(np.frombuffer(cov["index"]["array"].data, np.uint32)) == 3 * 2 * 3  # 3 runs x 2 triangles x 3 indices
+    # 3 runs x 2 triangles x 3 indices
+    assert len(np.frombuffer(cov["index"]["array"].data, np.uint32)) == 3 * 2 * 3
     corners = _positions(scene.object("mall/coverage")["object"])
-    np.testing.assert_allclose(sorted(set(corners[:, 0])), [0, 20, 40, 50, 100, 120])  # runs [0, 50], [20, 40], [100, 120]
+    # runs [0, 50], [20, 40], [100, 120]
+    np.testing.assert_allclose(sorted(set(corners[:, 0])), [0, 20, 40, 50, 100, 120])
     P = _positions(scene.object("mall/paths/leg 1")["object"])
     np.testing.assert_allclose(P[:, :2], [[260, 60], [360, 170]])
     np.testing.assert_allclose(scene.world_transform("mall/waypoints/end")[:2, 3], [2.3, 4.3])
@@ -287,13 +292,15 @@ def test_invalid_input_is_rejected(panda):
 def test_mobile_base_heading_marker_points_forward():
     scene = viz.Scene()
     scene.add_map("map", [], (0, 0, 480, 480), scale=0.01)
-    path = scene.add_mobile_base("map/base", size=(20, 16, 8), pose=se3.pose(se3.rot_z(np.pi / 2), [100, 50, 0]))
+    path = scene.add_mobile_base("map/base", size=(20, 16, 8),
+                                 pose=se3.pose(se3.rot_z(np.pi / 2), [100, 50, 0]))
     assert path == "/meshcat/map/base"
     body = scene.world_transform("map/base/body")
     nose = scene.world_transform("map/base/nose")
     np.testing.assert_allclose(body[:2, 3], [1.0, 0.5])  # map units scaled to metres
     heading = nose[:2, 3] - body[:2, 3]
-    np.testing.assert_allclose(heading / np.linalg.norm(heading), [0.0, 1.0], atol=1e-12)  # x forward, turned by 90 deg
+    # x forward, turned by 90 deg
+    np.testing.assert_allclose(heading / np.linalg.norm(heading), [0.0, 1.0], atol=1e-12)
     assert scene.object("map/base/body")["object"]["geometries"][0]["depth"] == 8
 
 

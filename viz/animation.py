@@ -175,14 +175,17 @@ class Animation:
     def tool_poses(self, robot: str, frame: str | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(frames, poses)``: world poses of the robot's tool frame at its keyed trajectory samples."""
         if robot not in self._robot_steps:
-            raise InputError(f"robot {robot!r} has no keyed trajectory; call Animation.robot({robot!r}, Q) first")
+            raise InputError(f"robot {robot!r} has no keyed trajectory; call Animation.robot({robot!r}, "
+                             "Q) first")
         handle = self.scene.robots[robot]
         frames, Q = self._robot_steps[robot]
-        poses = np.array([self.world_pose(handle.root, int(f)) @ handle.robot.fk(q, frame) for f, q in zip(frames, Q)])
+        poses = np.array([self.world_pose(handle.root, int(f)) @ handle.robot.fk(q, frame)
+                          for f, q in zip(frames, Q)])
         return frames, poses
 
     # ------------------------------------------------------------ grasping
-    def attach(self, name: str, robot: str, grasp: int, release: int | None = None, frame: str | None = None) -> np.ndarray:
+    def attach(self, name: str, robot: str, grasp: int, release: int | None = None,
+               frame: str | None = None) -> np.ndarray:
         """Carry node ``name`` with the robot's tool from trajectory step ``grasp`` to ``release``.
 
         Steps index the ``Q`` given to :meth:`robot` (``release=None``: until
@@ -197,7 +200,8 @@ class Animation:
         release = n - 1 if release is None else int(release)
         grasp = int(grasp)
         if not (0 <= grasp <= release < n):
-            raise InputError(f"need 0 <= grasp <= release < {n} (trajectory steps), got grasp={grasp}, release={release}")
+            raise InputError(f"need 0 <= grasp <= release < {n} (trajectory steps), got grasp={grasp}, "
+                             f"release={release}")
         path = self._node(name)
         parent = "/".join(path.split("/")[:-1]) or "/"
         W0 = self.world_pose(path, int(frames[grasp]))
@@ -251,7 +255,8 @@ class Animation:
         """Record this animation in its scene (a scene holds one animation; the last applied wins)."""
         if self.n_frames == 0:
             raise InputError("the animation has no keyframes")
-        self.scene.send(meshcat.commands.SetAnimation(self.to_meshcat(), play=bool(play), repetitions=int(repetitions)))
+        self.scene.send(meshcat.commands.SetAnimation(self.to_meshcat(), play=bool(play),
+                                                      repetitions=int(repetitions)))
 
 
 def pose_at(animation_command: dict, path: str, frame: int) -> np.ndarray:

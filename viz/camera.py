@@ -1,4 +1,5 @@
-"""Camera framing: where meshcat's camera stands to show what a scene draws, and the commands that put it there.
+"""Camera framing: where meshcat's camera stands to show what a scene draws, and the commands that put it
+there.
 
 The camera model is meshcat's default camera, a three.js ``PerspectiveCamera``
 with a vertical field of view of :data:`CAMERA_FOV_DEG`, looking from ``eye``
@@ -62,7 +63,8 @@ AZIMUTH_OFFSETS_DEG = (0.0, -15.0, 15.0, -30.0, 30.0)
 
 
 def view_basis(eye, target) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(r, u, f)``: right, up and forward unit vectors of a camera at ``eye`` looking at ``target`` (z up)."""
+    """``(r, u, f)``: right, up and forward unit vectors of a camera at ``eye`` looking at ``target`` (z
+    up)."""
     eye, target = np.asarray(eye, dtype=float), np.asarray(target, dtype=float)
     f = target - eye
     n = np.linalg.norm(f)
@@ -76,8 +78,10 @@ def view_basis(eye, target) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return r, np.cross(r, f), f
 
 
-def project(points, eye, target, aspect: float = FRAMING_ASPECT, fov_deg: float = CAMERA_FOV_DEG) -> np.ndarray:
-    """``(N, 2)`` normalised device coordinates ``(x right, y up)`` of world ``points`` (see the module docstring).
+def project(points, eye, target, aspect: float = FRAMING_ASPECT,
+            fov_deg: float = CAMERA_FOV_DEG) -> np.ndarray:
+    """``(N, 2)`` normalised device coordinates ``(x right, y up)`` of world ``points`` (see the module
+    docstring).
 
     Points in the window have ``|x| <= 1`` and ``|y| <= 1``; points behind the camera get NaN.
     """
@@ -95,11 +99,13 @@ def project(points, eye, target, aspect: float = FRAMING_ASPECT, fov_deg: float 
 def box_corners(lo, hi) -> np.ndarray:
     """The 8 corners ``(8, 3)`` of the axis-aligned box ``[lo, hi]``."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    return np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    return np.array([[(lo, hi)[i][0], (lo, hi)[j][1], (lo, hi)[k][2]] for i in (0, 1) for j in (0, 1)
+                     for k in (0, 1)])
 
 
 def fit_points(points, direction, *, aspect: float = FRAMING_ASPECT, fill: float = FRAMING_FILL,
-               fov_deg: float = CAMERA_FOV_DEG, max_depth_ratio: float = MAX_DEPTH_RATIO) -> tuple[np.ndarray, np.ndarray]:
+               fov_deg: float = CAMERA_FOV_DEG,
+               max_depth_ratio: float = MAX_DEPTH_RATIO) -> tuple[np.ndarray, np.ndarray]:
     """``(eye, target)`` looking along ``-direction`` (``eye - target`` is parallel to ``direction``)
     such that the projected ``points`` are centred in the window and span ``fill`` of it on
     their limiting axis (the other axis spans at most ``fill``).
@@ -168,7 +174,8 @@ def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
     return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
 
 
-def frame_points(points, *, aspect: float = FRAMING_ASPECT, fill: float = FRAMING_FILL) -> tuple[np.ndarray, np.ndarray]:
+def frame_points(points, *, aspect: float = FRAMING_ASPECT,
+                 fill: float = FRAMING_FILL) -> tuple[np.ndarray, np.ndarray]:
     """``(eye, target)`` showing the world ``points`` (``(N, 3)`` metres: e.g. the corners of the
     bounding boxes of everything a scene draws) large and centred.
 
@@ -225,7 +232,8 @@ def view_commands(eye, target) -> list[dict]:
         {"type": "set_transform", "path": "/meshcat", "matrix": shift},
         {"type": "set_transform", "path": "/Grid", "matrix": shift},
         {"type": "set_transform", "path": "/Axes", "matrix": shift},
-        {"type": "set_transform", "path": "/Cameras/default", "matrix": [float(v) for v in np.eye(4).flatten()]},
+        {"type": "set_transform", "path": "/Cameras/default",
+         "matrix": [float(v) for v in np.eye(4).flatten()]},
         {"type": "set_property", "path": "/Cameras/default/rotated/<object>", "property": "position",
          "value": [float(d[0]), float(d[2]), float(-d[1])]},
     ]

@@ -1,4 +1,5 @@
-"""Drawing collision geometry and obstacles from plain data (used by ``Scene.for_robot(..., collision=True)``).
+"""Drawing collision geometry and obstacles from plain data (used by
+``Scene.for_robot(..., collision=True)``).
 
 Inputs are plain data: the shape dicts of
 :meth:`kinserve.kinematics.Robot.collision_geometry` (``kind``, world ``pose``,
@@ -51,7 +52,8 @@ def draw_shape(scene, path: str, shape: dict, color, opacity: float = OPACITY) -
             T, length = Capsule(a, b, shape["radius"]).pose, float(np.linalg.norm(b - a))
         else:
             length = shape["length"]
-        out = scene.add_cylinder(path + "/core", shape["radius"], max(length, 1e-6), T, color=color, opacity=opacity)
+        out = scene.add_cylinder(path + "/core", shape["radius"], max(length, 1e-6), T, color=color,
+                                 opacity=opacity)
         for end, sign in (("a", -1.0), ("b", 1.0)):
             scene.add_sphere(f"{path}/{end}", T[:3, 3] + sign * 0.5 * length * T[:3, 2], shape["radius"],
                              color=color, opacity=opacity)
@@ -65,7 +67,8 @@ def draw_shape(scene, path: str, shape: dict, color, opacity: float = OPACITY) -
         scene[p].set_transform(T)
         scene._note_points(p, [T[:3, :3] @ v + T[:3, 3] for v in verts])
         return p
-    raise InputError(f"cannot draw a shape of kind {kind!r} (expected box, sphere, cylinder, capsule or convex)")
+    raise InputError(f"cannot draw a shape of kind {kind!r} (expected box, sphere, cylinder, "
+                     "capsule or convex)")
 
 
 def _color_int(color) -> int:
@@ -76,7 +79,8 @@ def _color_int(color) -> int:
 
 def draw_collision_scene(scene, robot_name: str, shapes: Sequence[dict], obstacles: Sequence[dict] = (),
                          colliding: Iterable[Sequence[str]] = ()) -> list[str]:
-    """Draw a robot's collision shapes and the obstacles, the colliding ones highlighted; returns the node paths."""
+    """Draw a robot's collision shapes and the obstacles, the colliding ones highlighted; returns the node
+    paths."""
     hit = involved(colliding)
     paths = []
     for s in shapes:

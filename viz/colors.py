@@ -38,7 +38,8 @@ PALETTE = ("blue", "orange", "green", "red", "purple", "sky", "yellow", "darkgre
 def to_int(color) -> int:
     """``0xRRGGBB`` of any accepted colour form (see the module docstring)."""
     if isinstance(color, bool):
-        raise InputError(f"color must be 0xRRGGBB, '#rrggbb', a name or an RGB triple in [0, 1]; got {color!r}")
+        raise InputError("color must be 0xRRGGBB, '#rrggbb', a name or an RGB triple in [0, 1]; "
+                         f"got {color!r}")
     if isinstance(color, int):
         if 0 <= color <= 0xFFFFFF:
             return color
@@ -60,7 +61,8 @@ def to_int(color) -> int:
     try:
         values = [float(c) for c in color]
     except (TypeError, ValueError):
-        raise InputError(f"color must be 0xRRGGBB, '#rrggbb', a name or an RGB triple in [0, 1]; got {color!r}") from None
+        raise InputError("color must be 0xRRGGBB, '#rrggbb', a name or an RGB triple in [0, 1]; "
+                         f"got {color!r}") from None
     if len(values) not in (3, 4) or not all(0.0 <= v <= 1.0 for v in values):
         raise InputError(f"color sequence must be RGB or RGBA floats in [0, 1]; got {color!r}")
     r, g, b = (int(round(v * 255)) for v in values[:3])

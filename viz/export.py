@@ -199,7 +199,8 @@ def export_html(scene: Scene, path, *, title: str | None = None, compress: bool 
 
 def read_html_commands(source) -> list[dict]:
     """The commands embedded in an exported HTML file (a path or the HTML text)."""
-    text = source if isinstance(source, str) and source.lstrip().startswith("<") else Path(source).read_text(encoding="utf-8")
+    text = (source if isinstance(source, str) and source.lstrip().startswith("<")
+            else Path(source).read_text(encoding="utf-8"))
     start_tag = '<script id="kinserve-scene"'
     i = text.find(start_tag)
     if i < 0:

@@ -88,8 +88,8 @@ def start_meshcat_server(timeout: float = 60.0) -> tuple[subprocess.Popen, str, 
     """
     in_main_thread = threading.current_thread() is threading.main_thread()
     proc = subprocess.Popen(
-        [sys.executable, "-u", "-m", "meshcat.servers.zmqserver"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-        stdin=subprocess.DEVNULL, start_new_session=True,
+        [sys.executable, "-u", "-m", "meshcat.servers.zmqserver"], stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL, start_new_session=True,
         preexec_fn=_die_with_parent if in_main_thread and sys.platform.startswith("linux") else None,
     )
     _SERVERS.add(proc)
@@ -157,7 +157,8 @@ class LiveViewer:
         self.window.send(_Lowered(command))
 
     def show(self, scene: Scene, clear: bool = True) -> int:
-        """Send the whole scene (after deleting what the server showed, if ``clear``); returns the command count.
+        """Send the whole scene (after deleting what the server showed, if ``clear``); returns the command
+        count.
 
         The commands end with the scene's camera (:meth:`Scene.camera_commands`, framed by
         :func:`viz.camera.frame_points`): the live page opens on the view of the static export.
@@ -215,8 +216,8 @@ class _Lowered:
 
 @contextlib.contextmanager
 def exit_on_termination(signals: tuple[int, ...] = (signal.SIGTERM, signal.SIGHUP)):
-    """Inside the block, ``signals`` raise ``SystemExit(128 + signal)`` so ``finally`` and ``atexit`` clean-up runs,
-    and SIGINT raises ``KeyboardInterrupt`` (also when the process inherited it ignored).
+    """Inside the block, ``signals`` raise ``SystemExit(128 + signal)`` so ``finally`` and ``atexit`` clean-up
+    runs, and SIGINT raises ``KeyboardInterrupt`` (also when the process inherited it ignored).
 
     By default SIGTERM and SIGHUP end Python at once, skipping both. Only the
     main thread can handle signals; elsewhere the block changes nothing. The

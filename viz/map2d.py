@@ -37,7 +37,8 @@ class Rect:
 
     def __post_init__(self):
         if not (self.xmin < self.xmax and self.ymin < self.ymax):
-            raise InputError(f"Rect needs xmin < xmax and ymin < ymax, got ({self.xmin}, {self.ymin})-({self.xmax}, {self.ymax})")
+            raise InputError(f"Rect needs xmin < xmax and ymin < ymax, got ({self.xmin}, "
+                             f"{self.ymin})-({self.xmax}, {self.ymax})")
 
     @property
     def center(self) -> tuple[float, float]:
@@ -140,11 +141,13 @@ def as_shape(obj) -> Rect | Circle:
 
 
 def as_grid(obj) -> Grid:
-    """Normalise a coverage grid: a :class:`Grid`, a bool array (origin 0, cell 1), or ``(mask, origin, cell)``."""
+    """Normalise a coverage grid: a :class:`Grid`, a bool array (origin 0, cell 1), or
+    ``(mask, origin, cell)``."""
     if isinstance(obj, Grid):
         return obj
     if isinstance(obj, dict):
-        return Grid(np.asarray(obj["mask"], dtype=bool), tuple(obj.get("origin", (0.0, 0.0))), float(obj.get("cell", 1.0)))
+        return Grid(np.asarray(obj["mask"], dtype=bool), tuple(obj.get("origin", (0.0, 0.0))),
+                    float(obj.get("cell", 1.0)))
     if isinstance(obj, tuple) and len(obj) == 3:
         mask, origin, cell = obj
         return Grid(np.asarray(mask, dtype=bool), (float(origin[0]), float(origin[1])), float(cell))
@@ -158,5 +161,6 @@ def as_polyline(points, name: str = "path", dims=(2, 3)) -> np.ndarray:
     """An ``(N, d)`` float array of points (``d`` in ``dims``), ``N >= 1``."""
     arr = np.asarray(points, dtype=float) if not isinstance(points, np.ndarray) else points.astype(float)
     if arr.ndim != 2 or arr.shape[1] not in dims or arr.shape[0] < 1:
-        raise ShapeError(f"{name} must be an (N, {' or '.join(map(str, dims))}) array of points, got shape {arr.shape}")
+        raise ShapeError(f"{name} must be an (N, {' or '.join(map(str, dims))}) array of points, "
+                         f"got shape {arr.shape}")
     return as_matrix(arr, (-1, arr.shape[1]), name)

@@ -100,7 +100,8 @@ def _plot_series(ax, x, series, *, logy: bool, name: str):
     ax.legend(loc="best", fontsize=8)
 
 
-def series_figure(x, series, *, xlabel: str = "iteration", ylabel: str = "", title: str = "", logy: bool = False) -> Figure:
+def series_figure(x, series, *, xlabel: str = "iteration", ylabel: str = "", title: str = "",
+                  logy: bool = False) -> Figure:
     """Named series (``{label: (N,)}`` or an ``(N, k)`` array) against ``x`` (``(N,)``; default 0..N-1)."""
     fig, (ax,) = _figure()
     _plot_series(ax, x, series, logy=logy, name=ylabel or "y")
@@ -131,9 +132,10 @@ def _joints(ax, x, Q, names, limits):
     ax.legend(loc="best", fontsize=8, ncol=2 if k > 4 else 1)
 
 
-def joints_figure(x, Q, names=None, *, limits=None, xlabel: str = "iteration", ylabel: str = "joint value (rad or m)",
-                  title: str = "Joint variables") -> Figure:
-    """One line per joint of ``Q`` (``(N, nq)``) against ``x``; ``limits=(lower, upper)`` adds dotted lines."""
+def joints_figure(x, Q, names=None, *, limits=None, xlabel: str = "iteration",
+                  ylabel: str = "joint value (rad or m)", title: str = "Joint variables") -> Figure:
+    """One line per joint of ``Q`` (``(N, nq)``) against ``x``; ``limits=(lower, upper)`` adds dotted
+    lines."""
     fig, (ax,) = _figure()
     _joints(ax, x, Q, names, limits)
     ax.set_xlabel(xlabel)
@@ -142,9 +144,10 @@ def joints_figure(x, Q, names=None, *, limits=None, xlabel: str = "iteration", y
     return fig
 
 
-def errors_figure(x, errors, *, xlabel: str = "iteration", ylabel: str = "error (m or rad)", title: str = "Task errors",
-                  logy: bool = True, tolerance: float | None = None) -> Figure:
-    """Task errors (``{label: (N,)}``) against ``x``; ``|e|`` on a log axis by default; ``tolerance`` as a dashed line."""
+def errors_figure(x, errors, *, xlabel: str = "iteration", ylabel: str = "error (m or rad)",
+                  title: str = "Task errors", logy: bool = True, tolerance: float | None = None) -> Figure:
+    """Task errors (``{label: (N,)}``) against ``x``; ``|e|`` on a log axis by default; ``tolerance`` as a
+    dashed line."""
     fig, (ax,) = _figure()
     _plot_series(ax, x, errors, logy=logy, name="error")
     if tolerance is not None:
@@ -156,8 +159,8 @@ def errors_figure(x, errors, *, xlabel: str = "iteration", ylabel: str = "error 
     return fig
 
 
-def joints_and_errors_figure(x, Q, errors, names=None, *, limits=None, xlabel: str = "iteration", title: str = "",
-                             logy: bool = True) -> Figure:
+def joints_and_errors_figure(x, Q, errors, names=None, *, limits=None, xlabel: str = "iteration",
+                             title: str = "", logy: bool = True) -> Figure:
     """Two stacked panels sharing ``x``: joint variables (top) and task errors (bottom)."""
     fig, (top, bottom) = _figure(rows=2, size=(7.0, 6.4))
     _joints(top, x, Q, names, limits)
@@ -176,7 +179,8 @@ def manipulability_figure(x, manipulability, *, threshold: float | None = None, 
     ``threshold`` draws the singularity warning level and shades the samples below it.
     """
     fig, (ax,) = _figure()
-    _plot_series(ax, x, manipulability if isinstance(manipulability, dict) else {"w": manipulability}, logy=False, name="w")
+    _plot_series(ax, x, manipulability if isinstance(manipulability, dict) else {"w": manipulability},
+                 logy=False, name="w")
     if threshold is not None:
         ax.axhline(float(threshold), color="red", linestyle="--", linewidth=1.0, label="threshold")
         first = next(iter(manipulability.values())) if isinstance(manipulability, dict) else manipulability
@@ -191,7 +195,8 @@ def manipulability_figure(x, manipulability, *, threshold: float | None = None, 
     return fig
 
 
-def xy_figure(curves, *, points=None, title: str = "", xlabel: str = "x (m)", ylabel: str = "y (m)") -> Figure:
+def xy_figure(curves, *, points=None, title: str = "", xlabel: str = "x (m)",
+              ylabel: str = "y (m)") -> Figure:
     """Planar curves ``{label: (N, 2)}`` on equal axes; ``points``: ``{label: (x, y)}`` markers."""
     fig, (ax,) = _figure(size=(6.0, 6.0))
     if not isinstance(curves, dict) or not curves:
@@ -201,7 +206,8 @@ def xy_figure(curves, *, points=None, title: str = "", xlabel: str = "x (m)", yl
         ax.plot(P[:, 0], P[:, 1], label=str(label), color=colors.to_rgb(colors.cycle(i)), linewidth=1.6)
     for label, p in (points or {}).items():
         ax.plot([float(p[0])], [float(p[1])], marker="o", linestyle="none", color="black")
-        ax.annotate(str(label), (float(p[0]), float(p[1])), textcoords="offset points", xytext=(4, 4), fontsize=8)
+        ax.annotate(str(label), (float(p[0]), float(p[1])), textcoords="offset points",
+                    xytext=(4, 4), fontsize=8)
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
@@ -225,15 +231,18 @@ def map_figure(obstacles=(), bounds=None, *, paths=None, waypoints=None, coverag
                   vmin=0.0, vmax=1.6, alpha=0.55, interpolation="nearest", zorder=0)
     for s in shapes:
         if isinstance(s, Rect):
-            ax.add_patch(Rectangle((s.xmin, s.ymin), *s.size, facecolor="#8c564b", edgecolor="black", zorder=2))
+            ax.add_patch(Rectangle((s.xmin, s.ymin), *s.size, facecolor="#8c564b",
+                                   edgecolor="black", zorder=2))
         else:
             ax.add_patch(CirclePatch(s.center, s.r, facecolor="#8c564b", edgecolor="black", zorder=2))
         if inflate > 0:
             if isinstance(s, Rect):
-                grown = Rectangle((s.xmin - inflate, s.ymin - inflate), s.size[0] + 2 * inflate, s.size[1] + 2 * inflate,
-                                  fill=False, edgecolor="#d62728", linestyle="--", linewidth=0.9, zorder=2)
+                grown = Rectangle((s.xmin - inflate, s.ymin - inflate), s.size[0] + 2 * inflate,
+                                  s.size[1] + 2 * inflate, fill=False, edgecolor="#d62728", linestyle="--",
+                                  linewidth=0.9, zorder=2)
             else:
-                grown = CirclePatch(s.center, s.r + inflate, fill=False, edgecolor="#d62728", linestyle="--", linewidth=0.9, zorder=2)
+                grown = CirclePatch(s.center, s.r + inflate, fill=False, edgecolor="#d62728", linestyle="--",
+                                    linewidth=0.9, zorder=2)
             ax.add_patch(grown)
         if s.name:
             ax.annotate(s.name, s.center, ha="center", va="center", fontsize=7, color="white", zorder=3)
@@ -245,8 +254,10 @@ def map_figure(obstacles=(), bounds=None, *, paths=None, waypoints=None, coverag
                 label=str(label) if isinstance(paths, dict) else None)
     wp = waypoints.items() if isinstance(waypoints, dict) else enumerate(waypoints or [])
     for label, p in wp:
-        ax.plot([float(p[0])], [float(p[1])], marker="o", markersize=6, color="black", linestyle="none", zorder=5)
-        ax.annotate(str(label), (float(p[0]), float(p[1])), textcoords="offset points", xytext=(5, 5), fontsize=8, zorder=5)
+        ax.plot([float(p[0])], [float(p[1])], marker="o", markersize=6, color="black",
+                linestyle="none", zorder=5)
+        ax.annotate(str(label), (float(p[0]), float(p[1])), textcoords="offset points", xytext=(5, 5),
+                    fontsize=8, zorder=5)
     if bounds is not None:
         x0, y0, x1, y1 = (float(v) for v in bounds)
         ax.set_xlim(x0, x1)
@@ -271,14 +282,17 @@ def planar_chain(link_lengths, q, base=(0.0, 0.0)) -> np.ndarray:
     lengths = np.asarray(link_lengths, dtype=float)
     q = np.asarray(q, dtype=float)
     if lengths.ndim != 1 or q.shape != lengths.shape:
-        raise ShapeError(f"q must have one angle per link: {lengths.shape[0] if lengths.ndim == 1 else '?'} links, q shape {q.shape}")
+        raise ShapeError(f"q must have one angle per link: {lengths.shape[0] if lengths.ndim == 1 else '?'} "
+                         f"links, q shape {q.shape}")
     phi = np.cumsum(q)
     steps = lengths[:, None] * np.c_[np.cos(phi), np.sin(phi)]
-    return np.vstack([np.asarray(base, dtype=float), np.asarray(base, dtype=float) + np.cumsum(steps, axis=0)])
+    return np.vstack([np.asarray(base, dtype=float),
+                      np.asarray(base, dtype=float) + np.cumsum(steps, axis=0)])
 
 
-def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0), title: str = "Planar arm configurations",
-                      max_per_branch: int = 24, count_in_label: bool = True) -> Figure:
+def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0),
+                      title: str = "Planar arm configurations", max_per_branch: int = 24,
+                      count_in_label: bool = True) -> Figure:
     """Configurations of a planar arm (e.g. the S1 4R solution family), one colour per branch.
 
     ``branches``: ``{label: (M, n) joint angles}`` (rad; e.g. ``{"elbow up": Q1,

@@ -17,7 +17,8 @@ def reachability_figure(edges, counts, hits, *, title: str = "Reachability") -> 
     counts = np.asarray(counts, dtype=float)
     hits = np.asarray(hits, dtype=float)
     if counts.ndim != 3 or hits.shape != counts.shape or len(edges) != 3:
-        raise ShapeError(f"counts and hits must be (nx, ny, nz) arrays of one shape with 3 edge arrays, got {counts.shape}, {hits.shape}")
+        raise ShapeError("counts and hits must be (nx, ny, nz) arrays of one shape with 3 edge arrays, "
+                         f"got {counts.shape}, {hits.shape}")
     fig = Figure(figsize=(10.0, 4.4))
     views = [("x (m)", "y (m)", 2, edges[0], edges[1]), ("x (m)", "z (m)", 1, edges[0], edges[2])]
     for k, (xl, yl, axis, ex, ey) in enumerate(views):

@@ -150,7 +150,8 @@ class SceneRobot:
         ``base @ oMg(q)``: every drawn vertex lies inside one of these boxes.
         """
         poses = self.geometry_poses(q)
-        pts = [(T[:3, :3] @ self.local_boxes[path].T).T + T[:3, 3] for path, T in poses.items() if path in self.local_boxes]
+        pts = [(T[:3, :3] @ self.local_boxes[path].T).T + T[:3, 3]
+               for path, T in poses.items() if path in self.local_boxes]
         return np.vstack(pts) if pts else np.array([T[:3, 3] for T in poses.values()]).reshape(-1, 3)
 
     def set_base(self, pose) -> None:
@@ -188,8 +189,8 @@ class Scene:
         self.axes = bool(axes)
 
     @classmethod
-    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1, collision: bool = False,
-                  obstacles=(), **kwargs) -> "Scene":
+    def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1,
+                  collision: bool = False, obstacles=(), **kwargs) -> "Scene":
         """A scene showing one robot at ``q`` (default ``robot.neutral()``) and, with
         ``tool_frame``, a triad at its tool frame ``robot.tip`` (node ``"tool"``).
         Extra keyword arguments go to :meth:`add_robot`. (What ``kinserve view`` shows.)
@@ -267,7 +268,8 @@ class Scene:
         prefix = "/" + "/".join(parts)
         for name in [n for n, r in self.robots.items() if r.root == prefix or r.root.startswith(prefix + "/")]:
             del self.robots[name]
-        for key in [k for k in self._extent if self.path(k) == prefix or self.path(k).startswith(prefix + "/")]:
+        for key in [k for k in self._extent
+                    if self.path(k) == prefix or self.path(k).startswith(prefix + "/")]:
             del self._extent[key]
 
     def delete(self, name: str) -> None:
@@ -377,16 +379,19 @@ class Scene:
         ticks = np.arange(-half, half + 0.5 * step, step)
         seg = []
         for t in ticks:
-            seg += [[cx + t, cy - half, 0.0], [cx + t, cy + half, 0.0], [cx - half, cy + t, 0.0], [cx + half, cy + t, 0.0]]
+            seg += [[cx + t, cy - half, 0.0], [cx + t, cy + half, 0.0], [cx - half, cy + t, 0.0],
+                    [cx + half, cy + t, 0.0]]
         return np.array(seg), float(step)
 
     def floor_grid_command(self) -> dict:
         """The ``set_object`` command drawing :meth:`floor_grid` at meshcat's ``/Grid`` node."""
         segments, _ = self.floor_grid()
-        obj = mg.LineSegments(mg.PointsGeometry(segments.T.astype(np.float32)), mg.LineBasicMaterial(color=0x9A9A9A))
+        obj = mg.LineSegments(mg.PointsGeometry(segments.T.astype(np.float32)),
+                              mg.LineBasicMaterial(color=0x9A9A9A))
         # deterministic ids (meshcat draws fresh random ones): the same scene replays identically
         key = uuid.uuid5(uuid.NAMESPACE_URL, "kinserve-grid:" + segments.astype(np.float32).tobytes().hex())
-        obj.uuid, obj.geometry.uuid, obj.material.uuid = (str(uuid.uuid5(key, part)) for part in ("object", "geometry", "material"))
+        obj.uuid, obj.geometry.uuid, obj.material.uuid = (str(uuid.uuid5(key, part))
+                                                          for part in ("object", "geometry", "material"))
         return meshcat.commands.SetObject(obj, path=meshcat.path.Path(("Grid",))).lower()
 
     # ------------------------------------------------------------ camera
@@ -442,9 +447,11 @@ class Scene:
         return view_commands(*self.camera())
 
     def background_commands(self) -> list[dict]:
-        """meshcat commands setting the background gradient to :data:`BACKGROUND` (top, bottom RGB in [0, 1])."""
+        """meshcat commands setting the background gradient to :data:`BACKGROUND` (top, bottom RGB in [0,
+        1])."""
         top, bottom = BACKGROUND
-        return [{"type": "set_property", "path": "/Background", "property": "top_color", "value": list(colors.to_rgb(top))},
+        return [{"type": "set_property", "path": "/Background", "property": "top_color",
+                 "value": list(colors.to_rgb(top))},
                 {"type": "set_property", "path": "/Background", "property": "bottom_color",
                  "value": list(colors.to_rgb(bottom))}]
 
@@ -481,7 +488,9 @@ class Scene:
         collision = robot.collision_model if collisions else None
         rgba = None
         if color is not None:
-            rgba = list(colors.to_rgb(color)) + [float(color[3]) if isinstance(color, (list, tuple)) and len(color) == 4 else 1.0]
+            rgba = list(colors.to_rgb(color)) + [float(color[3])
+                                                 if isinstance(color, (list, tuple))
+                                                 and len(color) == 4 else 1.0]
         vis = MeshcatVisualizer(robot.model, collision, visual)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -530,20 +539,24 @@ class Scene:
             A = np.eye(4)
             A[:3, :3] = pin.exp3(about * angle)
             A[:3, 3] = A[:3, 2] * (0.5 * length)
-            self._draw(f"{path}/{axis}", mg.Mesh(_ZCylinder(length, radius), _material(color, kind=mg.MeshPhongMaterial)), A)
-        self._note_points(path, [T[:3, 3], T[:3, 3] + length * T[:3, 0], T[:3, 3] + length * T[:3, 1], T[:3, 3] + length * T[:3, 2]])
+            self._draw(f"{path}/{axis}",
+                       mg.Mesh(_ZCylinder(length, radius), _material(color, kind=mg.MeshPhongMaterial)), A)
+        self._note_points(path, [T[:3, 3], T[:3, 3] + length * T[:3, 0], T[:3, 3] + length * T[:3, 1],
+                                 T[:3, 3] + length * T[:3, 2]])
         return path
 
     def add_sphere(self, name: str, center, radius: float, color="red", opacity: float = 1.0) -> str:
         """A sphere of ``radius`` (m) at ``center`` (world)."""
         c = as_vector(center, 3, "center")
         r = _positive(radius, "radius")
-        path = self._draw(name, mg.Mesh(mg.Sphere(r), _material(color, opacity, mg.MeshPhongMaterial)), _translation(c))
+        path = self._draw(name, mg.Mesh(mg.Sphere(r), _material(color, opacity, mg.MeshPhongMaterial)),
+                          _translation(c))
         self._note_points(path, [c - r, c + r])
         return path
 
     def add_box(self, name: str, size, pose=None, color="grey", opacity: float = 1.0) -> str:
-        """A box of edge lengths ``size = (sx, sy, sz)`` (m) centred at ``pose`` (4x4, or a 3-vector centre)."""
+        """A box of edge lengths ``size = (sx, sy, sz)`` (m) centred at ``pose`` (4x4, or a 3-vector
+        centre)."""
         s = as_vector(size, 3, "size")
         if np.any(s <= 0):
             raise InputError(f"box size must be positive, got {s.tolist()}")
@@ -553,7 +566,8 @@ class Scene:
         self._note_points(path, corners)
         return path
 
-    def add_cylinder(self, name: str, radius: float, length: float, pose=None, color="orange", opacity: float = 1.0) -> str:
+    def add_cylinder(self, name: str, radius: float, length: float, pose=None, color="orange",
+                     opacity: float = 1.0) -> str:
         """A cylinder of ``radius`` and ``length`` (m) along the local z axis, centred at ``pose``."""
         r, h = _positive(radius, "radius"), _positive(length, "length")
         T = self._pose_or_point(pose)
@@ -571,7 +585,8 @@ class Scene:
             return _translation(as_vector(arr, 3, "pose"))
         return as_pose(arr, "pose")
 
-    def add_path(self, name: str, points, color="blue", linewidth: float = 2.0, markers: float | None = None) -> str:
+    def add_path(self, name: str, points, color="blue", linewidth: float = 2.0,
+                 markers: float | None = None) -> str:
         """A polyline through ``points`` (``(N, 3)`` metres, or ``(N, 2)`` on z = 0).
 
         ``markers`` (a radius in m) also draws a small sphere at every point.
@@ -580,12 +595,14 @@ class Scene:
         if P.shape[1] == 2:
             P = np.c_[P, np.zeros(len(P))]
         path = self.path(name)
-        line = mg.Line(mg.PointsGeometry(P.T.astype(np.float32)), mg.LineBasicMaterial(color=colors.to_int(color), linewidth=float(linewidth)))
+        line = mg.Line(mg.PointsGeometry(P.T.astype(np.float32)),
+                       mg.LineBasicMaterial(color=colors.to_int(color), linewidth=float(linewidth)))
         self._draw(path, line)
         if markers:
             r = _positive(markers, "markers")
             for i, p in enumerate(P):
-                self._draw(f"{path}/m{i}", mg.Mesh(mg.Sphere(r), _material(color, kind=mg.MeshPhongMaterial)), _translation(p))
+                self._draw(f"{path}/m{i}", mg.Mesh(mg.Sphere(r), _material(color, kind=mg.MeshPhongMaterial)),
+                           _translation(p))
         self._note_points(path, list(P))
         return path
 
@@ -593,7 +610,8 @@ class Scene:
         """A point cloud (``(N, 3)`` metres), each point ``size`` m wide."""
         P = as_polyline(points, "points", dims=(3,))
         rgb = np.tile(np.array(colors.to_rgb(color), dtype=np.float32)[:, None], (1, len(P)))
-        path = self._draw(name, mg.Points(mg.PointsGeometry(P.T.astype(np.float32), color=rgb), mg.PointsMaterial(size=_positive(size, "size"))))
+        path = self._draw(name, mg.Points(mg.PointsGeometry(P.T.astype(np.float32), color=rgb),
+                                          mg.PointsMaterial(size=_positive(size, "size"))))
         self._note_points(path, list(P))
         return path
 
@@ -634,12 +652,15 @@ class Scene:
         if bounds is None:
             if not shapes:
                 raise InputError("add_map needs bounds=(xmin, ymin, xmax, ymax) or at least one obstacle")
-            xs = [v for s in shapes for v in ((s.xmin, s.xmax) if isinstance(s, Rect) else (s.cx - s.r, s.cx + s.r))]
-            ys = [v for s in shapes for v in ((s.ymin, s.ymax) if isinstance(s, Rect) else (s.cy - s.r, s.cy + s.r))]
+            xs = [v for s in shapes
+                  for v in ((s.xmin, s.xmax) if isinstance(s, Rect) else (s.cx - s.r, s.cx + s.r))]
+            ys = [v for s in shapes
+                  for v in ((s.ymin, s.ymax) if isinstance(s, Rect) else (s.cy - s.r, s.cy + s.r))]
             bounds = (min(xs), min(ys), max(xs), max(ys))
         x0, y0, x1, y1 = (float(v) for v in bounds)
         if not (x1 > x0 and y1 > y0):
-            raise InputError(f"map bounds must be (xmin, ymin, xmax, ymax) with xmax > xmin, ymax > ymin; got {bounds}")
+            raise InputError("map bounds must be (xmin, ymin, xmax, ymax) with xmax > xmin, ymax > ymin; "
+                             f"got {bounds}")
         T = np.diag([scale, scale, scale, 1.0])
         T[2, 3] = float(z)
         self[root].set_transform(T)
@@ -650,7 +671,8 @@ class Scene:
             label = s.name or f"{i}"
             self._draw_shape(f"{root}/obstacles/{label}", s, h, 0x8C564B, 1.0)
             if inflate > 0:
-                grown = (Rect(s.xmin - inflate, s.ymin - inflate, s.xmax + inflate, s.ymax + inflate) if isinstance(s, Rect)
+                grown = (Rect(s.xmin - inflate, s.ymin - inflate, s.xmax + inflate, s.ymax + inflate)
+                         if isinstance(s, Rect)
                          else Circle(s.cx, s.cy, s.r + inflate))
                 self._draw_shape(f"{root}/inflated/{label}", grown, 0.5 * h, 0xD62728, 0.25)
         lift = 0.02 * h
@@ -660,7 +682,8 @@ class Scene:
             if rects:
                 V, F = [], []
                 for k, r in enumerate(rects):
-                    V += [[r.xmin, r.ymin, lift], [r.xmax, r.ymin, lift], [r.xmax, r.ymax, lift], [r.xmin, r.ymax, lift]]
+                    V += [[r.xmin, r.ymin, lift], [r.xmax, r.ymin, lift], [r.xmax, r.ymax, lift],
+                          [r.xmin, r.ymax, lift]]
                     F += [[4 * k, 4 * k + 1, 4 * k + 2], [4 * k, 4 * k + 2, 4 * k + 3]]
                 self._draw(f"{root}/coverage", mg.Mesh(mg.TriangularMeshGeometry(np.array(V), np.array(F)),
                                                       _material("green", 0.35, mg.MeshBasicMaterial)))
@@ -673,8 +696,10 @@ class Scene:
         for i, (label, p) in enumerate(_named(waypoints, "waypoint")):
             xy = as_vector(p, 2, f"waypoints[{label!r}]")
             A = _translation([xy[0], xy[1], 0.5 * lift])
-            self._draw(f"{root}/waypoints/{label}", mg.Mesh(_ZCylinder(lift, radius), _material("orange", kind=mg.MeshPhongMaterial)), A)
-        self._note_points(root, [np.array([scale * x, scale * y, float(z) + scale * hz]) for x in (x0, x1) for y in (y0, y1) for hz in (0.0, h)])
+            self._draw(f"{root}/waypoints/{label}",
+                       mg.Mesh(_ZCylinder(lift, radius), _material("orange", kind=mg.MeshPhongMaterial)), A)
+        self._note_points(root, [np.array([scale * x, scale * y, float(z) + scale * hz]) for x in (x0, x1)
+                                 for y in (y0, y1) for hz in (0.0, h)])
         return root
 
     def add_mobile_base(self, name: str, size=(20.0, 20.0, 8.0), color="sky", pose=None) -> str:
@@ -689,7 +714,8 @@ class Scene:
         path = self.path(name)
         T = self._pose_or_point(pose)
         self[path].set_transform(T)
-        self._draw(f"{path}/body", mg.Mesh(mg.Box([L, W, H]), _material(color)), _translation([0.0, 0.0, 0.5 * H]))
+        self._draw(f"{path}/body", mg.Mesh(mg.Box([L, W, H]), _material(color)),
+                   _translation([0.0, 0.0, 0.5 * H]))
         self._draw(f"{path}/nose", mg.Mesh(mg.Box([0.2 * L, 0.4 * W, 0.5 * H]), _material("darkgrey")),
                    _translation([0.5 * L, 0.0, 0.75 * H]))
         return path
@@ -697,13 +723,16 @@ class Scene:
     def _draw_shape(self, path: str, s, height: float, color, opacity: float) -> None:
         if isinstance(s, Rect):
             (cx, cy), (sx, sy) = s.center, s.size
-            self._draw(path, mg.Mesh(mg.Box([sx, sy, height]), _material(color, opacity)), _translation([cx, cy, 0.5 * height]))
+            self._draw(path, mg.Mesh(mg.Box([sx, sy, height]), _material(color, opacity)),
+                       _translation([cx, cy, 0.5 * height]))
         else:
-            self._draw(path, mg.Mesh(_ZCylinder(height, s.r), _material(color, opacity)), _translation([s.cx, s.cy, 0.5 * height]))
+            self._draw(path, mg.Mesh(_ZCylinder(height, s.r), _material(color, opacity)),
+                       _translation([s.cx, s.cy, 0.5 * height]))
 
 
 def _local_boxes(geometry: pin.GeometryModel, nodes: dict[str, str]) -> dict[str, np.ndarray]:
-    """``{node path: (8, 3) corners}`` of each drawn geometry's local bounding box (geometry frame, metres)."""
+    """``{node path: (8, 3) corners}`` of each drawn geometry's local bounding box (geometry frame,
+    metres)."""
     out = {}
     for g in geometry.geometryObjects:
         path = nodes.get(g.name)

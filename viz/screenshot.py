@@ -93,19 +93,20 @@ class PageResult:
 class _DevTools:
     """A Chromium process and a DevTools-protocol session with its page, over a pipe."""
 
-    def __init__(self, browser: str, size: tuple[int, int], timeout: float, extra_flags: tuple[str, ...] = ()):
+    def __init__(self, browser: str, size: tuple[int, int], timeout: float,
+                 extra_flags: tuple[str, ...] = ()):
         self.deadline = time.monotonic() + timeout
         self._profile = tempfile.TemporaryDirectory(prefix="kinserve-chromium-")
         to_browser_r, self._to_browser = os.pipe()
         self._from_browser, from_browser_w = os.pipe()
         w, h = size
-        cmd = [browser, *FLAGS, *extra_flags, f"--user-data-dir={self._profile.name}", f"--window-size={w},{h}",
-               "--remote-debugging-pipe", "about:blank"]
+        cmd = [browser, *FLAGS, *extra_flags, f"--user-data-dir={self._profile.name}",
+               f"--window-size={w},{h}", "--remote-debugging-pipe", "about:blank"]
         # the browser reads commands on fd 3 and writes replies on fd 4: hand it our pipe ends
         # as stdin/stdout of a shell that moves them there before exec'ing Chromium
         shell = 'exec "$@" 3<&0 4>&1 </dev/null >/dev/null'
-        self.proc = subprocess.Popen(["/bin/sh", "-c", shell, "sh", *cmd], stdin=to_browser_r, stdout=from_browser_w,
-                                     stderr=subprocess.DEVNULL, start_new_session=True)
+        self.proc = subprocess.Popen(["/bin/sh", "-c", shell, "sh", *cmd], stdin=to_browser_r,
+                                     stdout=from_browser_w, stderr=subprocess.DEVNULL, start_new_session=True)
         os.close(to_browser_r)
         os.close(from_browser_w)
         self._buf = b""
@@ -149,11 +150,14 @@ class _DevTools:
         targets = self.call("Target.getTargets", session=False)["targetInfos"]
         page = next((t for t in targets if t["type"] == "page"), None)
         if page is None:
-            page = {"targetId": self.call("Target.createTarget", {"url": "about:blank"}, session=False)["targetId"]}
-        self.session = self.call("Target.attachToTarget", {"targetId": page["targetId"], "flatten": True}, session=False)["sessionId"]
+            page = {"targetId": self.call("Target.createTarget", {"url": "about:blank"},
+                                          session=False)["targetId"]}
+        self.session = self.call("Target.attachToTarget", {"targetId": page["targetId"], "flatten": True},
+                                 session=False)["sessionId"]
 
     def evaluate(self, expression: str, await_promise: bool = False):
-        res = self.call("Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": await_promise})
+        res = self.call("Runtime.evaluate",
+                        {"expression": expression, "returnByValue": True, "awaitPromise": await_promise})
         if "exceptionDetails" in res:
             raise RuntimeError(f"page script failed: {res['exceptionDetails'].get('text')}")
         return res["result"].get("value")
@@ -208,7 +212,8 @@ def render(html_path, *, size=(800, 600), capture: bool = True, play: bool = Fal
     dt = _DevTools(browser, (w, h), timeout)
     try:
         dt.attach_page()
-        dt.call("Emulation.setDeviceMetricsOverride", {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False})
+        dt.call("Emulation.setDeviceMetricsOverride",
+                {"width": w, "height": h, "deviceScaleFactor": 1, "mobile": False})
         for domain in ("Page", "Runtime", "Log"):
             dt.call(f"{domain}.enable")
         dt.call("Page.navigate", {"url": url})
@@ -224,13 +229,15 @@ def render(html_path, *, size=(800, 600), capture: bool = True, play: bool = Fal
             time.sleep(settle_ms / 1000.0)
         dt.evaluate(_TWO_FRAMES_JS, await_promise=True)
         status = dt.evaluate(_STATUS_JS)
-        png = base64.b64decode(dt.call("Page.captureScreenshot", {"format": "png"})["data"]) if capture else None
+        png = (base64.b64decode(dt.call("Page.captureScreenshot", {"format": "png"})["data"])
+               if capture else None)
         return PageResult(status=status, errors=dt.errors(), png=png)
     finally:
         dt.close()
 
 
-def screenshot(html_path, png_path, *, size=(800, 600), play: bool = False, settle_ms: int = 0, timeout: float = 60.0) -> Path:
+def screenshot(html_path, png_path, *, size=(800, 600), play: bool = False, settle_ms: int = 0,
+               timeout: float = 60.0) -> Path:
     """Write a ``size = (width, height)`` PNG of an exported page at ``png_path``; returns the path.
 
     By default the animation is paused on its first frame (a deterministic

@@ -19,7 +19,8 @@ import pinocchio as pin
 MIN_SEGMENT = 1e-6
 
 
-def _segment(name: str, parent_joint: int, start: np.ndarray, end: np.ndarray, radius: float, color) -> pin.GeometryObject | None:
+def _segment(name: str, parent_joint: int, start: np.ndarray, end: np.ndarray,
+             radius: float, color) -> pin.GeometryObject | None:
     """Cylinder from ``start`` to ``end`` (both in the parent joint frame), or None if degenerate."""
     d = np.asarray(end, dtype=float) - np.asarray(start, dtype=float)
     length = float(np.linalg.norm(d))
@@ -33,7 +34,8 @@ def _segment(name: str, parent_joint: int, start: np.ndarray, end: np.ndarray, r
 
 
 def _ball(name: str, parent_joint: int, center: np.ndarray, radius: float, color) -> pin.GeometryObject:
-    geom = pin.GeometryObject(name, parent_joint, pin.SE3(np.eye(3), np.asarray(center, dtype=float)), coal.Sphere(radius))
+    geom = pin.GeometryObject(name, parent_joint, pin.SE3(np.eye(3), np.asarray(center, dtype=float)),
+                              coal.Sphere(radius))
     geom.meshColor = np.asarray(color, dtype=float)
     return geom
 
@@ -57,7 +59,8 @@ def skeleton_geometry(
         seg = _segment(f"skeleton_link_{model.names[j]}", parent, np.zeros(3), tip, radius, link_color)
         if seg is not None:
             gm.addGeometryObject(seg)
-        gm.addGeometryObject(_ball(f"skeleton_joint_{model.names[j]}", j, np.zeros(3), 1.6 * radius, joint_color))
+        gm.addGeometryObject(_ball(f"skeleton_joint_{model.names[j]}", j, np.zeros(3),
+                                   1.6 * radius, joint_color))
     for fname in frames:
         fid = model.getFrameId(fname)
         if fid >= model.nframes:

@@ -1,4 +1,5 @@
-"""Mobile-base planning: occupancy grids, A*, waypoint sequencing, smoothing, timing, coverage, drive kinematics."""
+"""Mobile-base planning: occupancy grids, A*, waypoint sequencing, smoothing, timing, coverage, drive
+kinematics."""
 
 from . import mall
 from .astar import GridPath, astar, path_length_lower_bound
@@ -25,6 +26,6 @@ __all__ = [
     "plan_waypoints", "pairwise_costs", "WaypointPlan",
     "smooth_path", "shortcut", "polyline_path", "SmoothPath",
     "time_scale_path", "drive_through", "turn_in_place", "DriveTrajectory",
-    "boustrophedon_coverage", "CoverageResult", "lane_intervals", "decompose", "swept_coverage", "coverable_pixels",
-    "DiffDrive", "OmniBase", "footprint_penetration", "footprint_outline", "Penetration",
+    "boustrophedon_coverage", "CoverageResult", "lane_intervals", "decompose", "swept_coverage",
+    "coverable_pixels", "DiffDrive", "OmniBase", "footprint_penetration", "footprint_outline", "Penetration",
 ]

@@ -210,7 +210,8 @@ def astar(
     else:
         prox = None
         if proximity_weight > 0:
-            rng = proximity_range if proximity_range is not None else max(3.0 * grid.inflation, 5.0 * grid.resolution)
+            rng = (proximity_range if proximity_range is not None
+                   else max(3.0 * grid.inflation, 5.0 * grid.resolution))
             if not (math.isfinite(rng) and rng > 0):
                 raise InputError(f"proximity_range must be a finite number > 0, got {proximity_range!r}")
             d = grid.distance_field()
@@ -221,7 +222,8 @@ def astar(
     cells = _expand(nodes, W)
     pts = grid.index_to_world(cells[:, 0], cells[:, 1])
     steps = np.abs(np.diff(cells, axis=0))
-    length = float(grid.resolution * np.sum(np.where(steps.sum(axis=1) == 2, SQRT2, 1.0))) if len(cells) > 1 else 0.0
+    length = (float(grid.resolution * np.sum(np.where(steps.sum(axis=1) == 2, SQRT2, 1.0)))
+              if len(cells) > 1 else 0.0)
     return GridPath(pts, cells, float(cost), length, expanded, used)
 
 
@@ -393,7 +395,8 @@ def _jps(lat: _Lattice, s: int, g: int, euclid: bool):
                 return -1
             if m == g:
                 return m
-            if (free[m + oj] and straight(m + oj, 0, dj) != -1) or (free[m + ow] and straight(m + ow, di, 0) != -1):
+            if ((free[m + oj] and straight(m + oj, 0, dj) != -1)
+                or (free[m + ow] and straight(m + ow, di, 0) != -1)):
                 return m
             n = m
 

@@ -113,7 +113,8 @@ def lane_intervals(grid: OccupancyGrid, y_start: float, spacing: float) -> list[
         y = y_start + k * spacing
         i = int(round((y - y_min) / res))
         if abs(grid.bounds[1] + i * res - y) > 1e-6 * res:
-            raise InputError(f"lane y={y:g} is not on the grid's lattice; choose spacing and start on multiples of the resolution")
+            raise InputError(f"lane y={y:g} is not on the grid's lattice; "
+                             "choose spacing and start on multiples of the resolution")
         row = grid.free[i]
         if not row.any():
             continue
@@ -235,8 +236,10 @@ def _corners(cell: list[Interval]):
     ]
 
 
-def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray, robot_width: float) -> np.ndarray:
-    """Pixels (side ``resolution``, shape ``(ny - 1, nx - 1)``) whose centre the rotating square footprint covers."""
+def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray,
+                   robot_width: float) -> np.ndarray:
+    """Pixels (side ``resolution``, shape ``(ny - 1, nx - 1)``) whose centre the rotating square footprint
+    covers."""
     res = grid.resolution
     ny, nx = grid.free.shape
     cov = np.zeros((ny - 1, nx - 1), dtype=bool)
@@ -361,6 +364,6 @@ def boustrophedon_coverage(
     free_area = float(coverable.sum() * pix)
     covered_area = float((covered & coverable).sum() * pix)
     return CoverageResult(
-        path, heading, length, covered_area / free_area if free_area else 0.0, covered_area, free_area, cells, order,
-        len(lanes), b.n_uturns, b.n_detours, grid.path_is_free(path, step), covered, coverable,
+        path, heading, length, covered_area / free_area if free_area else 0.0, covered_area, free_area, cells,
+        order, len(lanes), b.n_uturns, b.n_detours, grid.path_is_free(path, step), covered, coverable,
     )

@@ -39,7 +39,8 @@ class DiffDrive:
                 raise InputError(f"{name} must be a finite number > 0, got {v!r}")
 
     def wheel_speeds(self, v: ArrayLike, omega: ArrayLike) -> np.ndarray:
-        """``[phi_L, phi_R]`` (rad/s) for forward speed ``v`` and turn rate ``omega``; broadcasts (``(..., 2)``)."""
+        """``[phi_L, phi_R]`` (rad/s) for forward speed ``v`` and turn rate ``omega``; broadcasts
+        (``(..., 2)``)."""
         v = np.asarray(v, dtype=float)
         w = np.asarray(omega, dtype=float)
         half = 0.5 * self.track
@@ -55,11 +56,13 @@ class DiffDrive:
     def simulate(self, wheel_speeds: ArrayLike | Callable[[float], ArrayLike], pose0: ArrayLike,
                  t_span: tuple[float, float], t_eval: ArrayLike | None = None, rtol: float = 1e-10,
                  atol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
-        """Integrate the pose ``(x, y, theta)`` under wheel speeds (``[phi_L, phi_R]`` or a function of ``t``).
+        """Integrate the pose ``(x, y, theta)`` under wheel speeds (``[phi_L, phi_R]`` or a function of
+        ``t``).
 
         Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp``.
         """
-        f = wheel_speeds if callable(wheel_speeds) else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w)
+        f = (wheel_speeds if callable(wheel_speeds)
+             else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w))
 
         def rhs(t, s):
             v, w = self.body_velocity(*np.asarray(f(t), dtype=float))

@@ -55,7 +55,8 @@ class Penetration:
 
     def summary(self) -> dict:
         return {"max_depth": self.depth, "index": self.index, "pose": self.pose, "obstacle": self.shape,
-                "point": self.point, "per_obstacle": dict(self.per_shape), "poses_in_contact": self.poses_in_contact}
+                "point": self.point, "per_obstacle": dict(self.per_shape),
+                "poses_in_contact": self.poses_in_contact}
 
 
 def footprint_outline(length: float, width: float, spacing: float) -> np.ndarray:
@@ -75,8 +76,8 @@ def _shape_name(s, k: int) -> str:
     return s.name or f"{type(s).__name__.lower()} {k}"
 
 
-def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, length: float, width: float | None = None,
-                          bounds: tuple[float, float, float, float] | None = None,
+def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, length: float,
+                          width: float | None = None, bounds: tuple[float, float, float, float] | None = None,
                           spacing: float = 0.25, turn_step: float = math.radians(2.0)) -> Penetration:
     """How deep a ``length x width`` footprint (``width`` default ``length``: a square), centred on
     ``path[i]`` (``(N, 2)``) and turned by ``heading[i]`` (rad, ``(N,)``), reaches into ``shapes``
@@ -144,8 +145,8 @@ def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, len
         return Penetration(0.0, None, None, None, None, per_shape, 0)
     i = int(np.argmax(depth_at))
     name, point = where[i]
-    return Penetration(float(depth_at[i]), int(src[i]), (float(P[i, 0]), float(P[i, 1]), float(H[i])), name, point,
-                       per_shape, int(np.unique(src[depth_at > 0]).size))
+    return Penetration(float(depth_at[i]), int(src[i]), (float(P[i, 0]), float(P[i, 1]), float(H[i])), name,
+                       point, per_shape, int(np.unique(src[depth_at > 0]).size))
 
 
 def _with_turns_in_place(P: np.ndarray, H: np.ndarray, turn_step: float):

@@ -86,7 +86,8 @@ class OccupancyGrid:
             raise InputError(f"border_clearance must be a finite number >= 0, got {border_clearance!r}")
         for k, s in enumerate(shapes):
             if not isinstance(s, (Rectangle, Circle, Polygon)):
-                raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, got {type(s).__name__}")
+                raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, "
+                                 f"got {type(s).__name__}")
         nx = int(round((b[2] - b[0]) / res)) + 1
         ny = int(round((b[3] - b[1]) / res)) + 1
         if nx * ny > 50_000_000:
@@ -141,7 +142,8 @@ class OccupancyGrid:
         """True where a point lies within the map bounds (inclusive)."""
         P = self._points(points)
         b = self.bounds
-        return (P[:, 0] >= b[0] - _TOL) & (P[:, 0] <= b[2] + _TOL) & (P[:, 1] >= b[1] - _TOL) & (P[:, 1] <= b[3] + _TOL)
+        return ((P[:, 0] >= b[0] - _TOL) & (P[:, 0] <= b[2] + _TOL) & (P[:, 1] >= b[1] - _TOL)
+                & (P[:, 1] <= b[3] + _TOL))
 
     def world_to_index(self, points: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """Nearest lattice ``(row i, column j)`` of world points (not clipped: check :meth:`contains`)."""
@@ -154,7 +156,8 @@ class OccupancyGrid:
         """World ``(N, 2)`` coordinates of lattice points ``(i, j)``."""
         i = np.atleast_1d(np.asarray(i))
         j = np.atleast_1d(np.asarray(j))
-        return np.stack([self.bounds[0] + self.resolution * j, self.bounds[1] + self.resolution * i], axis=-1).astype(float)
+        return np.stack([self.bounds[0] + self.resolution * j,
+                         self.bounds[1] + self.resolution * i], axis=-1).astype(float)
 
     def on_lattice(self, points: ArrayLike, tol: float = 1e-6) -> np.ndarray:
         """True where a point coincides with a lattice point."""

@@ -100,7 +100,8 @@ class OmniBase:
 
         Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp`` (RK45).
         """
-        f = wheel_speeds if callable(wheel_speeds) else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w)
+        f = (wheel_speeds if callable(wheel_speeds)
+             else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w))
         p0 = np.asarray(pose0, dtype=float)
         if p0.shape != (3,):
             raise InputError(f"pose0 must be (x, y, theta), got shape {p0.shape}")

@@ -113,7 +113,8 @@ def _positive(v, name):
 
 def turn_in_place(x: float, y: float, heading0: float, heading1: float, *, omega_max: float, alpha_max: float,
                   dt: float = 0.01) -> DriveTrajectory | None:
-    """Rotate at ``(x, y)`` from ``heading0`` to ``heading1`` (shortest way) with a quintic; None if aligned."""
+    """Rotate at ``(x, y)`` from ``heading0`` to ``heading1`` (shortest way) with a quintic; None if
+    aligned."""
     d = (heading1 - heading0 + math.pi) % (2.0 * math.pi) - math.pi
     if abs(d) < 1e-9:
         return None
@@ -123,11 +124,12 @@ def turn_in_place(x: float, y: float, heading0: float, heading1: float, *, omega
     t = np.linspace(0.0, T, n)
     s, sd, _ = sc.evaluate(t)
     z = np.zeros(n)
-    return DriveTrajectory(t, np.full(n, float(x)), np.full(n, float(y)), heading0 + d * s, z, z.copy(), d * sd,
-                           [("turn", 0.0, T)])
+    return DriveTrajectory(t, np.full(n, float(x)), np.full(n, float(y)), heading0 + d * s, z, z.copy(),
+                           d * sd, [("turn", 0.0, T)])
 
 
-def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max, omega_max, dt, tau) -> DriveTrajectory:
+def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max,
+                 omega_max, dt, tau) -> DriveTrajectory:
     L = s_b - s_a
     n_s = max(50, int(math.ceil(L / 0.05)))
     n_s = min(n_s, 200_000)
@@ -238,7 +240,8 @@ def drive_through(
     smoothing_time: float | None = None,
     initial_heading: float | None = None,
 ) -> DriveTrajectory:
-    """Drive consecutive paths (e.g. the legs between waypoints), stopping and turning in place between them."""
+    """Drive consecutive paths (e.g. the legs between waypoints), stopping and turning in place between
+    them."""
     parts = []
     heading = initial_heading
     for p in paths:

@@ -80,8 +80,8 @@ def _reverse(p: GridPath) -> GridPath:
     return GridPath(p.points[::-1].copy(), p.cells[::-1].copy(), p.cost, p.length, p.expanded, p.method)
 
 
-def plan_waypoints(grid: OccupancyGrid, waypoints: ArrayLike, *, order: str = "given", names: Sequence[str] | None = None,
-                   **astar_kwargs: Any) -> WaypointPlan:
+def plan_waypoints(grid: OccupancyGrid, waypoints: ArrayLike, *, order: str = "given",
+                   names: Sequence[str] | None = None, **astar_kwargs: Any) -> WaypointPlan:
     """Join ``waypoints`` (``(K, 2)``, world units) by A* paths, in the given or the best order.
 
     ``order="optimal"`` keeps the first and the last waypoint and reorders the
@@ -110,7 +110,8 @@ def plan_waypoints(grid: OccupancyGrid, waypoints: ArrayLike, *, order: str = "g
         if not math.isfinite(res.cost):
             raise NoPathError("no order of the waypoints is connected by collision-free paths")
         seq = res.order
-        segs = [paths[(a, b)] if (a, b) in paths else _reverse(paths[(b, a)]) for a, b in zip(seq[:-1], seq[1:])]
+        segs = [paths[(a, b)] if (a, b) in paths else _reverse(paths[(b, a)])
+                for a, b in zip(seq[:-1], seq[1:])]
         method = res.method
     else:
         raise InputError(f"order must be 'given' or 'optimal', got {order!r}")

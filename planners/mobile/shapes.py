@@ -36,7 +36,8 @@ class Rectangle:
         _finite(self.x_min, self.y_min, self.x_max, self.y_max, what=f"rectangle {self.name!r}")
         if not (self.x_min < self.x_max and self.y_min < self.y_max):
             raise InputError(
-                f"rectangle {self.name!r} needs x_min < x_max and y_min < y_max, got ({self.x_min}, {self.y_min})-({self.x_max}, {self.y_max})"
+                f"rectangle {self.name!r} needs x_min < x_max and y_min < y_max, got ({self.x_min}, "
+                f"{self.y_min})-({self.x_max}, {self.y_max})"
             )
 
     def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
@@ -70,7 +71,8 @@ class Circle:
 
     def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
         """Signed distance (negative inside) of the points ``(x, y)`` to the circle."""
-        return np.hypot(np.asarray(x, dtype=float) - self.cx, np.asarray(y, dtype=float) - self.cy) - self.radius
+        return np.hypot(np.asarray(x, dtype=float) - self.cx,
+                        np.asarray(y, dtype=float) - self.cy) - self.radius
 
     def bounds(self) -> tuple[float, float, float, float]:
         r = self.radius

@@ -90,7 +90,8 @@ def _visible(grid: OccupancyGrid, a, b, margin: float, step: float) -> bool:
     return True
 
 
-def shortcut(grid: OccupancyGrid, points: ArrayLike, *, margin: float = 0.0, keep: Iterable[int] = ()) -> np.ndarray:
+def shortcut(grid: OccupancyGrid, points: ArrayLike, *, margin: float = 0.0,
+             keep: Iterable[int] = ()) -> np.ndarray:
     """Indices of the vertices kept by greedy string pulling (first and last always kept).
 
     ``keep``: indices that must stay vertices (e.g. waypoints in the middle of a path).
@@ -207,7 +208,8 @@ def relax(grid: OccupancyGrid, P: np.ndarray, fixed: np.ndarray, margin: float, 
         g = np.stack([ndimage.map_coordinates(gx, coords, order=1, mode="nearest"),
                       ndimage.map_coordinates(gy, coords, order=1, mode="nearest")], axis=1)
         gn = np.linalg.norm(g, axis=1)
-        push = np.where((d < margin) & (gn > 1e-9), (margin - d) / np.where(gn > 1e-9, gn, 1.0), 0.0)[:, None] * g
+        push = np.where((d < margin) & (gn > 1e-9),
+                        (margin - d) / np.where(gn > 1e-9, gn, 1.0), 0.0)[:, None] * g
         step = w_smooth * lap + w_obstacle * push
         step[~movable] = 0.0
         new = P + step
