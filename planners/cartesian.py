@@ -111,7 +111,8 @@ def cartesian_to_joint(
         raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
     if interpolation not in ("decoupled", "screw"):
         raise InputError(f"interpolation must be 'decoupled' or 'screw', got {interpolation!r}")
-    if total_time is not None and not (isinstance(total_time, (int, float)) and np.isfinite(total_time) and total_time > 0):
+    if (total_time is not None
+        and not (isinstance(total_time, (int, float)) and np.isfinite(total_time) and total_time > 0)):
         raise InputError(f"total_time must be a positive number of seconds or None, got {total_time!r}")
     t_end = None if total_time is None else time.monotonic() + float(total_time)
     q = robot.neutral() if q0 is None else robot.check_q(q0, "q0")
@@ -133,7 +134,8 @@ def cartesian_to_joint(
             if left <= 1e-3:
                 stop_reason = "time_cap"
                 events.append({"kind": "time_cap", "index": i,
-                               "detail": f"total_time {total_time:g} s spent; poses {i}..{n - 1} not attempted"})
+                               "detail": f"total_time {total_time:g} s spent; "
+                                         f"poses {i}..{n - 1} not attempted"})
                 break
             budget = left if budget is None else min(budget, left)
         res = ik.solve(robot, T, q_prev, frame=frame, relax=relax, spheres=spheres, centring=centring,
@@ -149,7 +151,8 @@ def cartesian_to_joint(
         if i > 0:
             jump = float(np.max(np.abs(Q[i] - Q[i - 1])))
             if jump > jump_threshold:
-                events.append({"kind": "joint_jump", "index": i, "detail": f"max |dq| = {jump:.3f} > {jump_threshold}"})
+                events.append({"kind": "joint_jump", "index": i,
+                               "detail": f"max |dq| = {jump:.3f} > {jump_threshold}"})
         near = np.flatnonzero((Q[i] - robot.lower < limit_margin) | (robot.upper - Q[i] < limit_margin))
         if near.size:
             names = ", ".join(robot.joint_names[j] for j in near)

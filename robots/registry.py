@@ -107,32 +107,39 @@ ENTRIES: dict[str, RobotEntry] = {
         _erd("panda", "Franka Emika Panda 7-DOF arm (fingers locked; flange panda_link8, tool panda_hand)",
              "panda_description/urdf/panda.urdf", "panda_hand", 7,
              {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}),
-        _erd("ur3", "Universal Robots UR3 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur3_robot.urdf", "tool0", 6),
-        _erd("ur5", "Universal Robots UR5 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur5_robot.urdf", "tool0", 6),
-        _erd("ur10", "Universal Robots UR10 6-DOF arm (tool flange tool0)", "ur_description/urdf/ur10_robot.urdf", "tool0", 6),
-        _erd("xarm7", "UFactory xArm7 7-DOF arm (end effector link_eef)", "xarm_description/urdf/xarm7.urdf", "link_eef", 7),
+        _erd("ur3", "Universal Robots UR3 6-DOF arm (tool flange tool0)",
+             "ur_description/urdf/ur3_robot.urdf", "tool0", 6),
+        _erd("ur5", "Universal Robots UR5 6-DOF arm (tool flange tool0)",
+             "ur_description/urdf/ur5_robot.urdf", "tool0", 6),
+        _erd("ur10", "Universal Robots UR10 6-DOF arm (tool flange tool0)",
+             "ur_description/urdf/ur10_robot.urdf", "tool0", 6),
+        _erd("xarm7", "UFactory xArm7 7-DOF arm (end effector link_eef)", "xarm_description/urdf/xarm7.urdf",
+             "link_eef", 7),
         _erd("kinova", "Kinova Jaco2 j2s6s200 6-DOF arm (continuous joints bounded to +-2 pi)",
              "kinova_description/robots/kinova.urdf", "j2s6s200_end_effector", 6),
         # ERD's z1.srdf has a <chain base_link="base"> but z1.urdf has no link "base": not read
         _erd("z1", "Unitree Z1 6-DOF arm (gripper locked; tool gripperStator)", "z1_description/urdf/z1.urdf",
              "gripperStator", 6, {"jointGripper": 0.0}, srdf=False),
-        _erd("so100", "SO-ARM100 5-DOF arm (gripper jaw locked; tool = gripper link)", "so_arm_description/urdf/so100.urdf",
-             "gripper", 5, {"gripper": 0.0}),
-        _erd("so101", "SO-101 5-DOF arm (gripper jaw locked; tool gripper_frame_link)", "so_arm_description/urdf/so101.urdf",
-             "gripper_frame_link", 5, {"gripper": 0.0}),
+        _erd("so100", "SO-ARM100 5-DOF arm (gripper jaw locked; tool = gripper link)",
+             "so_arm_description/urdf/so100.urdf", "gripper", 5, {"gripper": 0.0}),
+        _erd("so101", "SO-101 5-DOF arm (gripper jaw locked; tool gripper_frame_link)",
+             "so_arm_description/urdf/so101.urdf", "gripper_frame_link", 5, {"gripper": 0.0}),
         _erd("talos_left_arm", "PAL TALOS left arm, 6 DOF (gripper locked; tool wrist_left_ft_tool_link)",
-             "talos_data/robots/talos_left_arm.urdf", "wrist_left_ft_tool_link", 6, {"gripper_left_joint": 0.0}),
-        _erd("baxter", "Rethink Baxter, both 7-DOF arms free (14 joints; head and grippers locked; tip left_gripper, "
-             "the other hand is right_gripper)", "baxter_description/urdf/baxter.urdf", "left_gripper", 14,
+             "talos_data/robots/talos_left_arm.urdf", "wrist_left_ft_tool_link", 6,
+             {"gripper_left_joint": 0.0}),
+        _erd("baxter", "Rethink Baxter, both 7-DOF arms free (14 joints; head and grippers locked; "
+                       "tip left_gripper, the other hand is right_gripper)",
+             "baxter_description/urdf/baxter.urdf", "left_gripper", 14,
              {"head_pan": 0.0, **{f"{s}_gripper_{f}_finger_joint": 0.0 for s in "lr" for f in "lr"}}),
         _erd("baxter_left", "Rethink Baxter left 7-DOF arm (head, right arm, grippers locked)",
              "baxter_description/urdf/baxter.urdf", "left_gripper", 7, _baxter_locks("left")),
         _erd("baxter_right", "Rethink Baxter right 7-DOF arm (head, left arm, grippers locked)",
              "baxter_description/urdf/baxter.urdf", "right_gripper", 7, _baxter_locks("right")),
         _erd("finger_edu", "TriFinger-edu single 3-DOF finger (tool finger_tip_link)",
-             "finger_edu_description/robots/finger_edu.urdf", "finger_tip_link", 3, task_axes=("x", "y", "z")),
-        _erd("twodof", "ASR planar 2R arm, joints about z (tool Tip)", "asr_twodof_description/urdf/TwoDofs.urdf",
-             "Tip", 2, task_axes=PLANAR_XY_YAW),
+             "finger_edu_description/robots/finger_edu.urdf", "finger_tip_link", 3,
+             task_axes=("x", "y", "z")),
+        _erd("twodof", "ASR planar 2R arm, joints about z (tool Tip)",
+             "asr_twodof_description/urdf/TwoDofs.urdf", "Tip", 2, task_axes=PLANAR_XY_YAW),
         _erd("double_pendulum", "double pendulum, 2 joints about x (continuous, bounded to +-2 pi)",
              "double_pendulum_description/urdf/double_pendulum_continuous.urdf", "link2", 2,
              task_axes=("y", "z", "roll")),
@@ -229,15 +236,16 @@ def _locks(entry_label: str, defaults: dict, params: dict) -> dict:
     if unknown:
         accepted = ", ".join(defaults) or "none"
         raise ModelError(
-            f"{entry_label}: unknown parameter(s) {unknown}; accepted parameters (locked joint values): {accepted}."
-            f"{suggest(str(unknown[0]), defaults)}"
+            f"{entry_label}: unknown parameter(s) {unknown}; accepted parameters (locked joint values): "
+            f"{accepted}.{suggest(str(unknown[0]), defaults)}"
         )
     locks = dict(defaults)
     for k, v in params.items():
         try:
             f = float(v)
         except (TypeError, ValueError):
-            raise ModelError(f"{entry_label}: parameter {k!r} must be a number (joint value), got {v!r}") from None
+            raise ModelError(f"{entry_label}: parameter {k!r} must be a number (joint value), "
+                             f"got {v!r}") from None
         if not math.isfinite(f):
             raise ModelError(f"{entry_label}: parameter {k!r} must be finite, got {v!r}")
         locks[k] = f
@@ -249,7 +257,8 @@ def _freeze(params: dict):
 
 
 #: Keyword options of :func:`load` (everything else given as a keyword is a model parameter).
-OPTIONS = ("params", "locks", "tip", "geometry", "package_dirs", "task_axes", "srdf", "allow_outside", "time_limit")
+OPTIONS = ("params", "locks", "tip", "geometry", "package_dirs", "task_axes", "srdf", "allow_outside",
+           "time_limit")
 
 
 @dataclass(frozen=True)
@@ -263,7 +272,8 @@ class LoadOptions:
     time_limit: float | None = None
 
     def key(self) -> tuple:
-        env = tuple(os.environ.get(v) for v in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH))  # they resolve packages too
+        # they resolve packages too
+        env = tuple(os.environ.get(v) for v in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH))
         return (self.tip, self.geometry, self.package_dirs, self.allow_outside, env)
 
     def loader_kwargs(self) -> dict:
@@ -283,7 +293,8 @@ def _auto_srdf(robot: Robot, model_path: Path | None) -> Robot:
     try:
         return attach_srdf(robot, read_srdf(found, robot))
     except ModelError as exc:
-        warnings.warn(f"{str(exc).rstrip('.')}; loading without named states (pass srdf=False to skip it, srdf=PATH to choose one)",
+        warnings.warn(f"{str(exc).rstrip('.')}; loading without named states (pass srdf=False to skip it, "
+                      "srdf=PATH to choose one)",
                       SrdfWarning, stacklevel=4)
         return robot
 
@@ -297,7 +308,8 @@ def _load_entry(entry: RobotEntry, opts: LoadOptions, params: dict, locks: dict)
         key = ("entry", entry.name, _freeze(params), _freeze(locks), opts.key(), tip)
         return _cached(key, lambda: _auto_srdf(load_xacro(path, args=params, locked_joints=locks or None,
                                                           time_limit=opts.time_limit, **kwargs), path))
-    locks = {**_locks(f"robot {entry.name!r}", entry.locked, params), **_numbers(f"robot {entry.name!r}", locks)}
+    locks = {**_locks(f"robot {entry.name!r}", entry.locked, params),
+             **_numbers(f"robot {entry.name!r}", locks)}
     key = ("entry", entry.name, _freeze(locks), opts.key(), tip)
     srdf_near = entry.path() if entry.srdf else None
     return _cached(key, lambda: _auto_srdf(load_urdf(entry.path(), locked_joints=locks, **kwargs), srdf_near))
@@ -393,7 +405,8 @@ def load(
 def _apply(robot: Robot, task_axes, srdf) -> Robot:
     """Per-call options applied to the (fresh) copy: task axes and an explicit SRDF."""
     if task_axes is not None:
-        axes = tuple(a.strip() for a in task_axes.split(",")) if isinstance(task_axes, str) else tuple(task_axes)
+        axes = (tuple(a.strip() for a in task_axes.split(",")) if isinstance(task_axes, str)
+                else tuple(task_axes))
         if not axes:
             raise ShapeError("task_axes must name at least one of x, y, z, roll, pitch, yaw")
         axis_rows(axes)  # ShapeError naming an unknown component

@@ -1,4 +1,5 @@
-"""S4: Franka Panda pick-and-place - SE(3) polynomial trajectories tracked by damped least squares (SCENARIOS.md S4).
+"""S4: Franka Panda pick-and-place - SE(3) polynomial trajectories tracked by damped least squares
+(SCENARIOS.md S4).
 
 World = the Panda's base frame. A box (open at the top) centred at
 ``(0.5, 0.5, 0.1)`` and a cylinder standing at ``(0.695, 0.095, 0.025)``.
@@ -183,7 +184,8 @@ def waypoints(approach: float = 0.12, via_speed: float = 0.05) -> list[Waypoint]
 
 
 def segment_durations(wps: list[Waypoint], move: float, approach: float) -> list[float]:
-    """``approach`` s for a segment between the grasp/release pose and its pre-/post- pose, else ``move`` s."""
+    """``approach`` s for a segment between the grasp/release pose and its pre-/post- pose, else ``move``
+    s."""
     out = []
     for a, b in zip(wps[:-1], wps[1:]):
         short = {a.name, b.name} in ({"pre-grasp", "grasp"}, {"grasp", "lift"}, {"pre-release", "release"},
@@ -199,7 +201,8 @@ def plan_segments(wps: list[Waypoint], durations, order: str = "quintic"):
 
 
 def sample_segments(segments, dt: float):
-    """Times ``(N,)``, target poses ``(N, 4, 4)``, body twists ``(N, 6)`` and the sample index of each waypoint.
+    """Times ``(N,)``, target poses ``(N, 4, 4)``, body twists ``(N, 6)`` and the sample index of each
+    waypoint.
 
     Every segment is sampled at ``t0 + k dt``; its end is the next segment's
     start (one sample); segment durations are rounded to whole steps first.
@@ -274,8 +277,8 @@ def track(robot, poses, q_start, *, damping: float, tol_pos: float, tol_rot: flo
     failed = []
     q = q_start
     for k, T in enumerate(poses):
-        res = ik.solve(robot, T, q, frame=FLANGE, method="dls", damping=damping, tol_pos=tol_pos, tol_rot=tol_rot,
-                       max_iter=max_iter, iteration_budget=max_iter, centring=centring)
+        res = ik.solve(robot, T, q, frame=FLANGE, method="dls", damping=damping, tol_pos=tol_pos,
+                       tol_rot=tol_rot, max_iter=max_iter, iteration_budget=max_iter, centring=centring)
         q = res.q
         Q[k], pe[k], re[k], its[k] = q, res.position_error, res.orientation_error, res.iterations
         if not res.success:
@@ -294,7 +297,8 @@ def first_within(flange, target, tol_pos: float, tol_rot: float, start: int = 0)
 
 # ------------------------------------------------------------------ drawing
 def arm_without_hand(robot):
-    """A copy of the Panda whose visual model lacks the hand and fingers (the document's tool is the flange)."""
+    """A copy of the Panda whose visual model lacks the hand and fingers (the document's tool is the
+    flange)."""
     arm = robot.copy()
     gm = pin.GeometryModel()
     for g in robot.visual_model.geometryObjects:
@@ -324,15 +328,17 @@ def _events_on(ax, events: dict, marks_t=None):
             ax.axvline(t, color="grey", linestyle=":", linewidth=0.7)
 
 
-def tracking_errors_figure(times, position_error, orientation_error, *, tol_pos: float, tol_rot: float, events: dict,
-                           marks_t=None, damping: float, centring: bool) -> Figure:
+def tracking_errors_figure(times, position_error, orientation_error, *, tol_pos: float, tol_rot: float,
+                           events: dict, marks_t=None, damping: float, centring: bool) -> Figure:
     """Position (m) and orientation (rad) tracking errors of the DLS IK against time, log scale, with the
     solver's tolerances, the grasp/release events and the via points; the legend sits below the axes."""
-    fig = viz.errors_figure(times, {"position error (m)": position_error, "orientation error (rad)": orientation_error},
+    fig = viz.errors_figure(times, {"position error (m)": position_error,
+                                    "orientation error (rad)": orientation_error},
                             xlabel="time (s)", ylabel="|error| (m, rad)", title="")
     fig.set_size_inches(8.0, 5.0)
     ax = fig.axes[0]
-    ax.set_title(f"S4 tracking errors of DLS IK\n(λ = {damping:g}, warm started{', null-space centring' if centring else ''}, "
+    ax.set_title(f"S4 tracking errors of DLS IK\n(λ = {damping:g}, "
+                 f"warm started{', null-space centring' if centring else ''}, "
                  f"{len(times)} samples)", fontsize=10)
     ax.axhline(tol_pos, color=viz.colors.to_rgb(viz.colors.cycle(0)), linestyle=":", linewidth=1.0,
                label=f"DLS tol_pos {tol_pos:g} m")
@@ -392,8 +398,9 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         })
 
     # 3. tracking
-    Q, track_pe, track_re, iterations, failed = track(panda, targets, q_start, damping=damping, tol_pos=tol_pos,
-                                                       tol_rot=tol_rot, max_iter=max_iter, centring=centring)
+    Q, track_pe, track_re, iterations, failed = track(panda, targets, q_start, damping=damping,
+                                                      tol_pos=tol_pos, tol_rot=tol_rot, max_iter=max_iter,
+                                                      centring=centring)
     flange = np.array([panda.fk(q, FLANGE) for q in Q])
     manip = np.array([panda.manipulability(q, FLANGE) for q in Q])
     sigma_min = np.array([panda.singular_values(q, FLANGE)[-1] for q in Q])
@@ -408,7 +415,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     if grasp_step is not None:
         offset = se3.inverse(flange[grasp_step]) @ CYLINDER_POSE
         end = release_step if release_step is not None else len(Q) - 1
-        cylinder = np.array([CYLINDER_POSE if k < grasp_step else flange[min(k, end)] @ offset for k in range(len(Q))])
+        cylinder = np.array([CYLINDER_POSE if k < grasp_step else flange[min(k, end)] @ offset
+                             for k in range(len(Q))])
     else:
         cylinder = np.repeat(CYLINDER_POSE[None], len(Q), axis=0)
     cyl_final = cylinder[-1]
@@ -416,7 +424,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
 
     # 5. clearance between the arm (and the carried cylinder) and the scene (table top, open box)
     clearance = motion_clearance(panda, Q, cylinder, grasp_step, release_step, radius=CYLINDER_RADIUS,
-                                 height=CYLINDER_HEIGHT, box_centre=BOX_CENTRE, box_size=BOX_SIZE, box_wall=BOX_WALL)
+                                 height=CYLINDER_HEIGHT, box_centre=BOX_CENTRE, box_size=BOX_SIZE,
+                                 box_wall=BOX_WALL)
 
     traj = JointTrajectory.from_positions(panda.joint_names, Q, dt, zero_end_velocities=True)
     traj.save(out / "trajectory.json")
@@ -458,12 +467,14 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     _events_on(a1, {}, marks_t)
     a1.set_ylabel("flange position (m)")
     a1.set_ylim(-0.05, 1.2)
-    a1.set_title(f"S4 flange trajectory: {order} T(t) = T_s·exp(ξ(t)) per segment, via twists {via_speed:g} m/s",
-                 fontsize=10)
+    a1.set_title(f"S4 flange trajectory: {order} T(t) = T_s·exp(ξ(t)) per segment, "
+                 f"via twists {via_speed:g} m/s", fontsize=10)
     a1.grid(True, alpha=0.3)
     a1.legend(loc="upper center", fontsize=7, ncol=6, framealpha=0.9)
-    a2.plot(times, np.linalg.norm(twists[:, :3], axis=1), label="|v| planned (m/s)", color=viz.colors.to_rgb("blue"))
-    a2.plot(times, np.linalg.norm(twists[:, 3:], axis=1), label="|ω| planned (rad/s)", color=viz.colors.to_rgb("red"))
+    a2.plot(times, np.linalg.norm(twists[:, :3], axis=1), label="|v| planned (m/s)",
+            color=viz.colors.to_rgb("blue"))
+    a2.plot(times, np.linalg.norm(twists[:, 3:], axis=1), label="|ω| planned (rad/s)",
+            color=viz.colors.to_rgb("red"))
     _events_on(a2, ev, marks_t)
     a2.set_xlabel("time (s)")
     a2.set_ylabel("body twist norm")
@@ -496,7 +507,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     return {  # scalars first: `kinserve demo` prints the first few
         "grasp_step": grasp_step,
         "release_step": release_step,
-        "cylinder_final": "position ({:.4f}, {:.4f}, {:.4f}) m, axis ({:.3f}, {:.3f}, {:.3f})".format(*pos, *axis),
+        "cylinder_final": ("position ({:.4f}, {:.4f}, {:.4f}) m, axis ({:.3f}, {:.3f}, {:.3f})"
+                           .format(*pos, *axis)),
         "cylinder_release_error": cyl_pe,
         "min_arm_scene_distance": clearance["min_arm_scene_distance"],
         "min_cylinder_scene_distance": clearance["min_cylinder_scene_distance"],
@@ -515,7 +527,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         "flange_at_grasp": None if grasp_step is None else flange[grasp_step],
         "flange_at_release": None if release_step is None else flange[release_step],
         "events": [{"kind": kind, "step": step, "time": float(times[step])}
-                   for kind, step in (("grasped", grasp_step), ("released", release_step)) if step is not None],
+                   for kind, step in (("grasped", grasp_step),
+                                      ("released", release_step)) if step is not None],
         "home_pose_document": DOC_HOME,
         "home_fk": home_fk,
         "home_fk_error": home_fk_error,

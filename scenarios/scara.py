@@ -1,4 +1,5 @@
-"""S9: the SCARA-type RRPR arm - Jacobian methods, relaxed phi / z, joint-limit centring, a sphere (SCENARIOS.md S9).
+"""S9: the SCARA-type RRPR arm - Jacobian methods, relaxed phi / z, joint-limit centring, a sphere
+(SCENARIOS.md S9).
 
 Arm (``robots.load("scara")``, seed 004): standard DH rows ``(a, alpha, d, theta)``
 ``(a1, 0, 0, theta1)``, ``(a2, pi, 0, theta2)``, ``(0, 0, d3, 0)`` (prismatic),
@@ -97,9 +98,11 @@ ITERATION_BUDGET = 1000
 
 
 def fk_formula(q, a1: float = A1, a2: float = A2, base_z: float = BASE_Z) -> tuple[np.ndarray, float]:
-    """Tool position (world) and yaw ``phi = theta1 + theta2 - theta4`` (seed 004's ``T``, base at ``base_z``)."""
+    """Tool position (world) and yaw ``phi = theta1 + theta2 - theta4`` (seed 004's ``T``, base at
+    ``base_z``)."""
     t1, t2, d3, t4 = q
-    p = np.array([a1 * math.cos(t1) + a2 * math.cos(t1 + t2), a1 * math.sin(t1) + a2 * math.sin(t1 + t2), base_z - d3])
+    p = np.array([a1 * math.cos(t1) + a2 * math.cos(t1 + t2),
+                  a1 * math.sin(t1) + a2 * math.sin(t1 + t2), base_z - d3])
     return p, t1 + t2 - t4
 
 
@@ -220,7 +223,8 @@ def _plot_case(robot, rec, path: Path, title: str, extra_lines=()):
 
 
 def _methods_figure(records):
-    series = {METHOD_NAMES[m]: np.linalg.norm(np.asarray(r["task_error"]), axis=1) for m, r in records.items()}
+    series = {METHOD_NAMES[m]: np.linalg.norm(np.asarray(r["task_error"]), axis=1)
+              for m, r in records.items()}
     n = max(len(v) for v in series.values())
     padded = {f"{k} ({len(v) - 1} it.)": np.r_[v, np.full(n - len(v), np.nan)] for k, v in series.items()}
     fig = viz.series_figure(np.arange(1, n + 1), padded, xlabel="iteration + 1 (log scale)",
@@ -228,8 +232,8 @@ def _methods_figure(records):
                             title="S9: the four methods from the same start to the same target", logy=True)
     ax = fig.axes[0]
     ax.set_xscale("log")
-    styles = ({"marker": "o", "markersize": 8, "fillstyle": "none"}, {"marker": "."}, {"marker": "x", "markersize": 7},
-              {"marker": "s", "markersize": 4})
+    styles = ({"marker": "o", "markersize": 8, "fillstyle": "none"}, {"marker": "."},
+              {"marker": "x", "markersize": 7}, {"marker": "s", "markersize": 4})
     for line, style in zip(ax.lines, styles):
         line.set(**style)
     ax.legend(loc="lower left", fontsize=8)
@@ -245,7 +249,8 @@ def _sphere_figure(cases, radius, center_z):
         it = np.arange(len(rec["q"]))
         ax.plot(it, rec["tool_sphere_distance"], "-o", markersize=3, color=c, label=f"{label}: |p_tool − c|")
         ax.plot(it, rec["tool"][:, 2], ":", color=c, label=f"{label}: tool height z")
-    ax.axhline(radius, color="red", linestyle="--", linewidth=1.2, label=f"sphere radius {radius:g} m (keep ≥)")
+    ax.axhline(radius, color="red", linestyle="--", linewidth=1.2,
+               label=f"sphere radius {radius:g} m (keep ≥)")
     ax.axhline(center_z + radius, color="grey", linestyle="-.", linewidth=0.9, label="sphere top z")
     ax.set_xlabel("iteration")
     ax.set_ylabel("distance / height (m)")
@@ -256,8 +261,8 @@ def _sphere_figure(cases, radius, center_z):
 
 
 def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, xy_near_sphere=XY_NEAR_SPHERE,
-        q_free_target=Q_FREE_TARGET, q_start_z=Q_START_Z, n_random: int = 200, seed: int = 9, dls_damping: float = 0.05,
-        scene: bool = True, fps: float = 12.0) -> dict:
+        q_free_target=Q_FREE_TARGET, q_start_z=Q_START_Z, n_random: int = 200, seed: int = 9,
+        dls_damping: float = 0.05, scene: bool = True, fps: float = 12.0) -> dict:
     """Run S9 into ``out``; returns the key numbers (see the module docstring)."""
     out = Path(out)
     robot = robots.load("scara")
@@ -287,7 +292,8 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
         res = ik.solve(robot, T_goal, q_start, method=m, relax=TASK_RELAX, iteration_budget=ITERATION_BUDGET,
                        **kw)
         methods[m] = case_record(robot, res, T_goal)
-        _plot_case(robot, methods[m], out / f"ik_{m}.png", f"S9 {METHOD_NAMES[m]}: {res.iterations} iterations")
+        _plot_case(robot, methods[m], out / f"ik_{m}.png",
+                   f"S9 {METHOD_NAMES[m]}: {res.iterations} iterations")
     viz.save_png(_methods_figure(methods), out / "methods.png")
 
     # 4. relax phi, centring theta4
@@ -303,7 +309,8 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
         rec["position_residual"] = float(np.linalg.norm(robot.fk(res.q)[:3, 3] - T_goal[:3, 3]))
         relax_phi[m] = rec
         _plot_case(robot, rec, out / f"relax_phi_{m}.png",
-                   f"S9 relax φ, {'QP' if m == 'qp' else 'pseudo-inverse'} + centring: θ4 → {res.q[3]:.2e} (mid-range 0)",
+                   f"S9 relax φ, {'QP' if m == 'qp' else 'pseudo-inverse'} + centring: "
+                   f"θ4 → {res.q[3]:.2e} (mid-range 0)",
                    [(mid[3], "θ4 mid-range", "black")])
 
     # 5. relax z, centring d3, the sphere
@@ -330,30 +337,36 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
     z_top = cz + math.sqrt(max(SPHERE_RADIUS**2 - (x - cx) ** 2 - (y - cy) ** 2, 0.0))
     for case, rec in relax_z.items():
         _plot_case(robot, rec, out / f"relax_z_{case}.png",
-                   f"S9 relax z, QP + centring + sphere ({case.replace('_', ' ')}): d3 → {rec['d3_final']:.4f} m",
+                   f"S9 relax z, QP + centring + sphere ({case.replace('_', ' ')}): "
+                   f"d3 → {rec['d3_final']:.4f} m",
                    [(mid[2], "d3 mid-range 0.625 m", "black")])
     _plot_case(robot, unconstrained, out / "relax_z_no_sphere_constraint.png",
-               f"S9 relax z, pseudo-inverse + centring, NO sphere constraint: d3 → {unconstrained['d3_final']:.4f} m",
+               "S9 relax z, pseudo-inverse + centring, NO sphere constraint: "
+               f"d3 → {unconstrained['d3_final']:.4f} m",
                [(mid[2], "d3 mid-range 0.625 m", "black")])
     viz.save_png(_sphere_figure({"QP, near the sphere": relax_z["near_sphere"],
                                  "QP, away from it": relax_z["away_from_sphere"],
                                  "pseudo-inverse, no constraint": unconstrained}, SPHERE_RADIUS, cz),
                  out / "sphere.png")
 
-    all_cases = {**{f"ik_{m}": r for m, r in methods.items()}, **{f"relax_phi_{m}": r for m, r in relax_phi.items()},
-                 **{f"relax_z_{c}": r for c, r in relax_z.items()}, "relax_z_no_sphere_constraint": unconstrained}
+    all_cases = {**{f"ik_{m}": r for m, r in methods.items()},
+                 **{f"relax_phi_{m}": r for m, r in relax_phi.items()},
+                 **{f"relax_z_{c}": r for c, r in relax_z.items()},
+                 "relax_z_no_sphere_constraint": unconstrained}
     write_json(out / "iterates.json", {k: {"q": r["q"], "tool": r["tool"], "task_error": r["task_error"],
                                            "components": r["components"]} for k, r in all_cases.items()})
 
     if scene:
-        sc = viz.Scene("kinserve S9 SCARA: classical IK, relaxed φ with θ4 centring, relaxed z with d3 centring and a sphere")
+        sc = viz.Scene("kinserve S9 SCARA: classical IK, relaxed φ with θ4 centring, "
+                       "relaxed z with d3 centring and a sphere")
         arm = sc.add_robot(robot, q_start, name="scara")
         sc.add_sphere("sphere", SPHERE_CENTER, SPHERE_RADIUS, color="red", opacity=0.35)
         sc.add_frame("target_full_task", T_goal, length=0.12)
         sc.add_frame("target_near_sphere", robot.fk(relax_z["near_sphere"]["q_final"]), length=0.12)
         sc.add_frame("target_away_from_sphere", robot.fk(relax_z["away_from_sphere"]["q_final"]), length=0.12)
         for name, T in (("near_sphere", T_near), ("away_from_sphere", T_free)):  # z is free: a vertical line
-            sc.add_path(f"free_z_{name}", [[T[0, 3], T[1, 3], BASE_Z - hi[2]], [T[0, 3], T[1, 3], BASE_Z - lo[2]]],
+            sc.add_path(f"free_z_{name}",
+                        [[T[0, 3], T[1, 3], BASE_Z - hi[2]], [T[0, 3], T[1, 3], BASE_Z - lo[2]]],
                         color="grey", linewidth=1.0)
         sc.add_path("tool_path_near_sphere", relax_z["near_sphere"]["tool"], color="blue")
         frames = []
@@ -373,7 +386,8 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
         "d3_final_near_sphere": near["d3_final"],
         "d3_final_away": away["d3_final"],
         "min_tool_sphere_distance": min(near["min_tool_sphere_distance"], away["min_tool_sphere_distance"]),
-        "min_clearance_all_segments": min(near["min_clearance_all_segments"], away["min_clearance_all_segments"]),
+        "min_clearance_all_segments": min(near["min_clearance_all_segments"],
+                                          away["min_clearance_all_segments"]),
         "unconstrained_min_tool_sphere_distance": unconstrained["min_tool_sphere_distance"],
         "fk_max_position_difference": fk_p,
         "fk_max_phi_difference": fk_phi,
@@ -386,17 +400,19 @@ def run(out: Path, *, q_goal=Q_GOAL, q_start=Q_START, q_start_phi=Q_START_PHI, x
         "d3_mid": float(mid[2]),
         "theta4_mid": float(mid[3]),
         "limits": {"lower": lo, "upper": hi},
-        "methods": {m: {k: r[k] for k in ("iterations", "success", "position_error", "orientation_error", "q_final",
-                                         "message")} for m, r in methods.items()},
+        "methods": {m: {k: r[k] for k in ("iterations", "success", "position_error", "orientation_error",
+                                          "q_final", "message")} for m, r in methods.items()},
         "q_goal": q_goal,
         "q_start": q_start,
         "relax_phi": {m: {k: r[k] for k in ("iterations", "success", "position_error", "position_residual",
-                                           "theta4_final", "theta4_mid", "q_final", "message")} for m, r in relax_phi.items()},
-        "relax_z": {c: {k: r[k] for k in ("iterations", "success", "d3_final", "d3_mid", "xy_residual", "phi_residual",
-                                         "tool_height", "min_tool_sphere_distance", "min_clearance_all_segments",
-                                         "q_final", "message")} | {"target_xy": r["target"][:2, 3]}
+                                            "theta4_final", "theta4_mid", "q_final", "message")}
+                      for m, r in relax_phi.items()},
+        "relax_z": {c: {k: r[k] for k in ("iterations", "success", "d3_final", "d3_mid", "xy_residual",
+                                          "phi_residual", "tool_height", "min_tool_sphere_distance",
+                                          "min_clearance_all_segments", "q_final", "message")}
+                    | {"target_xy": r["target"][:2, 3]}
                     for c, r in relax_z.items()},
-        "relax_z_no_sphere_constraint": {k: unconstrained[k] for k in ("iterations", "d3_final", "min_tool_sphere_distance",
-                                                                        "q_final")},
+        "relax_z_no_sphere_constraint": {
+            k: unconstrained[k] for k in ("iterations", "d3_final", "min_tool_sphere_distance", "q_final")},
         "iterates_file": "iterates.json",
     }

@@ -71,14 +71,16 @@ def _path_figure(P_desired, P_tool, positions, names, order):
     views = ((0, 1, "top view", "x (m)", "y (m)"), (0, 2, "side view", "x (m)", "z (m)"))
     for k, (a, b, title, xl, yl) in enumerate(views):
         ax = fig.add_subplot(1, 2, k + 1)
-        ax.plot(P_desired[:, a], P_desired[:, b], "--", color="grey", linewidth=1.2, label="interpolated poses (targets)")
+        ax.plot(P_desired[:, a], P_desired[:, b], "--", color="grey", linewidth=1.2,
+                label="interpolated poses (targets)")
         ax.plot(P_tool[:, a], P_tool[:, b], "-", color=viz.colors.to_rgb("blue"), linewidth=1.8,
                 label="tool path (FK of the trajectory)")
         for rank, i in enumerate(order):
             p = positions[i]
             ax.plot([p[a]], [p[b]], "o", color=viz.colors.to_rgb("red" if i == 0 else "orange"), markersize=8,
                     markeredgecolor="black", label=None)
-            ax.annotate(f"{rank}: {names[i]}", (p[a], p[b]), textcoords="offset points", xytext=(6, 6), fontsize=9)
+            ax.annotate(f"{rank}: {names[i]}", (p[a], p[b]), textcoords="offset points",
+                        xytext=(6, 6), fontsize=9)
         ax.plot([0], [0], "ks", markersize=7, label="arm base (world origin)")
         ax.set_aspect("equal", adjustable="datalim")
         ax.grid(True, alpha=0.3)
@@ -86,7 +88,8 @@ def _path_figure(P_desired, P_tool, positions, names, order):
         ax.set_ylabel(yl)
         ax.set_title(title, fontsize=10)
     fig.axes[0].legend(fontsize=8, loc="best")
-    fig.suptitle("S3 youBot tour: checkpoints in visiting order (0 = current pose), Euclidean shortest path", fontsize=11)
+    fig.suptitle("S3 youBot tour: checkpoints in visiting order (0 = current pose), "
+                 "Euclidean shortest path", fontsize=11)
     return fig
 
 
@@ -96,7 +99,8 @@ IK_ITERATION_BUDGET = 500
 
 
 def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, interpolation: str = "decoupled",
-        ik_method: str = "pseudo_inverse", tol_pos: float = 1e-6, fps: float | None = None, scene: bool = True) -> dict:
+        ik_method: str = "pseudo_inverse", tol_pos: float = 1e-6, fps: float | None = None,
+        scene: bool = True) -> dict:
     """Run S3 into ``out``; returns the key numbers (see the module docstring).
 
     ``checkpoints``: a ``.json`` / ``.csv`` checkpoint file; ``n``: intermediate
@@ -117,9 +121,9 @@ def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, int
 
     # interpolation + position-only IK with warm start -> joint trajectory
     tour = [poses[i] for i in best.order]
-    plan = planners.cartesian_to_joint(robot, tour, cf.current, steps=int(n), dt=float(dt), interpolation=interpolation,
-                                       relax=RELAX, method=ik_method, tol_pos=tol_pos, max_time=None,
-                                       iteration_budget=IK_ITERATION_BUDGET)
+    plan = planners.cartesian_to_joint(robot, tour, cf.current, steps=int(n), dt=float(dt),
+                                       interpolation=interpolation, relax=RELAX, method=ik_method,
+                                       tol_pos=tol_pos, max_time=None, iteration_budget=IK_ITERATION_BUDGET)
     traj = plan.trajectory
     traj.save(out / "trajectory.json")
     traj.save(out / "trajectory.csv")
@@ -133,9 +137,10 @@ def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, int
 
     # plots
     t = traj.times
-    fig = viz.joints_figure(t, traj.positions, robot.joint_names, limits=(robot.lower, robot.upper), xlabel="time (s)",
-                            ylabel="joint angle (rad)",
-                            title=f"S3 joint trajectory ({traj.n_points} points, dt = {dt:g} s); dotted: limits")
+    fig = viz.joints_figure(t, traj.positions, robot.joint_names, limits=(robot.lower, robot.upper),
+                            xlabel="time (s)", ylabel="joint angle (rad)",
+                            title=f"S3 joint trajectory ({traj.n_points} points, dt = {dt:g} s); dotted: "
+                                  "limits")
     ax = fig.axes[0]
     for rank, k in enumerate(at_checkpoints):
         ax.axvline(t[k], color="grey", linewidth=0.6, linestyle="--")
@@ -144,13 +149,14 @@ def run(out: Path, *, checkpoints=CHECKPOINTS, n: int = 20, dt: float = 0.1, int
     ax.set_ylim(-3.3, 3.3)
     ax.legend(loc="lower right", fontsize=8, ncol=3)
     viz.save_png(fig, out / "joints.png")
-    fig = viz.errors_figure(t, {"|p_tool − p_target| (m)": err}, xlabel="time (s)", ylabel="position error (m)",
-                            title=f"S3 position-only IK ({ik_method}, warm start): error per trajectory point",
-                            tolerance=tol_pos)
+    fig = viz.errors_figure(t, {"|p_tool − p_target| (m)": err}, xlabel="time (s)",
+                            ylabel="position error (m)",
+                            title=f"S3 position-only IK ({ik_method}, warm start): "
+                                  "error per trajectory point", tolerance=tol_pos)
     viz.save_png(fig, out / "position_error.png")
     viz.save_png(_path_figure(P_desired, P_tool, positions, names, best.order), out / "path.png")
-    fig = viz.manipulability_figure(t, {"w = √det(JᵀJ) = ∏σᵢ of the 6×5 J": plan.manipulability}, xlabel="time (s)",
-                                    title="S3 manipulability along the tour")
+    fig = viz.manipulability_figure(t, {"w = √det(JᵀJ) = ∏σᵢ of the 6×5 J": plan.manipulability},
+                                    xlabel="time (s)", title="S3 manipulability along the tour")
     viz.save_png(fig, out / "manipulability.png")
 
     if scene:

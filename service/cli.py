@@ -60,7 +60,8 @@ def parse_params(items: list[str] | None) -> dict:
 
 
 def load_robot(args, *, geometry: bool | None = None, task_axes=None):
-    """The robot named by the arguments of :func:`add_robot_args` (``geometry`` defaults to ``args.geometry``)."""
+    """The robot named by the arguments of :func:`add_robot_args` (``geometry`` defaults to
+    ``args.geometry``)."""
     from kinserve import robots
 
     return robots.load(
@@ -89,16 +90,20 @@ def emit(args, payload: dict, text: str) -> None:
 
 def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
     p.add_argument("robot", help="built-in robot name (see `kinserve models`), or a .urdf/.xacro path")
-    p.add_argument("--param", action="append", metavar="KEY=VALUE", help="model parameter / xacro arg (repeatable)")
+    p.add_argument("--param", action="append", metavar="KEY=VALUE",
+                   help="model parameter / xacro arg (repeatable)")
     p.add_argument("--package-dir", action="append", metavar="DIR",
                    help="folder resolving package://PKG/... and $(find PKG): a package, a folder of "
                         "packages or a workspace (repeatable; searched before the model's own folders, "
                         "$ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH)")
-    p.add_argument("--srdf", metavar="FILE", help="SRDF with named states and groups (default: the one beside the model)")
+    p.add_argument("--srdf", metavar="FILE",
+                   help="SRDF with named states and groups (default: the one beside the model)")
     p.add_argument("--allow-outside", action="store_true",
-                   help="let the model read mesh and xacro-included files outside its own folder and the package folders")
+                   help="let the model read mesh and xacro-included files outside its own folder and the "
+                        "package folders")
     if q:
-        p.add_argument("--q", nargs="+", metavar="Q", help="joint values (rad / m), space or comma separated; default: neutral")
+        p.add_argument("--q", nargs="+", metavar="Q",
+                       help="joint values (rad / m), space or comma separated; default: neutral")
         p.add_argument("--frame", help="frame name (default: the robot's tool frame)")
     p.add_argument("--json", action="store_true", help="print JSON")
 
@@ -152,9 +157,9 @@ def cmd_jacobian(args) -> int:
         f"manipulability {manip:.6g}{'  SINGULAR' if singular else ''}"
     )
     payload = {
-        "robot": robot.name, "frame": frame, "reference": args.reference, "q": q.tolist(), "jacobian": J.tolist(),
-        "task_axes": list(robot.task_axes), "task_axes_origin": origin, "singular_values": sv.tolist(),
-        "manipulability": manip, "singular": singular,
+        "robot": robot.name, "frame": frame, "reference": args.reference, "q": q.tolist(),
+        "jacobian": J.tolist(), "task_axes": list(robot.task_axes), "task_axes_origin": origin,
+        "singular_values": sv.tolist(), "manipulability": manip, "singular": singular,
     }
     emit(args, payload, text)
     return 0
@@ -176,7 +181,8 @@ class OneLineParser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     from kinserve import __version__
 
-    parser = OneLineParser(prog="kinserve", description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
+    parser = OneLineParser(prog="kinserve",
+                           description="Pinocchio-based kinematics: FK, Jacobians, IK, plans.")
     parser.add_argument("--version", action="version", version=f"kinserve {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -193,7 +199,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_robot_args(p)
     p.add_argument("--reference", default="world", choices=["world", "local", "spatial"])
     p.add_argument("--axes", metavar="A,B,...",
-                   help="task rows for the singularity measures, e.g. x,y,z or x,y,yaw (default: the robot's task axes)")
+                   help="task rows for the singularity measures, e.g. x,y,z or x,y,yaw (default: "
+                        "the robot's task axes)")
     p.set_defaults(func=cmd_jacobian)
 
     import importlib
@@ -204,8 +211,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: Modules defining further sub-commands, each with ``register(subparsers)``.
-_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view", "kinserve.service.cli_serve", "kinserve.service.cli_reach",
-                   "kinserve.service.cli_frames", "kinserve.service.cli_collide")
+_EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view",
+                   "kinserve.service.cli_serve", "kinserve.service.cli_reach", "kinserve.service.cli_frames",
+                   "kinserve.service.cli_collide")
 
 
 def describe_os_error(exc: OSError) -> str:
@@ -235,7 +243,8 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:  # a bug: still one line, unless the user asks for the traceback
         if os.environ.get("KINSERVE_DEBUG"):
             raise
-        print(f"error: internal {type(exc).__name__}: {exc} (KINSERVE_DEBUG=1 shows the traceback)", file=sys.stderr)
+        print(f"error: internal {type(exc).__name__}: {exc} (KINSERVE_DEBUG=1 shows the traceback)",
+              file=sys.stderr)
         return EXIT_INTERNAL
 
 
