@@ -3,7 +3,8 @@
 Built from the Pinocchio ``GeometryModel`` of the URDF's ``<collision>`` elements
 (the loader builds it; :meth:`CollisionModel.from_urdf` builds it from URDF text).
 
-**Meshes become convex hulls** (coal ``BVHModel.buildConvexHull``, qhull): GJK on a
+**Meshes become convex hulls** (:mod:`.mesh_hulls`: coal's qhull, scipy's when coal
+cannot make one - :attr:`CollisionModel.hull_fallbacks` names those meshes): GJK on a
 hull costs a fraction of a triangle-soup BVH query (Panda: 22 µs against 40 µs
 for ``pinocchio.computeCollisions`` over its 44 SRDF pairs, and far less for
 distances), and coal returns *signed* distances (penetration depth) only for
@@ -17,6 +18,10 @@ as they are.
 
 **Pairs**: see :mod:`.collision_pairs` (SRDF when given, else computed MoveIt-style
 and cached per model text by :mod:`.collision_cache`).
+
+**Progress**: a build that computes hulls and pairs for more than a second shows a
+bar on stderr when stderr is a terminal (:mod:`.build_progress`); it is silent
+otherwise.
 """
 
 from __future__ import annotations
@@ -31,8 +36,8 @@ import numpy as np
 import pinocchio as pin
 
 from . import collision_cache
-from .collision_layout import SceneLayout, shape_signature
-from .collision_scene import CollisionScene
+from .build_progress import build_progress
+from .collision_layout import RobotCollisionGeometry, SceneLayout, shape_signature
 from .collision_pairs import (
     ALGORITHM_VERSION,
     SAMPLES,
@@ -43,31 +48,12 @@ from .collision_pairs import (
     geometry_links,
     srdf_disabled_pairs,
 )
+from .collision_scene import CollisionScene
 from .errors import ModelError
+from .mesh_hulls import HullFallback, convex_hulls
 
 #: Scenes (obstacle sets) kept per model, least recently used dropped first (also: layouts kept).
 SCENE_CACHE_SIZE = 32
-
-
-def convex_hulls(geometry: pin.GeometryModel) -> dict[str, float]:
-    """Replace every mesh (BVH model) of ``geometry`` in place by its convex hull.
-
-    Returns ``{geometry name: volume(hull) / volume(mesh)}`` (``nan`` when the mesh
-    encloses no volume, e.g. an open surface).
-    """
-    ratios: dict[str, float] = {}
-    for g in geometry.geometryObjects:
-        mesh = g.geometry
-        if not isinstance(mesh, coal.BVHModelBase):
-            continue
-        if mesh.num_vertices < 4:
-            raise ModelError(f"collision mesh of {g.name!r} has {mesh.num_vertices} vertices; a solid needs at least 4")
-        mesh.buildConvexHull(True, "Qt")  # keep the hull triangles: volume, drawing
-        hull = mesh.convex
-        vol = float(mesh.computeVolume())
-        ratios[g.name] = float(hull.computeVolume()) / vol if vol > 1e-15 else float("nan")
-        g.geometry = hull
-    return ratios
 
 
 def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
@@ -78,9 +64,11 @@ def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tup
     return placement.act(np.asarray(geometry.aabb_center, dtype=float)), float(geometry.aabb_radius)
 
 
-def _shape_dict(g, link: str) -> dict:
+def _shape_dict(g: pin.GeometryObject, link: str) -> dict:
+    """:meth:`CollisionModel.shape_data`'s entry of geometry object ``g`` carried by ``link``."""
     geo = g.geometry
-    out = {"name": g.name, "link": link, "joint": int(g.parentJoint), "placement": g.placement.homogeneous.copy()}
+    out = {"name": g.name, "link": link, "joint": int(g.parentJoint),
+           "placement": g.placement.homogeneous.copy()}
     if isinstance(geo, coal.Box):
         out.update(kind="box", size=(2.0 * np.asarray(geo.halfSide)).tolist())
     elif isinstance(geo, coal.Sphere):
@@ -89,8 +77,9 @@ def _shape_dict(g, link: str) -> dict:
         out.update(kind="cylinder" if isinstance(geo, coal.Cylinder) else "capsule", radius=float(geo.radius),
                    length=2.0 * float(geo.halfLength))
     elif isinstance(geo, coal.Convex):
-        faces = [[int(t[0]), int(t[1]), int(t[2])] for t in (geo.polygons(i) for i in range(geo.num_polygons))]
-        out.update(kind="convex", vertices=np.array([geo.point(i) for i in range(geo.num_points)]),
+        triangles = (geo.polygons(i) for i in range(geo.num_polygons))
+        faces = [[int(t[0]), int(t[1]), int(t[2])] for t in triangles]
+        out.update(kind="convex", vertices=np.array(geo.points(), dtype=float).reshape(-1, 3),
                    faces=np.array(faces, dtype=int).reshape(-1, 3))
     else:
         out.update(kind="other", type=type(geo).__name__)
@@ -114,10 +103,13 @@ class CollisionModel:
     model_text:
         The URDF text, the cache key of computed pairs (None: no cache).
     name:
-        Robot name, for messages.
+        Robot name, for messages (and the progress bar).
+    samples, seed:
+        Number of random configurations of the computed pairs and their seed.
 
     Raises :class:`ModelError` when the geometry is empty (the URDF has no
-    ``<collision>`` elements) or the SRDF names unknown links.
+    ``<collision>`` elements), a mesh has no convex hull (the message names the
+    geometry, its link, its mesh file and the cause) or the SRDF names unknown links.
     """
 
     def __init__(self, model: pin.Model, geometry: pin.GeometryModel, lower: np.ndarray, upper: np.ndarray, *,
@@ -125,84 +117,102 @@ class CollisionModel:
                  name: str = "robot", samples: int = SAMPLES, seed: int = SEED) -> None:
         if geometry is None or geometry.ngeoms == 0:
             raise ModelError(
-                f"robot {name!r} has no collision geometry: its URDF has no <collision> elements, so collisions "
-                "cannot be checked; add <collision> shapes (cylinders, boxes, meshes) to its links"
+                f"robot {name!r} has no collision geometry: its URDF has no <collision> elements, so "
+                "collisions cannot be checked; add <collision> shapes (cylinders, boxes, meshes) to its links"
             )
         self.name = name
         self.model = model
         gm = geometry.copy()
         gm.removeAllCollisionPairs()
-        self.hull_volume_ratio = convex_hulls(gm)
         self.links: list[str] = geometry_links(model, gm)
-        self.geometry_names: list[str] = [g.name for g in gm.geometryObjects]
-        if srdf is not None:
-            frame_names = [f.name for f in model.frames]
-            self.disabled = srdf_disabled_pairs(srdf, frame_names, srdf_label)
-            self.pair_source = "srdf"
-        else:
-            self.disabled, self.pair_source = self._computed_pairs(gm, lower, upper, model_text, samples, seed)
+        cached = self._cached_pairs(model_text, samples, seed) if srdf is None else None
+        sampled = int(samples) if srdf is None and cached is None else 0
+        with build_progress(gm.ngeoms + sampled, f"collision model of {name!r}") as bar:
+            hulls = convex_hulls(gm, self.links, on_mesh=lambda: bar.update(1))
+            #: ``{geometry name: volume(hull) / volume(mesh)}`` of every mesh (:mod:`.mesh_hulls`).
+            self.hull_volume_ratio: dict[str, float] = hulls.volume_ratio
+            #: The meshes whose hull scipy's qhull made because coal's failed, with coal's reason.
+            self.hull_fallbacks: tuple[HullFallback, ...] = hulls.fallbacks
+            self.geometry_names: list[str] = [g.name for g in gm.geometryObjects]
+            if srdf is not None:
+                frame_names = [f.name for f in model.frames]
+                self.disabled = srdf_disabled_pairs(srdf, frame_names, srdf_label)
+                self.pair_source = "srdf"
+            elif cached is not None:
+                self.disabled, self.pair_source = cached, "cache"
+            else:
+                self.disabled = self._computed_pairs(gm, lower, upper, model_text, samples, seed, bar.update)
+                self.pair_source = "computed"
         self.self_pairs: list[tuple[int, int]] = candidate_geometry_pairs(model, gm, self.disabled)
         for i, j in self.self_pairs:
             gm.addCollisionPair(pin.CollisionPair(i, j))
         self.geometry = gm
         #: Pinocchio joint of each robot geometry (0 = fixed base) and the model's self pairs, in model order.
         self.geometry_joints: list[int] = [int(g.parentJoint) for g in gm.geometryObjects]
-        self.model_pairs: list[tuple[int, int]] = [(int(cp.first), int(cp.second)) for cp in gm.collisionPairs]
+        self.model_pairs: list[tuple[int, int]] = [(int(cp.first), int(cp.second))
+                                                   for cp in gm.collisionPairs]
+        #: The robot's sphere model (:func:`~.robot_spheres.robot_spheres`; None when its tree has other
+        #: joints than one-DoF revolute / prismatic ones), built with the model, as is the compiled pre-check.
+        self.spheres = _sphere_model(model, gm)
+        #: What every scene layout of this model reads (:class:`~.collision_layout.RobotCollisionGeometry`).
+        self.robot_geometry = RobotCollisionGeometry(model, gm, tuple(self.links),
+                                                     tuple(self.geometry_joints), tuple(self.model_pairs),
+                                                     self.spheres)
+        self._shape_data = [_shape_dict(g, link) for g, link in zip(gm.geometryObjects, self.links)]
+        self._base_spheres = _base_spheres(gm, self.geometry_joints)
         self._scenes: OrderedDict = OrderedDict()  #: (self_collision, *ids) -> (scene, obstacles)
         self._scenes_by_value: OrderedDict = OrderedDict()  #: (self_collision, *shapes) -> scene
         self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
         self._lock = threading.Lock()
 
     @classmethod
-    def from_urdf(cls, model: pin.Model, urdf: str, package_dirs: Sequence[str], lower: np.ndarray, upper: np.ndarray,
+    def from_urdf(cls, model: pin.Model, urdf: str, package_dirs: Sequence[str], lower: np.ndarray,
+                  upper: np.ndarray,
                   **kw: Any) -> "CollisionModel":
         """Build the collision ``GeometryModel`` from URDF text, then the model (see the class)."""
         try:
-            gm = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.COLLISION, package_dirs=list(package_dirs))
+            gm = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.COLLISION,
+                                             package_dirs=list(package_dirs))
         except (ValueError, RuntimeError, OSError) as exc:
-            raise ModelError(f"robot {kw.get('name', 'robot')!r}: cannot build the collision geometry: {exc}") from None
+            name = kw.get("name", "robot")
+            raise ModelError(f"robot {name!r}: cannot build the collision geometry: {exc}") from None
         return cls(model, gm, lower, upper, model_text=kw.pop("model_text", urdf), **kw)
 
-    def _computed_pairs(self, gm, lower, upper, model_text, samples, seed) -> tuple[dict[LinkPair, str], str]:
-        key = collision_cache.cache_key(model_text, samples, seed, ALGORITHM_VERSION) if model_text else None
-        if key is not None:
-            cached = collision_cache.load_pairs(key)
-            if cached is not None:
-                return cached, "cache"
-        pairs = compute_disabled_pairs(self.model, gm, np.asarray(lower), np.asarray(upper), samples, seed)
+    @staticmethod
+    def _cache_key(model_text: str | None, samples: int, seed: int) -> str | None:
+        return collision_cache.cache_key(model_text, samples, seed, ALGORITHM_VERSION) if model_text else None
+
+    def _cached_pairs(self, model_text, samples, seed) -> dict[LinkPair, str] | None:
+        key = self._cache_key(model_text, samples, seed)
+        return collision_cache.load_pairs(key) if key is not None else None
+
+    def _computed_pairs(self, gm, lower, upper, model_text, samples, seed, progress) -> dict[LinkPair, str]:
+        pairs = compute_disabled_pairs(self.model, gm, np.asarray(lower), np.asarray(upper), samples, seed,
+                                       progress)
+        key = self._cache_key(model_text, samples, seed)
         if key is not None:
             collision_cache.store_pairs(key, pairs)
-        return pairs, "computed"
+        return pairs
 
     def shape_data(self) -> list[dict]:
-        """Plain data of every robot geometry in its joint frame (for viewers; computed once).
+        """Plain data of every robot geometry in its joint frame (for viewers; made with the model).
 
         ``{"name", "link", "joint", "placement" (4x4 in the joint frame), "kind"}`` plus,
         by kind: ``box`` ``size`` (full edges, m); ``sphere`` ``radius``; ``cylinder`` /
         ``capsule`` ``radius``, ``length`` (local z); ``convex`` ``vertices`` ``(V, 3)``
         and ``faces`` ``(F, 3)`` (triangles of the hull).
         """
-        cached = self.__dict__.get("_shape_data")
-        if cached is None:
-            cached = self._shape_data = [_shape_dict(g, link) for g, link in zip(self.geometry.geometryObjects, self.links)]
-        return cached
+        return self._shape_data
 
     def base_spheres(self) -> list[tuple[int, np.ndarray, float]]:
-        """``[(geometry index, centre (3,), radius), ...]``: a sphere (world, m) containing each geometry fixed
-        to the world (joint 0), from coal's local AABB sphere at the geometry's placement (computed once)."""
-        cached = self.__dict__.get("_base_spheres")
-        if cached is None:
-            cached = []
-            for i, joint in enumerate(self.geometry_joints):
-                if joint == 0:
-                    obj = self.geometry.geometryObjects[i]
-                    centre, radius = bounding_sphere(obj.geometry, obj.placement)
-                    cached.append((i, centre, radius))
-            self._base_spheres = cached
-        return cached
+        """``[(geometry index, centre (3,), radius), ...]``: a sphere (world, m) containing each geometry
+        to the world (joint 0), from coal's local AABB sphere at the geometry's placement (made with the
+        model)."""
+        return self._base_spheres
 
     def __repr__(self) -> str:
-        return (f"CollisionModel({self.name!r}, {len(self.links)} geometries, {len(self.self_pairs)} self pairs, "
+        return (f"CollisionModel({self.name!r}, {len(self.links)} geometries, "
+                f"{len(self.self_pairs)} self pairs, "
                 f"pairs from {self.pair_source})")
 
     # ----------------------------------------------------------------- scenes
@@ -239,7 +249,7 @@ class CollisionModel:
         scene = self._scenes_by_value.get(vkey) if by_value else None
         scene_is_new = scene is None
         if scene_is_new:
-            scene = CollisionScene(self, obs, self_collision, self.layout(obs, self_collision))
+            scene = CollisionScene(self.layout(obs, self_collision), obs)
         with self._lock:  # the identity key was absent above (and the value key too when no scene was found)
             _remember(self._scenes, key, (scene, obs), new=True)
             if by_value:
@@ -253,10 +263,31 @@ class CollisionModel:
         key = (self_collision, *map(shape_signature, obstacles))
         layout = self._layouts.get(key)
         if layout is None:
-            layout = SceneLayout(self, obstacles, self_collision)
+            layout = SceneLayout(self.robot_geometry, obstacles, self_collision)
             with self._lock:
                 _remember(self._layouts, key, layout)
         return layout
+
+
+def _sphere_model(model: pin.Model, geometry: pin.GeometryModel) -> Any:
+    """:func:`~.robot_spheres.robot_spheres` of the hull geometry; the scenes' pre-check and its compiled
+    kernels (Numba) are loaded now too, so no scene of the model loads them (imported here, not with this
+    module: ``import kinserve`` does not pay for them)."""
+    from . import scene_precheck  # noqa: F401 - its kernels compile (or load from Numba's cache) on import
+    from .robot_spheres import robot_spheres
+
+    return robot_spheres(model, geometry)
+
+
+def _base_spheres(geometry: pin.GeometryModel, joints: list[int]) -> list[tuple[int, np.ndarray, float]]:
+    """:meth:`CollisionModel.base_spheres` of ``geometry`` (``joints``: the joint of each geometry)."""
+    out = []
+    for i, joint in enumerate(joints):
+        if joint == 0:
+            obj = geometry.geometryObjects[i]
+            centre, radius = bounding_sphere(obj.geometry, obj.placement)
+            out.append((i, centre, radius))
+    return out
 
 
 def _remember(cache: OrderedDict, key: tuple, value: Any, new: bool = False) -> None:

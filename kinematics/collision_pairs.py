@@ -22,8 +22,10 @@ checked are a set of **disabled link pairs**, taken from one of two sources:
   in a region of volume below about ``1 / SAMPLES`` of the joint space can be
   disabled wrongly - give the model an SRDF when that matters.
 
-Computed sets are cached on disk per model text (see :mod:`.collision_cache`):
-the sampling costs a few hundred milliseconds on a 7-joint arm.
+Computed sets are cached on disk per model text (see :mod:`.collision_cache`).
+coal runs only on the (sample, pair) cases whose bounding spheres come close, and
+stops on a pair once its verdict is known (:mod:`.pair_sampling`); the verdicts
+are those of the full count.
 
 Geometries on the same Pinocchio joint (one rigid body) are never paired: their
 relative pose cannot change. Pairs are link names in sorted order.
@@ -31,14 +33,15 @@ relative pose cannot change. Pairs are link names in sorted order.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 import pinocchio as pin
 
 from .errors import ModelError, suggest
+from .pair_sampling import PairChecker, sampled_verdicts
 
-#: Number of random configurations of the "always" / "never" tests (MoveIt's setup assistant default is 10000).
+#: Number of random configurations of the "always" / "never" tests (MoveIt's setup assistant: 10000).
 SAMPLES = 2000
 #: Seed of the random configurations (``numpy.random.default_rng``).
 SEED = 0
@@ -78,11 +81,13 @@ def srdf_disabled_pairs(srdf: str, link_names: Iterable[str], label: str = "SRDF
     for el in root.iter("disable_collisions"):
         a, b = el.get("link1"), el.get("link2")
         if not a or not b:
-            raise ModelError(f"{label}, line {el.sourceline}: <disable_collisions> needs link1= and link2= attributes")
+            raise ModelError(f"{label}, line {el.sourceline}: <disable_collisions> needs link1= and link2= "
+                             "attributes")
         for name in (a, b):
             if name not in known:
                 raise ModelError(
-                    f"{label}, line {el.sourceline}: <disable_collisions> names link {name!r}, which the robot "
+                    f"{label}, line {el.sourceline}: <disable_collisions> names link {name!r}, which the "
+                    "robot "
                     f"does not have.{suggest(name, known)}"
                 )
         pairs[link_pair(a, b)] = el.get("reason") or "srdf"
@@ -122,44 +127,39 @@ def candidate_geometry_pairs(model: pin.Model, geometry: pin.GeometryModel,
     return out
 
 
-def compute_disabled_pairs(model: pin.Model, geometry: pin.GeometryModel, lower: np.ndarray, upper: np.ndarray,
-                           samples: int = SAMPLES, seed: int = SEED) -> dict[LinkPair, str]:
+def compute_disabled_pairs(model: pin.Model, geometry: pin.GeometryModel, lower: np.ndarray,
+                           upper: np.ndarray, samples: int = SAMPLES, seed: int = SEED,
+                           progress: Callable[[int], None] | None = None) -> dict[LinkPair, str]:
     """MoveIt-style disabled link pairs (see the module docstring): adjacent, default, always, never.
 
-    ``geometry`` is left unchanged (a copy is checked). Cost: ``samples`` calls of
-    ``pinocchio.computeCollisions`` over every candidate pair.
+    ``geometry`` is left unchanged (a copy is checked). The always / never tests
+    are :func:`~.pair_sampling.sampled_verdicts` (coal only where bounding spheres
+    of a pair come close; the verdicts of a full count). ``progress(k)`` is
+    called as the samples are done (``k`` samples at a time, ``samples`` in all).
     """
     disabled = adjacent_pairs(model, geometry)
     gm = geometry.copy()
     gm.removeAllCollisionPairs()
     pairs = candidate_geometry_pairs(model, gm, disabled)
     if not pairs:
+        if progress is not None:
+            progress(int(samples))
         return disabled
     for i, j in pairs:
         gm.addCollisionPair(pin.CollisionPair(i, j))
-    gd = pin.GeometryData(gm)
-    for req in gd.collisionRequests:
-        req.security_margin = 0.0
-    data = model.createData()
+    checker = PairChecker(model, gm)
     links = geometry_links(model, gm)
     pair_links = [link_pair(links[i], links[j]) for i, j in pairs]
-
-    def colliding_links(q: np.ndarray) -> set[LinkPair]:
-        pin.computeCollisions(model, data, gm, gd, q, False)
-        return {pair_links[k] for k, res in enumerate(gd.collisionResults) if res.isCollision()}
-
-    for lp in colliding_links(np.clip(0.5 * (lower + upper), lower, upper)):
-        disabled[lp] = "Default"
-    counts: dict[LinkPair, int] = dict.fromkeys(set(pair_links) - set(disabled), 0)
+    for k in checker.colliding(np.clip(0.5 * (lower + upper), lower, upper), range(len(pairs))):
+        disabled[pair_links[k]] = "Default"
+    live = [k for k, lp in enumerate(pair_links) if lp not in disabled]
+    link_pairs = sorted({pair_links[k] for k in live})
+    index = {lp: n for n, lp in enumerate(link_pairs)}
     rng = np.random.default_rng(seed)
     Q = rng.uniform(lower, upper, size=(int(samples), model.nq))
-    for q in Q:
-        for lp in colliding_links(q):
-            if lp in counts:
-                counts[lp] += 1
-    for lp, n in counts.items():
-        if n == 0:
-            disabled[lp] = "Never"
-        elif n >= ALWAYS_FRACTION * len(Q):
-            disabled[lp] = "Always"
+    verdicts = sampled_verdicts(checker, live, [index[pair_links[k]] for k in live], len(link_pairs), Q,
+                                ALWAYS_FRACTION, progress)
+    for lp, verdict in zip(link_pairs, verdicts):
+        if verdict is not None:
+            disabled[lp] = verdict
     return dict(sorted(disabled.items()))

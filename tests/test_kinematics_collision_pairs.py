@@ -1,14 +1,16 @@
 """MoveIt-style disabled-pair computation: adjacency, determinism with the stated seed, the on-disk cache,
 SRDF parsing."""
 
+import io
 import json
+import sys
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from kinserve import robots
-from kinserve.kinematics import collision_cache, collision_pairs, errors
+from kinserve.kinematics import build_progress, collision_cache, collision_pairs, errors
 from kinserve.kinematics.collision_model import CollisionModel
 from kinserve.robots import paths
 
@@ -109,3 +111,27 @@ def test_loader_finds_the_srdf_by_convention():
     assert find_srdf(erd / "ur_description/urdf/ur5_robot.urdf") == erd / "ur_description/srdf/ur5.srdf"
     assert robots.load("panda").srdf is not None and robots.load("planar4r").srdf is None
     assert isinstance(robots.load("planar4r").collision.geometry, pin.GeometryModel)
+
+
+class Terminal(io.StringIO):
+    """A stderr that says it is a terminal."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("delay, terminal, shown",
+                         [(0.0, True, True), (0.0, False, False), (1e9, True, False)])
+def test_build_progress_only_on_a_terminal_and_after_the_delay(cache, monkeypatch, delay, terminal, shown):
+    robot = robots.load("youbot")
+    monkeypatch.setattr(build_progress, "DELAY", delay)
+    stream = Terminal() if terminal else io.StringIO()
+    monkeypatch.setattr(sys, "stderr", stream)
+    cm = _fresh(robot, model_text=robot.source)
+    assert cm.pair_source == "computed"
+    text = stream.getvalue()
+    if shown:
+        total = len(cm.geometry_names) + collision_pairs.SAMPLES  # one step per geometry and per sample
+        assert "collision model of 'youbot'" in text and f"/{total}" in text
+    else:
+        assert text == ""
