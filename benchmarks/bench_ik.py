@@ -41,7 +41,11 @@ p95 / mean time per solve and ratios; then ``ik.solve_many`` throughput on
 1 and 2 processes at 10k and 50k targets (best of 3 runs, see
 :func:`batch_throughput`; ``--batch-only`` runs just this part) and against
 ik_LM solved one by one, and how much parallelism the machine actually
-delivers (two CPU-bound processes vs one).
+delivers (two CPU-bound processes vs one); and ``ik.solve_many`` on one
+process against a plain loop of ``ik.solve`` on the same targets, starts and
+seed (:func:`many_vs_loop`, ``--many-n`` targets, ``--many-only`` runs just
+this row): targets/s of each, their ratio, and how many answers are
+identical.
 
 Same-start rows (issue 10: kinserve's lead comes from its table of starts):
 for each target the start kinserve itself would try first
@@ -63,7 +67,8 @@ Targets (issue 3): ``auto`` success >= 99.9 % with median time <= 1.0x
 ik_LM's; (issue 10) ``auto (same start)`` median <= 1.0x ``ik_LM (same start)``; ``qp`` at least 20x faster
 than Pink (mean time per solve, the figure the issue quotes for Pink) at equal or better success;
 ``solve_many`` on 2 cores >= 2x the throughput of ik_LM one by one;
-(issue 13) ``solve_many`` on 2 processes >= 1.8x one process.
+(issue 13) ``solve_many`` on 2 processes >= 1.8x one process; ``solve_many`` on one
+process >= 2x a loop of ``ik.solve``.
 
     .venv/bin/python benchmarks/bench_ik.py [--n 1000] [--out FILE.json] [--seed 0]
 """
@@ -231,6 +236,45 @@ def batch_throughput(robot, sizes, seed: int, repeats: int = 3) -> dict:
     return out
 
 
+def many_vs_loop(robot, n: int, seed: int, rounds: int = 3) -> dict:
+    """``ik.solve_many`` on one process vs a plain loop of ``ik.solve``: targets/s (best of ``rounds``,
+    alternating which goes first), their ratio (target >= 2) and the share of identical answers.
+
+    Same targets (FK of uniform random configurations of the flange), same start configurations, same
+    default tolerances and seed for both; the first round's results are compared answer by answer
+    (configuration, success, iterations, restarts, message).
+    """
+    rng = np.random.default_rng(seed + 2)
+    targets = robot.fk_batch(robot.random_q(rng, n), FRAME)
+    starts = robot.random_q(rng, n)
+    warm = min(50, n)  # imports, seed table, compiled code: not timed
+    ik.solve_many(robot, targets[:warm], starts[:warm], frame=FRAME, processes=1, progress=False)
+    for i in range(warm):
+        ik.solve(robot, targets[i], starts[i], frame=FRAME)
+    best = {"loop": np.inf, "solve_many": np.inf}
+    answers = {}
+    for r in range(rounds):
+        for name in (("loop", "solve_many") if r % 2 == 0 else ("solve_many", "loop")):
+            t0 = time.perf_counter()
+            if name == "loop":
+                res = [ik.solve(robot, T, q0, frame=FRAME) for T, q0 in zip(targets, starts)]
+            else:
+                res = ik.solve_many(robot, targets, starts, frame=FRAME, processes=1, progress=False)
+            best[name] = min(best[name], time.perf_counter() - t0)
+            answers.setdefault(name, res)
+    same = sum(np.array_equal(a.q, b.q) and (a.success, a.iterations, a.restarts, a.message)
+               == (b.success, b.iterations, b.restarts, b.message)
+               for a, b in zip(answers["loop"], answers["solve_many"]))
+    rate = {k: n / v for k, v in best.items()}
+    out = {"n": n, "targets_per_s": rate, "ratio": rate["solve_many"] / rate["loop"],
+           "identical_pct": 100.0 * same / n, "load": _loadavg(),
+           "success_pct": {k: 100.0 * float(np.mean([x.success for x in v])) for k, v in answers.items()}}
+    print(f"solve_many 1 process vs a loop of ik.solve, n={n}: {rate['solve_many']:,.0f} vs "
+          f"{rate['loop']:,.0f} targets/s, ratio {out['ratio']:.2f} (target >= 2); identical answers "
+          f"{out['identical_pct']:.1f} %; load {out['load']}", flush=True)
+    return out
+
+
 def _cpu_seconds(pids) -> list[float]:
     """user + system CPU seconds of each process (``/proc/<pid>/stat``)."""
     tick = os.sysconf("SC_CLK_TCK")
@@ -357,11 +401,16 @@ def main() -> None:
                     help="batch sizes of the solve_many part (comma-separated, default 10000,50000)")
     ap.add_argument("--batch-only", action="store_true",
                     help="only the solve_many part (1 vs 2 processes); needs no peer library")
+    ap.add_argument("--many-n", type=int, default=2000,
+                    help="targets of the solve_many (1 process) vs loop of ik.solve row (default 2000)")
+    ap.add_argument("--many-only", action="store_true", help="only the solve_many vs loop of ik.solve row")
     args = ap.parse_args()
-    if args.batch_only:
+    if args.batch_only or args.many_only:
         robot = robots.load("panda", tip=FRAME, geometry=False)
-        batch = batch_throughput(robot, args.batch_n, args.seed)
-        write_json(args.out, {"machine": machine(), "solve_many": batch})
+        out = {"machine": machine(), "solve_many_vs_loop": many_vs_loop(robot, args.many_n, args.seed)}
+        if args.batch_only:
+            out["solve_many"] = batch_throughput(robot, args.batch_n, args.seed)
+        write_json(args.out, out)
         return
 
     robot = robots.load("panda", tip=FRAME, geometry=False)
@@ -459,6 +508,7 @@ def main() -> None:
 
     # ---- batch throughput: solve_many on 1 and 2 processes (and vs ik_LM one by one)
     batch = batch_throughput(robot, args.batch_n, args.seed)
+    vs_loop = many_vs_loop(robot, args.many_n, args.seed)
     top = batch["runs"][-1]
     rate_many, batch_ok = top["targets_per_s"][2], top["success_pct"][2]
     rates = top["targets_per_s"]
@@ -505,12 +555,14 @@ def main() -> None:
     if rtb_robot is not None:
         verdict["solve_many_ge_2x_ik_LM"] = rate_many / rate_iklm >= 2.0
     verdict["solve_many_2_processes_ge_1.8x_one"] = batch["ratio_ge_1.8"]
+    verdict["solve_many_1_process_ge_2x_loop_of_ik_solve"] = vs_loop["ratio"] >= 2.0
     print("targets:", ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()))
 
     write_json(args.out, {
         "machine": m,
         "workload": {"robot": "panda", "frame": FRAME, "n": args.n, "seed": args.seed,
-                     "success": "position error < 1e-4 m, rotation error < 1e-3 rad, q within limits (our FK)"},
+                     "success": "position error < 1e-4 m, rotation error < 1e-3 rad, q within limits "
+                                "(our FK)"},
         "fk_agreement_max_abs": fk_diff,
         "same_start": {"rows": sorted(same_start), "table_start_pct": from_table,
                        "placo": placo.version if placo is not None else "skipped"},
@@ -519,6 +571,7 @@ def main() -> None:
                        "one_process_targets_per_s": rates[1], "ik_LM_one_by_one_per_s": rate_iklm,
                        "ours_one_by_one_per_s": rate_auto, "ratio_vs_ik_LM": rate_many / rate_iklm,
                        "machine_parallel_scaling_2_processes": scaling, "one_vs_two_processes": batch},
+        "solve_many_vs_loop": vs_loop,
         "targets_met": verdict,
     })
     if placo is not None:
