@@ -373,7 +373,7 @@ def _run_starts(run: _Run, sequence, max_starts: int | None) -> _Starts:
     best = None
     iterations = n_starts = skipped = 0
     for q in sequence:
-        st = pb.state(q)  # (its margin decides whether the start is used; the start's first iteration reuses it)
+        st = pb.state(q)  # (its margin decides whether the start is used; its first iteration reuses it)
         if st[4] < 0.0:
             skipped += 1
             if skipped > 10000 or _out_of_time(run):
