@@ -60,10 +60,12 @@ class CartesianPlan:
 
     @property
     def max_position_error(self) -> float:
+        """Largest position error over the solved poses (m; 0 when none was solved)."""
         return float(np.max(self.position_errors)) if self.position_errors.size else 0.0
 
     @property
     def max_orientation_error(self) -> float:
+        """Largest orientation error over the solved poses (rad; 0 when none was solved)."""
         return float(np.max(self.orientation_errors)) if self.orientation_errors.size else 0.0
 
 

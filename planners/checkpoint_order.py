@@ -56,6 +56,7 @@ class OrderResult:
 
     @property
     def optimal(self) -> bool:
+        """True when the order is exact (Held-Karp), False for a heuristic order."""
         return self.method == "held-karp"
 
     @property

@@ -108,14 +108,17 @@ class JointTrajectory:
     # ------------------------------------------------------------- accessors
     @property
     def n_points(self) -> int:
+        """Number of points ``N`` (rows of ``positions``)."""
         return self.positions.shape[0]
 
     @property
     def nq(self) -> int:
+        """Number of joints (columns of ``positions``)."""
         return len(self.joint_names)
 
     @property
     def duration(self) -> float:
+        """``time_from_start`` of the last point (s)."""
         return float(self.times[-1])
 
     def points(self) -> list[dict]:
@@ -138,6 +141,7 @@ class JointTrajectory:
 
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict:
+        """``{"joint_names": [...], "points": [...]}``: the JSON document as plain Python data."""
         return {"joint_names": list(self.joint_names), "points": self.points()}
 
     def to_json(self, path: str | os.PathLike | None = None, indent: int | None = None) -> str:
@@ -149,6 +153,7 @@ class JointTrajectory:
 
     @classmethod
     def from_dict(cls, d: dict) -> "JointTrajectory":
+        """The trajectory of a document as :meth:`to_dict` writes it (:class:`InputError` if malformed)."""
         if not isinstance(d, dict) or "joint_names" not in d or "points" not in d:
             raise InputError("a trajectory document needs 'joint_names' and 'points'")
         pts = d["points"]

@@ -113,21 +113,26 @@ class ResolvedRateResult:
 
     @property
     def first_event_step(self) -> int | None:
+        """Step of the first singularity event, or None when there was none."""
         return self.events[0].step if self.events else None
 
     @property
     def max_error(self) -> float:
+        """Largest task error over the steps (task units: m, rad for yaw)."""
         return float(self.errors.max())
 
     @property
     def final_error(self) -> float:
+        """Task error at the last step."""
         return float(self.errors[-1])
 
     @property
     def rms_error(self) -> float:
+        """Root mean square of the task errors over the steps."""
         return float(np.sqrt(np.mean(self.errors**2)))
 
     def summary(self) -> dict:
+        """Steps, loop kind, error figures and events as a JSON-ready dict."""
         return {
             "steps": int(len(self.times) - 1),
             "closed_loop": self.closed_loop,

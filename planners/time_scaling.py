@@ -61,6 +61,7 @@ class TimeScaling:
         raise NotImplementedError
 
     def __call__(self, t: ArrayLike) -> np.ndarray:
+        """``s(t)``, the progress at times ``t`` (same as :meth:`s`)."""
         return self.evaluate(t)[0]
 
     def s(self, t: ArrayLike) -> np.ndarray:
@@ -90,6 +91,7 @@ class PolynomialTimeScaling(TimeScaling):
     kind: str
 
     def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(s, s', s'')`` of the polynomial at times ``t`` (s), clamped to ``[0, T]``."""
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         return tuple(polynomials.evaluate(self.coefficients, t, 2))
 
@@ -124,9 +126,11 @@ class TrapezoidalTimeScaling(TimeScaling):
 
     @property
     def kind(self) -> str:
+        """``"trapezoidal"``."""
         return "trapezoidal"
 
     def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(s, s', s'')`` at times ``t`` (s), clamped: ``a_max`` up to ``t_a``, cruise, mirror image."""
         t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         a, ta, vp, T = self.a_max, self.t_a, self.v_peak, self.duration
         td = T - t

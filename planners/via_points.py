@@ -57,13 +57,16 @@ class ViaPointTrajectory:
 
     @property
     def duration(self) -> float:
+        """``t_end - t_0`` (s)."""
         return float(self.times[-1] - self.times[0])
 
     @property
     def dim(self) -> int:
+        """Dimension ``n`` of the points."""
         return self.points.shape[1]
 
     def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(q, qd, qdd)`` at times ``t`` (see the class docstring)."""
         scalar = np.ndim(t) == 0
         t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
         if self._spline is not None:

@@ -66,12 +66,14 @@ class RobotEntry:
     srdf: bool = True  #: read the SRDF found beside the model file (False when it does not fit the URDF)
 
     def path(self) -> Path:
+        """Absolute path of the model file (inside example-robot-data or ``robots/models``)."""
         if self.origin == "erd":
             return paths.erd_file(self.file)
         return paths.models_dir() / self.file
 
     @property
     def is_xacro(self) -> bool:
+        """True when the model file is a xacro file."""
         return self.file.endswith(".xacro")
 
 
@@ -273,10 +275,15 @@ class LoadOptions:
 
     def key(self) -> tuple:
         # they resolve packages too
+        """What a loaded model depends on besides its name and parameters, for the registry's cache
+
+        (``$ROS_PACKAGE_PATH`` and ``$AMENT_PREFIX_PATH`` resolve packages too, so they are part of it).
+        """
         env = tuple(os.environ.get(v) for v in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH))
         return (self.tip, self.geometry, self.package_dirs, self.allow_outside, env)
 
     def loader_kwargs(self) -> dict:
+        """The keyword arguments these options give the URDF / xacro loaders."""
         return {"tip": self.tip, "geometry": self.geometry, "package_dirs": self.package_dirs,
                 "allow_outside": self.allow_outside}
 

@@ -209,7 +209,8 @@ def _value(el, label: str, joint: str) -> float:
     try:
         v = float(text)
     except (TypeError, ValueError):
-        raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be one number (rad or m)") from None
+        raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be one number (rad "
+                         "or m)") from None
     if not math.isfinite(v):
         raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be finite")
     return v

@@ -118,6 +118,7 @@ def expand(req: dict) -> dict:
 
 
 def main() -> int:
+    """Read one request (JSON) from stdin, write its answer (JSON) to stdout; returns 0."""
     req = json.loads(sys.stdin.read())
     _limit_memory(int(req.get("memory_limit", 0)))
     try:

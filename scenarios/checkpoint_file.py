@@ -57,6 +57,7 @@ class Checkpoint:
 
     @property
     def kind(self) -> str:
+        """``"q"`` for a joint configuration, ``"pose"`` for a Cartesian pose."""
         return "q" if self.q is not None else "pose"
 
 
@@ -72,6 +73,7 @@ class CheckpointFile:
 
     @property
     def names(self) -> list[str]:
+        """The checkpoint names, in file order."""
         return [c.name for c in self.checkpoints]
 
 
@@ -176,8 +178,8 @@ def parse_csv(text: str, nq: int | None = None, source: str = "<csv>", units: st
                                                        f"{where} q")))
         else:
             x, y, z, r, p, yw = numbers(pv, where)
-            points.append(Checkpoint(name, pose=se3.pose(se3.matrix_from_rpy(r * scale,
-                                                                             p * scale, yw * scale), (x, y, z))))
+            R = se3.matrix_from_rpy(r * scale, p * scale, yw * scale)
+            points.append(Checkpoint(name, pose=se3.pose(R, (x, y, z))))
     if points[0].q is None:
         raise InputError(f"{source}: the first row (the current configuration) must be a joint vector")
     return CheckpointFile(points[0].q, points[1:], source)

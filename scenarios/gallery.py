@@ -33,6 +33,7 @@ SCREENSHOTS = {"pick-place": 7000, "scara": 0}
 
 
 def main(argv=None) -> int:
+    """Command-line entry point (see the module docstring); returns the exit status (0)."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--demo", default="demo-out")
     ap.add_argument("--out", default=str(Path(__file__).parent / "gallery"))

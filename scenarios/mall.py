@@ -131,7 +131,8 @@ def run(out: Path, *, resolution: float = 1.0, v_max: float = 50.0, a_max: float
     fig = viz.map_figure(viz_obstacles(obstacles, wrap=True), mall.BOUNDS,
                          paths={f"best order {' → '.join(visited)} ({best.length:.1f} u)": best.points,
                                 f"given order ({given.length:.1f} u)": given.points},
-                         waypoints={f"{name} (#{k + 1})": W[i] for k, (i, name) in enumerate(zip(best.order, visited))},
+                         waypoints={f"{name} (#{k + 1})": W[i]
+                                    for k, (i, name) in enumerate(zip(best.order, visited))},
                          title="S7 mall: best order of the intermediate waypoints (A* costs)")
     ax = fig.axes[0]
     ax.lines[1].set_linestyle(":")

@@ -227,8 +227,8 @@ def run(out: Path, *, center_distance: float = CENTER_DISTANCE, wheel_radius: fl
     ax.legend(loc="best", fontsize=8)
     ax.autoscale()
     viz.save_png(fig, out / "sequence.png")
-    fig = viz.series_figure(T, {f"wheel {n}": PHI[:, i] for i, n in enumerate(WHEEL_NAMES)} | {"heading θ "
-                                                                                               "(rad)": X[:, 2]},
+    fig = viz.series_figure(T, {f"wheel {n}": PHI[:, i] for i, n in enumerate(WHEEL_NAMES)}
+                            | {"heading θ (rad)": X[:, 2]},
                             xlabel="time (s)", ylabel="wheel speed (rad/s)",
                             title="Wheel speeds φ = H(0)·(v_x, v_y, ω) of the command sequence")
     ax = fig.axes[0]

@@ -91,8 +91,10 @@ def fk_residuals(robot, Q, T_target) -> tuple[np.ndarray, np.ndarray]:
 
 def branch_pairs(family) -> list[tuple[int, int]]:
     """Index pairs (elbow up, elbow down) sharing the same free parameter ``q1``."""
-    up = {round(r.info["free_parameter"], 12): i for i, r in enumerate(family) if r.info["branch"] == "elbow up"}
-    down = {round(r.info["free_parameter"], 12): i for i, r in enumerate(family) if r.info["branch"] == "elbow down"}
+    up = {round(r.info["free_parameter"], 12): i for i, r in enumerate(family)
+          if r.info["branch"] == "elbow up"}
+    down = {round(r.info["free_parameter"], 12): i for i, r in enumerate(family)
+            if r.info["branch"] == "elbow down"}
     return [(up[k], down[k]) for k in sorted(up) if k in down]
 
 

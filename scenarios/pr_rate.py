@@ -283,11 +283,13 @@ def runs_joints_figure(rows, results) -> Figure:
     key.plot([], [], color=_color(1), marker="o", label="θ₂ (deg, wrapped to ±180°), right axis")
     key.plot([], [], color="red", linestyle="--", label="singular θ₂ = ±90°")
     key.legend(loc="center", fontsize=9)
-    fig.suptitle(f"S5 joint variables over the steps, all {len(rows)} runs (open loop, damped J⁺)", fontsize=12)
+    fig.suptitle(f"S5 joint variables over the steps, all {len(rows)} runs (open loop, "
+                 "damped J⁺)", fontsize=12)
     return fig
 
 
 def plot_step_size(study: dict, path: Path) -> None:
+    """Write the open- and closed-loop final errors against the step size ``dt`` to ``path`` (PNG)."""
     fig, ((ax,),) = _figure(1, 1, (7.0, 4.4))
     dts = [r["dt"] for r in study["rows"]]
     ax.loglog(dts, [r["open_loop_final_error"] for r in study["rows"]], marker="o", color=_color(0),
@@ -307,6 +309,7 @@ def plot_step_size(study: dict, path: Path) -> None:
 
 
 def plot_circles(rows, runs, d2: float, path: Path) -> None:
+    """Write the circle-following runs (open and closed loop, the singular line ``y = d2``) to ``path``."""
     fig, axes = _figure(2, 2, (10.0, 10.0))
     for ax, row, (op, cl) in zip(axes.flat, rows, runs):
         c, r = np.asarray(row["centre"]), row["radius"]
@@ -320,7 +323,8 @@ def plot_circles(rows, runs, d2: float, path: Path) -> None:
         ax.set_title(f"centre ({c[0]:g}, {c[1]:g}), r = {r:g}, n = {row['n']}, "
                      f"Δ = {row['dt']:g}", fontsize=10)
         ax.text(0.02, 0.9,
-                f"max error\nopen {row['open']['max_error']:.2g} m\nclosed {row['closed']['max_error']:.2g} m", transform=ax.transAxes, fontsize=8, va="top",
+                f"max error\nopen {row['open']['max_error']:.2g} m\nclosed "
+                f"{row['closed']['max_error']:.2g} m", transform=ax.transAxes, fontsize=8, va="top",
                 bbox=dict(boxstyle="round", facecolor="white", alpha=0.85, linewidth=0.3))
         ax.grid(True, alpha=0.3)
         ax.set_xlabel("x (m)")
@@ -340,6 +344,7 @@ def plot_circles(rows, runs, d2: float, path: Path) -> None:
 
 
 def plot_circle_errors(rows, runs, path: Path) -> None:
+    """Write the tracking error over time of every circle run to ``path`` (PNG, log scale)."""
     fig, ((ax,),) = _figure(1, 1, (8.0, 4.8))
     for i, (row, (op, cl)) in enumerate(zip(rows, runs)):
         lab = f"c=({row['centre'][0]:g}, {row['centre'][1]:g}) r={row['radius']:g} Δ={row['dt']:g}"
@@ -442,7 +447,8 @@ def run(out: Path, *, d2: float = 1.0) -> dict:
         "runs": len(rows),
         "runs_with_singularity": sum(r["singular"] for r in rows),
         "singular_start_run": singular_start["run"],
-        "singular_start_event_step": singular_start["singular_steps"][0] if singular_start["singular_steps"] else None,
+        "singular_start_event_step": (singular_start["singular_steps"][0] if singular_start["singular_steps"]
+                                      else None),
         "run1_final_error": rows[0]["final_error"],
         "circle1_max_error_open": first_circle["open"]["max_error"],
         "circle1_max_error_closed": first_circle["closed"]["max_error"],

@@ -190,6 +190,7 @@ def load_results(demo: Path) -> dict[str, dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Command-line entry point (see the module docstring): 0, or 1 when ``--check`` finds the table stale."""
     ap = argparse.ArgumentParser(description="Regenerate the README's scenario table from demo results.")
     ap.add_argument("--demo", default="demo-out",
                     help="folder of `kinserve demo all` output (default demo-out)")

@@ -76,19 +76,23 @@ def load_robot(args, *, geometry: bool | None = None, task_axes=None):
 
 
 def robot_q(robot, args) -> np.ndarray:
+    """``--q`` checked against ``robot`` (length, limits), or the robot's neutral configuration."""
     q = parse_vector(args.q)
     return robot.neutral() if q is None else robot.check_q(q)
 
 
 def fmt_matrix(M: np.ndarray, digits: int = 6) -> str:
+    """``M`` as text, one indented row per line, ``digits`` decimals."""
     return "\n".join("  " + " ".join(f"{v: .{digits}f}" for v in row) for row in np.atleast_2d(M))
 
 
 def emit(args, payload: dict, text: str) -> None:
+    """Print ``payload`` as JSON with ``--json``, else ``text``."""
     print(json.dumps(payload, indent=2) if getattr(args, "json", False) else text)
 
 
 def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
+    """Add the robot arguments shared by the sub-commands (and ``--q`` when ``q``) to ``p``."""
     p.add_argument("robot", help="built-in robot name (see `kinserve models`), or a .urdf/.xacro path")
     p.add_argument("--param", action="append", metavar="KEY=VALUE",
                    help="model parameter / xacro arg (repeatable)")
@@ -110,6 +114,7 @@ def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
 
 # ---------------------------------------------------------------- commands
 def cmd_models(args) -> int:
+    """``kinserve models``: the built-in robot names and descriptions; returns 0."""
     from kinserve import robots
 
     models = robots.available()
@@ -119,6 +124,7 @@ def cmd_models(args) -> int:
 
 
 def cmd_fk(args) -> int:
+    """``kinserve fk``: the 4x4 pose of a frame at ``--q``; returns 0."""
     robot = load_robot(args)
     q = robot_q(robot, args)
     frame = args.frame or robot.tip
@@ -141,6 +147,7 @@ def task_axes_origin(robot, given) -> str:
 
 
 def cmd_jacobian(args) -> int:
+    """``kinserve jacobian``: the frame Jacobian at ``--q``, singular values, manipulability; returns 0."""
     robot = load_robot(args, task_axes=args.axes)
     q = robot_q(robot, args)
     frame = args.frame or robot.tip
@@ -175,10 +182,12 @@ class OneLineParser(argparse.ArgumentParser):
     """
 
     def error(self, message: str):  # type: ignore[override]
+        """Exit with status 2 and one ``error: ...`` line on stderr."""
         self.exit(EXIT_USAGE, f"error: {self.prog}: {message} (see `{self.prog} --help`)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``kinserve`` argument parser with every sub-command registered."""
     from kinserve import __version__
 
     parser = OneLineParser(prog="kinserve",
@@ -225,6 +234,7 @@ def describe_os_error(exc: OSError) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the ``kinserve`` command line on ``argv``; returns the exit status (2 for invalid input)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

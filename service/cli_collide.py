@@ -23,6 +23,7 @@ def _pose(c) -> np.ndarray:
 
 
 def obstacles_from_args(args) -> list:
+    """The ``--box`` / ``--sphere`` / ``--cylinder`` obstacles as shapes (metres)."""
     from kinserve.kinematics.shapes import Box, Cylinder, Sphere
     from kinserve.service.cli import parse_vector
 
@@ -52,6 +53,7 @@ def obstacles_from_args(args) -> list:
 
 
 def cmd_collide(args) -> int:
+    """``kinserve collide``: collisions and distances at ``--q``; 1 with ``--fail-on-collision`` and a hit."""
     from kinserve.service.cli import emit, load_robot, robot_q
 
     robot = load_robot(args)
@@ -83,6 +85,7 @@ def cmd_collide(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``collide`` sub-command to ``sub``."""
     from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("collide",

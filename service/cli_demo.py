@@ -15,6 +15,7 @@ def _summary(result: dict) -> str:
 
 
 def cmd_demo(args) -> int:
+    """``kinserve demo``: run one scenario (or all) into ``--out``; returns the exit status."""
     from kinserve import scenarios
 
     names = list(scenarios.SCENARIOS) if args.name == "all" else [args.name]
@@ -42,6 +43,7 @@ def cmd_demo(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``demo`` sub-command to ``sub``."""
     from kinserve import scenarios
 
     p = sub.add_parser("demo", help="run a seed scenario (or all) and write its results, plots and scenes")

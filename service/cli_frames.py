@@ -43,10 +43,12 @@ def describe(robot) -> dict:
 
 
 def as_text(d: dict) -> str:
+    """The text form of :func:`describe`'s dict: joints with limits, then frames."""
     lines = [f"{d['robot']}: {d['nq']} joints, tool frame {d['tool_frame']}", "", "joints (limits):"]
     width = max(len(j["name"]) for j in d["joints"])
     for j in d["joints"]:
-        lines.append(f"  {j['name']:<{width}}  {j['type']:<9}  [{j['lower']: .4f}, {j['upper']: .4f}] {j['unit']}")
+        lines.append(f"  {j['name']:<{width}}  {j['type']:<9}  "
+                     f"[{j['lower']: .4f}, {j['upper']: .4f}] {j['unit']}")
     lines += ["", f"frames ({len(d['frames'])}; TYPE, moved by joint):"]
     width = max(len(f["name"]) for f in d["frames"])
     for f in d["frames"]:
@@ -63,6 +65,7 @@ def as_text(d: dict) -> str:
 
 
 def cmd_frames(args) -> int:
+    """``kinserve frames``: the robot's joints, limits and frames; returns 0."""
     from kinserve.service.cli import emit, load_robot
 
     description = describe(load_robot(args))
@@ -71,6 +74,7 @@ def cmd_frames(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``frames`` sub-command to ``sub``."""
     from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("frames", help="list a robot's frames, joints and limits, tool frame and task axes")

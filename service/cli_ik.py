@@ -42,6 +42,7 @@ def parse_target(args) -> tuple[np.ndarray, tuple]:
 
 
 def cmd_ik(args) -> int:
+    """``kinserve ik``: solve for the target pose; returns 0 when it is reached, 1 otherwise."""
     from kinserve import ik
     from kinserve.service.cli import emit, fmt_matrix, load_robot, parse_vector
 
@@ -78,6 +79,7 @@ def cmd_ik(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``ik`` sub-command to ``sub``."""
     from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("ik", help="inverse kinematics: joint values placing a frame at a pose")

@@ -11,6 +11,7 @@ from .cli_types import positive_float, positive_int
 
 
 def cmd_reach(args) -> int:
+    """``kinserve reach``: the reachability map of a frame, written as ``.npz`` and ``.png``; returns 0."""
     from kinserve.ik.batch.reachability import reachability_map
     from kinserve.service.cli import load_robot
     from kinserve.viz import save_png
@@ -39,6 +40,7 @@ def cmd_reach(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``reach`` sub-command to ``sub``."""
     from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("reach", help="reachability map: share of sampled workspace poses that IK reaches")

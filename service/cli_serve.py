@@ -104,6 +104,7 @@ def serve(app, settings, *, host: str = "127.0.0.1", port: int = 8000, workers: 
 
 
 def cmd_serve(args) -> int:
+    """``kinserve serve``: run the HTTP service until interrupted; returns the exit status."""
     try:
         settings = settings_of(args)
     except ValueError as exc:
@@ -131,6 +132,7 @@ def _size(text: str) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``serve`` sub-command to ``sub``."""
     from kinserve.service.settings import ServiceSettings as D
 
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")

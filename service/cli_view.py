@@ -15,6 +15,7 @@ from .cli_types import file_in_existing_folder
 
 
 def cmd_view(args) -> int:
+    """``kinserve view``: show the robot live in the browser, or write a static page with ``--html``."""
     from kinserve.service.cli import load_robot, robot_q
     from kinserve.viz import Scene, export_html
     from kinserve.viz.live import serve
@@ -44,6 +45,7 @@ def cmd_view(args) -> int:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``view`` sub-command to ``sub``."""
     from kinserve.service.cli import add_robot_args
 
     p = sub.add_parser("view", help="show a robot in the browser (live meshcat viewer, "

@@ -33,6 +33,7 @@ def obstacles_of(specs) -> list:
 @router.post("/collision", response_model=C.CollisionResponse,
              responses={404: {"model": ErrorResponse}, 422: {"model": ErrorResponse}})
 def collision(req: C.CollisionRequest, request: Request):
+    """``POST /collision``: self- and obstacle collisions of the robot at ``q``, with distances if asked."""
     from .fields import field
 
     pool = request.app.state.pool

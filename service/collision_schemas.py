@@ -23,12 +23,16 @@ class CollisionOptions(Strict):
 
 
 class CollisionRequest(RobotRef, CollisionOptions):
+    """Body of ``POST /collision``: a robot, a configuration and the collision options."""
+
     q: JointVector
     distances: bool = Field(default=False,
                             description="also return every checked pair's distance and witness points")
 
 
 class PairDistanceOut(BaseModel):
+    """Signed distance (m) between two named bodies."""
+
     a: str
     b: str
     distance: float
@@ -38,9 +42,11 @@ class PairDistanceOut(BaseModel):
 
 
 class CollisionResponse(BaseModel):
+    """Answer of ``POST /collision``."""
+
     in_collision: bool
     pairs: list[list[str]] = Field(description="colliding pairs, named by link / obstacle[k]:kind")
-    min_distance: float | None = (Field(description="smallest signed distance (m) over the checked pairs; "
-                                                    "null if none"))
+    min_distance: float | None = Field(description="smallest signed distance (m) over the checked pairs; "
+                                                   "null if none")
     closest_pair: list[str] | None
     distances: list[PairDistanceOut] | None = None

@@ -44,6 +44,7 @@ class GuardedH11Protocol(H11Protocol):
         return cls._bounds
 
     def connection_made(self, transport) -> None:
+        """Accept the connection, or close it at once over the connection cap."""
         super().connection_made(transport)
         if len(self.connections) > self.bounds()[1]:
             self.transport.close()
@@ -51,6 +52,7 @@ class GuardedH11Protocol(H11Protocol):
         self._arm_header_timer()
 
     def data_received(self, data: bytes) -> None:
+        """Feed ``data`` to h11; start the header timer while a request's headers are incomplete."""
         super().data_received(data)
         if self.transport.is_closing():
             return
@@ -63,10 +65,12 @@ class GuardedH11Protocol(H11Protocol):
             self._cancel_header_timer()
 
     def on_response_complete(self) -> None:
+        """Stop the header timer: the keep-alive timer runs until the next byte."""
         self._cancel_header_timer()  # the keep-alive timer takes over until the next byte
         super().on_response_complete()
 
     def connection_lost(self, exc) -> None:
+        """Stop the header timer and let uvicorn clean up."""
         self._cancel_header_timer()
         super().connection_lost(exc)
 

@@ -164,4 +164,5 @@ class BoundedExecutor:
         old.shutdown(wait=False, cancel_futures=True)
 
     def shutdown(self) -> None:
+        """Stop the worker processes without waiting; pending jobs are cancelled."""
         self._executor.shutdown(wait=False, cancel_futures=True)

@@ -32,6 +32,8 @@ async def send_error(send, status: int, msg: str, kind: str) -> None:
 
 
 class BodyTimeout(Exception):
+    """A request body did not arrive within ``body_timeout`` seconds."""
+
     pass
 
 
@@ -71,6 +73,7 @@ class BodyLimitMiddleware:
         self.body_timeout = float(body_timeout)
 
     async def __call__(self, scope, receive, send):
+        """ASGI entry point: pass HTTP requests on with their body bounded (see the class)."""
         if scope["type"] != "http":
             return await self.app(scope, receive, send)
         length = None

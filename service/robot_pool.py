@@ -95,6 +95,7 @@ class RobotPool:
 
     @staticmethod
     def key(name: str, params: dict) -> tuple:
+        """Cache key of a model variant: its name and its sorted parameters."""
         return (name, tuple(sorted(params.items())))
 
     def __len__(self) -> int:

@@ -24,14 +24,19 @@ Name = Annotated[str, Field(min_length=1, max_length=200)]
 ParamValue = (Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
               | Annotated[str, Field(max_length=200)])
 RelaxName = Literal["x", "y", "z", "roll", "pitch", "yaw", "phi"]
-Method = Literal["auto", "qp", "lm", "dls", "pseudo_inverse", "jacobian_inverse", "jacobian_transpose", "analytic"]
+Method = Literal["auto", "qp", "lm", "dls", "pseudo_inverse", "jacobian_inverse", "jacobian_transpose",
+                 "analytic"]
 
 
 class Strict(BaseModel):
+    """A request model: unknown fields are rejected (422)."""
+
     model_config = ConfigDict(extra="forbid")
 
 
 class RobotRef(Strict):
+    """The robot of a request: a built-in name and its model parameters."""
+
     robot: Name = Field(description="built-in robot name (GET /robots)")
     params: dict[Annotated[str, Field(max_length=50)], ParamValue] = Field(
         default_factory=dict, max_length=16,
@@ -40,21 +45,29 @@ class RobotRef(Strict):
 
 
 class FKRequest(RobotRef):
+    """Body of ``POST /fk``."""
+
     q: JointVector
     frame: Name | None = Field(default=None, description="frame name; default the robot's tool frame")
 
 
 class FKResponse(BaseModel):
+    """Answer of ``POST /fk``: the frame's 4x4 pose (m)."""
+
     robot: str
     frame: str
     pose: list[list[float]]
 
 
 class JacobianRequest(FKRequest):
+    """Body of ``POST /jacobian``."""
+
     reference: Literal["world", "local", "spatial"] = "world"
 
 
 class JacobianResponse(BaseModel):
+    """Answer of ``POST /jacobian``: the 6 x nq Jacobian, its singular values and manipulability."""
+
     robot: str
     frame: str
     reference: str
@@ -64,6 +77,8 @@ class JacobianResponse(BaseModel):
 
 
 class SphereSpec(Strict):
+    """A sphere obstacle (m) for the link capsules, optionally for some frames only."""
+
     center: Annotated[list[Number], Field(min_length=3, max_length=3)]
     radius: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
     frames: Annotated[list[Name], Field(max_length=64)] | None = None
@@ -75,6 +90,8 @@ Frames = Annotated[list[Name], Field(max_length=64)] | None
 
 
 class SphereObstacle(Strict):
+    """A sphere obstacle: centre and radius (m)."""
+
     kind: Literal["sphere"]
     center: Point3
     radius: Length
@@ -82,6 +99,8 @@ class SphereObstacle(Strict):
 
 
 class BoxObstacle(Strict):
+    """A box obstacle: 4x4 pose of its centre and full edge lengths (m)."""
+
     kind: Literal["box"]
     pose: Pose
     size: Annotated[list[Length], Field(min_length=3, max_length=3,
@@ -90,6 +109,8 @@ class BoxObstacle(Strict):
 
 
 class CapsuleObstacle(Strict):
+    """A capsule obstacle: segment ends ``a``, ``b`` and radius (m)."""
+
     kind: Literal["capsule"]
     a: Point3
     b: Point3
@@ -98,6 +119,8 @@ class CapsuleObstacle(Strict):
 
 
 class CylinderObstacle(Strict):
+    """A cylinder obstacle: 4x4 pose of its centre (axis z), radius and length (m)."""
+
     kind: Literal["cylinder"]
     pose: Pose
     radius: Length
@@ -113,6 +136,8 @@ Obstacles = Annotated[list[Obstacle], Field(max_length=32)]
 
 
 class IKOptions(Strict):
+    """Solver options shared by ``POST /ik`` and ``POST /ik/batch``."""
+
     q0: JointVector | None = None
     frame: Name | None = None
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
@@ -141,6 +166,8 @@ class IKOptions(Strict):
 
 
 class FrameTarget(Strict):
+    """One frame's target pose, with relaxed components."""
+
     frame: Name
     pose: Pose
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
@@ -153,11 +180,15 @@ FrameTargets = Annotated[list[FrameTarget], Field(min_length=1, max_length=8,
 
 
 class IKRequest(RobotRef, IKOptions):
+    """Body of ``POST /ik``: one target pose (``target``) or several frames at once (``targets``)."""
+
     target: Pose | None = Field(default=None, description="pose of `frame`; or give `targets`")
     targets: FrameTargets | None = None
 
 
 class TaskErrorOut(BaseModel):
+    """Error of one task of the solve, by priority."""
+
     name: str
     priority: int
     goal: bool
@@ -167,6 +198,8 @@ class TaskErrorOut(BaseModel):
 
 
 class IKResponse(BaseModel):
+    """Answer of ``POST /ik``: success, joint values and residuals (m, rad)."""
+
     success: bool
     q: list[float]
     position_error: float
@@ -179,11 +212,15 @@ class IKResponse(BaseModel):
 
 
 class IKBatchRequest(RobotRef, IKOptions):
+    """Body of ``POST /ik/batch``: many independent problems with the same options."""
+
     targets: Annotated[list[Pose | FrameTargets], Field(min_length=1, max_length=1000)] = Field(
         description="one problem per item: a 4x4 pose of `frame`, or a list of frame targets solved together")
 
 
 class IKBatchResponse(BaseModel):
+    """Answer of ``POST /ik/batch``."""
+
     results: list[IKResponse] = Field(description="one per target, in order (targets not attempted included)")
     success_rate: float
     elapsed: float
@@ -192,6 +229,8 @@ class IKBatchResponse(BaseModel):
 
 
 class CartesianPlanRequest(RobotRef):
+    """Body of ``POST /plan/cartesian``: poses to pass through and the interpolation."""
+
     poses: Annotated[list[Pose], Field(min_length=2, max_length=200,
                                        description="poses to pass through, in order")]
     q0: JointVector | None = None
@@ -210,6 +249,8 @@ class CartesianPlanRequest(RobotRef):
 
 
 class JointTrajectoryOut(BaseModel):
+    """A joint trajectory: times (s) and positions, velocities, accelerations per point."""
+
     joint_names: list[str]
     times: list[float]
     positions: list[list[float]]
@@ -218,6 +259,8 @@ class JointTrajectoryOut(BaseModel):
 
 
 class CartesianPlanResponse(BaseModel):
+    """Answer of ``POST /plan/cartesian``."""
+
     success: bool
     trajectory: JointTrajectoryOut
     max_position_error: float
@@ -233,6 +276,8 @@ class CartesianPlanResponse(BaseModel):
 
 
 class RobotInfo(BaseModel):
+    """A built-in robot: joints, limits, tool frame, task axes and frames."""
+
     name: str
     description: str
     nq: int
@@ -245,10 +290,14 @@ class RobotInfo(BaseModel):
 
 
 class ErrorItem(BaseModel):
+    """One invalid field: its location, a message and the error type."""
+
     loc: list[str | int]
     msg: str
     type: str
 
 
 class ErrorResponse(BaseModel):
+    """Body of a 4xx answer: the invalid fields."""
+
     detail: list[ErrorItem]

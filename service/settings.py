@@ -78,6 +78,7 @@ class ServiceSettings:
         return self.solver_threads or max(1, os.cpu_count() or 1)
 
     def to_env(self) -> str:
+        """The settings as JSON text, the form :meth:`from_env` reads."""
         return json.dumps(asdict(self))
 
     @classmethod

@@ -29,8 +29,10 @@ plots are ``*_figure`` functions returning matplotlib figures, written by
 :func:`save_png`::
 
     viz.save_png(viz.joints_and_errors_figure(it, Q, {"|e_p|": ep, "|e_phi|": eo}), out / "s9.png")
-    viz.save_png(viz.map_figure(obstacles, (0, 0, 480, 480), paths=segments, waypoints=wps, inflate=10), out / "map.png")
-    viz.save_png(viz.planar_arm_figure([1, .8, .6, .4], {"elbow up": Qu, "elbow down": Qd}, target=(x, y, th)), out / "family.png")
+    viz.save_png(viz.map_figure(obstacles, (0, 0, 480, 480), paths=segments, waypoints=wps, inflate=10),
+                 out / "map.png")
+    viz.save_png(viz.planar_arm_figure([1, .8, .6, .4], {"elbow up": Qu, "elbow down": Qd},
+                                       target=(x, y, th)), out / "family.png")
 """
 
 from . import camera, colors, map2d

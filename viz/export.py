@@ -73,7 +73,8 @@ _TEMPLATE = """<!DOCTYPE html>
 <script>
 {viewer_js}
 </script>
-<script id="kinserve-scene" type="application/octet-stream" data-encoding="{encoding}" data-commands="{count}">{payload}</script>
+<script id="kinserve-scene" type="application/octet-stream"
+        data-encoding="{encoding}" data-commands="{count}">{payload}</script>
 <script>
 (function () {{
   var status = document.getElementById("kinserve-status");

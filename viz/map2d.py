@@ -42,10 +42,12 @@ class Rect:
 
     @property
     def center(self) -> tuple[float, float]:
+        """Centre ``(x, y)`` (map units)."""
         return (0.5 * (self.xmin + self.xmax), 0.5 * (self.ymin + self.ymax))
 
     @property
     def size(self) -> tuple[float, float]:
+        """``(width, height)`` (map units)."""
         return (self.xmax - self.xmin, self.ymax - self.ymin)
 
 
@@ -64,6 +66,7 @@ class Circle:
 
     @property
     def center(self) -> tuple[float, float]:
+        """Centre ``(cx, cy)`` (map units)."""
         return (self.cx, self.cy)
 
 

@@ -227,7 +227,8 @@ class Scene:
 
     def __getitem__(self, name: str) -> meshcat.Visualizer:
         """A ``meshcat.Visualizer`` at ``name`` whose commands are recorded in this scene."""
-        return meshcat.Visualizer.view_into(self, meshcat.path.Path(tuple(p for p in self.path(name).split("/") if p)))
+        parts = tuple(p for p in self.path(name).split("/") if p)
+        return meshcat.Visualizer.view_into(self, meshcat.path.Path(parts))
 
     def send(self, command) -> None:
         """Record one meshcat command (anything with ``lower()``, or an already lowered dict)."""
@@ -266,7 +267,8 @@ class Scene:
                 return
         node.children.pop(parts[-1], None)
         prefix = "/" + "/".join(parts)
-        for name in [n for n, r in self.robots.items() if r.root == prefix or r.root.startswith(prefix + "/")]:
+        for name in [n for n, r in self.robots.items()
+                     if r.root == prefix or r.root.startswith(prefix + "/")]:
             del self.robots[name]
         for key in [k for k in self._extent
                     if self.path(k) == prefix or self.path(k).startswith(prefix + "/")]:
@@ -274,7 +276,8 @@ class Scene:
 
     def delete(self, name: str) -> None:
         """Remove ``name`` and everything below it."""
-        self.send(meshcat.commands.Delete(meshcat.path.Path(tuple(p for p in self.path(name).split("/") if p))))
+        parts = tuple(p for p in self.path(name).split("/") if p)
+        self.send(meshcat.commands.Delete(meshcat.path.Path(parts)))
 
     def _find(self, name: str) -> _Node | None:
         node = self._tree
@@ -690,8 +693,8 @@ class Scene:
         for i, (label, pts) in enumerate(_named(paths, "path")):
             P = as_polyline(pts, f"paths[{label!r}]", dims=(2,))
             P3 = np.c_[P, np.full(len(P), 2 * lift)]
-            self._draw(f"{root}/paths/{label}", mg.Line(mg.PointsGeometry(P3.T.astype(np.float32)),
-                                                       mg.LineBasicMaterial(color=colors.to_int(colors.cycle(i)), linewidth=2.0)))
+            material = mg.LineBasicMaterial(color=colors.to_int(colors.cycle(i)), linewidth=2.0)
+            self._draw(f"{root}/paths/{label}", mg.Line(mg.PointsGeometry(P3.T.astype(np.float32)), material))
         radius = 0.012 * max(x1 - x0, y1 - y0)
         for i, (label, p) in enumerate(_named(waypoints, "waypoint")):
             xy = as_vector(p, 2, f"waypoints[{label!r}]")

@@ -190,7 +190,8 @@ def astar(
             raise InputError(f"{name} must be a finite number >= 0, got {v!r}")
     plain_cost = turn_penalty == 0 and proximity_weight == 0
     if method == "jps" and not plain_cost:
-        raise InputError("jump point search needs the pure distance cost (turn_penalty = proximity_weight = 0)")
+        raise InputError("jump point search needs the pure distance cost (turn_penalty = proximity_weight "
+                         "= 0)")
     si, sj = snap(grid, start, "start")
     gi, gj = snap(grid, goal, "goal")
     lat = _lattice(grid)

@@ -76,6 +76,7 @@ class CoverageResult:
     coverable: np.ndarray = field(repr=False)
 
     def summary(self) -> dict:
+        """The scalar figures as a JSON-ready dict (no arrays)."""
         return {
             "length": self.length,
             "covered_fraction": self.covered_fraction,

@@ -54,6 +54,7 @@ class Penetration:
     poses_in_contact: int = 0
 
     def summary(self) -> dict:
+        """The fields as a JSON-ready dict (``depth`` as ``max_depth``, ``shape`` as ``obstacle``)."""
         return {"max_depth": self.depth, "index": self.index, "pose": self.pose, "obstacle": self.shape,
                 "point": self.point, "per_obstacle": dict(self.per_shape),
                 "poses_in_contact": self.poses_in_contact}

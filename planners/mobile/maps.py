@@ -118,14 +118,17 @@ class OccupancyGrid:
 
     @property
     def xs(self) -> np.ndarray:
+        """x coordinates of the lattice columns (map units)."""
         return self.bounds[0] + self.resolution * np.arange(self.free.shape[1])
 
     @property
     def ys(self) -> np.ndarray:
+        """y coordinates of the lattice rows (map units)."""
         return self.bounds[1] + self.resolution * np.arange(self.free.shape[0])
 
     @property
     def free_fraction(self) -> float:
+        """Fraction of the lattice points that are free, in ``[0, 1]``."""
         return float(self.free.mean())
 
     def _points(self, points, name="points") -> np.ndarray:

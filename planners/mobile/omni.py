@@ -60,6 +60,7 @@ class OmniBase:
 
     @property
     def wheel_angles(self) -> np.ndarray:
+        """Angles (rad) of the wheels around the centre: ``first_wheel_angle + 2 pi k / 3``, k = 0, 1, 2."""
         return self.first_wheel_angle + 2.0 * math.pi / 3.0 * np.arange(3)
 
     def wheel_positions(self, pose: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:

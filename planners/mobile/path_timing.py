@@ -64,17 +64,21 @@ class DriveTrajectory:
 
     @property
     def duration(self) -> float:
+        """Time from the first to the last sample (s)."""
         return float(self.t[-1] - self.t[0])
 
     @property
     def points(self) -> np.ndarray:
+        """Positions ``(N, 2)`` of the samples (map units)."""
         return np.stack([self.x, self.y], axis=1)
 
     @property
     def length(self) -> float:
+        """Length of the polyline through the samples (map units)."""
         return float(np.sum(np.hypot(np.diff(self.x), np.diff(self.y))))
 
     def summary(self) -> dict:
+        """Duration, length and the peak speed, acceleration and turn rate as a JSON-ready dict."""
         return {
             "duration": self.duration,
             "length": self.length,

@@ -46,6 +46,7 @@ class WaypointPlan:
 
     @property
     def visited_names(self) -> list[str]:
+        """The waypoint names in visiting order."""
         return [self.names[i] for i in self.order]
 
 

@@ -48,10 +48,12 @@ class Rectangle:
         return outside + np.minimum(np.maximum(dx, dy), 0.0)
 
     def bounds(self) -> tuple[float, float, float, float]:
+        """``(x_min, y_min, x_max, y_max)``."""
         return (self.x_min, self.y_min, self.x_max, self.y_max)
 
     @property
     def area(self) -> float:
+        """Area ``(x_max - x_min) (y_max - y_min)`` (map units squared)."""
         return (self.x_max - self.x_min) * (self.y_max - self.y_min)
 
 
@@ -75,11 +77,13 @@ class Circle:
                         np.asarray(y, dtype=float) - self.cy) - self.radius
 
     def bounds(self) -> tuple[float, float, float, float]:
+        """``(x_min, y_min, x_max, y_max)`` of the enclosing square."""
         r = self.radius
         return (self.cx - r, self.cy - r, self.cx + r, self.cy + r)
 
     @property
     def area(self) -> float:
+        """Area ``pi r^2`` (map units squared)."""
         return float(np.pi * self.radius**2)
 
 
@@ -101,6 +105,7 @@ class Polygon:
         object.__setattr__(self, "_v", V)
 
     def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
+        """Distance from the points ``(x, y)`` (broadcast together) to the boundary, negative inside."""
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         shape = np.broadcast(x, y).shape
@@ -121,11 +126,13 @@ class Polygon:
         return np.where(inside, -d, d).reshape(shape)
 
     def bounds(self) -> tuple[float, float, float, float]:
+        """``(x_min, y_min, x_max, y_max)`` of the vertices."""
         V = self._v
         return (V[:, 0].min(), V[:, 1].min(), V[:, 0].max(), V[:, 1].max())
 
     @property
     def area(self) -> float:
+        """Area by the shoelace formula (map units squared)."""
         V = self._v
         return float(0.5 * abs(np.dot(V[:, 0], np.roll(V[:, 1], -1)) - np.dot(V[:, 1], np.roll(V[:, 0], -1))))
 

@@ -66,6 +66,7 @@ class SmoothPath:
 
     @property
     def length(self) -> float:
+        """Arc length of the path (map units): the last sample's ``s``."""
         return float(self.s[-1])
 
     def at(self, s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
