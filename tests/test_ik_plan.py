@@ -102,3 +102,17 @@ def test_clear_caches_drops_the_ik_state(panda):
     assert panda.extensions.ik is None
     ik.solve(panda, panda.fk(panda.neutral(), "panda_link8"), frame="panda_link8")
     assert panda.extensions.ik is not state and "panda_link8" in panda.extensions.ik.seed_tables
+
+
+def test_a_checked_solve_reports_the_whole_iteration_budget(panda):
+    """With obstacles in the way of every attempt, the constrained stage's result counts the attempts'
+    iterations too, and an exhausted budget is reported as the one the caller gave."""
+    frame = "panda_link8"
+    rng = np.random.default_rng(3)
+    T = panda.fk(panda.random_q(rng), frame)
+    free = ik.solve(panda, T, frame=frame, seed=0)
+    wall = ik.Sphere(panda.fk(free.q, "panda_link4")[:3, 3], 0.12)
+    res = ik.solve(panda, T, frame=frame, spheres=[wall], seed=0, iteration_budget=40, max_starts=3)
+    assert res.iterations <= 40 + 1
+    if not res.success and "iteration budget" in res.message:
+        assert "iteration budget exhausted (40 iterations)" in res.message

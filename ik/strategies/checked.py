@@ -67,7 +67,12 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
         found.elapsed = time.perf_counter() - t0
         return found
     warm = None if failed is None else last_clear(checker, failed)
-    res = _constrained(req, checker, warm, budget.after(t0, used), tried)
+    stage = budget.after(t0, used)
+    res = _constrained(req, checker, warm, stage, tried)
+    res.iterations += used  # the attempts' iterations count: the result reports the whole solve
+    if stage.iterations is not None and budget.iterations is not None:
+        res.message = res.message.replace(f"iteration budget exhausted ({stage.iterations} iterations)",
+                                          f"iteration budget exhausted ({budget.iterations} iterations)")
     res.elapsed = time.perf_counter() - t0
     return res
 
