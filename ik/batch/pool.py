@@ -65,7 +65,8 @@ def _context():
 
 
 def _worker_main(conn) -> None:
-    """Loop of a worker process: receive ``(job_id, path, start, stop)``, solve, write the result file, notify."""
+    """Loop of a worker process: receive ``(job_id, path, start, stop)``, solve, write the result file,
+    notify."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     limit_blas_threads()
     jobs = LoadedJobs()  # the jobs this worker has read, most recent last
@@ -94,7 +95,8 @@ def _worker_main(conn) -> None:
 
 
 def process_state(pid: int) -> str:
-    """One-letter state of a process from ``/proc/<pid>/stat`` (``R``, ``S``, ``T`` stopped, ...); ``?`` if unknown."""
+    """One-letter state of a process from ``/proc/<pid>/stat`` (``R``, ``S``, ``T`` stopped, ...); ``?`` if
+    unknown."""
     try:
         with open(f"/proc/{pid}/stat", "rb") as fh:
             stat = fh.read()
@@ -139,7 +141,8 @@ class WorkerPool:
 
     def _spawn(self) -> _Worker:
         parent_conn, child_conn = self._ctx.Pipe(duplex=True)
-        proc = self._ctx.Process(target=_worker_main, args=(child_conn,), name="kinserve-ik-worker", daemon=True)
+        proc = self._ctx.Process(target=_worker_main, args=(child_conn,), name="kinserve-ik-worker",
+                                 daemon=True)
         proc.start()
         child_conn.close()
         return _Worker(proc, parent_conn)
@@ -149,11 +152,14 @@ class WorkerPool:
         return [w.process.pid for w in self.workers]
 
     def alive(self) -> bool:
+        """Whether every worker process is alive."""
         return all(w.process.is_alive() for w in self.workers)
 
-    def run(self, job_id: tuple[int, int], path: str, chunks: Iterable[tuple[int, int]], on_done: Callable[[dict], None],
-            chunk_limit: Callable[[int], float], deadline: float | None = None) -> None:
-        """Solve ``chunks`` (``(start, stop)`` pairs) of the job in file ``path``; ``on_done(result)`` for each.
+    def run(self, job_id: tuple, path: str, chunks: Iterable[tuple[int, int]],
+            on_done: Callable[[dict], None], chunk_limit: Callable[[int], float],
+            deadline: float | None = None) -> None:
+        """Solve ``chunks`` (``(start, stop)`` pairs) of the job in file ``path``; ``on_done(result)`` for
+        each.
 
         ``chunk_limit(n)`` is the time limit (s) of a chunk of ``n`` targets;
         ``deadline`` an absolute ``time.monotonic()`` time or None. On any
@@ -170,7 +176,8 @@ class WorkerPool:
                 now = time.monotonic()
                 timeout = min([POLL] + [w.task[2] + w.task[3] - now for w in busy]
                               + ([deadline - now] if deadline is not None else []))
-                ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy], max(0.0, timeout)))
+                waited = [w.conn for w in busy] + [w.process.sentinel for w in busy]
+                ready = set(wait(waited, max(0.0, timeout)))
                 for w in busy:
                     if w.conn in ready or w.conn.poll():
                         self._receive(w, job_id, on_done, pending, retried)
@@ -217,7 +224,8 @@ class WorkerPool:
             exc, text = msg[3], msg[4]
             if exc is not None:
                 raise exc
-            raise WorkerError(f"ik.solve_many: worker process {w.process.pid} failed on targets[{start}:]:\n{text}")
+            raise WorkerError(f"ik.solve_many: worker process {w.process.pid} failed on targets[{start}:]:\n"
+                              f"{text}")
         with open(msg[3], "rb") as fh:
             out = pickle.load(fh)
         os.unlink(msg[3])
@@ -257,12 +265,14 @@ class WorkerPool:
                 why = ("it exceeded the chunk time limit of %.1f s" % limit if stalled
                        else "it is stopped" if stopped else "the overall timeout expired")
                 raise WorkerTimeoutError(
-                    f"ik.solve_many: worker process {w.process.pid} ({_STATES.get(state, state)}) has not finished "
-                    f"targets[{start}:{stop}] after {now - t0:.1f} s - {why}; every worker was terminated "
-                    f"(timeout= sets the overall limit, max_time= the per-target budget the chunk limit derives from)"
+                    f"ik.solve_many: worker process {w.process.pid} ({_STATES.get(state, state)}) has not "
+                    f"finished targets[{start}:{stop}] after {now - t0:.1f} s - {why}; every worker was "
+                    f"terminated (timeout= sets the overall limit, max_time= the per-target budget the chunk "
+                    f"limit derives from)"
                 )
         if deadline is not None and now > deadline:
-            raise WorkerTimeoutError("ik.solve_many: the overall timeout expired; every worker was terminated")
+            raise WorkerTimeoutError("ik.solve_many: the overall timeout expired; every worker was "
+                                     "terminated")
 
     def terminate(self) -> None:
         """Kill and reap every worker (a stopped process dies on SIGKILL too)."""
@@ -312,8 +322,8 @@ class PoolKeeper:
                 pool = self.pool
             timeout = -1 if deadline is None else max(0.0, deadline - time.monotonic())
             if not pool.lock.acquire(timeout=timeout):
-                raise WorkerTimeoutError("ik.solve_many: the overall timeout expired while another batch held the "
-                                         "worker pool")
+                raise WorkerTimeoutError("ik.solve_many: the overall timeout expired while another batch "
+                                         "held the worker pool")
             if pool.workers:
                 return pool
             pool.lock.release()  # terminated by the run that held it: make a new one

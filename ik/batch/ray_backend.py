@@ -4,8 +4,9 @@ The batch is cut into the same chunks as the local backends. One Ray actor
 per worker receives the robot **once** (Ray pickles a ``Robot`` as its
 kinematic model, without meshes) together with the solve options, builds
 its :class:`ik.batch.worker.Job` once, then solves whole chunks
-(:func:`ik.batch.worker.solve_chunk`) and returns the same compact arrays as a local worker, so results are identical, target for
-target, to the ``"processes"`` backend for the same seed.
+(:func:`ik.batch.worker.solve_chunk`) and returns the same compact arrays
+as a local worker, so results are identical, target for target, to the
+``"processes"`` backend for the same seed.
 
 Time limits are those of the local pool (:mod:`ik.batch.runners`): an actor
 still on its chunk after ``chunk_limit(n)`` seconds, or the overall
@@ -94,10 +95,11 @@ def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, np.ndarray, np.ndar
                 for actor, start, n, t0 in pending.values():
                     limit = chunk_limit(n) if chunk_limit is not None else None
                     if (limit is not None and now - t0 > limit) or (deadline is not None and now > deadline):
+                        late = limit and now - t0 > limit
+                        why = "chunk limit %.1f s" % limit if late else "overall timeout"
                         raise WorkerTimeoutError(
                             f"ik.solve_many: a Ray actor has not finished targets[{start}:{start + n}] after "
-                            f"{now - t0:.1f} s ({'chunk limit %.1f s' % limit if limit and now - t0 > limit else 'overall timeout'}); "
-                            "every actor was killed"
+                            f"{now - t0:.1f} s ({why}); every actor was killed"
                         )
                 continue
             ref = done[0]

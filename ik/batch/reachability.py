@@ -70,8 +70,10 @@ class ReachabilityMap:
         return path
 
 
-def workspace_box(robot: Robot, frame: str | None = None, n: int = 5000, seed: int = 0, pad: float = 0.05) -> np.ndarray:
-    """``(2, 3)`` [min; max] of the frame origin over ``n`` random configurations, padded by ``pad`` of the size."""
+def workspace_box(robot: Robot, frame: str | None = None, n: int = 5000, seed: int = 0,
+                  pad: float = 0.05) -> np.ndarray:
+    """``(2, 3)`` [min; max] of the frame origin over ``n`` random configurations, padded by ``pad`` of the
+    size."""
     P = robot.fk_batch(robot.random_q(seed, n=n), frame)[:, :3, 3]
     lo, hi = P.min(axis=0), P.max(axis=0)
     span = hi - lo
@@ -103,7 +105,8 @@ def reachability_map(
     """
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError(f"samples must be a positive integer, got {samples!r}")
-    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or not 1 <= resolution <= 100:
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) \
+            or not 1 <= resolution <= 100:
         raise InputError(f"resolution must be an integer in [1, 100], got {resolution!r}")
     frame = frame or robot.tip
     robot.frame_id(frame)
@@ -128,7 +131,8 @@ def reachability_map(
         R = Rotation.random(samples, random_state=rng.integers(1 << 31)).as_matrix()
         label = "random"
     elif isinstance(orientation, str):
-        raise InputError(f"orientation must be 'free', 'random' or a 3x3 rotation matrix, got {orientation!r}")
+        raise InputError(f"orientation must be 'free', 'random' or a 3x3 rotation matrix, "
+                         f"got {orientation!r}")
     else:
         R0 = as_matrix(orientation, (3, 3), "orientation")
         check_rotation(R0, "orientation")
@@ -140,12 +144,14 @@ def reachability_map(
     targets[:, 3, 3] = 1.0
     extra = {"ray_address": ray_address} if backend == "ray" else {}
     if self_collision or obstacles or collision_margin:
-        extra.update(self_collision=bool(self_collision), obstacles=list(obstacles), collision_margin=collision_margin)
+        extra.update(self_collision=bool(self_collision), obstacles=list(obstacles),
+                     collision_margin=collision_margin)
     results = solve_many(robot, targets, frame=frame, relax=relax, backend=backend, processes=processes,
                          max_time=max_time, seed=seed, progress=progress, **extra)
     reached = np.array([r.success for r in results], dtype=bool)
     # an axis the mechanism cannot move along gets one 1 m bin around its constant value
-    edges = [np.linspace(box[0][k], box[1][k], resolution + 1) if acts[k] else centre[k] + np.array([-0.5, 0.5])
+    edges = [np.linspace(box[0][k], box[1][k], resolution + 1) if acts[k]
+             else centre[k] + np.array([-0.5, 0.5])
              for k in range(3)]
     counts, _ = np.histogramdd(P, bins=edges)
     hits, _ = np.histogramdd(P[reached], bins=edges) if reached.any() else (np.zeros_like(counts), None)

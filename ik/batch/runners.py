@@ -108,16 +108,18 @@ class TimeLimits:
 
 def run_serial(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
                limits: TimeLimits) -> None:
-    """Solve the chunks in this process, one after the other (the overall timeout is checked between chunks)."""
+    """Solve the chunks in this process, one after the other (the overall timeout is checked between
+    chunks)."""
     for start, stop in chunks:
         if limits.deadline is not None and time.monotonic() > limits.deadline:
-            raise WorkerTimeoutError(f"ik.solve_many: the overall timeout expired before targets[{start}:{stop}]")
+            raise WorkerTimeoutError(f"ik.solve_many: the overall timeout expired before "
+                                     f"targets[{start}:{stop}]")
         poses, q0s = job.chunk(start, stop)
         on_done(solve_chunk(job, start, poses, q0s))
 
 
-def run_processes(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done: Callable[[dict], None],
-                  limits: TimeLimits) -> None:
+def run_processes(job: Job, chunks: Sequence[tuple[int, int]], processes: int,
+                  on_done: Callable[[dict], None], limits: TimeLimits) -> None:
     """Solve the chunks on the persistent local pool (:mod:`ik.batch.pool`)."""
     path = write_job(job)
     pool = None

@@ -67,10 +67,12 @@ def _cpu_count() -> int:
 
 
 def _as_array(targets) -> np.ndarray | None:
-    """``(N, 4, 4)`` float64 view/copy of an array or a list of poses, or None when it is not a clean numeric stack."""
+    """``(N, 4, 4)`` float64 view/copy of an array or a list of poses, or None when it is not a clean
+    numeric stack."""
     if isinstance(targets, np.ndarray):
         if targets.ndim == 2 and targets.shape == (4, 4):
-            raise InputError("targets must be a sequence of poses (N, 4, 4); got a single 4x4 pose - use ik.solve")
+            raise InputError("targets must be a sequence of poses (N, 4, 4); got a single 4x4 pose - use "
+                             "ik.solve")
         if targets.ndim != 3:
             raise InputError(f"targets must have shape (N, 4, 4), got shape {targets.shape}")
         if targets.shape[1:] == (4, 4) and targets.dtype.kind in "fiu":
@@ -113,7 +115,8 @@ def checked_poses(robot: Robot, targets: Any, frame: str, relax: str | Iterable[
     if not isinstance(targets, np.ndarray):
         if isinstance(targets, (str, bytes, dict)) or not hasattr(targets, "__iter__"):
             raise InputError(f"targets must be a sequence of 4x4 poses, got {type(targets).__name__}")
-        targets = [t.homogeneous if isinstance(t, pin.SE3) else t for t in targets]  # also consumes an iterator once
+        # (this also consumes an iterator once)
+        targets = [t.homogeneous if isinstance(t, pin.SE3) else t for t in targets]
     arr = _as_array(targets)
     if arr is None:  # ragged / non-numeric: one by one, for the message
         out = np.empty((len(targets), 4, 4))
@@ -236,9 +239,9 @@ def solve_many(
     _check_count(chunksize, "chunksize")
     timeout = _check_timeout(timeout)
     kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, obstacles=obstacles,
-                  link_radius=link_radius, centring=centring, method=method, backend=qp_backend, tol_pos=tol_pos,
-                  tol_rot=tol_rot, max_time=max_time, seed=seed, self_collision=self_collision,
-                  collision_margin=collision_margin)
+                  link_radius=link_radius, centring=centring, method=method, backend=qp_backend,
+                  tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
+                  self_collision=self_collision, collision_margin=collision_margin)
     # the shared arguments once (frame, relax, obstacles, method, tolerances...), then every target
     prepared = target_request(robot, np.eye(4), None, **kwargs, options=options)
     frame = kwargs["frame"] = prepared.target.frame
