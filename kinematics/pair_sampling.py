@@ -84,21 +84,21 @@ def bounding_spheres(geometry: pin.GeometryModel) -> np.ndarray:
 
 def world_centres(model: pin.Model, geometry: pin.GeometryModel, spheres: np.ndarray,
                   Q: np.ndarray) -> np.ndarray:
-    """``(N, G, 3)``: the bounding-sphere centres (``spheres`` ``(G, 4)``, joint frames) at each row of
-    ``Q``."""
+    """``(G, 3, N)``: the bounding-sphere centres (``spheres`` ``(G, 4)``, joint frames) in the world at each
+    row of ``Q`` (the configuration last): ``c_world = R_j c + t_j`` for the geometry's joint ``j``."""
     placements = joint_placements(model, Q)
     joints = np.array([g.parentJoint for g in geometry.geometryObjects], dtype=np.int64)
-    R, p = placements.rotations[:, joints], placements.translations[:, joints]
-    return np.einsum("ngij,gj->ngi", R, spheres[:, :3]) + p
+    return (np.einsum("gijn,gj->gin", placements.rotations[joints], spheres[:, :3])
+            + placements.translations[joints])
 
 
 def possibly_touching(centres: np.ndarray, radii: np.ndarray, pairs: np.ndarray) -> np.ndarray:
     """``(P, N)`` booleans: True where the spheres of pair ``p`` (geometry indices ``pairs[p]``) at sample
     ``s`` are not farther apart than :data:`TOLERANCE`, ``|c_a - c_b|^2 <= (r_a + r_b + TOLERANCE)^2``.
-    ``centres`` ``(N, G, 3)`` world centres, ``radii`` ``(G,)`` (m)."""
-    N, P = centres.shape[0], len(pairs)
+    ``centres`` ``(G, 3, N)`` world centres (:func:`world_centres`), ``radii`` ``(G,)`` (m)."""
+    N, P = centres.shape[2], len(pairs)
     out = np.empty((P, N), dtype=bool)
-    coords = [np.ascontiguousarray(centres[:, :, k].T) for k in range(3)]  # (G, N) each
+    coords = [np.ascontiguousarray(centres[:, k]) for k in range(3)]  # (G, N) each
     for p0 in range(0, P, PAIR_BLOCK):
         a, b = pairs[p0:p0 + PAIR_BLOCK, 0], pairs[p0:p0 + PAIR_BLOCK, 1]
         d2 = np.zeros((len(a), N))
@@ -208,8 +208,9 @@ def sampled_verdicts(checker: PairChecker, pair_ids: Sequence[int], owner: Seque
         cand = cand[tally.undecided[owner[cand]]]
         if len(cand):
             checker.place(Q[s])
-            tested = np.unique(owner[cand])
-            tally.add(tested, _first_hits(checker, ids[cand].tolist(), owner[cand].tolist()))
+            links = owner[cand]  # sorted: rows are grouped by link pair
+            tested = links[np.flatnonzero(np.diff(links, prepend=-1))]
+            tally.add(tested, _first_hits(checker, ids[cand].tolist(), links.tolist()))
         if progress is not None and ((s + 1) % PROGRESS_STEP == 0 or s + 1 == N):
             progress(s + 1 - reported)
             reported = s + 1

@@ -209,7 +209,7 @@ def test_bounding_spheres_are_a_lower_bound_of_coals_distance(case):
         pin.updateGeometryPlacements(model, data, gm, gd, q)
         for k, (i, j) in enumerate(pairs):
             d = pin.computeDistance(gm, gd, k).min_distance
-            gap = np.linalg.norm(centres[s, i] - centres[s, j])
+            gap = np.linalg.norm(centres[i, :, s] - centres[j, :, s])
             bound = gap - checker.spheres[i, 3] - checker.spheres[j, 3]
             assert bound <= d + 1e-9
             assert touching[k, s] or d > pair_sampling.TOLERANCE
@@ -225,8 +225,8 @@ def test_batch_tree_fk_equals_pinocchio():
         for s, q in enumerate(Q):
             pin.forwardKinematics(model, data, q)
             for j in range(model.njoints):
-                assert np.allclose(placements.rotations[s, j], data.oMi[j].rotation, atol=1e-12)
-                assert np.allclose(placements.translations[s, j], data.oMi[j].translation, atol=1e-12)
+                assert np.allclose(placements.rotations[j, :, :, s], data.oMi[j].rotation, atol=1e-12)
+                assert np.allclose(placements.translations[j, :, s], data.oMi[j].translation, atol=1e-12)
 
 
 def test_batch_tree_fk_of_other_joints_uses_pinocchio():
@@ -237,5 +237,5 @@ def test_batch_tree_fk_of_other_joints_uses_pinocchio():
     placements = joint_placements(model, Q)
     data = model.createData()
     pin.forwardKinematics(model, data, Q[3])
-    assert np.allclose(placements.translations[3, 2], data.oMi[2].translation, atol=1e-12)
-    assert np.allclose(placements.rotations[3, 2], data.oMi[2].rotation, atol=1e-12)
+    assert np.allclose(placements.translations[2, :, 3], data.oMi[2].translation, atol=1e-12)
+    assert np.allclose(placements.rotations[2, :, :, 3], data.oMi[2].rotation, atol=1e-12)
