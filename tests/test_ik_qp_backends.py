@@ -7,7 +7,7 @@ import pytest
 import qpsolvers
 
 from kinserve.ik.qp.backends import available_backends
-from kinserve.ik.qp.dense_qp import solve_dense
+from kinserve.ik.qp.dense_qp import QPCalls, solve_dense
 from kinserve.kinematics.errors import InputError
 
 
@@ -56,3 +56,23 @@ def test_unknown_backend_is_refused_with_the_installed_names():
 
     with pytest.raises(InputError, match="backend must be one of the installed QP solvers"):
         ik.solve(robots.load("planar4r"), np.eye(4), backend="gurobi-ultra")
+
+
+@pytest.mark.parametrize("name", available_backends()[:2])
+def test_qp_calls_count_only_the_calls_that_reach_the_solver(name):
+    """``calls=`` counts the QPs handed to the solver: the exact shortcuts (a feasible unconstrained
+    minimiser, the box active set) are not; each count belongs to the caller that passes it."""
+    P, c, lb, ub = np.eye(2), np.array([-0.5, 0.0]), -np.ones(2), np.ones(2)
+    a, b = QPCalls(), QPCalls()
+    assert np.allclose(solve_dense(P, c, lb, ub, backend=name, calls=a), [0.5, 0.0]) and a.n == 0
+    # minimiser (2, 0) outside the box: the box active set gives (1, 0) without the solver
+    assert np.allclose(solve_dense(P, np.array([-2.0, 0.0]), lb, ub, backend=name, calls=a), [1.0, 0.0])
+    assert a.n == 0
+    # x0 + x1 >= 1 cuts the minimiser off: Lagrange gives x = (0.5, 0) + mu (1, 1), mu = 1/4
+    row = (np.array([[1.0, 1.0]]), np.array([1.0]), np.array([np.inf]))
+    x = solve_dense(P, c, lb, ub, *row, backend=name, calls=a)
+    assert np.allclose(x, [0.75, 0.25], atol=1e-6) and (a.n, b.n) == (1, 0)
+    solve_dense(P, c, lb, ub, backend=name, shortcut=False, calls=b)  # no shortcut: the solver every time
+    assert (a.n, b.n) == (1, 1)
+    solve_dense(P, c, lb, ub, *row, backend=name)  # no count kept
+    assert (a.n, b.n) == (1, 1)

@@ -18,15 +18,14 @@ Returns None when the problem is infeasible or the solver fails.
 from __future__ import annotations
 
 import math
-import threading
 import warnings
+from types import MappingProxyType
 
 import numpy as np
 from scipy.linalg import get_lapack_funcs
 
-from kinserve.kinematics.errors import InputError
-
 from kinserve.ik import numpy_fast
+from kinserve.kinematics.errors import InputError
 
 _posv = get_lapack_funcs(("posv",), (np.eye(2),))[0]
 _clip = numpy_fast.clip
@@ -44,17 +43,20 @@ except ImportError:  # pragma: no cover
     DEFAULT_BACKEND = "osqp"
 
 
-_counter = threading.local()
+class QPCalls:
+    """A count of QP-solver calls (the exact shortcuts do not count), owned by the solve that passes it to
+    :func:`solve_dense` as ``calls=`` (the task solver reports it as ``Result.info["qp_calls"]``)."""
 
+    __slots__ = ("n",)
 
-def backend_calls() -> int:
-    """Number of QP-solver calls made so far by this thread (the shortcuts do not count)."""
-    return getattr(_counter, "n", 0)
+    def __init__(self) -> None:
+        self.n = 0
 
 
 def box_active_set(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, x: np.ndarray,
                    rounds: int = 3) -> np.ndarray | None:
-    """Exact solution of ``min 1/2 x^T P x + c^T x, lb <= x <= ub`` by a few primal active-set rounds, or None.
+    """Exact solution of ``min 1/2 x^T P x + c^T x, lb <= x <= ub`` by a few primal active-set rounds, or
+    None.
 
     Starting from the unconstrained minimiser ``x``, the coordinates outside
     the box are fixed at their bound and the reduced problem is solved for
@@ -88,9 +90,13 @@ def box_active_set(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray,
 
 
 def solve_dense(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A: np.ndarray | None = None,
-                l: np.ndarray | None = None, u: np.ndarray | None = None, backend: str = DEFAULT_BACKEND,
-                shortcut: bool = True) -> np.ndarray | None:
-    """Solve the QP of the module docstring; None when infeasible. ``A`` may be None or have 0 rows."""
+                row_lo: np.ndarray | None = None, row_hi: np.ndarray | None = None,
+                backend: str = DEFAULT_BACKEND, shortcut: bool = True,
+                calls: QPCalls | None = None) -> np.ndarray | None:
+    """Solve the QP of the module docstring (``row_lo``, ``row_hi``: its ``l``, ``u``); None when infeasible.
+
+    ``A`` may be None or have 0 rows; ``calls``, when given, counts the calls that reach the QP solver.
+    """
     has_rows = A is not None and A.shape[0] > 0
     if shortcut:
         x = _posv(P, -c)[1]
@@ -98,74 +104,67 @@ def solve_dense(P: np.ndarray, c: np.ndarray, lb: np.ndarray, ub: np.ndarray, A:
             if not has_rows:
                 return x
             Ax = A.dot(x)
-            if (Ax >= l).all() and (Ax <= u).all():
+            if (Ax >= row_lo).all() and (Ax <= row_hi).all():
                 return x
         elif not has_rows:
             xs = box_active_set(P, c, lb, ub, x)
             if xs is not None:
                 return xs
-    return _backend_solve(P, c, lb, ub, A if has_rows else None, l, u, backend)
+    if calls is not None:
+        calls.n += 1
+    if backend == "daqp" and _daqp is not None:
+        return _daqp_solve(P, c, lb, ub, A if has_rows else None, row_lo, row_hi)
+    return _qpsolvers_solve(P, c, lb, ub, A if has_rows else None, row_lo, row_hi, backend)
 
 
 _concat = np.concatenate
 _add_reduce = np.add.reduce
-_NO_ROWS: dict = {}
-_SENSE: dict = {}
-
-
-def _no_rows(n: int) -> np.ndarray:
-    """An empty ``(0, n)`` row matrix (cached; it has no entries to write)."""
-    a = _NO_ROWS.get(n)
-    if a is None:
-        a = _NO_ROWS[n] = np.zeros((0, n))
-    return a
-
-
-def _sense(k: int) -> np.ndarray:
-    """DAQP's constraint kinds: ``k`` zeros (plain inequalities; DAQP reads them and does not write them)."""
-    a = _SENSE.get(k)
-    if a is None:
-        a = _SENSE[k] = np.zeros(k, dtype=np.int32)
-    return a
-
 
 #: Tolerances of the iterative solvers reached through qpsolvers: their defaults (1e-5 for proxqp) leave
 #: steps microradians off the QP's solution, which the active-set solvers (daqp, quadprog) solve exactly.
-_TIGHT = {"osqp": {"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 20000, "polishing": True},
-          "proxqp": {"eps_abs": 1e-9, "eps_rel": 0.0}}
+#: A read-only table (built here, never written).
+_TIGHT = MappingProxyType({
+    "osqp": MappingProxyType({"eps_abs": 1e-9, "eps_rel": 1e-9, "max_iter": 20000, "polishing": True}),
+    "proxqp": MappingProxyType({"eps_abs": 1e-9, "eps_rel": 0.0}),
+})
+_NO_OPTIONS = MappingProxyType({})
 
 
-def _backend_solve(P, c, lb, ub, A, l, u, backend):
-    _counter.n = getattr(_counter, "n", 0) + 1
-    n = c.shape[0]
-    if backend == "daqp" and _daqp is not None:
-        if A is None:
-            bu, bl, Am = ub.copy(), lb.copy(), _no_rows(n)  # writable copies (DAQP takes writable buffers)
-        else:
-            bu, bl, Am = _concat((ub, u)), _concat((lb, l)), A
-        # infinite bounds are passed as they are: DAQP treats bounds beyond its DAQP_INF (1e30) as absent
-        x, _, exitflag, _ = _daqp.solve(P if P.flags.c_contiguous else np.ascontiguousarray(P),
-                                        c if c.flags.c_contiguous else np.ascontiguousarray(c),
-                                        Am if Am.flags.c_contiguous else np.ascontiguousarray(Am), bu, bl,
-                                        _sense(bu.shape[0]))
-        if exitflag < 1:
-            return None
-        # a finite sum: every entry finite (a step of more than 1e300 rad counts as a failure too)
-        return x if math.isfinite(_add_reduce(x)) else None
+def _daqp_solve(P, c, lb, ub, A, row_lo, row_hi):
+    """The QP through DAQP (stateless); None when infeasible or not finite."""
+    if A is None:  # writable arrays (DAQP takes writable buffers): copies of the box, an empty row matrix
+        bu, bl, Am = ub.copy(), lb.copy(), np.zeros((0, c.shape[0]))
+    else:
+        bu, bl, Am = _concat((ub, row_hi)), _concat((lb, row_lo)), A
+    # infinite bounds are passed as they are: DAQP treats bounds beyond its DAQP_INF (1e30) as absent;
+    # the constraint kinds are all 0 (plain inequalities)
+    x, _, exitflag, _ = _daqp.solve(P if P.flags.c_contiguous else np.ascontiguousarray(P),
+                                    c if c.flags.c_contiguous else np.ascontiguousarray(c),
+                                    Am if Am.flags.c_contiguous else np.ascontiguousarray(Am), bu, bl,
+                                    np.zeros(bu.shape[0], dtype=np.int32))
+    if exitflag < 1:
+        return None
+    # a finite sum: every entry finite (a step of more than 1e300 rad counts as a failure too)
+    return x if math.isfinite(_add_reduce(x)) else None
+
+
+def _qpsolvers_solve(P, c, lb, ub, A, row_lo, row_hi, backend):
+    """The QP through ``qpsolvers`` with the solver named ``backend``; None when it fails."""
     import qpsolvers
 
     if backend not in qpsolvers.available_solvers:
-        raise InputError(f"backend {backend!r} is not available; installed QP solvers: {qpsolvers.available_solvers}")
+        raise InputError(f"backend {backend!r} is not available; installed QP solvers: "
+                         f"{qpsolvers.available_solvers}")
     Gi, h = None, None
     if A is not None:
-        fu, fl = u < BIG, l > -BIG
+        fu, fl = row_hi < BIG, row_lo > -BIG
         Gi = np.vstack([A[fu], -A[fl]])
-        h = np.concatenate([u[fu], -l[fl]])
+        h = np.concatenate([row_hi[fu], -row_lo[fl]])
         if Gi.shape[0] == 0:
             Gi = h = None
     lbf = np.maximum(lb, -BIG)
     ubf = np.minimum(ub, BIG)
-    opts = _TIGHT.get(backend, {})
+    opts = _TIGHT.get(backend, _NO_OPTIONS)
     try:
         with warnings.catch_warnings():  # solver chatter (osqp's pending API change, qpsolvers' sparse hints)
             warnings.simplefilter("ignore", PendingDeprecationWarning)

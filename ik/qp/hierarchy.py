@@ -38,7 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, solve_dense
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, QPCalls, solve_dense
 from kinserve.ik.tasks.centring_weights import null_space_basis
 
 _concat = np.concatenate
@@ -89,14 +89,15 @@ class LevelSteps(NamedTuple):
 def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
                       l: np.ndarray | None = None, u: np.ndarray | None = None, *,  # noqa: E741
                       lam: float, max_step: float = 1.0, backend: str = DEFAULT_BACKEND,
-                      shortcut: bool = True) -> tuple[np.ndarray | None, np.ndarray | None]:
+                      shortcut: bool = True,
+                      calls: QPCalls | None = None) -> tuple[np.ndarray | None, np.ndarray | None]:
     """``(dq, dq_lower)``: the step and the part of it contributed by levels below the first; ``(None, None)``
     when the first level's QP is infeasible (``dq_lower`` is None with one level).
 
     ``levels`` is a list of ``(J, e)`` ordered by priority; ``lam`` the
-    first level's damping. The parts summed of :func:`level_steps`.
+    first level's damping. The parts summed of :func:`level_steps`. ``calls`` counts the QP-solver calls.
     """
-    out = _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut)
+    out = _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut, calls)
     if out is None:
         return None, None
     dq, first, lower = out
@@ -110,28 +111,29 @@ def hierarchical_step(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarra
 def level_steps(levels: list, lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None = None,
                 l: np.ndarray | None = None, u: np.ndarray | None = None, *, lam: float,  # noqa: E741
                 max_step: float = 1.0, backend: str = DEFAULT_BACKEND,
-                shortcut: bool = True) -> LevelSteps | None:
+                shortcut: bool = True, calls: QPCalls | None = None) -> LevelSteps | None:
     """The step of the module docstring, level by level (:class:`LevelSteps`); None when the first level's QP
     is infeasible.
 
     ``levels`` is a list of ``(J, e)`` ordered by priority; ``lam`` the
-    first level's damping; ``max_step`` bounds ``|z|`` of the lower levels.
+    first level's damping; ``max_step`` bounds ``|z|`` of the lower levels; ``calls`` counts the QP-solver
+    calls.
     """
-    out = _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut)
+    out = _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut, calls)
     return None if out is None else LevelSteps(*out)
 
 
-def _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut):  # noqa: E741
+def _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut, calls):  # noqa: E741
     """``(total, first, lower)`` of :class:`LevelSteps`, or None (:func:`level_steps`)."""
     J1, e1 = levels[0]
     n = J1.shape[1]
     P = J1.T.dot(J1)
     P.ravel()[:: n + 1] += lam  # (a view: P is fresh and contiguous)
-    dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
+    dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut, calls)
     if dq is None and G is not None and (l > 0.0).any():
         # rows that demand a violated constraint recover (l > 0) may conflict: ask only that it gets no worse
         l = np.minimum(l, 0.0)  # noqa: E741
-        dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut)
+        dq = solve_dense(P, e1.dot(J1), lb, ub, G, l, u, backend, shortcut, calls)
     if dq is None:
         return None
     first = dq
@@ -148,7 +150,7 @@ def _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut):  #
             lower.extend([None] * (last + 1 - k))
             break
         JZ = Jk.dot(Z)
-        step = _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut)
+        step = _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut, calls)
         lower.append(step)
         if step is not None:
             dq = dq + step
@@ -157,7 +159,7 @@ def _solve_levels(levels, lb, ub, G, l, u, lam, max_step, backend, shortcut):  #
     return dq, first, lower
 
 
-def _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut):  # noqa: E741
+def _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut, calls):  # noqa: E741
     """Level ``k``'s contribution ``Z z`` (module docstring) on top of the step ``dq`` of the levels above
     (``G`` None without rows); None when it adds nothing (its QP infeasible, or a line blocked by the
     bounds)."""
@@ -177,7 +179,7 @@ def _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut
     else:
         A, lo, hi = Z, lb - dq, ub - dq
     zlim = np.full(dim, max_step)
-    z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut)
+    z = solve_dense(Pz, cz, -zlim, zlim, A, lo, hi, backend, shortcut, calls)
     return None if z is None else Z.dot(z)
 
 

@@ -56,7 +56,7 @@ import numpy as np
 
 from kinserve.ik import numpy_fast
 from kinserve.ik.problem import Problem
-from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, backend_calls
+from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, QPCalls
 from kinserve.ik.qp.hierarchy import LevelSteps, level_steps
 from kinserve.ik.qp.level_progress import LevelStall, LowerShares, ObjectiveWatch, Trial
 from kinserve.ik.result import History, Result
@@ -98,7 +98,8 @@ class _Run:
     """Settings of one solve shared by its starts."""
 
     __slots__ = ("pb", "tp", "tr", "max_iter", "deadline", "budget", "left", "damping", "max_step", "backend",
-                 "shortcut", "lazy", "lo", "hi", "gain", "stall_ratio", "stall_patience", "lazy_wait")
+                 "shortcut", "lazy", "lo", "hi", "gain", "stall_ratio", "stall_patience", "lazy_wait",
+                 "calls")
 
     def __init__(self, pb, tp, tr, max_iter, deadline, damping, max_step, backend, shortcut, lazy,
                  budget=None):
@@ -113,6 +114,7 @@ class _Run:
         self.gain = pb.gain
         self.lazy_wait = 0
         self.stall_ratio, self.stall_patience = STALL_RATIO, STALL_PATIENCE
+        self.calls = QPCalls()  # the QP-solver calls of this solve (Result.info["qp_calls"])
 
 
 def _step(run: _Run, q, levels, E, m_q) -> tuple[LevelSteps | None, tuple | None]:
@@ -124,7 +126,7 @@ def _step(run: _Run, q, levels, E, m_q) -> tuple[LevelSteps | None, tuple | None
     if run.lazy and pb.checked and m_q > 0.0 and run.lazy_wait <= 0:
         lb, ub, G, gl, gu = pb.box_and_rows(q, None, run.max_step, with_checked_rows=False)
         steps = level_steps(levels, lb, ub, G, gl, gu, lam=lam, max_step=run.max_step, backend=run.backend,
-                            shortcut=run.shortcut)
+                            shortcut=run.shortcut, calls=run.calls)
         if steps is not None:
             qn = _clip(q + steps.total, run.lo, run.hi)
             st = pb.state(qn)
@@ -134,7 +136,7 @@ def _step(run: _Run, q, levels, E, m_q) -> tuple[LevelSteps | None, tuple | None
     run.lazy_wait -= 1
     lb, ub, G, gl, gu = pb.box_and_rows(q, None, run.max_step)
     return level_steps(levels, lb, ub, G, gl, gu, lam=lam, max_step=run.max_step, backend=run.backend,
-                       shortcut=run.shortcut), None
+                       shortcut=run.shortcut, calls=run.calls), None
 
 
 def _corrected(run: _Run, q, m_q, qt, st_t, j):
@@ -145,7 +147,7 @@ def _corrected(run: _Run, q, m_q, qt, st_t, j):
     lb, ub, G, gl, gu = pb.box_and_rows(qt, None, run.max_step, with_checked_rows=False)
     lam = DAMPING_GAIN * (st_t[1] ** 2 + st_t[2] ** 2) + run.damping
     steps = level_steps(st_t[0][: j + 1], lb, ub, G, gl, gu, lam=lam, max_step=run.max_step,
-                        backend=run.backend, shortcut=run.shortcut)
+                        backend=run.backend, shortcut=run.shortcut, calls=run.calls)
     if steps is None:
         return None, None
     return _accept(run, q, (qt - q) + steps.total, m_q)
@@ -300,7 +302,8 @@ def solve_problem(
     components: tuple | None = None,
     defer_starts: int = 0,
 ) -> Result:
-    """Solve a bound :class:`Problem` from the starts of :func:`ik.starts.multistart.starts` (module docstring).
+    """Solve a bound :class:`Problem` from the starts of :func:`ik.starts.multistart.starts` (module
+    docstring).
 
     ``evaluate``/``components`` define :attr:`History.task_error` (default:
     the goal tasks' errors, sign ``desired - current``). ``defer_starts``: the first
@@ -311,33 +314,63 @@ def solve_problem(
     is none either) and the clock decides nothing.
     """
     t0 = _now()
-    calls0 = backend_calls()
     if max_time is None and iteration_budget is None:
         max_time = MAX_TIME
     deadline = t0 + max_time if max_time is not None and math.isfinite(max_time) else None
-    robot = pb.robot
     run = _Run(pb, tol_pos, tol_rot, int(max_iter), deadline, float(damping), float(max_step), backend,
                bool(shortcut), bool(lazy), None if iteration_budget is None else int(iteration_budget))
-    lo, hi = robot.lower, robot.upper
-    note = ""
-    if q0 is not None:
-        q0 = np.clip(q0, lo, hi)
-        if pb.checked and pb.margin(q0) < 0.0:
-            note = f"q0 violates a constraint ({pb.describe(q0)}); started from configurations that satisfy them"
-    sequence = starts(robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
+    q0, note = _checked_q0(pb, q0)
+    sequence = starts(pb.robot, pb.goals, q0, seed, seed_table_enabled, prefer_q0)
     if defer_starts > 0:
         sequence = _deferred(sequence, int(defer_starts), DEFER_BY)
-    best, iterations, n_starts, skipped = _run_starts(run, sequence, max_starts)
-    comps = components if components is not None else _components(pb)
-    evaluate = evaluate if evaluate is not None else goal_evaluator(pb)
-    frame = _frame_of(pb)
-    if best is None:
-        q = np.clip(robot.neutral() if q0 is None else q0, lo, hi)
-        _, pe, re, _ = pb.evaluate(q)  # the residual at the returned q: finite, never NaN (no null over HTTP)
-        return Result(q=q, success=False, position_error=float(pe), orientation_error=float(re), elapsed=_now() - t0,
-                      message="no start configuration satisfying the constraints was found" + (f"; {note}" if note else ""),
-                      method=method, frame=frame, history=History.empty(robot.nq, comps))
-    _, k, (qs, pes, res), reason, ok, es = best
+    tried = _run_starts(run, sequence, max_starts)
+    report = _Report(method, components if components is not None else _components(pb),
+                     evaluate if evaluate is not None else goal_evaluator(pb), _frame_of(pb), note, t0)
+    if tried.best is None:
+        return _no_start_result(pb, q0, report)
+    return _best_result(run, tried, report)
+
+
+class _Report(NamedTuple):
+    """How a solve reports its answer: the method's name, the history's components and evaluator
+    (:meth:`History.from_lists`), the goal frames, a note on ``q0`` ("" = none), the solve's start time."""
+
+    method: str
+    components: tuple
+    evaluate: Callable[[np.ndarray], np.ndarray]
+    frame: str
+    note: str
+    t0: float
+
+
+def _checked_q0(pb: Problem, q0: np.ndarray | None) -> tuple[np.ndarray | None, str]:
+    """``(q0 clipped into the limits, note)``; the note says so when ``q0`` violates a checked constraint."""
+    if q0 is None:
+        return None, ""
+    q0 = np.clip(q0, pb.robot.lower, pb.robot.upper)
+    if pb.checked and pb.margin(q0) < 0.0:
+        return q0, (f"q0 violates a constraint ({pb.describe(q0)}); started from configurations that "
+                    "satisfy them")
+    return q0, ""
+
+
+def _no_start_result(pb: Problem, q0: np.ndarray | None, report: _Report) -> Result:
+    """The failure of a solve in which no start satisfied the constraints: ``q0`` (or the neutral
+    configuration) with its residual."""
+    robot = pb.robot
+    q = np.clip(robot.neutral() if q0 is None else q0, robot.lower, robot.upper)
+    _, pe, re, _ = pb.evaluate(q)  # the residual at the returned q: finite, never NaN (no null over HTTP)
+    message = "no start configuration satisfying the constraints was found"
+    return Result(q=q, success=False, position_error=float(pe), orientation_error=float(re),
+                  elapsed=_now() - report.t0, message=f"{message}; {report.note}" if report.note else message,
+                  method=report.method, frame=report.frame,
+                  history=History.empty(robot.nq, report.components))
+
+
+def _best_result(run: _Run, tried: _Starts, report: _Report) -> Result:
+    """The :class:`Result` of the best start (:func:`_run_starts`): its answer, history and message."""
+    pb = run.pb
+    _, k, (qs, pes, res), reason, ok, es = tried.best
     q = np.array(qs[k])
     if not (ok and es is not None and k == len(qs) - 1 and not pb.has_objectives):
         # (a goals-only start that converged returns right after evaluating its answer: es are its errors)
@@ -345,14 +378,17 @@ def solve_problem(
     if ok:
         message = reason
     else:
-        message = (f"no start reached tol_pos={tol_pos:g} m / tol_rot={tol_rot:g} rad in {n_starts} starts "
-                   f"({iterations} iterations; last start: {reason}); best residual {pes[k]:.3g} m / {res[k]:.3g} rad")
-    if note:
-        message = f"{message}; {note}"
-    hist = History.from_lists(qs[: k + 1], pes[: k + 1], res[: k + 1], components=comps, evaluate=evaluate)
+        message = (f"no start reached tol_pos={run.tp:g} m / tol_rot={run.tr:g} rad in {tried.n_starts} "
+                   f"starts ({tried.iterations} iterations; last start: {reason}); best residual "
+                   f"{pes[k]:.3g} m / {res[k]:.3g} rad")
+    if report.note:
+        message = f"{message}; {report.note}"
+    hist = History.from_lists(qs[: k + 1], pes[: k + 1], res[: k + 1], components=report.components,
+                              evaluate=report.evaluate)
     return Result(q=q, success=ok, position_error=float(pes[k]), orientation_error=float(res[k]),
-                  iterations=iterations, restarts=n_starts - 1, elapsed=_now() - t0, message=message, history=hist,
-                  method=method, frame=frame, info={"backend": backend, "qp_calls": backend_calls() - calls0, "skipped_starts": skipped},
+                  iterations=tried.iterations, restarts=tried.n_starts - 1, elapsed=_now() - report.t0,
+                  message=message, history=hist, method=report.method, frame=report.frame,
+                  info={"backend": run.backend, "qp_calls": run.calls.n, "skipped_starts": tried.skipped},
                   task_errors=pb.task_errors(es))
 
 
