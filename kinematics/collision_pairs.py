@@ -17,10 +17,13 @@ checked are a set of **disabled link pairs**, taken from one of two sources:
      :data:`SAMPLES` uniformly random configurations;
   4. *never*: links never in collision over the same samples.
 
-  The samples come from ``numpy.random.default_rng(SEED)``, so the result is
-  deterministic. As in MoveIt, "never" is statistical: a pair that collides only
-  in a region of volume below about ``1 / SAMPLES`` of the joint space can be
-  disabled wrongly - give the model an SRDF when that matters.
+  "In collision" is coal's contact test from a fresh request (contacts on, no
+  GJK warm start: :func:`~.pair_sampling.contact_request`), so the answer of a
+  sample does not depend on the samples before it. The samples come from
+  ``numpy.random.default_rng(SEED)``, so the result is deterministic. As in
+  MoveIt, "never" is statistical: a pair that collides only in a region of volume
+  below about ``1 / SAMPLES`` of the joint space can be disabled wrongly - give
+  the model an SRDF when that matters.
 
 Computed sets are cached on disk per model text (see :mod:`.collision_cache`).
 coal runs only on the (sample, pair) cases whose bounding spheres come close, and
