@@ -23,8 +23,7 @@ for the last coefficient, ``1e-2``; near ``theta = pi`` the axis from ``(R + R^T
 (1 - cos(theta)) a a^T``).
 
 Every function the kernels call is in this file, so that Numba's on-disk cache (keyed by this file's time
-stamp) is never stale; the constants it imports (joint kinds, status codes) are fixed. Metres, radians.
-"""
+stamp) is never stale; the constants it imports (joint kinds, status codes) are fixed. Metres, radians."""
 
 from __future__ import annotations
 
@@ -43,6 +42,7 @@ TP2, TR2, LAMBDA0, GAIN, STALL_RATIO, ROTATION_SCALE = range(6)
 PATIENCE, MAX_ITER, MAX_STARTS, BUDGET, Q0_MODE, N_TABLE, N_FULL, ROTATION = range(8)
 
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")  # per-iteration steps
 _t = numba.types
 _IN1, _IN2, _IN3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))  # writable arrays convert
 _INT1, _INT2 = (_t.Array(_t.int64, d, "C", readonly=True) for d in (1, 2))
@@ -54,19 +54,17 @@ _MANY_SIGNATURE = _t.void(_IN2, _INT2, _IN1, _IN1, _IN3, _t.boolean, _t.boolean,
                           *(_IN2,) * 6, _OUT2, _OUT2, _t.int64[:, ::1])
 
 
-@_jit
-def _place(Rw, pw, g, c0) -> None:
-    """``(Rw, pw) <- (Rw, pw) * (R_g, t_g)``, the placement of geometry row ``g``; ``c0`` receives ``Rw R_g``
-    (the same as ``Rw`` afterwards)."""
+@_inline
+def _place(Rw, pw, g, out) -> None:
+    """``pw <- pw + Rw t_g``, ``out = Rw R_g``: placement ``(R_g, t_g)`` (geometry row ``g``) after ``Rw``."""
     for i in range(3):
         pw[i] += Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
     for i in range(3):
         for c in range(3):
-            c0[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
-    Rw[:, :] = c0
+            out[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
 
 
-@_jit
+@_inline
 def _rotate(T, ax, ay, az, qk, Rw) -> None:
     """``Rw = T @ Rot(a, qk)`` by Rodrigues' formula ``I + s [a]x + (1 - c) [a]x^2``."""
     s, c = math.sin(qk), math.cos(qk)
@@ -81,7 +79,7 @@ def _rotate(T, ax, ay, az, qk, Rw) -> None:
         Rw[i, 2] = t0 * r02 + t1 * r12 + t2 * r22
 
 
-@_jit
+@_inline
 def _forward(geometry, joints, q, R, p, z, o) -> None:
     """The frame's world pose into ``R``, ``p``; joint k's world axis into ``z[k]``, origin ``o[k]``."""
     n = joints.shape[0]
@@ -97,20 +95,22 @@ def _forward(geometry, joints, q, R, p, z, o) -> None:
         else:
             for i in range(3):
                 pw[i] += z[k, i] * qk
-        o[k, :] = pw
+                for c in range(3):
+                    Rw[i, c] = T[i, c]
+        for i in range(3):
+            o[k, i] = pw[i]
     _place(Rw, pw, geometry[n], R)
-    p[:] = pw
+    for i in range(3):
+        p[i] = pw[i]
 
 
-@_jit
+@_inline
 def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R: np.ndarray, p: np.ndarray,
                       J: np.ndarray, local: bool = True) -> None:
-    """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n).
-
-    ``J``'s column ``k`` belongs to the chain's joint ``k`` (``q`` index ``joints[k, 1]``); rows are linear
-    (m/s per joint unit) then angular (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL)
-    or, with ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED).
-    """
+    """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n):
+    column ``k`` for the chain's joint ``k`` (``q`` index ``joints[k, 1]``), rows linear (m/s per joint unit)
+    then angular (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL) or, with
+    ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED)."""
     n = joints.shape[0]
     z, o = np.empty((n, 3)), np.empty((n, 3))
     _forward(geometry, joints, q, R, p, z, o)
@@ -259,7 +259,7 @@ def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
     return pe2, re2
 
 
-@_jit
+@_inline
 def _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk) -> None:
     """Fix the free joints now out of range at their bound; ``r = e - J dfix`` over every fixed joint."""
     n = joints.shape[0]
@@ -276,22 +276,25 @@ def _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk) -> None:
         r[i] = s
 
 
-@_jit
+@_inline
 def _bounded_step(Jt, e, lam, q, qn, joints, lok, hik, m, free, x, A, r, qk) -> None:
     """``qn = q + dq``: the damped step on the first ``m`` rows of ``Jt`` / ``e``, the active set's limits."""
     n = joints.shape[0]
     for k in range(n):
         qk[k] = q[joints[k, 1]]
         free[k] = True
-    r[:m] = e[:m]
-    qn[:] = q
+    for i in range(m):
+        r[i] = e[i]
+    for i in range(q.shape[0]):
+        qn[i] = q[i]
     for attempt in range(4):  # the free step, then at most three re-solves
         _solve_damped(Jt, r, lam, free, x, A)
         inside = True
         for k in range(n):
             if free[k]:
                 v = qk[k] + x[k]
-                inside = inside and lok[k] <= v <= hik[k]
+                if v < lok[k] or v > hik[k]:
+                    inside = False
                 qn[joints[k, 1]] = v
         if inside:
             return
@@ -303,20 +306,19 @@ def _bounded_step(Jt, e, lam, q, qn, joints, lok, hik, m, free, x, A, r, qk) -> 
         _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk)
 
 
-@_jit
+@_inline
 def _iterate(geometry, joints, q0, lo, hi, Rd, pd, relaxed, Aw, kept, tp2, tr2, lam0, gain, stall_ratio,
              patience, max_iter, qs, errs) -> tuple[int, int, int]:
-    """One start from ``q0``: ``(status, iterations, rows)``, ``qs[:rows]`` / ``errs[:rows]`` its iterates.
-
-    The iteration of the module docstring on the target ``(Rd, pd)``; ``errs`` rows are the squared
-    position and orientation errors of the ``qs`` rows (``qs[0] = q0``).
-    """
+    """One start from ``q0`` on the target ``(Rd, pd)`` (module docstring): ``(status, iterations, rows)``;
+    ``qs[:rows]`` its configurations (``qs[0] = q0``), ``errs[:rows]`` their squared errors."""
     n = joints.shape[0]
     m = kept.shape[0] if relaxed else 6
     R, p, J, e = np.empty((3, 3)), np.empty(3), np.empty((6, n)), np.empty(6)
     Jt = J if not relaxed else np.empty((m, n))
     r, x, A, free, qk = np.empty(m), np.empty(n), np.empty((n, n)), np.ones(n, dtype=np.bool_), np.empty(n)
-    lok, hik = lo[joints[:, 1]], hi[joints[:, 1]]
+    lok, hik = np.empty(n), np.empty(n)
+    for k in range(n):
+        lok[k], hik[k] = lo[joints[k, 1]], hi[joints[k, 1]]
     qs[0, :] = q0
     best = math.inf
     stalls = 0
@@ -336,10 +338,12 @@ def _iterate(geometry, joints, q0, lo, hi, Rd, pd, relaxed, Aw, kept, tp2, tr2, 
             return _status.CONVERGED, it, it + 1
         if it == max_iter:
             break
-        stalls = 0 if E < stall_ratio * best else stalls + 1
-        best = min(best, E) if stalls == 0 else best
-        if stalls >= patience:
-            return _status.STALLED, it + 1, it + 1
+        if E < stall_ratio * best:
+            best, stalls = E, 0
+        else:
+            stalls += 1
+            if stalls >= patience:
+                return _status.STALLED, it + 1, it + 1
         _bounded_step(Jt, e, gain * E + lam0, q, qs[it + 1], joints, lok, hik, m, free, x, A, r, qk)
     return _status.ITERATION_LIMIT, max_iter, max_iter + 1
 
@@ -349,12 +353,9 @@ def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.n
               Td: np.ndarray, relaxed: bool, Aw: np.ndarray, kept: np.ndarray, tp2: float, tr2: float,
               lam0: float, gain: float, stall_ratio: float, patience: int, max_iter: int, qs: np.ndarray,
               errs: np.ndarray) -> tuple[int, int, int]:
-    """One start from ``q0`` on the target pose ``Td`` (4x4): returns ``(status, iterations, rows)``.
-
-    ``relaxed``: the kept rows ``kept`` of the error in the axes ``Aw`` (module docstring), else the full
-    pose. ``qs[:rows]`` are the evaluated configurations (``qs[0] = q0``), ``errs[:rows]`` their squared
-    errors; both need ``max_iter + 1`` rows.
-    """
+    """One start from ``q0`` on the target pose ``Td`` (4x4): ``(status, iterations, rows)``; ``relaxed``:
+    the kept rows ``kept`` in the axes ``Aw`` (module docstring). ``qs[:rows]``: the configurations
+    (``qs[0] = q0``), ``errs[:rows]`` their squared errors (``max_iter + 1`` rows each)."""
     return _iterate(geometry, joints, q0, lo, hi, Td[:3, :3], Td[:3, 3], relaxed, Aw, kept, tp2, tr2, lam0,
                     gain, stall_ratio, patience, max_iter, qs, errs)
 
@@ -412,8 +413,8 @@ def _next_start(st, q, q0, D0, f, tables, S, limits) -> bool:
 
 @_jit
 def _features(Td, scale, rotation, f) -> None:
-    """``f[:13]`` = the seed-table feature ``[p, scale vec(R), 1]`` of ``Td`` (rotation part zero without
-    ``rotation``, :meth:`ik.starts.seed_table.SeedTable.features`), ``f[13] = |f[:12]|^2``."""
+    """``f[:13]``: the seed-table feature ``[p, scale vec(R), 1]`` of ``Td`` (rotation part 0 without
+    ``rotation``); ``f[13] = |f[:12]|^2``."""
     for i in range(3):
         f[i] = Td[i, 3]
         for c in range(3):
