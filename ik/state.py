@@ -12,7 +12,9 @@ model) and built outside any solve's time budget:
 
 Seed tables and solvers are immutable once built and shared by all threads (built under the state's lock).
 Bound collision constraints keep a memo of their last configuration while solving, so each thread has its
-own store (:class:`BoundConstraints`, a few per thread, least recently used dropped first).
+own store (:class:`BoundConstraints`, a few per thread, least recently used dropped first). So do the
+bound problems of ``ik.step`` (:class:`~kinserve.ik.step_problems.StepProblems`: a control loop's tasks and
+constraints, bound once and found again by identity and change counters).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
 from kinserve.ik.starts.seed_table import SeedTable
+from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
 
 if TYPE_CHECKING:
@@ -86,6 +89,7 @@ class IKState:
         self.seed_tables: dict[str, SeedTable] = {}
         self.closed_forms: dict[str, ClosedFormSolver | None] = {}
         self.threads = threading.local()  # .bound: this thread's BoundConstraints
+        self.step_problems = StepProblems()  # this thread's bound problems of ik.step (per thread)
 
     def seed_table(self, frame: str) -> SeedTable:
         """The :class:`SeedTable` of ``frame`` (built once, under the lock)."""

@@ -228,3 +228,54 @@ def test_step_validates_damping_and_backend(panda):
     assert np.isfinite(ik.step(panda, [task], [], q, 1, damping=0)).all()  # ints are numbers too
     v1 = ik.step(panda, [task], [ik.VelocityLimits(1.0)], q, 0.01, backend="DAQP")  # any case
     assert np.array_equal(v1, ik.step(panda, [task], [ik.VelocityLimits(1.0)], q, 0.01))
+
+
+def test_the_bound_problem_is_kept_by_the_robots_ik_state_per_thread(panda):
+    """The control loop's bound problem lives on the robot's IKState (no module-level cache): found again by
+    the identity of the objects (equal new objects are bound anew), per thread (another thread binds its own
+    on its own Data), at most STEP_PROBLEMS_PER_THREAD kept, and clear_caches(robot) drops them."""
+    import sys
+    import threading
+
+    import kinserve
+    from kinserve.ik.state import ik_state
+    from kinserve.ik.step_problems import STEP_PROBLEMS_PER_THREAD
+
+    step_module = sys.modules["kinserve.ik.step"]
+    assert not any(isinstance(v, dict) for k, v in vars(step_module).items() if not k.startswith("__"))
+    robot = panda.copy()  # shares the IK state of panda, but is another robot: its own entries
+    rng = np.random.default_rng(25)
+    q, T, spheres, tasks, cons = _setup(robot, rng)
+    store = ik_state(robot).step_problems
+    ik.step(robot, tasks, cons, q, 0.01)
+    pb = store.entries[0].problem
+    assert store.entries[0].robot is robot and pb.data is robot.data
+    ik.step(robot, tasks, cons, q, 0.01)
+    assert store.entries[0].problem is pb  # found again: not bound anew
+    twin = [ik.FrameTask(None, T), tasks[1]]  # an equal, new frame task: a new bind
+    ik.step(robot, twin, cons, q, 0.01)
+    assert store.entries[0].problem is not pb and store.entries[0].tasks[0] is twin[0]
+    ik.step(robot, tasks, cons, q, 0.01)
+    assert store.entries[0].problem is pb  # the older entry, moved to the front
+    seen = {}
+
+    def other_thread():
+        seen["before"] = len(ik_state(robot).step_problems.entries)
+        v = ik.step(robot, tasks, cons, q, 0.01)
+        mine = ik_state(robot).step_problems.entries[0].problem
+        seen.update(v=v, problem=mine, data=mine.data is robot.data)
+
+    worker = threading.Thread(target=other_thread)
+    worker.start()
+    worker.join()
+    assert seen["before"] == 0 and seen["problem"] is not pb and seen["data"]
+    assert np.array_equal(seen["v"], ik.step(robot, tasks, cons, q, 0.01))
+    assert store.entries[0].problem is pb  # this thread's store untouched
+    for k in range(STEP_PROBLEMS_PER_THREAD + 3):
+        ik.step(robot, [ik.FrameTask(None, T)], cons, q, 0.01)
+    assert len(store.entries) == STEP_PROBLEMS_PER_THREAD
+    assert all(e.problem is not pb for e in store.entries)  # the least recently used went first
+    kinserve.clear_caches(robot)
+    assert ik_state(robot).step_problems is not store
+    ik.step(robot, tasks, cons, q, 0.01)
+    assert ik_state(robot).step_problems.entries[0].problem is not pb
