@@ -25,41 +25,25 @@ after the limit is stalled: the pool is terminated and
 the chunk. ``timeout=`` bounds the whole call as well. The serial backend
 cannot interrupt a chunk: it checks the overall timeout between chunks.
 
-Why 2 processes were slower than 1 (issue 13: Panda, 10k-50k targets, 2 cores)
--------------------------------------------------------------------------------
-Four causes, measured on the shared 2-core machine:
+Two processes against one
+-------------------------
 
-1. **BLAS threads.** Without ``OPENBLAS_NUM_THREADS`` set, NumPy's OpenBLAS
-   starts one thread per core in every process, and the stacked LM makes
-   calls large enough to use them (ranking 1000 targets against the
-   2000-sample table of starts is a 1000 x 13 x 2000 product). Two workers
-   then ran four BLAS threads on two cores, and idle OpenBLAS threads spin:
-   1 process 7.2k, 2 processes 5.2k targets/s; with one BLAS thread per
-   process 10-13k and 20k (same run, load 3.4). Workers now make their
-   BLAS and OpenMP single-threaded (``threadpoolctl``,
-   :func:`ik.batch.worker.limit_blas_threads`); the caller's process is
-   left as the user configured it.
-2. **The parent's serial work.** Validating every target with a
-   ``Target`` object (about 8 us each) and building one ``Result`` per
-   target field by field (about 12 us) took ~20 % of a 2-process run. Both
-   are now done on whole arrays/lists: 0.03 s of parent CPU per 10k targets
-   (was 0.10 s) against ~0.4 s of CPU per worker.
-3. **A round trip per chunk.** A worker that finished a chunk waited for the
-   parent to wake up, read the result and send the next chunk - twice a
-   scheduling latency, tens of milliseconds on a loaded machine. Each
-   worker now holds its next chunk already (:data:`ik.batch.pool.PREFETCH`).
-4. **The machine itself.** The kernel groups the processes of a session
-   (``/proc/sys/kernel/sched_autogroup_enabled`` = 1 here) and shares the
-   CPU fairly between sessions: while other sessions keep both cores busy,
-   a 2-process batch gets no more CPU than a 1-process one, whatever the
-   library does. Two plain CPU-bound Python processes show the same ratio
-   at the same moment (``benchmarks/bench_ik.py`` records it next to the
-   solve_many ratio, with the CPU seconds that give the speed-up on two
-   free cores).
+* Every worker makes its BLAS and OpenMP libraries single-threaded
+  (:func:`ik.batch.worker.limit_blas_threads`): with one OpenBLAS thread per
+  core in every process, workers would run more BLAS threads than there are
+  cores, and idle OpenBLAS threads spin. The caller's process is left as the
+  user configured it.
+* The parent's serial work is done on whole arrays: the targets are validated
+  all at once, the ``Result`` list is rebuilt from each chunk's arrays.
+* Each worker holds its next chunk already (:data:`ik.batch.pool.PREFETCH`),
+  so it never waits for the parent between two chunks.
+* A few large chunks (2 per process, at most
+  :data:`ik.batch.solve_many.VECTOR_CHUNK` targets) and dynamic dispatch keep
+  the workers even.
 
-Chunking was not a cause: a few large chunks (2 per process, at most 1000
-targets) keep the stacked LM efficient (smaller chunks pay its per-chunk
-scalar tail more often) and dynamic dispatch keeps the workers even.
+A session's processes share the CPU with the machine's other sessions (the
+kernel's autogroup scheduling): ``benchmarks/bench_ik.py`` records what two
+plain CPU-bound processes get next to the ``solve_many`` ratio.
 """
 
 from __future__ import annotations

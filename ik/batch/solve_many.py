@@ -11,11 +11,10 @@ Design
   execution backend of :mod:`ik.batch.runners`: a persistent pool of worker
   processes (:mod:`ik.batch.pool`; default), this process (``"serial"``), or
   Ray actors (:mod:`ik.batch.ray_backend`). The work of a chunk, wherever it runs,
-  is :mod:`ik.batch.worker`: plain pose targets go through the stacked
-  Levenberg-Marquardt of :mod:`ik.batch.batch_lm`, anything else target by target
-  through ``ik.solve``'s own code path. The stacked answers are valid
-  solutions within the same tolerances, not necessarily the very
-  configurations ``ik.solve`` returns one by one.
+  is :mod:`ik.batch.worker`: targets ``ik.solve`` would answer with plain
+  Levenberg-Marquardt go through one compiled call per chunk
+  (:mod:`ik.lm.many`), with the answers ``ik.solve`` gives them one by one;
+  anything else goes target by target through ``ik.solve``'s own code path.
 * A worker sends back compact arrays per chunk; this process rebuilds the
   ``Result`` list in the original order. Histories are dropped unless
   ``keep_history=True``.
@@ -55,7 +54,7 @@ __all__ = ["solve_many", "shutdown_pool", "checked_poses", "chunk_bounds", "BACK
 
 #: Batches at least this long show a progress bar by default.
 PROGRESS_THRESHOLD = 500
-#: Largest chunk for the stacked LM (rows solved together).
+#: Largest chunk of the compiled batch (targets solved in one call).
 VECTOR_CHUNK = 1000
 
 
@@ -166,7 +165,7 @@ def _check_timeout(timeout) -> float | None:
 
 def chunk_bounds(n: int, processes: int, chunksize: int | None, vectorised: bool) -> list[tuple[int, int]]:
     """``(start, stop)`` of each chunk: by default 2 chunks per process of at most
-    :data:`VECTOR_CHUNK` targets for the stacked LM, about 8 per process otherwise."""
+    :data:`VECTOR_CHUNK` targets for the compiled batch, about 8 per process otherwise."""
     if chunksize is None:
         if vectorised:
             chunksize = min(VECTOR_CHUNK, max(64, math.ceil(n / (2 * processes))))
