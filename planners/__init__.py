@@ -1,5 +1,6 @@
 """planners: time scaling, via-point and SE(3) trajectories, checkpoint ordering, joint trajectories,
-resolved-rate control, and mobile-base planning (``planners.mobile``).
+resolved-rate control, joint-space motion planning (``planners.motion``) and mobile-base planning
+(``planners.mobile``).
 
 Imports ``kinematics`` (and may import ``ik``); never ``scenarios``, ``service`` or ``viz``.
 """
@@ -9,6 +10,7 @@ from .cartesian import CartesianPlan, cartesian_to_joint
 from .checkpoint_order import OrderResult, euclidean_cost_matrix, held_karp, path_cost, shortest_order
 from .errors import BlockedPointError, NoPathError, PlanningError
 from .joint_trajectory import JointTrajectory, finite_difference_velocities
+from .motion import MotionPlan, plan_motion
 from .polynomials import cubic_coefficients, quintic_coefficients
 from .resolved_rate import (
     ResolvedRateResult,
@@ -56,6 +58,8 @@ __all__ = [
     "shortest_order", "OrderResult", "held_karp", "path_cost", "euclidean_cost_matrix",
     # Cartesian path -> joint trajectory
     "cartesian_to_joint", "CartesianPlan",
+    # motion planning in joint space
+    "plan_motion", "MotionPlan",
     # resolved rate
     "resolved_rate", "track_reference", "follow_circle", "ResolvedRateResult", "SingularityEvent",
     "damped_pseudo_inverse", "task_coordinates",

@@ -1,0 +1,147 @@
+"""Pair distances at a configuration, asked of coal only where they decide a certificate.
+
+A :class:`Clearance` holds, for one configuration ``q``, a lower bound ``distance[p]``
+(m) of every checked pair's signed distance and whether it is coal's exact value
+(``exact[p]``). It starts with the bounds of the scene's sphere pre-check
+(:func:`kinserve.kinematics.precheck_kernels.pair_lower_bounds`, one compiled call:
+spheres fixed in the joint frames that contain every robot geometry, against each
+other and against the obstacles' exact point distances; a positive bound is a
+true lower bound, a negative one says nothing) - or with every exact distance,
+from one ``pinocchio.computeDistances``, when the scene has no pre-check - and is
+refined in place, pair by pair, by :meth:`ClearanceOracle.radius`.
+
+``radius(c, w)``: the largest ``|ds|`` such that every pair keeps at least
+:data:`TOLERANCE` when pair ``p``'s distance changes by at most ``w[p] |ds|``,
+``rho = min_p (d_p - TOLERANCE) / w_p``, computed as if every distance were exact:
+it refines the pairs whose bound would decide ``rho`` (smallest bound-based
+``rho`` first, a few at a time) until the smallest one is exact; the other
+pairs' bounds already give a larger ``rho``, and exact distances are at least their
+bounds, so the answer equals the all-exact one. Pairs whose bound is below
+:data:`CLEARANCE_FLOOR` are refined first; ``rho = -1`` when an exact distance is.
+
+Coal's distances are those of the scene's ``GeometryModel`` (the robot's convex
+collision model, the obstacles at their poses and the checked pairs), computed on
+the oracle's own ``pinocchio.Data`` / ``GeometryData``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from kinserve.kinematics.precheck_kernels import pair_lower_bounds
+
+#: Smallest clearance (m) from which a motion may advance; closer configurations reject it.
+CLEARANCE_FLOOR = 1e-4
+#: Distance kept in reserve (m) against the error of coal's distances: a certified interval keeps every
+#: pair at least this far apart.
+TOLERANCE = 1e-5
+#: Pairs refined together by :meth:`ClearanceOracle.radius` per round.
+REFINE_BATCH = 4
+
+
+@dataclass(eq=False)
+class Clearance:
+    """Configuration ``q`` ``(nq,)``, lower bounds ``distance`` ``(P,)`` (m) of its pair distances and the
+    mask ``exact`` ``(P,)`` of those that are coal's values (refined in place)."""
+
+    q: np.ndarray
+    distance: np.ndarray
+    exact: np.ndarray
+
+
+class ClearanceOracle:
+    """Collision tests and pair distances of one scene (module docstring), counted.
+
+    ``checks``: configurations asked (collision tests and clearances); ``distance_checks``: clearances
+    made; ``pair_distances``: coal pair distances computed.
+    """
+
+    def __init__(self, scene: Any) -> None:
+        self.scene = scene
+        self.n_pairs = len(scene.pairs)
+        #: The scene's pre-check arguments (:class:`~kinserve.kinematics.scene_precheck.PrecheckArguments`)
+        #: or None: exact distances only.
+        self.precheck = scene.precheck() if self.n_pairs else None
+        self.model = scene.model
+        self.geometry = scene.geometry
+        #: The oracle's own Pinocchio and coal workspaces (the scene's per-thread ones serve its other
+        #: queries): no other call can move the placements between a clearance and its refinement.
+        self.data = scene.model.createData()
+        self.geometry_data = pin.GeometryData(scene.geometry)
+        self.checks = 0
+        self.distance_checks = 0
+        self.pair_distances = 0
+        self._placed: Clearance | None = None  # whose placements ``data`` / ``geometry_data`` hold
+
+    def in_collision(self, q: np.ndarray) -> bool:
+        """The scene's collision test at ``q`` (float ``(nq,)``)."""
+        self.checks += 1
+        return bool(self.scene.in_collision(q))
+
+    def clearance(self, q: np.ndarray) -> Clearance:
+        """The :class:`Clearance` of ``q``: sphere bounds (or every exact distance without a sphere model)."""
+        self.checks += 1
+        self.distance_checks += 1
+        q = np.array(q, dtype=float)
+        if self.precheck is not None:
+            bounds = pair_lower_bounds(self.precheck.floats, self.precheck.ints, q)
+            return Clearance(q, bounds, np.zeros(self.n_pairs, dtype=bool))
+        if not self.n_pairs:
+            return Clearance(q, np.zeros(0), np.zeros(0, dtype=bool))
+        self._place(q)
+        self._placed = None
+        pin.computeDistances(self.geometry, self.geometry_data)
+        self.pair_distances += self.n_pairs
+        d = np.fromiter((r.min_distance for r in self.geometry_data.distanceResults), float, self.n_pairs)
+        return Clearance(q, d, np.ones(self.n_pairs, dtype=bool))
+
+    def _place(self, q: np.ndarray) -> None:
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data)
+
+    def refine(self, c: Clearance, pairs: np.ndarray) -> None:
+        """Replace the bounds of ``pairs`` (indices) in ``c`` by coal's exact distances."""
+        if self._placed is not c:
+            self._place(c.q)
+            self._placed = c
+        for k in pairs:
+            c.distance[k] = pin.computeDistance(self.geometry, self.geometry_data, int(k)).min_distance
+            c.exact[k] = True
+        self.pair_distances += len(pairs)
+
+    def floor_ok(self, c: Clearance) -> bool:
+        """True when every pair of ``c`` is at least :data:`CLEARANCE_FLOOR` apart (refining the pairs whose
+        bound is below it)."""
+        low = np.flatnonzero(~c.exact & (c.distance < CLEARANCE_FLOOR))
+        if len(low):
+            self.refine(c, low)
+        return not self.n_pairs or float(c.distance.min()) >= CLEARANCE_FLOOR
+
+    def radius(self, c: Clearance, rates: np.ndarray) -> float:
+        """``rho`` of ``c`` for the pair rates ``rates`` ``(P,)`` (module docstring): ``-1`` below the floor,
+        ``inf`` when no pair moves."""
+        if not self.floor_ok(c):
+            return -1.0
+        moving = rates > 0.0
+        if not moving.any():
+            return float("inf")
+        with np.errstate(divide="ignore"):
+            rho = np.where(moving, (c.distance - TOLERANCE) / np.where(moving, rates, 1.0), np.inf)
+        while True:
+            k = int(np.argmin(rho))
+            if c.exact[k]:
+                return float(rho[k])
+            exact_best = float(np.min(rho[c.exact])) if c.exact.any() else np.inf
+            open_pairs = np.flatnonzero(~c.exact & (rho < exact_best))
+            batch = open_pairs[np.argsort(rho[open_pairs], kind="stable")[:REFINE_BATCH]]
+            self.refine(c, batch)
+            if not self.floor_ok(c):
+                return -1.0
+            rho[batch] = (c.distance[batch] - TOLERANCE) / rates[batch]
+
+
+__all__ = ["CLEARANCE_FLOOR", "REFINE_BATCH", "TOLERANCE", "Clearance", "ClearanceOracle"]

@@ -1,0 +1,151 @@
+"""``plan_motion``: a collision-free joint-space motion from a start to a goal (or a goal set), timed.
+
+The steps, each its own module: validate the request (:mod:`.request`); set up
+outside any clock the robot's collision scene with the obstacles, the reach table
+of its pairs (:mod:`.reach`), the edge certifier (:mod:`.edges`) and toppra; check
+the start and the goals; search with bidirectional RRT-Connect (:mod:`.rrt_connect`,
+budget: ``max_iterations`` and / or ``max_time``); simplify (:mod:`.shortcut`); time
+the path with toppra (:mod:`.timing`). Every segment of ``path`` and the
+trajectory's geometric path are certified collision free as continuous motions.
+
+An answer depends only on the inputs and ``seed`` when the budget is
+``max_iterations`` alone (``max_time=None``); with ``max_time`` the search stops
+on the clock, so a loaded machine may find a different path or none.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.shapes import Shape
+from kinserve.kinematics.types import ArrayLike
+
+from .blended_path import corner_directions, distinct_points
+from .clearance import CLEARANCE_FLOOR, Clearance, ClearanceOracle
+from .edges import EdgeCertifier
+from .reach import pair_reach
+from .request import MotionRequest, motion_request
+from .result import MotionPlan
+from .rrt_connect import rrt_connect
+from .shortcut import CertifiedPath, path_length, simplify_path
+from .timing import TimedPath, load_toppra, time_parameterize
+
+
+def _pairs_text(pairs: list[tuple[str, str]]) -> str:
+    return ", ".join(f"{a} with {b}" for a, b in pairs)
+
+
+def _blocked_reason(robot: Robot, request: MotionRequest, certifier: EdgeCertifier, q: np.ndarray,
+                    name: str) -> tuple[str | None, Clearance | None]:
+    """Why configuration ``q`` (called ``name``) cannot be a path's end (None when it can) and its
+    clearance."""
+    if certifier.in_collision(q):
+        pairs = robot.collisions(q, request.obstacles, self_collision=request.self_collision)
+        return f"{name} is in collision: {_pairs_text(pairs) or 'a checked pair'}", None
+    c = certifier.clearance(q)
+    if not certifier.clear(c):
+        k = int(np.argmin(c.distance))
+        a, b = certifier.oracle.scene.pair_names[k]
+        return (f"{name} is closer than the clearance floor {CLEARANCE_FLOOR:g} m to a collision: "
+                f"{a} with {b} at {c.distance[k]:.3g} m"), c
+    return None, c
+
+
+def _goal_reasons(robot: Robot, request: MotionRequest, certifier: EdgeCertifier):
+    """``(indices of the usable goals, their clearances, reasons of the others)``."""
+    usable, clearances, reasons = [], [], []
+    for i, q in enumerate(request.goals):
+        name = "goal" if request.single_goal else f"goal[{i}]"
+        reason, c = _blocked_reason(robot, request, certifier, q, name)
+        if reason is None:
+            usable.append(i)
+            clearances.append(c)
+        else:
+            reasons.append(reason)
+    return usable, clearances, reasons
+
+
+def _timed(toppra, path: CertifiedPath, certifier: EdgeCertifier, request: MotionRequest,
+           joint_names: list[str]) -> TimedPath:
+    """The trajectory of ``path``: its distinct waypoints, the certified room of each corner along both of
+    its directions (:meth:`~.edges.EdgeCertifier.room`), then :func:`~.timing.time_parameterize`."""
+    keep = distinct_points(path.points)
+    points, clear = path.points[keep], [path.clearances[k] for k in keep]
+    room = np.zeros(len(points))
+    if len(points) > 2:
+        e_in, e_out = corner_directions(points)
+        room[1:-1] = [min(certifier.room(c, a), certifier.room(c, b))
+                      for c, a, b in zip(clear[1:-1], e_in, e_out)]
+    return time_parameterize(toppra, points, room, request.velocity_limits, request.acceleration_limits,
+                             joint_names)
+
+
+def _failure(request: MotionRequest, message: str, stats: dict) -> MotionPlan:
+    empty = np.zeros((0, len(request.start)))
+    return MotionPlan(False, message, empty, empty.copy(), None, -1, stats)
+
+
+def _stats(certifier: EdgeCertifier, **values: Any) -> dict:
+    oracle = certifier.oracle
+    out = {"plan_time": 0.0, "simplify_time": 0.0, "parameterize_time": 0.0, "nodes": 0, "iterations": 0,
+           "length_before": 0.0, "length_after": 0.0, "timing": "none"}
+    out.update(values, checks=oracle.checks, distance_checks=oracle.distance_checks,
+               pair_distances=oracle.pair_distances)
+    return out
+
+
+def plan_motion(robot: Robot, start: ArrayLike, goal: ArrayLike, *, obstacles: Shape | list | tuple = (),
+                self_collision: bool = True, max_time: float | None = 1.0, seed: int | None = None,
+                acceleration_limits: float | ArrayLike | None = None, simplify: bool = True,
+                max_iterations: int | None = None) -> MotionPlan:
+    """A certified collision-free motion of ``robot`` from ``start`` to ``goal``, timed.
+
+    ``goal``: one configuration ``(nq,)`` or a goal set (list / ``(n, nq)`` array; reach any one:
+    ``goal_index`` says which). ``obstacles``: shapes of :mod:`kinserve.kinematics.shapes` (``ik.Box``,
+    ``ik.Sphere``, ``ik.Cylinder``, ...); ``self_collision``: check the robot's self pairs too.
+    ``max_time`` (s) and ``max_iterations`` (RRT-Connect samples) bound the search (at least one; with
+    ``max_iterations`` alone the result depends only on the inputs and ``seed``). ``acceleration_limits``:
+    per joint or one value (rad/s^2; default: 2 x the URDF velocity limits). ``simplify``: shortcut the path.
+
+    A start or goal in collision (the message names the pairs), closer than the clearance floor to one, or
+    no path within the budget: a :class:`MotionPlan` with ``success=False`` and the reason. Invalid
+    arguments raise :class:`InputError` / :class:`ShapeError` naming the argument.
+    """
+    request = motion_request(robot, start, goal, obstacles, self_collision, max_time, seed,
+                             acceleration_limits, simplify, max_iterations)
+    scene = robot.collision_scene(request.obstacles, request.self_collision)
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(robot.model, scene))
+    toppra = load_toppra()
+    rng = np.random.default_rng(request.seed)
+    reason, c_start = _blocked_reason(robot, request, certifier, request.start, "start")
+    if reason is not None:
+        return _failure(request, reason, _stats(certifier))
+    usable, c_goals, reasons = _goal_reasons(robot, request, certifier)
+    if not usable:
+        return _failure(request, "; ".join(reasons[:3]) + ("; ..." if len(reasons) > 3 else ""),
+                        _stats(certifier))
+    t0 = time.perf_counter()
+    found = rrt_connect(c_start, c_goals, robot.lower, robot.upper, certifier, rng, request.budget)
+    t1 = time.perf_counter()
+    searched = dict(plan_time=t1 - t0, nodes=found.nodes, iterations=found.iterations)
+    if found.goal < 0:
+        return _failure(request, f"no path found within the budget ({found.iterations} iterations, "
+                        f"{t1 - t0:.3g} s)", _stats(certifier, **searched))
+    raw = CertifiedPath(found.path, found.clearances)
+    path = simplify_path(raw, certifier, rng) if request.simplify else raw
+    t2 = time.perf_counter()
+    timed = _timed(toppra, path, certifier, request, robot.joint_names)
+    t3 = time.perf_counter()
+    stats = _stats(certifier, **searched, simplify_time=t2 - t1, parameterize_time=t3 - t2,
+                   length_before=path_length(raw.points), length_after=path_length(path.points),
+                   timing=timed.method)
+    message = f"path found ({len(path.points)} waypoints), timed by {timed.method}"
+    return MotionPlan(True, message, path.points.copy(), raw.points.copy(), timed.trajectory,
+                      usable[found.goal], stats)
+
+
+__all__ = ["plan_motion"]

@@ -1,0 +1,54 @@
+"""``MotionPlan``: the answer of :func:`~kinserve.planners.motion.plan.plan_motion`.
+
+A failure (start or goal in collision, no path within the budget) is a plan with
+``success = False`` and the reason in ``message``, never an exception.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from kinserve.planners.joint_trajectory import JointTrajectory
+
+
+@dataclass(frozen=True)
+class MotionPlan:
+    """A joint-space motion plan.
+
+    * ``success``, ``message``: whether a path was found, and why not (or how it was timed);
+    * ``path`` ``(k, nq)``: simplified waypoints from the start to the goal reached; every segment is
+      certified collision free as a continuous motion (``(0, nq)`` on failure);
+    * ``raw_path`` ``(m, nq)``: the planner's path before simplification (``(0, nq)`` on failure);
+    * ``trajectory``: the time-parameterised path (:class:`~kinserve.planners.JointTrajectory`: times (s),
+      positions, velocities, accelerations), at rest at both ends; None on failure;
+    * ``goal_index``: index of the goal reached in the goal set (0 for a single goal; -1 on failure);
+    * ``stats``: ``plan_time``, ``simplify_time``, ``parameterize_time`` (s), ``checks`` (configuration
+      queries of the collision model), ``distance_checks`` (those asking pair distances),
+      ``pair_distances`` (coal pair distances computed), ``nodes`` (of
+      both trees), ``iterations`` (samples drawn), ``length_before``, ``length_after`` (joint-space path
+      length, rad) and ``timing`` (``"toppra"``, ``"rest-to-rest"`` or ``"none"``).
+    """
+
+    success: bool
+    message: str
+    path: np.ndarray
+    raw_path: np.ndarray
+    trajectory: JointTrajectory | None
+    goal_index: int
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        for name in ("path", "raw_path"):
+            array = getattr(self, name)
+            array.flags.writeable = False
+
+    def __repr__(self) -> str:
+        state = "success" if self.success else "failure"
+        return (f"MotionPlan({state}: {self.message!r}, {len(self.path)} waypoints, "
+                f"goal_index={self.goal_index})")
+
+
+__all__ = ["MotionPlan"]

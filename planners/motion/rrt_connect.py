@@ -1,0 +1,146 @@
+"""Bidirectional RRT-Connect in joint space (Kuffner & LaValle 2000) with a goal set and certified edges.
+
+One tree grows from the start, one from every goal (each goal a root). An
+iteration draws ``q_rand`` uniformly in the joint limits, **extends** the active
+tree one step towards it (at most ``step`` rad, Euclidean) and, when that step
+succeeds, **connects** the other tree to the new node (steps until it reaches the
+node or is stopped); then the trees swap roles. A step is kept only when its end
+is free (the scene's cheap collision test first, then its pair distances above
+the floor) and its edge is certified (:class:`~.edges.EdgeCertifier`). Before the
+first iteration the start is joined straight to each goal, nearest first.
+
+Deterministic: every random draw comes from the ``numpy.random.Generator`` passed
+in. The budget is an iteration count, a wall-clock time, or both (the first one
+spent ends the search); with the count alone the answer depends only on the
+inputs and the generator.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from .clearance import Clearance
+from .edges import EdgeCertifier
+from .search_tree import SearchTree
+
+#: Default extension step (rad, Euclidean norm of the joint change).
+STEP = 0.5
+#: Goals tried by a straight edge from the start before the search (nearest first).
+DIRECT_GOALS = 3
+
+TRAPPED, ADVANCED, REACHED = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class SearchBudget:
+    """``max_iterations`` (None: no count) and ``max_time`` (s; None: no clock) of one search."""
+
+    max_iterations: int | None
+    max_time: float | None
+
+
+class SearchResult(NamedTuple):
+    """``path`` ``(m, nq)`` from the start to goal ``goal`` (its index in the goals given) with the
+    :class:`~.clearance.Clearance` of each waypoint; empty and ``goal = -1`` when none was found.
+    ``iterations``: samples drawn; ``nodes``: nodes of both trees."""
+
+    path: np.ndarray
+    clearances: list[Clearance]
+    goal: int
+    iterations: int
+    nodes: int
+
+
+class _Step(NamedTuple):
+    status: int
+    node: int
+
+
+def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
+    """One step of ``tree`` from its node nearest ``target`` towards it: (status, new node or -1)."""
+    near = tree.nearest(target)
+    q_near = tree.node(near)
+    delta = target - q_near
+    dist = float(np.linalg.norm(delta))
+    if dist <= 1e-12:
+        return _Step(REACHED, near)
+    reached = dist <= step
+    q_new = target.copy() if reached else q_near + delta * (step / dist)
+    if certifier.in_collision(q_new):
+        return _Step(TRAPPED, -1)
+    c_new = certifier.clearance(q_new)
+    if not certifier.clear(c_new) or not certifier.certify(tree.clearance(near), c_new):
+        return _Step(TRAPPED, -1)
+    k = tree.add(c_new, near)
+    return _Step(REACHED if reached else ADVANCED, k)
+
+
+def connect(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
+    """Steps of ``tree`` towards ``target`` until it reaches it (REACHED) or is stopped (TRAPPED)."""
+    while True:
+        result = extend(tree, target, certifier, step)
+        if result.status != ADVANCED:
+            return result
+
+
+def _joined(start_tree: SearchTree, start_node: int, goal_tree: SearchTree, goal_node: int,
+            nodes: int, iterations: int) -> SearchResult:
+    """The path start root -> ``start_node`` = ``goal_node`` -> goal root (the two nodes coincide)."""
+    head = start_tree.branch(start_node)[::-1]
+    tail = goal_tree.branch(goal_node)[1:]
+    path = np.array([start_tree.node(k) for k in head] + [goal_tree.node(k) for k in tail])
+    clear = [start_tree.clearance(k) for k in head] + [goal_tree.clearance(k) for k in tail]
+    return SearchResult(path, clear, goal_tree.root(goal_node), iterations, nodes)
+
+
+def _direct(start: Clearance, goals: list[Clearance], certifier: EdgeCertifier) -> int:
+    """Index of the first goal (nearest first, :data:`DIRECT_GOALS` of them) joined to the start by a
+    certified straight edge, -1 when none is."""
+    gaps = [float(np.linalg.norm(g.q - start.q)) for g in goals]
+    for g in np.argsort(gaps, kind="stable")[:DIRECT_GOALS]:
+        if certifier.certify(start, goals[g]):
+            return int(g)
+    return -1
+
+
+def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upper: np.ndarray,
+                certifier: EdgeCertifier, rng: np.random.Generator, budget: SearchBudget,
+                step: float = STEP) -> SearchResult:
+    """A certified path from ``start`` to one of ``goals`` (free configurations above the clearance floor,
+    with their clearances) inside ``[lower, upper]``, or an empty :class:`SearchResult` when the budget runs
+    out (module docstring)."""
+    g = _direct(start, goals, certifier)
+    if g >= 0:
+        return SearchResult(np.array([start.q, goals[g].q]), [start, goals[g]], g, 0, 2)
+    nq = len(start.q)
+    start_tree, goal_tree = SearchTree(nq), SearchTree(nq)
+    start_tree.add(start, -1)
+    for c in goals:
+        goal_tree.add(c, -1)
+    active, other = start_tree, goal_tree
+    deadline = None if budget.max_time is None else time.perf_counter() + budget.max_time
+    span = upper - lower
+    iterations = 0
+    while budget.max_iterations is None or iterations < budget.max_iterations:
+        if deadline is not None and time.perf_counter() > deadline:
+            break
+        iterations += 1
+        q_rand = lower + span * rng.random(nq)
+        grown = extend(active, q_rand, certifier, step)
+        if grown.status != TRAPPED:
+            joined = connect(other, active.node(grown.node), certifier, step)
+            if joined.status == REACHED:
+                nodes = start_tree.size + goal_tree.size
+                if active is start_tree:
+                    return _joined(start_tree, grown.node, goal_tree, joined.node, nodes, iterations)
+                return _joined(start_tree, joined.node, goal_tree, grown.node, nodes, iterations)
+        active, other = other, active
+    return SearchResult(np.zeros((0, nq)), [], -1, iterations, start_tree.size + goal_tree.size)
+
+
+__all__ = ["ADVANCED", "DIRECT_GOALS", "REACHED", "STEP", "TRAPPED", "SearchBudget", "SearchResult",
+           "connect", "extend", "rrt_connect"]

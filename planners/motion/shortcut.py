@@ -1,0 +1,156 @@
+"""Path simplification: random shortcuts, partial (one-joint) shortcuts and vertex removal, all certified.
+
+A path is its waypoints ``Q`` ``(k, nq)`` with the :class:`~.clearance.Clearance` of
+each (:class:`~.edges.EdgeCertifier`); its length is the joint-space length
+``sum_i |Q[i+1] - Q[i]|`` (rad, Euclidean). Every new segment is certified, and a
+piece of a certified segment is certified, so the path stays certified.
+
+* **Shortcut** (Geraerts & Overmars 2007): two arc-length positions ``t1 < t2``
+  drawn uniformly on different segments; the stretch between their points is
+  replaced by the straight segment when that is shorter and certified.
+* **Partial shortcut**: the same draw and one joint ``j``; on the stretch, joint
+  ``j`` is replaced by its linear interpolation (in arc length) between the two
+  points, the other joints keep their path; kept when shorter and every new
+  segment is certified (stretches of at most :data:`PARTIAL_MAX_VERTICES` inner
+  waypoints).
+* **Vertex removal**: each inner waypoint in turn is dropped when the segment that
+  joins its neighbours is certified (it is never longer).
+
+A new segment whose certificate needs more than :data:`SHORTCUT_ADVANCES`
+advances (one that grazes an obstacle) is given up, like one in collision.
+
+The draws come from the ``numpy.random.Generator`` passed in; the work is bounded
+by counts of attempts, not by the clock.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .clearance import Clearance
+from .edges import EdgeCertifier
+
+#: Random shortcut attempts.
+SHORTCUT_ATTEMPTS = 60
+#: Partial (one joint) shortcut attempts.
+PARTIAL_ATTEMPTS = 30
+#: Most inner waypoints of a stretch a partial shortcut rewrites.
+PARTIAL_MAX_VERTICES = 4
+#: Smallest length gain (rad) for which a shortcut is tried.
+MIN_GAIN = 1e-6
+#: Most advances of the certificate of one new segment (:meth:`~.edges.EdgeCertifier.certify`): a
+#: segment that grazes an obstacle needs many; the simplifier gives it up instead.
+SHORTCUT_ADVANCES = 100
+
+
+class CertifiedPath(NamedTuple):
+    """Waypoints ``points`` ``(k, nq)`` and the :class:`~.clearance.Clearance` of each."""
+
+    points: np.ndarray
+    clearances: list[Clearance]
+
+
+def path_length(points: np.ndarray) -> float:
+    """Joint-space length ``sum_i |Q[i+1] - Q[i]|`` (rad, Euclidean) of waypoints ``(k, nq)``."""
+    Q = np.asarray(points, dtype=float)
+    return float(np.linalg.norm(np.diff(Q, axis=0), axis=1).sum()) if len(Q) > 1 else 0.0
+
+
+def _arc(points: np.ndarray) -> np.ndarray:
+    """Cumulative arc length ``(k,)`` at the waypoints (0 first)."""
+    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+
+
+def _point_at(points: np.ndarray, arc: np.ndarray, t: float) -> tuple[int, np.ndarray]:
+    """Segment ``i`` holding arc length ``t`` and the point there."""
+    i = int(np.clip(np.searchsorted(arc, t, side="right") - 1, 0, len(points) - 2))
+    length = arc[i + 1] - arc[i]
+    f = 0.0 if length <= 0.0 else (t - arc[i]) / length
+    return i, points[i] + f * (points[i + 1] - points[i])
+
+
+def _draw(path: CertifiedPath, rng: np.random.Generator):
+    """Two positions on different segments: ``(i, qa, t1, j, qb, t2)``, or None."""
+    arc = _arc(path.points)
+    t1, t2 = np.sort(rng.random(2) * arc[-1])
+    i, qa = _point_at(path.points, arc, float(t1))
+    j, qb = _point_at(path.points, arc, float(t2))
+    return None if i == j else (i, qa, float(t1), j, qb, float(t2), arc)
+
+
+def _splice(path: CertifiedPath, i: int, j: int, points: list, clearances: list) -> CertifiedPath:
+    """``path`` with the waypoints after ``i`` up to ``j`` replaced by ``points``."""
+    Q = np.concatenate([path.points[:i + 1], np.array(points), path.points[j + 1:]])
+    return CertifiedPath(Q, path.clearances[:i + 1] + list(clearances) + path.clearances[j + 1:])
+
+
+def try_shortcut(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
+    """One random shortcut attempt (module docstring): the new path, or ``path`` unchanged."""
+    drawn = _draw(path, rng)
+    if drawn is None:
+        return path
+    i, qa, t1, j, qb, t2, _ = drawn
+    if (t2 - t1) - float(np.linalg.norm(qb - qa)) < MIN_GAIN or certifier.blocked(qa, qb):
+        return path
+    ca, cb = certifier.clearance(qa), certifier.clearance(qb)
+    if not certifier.certify(ca, cb, probe=False, max_advances=SHORTCUT_ADVANCES):
+        return path
+    return _splice(path, i, j, [qa, qb], [ca, cb])
+
+
+def try_partial_shortcut(path: CertifiedPath, certifier: EdgeCertifier,
+                         rng: np.random.Generator) -> CertifiedPath:
+    """One partial (one joint) shortcut attempt (module docstring): the new path, or ``path`` unchanged."""
+    drawn = _draw(path, rng)
+    joint = int(rng.integers(path.points.shape[1]))
+    if drawn is None:
+        return path
+    i, qa, t1, j, qb, t2, arc = drawn
+    if j - i > PARTIAL_MAX_VERTICES:
+        return path
+    inner = path.points[i + 1:j + 1].copy()
+    inner[:, joint] = qa[joint] + (arc[i + 1:j + 1] - t1) / (t2 - t1) * (qb[joint] - qa[joint])
+    stretch = np.concatenate([[qa], inner, [qb]])
+    if (t2 - t1) - path_length(stretch) < MIN_GAIN:
+        return path
+    if any(certifier.blocked(a, b) for a, b in zip(stretch[:-1], stretch[1:])):
+        return path
+    clear = [certifier.clearance(q) for q in stretch]
+    if not all(certifier.certify(a, b, probe=False, max_advances=SHORTCUT_ADVANCES)
+               for a, b in zip(clear[:-1], clear[1:])):
+        return path
+    return _splice(path, i, j, list(stretch), clear)
+
+
+def remove_vertices(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedPath:
+    """Drop each inner waypoint, first to last, whose neighbours are joined by a certified segment."""
+    Q, C = list(path.points), list(path.clearances)
+    k = 1
+    while k < len(Q) - 1:
+        if certifier.certify(C[k - 1], C[k + 1], max_advances=SHORTCUT_ADVANCES):
+            del Q[k], C[k]
+        else:
+            k += 1
+    return CertifiedPath(np.array(Q), C)
+
+
+def simplify_path(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
+    """Vertex removal, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS` partial shortcuts and
+    vertex removal again; never longer than ``path``, with the same ends."""
+    path = remove_vertices(path, certifier)
+    for _ in range(SHORTCUT_ATTEMPTS):
+        if len(path.points) <= 2:
+            break
+        path = try_shortcut(path, certifier, rng)
+    for _ in range(PARTIAL_ATTEMPTS):
+        if len(path.points) <= 2:
+            break
+        path = try_partial_shortcut(path, certifier, rng)
+    return remove_vertices(path, certifier)
+
+
+__all__ = ["MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES", "SHORTCUT_ADVANCES", "SHORTCUT_ATTEMPTS",
+           "CertifiedPath", "path_length", "remove_vertices", "simplify_path", "try_partial_shortcut",
+           "try_shortcut"]
