@@ -14,7 +14,8 @@ Seed tables and solvers are immutable once built and shared by all threads (buil
 Bound collision constraints keep a memo of their last configuration while solving, so each thread has its
 own store (:class:`BoundConstraints`, a few per thread, least recently used dropped first). So do the
 bound problems of ``ik.step`` (:class:`~kinserve.ik.step_problems.StepProblems`: a control loop's tasks and
-constraints, bound once and found again by identity and change counters).
+constraints, bound once and found again by identity and change counters). The obstacles found clear of the
+robot's fixed base (:class:`~kinserve.ik.constraints.base_overlap.BaseClearance`) are shared by all threads.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
+from kinserve.ik.constraints.base_overlap import BaseClearance
 from kinserve.ik.starts.seed_table import SeedTable
 from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
@@ -90,6 +92,7 @@ class IKState:
         self.closed_forms: dict[str, ClosedFormSolver | None] = {}
         self.threads = threading.local()  # .bound: this thread's BoundConstraints
         self.step_problems = StepProblems()  # this thread's bound problems of ik.step (per thread)
+        self.base_clearance = BaseClearance()  # obstacles found clear of the fixed base (shared, locked)
 
     def seed_table(self, frame: str) -> SeedTable:
         """The :class:`SeedTable` of ``frame`` (built once, under the lock)."""

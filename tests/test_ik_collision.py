@@ -252,16 +252,41 @@ def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(pa
         np.testing.assert_array_equal(np.array(starts[:20]), np.array(expected[:20]))
     assert q0_placed >= 1  # q0 ranked among the table samples, not first: its place is checked too
 
-def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda):
-    """Obstacles found clear of the fixed base are remembered (by value); a new one overlapping it still raises."""
-    from kinserve.ik.constraints import collision as cc
+def test_base_overlap_is_caught_next_to_obstacles_remembered_clear(panda, monkeypatch):
+    """Obstacles found clear of the fixed base are remembered (by value) by the robot's IK state - per
+    collision model, no module-level memory; a new one overlapping the base still raises; a remembered one
+    is not checked again (coal is not asked), an equal new one neither."""
+    from kinserve.ik.constraints import base_overlap
+    from kinserve.ik.state import ik_state
 
     ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=SCENE)
-    assert all(ob in cc._BASE_CLEAR[panda.collision] for ob in SCENE)
+    clear = ik_state(panda).base_clearance
+    assert clear.model is panda.collision and all(clear.holds(panda.collision, ob) for ob in SCENE)
+    assert not any(isinstance(v, (dict, set)) or type(v).__name__ in ("WeakKeyDictionary", "local")
+                   for k, v in vars(base_overlap).items() if not k.startswith("__"))
     base = ik.Box(_pose((0.0, 0.0, 0.05)), (0.2, 0.2, 0.2))
     with pytest.raises(errors.InputError, match=r"obstacle\[2\]:box overlaps the robot's fixed base"):
         ik.solve(panda, panda.fk(panda.neutral()), self_collision=True, obstacles=[*SCENE, base])
-    assert base not in cc._BASE_CLEAR[panda.collision]
+    assert not clear.holds(panda.collision, base)
+    scene = panda.collision_scene([*SCENE, base])
+    asked = []
+    distance = base_overlap._BaseDistance
+
+    class Counting(distance):
+        def __call__(self, i, slot):
+            asked.append(slot)
+            return super().__call__(i, slot)
+
+    monkeypatch.setattr(base_overlap, "_BaseDistance", Counting)
+    with pytest.raises(errors.InputError, match="overlaps the robot's fixed base"):
+        base_overlap.check_base_overlap(panda, scene, clear=clear)
+    assert set(asked) == {2}  # the remembered obstacles were not asked about
+    asked.clear()
+    twins = panda.collision_scene([ik.Box(ob.pose, ob.size) for ob in SCENE])  # equal, new objects
+    base_overlap.check_base_overlap(panda, twins, clear=clear)
+    assert asked == []
+    base_overlap.check_base_overlap(panda, twins, clear=base_overlap.BaseClearance())  # no memory
+    assert asked  # the same obstacles asked about again
 
 
 def test_base_overlap_is_caught_for_a_moved_obstacle_of_a_known_layout(panda):

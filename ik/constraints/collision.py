@@ -35,26 +35,20 @@ no row and could be crossed in one long step).
 from __future__ import annotations
 
 import math
-import threading
-import weakref
 from collections.abc import Sequence
 
-import coal
 import numpy as np
 import pinocchio as pin
 
+from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
+from kinserve.ik.constraints.base_overlap import BaseClearance, check_base_overlap
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
 
-from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
-
 #: Pairs closer than ``margin + INFLUENCE`` (m) contribute rows.
 INFLUENCE = 0.05
-#: An obstacle may overlap the fixed base by at most this much (m) (the Panda's base mesh reaches 0.03 mm
-#: below its mounting plane, so a table under it touches it); deeper means the base is inside it.
-BASE_TOLERANCE = 1e-3
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
 
@@ -94,13 +88,16 @@ class CollisionConstraint(Constraint):
         self.clearance = check_length(margin, "collision margin")
         self.influence = check_length(influence, "collision influence", positive=True)
         self.scene = None
+        self._memo: tuple | None = None  # (q bytes, near pairs) of the last near_pairs call
 
     # ------------------------------------------------------------------ protocol
     def bind(self, robot: Robot) -> "CollisionConstraint":
-        """Build the robot's collision scene; :class:`InputError` when an obstacle contains the fixed base."""
+        """Build the robot's collision scene; :class:`InputError` when an obstacle contains the fixed base
+        (:func:`~kinserve.ik.constraints.base_overlap.check_base_overlap`, with the robot's memory of the
+        obstacles found clear of it)."""
         scene = robot.collision.scene(self.obstacles, self.self_collision)  # obstacles validated by __init__
         if not getattr(scene, "base_checked", False):  # once per scene (scenes are cached per obstacle set)
-            _check_base(robot, scene)
+            check_base_overlap(robot, scene, clear=_base_clearance(robot))
             scene.base_checked = True
         return self._on_scene(robot, scene)
 
@@ -112,7 +109,7 @@ class CollisionConstraint(Constraint):
         this constraint's own objects."""
         old = self.scene
         scene = CollisionScene(self.robot.collision, obstacles, self.self_collision, old.layout)
-        _check_base(self.robot, scene, known=old.obstacles)
+        check_base_overlap(self.robot, scene, known=old.obstacles)
         scene.base_checked = True
         bound = self._on_scene(self.robot, scene)
         bound.obstacles = obstacles
@@ -127,7 +124,9 @@ class CollisionConstraint(Constraint):
         bound.scene = scene
         bound.robot = robot
         bound._threshold = self.clearance + self.influence
-        if self.clearance == 0.0:  # the checks are the scene's own: one call less per check (loops check every iterate)
+        bound._memo = None
+        # margin 0: the checks are the scene's own, one call less per check (loops check every iterate)
+        if self.clearance == 0.0:
             bound.in_collision = scene.in_collision
             bound.first_collision = scene.first_collision
         return bound
@@ -140,7 +139,7 @@ class CollisionConstraint(Constraint):
         configuration). ``data``, when given, holds the joint placements of ``q``.
         """
         key = q.tobytes()
-        memo = self.__dict__.get("_memo")
+        memo = self._memo
         if memo is not None and memo[0] == key:
             return memo[1]
         scene, th = self.scene, self._threshold
@@ -149,7 +148,8 @@ class CollisionConstraint(Constraint):
         self._memo = (key, out)
         return out
 
-    def pair_rows(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    def pair_rows(self, robot: Robot, data: pin.Data,
+                  q: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[int]]:
         """``(d, G, pairs)``: distances ``(k,)`` and rows ``g`` ``(k, nv)`` of the near pairs at ``q``.
 
         ``data`` holds ``pinocchio.computeJointJacobians(model, data, q)``.
@@ -171,7 +171,8 @@ class CollisionConstraint(Constraint):
                 if J is None:
                     J = jac[j] = pin.getJointJacobian(model, data, int(j), _LWA)
                 a = p - data.oMi[int(j)].translation
-                axn = (a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0])  # a x n
+                # a x n
+                axn = (a[1] * n[2] - a[2] * n[1], a[2] * n[0] - a[0] * n[2], a[0] * n[1] - a[1] * n[0])
                 G[r] += sign * (n @ J[:3] + np.dot(axn, J[3:]))
         return d, G, [k for k, *_ in near]
 
@@ -183,7 +184,8 @@ class CollisionConstraint(Constraint):
         return G, lower, np.full(len(d), np.inf)
 
     def margin(self, robot: Robot, data: pin.Data | None, q: np.ndarray) -> float:
-        """The slack at ``q``: ``>= 0`` iff the constraint holds (the solvers use its sign and negative values).
+        """The slack at ``q``: ``>= 0`` iff the constraint holds (the solvers use its sign and negative
+        values).
 
         Negative: the smallest ``d - margin`` (m) over the violating pairs. Otherwise ``influence`` when
         the margin is 0 and the broad-phase check finds no collision (the fast path of every step
@@ -197,6 +199,7 @@ class CollisionConstraint(Constraint):
         return min(item[1] for item in near) - self.clearance
 
     def describe(self, robot: Robot, data: pin.Data | None, q: np.ndarray) -> str:
+        """The pairs closer than the margin at ``q``, in words ("" when there is none)."""
         bad = []
         for k, dist, *_ in self.near_pairs(q):
             if dist < self.clearance:
@@ -221,69 +224,11 @@ class CollisionConstraint(Constraint):
         return -1
 
 
-#: Per collision model, the obstacles (by value; meshes never) already found clear of its fixed base.
-_BASE_CLEAR: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-_BASE_CLEAR_SIZE = 256
-_BASE_CLEAR_LOCK = threading.Lock()
-
-
-def _check_base(robot, scene, known: tuple = ()) -> None:
-    """InputError when an obstacle overlaps a geometry fixed to the world by more than BASE_TOLERANCE.
-
-    Coal decides only where an obstacle's bounding ball (:meth:`~kinserve.kinematics.shapes.Shape.bounding_ball`)
-    meets the ball of a base geometry. An obstacle found clear is remembered per collision model (a table
-    or wall shared by many scenes is checked once). With ``known`` (the obstacles of a scene already
-    checked, in their places: :meth:`CollisionConstraint.moved`), an obstacle that is ``known[k]`` itself is
-    skipped and nothing is looked up or remembered (the others are moved copies, usually seen once).
-    """
-    cm = robot.collision
-    base = cm.base_spheres()
-    if not base or not scene.obstacles:
-        return
-    cleared = None
-    if not known:
-        try:
-            cleared = _BASE_CLEAR.get(cm)
-        except TypeError:  # pragma: no cover - a model that cannot be weakly referenced: no memory
-            pass
-    n_robot = scene.n_robot
-    req = res = None
-    newly = []
-    for k, shape in enumerate(scene.obstacles, start=n_robot):
-        if k - n_robot < len(known) and known[k - n_robot] is shape:
-            continue
-        mesh = shape.kind == "mesh"
-        if not mesh and cleared is not None and shape in cleared:
-            continue
-        c_ob, r_ob = shape.bounding_ball()
-        for i, c, r in base:
-            if math.dist(c, c_ob) > r + r_ob:  # balls apart: no overlap at all (GJK not needed)
-                continue
-            if req is None:
-                req, res = coal.DistanceRequest(), coal.DistanceResult()
-                objects = cm.geometry.geometryObjects
-            # the layout's geometry of this slot: the same shape and size (the obstacle's own is built on demand)
-            geometry, placement = scene.layout.obstacle_geometries[k - n_robot], scene.placements[k - n_robot]
-            g = objects[i]
-            res.clear()
-            d = coal.distance(g.geometry, coal.Transform3s(g.placement.rotation, g.placement.translation),
-                              geometry, coal.Transform3s(placement.rotation, placement.translation), req, res)
-            if d < -BASE_TOLERANCE:
-                raise InputError(
-                    f"{scene.geometry_owner[k]} overlaps the robot's fixed base ({scene.geometry_owner[i]}) by "
-                    f"{-d:.4g} m; the base cannot move out of it"
-                )
-        if not mesh and not known:
-            newly.append(shape)
-    if newly:
-        with _BASE_CLEAR_LOCK:
-            try:
-                cleared = _BASE_CLEAR.setdefault(robot.collision, set())
-            except TypeError:  # pragma: no cover
-                return
-            if len(cleared) + len(newly) > _BASE_CLEAR_SIZE:
-                cleared.clear()
-            cleared.update(newly)
+def _base_clearance(robot: Robot) -> BaseClearance | None:
+    """The robot's memory of the obstacles found clear of its fixed base: the one its IK state holds
+    (``robot.extensions.ik``: :class:`kinserve.ik.state.IKState`; None before the robot has one)."""
+    state = robot.extensions.ik
+    return None if state is None else state.base_clearance
 
 
 class SelfCollision(CollisionConstraint):
@@ -297,5 +242,6 @@ class SceneCollision(CollisionConstraint):
     """The robot's moving collision geometry kept ``margin`` (m) clear of ``obstacles``, on every iterate."""
 
     def __init__(self, obstacles: Sequence, margin: float = 0.0, influence: float = INFLUENCE) -> None:
-        super().__init__(obstacles, self_collision=False, margin=margin, influence=influence, name="obstacles")
+        super().__init__(obstacles, self_collision=False, margin=margin, influence=influence,
+                         name="obstacles")
 
