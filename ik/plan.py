@@ -39,6 +39,7 @@ hard on every iterate runs only when no attempt passes.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from functools import partial
 from typing import NamedTuple
@@ -118,10 +119,25 @@ def features(req: SolveRequest) -> Features:
                     req.weights is not None or bool(req.extra))
 
 
-def choose_strategy(req: SolveRequest) -> Strategy:
-    """The first row of :data:`TABLE` matching the request's :func:`features`."""
-    have = features(req)
+def first_match(have: tuple) -> Strategy:
+    """The strategy of the first row of :data:`TABLE` that matches the columns ``have``."""
     for row, strategy in TABLE:
         if all(want is ANY or want == got for want, got in zip(row, have)):
             return strategy
     raise AssertionError(f"no strategy for {have}")  # the table covers every combination (tested)
+
+
+#: :func:`first_match` of every combination of the columns, evaluated once at import (a constant: the
+#: table's answers laid out for one dictionary look-up per solve).
+LOOKUP: dict[tuple, Strategy] = {
+    combo: first_match(combo)
+    for combo in itertools.product(("target",), ("auto", "qp", "lm", "analytic", "classical"),
+                                   (False, True), (False, True), (False, True), (False, True))
+}
+
+
+def choose_strategy(req: SolveRequest) -> Strategy:
+    """The first row of :data:`TABLE` matching the request's :func:`features`."""
+    if req.problem is not None:
+        return TASK_QP
+    return LOOKUP[features(req)]
