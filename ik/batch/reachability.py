@@ -103,11 +103,7 @@ def reachability_map(
     With ``self_collision`` / ``obstacles`` (:func:`ik.solve`'s collision options) a
     pose counts as reached only by a collision-free solution.
     """
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
-        raise InputError(f"samples must be a positive integer, got {samples!r}")
-    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) \
-            or not 1 <= resolution <= 100:
-        raise InputError(f"resolution must be an integer in [1, 100], got {resolution!r}")
+    _check_counts(samples, resolution)
     frame = frame or robot.tip
     robot.frame_id(frame)
     rng = np.random.default_rng(seed)
@@ -115,29 +111,9 @@ def reachability_map(
     if np.any(box[1] < box[0]):
         raise InputError(f"bounds must be [min; max] with min <= max, got {box.tolist()}")
     acts = [a in robot.task_axes for a in _POSITION_AXES]
-    P = rng.uniform(box[0], box[1], size=(samples, 3))
-    centre = 0.5 * (box[0] + box[1])
-    for k, active in enumerate(acts):
-        if not active:
-            P[:, k] = centre[k]  # the mechanism cannot move along this axis: its constant value
+    P = _positions(rng, box, acts, samples)
     relax = tuple(a for a in _POSITION_AXES + _ROTATION_AXES if a not in robot.task_axes)
-    if isinstance(orientation, str) and orientation == "free":
-        relax = tuple(dict.fromkeys(relax + tuple(a for a in _ROTATION_AXES if a in robot.task_axes)))
-        R = np.repeat(np.eye(3)[None], samples, axis=0)
-        label = "free"
-    elif isinstance(orientation, str) and orientation == "random":
-        from scipy.spatial.transform import Rotation
-
-        R = Rotation.random(samples, random_state=rng.integers(1 << 31)).as_matrix()
-        label = "random"
-    elif isinstance(orientation, str):
-        raise InputError(f"orientation must be 'free', 'random' or a 3x3 rotation matrix, "
-                         f"got {orientation!r}")
-    else:
-        R0 = as_matrix(orientation, (3, 3), "orientation")
-        check_rotation(R0, "orientation")
-        R = np.repeat(R0[None], samples, axis=0)
-        label = "fixed"
+    R, label, relax = _orientations(robot, orientation, samples, rng, relax)
     targets = np.zeros((samples, 4, 4))
     targets[:, :3, :3] = R
     targets[:, :3, 3] = P
@@ -149,10 +125,62 @@ def reachability_map(
     results = solve_many(robot, targets, frame=frame, relax=relax, backend=backend, processes=processes,
                          max_time=max_time, seed=seed, progress=progress, **extra)
     reached = np.array([r.success for r in results], dtype=bool)
-    # an axis the mechanism cannot move along gets one 1 m bin around its constant value
-    edges = [np.linspace(box[0][k], box[1][k], resolution + 1) if acts[k]
-             else centre[k] + np.array([-0.5, 0.5])
-             for k in range(3)]
+    counts, hits = _cell_counts(P, reached, box, acts, resolution)
+    return ReachabilityMap(robot.name, frame, label, _cell_edges(box, acts, resolution), P, reached, counts,
+                           hits)
+
+
+def _check_counts(samples: int, resolution: int) -> None:
+    """:class:`InputError` unless ``samples`` is a positive integer and ``resolution`` one in [1, 100]."""
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise InputError(f"samples must be a positive integer, got {samples!r}")
+    if (isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer))
+            or not 1 <= resolution <= 100):
+        raise InputError(f"resolution must be an integer in [1, 100], got {resolution!r}")
+
+
+def _positions(rng: np.random.Generator, box: np.ndarray, acts: list[bool], samples: int) -> np.ndarray:
+    """``(samples, 3)`` positions uniform in ``box``; an axis the mechanism cannot move along
+    (``acts[k]`` False) is held at the box's centre."""
+    P = rng.uniform(box[0], box[1], size=(samples, 3))
+    centre = 0.5 * (box[0] + box[1])
+    for k, active in enumerate(acts):
+        if not active:
+            P[:, k] = centre[k]  # the mechanism cannot move along this axis: its constant value
+    return P
+
+
+def _orientations(robot: Robot, orientation: str | ArrayLike, samples: int, rng: np.random.Generator,
+                  relax: tuple) -> tuple[np.ndarray, str, tuple]:
+    """``(R, label, relax)``: the ``(samples, 3, 3)`` target rotations of ``orientation`` (module docstring),
+    its label and the relaxed components (``"free"`` adds the rotations the robot acts on)."""
+    if isinstance(orientation, str) and orientation == "free":
+        relax = tuple(dict.fromkeys(relax + tuple(a for a in _ROTATION_AXES if a in robot.task_axes)))
+        return np.repeat(np.eye(3)[None], samples, axis=0), "free", relax
+    if isinstance(orientation, str) and orientation == "random":
+        from scipy.spatial.transform import Rotation
+
+        return Rotation.random(samples, random_state=rng.integers(1 << 31)).as_matrix(), "random", relax
+    if isinstance(orientation, str):
+        raise InputError(f"orientation must be 'free', 'random' or a 3x3 rotation matrix, "
+                         f"got {orientation!r}")
+    R0 = as_matrix(orientation, (3, 3), "orientation")
+    check_rotation(R0, "orientation")
+    return np.repeat(R0[None], samples, axis=0), "fixed", relax
+
+
+def _cell_edges(box: np.ndarray, acts: list[bool], resolution: int) -> list[np.ndarray]:
+    """The cell edges along x, y, z: ``resolution`` cells across the box, or one 1 m bin around the constant
+    value of an axis the mechanism cannot move along."""
+    centre = 0.5 * (box[0] + box[1])
+    return [np.linspace(box[0][k], box[1][k], resolution + 1) if acts[k]
+            else centre[k] + np.array([-0.5, 0.5]) for k in range(3)]
+
+
+def _cell_counts(P: np.ndarray, reached: np.ndarray, box: np.ndarray, acts: list[bool],
+                 resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(counts, hits)``: samples and reached samples per cell (integer arrays ``(nx, ny, nz)``)."""
+    edges = _cell_edges(box, acts, resolution)
     counts, _ = np.histogramdd(P, bins=edges)
     hits, _ = np.histogramdd(P[reached], bins=edges) if reached.any() else (np.zeros_like(counts), None)
-    return ReachabilityMap(robot.name, frame, label, edges, P, reached, counts.astype(int), hits.astype(int))
+    return counts.astype(int), hits.astype(int)
