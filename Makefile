@@ -55,20 +55,24 @@ gallery: $(VENV)/.installed browser
 PEER_VENVS   := bench-out/venvs
 PLACO_SPEC    ?= placo==0.10.2
 ROBOPLAN_SPEC ?= roboplan==0.7.0
+# OMPL's validity checker is kinserve's own collision check, so its venv holds kinserve (editable) too
+OMPL_SPEC     ?= -e $(CURDIR) ompl==2.0.1
 
 $(PEER_VENVS)/%/.installed:
 	@mkdir -p $(PEER_VENVS)
 	@echo "peer venv $(PEER_VENVS)/$*: $($(shell echo $* | tr a-z A-Z)_SPEC)"
 	@( $(PYTHON) -m venv $(PEER_VENVS)/$* \
 	   && $(PEER_VENVS)/$*/bin/python -m pip install --quiet --upgrade pip \
-	   && $(PEER_VENVS)/$*/bin/python -m pip install --quiet "$($(shell echo $* | tr a-z A-Z)_SPEC)" \
+	   && $(PEER_VENVS)/$*/bin/python -m pip install --quiet $($(shell echo $* | tr a-z A-Z)_SPEC) \
 	   && touch $@ ) || echo "WARNING: could not install $* in $(PEER_VENVS)/$*; its benchmark rows will be skipped"
 
-peers: $(PEER_VENVS)/placo/.installed $(PEER_VENVS)/roboplan/.installed
+peers: $(PEER_VENVS)/placo/.installed $(PEER_VENVS)/roboplan/.installed $(PEER_VENVS)/ompl/.installed
 
 # BENCH_N=50 runs the IK benchmarks on 50 targets (a quick check; the README figures use the defaults).
 BENCH_N ?=
 BENCH_IK_N := $(if $(BENCH_N),--n $(BENCH_N))
+# MotionBenchMaker's Panda problems (VAMP's resources/panda/): the archive is unpacked into bench-out/
+MBM_DATASET ?= /work/shared/datasets/motion-bench-maker
 
 bench: $(VENV)/.installed-bench peers
 	mkdir -p bench-out
@@ -78,6 +82,7 @@ bench: $(VENV)/.installed-bench peers
 	$(PY) benchmarks/bench_collision.py $(BENCH_IK_N) --out bench-out/collision.json
 	$(PY) benchmarks/bench_planners.py --out bench-out/planners.json
 	$(PY) benchmarks/bench_service.py --out bench-out/service.json
+	$(PY) benchmarks/bench_motion.py --dataset $(MBM_DATASET) $(BENCH_IK_N) --out bench-out/motion.json
 	$(PY) benchmarks/render_tables.py bench-out --out bench-out/tables.md
 
 clean:
