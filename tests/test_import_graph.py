@@ -68,7 +68,8 @@ def _type_checking_only(tree: ast.AST) -> set[int]:
 
 
 def import_graph(mods, type_only: bool = False) -> dict[str, set[str]]:
-    """``{module: modules it imports}``; with ``type_only`` the imports under ``if TYPE_CHECKING:`` count too."""
+    """``{module: modules it imports}``; with ``type_only`` the imports under ``if TYPE_CHECKING:`` count
+    too."""
     graph = {}
     for name, (path, is_pkg) in mods.items():
         edges = set()
@@ -128,7 +129,8 @@ def test_every_module_imports_and_no_import_cycle():
 
 
 def _source_modules(tmp_path, sources: dict[str, str]) -> dict[str, tuple]:
-    """Modules ``{dotted name: (file, False)}`` of a package ``pkg`` written from ``sources`` into ``tmp_path``."""
+    """Modules ``{dotted name: (file, False)}`` of a package ``pkg`` written from ``sources`` into
+    ``tmp_path``."""
     (tmp_path / "pkg").mkdir()
     (tmp_path / "pkg" / "__init__.py").write_text("")
     mods = {"pkg": (tmp_path / "pkg" / "__init__.py", True)}
