@@ -180,3 +180,35 @@ def test_bad_arguments(arm, kwargs, word):
 
 def test_no_problem_no_work(arm):
     assert plan_many(arm, [], planner=stand_in) == []
+
+
+@pytest.fixture(scope="module")
+def panda_problems():
+    robot = robots.load("panda", geometry=False)
+    T = np.eye(4)
+    T[:3, 3] = [0.5, 0.0, 0.4]
+    obstacles = [Box(T, [0.1, 0.6, 0.05]), Sphere([0.0, 0.5, 0.6], 0.1)]
+    rng = np.random.default_rng(7)
+    free = [q for q in robot.random_q(rng, n=200) if not robot.in_collision(q, obstacles)][:12]
+    problems = [(free[2 * i], free[2 * i + 1], obstacles if i % 2 == 0 else ()) for i in range(6)]
+    return robot, problems
+
+
+def test_plan_many_equals_plan_motion_one_by_one(panda_problems):
+    from kinserve.planners.motion import plan_motion
+
+    robot, problems = panda_problems
+    kwargs = dict(max_time=None, max_iterations=3000)
+    before = set(batch_workers_children())
+    many = plan_many(robot, problems, processes=2, seed=5, **kwargs)
+    left = set(batch_workers_children()) - before
+    one_by_one = [plan_motion(robot, s, g, obstacles=o, seed=5 + i, **kwargs) for i, (s, g, o) in
+                  enumerate(problems)]
+    assert len(many) == 6 and sum(p.success for p in one_by_one) >= 3
+    for a, b in zip(many, one_by_one):
+        assert (a.success, a.goal_index) == (b.success, b.goal_index)
+        np.testing.assert_array_equal(a.path, b.path)
+        np.testing.assert_array_equal(a.raw_path, b.raw_path)
+        if b.trajectory is not None:
+            np.testing.assert_array_equal(a.trajectory.positions, b.trajectory.positions)
+    _assert_gone(left)
