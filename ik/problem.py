@@ -69,54 +69,72 @@ def as_constraints(constraints: Any, tool_frames: Sequence[str] = ()) -> list[Co
     return out
 
 
+def _task_list(tasks: Any) -> list[Task]:
+    """``tasks`` (one task or a sequence) as a non-empty list of :class:`Task`; :class:`InputError` names
+    what is wrong."""
+    if tasks is None or isinstance(tasks, Task):
+        tasks = [] if tasks is None else [tasks]
+    try:
+        tasks = list(tasks)
+    except TypeError:
+        raise InputError(f"tasks must be a sequence of ik.Task objects, got {tasks!r}") from None
+    if not tasks:
+        raise InputError("tasks must hold at least one ik.Task (e.g. ik.FrameTask(frame, pose))")
+    for i, t in enumerate(tasks):
+        if not isinstance(t, Task):
+            raise InputError(f"tasks[{i}] must be an ik.Task (FrameTask, PostureTask, CentringTask or a "
+                             f"subclass of ik.Task), got {type(t).__name__}")
+    return tasks
+
+
+def _bound_constraints(robot: Robot, constraints: Any, tasks: list[Task]) -> list[Constraint]:
+    """The constraints (shapes as one :class:`ObstacleAvoidance` about the tasks' frames, joint limits
+    always on, first unless given) bound to ``robot``."""
+    tool_frames = [t.frame_name for t in tasks if hasattr(t, "frame_name")]
+    cons = as_constraints(constraints, tool_frames)
+    if not any(isinstance(c, JointLimits) for c in cons):
+        cons.insert(0, JointLimits())
+    return [c.bind(robot) for c in cons]
+
+
+def _sqrt_weight(task: Task) -> Any:
+    """``sqrt(weight)`` of a task, None for the weight 1 (its rows are used as they are)."""
+    return None if (type(task.weight) is float and task.weight == 1.0) else np.sqrt(task.weight)
+
+
+def _positions(tasks: list[Task], ordered: list[Task]) -> list[int]:
+    """Where each of ``tasks`` is in ``ordered`` (by identity)."""
+    position = {id(t): k for k, t in enumerate(ordered)}
+    return [position[id(t)] for t in tasks]
+
+
 class Problem:
     """Bound tasks and constraints of one robot (see the module docstring)."""
 
     def __init__(self, robot: Robot, tasks: Any, constraints: Any = ()) -> None:
-        if tasks is None or isinstance(tasks, Task):
-            tasks = [] if tasks is None else [tasks]
-        try:
-            tasks = list(tasks)
-        except TypeError:
-            raise InputError(f"tasks must be a sequence of ik.Task objects, got {tasks!r}") from None
-        if not tasks:
-            raise InputError("tasks must hold at least one ik.Task (e.g. ik.FrameTask(frame, pose))")
-        for i, t in enumerate(tasks):
-            if not isinstance(t, Task):
-                raise InputError(f"tasks[{i}] must be an ik.Task (FrameTask, PostureTask, CentringTask or a "
-                                 f"subclass of ik.Task), got {type(t).__name__}")
+        tasks = _task_list(tasks)
         self.robot = robot
         self.model = robot.model
         self.data = robot.data
         self._check_data = None
         self.tasks = [t.bind(robot) for t in tasks]
-        tool_frames = [t.frame_name for t in self.tasks if hasattr(t, "frame_name")]
-        cons = as_constraints(constraints, tool_frames)
-        if not any(isinstance(c, JointLimits) for c in cons):
-            cons.insert(0, JointLimits())
-        self.constraints = [c.bind(robot) for c in cons]
+        self.constraints = _bound_constraints(robot, constraints, self.tasks)
         self.box_constraints = []
         self.row_constraints = []
-        self.checked = []  # constraints with a true check (JointLimits excluded: iterates are clipped)
-        for c in self.constraints:
-            if isinstance(c, JointLimits):
-                continue
-            if _is_checked(c):
-                self.checked.append(c)
+        # constraints with a true check (JointLimits excluded: iterates are clipped)
+        self.checked = [c for c in self.constraints if not isinstance(c, JointLimits) and _is_checked(c)]
         self._plan = [(c, c in self.checked) for c in self.constraints]
         self.priorities = sorted({t.priority for t in self.tasks})
         self.levels = [[t for t in self.tasks if t.priority == p] for p in self.priorities]
         # sqrt(weight) of every task, None for weight 1 (rows used as they are)
-        self.level_weights = [[None if (type(t.weight) is float and t.weight == 1.0) else np.sqrt(t.weight)
-                               for t in lvl] for lvl in self.levels]
+        self.level_weights = [[_sqrt_weight(t) for t in lvl] for lvl in self.levels]
         # per level: the single task whose rows are used as they are, or None (stack the level's tasks)
         self._single = [lvl[0] if len(lvl) == 1 and ws[0] is None else None
                         for lvl, ws in zip(self.levels, self.level_weights)]
         self._only_single = all(t is not None for t in self._single)
         # the tasks in level order (the order of evaluate()'s errors), and where user task i's error is
         self._ordered = [t for lvl in self.levels for t in lvl]
-        position = {id(t): k for k, t in enumerate(self._ordered)}
-        self._es_index = [position[id(t)] for t in self.tasks]
+        self._es_index = _positions(self.tasks, self._ordered)
         self.goals = [t for t in self.tasks if t.goal]
         # the levels (indices into self.levels) holding a goal task; each level's slice of evaluate()'s errors
         self.goal_levels = [j for j, lvl in enumerate(self.levels) if any(t.goal for t in lvl)]
