@@ -19,15 +19,15 @@ the next ones.
 
 from __future__ import annotations
 
-import numpy as np
 from collections.abc import Sequence
 
-from kinserve.kinematics import Robot
-from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.types import VectorLike
+import numpy as np
 
 from kinserve.ik.constraints import robot_segments
 from kinserve.ik.result import Result
+from kinserve.kinematics import Robot
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.types import VectorLike
 
 CRITERIA = ("joint_limit_distance", "displacement", "manipulability", "no_self_overlap")
 FILTERS = ("no_self_overlap",)
@@ -89,8 +89,8 @@ def _as_q(c):
     return np.asarray(c.q if hasattr(c, "q") else c, dtype=float)
 
 
-def scores(robot: Robot, candidates: Sequence[Result | VectorLike], criterion: str, q_current: VectorLike | None = None,
-           frame: str | None = None) -> np.ndarray:
+def scores(robot: Robot, candidates: Sequence[Result | VectorLike], criterion: str,
+           q_current: VectorLike | None = None, frame: str | None = None) -> np.ndarray:
     """Score of every candidate for one criterion (higher is better; filters give 1 = keep, 0 = drop)."""
     qs = [_as_q(c) for c in candidates]
     if criterion == "joint_limit_distance":
@@ -108,20 +108,14 @@ def scores(robot: Robot, candidates: Sequence[Result | VectorLike], criterion: s
     raise InputError(f"unknown criterion {criterion!r}; expected one of {CRITERIA}")
 
 
-def choose(robot: Robot, candidates: Sequence[Result | VectorLike], criteria: str | Sequence[str] = ("joint_limit_distance",),
-           q_current: VectorLike | None = None, frame: str | None = None) -> int | None:
+def choose(robot: Robot, candidates: Sequence[Result | VectorLike],
+           criteria: str | Sequence[str] = ("joint_limit_distance",), q_current: VectorLike | None = None,
+           frame: str | None = None) -> int | None:
     """Index of the best candidate (a list of ``Result`` or joint vectors), or None if the filters drop all.
 
     See the module docstring for the criteria and how they combine.
     """
-    if isinstance(criteria, str):
-        criteria = (criteria,)
-    criteria = tuple(criteria)
-    if not criteria:
-        raise InputError(f"criteria must name at least one of {CRITERIA}")
-    for c in criteria:
-        if c not in CRITERIA:
-            raise InputError(f"unknown criterion {c!r}; expected one of {CRITERIA}")
+    criteria = _checked_criteria(criteria)
     if not candidates:
         return None
     idx = list(range(len(candidates)))
@@ -131,11 +125,21 @@ def choose(robot: Robot, candidates: Sequence[Result | VectorLike], criteria: st
             idx = [i for i, k in zip(idx, keep) if k > 0]
             if not idx:
                 return None
-    ranking = [c for c in criteria if c not in FILTERS]
-    for c in ranking:
+    for c in (c for c in criteria if c not in FILTERS):  # ranked by the first score, ties by the next ones
         s = scores(robot, [candidates[i] for i in idx], c, q_current, frame)
         best = s.max()
         idx = [i for i, v in zip(idx, s) if v >= best - 1e-9]
         if len(idx) == 1:
             break
     return idx[0]
+
+
+def _checked_criteria(criteria: str | Sequence[str]) -> tuple[str, ...]:
+    """``criteria`` as a non-empty tuple of names of :data:`CRITERIA`; :class:`InputError` otherwise."""
+    criteria = (criteria,) if isinstance(criteria, str) else tuple(criteria)
+    if not criteria:
+        raise InputError(f"criteria must name at least one of {CRITERIA}")
+    for c in criteria:
+        if c not in CRITERIA:
+            raise InputError(f"unknown criterion {c!r}; expected one of {CRITERIA}")
+    return criteria

@@ -96,6 +96,87 @@ def two_link(wx: float, wy: float, L1: float, L2: float) -> tuple[list[tuple[flo
     return sols, reachable
 
 
+def _joints_about_z(model: pin.Model, data: pin.Data, chain: list[int]) -> tuple[list, list]:
+    """``(revolute, prismatic)`` of a chain at ``q = 0`` (``data`` holds its kinematics): ``(q index, sign,
+    axis xy point)`` per revolute joint and ``(q index, sign)`` per prismatic joint, the sign that of the
+    world axis along ``+-z``; ValueError when a joint is of another type or not along ``z``, or the chain
+    has no revolute joint or more than one prismatic joint."""
+    revolute, prismatic = [], []
+    for j in chain:
+        info = joint_axis(model.joints[j])
+        if info is None:
+            raise ValueError("unsupported joint type")
+        kind, axis = info
+        aw = data.oMi[j].rotation @ axis
+        if abs(abs(aw[2]) - 1.0) > 1e-9:
+            raise ValueError("joint axis not parallel to world z")
+        sign = 1.0 if aw[2] > 0 else -1.0
+        iq = model.joints[j].idx_q
+        if kind == "R":
+            revolute.append((iq, sign, data.oMi[j].translation[:2].copy()))
+        else:
+            prismatic.append((iq, sign))
+    if len(prismatic) > 1 or not revolute:
+        raise ValueError("needs revolute joints and at most one prismatic joint")
+    return revolute, prismatic
+
+
+def _links(points: list[np.ndarray]) -> tuple[list[float], list[float]]:
+    """``(L, phi)``: length and angle of each link vector between consecutive ``points`` (xy)."""
+    L, phi = [], []
+    for a, b in zip(points[:-1], points[1:]):
+        v = b - a
+        L.append(float(math.hypot(v[0], v[1])))
+        phi.append(float(math.atan2(v[1], v[0])))
+    return L, phi
+
+
+def _shape(L: list[float], n_revolute: int) -> tuple[int, int]:
+    """``(links, wrist joints)`` of a chain with link lengths ``L``; ValueError for a shape without a
+    closed form here (module docstring)."""
+    nz = [i for i, length in enumerate(L) if length > 1e-9]
+    n_links = len(nz)
+    if nz != list(range(n_links)):
+        raise ValueError("zero-length link before the last link")
+    n_wrist = n_revolute - n_links
+    if n_links not in (2, 3, 4) or n_wrist > 1 or (n_links > 2 and n_wrist):
+        raise ValueError("unsupported planar shape")
+    return n_links, n_wrist
+
+
+def _elbow(beta: float) -> str:
+    """The label of a 2R branch of elbow angle ``beta``."""
+    return "elbow up" if beta < 0 else "elbow down"
+
+
+def _psi1_intervals(wp: np.ndarray, L1: float, dmin: float, dmax: float) -> list[tuple[float, float]] | None:
+    """The feasible ``psi1`` of a 4-link chain with wrist point ``wp``: the intervals where the elbow
+    ``c_2 = L1 (cos psi1, sin psi1)`` is ``[dmin, dmax]`` from ``wp`` (module docstring). None when the wrist
+    point is on the first axis and out of reach; ``[]`` when it is out of reach elsewhere."""
+    r = math.hypot(wp[0], wp[1])
+    if r < 1e-12:
+        return [(-math.pi, math.pi)] if dmin - 1e-12 <= L1 <= dmax + 1e-12 else None
+    gamma = math.atan2(wp[1], wp[0])
+    cmin = (r * r + L1 * L1 - dmax * dmax) / (2 * L1 * r)
+    cmax = (r * r + L1 * L1 - dmin * dmin) / (2 * L1 * r)
+    if cmin > 1.0 + 1e-12 or cmax < -1.0 - 1e-12:
+        return []
+    a_in = math.acos(max(-1.0, min(1.0, cmax))) if cmax < 1.0 else 0.0  # |psi1 - gamma| >= a_in
+    a_out = math.acos(min(1.0, max(-1.0, cmin))) if cmin > -1.0 else math.pi  # |psi1 - gamma| <= a_out
+    intervals = [(-a_out, a_out)] if a_in <= 1e-15 else [(-a_out, -a_in), (a_in, a_out)]
+    return [(gamma + a, gamma + b) for a, b in intervals]
+
+
+def _samples(q_int: list[tuple[float, float]], samples: int) -> list[float]:
+    """About ``samples`` values spread uniformly over the intervals (at least both ends of each)."""
+    total = sum(b - a for a, b in q_int)
+    values = []
+    for a, b in q_int:
+        m = max(2, int(round(samples * (b - a) / total)) if total > 0 else 1)
+        values.extend(np.linspace(a, b, m).tolist())
+    return values
+
+
 class PlanarChain:
     """Geometry of a chain of joints about / along world ``z`` (module docstring) and its closed-form IK."""
 
@@ -113,41 +194,12 @@ class PlanarChain:
         T0 = pin.updateFramePlacement(model, data, fid)
         self.robot = robot
         self.frame = frame
-        self.revolute = []  # (q index, sign, axis xy point)
-        self.prismatic = []  # (q index, sign)
-        for j in chain:
-            info = joint_axis(model.joints[j])
-            if info is None:
-                raise ValueError("unsupported joint type")
-            kind, axis = info
-            aw = data.oMi[j].rotation @ axis
-            if abs(abs(aw[2]) - 1.0) > 1e-9:
-                raise ValueError("joint axis not parallel to world z")
-            sign = 1.0 if aw[2] > 0 else -1.0
-            iq = model.joints[j].idx_q
-            if kind == "R":
-                self.revolute.append((iq, sign, data.oMi[j].translation[:2].copy()))
-            else:
-                self.prismatic.append((iq, sign))
-        if len(self.prismatic) > 1 or not self.revolute:
-            raise ValueError("needs revolute joints and at most one prismatic joint")
+        self.revolute, self.prismatic = _joints_about_z(model, data, chain)
         self.R0 = T0.rotation.copy()  # any tool tilt is fine: R(q) = Rz(Theta) R0
         self.z0 = float(T0.translation[2])
         self.c1 = self.revolute[0][2]
-        pts = [r[2] for r in self.revolute] + [T0.translation[:2].copy()]
-        self.L, self.phi = [], []
-        for a, b in zip(pts[:-1], pts[1:]):
-            v = b - a
-            self.L.append(float(math.hypot(v[0], v[1])))
-            self.phi.append(float(math.atan2(v[1], v[0])))
-        eps = 1e-9
-        nz = [i for i, L in enumerate(self.L) if L > eps]
-        self.n_links = len(nz)
-        if nz != list(range(self.n_links)):
-            raise ValueError("zero-length link before the last link")
-        self.n_wrist = len(self.revolute) - self.n_links
-        if self.n_links not in (2, 3, 4) or self.n_wrist > 1 or (self.n_links > 2 and self.n_wrist):
-            raise ValueError("unsupported planar shape")
+        self.L, self.phi = _links([r[2] for r in self.revolute] + [T0.translation[:2].copy()])
+        self.n_links, self.n_wrist = _shape(self.L, len(self.revolute))
         self.lower, self.upper = robot.lower, robot.upper
         self.finite = self.n_links < 4  #: finitely many branches (False: a one-parameter family)
         self._verify(robot, frame)
@@ -197,88 +249,68 @@ class PlanarChain:
         p = T_target[:3, 3]
         M = T_target[:3, :3] @ self.R0.T
         alpha = math.atan2(M[1, 0], M[0, 0])
-        notes = []
-        n = self.robot.nq
-        base = np.zeros(n)
+        base = np.zeros(self.robot.nq)
         mid = 0.5 * (self.lower + self.upper)
-        # height
-        if self.prismatic:
-            iq, s = self.prismatic[0]
-            if 2 in rel:
-                base[iq] = mid[iq]
-            else:
-                v = s * (p[2] - self.z0)
-                if v < self.lower[iq] - 1e-9 or v > self.upper[iq] + 1e-9:
-                    notes.append(f"height z={p[2]:.6g} needs joint value {v:.6g} outside [{self.lower[iq]:.6g}, {self.upper[iq]:.6g}]")
-                base[iq] = min(max(v, self.lower[iq]), self.upper[iq])
-        elif 2 not in rel and abs(p[2] - self.z0) > 1e-9:
-            notes.append(f"target height z={p[2]:.6g} is off the arm's plane z={self.z0:.6g}")
+        notes = self._height(p[2], rel, base, mid)
         w = np.array([p[0] - self.c1[0], p[1] - self.c1[1]])
-        branches = []
-        reach_ok = True
-        if self.n_links == 2:
-            sols, reach_ok = two_link(w[0], w[1], self.L[0], self.L[1])
-            for psi1, psi2, beta in sols:
-                branches.append(([psi1, psi2], "elbow up" if beta < 0 else "elbow down", None))
-        elif self.n_links == 3:
-            psi3 = self.phi[2] + alpha
-            w3 = w - self.L[2] * np.array([math.cos(psi3), math.sin(psi3)])
-            sols, reach_ok = two_link(w3[0], w3[1], self.L[0], self.L[1])
-            for psi1, psi2, beta in sols:
-                branches.append(([psi1, psi2, psi3], "elbow up" if beta < 0 else "elbow down", None))
-        else:
-            branches, reach_ok = self._four_link_family(w, alpha, samples)
+        branches, reach_ok = self._link_angles(w, alpha, samples)
         if not reach_ok:
-            notes.append("target out of reach (the returned configuration points at it, fully stretched or folded)")
+            notes.append("target out of reach (the returned configuration points at it, fully stretched or "
+                         "folded)")
         out = []
         for psis, label, free in branches:
             for q in self._joint_values(psis, alpha, base, rel, mid):
                 out.append((q, label, free))
         return out, "; ".join(notes), {}
 
+    def _height(self, z: float, rel: set, base: np.ndarray, mid: np.ndarray) -> list[str]:
+        """Set the prismatic joint of ``base`` for the target height ``z`` (mid-range when ``z`` is relaxed,
+        clipped into its limits); the notes on a height it cannot reach (or off a plane without one)."""
+        if not self.prismatic:
+            if 2 not in rel and abs(z - self.z0) > 1e-9:
+                return [f"target height z={z:.6g} is off the arm's plane z={self.z0:.6g}"]
+            return []
+        iq, s = self.prismatic[0]
+        if 2 in rel:
+            base[iq] = mid[iq]
+            return []
+        notes = []
+        v = s * (z - self.z0)
+        lo, hi = self.lower[iq], self.upper[iq]
+        if v < lo - 1e-9 or v > hi + 1e-9:
+            notes.append(f"height z={z:.6g} needs joint value {v:.6g} outside [{lo:.6g}, {hi:.6g}]")
+        base[iq] = min(max(v, lo), hi)
+        return notes
+
+    def _link_angles(self, w: np.ndarray, alpha: float, samples: int) -> tuple[list, bool]:
+        """``([(psis, label, free parameter), ...], reachable)``: the absolute link angles of every branch
+        reaching ``w`` (relative to the first axis) with tool yaw ``alpha`` (module docstring)."""
+        if self.n_links == 4:
+            return self._four_link_family(w, alpha, samples)
+        if self.n_links == 2:
+            sols, reach_ok = two_link(w[0], w[1], self.L[0], self.L[1])
+            return [([psi1, psi2], _elbow(beta), None) for psi1, psi2, beta in sols], reach_ok
+        psi3 = self.phi[2] + alpha
+        w3 = w - self.L[2] * np.array([math.cos(psi3), math.sin(psi3)])
+        sols, reach_ok = two_link(w3[0], w3[1], self.L[0], self.L[1])
+        return [([psi1, psi2, psi3], _elbow(beta), None) for psi1, psi2, beta in sols], reach_ok
+
     def _four_link_family(self, w, alpha, samples):
         """Sampled one-parameter family of a 4-link chain: [(psis, label, q1)], reachable."""
         L1, L2, L3, L4 = self.L
         psi4 = self.phi[3] + alpha
         wp = w - L4 * np.array([math.cos(psi4), math.sin(psi4)])  # wrist point relative to c1
-        r = math.hypot(wp[0], wp[1])
-        gamma = math.atan2(wp[1], wp[0])
-        dmin, dmax = abs(L2 - L3), L2 + L3
-        iq1, s1, _ = self.revolute[0]
-        lo, hi = self.lower[iq1], self.upper[iq1]
-        if r < 1e-12:
-            if not (dmin - 1e-12 <= L1 <= dmax + 1e-12):
-                return [], False
-            intervals = [(-math.pi, math.pi)]
-        else:
-            cmin = (r * r + L1 * L1 - dmax * dmax) / (2 * L1 * r)
-            cmax = (r * r + L1 * L1 - dmin * dmin) / (2 * L1 * r)
-            if cmin > 1.0 + 1e-12 or cmax < -1.0 - 1e-12:
-                return self._four_link_nearest(wp, alpha), False
-            a_in = math.acos(max(-1.0, min(1.0, cmax))) if cmax < 1.0 else 0.0  # |psi1 - gamma| >= a_in
-            a_out = math.acos(min(1.0, max(-1.0, cmin))) if cmin > -1.0 else math.pi  # |psi1 - gamma| <= a_out
-            if a_in <= 1e-15:
-                intervals = [(-a_out, a_out)]
-            else:
-                intervals = [(-a_out, -a_in), (a_in, a_out)]
-            intervals = [(gamma + a, gamma + b) for a, b in intervals]
-        # psi1 intervals -> q1 intervals (q1 = s1 (psi1 - phi1)), wrapped into the limits
-        q_int = []
-        for a, b in intervals:
-            qa, qb = sorted((s1 * (a - self.phi[0]), s1 * (b - self.phi[0])))
-            for k in range(-2, 3):
-                lo_k, hi_k = max(qa + k * _TWO_PI, lo), min(qb + k * _TWO_PI, hi)
-                if hi_k >= lo_k:
-                    q_int.append((lo_k, hi_k))
-        total = sum(b - a for a, b in q_int)
+        intervals = _psi1_intervals(wp, L1, abs(L2 - L3), L2 + L3)
+        if intervals is None:
+            return [], False
+        if not intervals:
+            return self._four_link_nearest(wp, alpha), False
+        q_int = self._q1_intervals(intervals)
         if not q_int:
             return [], True
-        values = []
-        for a, b in q_int:
-            m = max(2, int(round(samples * (b - a) / total)) if total > 0 else 1)
-            values.extend(np.linspace(a, b, m).tolist())
+        s1 = self.revolute[0][1]
         out = []
-        for q1 in values:
+        for q1 in _samples(q_int, samples):
             psi1 = self.phi[0] + s1 * q1
             c2 = L1 * np.array([math.cos(psi1), math.sin(psi1)])
             d = wp - c2
@@ -286,8 +318,22 @@ class PlanarChain:
             if not ok:
                 continue
             for psi2, psi3, beta in sols:
-                out.append(([psi1, psi2, psi3, psi4], "elbow up" if beta < 0 else "elbow down", q1))
+                out.append(([psi1, psi2, psi3, psi4], _elbow(beta), q1))
         return out, True
+
+    def _q1_intervals(self, intervals: list[tuple[float, float]]) -> list[tuple[float, float]]:
+        """``psi1`` intervals as ``q1 = s1 (psi1 - phi1)`` intervals, shifted by ``2 pi k`` and cut to the
+        limits of ``q1``."""
+        iq1, s1, _ = self.revolute[0]
+        lo, hi = self.lower[iq1], self.upper[iq1]
+        q_int = []
+        for a, b in intervals:
+            qa, qb = sorted((s1 * (a - self.phi[0]), s1 * (b - self.phi[0])))
+            for k in range(-2, 3):
+                lo_k, hi_k = max(qa + k * _TWO_PI, lo), min(qb + k * _TWO_PI, hi)
+                if hi_k >= lo_k:
+                    q_int.append((lo_k, hi_k))
+        return q_int
 
     def _four_link_nearest(self, wp, alpha):
         """Out of reach: all links pointing at the target (psi1 = psi2 = psi3 = gamma)."""
