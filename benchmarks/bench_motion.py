@@ -226,10 +226,15 @@ def _ms(values) -> tuple[float | None, float | None]:
     return (float(np.median(v)), float(np.percentile(v, 95))) if len(v) else (None, None)
 
 
-def figures(results: list[Outcome]) -> dict:
-    """Counts, median / p95 times (ms) over the solved problems, median length, invalid paths."""
+def figures(results: list[Outcome], max_time: float | None = None) -> dict:
+    """Counts, median / p95 times (ms) over the solved problems, median length, invalid paths.
+
+    ``solved``: paths returned; ``within_budget``: those whose plan + simplify time was at most
+    ``max_time`` (all of them when ``max_time`` is None) - the count the targets judge.
+    """
     solved = [r for r in results if r.success]
-    out = {"n": len(results), "solved": len(solved)}
+    within = [r for r in solved if max_time is None or r.total_s <= max_time]
+    out = {"n": len(results), "solved": len(solved), "within_budget": len(within)}
     for key, attr in (("plan", "plan_s"), ("simplify", "simplify_s"), ("total", "total_s")):
         out[f"{key}_median_ms"], out[f"{key}_p95_ms"] = _ms(getattr(r, attr) for r in solved)
     out["length_median"] = float(np.median([r.length for r in solved])) if solved else None
@@ -242,12 +247,14 @@ def figures(results: list[Outcome]) -> dict:
     return out
 
 
-def summarise(problems: list[Problem], outcomes: dict[str, list[Outcome]]) -> dict:
+def summarise(problems: list[Problem], outcomes: dict[str, list[Outcome]],
+              max_time: float | None = None) -> dict:
     """``{"overall": {planner: figures}, "per_set": {set: {planner: figures}}}``."""
     sets = list(dict.fromkeys(p.set for p in problems))
-    per_set = {s: {name: figures([r for p, r in zip(problems, results) if p.set == s])
+    per_set = {s: {name: figures([r for p, r in zip(problems, results) if p.set == s], max_time)
                    for name, results in outcomes.items()} for s in sets}
-    return {"overall": {name: figures(results) for name, results in outcomes.items()}, "per_set": per_set}
+    return {"overall": {name: figures(results, max_time) for name, results in outcomes.items()},
+            "per_set": per_set}
 
 
 def targets_met(summary: dict) -> dict:
@@ -257,7 +264,7 @@ def targets_met(summary: dict) -> dict:
         return {}
     need = math.ceil(k["n"] * TARGETS["solved_of_700"] / 700)
     total = k["total_median_ms"] if k["total_median_ms"] is not None else math.inf
-    met = {f"solved >= {need}/{k['n']}": k["solved"] >= need,
+    met = {f"solved within the budget >= {need}/{k['n']}": k["within_budget"] >= need,
            "0 invalid paths": k["invalid"] == 0 and k["checked"] == k["solved"],
            f"median total <= {TARGETS['median_total_ms']:g} ms": total <= TARGETS["median_total_ms"]}
     cage = summary["per_set"].get("cage", {}).get("kinserve")
@@ -284,15 +291,22 @@ def print_table(summary: dict, met: dict) -> None:
         for name, f in per_planner.items():
             times = " ".join(f"{_fmt(f[f'{k}_median_ms']) + '/' + _fmt(f[f'{k}_p95_ms']):>15}"
                              for k in ("plan", "simplify", "total"))
-            print(f"{label:<18} {name:<9} {f['solved']:>4}/{f['n']:<4} {times} "
+            print(f"{label:<18} {name:<9} {f['within_budget']:>4}/{f['n']:<4} {times} "
                   f"{_fmt(f['length_median']):>7} {f['invalid']:>3}/{f['checked']:<3} "
                   f"{_fmt(f.get('duration_median_s')):>7} {_fmt(f.get('toppra_median_ms')):>9}")
-    print("  (median/p95 over the solved problems; invalid = returned paths the dense check rejects)")
+    print("  (solved = paths returned within the budget, plan + simplify; median/p95 over all returned "
+          "paths; invalid = returned paths the dense check rejects)")
     for k, v in met.items():
         print(f"  target {k}: {'met' if v else 'NOT met'}")
 
 
 # --------------------------------------------------------------------------- run
+def _record(o: Outcome) -> dict:
+    """One planner's answer to one problem in the JSON (the path too, for a later look)."""
+    return {"success": o.success, "plan_ms": o.plan_s * 1e3, "simplify_ms": o.simplify_s * 1e3,
+            "length": o.length, "invalid": o.invalid, "message": o.message, "path": o.path.tolist()}
+
+
 def run(dataset: Path, sets=SETS, n: int | None = None, planners=PLANNERS, max_time: float = 1.0,
         work: Path = ROOT / "bench-out" / "motion-bench-maker", check_step: float = DENSE_STEP) -> dict:
     """The whole benchmark on ``n`` problems of each of ``sets``; returns the JSON document."""
@@ -309,13 +323,12 @@ def run(dataset: Path, sets=SETS, n: int | None = None, planners=PLANNERS, max_t
                 p.worker.close()
     print("dense check of the returned paths ...", flush=True)
     check = dense_check(dataset, problems, outcomes, check_step)
-    summary = summarise(problems, outcomes)
+    summary = summarise(problems, outcomes, max_time)
     met = targets_met(summary)
     versions = {name: getattr(p, "worker").version for name, p in running.items() if hasattr(p, "worker")}
-    problems_out = [{"set": p.set, "index": p.index, **{name: {
-        "success": o.success, "plan_ms": o.plan_s * 1e3, "simplify_ms": o.simplify_s * 1e3,
-        "length": o.length, "invalid": o.invalid, "message": o.message} for name, o in
-        ((name, outcomes[name][k]) for name in outcomes)}} for k, p in enumerate(problems)]
+    problems_out = [{"set": p.set, "index": p.index,
+                     **{name: _record(results[k]) for name, results in outcomes.items()}}
+                    for k, p in enumerate(problems)]
     return {"machine": {**machine(), "load_average": list(os.getloadavg())},
             "workload": {"dataset": str(dataset), "sets": list(sets), "per_set": n, "problems": len(problems),
                          "max_time_s": max_time, "planners": list(running), "peer_versions": versions,

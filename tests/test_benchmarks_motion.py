@@ -105,7 +105,8 @@ def test_figures_medians_lengths_and_invalid_counts():
                _outcome(True, path[:2], 0.003, 0.004, invalid=True, duration=3.0),
                _outcome(False, np.zeros((0, 7)), 1.0, 0.0)]
     f = bm.figures(results)
-    assert (f["n"], f["solved"], f["invalid"], f["checked"]) == (3, 2, 1, 2)
+    assert (f["n"], f["solved"], f["within_budget"], f["invalid"], f["checked"]) == (3, 2, 2, 1, 2)
+    assert bm.figures(results, max_time=0.005)["within_budget"] == 1  # 3 ms in, 7 ms late
     assert f["plan_median_ms"] == pytest.approx(2.0) and f["total_median_ms"] == pytest.approx(5.0)
     assert f["length_median"] == pytest.approx((17.0 + 5.0) / 2)
     assert f["duration_median_s"] == pytest.approx(2.0)
