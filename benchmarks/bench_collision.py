@@ -464,7 +464,7 @@ def time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs, rounds: int) 
         robot.min_distance(q, obs)
     out["kinserve robot.min_distance(q, obstacles)"] = (time.perf_counter() - t0) / 100 * 1e6
     out["kinserve robot.min_distance(q, obstacles): CPU"] = (time.process_time() - c0) / 100 * 1e6
-    about = {"kinserve pairs (self + scene)": len(scene), "kinserve broad phase": type(scene.workspace()[2]).__name__,
+    about = {"kinserve pairs (self + scene)": len(scene), "kinserve broad phase": type(scene.workspace().manager).__name__,
              "raw computeCollisions pairs": n_raw_pairs,
              "configurations in collision %": 100.0 * float(np.mean([robot.in_collision(q, obs) for q in qs]))}
     return out, about

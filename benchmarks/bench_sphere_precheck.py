@@ -90,7 +90,7 @@ def certified(scene, qs) -> np.ndarray | None:
     pre = getattr(scene, "precheck", None)
     if pre is None or pre() is None:
         return None
-    from kinserve.kinematics.collision_spheres import certify
+    from kinserve.kinematics.scene_precheck import certify
 
     return certify(pre(), np.asarray(qs))
 
@@ -177,20 +177,17 @@ _SAVED: dict = {}
 
 
 def switch_object(o, on: bool) -> None:
-    """A layout's or scene's pre-check off (None) or back on: as built before, else built on its next use."""
-    from kinserve.kinematics.collision_layout import _UNBUILT
-
+    """A layout's or scene's pre-check off (None: coal alone) or back on (as built with the object); a scene's
+    ``in_collision`` reads the certifying kernel as ``_certify``."""
     current = o._precheck
-    if current is not None and current is not _UNBUILT:
-        _SAVED[id(o)] = (o, current)
-    if not on:
-        o._precheck = None
-        return
+    if current is not None:
+        _SAVED[id(o)] = (o, current, getattr(o, "_certify", None))
     saved = _SAVED.get(id(o))
-    if saved is not None and saved[0] is o:
-        o._precheck = saved[1]
-    elif current is None:
-        o._precheck = _UNBUILT
+    if saved is None or saved[0] is not o:
+        return
+    o._precheck = saved[1] if on else None
+    if hasattr(o, "_certify"):
+        o._certify = saved[2] if on else None
 
 
 def main() -> None:

@@ -17,7 +17,7 @@ these arrays (pose and Jacobian, checked against Pinocchio in the tests).
 Units: metres and radians.
 
 :func:`kinematic_tree` packs every joint of a model the same way (the whole
-tree, for the compiled collision pre-check of :mod:`.collision_spheres`):
+tree, for the compiled collision pre-check of :mod:`.precheck_kernels`):
 
 * ``geometry`` ``(J, 15)``: row ``k`` is Pinocchio joint ``k + 1`` (rows as
   above: placement in its parent joint frame, unit axis);

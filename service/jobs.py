@@ -77,7 +77,7 @@ def load_compiled_kernels() -> None:
     before it takes a job: a job that loaded them would overrun its request's time cap."""
     from kinserve.ik.constraints import clearance_kernel  # noqa: F401 - loaded on import
     from kinserve.ik.lm import kernel as lm_kernel  # noqa: F401 - loaded on import
-    from kinserve.kinematics import collision_spheres  # noqa: F401 - loaded on import
+    from kinserve.kinematics import precheck_kernels  # noqa: F401 - loaded on import
 
 
 def warm(deadline: Deadline, robot: str = "panda") -> int:

@@ -1,10 +1,13 @@
-"""Shared scene of the collision tests: the issue's Panda table top and wall, and a pose helper."""
+"""Shared scene of the collision tests: the issue's Panda table top and wall, pose helpers, obstacles near
+the arm and coal's pair-by-pair answer."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
-from kinserve.kinematics.shapes import Box
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
 
 def pose(xyz, R=None) -> np.ndarray:
@@ -18,3 +21,50 @@ def pose(xyz, R=None) -> np.ndarray:
 
 #: The issue's (and the benchmark's) Panda scene: a table top and a wall.
 SCENE = [Box(pose((0.65, 0.0, -0.05)), (0.7, 1.2, 0.1)), Box(pose((0.0, -0.6, 0.5)), (1.5, 0.05, 1.0))]
+
+
+def rotation(rng) -> np.ndarray:
+    """A random rotation matrix (roll, pitch, yaw uniform in [-pi, pi])."""
+    import pinocchio as pin
+
+    return pin.rpy.rpyToMatrix(*rng.uniform(-np.pi, np.pi, 3))
+
+
+def tetrahedron_file(tmp_path) -> Path:
+    """A closed unit tetrahedron mesh (OBJ) in ``tmp_path``."""
+    path = tmp_path / "tet.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    return path
+
+
+def near_obstacles(robot, q, rng, k, tmp_path) -> list:
+    """``k`` spheres, boxes, capsules, cylinders and meshes (1-8 cm) centred near random vertices of the arm's
+    collision shapes at ``q``: distances to the arm straddle zero around ``q``."""
+    shapes = [s for s in robot.collision_geometry(q) if s["joint"] != 0]
+    out = []
+    for n in range(k):
+        s = shapes[rng.integers(len(shapes))]
+        local = s["vertices"][rng.integers(len(s["vertices"]))] if s["kind"] == "convex" else np.zeros(3)
+        centre = (s["pose"] @ np.append(local, 1.0))[:3] + rng.normal(scale=0.04, size=3)
+        size = rng.uniform(0.01, 0.08)
+        R = rotation(rng)
+        kind = n % 5
+        if kind == 0:
+            out.append(Sphere(centre, size))
+        elif kind == 1:
+            out.append(Box(pose(centre, R), rng.uniform(0.02, 0.12, 3)))
+        elif kind == 2:
+            out.append(Capsule(centre - R[:, 0] * size, centre + R[:, 0] * size, 0.5 * size))
+        elif kind == 3:
+            out.append(Cylinder(pose(centre, R), size, rng.uniform(0.02, 0.2)))
+        else:
+            out.append(Mesh(tetrahedron_file(tmp_path), pose(centre, R), scale=size))
+    return out
+
+
+def coal_hits(scene, Q) -> np.ndarray:
+    """Per configuration of ``Q``: coal's answer pair by pair (no broad phase, no pre-check)."""
+    import pinocchio as pin
+
+    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+    return np.array([pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True) for q in Q])

@@ -353,7 +353,7 @@ def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     uncertified ones are refused without coal, later ones (and the caller's q0 with prefer_q0) go to coal."""
     from kinserve.ik.collision import checkers
     from kinserve.ik.state import ik_state
-    from kinserve.kinematics.collision_spheres import certify
+    from kinserve.kinematics.scene_precheck import certify
 
     wall = ik.Box(_pose((0.45, 0.0, 0.5)), (0.05, 1.0, 1.0))
     con = ik_state(panda).collision_constraint((wall,), True, 0.0)

@@ -94,7 +94,7 @@ class CollisionChecker:
         pre = self.precheck
         if pre is None:
             return self.constraint.first_collision(rows)
-        first_uncertified, floats, ints, tol = pre[1], pre[2], pre[3], pre[4]
+        first_uncertified, floats, ints, tol = pre.first_uncertified, pre.floats, pre.ints, pre.tolerance
         k = first_uncertified(floats, ints, rows, 0, tol)
         if k >= rows.shape[0]:
             return -1
@@ -124,7 +124,7 @@ def _admission(constraint: CollisionConstraint, pre: Any,
     in_collision = constraint.in_collision
     if pre is None:
         return lambda q: not in_collision(q)
-    certify, floats, ints, tol = pre[0], pre[2], pre[3], pre[4]
+    certify, floats, ints, tol = pre.certify, pre.floats, pre.ints, pre.tolerance
     chosen_list = None if chosen is None else chosen.tolist()
     skips = [0]
 

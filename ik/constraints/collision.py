@@ -108,7 +108,7 @@ class CollisionConstraint(Constraint):
         model's scene caches (a few microseconds); the base-overlap check runs on the obstacles that are not
         this constraint's own objects."""
         old = self.scene
-        scene = CollisionScene(self.robot.collision, obstacles, self.self_collision, old.layout)
+        scene = CollisionScene(old.layout, obstacles)
         check_base_overlap(self.robot, scene, known=old.obstacles)
         scene.base_checked = True
         bound = self._on_scene(self.robot, scene)

@@ -1,0 +1,145 @@
+"""Collision checks of configurations in order: the sphere pre-check first, coal's broad phase on the rest.
+
+:func:`collision_check` binds the four C++ calls of one broad-phase check
+(forward kinematics, geometry placements, ``BroadPhaseManager.update``,
+``collide`` with a reused callback) once; :func:`check_configurations` runs them
+on every configuration the sphere pre-check (:mod:`.scene_precheck`) cannot
+decide, in order, and stops at the first collision. The answer is coal's alone:
+a configuration the pre-check certifies is one coal finds free, and one it finds
+in collision for certain is one coal finds in collision.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import numpy as np
+import pinocchio as pin
+
+if TYPE_CHECKING:
+    from .scene_precheck import PrecheckArguments
+
+_forward_kinematics = pin.forwardKinematics
+_update_placements = pin.updateGeometryPlacements
+
+
+class CoalCheck(NamedTuple):
+    """The pieces of one broad-phase collision check, bound once (:func:`collision_check`)."""
+
+    model: pin.Model
+    data: pin.Data
+    geometry: pin.GeometryModel
+    geometry_data: pin.GeometryData
+    update: Callable[[bool], None]
+    collide: Callable[[Any], bool]
+    callback: Any
+
+
+def collision_check(model: pin.Model, data: pin.Data, gm: pin.GeometryModel, gd: pin.GeometryData,
+                    bpm: Any) -> CoalCheck:
+    """The :class:`CoalCheck` of a broad-phase manager ``bpm`` over ``gm`` / ``gd``.
+
+    Same answer as ``pinocchio.computeCollisions(model, data, bpm, q, True)`` (which runs these four steps
+    in C++) without its resolution among Pinocchio's 50 overloads of ``computeCollisions`` on every call; the
+    member calls here have 1 to 3 overloads each. The callback (``CollisionCallBackDefault``, stop at the
+    first collision) is reset by the manager at the start of every ``collide``.
+    """
+    return CoalCheck(model, data, gm, gd, bpm.update, bpm.collide, pin.CollisionCallBackDefault(gm, gd, True))
+
+
+def coal_test(check: CoalCheck) -> Callable[[np.ndarray], bool]:
+    """``hits(q)``: coal's answer at ``q`` - forward kinematics, placements, broad phase, narrow phase (first
+    hit) - with the pieces of ``check`` bound to local names."""
+    model, data, gm, gd, update, collide, callback = check
+    fk, place = _forward_kinematics, _update_placements
+
+    def hits(q) -> bool:
+        fk(model, data, q)
+        place(model, data, gm, gd)
+        update(False)
+        return collide(callback)
+
+    return hits
+
+
+def _is_stacked(qs: Any) -> bool:
+    """Whether ``qs`` is a float ``(N, nq)`` array (rows the pre-check takes in one compiled call)."""
+    return type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64
+
+
+def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
+                         precheck: PrecheckArguments | None = None, uncertified: int | None = None) -> int:
+    """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
+    in collision, or -1 (``check``: :func:`collision_check`).
+
+    With ``precheck`` (the scene's :class:`~.scene_precheck.PrecheckArguments`), the sphere pre-check runs
+    first and coal only on the configurations it cannot certify free, in order: a stacked ``(K, nq)`` float
+    array in one compiled call; otherwise the first configuration alone (the IK checks its answer first, the
+    likeliest to collide: when it does, no array is built), then the rest in one compiled call
+    (``first_uncertified``, resumed after an uncertified configuration coal finds free). An uncertified
+    configuration goes to ``certainly_colliding`` first (a point inside the robot deep in an obstacle: in
+    collision, no coal). ``uncertified``: for stacked rows, the first row the pre-check cannot certify when
+    the caller has found it already (the rows before it are certified).
+    """
+    if precheck is None:
+        coal_hits = coal_test(check)
+        return next((k for k, q in enumerate(qs) if coal_hits(q)), -1)
+    hits = _hit_test(check, precheck)
+    first, floats, ints, tol = precheck.first_uncertified, precheck.floats, precheck.ints, precheck.tolerance
+    if _is_stacked(qs):  # rows already stacked: one call
+        k = first(floats, ints, qs, 0, tol) if uncertified is None else uncertified
+        return _first_hit_after(hits, precheck, qs, qs, k)
+    qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
+    if not len(qs):
+        return -1
+    try:
+        clear = precheck.certify(floats, ints, qs[0], tol)
+    except TypeError:  # not a float vector: coal decides (and raises as before)
+        clear = False
+    if not clear and hits(qs[0]):
+        return 0
+    if len(qs) == 1:
+        return -1
+    try:
+        Q = np.asarray(qs, dtype=float)
+    except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
+        Q = None
+    if Q is not None and Q.ndim == 2:
+        return _first_hit_after(hits, precheck, Q, qs, first(floats, ints, Q, 1, tol))
+    return next((k for k in range(1, len(qs)) if hits(qs[k])), -1)
+
+
+def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> Callable[[np.ndarray], bool]:
+    """``hits(q)`` for a configuration the pre-check did not certify: an inner point deep in an obstacle
+    answers without coal, coal otherwise."""
+    certain, tol = precheck.certainly_colliding, precheck.tolerance
+    floats, ints = precheck.floats, precheck.ints
+    coal_hits = coal_test(check)
+
+    def hits(q) -> bool:
+        try:
+            if certain(floats, ints, q, tol):
+                return True
+        except TypeError:  # not a float vector: coal decides (and raises as before)
+            pass
+        return coal_hits(q)
+
+    return hits
+
+
+def _first_hit_after(hits: Callable[[np.ndarray], bool], precheck: PrecheckArguments, Q: np.ndarray, qs: Any,
+                     k: int) -> int:
+    """The first row of ``Q`` from ``k`` (the first row the compiled pre-check cannot certify, ``N`` when
+    none) on that ``hits``, coal running only on the rows the pre-check cannot certify (``qs[k]`` is the
+    configuration handed to coal)."""
+    first, floats, ints, tol = precheck.first_uncertified, precheck.floats, precheck.ints, precheck.tolerance
+    N = Q.shape[0]
+    while k < N:
+        if hits(qs[k]):
+            return k
+        k = first(floats, ints, Q, k + 1, tol)
+    return -1
+
+
+__all__ = ["CoalCheck", "check_configurations", "coal_test", "collision_check"]

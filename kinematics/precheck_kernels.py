@@ -1,0 +1,475 @@
+"""The compiled sphere pre-check of the collision scenes (Numba): certified free, certainly colliding.
+
+A configuration is **certified collision free** when a lower bound of the
+distance of every checked pair of a :class:`~.collision_scene.CollisionScene`
+exceeds :data:`TOLERANCE`; coal then need not run on it. The bounds come from
+spheres fixed in the joint frames that *contain* each robot geometry
+(:mod:`.robot_spheres`), so a certified configuration is always one coal finds
+free; a configuration that is not certified may still be free (coal decides).
+
+**Lower bounds** for a sphere of centre ``c``, radius ``rho``:
+
+* against a sphere of the robot (``c'``, ``rho'``): ``|c - c'| - rho - rho'``;
+* against an obstacle, with ``p = R^T (c - t)`` the centre in the obstacle's
+  frame (exact point distances minus ``rho``; rows of :mod:`.obstacle_table`):
+  sphere of radius ``r`` ``|p| - r - rho``; box of half extents ``h``
+  ``|max(|p| - h, 0)| - rho``; capsule (segment ``z`` in ``[-L, L]``)
+  ``|p - (0, 0, clip(p_z, -L, L))| - r - rho``; cylinder
+  ``|(max(sqrt(p_x^2 + p_y^2) - r, 0), max(|p_z| - L, 0))| - rho``; any other
+  shape: its AABB sphere, as a sphere.
+
+Each geometry's bounding sphere is tested first; its cover spheres only when
+the bounding spheres of a pair are not apart.
+
+**Certain collisions** (the other verdict, for configurations not certified):
+when a point inside a robot geometry (its inner points) lies deeper than
+:data:`TOLERANCE` inside an obstacle whose exact distance the table has, the two
+shapes share that point and coal would report the collision:
+:func:`certainly_colliding` answers without it.
+
+**The kernels** (:func:`certify_configuration` for one configuration,
+:func:`first_uncertified` and :func:`certify_configurations` over a batch in
+one call) run the forward kinematics of the whole tree
+(:func:`tree_placements`; joint ``j``'s world placement
+``oMj = oM(parent) * Mj * exp(a_j q_j)``, as :mod:`kinserve.ik.lm.kernel`),
+move the bounding spheres to the world (``c_world = oMj * c``; joint 0 is the
+world) - a geometry's cover spheres only when one of its pairs needs them -
+and test the scene's pairs, obstacle pairs first (a configuration in
+collision usually hits an obstacle), stopping at the first pair they cannot
+certify. Their arguments are two flat arrays (:func:`~.precheck_packing.pack`;
+a compiled call pays per array argument), the robot half packed once per
+layout, the obstacle rows added per scene (:func:`placed_floats`). Each call
+allocates its own workspace: one kernel may run on many threads at once.
+Everything the kernels call is in this file (Numba's on-disk cache is keyed by
+the file), and every kernel has its signature: importing this module compiles
+them, or loads them from that cache, so no call compiles anything.
+
+Units: metres and radians.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .serial_chain import REVOLUTE as _REVOLUTE
+
+#: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
+#: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.
+TOLERANCE = 1e-5
+
+#: Obstacle kinds of the obstacle table (column :data:`KIND` of a row).
+BALL, BOX, CAPSULE, CYLINDER = 0, 1, 2, 3
+#: Columns of an obstacle row: rotation (row-major) 0-8, translation 9-11, kind 12, sizes 13-15 (a BALL: its
+#: radius, then :data:`EXACT`).
+KIND = 12
+#: Column of a BALL row: 1 when the ball is the obstacle itself, 0 when it stands for a shape without a closed
+#: form (its AABB sphere: a point inside it need not be inside the shape). Other kinds are always exact.
+EXACT = 14
+#: Width of an obstacle row.
+OBSTACLE_COLUMNS = 16
+#: Pair kinds of the pair table (column 2).
+SELF_PAIR, OBSTACLE_PAIR = 0, 1
+
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+#: Small helpers are inlined into their callers at Numba's IR level (a call passes whole array structures).
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+_t = numba.types
+_F1 = _t.Array(_t.float64, 1, "C", readonly=True)
+_I1 = _t.Array(_t.int64, 1, "C", readonly=True)
+_F2 = _t.Array(_t.float64, 2, "C", readonly=True)
+_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
+_Q1 = _t.Array(_t.float64, 1, "A", readonly=True)
+_Q2 = _t.Array(_t.float64, 2, "A", readonly=True)
+_ONE_SIGNATURE = _t.boolean(_F1, _I1, _Q1, _t.float64)
+_BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F1, _I1, _Q2, _t.float64)
+_FIRST_SIGNATURE = _t.int64(_F1, _I1, _Q2, _t.int64, _t.float64)
+_BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
+_PLACED_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _F2, _F2, _t.Array(_t.float64, 3, "A", readonly=True))
+
+
+@numba.njit(_PLACED_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def placed_floats(head: np.ndarray, templates: np.ndarray, centres: np.ndarray,
+                  poses: np.ndarray) -> np.ndarray:
+    """``head`` followed by the obstacle rows ``templates`` ``(O, 16)`` placed at ``poses`` ``(O, 4, 4)``:
+    rotation (row-major) into columns 0-8, ``t + R centre`` into 9-11 (a scene's floats in one call)."""
+    H = head.shape[0]
+    out = np.empty(H + 16 * templates.shape[0])
+    out[:H] = head
+    for o in range(templates.shape[0]):
+        row = out[H + 16 * o:H + 16 * (o + 1)]
+        row[:] = templates[o]
+        for i in range(3):
+            for c in range(3):
+                row[3 * i + c] = poses[o, i, c]
+            row[9 + i] = poses[o, i, 3] + poses[o, i, 0] * centres[o, 0] + poses[o, i, 1] * centres[o, 1] \
+                + poses[o, i, 2] * centres[o, 2]
+    return out
+
+
+_TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
+
+
+@numba.njit(_TREE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.ndarray) -> None:
+    """World placements of every joint into ``X`` ``(J + 1, 12)``: row ``j`` = Pinocchio joint ``j``'s
+    rotation (row-major) and translation, row 0 the universe (identity).
+    ``oMj = oM(parent) * Mj * exp(a_j q_j)``."""
+    for c in range(12):
+        X[0, c] = 0.0
+    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
+    for k in range(joints.shape[0]):
+        g = tree[k]
+        P = X[joints[k, 2]]
+        out = X[k + 1]
+        # out.t = P.t + P.R Mk.t ; T = P.R Mk.R (kept in out.R for now)
+        for i in range(3):
+            p0, p1, p2 = P[3 * i], P[3 * i + 1], P[3 * i + 2]
+            out[9 + i] = P[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
+            for c in range(3):
+                out[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
+        ax, ay, az = g[12], g[13], g[14]
+        qk = q[joints[k, 1]]
+        if joints[k, 0] == _REVOLUTE:  # R = T Rot(a, q), Rodrigues
+            s, c = math.sin(qk), math.cos(qk)
+            v = 1.0 - c
+            r00, r01, r02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
+            r10, r11, r12 = v * ax * ay + s * az, c + v * ay * ay, v * ay * az - s * ax
+            r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, c + v * az * az
+            for i in range(3):
+                t0, t1, t2 = out[3 * i], out[3 * i + 1], out[3 * i + 2]
+                out[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
+                out[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
+                out[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
+        else:  # prismatic: t += T a q, R = T
+            for i in range(3):
+                out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qk
+
+
+@_inline
+def _unpack(floats, ints):
+    """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays
+    (:func:`~.precheck_packing.pack`)."""
+    J, S, G, P, O = ints[0], ints[1], ints[2], ints[3], ints[4]  # noqa: E741 - the packing's names
+    tree = floats[:15 * J].reshape((J, 15))
+    spheres = floats[16 * J:16 * J + 4 * S].reshape((S, 4))
+    obstacles = floats[16 * J + 4 * S:16 * J + 4 * S + 16 * O].reshape((O, 16))
+    joints = ints[5:5 + 3 * J].reshape((J, 3))
+    geoms = ints[5 + 3 * J:5 + 3 * J + 5 * G].reshape((G, 5))
+    pairs = ints[5 + 3 * J + 5 * G:5 + 3 * J + 5 * G + 4 * P].reshape((P, 4))
+    return tree, joints, spheres, geoms, pairs, obstacles
+
+
+@_inline
+def _reach(floats, ints):
+    """The packed :func:`~.robot_spheres.joint_reach` ``(J,)`` (:func:`~.precheck_packing.pack`; a view):
+    only :func:`first_uncertified` reads it."""
+    J = ints[0]
+    return floats[15 * J:16 * J]
+
+
+@_inline
+def _workspace(n, S, G):
+    """One allocation per call: joint placements ``X`` ``(n + 1, 12)``, world spheres ``W`` ``(S, 4)`` and the
+    per-geometry stamps ``placed`` ``(G,)`` (-1: cover not placed yet)."""
+    buffer = np.empty(12 * (n + 1) + 4 * S + G)
+    X = buffer[:12 * (n + 1)].reshape((n + 1, 12))
+    W = buffer[12 * (n + 1):12 * (n + 1) + 4 * S].reshape((S, 4))
+    placed = buffer[12 * (n + 1) + 4 * S:]
+    placed[:] = -1.0
+    return X, W, placed
+
+
+@_inline
+def _place(X, j, spheres, s, W):
+    """``W[s]`` = (world centre, radius) of sphere ``s``, fixed in joint ``j`` (placements ``X``)."""
+    c0, c1, c2 = spheres[s, 0], spheres[s, 1], spheres[s, 2]
+    for i in range(3):
+        W[s, i] = X[j, 9 + i] + X[j, 3 * i] * c0 + X[j, 3 * i + 1] * c1 + X[j, 3 * i + 2] * c2
+    W[s, 3] = spheres[s, 3]
+
+
+@_inline
+def _place_cover(X, spheres, geoms, g, W, placed, stamp):
+    """The cover spheres of geometry ``g`` into ``W``, unless already placed for this configuration
+    (``stamp``)."""
+    if placed[g] != stamp:
+        j = geoms[g, 0]
+        for s in range(geoms[g, 1], geoms[g, 2]):
+            _place(X, j, spheres, s, W)
+        placed[g] = stamp
+
+
+@_inline
+def _slack(d2, need, m):
+    """The margin ``m`` (m) after a test that passes when ``d2 > need^2`` (``d2``: a squared distance, m^2):
+    ``min(m, sqrt(d2) - need)`` (at least 0) when it passes, -1.0 when it fails (also on NaN). The square
+    root is taken only when the slack is below ``m``."""
+    reach = need + m
+    if d2 > reach * reach:
+        return m
+    if d2 > need * need:
+        return max(math.sqrt(d2) - need, 0.0)
+    return -1.0
+
+
+@_inline
+def _sphere_slack(W, i, j, tol, m):
+    """:func:`_slack` of spheres ``i`` and ``j`` of ``W`` being farther apart than ``tol`` (m)."""
+    dx, dy, dz = W[i, 0] - W[j, 0], W[i, 1] - W[j, 1], W[i, 2] - W[j, 2]
+    return _slack(dx * dx + dy * dy + dz * dz, W[i, 3] + W[j, 3] + tol, m)
+
+
+@_inline
+def _obstacle_slack(W, i, obstacles, o, tol, m):
+    """:func:`_slack` of sphere ``i`` of ``W`` being farther than ``tol`` (m) from obstacle ``o`` (module
+    docstring: the squared distance of the centre to the obstacle's core against the sphere's radius plus
+    ``tol`` plus the core's radius)."""
+    dx, dy, dz = W[i, 0] - obstacles[o, 9], W[i, 1] - obstacles[o, 10], W[i, 2] - obstacles[o, 11]
+    kind = obstacles[o, KIND]
+    need = W[i, 3] + tol
+    if kind == BALL:
+        return _slack(dx * dx + dy * dy + dz * dz, need + obstacles[o, 13], m)
+    # the centre in the obstacle's frame: p = R^T (c - t)
+    px = obstacles[o, 0] * dx + obstacles[o, 3] * dy + obstacles[o, 6] * dz
+    py = obstacles[o, 1] * dx + obstacles[o, 4] * dy + obstacles[o, 7] * dz
+    pz = obstacles[o, 2] * dx + obstacles[o, 5] * dy + obstacles[o, 8] * dz
+    if kind == BOX:
+        ex = max(abs(px) - obstacles[o, 13], 0.0)
+        ey = max(abs(py) - obstacles[o, 14], 0.0)
+        ez = max(abs(pz) - obstacles[o, 15], 0.0)
+        return _slack(ex * ex + ey * ey + ez * ez, need, m)
+    if kind == CAPSULE:
+        half = obstacles[o, 14]
+        ez = pz - min(max(pz, -half), half)
+        return _slack(px * px + py * py + ez * ez, need + obstacles[o, 13], m)
+    # cylinder
+    er = max(math.sqrt(px * px + py * py) - obstacles[o, 13], 0.0)
+    ez = max(abs(pz) - obstacles[o, 14], 0.0)
+    return _slack(er * er + ez * ez, need, m)
+
+
+#: Factor on the displacement bound of :func:`first_uncertified` (rounding of the bound and of the margin).
+LIPSCHITZ_SAFETY = 1.0 + 1e-9
+
+
+#: The largest margin (m) :func:`_configuration_margin` reports: tests farther apart than this need no
+#: square root.
+MARGIN_CAP = 1.0
+
+
+@_jit
+def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, stamp):
+    """The certificate of ``q``: -1.0 when some pair's lower bound does not exceed ``tol``, else the margin
+    ``m >= 0`` (m, at most :data:`MARGIN_CAP`): the smallest slack of the sphere tests that certified the
+    pairs - every sphere may move by up to ``m / 2`` and those tests still pass (:func:`first_uncertified`).
+    Forward kinematics into ``X``, the bounding spheres into ``W``, then per pair the bounding spheres and,
+    when they are not apart, the cover spheres (placed on first need, marked with ``stamp`` in ``placed``)."""
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        _place(X, geoms[g, 0], spheres, g, W)
+    m = MARGIN_CAP
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] == SELF_PAIR:
+            r = _sphere_slack(W, a, b, tol, m)
+            if r >= 0.0:
+                m = r
+                continue
+            _place_cover(X, spheres, geoms, a, W, placed, stamp)
+            _place_cover(X, spheres, geoms, b, W, placed, stamp)
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                r = _sphere_slack(W, i, b, tol, m)
+                if r >= 0.0:
+                    m = r
+                    continue
+                for j in range(geoms[b, 1], geoms[b, 2]):
+                    m = _sphere_slack(W, i, j, tol, m)
+                    if m < 0.0:
+                        return -1.0
+        else:
+            r = _obstacle_slack(W, a, obstacles, b, tol, m)
+            if r >= 0.0:
+                m = r
+                continue
+            _place_cover(X, spheres, geoms, a, W, placed, stamp)
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                m = _obstacle_slack(W, i, obstacles, b, tol, m)
+                if m < 0.0:
+                    return -1.0
+    return m
+
+
+@numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def certify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
+    """True when configuration ``q`` is certified collision free (every pair's lower bound > ``tol``, m);
+    False when it is not, or when ``q`` has not one entry per joint. ``floats, ints``:
+    :func:`~.precheck_packing.pack`."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    if q.shape[0] != n:
+        return False
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    margin = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0)
+    return margin >= 0.0
+
+
+@numba.njit(_BATCH_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def certify_configurations(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, tol: float) -> np.ndarray:
+    """:func:`certify_configuration` of every row of ``qs`` ``(N, nq)``: a boolean array ``(N,)``."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    N = qs.shape[0]
+    out = np.zeros(N, dtype=np.bool_)
+    if qs.shape[1] != n:
+        return out
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    for k in range(N):
+        out[k] = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W,
+                                      placed, k) >= 0.0
+    return out
+
+
+@numba.njit(_FIRST_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
+    """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that is not certified, ``N`` when every
+    one is (``start`` when the rows have not one entry per joint).
+
+    A row is certified by :func:`_configuration_margin` or, without forward kinematics, by the last row so
+    certified (``q_ref``, margin ``m``) when ``2 sum_k R_k |q_k - q_ref,k| < m`` (``R``: the packed
+    :func:`~.robot_spheres.joint_reach`): no sphere centre has moved by half the margin, so every test that
+    certified ``q_ref`` still passes (the distance between two spheres, or from a sphere's centre to an
+    obstacle, changes by at most the sum of the two displacements): the iterates of a converging solve lie
+    close together.
+    """
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    N = qs.shape[0]
+    if qs.shape[1] != n:
+        return max(start, 0)
+    reach = _reach(floats, ints)
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    ref, m = -1, 0.0
+    for k in range(max(start, 0), N):
+        if ref >= 0:
+            moved = 0.0
+            for j in range(n):
+                c = joints[j, 1]
+                moved += reach[j] * abs(qs[k, c] - qs[ref, c])
+            if 2.0 * moved * LIPSCHITZ_SAFETY < m:  # NaN: not skipped
+                continue
+        m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k)
+        if m < 0.0:
+            return k
+        ref = k
+    return N
+
+
+@_inline
+def _gap(W, i, j):
+    """``|c_i - c_j| - r_i - r_j`` (m): a lower bound of the distance between what spheres ``i`` and ``j``
+    hold."""
+    dx, dy, dz = W[i, 0] - W[j, 0], W[i, 1] - W[j, 1], W[i, 2] - W[j, 2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz) - W[i, 3] - W[j, 3]
+
+
+@_inline
+def _obstacle_gap(W, i, obstacles, o):
+    """The exact distance (m) from sphere ``i``'s centre to obstacle ``o`` (a BALL: to its sphere), minus the
+    sphere's radius: a lower bound of the distance between what the sphere holds and the obstacle."""
+    dx, dy, dz = W[i, 0] - obstacles[o, 9], W[i, 1] - obstacles[o, 10], W[i, 2] - obstacles[o, 11]
+    kind = obstacles[o, KIND]
+    if kind == BALL:
+        return math.sqrt(dx * dx + dy * dy + dz * dz) - obstacles[o, 13] - W[i, 3]
+    px = obstacles[o, 0] * dx + obstacles[o, 3] * dy + obstacles[o, 6] * dz
+    py = obstacles[o, 1] * dx + obstacles[o, 4] * dy + obstacles[o, 7] * dz
+    pz = obstacles[o, 2] * dx + obstacles[o, 5] * dy + obstacles[o, 8] * dz
+    if kind == BOX:
+        qx, qy, qz = abs(px) - obstacles[o, 13], abs(py) - obstacles[o, 14], abs(pz) - obstacles[o, 15]
+        ex, ey, ez = max(qx, 0.0), max(qy, 0.0), max(qz, 0.0)
+        return math.sqrt(ex * ex + ey * ey + ez * ez) + min(max(qx, qy, qz), 0.0) - W[i, 3]
+    if kind == CAPSULE:
+        half = obstacles[o, 14]
+        ez = pz - min(max(pz, -half), half)
+        return math.sqrt(px * px + py * py + ez * ez) - obstacles[o, 13] - W[i, 3]
+    qr, qz = math.sqrt(px * px + py * py) - obstacles[o, 13], abs(pz) - obstacles[o, 14]
+    er, ez = max(qr, 0.0), max(qz, 0.0)
+    return math.sqrt(er * er + ez * ez) + min(max(qr, qz), 0.0) - W[i, 3]
+
+
+@numba.njit(_BOUNDS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per pair of the scene (in the scene's order), the lower bound (m) of its distance at ``q`` that the
+    certification tests against the tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover
+    spheres of the two geometries,
+
+        self pair:      max(gap(B_a, B_b), min_i max(gap(i, B_b), min_j gap(i, j)))
+        obstacle pair:  max(gap(B_a, O), min_i gap(i, O))
+
+    (``gap``: centre distance minus radii; for an obstacle, the exact point distance minus the radius).
+    :func:`certify_configuration` certifies ``q`` exactly when every entry exceeds its tolerance (it compares
+    squares instead); this form is for tests and diagnostics.
+    """
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    X = np.empty((n + 1, 12))
+    W = np.empty((spheres.shape[0], 4))
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        _place(X, geoms[g, 0], spheres, g, W)
+        for s in range(geoms[g, 1], geoms[g, 2]):
+            _place(X, geoms[g, 0], spheres, s, W)
+    out = np.empty(pairs.shape[0])
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] == SELF_PAIR:
+            parts = math.inf
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                inner = math.inf
+                for j in range(geoms[b, 1], geoms[b, 2]):
+                    inner = min(inner, _gap(W, i, j))
+                parts = min(parts, max(_gap(W, i, b), inner))
+            out[pairs[p, 3]] = max(_gap(W, a, b), parts)
+        else:
+            parts = math.inf
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                parts = min(parts, _obstacle_gap(W, i, obstacles, b))
+            out[pairs[p, 3]] = max(_obstacle_gap(W, a, obstacles, b), parts)
+    return out
+
+
+@numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
+    """True when configuration ``q`` is in collision for certain: a point inside a robot geometry (its inner
+    points, :func:`~.sphere_cover.geometry_inner_points`) lies deeper than ``tol`` (m) inside an obstacle of a
+    checked pair whose exact signed distance the kernel has (every kind but a BALL that stands for another
+    shape). Then the two shapes share that point: coal finds them in collision. False says nothing (coal
+    decides), also when ``q`` has not one entry per joint. ``floats, ints``:
+    :func:`~.precheck_packing.pack`."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    if q.shape[0] != n:
+        return False
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    tree_placements(tree, joints, q, X)
+    for p in range(pairs.shape[0]):
+        if pairs[p, 2] != OBSTACLE_PAIR:
+            continue
+        a, o = pairs[p, 0], pairs[p, 1]
+        if obstacles[o, KIND] == BALL and obstacles[o, EXACT] != 1.0:
+            continue
+        j = geoms[a, 0]
+        for i in range(geoms[a, 3], geoms[a, 4]):
+            _place(X, j, spheres, i, W)  # radius 0: the gap is the point's signed distance
+            if _obstacle_gap(W, i, obstacles, o) < -tol:
+                return True
+    return False
+
+
+
+__all__ = ["BALL", "BOX", "CAPSULE", "CYLINDER", "EXACT", "KIND", "LIPSCHITZ_SAFETY", "MARGIN_CAP",
+           "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE", "certainly_colliding",
+           "certify_configuration", "certify_configurations", "first_uncertified", "pair_lower_bounds",
+           "placed_floats", "tree_placements"]

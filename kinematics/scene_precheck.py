@@ -1,0 +1,126 @@
+"""The sphere pre-check of one scene layout, and the arguments of its compiled kernels for one scene.
+
+A :class:`~.collision_layout.SceneLayout` (obstacles of given shapes, any poses)
+builds one :class:`ScenePrecheck`: the robot's spheres (:mod:`.robot_spheres`),
+its pair table - robot geometry, other geometry or obstacle, pair kind, index of
+the pair in the scene; obstacle pairs first (a configuration in collision usually
+hits an obstacle: found sooner; the verdict does not depend on the order) - and the
+obstacles' templates (:mod:`.obstacle_table`), everything but the obstacle poses
+packed once (:mod:`.precheck_packing`). Each scene of the layout then gets its
+:class:`PrecheckArguments` (:meth:`ScenePrecheck.arguments`): its obstacle rows
+placed and appended to the robot half.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
+
+import coal
+import numpy as np
+
+from .obstacle_table import obstacle_template
+from .precheck_kernels import (
+    OBSTACLE_COLUMNS,
+    OBSTACLE_PAIR,
+    SELF_PAIR,
+    TOLERANCE,
+    certainly_colliding,
+    certify_configuration,
+    certify_configurations,
+    first_uncertified,
+    placed_floats,
+)
+from .precheck_packing import pack
+from .robot_spheres import RobotSpheres
+
+
+class PrecheckArguments(NamedTuple):
+    """What a scene's pre-check calls: the kernels of :mod:`.precheck_kernels` and their arguments.
+
+    ``certify(floats, ints, q, tolerance)`` (:func:`~.precheck_kernels.certify_configuration`),
+    ``first_uncertified(floats, ints, rows, start, tolerance)``,
+    ``certainly_colliding(floats, ints, q, tolerance)``; ``floats``, ``ints``: the scene's packed arrays
+    (:mod:`.precheck_packing`); ``tolerance`` (m): :data:`~.precheck_kernels.TOLERANCE`.
+    """
+
+    certify: Callable[..., bool]
+    first_uncertified: Callable[..., int]
+    floats: np.ndarray
+    ints: np.ndarray
+    tolerance: float
+    certainly_colliding: Callable[..., bool]
+
+
+def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
+    """The pre-check's pair table ``(P, 4)`` of a scene's geometry pairs ``(P, 2)`` (robot geometries are
+    the first ``n_robot``, obstacles follow): robot geometry first, then the other robot geometry or the
+    obstacle's index, :data:`~.precheck_kernels.SELF_PAIR` / :data:`~.precheck_kernels.OBSTACLE_PAIR`, the
+    pair's index in the scene; obstacle pairs first, each kind in the scene's order."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    robot_first = pairs[:, 0] < n_robot
+    first = np.where(robot_first, pairs[:, 0], pairs[:, 1])
+    second = np.where(robot_first, pairs[:, 1], pairs[:, 0])
+    obstacle = second >= n_robot
+    table = np.column_stack([first, np.where(obstacle, second - n_robot, second),
+                             np.where(obstacle, OBSTACLE_PAIR, SELF_PAIR), np.arange(len(pairs))])
+    return np.ascontiguousarray(table[np.argsort(~obstacle, kind="stable")].astype(np.int64))
+
+
+class ScenePrecheck:
+    """The pre-check of one layout: the robot's spheres ``robot``, the pair table ``pairs`` ``(P, 4)``
+    (:func:`pair_table`) and the obstacle templates; :meth:`arguments` adds a scene's obstacle poses.
+
+    ``obstacles``: the layout's own obstacles (shapes with a 4x4 world ``pose``), placed once: a scene sharing
+    some of them copies their rows and places only the others.
+    """
+
+    def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int,
+                 obstacle_geometries: Sequence[coal.CollisionGeometry],
+                 obstacles: Sequence[Any] = ()) -> None:
+        self.robot = robot
+        self.pairs = pair_table(pairs, n_robot)
+        made = [obstacle_template(g) for g in obstacle_geometries]
+        self.templates = np.array([t.row for t in made]).reshape(-1, OBSTACLE_COLUMNS)
+        self.centres = np.array([t.centre for t in made]).reshape(-1, 3)
+        packed = pack(robot, self.pairs, self.templates)
+        #: The packed floats but the obstacle rows (a scene appends its own).
+        self.robot_floats = packed.floats[:len(packed.floats) - self.templates.size]
+        self.ints = packed.ints
+        self.reference = tuple(obstacles)
+        self.reference_floats = self._floats([shape.pose for shape in obstacles]) if len(obstacles) else None
+        self.centred = ~self.centres.any(axis=1)  #: obstacles whose row's translation is their pose's
+
+    def _floats(self, poses: Any) -> np.ndarray:
+        P = np.ascontiguousarray(np.asarray(poses, dtype=float).reshape(-1, 4, 4))
+        return placed_floats(self.robot_floats, self.templates, self.centres, P)
+
+    def arguments(self, obstacles: Sequence[Any]) -> PrecheckArguments:
+        """The :class:`PrecheckArguments` of a scene with ``obstacles`` (one per obstacle geometry: shapes
+        with a 4x4 world ``pose``). The rows of the obstacles that are the layout's own (same objects) are
+        copied, the others placed."""
+        if self.reference_floats is None or len(obstacles) != len(self.reference):
+            floats = self._floats([shape.pose for shape in obstacles])
+        else:
+            floats = self.reference_floats.copy()
+            start = len(self.robot_floats)
+            for k, (shape, own) in enumerate(zip(obstacles, self.reference)):
+                if shape is not own:
+                    T = shape.pose
+                    row = floats[start + OBSTACLE_COLUMNS * k:start + OBSTACLE_COLUMNS * (k + 1)]
+                    row[:9] = T[:3, :3].reshape(9)
+                    row[9:12] = T[:3, 3] if self.centred[k] else T[:3, 3] + T[:3, :3] @ self.centres[k]
+        return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
+                                 certainly_colliding)
+
+
+def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:
+    """:func:`~.precheck_kernels.certify_configurations` with a scene's ``arguments`` on configurations ``qs``
+    (a sequence of ``(nq,)`` float arrays or an ``(N, nq)`` array): per configuration, True when certified
+    free."""
+    Q = np.asarray(qs, dtype=float)
+    Q = Q.reshape(len(Q), -1)
+    return certify_configurations(arguments.floats, arguments.ints, Q, arguments.tolerance)
+
+
+__all__ = ["PrecheckArguments", "ScenePrecheck", "certify", "pair_table"]

@@ -1,0 +1,128 @@
+"""The compiled pre-check kernels (kinserve.kinematics.precheck_kernels) against Pinocchio and the shapes.
+
+* the tree's forward kinematics against Pinocchio's ``oMi`` (serial arms, a two-arm tree, prismatic and
+  unaligned joints);
+* obstacle bounds against the closed-form signed distances of kinematics.shapes, and the squared test and
+  slack of the certification against them;
+* ``first_uncertified`` on converging paths against row-by-row certification and coal; rows near a certified
+  one skipped without forward kinematics.
+"""
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinserve import robots
+from kinserve.kinematics import precheck_kernels as pk
+from kinserve.kinematics.obstacle_table import obstacle_row
+from kinserve.kinematics.serial_chain import kinematic_tree
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
+
+from collision_scenes import SCENE, coal_hits, near_obstacles, pose, rotation, tetrahedron_file
+
+
+@pytest.mark.parametrize("name", ["panda", "ur5", "baxter", "scara", "finger_edu", "pr"])
+def test_tree_placements_match_pinocchio_omi(name):
+    robot = robots.load(name, geometry=False)
+    model, data = robot.model, robot.model.createData()
+    tree, joints = kinematic_tree(model)
+    assert len(joints) == model.njoints - 1 and joints[:, 2].tolist() == list(model.parents)[1:]
+    X = np.empty((model.njoints, 12))
+    for q in robot.random_q(np.random.default_rng(3), 30):
+        pk.tree_placements(tree, joints, q, X)
+        pin.forwardKinematics(model, data, q)
+        for j in range(model.njoints):
+            M = data.oMi[j]
+            assert np.abs(X[j, :9].reshape(3, 3) - M.rotation).max() < 1e-12
+            assert np.abs(X[j, 9:] - M.translation).max() < 1e-12
+
+
+def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
+    """For sphere centres around every obstacle kind: the bound is the shape's closed-form signed distance
+    minus the radius (a mesh: its bounding sphere, a lower bound), and the squared test of the certification
+    says "clear" exactly when that bound exceeds the tolerance, with the bound minus the tolerance as its
+    slack (capped by the margin so far)."""
+    rng = np.random.default_rng(6)
+    shapes = [Sphere((0.1, 0.2, 0.3), 0.15), Box(pose((0.3, -0.1, 0.4), rotation(rng)), (0.2, 0.5, 0.1)),
+              Capsule((0.1, 0.1, 0.1), (0.4, -0.2, 0.5), 0.06),
+              Cylinder(pose((0.0, 0.3, 0.2), rotation(rng)), 0.1, 0.4),
+              Mesh(tetrahedron_file(tmp_path), pose((0.2, 0.2, 0.2), rotation(rng)), scale=0.3)]
+    obstacles = np.array([obstacle_row(s.geometry(), s.placement()) for s in shapes])
+    assert obstacles[:, pk.KIND].tolist() == [pk.BALL, pk.BOX, pk.CAPSULE, pk.CYLINDER, pk.BALL]
+    W = np.zeros((1, 4))
+    tol = pk.TOLERANCE
+    for o, shape in enumerate(shapes):
+        centre = shape.pose[:3, 3]
+        for c in centre + rng.normal(scale=0.25, size=(400, 3)):
+            W[0, :3], W[0, 3] = c, rng.uniform(0.001, 0.05)
+            gap = pk._obstacle_gap(W, 0, obstacles, o)
+            if shape.kind == "mesh":  # coal's distance from the ball to the hull (signed_distance is a bound)
+                M = shape.placement()
+                d = coal.distance(coal.Sphere(W[0, 3]), coal.Transform3s(np.eye(3), c), shape.geometry(),
+                                  coal.Transform3s(M.rotation, M.translation), coal.DistanceRequest(),
+                                  coal.DistanceResult())
+                assert gap <= d + 1e-9
+            else:
+                assert gap == pytest.approx(float(shape.signed_distance(c)[0]) - W[0, 3], abs=1e-12)
+            if abs(gap - tol) > 1e-9:  # the squared test, and the slack it reports when it passes
+                slack = pk._obstacle_slack(W, 0, obstacles, o, tol, pk.MARGIN_CAP)
+                assert (slack >= 0.0) == (gap > tol)
+                if slack >= 0.0:
+                    assert slack == pytest.approx(min(gap - tol, pk.MARGIN_CAP), abs=1e-9)
+                    assert pk._obstacle_slack(W, 0, obstacles, o, tol, 0.5 * slack) == 0.5 * slack
+
+
+def test_first_uncertified_on_converging_paths_matches_every_row_certified(tmp_path):
+    """IK-like paths (rows closing in geometrically on an answer near the arm's obstacles, the answer first,
+    as the IK checks them): the index ``first_uncertified`` returns - skipping rows close to one it
+    certified - is the first row that certification row by row (``certify_configurations``) does not certify,
+    and coal finds every row before it free."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(12)
+    checked = stopped = 0
+    for _ in range(3):
+        q_s = robot.random_q(rng)
+        scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
+        pre = scene.precheck()
+        floats, ints, tol = pre.floats, pre.ints, pre.tolerance
+        for _ in range(40):
+            answer = np.clip(q_s + rng.normal(scale=0.3, size=robot.nq), robot.lower, robot.upper)
+            start = robot.random_q(rng)
+            rows = np.array([answer + (start - answer) * 0.5 ** (12 - k) for k in range(13)])
+            rows = np.clip(rows, robot.lower, robot.upper)
+            k = pk.first_uncertified(floats, ints, rows, 0, tol)
+            each = pk.certify_configurations(floats, ints, rows, tol)
+            assert k == (len(rows) if each.all() else int(np.argmin(each)))
+            assert not coal_hits(scene, rows[:k]).any()
+            checked += k
+            stopped += int(k < len(rows))
+    assert checked > 300 and stopped > 10, (checked, stopped)  # rows certified, and paths stopped short
+
+
+def test_first_uncertified_skips_rows_near_a_certified_one():
+    """A path of 3000 rows within a micro-radian of each other costs a small fraction of certifying each row:
+    the rows after the first are certified by their displacement, without forward kinematics."""
+    import time
+
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    floats, ints, tol = pre.floats, pre.ints, pre.tolerance
+    rng = np.random.default_rng(13)
+    q = next(q for q in robot.random_q(rng, 50) if pk.certify_configuration(floats, ints, q, tol))
+    rows = q + 1e-9 * np.arange(3000)[:, None]
+    assert pk.first_uncertified(floats, ints, rows, 0, tol) == 3000 and pk.certify_configurations(
+        floats, ints, rows, tol).all()
+
+    def best(fn):
+        times = []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
+    skip = best(lambda: pk.first_uncertified(floats, ints, rows, 0, tol))
+    each = best(lambda: pk.certify_configurations(floats, ints, rows, tol))
+    assert skip < 0.25 * each, (skip, each)
