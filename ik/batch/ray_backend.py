@@ -22,9 +22,9 @@ Ray with ``processes`` CPUs is started and left running for later batches
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from kinserve.ik.batch.worker import Job, limit_blas_threads, solve_chunk
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
@@ -78,35 +78,57 @@ def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, np.ndarray, np.ndar
     robot_ref = ray.put(robot)
     actors = [actor_class.remote(robot_ref, common, options, keep_history) for _ in range(workers)]
     try:
-        pending = {}  # ref -> (actor, start, n, t_start)
-        queue = list(chunks)
-
-        def submit(actor):
-            start, poses, q0s = queue.pop(0)
-            pending[actor.solve.remote(start, poses, q0s)] = (actor, start, len(poses), time.monotonic())
-
-        for actor in actors:
-            if queue:
-                submit(actor)
-        while pending:
-            done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
-            now = time.monotonic()
-            if not done:
-                for actor, start, n, t0 in pending.values():
-                    limit = chunk_limit(n) if chunk_limit is not None else None
-                    if (limit is not None and now - t0 > limit) or (deadline is not None and now > deadline):
-                        late = limit and now - t0 > limit
-                        why = "chunk limit %.1f s" % limit if late else "overall timeout"
-                        raise WorkerTimeoutError(
-                            f"ik.solve_many: a Ray actor has not finished targets[{start}:{start + n}] after "
-                            f"{now - t0:.1f} s ({why}); every actor was killed"
-                        )
-                continue
-            ref = done[0]
-            actor = pending.pop(ref)[0]
-            on_done(ray.get(ref))
-            if queue:
-                submit(actor)
+        _solve_on(ray, actors, list(chunks), on_done, chunk_limit, deadline)
     finally:
         for actor in actors:
             ray.kill(actor)
+
+
+class _Running(NamedTuple):
+    """A chunk on an actor: the actor, the chunk's first target index and size, when it was submitted
+    (``time.monotonic()``)."""
+
+    actor: Any
+    start: int
+    n: int
+    t0: float
+
+
+def _solve_on(ray: ModuleType, actors: list, queue: list, on_done: Callable[[dict], None],
+              chunk_limit: Callable[[int], float] | None, deadline: float | None) -> None:
+    """Hand the chunks of ``queue`` to the ``actors`` (one at a time each, the next to whichever finishes)
+    and ``on_done`` each result; :class:`WorkerTimeoutError` when a chunk or the batch runs late."""
+    pending: dict[Any, _Running] = {}  # result reference -> the chunk it belongs to
+
+    def submit(actor):
+        start, poses, q0s = queue.pop(0)
+        pending[actor.solve.remote(start, poses, q0s)] = _Running(actor, start, len(poses), time.monotonic())
+
+    for actor in actors:
+        if queue:
+            submit(actor)
+    while pending:
+        done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
+        if not done:
+            _check_lateness(pending.values(), time.monotonic(), chunk_limit, deadline)
+            continue
+        ref = done[0]
+        actor = pending.pop(ref).actor
+        on_done(ray.get(ref))
+        if queue:
+            submit(actor)
+
+
+def _check_lateness(running: Iterable[_Running], now: float, chunk_limit: Callable[[int], float] | None,
+                    deadline: float | None) -> None:
+    """:class:`WorkerTimeoutError` when a running chunk has taken longer than ``chunk_limit(n)`` seconds or
+    the batch's ``deadline`` (``time.monotonic()`` time) has passed."""
+    for _, start, n, t0 in running:
+        limit = chunk_limit(n) if chunk_limit is not None else None
+        if (limit is not None and now - t0 > limit) or (deadline is not None and now > deadline):
+            late = limit and now - t0 > limit
+            why = "chunk limit %.1f s" % limit if late else "overall timeout"
+            raise WorkerTimeoutError(
+                f"ik.solve_many: a Ray actor has not finished targets[{start}:{start + n}] after "
+                f"{now - t0:.1f} s ({why}); every actor was killed"
+            )
