@@ -14,9 +14,9 @@ Requests (one JSON object per line; see benchmarks/_peers.py):
 * ``{"cmd": "time_collision", "qs": [[...], ...], "repeats": n}`` -> ``{"us": ..., "cpu_us": ...}``: median
   over the repeats of the wall / CPU time per call
 * ``{"cmd": "solve", "T": 4x4, "q0": [...], "seed": int, "max_time": s, "tol_pos": m, "tol_rot": rad,
-  "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "cpu": s, "ok":
-  bool}``: ``SimpleIk.solveIk`` with ``max_time`` and unlimited restarts, ``fast_return``, errors bounded by ``tol_pos``/``tol_rot``.
-  Wall and CPU time are measured here, around ``solveIk`` only.
+  "check_collisions": bool}`` -> ``{"q": [...] | null, "time": s, "cpu": s, "ok": bool}``:
+  ``SimpleIk.solveIk`` with ``max_time`` and unlimited restarts, ``fast_return``, errors bounded by
+  ``tol_pos``/``tol_rot``. Wall and CPU time are measured here, around ``solveIk`` only.
 * ``{"cmd": "quit"}``
 """
 

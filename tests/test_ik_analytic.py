@@ -118,9 +118,8 @@ def test_scara_closed_form_matches_the_s9_formulas():
             t1, t2, d3, t4 = r.q
             assert d3 == pytest.approx(1.0 - z, abs=1e-12)
             assert math.cos(t2) == pytest.approx(c2, abs=1e-9)
-            assert t1 == pytest.approx(math.remainder(math.atan2(y, x)
-                                                      - math.atan2(a2 * math.sin(t2),
-                                                                   a1 + a2 * math.cos(t2)), 2 * math.pi), abs=1e-9)
+            t1_expected = math.atan2(y, x) - math.atan2(a2 * math.sin(t2), a1 + a2 * math.cos(t2))
+            assert t1 == pytest.approx(math.remainder(t1_expected, 2 * math.pi), abs=1e-9)
             assert math.remainder(t1 + t2 - t4 - phi, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
         assert any(np.allclose(r.q, q, atol=1e-9) for r in res)
 

@@ -16,11 +16,14 @@ out = []
 for k in range(6):
     T = panda.fk(panda.random_q(rng)).copy()
     hand = panda.fk(panda.random_q(rng))[:3, 3]
-    obs = [ik.Sphere(0.5 * hand, 0.05), ik.Box(np.eye(4) + np.pad(np.c_[0.4 * hand], ((0, 1), (3, 0))), (0.05, 0.05, 0.05))]
+    box_pose = np.eye(4) + np.pad(np.c_[0.4 * hand], ((0, 1), (3, 0)))
+    obs = [ik.Sphere(0.5 * hand, 0.05), ik.Box(box_pose, (0.05, 0.05, 0.05))]
     for method in ("auto", "qp"):
-        r = ik.solve(panda, T, obstacles=obs, method=method, seed=k, centring=1.0 if method == "qp" else 0.0, max_time=30)
+        r = ik.solve(panda, T, obstacles=obs, method=method, seed=k, centring=1.0 if method == "qp" else 0.0,
+                     max_time=30)
         out.append(r.q.tobytes().hex())
-    r = ik.solve(panda, tasks=[ik.FrameTask(None, T), ik.PostureTask(panda.neutral(), priority=2)], seed=k, max_time=30)
+    r = ik.solve(panda, tasks=[ik.FrameTask(None, T), ik.PostureTask(panda.neutral(), priority=2)], seed=k,
+                 max_time=30)
     out.append(r.q.tobytes().hex())
 print(" ".join(out))
 """

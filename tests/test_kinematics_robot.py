@@ -11,20 +11,22 @@ from kinserve.kinematics.errors import SingularityError
 # PX and unaligned prismatic, with non-trivial fixed placements and a tool frame behind a fixed joint.
 MIXED_URDF = """<?xml version="1.0"?>
 <robot name="mixed">
-  <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/><link name="l5"/><link name="l6"/><link name="tool"/>
-  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><origin xyz="0.1 0 0.3" rpy="0 0 0.2"/>
-    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0.05 0.2" rpy="0.3 0 0"/>
-    <axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/>
+  <link name="l5"/><link name="l6"/><link name="tool"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0.1 0 0.3" rpy="0 0 0.2"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0.05 0.2" rpy="0.3 0 0"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
   <joint name="j3" type="prismatic"><parent link="l2"/><child link="l3"/><origin xyz="0.2 0 0" rpy="0 0.1 0"/>
     <axis xyz="1 0 0"/><limit lower="0" upper="0.5" effort="1" velocity="1"/></joint>
   <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/><origin xyz="0 0 0.1" rpy="0 0 0"/>
     <axis xyz="0.6 0 0.8"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
-  <joint name="j5" type="prismatic"><parent link="l4"/><child link="l5"/><origin xyz="0 0.1 0" rpy="0.2 0.1 0"/>
-    <axis xyz="0 0.6 0.8"/><limit lower="-0.2" upper="0.2" effort="1" velocity="1"/></joint>
-  <joint name="j6" type="revolute"><parent link="l5"/><child link="l6"/><origin xyz="0.05 0 0.05" rpy="0 0 0"/>
-    <axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
-  <joint name="jt" type="fixed"><parent link="l6"/><child link="tool"/><origin xyz="0 0 0.12" rpy="0.1 0.2 0.3"/></joint>
+  <joint name="j5" type="prismatic"><parent link="l4"/><child link="l5"/>
+    <origin xyz="0 0.1 0" rpy="0.2 0.1 0"/><axis xyz="0 0.6 0.8"/><limit lower="-0.2" upper="0.2" effort="1" velocity="1"/></joint>
+  <joint name="j6" type="revolute"><parent link="l5"/><child link="l6"/>
+    <origin xyz="0.05 0 0.05" rpy="0 0 0"/><axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+  <joint name="jt" type="fixed"><parent link="l6"/><child link="tool"/>
+    <origin xyz="0 0 0.12" rpy="0.1 0.2 0.3"/></joint>
 </robot>"""
 
 
@@ -158,9 +160,10 @@ def test_planar_task_axes_make_planar_arms_non_singular():
     urdf = """<robot name="p2"><link name="a"/><link name="b"/><link name="c"/><link name="t"/>
       <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
       <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-      <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="1 0 0"/><axis xyz="0 0 1"/>
-      <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-      <joint name="jt" type="fixed"><parent link="c"/><child link="t"/><origin xyz="1 0 0"/></joint></robot>"""
+      <joint name="j2" type="revolute"><parent link="b"/><child link="c"/><origin xyz="1 0 0"/>
+      <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+      <joint name="jt" type="fixed"><parent link="c"/><child link="t"/><origin xyz="1 0 0"/></joint>
+    </robot>"""
     arm = Robot(pin.buildModelFromXML(urdf), tip="t", task_axes=("x", "y"))
     q = np.array([0.3, 0.9])
     assert not arm.is_singular(q)
@@ -191,7 +194,8 @@ def test_random_q_within_limits_and_deterministic(panda):
 
 def test_continuous_joints_are_rejected_with_a_clear_message():
     urdf = """<robot name="c"><link name="a"/><link name="b"/>
-      <joint name="j" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint></robot>"""
+      <joint name="j" type="continuous"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/></joint>
+    </robot>"""
     with pytest.raises(ModelError, match="nq == nv"):
         Robot(pin.buildModelFromXML(urdf))
 

@@ -33,8 +33,9 @@ def chain_urdf(joints) -> str:
         body += (f'<joint name="j{i + 1}" type="{kind}"><origin xyz="{xyz}"/><parent link="l{i}"/><child '
                  f'link="l{i + 1}"/><axis xyz="{axis}"/><limit lower="{lo}" upper="{hi}" effort="1" '
                  'velocity="1"/></joint>')
-    return f'<robot name="chain">{links}<link name="tool"/>{body}' \
-           f'<joint name="tool_joint" type="fixed"><origin xyz="0.4 0 0"/><parent link="l{len(joints)}"/><child link="tool"/></joint></robot>'
+    return (f'<robot name="chain">{links}<link name="tool"/>{body}'
+            f'<joint name="tool_joint" type="fixed"><origin xyz="0.4 0 0"/><parent link="l{len(joints)}"/>'
+            '<child link="tool"/></joint></robot>')
 
 
 PLANAR_3R = chain_urdf([("revolute", "0 0 1", "0 0 0"), ("revolute", "0 0 1", "1.0 0 0"),

@@ -149,15 +149,17 @@ def test_editable_install_coexists_with_a_users_kinematics_module(tmp_path):
 # --------------------------------------------------------------- the source tree cannot regress
 BARE = "|".join(SUBPACKAGES)
 FORBIDDEN = {
-    "sys.path "
-    "edit": re.compile(r"\bsys\.path\s*(\.\s*(insert|append|extend|remove|pop|clear)\b|\+?=|\[[^\]]*\]\s*=)"),
+    "sys.path edit": re.compile(r"\bsys\.path\s*(\.\s*(insert|append|extend|remove|pop|clear)\b"
+                                r"|\+?=|\[[^\]]*\]\s*=)"),
     "site.addsitedir": re.compile(r"\baddsitedir\s*\("),
     # setting it (a keyword, an item assignment, setenv); removing it from a child's environment is fine
-    "PYTHONPATH set": re.compile(r"PYTHONPATH\s*=|\[\s*[\"']PYTHONPATH[\"']\s*\]\s*=|[\"']PYTHONPATH[\"']\s*:|setenv\(\s*[\"']PYTHONPATH"),
+    "PYTHONPATH set": re.compile(r"PYTHONPATH\s*=|\[\s*[\"']PYTHONPATH[\"']\s*\]\s*=|[\"']PYTHONPATH[\"']\s*:"
+                                 r"|setenv\(\s*[\"']PYTHONPATH"),
     "bare import": re.compile(rf"^\s*(import\s+({BARE})\b|from\s+({BARE})(\.\w+)*\s+import\b)", re.M),
     # a dotted module name in quotes, not a file name such as "ik.json"
-    "bare module "
-    "string": re.compile(rf"[\"'](-m\s+)?({BARE})\.(?!(json|csv|png|html|npz|md|txt|urdf|srdf|xacro|py)[\"'])\w+(\.\w+)*(:\w+)?[\"']"),
+    "bare module string": re.compile(rf"[\"'](-m\s+)?({BARE})\."
+                                     r"(?!(json|csv|png|html|npz|md|txt|urdf|srdf|xacro|py)[\"'])"
+                                     r"\w+(\.\w+)*(:\w+)?[\"']"),
     "python -m bare": re.compile(rf"python3?\s+-m\s+({BARE})\b"),
 }
 

@@ -39,8 +39,8 @@ TWO_LINK = """<robot name="two_link">
   <link name="base"/><link name="l1"/><link name="l2"/>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
     <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><origin xyz="0.7 0 0"/><parent link="l1"/><child link="l2"/><axis xyz="0 0 1"/>
-    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><origin xyz="0.7 0 0"/><parent link="l1"/><child link="l2"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
 </robot>"""
 
 

@@ -19,10 +19,10 @@ URDF = """<robot name="slider">
   <link name="base"/><link name="a"/><link name="b"/><link name="c"/>
   <joint name="j1" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
     <limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
-  <joint name="j2" type="prismatic"><origin xyz="1 0 0"/><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>
-    <limit lower="0" upper="0.5" effort="1" velocity="1"/></joint>
-  <joint name="j3" type="revolute"><origin xyz="0.3 0 0"/><parent link="b"/><child link="c"/><axis xyz="0 0 1"/>
-    <limit lower="0.5" upper="6" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="prismatic"><origin xyz="1 0 0"/><parent link="a"/><child link="b"/>
+    <axis xyz="1 0 0"/><limit lower="0" upper="0.5" effort="1" velocity="1"/></joint>
+  <joint name="j3" type="revolute"><origin xyz="0.3 0 0"/><parent link="b"/><child link="c"/>
+    <axis xyz="0 0 1"/><limit lower="0.5" upper="6" effort="1" velocity="1"/></joint>
 </robot>
 """
 
