@@ -19,10 +19,11 @@ blends lie in certified balls (the chord between two samples of one piece too).
 The sample times are a uniform grid of :data:`TRAJECTORY_DT` plus the times of the
 path's breaks, so two consecutive samples always lie on one piece.
 
-toppra enforces the limits at the grid points; the speed profile is then checked
-at :data:`CHECK_POINTS` points of every grid interval and, if any limit is
-exceeded there, slowed uniformly (``sd / c``: velocities scale by ``1 / c``,
-accelerations by ``1 / c^2``) so that none is.
+toppra enforces the limits at the grid points only; the largest velocity and
+acceleration over every grid interval are then found exactly (on an interval,
+``qdd`` is a quadratic and ``qd`` a cubic in time: :func:`limit_ratios`) and, if
+any limit is exceeded, the profile is slowed uniformly (``sd / c``: velocities
+scale by ``1 / c``, accelerations by ``1 / c^2``) so that none is, at any instant.
 
 **Fallback** (``method = "rest-to-rest"``): when toppra fails, each straight segment
 of the polyline gets its own time-optimal rest-to-rest profile (trapezoidal in
@@ -53,8 +54,6 @@ LIMIT_SAFETY = 0.98
 GRID_INTERVALS = 200
 #: Least grid intervals per piece of the path.
 MIN_PIECE_INTERVALS = 4
-#: Points of each grid interval at which the limits are checked after toppra.
-CHECK_POINTS = 9
 
 
 class SpeedProfile(NamedTuple):
@@ -159,15 +158,54 @@ def evaluate(path: BlendedPath, profile: SpeedProfile, times: np.ndarray,
     return q, qd, qdd
 
 
+def _interval_polynomials(path: BlendedPath, profile: SpeedProfile):
+    """Per grid interval ``i`` (``tau`` in ``[0, dt_i]``): its piece's ``E``, ``C`` ``(N, nq)``, ``sigma_0``,
+    ``sd_i``, ``u_i``, ``dt_i`` ``(N, 1)`` and the acceleration ``qdd = alpha + beta tau + gamma tau^2``
+    (:func:`limit_ratios`)."""
+    s, sd = profile.s, profile.sd
+    ds = np.diff(s)
+    u = (sd[1:] ** 2 - sd[:-1] ** 2) / (2.0 * ds)
+    dt = np.diff(grid_times(profile))
+    piece = np.clip(np.searchsorted(path.breaks, 0.5 * (s[:-1] + s[1:]), side="right") - 1, 0,
+                    path.n_pieces - 1)
+    E, C = path.directions[piece], path.curvatures[piece]
+    sigma0, v0 = (s[:-1] - path.breaks[piece])[:, None], sd[:-1, None]
+    u, dt = u[:, None], dt[:, None]
+    alpha = E * u + C * (sigma0 * u + v0 ** 2)
+    return E, C, sigma0, v0, u, dt, alpha, 3.0 * C * v0 * u, 1.5 * C * u ** 2
+
+
+def limit_ratios(path: BlendedPath, profile: SpeedProfile, v_max: np.ndarray,
+                 a_max: np.ndarray) -> tuple[float, float]:
+    """``(max_t max_k |qd_k| / v_k, max_t max_k |qdd_k| / a_k)`` over the whole trajectory, exactly.
+
+    On grid interval ``i`` the path is one piece ``q = A + E sigma + C sigma^2 / 2`` and
+    ``sigma(tau) = sigma_0 + sd_i tau + u_i tau^2 / 2``, ``sd(tau) = sd_i + u_i tau``, so
+    ``qdd = E u + C (sigma u + sd^2) = alpha + beta tau + gamma tau^2`` with ``alpha = E u + C (sigma_0 u +
+    sd_i^2)``, ``beta = 3 C sd_i u``, ``gamma = 3 C u^2 / 2``: its extremes are at the ends or at
+    ``-beta / (2 gamma)``; ``qd = (E + C sigma) sd`` is a cubic whose extremes are at the ends or at the
+    roots of ``qdd``."""
+    E, C, sigma0, v0, u, dt, alpha, beta, gamma = _interval_polynomials(path, profile)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = np.where(gamma != 0.0, -beta / (2.0 * gamma), 0.0)
+        disc = np.sqrt(np.maximum(beta ** 2 - 4.0 * alpha * gamma, 0.0))
+        roots = [np.where(gamma != 0.0, (-beta + sign * disc) / (2.0 * gamma),
+                          np.where(beta != 0.0, -alpha / beta, 0.0)) for sign in (1.0, -1.0)]
+    acc, vel = np.zeros_like(alpha), np.zeros_like(alpha)
+    for tau in (np.zeros_like(alpha), np.broadcast_to(dt, alpha.shape), vertex, *roots):
+        tau = np.clip(np.nan_to_num(tau), 0.0, dt)
+        acc = np.maximum(acc, np.abs(alpha + beta * tau + gamma * tau ** 2))
+        sigma = sigma0 + v0 * tau + 0.5 * u * tau ** 2
+        vel = np.maximum(vel, np.abs((E + C * sigma) * (v0 + u * tau)))
+    return float(np.max(vel / v_max)), float(np.max(acc / a_max))
+
+
 def within_limits(path: BlendedPath, profile: SpeedProfile, v_max: np.ndarray,
                   a_max: np.ndarray) -> SpeedProfile:
     """``profile`` slowed uniformly (speeds divided by ``c >= 1``) so that the velocity and acceleration
-    limits hold at :data:`CHECK_POINTS` points of every grid interval."""
-    times = grid_times(profile)
-    frac = np.linspace(0.0, 1.0, CHECK_POINTS)
-    t = (times[:-1, None] + np.diff(times)[:, None] * frac).ravel()
-    _, qd, qdd = evaluate(path, profile, times, t)
-    c = max(1.0, float(np.max(np.abs(qd) / v_max)), float(np.sqrt(np.max(np.abs(qdd) / a_max))))
+    limits hold at every instant (:func:`limit_ratios`)."""
+    ratio_v, ratio_a = limit_ratios(path, profile, v_max, a_max)
+    c = max(1.0, ratio_v, float(np.sqrt(ratio_a)))
     if c <= 1.0:
         return profile
     return SpeedProfile(profile.s, profile.sd / (c * (1.0 + 1e-9)), profile.method)
@@ -212,6 +250,7 @@ def time_parameterize(toppra: ModuleType, points: np.ndarray, room: np.ndarray, 
     return TimedPath(_sampled(path, profile, joint_names), profile.method)
 
 
-__all__ = ["CHECK_POINTS", "GRID_INTERVALS", "LIMIT_SAFETY", "MIN_PIECE_INTERVALS", "TRAJECTORY_DT",
-           "SpeedProfile", "TimedPath", "evaluate", "grid_times", "load_toppra", "rest_to_rest_profile",
-           "sample_times", "time_parameterize", "toppra_grid", "toppra_profile", "within_limits"]
+__all__ = ["GRID_INTERVALS", "LIMIT_SAFETY", "MIN_PIECE_INTERVALS", "TRAJECTORY_DT",
+           "SpeedProfile", "TimedPath", "evaluate", "grid_times", "limit_ratios", "load_toppra",
+           "rest_to_rest_profile", "sample_times", "time_parameterize", "toppra_grid", "toppra_profile",
+           "within_limits"]
