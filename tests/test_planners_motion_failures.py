@@ -71,7 +71,8 @@ def test_a_goal_set_uses_its_free_goals(panda):
     blocked = planners.plan_motion(panda, START, np.array([GOAL, GOAL]), obstacles=obstacles, seed=0,
                                    max_time=None, max_iterations=50)
     assert not blocked.success
-    assert blocked.message.startswith("goal[0] is in collision: ") and "goal[1] is in collision" in blocked.message
+    assert blocked.message.startswith("goal[0] is in collision: ")
+    assert "goal[1] is in collision" in blocked.message
 
 
 def test_a_walled_off_goal_is_not_found_within_the_budget(panda):
