@@ -203,6 +203,20 @@ def adaptive_damping(sigma_min: float, sigma_threshold: float, lambda_max: float
     return lambda_max * math.sqrt(max(0.0, 1.0 - r * r))
 
 
+def _checked_run_arguments(n, dt, gain, damping) -> int:
+    """The step count ``n`` as an int, after checking :func:`track_reference`'s ``n``, ``dt``, ``gain``
+    and ``damping`` (:class:`InputError` naming the argument)."""
+    if int(n) != n or n < 0:
+        raise InputError(f"n (number of steps) must be an integer >= 0, got {n!r}")
+    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+        raise InputError(f"dt must be a finite number > 0, got {dt!r}")
+    if not (0.0 < gain <= 1.0):
+        raise InputError(f"gain must be in (0, 1], got {gain!r}")
+    if not (isinstance(damping, (int, float)) and damping >= 0) and damping != "adaptive":
+        raise InputError(f"damping must be 'adaptive' or a number >= 0, got {damping!r}")
+    return int(n)
+
+
 def track_reference(
     robot: Robot,
     reference: Reference,
@@ -232,15 +246,7 @@ def track_reference(
     rows = axis_rows(axes)
     yaw_index = [i for i, a in enumerate(axes) if a == "yaw"]
     q = robot.check_q(q0, "q0").astype(float).copy()
-    if int(n) != n or n < 0:
-        raise InputError(f"n (number of steps) must be an integer >= 0, got {n!r}")
-    n = int(n)
-    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-        raise InputError(f"dt must be a finite number > 0, got {dt!r}")
-    if not (0.0 < gain <= 1.0):
-        raise InputError(f"gain must be in (0, 1], got {gain!r}")
-    if not (isinstance(damping, (int, float)) and damping >= 0) and damping != "adaptive":
-        raise InputError(f"damping must be 'adaptive' or a number >= 0, got {damping!r}")
+    n = _checked_run_arguments(n, dt, gain, damping)
     m = len(axes)
 
     def ref(t):

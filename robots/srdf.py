@@ -154,6 +154,20 @@ def _check_joint(name, el, label: str, urdf: _UrdfTree) -> str:
     return name
 
 
+def _chain_joints(el, label: str, urdf: _UrdfTree) -> list[str]:
+    """The joints of a ``<chain base_link= tip_link=>`` element, from base to tip (:class:`ModelError`
+    when a link is unknown or the tip is not below the base)."""
+    base, tip = el.get("base_link"), el.get("tip_link")
+    for link in (base, tip):
+        if link not in urdf.links:
+            raise ModelError(f"{_where(label, el)}: <chain> link {link!r} is not a link of the "
+                             f"URDF.{suggest(str(link), urdf.links)}")
+    chain = urdf.chain(base, tip)
+    if chain is None:
+        raise ModelError(f"{_where(label, el)}: <chain> tip_link {tip!r} is not below base_link {base!r}")
+    return chain
+
+
 def _groups(root, label: str, urdf: _UrdfTree, robot: Robot) -> dict[str, tuple[str, ...]]:
     elements = {}
     for g in root.findall("group"):
@@ -181,16 +195,7 @@ def _groups(root, label: str, urdf: _UrdfTree, robot: Robot) -> dict[str, tuple[
                 if link in urdf.joint_of_child:
                     joints.append(urdf.joint_of_child[link])
             elif el.tag == "chain":
-                base, tip = el.get("base_link"), el.get("tip_link")
-                for link in (base, tip):
-                    if link not in urdf.links:
-                        raise ModelError(f"{_where(label, el)}: <chain> link {link!r} is not a link of the "
-                                         f"URDF.{suggest(str(link), urdf.links)}")
-                chain = urdf.chain(base, tip)
-                if chain is None:
-                    raise ModelError(f"{_where(label, el)}: <chain> tip_link {tip!r} is not below base_link "
-                                     f"{base!r}")
-                joints += chain
+                joints += _chain_joints(el, label, urdf)
             elif el.tag == "group":
                 sub = el.get("name")
                 if sub not in elements:
@@ -209,8 +214,8 @@ def _value(el, label: str, joint: str) -> float:
     try:
         v = float(text)
     except (TypeError, ValueError):
-        raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be one number (rad "
-                         "or m)") from None
+        raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be one number "
+                         "(rad or m)") from None
     if not math.isfinite(v):
         raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be finite")
     return v

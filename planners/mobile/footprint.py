@@ -77,18 +77,9 @@ def _shape_name(s, k: int) -> str:
     return s.name or f"{type(s).__name__.lower()} {k}"
 
 
-def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, length: float,
-                          width: float | None = None, bounds: tuple[float, float, float, float] | None = None,
-                          spacing: float = 0.25, turn_step: float = math.radians(2.0)) -> Penetration:
-    """How deep a ``length x width`` footprint (``width`` default ``length``: a square), centred on
-    ``path[i]`` (``(N, 2)``) and turned by ``heading[i]`` (rad, ``(N,)``), reaches into ``shapes``
-    (Rectangle / Circle / Polygon) and past the walls of ``bounds = (x_min, y_min, x_max, y_max)``.
-
-    Where the heading jumps between samples by more than ``turn_step`` (a corner of the path, where
-    a differential drive turns in place), the intermediate headings are swept too, at most
-    ``turn_step`` apart (so a depth can be missed by at most ``R (1 - cos(turn_step / 2))``, ``R`` the
-    half diagonal: 0.002 for a 20 x 20 footprint at 2 deg). ``index`` in the
-    result is the path sample (of a turn: the sample where it happens). See the module docstring."""
+def _checked_arguments(path, heading, shapes, length, width, spacing, turn_step):
+    """``(P, H, L, W)``: :func:`footprint_penetration`'s path, headings, length and width, checked
+    (:class:`ShapeError` / :class:`InputError` naming the argument), with the other arguments."""
     P = np.asarray(path, dtype=float)
     H = np.asarray(heading, dtype=float)
     if P.ndim != 2 or P.shape[1] != 2 or len(P) == 0:
@@ -108,6 +99,22 @@ def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, len
             raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, got {type(s).__name__}")
     if not (math.isfinite(turn_step) and turn_step > 0):
         raise InputError(f"turn_step must be a finite angle > 0 (rad), got {turn_step!r}")
+    return P, H, L, W
+
+
+def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, length: float,
+                          width: float | None = None, bounds: tuple[float, float, float, float] | None = None,
+                          spacing: float = 0.25, turn_step: float = math.radians(2.0)) -> Penetration:
+    """How deep a ``length x width`` footprint (``width`` default ``length``: a square), centred on
+    ``path[i]`` (``(N, 2)``) and turned by ``heading[i]`` (rad, ``(N,)``), reaches into ``shapes``
+    (Rectangle / Circle / Polygon) and past the walls of ``bounds = (x_min, y_min, x_max, y_max)``.
+
+    Where the heading jumps between samples by more than ``turn_step`` (a corner of the path, where
+    a differential drive turns in place), the intermediate headings are swept too, at most
+    ``turn_step`` apart (so a depth can be missed by at most ``R (1 - cos(turn_step / 2))``, ``R`` the
+    half diagonal: 0.002 for a 20 x 20 footprint at 2 deg). ``index`` in the
+    result is the path sample (of a turn: the sample where it happens). See the module docstring."""
+    P, H, L, W = _checked_arguments(path, heading, shapes, length, width, spacing, turn_step)
     outline = footprint_outline(L, W, spacing)
     reach = 0.5 * math.hypot(L, W)
     src, P, H = _with_turns_in_place(P, H, turn_step)
