@@ -48,7 +48,8 @@ def titles_inside(fig) -> None:
     assert texts, "the figure has no title"
     for t in texts:
         e = t.get_window_extent(r)
-        inside = e.x0 >= box.x0 - 0.5 and e.x1 <= box.x1 + 0.5 and e.y0 >= box.y0 - 0.5 and e.y1 <= box.y1 + 0.5
+        inside = (e.x0 >= box.x0 - 0.5 and e.x1 <= box.x1 + 0.5
+                  and e.y0 >= box.y0 - 0.5 and e.y1 <= box.y1 + 0.5)
         assert inside, f"title {t.get_text()!r} extends outside the figure: {e} vs {box}"
 
 

@@ -14,17 +14,21 @@ MIXED_URDF = """<?xml version="1.0"?>
   <link name="base"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/>
   <link name="l5"/><link name="l6"/><link name="tool"/>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
-    <origin xyz="0.1 0 0.3" rpy="0 0 0.2"/><axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+    <origin xyz="0.1 0 0.3" rpy="0 0 0.2"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
   <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-    <origin xyz="0 0.05 0.2" rpy="0.3 0 0"/><axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+    <origin xyz="0 0.05 0.2" rpy="0.3 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
   <joint name="j3" type="prismatic"><parent link="l2"/><child link="l3"/><origin xyz="0.2 0 0" rpy="0 0.1 0"/>
     <axis xyz="1 0 0"/><limit lower="0" upper="0.5" effort="1" velocity="1"/></joint>
   <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/><origin xyz="0 0 0.1" rpy="0 0 0"/>
     <axis xyz="0.6 0 0.8"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
   <joint name="j5" type="prismatic"><parent link="l4"/><child link="l5"/>
-    <origin xyz="0 0.1 0" rpy="0.2 0.1 0"/><axis xyz="0 0.6 0.8"/><limit lower="-0.2" upper="0.2" effort="1" velocity="1"/></joint>
+    <origin xyz="0 0.1 0" rpy="0.2 0.1 0"/><axis xyz="0 0.6 0.8"/>
+    <limit lower="-0.2" upper="0.2" effort="1" velocity="1"/></joint>
   <joint name="j6" type="revolute"><parent link="l5"/><child link="l6"/>
-    <origin xyz="0.05 0 0.05" rpy="0 0 0"/><axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+    <origin xyz="0.05 0 0.05" rpy="0 0 0"/><axis xyz="1 0 0"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
   <joint name="jt" type="fixed"><parent link="l6"/><child link="tool"/>
     <origin xyz="0 0 0.12" rpy="0.1 0.2 0.3"/></joint>
 </robot>"""
