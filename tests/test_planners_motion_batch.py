@@ -212,3 +212,24 @@ def test_plan_many_equals_plan_motion_one_by_one(panda_problems):
         if b.trajectory is not None:
             np.testing.assert_array_equal(a.trajectory.positions, b.trajectory.positions)
     _assert_gone(left)
+
+
+def test_ray_backend_equals_local(panda_problems):
+    ray = pytest.importorskip("ray")
+    import gc
+    import warnings
+
+    robot, problems = panda_problems
+    kwargs = dict(max_time=None, max_iterations=2000, seed=11)
+    local = plan_many(robot, problems[:3], processes=2, **kwargs)
+    with warnings.catch_warnings():  # Ray's own probe socket, collected here (as in test_ik_ray_backend)
+        warnings.simplefilter("ignore", ResourceWarning)
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        gc.collect()
+    try:
+        remote = plan_many(robot, problems[:3], processes=2, backend="ray", **kwargs)
+    finally:
+        ray.shutdown()
+    for a, b in zip(remote, local):
+        assert (a.success, a.goal_index) == (b.success, b.goal_index)
+        np.testing.assert_array_equal(a.path, b.path)
