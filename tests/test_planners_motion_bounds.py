@@ -1,0 +1,149 @@
+"""The bounds behind certified edges, against Pinocchio's kinematics and coal's distances.
+
+* ``geometry_reach``: no vertex of a collision hull moves farther than ``R_g . |dq|``
+  (world positions by Pinocchio's forward kinematics);
+* ``pair_reach``: no pair distance (coal) changes by more than ``W[p] . |dq|``, and
+  changing only the joints that carry both geometries of a self pair leaves its
+  distance as it is;
+* the clearance oracle's radius equals the one from every exact distance, and its
+  bounds never exceed coal's distances;
+* an edge that passes through a small obstacle between the cheap probes is refused,
+  the same edge without the obstacle is certified.
+"""
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from kinserve import ik, robots
+from kinserve.kinematics.collision_model import bounding_sphere
+from kinserve.planners.motion.clearance import TOLERANCE, ClearanceOracle
+from kinserve.planners.motion.edges import PROBES, EdgeCertifier
+from kinserve.planners.motion.reach import carrying_joints, geometry_reach, joint_kinds, pair_reach
+
+from motion_scenes import shelf_scene
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda")
+
+
+def _world_vertices(robot, q):
+    data = robot.model.createData()
+    pin.forwardKinematics(robot.model, data, q)
+    out = []
+    for shape in robot.collision.shape_data():
+        M = data.oMi[shape["joint"]].homogeneous @ shape["placement"]
+        V = shape["vertices"] if shape["kind"] == "convex" else np.zeros((1, 3))
+        out.append(V @ M[:3, :3].T + M[:3, 3])
+    return out
+
+
+def test_no_hull_vertex_moves_farther_than_its_reach(panda):
+    model = panda.model
+    kinds = joint_kinds(model)
+    reach = []
+    for obj in panda.collision.geometry.geometryObjects:
+        centre, radius = bounding_sphere(obj.geometry, pin.SE3(obj.placement))
+        reach.append(geometry_reach(model, obj.parentJoint, centre, radius, kinds))
+    rng = np.random.default_rng(0)
+    worst = 0.0
+    for scale in (0.01, 0.3, 2.0):
+        for _ in range(15):
+            q = panda.random_q(rng)
+            q2 = np.clip(q + scale * rng.normal(size=7), panda.lower, panda.upper)
+            for R, V, V2 in zip(reach, _world_vertices(panda, q), _world_vertices(panda, q2)):
+                moved = np.max(np.linalg.norm(V2 - V, axis=1))
+                bound = float(R @ np.abs(q2 - q))
+                assert moved <= bound + 1e-12
+                worst = max(worst, moved / bound if bound > 0 else 0.0)
+    assert worst > 0.3  # the bound is not vacuous
+
+
+def test_pair_distances_change_no_faster_than_the_pair_reach(panda):
+    obstacles = shelf_scene()
+    scene = panda.collision_scene(obstacles)
+    W = pair_reach(panda.model, scene)
+    assert W.shape == (len(scene.pairs), 7) and np.all(W >= 0.0)
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        q = panda.random_q(rng)
+        q2 = np.clip(q + 0.2 * rng.normal(size=7), panda.lower, panda.upper)
+        d, d2 = scene.distance_arrays(q).distance, scene.distance_arrays(q2).distance
+        both = (d > 0) & (d2 > 0)
+        assert np.all(np.abs(d2 - d)[both] <= (W @ np.abs(q2 - q))[both] + 1e-6)
+
+
+def test_joints_that_carry_both_geometries_do_not_change_a_self_distance(panda):
+    scene = panda.collision_scene(())
+    W = pair_reach(panda.model, scene)
+    geoms = scene.geometry.geometryObjects
+    rng = np.random.default_rng(2)
+    joint = [int(g.parentJoint) for g in geoms]
+    pairs = [(int(a), int(b)) for a, b in scene.pairs]
+    for p, (a, b) in enumerate(pairs):
+        common = carrying_joints(panda.model, joint[a]) & carrying_joints(panda.model, joint[b])
+        assert np.all(W[p][common] == 0.0)
+    q = panda.random_q(rng)
+    q2 = q.copy()
+    q2[0] += 0.7  # joint 1 carries every moving link; the base is on joint 0
+    moving = [p for p, (a, b) in enumerate(pairs) if joint[a] and joint[b]]
+    d, d2 = scene.distance_arrays(q).distance, scene.distance_arrays(q2).distance
+    np.testing.assert_allclose(d2[moving], d[moving], atol=1e-6)
+
+
+def test_the_oracle_radius_is_the_exact_one_and_its_bounds_are_lower_bounds(panda):
+    obstacles = shelf_scene()
+    scene = panda.collision_scene(obstacles)
+    W = pair_reach(panda.model, scene)
+    oracle = ClearanceOracle(scene)
+    assert oracle.precheck is not None
+    rng = np.random.default_rng(3)
+    tested = 0
+    while tested < 25:
+        q = panda.random_q(rng)
+        exact = scene.distance_arrays(q).distance
+        if exact.min() < 1e-3:
+            continue
+        c = oracle.clearance(q)
+        assert np.all(c.distance <= exact + 1e-9)
+        w = W @ np.abs(rng.normal(size=7))
+        rho = oracle.radius(c, w)
+        assert rho == pytest.approx(np.min((exact - TOLERANCE) / w), rel=1e-6)
+        assert c.exact.sum() < len(exact)  # coal asked for a few pairs only
+        np.testing.assert_allclose(c.distance[c.exact], exact[c.exact], atol=1e-9)
+        tested += 1
+
+
+def _edge_through_a_small_ball(robot):
+    """An edge whose middle part sweeps the hand's tool point through a 5 mm ball, and the ball."""
+    a = np.array([0.2, 0.3, 0.0, -1.8, 0.0, 2.0, 0.8])
+    b = a.copy()
+    b[0] += 0.6
+    s_hit = 0.4
+    centre = robot.fk(a + s_hit * (b - a), "panda_hand_tcp")[:3, 3]
+    return a, b, s_hit, ik.Sphere(centre, 0.005)
+
+
+def test_an_edge_through_a_small_obstacle_between_the_probes_is_refused(panda):
+    a, b, s_hit, ball = _edge_through_a_small_ball(panda)
+    obstacles = [ball]
+    assert panda.in_collision(a + s_hit * (b - a), obstacles)
+    for s in (0.0, *PROBES, 1.0):
+        assert not panda.in_collision(a + s * (b - a), obstacles)
+    scene = panda.collision_scene(obstacles)
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
+    start, end = certifier.clearance(a), certifier.clearance(b)
+    assert certifier.clear(start) and certifier.clear(end)
+    assert not certifier.blocked(a, b)
+    assert not certifier.certify(start, end)
+
+
+def test_the_same_edge_without_the_obstacle_is_certified(panda):
+    a, b, _, ball = _edge_through_a_small_ball(panda)
+    far = ik.Sphere(np.asarray(ball.center) + np.array([0.0, 0.0, 2.0]), 0.005)
+    scene = panda.collision_scene([far])
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
+    assert certifier.certify(certifier.clearance(a), certifier.clearance(b))
+    assert certifier.oracle.distance_checks >= 2

@@ -1,0 +1,105 @@
+"""RRT-Connect and the simplifier: determinism, goal sets, shorter paths, budgets, the stats."""
+
+import numpy as np
+import pytest
+
+from kinserve import planners, robots
+from kinserve.planners.motion.shortcut import path_length
+
+from motion_scenes import blocked_problems, shelf_scene
+
+
+@pytest.fixture(scope="module")
+def setting():
+    robot = robots.load("panda")
+    obstacles = shelf_scene()
+    problems = blocked_problems(robot, obstacles, 2, seed=23)
+    return robot, obstacles, problems
+
+
+def _plan(robot, obstacles, a, b, **kw):
+    args = dict(obstacles=obstacles, seed=7, max_time=None, max_iterations=1500)
+    args.update(kw)
+    return planners.plan_motion(robot, a, b, **args)
+
+
+def test_the_same_seed_gives_the_same_plan(setting):
+    robot, obstacles, problems = setting
+    a, b = problems[0]
+    first, second = _plan(robot, obstacles, a, b), _plan(robot, obstacles, a, b)
+    assert first.success and second.success
+    np.testing.assert_array_equal(first.raw_path, second.raw_path)
+    np.testing.assert_array_equal(first.path, second.path)
+    np.testing.assert_array_equal(first.trajectory.times, second.trajectory.times)
+    np.testing.assert_array_equal(first.trajectory.positions, second.trajectory.positions)
+    for key in ("checks", "distance_checks", "pair_distances", "nodes", "iterations", "length_before",
+                "length_after"):
+        assert first.stats[key] == second.stats[key]
+    other = _plan(robot, obstacles, a, b, seed=8)
+    assert other.success
+    assert other.raw_path.shape != first.raw_path.shape or not np.array_equal(other.raw_path, first.raw_path)
+
+
+def test_a_time_budget_alone_also_plans(setting):
+    robot, obstacles, problems = setting
+    a, b = problems[1]
+    plan = _plan(robot, obstacles, a, b, max_time=30.0, max_iterations=None)
+    assert plan.success, plan.message
+    assert plan.stats["plan_time"] >= 0.0 and plan.stats["parameterize_time"] > 0.0
+
+
+def test_simplification_shortens_and_keeps_the_ends(setting):
+    robot, obstacles, problems = setting
+    for a, b in problems:
+        plan = _plan(robot, obstacles, a, b)
+        assert plan.success
+        stats = plan.stats
+        assert stats["length_before"] == pytest.approx(path_length(plan.raw_path), rel=1e-12)
+        assert stats["length_after"] == pytest.approx(path_length(plan.path), rel=1e-12)
+        assert stats["length_after"] <= stats["length_before"]
+        assert stats["length_after"] < 0.9 * stats["length_before"]  # a random tree's path has detours
+        assert len(plan.path) <= len(plan.raw_path)
+        np.testing.assert_array_equal(plan.path[[0, -1]], plan.raw_path[[0, -1]])
+        assert stats["checks"] >= stats["distance_checks"] > 0 and stats["pair_distances"] > 0
+
+
+def test_without_simplification_the_path_is_the_raw_path(setting):
+    robot, obstacles, problems = setting
+    a, b = problems[0]
+    plan = _plan(robot, obstacles, a, b, simplify=False)
+    assert plan.success
+    np.testing.assert_array_equal(plan.path, plan.raw_path)
+    assert plan.stats["length_after"] == plan.stats["length_before"]
+
+
+def test_a_goal_set_reaches_one_of_its_goals(setting):
+    robot, obstacles, problems = setting
+    a, _ = problems[0]
+    goals = np.array([b for _, b in problems[1:]] + [problems[0][1]])
+    plan = _plan(robot, obstacles, a, goals)
+    assert plan.success
+    assert 0 <= plan.goal_index < len(goals)
+    np.testing.assert_array_equal(plan.path[-1], goals[plan.goal_index])
+    np.testing.assert_array_equal(plan.trajectory.positions[-1], goals[plan.goal_index])
+    as_list = _plan(robot, obstacles, a, list(goals))
+    np.testing.assert_array_equal(as_list.path, plan.path)
+
+
+def test_a_free_straight_line_is_taken_directly():
+    robot = robots.load("panda")
+    a = np.array([0.3, 0.2, 0.0, -1.5, 0.0, 1.8, 0.5])
+    b = np.array([0.6, 0.1, 0.2, -1.7, 0.1, 1.9, 0.3])
+    plan = planners.plan_motion(robot, a, b, seed=0, max_time=None, max_iterations=10)
+    assert plan.success and plan.stats["iterations"] == 0
+    np.testing.assert_array_equal(plan.path, np.array([a, b]))
+
+
+def test_plan_results_are_read_only(setting):
+    robot, obstacles, problems = setting
+    a, b = problems[0]
+    plan = _plan(robot, obstacles, a, b, max_iterations=300)
+    with pytest.raises(ValueError):
+        plan.path[0, 0] = 1.0
+    with pytest.raises(AttributeError):
+        plan.success = False
+    assert "MotionPlan(" in repr(plan)
