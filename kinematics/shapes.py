@@ -6,8 +6,9 @@ constraints (``kinserve.ik`` re-exports them), by the robot's collision queries
 shape is immutable, validated on construction, and knows
 
 * ``pose`` - its 4x4 placement in the world (m);
-* ``geometry()`` - the matching `coal` collision geometry, built once and cached
-  (coal ships with Pinocchio; distances with witness points come from it);
+* ``geometry()`` - the matching `coal` collision geometry, built with the shape
+  (coal ships with Pinocchio; distances with witness points come from it), as are
+  its bounding ball and its hash (the shape is immutable);
 * ``signed_distance(points)`` - the exact Euclidean signed distance (m) from
   world points, ``(N, 3) -> (N,)``, negative inside (closed forms below; the
   mesh uses its convex hull's face planes, exact inside and a lower bound on the
@@ -107,36 +108,36 @@ class Shape:
         raise AttributeError(f"{type(self).__name__} is immutable")
 
     def _set(self, **fields: Any) -> None:
+        """Set the constructor's ``fields`` (arrays copied read-only), then what follows from them: the coal
+        geometry, the bounding ball and the hash (the shape is immutable, so they never change)."""
         for k, v in fields.items():
             if isinstance(v, np.ndarray):  # immutable all the way down: hashes and cached scenes stay valid
                 v = v.copy()
                 v.setflags(write=False)
             object.__setattr__(self, k, v)
-        object.__setattr__(self, "_geometry", None)
-        object.__setattr__(self, "_hash", None)
+        object.__setattr__(self, "_geometry", self._make_geometry())
+        object.__setattr__(self, "_ball", self._world_ball())
+        plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
+        object.__setattr__(self, "_hash", hash(plain))
 
     # -- coal ------------------------------------------------------------------------------------------
     def geometry(self) -> coal.CollisionGeometry:
-        """The coal collision geometry in the shape's own frame (built once)."""
-        g = self.__dict__.get("_geometry")
-        if g is None:
-            g = self._make_geometry()
-            object.__setattr__(self, "_geometry", g)
-        return g
+        """The coal collision geometry in the shape's own frame (built with the shape)."""
+        return self._geometry
 
     def _make_geometry(self):  # pragma: no cover - every subclass overrides
         raise NotImplementedError
 
     def bounding_ball(self) -> tuple[tuple[float, float, float], float]:
-        """``(centre, radius)`` (world, m) of a ball that contains the shape (computed once): the local ball of
-        :meth:`_local_ball` moved by the pose. Cheap tests of "certainly apart" (the base-overlap check)."""
-        ball = self.__dict__.get("_ball")
-        if ball is None:
-            c, r = self._local_ball()
-            t = self.pose[:3, 3] if c is None else self.pose[:3, 3] + self.pose[:3, :3] @ c
-            ball = (tuple(t.tolist()), float(r))
-            object.__setattr__(self, "_ball", ball)
-        return ball
+        """``(centre, radius)`` (world, m) of a ball that contains the shape (made with the shape): the local
+        ball of :meth:`_local_ball` moved by the pose. Cheap tests of "certainly apart" (the base-overlap
+        check)."""
+        return self._ball
+
+    def _world_ball(self) -> tuple[tuple[float, float, float], float]:
+        c, r = self._local_ball()
+        t = self.pose[:3, 3] if c is None else self.pose[:3, 3] + self.pose[:3, :3] @ c
+        return (tuple(t.tolist()), float(r))
 
     def _local_ball(self) -> tuple[np.ndarray | None, float]:
         """Centre (shape frame; None: the origin) and radius (m) of a ball containing the shape."""
@@ -187,13 +188,9 @@ class Shape:
         return type(other) is type(self) and other.to_dict() == self.to_dict()
 
     def __hash__(self) -> int:
-        """Hash of the plain data (the kind, the frames and the constructor's numbers, consistent with ``==``),
-        computed once: the shape is immutable and the scene caches hash it per solve."""
-        h = self.__dict__.get("_hash")
-        if h is None:
-            h = hash((self.kind, self.frames, *map(_hashable, self._fields().values())))
-            object.__setattr__(self, "_hash", h)
-        return h
+        """Hash of the plain data (the kind, the frames and the constructor's numbers, consistent with
+        ``==``), computed with the shape: it is immutable and the scene caches hash it per solve."""
+        return self._hash
 
     def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
         return {k: v for k, v in self.__dict__.items() if k not in ("_geometry", "_hash", "_ball")}

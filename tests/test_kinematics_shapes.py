@@ -131,10 +131,12 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
     signed_zero[0, 1] = -0.0  # == 0.0: equal shapes, so equal hashes
     assert Box(signed_zero, (0.1, 0.2, 0.3)) == a and hash(Box(signed_zero, (0.1, 0.2, 0.3))) == hash(a)
     assert hash(Cylinder(np.eye(4), 0.1, 0.2)) != hash(Box(np.eye(4), (0.1, 0.2, 0.2)))
-    assert a.__dict__["_hash"] == hash(a)  # cached after the first call
+    assert a.__dict__["_hash"] == hash(a)  # computed with the shape, as are its coal geometry and ball
+    assert a.__dict__["_geometry"] is a.geometry() and a.__dict__["_ball"] == a.bounding_ball()
     assert "_hash" not in a.__getstate__()  # str hashes differ between processes
     clone = pickle.loads(pickle.dumps(a))
-    assert clone.__dict__["_hash"] is None and hash(clone) == hash(a) and clone == a
+    assert clone.__dict__["_hash"] == hash(a) and clone == a  # computed again when unpickled
+    assert isinstance(clone.geometry(), type(a.geometry())) and clone.bounding_ball() == a.bounding_ball()
     assert {a: 1}[b] == 1
 
 
