@@ -13,20 +13,18 @@ kept components, ``success`` against the tolerances).
 
 from __future__ import annotations
 
-import threading
 import time
 from typing import TYPE_CHECKING, Union
 
 import numpy as np
 
-from kinserve.ik.result import History, Result
 from kinserve.ik.closed_form.planar import PlanarChain, two_link, wrap_into
 from kinserve.ik.closed_form.youbot import YOUBOT_DH, YouBotArm
+from kinserve.ik.result import History, Result
 
 if TYPE_CHECKING:  # annotations only
-    from kinserve.kinematics.robot import Robot
-
     from kinserve.ik.targets import Target
+    from kinserve.kinematics.robot import Robot
 
 #: A closed-form solver: one of :data:`_SOLVERS`.
 ClosedFormSolver = Union[PlanarChain, YouBotArm]
@@ -34,7 +32,8 @@ ClosedFormSolver = Union[PlanarChain, YouBotArm]
 #: One raw branch ``(q, label, free_parameter, note)`` from :func:`raw_branches`.
 Branch = tuple[np.ndarray, str, Union[float, None], Union[str, None]]
 
-__all__ = ["build_closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain", "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
+__all__ = ["build_closed_form_solver", "branches", "raw_branches", "branch_result", "PlanarChain",
+           "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
 
 _SOLVERS = (PlanarChain, YouBotArm)
 
@@ -55,10 +54,10 @@ def build_closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | Non
 
 def raw_branches(robot: Robot, solver: ClosedFormSolver, target: Target,
                  samples: int = 24) -> tuple[list[Branch], str | None, dict]:
-    """``(branches, note, info)``: distinct joint vectors ``(q, label, free_parameter, note)`` inside the limits.
+    """``(branches, note, info)``: distinct branches ``(q, label, free_parameter, note)`` inside the limits.
 
-    A solver's branch may carry its own note (why it only approaches the
-    target); otherwise the solver's shared ``note`` applies to it.
+    Each ``q`` is a joint vector clipped into the limits. A solver's branch may carry its own
+    note (why it only approaches the target); otherwise the solver's shared ``note`` applies to it.
     """
     raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
     out = []
@@ -70,7 +69,8 @@ def raw_branches(robot: Robot, solver: ClosedFormSolver, target: Target,
     return out, note, extra
 
 
-def branch_result(robot: Robot, target: Target, branch: Branch, note: str | None, extra: dict, tol_pos: float, tol_rot: float, t0: float) -> Result:
+def branch_result(robot: Robot, target: Target, branch: Branch, note: str | None, extra: dict, tol_pos: float,
+                  tol_rot: float, t0: float) -> Result:
     """One closed-form branch as a :class:`Result`, verified with the robot's forward kinematics.
 
     The branch's own note (4th element, from :func:`raw_branches`) takes the place of ``note``.
@@ -94,9 +94,12 @@ def branch_result(robot: Robot, target: Target, branch: Branch, note: str | None
     )
 
 
-def branches(robot: Robot, solver: ClosedFormSolver, target: Target, *, tol_pos: float = 1e-4, tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
-    """Every closed-form branch as a :class:`Result` (``info``: ``branch`` label, ``free_parameter``, ``note``),
-    the successful ones first (otherwise in the solver's order)."""
+def branches(robot: Robot, solver: ClosedFormSolver, target: Target, *, tol_pos: float = 1e-4,
+             tol_rot: float = 1e-3, samples: int = 24) -> list[Result]:
+    """Every closed-form branch as a :class:`Result`: the successful ones first, else in the solver's order.
+
+    Each result's ``info`` holds the ``branch`` label, the ``free_parameter`` and the ``note``.
+    """
     t0 = time.perf_counter()
     raw, note, extra = raw_branches(robot, solver, target, samples)
     results = [branch_result(robot, target, b, note, extra, tol_pos, tol_rot, t0) for b in raw]

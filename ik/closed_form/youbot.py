@@ -56,12 +56,14 @@ if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.types import VectorLike
 
 #: ``(a, alpha, d)`` of the youBot arm (SCENARIOS.md, S2).
-YOUBOT_DH = ((-0.033, math.pi / 2, 0.145), (0.155, 0.0, 0.0), (0.135, 0.0, 0.0), (0.002, math.pi / 2, 0.0), (0.0, math.pi, -0.185))
+YOUBOT_DH = ((-0.033, math.pi / 2, 0.145), (0.155, 0.0, 0.0), (0.135, 0.0, 0.0), (0.002, math.pi / 2, 0.0),
+             (0.0, math.pi, -0.185))
 
 
 def _dh(a, alpha, d, theta):
     ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
-    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]])
+    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0.0, sa, ca, d],
+                     [0.0, 0.0, 0.0, 1.0]])
 
 
 def _min_rotation(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -191,7 +193,8 @@ class YouBotArm:
         else:
             short = f"folded arm pointing at it, {_length(abs(self.a2 - self.a3) - r)} short"
         if off > 1e-9:
-            plane = (f"target pose is off the 5-DOF reachable set (approach axis {math.degrees(math.asin(min(1.0, off))):.3g} deg "
+            tilt = math.degrees(math.asin(min(1.0, off)))
+            plane = (f"target pose is off the 5-DOF reachable set (approach axis {tilt:.3g} deg "
                      "out of the arm plane)")
             if reach_ok:
                 return plane + "; this branch reaches the nearest reachable pose"
@@ -201,7 +204,7 @@ class YouBotArm:
         return ""
 
     def _residual(self, q, T_base: np.ndarray) -> float:
-        """``|p(q) - p| + |angle of R(q)^T R|`` (m + rad) of this model's FK against ``T_base`` (base frame)."""
+        """``|p(q) - p| + |angle of R(q)^T R|`` (m + rad) of this model's FK against base-frame ``T_base``."""
         A = self.dh_fk(q)
         c = (np.trace(A[:3, :3].T @ T_base[:3, :3]) - 1.0) / 2.0
         return float(np.linalg.norm(A[:3, 3] - T_base[:3, 3]) + math.acos(min(1.0, max(-1.0, c))))

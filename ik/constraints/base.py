@@ -66,8 +66,9 @@ Example (a user constraint: keep the tool above a table at height ``h``)::
 
 from __future__ import annotations
 
-import numpy as np
 from typing import TYPE_CHECKING
+
+import numpy as np
 
 #: Fraction of the current clearance one step may use up (velocity damper gain ``xi``).
 DAMPER_GAIN = 0.5
@@ -81,8 +82,9 @@ if TYPE_CHECKING:  # annotations only
 class Constraint:
     """Base class of hard IK constraints (the protocol of the module docstring)."""
 
-    #: Bumped by every change that needs a new bind (a subclass's bound inputs, e.g. ``VelocityLimits.v_max``):
-    #: :func:`kinserve.ik.step` rebuilds its cached problem when a constraint's version moved.
+    #: Bumped by every change that needs a new bind (a subclass's bound inputs, e.g.
+    #: ``VelocityLimits.v_max``): :func:`kinserve.ik.step` rebuilds its cached problem when a
+    #: constraint's version moved.
     _version: int = 0
 
     def __init__(self, name: str | None = None):
@@ -92,12 +94,14 @@ class Constraint:
         """Validate against ``robot``; return the constraint to evaluate (default ``self``)."""
         return self
 
-    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:  # pragma: no cover - protocol
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray,  # pragma: no cover - protocol
+             dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
         """``(G, lower, upper)`` with ``lower <= G dq <= upper`` at ``q`` (``G=None``: identity box)."""
-        raise NotImplementedError(f"{type(self).__name__}.rows(robot, data, q, dt) must return (G, lower, upper)")
+        raise NotImplementedError(f"{type(self).__name__}.rows(robot, data, q, dt) "
+                                  "must return (G, lower, upper)")
 
     def margin(self, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
-        """Smallest slack at ``q`` (``>= 0``: satisfied); default ``inf`` (nothing to check beyond the rows)."""
+        """Smallest slack at ``q`` (``>= 0``: satisfied); default ``inf``, nothing to check past the rows."""
         return float("inf")
 
     def describe(self, robot: Robot, data: pin.Data, q: np.ndarray) -> str:

@@ -8,12 +8,12 @@ iterates without time (``dt=None``): the limits do not apply there.
 from __future__ import annotations
 
 from collections.abc import Sequence
-import numpy as np
 from typing import TYPE_CHECKING
 
-from kinserve.kinematics.errors import InputError, NonFiniteError
+import numpy as np
 
 from kinserve.ik.constraints.base import Constraint
+from kinserve.kinematics.errors import InputError, NonFiniteError
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -30,7 +30,10 @@ class VelocityLimits(Constraint):
 
     @property
     def v_max(self) -> np.ndarray:
-        """The limits (a 0-D array for one number, else one per joint); validated on assignment, re-bound by the solvers."""
+        """The limits (a 0-D array for one number, else one per joint), read-only.
+
+        Validated on assignment; the solvers re-bind after a change.
+        """
         return self._v_max
 
     @v_max.setter
@@ -52,6 +55,7 @@ class VelocityLimits(Constraint):
         self._version += 1
 
     def bind(self, robot: Robot) -> "VelocityLimits":
+        """Check ``v_max`` against ``robot`` (one number or ``nv``) and expand it to one limit per joint."""
         if self.v_max.ndim == 0:
             self._v = np.full(robot.model.nv, float(self.v_max))
         elif self.v_max.shape != (robot.model.nv,):
@@ -62,7 +66,9 @@ class VelocityLimits(Constraint):
         self._box = None
         return self
 
-    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray, dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+    def rows(self, robot: Robot, data: pin.Data, q: np.ndarray,
+             dt: float | None = None) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+        """The box ``-v_max dt <= dq <= v_max dt`` (``G=None``); unbounded when ``dt`` is None."""
         if dt is None:
             return None, np.full(q.shape[0], -np.inf), np.full(q.shape[0], np.inf)
         cached = self._box
