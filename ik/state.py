@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
 from kinserve.ik.constraints.base_overlap import BaseClearance
+from kinserve.ik.constraints.robot_skeleton import RobotSkeleton, build_robot_skeleton
 from kinserve.ik.starts.seed_table import SeedTable
 from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
@@ -90,6 +91,7 @@ class IKState:
         self.lock = threading.Lock()
         self.seed_tables: dict[str, SeedTable] = {}
         self.closed_forms: dict[str, ClosedFormSolver | None] = {}
+        self.skeletons: dict[tuple[tuple[str, ...], tuple[str, ...]], RobotSkeleton] = {}
         self.threads = threading.local()  # .bound: this thread's BoundConstraints
         self.step_problems = StepProblems()  # this thread's bound problems of ik.step (per thread)
         self.base_clearance = BaseClearance()  # obstacles found clear of the fixed base (shared, locked)
@@ -117,6 +119,18 @@ class IKState:
             if frame not in self.closed_forms:
                 self.closed_forms[frame] = build_closed_form_solver(self.robot, frame)
             return self.closed_forms[frame]
+
+    def robot_skeleton(self, tool_frames: tuple[str, ...], frames: tuple[str, ...] = ()) -> RobotSkeleton:
+        """The obstacle-avoidance skeleton with these tool segments and frame points (built once, under the
+        lock; :func:`kinserve.ik.constraints.robot_skeleton.build_robot_skeleton`)."""
+        key = (tool_frames, frames)
+        skeleton = self.skeletons.get(key)
+        if skeleton is None:
+            with self.lock:
+                skeleton = self.skeletons.get(key)
+                if skeleton is None:
+                    skeleton = self.skeletons[key] = build_robot_skeleton(self.robot, tool_frames, frames)
+        return skeleton
 
     def bound_constraints(self) -> BoundConstraints:
         """This thread's :class:`BoundConstraints`."""

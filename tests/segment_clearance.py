@@ -32,7 +32,7 @@ def rows_and_finite_differences(robot, avoid, q, h):
 
     def clear(qq):
         pin.forwardKinematics(model, data, qq)
-        return avoid._pairs(data, False, np.inf)
+        return avoid.clearances(data, np.inf)
 
     fd = np.array([(clear(q + h * e) - clear(q - h * e)) / (2 * h) for e in np.eye(robot.nq)]).T
     return c, G, fd

@@ -42,11 +42,11 @@ def test_segment_distances_match_the_numpy_closed_forms():
     d[::13] = c[::13] + (b[::13] - a[::13])  # parallel segments
     _, _, X, Y = segment_segment(a, b, c, d)
     ref = np.linalg.norm(X - Y, axis=1)
-    got = np.array([K._segment_segment(a[i], b[i], c[i], d[i]) for i in range(n)])
+    got = np.array([K.segment_to_segment(a[i], b[i], c[i], d[i]) for i in range(n)])
     assert np.abs(got - ref).max() < 1e-12
     h = rng.uniform(0.05, 0.8, size=(n, 3))
     ref_box = segment_box(a, b, h)[1]
-    got_box = np.array([K._segment_box(a[i], b[i], h[i]) for i in range(n)])
+    got_box = np.array([K.segment_to_box(a[i], b[i], h[i]) for i in range(n)])
     assert np.abs(got_box - ref_box).max() < 1e-12
     assert np.any(ref_box == 0.0) and np.any(ref_box > 0.1)  # both verdicts occur
 
@@ -58,7 +58,7 @@ def test_box_distance_against_sampling():
         a, b, h = rng.normal(size=3), rng.normal(size=3), rng.uniform(0.1, 0.6, 3)
         pts = a + t * (b - a)
         sampled = np.linalg.norm(pts - np.clip(pts, -h, h), axis=1).min()
-        d = K._segment_box(a, b, h)
+        d = K.segment_to_box(a, b, h)
         assert d <= sampled + 1e-12 and sampled - d < 1e-3 * np.linalg.norm(b - a) + 1e-12
 
 

@@ -1,11 +1,14 @@
 """kinserve.ik obstacles: closed-form distances, clearances against independent code, gradients against finite
 differences of the true distance, every iterate outside every obstacle, start in collision, link radius."""
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
+from kinserve.ik.constraints.obstacle_distance import box_local
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.constraints.segment_distance import (
     point_segment,
@@ -64,7 +67,8 @@ def test_closed_forms_against_dense_sampling():
         C = c[i] + t[::10, None] * (d[i] - c[i])
         brute = np.linalg.norm(A[:, None] - C[None], axis=2).min()
         assert np.linalg.norm(x[i] - y[i]) <= brute + 1e-12
-        assert np.linalg.norm(x[i] - y[i]) == pytest.approx(brute, abs=2e-3 * (1 + np.linalg.norm(b[i] - a[i])))
+        tol = 2e-3 * (1 + np.linalg.norm(b[i] - a[i]))
+        assert np.linalg.norm(x[i] - y[i]) == pytest.approx(brute, abs=tol)
 
 
 @pytest.mark.parametrize("k", range(len(OBSTACLES)))
@@ -75,7 +79,7 @@ def test_clearance_matches_the_shapes_signed_distance(panda, k, link_radius):
     rng = np.random.default_rng(10 + k)
     for q in panda.random_q(rng, 8):
         pin.forwardKinematics(panda.model, panda.data, q)
-        c = avoid._pairs(panda.data, False, np.inf)
+        c = avoid.clearances(panda.data, np.inf)
         ref = sampled_clearance(panda, q, panda.tip, ob, link_radius)
         assert c.min() <= ref + 1e-5  # coal (GJK) is exact to about 1e-6 m
         assert c.min() == pytest.approx(ref, abs=1e-3)
@@ -106,7 +110,8 @@ def test_rows_are_the_velocity_damper(panda):
 
 
 def _all_clear(robot, Q, frame, obstacles, link_radius=0.0, tol=1e-9):
-    return all(sampled_clearance(robot, q, frame, ob, link_radius, n=201) >= -tol for q in Q for ob in obstacles)
+    return all(sampled_clearance(robot, q, frame, ob, link_radius, n=201) >= -tol
+               for q in Q for ob in obstacles)
 
 
 @pytest.mark.parametrize("method", ["auto", "qp"])
@@ -182,8 +187,8 @@ def test_obstacles_accept_dicts_and_legacy_pairs(panda):
 def test_slider_rows_match_finite_differences():
     # the SCARA's quill (a prismatic joint) gives segments whose ends sit on two bodies
     scara = robots.load("scara", geometry=False)
-    avoid = ObstacleAvoidance([ik.Sphere((0.6, 0.3, 0.6), 0.05), ik.Capsule((0.2, -0.5, 0.3), (0.8, -0.2, 0.9), 0.03)],
-                              tool_frames=("tool",)).bind(scara)
+    shapes = [ik.Sphere((0.6, 0.3, 0.6), 0.05), ik.Capsule((0.2, -0.5, 0.3), (0.8, -0.2, 0.9), 0.03)]
+    avoid = ObstacleAvoidance(shapes, tool_frames=("tool",)).bind(scara)
     assert any(n.startswith("slider") for n in avoid.skeleton.names)
     rng = np.random.default_rng(60)
     h = 1e-6
@@ -200,7 +205,7 @@ def test_first_violation_agrees_with_the_clearances(panda):
     flags = []
     for q in Q:
         pin.forwardKinematics(panda.model, panda.data, q)
-        flags.append(avoid._pairs(panda.data, False, np.inf).min() < 0.0)
+        flags.append(avoid.clearances(panda.data, np.inf).min() < 0.0)
     assert any(flags) and not all(flags)
     expected = flags.index(True)
     assert avoid.first_violation(panda, Q) == expected
@@ -220,10 +225,12 @@ def test_no_obstacles_is_a_valid_empty_constraint(panda):
 
 
 def test_margin_is_the_smallest_exact_clearance_with_bounded_coal_calls(panda):
-    """margin() skips coal pairs whose lower bound exceeds the smallest distance found: same minimum, fewer calls."""
+    """margin() skips coal pairs whose lower bound exceeds the smallest distance found: same minimum, fewer
+    calls."""
     import coal
 
-    avoid = ObstacleAvoidance(OBSTACLES + [_box((0.45, -0.1, 0.45), (0.12, 0.1, 0.2), 1.1)], link_radius=0.01).bind(panda)
+    avoid = ObstacleAvoidance(OBSTACLES + [_box((0.45, -0.1, 0.45), (0.12, 0.1, 0.2), 1.1)],
+                              link_radius=0.01).bind(panda)
     rng = np.random.default_rng(71)
     calls = {"n": 0}
     real = coal.distance
@@ -241,15 +248,15 @@ def test_margin_is_the_smallest_exact_clearance_with_bounded_coal_calls(panda):
             m = avoid.margin(panda, panda.data, q)
             n_min = calls["n"]
             calls["n"] = 0
-            full = avoid._pairs(panda.data, False, 0.05)  # every coal pair below the 5 cm bound computed
+            full = avoid.clearances(panda.data)  # every coal pair below the 5 cm bound computed
             n_full = calls["n"]
         finally:
             coal.distance = real
         ref = float(full.min())
         if ref < 0.05:  # the exact region: the same smallest clearance
-            assert m == pytest.approx(ref, abs=1e-9)  # coal's GJK may differ in the last bits with the call order
-        else:  # above it: between the lower bounds and the exact smallest clearance (boxes are exact everywhere)
-            exact = float(avoid._pairs(panda.data, False, np.inf).min())
+            assert m == pytest.approx(ref, abs=1e-9)  # coal's GJK may differ in the last bits (call order)
+        else:  # above it: between the lower bounds and the exact smallest clearance (boxes: exact everywhere)
+            exact = float(avoid.clearances(panda.data, np.inf).min())
             assert ref - 1e-9 <= m <= exact + 1e-9
         if 0.0 <= ref < 0.05:  # exact region (outside): also against the dense-sampling reference
             assert m == pytest.approx(min(sampled_clearance(panda, q, panda.tip, ob, 0.01, n=401)
@@ -263,7 +270,7 @@ def test_segment_box_against_coal_and_dense_sampling():
     """The closed-form segment-box distance (arrays and floats) against coal's GJK and a dense sampling."""
     import coal
 
-    from kinserve.ik.constraints.obstacles import _segment_transform
+    from kinserve.ik.constraints.obstacle_geometry import segment_transform
 
     rng = np.random.default_rng(80)
     P = 400
@@ -282,14 +289,15 @@ def test_segment_box_against_coal_and_dense_sampling():
         X = a[i] + t[:, None] * (b[i] - a[i])
         sampled = np.linalg.norm(np.maximum(np.abs(X) - h[i], 0.0), axis=1).min()
         step = float(np.linalg.norm(b[i] - a[i])) / 4000  # the sampling's spacing bounds its excess
-        assert d[i] <= sampled + 1e-15 and d[i] == pytest.approx(sampled, abs=step + 1e-15)  # a minimum, the minimum
+        # a minimum, and the minimum
+        assert d[i] <= sampled + 1e-15 and d[i] == pytest.approx(sampled, abs=step + 1e-15)
         si, di = segment_box_distance(a[i].tolist(), b[i].tolist(), h[i].tolist())
         assert di == pytest.approx(d[i], abs=1e-12)
         L = float(np.linalg.norm(b[i] - a[i]))
         if L > 1e-9:
             res.clear()
             dc = coal.distance(coal.Box(*(2 * h[i])), coal.Transform3s(), coal.Capsule(0.0, L),
-                               _segment_transform(a[i], b[i] - a[i], L), req, res)
+                               segment_transform(a[i], b[i] - a[i], L), req, res)
             if d[i] > 0.0:
                 separated += 1
                 assert d[i] == pytest.approx(dc, abs=1e-8)
@@ -299,14 +307,14 @@ def test_segment_box_against_coal_and_dense_sampling():
 
 
 def test_separating_axis_test_implies_the_distance():
-    from kinserve.ik.constraints.obstacles import _separated
+    from kinserve.ik.constraints.clearance_kernel import separated
 
     rng = np.random.default_rng(81)
     h = rng.uniform(0.02, 0.2, (500, 3))
     a, b = rng.uniform(-0.5, 0.5, (500, 3)), rng.uniform(-0.5, 0.5, (500, 3))
     d = segment_box(a, b, h)[1]
     for off in (0.0, 0.03):
-        flags = np.array([_separated(a[i].tolist(), b[i].tolist(), h[i].tolist(), off) for i in range(500)])
+        flags = np.array([separated(a[i], b[i], h[i], off) for i in range(500)])
         assert np.all(d[flags] >= off)  # separated from the grown box: at least off away
         assert not flags[d == 0.0].any()  # a segment meeting the box is never separated
         assert flags.any() and not flags.all()
@@ -318,7 +326,7 @@ def test_violations_mask_matches_the_clearances(panda):
     flags = []
     for q in Q:
         pin.forwardKinematics(panda.model, panda.data, q)
-        flags.append(avoid._pairs(panda.data, False, np.inf).min() < 0.0)
+        flags.append(avoid.clearances(panda.data, np.inf).min() < 0.0)
     assert any(flags) and not all(flags)
     assert avoid.violations(panda, Q).tolist() == flags
     boxes = ObstacleAvoidance([OBSTACLES[2], _box((0.45, -0.1, 0.45), (0.12, 0.1, 0.2), 1.1)]).bind(panda)
@@ -330,44 +338,82 @@ def test_violations_mask_matches_the_clearances(panda):
     assert all(g or not r for g, r in zip(got, ref))  # every sampled violation found (sampling misses some)
 
 
-def test_bind_is_shared_by_constraints_on_the_same_shapes(panda):
+def test_bound_copies_share_one_read_only_tables_object(panda):
     a = ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda)
-    b = ObstacleAvoidance(OBSTACLES, link_radius=0.01, gain=0.2).bind(panda)
-    c = ObstacleAvoidance([ik.Sphere(o.center, o.radius) if isinstance(o, ik.Sphere) else o for o in OBSTACLES],
-                          link_radius=0.01).bind(panda)
-    assert b._sph_c is a._sph_c and b.gain == 0.2 and a.gain != 0.2  # shared arrays, own arguments
-    assert c._sph_c is not a._sph_c and np.array_equal(c._sph_c, a._sph_c)  # equal shapes, other objects: rebuilt
+    b = a.bound_copy(panda, gain=0.2)
+    c = ObstacleAvoidance(OBSTACLES, link_radius=0.01).adopt(panda, a.tables)
+    assert b.tables is a.tables and c.tables is a.tables  # shared by reference, not copied
+    assert b.gain == 0.2 and a.gain != 0.2 and b.influence == a.influence  # own arguments
+    t = a.tables
+    arrays = [getattr(kind, f.name) for kind in (t.spheres, t.capsules, t.boxes, t.coal_shapes)
+              for f in dataclasses.fields(kind)]
+    arrays = [a for a in arrays if isinstance(a, np.ndarray)]
+    arrays += [t.links.support, t.links.inv_len2, *t.links.point_table, *t.links.tree]
+    assert len(arrays) > 30 and not any(x.flags.writeable for x in arrays)
+    with pytest.raises(ValueError):
+        t.spheres.center[0, 0] = 1.0  # read-only: nobody can change a shared table
+    with pytest.raises(AttributeError):
+        t.spheres = None  # frozen records
     q = panda.random_q(np.random.default_rng(73))
-    pin.forwardKinematics(panda.model, panda.data, q)
-    assert np.array_equal(a._pairs(panda.data, False, np.inf), c._pairs(panda.data, False, np.inf))
+    pin.computeJointJacobians(panda.model, panda.data, q)
+    assert np.array_equal(a.rows(panda, panda.data, q)[1] / 0.5 * 0.2, b.rows(panda, panda.data, q)[1])
+    # the same shapes bound again: the tables the skeleton keeps; equal shapes, other objects: equal tables
+    assert ObstacleAvoidance(OBSTACLES, link_radius=0.01).bind(panda).tables is a.tables
+    equal = [ik.Sphere(o.center, o.radius) if isinstance(o, ik.Sphere) else o for o in OBSTACLES]
+    d = ObstacleAvoidance(equal, link_radius=0.01).bind(panda)
+    assert d.tables is not a.tables and np.array_equal(d.tables.spheres.center, t.spheres.center)
+    assert np.array_equal(d.clearances(panda.data, np.inf), a.clearances(panda.data, np.inf))
+    assert d.adopt(panda, a.tables).tables is a.tables  # equal obstacles may adopt them
+    e = ObstacleAvoidance(OBSTACLES, link_radius=0.02).bind(panda)  # another link radius: tables of their own
+    assert e.tables is not a.tables and e.tables.skeleton is a.tables.skeleton
+    assert np.array_equal(e.tables.spheres.center, t.spheres.center) and e.tables.offset == 0.02
+    assert np.allclose(a.clearances(panda.data, np.inf), e.clearances(panda.data, np.inf) + 0.01, atol=1e-15)
+    with pytest.raises(InputError, match="tables"):
+        e.adopt(panda, a.tables)
+    with pytest.raises(InputError, match="tables"):
+        ObstacleAvoidance(OBSTACLES[:2], link_radius=0.01).adopt(panda, a.tables)
+
+
+def test_a_skeleton_from_its_owner_is_used_and_checked(panda):
+    from kinserve.ik.constraints.robot_skeleton import build_robot_skeleton
+
+    avoid = ObstacleAvoidance(OBSTACLES[:2])
+    sk = build_robot_skeleton(panda, *avoid.skeleton_frames(panda))
+    assert avoid.bind(panda, skeleton=sk).tables.skeleton is sk
+    other = ObstacleAvoidance([ik.Sphere((0.4, 0.2, 0.2), 0.08, ("panda_link4",))])
+    with pytest.raises(InputError, match="skeleton"):
+        other.bind(panda, skeleton=sk)  # a skeleton without the frame point of panda_link4
+    assert other.bind(panda).tables.skeleton.frames == ("panda_link4",)
 
 
 def test_a_free_answer_reached_through_an_obstacle_is_only_a_start(panda, monkeypatch):
-    """The free LM attempts of ik.solve: a converged run whose path enters an obstacle is not returned as it is;
-    its clear answer is a start of its own that already meets the target, returned with a history of clear
-    configurations only (that answer alone)."""
+    """The free LM attempts of ik.solve: a converged run whose path enters an obstacle is not returned as it
+    is; its clear answer is a start of its own that already meets the target, returned with a history of
+    clear configurations only (that answer alone)."""
     import sys
 
     from kinserve.ik.result import History, Result
 
-    solve_module = sys.modules["kinserve.ik.solve"]
+    checked = sys.modules["kinserve.ik.strategies.checked"]
     rng = np.random.default_rng(90)
     while True:
         q_goal, q_mid = panda.random_q(rng, 2)
         ob = ik.Sphere(panda.fk(q_mid, "panda_link4")[:3, 3], 0.05)  # contains the elbow at q_mid
-        if sampled_clearance(panda, q_goal, panda.tip, ob) > 0.01:
+        if sampled_clearance(panda, q_goal, panda.tip, ob) > 0.01 and \
+                sampled_clearance(panda, panda.neutral(), panda.tip, ob) > 0.01:
             break
     T = panda.fk(q_goal).copy()
     calls = []
 
-    def fake_lm(robot, target, q, **kwargs):  # "converges" through q_mid
-        calls.append(q)
-        qs = [np.asarray(q, dtype=float), q_mid, q_goal]
+    def fake_lm(req, budget, accept=None, admit=None, max_starts=None):  # "converges" through q_mid
+        qs = np.array([panda.neutral(), q_mid, q_goal])
+        calls.append(qs)
+        assert accept(qs)  # the answer is clear (its path is not): accepted
+        history = History.from_lists(list(qs), [0.1, 0.05, 0.0], [0.1, 0.05, 0.0])
         return Result(q=q_goal.copy(), success=True, position_error=0.0, orientation_error=0.0, iterations=2,
-                      message="converged", history=History.from_lists(qs, [0.1, 0.05, 0.0], [0.1, 0.05, 0.0]),
-                      method="lm", frame=panda.tip)
+                      message="converged", history=history, method="lm", frame=panda.tip)
 
-    monkeypatch.setattr(solve_module, "solve_lm", fake_lm)
+    monkeypatch.setattr(checked, "levenberg_marquardt", fake_lm)
     res = ik.solve(panda, T, obstacles=[ob], seed=3)
     assert len(calls) == 1  # the clear answer ends the free attempts
     assert res.success and "start of its own" in res.message, res.message
@@ -395,9 +441,10 @@ def test_violations_of_a_list_of_iterates_match_independent_sampling(panda):
 
 
 def test_points_into_and_box_frames_match_the_plain_forms(panda):
-    """LinkSkeleton.points_into == points; the box pairs' ends in the box frames are R^T (x - t) of each pair."""
-    avoid = ObstacleAvoidance([_box((0.3, 0.3, 0.3), (0.1, 0.15, 0.08)), _box((0.4, -0.2, 0.5), (0.1, 0.1, 0.1), 0.7)]
-                              ).bind(panda)
+    """LinkSkeleton.points_into == points; the box pairs' ends in the box frames are R^T (x - t) of each
+    pair."""
+    boxes = [_box((0.3, 0.3, 0.3), (0.1, 0.15, 0.08)), _box((0.4, -0.2, 0.5), (0.1, 0.1, 0.1), 0.7)]
+    avoid = ObstacleAvoidance(boxes).bind(panda)
     sk = avoid.skeleton
     Q = panda.random_q(np.random.default_rng(92), 5)
     P = np.empty((len(Q), sk.n_points, 3))
@@ -405,10 +452,12 @@ def test_points_into_and_box_frames_match_the_plain_forms(panda):
         pin.forwardKinematics(panda.model, panda.data, q)
         sk.points_into(panda.data, P[k])
         assert np.array_equal(P[k], sk.points(panda.data))
-    a, b = avoid._box_local(P)
-    for p, (box, ia, ib) in enumerate(zip(avoid._box_ob, avoid._box_ia, avoid._box_ib)):
+    boxes = avoid.tables.boxes
+    a, b = box_local(P, boxes)
+    for p, (box, ia, ib) in enumerate(zip(boxes.shapes, boxes.ia, boxes.ib)):
         R, t = box.pose[:3, :3], box.pose[:3, 3]
-        assert np.allclose(a[:, p], (P[:, ia] - t) @ R, atol=1e-14) and np.allclose(b[:, p], (P[:, ib] - t) @ R, atol=1e-14)
+        assert np.allclose(a[:, p], (P[:, ia] - t) @ R, atol=1e-14)
+        assert np.allclose(b[:, p], (P[:, ib] - t) @ R, atol=1e-14)
 
 
 def test_base_check_agrees_with_sampling_of_the_fixed_segments(panda):
@@ -422,7 +471,10 @@ def test_base_check_agrees_with_sampling_of_the_fixed_segments(panda):
     outcomes = set()
     for _ in range(60):
         c = rng.uniform([-0.15, -0.15, 0.0], [0.15, 0.15, 0.5])
-        ob = ik.Sphere(c, rng.uniform(0.02, 0.1)) if rng.random() < 0.5 else _box(c, rng.uniform(0.03, 0.2, 3))
+        if rng.random() < 0.5:
+            ob = ik.Sphere(c, rng.uniform(0.02, 0.1))
+        else:
+            ob = _box(c, rng.uniform(0.03, 0.2, 3))
         d = float(ob.signed_distance(pts).min())
         if abs(d) < 1e-3:
             continue
@@ -438,13 +490,15 @@ def test_base_check_agrees_with_sampling_of_the_fixed_segments(panda):
 
 
 def test_skeleton_of_the_right_model_after_binding_another(panda):
-    """The skeleton look-up that skips the per-model cache for the last model never hands one robot's skeleton to another."""
+    """A constraint bound to one robot and then to another gets the other's skeleton, and back again."""
     ur5 = robots.load("ur5", geometry=False)
     ob = ik.Sphere((0.4, 0.4, 0.6), 0.05)
     names_panda = ObstacleAvoidance([ob]).bind(panda).skeleton.names
     names_ur5 = ObstacleAvoidance([ob]).bind(ur5).skeleton.names
     assert names_panda != names_ur5 and all("panda" in n for n in names_panda[:-1])
     assert ObstacleAvoidance([ob]).bind(panda).skeleton.names == names_panda
+    avoid = ObstacleAvoidance([ob]).bind(panda)
+    assert avoid.bind(ur5).skeleton.names == names_ur5 and avoid.bind(panda).skeleton.names == names_panda
 
 
 def test_obstacle_solves_are_deterministic(panda):
@@ -454,7 +508,9 @@ def test_obstacle_solves_are_deterministic(panda):
         T = panda.fk(panda.random_q(rng)).copy()
         q0 = panda.random_q(rng)
         p = T[:3, 3]
-        mk = lambda: [ik.Sphere(0.5 * p + np.array([0, 0, 0.17]), 0.05), _box(0.7 * p + np.array([0, 0, 0.1]), (0.08,) * 3)]  # noqa: E731
+        def mk(p=p):
+            return [ik.Sphere(0.5 * p + np.array([0, 0, 0.17]), 0.05),
+                    _box(0.7 * p + np.array([0, 0, 0.1]), (0.08,) * 3)]
         try:
             a = ik.solve(panda, T, q0, obstacles=mk(), seed=5, max_time=10.0)
         except InputError:
@@ -466,14 +522,14 @@ def test_obstacle_solves_are_deterministic(panda):
 
 @pytest.mark.parametrize("frames", [None, ("panda_link4", "panda_hand")])
 def test_sphere_rows_after_margin_match_fresh_rows_and_the_general_path(panda, frames):
-    """Spheres only: rows() reusing margin()'s geometry (same q object) equal rows() computed afresh, and both the
-    per-sphere batched product (spheres kept clear of the default segments) and the per-pair product (``frames``)
-    equal the general witness-point rows (LinkSkeleton.gradient_rows) of rows_all."""
+    """Spheres only: rows() reusing margin()'s geometry (same q object) equal rows() computed afresh, and both
+    the per-sphere batched product (spheres kept clear of the default segments) and the per-pair product
+    (``frames``) equal the general witness-point rows (LinkSkeleton.gradient_rows) of rows_all."""
     rng = np.random.default_rng(5)
     spheres = [ik.Sphere((0.35, 0.1, 0.55), 0.06), ik.Sphere((0.1, -0.3, 0.6), 0.05),
                ik.Sphere((0.4, 0.2, 0.2), 0.08, frames)]
     avoid = ObstacleAvoidance(spheres, link_radius=0.02, margin=0.01, gain=0.4, influence=0.25).bind(panda)
-    assert avoid._sph_only and (avoid._sph_blocks is None) == (frames is not None)
+    assert avoid.tables.sphere_only and (avoid.tables.spheres.blocks is None) == (frames is not None)
     n_rows = 0
     for q in panda.random_q(rng, 25):
         pin.computeJointJacobians(panda.model, panda.data, q)
@@ -484,6 +540,7 @@ def test_sphere_rows_after_margin_match_fresh_rows_and_the_general_path(panda, f
         c, G_all = avoid.rows_all(panda, panda.data)
         assert abs(m - c.min()) <= 1e-15
         near = c < 0.25
-        assert np.allclose(G, G_all[near], rtol=0.0, atol=1e-14) and np.allclose(lo, -0.4 * c[near], rtol=0.0, atol=1e-15)
+        assert np.allclose(G, G_all[near], rtol=0.0, atol=1e-14)
+        assert np.allclose(lo, -0.4 * c[near], rtol=0.0, atol=1e-15)
         n_rows += G.shape[0]
     assert n_rows > 10

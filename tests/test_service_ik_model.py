@@ -51,7 +51,7 @@ def test_obstacles_of_every_kind_are_kept_clear(client):
                                   ik.Cylinder(C, 0.05, 0.2)],
                                  link_radius=0.02).bind(panda)
     panda.fk(np.array(body["q"]))
-    assert avoid._pairs(panda.data, False, np.inf).min() >= -1e-9
+    assert avoid.clearances(panda.data, np.inf).min() >= -1e-9
 
 
 def test_two_hands_at_once(client):

@@ -1,12 +1,13 @@
-"""Which configurations put a link segment inside an obstacle: sphere, capsule and box pairs, compiled (Numba).
+"""Which configurations put a link segment inside an obstacle: sphere, capsule and box pairs, compiled.
 
-:meth:`ik.constraints.obstacles.ObstacleAvoidance.violations` checks the
+:meth:`kinserve.ik.constraints.obstacles.ObstacleAvoidance.violations` checks the
 iterates of a run: for ``K`` configurations and every (segment, obstacle)
 pair whether the segment comes closer than the obstacle's size plus the
-offset ``off`` (link radius + required margin). This kernel takes the
+offset ``off`` (link radius + required margin). :func:`violations` takes the
 segments' end points of all configurations at once (``P``, ``(K, points, 3)``,
-world, m) and the pair tables of the bound constraint, and decides each
-configuration in one compiled call, stopping at its first violated pair:
+world, m) and the pair tables of the bound constraint
+(:mod:`..obstacle_tables`), and decides each configuration in one compiled call,
+stopping at its first violated pair:
 
 * sphere (centre ``c``, radius ``r``): the point-segment distance
   ``|a + s (b - a) - c|``, ``s = clamp((c - a).(b - a) / |b - a|^2, 0, 1)``,
@@ -16,7 +17,8 @@ configuration in one compiled call, stopping at its first violated pair:
   :func:`..segment_distance.segment_segment`), violated below ``r + off``;
 * box (pose ``R, t``, half extents ``h``): the segment in the box frame
   ``R^T (x - t)``; the separating-axis test against the box grown by ``off``
-  (:func:`..obstacles._separated`) clears most pairs; the others get the exact
+  (:func:`separated`, also called from Python by the base check of
+  :mod:`..obstacle_base`) clears most pairs; the others get the exact
   segment-box distance of :func:`..segment_distance.segment_box_distance`
   (violated below ``off``, or at 0: the segment meets the box).
 
@@ -31,8 +33,10 @@ check of a run's iterates is two compiled calls and no Pinocchio call per
 configuration. For the QP steps with spheres only, :func:`sphere_geometry`
 gives the clearances, unit normals and near pairs at one configuration and
 :func:`sphere_rows` the velocity-damper rows ``n^T J_v + (o x n)^T J_w`` from
-Pinocchio's joint Jacobians (see :meth:`..obstacles.ObstacleAvoidance._sphere_rows`). Everything the kernels call is in this file (Numba's on-disk
-cache is keyed by this file; the tree FK repeats the few lines of
+Pinocchio's joint Jacobians (see :mod:`..sphere_rows`). Everything the kernels
+call is in this file: Numba's on-disk cache of a function is invalidated by
+changes to its own file only, so a compiled primitive called from another file
+would keep stale code (the tree FK repeats the few lines of
 :func:`kinserve.kinematics.collision_spheres.tree_placements` for that reason).
 """
 
@@ -47,15 +51,17 @@ from kinserve.kinematics.serial_chain import REVOLUTE as _REVOLUTE
 
 _t = numba.types
 _F1, _F2, _F3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))
+_F1A, _F2A = (_t.Array(_t.float64, d, "A", readonly=True) for d in (1, 2))
 _I1 = _t.Array(_t.int64, 1, "C", readonly=True)
+_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
 _SIGNATURE = _t.void(_F3, _I1, _I1, _F2, _F1, _I1, _I1, _F2, _F2, _F1, _I1, _I1, _F3, _F2, _F2, _t.float64,
                      _t.boolean[::1])
-_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
 _POINTS_SIGNATURE = _t.void(_F2, _I2, _I1, _F2, _F2, _t.float64[:, :, ::1])
-_SPHERES_SIGNATURE = _t.float64(_F2, _I2, _I1, _F2, _t.Array(_t.float64, 1, "A", readonly=True), _I1, _I1, _F2, _F1, _F1, _t.float64, _t.float64[::1],
-                                _t.float64[:, ::1], _t.boolean[::1])
-_ROWS_SIGNATURE = _t.int64(_F2, _F2, _t.Array(_t.float64, 2, "A", readonly=True), _F2,
-                           _t.Array(_t.boolean, 1, "C", readonly=True), _t.float64[:, ::1])
+_SPHERES_SIGNATURE = _t.float64(_F2, _I2, _I1, _F2, _F1A, _I1, _I1, _F2, _F1, _F1, _t.float64,
+                                _t.float64[::1], _t.float64[:, ::1], _t.boolean[::1])
+_ROWS_SIGNATURE = _t.int64(_F2, _F2, _F2A, _F2, _t.Array(_t.boolean, 1, "C", readonly=True),
+                           _t.float64[:, ::1])
+_SEPARATED_SIGNATURE = _t.boolean(_F1A, _F1A, _F1A, _t.float64)
 _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 
@@ -97,7 +103,8 @@ def _points_at(tree, joints, point_joint, point_local, q, X, out):
 
 @_jit
 def _identity_placements(J: int) -> np.ndarray:
-    """``(J + 1, 12)`` placements, row 0 (the universe) the identity; the rest filled by :func:`_points_at`."""
+    """``(J + 1, 12)`` placements, row 0 (the universe) the identity; the others filled by
+    :func:`_points_at`."""
     X = np.empty((J + 1, 12))
     for c in range(12):
         X[0, c] = 0.0
@@ -108,8 +115,9 @@ def _identity_placements(J: int) -> np.ndarray:
 @numba.njit(_POINTS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
 def skeleton_points(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
                     Q: np.ndarray, P: np.ndarray) -> None:
-    """World points ``P[k, i] = R_j l_i + p_j`` (``j = point_joint[i]``, ``l_i = point_local[i]``; joint 0 is the
-    world) of every configuration ``Q[k]``, by forward kinematics of the packed tree (module docstring)."""
+    """World points ``P[k, i] = R_j l_i + p_j`` (``j = point_joint[i]``, ``l_i = point_local[i]``; joint 0 is
+    the world) of every configuration ``Q[k]``, by forward kinematics of the packed tree (module
+    docstring)."""
     X = _identity_placements(joints.shape[0])
     for k in range(Q.shape[0]):
         _points_at(tree, joints, point_joint, point_local, Q[k], X, P[k])
@@ -118,7 +126,8 @@ def skeleton_points(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarra
 @numba.njit(_SPHERES_SIGNATURE, cache=True, nogil=True, error_model="numpy")
 def sphere_geometry(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
                     q: np.ndarray, ia: np.ndarray, ib: np.ndarray, centers: np.ndarray, inv_len2: np.ndarray,
-                    r_off: np.ndarray, influence: float, c: np.ndarray, V: np.ndarray, near: np.ndarray) -> float:
+                    r_off: np.ndarray, influence: float, c: np.ndarray, V: np.ndarray,
+                    near: np.ndarray) -> float:
     """Clearances ``c = |x - o| - (r + off)`` of the sphere pairs at ``q`` (rigid segments: ``1 / |b - a|^2``
     given), the unit normals ``V`` (witness point ``x`` minus centre ``o``, rows) and the pairs within
     ``influence`` with a defined normal (``near``); returns the smallest clearance (m)."""
@@ -163,7 +172,7 @@ def sphere_rows(V: np.ndarray, centers: np.ndarray, J: np.ndarray, support: np.n
 
 
 @_jit
-def _point_segment2(a, b, c) -> float:
+def point_to_segment2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
     """Squared distance from point ``c`` to the segment ``[a, b]`` (3-vectors)."""
     ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
     wx, wy, wz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
@@ -176,7 +185,7 @@ def _point_segment2(a, b, c) -> float:
 
 
 @_jit
-def _segment_segment(p1, q1, p2, q2) -> float:
+def segment_to_segment(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray) -> float:
     """Distance between the segments ``[p1, q1]`` and ``[p2, q2]`` (module docstring)."""
     d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
     d2x, d2y, d2z = q2[0] - p2[0], q2[1] - p2[1], q2[2] - p2[2]
@@ -209,7 +218,7 @@ def _phi(x: float, h: float) -> float:
 
 
 @_jit
-def _segment_box(a, b, h) -> float:
+def segment_to_box(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> float:
     """Distance from the segment ``[a, b]`` to the box ``|y| <= h`` (its frame; 0 when they meet)."""
     u0, u1, u2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
     cands = np.empty(8)
@@ -247,9 +256,18 @@ def _segment_box(a, b, h) -> float:
     return math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
 
 
-@_jit
-def _separated(a, b, h, off: float) -> bool:
-    """The separating-axis test of :func:`..obstacles._separated` (segment vs. box grown by ``off``)."""
+@numba.njit(_SEPARATED_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+def separated(a: np.ndarray, b: np.ndarray, h: np.ndarray, off: float) -> bool:
+    """True when the segment ``[a, b]`` is separated from the box ``|y| <= h + off`` (its frame) by an axis.
+
+    The separating-axis test of a segment and a box (Ericson, *Real-Time
+    Collision Detection*, 5.3.3): with the midpoint ``c``, the half-extent
+    ``w = (b - a) / 2`` and ``|w|`` padded by 1e-12 (parallel cases), the axes
+    are the box's (``|c_i| > e_i + |w_i|``) and their cross products with ``w``.
+    Separated from the box grown by ``off`` on every side implies a distance
+    ``>= off`` from the box (the grown box contains all points within ``off``).
+    ``a``, ``b``, ``h``: 3-vectors (float64 arrays). Compiled, callable from Python as well.
+    """
     e0, e1, e2 = h[0] + off, h[1] + off, h[2] + off
     c0, c1, c2 = 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])
     w0, w1, w2 = 0.5 * (b[0] - a[0]), 0.5 * (b[1] - a[1]), 0.5 * (b[2] - a[2])
@@ -261,10 +279,10 @@ def _separated(a, b, h, off: float) -> bool:
 
 
 @numba.njit(_SIGNATURE, cache=True, nogil=True, error_model="numpy")
-def violations(P: np.ndarray, sph_ia: np.ndarray, sph_ib: np.ndarray, sph_c: np.ndarray, sph_r_off2: np.ndarray,
-               cap_ia: np.ndarray, cap_ib: np.ndarray, cap_a: np.ndarray, cap_b: np.ndarray, cap_r_off: np.ndarray,
-               box_ia: np.ndarray, box_ib: np.ndarray, box_R: np.ndarray, box_t: np.ndarray, box_h: np.ndarray,
-               off: float, bad: np.ndarray) -> None:
+def violations(P: np.ndarray, sph_ia: np.ndarray, sph_ib: np.ndarray, sph_c: np.ndarray,
+               sph_r_off2: np.ndarray, cap_ia: np.ndarray, cap_ib: np.ndarray, cap_a: np.ndarray,
+               cap_b: np.ndarray, cap_r_off: np.ndarray, box_ia: np.ndarray, box_ib: np.ndarray,
+               box_R: np.ndarray, box_t: np.ndarray, box_h: np.ndarray, off: float, bad: np.ndarray) -> None:
     """``bad[k] |= True`` where configuration ``k`` violates a sphere, capsule or box pair (module docstring).
 
     ``P`` ``(K, points, 3)``: segment end points per configuration; pair
@@ -280,12 +298,12 @@ def violations(P: np.ndarray, sph_ia: np.ndarray, sph_ib: np.ndarray, sph_c: np.
         X = P[k]
         hit = False
         for i in range(sph_ia.shape[0]):
-            if _point_segment2(X[sph_ia[i]], X[sph_ib[i]], sph_c[i]) < sph_r_off2[i]:
+            if point_to_segment2(X[sph_ia[i]], X[sph_ib[i]], sph_c[i]) < sph_r_off2[i]:
                 hit = True
                 break
         if not hit:
             for i in range(cap_ia.shape[0]):
-                if _segment_segment(X[cap_ia[i]], X[cap_ib[i]], cap_a[i], cap_b[i]) < cap_r_off[i]:
+                if segment_to_segment(X[cap_ia[i]], X[cap_ib[i]], cap_a[i], cap_b[i]) < cap_r_off[i]:
                     hit = True
                     break
         if not hit:
@@ -295,9 +313,9 @@ def violations(P: np.ndarray, sph_ia: np.ndarray, sph_ib: np.ndarray, sph_c: np.
                 for c in range(3):  # R^T (x - t)
                     la[c] = R[0, c] * (A[0] - t[0]) + R[1, c] * (A[1] - t[1]) + R[2, c] * (A[2] - t[2])
                     lb[c] = R[0, c] * (B[0] - t[0]) + R[1, c] * (B[1] - t[1]) + R[2, c] * (B[2] - t[2])
-                if _separated(la, lb, box_h[i], off):
+                if separated(la, lb, box_h[i], off):
                     continue
-                d = _segment_box(la, lb, box_h[i])
+                d = segment_to_box(la, lb, box_h[i])
                 if d < off or d <= 0.0:
                     hit = True
                     break

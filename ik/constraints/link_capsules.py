@@ -27,13 +27,13 @@ gradient exact to first order with ``s`` frozen).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, NamedTuple
+
 import numpy as np
 import pinocchio as pin
-from typing import TYPE_CHECKING
-
-from kinserve.kinematics.serial_chain import kinematic_tree
 
 from kinserve.ik.constraints.link_segments import frame_points, robot_segments
+from kinserve.kinematics.serial_chain import kinematic_tree
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -48,102 +48,51 @@ class LinkSkeleton:
 
     def __init__(self, robot: Robot, segments: list) -> None:
         model = robot.model
-        self._model = model
+        self.model = model
         self.names = [s.name for s in segments]
         self.ja = np.array([s.ja for s in segments], dtype=int)
         self.jb = np.array([s.jb for s in segments], dtype=int)
         self.la = np.array([s.la for s in segments], dtype=float).reshape(-1, 3)
         self.lb = np.array([s.lb for s in segments], dtype=float).reshape(-1, 3)
         self.fixed = (self.ja == 0) & (self.jb == 0)
-        # Every end point is read off Pinocchio as cheaply as possible: a joint origin (a translation),
-        # the origin of a revolute child joint (its mount point: also a translation), or a point
-        # transformed by its joint's placement (SE3.act); world points are constants.
-        points: dict = {}
-        self._translations: list[int] = []
-        self._acts: list[tuple[int, np.ndarray]] = []
-        self._world: list[np.ndarray] = []
-        revolute_child = {}
-        for c in range(1, model.njoints):
-            if not model.joints[c].shortname().startswith("JointModelP"):
-                revolute_child.setdefault((model.parents[c], tuple(np.round(model.jointPlacements[c].translation, 12))), c)
-
-        def key_of(j, l):
-            if j == 0:
-                return ("w", tuple(l))
-            if not l.any():
-                return ("t", j)
-            c = revolute_child.get((j, tuple(np.round(l, 12))))
-            if c is not None:
-                return ("t", c)
-            return ("a", j, tuple(l))
-
-        a_idx, b_idx = [], []
-        for js, ls, out in ((self.ja, self.la, a_idx), (self.jb, self.lb, b_idx)):
-            for j, l in zip(js, ls):
-                k = key_of(int(j), l)
-                if k not in points:
-                    points[k] = len(points)
-                out.append(points[k])
-        order = sorted(points, key=points.get)
-        # stack order: translations, acts, world points; remap indices accordingly
-        groups = {"t": [], "a": [], "w": []}
-        for k in order:
-            groups[k[0]].append(k)
-        stacked = groups["t"] + groups["a"] + groups["w"]
-        pos = {k: i for i, k in enumerate(stacked)}
-        self._a_idx = np.array([pos[order[i]] for i in a_idx], dtype=int)
-        self._b_idx = np.array([pos[order[i]] for i in b_idx], dtype=int)
-        self._translations = [k[1] for k in groups["t"]]
-        self._acts = [(k[1], np.array(k[2])) for k in groups["a"]]
-        self._world = [np.array(k[1]) for k in groups["w"]]
-        nj = model.njoints
-        # support mask: S[j, v] = 1 when velocity index v moves the body of joint j
-        S = np.zeros((nj, model.nv))
-        for j in range(1, nj):
-            for k in model.supports[j]:
-                if k == 0:
-                    continue
-                jm = model.joints[k]
-                S[j, jm.idx_v: jm.idx_v + jm.nv] = 1.0
-        self.support = S
-        self._placements = None
+        layout = _point_layout(model, self.ja, self.la, self.jb, self.lb)
+        self._translations, self._acts, self._world = layout.translations, layout.acts, layout.world
+        self._a_idx, self._b_idx = layout.a_idx, layout.b_idx
+        self.support = support_mask(model)
+        #: ``(data, joint placements, translations)``: references into the ``data.oMi`` read last
+        #: (:meth:`points`)
+        self._placements: tuple | None = None
         # segments whose ends sit on one body keep their length: 1 / |b - a|^2 once (0 for a point)
         self.rigid = self.ja == self.jb
+        self.all_rigid = bool(self.rigid.all())
         d0 = model.createData()
         pin.forwardKinematics(model, d0, robot.neutral())
         A, B = self.endpoints(d0)
         self._placements = None
         L2 = np.einsum("ij,ij->i", B - A, B - A)
         self.inv_len2 = np.divide(1.0, L2, out=np.zeros_like(L2), where=L2 > 1e-24)
+        #: the model's whole tree packed for compiled kernels (:func:`kinematic_tree`), or None when it has
+        #: joints they do not model
+        self.tree: tuple[np.ndarray, np.ndarray] | None = kinematic_tree(model)
+        joint = list(self._translations) + [j for j, _ in self._acts] + [0] * len(self._world)
+        local = [np.zeros(3)] * len(self._translations) + [p for _, p in self._acts] + list(self._world)
+        #: ``(joint, local)``: the rows of :meth:`points` as ``(n_points,)`` Pinocchio joint indices and
+        #: ``(n_points, 3)`` points in those joints' frames (joint 0: a world point), for compiled kernels
+        self.point_table: tuple[np.ndarray, np.ndarray] = (
+            np.array(joint, dtype=np.int64), np.array(local, dtype=float).reshape(len(joint), 3))
+        for a in (*self.point_table, *(self.tree or ()), self.support, self.inv_len2, self.rigid, self.ja,
+                  self.jb, self.la, self.lb, self._a_idx, self._b_idx):
+            a.setflags(write=False)  # shared by every constraint bound with this skeleton
 
     @classmethod
-    def of_robot(cls, robot: Robot, tool_frames: Sequence[str] = (), frames: Sequence[str] | None = None) -> "LinkSkeleton":
-        """The default skeleton (links, sliders, a tool segment per tool frame) or the origins of ``frames``."""
+    def of_robot(cls, robot: Robot, tool_frames: Sequence[str] = (),
+                 frames: Sequence[str] | None = None) -> LinkSkeleton:
+        """The default skeleton (links, sliders, a tool segment per tool frame) or the origins of
+        ``frames``."""
         return cls(robot, skeleton_segments(robot, tool_frames, frames))
-
 
     def __len__(self) -> int:
         return len(self.names)
-
-    @property
-    def tree(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """The model's whole tree packed for compiled kernels (:func:`kinserve.kinematics.serial_chain.kinematic_tree`),
-        or None when it has joints they do not model."""
-        if "_tree" not in self.__dict__:
-            self._tree = kinematic_tree(self._model)
-        return self._tree
-
-    @property
-    def point_table(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(joint, local)``: the rows of :meth:`points` as ``(n_points,)`` Pinocchio joint indices and
-        ``(n_points, 3)`` points in those joints' frames (joint 0: a world point), for compiled kernels."""
-        table = self.__dict__.get("_point_table")
-        if table is None:
-            joint = [j for j in self._translations] + [j for j, _ in self._acts] + [0] * len(self._world)
-            local = [np.zeros(3)] * len(self._translations) + [l for _, l in self._acts] + list(self._world)
-            table = self._point_table = (np.array(joint, dtype=np.int64),
-                                         np.array(local, dtype=float).reshape(len(joint), 3))
-        return table
 
     def endpoints(self, data: pin.Data) -> tuple[np.ndarray, np.ndarray]:
         """World end points ``(A, B)``, each ``(S, 3)``, after forward kinematics in ``data``."""
@@ -154,26 +103,30 @@ class LinkSkeleton:
         """Rows of :meth:`points` holding the two ends of the segments ``seg``."""
         return self._a_idx[seg], self._b_idx[seg]
 
-    def points(self, data: pin.Data) -> np.ndarray:
-        """The distinct end points of the segments ``(K, 3)`` (see :meth:`end_index`), after forward kinematics."""
+    def _references(self, data: pin.Data) -> tuple:
+        """``(data, joint placements, translations)``: references into ``data.oMi``, made once per ``data``.
+
+        They follow every forward-kinematics pass: indexing the Pinocchio vector costs more than reading a
+        placement. The translations are NumPy views of the placements' memory (they follow too); the tuple
+        keeps ``data``, their owner, alive.
+        """
         cached = self._placements
         if cached is None or cached[0] is not data:
-            # references into data.oMi (they follow every forward-kinematics pass): indexing the
-            # Pinocchio vector costs more than reading a placement. The translations are NumPy views
-            # of the placements' memory (they follow too); the tuple keeps ``data``, their owner, alive.
             oMi = list(data.oMi)
             cached = self._placements = (data, oMi, [oMi[j].translation for j in self._translations])
-        oMi = cached[1]
-        pts = cached[2] + [oMi[j].act(l) for j, l in self._acts]
-        return np.array(pts + self._world) if self._world else np.array(pts)
+        return cached
 
-    @property
-    def all_rigid(self) -> bool:
-        """True when no segment slides (every segment's ends on one body), cached."""
-        v = self.__dict__.get("_all_rigid")
-        if v is None:
-            v = self._all_rigid = bool(self.rigid.all())
-        return v
+    def joint_placements(self, data: pin.Data) -> list[pin.SE3]:
+        """The joints' world placements ``data.oMi`` as a list (references: they follow forward
+        kinematics)."""
+        return self._references(data)[1]
+
+    def points(self, data: pin.Data) -> np.ndarray:
+        """The distinct end points of the segments ``(K, 3)`` (see :meth:`end_index`), after forward
+        kinematics."""
+        _, oMi, translations = self._references(data)
+        pts = translations + [oMi[j].act(p) for j, p in self._acts]
+        return np.array(pts + self._world) if self._world else np.array(pts)
 
     @property
     def n_points(self) -> int:
@@ -182,21 +135,18 @@ class LinkSkeleton:
 
     def points_into(self, data: pin.Data, out: np.ndarray) -> None:
         """:meth:`points` written into ``out`` (``(n_points, 3)``): no list of rows, no new array."""
-        cached = self._placements
-        if cached is None or cached[0] is not data:
-            self.points(data)  # (makes the references into data.oMi)
-            cached = self._placements
-        nt = len(cached[2])
-        out[:nt] = cached[2]
-        oMi = cached[1]
-        for r, (j, l) in enumerate(self._acts, nt):
-            out[r] = oMi[j].act(l)
+        _, oMi, translations = self._references(data)
+        nt = len(translations)
+        out[:nt] = translations
+        for r, (j, p) in enumerate(self._acts, nt):
+            out[r] = oMi[j].act(p)
         if self._world:
             out[nt + len(self._acts):] = self._world
 
     def gradient_rows(self, data: pin.Data, seg: np.ndarray, s: np.ndarray, A: np.ndarray, B: np.ndarray,
                       N: np.ndarray) -> np.ndarray:
-        """Rows ``(P, nv)``: ``n_i . xdot_i / qdot`` for the point ``(1 - s_i) a + s_i b`` of segment ``seg_i``.
+        """Rows ``(P, nv)``: ``n_i . xdot_i / qdot`` for the point ``(1 - s_i) a + s_i b`` of segment
+        ``seg_i``.
 
         ``A``, ``B`` are the end points of the segments ``seg`` (``(P, 3)``),
         ``N`` the unit directions. Needs ``computeJointJacobians`` in ``data``.
@@ -212,6 +162,69 @@ class LinkSkeleton:
         return (1.0 - s)[:, None] * rows_a + s[:, None] * rows_b
 
 
+class PointLayout(NamedTuple):
+    """The distinct end points of a skeleton's segments, stacked: joint origins (``translations``: joint
+    indices), points moved by their joint's placement (``acts``: ``(joint, local point)``), world points; and
+    the row of each segment's two ends (``a_idx``, ``b_idx``)."""
+
+    translations: list[int]
+    acts: list[tuple[int, np.ndarray]]
+    world: list[np.ndarray]
+    a_idx: np.ndarray
+    b_idx: np.ndarray
+
+
+def _point_layout(model: pin.Model, ja: np.ndarray, la: np.ndarray, jb: np.ndarray,
+                  lb: np.ndarray) -> PointLayout:
+    """Every end point read off Pinocchio as cheaply as possible: a joint origin (a translation), the origin
+    of a revolute child joint (its mount point: also a translation), or a point transformed by its joint's
+    placement (SE3.act); world points are constants."""
+    revolute_child = {}
+    for c in range(1, model.njoints):
+        if not model.joints[c].shortname().startswith("JointModelP"):
+            mount = tuple(np.round(model.jointPlacements[c].translation, 12))
+            revolute_child.setdefault((model.parents[c], mount), c)
+
+    def key_of(j: int, p: np.ndarray) -> tuple:
+        if j == 0:
+            return ("w", tuple(p))
+        if not p.any():
+            return ("t", j)
+        c = revolute_child.get((j, tuple(np.round(p, 12))))
+        return ("t", c) if c is not None else ("a", j, tuple(p))
+
+    points: dict = {}
+    a_idx, b_idx = [], []
+    for js, ps, out in ((ja, la, a_idx), (jb, lb, b_idx)):
+        for j, p in zip(js, ps):
+            k = key_of(int(j), p)
+            if k not in points:
+                points[k] = len(points)
+            out.append(points[k])
+    order = sorted(points, key=points.get)
+    # stack order: translations, acts, world points; remap indices accordingly
+    groups: dict = {"t": [], "a": [], "w": []}
+    for k in order:
+        groups[k[0]].append(k)
+    pos = {k: i for i, k in enumerate(groups["t"] + groups["a"] + groups["w"])}
+    return PointLayout([k[1] for k in groups["t"]], [(k[1], np.array(k[2])) for k in groups["a"]],
+                       [np.array(k[1]) for k in groups["w"]],
+                       np.array([pos[order[i]] for i in a_idx], dtype=int),
+                       np.array([pos[order[i]] for i in b_idx], dtype=int))
+
+
+def support_mask(model: pin.Model) -> np.ndarray:
+    """``S`` ``(njoints, nv)``: ``S[j, v] = 1`` when velocity index ``v`` moves the body of joint ``j``."""
+    S = np.zeros((model.njoints, model.nv))
+    for j in range(1, model.njoints):
+        for k in model.supports[j]:
+            if k == 0:
+                continue
+            jm = model.joints[k]
+            S[j, jm.idx_v: jm.idx_v + jm.nv] = 1.0
+    return S
+
+
 _I1 = [1, 2, 0]
 _I2 = [2, 0, 1]
 
@@ -221,7 +234,8 @@ def _cross(U: np.ndarray, V: np.ndarray) -> np.ndarray:
     return U[:, _I1] * V[:, _I2] - U[:, _I2] * V[:, _I1]
 
 
-def skeleton_segments(robot: Robot, tool_frames: Sequence[str] = (), frames: Sequence[str] | None = None) -> list:
+def skeleton_segments(robot: Robot, tool_frames: Sequence[str] = (),
+                      frames: Sequence[str] | None = None) -> list:
     """Segments of the default skeleton (a tool segment per tool frame), or the origins of ``frames``."""
     if frames is not None:
         return frame_points(robot, frames)

@@ -54,7 +54,8 @@ def robot_segments(robot: Robot, tool_frame: str) -> list[LinkSegment]:
         if model.joints[j].shortname().startswith("JointModelP"):
             segs.append(LinkSegment(f"slider {model.names[j]}", p, mount, j, np.zeros(3)))
     f = model.frames[robot.frame_id(tool_frame)]
-    segs.append(LinkSegment(f"tool {tool_frame}", f.parentJoint, np.zeros(3), f.parentJoint, f.placement.translation))
+    segs.append(LinkSegment(f"tool {tool_frame}", f.parentJoint, np.zeros(3), f.parentJoint,
+                            f.placement.translation))
     return segs
 
 

@@ -35,8 +35,8 @@ depth needs another method, e.g. coal's EPA). Every function works on
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -52,7 +52,8 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def point_segment(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(s, x)``: parameter ``(P,)`` and closest point ``(P, 3)`` of each segment ``[a_i, b_i]`` to ``c_i``."""
+    """``(s, x)``: parameter ``(P,)`` and closest point ``(P, 3)`` of each segment ``[a_i, b_i]`` to
+    ``c_i``."""
     ab = b - a
     L2 = _dot(ab, ab)
     num = _dot(c - a, ab)
@@ -90,8 +91,10 @@ _uclip = numpy_fast.clip
 _fmin, _fmax = np.fmin, np.fmax
 
 
-def segment_box(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(s, d, x, y)``: distance ``d`` between each segment ``[a_i, b_i]`` and the box ``|y| <= h_i`` (its frame).
+def segment_box(a: np.ndarray, b: np.ndarray,
+                h: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(s, d, x, y)``: distance ``d`` between each segment ``[a_i, b_i]`` and the box ``|y| <= h_i`` (its
+    frame).
 
     ``s`` is the parameter of the closest point ``x = a + s (b - a)`` of the
     segment, ``y`` the closest point of the box (module docstring); ``d = 0``
