@@ -1,4 +1,5 @@
-"""Collision-aware IK and the collision check on the Panda with its SRDF: kinserve vs roboplan SimpleIk vs Pink.
+"""Collision-aware IK and the collision check on the Panda with its SRDF: kinserve vs roboplan SimpleIk vs
+Pink.
 
 Scene (issue 11): a table top (box centre (0.65, 0, -0.05), size 0.7 x 1.2 x 0.1)
 and a wall (centre (0, -0.6, 0.5), size 1.5 x 0.05 x 1.0), axis-aligned. The
@@ -158,7 +159,8 @@ class Judge:
         q = np.asarray(q, dtype=float)
         if q.shape != (self.model.nq,) or not np.all(np.isfinite(q)):
             return False
-        if np.any(q < self.model.lowerPositionLimit - 1e-9) or np.any(q > self.model.upperPositionLimit + 1e-9):
+        if (np.any(q < self.model.lowerPositionLimit - 1e-9)
+            or np.any(q > self.model.upperPositionLimit + 1e-9)):
             return False
         pin.framesForwardKinematics(self.model, self.data, q)
         M = self.data.oMf[self.fid]
@@ -171,13 +173,14 @@ class Judge:
 
 # --------------------------------------------------------------------------- contenders
 def kinserve_solvers(robot, budget):
-    solvers = {"kinserve unconstrained": lambda T, q0, i, extra: ik.solve(robot, T, q0, frame=FRAME, seed=i).q}
+    solvers = {"kinserve unconstrained": lambda T, q0, i, extra: ik.solve(robot, T, q0,
+                                                                          frame=FRAME, seed=i).q}
 
     shapes: dict = {}
 
     def prepare(extra) -> None:
-        """kinserve's obstacle objects for the specs, built and listed before the timed call (as roboplan moves
-        its box outside its timing)."""
+        """kinserve's obstacle objects for the specs, built and listed before the timed call (as roboplan
+        moves its box outside its timing)."""
         for b in SCENE + tuple(extra):
             if b not in shapes:
                 shapes[b] = kinserve_box(b)
@@ -189,7 +192,8 @@ def kinserve_solvers(robot, budget):
             obs = [shapes[b] for b in SCENE + tuple(extra)]
         constrained.last = None
         try:
-            res = ik.solve(robot, T, q0, frame=FRAME, self_collision=True, obstacles=obs, seed=i, max_time=budget)
+            res = ik.solve(robot, T, q0, frame=FRAME, self_collision=True, obstacles=obs, seed=i,
+                           max_time=budget)
         except Exception as exc:  # noqa: BLE001 - counted as a failure and reported
             constrained.errors.append(f"{type(exc).__name__}: {exc}")
             return None
@@ -215,7 +219,8 @@ def roboplan_worker(robot, urdf_text, srdf_text, package_dirs):
              "joints": robot.joint_names, "frame": FRAME, "base": "panda_link0", "boxes": boxes}
 
     def same_fk(w) -> None:
-        diff = max(float(np.abs(np.asarray(w.call({"cmd": "fk", "q": q.tolist()})["T"]) - robot.fk(q, FRAME)).max())
+        diff = max(float(np.abs(np.asarray(w.call({"cmd": "fk", "q": q.tolist()})["T"])
+                                - robot.fk(q, FRAME)).max())
                    for q in robot.random_q(np.random.default_rng(99), 20))
         if diff > 1e-9:
             raise RuntimeError(f"its FK differs from ours by {diff:g}")
@@ -259,8 +264,9 @@ def pink_worker(urdf_path, srdf_path, package_dirs):
         return None
     boxes = [{"pose": b.T.tolist(), "size": list(b.size)}
              for b in SCENE + (FAR_CUBE,)]
-    answer = setup_or_skip(w, {"cmd": "setup", "urdf": urdf_path, "srdf": srdf_path, "package_dirs": package_dirs,
-                               "locked": LOCKED, "frame": FRAME, "boxes": boxes})
+    answer = setup_or_skip(w, {"cmd": "setup", "urdf": urdf_path, "srdf": srdf_path,
+                               "package_dirs": package_dirs, "locked": LOCKED, "frame": FRAME,
+                               "boxes": boxes})
     if answer is None:
         return None
     w.pairs = answer["pairs"]
@@ -276,7 +282,8 @@ def pink_solver(w, budget):
 
 # --------------------------------------------------------------------------- workloads
 def collision_free_q(robot, judge, rng) -> tuple[np.ndarray, int]:
-    """A uniform configuration within the limits that the judge finds collision free, and the draws it took."""
+    """A uniform configuration within the limits that the judge finds collision free, and the draws it
+    took."""
     draws = 0
     while True:
         q = robot.random_q(rng)
@@ -319,8 +326,9 @@ def summarise(times, oks, unc_median, unc_p95) -> dict:
     if t.size == 0:
         return {"success_pct": float("nan")}
     med, p95 = float(np.median(t)), float(np.percentile(t, 95))
-    return {"success_pct": 100.0 * float(np.mean(oks)), "median_ms": med, "p95_ms": p95, "mean_ms": float(np.mean(t)),
-            "median_vs_unconstrained": med / unc_median, "p95_vs_unconstrained_p95": p95 / unc_p95}
+    return {"success_pct": 100.0 * float(np.mean(oks)), "median_ms": med, "p95_ms": p95,
+            "mean_ms": float(np.mean(t)), "median_vs_unconstrained": med / unc_median,
+            "p95_vs_unconstrained_p95": p95 / unc_p95}
 
 
 def kinserve_summary(res) -> tuple | None:
@@ -346,7 +354,8 @@ def kinserve_extras(summary, judge, extra, tally: dict, check_iterates: bool) ->
         tally["every_iterate_free"] += all(not judge.collides(q, extra) for q in iterates)
 
 
-def run(name, idx, targets, starts, extras, solvers, judge, check_iterates: bool = False, passes: int = 1) -> dict:
+def run(name, idx, targets, starts, extras, solvers, judge, check_iterates: bool = False,
+        passes: int = 1) -> dict:
     """Every solver on every target, ``passes`` times (each pass in the interleaved order of
     :func:`_common.interleaved`); per target the median of its passes' times, then the statistics over the
     targets (:func:`summarise`). Success is over every answer of every pass; the first pass's medians are kept
@@ -390,14 +399,15 @@ def run(name, idx, targets, starts, extras, solvers, judge, check_iterates: bool
     if "kinserve" in stats:
         stats["kinserve"]["paths"] = tally["paths"]
         if check_iterates and tally["iterates_checked"]:
-            stats["kinserve"]["every_iterate_free_pct"] = 100.0 * tally["every_iterate_free"] / tally["iterates_checked"]
+            stats["kinserve"]["every_iterate_free_pct"] = (100.0 * tally["every_iterate_free"]
+                                                           / tally["iterates_checked"])
     return stats
 
 
 def print_table(name, stats, n):
     print(f"\n{name}: {n} targets")
-    print(f"{'solver':34}{'success %':>10}{'median ms':>11}{'p95 ms':>9}{'mean ms':>9}{'med/unc':>9}{'p95/unc p95':>12}"
-          f"{'cpu med ms':>11}{'cpu/unc':>9}{'pass 1 med/unc':>15}")
+    print(f"{'solver':34}{'success %':>10}{'median ms':>11}{'p95 ms':>9}{'mean ms':>9}{'med/unc':>9}"
+          f"{'p95/unc p95':>12}{'cpu med ms':>11}{'cpu/unc':>9}{'pass 1 med/unc':>15}")
     for k, s in stats.items():
         print(f"{k:34}{s['success_pct']:10.1f}{s['median_ms']:11.3f}{s['p95_ms']:9.2f}{s['mean_ms']:9.2f}"
               f"{s['median_vs_unconstrained']:9.2f}{s['p95_vs_unconstrained_p95']:12.1f}"
@@ -432,12 +442,12 @@ def time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs, rounds: int) 
     }
     for label, convex in (("pinocchio.computeCollisions, meshes", False),
                           ("pinocchio.computeCollisions, convex hulls", True)):
-        c = CoalChecker(urdf_path, package_dirs, SCENE, srdf_path=srdf_path, self_collision=True, locked=LOCKED,
-                        convex=convex)
+        c = CoalChecker(urdf_path, package_dirs, SCENE, srdf_path=srdf_path, self_collision=True,
+                        locked=LOCKED, convex=convex)
         full = {id(q): c.full_q(q) for q in qs}
         n_raw_pairs = len(c.geom.collisionPairs)
-        fns[label] = (lambda c, full: lambda q: pin.computeCollisions(c.model, c.data, c.geom, c.gdata, full[id(q)],
-                                                                      True))(c, full)
+        fns[label] = (lambda c, full: lambda q: pin.computeCollisions(c.model, c.data, c.geom, c.gdata,
+                                                                      full[id(q)], True))(c, full)
     for fn in fns.values():  # warm-up (scene, workspaces)
         fn(qs[0])
     samples: dict[str, list] = {k: [] for k in fns}
@@ -464,9 +474,11 @@ def time_checks(robot, urdf_path, srdf_path, package_dirs, rp, qs, rounds: int) 
         robot.min_distance(q, obs)
     out["kinserve robot.min_distance(q, obstacles)"] = (time.perf_counter() - t0) / 100 * 1e6
     out["kinserve robot.min_distance(q, obstacles): CPU"] = (time.process_time() - c0) / 100 * 1e6
-    about = {"kinserve pairs (self + scene)": len(scene), "kinserve broad phase": type(scene.workspace().manager).__name__,
+    about = {"kinserve pairs (self + scene)": len(scene),
+             "kinserve broad phase": type(scene.workspace().manager).__name__,
              "raw computeCollisions pairs": n_raw_pairs,
-             "configurations in collision %": 100.0 * float(np.mean([robot.in_collision(q, obs) for q in qs]))}
+             "configurations in collision %":
+                 100.0 * float(np.mean([robot.in_collision(q, obs) for q in qs]))}
     return out, about
 
 
@@ -500,7 +512,8 @@ def verdicts(results: dict, checks: dict) -> dict:
                 ks, ps = w["kinserve"]["success_pct"], w[peer]["success_pct"]
                 verdict[f"way_success_ahead_of_{peer.split()[0]}"] = ks > ps or ks == ps == 100.0
     kc = checks.get("kinserve robot.in_collision(q, obstacles): CPU")
-    if kc is not None and "roboplan Scene.hasCollisions: CPU" in checks:  # CPU time: steadier on a shared machine
+    if kc is not None and "roboplan Scene.hasCollisions: CPU" in checks:
+        # CPU time: steadier on a shared machine
         verdict["check_no_slower_than_roboplan"] = kc <= checks["roboplan Scene.hasCollisions: CPU"]
     return verdict
 
@@ -516,8 +529,8 @@ def run_workloads(args, robot, judge, solvers) -> dict:
     targets = robot.fk_batch(Q, FRAME)
     starts = robot.random_q(rng, args.n)
     starts_in_collision = float(np.mean([judge.collides(q) for q in starts])) * 100
-    print(f"{args.n} collision-free targets from {drawn} draws ({100 * (1 - args.n / drawn):.1f} % in collision); "
-          f"{starts_in_collision:.1f} % of the starts in collision")
+    print(f"{args.n} collision-free targets from {drawn} draws ({100 * (1 - args.n / drawn):.1f} % in "
+          f"collision); {starts_in_collision:.1f} % of the starts in collision")
     info = {"targets_drawn": drawn, "starts_in_collision_pct": starts_in_collision}
     results = {}
     for fn in solvers.values():  # warm-up, not timed
@@ -535,12 +548,14 @@ def run_workloads(args, robot, judge, solvers) -> dict:
     print(f"\nobstacle in the way: {len(Q2)} witness-feasible targets from {drawn2} collision-free draws "
           f"({100 * len(Q2) / max(drawn2, 1):.1f} % kept)")
     if len(Q2):
-        way_stats = run("obstacle in the way", np.arange(len(Q2)), T2, S2, cubes, solvers, judge, check_iterates=True,
-                        passes=args.passes)
+        way_stats = run("obstacle in the way", np.arange(len(Q2)), T2, S2, cubes, solvers, judge,
+                        check_iterates=True, passes=args.passes)
         print_table("2. obstacle in the way (10 cm cube on the unconstrained elbow)", way_stats, len(Q2))
-        results["obstacle in the way"] = {"n": int(len(Q2)), "collision_free_draws": drawn2, "per_solver": way_stats}
+        results["obstacle in the way"] = {"n": int(len(Q2)), "collision_free_draws": drawn2,
+                                          "per_solver": way_stats}
     if solvers["kinserve"].errors:
-        print(f"kinserve raised on {len(solvers['kinserve'].errors)} solves, e.g. {solvers['kinserve'].errors[0]}")
+        print(f"kinserve raised on {len(solvers['kinserve'].errors)} solves, "
+              f"e.g. {solvers['kinserve'].errors[0]}")
     return results, info
 
 
@@ -591,20 +606,24 @@ def main() -> None:
             if w is not None:
                 w.close()
     print_checks(checks, len(qs), load)
-    print("  " + "; ".join(f"{k}: {v:.1f}" if isinstance(v, float) else f"{k}: {v}" for k, v in about.items()))
+    print("  " + "; ".join(f"{k}: {v:.1f}" if isinstance(v, float) else f"{k}: {v}"
+                           for k, v in about.items()))
     verdict = verdicts(results, checks)
-    print("targets:", ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
+    print("targets:",
+          ", ".join(f"{k}: {'met' if v else 'NOT met'}" for k, v in verdict.items()) or "none measurable")
     write_json(args.out, {
         "machine": machine(), "load_average": list(load),
         "versions": {"pinocchio": pin.__version__, "roboplan": rp.version if rp is not None else "skipped"},
         "workload": {"robot": "panda (fingers locked at 0)", "frame": FRAME, "n": args.n, "seed": args.seed,
                      "passes": args.passes,
-                     "budget_s": args.budget, "scene": {"table": TABLE.to_dict(), "wall": WALL.to_dict()}, **info,
-                     "cube": f"edge {CUBE_EDGE} m, centred on {ELBOW} of kinserve's unconstrained answer",
+                     "budget_s": args.budget, "scene": {"table": TABLE.to_dict(), "wall": WALL.to_dict()},
+                     **info, "cube": f"edge {CUBE_EDGE} m, centred on {ELBOW} of kinserve's unconstrained "
+                                     "answer",
                      "success": "pose within 0.1 mm / 1 mrad, q within limits, no collision: URDF meshes, "
-                                "non-adjacent pairs minus panda.srdf, robot x scene (coal, written in _obstacle_check.py)",
-                     "check": {"configurations": len(qs), "rounds": args.rounds, "figure": "median over the rounds",
-                               **about}},
+                                "non-adjacent pairs minus panda.srdf, robot x scene (coal, "
+                                "written in _obstacle_check.py)",
+                     "check": {"configurations": len(qs), "rounds": args.rounds,
+                               "figure": "median over the rounds", **about}},
         "workloads": results, "collision_check_us": checks, "targets_met": verdict,
     })
 

@@ -55,7 +55,8 @@ def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENES
     """Set up a solver process: its settings, its robot pool, its niceness, a parent watch."""
     global _pool, _settings
     exit_with_parent()
-    _settings = ServiceSettings(**__import__("json").loads(settings_json)) if settings_json else ServiceSettings()
+    _settings = (ServiceSettings(**__import__("json").loads(settings_json)) if settings_json
+                 else ServiceSettings())
     _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
     load_compiled_kernels()
     if niceness and hasattr(os, "nice"):
@@ -66,6 +67,7 @@ def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENES
 
 
 def pool() -> RobotPool:
+    """This process's :class:`RobotPool` (built on first use with the process's settings)."""
     global _pool
     if _pool is None:
         _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
@@ -96,15 +98,18 @@ def capped_by(settings: ServiceSettings, max_time: float | None) -> float:
 
 
 def capped(max_time: float | None) -> float:
+    """:func:`capped_by` with this process's settings."""
     return capped_by(_settings, max_time)
 
 
 def robot_of(req: S.RobotRef):
+    """The pooled robot a request names; an unknown robot or bad parameters is a 4xx on its field."""
     with field("params" if req.params else "robot"):
         return pool().get(req.robot, dict(req.params))
 
 
 def ik_kwargs(robot, req: S.IKOptions) -> dict:
+    """The keyword arguments of ``ik.solve`` for a request's options, each checked (422 on its field)."""
     with field("q0"):
         q0 = None if req.q0 is None else robot.check_q(req.q0, "q0")
     with field("frame"):
@@ -126,6 +131,7 @@ def ik_kwargs(robot, req: S.IKOptions) -> dict:
 
 
 def result_out(res) -> dict:
+    """An IK result as the JSON-ready dict of :class:`~kinserve.service.schemas.IKResponse`."""
     return {
         "success": bool(res.success), "q": np.asarray(res.q, dtype=float).tolist(),
         "position_error": float(res.position_error), "orientation_error": float(res.orientation_error),
@@ -159,11 +165,13 @@ def solve_ik(deadline: Deadline, req: S.IKRequest, max_time: float) -> dict:
     r = robot_of(req)
     kwargs = ik_kwargs(r, req)
     if (req.target is None) == (req.targets is None):
-        raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of frame targets)"))
+        raise FieldError("target", InputError("give exactly one of target (a 4x4 pose) or targets (a list of "
+                                              "frame targets)"))
     problem, loc = (req.target, "target") if req.target is not None else (req.targets, "targets")
     if (kwargs["obstacles"] or kwargs["spheres"]) and not req.self_collision:
         tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
-        with field("obstacles" if kwargs["obstacles"] else "spheres"):  # an obstacle containing the fixed base
+        with field("obstacles" if kwargs["obstacles"] else "spheres"):
+            # an obstacle containing the fixed base
             ik.ObstacleAvoidance(kwargs["spheres"] + kwargs["obstacles"], link_radius=req.link_radius,
                                  tool_frames=tool_frames).bind(r)
     if req.target is not None:
@@ -178,11 +186,12 @@ def solve_problem(robot, req: S.IKOptions, kwargs: dict, problem: list, budget: 
     """
     if not isinstance(problem[0], S.FrameTarget):
         with field(loc):
-            res = ik.solve(robot, np.asarray(problem, dtype=float), max_time=budget, link_radius=req.link_radius,
-                           **kwargs)
+            res = ik.solve(robot, np.asarray(problem, dtype=float), max_time=budget,
+                           link_radius=req.link_radius, **kwargs)
         return result_out(res)
     if req.method not in ("auto", "qp"):
-        raise FieldError("method", InputError(f"several targets are solved by method 'auto' or 'qp', got {req.method!r}"))
+        raise FieldError("method", InputError("several targets are solved by method 'auto' or 'qp', "
+                                              f"got {req.method!r}"))
     tasks = frame_tasks(robot, problem, loc)
     if req.centring:
         tasks.append(ik.CentringTask(req.centring))
@@ -203,7 +212,8 @@ def frame_tasks(robot, targets: list[S.FrameTarget], loc: str) -> list:
     tasks = []
     for i, t in enumerate(targets):
         try:
-            task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax), relax_frame=t.relax_frame)
+            task = ik.FrameTask(t.frame, np.asarray(t.pose, dtype=float), relax=tuple(t.relax),
+                                relax_frame=t.relax_frame)
             tasks.append(task.bind(robot))
         except FrameError as exc:
             raise FieldError(f"{loc}[{i}].frame", exc) from None
@@ -226,7 +236,8 @@ def prepare_starts(robot, kwargs: dict) -> None:
 
 
 def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
-    """``POST /ik/batch``: the targets in order, each with ``min(max_time, time left)``; the rest not attempted."""
+    """``POST /ik/batch``: the targets in order, each with ``min(max_time, time left)``; the rest not
+    attempted."""
     t0 = time.perf_counter()
     r = robot_of(req)
     kwargs = ik_kwargs(r, req)
@@ -239,7 +250,8 @@ def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
         if left <= 1e-3:
             with field(f"targets[{i}]"):
                 out.append(not_attempted(r, problem, kwargs,
-                                         f"not attempted: the request's time cap ({deadline.budget:g} s) was spent"))
+                                         "not attempted: the request's time cap "
+                                         f"({deadline.budget:g} s) was spent"))
             continue
         out.append(solve_problem(r, req, kwargs, problem, min(per_target, left), f"targets[{i}]"))
         attempted += 1
@@ -269,7 +281,8 @@ def plan_cartesian(deadline: Deadline, req: S.CartesianPlanRequest) -> dict:
         "success": bool(plan.success),
         "trajectory": {
             "joint_names": list(traj.joint_names), "times": np.asarray(traj.times).tolist(),
-            "positions": np.asarray(traj.positions).tolist(), "velocities": np.asarray(traj.velocities).tolist(),
+            "positions": np.asarray(traj.positions).tolist(),
+            "velocities": np.asarray(traj.velocities).tolist(),
             "accelerations": None if traj.accelerations is None else np.asarray(traj.accelerations).tolist(),
         },
         "max_position_error": float(plan.max_position_error),

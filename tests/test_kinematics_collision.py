@@ -56,7 +56,8 @@ def test_in_collision_agrees_with_independent_coal_model(name, urdf, srdf, locke
     assert list(model.names)[1:] == robot.joint_names
     assert robot.collision.pair_source == "srdf"
     assert len(robot.collision.self_pairs) + sum(
-        1 for g in robot.collision.geometry.geometryObjects if g.parentJoint != 0) * len(SCENE) == len(geom.collisionPairs)
+        1 for g in robot.collision.geometry.geometryObjects
+        if g.parentJoint != 0) * len(SCENE) == len(geom.collisionPairs)
     data, gdata = model.createData(), pin.GeometryData(geom)
     Q = robot.random_q(np.random.default_rng(7), 1000)
     ours_self = np.array([robot.in_collision(q) for q in Q])
@@ -118,7 +119,8 @@ def test_distances_match_closed_forms_for_spheres():
             assert np.allclose(got.point_b - got.point_a, got.distance * got.normal, atol=1e-6)
         assert robot.min_distance(q, [ball], self_collision=False) == pytest.approx(
             min(d.distance for d in dist.values()))
-        assert robot.in_collision(q, [ball], self_collision=False) == (min(d.distance for d in dist.values()) < 0)
+        assert robot.in_collision(q, [ball],
+                                  self_collision=False) == (min(d.distance for d in dist.values()) < 0)
 
 
 def test_box_distance_witness_points_and_sign():
@@ -192,16 +194,19 @@ def test_urdf_without_collision_elements_is_a_clear_error():
 
 def test_srdf_with_unknown_link_is_named():
     erd = paths.example_robot_data_dir()
-    srdf = (erd / "panda_description/srdf/panda.srdf").read_text().replace('link2="panda_link4"', 'link2="panda_lnk4"', 1)
+    srdf = (erd / "panda_description/srdf/panda.srdf").read_text().replace('link2="panda_link4"',
+                                                                           'link2="panda_lnk4"', 1)
     with pytest.raises(errors.ModelError, match="'panda_lnk4'.*Did you mean: panda_link4"):
         robots.load("panda", srdf=srdf)
     # a Robot built by hand with that SRDF text: the same named error on the first collision query
     panda = robots.load("panda", geometry=False)
-    bad = type(panda)(panda.model, name="panda", source=panda.source, package_dirs=panda.package_dirs, srdf=srdf)
+    bad = type(panda)(panda.model, name="panda", source=panda.source,
+                      package_dirs=panda.package_dirs, srdf=srdf)
     with pytest.raises(errors.ModelError, match="'panda_lnk4'.*Did you mean: panda_link4"):
         bad.in_collision(bad.neutral())
     # an SRDF for a seed robot replaces the computed pairs
-    four = robots.load("planar4r", srdf='<robot name="p"><disable_collisions link1="link1" link2="link3"/></robot>')
+    four = robots.load("planar4r",
+                       srdf='<robot name="p"><disable_collisions link1="link1" link2="link3"/></robot>')
     assert four.collision.pair_source == "srdf" and ("link1", "link3") in four.collision.disabled
     folded = [0.0, 3.0, 3.0, 0.0]
     assert ("link1", "link3") in robots.load("planar4r").collisions(folded)
@@ -229,7 +234,8 @@ def test_bad_obstacles_and_q_are_named():
 
 def test_open_mesh_obstacle_is_a_named_error(tmp_path: Path):
     stl = tmp_path / "open.obj"
-    stl.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\n")  # tetrahedron missing a face
+    # tetrahedron missing a face
+    stl.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\n")
     with pytest.raises(errors.ModelError, match="not a closed surface"):
         Mesh(stl)
     closed = tmp_path / "tet.obj"
@@ -284,7 +290,8 @@ def _pairs_by_broad_phase(scene, q):
     """Indices of the colliding pairs as the scene's broad phase finds them (no early stop)."""
     ws = scene.workspace()
     data, gd, bpm = ws.data, ws.geometry_data, ws.manager
-    for res in gd.collisionResults:  # pairs the broad phase skips keep their result: start from "no collision"
+    for res in gd.collisionResults:
+        # pairs the broad phase skips keep their result: start from "no collision"
         res.clear()
     pin.computeCollisions(scene.model, data, bpm, q, False)
     return {k for k, res in enumerate(gd.collisionResults) if res.isCollision()}
@@ -325,8 +332,9 @@ def test_broad_phase_never_skips_a_colliding_pair(n_obstacles, manager):
 
 
 def test_near_pairs_match_all_pairs_gjk_with_the_margin():
-    """``scene.near(threshold)`` (broad phase with inflated AABBs, then GJK on the candidates) returns exactly the
-    pairs that GJK with ``security_margin = threshold`` on every pair finds, for thresholds from 0 to 10 cm."""
+    """``scene.near(threshold)`` (broad phase with inflated AABBs, then GJK on the candidates) returns exactly
+    the pairs that GJK with ``security_margin = threshold`` on every pair finds, for thresholds from 0 to 10
+    cm."""
     robot = robots.load("panda")
     rng = np.random.default_rng(12)
     found = 0
@@ -347,7 +355,8 @@ def test_near_pairs_match_all_pairs_gjk_with_the_margin():
 
 
 def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
-    """The scene's pair table (indices, joints, names) is the GeometryModel's; equal obstacles reuse one scene."""
+    """The scene's pair table (indices, joints, names) is the GeometryModel's; equal obstacles reuse one
+    scene."""
     robot = robots.load("panda")
     for self_collision in (True, False):
         scene = robot.collision_scene(SCENE + EXTRA, self_collision)
@@ -366,7 +375,8 @@ def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
     q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])
 
     def to_table(obstacles):
-        return min(d.distance for (_, b), d in robot.distances(q, obstacles).items() if b == "obstacle[0]:box")
+        return min(d.distance for (_, b), d in robot.distances(q, obstacles).items()
+                   if b == "obstacle[0]:box")
 
     assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
 
