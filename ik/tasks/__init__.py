@@ -1,4 +1,4 @@
-"""IK tasks: the :class:`Task` protocol (error ``e(q)``, Jacobian ``J(q)``, weight, priority) and its implementations.
+"""IK tasks: the :class:`Task` protocol (error ``e(q)``, Jacobian ``J(q)``, weight, priority) and its kinds.
 
 * :mod:`.base` - the protocol, with a centre-of-mass example;
 * :mod:`.frame_task` - :class:`FrameTask` (a frame at a pose, components relaxable);

@@ -72,9 +72,9 @@ Example: a centre-of-mass task (a user task, nothing in the solver changes)::
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 import math
 import numbers
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -133,7 +133,7 @@ class Task:
 
     @property
     def weight(self) -> float | np.ndarray:
-        """Weight of the task's rows inside its level: a positive number or one per row (validated on assignment)."""
+        """Weight of the task's rows in its level: a number > 0 or one per row (validated on assignment)."""
         return self._weight
 
     @weight.setter
@@ -155,12 +155,13 @@ class Task:
         """Validate against ``robot`` and return the task to evaluate (default: ``self``)."""
         return self
 
-    def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover - protocol
+    def compute(self, robot: Robot, data: pin.Data,  # pragma: no cover - protocol
+                q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(e, J)`` at ``q``: error ``(m,)`` and Jacobian ``(m, nv)`` with ``e(q + dq) ~= e + J dq``."""
         raise NotImplementedError(f"{type(self).__name__}.compute(robot, data, q) must return (e, J)")
 
     def errors(self, e: np.ndarray) -> tuple[float, float]:
-        """(position-like, orientation-like) error norms of ``e`` for the success test; default ``(|e|, 0)``."""
+        """``(position-like, orientation-like)`` error norms of ``e`` (success test); default ``(|e|, 0)``."""
         return math.sqrt(float(e.dot(e))), 0.0
 
     def __repr__(self) -> str:

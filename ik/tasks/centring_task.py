@@ -13,13 +13,13 @@ the relative weights matter under strict priority.
 from __future__ import annotations
 
 from collections.abc import Sequence
-import numpy as np
 from typing import TYPE_CHECKING
 
-from kinserve.kinematics.errors import InputError
+import numpy as np
 
-from kinserve.ik.tasks.centring_weights import centring_weights
 from kinserve.ik.tasks.base import Task
+from kinserve.ik.tasks.centring_weights import centring_weights
+from kinserve.kinematics.errors import InputError
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -32,7 +32,8 @@ class CentringTask(Task):
 
     goal = False
 
-    def __init__(self, weights: float | Sequence[float] = 1.0, priority: int = 2, weight: float | Sequence[float] = 1.0, name: str = "centring"):
+    def __init__(self, weights: float | Sequence[float] = 1.0, priority: int = 2,
+                 weight: float | Sequence[float] = 1.0, name: str = "centring"):
         super().__init__(weight, priority, name)
         self.weights = weights
 
@@ -59,10 +60,12 @@ class CentringTask(Task):
         return task
 
     def bind(self, robot: Robot) -> "CentringTask":
+        """Scale the weights by ``1 / r_i^2`` for ``robot``; :class:`InputError` if none is positive."""
         if self._model is not robot.model:
             w = centring_weights(robot, self.weights)
             if w is None:
-                raise InputError(f"CentringTask weights must have at least one positive entry, got {self.weights!r}")
+                raise InputError("CentringTask weights must have at least one positive entry, "
+                                 f"got {self.weights!r}")
             self._sqrt_w = np.sqrt(w)
             self._J = np.diag(self._sqrt_w)
             self._mid = robot.middle()
@@ -70,4 +73,5 @@ class CentringTask(Task):
         return self
 
     def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(e, J)`` of the module docstring at ``q`` (the :class:`Task` protocol)."""
         return self._sqrt_w * (q - self._mid), self._J

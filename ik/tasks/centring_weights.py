@@ -58,11 +58,13 @@ def centring_weights(robot: Robot, centring: float | VectorLike | None) -> np.nd
     """
     if centring is None or (type(centring) in (int, float) and centring == 0):
         return None
-    w = np.asarray(centring, dtype=float) if not isinstance(centring, (int, float)) else np.full(robot.nq, float(centring))
+    w = (np.asarray(centring, dtype=float) if not isinstance(centring, (int, float))
+         else np.full(robot.nq, float(centring)))
     if w.ndim == 0:
         w = np.full(robot.nq, float(w))
     if w.shape != (robot.nq,):
-        raise InputError(f"centring must be a number or {robot.nq} numbers (one per joint), got shape {w.shape}")
+        raise InputError(f"centring must be a number or {robot.nq} numbers (one per joint), "
+                         f"got shape {w.shape}")
     if not np.all(np.isfinite(w)):
         raise NonFiniteError(f"centring weights must be finite, got {w.tolist()}")
     if np.any(w < 0):
@@ -102,7 +104,7 @@ def _qr_constants(m: int, n: int) -> np.ndarray:
 
 
 def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
-    """Orthonormal basis ``(n, n - m)`` of the null space of a wide ``J`` (``m < n``) certified of full row rank, or None.
+    """Orthonormal basis ``(n, n - m)`` of the null space of a wide ``J`` certified of full row rank, or None.
 
     Householder QR of the transpose, ``J^T = Q [R; 0]`` (LAPACK ``geqrf``): when ``R``
     is invertible the last ``n - m`` columns of ``Q`` (``ormqr`` applied to the
@@ -160,7 +162,8 @@ def null_space_step(J: np.ndarray, J_pinv: np.ndarray, step: np.ndarray) -> np.n
     return step - J_pinv @ (J @ step)
 
 
-def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarray, eps: float = 1e-9) -> np.ndarray:
+def null_space_correction(Z: np.ndarray, weights: np.ndarray, residual: np.ndarray,
+                          eps: float = 1e-9) -> np.ndarray:
     """``Z z`` minimising ``|Z z - residual|_W^2 + eps |z|^2`` (unconstrained second stage).
 
     ``residual`` is ``(m - q) - dq1``: what the primary step left of the

@@ -21,17 +21,16 @@ for a full pose, the distance between the origins and the geodesic angle.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.robot import TASK_AXES, Robot
-
 from kinserve.ik.targets import RELAX_FRAMES, Target, _checked_pose, parse_relax
 from kinserve.ik.tasks.base import Task
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.robot import TASK_AXES, Robot
 
 _LWA = pin.LOCAL_WORLD_ALIGNED
 _log3 = pin.log3
@@ -51,7 +50,8 @@ class FrameTask(Task):
     :meth:`set_target`. ``components`` names the kept rows of the error.
     """
 
-    def __init__(self, frame: str | None, target: np.ndarray | pin.SE3, relax: Sequence[str] | str = (), relax_frame: str = "world", weight: float | Sequence[float] = 1.0,
+    def __init__(self, frame: str | None, target: np.ndarray | pin.SE3, relax: Sequence[str] | str = (),
+                 relax_frame: str = "world", weight: float | Sequence[float] = 1.0,
                  priority: int = 1, name: str | None = None):
         if frame is not None and not isinstance(frame, str):
             raise InputError(f"frame must be a frame name or None (the robot's tip), got {frame!r}")
@@ -107,6 +107,7 @@ class FrameTask(Task):
         return self
 
     def bind(self, robot: Robot) -> "FrameTask":
+        """Resolve the frame on ``robot`` (None: its tip); :class:`FrameError` for an unknown frame."""
         if self._model is not robot.model:
             frame = robot.tip if self.frame is None else self.frame
             self.frame_id = robot.frame_id(frame)
@@ -117,6 +118,7 @@ class FrameTask(Task):
         return self
 
     def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(e, J)`` of the module docstring at ``q``, kept rows only (the :class:`Task` protocol)."""
         model = robot.model
         M = _ufp(model, data, self.frame_id)
         R = M.rotation
@@ -135,6 +137,7 @@ class FrameTask(Task):
         return e[self.kept], J[self.kept]
 
     def errors(self, e: np.ndarray) -> tuple[float, float]:
+        """Norms of the kept position rows (m) and of the kept rotation rows (rad) of ``e``."""
         n = self.n_pos
         v = e.tolist()  # a few Python floats: cheaper than slicing and two dot products
         return _hypot(*v[:n]), _hypot(*v[n:])

@@ -9,12 +9,12 @@ higher levels leave (default priority 2) and is never required to vanish.
 from __future__ import annotations
 
 from collections.abc import Sequence
-import numpy as np
 from typing import TYPE_CHECKING
 
-from kinserve.kinematics.validation import as_vector
+import numpy as np
 
 from kinserve.ik.tasks.base import Task
+from kinserve.kinematics.validation import as_vector
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -27,7 +27,8 @@ class PostureTask(Task):
 
     goal = False
 
-    def __init__(self, q_ref: Sequence[float] | np.ndarray, weight: float | Sequence[float] = 1.0, priority: int = 2, name: str = "posture"):
+    def __init__(self, q_ref: Sequence[float] | np.ndarray, weight: float | Sequence[float] = 1.0,
+                 priority: int = 2, name: str = "posture"):
         super().__init__(weight, priority, name)
         self.q_ref = q_ref
         self._I = None
@@ -45,6 +46,7 @@ class PostureTask(Task):
         self._version += 1  # the length is checked against the robot by the next bind
 
     def bind(self, robot: Robot) -> "PostureTask":
+        """Check ``q_ref`` against ``robot`` (``nq`` finite values; the named error otherwise)."""
         robot.check_q(self._q_ref, "q_ref")
         if self._I is None or self._I.shape[0] != robot.nq:
             self._I = np.eye(robot.nq)
@@ -52,4 +54,5 @@ class PostureTask(Task):
         return self
 
     def compute(self, robot: Robot, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``e = q - q_ref`` and ``J = I`` (the :class:`Task` protocol)."""
         return q - self._q_ref, self._I
