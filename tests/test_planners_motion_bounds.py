@@ -147,3 +147,21 @@ def test_the_same_edge_without_the_obstacle_is_certified(panda):
     certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
     assert certifier.certify(certifier.clearance(a), certifier.clearance(b))
     assert certifier.oracle.distance_checks >= 2
+
+
+def test_a_pair_that_does_not_move_only_has_to_be_apart(panda):
+    from kinserve.planners.motion.clearance import CLEARANCE_FLOOR, Clearance
+
+    scene = panda.collision_scene(())
+    oracle = ClearanceOracle(scene)
+    P = len(scene.pairs)
+    d = np.full(P, 0.05)
+    d[3] = 0.5 * CLEARANCE_FLOOR
+    c = Clearance(panda.neutral(), d, np.ones(P, dtype=bool))
+    rates = np.ones(P)
+    assert oracle.radius(c, rates) == -1.0 and oracle.floor_violation(c) == 3
+    rates[3] = 0.0
+    assert oracle.radius(c, rates) == pytest.approx((0.05 - TOLERANCE) / 1.0)
+    assert oracle.floor_violation(c, rates > 0) == -1
+    d[3] = 0.0
+    assert oracle.radius(c, rates) == -1.0

@@ -17,7 +17,9 @@ it refines the pairs whose bound would decide ``rho`` (smallest bound-based
 ``rho`` first, a few at a time) until the smallest one is exact; the other
 pairs' bounds already give a larger ``rho``, and exact distances are at least their
 bounds, so the answer equals the all-exact one. Pairs whose bound is below
-:data:`CLEARANCE_FLOOR` are refined first; ``rho = -1`` when an exact distance is.
+:data:`CLEARANCE_FLOOR` are refined first; ``rho = -1`` when the exact distance of a
+pair that moves is (a pair that does not move, ``w_p = 0``, keeps its distance:
+it only has to be apart).
 
 Coal's distances are those of the scene's ``GeometryModel`` (the robot's convex
 collision model, the obstacles at their poses and the checked pairs), computed on
@@ -113,20 +115,24 @@ class ClearanceOracle:
             c.exact[k] = True
         self.pair_distances += len(pairs)
 
-    def floor_ok(self, c: Clearance) -> bool:
-        """True when every pair of ``c`` is at least :data:`CLEARANCE_FLOOR` apart (refining the pairs whose
-        bound is below it)."""
-        low = np.flatnonzero(~c.exact & (c.distance < CLEARANCE_FLOOR))
+    def floor_violation(self, c: Clearance, moving: np.ndarray | None = None) -> int:
+        """Index of a pair of ``c`` closer than it may be (-1 when none is): a pair of ``moving`` (a mask;
+        None: every pair) closer than :data:`CLEARANCE_FLOOR`, another one at a distance <= 0 (its distance
+        does not change). The bounds that cannot decide are refined first."""
+        need = np.where(True if moving is None else moving, CLEARANCE_FLOOR, 0.0) * np.ones(self.n_pairs)
+        low = np.flatnonzero(~c.exact & (c.distance <= need))
         if len(low):
             self.refine(c, low)
-        return not self.n_pairs or float(c.distance.min()) >= CLEARANCE_FLOOR
+        bad = np.flatnonzero((c.distance < need) | (c.distance <= 0.0))
+        return int(bad[np.argmin(c.distance[bad])]) if len(bad) else -1
 
     def radius(self, c: Clearance, rates: np.ndarray) -> float:
-        """``rho`` of ``c`` for the pair rates ``rates`` ``(P,)`` (module docstring): ``-1`` below the floor,
-        ``inf`` when no pair moves."""
-        if not self.floor_ok(c):
-            return -1.0
+        """``rho`` of ``c`` for the pair rates ``rates`` ``(P,)`` (module docstring): ``-1`` when a pair that
+        moves (``rates > 0``) is below the floor or one that does not is in contact, ``inf`` when no pair
+        moves."""
         moving = rates > 0.0
+        if self.floor_violation(c, moving) >= 0:
+            return -1.0
         if not moving.any():
             return float("inf")
         with np.errstate(divide="ignore"):
@@ -139,7 +145,7 @@ class ClearanceOracle:
             open_pairs = np.flatnonzero(~c.exact & (rho < exact_best))
             batch = open_pairs[np.argsort(rho[open_pairs], kind="stable")[:REFINE_BATCH]]
             self.refine(c, batch)
-            if not self.floor_ok(c):
+            if np.any(c.distance[batch] < CLEARANCE_FLOOR):
                 return -1.0
             rho[batch] = (c.distance[batch] - TOLERANCE) / rates[batch]
 

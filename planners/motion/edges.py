@@ -43,6 +43,8 @@ class EdgeCertifier:
     def __init__(self, oracle: ClearanceOracle, reach: np.ndarray) -> None:
         self.oracle = oracle
         self.reach = np.ascontiguousarray(reach, dtype=float)
+        #: The pairs some joint motion moves (the others keep their distance whatever the motion).
+        self.movable = self.reach.any(axis=1)
 
     def in_collision(self, q: np.ndarray) -> bool:
         """The scene's collision test at ``q`` (float ``(nq,)``)."""
@@ -53,8 +55,13 @@ class EdgeCertifier:
         return self.oracle.clearance(q)
 
     def clear(self, c: Clearance) -> bool:
-        """True when every pair of ``c`` is at least the clearance floor apart."""
-        return self.oracle.floor_ok(c)
+        """True when every pair of ``c`` that can move is at least the clearance floor apart (and the others
+        are apart)."""
+        return self.closest_violation(c) < 0
+
+    def closest_violation(self, c: Clearance) -> int:
+        """The closest pair of ``c`` that breaks :meth:`clear`, -1 when none does."""
+        return self.oracle.floor_violation(c, self.movable)
 
     def rates(self, u: np.ndarray) -> np.ndarray:
         """``w`` ``(P,)``: per pair, the bound of its distance change per unit ``s`` along ``q + s u``."""

@@ -47,8 +47,8 @@ def _blocked_reason(robot: Robot, request: MotionRequest, certifier: EdgeCertifi
         pairs = robot.collisions(q, request.obstacles, self_collision=request.self_collision)
         return f"{name} is in collision: {_pairs_text(pairs) or 'a checked pair'}", None
     c = certifier.clearance(q)
-    if not certifier.clear(c):
-        k = int(np.argmin(c.distance))
+    k = certifier.closest_violation(c)
+    if k >= 0:
         a, b = certifier.oracle.scene.pair_names[k]
         return (f"{name} is closer than the clearance floor {CLEARANCE_FLOOR:g} m to a collision: "
                 f"{a} with {b} at {c.distance[k]:.3g} m"), c
