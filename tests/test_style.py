@@ -4,7 +4,8 @@
 - The configuration catches planted violations: an unused import (F401), a line over 110 characters
   (E501), unsorted imports (I001), an undocumented public function (D103), a function with 16 branches
   in ``ik/`` (C901) - so the repository check cannot pass because ruff checks nothing.
-- Every top-level folder is checked (none excluded by mistake); ``.venv``, ``bench-out``, ``demo-out`` are not.
+- Every top-level folder is checked (none excluded by mistake); ``.venv``, ``bench-out``, ``demo-out``
+  are not.
 - A clean file passes, docstrings are not required in ``tests/``, and ``make test`` runs ``make lint``.
 """
 
@@ -69,7 +70,8 @@ def test_every_folder_is_checked_and_the_generated_ones_are_not():
     assert out.returncode == 0, out.stderr
     files = [Path(line).relative_to(ROOT) for line in out.stdout.splitlines() if line.endswith(".py")]
     folders = {f.parts[0] for f in files if len(f.parts) > 1}
-    expected = {"robots", "kinematics", "ik", "planners", "viz", "scenarios", "service", "benchmarks", "tests"}
+    expected = {"robots", "kinematics", "ik", "planners", "viz", "scenarios", "service", "benchmarks",
+                "tests"}
     assert expected <= folders, expected - folders
     assert Path("__init__.py") in files and Path("tests/test_style.py") in files
     assert not folders & {".venv", "bench-out", "demo-out"}
