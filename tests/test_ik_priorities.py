@@ -1,8 +1,8 @@
 """Strict priorities along the iterations (kinserve.ik.qp.level_progress, ik.qp.task_solver): a lower level
 never keeps a higher one from reaching what it reaches alone, and still does its own job.
 
-Every solve here is decided by iterations (max_starts, max_iter), never by the clock (max_time=30 s is far
-beyond what the solves take).
+Every solve here is decided by iterations (max_starts, max_iter), never by the clock: an iteration budget
+and no max_time (the budget, ITERATIONS, exceeds max_starts x max_iter: it never ends a solve itself).
 """
 
 import numpy as np
@@ -15,7 +15,8 @@ from kinserve.ik.qp import level_progress, task_solver
 from kinserve.ik.qp.hierarchy import hierarchical_step, level_steps
 from kinserve.ik.qp.level_progress import LevelStall, LowerShares, ObjectiveWatch, Trial
 
-BUDGET = dict(max_time=30.0, max_starts=10, max_iter=200)
+ITERATIONS = 10_000
+BUDGET = dict(iteration_budget=ITERATIONS, max_starts=10, max_iter=200)
 TRIALS = 40
 
 
@@ -40,9 +41,9 @@ def test_the_reported_posture_case_converges(panda):
     T = np.asarray(panda.fk(Q[1], F))
     qref = (lo + hi) / 2 + 0.4 * (hi - lo) * rng.uniform(-1, 1, 7)
     pos = ik.FrameTask(F, T, relax=("roll", "pitch", "yaw"), priority=1)
-    alone = ik.solve(panda, tasks=[pos], q0=Q0[1], max_time=30.0, max_starts=1)
-    res = ik.solve(panda, tasks=[pos, ik.PostureTask(qref, priority=2)], q0=Q0[1], max_time=30.0,
-                   max_starts=1)
+    alone = ik.solve(panda, tasks=[pos], q0=Q0[1], iteration_budget=ITERATIONS, max_starts=1)
+    res = ik.solve(panda, tasks=[pos, ik.PostureTask(qref, priority=2)], q0=Q0[1],
+                   iteration_budget=ITERATIONS, max_starts=1)
     assert alone.success
     assert res.success, res.message
     assert res.position_error < 1e-4
@@ -129,7 +130,7 @@ def test_the_posture_does_its_job_in_the_freedom_left(panda):
         start = ik.solve(panda, tasks=[pos], q0=rng.uniform(lo, hi), seed=i, **BUDGET)
         assert start.success
         res = ik.solve(panda, tasks=[pos, ik.PostureTask(q_ref)], q0=start.q, prefer_q0=True, seed=i,
-                       max_time=30.0, max_starts=1, max_iter=60)
+                       iteration_budget=ITERATIONS, max_starts=1, max_iter=60)
         assert res.success, res.message
         assert np.linalg.norm(res.q - q_ref) < np.linalg.norm(start.q - q_ref)
         assert np.all(res.history.position_error < 1e-4)
