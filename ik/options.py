@@ -33,10 +33,9 @@ import numbers
 from collections.abc import Mapping
 from typing import Any
 
+from kinserve.ik.closed_form.chooser import CRITERIA
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import as_positive
-
-from kinserve.ik.closed_form.chooser import CRITERIA
 
 #: Every IK method ``ik.solve(method=...)`` names; the last four are the classical iterations.
 CLASSICAL_METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
@@ -136,7 +135,8 @@ def check_options(method: str, options: dict) -> None:
         raise InputError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")
     bad = [k for k in options if k not in allowed]
     if bad:
-        raise InputError(f"unknown option(s) {bad} for method {method!r}; accepted: {', '.join(allowed) or 'none'}")
+        raise InputError(f"unknown option(s) {bad} for method {method!r}; "
+                         f"accepted: {', '.join(allowed) or 'none'}")
     for name, value in options.items():
         _CHECKS[name](name, value)
 

@@ -24,9 +24,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 if TYPE_CHECKING:
-    from kinserve.kinematics import Robot
-
     from kinserve.ik.targets import Target
+    from kinserve.kinematics import Robot
 
 
 class History:
@@ -42,7 +41,8 @@ class History:
     it is read (and before pickling).
     """
 
-    __slots__ = ("_q", "_position_error", "_orientation_error", "components", "_task_error", "_evaluate", "_raw")
+    __slots__ = ("_q", "_position_error", "_orientation_error", "components", "_task_error", "_evaluate",
+                 "_raw")
 
     def __init__(self, q: ArrayLike, position_error: ArrayLike, orientation_error: ArrayLike,
                  task_error: ArrayLike | None = None, components: Sequence[str] = (),
@@ -73,8 +73,8 @@ class History:
 
     @classmethod
     def from_deferred(cls, qs: list, squared_errors: Callable[[], tuple[list, list]], k: int,
-                      components: Sequence[str] = (), evaluate: Callable[[np.ndarray], np.ndarray] | None = None
-                      ) -> History:
+                      components: Sequence[str] = (),
+                      evaluate: Callable[[np.ndarray], np.ndarray] | None = None) -> History:
         """Like :meth:`from_squared`, the squared errors given by ``squared_errors()`` (called on first read).
 
         A solver that tests convergence on a cheaper bound need not compute
@@ -142,8 +142,8 @@ class History:
             return History.from_squared([qs[k - 1]], [pos2[k - 1]], [rot2[k - 1]], 1, self.components,
                                         self._evaluate)
         te = None if self._task_error is None else self._task_error[-1:]
-        return History(self._q[-1:], self._position_error[-1:], self._orientation_error[-1:], te, self.components,
-                       self._evaluate)
+        return History(self._q[-1:], self._position_error[-1:], self._orientation_error[-1:], te,
+                       self.components, self._evaluate)
 
     def __getstate__(self):
         if self._raw is not None:

@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -90,7 +89,8 @@ def parse_relax(relax: str | Iterable[str] | None) -> tuple[int, ...]:
         try:
             names = list(relax)
         except TypeError:
-            raise InputError(f"relax must be a sequence of component names from {RELAX_NAMES}, got {relax!r}") from None
+            raise InputError(f"relax must be a sequence of component names from {RELAX_NAMES}, "
+                             f"got {relax!r}") from None
     rows = set()
     for name in names:
         if not isinstance(name, str):
@@ -128,8 +128,8 @@ class Target:
         "full", "relax_frame", "A", "components", "_p", "_R", "_Rt_axes",
     )
 
-    def __init__(self, robot: Robot, pose: PoseLike, frame: str | None = None, relax: str | Iterable[str] | None = (),
-                 relax_frame: str = "world") -> None:
+    def __init__(self, robot: Robot, pose: PoseLike, frame: str | None = None,
+                 relax: str | Iterable[str] | None = (), relax_frame: str = "world") -> None:
         T = _checked_pose(pose)
         self.T = T
         self._R = T[:3, :3]
@@ -210,4 +210,5 @@ class Target:
 
     def __repr__(self) -> str:
         relaxed = ",".join(TASK_AXES[i] for i in self.relaxed) or "none"
-        return f"Target(frame={self.frame!r}, p={np.round(self._p, 4).tolist()}, relaxed={relaxed}, axes={self.relax_frame})"
+        return (f"Target(frame={self.frame!r}, p={np.round(self._p, 4).tolist()}, relaxed={relaxed}, "
+                f"axes={self.relax_frame})")

@@ -15,9 +15,10 @@ The sequence depends only on the robot, the targets, ``q0`` and ``seed``.
 from __future__ import annotations
 
 from collections.abc import Iterator
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
-from typing import TYPE_CHECKING
 
 from kinserve.ik.starts.seed_table import start_sequence
 from kinserve.ik.state import seed_table
@@ -45,8 +46,8 @@ def starts(robot: Robot, goals: list, q0: np.ndarray | None, seed: int | None, t
         return start_sequence(robot, None, None, q0, rng_seed, prefer_q0=prefer_q0)
     if len(tasks) == 1:
         t = tasks[0]
-        return frame_starts(robot, t.frame_name, t.frame_id, t.T[:3, :3], t.T[:3, 3], (len(t.kept) - t.n_pos) == 3, q0, seed,
-                            prefer_q0=prefer_q0, n_table=n_table)
+        return frame_starts(robot, t.frame_name, t.frame_id, t.T[:3, :3], t.T[:3, 3],
+                            (len(t.kept) - t.n_pos) == 3, q0, seed, prefer_q0=prefer_q0, n_table=n_table)
     tables = [seed_table(robot, t.frame_name) for t in tasks]
     fs = [_features(tab, t) for tab, t in zip(tables, tasks)]
     q0_dist = None
@@ -78,14 +79,16 @@ def frame_starts(robot: Robot, frame: str, frame_id: int, R: np.ndarray, p: np.n
         pin.forwardKinematics(robot.model, data, q0)
         M = pin.updateFramePlacement(robot.model, data, frame_id)
         q0_dist = table.distance(f, table.features(M.rotation, M.translation))
-    return start_sequence(robot, table, f, q0, rng_seed, n_table=n_table, q0_distance=q0_dist, prefer_q0=prefer_q0)
+    return start_sequence(robot, table, f, q0, rng_seed, n_table=n_table, q0_distance=q0_dist,
+                          prefer_q0=prefer_q0)
 
 
 def _q0_then(q0, robot, frame, R, p, rotation, rng_seed, n_table):
     """``q0``, then the table's starts (the sequence of ``prefer_q0=True``, ranked only when needed)."""
     yield np.array(q0, dtype=float)
     table = seed_table(robot, frame)
-    yield from start_sequence(robot, table, table.features(R, p, rotation=rotation), None, rng_seed, n_table=n_table)
+    yield from start_sequence(robot, table, table.features(R, p, rotation=rotation), None, rng_seed,
+                              n_table=n_table)
 
 
 def _combined(robot, tables, fs, q0, q0_dist, rng_seed, prefer_q0, n_table):

@@ -40,6 +40,7 @@ import numpy as np
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
+
     from kinserve.kinematics.robot import Robot
     from kinserve.kinematics.types import VectorLike
 
@@ -101,7 +102,8 @@ class SeedTable:
     limit, which the interior samples cannot approach.
     """
 
-    def __init__(self, robot: Robot, frame: str, n: int | None = None, rotation_weight: float | None = None) -> None:
+    def __init__(self, robot: Robot, frame: str, n: int | None = None,
+                 rotation_weight: float | None = None) -> None:
         n = DEFAULT_SIZE if n is None else int(n)
         rng = np.random.default_rng(_TABLE_SEED)
         span = robot.upper - robot.lower
