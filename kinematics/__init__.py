@@ -1,6 +1,8 @@
-"""kinematics: the Robot (Pinocchio model + data), FK, Jacobians, singularity measures, collision queries, SE(3) helpers, errors."""
+"""kinematics: the Robot (Pinocchio model + data), FK, Jacobians, singularity, collision, SE(3), errors."""
 
 from . import errors, se3, shapes, singularity
+from .collision_model import CollisionModel
+from .collision_queries import PairDistance
 from .errors import (
     FrameError,
     InputError,
@@ -15,8 +17,6 @@ from .errors import (
     WorkerError,
     WorkerTimeoutError,
 )
-from .collision_model import CollisionModel
-from .collision_queries import PairDistance
 from .robot import TASK_AXES, Robot, axis_rows
 from .shapes import Box, Capsule, Cylinder, Mesh, Shape, Sphere, as_shape
 from .task_axes import TaskAxes, detect_task_axes
@@ -27,5 +27,6 @@ __all__ = [
     "errors", "se3", "shapes", "singularity",
     "Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "CollisionModel", "PairDistance",
     "KinserveError", "ModelError", "InputError", "ShapeError", "NonFiniteError", "FrameError",
-    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError", "WorkerError", "WorkerTimeoutError",
+    "RotationError", "JointLimitError", "UnknownRobotError", "SingularityError", "WorkerError",
+    "WorkerTimeoutError",
 ]

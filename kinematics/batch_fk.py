@@ -22,6 +22,7 @@ import pinocchio as pin
 from .errors import ModelError
 from .serial_chain import joint_axis, joint_chain
 
+
 class ChainFK:
     """Vectorised FK of frame ``frame_id`` of ``model``; call with ``Q`` (N, nq)."""
 
@@ -32,18 +33,21 @@ class ChainFK:
         for j in chain:
             info = joint_axis(model.joints[j])
             if info is None:
-                raise ModelError(f"batch FK supports revolute and prismatic joints only, got {model.joints[j].shortname()}")
+                raise ModelError("batch FK supports revolute and prismatic joints only, "
+                                 f"got {model.joints[j].shortname()}")
             kind, axis = info
             M = model.jointPlacements[j]
             MR = M.rotation.copy()
             K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
             # M_R Rot(a, q) = M_R + sin q (M_R K) + (1 - cos q) (M_R K^2): one stacked product per joint
-            self.steps.append((model.joints[j].idx_q, kind, M.translation.copy(), MR, MR @ K, MR @ K @ K, MR @ axis))
+            self.steps.append((model.joints[j].idx_q, kind, M.translation.copy(), MR, MR @ K, MR @ K @ K,
+                               MR @ axis))
         F = frame.placement
         self.frame_R = F.rotation.copy()
         self.frame_p = F.translation.copy()
 
     def __call__(self, Q: np.ndarray) -> np.ndarray:
+        """World poses ``(N, 4, 4)`` of the frame at the configurations ``Q`` ``(N, nq)``."""
         N = Q.shape[0]
         R = np.broadcast_to(np.eye(3), (N, 3, 3))
         p = np.zeros((N, 3))

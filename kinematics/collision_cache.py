@@ -39,6 +39,7 @@ def cache_key(model_text: str, samples: int, seed: int, version: int) -> str:
 
 
 def cache_path(key: str) -> Path:
+    """The JSON file of the disabled pairs of ``key`` in :func:`cache_dir`."""
     return cache_dir() / f"collision-pairs-{key}.json"
 
 
@@ -52,11 +53,12 @@ def load_pairs(key: str) -> dict[LinkPair, str] | None:
 
 
 def store_pairs(key: str, pairs: dict[LinkPair, str]) -> Path | None:
-    """Write the pairs atomically (temp file + rename); return the path, or None if it could not be written."""
+    """Write the pairs atomically (temp file + rename); return the path, or None when it cannot be written."""
     path = cache_path(key)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        body = json.dumps({"key": key, "disabled": [[a, b, r] for (a, b), r in sorted(pairs.items())]}, indent=0)
+        disabled = [[a, b, r] for (a, b), r in sorted(pairs.items())]
+        body = json.dumps({"key": key, "disabled": disabled}, indent=0)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".collision-pairs-", suffix=".tmp")
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(body)

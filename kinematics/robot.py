@@ -191,9 +191,11 @@ class Robot(CollisionQueries):
         # Shared by every copy(): read-only so no copy can change another's limits.
         self.lower.flags.writeable = False
         self.upper.flags.writeable = False
-        if not np.all(np.isfinite(self.lower)) or not np.all(np.isfinite(self.upper)) or np.any(self.lower > self.upper):
+        if (not np.all(np.isfinite(self.lower)) or not np.all(np.isfinite(self.upper))
+                or np.any(self.lower > self.upper)):
             raise ModelError(
-                f"robot {name!r}: every joint needs finite limits lower <= upper; got lower={self.lower}, upper={self.upper}"
+                f"robot {name!r}: every joint needs finite limits lower <= upper; "
+                f"got lower={self.lower}, upper={self.upper}"
             )
         self.nq = model.nq
         self._shape = (self.nq,)
@@ -405,8 +407,8 @@ class Robot(CollisionQueries):
         rpy = pin.rpy.matrixToRpy(R)
         if abs(math.cos(rpy[1])) < singular_tol:
             raise SingularityError(
-                f"RPY rates are undefined at pitch = {rpy[1]:.6f} rad (|cos pitch| < {singular_tol:g}, gimbal lock); "
-                "use the geometric Jacobian (reference='world') instead"
+                f"RPY rates are undefined at pitch = {rpy[1]:.6f} rad (|cos pitch| < {singular_tol:g}, "
+                "gimbal lock); use the geometric Jacobian (reference='world') instead"
             )
         E = pin.rpy.computeRpyJacobian(rpy, pin.WORLD)
         JA = J.copy()
@@ -418,15 +420,18 @@ class Robot(CollisionQueries):
         J = self.jacobian(q, frame)
         return J[axis_rows(self.task_axes if axes is None else axes)]
 
-    def singular_values(self, q: VectorLike, frame: str | None = None, axes: Sequence[str] | None = None) -> np.ndarray:
+    def singular_values(self, q: VectorLike, frame: str | None = None,
+                        axes: Sequence[str] | None = None) -> np.ndarray:
         """Singular values (descending) of the Jacobian rows ``axes`` (default ``task_axes``)."""
         return singularity.singular_values(self._task_jacobian(q, frame, axes))
 
-    def manipulability(self, q: VectorLike, frame: str | None = None, axes: Sequence[str] | None = None) -> float:
+    def manipulability(self, q: VectorLike, frame: str | None = None,
+                       axes: Sequence[str] | None = None) -> float:
         """Yoshikawa manipulability ``sqrt(det(J J^T))`` of the task rows (product of singular values)."""
         return singularity.manipulability(self._task_jacobian(q, frame, axes))
 
-    def condition_number(self, q: VectorLike, frame: str | None = None, axes: Sequence[str] | None = None) -> float:
+    def condition_number(self, q: VectorLike, frame: str | None = None,
+                         axes: Sequence[str] | None = None) -> float:
         """``sigma_max / sigma_min`` of the task rows (``inf`` at a singularity)."""
         return singularity.condition_number(self._task_jacobian(q, frame, axes))
 

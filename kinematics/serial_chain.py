@@ -2,8 +2,9 @@
 
 :func:`joint_chain` lists the joints from the root to a frame and
 :func:`joint_axis` reads a joint's kind and axis (used by the batch FK, the
-batched LM and the planar closed form). :func:`serial_chain` reads a Pinocchio model's path to a frame - every joint
-that moves the frame, in order from the root - and packs it as
+batched LM and the planar closed form). :func:`serial_chain` reads a
+Pinocchio model's path to a frame - every joint that moves the frame, in
+order from the root - and packs it as
 
 * ``geometry`` ``(n + 1, 15)``: row ``k < n`` is joint ``k``'s placement in
   its parent joint frame (rotation row-major, 9 numbers; translation, 3) and

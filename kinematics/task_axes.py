@@ -102,9 +102,10 @@ def detect_task_axes(model: pin.Model) -> TaskAxes:
                 axes = _ordered(names)
                 slides = ""
                 if prismatic:
-                    slides = f" and every prismatic axis lies in the plane{' or along its normal' if any(along) else ''}"
-                return TaskAxes(axes, f"planar: every revolute axis is parallel to world {_TRANSLATION[k]}{slides}; "
-                                      f"task rows {' '.join(axes)}")
+                    normal = " or along its normal" if any(along) else ""
+                    slides = f" and every prismatic axis lies in the plane{normal}"
+                return TaskAxes(axes, "planar: every revolute axis is parallel to world "
+                                      f"{_TRANSLATION[k]}{slides}; task rows {' '.join(axes)}")
             if all(a or b for a, b in zip(in_plane, along)):
                 note = "planar in a plane not normal to a world axis (rows cannot be named); "
                 return _general(nq, note)
@@ -118,8 +119,8 @@ def detect_task_axes(model: pin.Model) -> TaskAxes:
 
 def _general(nq: int, note: str) -> TaskAxes:
     if nq <= 3:
-        return TaskAxes(_TRANSLATION, f"{note}{nq} joint(s), not planar: the position rows x y z are the meaningful "
-                                      "ones (the orientation follows from the position)")
+        return TaskAxes(_TRANSLATION, f"{note}{nq} joint(s), not planar: the position rows x y z are the "
+                                      "meaningful ones (the orientation follows from the position)")
     if nq < 6:
         return TaskAxes(TASK_AXES, f"{note}{nq} joints: all six rows, the Jacobian has rank at most {nq}; "
                                    f"singular means rank below {nq}")

@@ -13,7 +13,8 @@ from typing import Union
 import pinocchio as pin
 from numpy.typing import ArrayLike
 
-#: A 4x4 homogeneous transform: array-like (rotation block orthonormal, last row 0 0 0 1) or a ``pinocchio.SE3``.
+#: A 4x4 homogeneous transform: array-like (rotation block orthonormal, last row 0 0 0 1) or a
+#: ``pinocchio.SE3``.
 PoseLike = Union[ArrayLike, pin.SE3]
 
 #: A 1-D sequence of numbers (joint values in rad / m, a twist ``[v; w]``, a point ...).

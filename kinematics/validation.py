@@ -25,7 +25,8 @@ from .types import ArrayLike, PoseLike
 MAX_ABS = 1e6
 
 _hypot = math.hypot
-#: Longest vector whose fast check is ``hypot(*q)`` (a Python list of that many floats); longer ones use ``q·q``.
+#: Longest vector whose fast check is ``hypot(*q)`` (a Python list of that many floats); longer ones
+#: use ``q·q``.
 _HYPOT_MAX_N = 64
 
 #: Tolerance on ||R^T R - I|| (max abs entry) and on |det R - 1| for poses.
@@ -42,7 +43,8 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     infinities or entries with magnitude above :data:`MAX_ABS`.
     """
     if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,):
-        if (_hypot(*value.tolist()) < MAX_ABS) if n <= _HYPOT_MAX_N else (value.dot(value) < MAX_ABS * MAX_ABS):
+        if ((_hypot(*value.tolist()) < MAX_ABS) if n <= _HYPOT_MAX_N
+                else (value.dot(value) < MAX_ABS * MAX_ABS)):
             return value  # NaN compares False, inf is not below the bound
         check_bounded(value, name)
         return value
@@ -94,7 +96,8 @@ def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
     """
     if hasattr(value, "homogeneous") and hasattr(value, "rotation"):
         value = value.homogeneous
-    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4) and is_pose_fast(value):
+    if (type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4)
+            and is_pose_fast(value)):
         return value
     T = as_matrix(value, (4, 4), name)
     if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
@@ -127,7 +130,7 @@ def is_pose_fast(T: np.ndarray) -> bool:
 
 
 def as_positive(value: object, name: str) -> float:
-    """``value`` as a float if it is a finite real number > 0 (bools are not numbers here); else the named error."""
+    """``value`` as a float if it is a finite real number > 0 (not a bool); else the error naming ``name``."""
     if type(value) is float and 0.0 < value < math.inf:  # the common case without the abstract-class checks
         return value
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
@@ -167,7 +170,7 @@ def is_bounded(arr: np.ndarray) -> bool:
 
 
 def check_bounded(arr: np.ndarray, name: str) -> None:
-    """Raise :class:`NonFiniteError` naming the entries of ``arr`` that are not finite or exceed ``MAX_ABS``."""
+    """Raise :class:`NonFiniteError` naming the entries of ``arr`` not finite or with ``|x| > MAX_ABS``."""
     if not is_bounded(arr):
         _raise_non_finite(arr, name)
 
