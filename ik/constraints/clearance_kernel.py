@@ -37,7 +37,7 @@ Pinocchio's joint Jacobians (see :mod:`..sphere_rows`). Everything the kernels
 call is in this file: Numba's on-disk cache of a function is invalidated by
 changes to its own file only, so a compiled primitive called from another file
 would keep stale code (the tree FK repeats the few lines of
-:func:`kinserve.kinematics.collision_spheres.tree_placements` for that reason).
+:func:`kinserve.kinematics.precheck_kernels.tree_placements` for that reason).
 """
 
 from __future__ import annotations
