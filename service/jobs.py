@@ -103,7 +103,7 @@ def capped(max_time: float | None) -> float:
 
 
 def robot_of(req: S.RobotRef):
-    """The pooled robot a request names; an unknown robot or bad parameters is a 4xx on its field."""
+    """The pooled robot a request names; errors as a :class:`FieldError` (404 for an unknown robot)."""
     with field("params" if req.params else "robot"):
         return pool().get(req.robot, dict(req.params))
 
@@ -170,8 +170,8 @@ def solve_ik(deadline: Deadline, req: S.IKRequest, max_time: float) -> dict:
     problem, loc = (req.target, "target") if req.target is not None else (req.targets, "targets")
     if (kwargs["obstacles"] or kwargs["spheres"]) and not req.self_collision:
         tool_frames = [t.frame for t in req.targets] if req.targets else [kwargs["frame"] or r.tip]
+        # binding checks the obstacles now: one containing the fixed base is an error on its field
         with field("obstacles" if kwargs["obstacles"] else "spheres"):
-            # an obstacle containing the fixed base
             ik.ObstacleAvoidance(kwargs["spheres"] + kwargs["obstacles"], link_radius=req.link_radius,
                                  tool_frames=tool_frames).bind(r)
     if req.target is not None:
@@ -236,8 +236,10 @@ def prepare_starts(robot, kwargs: dict) -> None:
 
 
 def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
-    """``POST /ik/batch``: the targets in order, each with ``min(max_time, time left)``; the rest not
-    attempted."""
+    """``POST /ik/batch``: the targets in order, each given ``min(max_time, time left)``, until time is up.
+
+    The targets the time cap leaves no time for are answered as not attempted (:func:`not_attempted`).
+    """
     t0 = time.perf_counter()
     r = robot_of(req)
     kwargs = ik_kwargs(r, req)
