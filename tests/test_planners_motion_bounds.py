@@ -17,7 +17,14 @@ import pytest
 
 from kinserve import ik, robots
 from kinserve.kinematics.collision_model import bounding_sphere
-from kinserve.planners.motion.clearance import TOLERANCE, ClearanceOracle
+from kinserve.planners.motion.clearance import (
+    CLEARANCE_FLOOR,
+    TOLERANCE,
+    Clearance,
+    ClearanceOracle,
+    need_of,
+    pair_rates,
+)
 from kinserve.planners.motion.edges import PROBES, EdgeCertifier
 from kinserve.planners.motion.reach import carrying_joints, geometry_reach, joint_kinds, pair_reach
 
@@ -109,7 +116,7 @@ def test_the_oracle_radius_is_the_exact_one_and_its_bounds_are_lower_bounds(pand
         c = oracle.clearance(q)
         assert np.all(c.distance <= exact + 1e-9)
         w = W @ np.abs(rng.normal(size=7))
-        rho = oracle.radius(c, w)
+        rho = oracle.radius(c, pair_rates(w))
         assert rho == pytest.approx(np.min((exact - TOLERANCE) / w), rel=1e-6)
         assert c.exact.sum() < len(exact)  # coal asked for a few pairs only
         np.testing.assert_allclose(c.distance[c.exact], exact[c.exact], atol=1e-9)
@@ -150,8 +157,6 @@ def test_the_same_edge_without_the_obstacle_is_certified(panda):
 
 
 def test_a_pair_that_does_not_move_only_has_to_be_apart(panda):
-    from kinserve.planners.motion.clearance import CLEARANCE_FLOOR, Clearance
-
     scene = panda.collision_scene(())
     oracle = ClearanceOracle(scene)
     P = len(scene.pairs)
@@ -159,9 +164,13 @@ def test_a_pair_that_does_not_move_only_has_to_be_apart(panda):
     d[3] = 0.5 * CLEARANCE_FLOOR
     c = Clearance(panda.neutral(), d, np.ones(P, dtype=bool))
     rates = np.ones(P)
-    assert oracle.radius(c, rates) == -1.0 and oracle.floor_violation(c) == 3
+    assert oracle.radius(c, pair_rates(rates)) == -1.0
+    assert oracle.floor_violation(c, need_of(np.ones(P, dtype=bool))) == 3
     rates[3] = 0.0
-    assert oracle.radius(c, rates) == pytest.approx((0.05 - TOLERANCE) / 1.0)
-    assert oracle.floor_violation(c, rates > 0) == -1
+    assert oracle.radius(c, pair_rates(rates)) == pytest.approx((0.05 - TOLERANCE) / 1.0)
+    assert oracle.floor_violation(c, need_of(rates > 0)) == -1
     d[3] = 0.0
-    assert oracle.radius(c, rates) == -1.0
+    assert oracle.radius(c, pair_rates(rates)) == -1.0
+    assert oracle.radius(c, pair_rates(np.zeros(P))) == -1.0
+    d[3] = 1e-6
+    assert oracle.radius(c, pair_rates(np.zeros(P))) == float("inf")

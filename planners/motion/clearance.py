@@ -10,8 +10,9 @@ true lower bound, a negative one says nothing) - or with every exact distance,
 from one ``pinocchio.computeDistances``, when the scene has no pre-check - and is
 refined in place, pair by pair, by :meth:`ClearanceOracle.radius`.
 
-``radius(c, w)``: the largest ``|ds|`` such that every pair keeps at least
-:data:`TOLERANCE` when pair ``p``'s distance changes by at most ``w[p] |ds|``,
+``radius(c, rates)`` (the :class:`PairRates` of ``w``): the largest ``|ds|`` such that
+every pair keeps at least :data:`TOLERANCE` when pair ``p``'s distance changes by at
+most ``w[p] |ds|``,
 ``rho = min_p (d_p - TOLERANCE) / w_p``, computed as if every distance were exact:
 it refines the pairs whose bound would decide ``rho`` (smallest bound-based
 ``rho`` first, a few at a time) until the smallest one is exact; the other
@@ -29,7 +30,7 @@ the oracle's own ``pinocchio.Data`` / ``GeometryData``.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -43,6 +44,36 @@ CLEARANCE_FLOOR = 1e-4
 TOLERANCE = 1e-5
 #: Pairs refined together by :meth:`ClearanceOracle.radius` per round.
 REFINE_BATCH = 4
+
+
+class PairRates(NamedTuple):
+    """The pair rates of one motion and what :meth:`ClearanceOracle.radius` derives from them, once.
+
+    ``rates`` ``(P,)``: pair ``p``'s distance changes by at most ``rates[p] |ds|`` (m); ``inverse``:
+    ``1 / rates`` (0 where a pair does not move); ``offset``: 0, or ``inf`` where a pair does not move
+    (so ``(d - TOLERANCE) * inverse + offset`` is every pair's ``rho``); ``need``: the distance each pair
+    must keep (m): :data:`CLEARANCE_FLOOR` where it moves, the smallest positive float where not (it only
+    has to be apart); ``moving``: whether any pair moves.
+    """
+
+    rates: np.ndarray
+    inverse: np.ndarray
+    offset: np.ndarray
+    need: np.ndarray
+    moving: bool
+
+
+def pair_rates(rates: np.ndarray) -> PairRates:
+    """The :class:`PairRates` of ``rates`` ``(P,)`` (m per unit of the motion's parameter)."""
+    moving = rates > 0.0
+    inverse = np.divide(1.0, rates, out=np.zeros_like(rates), where=moving)
+    return PairRates(rates, inverse, np.where(moving, 0.0, np.inf), need_of(moving), bool(moving.any()))
+
+
+def need_of(moving: np.ndarray) -> np.ndarray:
+    """The distance each pair must keep (m): :data:`CLEARANCE_FLOOR` where ``moving``, else the smallest
+    positive float."""
+    return np.where(moving, CLEARANCE_FLOOR, np.finfo(float).tiny)
 
 
 @dataclass(eq=False)
@@ -115,39 +146,40 @@ class ClearanceOracle:
             c.exact[k] = True
         self.pair_distances += len(pairs)
 
-    def floor_violation(self, c: Clearance, moving: np.ndarray | None = None) -> int:
-        """Index of a pair of ``c`` closer than it may be (-1 when none is): a pair of ``moving`` (a mask;
-        None: every pair) closer than :data:`CLEARANCE_FLOOR`, another one at a distance <= 0 (its distance
-        does not change). The bounds that cannot decide are refined first."""
-        need = np.where(True if moving is None else moving, CLEARANCE_FLOOR, 0.0) * np.ones(self.n_pairs)
-        low = np.flatnonzero(~c.exact & (c.distance <= need))
-        if len(low):
-            self.refine(c, low)
-        bad = np.flatnonzero((c.distance < need) | (c.distance <= 0.0))
-        return int(bad[np.argmin(c.distance[bad])]) if len(bad) else -1
+    def floor_violation(self, c: Clearance, need: np.ndarray) -> int:
+        """Index of the closest pair of ``c`` below the distance it must keep, ``need`` ``(P,)`` (m; see
+        :class:`PairRates`), -1 when none is. The bounds below ``need`` are refined first."""
+        low = c.distance < need
+        if low.any():
+            inexact = np.flatnonzero(low & ~c.exact)
+            if len(inexact):
+                self.refine(c, inexact)
+            bad = np.flatnonzero(c.distance < need)
+            if len(bad):
+                return int(bad[np.argmin(c.distance[bad])])
+        return -1
 
-    def radius(self, c: Clearance, rates: np.ndarray) -> float:
-        """``rho`` of ``c`` for the pair rates ``rates`` ``(P,)`` (module docstring): ``-1`` when a pair that
-        moves (``rates > 0``) is below the floor or one that does not is in contact, ``inf`` when no pair
-        moves."""
-        moving = rates > 0.0
-        if self.floor_violation(c, moving) >= 0:
+    def radius(self, c: Clearance, rates: PairRates) -> float:
+        """``rho`` of ``c`` for the pair rates ``rates`` (module docstring): ``-1`` when a pair is below the
+        distance it must keep, ``inf`` when no pair moves."""
+        if self.floor_violation(c, rates.need) >= 0:
             return -1.0
-        if not moving.any():
+        if not rates.moving:
             return float("inf")
-        with np.errstate(divide="ignore"):
-            rho = np.where(moving, (c.distance - TOLERANCE) / np.where(moving, rates, 1.0), np.inf)
+        rho = (c.distance - TOLERANCE) * rates.inverse + rates.offset
         while True:
             k = int(np.argmin(rho))
             if c.exact[k]:
                 return float(rho[k])
-            exact_best = float(np.min(rho[c.exact])) if c.exact.any() else np.inf
-            open_pairs = np.flatnonzero(~c.exact & (rho < exact_best))
-            batch = open_pairs[np.argsort(rho[open_pairs], kind="stable")[:REFINE_BATCH]]
+            exact_best = float(np.min(np.where(c.exact, rho, np.inf)))
+            batch = np.flatnonzero((rho < exact_best) & ~c.exact)
+            if len(batch) > REFINE_BATCH:  # the smallest ones
+                batch = batch[np.argpartition(rho[batch], REFINE_BATCH - 1)[:REFINE_BATCH]]
             self.refine(c, batch)
-            if np.any(c.distance[batch] < CLEARANCE_FLOOR):
+            if np.any(c.distance[batch] < rates.need[batch]):
                 return -1.0
-            rho[batch] = (c.distance[batch] - TOLERANCE) / rates[batch]
+            rho[batch] = (c.distance[batch] - TOLERANCE) * rates.inverse[batch] + rates.offset[batch]
 
 
-__all__ = ["CLEARANCE_FLOOR", "REFINE_BATCH", "TOLERANCE", "Clearance", "ClearanceOracle"]
+__all__ = ["CLEARANCE_FLOOR", "REFINE_BATCH", "TOLERANCE", "Clearance", "ClearanceOracle", "PairRates",
+           "need_of", "pair_rates"]

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .clearance import Clearance, ClearanceOracle
+from .clearance import Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
@@ -43,8 +43,9 @@ class EdgeCertifier:
     def __init__(self, oracle: ClearanceOracle, reach: np.ndarray) -> None:
         self.oracle = oracle
         self.reach = np.ascontiguousarray(reach, dtype=float)
-        #: The pairs some joint motion moves (the others keep their distance whatever the motion).
-        self.movable = self.reach.any(axis=1)
+        #: The distance each pair must keep at a path's end (:func:`~.clearance.need_of`): the pairs no joint
+        #: moves keep their distance whatever the motion, they only have to be apart.
+        self.end_need = need_of(self.reach.any(axis=1))
 
     def in_collision(self, q: np.ndarray) -> bool:
         """The scene's collision test at ``q`` (float ``(nq,)``)."""
@@ -61,11 +62,12 @@ class EdgeCertifier:
 
     def closest_violation(self, c: Clearance) -> int:
         """The closest pair of ``c`` that breaks :meth:`clear`, -1 when none does."""
-        return self.oracle.floor_violation(c, self.movable)
+        return self.oracle.floor_violation(c, self.end_need)
 
-    def rates(self, u: np.ndarray) -> np.ndarray:
-        """``w`` ``(P,)``: per pair, the bound of its distance change per unit ``s`` along ``q + s u``."""
-        return self.reach @ np.abs(u)
+    def rates(self, u: np.ndarray) -> PairRates:
+        """The :class:`~.clearance.PairRates` of the motion ``q + s u``: per pair, the bound ``W[p] . |u|`` of
+        its distance change per unit ``s``."""
+        return pair_rates(self.reach @ np.abs(u))
 
     def room(self, c: Clearance, direction: np.ndarray) -> float:
         """The largest ``t`` such that ``c.q + t' direction`` is certified free for ``|t'| <= t``."""

@@ -33,16 +33,18 @@ from .clearance import Clearance
 from .edges import EdgeCertifier
 
 #: Random shortcut attempts.
-SHORTCUT_ATTEMPTS = 60
+SHORTCUT_ATTEMPTS = 40
 #: Partial (one joint) shortcut attempts.
-PARTIAL_ATTEMPTS = 30
+PARTIAL_ATTEMPTS = 15
+#: Attempts in a row without a gain after which a series of attempts stops.
+FRUITLESS = 10
 #: Most inner waypoints of a stretch a partial shortcut rewrites.
 PARTIAL_MAX_VERTICES = 4
 #: Smallest length gain (rad) for which a shortcut is tried.
 MIN_GAIN = 1e-6
 #: Most advances of the certificate of one new segment (:meth:`~.edges.EdgeCertifier.certify`): a
 #: segment that grazes an obstacle needs many; the simplifier gives it up instead.
-SHORTCUT_ADVANCES = 100
+SHORTCUT_ADVANCES = 60
 
 
 class CertifiedPath(NamedTuple):
@@ -136,21 +138,30 @@ def remove_vertices(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedP
     return CertifiedPath(np.array(Q), C)
 
 
+def _attempts(path: CertifiedPath, attempt, certifier: EdgeCertifier, rng: np.random.Generator,
+              count: int) -> CertifiedPath:
+    """Up to ``count`` calls ``attempt(path, certifier, rng)``, stopping after :data:`FRUITLESS` in a row that
+    change nothing or when the path is one segment."""
+    idle = 0
+    for _ in range(count):
+        if len(path.points) <= 2 or idle >= FRUITLESS:
+            break
+        new = attempt(path, certifier, rng)
+        idle = idle + 1 if new is path else 0
+        path = new
+    return path
+
+
 def simplify_path(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
-    """Vertex removal, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS` partial shortcuts and
-    vertex removal again; never longer than ``path``, with the same ends."""
+    """Vertex removal, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS` partial shortcuts (each
+    series stops after :data:`FRUITLESS` attempts in a row without a gain) and vertex removal again; never
+    longer than ``path``, with the same ends."""
     path = remove_vertices(path, certifier)
-    for _ in range(SHORTCUT_ATTEMPTS):
-        if len(path.points) <= 2:
-            break
-        path = try_shortcut(path, certifier, rng)
-    for _ in range(PARTIAL_ATTEMPTS):
-        if len(path.points) <= 2:
-            break
-        path = try_partial_shortcut(path, certifier, rng)
+    path = _attempts(path, try_shortcut, certifier, rng, SHORTCUT_ATTEMPTS)
+    path = _attempts(path, try_partial_shortcut, certifier, rng, PARTIAL_ATTEMPTS)
     return remove_vertices(path, certifier)
 
 
-__all__ = ["MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES", "SHORTCUT_ADVANCES", "SHORTCUT_ATTEMPTS",
-           "CertifiedPath", "path_length", "remove_vertices", "simplify_path", "try_partial_shortcut",
-           "try_shortcut"]
+__all__ = ["FRUITLESS", "MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES", "SHORTCUT_ADVANCES",
+           "SHORTCUT_ATTEMPTS", "CertifiedPath", "path_length", "remove_vertices", "simplify_path",
+           "try_partial_shortcut", "try_shortcut"]
