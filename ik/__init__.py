@@ -29,17 +29,15 @@ bound to a robot), :mod:`ik.qp.hierarchy` (one prioritised step),
 :mod:`ik.batch.worker`, :mod:`ik.batch.runners`, :mod:`ik.batch.pool`).
 """
 
-from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
-
 from kinserve.ik.batch.solve_many import solve_many
 from kinserve.ik.closed_form.chooser import CRITERIA, choose
 from kinserve.ik.constraints import CollisionConstraint, Constraint, SceneCollision, SelfCollision
 from kinserve.ik.constraints.joint_limits import JointLimits
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.constraints.velocity_limits import VelocityLimits
+from kinserve.ik.options import METHODS
 from kinserve.ik.qp.backends import available_backends
 from kinserve.ik.result import History, Result
-from kinserve.ik.options import METHODS
 from kinserve.ik.solve import solve, solve_all
 from kinserve.ik.state import warm
 from kinserve.ik.step import step
@@ -48,6 +46,7 @@ from kinserve.ik.tasks import Task
 from kinserve.ik.tasks.centring_task import CentringTask
 from kinserve.ik.tasks.frame_task import FrameTask
 from kinserve.ik.tasks.posture_task import PostureTask
+from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
 __all__ = [
     "solve", "solve_all", "solve_many", "step", "warm", "Result", "History",

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 
 def available_backends() -> list[str]:
-    """Backend names usable on this machine: osqp, daqp, proxqp, quadprog first when installed, then the rest."""
+    """Backend names usable on this machine: osqp, daqp, proxqp, quadprog first when installed, then the
+    rest."""
     import qpsolvers
 
     names = []

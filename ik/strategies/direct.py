@@ -25,8 +25,8 @@ from kinserve.ik.strategies.budget import Budget, request_budget
 def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, **extra: Any) -> Result:
     """LM from the request's start sequence (``extra``: the checked strategy's ``accept`` / ``admit``)."""
     if budget is None and not req.options and not extra:  # the common call: no keyword dictionaries
-        return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
-                        max_time=MAX_TIME_LM if req.max_time is None else req.max_time)
+        return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot,
+                        seed=req.seed, max_time=MAX_TIME_LM if req.max_time is None else req.max_time)
     budget = request_budget(req, MAX_TIME_LM) if budget is None else budget
     opts = options_for("lm", req.options)
     return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
