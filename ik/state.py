@@ -26,8 +26,10 @@ from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
+from kinserve.ik.collision.request import collision_request
 from kinserve.ik.constraints.base_overlap import BaseClearance
 from kinserve.ik.constraints.robot_skeleton import RobotSkeleton, build_robot_skeleton
+from kinserve.ik.lm.chains import compiled_chains
 from kinserve.ik.starts.seed_table import SeedTable
 from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
@@ -159,17 +161,17 @@ def ik_state(robot: Robot) -> IKState:
 
 def warm(robot: Robot, frames: str | Iterable[str] | None = None, *, self_collision: bool = False,
          obstacles: Sequence[Any] = (), collision_margin: float = 0.0) -> IKState:
-    """Build the robot's IK state for ``frames`` (default ``robot.tip``) now: seed tables, closed forms and,
-    with ``self_collision`` or ``obstacles``, the collision model, its compiled pre-check and the bound
-    constraint of that scene. Every later solve of those frames (and that scene) starts at once.
+    """Build the robot's IK state for ``frames`` (default ``robot.tip``) now: the compiled LM's chains, seed
+    tables, closed forms and, with ``self_collision`` or ``obstacles``, the collision model, its compiled
+    pre-check and the bound constraint of that scene. Every later solve of those frames (and that scene)
+    starts at once.
 
     ``ik.solve`` does the same for its own request before its clock starts, so calling this is never needed
     for correct answers; it moves the one-time cost (a fraction of a second per frame; seconds for the first
     collision model of a large robot) to a moment of the caller's choosing.
     """
-    from kinserve.ik.collision.request import collision_request
-
     state = ik_state(robot)
+    compiled_chains(robot)  # the compiled LM's chains of every frame (robot.lm_chains)
     names = [robot.tip] if frames is None else [frames] if isinstance(frames, str) else list(frames)
     for frame in names:
         robot.frame_id(frame)  # a clear FrameError for an unknown name
