@@ -59,7 +59,7 @@ _EYE3 = np.eye(3)
 _F64 = np.dtype(np.float64)
 
 
-def _checked_pose(pose) -> np.ndarray:
+def checked_pose(pose: object) -> np.ndarray:
     """A private float64 copy of a 4x4 pose (or ``pinocchio.SE3``), validated.
 
     Fast path in plain Python floats for a well-formed pose (about 2 us);
@@ -130,7 +130,7 @@ class Target:
 
     def __init__(self, robot: Robot, pose: PoseLike, frame: str | None = None,
                  relax: str | Iterable[str] | None = (), relax_frame: str = "world") -> None:
-        T = _checked_pose(pose)
+        T = checked_pose(pose)
         self.T = T
         self._R = T[:3, :3]
         self._p = T[:3, 3]

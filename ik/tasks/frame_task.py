@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from kinserve.ik.targets import RELAX_FRAMES, Target, _checked_pose, parse_relax
+from kinserve.ik.targets import RELAX_FRAMES, Target, checked_pose, parse_relax
 from kinserve.ik.tasks.base import Task
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import TASK_AXES, Robot
@@ -73,7 +73,7 @@ class FrameTask(Task):
 
     def set_target(self, target: np.ndarray | pin.SE3) -> None:
         """Move the target (validated 4x4 pose or ``SE3``); cheap enough for a control loop."""
-        T = _checked_pose(target)
+        T = checked_pose(target)
         self._T = T
         self._p = T[:3, 3].copy()
         self._Rt = np.ascontiguousarray(T[:3, :3].T)
