@@ -39,6 +39,8 @@ BLEND_FRACTION = 0.5
 BLEND_SAFETY = 0.99
 #: Turns (rad, angle between ``e_in`` and ``e_out``) below which a corner is left as it is.
 MIN_TURN = 1e-9
+#: Straight parts shorter than this (rad) between two blends are dropped (rounding leftovers).
+MIN_PIECE = 1e-12
 
 
 def distinct_points(points: np.ndarray) -> np.ndarray:
@@ -89,7 +91,7 @@ class BlendedPath:
                 curv.append((E[i] - E[i - 1]) / (2.0 * d[i]))
                 sizes.append(2.0 * d[i])
             straight = lengths[i] - d[i] - d[i + 1]
-            if straight > 0.0:
+            if straight > MIN_PIECE:  # blends that meet leave no straight part (or one of rounding size)
                 starts.append(W[i] + d[i] * E[i])
                 dirs.append(E[i])
                 curv.append(np.zeros(W.shape[1]))
@@ -135,5 +137,5 @@ class BlendedPath:
         return out[0] if ss.ndim == 0 else out
 
 
-__all__ = ["BLEND_FRACTION", "BLEND_SAFETY", "MIN_TURN", "BlendedPath", "blend_lengths", "corner_directions",
-           "distinct_points"]
+__all__ = ["BLEND_FRACTION", "BLEND_SAFETY", "MIN_PIECE", "MIN_TURN", "BlendedPath", "blend_lengths",
+           "corner_directions", "distinct_points"]

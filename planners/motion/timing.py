@@ -141,10 +141,17 @@ def grid_times(profile: SpeedProfile) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(2.0 * ds / (profile.sd[:-1] + profile.sd[1:]))])
 
 
-def evaluate(path: BlendedPath, profile: SpeedProfile, times: np.ndarray,
-             t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Positions, velocities and accelerations ``(n, nq)`` at times ``t`` (module docstring); ``times``:
-    :func:`grid_times` of ``profile``."""
+class TrajectorySamples(NamedTuple):
+    """``positions``, ``velocities`` and ``accelerations`` ``(n, nq)`` at some times."""
+
+    positions: np.ndarray
+    velocities: np.ndarray
+    accelerations: np.ndarray
+
+
+def evaluate(path: BlendedPath, profile: SpeedProfile, times: np.ndarray, t: np.ndarray) -> TrajectorySamples:
+    """The :class:`TrajectorySamples` at times ``t`` (module docstring); ``times``: :func:`grid_times` of
+    ``profile``."""
     s, sd = profile.s, profile.sd
     u = (sd[1:] ** 2 - sd[:-1] ** 2) / (2.0 * np.diff(s))
     i = np.clip(np.searchsorted(times, t, side="right") - 1, 0, len(u) - 1)
@@ -155,7 +162,7 @@ def evaluate(path: BlendedPath, profile: SpeedProfile, times: np.ndarray,
     q = path(position, 0)
     qd = tangent * speed[:, None]
     qdd = tangent * u[i][:, None] + path(position, 2) * (speed ** 2)[:, None]
-    return q, qd, qdd
+    return TrajectorySamples(q, qd, qdd)
 
 
 def _interval_polynomials(path: BlendedPath, profile: SpeedProfile):
@@ -250,7 +257,7 @@ def time_parameterize(toppra: ModuleType, points: np.ndarray, room: np.ndarray, 
     return TimedPath(_sampled(path, profile, joint_names), profile.method)
 
 
-__all__ = ["GRID_INTERVALS", "LIMIT_SAFETY", "MIN_PIECE_INTERVALS", "TRAJECTORY_DT",
-           "SpeedProfile", "TimedPath", "evaluate", "grid_times", "limit_ratios", "load_toppra",
+__all__ = ["GRID_INTERVALS", "LIMIT_SAFETY", "MIN_PIECE_INTERVALS", "TRAJECTORY_DT", "SpeedProfile",
+           "TimedPath", "TrajectorySamples", "evaluate", "grid_times", "limit_ratios", "load_toppra",
            "rest_to_rest_profile", "sample_times", "time_parameterize", "toppra_grid", "toppra_profile",
            "within_limits"]
