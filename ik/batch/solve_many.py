@@ -31,7 +31,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable
+import sys
+from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -241,31 +242,51 @@ def solve_many(
                   link_radius=link_radius, centring=centring, method=method, backend=qp_backend,
                   tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
                   self_collision=self_collision, collision_margin=collision_margin)
-    # the shared arguments once (frame, relax, obstacles, method, tolerances...), then every target
-    prepared = target_request(robot, np.eye(4), None, **kwargs, options=options)
-    frame = kwargs["frame"] = prepared.target.frame
-    poses = checked_poses(robot, targets, frame, relax, relax_frame)
-    n = len(poses)
-    if n == 0:
+    job = _job(robot, targets, q0, kwargs, options, keep_history)
+    if job is None:
         return []
-    q0s = _checked_q0s(robot, q0, n)
-    # a start inside an obstacle is not an error (as in ik.solve): the solver moves out or starts elsewhere
+    n = len(job.poses)
     processes = min(_cpu_count() if processes is None else processes, n)
-    job = Job(robot, kwargs, options, keep_history, frame, poses, q0s, prepared=prepared)
     job.ray_address = ray_address
     chunks = chunk_bounds(n, processes, chunksize, job.vectorised)
-    runner = BACKENDS[backend]
-    if processes == 1 and backend == "processes":
-        runner = run_serial
-
+    runner = run_serial if processes == 1 and backend == "processes" else BACKENDS[backend]
     results: list = [None] * n
-    bar = None
-    if progress is None:
-        progress = n >= PROGRESS_THRESHOLD
-    if progress:
-        from tqdm import tqdm
+    bar = _progress_bar(n, progress)
+    try:
+        runner(job, chunks, processes, _collector(results, job.frame, bar), TimeLimits.for_job(job, timeout))
+    finally:
+        if bar is not None:
+            bar.close()
+    return results
 
-        bar = tqdm(total=n, desc="kinserve.ik.solve_many", unit="target", leave=False)
+
+def _job(robot: Robot, targets: Any, q0: Any, kwargs: dict, options: dict, keep_history: bool) -> Job | None:
+    """The validated :class:`Job` of a call (one request shared by every target), or None without targets.
+
+    A start inside an obstacle is not an error (as in ``ik.solve``): the solver moves out or starts elsewhere.
+    """
+    prepared = target_request(robot, np.eye(4), None, **kwargs, options=options)
+    frame = kwargs["frame"] = prepared.target.frame
+    poses = checked_poses(robot, targets, frame, kwargs["relax"], kwargs["relax_frame"])
+    if len(poses) == 0:
+        return None
+    q0s = _checked_q0s(robot, q0, len(poses))
+    return Job(robot, kwargs, options, keep_history, frame, poses, q0s, prepared=prepared)
+
+
+def _progress_bar(n: int, progress: bool | None) -> Any:
+    """A tqdm bar on stderr: with ``progress=True``, or by default for large calls on a terminal."""
+    if progress is None:
+        progress = n >= PROGRESS_THRESHOLD and sys.stderr.isatty()
+    if not progress:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=n, desc="kinserve.ik.solve_many", unit="target", leave=False)
+
+
+def _collector(results: list, frame: str, bar: Any) -> Callable[[dict], None]:
+    """``on_done(chunk)``: the chunk's compact arrays as :class:`Result` objects in ``results``."""
 
     def on_done(res: dict) -> None:
         s = res["start"]
@@ -282,9 +303,4 @@ def solve_many(
         if bar is not None:
             bar.update(m)
 
-    try:
-        runner(job, chunks, processes, on_done, TimeLimits.for_job(job, timeout))
-    finally:
-        if bar is not None:
-            bar.close()
-    return results
+    return on_done
