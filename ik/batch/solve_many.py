@@ -218,7 +218,7 @@ def solve_many(
     chunksize:
         Targets per chunk (default: see :func:`chunk_bounds`).
     progress:
-        Show a tqdm bar (default: for batches of at least 500 targets).
+        Show a tqdm bar (default: for batches of at least 500 targets when stderr is a terminal).
     backend:
         Execution backend, ``"processes"`` (default; a persistent pool, see
         :mod:`ik.batch.pool`), ``"serial"`` or ``"ray"`` (:mod:`ik.batch.ray_backend`;
