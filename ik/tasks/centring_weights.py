@@ -90,16 +90,13 @@ _geqrf, _ormqr = get_lapack_funcs(("geqrf", "ormqr"), (np.eye(2),))
 #: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
 RANK_TOL = 1e-6
 
-_qr_consts: dict = {}
 _vdot = np.vdot
 
 
 def _qr_constants(m: int, n: int) -> np.ndarray:
-    """The last ``n - m`` columns of ``I_n`` (Fortran order, cached read-only)."""
-    E = _qr_consts.get((m, n))
-    if E is None:
-        E = _qr_consts[(m, n)] = np.asfortranarray(np.eye(n)[:, m:])
-        E.flags.writeable = False
+    """The last ``n - m`` columns of ``I_n`` (Fortran order; made per call, a few floats)."""
+    E = np.zeros((n, n - m), order="F")
+    E[np.arange(m, n), np.arange(n - m)] = 1.0
     return E
 
 
