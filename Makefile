@@ -83,6 +83,7 @@ bench: $(VENV)/.installed-bench peers
 	$(PY) benchmarks/bench_planners.py --out bench-out/planners.json
 	$(PY) benchmarks/bench_service.py --out bench-out/service.json
 	$(PY) benchmarks/bench_motion.py --dataset $(MBM_DATASET) $(BENCH_IK_N) --out bench-out/motion.json
+	$(PY) benchmarks/bench_clutter.py --dataset $(MBM_DATASET) $(if $(BENCH_N),--per-set $(BENCH_N),--all) --out bench-out/clutter.json
 	$(PY) benchmarks/render_tables.py bench-out --out bench-out/tables.md
 
 clean:
