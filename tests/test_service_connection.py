@@ -1,4 +1,10 @@
-"""Idle, slow and surplus connections are closed (service.connection), on a real server over raw sockets."""
+"""Idle, slow and surplus connections are closed (service.connection), on a real server over raw sockets.
+
+No bound here depends on the machine's speed: a timeout is checked as "not before it" (the server cannot
+close early because the machine is slow) and "at all" (within GRACE seconds after it - only a missing
+timeout takes that long); requests meant to keep a connection alive are spaced at a quarter of the
+keep-alive time; the header timeout (3 s) leaves room to tell a cap's immediate close from its own.
+"""
 
 from __future__ import annotations
 
@@ -10,9 +16,10 @@ import pytest
 
 from service_server import Server
 
-HEADER_TIMEOUT = 1.0
-KEEP_ALIVE = 1.0
+HEADER_TIMEOUT = 3.0
+KEEP_ALIVE = 2.0
 MAX_CONNECTIONS = 8
+GRACE = 10.0  # s a close may come after its timeout on a busy machine
 
 
 @pytest.fixture(scope="module")
@@ -59,9 +66,9 @@ def connect(server) -> socket.socket:
 
 def test_a_silent_new_connection_is_closed_after_the_header_timeout(server):
     sock = connect(server)
-    dt = closed_after(sock, 5 * HEADER_TIMEOUT)
+    dt = closed_after(sock, HEADER_TIMEOUT + GRACE)
     sock.close()
-    assert dt is not None and 0.8 * HEADER_TIMEOUT < dt < 1.5 * HEADER_TIMEOUT + 0.3
+    assert dt is not None and 0.8 * HEADER_TIMEOUT < dt
 
 
 def test_headers_trickled_slowly_are_cut_at_the_header_timeout(server):
@@ -69,7 +76,7 @@ def test_headers_trickled_slowly_are_cut_at_the_header_timeout(server):
     t0 = time.perf_counter()
     sock.sendall(b"GET /health HTTP/1.1\r\n")
     closed = False
-    while time.perf_counter() - t0 < 5 * HEADER_TIMEOUT:
+    while time.perf_counter() - t0 < HEADER_TIMEOUT + GRACE:
         time.sleep(0.1)
         try:
             sock.sendall(b"X-Slow: 1\r\n")
@@ -78,18 +85,20 @@ def test_headers_trickled_slowly_are_cut_at_the_header_timeout(server):
             break
     dt = time.perf_counter() - t0
     sock.close()
-    assert closed and dt < 1.5 * HEADER_TIMEOUT + 0.5
+    assert closed and 0.8 * HEADER_TIMEOUT < dt  # each header line arrived within 0.1 s: not a reprieve
 
 
 def test_an_idle_keep_alive_connection_is_closed_and_a_busy_one_is_not(server):
     sock = connect(server)
-    for _ in range(3):  # requests spaced below the keep-alive timeout reuse the connection
+    # requests spaced well below the keep-alive timeout reuse the connection, longer than one timeout in all
+    for i in range(5):
+        if i:
+            time.sleep(0.25 * KEEP_ALIVE)
         sock.sendall(b"GET /health HTTP/1.1\r\nHost: t\r\n\r\n")
         assert one_response(sock).startswith(b"HTTP/1.1 200")
-        time.sleep(0.5 * KEEP_ALIVE)
-    dt = closed_after(sock, 5 * KEEP_ALIVE)
+    dt = closed_after(sock, KEEP_ALIVE + GRACE)  # counted from the last response
     sock.close()
-    assert dt is not None and dt < 1.5 * KEEP_ALIVE + 0.3
+    assert dt is not None and 0.8 * KEEP_ALIVE < dt
 
 
 def test_connections_beyond_the_cap_are_closed_at_once_and_the_server_recovers(server):
@@ -97,9 +106,9 @@ def test_connections_beyond_the_cap_are_closed_at_once_and_the_server_recovers(s
     try:
         time.sleep(0.2)
         extra = connect(server)
-        dt = closed_after(extra, 0.8 * HEADER_TIMEOUT)
+        dt = closed_after(extra, 0.8 * HEADER_TIMEOUT)  # closed before a header timeout could have
         extra.close()
-        assert dt is not None and dt < 0.5, "a connection beyond the cap was kept open"
+        assert dt is not None, "a connection beyond the cap was kept open"
     finally:
         for s in held:
             s.close()
