@@ -1,4 +1,9 @@
-"""Request bodies bounded in size and time (service.limits), on a real server over loopback sockets."""
+"""Request bodies bounded in size and time (service.limits), on a real server over loopback sockets.
+
+No bound here depends on the machine's speed: "refused early" is "before the client could send the body",
+a timeout is checked as "not before it" and "at all" (within GRACE seconds after it - only a missing
+timeout takes that long), and /health's latency only has to stay far from a blocked event loop's.
+"""
 
 from __future__ import annotations
 
@@ -15,6 +20,7 @@ from kinserve import robots
 from service_server import Server
 
 BODY_TIMEOUT = 1.0
+GRACE = 10.0  # s an answer may come after its timeout on a busy machine
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +68,7 @@ def health_latencies(url: str, stop: threading.Event, out: list[float], ready: t
             time.sleep(0.01)
 
 
-def test_50_mb_body_is_refused_early_without_memory_or_latency_cost(server):
+def test_50_mb_body_is_refused_early_without_memory_or_blocking_the_server(server):
     body = b"x" * (50 << 20)
     rss0 = rss_mb(server.proc.pid)
     stop, ready, lat = threading.Event(), threading.Event(), []
@@ -75,6 +81,7 @@ def test_50_mb_body_is_refused_early_without_memory_or_latency_cost(server):
             extra = (f"Content-Length: {len(body)}\r\n" if framing == "length"
                      else "Transfer-Encoding: chunked\r\n")
             sock.sendall(head("/ik", extra))
+            sent_all = []
 
             def send_body():
                 try:
@@ -84,25 +91,25 @@ def test_50_mb_body_is_refused_early_without_memory_or_latency_cost(server):
                         for i in range(0, len(body), 1 << 20):
                             sock.sendall(b"%x\r\n" % (1 << 20) + body[i:i + (1 << 20)] + b"\r\n")
                         sock.sendall(b"0\r\n\r\n")
+                    sent_all.append(True)
                 except OSError:
                     pass  # the server answered and closed: exactly what we want
 
-            t0 = time.perf_counter()
             sender = threading.Thread(target=send_body)
             sender.start()
             status, data = read_response(sock, timeout=10)
-            elapsed = time.perf_counter() - t0
             sender.join(30)
             sock.close()
             assert status == 413, data[:300]
-            assert elapsed < 2.0, f"{framing}: 413 after {elapsed:.2f} s"
+            # early: the server closed before the body got through (it does not read 50 MB to refuse them)
+            assert not sent_all, f"{framing}: the whole body was read before the 413"
             assert b"limit of 65536 bytes" in data
         time.sleep(0.2)  # /health keeps being sampled after the refusals
     finally:
         stop.set()
         sampler.join()
     assert rss_mb(server.proc.pid) - rss0 < 20, "the server buffered the oversized body"
-    assert lat and max(lat) < 0.5 and sorted(lat)[int(0.95 * (len(lat) - 1))] < 0.05, lat
+    assert lat and max(lat) < 5.0, lat  # answered all along (a loop blocked on the body: the whole upload)
     assert server.alive()
 
 
@@ -123,22 +130,23 @@ def test_body_shorter_than_its_content_length_gets_408_within_the_timeout(server
     sock = socket.create_connection(("127.0.0.1", server.port))
     t0 = time.perf_counter()
     sock.sendall(head("/fk", "Content-Length: 1000\r\n") + b'{"robot": "panda", ')
-    status, data = read_response(sock, timeout=5 * BODY_TIMEOUT)
+    status, data = read_response(sock, timeout=BODY_TIMEOUT + GRACE)
     elapsed = time.perf_counter() - t0
     sock.close()
     assert status == 408, data[:300]
-    assert BODY_TIMEOUT * 0.9 < elapsed < BODY_TIMEOUT * 1.5 + 0.3
+    assert BODY_TIMEOUT * 0.9 < elapsed
     assert data.endswith(b"}")  # a complete JSON error answer, then the server closed the connection
     assert b"did not arrive within" in data
 
 
 def test_trickled_body_is_cut_at_the_timeout(server):
-    """A client sending a byte at a time cannot hold a connection past the body timeout."""
+    """A client sending a byte at a time cannot hold a connection past the body timeout. (The announced
+    length is within the 64 KiB limit: a larger one is refused at once with a 413, which is not this test.)"""
     sock = socket.create_connection(("127.0.0.1", server.port))
-    sock.sendall(head("/fk", "Content-Length: 100000\r\n"))
+    sock.sendall(head("/fk", "Content-Length: 60000\r\n"))
     t0 = time.perf_counter()
     closed = False
-    while time.perf_counter() - t0 < 5 * BODY_TIMEOUT:
+    while time.perf_counter() - t0 < BODY_TIMEOUT + GRACE:
         try:
             sock.sendall(b" ")
         except OSError:
@@ -155,4 +163,4 @@ def test_trickled_body_is_cut_at_the_timeout(server):
             closed = True
             break
     sock.close()
-    assert closed and time.perf_counter() - t0 < BODY_TIMEOUT * 1.5 + 0.3
+    assert closed and BODY_TIMEOUT * 0.9 < time.perf_counter() - t0
