@@ -1,9 +1,9 @@
 """NumPy entry points without their Python wrappers, for the IK's hot loops (one place for the private names).
 
-* :data:`clip` - the ``clip`` ufunc itself: ``np.clip`` adds a Python-level dispatch (about 1.5 us a
-  call on 7-vectors) before reaching it; the result is the same.
+* :data:`clip` - the ``clip`` ufunc itself: ``np.clip`` adds a Python-level dispatch
+  before reaching it; the result is the same.
 * :data:`einsum` - NumPy's C ``einsum``: what ``np.einsum`` without ``optimize`` calls, minus its
-  Python wrapper (about 1 us a call); the result is the same.
+  Python wrapper; the result is the same.
 
 Both live in ``numpy._core`` (``numpy.core`` before NumPy 2).
 """

@@ -51,11 +51,14 @@ DEFAULT_TOL_ROT = 1e-3
 #: request that may need the QP (centring, obstacles, collision, tasks), whose iterations cost more.
 MAX_TIME_LM = 0.1
 MAX_TIME_QP = 0.5
-#: Initial damping ``lambda_0`` of the LM / QP steps, its gain on the squared error, the stall test (a run
-#: stalls when its error falls by less than ``STALL_RATIO`` for ``STALL_PATIENCE`` iterations in a row).
+#: Floor ``lambda_0`` of the LM / QP damping (m^2 / rad^2 units of ``|e|^2``) and the gain of its error term.
 DAMPING = 1e-5
 DAMPING_GAIN = 0.01
-STALL_RATIO = 0.85
+#: The stall test: a start is abandoned when its best squared goal error has not fallen below this fraction
+#: of its best so far for ``STALL_PATIENCE`` iterations in a row. The QP's constrained iterations creep along
+#: an obstacle's surface when they stall: restarting early beats patience there (docs/benchmarks.md).
+STALL_RATIO_LM = 0.85
+STALL_RATIO_QP = 0.7
 STALL_PATIENCE = 2
 #: Iteration caps of one start (LM, QP) and the QP's bound on each joint step (rad or m).
 MAX_ITER_LM = 60

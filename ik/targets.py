@@ -62,7 +62,7 @@ _F64 = np.dtype(np.float64)
 def checked_pose(pose: object) -> np.ndarray:
     """A private float64 copy of a 4x4 pose (or ``pinocchio.SE3``), validated.
 
-    Fast path in plain Python floats for a well-formed pose (about 2 us);
+    Fast path in plain Python floats for a well-formed pose;
     anything else goes through :func:`kinematics.as_pose`, which raises the
     precise error (shape, NaN/inf, bottom row, rotation not orthonormal).
     """

@@ -64,21 +64,3 @@ def test_start_sequence_order_and_determinism():
     assert all(robot.within_limits(x) for x in a)
 
 
-def test_per_model_cache_is_by_identity_and_forgets_freed_models():
-    import gc
-
-    import pinocchio as pin
-
-    from kinserve.ik.starts.seed_table import PerModel
-
-    cache = PerModel()
-    a = pin.buildSampleModelManipulator()
-    b = pin.Model(a)  # an equal model (a WeakKeyDictionary would treat it as the same key)
-    assert cache.get(a) is None
-    da = cache.setdefault(a)
-    da["x"] = 1
-    assert cache.get(a) is da and cache.setdefault(a) is da
-    assert cache.get(b) is None and cache.setdefault(b) is not da
-    del a
-    gc.collect()
-    assert len(cache._entries) == 1  # a's entry went with a

@@ -56,6 +56,7 @@ import pinocchio as pin
 from scipy.linalg import get_lapack_funcs
 
 from kinserve.ik import numpy_fast
+from kinserve.ik import options as _options
 from kinserve.ik.lm.chains import compiled_chain
 from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, STALLED
 from kinserve.ik.result import History, Result, task_evaluator
@@ -69,18 +70,9 @@ if TYPE_CHECKING:  # annotations only
 
 __all__ = ["solve_lm", "python_start", "compiled_chain", "failure_message"]
 
-#: Floor ``lambda_0`` of the damping (m^2 / rad^2 units of ``|e|^2``).
-DAMPING = 1e-5
-#: Gain of the error term of the damping.
-DAMPING_GAIN = 0.01
-#: A start is abandoned when ``|e|^2`` has not fallen below this fraction of its best value so far ...
-STALL_RATIO = 0.85
-#: ... this many iterations in a row.
-STALL_PATIENCE = 2
-#: Iteration cap of one start.
-MAX_ITER = 60
-#: Default time budget of one solve (s).
-MAX_TIME = 0.1
+# the constants of ik.options under the names this module's callers and kernels use
+DAMPING, DAMPING_GAIN, STALL_PATIENCE = _options.DAMPING, _options.DAMPING_GAIN, _options.STALL_PATIENCE
+STALL_RATIO, MAX_ITER, MAX_TIME = _options.STALL_RATIO_LM, _options.MAX_ITER_LM, _options.MAX_TIME_LM
 #: Consecutive starts ``admit`` may refuse before :func:`solve_lm` gives up (the caller's scene leaves little
 #: room).
 ADMIT_MISSES = 20

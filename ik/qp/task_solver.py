@@ -55,6 +55,7 @@ from typing import NamedTuple
 import numpy as np
 
 from kinserve.ik import numpy_fast
+from kinserve.ik import options as _options
 from kinserve.ik.problem import Problem
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, QPCalls
 from kinserve.ik.qp.hierarchy import LevelSteps, level_steps
@@ -62,32 +63,18 @@ from kinserve.ik.qp.level_progress import LevelStall, LowerShares, ObjectiveWatc
 from kinserve.ik.result import History, Result
 from kinserve.ik.starts.multistart import starts
 
-#: Floor of the first level's Levenberg-Marquardt damping.
-DAMPING = 1e-5
-#: Gain of the error term of the damping.
-DAMPING_GAIN = 0.01
-#: Trust region: largest joint step per iteration (rad or m).
-MAX_STEP = 1.0
-#: Iteration cap of one start.
-MAX_ITER = 200
-#: Default time budget (s).
-MAX_TIME = 0.5
+# the constants of ik.options under the names this module's callers use
+DAMPING, DAMPING_GAIN, MAX_STEP = _options.DAMPING, _options.DAMPING_GAIN, _options.MAX_STEP
+MAX_ITER, MAX_TIME = _options.MAX_ITER_QP, _options.MAX_TIME_QP
 #: Objectives have converged when the step is below this (rad or m).
 STEP_TOL = 1e-6
 #: Halvings of a step before giving up on it.
 MAX_BACKTRACK = 20
 #: Iterations with the rows on after a lazy trial failed (an obstacle binds; trials would be wasted).
 LAZY_WAIT = 3
-#: Stall detection: best goal error^2 not improved by this factor for STALL_PATIENCE iterations (then the
-#: next start). Measured on Panda with spheres and boxes in the way: abandoning early and restarting beats
-#: patience (the constrained iterations creep along an obstacle's surface when they stall); on the starts
-#: that follow the unconstrained attempts of ik.solve, a ratio of 0.7 took 11 % less time than 0.85.
-STALL_RATIO = 0.7
-STALL_PATIENCE = 2
+STALL_RATIO, STALL_PATIENCE = _options.STALL_RATIO_QP, _options.STALL_PATIENCE
 #: Starts already tried by an unconstrained attempt are retried after this many others (``defer_starts``).
-#: Measured on Panda with spheres and boxes (the targets whose unconstrained attempts all fail): the
-#: constrained runs from the same starts mostly stall in the same local minima; deferring them by 8 took
-#: 16 % less time on targets not used to choose it.
+#: The constrained runs from the same starts mostly stall in the same local minima (docs/benchmarks.md).
 DEFER_BY = 8
 
 _now = time.perf_counter

@@ -31,15 +31,12 @@ threads sharing a robot share its tables safely.
 from __future__ import annotations
 
 import math
-import threading
-import weakref
 from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 if TYPE_CHECKING:  # annotations only
-    import pinocchio as pin
 
     from kinserve.kinematics.robot import Robot
     from kinserve.kinematics.types import VectorLike
@@ -54,43 +51,6 @@ ROTATION_WEIGHT = 0.05
 MARGIN = 0.1
 
 _TABLE_SEED = 20240611
-
-
-
-class PerModel:
-    """Per-model dictionaries, found by the model's identity and dropped when the model is freed.
-
-    A ``WeakKeyDictionary`` keyed by a ``pinocchio.Model`` compares keys with
-    ``Model.__eq__``, which Pinocchio implements as a deep comparison of the
-    two models (about 0.9 us per lookup, paid on every solve); here the key is
-    ``id(model)`` and a weak reference confirms the identity (about 0.1 us).
-    """
-
-    def __init__(self) -> None:
-        self._entries: dict[int, tuple[weakref.ref, dict]] = {}
-        self._lock = threading.Lock()
-
-    def get(self, model: pin.Model) -> dict | None:
-        """The dictionary of ``model``, or None when it has none yet."""
-        entry = self._entries.get(id(model))
-        return entry[1] if entry is not None and entry[0]() is model else None
-
-    def setdefault(self, model: pin.Model) -> dict:
-        """The dictionary of ``model``, created empty if needed (thread-safe)."""
-        with self._lock:
-            key = id(model)
-            entry = self._entries.get(key)
-            if entry is not None and entry[0]() is model:
-                return entry[1]
-            entries = self._entries
-
-            def forget(ref, key=key):
-                if entries.get(key, (None,))[0] is ref:
-                    entries.pop(key, None)
-
-            entry = self._entries[key] = (weakref.ref(model, forget), {})
-            return entry[1]
-
 
 
 
@@ -177,8 +137,8 @@ def start_sequence(robot: Robot, table: SeedTable | None, f_target: np.ndarray |
     lazy: the scores of all samples are one matrix-vector product, and each
     next sample is one ``argmin`` over them (the sample taken is then set to
     ``inf``): most solves take one or two starts, and a partition of the
-    2000 scores (``numpy.argpartition``, ~17 us) would cost more than the
-    kernel's whole run.
+    2000 scores (``numpy.argpartition``) would cost more than the kernel's
+    whole run (docs/benchmarks.md).
     """
     if table is not None:
         score = table.G.dot(f_target)  # a fresh array: taken samples are marked in it
