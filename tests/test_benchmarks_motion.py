@@ -1,27 +1,42 @@
 """bench_motion.py's pieces: the independent dense check, the figures, the table, and a tiny end-to-end run.
 
-The benchmark modules live in ``benchmarks/`` (not installed) and import each other by bare name, so
-that folder goes on ``sys.path`` for this module. The dataset-dependent tests skip with a message when
+The benchmark modules live in ``benchmarks/`` (not installed) and import each other by bare name: they are
+loaded from their files in dependency order and registered under those names (no ``sys.path`` edit). The
+dataset-dependent tests skip with a message when
 ``/work/shared/datasets/motion-bench-maker/`` is absent. kinserve's plans use iteration budgets here
 (``max_time=None``), so no answer depends on the machine's speed.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import sys
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 DATASET = Path("/work/shared/datasets/motion-bench-maker")
-sys.path.insert(0, str(BENCH))
 
-import bench_motion as bm  # noqa: E402
-import render_tables  # noqa: E402
-from _motion_check import DenseChecker  # noqa: E402
+
+def _load(name: str) -> ModuleType:
+    """``benchmarks/<name>.py`` loaded from its file and registered as ``name`` (its siblings import it
+    so)."""
+    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+for _dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables"):
+    _load(_dep)
+bm = _load("bench_motion")
+render_tables = sys.modules["render_tables"]
+DenseChecker = sys.modules["_motion_check"].DenseChecker
 
 from kinserve.kinematics.shapes import Box, Sphere  # noqa: E402
 

@@ -71,8 +71,8 @@ def _as_array(targets) -> np.ndarray | None:
     numeric stack."""
     if isinstance(targets, np.ndarray):
         if targets.ndim == 2 and targets.shape == (4, 4):
-            raise InputError("targets must be a sequence of poses (N, 4, 4); got a single 4x4 pose - use "
-                             "ik.solve")
+            raise InputError("targets must be a sequence of poses (N, 4, 4); got a single 4x4 pose "
+                             "(solve one pose with ik.solve)")
         if targets.ndim != 3:
             raise InputError(f"targets must have shape (N, 4, 4), got shape {targets.shape}")
         if targets.shape[1:] == (4, 4) and targets.dtype.kind in "fiu":

@@ -208,7 +208,8 @@ def _constrained(req: SolveRequest, checker: Checker, warm: np.ndarray | None, b
 def _infeasible(req: SolveRequest, t0: float, reason: str) -> Result:
     robot, tgt = req.robot, req.target
     q = np.clip(robot.neutral() if req.q0 is None else req.q0, robot.lower, robot.upper)
-    return Result(q=q, success=False, position_error=float("nan"), orientation_error=float("nan"),
+    pe, re = tgt.errors_at(robot, q)  # the start's errors: every number of a result is finite
+    return Result(q=q, success=False, position_error=pe, orientation_error=re,
                   elapsed=time.perf_counter() - t0, message=reason, method="qp", frame=tgt.frame,
                   history=History.empty(robot.nq, tgt.components), info={"strategy": "infeasible",
                                                                          "collision": "infeasible"})
