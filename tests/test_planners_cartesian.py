@@ -1,7 +1,12 @@
-"""Cartesian path -> joint trajectory through IK: poses reached, continuity, events, bad input."""
+"""Cartesian path -> joint trajectory through IK: poses reached, continuity, events, bad input.
+
+Each pose's IK ends on an iteration budget (``NO_CLOCK``: no per-pose time limit), so which poses are
+reached does not depend on the machine's speed; the plan's total time cap is checked on a fake clock.
+"""
 
 import numpy as np
 import pytest
+from fake_clock import stepping_clock
 
 from kinserve import robots
 from kinserve.kinematics import InputError, RotationError, ShapeError, se3
@@ -14,6 +19,8 @@ def panda():
 
 
 Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+#: Each pose's IK on iterations alone (an unreachable pose spends them all).
+NO_CLOCK = dict(max_time=None, iteration_budget=300)
 
 
 def line(panda, delta, rot=None):
@@ -29,7 +36,7 @@ def line(panda, delta, rot=None):
 def test_straight_line_is_followed_continuously(panda, interpolation):
     T0, T1 = line(panda, [0.1, 0.15, -0.1], se3.rot_z(0.4))
     plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=15, dt=0.05,
-                              interpolation=interpolation)
+                              interpolation=interpolation, **NO_CLOCK)
     assert plan.success and not plan.events
     Q = plan.trajectory.positions
     assert Q.shape == (17, 7)
@@ -58,7 +65,7 @@ def test_position_only_path_on_a_5dof_arm():
     T1 = youbot.fk(np.array([0.6, 0.2, -0.6, 0.3, 0.1]))
     T1b = T1.copy()
     T1b[:3, :3] = T0[:3, :3]  # an orientation the 5-DOF arm cannot hold there: relax it
-    plan = cartesian_to_joint(youbot, [T0, T1b], q0, steps=10, relax=("roll", "pitch", "yaw"))
+    plan = cartesian_to_joint(youbot, [T0, T1b], q0, steps=10, relax=("roll", "pitch", "yaw"), **NO_CLOCK)
     assert plan.success, plan.events
     for q, T in zip(plan.trajectory.positions, plan.poses):
         assert np.linalg.norm(youbot.fk(q)[:3, 3] - T[:3, 3]) < 1e-4
@@ -66,7 +73,7 @@ def test_position_only_path_on_a_5dof_arm():
 
 def test_unreachable_pose_is_reported_not_raised(panda):
     T0, T1 = line(panda, [2.0, 0.0, 0.0])  # 2 m further: out of reach
-    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=4, max_time=0.05)
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=4, **NO_CLOCK)
     assert not plan.success
     failed = [e["index"] for e in plan.events if e["kind"] == "ik_failed"]
     assert failed and failed[-1] == 5 and 0 not in failed
@@ -76,7 +83,7 @@ def test_unreachable_pose_is_reported_not_raised(panda):
 def test_events_for_jumps_limits_and_singularity(panda):
     T0, T1 = line(panda, [0.05, 0.0, 0.0])
     plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, jump_threshold=1e-9,
-                              limit_margin=10.0, singular_tol=10.0)
+                              limit_margin=10.0, singular_tol=10.0, **NO_CLOCK)
     kinds = {k: [e["index"] for e in plan.events if e["kind"] == k] for k in ("joint_jump",
                                                                               "limit_contact", "singular")}
     assert kinds["joint_jump"] == [1, 2, 3, 4]
@@ -105,8 +112,8 @@ def test_bad_input(panda):
 
 def test_stop_on_failure_ends_the_plan_at_the_first_pose_not_reached(panda):
     T0, T1 = line(panda, [2.0, 0.0, 0.0])
-    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=8, max_time=0.05,
-                              stop_on_failure=True)
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=8, stop_on_failure=True,
+                              **NO_CLOCK)
     failed = [e["index"] for e in plan.events if e["kind"] == "ik_failed"]
     assert plan.stop_reason == "ik_failed" and len(failed) == 1
     assert len(plan.poses) == plan.trajectory.n_points == failed[0] + 1 < plan.total_poses == 10
@@ -114,16 +121,15 @@ def test_stop_on_failure_ends_the_plan_at_the_first_pose_not_reached(panda):
 
 
 def test_total_time_caps_the_whole_plan(panda):
-    import time
-
+    """On a fake clock (1 ms a reading): 0.1 s per pose, 0.5 s in all, the plan ends by its cap."""
     T0, T1 = line(panda, [2.0, 0.0, 0.0])
-    t0 = time.perf_counter()
-    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=40, max_time=0.1,
-                              total_time=0.5)
-    dt = time.perf_counter() - t0
-    assert dt < 0.5 * 1.1 + 0.1, f"{dt:.2f} s"
+    cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=1, **NO_CLOCK)  # nothing left to build
+    with stepping_clock(1e-3) as clock:
+        plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=40, max_time=0.1,
+                                  total_time=0.5)
+    assert clock.now <= 0.5 + 5e-3, clock.now
     assert plan.stop_reason == "time_cap" and len(plan.poses) < plan.total_poses == 42
     assert any(e["kind"] == "time_cap" for e in plan.events)
     assert np.all(np.isfinite(plan.trajectory.positions))
-    full = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, max_time=0.05)
+    full = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, **NO_CLOCK)
     assert full.stop_reason == "completed" and full.total_poses == len(full.poses) == 5
