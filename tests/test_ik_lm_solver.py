@@ -13,6 +13,10 @@ from kinserve.kinematics import se3
 ROBOTS = {"panda": 30, "ur5": 25, "youbot": 20, "scara": 20, "planar4r": 20}
 
 
+#: Iterations of every start together: no time limit decides a solve that must succeed or be repeated.
+BUDGET = 2000
+
+
 def _reachable(robot, rng, n):
     return [(q, robot.fk(q).copy()) for q in robot.random_q(rng, n)]
 
@@ -23,7 +27,7 @@ def test_random_reachable_targets_converge_within_limits(name):
     rng = np.random.default_rng(2024)
     for q_true, T in _reachable(robot, rng, ROBOTS[name]):
         q0 = robot.random_q(rng)
-        res = solve_lm(robot, Target(robot, T), q0, max_time=1.0)
+        res = solve_lm(robot, Target(robot, T), q0, iteration_budget=BUDGET)
         assert res.success, (name, res.message)
         assert robot.within_limits(res.q)
         pe, re = se3.pose_error(robot.fk(res.q), T)
@@ -57,8 +61,8 @@ def test_deterministic_for_a_seed_and_restarts_counted():
     rng = np.random.default_rng(9)
     T = robot.fk(robot.random_q(rng)).copy()
     q0 = robot.random_q(rng)
-    a = solve_lm(robot, Target(robot, T), q0, seed=3, seed_table_enabled=False)
-    b = solve_lm(robot, Target(robot, T), q0, seed=3, seed_table_enabled=False)
+    a = solve_lm(robot, Target(robot, T), q0, seed=3, seed_table_enabled=False, iteration_budget=BUDGET)
+    b = solve_lm(robot, Target(robot, T), q0, seed=3, seed_table_enabled=False, iteration_budget=BUDGET)
     assert np.array_equal(a.q, b.q) and a.iterations == b.iterations and a.restarts == b.restarts
 
 
@@ -66,7 +70,7 @@ def test_unreachable_target_is_a_result_with_the_best_q():
     robot = robots.load("panda", geometry=False)
     T = np.eye(4)
     T[:3, 3] = (2.5, 0.0, 0.5)  # far beyond the ~0.9 m reach
-    res = solve_lm(robot, Target(robot, T), robot.neutral(), max_time=0.05)
+    res = solve_lm(robot, Target(robot, T), robot.neutral(), iteration_budget=300)  # several starts
     assert not res.success
     assert "target may be out of reach" in res.message
     assert robot.within_limits(res.q)
@@ -84,7 +88,7 @@ def test_position_only_relaxation():
         T_other = T.copy()
         T_other[:3, :3] = se3.rot_x(2.0) @ T[:3, :3]  # orientation that does not matter
         tgt = Target(robot, T_other, relax=("roll", "pitch", "yaw"))
-        res = solve_lm(robot, tgt, robot.random_q(rng))
+        res = solve_lm(robot, tgt, robot.random_q(rng), iteration_budget=BUDGET)
         assert res.success and res.orientation_error == 0.0
         assert np.linalg.norm(robot.fk(res.q)[:3, 3] - T[:3, 3]) < 1e-4
 
@@ -108,7 +112,7 @@ def test_relaxed_targets_rank_starts_by_position_only():
     q0 = np.array([0.2, 0.4, -0.8, 0.5, 0.1])
     T = youbot.fk(np.array([0.22, 0.39, -0.79, 0.5, 0.1])).copy()
     T[:3, :3] = se3.rot_x(2.5)  # an orientation the relaxed task ignores
-    res = solve_lm(youbot, Target(youbot, T, relax=("roll", "pitch", "yaw")), q0)
+    res = solve_lm(youbot, Target(youbot, T, relax=("roll", "pitch", "yaw")), q0, iteration_budget=BUDGET)
     assert res.success and res.restarts == 0
     assert np.abs(res.q - q0).max() < 0.1
 
@@ -130,13 +134,14 @@ def test_accept_rejects_converged_runs_and_tries_the_next_start():
         seen.append(np.array(qs))
         return len(seen) >= 2
 
-    res = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=second_only)
+    res = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=second_only, iteration_budget=BUDGET)
     assert res.success and len(seen) == 2 and res.restarts >= 1
     assert np.array_equal(seen[1][-1], res.q) and np.array_equal(res.history.q, seen[1])
     for run in seen:  # every run converged: its last configuration meets the target
         pe, re = tgt.errors_at(robot, run[-1])
         assert pe < 1e-4 and re < 1e-3
-    never = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=lambda qs: False, max_starts=3)
+    never = solve_lm(robot, tgt, robot.random_q(rng), seed=4, accept=lambda qs: False, max_starts=3,
+                     iteration_budget=BUDGET)
     assert not never.success and "rejected" in never.message and never.restarts == 2
 
 
@@ -157,11 +162,11 @@ def test_admit_skips_starts_without_running_them():
         offered.append(np.array(q))
         return len(offered) > 2
 
-    res = solve_lm(robot, tgt, q0, seed=5, admit=not_first_two)
+    res = solve_lm(robot, tgt, q0, seed=5, admit=not_first_two, iteration_budget=BUDGET)
     # the run began at the first admitted start
     assert res.success and np.array_equal(res.history.q[0], offered[2])
     assert res.restarts == len(offered) - 3  # refused starts are not counted
-    none = solve_lm(robot, tgt, q0, seed=5, admit=lambda q: False)
+    none = solve_lm(robot, tgt, q0, seed=5, admit=lambda q: False, iteration_budget=BUDGET)
     assert not none.success and "admitted" in none.message and none.restarts == 0
     assert f"{ADMIT_MISSES} refused" in none.message and np.all(np.isfinite(none.q))
 
@@ -223,7 +228,7 @@ def test_iteration_budget_bounds_every_start_together():
     rng = np.random.default_rng(6)
     T = robot.fk(robot.random_q(rng))
     q0 = robot.random_q(rng)
-    free = solve_lm(robot, Target(robot, T), q0, seed=2)
+    free = solve_lm(robot, Target(robot, T), q0, seed=2, max_time=60.0)  # a time limit that does not bind
     capped = solve_lm(robot, Target(robot, T), q0, seed=2, iteration_budget=10_000)
     assert capped.success and np.array_equal(free.q, capped.q) and free.iterations == capped.iterations
 
