@@ -13,6 +13,8 @@ from kinserve.kinematics import se3
 from segment_clearance import sampled_clearance
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
+#: Iterations of every start together: no time limit decides a solve here (none is given).
+BUDGET = dict(iteration_budget=2000)
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +29,7 @@ def test_random_reachable_targets_every_backend(backend, name, n):
     rng = np.random.default_rng(77)
     for q in robot.random_q(rng, n):
         T = robot.fk(q).copy()
-        res = solve_qp(robot, Target(robot, T), robot.random_q(rng), backend=backend, max_time=2.0)
+        res = solve_qp(robot, Target(robot, T), robot.random_q(rng), backend=backend, **BUDGET)
         assert res.success, (backend, name, res.message)
         assert robot.within_limits(res.q)
         pe, re = se3.pose_error(robot.fk(res.q), T)
@@ -43,7 +45,7 @@ def _tool_distances(robot, history, sphere):
 def test_s9_relax_phi_centres_theta4(scara):
     q_goal = np.array([0.3, 0.9, 0.5, 2.0])
     T = scara.fk(q_goal).copy()
-    res = ik.solve(scara, T, np.array([0.0, 0.5, 0.4, 1.0]), relax=("phi",), centring=1.0)
+    res = ik.solve(scara, T, np.array([0.0, 0.5, 0.4, 1.0]), relax=("phi",), centring=1.0, **BUDGET)
     assert res.method == "qp" and res.success
     assert res.position_error < 1e-4 and res.orientation_error < 1e-3
     p = scara.fk(res.q)[:3, 3]
@@ -55,7 +57,8 @@ def test_s9_relax_phi_centres_theta4(scara):
 
 def test_s9_relax_z_centres_d3_where_the_sphere_does_not_bind(scara):
     T = scara.fk(np.array([1.0, 0.8, 0.3, 0.4])).copy()
-    res = ik.solve(scara, T, np.array([0.5, 0.5, 0.3, 0.0]), relax=("z",), centring=1.0, spheres=[SPHERE])
+    res = ik.solve(scara, T, np.array([0.5, 0.5, 0.3, 0.0]), relax=("z",), centring=1.0, spheres=[SPHERE],
+                   **BUDGET)
     assert res.success
     assert res.q[2] == pytest.approx(0.625, abs=1e-4)  # d3 mid-range
     T_res = scara.fk(res.q)
@@ -73,7 +76,7 @@ def test_s9_relax_z_with_the_sphere_binding(scara, backend):
     t1 = np.arctan2(y, x) - np.arctan2(0.5 * np.sin(t2), 0.5 + 0.5 * np.cos(t2))
     q0 = np.array([t1, t2, 0.25, 0.0])
     T = scara.fk(q0).copy()
-    res = ik.solve(scara, T, q0, relax=("z",), centring=1.0, spheres=[SPHERE], backend=backend)
+    res = ik.solve(scara, T, q0, relax=("z",), centring=1.0, spheres=[SPHERE], backend=backend, **BUDGET)
     assert res.success, res.message
     d = _tool_distances(scara, res.history, SPHERE)
     assert d.min() >= SPHERE.radius  # on every iterate, not only at the end
@@ -99,7 +102,7 @@ def test_centring_never_degrades_the_task_on_a_redundant_arm():
     for _ in range(5):
         q_sol = robot.random_q(rng)
         T = robot.fk(q_sol).copy()
-        centred = ik.solve(robot, T, q_sol, centring=1.0, prefer_q0=True, seed_table=False)
+        centred = ik.solve(robot, T, q_sol, centring=1.0, prefer_q0=True, seed_table=False, **BUDGET)
         assert centred.success
         assert centred.position_error < 1e-4 and centred.orientation_error < 1e-3
         assert h(centred.q) < h(q_sol)
@@ -111,7 +114,7 @@ def test_centring_never_degrades_the_task_on_a_redundant_arm():
 def test_infeasible_target_reports_failure(scara):
     T = scara.fk(np.array([0.0, 0.0, 0.5, 0.0])).copy()
     T[:3, 3] = (3.0, 0.0, 0.5)  # beyond a1 + a2 = 1 m
-    res = ik.solve(scara, T, np.array([0.1, 0.2, 0.5, 0.0]), method="qp", max_time=0.05)
+    res = ik.solve(scara, T, np.array([0.1, 0.2, 0.5, 0.0]), method="qp", iteration_budget=300)
     assert not res.success
     assert "best residual" in res.message
     assert scara.within_limits(res.q)
@@ -125,7 +128,7 @@ def test_shortcut_is_exact():
     for _ in range(4):
         T = robot.fk(robot.random_q(rng)).copy()
         q0 = robot.random_q(rng)
-        kw = dict(prefer_q0=True, seed_table_enabled=False, max_starts=1, backend="daqp")
+        kw = dict(prefer_q0=True, seed_table_enabled=False, max_starts=1, backend="daqp", **BUDGET)
         a = solve_qp(robot, Target(robot, T), q0, shortcut=True, **kw)
         b = solve_qp(robot, Target(robot, T), q0, shortcut=False, **kw)
         assert len(a.history) == len(b.history)
@@ -160,7 +163,7 @@ def test_no_start_outside_the_spheres_reports_finite_errors():
     T = panda.fk(panda.neutral(), "panda_link8")
     target = Target(panda, T, "panda_link8")
     spheres = ObstacleAvoidance([ik.Sphere(T[:3, 3], 1.5, frames=["panda_link8"])], tool_frames="panda_link8")
-    res = solve_qp(panda, target, spheres=spheres, max_time=0.05)
+    res = solve_qp(panda, target, spheres=spheres, iteration_budget=300)
     assert not res.success and "no start configuration" in res.message
     pe, re = target.errors_at(panda, res.q)
     assert np.isfinite(res.position_error) and res.position_error == pytest.approx(pe)
