@@ -106,9 +106,9 @@ def test_ik_identical_over_600_solves(panda, fast_switching):
     q0s = panda.random_q(rng, 600)
 
     def solve(i):
-        # a generous time budget: the answer then depends on the seed only, not on the thread's share of the
-        # CPU
-        r = ik.solve(panda, targets[i], q0s[i], seed=i, max_time=30.0)
+        # an iteration budget and no time limit: the answer depends on the seed only, never on the thread's
+        # share of the CPU
+        r = ik.solve(panda, targets[i], q0s[i], seed=i, iteration_budget=2000)
         return r.q.copy(), r.success, r.iterations
 
     ref = [solve(i) for i in range(600)]
@@ -125,7 +125,8 @@ def test_qp_ik_with_spheres_and_centring_identical(fast_switching):
     targets = scara.fk_batch(scara.random_q(rng, 48))
 
     def solve(i):
-        r = ik.solve(scara, targets[i], relax=("z",), centring=1.0, method="qp", seed=i, max_time=30.0)
+        r = ik.solve(scara, targets[i], relax=("z",), centring=1.0, method="qp", seed=i,
+                     iteration_budget=2000)
         return r.q.copy(), r.success
 
     ref = [solve(i) for i in range(48)]
