@@ -55,7 +55,7 @@ def test_lm_history_errors_match_fk(panda):
     """The history the solver returns (built lazily) holds the true errors of every iterate."""
     rng = np.random.default_rng(4)
     T = panda.fk(panda.random_q(rng), FRAME).copy()
-    res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, prefer_q0=True)
+    res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, prefer_q0=True, iteration_budget=2000)
     assert res.success and len(res.history) >= 2
     assert np.array_equal(res.history.q[-1], res.q)
     for q, pe, re in zip(res.history.q, res.history.position_error, res.history.orientation_error):
@@ -158,7 +158,8 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
     monkeypatch.setattr(checkers.CollisionChecker, "first_violation", first_violation)
     rng = np.random.default_rng(6)
     T = panda.fk(panda.random_q(rng), FRAME).copy()
-    res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, self_collision=True, seed=1, max_time=2.0)
+    res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, self_collision=True, seed=1,
+                   iteration_budget=2000)
     assert res.success and res.info["collision"] == "unconstrained, checked"
     hist = res.history.q
     assert len(hist) >= 3
