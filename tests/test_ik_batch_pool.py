@@ -1,5 +1,11 @@
 """kinserve.ik.batch.pool: a stalled (SIGSTOPped) worker raises a clear error in time and leaves no process;
-a killed worker is replaced and its chunk retried once; BLAS is single-threaded in the workers."""
+a killed worker is replaced and its chunk retried once; BLAS is single-threaded in the workers.
+
+The limits under test are the pool's own (a worker's chunk limit counts from when the chunk is handed out,
+the worker's start-up included: the real CHUNK_SLACK of 10 s is kept); the checks are "not before the
+limit" and "within a grace (HANG_GRACE) after it": only a missing limit takes that long, not a busy machine.
+Polling for a state the pool reaches in milliseconds waits up to a minute.
+"""
 
 import os
 import signal
@@ -15,6 +21,8 @@ from kinserve import ik, robots
 from kinserve.ik.batch import pool as batch_pool
 from kinserve.ik.batch import runners as batch_runners
 from kinserve.kinematics.errors import WorkerError, WorkerTimeoutError
+
+HANG_GRACE = 10.0  # s after a limit by which the pool must have raised
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +73,7 @@ def _run_in_thread(kwargs):
     return t, box
 
 
-def _busy_worker(timeout=20.0, avoid=()):
+def _busy_worker(timeout=60.0, avoid=()):
     """(pid, (start, stop)) of a worker holding a chunk, once the run has started."""
     t_end = time.monotonic() + timeout
     while time.monotonic() < t_end:
@@ -95,7 +103,7 @@ def test_stopped_worker_raises_a_clear_error_and_is_reaped(slow_batch):
     t_stop = time.monotonic()
     os.kill(pid, signal.SIGSTOP)
     try:
-        thread.join(batch_pool.STOPPED_GRACE + 10)
+        thread.join(batch_pool.STOPPED_GRACE + HANG_GRACE)
         assert not thread.is_alive()
         detected = time.monotonic() - t_stop
     finally:
@@ -104,7 +112,7 @@ def test_stopped_worker_raises_a_clear_error_and_is_reaped(slow_batch):
     assert isinstance(err, WorkerTimeoutError), box
     msg = str(err)
     assert f"worker process {pid}" in msg and "stopped" in msg and "targets[" in msg and "terminated" in msg
-    assert detected < batch_pool.STOPPED_GRACE + 3
+    assert batch_pool.STOPPED_GRACE <= detected < batch_pool.STOPPED_GRACE + HANG_GRACE
     assert not any(_exists(p) for p in pids)  # every worker killed and reaped, the stopped one too
     # the next batch gets a fresh pool
     again = ik.solve_many(slow_batch["robot"], slow_batch["targets"][:4], relax=("yaw",), max_time=0.01,
@@ -114,17 +122,17 @@ def test_stopped_worker_raises_a_clear_error_and_is_reaped(slow_batch):
 
 def test_chunk_limit_and_overall_timeout(slow_batch, monkeypatch):
     monkeypatch.setattr(batch_pool, "STOPPED_GRACE", float("inf"))  # only the time limits can catch it now
-    monkeypatch.setattr(batch_runners, "CHUNK_SLACK", 0.5)  # chunk limit 3 * 10 * 0.05 + 0.5 = 2 s
+    assert batch_runners.CHUNK_SLACK == 10.0  # chunk limit 3 * 10 * 0.05 + 10 = 11.5 s: room for a start-up
     thread, box = _run_in_thread(slow_batch)
     pid, _ = _busy_worker()
     os.kill(pid, signal.SIGSTOP)
     try:
-        thread.join(15)
+        thread.join(11.5 + HANG_GRACE)
         assert not thread.is_alive()
     finally:
         _release([pid])
     assert isinstance(box.get("error"), WorkerTimeoutError)
-    assert "chunk time limit of 2.0 s" in str(box["error"]) and f"worker process {pid}" in str(box["error"])
+    assert "chunk time limit of 11.5 s" in str(box["error"]) and f"worker process {pid}" in str(box["error"])
     assert not _exists(pid)
 
     # the caller's timeout= bounds the whole call (chunk limits are far away here)
@@ -133,17 +141,17 @@ def test_chunk_limit_and_overall_timeout(slow_batch, monkeypatch):
     pid, _ = _busy_worker()
     os.kill(pid, signal.SIGSTOP)
     try:
-        thread.join(15)
+        thread.join(1.5 + HANG_GRACE)
     finally:
         _release([pid])
     assert isinstance(box.get("error"), WorkerTimeoutError) and "overall timeout" in str(box["error"])
-    assert box["elapsed"] < 1.5 + 1.5
+    assert 1.5 <= box["elapsed"] < 1.5 + HANG_GRACE
 
 
 def test_killed_worker_is_retried_once(slow_batch):
     thread, box = _run_in_thread({**slow_batch, "targets": slow_batch["targets"][:60]})
     pid, chunk = _busy_worker()
-    t_end = time.monotonic() + 2.0  # the parent may still be in the middle of handing them out
+    t_end = time.monotonic() + 60.0  # the parent may still be in the middle of handing them out
     while time.monotonic() < t_end and [len(w.queue) for w in batch_pool.current_pool().workers] != [2, 2]:
         time.sleep(0.002)
     # the next chunk too
@@ -160,7 +168,7 @@ def test_a_chunk_that_kills_two_workers_raises(slow_batch):
     pid, chunk = _busy_worker()
     os.kill(pid, signal.SIGKILL)
     # the chunk goes to the replacement worker first: kill that one on the same chunk
-    t_end = time.monotonic() + 10
+    t_end = time.monotonic() + 60.0
     second = None
     while second is None and time.monotonic() < t_end:
         pool = batch_pool.current_pool()
