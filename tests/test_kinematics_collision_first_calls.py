@@ -43,7 +43,8 @@ _CPU_CLOCK = (
     "import sys\n"
     f"sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})\n"
     "from fake_clock import cpu_clock\n"
-    "cpu_clock().__enter__()\n"
+    "CPU_CLOCK = cpu_clock()\n"
+    "CPU_CLOCK.__enter__()  # (held: a dropped context manager would restore the real clock)\n"
 )
 
 _SCENE = (
