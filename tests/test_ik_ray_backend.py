@@ -29,11 +29,10 @@ def test_ray_matches_local_backends(local_ray, robot_name, relax):
     robot = robots.load(robot_name, geometry=False)
     Q = robot.random_q(3, n=40)
     targets = robot.fk_batch(Q)
-    serial = solve_many(robot, targets, backend="serial", seed=4, relax=relax, chunksize=5, progress=False)
-    local = solve_many(robot, targets, backend="processes", processes=2, seed=4, relax=relax, chunksize=5,
-                       progress=False)
-    remote = solve_many(robot, targets, backend="ray", processes=2, seed=4, relax=relax, chunksize=5,
-                        progress=False)
+    kw = dict(seed=4, relax=relax, chunksize=5, progress=False, iteration_budget=2000)  # no clock decides
+    serial = solve_many(robot, targets, backend="serial", **kw)
+    local = solve_many(robot, targets, backend="processes", processes=2, **kw)
+    remote = solve_many(robot, targets, backend="ray", processes=2, **kw)
     assert len(remote) == 40
     for a, b, c in zip(serial, local, remote):
         assert a.success == b.success == c.success
@@ -55,7 +54,8 @@ def test_ray_timeout_kills_the_actors(local_ray):
     with pytest.raises(WorkerTimeoutError, match=r"Ray actor .* targets\[\d+:\d+\]"):
         solve_many(panda, far, backend="ray", processes=2, relax=("yaw",), max_time=0.05, chunksize=20,
                    timeout=0.3, progress=False)
-    assert time.monotonic() - t0 < 15  # the timeout plus actor start-up, not the whole batch
+    # a hang guard only (the actors' start-up on a busy machine is most of it): the error names the chunk
+    assert time.monotonic() - t0 < 60
     # the killed actors gave their CPUs back: a new batch gets both
     assert ray.available_resources().get("CPU", 0) == 2 or _cpus_freed_within(5.0)
 
