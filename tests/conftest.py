@@ -115,7 +115,9 @@ def pytest_sessionfinish(session, exitstatus):
     _shut_down_persistent_pools()
     left = leftovers(os.environ[TAG])
     left.pop(_resource_tracker_pid(), None)
-    still = wait_gone(left, timeout=5.0)  # give just-stopped servers (ray, uvicorn, chromium) a moment
+    # give just-stopped servers (ray, uvicorn, chromium) a moment - on a busy machine a long one (polled:
+    # no cost when they are gone)
+    still = wait_gone(left, timeout=30.0)
     if not still:
         return
     worker = getattr(config, "workerinput", {}).get("workerid", "")
