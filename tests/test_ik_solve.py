@@ -16,6 +16,8 @@ from kinserve.kinematics.errors import (
 )
 
 SPHERE = ik.Sphere((0.4, -0.7, 0.5), 0.2)
+#: Iterations of every start together, no time limit: for the solves that must succeed or be repeated.
+BUDGET = dict(iteration_budget=2000)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +85,7 @@ def test_sphere_containing_the_start_configuration_is_not_an_error(panda, T):
     q0 = panda.neutral()
     hand = panda.fk(q0)[:3, 3]
     sphere = ik.Sphere(hand, 0.05)
-    res = ik.solve(panda, T, q0, spheres=[sphere])
+    res = ik.solve(panda, T, q0, spheres=[sphere], **BUDGET)
     assert res.success and "q0" in res.message, res.message
     from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 
@@ -109,11 +111,11 @@ def test_auto_dispatch(panda, scara, T):
     res = ik.solve(scara, Ts, relax=("yaw",))
     assert res.q[3] == pytest.approx(0.0)  # the closed form centres the free wrist joint too
     # SE3 targets are accepted
-    assert ik.solve(panda, pin.SE3(T)).success
+    assert ik.solve(panda, pin.SE3(T), **BUDGET).success
 
 
 def test_result_fields(panda, T):
-    res = ik.solve(panda, T, seed=4)
+    res = ik.solve(panda, T, seed=4, **BUDGET)
     assert isinstance(res, ik.Result)
     assert res.success and res.q.shape == (7,) and panda.within_limits(res.q)
     assert 0 <= res.position_error < 1e-4 and 0 <= res.orientation_error < 1e-3
@@ -121,15 +123,16 @@ def test_result_fields(panda, T):
     assert res.message == "converged" and res.frame == "panda_hand"
     assert isinstance(res.history, ik.History) and len(res.history) == res.history.q.shape[0]
     assert "ok" in res.summary()
-    again = ik.solve(panda, T, seed=4)
+    again = ik.solve(panda, T, seed=4, **BUDGET)
     assert np.array_equal(res.q, again.q)  # deterministic for a seed
-    other_frame = ik.solve(panda, panda.fk(res.q, "panda_link8"), frame="panda_link8")
+    other_frame = ik.solve(panda, panda.fk(res.q, "panda_link8"), frame="panda_link8", **BUDGET)
     assert other_frame.success and other_frame.frame == "panda_link8"
 
 
 def test_tolerances_are_honoured(panda, T):
-    loose = ik.solve(panda, T, panda.neutral(), tol_pos=1e-2, tol_rot=1e-1, prefer_q0=True, seed_table=False)
-    tight = ik.solve(panda, T, panda.neutral(), tol_pos=1e-9, tol_rot=1e-9, prefer_q0=True, seed_table=False)
+    kw = dict(prefer_q0=True, seed_table=False, **BUDGET)
+    loose = ik.solve(panda, T, panda.neutral(), tol_pos=1e-2, tol_rot=1e-1, **kw)
+    tight = ik.solve(panda, T, panda.neutral(), tol_pos=1e-9, tol_rot=1e-9, **kw)
     assert loose.success and tight.success
     assert loose.position_error < 1e-2 and tight.position_error < 1e-9
     assert loose.iterations < tight.iterations
@@ -143,7 +146,7 @@ def test_auto_on_random_reachable_targets(name):
     rng = np.random.default_rng(31)
     for q in robot.random_q(rng, 20):
         T = robot.fk(q).copy()
-        res = ik.solve(robot, T, robot.random_q(rng))
+        res = ik.solve(robot, T, robot.random_q(rng), **BUDGET)
         assert res.success, (name, res.message)
         assert robot.within_limits(res.q)
         pe, re = se3.pose_error(robot.fk(res.q), T)
@@ -171,6 +174,7 @@ def test_short_path_gives_the_general_path_answer(panda, options):
     from kinserve.ik.solve import run
 
     rng = np.random.default_rng(8)
+    options = {**options, **BUDGET}  # (no clock: a time limit could cut one answer and not the other)
     for _ in range(15):
         T = panda.fk(panda.random_q(rng)).copy()
         q0 = panda.random_q(rng)
