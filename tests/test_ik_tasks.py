@@ -112,7 +112,8 @@ def test_user_task_centre_of_mass_is_reached(panda):
     rng = np.random.default_rng(6)
     q = panda.random_q(rng)
     com = pin.centerOfMass(panda.model, panda.model.createData(), q)
-    res = ik.solve(panda, tasks=[CoMTask(com), ik.PostureTask(panda.neutral(), priority=2)], seed=0)
+    res = ik.solve(panda, tasks=[CoMTask(com), ik.PostureTask(panda.neutral(), priority=2)], seed=0,
+                   iteration_budget=2000)
     assert res.success, res.message
     reached = pin.centerOfMass(panda.model, panda.model.createData(), res.q)
     assert np.linalg.norm(reached - com) < 1e-4
@@ -129,7 +130,7 @@ def test_baxter_reaches_a_pose_with_each_hand_at_once():
         q = baxter.random_q(rng)
         TL, TR = baxter.fk(q, "left_gripper").copy(), baxter.fk(q, "right_gripper").copy()
         res = ik.solve(baxter, tasks=[ik.FrameTask("left_gripper", TL),
-                                      ik.FrameTask("right_gripper", TR)], seed=k)
+                                      ik.FrameTask("right_gripper", TR)], seed=k, iteration_budget=2000)
         assert res.success, res.message
         for frame, T in (("left_gripper", TL), ("right_gripper", TR)):
             got = baxter.fk(res.q, frame)
@@ -149,7 +150,7 @@ def test_task_errors_follow_the_given_order_whatever_the_priorities(posture_firs
     T = panda.fk(panda.random_q(np.random.default_rng(1)))
     frame, posture = ik.FrameTask(panda.tip, T), ik.PostureTask(panda.middle())
     tasks = [posture, frame] if posture_first else [frame, posture]
-    res = ik.solve(panda, tasks=tasks, q0=q0, seed=0)
+    res = ik.solve(panda, tasks=tasks, q0=q0, seed=0, iteration_budget=2000)
     assert res.success, res.message
     names = [t["name"] for t in res.task_errors]
     assert names == [t.name for t in tasks]
