@@ -78,9 +78,9 @@ def test_three_levels_in_a_full_solve(panda):
     for k in range(4):
         T = panda.fk(panda.random_q(rng)).copy()
         q_rest = panda.random_q(rng)
-        alone = ik.solve(panda, tasks=[ik.FrameTask(None, T)], seed=k)
+        alone = ik.solve(panda, tasks=[ik.FrameTask(None, T)], seed=k, iteration_budget=2000)
         res = ik.solve(panda, tasks=[ik.FrameTask(None, T), ik.PostureTask(q_rest, priority=2),
-                                     ik.CentringTask(priority=3)], seed=k)
+                                     ik.CentringTask(priority=3)], seed=k, iteration_budget=2000)
         assert alone.success and res.success, res.message
         assert res.position_error < 1e-4 and res.orientation_error < 1e-3
         assert [t["priority"] for t in res.task_errors] == [1, 2, 3]
