@@ -154,7 +154,7 @@ def test_youbot_branches_are_complete():
         found = 0
         for i, q0 in enumerate(youbot.random_q(rng, 15)):
             r = ik.solve(youbot, T, q0, method="lm", prefer_q0=True, seed_table=False, max_starts=10, seed=i,
-                         tol_pos=1e-9, tol_rot=1e-9)
+                         tol_pos=1e-9, tol_rot=1e-9, iteration_budget=10 * 60)  # (max_starts x max_iter)
             if r.success:
                 found += 1
                 assert min(np.abs(r.q - b).max() for b in branches) < 1e-5
