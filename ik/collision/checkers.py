@@ -17,6 +17,7 @@ pre-check certifies most configurations in one compiled call, coal judges the re
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -35,6 +36,20 @@ UNCERTIFIED_SKIPS = 2
 
 def _position_fixed(target: Target) -> bool:
     return not any(k in target.relaxed for k in (0, 1, 2))
+
+
+def _depth(obstacle: Any, point: np.ndarray, reach: float = 0.0) -> float:
+    """How deep ``point`` lies inside ``obstacle`` grown by ``reach`` (m; <= 0 when outside): the bounding
+    ball answers "outside" at once, the exact signed distance decides the rest."""
+    (cx, cy, cz), r = obstacle.bounding_ball()
+    if math.hypot(point[0] - cx, point[1] - cy, point[2] - cz) >= r + reach:
+        return 0.0
+    if obstacle.kind == "box":  # outside the box grown by reach along some axis of its own frame: outside
+        T = obstacle.pose
+        local = T[:3, :3].T @ (point - T[:3, 3])
+        if any(abs(x) >= 0.5 * s + reach for x, s in zip(local.tolist(), obstacle.size)):
+            return 0.0
+    return reach - float(obstacle.signed_distance(point)[0])
 
 
 class ClearanceChecker:
@@ -59,8 +74,9 @@ class ClearanceChecker:
         if not _position_fixed(target):
             return ""
         point = np.array(target.T[:3, 3], dtype=float)
+        reach = float(self.constraint.link_radius)
         for k, ob in enumerate(self.constraint.obstacles):
-            depth = float(ob.signed_distance(point)[0]) - float(self.constraint.link_radius)
+            depth = -_depth(ob, point, reach)
             if depth < 0.0:
                 where = f"the target position {np.round(point, 4).tolist()}"
                 return (f"{where} lies inside obstacle[{k}]:{ob.kind} "
@@ -108,7 +124,7 @@ class CollisionChecker:
             return ""
         point = np.array(target.T[:3, 3], dtype=float)
         for k, ob in enumerate(constraint.obstacles):
-            depth = float(ob.signed_distance(point)[0])
+            depth = -_depth(ob, point)
             if depth < 0.0 and frame_origin_inside_body(self.robot, target.frame):
                 where = f"the target position {np.round(point, 4).tolist()}"
                 return (f"{where} lies inside obstacle[{k}]:{ob.kind} "

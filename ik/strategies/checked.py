@@ -79,13 +79,11 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
 
 def _q0_note(req: SolveRequest, checker: Checker) -> str:
     """What the message says of a ``q0`` that violates the checker ("" when there is none)."""
-    if req.q0 is None:
+    if req.q0 is None or checker.name != "obstacles":  # (the collision checker's admission judged q0)
         return ""
     if checker.first_violation(np.clip(req.q0, req.robot.lower, req.robot.upper)[None]) != 0:
         return ""
-    if checker.name == "obstacles":
-        return "; q0 is inside an obstacle: started from a configuration clear of them"
-    return "; q0 is in collision: started from a collision-free configuration"
+    return "; q0 is inside an obstacle: started from a configuration clear of them"
 
 
 def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> Result:
