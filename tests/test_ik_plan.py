@@ -110,7 +110,7 @@ def test_a_checked_solve_reports_the_whole_iteration_budget(panda):
     frame = "panda_link8"
     rng = np.random.default_rng(3)
     T = panda.fk(panda.random_q(rng), frame)
-    free = ik.solve(panda, T, frame=frame, seed=0)
+    free = ik.solve(panda, T, frame=frame, seed=0, iteration_budget=2000)  # (the wall's place: no clock)
     wall = ik.Sphere(panda.fk(free.q, "panda_link4")[:3, 3], 0.12)
     res = ik.solve(panda, T, frame=frame, spheres=[wall], seed=0, iteration_budget=40, max_starts=3)
     assert res.iterations <= 40 + 1
