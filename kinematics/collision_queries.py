@@ -51,6 +51,7 @@ class PairDistance:
     normal: np.ndarray
 
     def to_dict(self) -> dict:
+        """The distance (m), the witness points and the normal (world) as plain lists."""
         return {"distance": self.distance, "point_a": self.point_a.tolist(), "point_b": self.point_b.tolist(),
                 "normal": self.normal.tolist()}
 
@@ -62,7 +63,8 @@ def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
     if isinstance(obstacles, (Shape, dict)):
         return (as_shape(obstacles, f"{name}[0]"),)
     if isinstance(obstacles, (str, bytes)):
-        raise InputError(f"{name} must be a sequence of shapes (Sphere, Box, Capsule, Cylinder, Mesh), got a string")
+        raise InputError(f"{name} must be a sequence of shapes (Sphere, Box, Capsule, Cylinder, Mesh), "
+                         "got a string")
     try:
         items = tuple(obstacles)
     except TypeError:
@@ -108,16 +110,20 @@ class CollisionQueries:
     def _build_collision_model(self):
         from .collision_model import CollisionModel
 
-        kw = dict(srdf=self.srdf, srdf_label=f"SRDF of robot {self.name!r}", name=self.name, model_text=self.source)
+        kw = dict(srdf=self.srdf, srdf_label=f"SRDF of robot {self.name!r}", name=self.name,
+                  model_text=self.source)
         if self.collision_model is not None:
             return CollisionModel(self.model, self.collision_model, self.lower, self.upper, **kw)
         if self.source is None:
-            raise ModelError(f"robot {self.name!r} has no collision geometry and no URDF text to build it from")
-        urdf = self.source if self.resolve_meshes is None else self.resolve_meshes(self.source)  # the loader's meshes
+            raise ModelError(f"robot {self.name!r} has no collision geometry and no URDF text to build it "
+                             "from")
+        # the loader's meshes
+        urdf = self.source if self.resolve_meshes is None else self.resolve_meshes(self.source)
         return CollisionModel.from_urdf(self.model, urdf, self.package_dirs, self.lower, self.upper, **kw)
 
     def collision_scene(self, obstacles: Any = (), self_collision: bool = True) -> "CollisionScene":
-        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (cached by identity)."""
+        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (cached by
+        identity)."""
         cm = self.collision
         self_collision = self_collision is True or bool(self_collision)
         return cm.cached_scene(obstacles, self_collision) or cm.scene(as_obstacles(obstacles), self_collision)
@@ -147,14 +153,17 @@ class CollisionQueries:
         q = as_vector(q, self.nq)
         return self.collision_scene(obstacles, self_collision).in_collision(q)
 
-    def collisions(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> list[tuple[str, str]]:
+    def collisions(self, q: VectorLike, obstacles: Any = (), *,
+                   self_collision: bool = True) -> list[tuple[str, str]]:
         """The intersecting pairs at ``q``, named (link / obstacle names), each once, in model order."""
         q = self.check_q(q)
         scene = self.collision_scene(obstacles, self_collision)
         return list(dict.fromkeys(scene.pair_names[k] for k in scene.colliding(q)))
 
-    def distances(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> dict[tuple[str, str], PairDistance]:
-        """``{(name_a, name_b): PairDistance}`` for every checked pair at ``q`` (the closest geometries per pair)."""
+    def distances(self, q: VectorLike, obstacles: Any = (), *,
+                  self_collision: bool = True) -> dict[tuple[str, str], PairDistance]:
+        """``{(name_a, name_b): PairDistance}`` for every checked pair at ``q`` (the closest geometries per
+        pair)."""
         q = self.check_q(q)
         scene = self.collision_scene(obstacles, self_collision)
         d, p1, p2, n = scene.distance_arrays(q)
@@ -166,6 +175,7 @@ class CollisionQueries:
         return out
 
     def min_distance(self, q: VectorLike, obstacles: Any = (), *, self_collision: bool = True) -> float:
-        """The smallest signed distance (m) over the checked pairs at ``q`` (``inf`` when there is no pair)."""
+        """The smallest signed distance (m) over the checked pairs at ``q`` (``inf`` when there is no
+        pair)."""
         q = self.check_q(q)
         return self.collision_scene(obstacles, self_collision).min_distance(q)[0]

@@ -91,7 +91,8 @@ def _translation(t: np.ndarray) -> np.ndarray:
 
 
 def _hashable(value: Any) -> Any:
-    """A field of :meth:`Shape._fields` as a hashable value: a list (of lists: a pose's rows) as one flat tuple."""
+    """A field of :meth:`Shape._fields` as a hashable value: a list (of lists: a pose's rows) as one flat
+    tuple."""
     if type(value) is not list:
         return value
     return tuple(chain.from_iterable(value)) if value and type(value[0]) is list else tuple(value)
@@ -231,7 +232,8 @@ class Sphere(Shape):
 
 
 class Box(Shape):
-    """A box: 4x4 ``pose`` of its centre (world), ``size`` = full edge lengths (m), as URDF's ``<box size>``."""
+    """A box: 4x4 ``pose`` of its centre (world), ``size`` = full edge lengths (m), as URDF's ``<box
+    size>``."""
 
     kind = "box"
     size: tuple[float, float, float]
@@ -239,10 +241,12 @@ class Box(Shape):
     def __init__(self, pose: Any, size: Sequence[float], frames: Iterable[str] | None = None) -> None:
         T = as_pose(pose, "box pose")
         s = as_vector(size, 3, "box size")
-        self._set(pose=T, size=tuple(_positive(v, "box size entries") for v in s), frames=_frames(frames, "box"))
+        self._set(pose=T, size=tuple(_positive(v, "box size entries") for v in s),
+                  frames=_frames(frames, "box"))
 
     @property
     def half_extents(self) -> np.ndarray:
+        """Half the edge lengths (m), along the box's own axes."""
         return 0.5 * np.asarray(self.size)
 
     def _make_geometry(self):
@@ -301,7 +305,8 @@ class Capsule(Shape):
 
 
 class Cylinder(Shape):
-    """A solid cylinder along its local z axis: 4x4 ``pose`` of its centre, ``radius`` and ``length`` (m), as URDF."""
+    """A solid cylinder along its local z axis: 4x4 ``pose`` of its centre, ``radius`` and ``length`` (m), as
+    URDF."""
 
     kind = "cylinder"
     radius: float
@@ -344,7 +349,8 @@ class Mesh(Shape):
     def __init__(self, path: str | Path, pose: Any = None, scale: float | Sequence[float] = 1.0,
                  frames: Iterable[str] | None = None) -> None:
         T = np.eye(4) if pose is None else as_pose(pose, "mesh pose")
-        s = np.broadcast_to(np.asarray(scale, dtype=float), (3,)) if np.ndim(scale) == 0 else as_vector(scale, 3, "mesh scale")
+        s = np.broadcast_to(np.asarray(scale, dtype=float), (3,)) if np.ndim(scale) == 0 \
+            else as_vector(scale, 3, "mesh scale")
         sc = tuple(_positive(v, "mesh scale entries") for v in s)
         vertices, planes = _load_hull(Path(path), np.asarray(sc))
         self._set(path=str(path), pose=T, scale=sc, frames=_frames(frames, "mesh"),
@@ -383,11 +389,13 @@ def _load_hull(path: Path, scale: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     try:
         mesh = trimesh.load(str(path), force="mesh")
     except Exception as exc:  # noqa: BLE001 - trimesh raises many types for a bad file
-        raise ModelError(f"mesh file {path.name!r} could not be read as a triangle mesh ({type(exc).__name__})") from None
+        raise ModelError(f"mesh file {path.name!r} could not be read as a triangle mesh "
+                         f"({type(exc).__name__})") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise ModelError(f"mesh file {path.name!r} holds no triangles")
     if not mesh.is_watertight:
-        raise ModelError(f"mesh file {path.name!r} is not a closed surface (watertight mesh expected for an obstacle)")
+        raise ModelError(f"mesh file {path.name!r} is not a closed surface (watertight mesh expected for an "
+                         "obstacle)")
     mesh.apply_scale(scale)
     hull = mesh.convex_hull
     normals = np.asarray(hull.face_normals)
@@ -415,11 +423,13 @@ SHAPE_KINDS: dict[str, type[Shape]] = {c.kind: c for c in (Sphere, Box, Capsule,
 
 
 def as_shape(value: Any, name: str = "obstacle") -> Shape:
-    """A :class:`Shape` from a shape, or from its ``to_dict()`` form ``{"kind": "box", "pose": ..., "size": ...}``."""
+    """A :class:`Shape` from a shape, or from its ``to_dict()`` form ``{"kind": "box", "pose": ..., "size":
+    ...}``."""
     if isinstance(value, Shape):
         return value
     if not isinstance(value, dict):
-        raise InputError(f"{name} must be a shape (Sphere, Box, Capsule, Cylinder, Mesh) or a dict with a 'kind', "
+        raise InputError(f"{name} must be a shape (Sphere, Box, Capsule, Cylinder, Mesh) or a dict with a "
+                         "'kind', "
                          f"got {type(value).__name__}")
     kind = value.get("kind")
     cls = SHAPE_KINDS.get(kind) if isinstance(kind, str) else None
@@ -436,7 +446,8 @@ def as_shape(value: Any, name: str = "obstacle") -> Shape:
 
 
 def as_sphere(value: Any, name: str = "spheres") -> Sphere:
-    """A :class:`Sphere` from a sphere, a ``(center, radius)`` pair or a ``{"center", "radius", "frames"}`` dict."""
+    """A :class:`Sphere` from a sphere, a ``(center, radius)`` pair or a ``{"center", "radius", "frames"}``
+    dict."""
     if isinstance(value, Sphere):
         return value
     if isinstance(value, dict):
@@ -447,5 +458,6 @@ def as_sphere(value: Any, name: str = "spheres") -> Sphere:
     try:
         center, radius = value
     except (TypeError, ValueError):
-        raise InputError(f"{name} must be ik.Sphere objects or (center, radius) pairs, got {value!r}") from None
+        raise InputError(f"{name} must be ik.Sphere objects or (center, radius) pairs, "
+                         f"got {value!r}") from None
     return Sphere(center, radius)
