@@ -41,8 +41,7 @@ SOLVE_CPU_MARGIN = 0.3
 #: Puts the CPU clock of :mod:`fake_clock` in place of the solver's clock in a fresh interpreter.
 _CPU_CLOCK = (
     "import sys\n"
-    f"sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})\n"
-    "from fake_clock import cpu_clock\n"
+    "from fake_clock import cpu_clock  # (the child runs in tests/: its folder is on its path)\n"
     "CPU_CLOCK = cpu_clock()\n"
     "CPU_CLOCK.__enter__()  # (held: a dropped context manager would restore the real clock)\n"
 )
@@ -98,7 +97,8 @@ _SOLVES = _CPU_CLOCK + _SCENE + (
 
 def _run(code: str, *args: str) -> dict:
     """The JSON a fresh interpreter prints running ``code`` (``args``: its ``sys.argv[1:]``)."""
-    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=540)
+    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=540,
+                         cwd=Path(__file__).resolve().parent)
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 
