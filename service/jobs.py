@@ -75,11 +75,12 @@ def pool() -> RobotPool:
 
 
 def load_compiled_kernels() -> None:
-    """Import Numba and load the compiled IK kernels (~0.5 s from their cache) when a solver process starts,
-    before it takes a job: a job that loaded them would overrun its request's time cap."""
+    """Import Numba, load the compiled IK kernels (~0.5 s from their cache) and import the planners when a
+    solver process starts, before it takes a job: a job that loaded them would overrun its time cap."""
     from kinserve.ik.constraints import clearance_kernel  # noqa: F401 - loaded on import
     from kinserve.ik.lm import kernel as lm_kernel  # noqa: F401 - loaded on import
     from kinserve.kinematics import precheck_kernels  # noqa: F401 - loaded on import
+    from kinserve.planners import cartesian  # noqa: F401 - the planners, before a plan's clock starts
 
 
 def warm(deadline: Deadline, robot: str = "panda") -> int:
