@@ -25,7 +25,7 @@ import threading
 from collections import OrderedDict
 
 from kinserve import robots
-from kinserve.ik.state import ik_state
+from kinserve.ik.state import clear, ik_state
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import UnknownRobotError, suggest
 
@@ -175,4 +175,7 @@ class RobotPool:
             self._variants.move_to_end(key)
             key = next(iter(self._variants))
         self.evictions += 1
-        return self._variants.pop(key).nbytes()
+        variant = self._variants.pop(key)
+        size = variant.nbytes()
+        clear(variant.base)  # its IK state (shared by its copies) goes now, not whenever a GC pass finds it
+        return size
