@@ -38,6 +38,18 @@ def _position_fixed(target: Target) -> bool:
     return not any(k in target.relaxed for k in (0, 1, 2))
 
 
+def _inside(obstacles: Any, target: Target, reach: float = 0.0) -> str:
+    """The start of the reason when the target position lies inside one of ``obstacles`` grown by ``reach``
+    ("the target position [..] lies inside obstacle[k]:kind (d m"), else ""."""
+    point = np.array(target.T[:3, 3], dtype=float)
+    for k, ob in enumerate(obstacles):
+        depth = _depth(ob, point, reach)
+        if depth > 0.0:
+            return (f"the target position {np.round(point, 4).tolist()} lies inside obstacle[{k}]:{ob.kind} "
+                    f"({depth:.4g} m")
+    return ""
+
+
 def _depth(obstacle: Any, point: np.ndarray, reach: float = 0.0) -> float:
     """How deep ``point`` lies inside ``obstacle`` grown by ``reach`` (m; <= 0 when outside): the bounding
     ball answers "outside" at once, the exact signed distance decides the rest."""
@@ -73,16 +85,11 @@ class ClearanceChecker:
         """A reason when the target position lies inside an obstacle (the tool frame ends a link segment)."""
         if not _position_fixed(target):
             return ""
-        point = np.array(target.T[:3, 3], dtype=float)
-        reach = float(self.constraint.link_radius)
-        for k, ob in enumerate(self.constraint.obstacles):
-            depth = -_depth(ob, point, reach)
-            if depth < 0.0:
-                where = f"the target position {np.round(point, 4).tolist()}"
-                return (f"{where} lies inside obstacle[{k}]:{ob.kind} "
-                        f"({-depth:.4g} m deep, link radius included) and frame {target.frame!r} ends a link "
-                        "segment: no configuration clear of the obstacles reaches it")
-        return ""
+        inside = _inside(self.constraint.obstacles, target, float(self.constraint.link_radius))
+        if not inside:
+            return ""
+        return (f"{inside} deep, link radius included) and frame {target.frame!r} ends a link segment: no "
+                "configuration clear of the obstacles reaches it")
 
 
 class CollisionChecker:
@@ -122,15 +129,11 @@ class CollisionChecker:
         constraint = self.constraint
         if not constraint.obstacles or not _position_fixed(target):
             return ""
-        point = np.array(target.T[:3, 3], dtype=float)
-        for k, ob in enumerate(constraint.obstacles):
-            depth = -_depth(ob, point)
-            if depth < 0.0 and frame_origin_inside_body(self.robot, target.frame):
-                where = f"the target position {np.round(point, 4).tolist()}"
-                return (f"{where} lies inside obstacle[{k}]:{ob.kind} "
-                        f"({-depth:.4g} m deep) and frame {target.frame!r} has its origin inside the robot's "
-                        "collision geometry: no collision-free configuration reaches it")
-        return ""
+        inside = _inside(constraint.obstacles, target)
+        if not inside or not frame_origin_inside_body(self.robot, target.frame):
+            return ""
+        return (f"{inside} deep) and frame {target.frame!r} has its origin inside the robot's collision "
+                "geometry: no collision-free configuration reaches it")
 
 
 def _admission(constraint: CollisionConstraint, pre: Any,
