@@ -7,11 +7,13 @@ import itertools
 import re
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import kinserve
 from kinserve import ik, robots
 from kinserve.ik import plan
+from kinserve.ik.options import CHECKED_ATTEMPTS, MAX_ITER_QP
 from kinserve.ik.request import pose_request, target_request, task_request
 
 
@@ -79,7 +81,8 @@ def _inside_target(panda, frame):
 
 @pytest.mark.parametrize("door", ["obstacles", "spheres", "self_collision"])
 def test_a_target_inside_an_obstacle_is_refused_with_the_reason(panda, door):
-    """Every door says why, without spending its budget: no solver iteration runs."""
+    """Every door says why, without spending its budget: only the unconstrained attempts run (each converges
+    and is rejected), never the constrained solve."""
     frame = "panda_link8"
     T, box = _inside_target(panda, frame)
     if door == "obstacles":
@@ -91,7 +94,8 @@ def test_a_target_inside_an_obstacle_is_refused_with_the_reason(panda, door):
         res = ik.solve(panda, T, frame="panda_hand", self_collision=True, obstacles=[box], max_time=30.0)
     assert not res.success
     assert "lies inside obstacle[0]" in res.message, res.message
-    assert res.iterations == 0 and res.info["strategy"] == "infeasible"
+    assert res.info["strategy"] == "infeasible"
+    assert 0 < res.iterations <= (1 + CHECKED_ATTEMPTS) * MAX_ITER_QP
 
 
 def test_clear_caches_drops_the_ik_state(panda):
@@ -116,3 +120,29 @@ def test_a_checked_solve_reports_the_whole_iteration_budget(panda):
     assert res.iterations <= 40 + 1
     if not res.success and "iteration budget" in res.message:
         assert "iteration budget exhausted (40 iterations)" in res.message
+
+
+def test_the_message_says_when_q0_is_inside_an_obstacle(panda):
+    """A q0 whose links cross an obstacle is told in the message; a q0 clear of it is not (whether or not the
+    run started there)."""
+    frame = "panda_link8"
+    rng = np.random.default_rng(11)
+    told = clear = 0
+    for _ in range(20):
+        q_goal, q0 = panda.random_q(rng), panda.random_q(rng)
+        T = panda.fk(q_goal, frame)
+        data = panda.model.createData()
+        pin.forwardKinematics(panda.model, data, q0)
+        centre = data.oMi[panda.model.getJointId("panda_joint4")].translation.copy()  # on q0's elbow
+        sphere = ik.Sphere(centre, 0.04)
+        if ik.ObstacleAvoidance([sphere]).bind(panda).violations(panda, q_goal[None])[0]:
+            continue  # the goal itself crosses the sphere
+        res = ik.solve(panda, T, q0, frame=frame, spheres=[sphere], iteration_budget=4000)
+        if res.success and res.info["strategy"] == "unconstrained, checked":
+            assert "q0 is inside an obstacle" in res.message, res.message
+            told += 1
+        far = ik.Sphere(centre + np.array([0.0, 0.0, 5.0]), 0.04)
+        res = ik.solve(panda, T, q0, frame=frame, spheres=[far], iteration_budget=4000, prefer_q0=True)
+        assert res.success and "q0 is inside" not in res.message, res.message
+        clear += 1
+    assert told >= 5 and clear >= 5

@@ -13,9 +13,9 @@ its history is that configuration). At most :data:`~kinserve.ik.options.CHECKED_
 * ``"closed_form"``: the best closed-form branch among those the checker passes (LM attempts when none);
 * ``"qp"``: the QP (centring, extra constraints) from one start at a time, inadmissible starts skipped.
 
-A target the checker calls infeasible (its position inside an obstacle with the frame's origin on the body)
-fails at once with the reason. Otherwise the constrained QP imposes the checker's constraint on every iterate,
-warm-started from the last clear iterate of the first run that failed.
+When no attempt passes, a target the checker calls infeasible (its position inside an obstacle with the
+frame's origin on the body) fails at once with the reason. Otherwise the constrained QP imposes the
+checker's constraint on every iterate, warm-started from the last clear iterate of the first run that failed.
 """
 
 from __future__ import annotations
@@ -54,18 +54,18 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
     """Solve ``req`` as the module docstring says; ``attempts``: ``"lm"``, ``"closed_form"`` or ``"qp"``."""
     t0 = time.perf_counter()
     checker = make_checker(req)
-    reason = checker.infeasible(req.target)
-    if reason:
-        return _infeasible(req, t0, reason)
     budget = request_budget(req)
     found, failed, used, tried = None, None, 0, 0
     if CHECKED_ATTEMPTS > 0:  # (0: straight to the constrained solve)
         run = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}[attempts]
         found, failed, used, tried = run(req, checker, budget.share(CHECKED_BUDGET_SHARE))
     if found is not None:
-        found.message += _q0_note(req, checker)
+        found.message += _q0_note(req, checker, found)
         found.elapsed = time.perf_counter() - t0
         return found
+    reason = checker.infeasible(req.target)  # (asked only now: no passing answer is its common answer)
+    if reason:
+        return _infeasible(req, t0, reason, used)
     warm = None if failed is None else last_clear(checker, failed)
     stage = budget.after(t0, used)
     res = _constrained(req, checker, warm, stage, tried)
@@ -77,11 +77,14 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
     return res
 
 
-def _q0_note(req: SolveRequest, checker: Checker) -> str:
+def _q0_note(req: SolveRequest, checker: Checker, found: Result) -> str:
     """What the message says of a ``q0`` that violates the checker ("" when there is none)."""
     if req.q0 is None or checker.name != "obstacles":  # (the collision checker's admission judged q0)
         return ""
-    if checker.first_violation(np.clip(req.q0, req.robot.lower, req.robot.upper)[None]) != 0:
+    q0 = np.clip(req.q0, req.robot.lower, req.robot.upper)
+    if len(found.history) > 1 and np.array_equal(found.history.iterates()[0], q0):
+        return ""  # the run started at q0 and its whole path passed the checker
+    if checker.first_violation(q0[None]) != 0:
         return ""
     return "; q0 is inside an obstacle: started from a configuration clear of them"
 
@@ -203,11 +206,13 @@ def _constrained(req: SolveRequest, checker: Checker, warm: np.ndarray | None, b
     return res
 
 
-def _infeasible(req: SolveRequest, t0: float, reason: str) -> Result:
+def _infeasible(req: SolveRequest, t0: float, reason: str, iterations: int) -> Result:
+    """The failed result of a target no configuration clear of the obstacles reaches (``iterations``: the
+    unconstrained attempts' iterations; the constrained solve is not run)."""
     robot, tgt = req.robot, req.target
     q = np.clip(robot.neutral() if req.q0 is None else req.q0, robot.lower, robot.upper)
     pe, re = tgt.errors_at(robot, q)  # the start's errors: every number of a result is finite
-    return Result(q=q, success=False, position_error=pe, orientation_error=re,
+    return Result(q=q, success=False, position_error=pe, orientation_error=re, iterations=iterations,
                   elapsed=time.perf_counter() - t0, message=reason, method="qp", frame=tgt.frame,
                   history=History.empty(robot.nq, tgt.components), info={"strategy": "infeasible",
                                                                          "collision": "infeasible"})

@@ -29,8 +29,10 @@ def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, **extra
                         seed=req.seed, max_time=MAX_TIME_LM if req.max_time is None else req.max_time)
     budget = request_budget(req, MAX_TIME_LM) if budget is None else budget
     opts = options_for("lm", req.options)
+    if extra:
+        opts.update(extra)
     return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
-                    **budget.keywords(), **{**opts, **extra})
+                    max_time=budget.seconds, iteration_budget=budget.iterations, **opts)
 
 
 def target_qp(req: SolveRequest, constraints: tuple | None = None, budget: Budget | None = None,
