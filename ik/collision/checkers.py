@@ -70,16 +70,30 @@ class ClearanceChecker:
     name = "obstacles"
     admit = None
 
-    def __init__(self, robot: Robot, avoid: ObstacleAvoidance) -> None:
+    def __init__(self, robot: Robot, avoid: ObstacleAvoidance, q0: np.ndarray | None = None) -> None:
+        """``q0``: the request's start (inside the limits), judged with the first rows checked (one call)."""
         self.robot = robot
         self.constraint = avoid
+        self.q0 = q0
+        self.q0_violates: bool | None = None if q0 is not None else False  # (None: not judged yet)
 
     def first_violation(self, rows: np.ndarray) -> int:
         """Index of the first row closer than the link radius to an obstacle, or -1."""
         if not len(rows):
             return -1
-        bad = np.asarray(self.constraint.violations(self.robot, rows), dtype=bool)
+        if self.q0_violates is None:  # q0 rides along with the first rows checked
+            bad = np.asarray(self.constraint.violations(self.robot, np.concatenate((rows, self.q0[None]))),
+                             dtype=bool)
+            self.q0_violates, bad = bool(bad[-1]), bad[:-1]
+        else:
+            bad = np.asarray(self.constraint.violations(self.robot, rows), dtype=bool)
         return int(bad.argmax()) if bad.any() else -1
+
+    def q0_inside(self) -> bool:
+        """True when the request's ``q0`` violates the obstacles (False without a ``q0``)."""
+        if self.q0_violates is None:
+            self.first_violation(self.q0[None])
+        return bool(self.q0_violates)
 
     def infeasible(self, target: Target) -> str:
         """A reason when the target position lies inside an obstacle (the tool frame ends a link segment)."""

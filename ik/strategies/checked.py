@@ -47,7 +47,8 @@ def make_checker(req: SolveRequest) -> Checker:
         if chosen is not None:
             chosen = np.clip(chosen, req.robot.lower, req.robot.upper)
         return CollisionChecker(req.robot, req.collision_constraint, chosen)
-    return ClearanceChecker(req.robot, req.avoid)
+    q0 = None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
+    return ClearanceChecker(req.robot, req.avoid, q0)
 
 
 def checked_first(req: SolveRequest, attempts: str) -> Result:
@@ -60,7 +61,7 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
         run = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}[attempts]
         found, failed, used, tried = run(req, checker, budget.share(CHECKED_BUDGET_SHARE))
     if found is not None:
-        found.message += _q0_note(req, checker, found)
+        found.message += _q0_note(checker)
         found.elapsed = time.perf_counter() - t0
         return found
     reason = checker.infeasible(req.target)  # (asked only now: no passing answer is its common answer)
@@ -77,15 +78,10 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
     return res
 
 
-def _q0_note(req: SolveRequest, checker: Checker, found: Result) -> str:
+def _q0_note(checker: Checker) -> str:
     """What the message says of a ``q0`` that violates the checker ("" when there is none)."""
-    if req.q0 is None or checker.name != "obstacles":  # (the collision checker's admission judged q0)
-        return ""
-    q0 = np.clip(req.q0, req.robot.lower, req.robot.upper)
-    if len(found.history) > 1 and np.array_equal(found.history.iterates()[0], q0):
-        return ""  # the run started at q0 and its whole path passed the checker
-    if checker.first_violation(q0[None]) != 0:
-        return ""
+    if checker.name != "obstacles" or not checker.q0_inside():  # (the collision checker's admission
+        return ""                                                   # judged q0)
     return "; q0 is inside an obstacle: started from a configuration clear of them"
 
 
