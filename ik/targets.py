@@ -124,7 +124,7 @@ class Target:
     """
 
     __slots__ = (
-        "T", "se3", "frame", "frame_id", "relaxed", "kept", "pos_rows", "rot_rows",
+        "T", "frame", "frame_id", "relaxed", "kept", "pos_rows", "rot_rows",
         "full", "relax_frame", "A", "components", "_p", "_R", "_Rt_axes",
     )
 
@@ -134,7 +134,6 @@ class Target:
         self.T = T
         self._R = T[:3, :3]
         self._p = T[:3, 3]
-        self.se3 = pin.SE3(self._R, self._p)
         self.frame = robot.tip if frame is None else frame
         self.frame_id = robot.frame_id(self.frame)
         if relax_frame != "world" and relax_frame not in RELAX_FRAMES:
@@ -159,6 +158,11 @@ class Target:
         else:
             self.A = self._R.copy()
             self._Rt_axes = self.A.T.copy()
+
+    @property
+    def se3(self) -> pin.SE3:
+        """The target pose as a ``pinocchio.SE3`` (a new object per call)."""
+        return pin.SE3(self._R, self._p)
 
     # ----------------------------------------------------------------- errors
     def error6(self, R: np.ndarray, p: np.ndarray) -> np.ndarray:

@@ -127,16 +127,17 @@ def _limited_step(J, e, lam, q, lo, hi, qn, qc, passes=3):
     return qc
 
 
-def _linearise(model, data, fid: int, target: Target, q: np.ndarray) -> tuple:
+def _linearise(model, data, fid: int, target: Target, goal: pin.SE3 | None, q: np.ndarray) -> tuple:
     """``(e, J, |t|^2, |w|^2, |e|^2)`` at ``q``: the error and Jacobian rows of the step, the squared errors.
 
-    Full pose: ``e = log6(oMf^-1 oMd)`` and the LOCAL Jacobian (errors of ``oMf^-1 oMd``); relaxed: the kept
-    rows of :meth:`ik.targets.Target.error6` and of the world-aligned Jacobian in the target's axes.
+    Full pose (``goal``: the target as an SE3): ``e = log6(oMf^-1 oMd)`` and the LOCAL Jacobian (errors of
+    ``oMf^-1 oMd``); relaxed: the kept rows of :meth:`ik.targets.Target.error6` and of the world-aligned
+    Jacobian in the target's axes.
     """
     _cjj(model, data, q)
     M = _ufp(model, data, fid)
     if target.full:
-        iMd = M.actInv(target.se3)
+        iMd = M.actInv(goal)
         e = _log6(iMd).vector
         t, w = iMd.translation, e[3:]
         return e, _gfj(model, data, fid, _LOCAL), t.dot(t), w.dot(w), e.dot(e)
@@ -154,12 +155,13 @@ def python_start(model: pin.Model, data: pin.Data, target: Target, q0: np.ndarra
     evaluated configurations (``qs[0] = q0``) and ``errs[:rows]`` their squared position / orientation
     errors (both need ``max_iter + 1`` rows); converged when ``|t|^2 < tp2`` and ``|w|^2 < tr2``."""
     fid = target.frame_id
+    goal = target.se3 if target.full else None
     qs[0] = q0
     best = math.inf
     stalls = 0
     for it in range(max_iter + 1):  # the last pass only evaluates the final configuration
         q = qs[it]
-        e, J, pe2, re2, E = _linearise(model, data, fid, target, q)
+        e, J, pe2, re2, E = _linearise(model, data, fid, target, goal, q)
         errs[it, 0], errs[it, 1] = pe2, re2
         if pe2 < tp2 and re2 < tr2:
             return CONVERGED, it, it + 1
