@@ -1,0 +1,52 @@
+"""ab_revision.py: the export of an earlier revision and the A/B table (medians over rounds, head / base)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def _ab():
+    spec = importlib.util.spec_from_file_location("ab_revision", BENCH / "ab_revision.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _write(folder: Path, side: str, r: int, bench: str, data: dict) -> None:
+    (folder / f"{side}_{r}_{bench}.json").write_text(json.dumps(data))
+
+
+def test_the_table_gives_medians_over_rounds_and_their_ratio(tmp_path):
+    ab = _ab()
+    same = ("per_solve", "auto (same start)", "median_vs_ik_LM_same_start")
+    for r, (b, h) in enumerate([(0.8, 0.9), (1.0, 1.3), (0.9, 1.0)], start=1):
+        for side, value, many, loop in (("base", b, 100.0, 10.0), ("head", h, 300.0 * r, 100.0)):
+            _write(tmp_path, side, r, "ik", {
+                "per_solve": {"auto (same start)": {"median_vs_ik_LM_same_start": value}},
+                "solve_many": {"one_process_targets_per_s": many, "ours_one_by_one_per_s": loop}})
+    assert ab._values(tmp_path, "base", "ik", same) == [0.8, 1.0, 0.9]
+    text = ab.table(tmp_path, "abc123")
+    row = next(line for line in text.splitlines() if line.startswith("| same-start ik.solve median / ik_LM"))
+    cells = [c.strip() for c in row.split("|")[1:-1]]
+    assert cells[2].startswith("0.9 (0.8, 1, 0.9)") and cells[3].startswith("1 (0.9, 1.3, 1)")
+    assert cells[4] == f"{1.0 / 0.9:.2f}"
+    missing = next(line for line in text.splitlines() if line.startswith("| open scene: median"))
+    assert "— ()" in missing  # no such file: a dash, not an error
+    assert "solve_many per process / a loop of ik.solve (head): 6.00" in text
+
+
+def test_the_base_revision_is_exported_as_a_kinserve_folder(tmp_path):
+    ab = _ab()
+    root = Path(__file__).resolve().parents[1]
+    if subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True).returncode:
+        pytest.skip("not a git checkout")
+    tree = ab.export("HEAD", tmp_path)
+    assert tree == tmp_path / "kinserve"
+    assert (tree / "benchmarks" / "bench_ik.py").is_file() and (tree / "ik" / "solve.py").is_file()
