@@ -1,9 +1,10 @@
 """A/B of the IK benchmarks between an earlier revision and the working tree, in one run.
 
-The earlier revision is exported with ``git archive`` into a temporary folder named ``kinserve`` and imported
-through ``PYTHONPATH``; each side runs its own copy of ``bench_ik``, ``bench_ik_constrained``,
-``bench_collision`` and ``time_ik_step`` (the scripts as they were at that revision), alternating
-``--rounds`` times (base, head, base, head, ...) so that a slow stretch of a shared machine falls on both.
+The earlier revision is exported with ``git archive`` into a temporary folder ``kinserve``; a link
+``benchmarks/kinserve`` to that folder, beside its scripts, makes ``import kinserve`` find it before the
+installed package (a script's own folder comes first on the import path). Each side runs its own copy of
+``bench_ik``, ``bench_ik_constrained``, ``bench_collision`` and ``time_ik_step`` (the scripts as they were at
+that revision), alternating ``--rounds`` times (base, head, base, head, ...) so that a slow stretch of a shared machine falls on both.
 Peers come from ``bench-out/venvs`` (``make peers``) for both sides. Every figure is the median over the
 rounds (the rounds' values are printed beside it); the ratio column is head / base. Ratios to a solver
 measured in the same process (ik_LM, the unconstrained solve) are the robust figures: the two sides run
@@ -68,19 +69,20 @@ ROWS = [
 
 
 def export(base: str, into: Path) -> Path:
-    """The tree of revision ``base`` as ``into/kinserve`` (its benchmarks included)."""
+    """The tree of revision ``base`` as ``into/kinserve`` (its benchmarks included), with the link
+    ``benchmarks/kinserve`` to itself: its scripts import that tree."""
     archive = subprocess.run(["git", "-C", str(ROOT), "archive", base, "--prefix=kinserve/"], check=True,
                              capture_output=True).stdout
     subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
-    return into / "kinserve"
+    tree = into / "kinserve"
+    (tree / "benchmarks" / "kinserve").symlink_to(tree, target_is_directory=True)
+    return tree
 
 
-def run_side(side: str, tree: Path, pythonpath: str | None, round_: int, out: Path) -> None:
-    """Every benchmark of one side, its JSON in ``out/<side>_<round>_<bench>.json``."""
+def run_side(side: str, tree: Path, round_: int, out: Path) -> None:
+    """Every benchmark of one side (the scripts of ``tree``), its JSON in
+    ``out/<side>_<round>_<bench>.json``."""
     env = dict(os.environ, KINSERVE_BENCH_VENVS=str(ROOT / "bench-out" / "venvs"))
-    env.pop("PYTHONPATH", None)
-    if pythonpath:
-        env["PYTHONPATH"] = pythonpath
     for name, (args, head_only) in BENCHES.items():
         extra = head_only if side == "head" else []
         target = out / f"{side}_{round_}_{name}.json"
@@ -146,8 +148,8 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             tree = export(args.base, Path(tmp))
             for r in range(1, args.rounds + 1):
-                run_side("base", tree, tmp, r, out)
-                run_side("head", ROOT, None, r, out)
+                run_side("base", tree, r, out)
+                run_side("head", ROOT, r, out)
                 print(f"round {r}/{args.rounds} done", flush=True)
     print(table(out, args.base))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -50,3 +51,9 @@ def test_the_base_revision_is_exported_as_a_kinserve_folder(tmp_path):
     tree = ab.export("HEAD", tmp_path)
     assert tree == tmp_path / "kinserve"
     assert (tree / "benchmarks" / "bench_ik.py").is_file() and (tree / "ik" / "solve.py").is_file()
+    # a script of the exported tree imports the exported kinserve, not the installed one
+    (tree / "benchmarks" / "where.py").write_text("import kinserve\nprint(kinserve.__file__)\n")
+    out = subprocess.run([sys.executable, str(tree / "benchmarks" / "where.py")], capture_output=True,
+                         text=True, timeout=60, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert Path(out.stdout.strip()).resolve() == (tree / "__init__.py").resolve()
