@@ -5,10 +5,10 @@ The earlier revision is exported with ``git archive`` into a temporary folder ``
 installed package (a script's own folder comes first on the import path). Each side runs its own copy of
 ``bench_ik``, ``bench_ik_constrained``, ``bench_collision`` and ``time_ik_step`` (the scripts as they were at
 that revision), alternating ``--rounds`` times (base, head, base, head, ...) so that a slow stretch of a
-shared machine falls on both. Peers come from ``bench-out/venvs`` (``make peers``) for both sides. Every figure is the median over the
-rounds (the rounds' values are printed beside it); the ratio column is head / base. Ratios to a solver
-measured in the same process (ik_LM, the unconstrained solve) are the robust figures: the two sides run
-minutes apart.
+shared machine falls on both. Peers come from ``bench-out/venvs`` (``make peers``) for both sides. Every
+figure is the median over the rounds (the rounds' values are printed beside it); the ratio column is head /
+base. Ratios to a solver measured in the same process (ik_LM, the unconstrained solve) are the robust figures:
+the two sides run minutes apart.
 
     python benchmarks/ab_revision.py --base b69b75b [--rounds 2] [--out bench-out/ab]
 """
