@@ -151,8 +151,7 @@ def options_for(method: str, options: Mapping[str, Any]) -> dict:
     if not options:
         return {}
     allowed = OPTIONS[method]
-    kept = {k: v for k, v in options.items() if k in allowed and k != "iteration_budget"}
-    return solver_keywords(kept) if "seed_table" in kept else kept
+    return solver_keywords({k: v for k, v in options.items() if k in allowed and k != "iteration_budget"})
 
 
 def solver_keywords(options: dict) -> dict:

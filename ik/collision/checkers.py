@@ -81,12 +81,11 @@ class ClearanceChecker:
         """Index of the first row closer than the link radius to an obstacle, or -1."""
         if not len(rows):
             return -1
-        if self.q0_violates is None:  # q0 rides along with the first rows checked
-            bad = np.asarray(self.constraint.violations(self.robot, np.concatenate((rows, self.q0[None]))),
-                             dtype=bool)
+        judge_q0 = self.q0_violates is None  # q0 rides along with the first rows checked
+        checked = np.concatenate((rows, self.q0[None])) if judge_q0 else rows
+        bad = np.asarray(self.constraint.violations(self.robot, checked), dtype=bool)
+        if judge_q0:
             self.q0_violates, bad = bool(bad[-1]), bad[:-1]
-        else:
-            bad = np.asarray(self.constraint.violations(self.robot, rows), dtype=bool)
         return int(bad.argmax()) if bad.any() else -1
 
     def q0_inside(self) -> bool:

@@ -42,13 +42,16 @@ _CLEAR = "unconstrained, checked"
 
 def make_checker(req: SolveRequest) -> Checker:
     """The request's checker: the collision model's when it has one bound, else the link capsules'."""
+    q0 = _clipped_q0(req)
     if req.collision_constraint is not None:
-        chosen = req.q0 if req.q0 is not None and req.options.get("prefer_q0") else None
-        if chosen is not None:
-            chosen = np.clip(chosen, req.robot.lower, req.robot.upper)
+        chosen = q0 if req.options.get("prefer_q0") else None
         return CollisionChecker(req.robot, req.collision_constraint, chosen)
-    q0 = None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
     return ClearanceChecker(req.robot, req.avoid, q0)
+
+
+def _clipped_q0(req: SolveRequest) -> np.ndarray | None:
+    """The request's ``q0`` inside the joint limits (a fresh array), or None."""
+    return None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
 
 
 def checked_first(req: SolveRequest, attempts: str) -> Result:
@@ -80,8 +83,9 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
 
 def _q0_note(checker: Checker) -> str:
     """What the message says of a ``q0`` that violates the checker ("" when there is none)."""
-    if checker.name != "obstacles" or not checker.q0_inside():  # (the collision checker's admission
-        return ""                                                   # judged q0)
+    # (the collision checker's admission judged q0 before its run)
+    if checker.name != "obstacles" or not checker.q0_inside():
+        return ""
     return "; q0 is inside an obstacle: started from a configuration clear of them"
 
 
@@ -171,7 +175,7 @@ def _within(budget: Budget, t0: float, used: int) -> bool:
 
 def _admissible_starts(req: SolveRequest, checker: Checker) -> Any:
     tgt = req.target
-    q0 = None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
+    q0 = _clipped_q0(req)
     seq = frame_starts(req.robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3],
                        len(tgt.rot_rows) == 3, q0, req.seed or 0, bool(req.options.get("seed_table", True)),
                        bool(req.options.get("prefer_q0", False)))
