@@ -9,49 +9,22 @@ the two answers must be bit-identical. The same leaping clock with a
 
 from __future__ import annotations
 
-import contextlib
-import sys
-import time
-
 import numpy as np
 import pytest
+from fake_clock import stepping_clock
 
 from kinserve import ik, robots
 from kinserve.ik.tasks.centring_task import CentringTask
 
 BUDGET_DONE = "iteration budget exhausted"
-_REAL_CLOCKS = (time.perf_counter, time.monotonic)
+#: Seconds each clock reading advances by: every deadline is past at the first reading after its start.
+LEAP = 1000.0
 
 
-class LeapingClock:
-    """A clock that advances by ``leap`` seconds at every reading."""
-
-    def __init__(self, leap: float = 1000.0) -> None:
-        self.now, self.leap = 0.0, leap
-
-    def __call__(self) -> float:
-        self.now += self.leap
-        return self.now
-
-
-@contextlib.contextmanager
 def leaping_clock():
-    """A :class:`LeapingClock` as ``time.perf_counter`` and ``time.monotonic``, and wherever a kinserve module
-    holds one of them under a name of its own (``_now = time.perf_counter``); all restored on exit."""
-    clock = LeapingClock()
-    patched = [(time, "perf_counter", time.perf_counter), (time, "monotonic", time.monotonic)]
-    for name, module in list(sys.modules.items()):
-        if name.startswith("kinserve") and module is not None:
-            for attr, value in list(vars(module).items()):
-                if any(value is real for real in _REAL_CLOCKS):
-                    patched.append((module, attr, value))
-    for owner, attr, _ in patched:
-        setattr(owner, attr, clock)
-    try:
-        yield clock
-    finally:
-        for owner, attr, value in patched:
-            setattr(owner, attr, value)
+    """A clock leaping :data:`LEAP` seconds at every reading, in place of the real clocks
+    (:func:`fake_clock.stepping_clock`)."""
+    return stepping_clock(LEAP)
 
 
 @pytest.fixture(scope="module")
