@@ -20,25 +20,15 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from _motion_peers_roboplan import RoboplanMotion
+from _motion_peers_roboplan import RoboplanHandler
 
 from _worker_loop import serve
 
 
-class _Handler:
-    def __init__(self) -> None:
-        self.rp: RoboplanMotion | None = None
+class _ClutterHandler(RoboplanHandler):
+    """The motion worker's commands (``version``, ``setup``, ...) and the collision-check ones."""
 
     def __call__(self, cmd: str, req: dict) -> dict:
-        if cmd == "version":
-            from importlib.metadata import version
-
-            import pinocchio
-
-            return {"version": f"roboplan {version('roboplan')} / pin {pinocchio.__version__}"}
-        if cmd == "setup":
-            self.rp = RoboplanMotion(req)
-            return {"joints": self.rp.scene.getJointNames()}
         if cmd == "first":
             q = np.ascontiguousarray(req["q"], dtype=float)
             t0 = time.perf_counter()
@@ -49,7 +39,7 @@ class _Handler:
             return {"scene_s": t1 - t0, "check_s": t2 - t1, "collision": hit}
         if cmd == "checks":
             return self.checks(req["qs"])
-        return {"error": f"unknown cmd {cmd!r}"}
+        return super().__call__(cmd, req)
 
     def checks(self, rows: list) -> dict:
         qs = [np.ascontiguousarray(q, dtype=float) for q in rows]
@@ -65,4 +55,4 @@ class _Handler:
 
 
 if __name__ == "__main__":
-    serve(_Handler())
+    serve(_ClutterHandler())

@@ -100,7 +100,9 @@ class RoboplanMotion:
                 "raw_waypoints": len(path.positions), "plan_time": t1 - t0, "simplify_time": t3 - t2}
 
 
-class _Handler:
+class RoboplanHandler:
+    """The worker's commands: ``version``, ``setup`` (one :class:`RoboplanMotion`), ``scene``, ``plan``."""
+
     def __init__(self) -> None:
         self.rp: RoboplanMotion | None = None
 
@@ -122,4 +124,4 @@ class _Handler:
 
 
 if __name__ == "__main__":
-    serve(_Handler())
+    serve(RoboplanHandler())
