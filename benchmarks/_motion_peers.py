@@ -28,18 +28,22 @@ SCRIPTS = {"roboplan": "_motion_peers_roboplan.py", "ompl": "_motion_peers_ompl.
 class MotionPeer(PeerWorker):
     """A motion-planning peer worker (:class:`_peers.PeerWorker` with its own script and a stderr log)."""
 
-    def __init__(self, peer: str, timeout: float = 120.0) -> None:
+    def __init__(self, peer: str, timeout: float = 120.0, script: str | None = None,
+                 log_prefix: str = "motion") -> None:
+        """``script``: the worker (default :data:`SCRIPTS`'s for ``peer``); its stderr goes to
+        ``bench-out/<log_prefix>_<peer>.stderr.log``."""
         py = peer_python(peer)
         if py is None:
             raise PeerError(f"no venv for {peer} (run `make peers` to create bench-out/venvs/{peer})")
         env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
         env.pop("PYTHONPATH", None)
-        log = ROOT / "bench-out" / f"motion_{peer}.stderr.log"
+        log = ROOT / "bench-out" / f"{log_prefix}_{peer}.stderr.log"
         log.parent.mkdir(parents=True, exist_ok=True)
         self.peer, self.timeout, self.log = peer, timeout, log
         with open(log, "w") as err:
-            self.proc = subprocess.Popen([str(py), str(HERE / SCRIPTS[peer])], stdin=subprocess.PIPE,
-                                         stdout=subprocess.PIPE, stderr=err, text=True, env=env, bufsize=1)
+            self.proc = subprocess.Popen([str(py), str(HERE / (script or SCRIPTS[peer]))],
+                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True,
+                                         env=env, bufsize=1)
         self.version = self.call({"cmd": "version"}).get("version", "?")
 
     def call(self, request: dict) -> dict:

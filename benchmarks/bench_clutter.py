@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,7 +47,7 @@ from bench_motion import SETS, load_robot, model_files, unpack
 from kinserve.planners.motion.scene_yaml import read_planning_scene
 
 from _common import machine, write_json
-from _peers import HERE, PeerError, peer_python
+from _peers import PeerError
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Targets (µs) and the reference figure of VAMP on the project's machine type.
@@ -84,19 +83,7 @@ class ClutterPeer(MotionPeer):
     log of :class:`_motion_peers.MotionPeer`)."""
 
     def __init__(self, peer: str = "roboplan", timeout: float = 120.0) -> None:
-        py = peer_python(peer)
-        if py is None:
-            raise PeerError(f"no venv for {peer} (run `make peers` to create bench-out/venvs/{peer})")
-        env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-        env.pop("PYTHONPATH", None)
-        log = ROOT / "bench-out" / f"clutter_{peer}.stderr.log"
-        log.parent.mkdir(parents=True, exist_ok=True)
-        self.peer, self.timeout, self.log = peer, timeout, log
-        with open(log, "w") as err:
-            self.proc = subprocess.Popen([str(py), str(HERE / "_clutter_peer_roboplan.py")],
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True,
-                                         env=env, bufsize=1)
-        self.version = self.call({"cmd": "version"}).get("version", "?")
+        super().__init__(peer, timeout, script="_clutter_peer_roboplan.py", log_prefix="clutter")
 
 
 def start_roboplan(dataset: Path) -> ClutterPeer | None:
