@@ -83,14 +83,22 @@ def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = 
                  tol_rot: float = DEFAULT_TOL_ROT, max_time: float | None = None, seed: int | None = None,
                  options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
     """The request of a pose target with every other argument at its default (the common call)."""
+    return SolveRequest(*_pose_fields(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot,
+                                      max_time, seed, options))
+
+
+def _pose_fields(robot: Robot, target: Any, q0: Any, frame: str | None, relax: Any, relax_frame: str,
+                 method: str, tol_pos: float, tol_rot: float, max_time: float | None, seed: int | None,
+                 options: Mapping[str, Any]) -> tuple:
+    """The fields of a pose request with the defaults of the rest, validated; the frame's state warmed."""
     check_robot(robot)
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
     tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
-    req = SolveRequest(robot, tgt, None, check_q0(robot, q0), check_method(method), DEFAULT_BACKEND, tol_pos,
-                       tol_rot, check_max_time(max_time), check_seed(seed), None, None, (), None, None,
-                       _checked_options(method, options))
-    _warm(req)
-    return req
+    fields = (robot, tgt, None, check_q0(robot, q0), check_method(method), DEFAULT_BACKEND, tol_pos, tol_rot,
+              check_max_time(max_time), check_seed(seed), None, None, (), None, None,
+              _checked_options(method, options))
+    _warm(robot, tgt, method)
+    return fields
 
 
 def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | None = None, relax: Any = (),
@@ -101,24 +109,24 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
                    self_collision: Any = False, collision_margin: Any = 0.0,
                    options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
     """The request of ``ik.solve(robot, target, ...)`` (see :func:`kinserve.ik.solve`)."""
-    req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
-                       options)
+    fields = _pose_fields(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
+                          seed, options)
+    tgt = fields[1]
     weights = None if type(centring) is float and centring == 0.0 else centring_weights(robot, centring)
     if weights is not None and method in NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     collision, bound, avoid = None, None, None
     if self_collision or collision_margin:
         collision = collision_request(self_collision, obstacles, collision_margin, spheres)
-        bound, avoid = _bind_collision(robot, collision, req.target.frame)
+        bound, avoid = _bind_collision(robot, collision, tgt.frame)
     else:
-        avoid = _link_obstacles(robot, spheres, obstacles, link_radius, req.target.frame)
+        avoid = _link_obstacles(robot, spheres, obstacles, link_radius, tgt.frame)
     if avoid is not None and method in NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
                          "use 'qp' or 'auto'")
-    extra = _extra_constraints(constraints, method, req.target.frame)
-    req = req._replace(backend=check_backend(backend), weights=weights, avoid=avoid, extra=extra,
-                       collision=collision, collision_constraint=bound)
-    return req
+    extra = _extra_constraints(constraints, method, tgt.frame)
+    return SolveRequest(robot, tgt, None, fields[3], fields[4], check_backend(backend), fields[6], fields[7],
+                        fields[8], fields[9], weights, avoid, extra, collision, bound, fields[15])
 
 
 def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = None, *, method: str = "auto",
@@ -148,22 +156,21 @@ def _checked_options(method: str, options: Mapping[str, Any]) -> Mapping[str, An
     return MappingProxyType(dict(options))
 
 
-def _warm(req: SolveRequest) -> None:
-    """The one-time set-up of the request's frame, before any clock starts; a clear error when ``"analytic"``
+def _warm(robot: Robot, tgt: Target, method: str) -> None:
+    """The one-time set-up of the target's frame, before any clock starts; a clear error when ``"analytic"``
     is named for a frame without a usable closed form."""
-    state = ik_state(req.robot)
-    tgt = req.target
+    state = ik_state(robot)
     state.seed_table(tgt.frame)
     solver = state.closed_form(tgt.frame)
-    compiled_chain(req.robot, tgt.frame_id)
-    if req.method != "analytic":
+    compiled_chain(robot, tgt.frame_id)
+    if method != "analytic":
         return
     if solver is None:
-        raise InputError(f"no closed-form solver for robot {req.robot.name!r} and frame {tgt.frame!r}; "
+        raise InputError(f"no closed-form solver for robot {robot.name!r} and frame {tgt.frame!r}; "
                          "use 'auto', 'lm' or 'qp'")
     if not solver.supports(tgt.relaxed):
         names = ", ".join(TASK_AXES[i] for i in tgt.relaxed)
-        raise InputError(f"the closed-form solver of {req.robot.name!r} does not handle relaxing {names}; "
+        raise InputError(f"the closed-form solver of {robot.name!r} does not handle relaxing {names}; "
                          "use 'lm' or 'qp'")
 
 

@@ -42,16 +42,16 @@ _CLEAR = "unconstrained, checked"
 
 def make_checker(req: SolveRequest) -> Checker:
     """The request's checker: the collision model's when it has one bound, else the link capsules'."""
-    q0 = _clipped_q0(req)
     if req.collision_constraint is not None:
-        chosen = q0 if req.options.get("prefer_q0") else None
+        chosen = _clipped_q0(req) if req.options and req.options.get("prefer_q0") else None
         return CollisionChecker(req.robot, req.collision_constraint, chosen)
-    return ClearanceChecker(req.robot, req.avoid, q0)
+    return ClearanceChecker(req.robot, req.avoid, _clipped_q0(req))
 
 
 def _clipped_q0(req: SolveRequest) -> np.ndarray | None:
     """The request's ``q0`` inside the joint limits (a fresh array), or None."""
-    return None if req.q0 is None else np.clip(req.q0, req.robot.lower, req.robot.upper)
+    # (np.minimum / np.maximum: a third of np.clip's overhead on a short vector)
+    return None if req.q0 is None else np.minimum(np.maximum(req.q0, req.robot.lower), req.robot.upper)
 
 
 def checked_first(req: SolveRequest, attempts: str) -> Result:
@@ -107,7 +107,7 @@ def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> R
 
 
 def _cap(req: SolveRequest) -> int:
-    starts = req.options.get("max_starts")
+    starts = req.options.get("max_starts") if req.options else None
     return 1 + CHECKED_ATTEMPTS if starts is None else min(int(starts), 1 + CHECKED_ATTEMPTS)
 
 
@@ -116,9 +116,10 @@ def _lm_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
     rejected: list = []
     verdict: list = []
     skip_start = checker.admit is not None  # an admitted start was checked before its run
+    first_violation = checker.first_violation
 
     def accept(qs: np.ndarray) -> bool:
-        k = checker.first_violation(qs[:0:-1] if skip_start else qs[::-1])
+        k = first_violation(qs[:0:-1] if skip_start else qs[::-1])
         if k == 0:  # the answer itself violates: the next start
             if not rejected:
                 rejected.append(qs)

@@ -22,17 +22,25 @@ from kinserve.ik.result import Result
 from kinserve.ik.strategies.budget import Budget, request_budget
 
 
-def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, **extra: Any) -> Result:
-    """LM from the request's start sequence (``extra``: the checked strategy's ``accept`` / ``admit``)."""
-    if budget is None and not req.options and not extra:  # the common call: no keyword dictionaries
+def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, accept: Any = None,
+                        admit: Any = None, max_starts: int | None = None) -> Result:
+    """LM from the request's start sequence; ``accept`` / ``admit`` / ``max_starts``: the checked strategy's
+    tests of a converged run and of a start, and its cap on the starts (the request's ``max_starts`` option
+    when None)."""
+    if not req.options:  # the common call: no keyword dictionary to build (no iteration budget either)
+        if budget is None:
+            budget = Budget(MAX_TIME_LM if req.max_time is None else req.max_time, None)
         return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot,
-                        seed=req.seed, max_time=MAX_TIME_LM if req.max_time is None else req.max_time)
-    budget = request_budget(req, MAX_TIME_LM) if budget is None else budget
+                        seed=req.seed, max_time=budget.seconds, iteration_budget=budget.iterations,
+                        max_starts=max_starts, accept=accept, admit=admit)
+    if budget is None:
+        budget = request_budget(req, MAX_TIME_LM)
     opts = options_for("lm", req.options)
-    if extra:
-        opts.update(extra)
+    if max_starts is not None:
+        opts["max_starts"] = max_starts
     return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
-                    max_time=budget.seconds, iteration_budget=budget.iterations, **opts)
+                    max_time=budget.seconds, iteration_budget=budget.iterations, accept=accept, admit=admit,
+                    **opts)
 
 
 def target_qp(req: SolveRequest, constraints: tuple | None = None, budget: Budget | None = None,
