@@ -28,11 +28,12 @@ def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, acce
     tests of a converged run and of a start, and its cap on the starts (the request's ``max_starts`` option
     when None)."""
     if not req.options:  # the common call: no keyword dictionary to build (no iteration budget either)
-        if budget is None:
-            budget = Budget(MAX_TIME_LM if req.max_time is None else req.max_time, None)
+        seconds, iterations = (req.max_time, None) if budget is None else budget
+        if seconds is None and budget is None:
+            seconds = MAX_TIME_LM
         return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot,
-                        seed=req.seed, max_time=budget.seconds, iteration_budget=budget.iterations,
-                        max_starts=max_starts, accept=accept, admit=admit)
+                        seed=req.seed, max_time=seconds, iteration_budget=iterations, max_starts=max_starts,
+                        accept=accept, admit=admit)
     if budget is None:
         budget = request_budget(req, MAX_TIME_LM)
     opts = options_for("lm", req.options)
