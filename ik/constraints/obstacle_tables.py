@@ -226,15 +226,22 @@ def _groups(skeleton: RobotSkeleton, obstacles: Sequence[Shape], link_radius: fl
     """The four kinds' groups (spheres, capsules, boxes, coal shapes); checks each obstacle against the
     base."""
     members: tuple = ([], [], [], [])
+    default = [True, True, True, True]
     for k, ob in enumerate(obstacles):
+        g = _KIND.get(type(ob))
+        if g is None:  # (a subclass)
+            g = next((_KIND[kind] for kind in _KIND if isinstance(ob, kind)), 3)
         if ob.frames is None:
             check_base(k, ob, skeleton.base, skeleton.base_ball, link_radius)
-            ids = None
+            members[g].append((k, ob, None))
         else:
-            ids = [skeleton.frame_segment(f) for f in ob.frames]
-        g = 0 if isinstance(ob, Sphere) else 1 if isinstance(ob, Capsule) else 2 if isinstance(ob, Box) else 3
-        members[g].append((k, ob, ids))
-    return [_Group(g, all(ids is None for _, _, ids in g)) for g in members]
+            members[g].append((k, ob, [skeleton.frame_segment(f) for f in ob.frames]))
+            default[g] = False
+    return [_Group(m, d) for m, d in zip(members, default)]
+
+
+#: The group of each shape type (by exact type; other shapes are the coal shapes).
+_KIND = {Sphere: 0, Capsule: 1, Box: 2}
 
 
 def _pair_index(skeleton: RobotSkeleton, group: _Group) -> PairIndex:
@@ -257,13 +264,14 @@ def _per_obstacle(group: _Group, field: Any) -> np.ndarray:
 def _sphere_pairs(skeleton: RobotSkeleton, group: _Group, offset: float) -> SpherePairs:
     links = skeleton.links
     x = _pair_index(skeleton, group)
-    centers = _per_obstacle(group, lambda ob: ob.center)
-    radius = _per_obstacle(group, lambda ob: ob.radius)[x.row]
+    members = group.members
+    centers = np.array([ob.center for _, ob, _ in members], dtype=float)
+    radius = np.array([ob.radius for _, ob, _ in members], dtype=float)[x.row]
     rigid = links.all_rigid or bool(links.rigid[x.seg].all())
-    blocks = (len(group.members), skeleton.n_default) if group.default else None
+    blocks = (len(members), skeleton.n_default) if group.default else None
     Wk = _moment_matrices(centers) if links.tree is None else None  # (the NumPy rows: no compiled tree)
-    r_off = radius + offset
-    out = SpherePairs(tuple(k for k, _, _ in group.members), x.seg, x.row, x.ia, x.ib, x.iab, centers[x.row],
+    r_off = radius + offset if offset else radius  # (read-only arrays: one can serve twice)
+    out = SpherePairs(tuple(k for k, _, _ in members), x.seg, x.row, x.ia, x.ib, x.iab, centers[x.row],
                       radius, r_off, r_off * r_off, x.inv_len2 if rigid else None, blocks,
                       None if Wk is None or blocks is not None else Wk[x.row], x.support,
                       None if Wk is None or blocks is None else Wk.reshape(-1, 6))

@@ -140,7 +140,7 @@ class ObstacleAvoidance(Constraint):
         if tables is None:  # (an obstacle containing the base raises here, every time: errors are not kept)
             tables = build_obstacle_tables(skeleton, self.obstacles, self.link_radius, self.margin_required)
             skeleton.bound_tables.add(tables)
-        return self.adopt(robot, tables)
+        return self._take(tables)
 
     def adopt(self, robot: Robot, tables: ObstacleTables) -> ObstacleAvoidance:
         """Bind to ``robot`` with already built ``tables`` (shared by reference, not copied); they must be of
@@ -151,6 +151,10 @@ class ObstacleAvoidance(Constraint):
             raise InputError("tables must be built on robot for this constraint's obstacles, link_radius, "
                              f"margin and tool_frames, got tables of {len(tables.obstacles)} obstacles on "
                              f"{tables.skeleton!r}")
+        return self._take(tables)
+
+    def _take(self, tables: ObstacleTables) -> ObstacleAvoidance:
+        """Hold ``tables`` (checked to be this constraint's) and the compiled kernels."""
         # Numba and the compiled code: loaded here, once (never inside a solve's time budget)
         from kinserve.ik.constraints import clearance_kernel
 

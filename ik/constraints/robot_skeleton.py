@@ -99,18 +99,23 @@ class BoundTables:
     immutable.
 
     Identity, not value: hashing new shapes by value costs more than binding them; equal shapes that are other
-    objects are bound afresh (and get equal tables).
+    objects are bound afresh (and get equal tables). ``first_ids`` counts the entries by the identity of
+    their first obstacle (held alive by the entry, so the identity is its own): a new obstacle set misses at
+    one look-up.
     """
 
     def __init__(self, size: int = TABLES_PER_SKELETON) -> None:
         self.size = size
         self.lock = threading.Lock()
         self.entries: list[Any] = []
+        self.first_ids: dict[int, int] = {}
 
     def find(self, obstacles: Sequence[Any], link_radius: float, margin: float) -> Any | None:
         """The tables of exactly these obstacle objects, link radius and margin, or None."""
         n = len(obstacles)
         first = obstacles[0] if n else None
+        if id(first) not in self.first_ids:
+            return None
         with self.lock:
             entries = self.entries
             for i in range(len(entries) - 1, -1, -1):
@@ -128,7 +133,17 @@ class BoundTables:
         """Keep ``tables`` (dropping the least recently used beyond ``size``)."""
         with self.lock:
             self.entries.append(tables)
-            del self.entries[:-self.size]
+            self._count(tables, 1)
+            while len(self.entries) > self.size:
+                self._count(self.entries.pop(0), -1)
+
+    def _count(self, tables: Any, change: int) -> None:
+        key = id(tables.obstacles[0] if tables.obstacles else None)
+        count = self.first_ids.get(key, 0) + change
+        if count:
+            self.first_ids[key] = count
+        else:
+            del self.first_ids[key]
 
 
 class RobotSkeleton:
