@@ -142,7 +142,7 @@ def main() -> None:
     ap.add_argument("--out", default=str(ROOT / "bench-out" / "ab"), help="folder of the JSON files")
     ap.add_argument("--table-only", action="store_true", help="print the table of an earlier run")
     args = ap.parse_args()
-    out = Path(args.out)
+    out = Path(args.out).resolve()  # (the base's scripts run in its own tree)
     if not args.table_only:
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory() as tmp:

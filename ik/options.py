@@ -136,10 +136,11 @@ def check_options(method: str, options: dict) -> None:
     allowed = OPTIONS.get(method)
     if allowed is None:
         raise InputError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")
-    bad = [k for k in options if k not in allowed]
-    if bad:
-        raise InputError(f"unknown option(s) {bad} for method {method!r}; "
-                         f"accepted: {', '.join(allowed) or 'none'}")
+    for name in options:
+        if name not in allowed:
+            bad = [k for k in options if k not in allowed]
+            raise InputError(f"unknown option(s) {bad} for method {method!r}; "
+                             f"accepted: {', '.join(allowed) or 'none'}")
     for name, value in options.items():
         _CHECKS[name](name, value)
 
@@ -151,7 +152,8 @@ def options_for(method: str, options: Mapping[str, Any]) -> dict:
     if not options:
         return {}
     allowed = OPTIONS[method]
-    return solver_keywords({k: v for k, v in options.items() if k in allowed and k != "iteration_budget"})
+    keywords = {k: v for k, v in options.items() if k in allowed and k != "iteration_budget"}
+    return solver_keywords(keywords) if "seed_table" in keywords else keywords
 
 
 def solver_keywords(options: dict) -> dict:

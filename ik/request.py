@@ -91,12 +91,17 @@ def _pose_fields(robot: Robot, target: Any, q0: Any, frame: str | None, relax: A
                  method: str, tol_pos: float, tol_rot: float, max_time: float | None, seed: int | None,
                  options: Mapping[str, Any]) -> tuple:
     """The fields of a pose request with the defaults of the rest, validated; the frame's state warmed."""
-    check_robot(robot)
+    # (the checks are skipped for the defaults, which pass them: the common call makes fewer calls)
+    if type(robot) is not Robot:
+        check_robot(robot)
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
-    tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
-    fields = (robot, tgt, None, check_q0(robot, q0), check_method(method), DEFAULT_BACKEND, tol_pos, tol_rot,
-              check_max_time(max_time), check_seed(seed), None, None, (), None, None,
-              _checked_options(method, options))
+    if tol_pos != DEFAULT_TOL_POS or tol_rot != DEFAULT_TOL_ROT:
+        tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
+    fields = (robot, tgt, None, None if q0 is None else check_q0(robot, q0),
+              method if method == "auto" else check_method(method), DEFAULT_BACKEND, tol_pos, tol_rot,
+              None if max_time is None else check_max_time(max_time),
+              None if seed is None else check_seed(seed), None, None, (), None, None,
+              _checked_options(method, options) if options else _NO_OPTIONS)
     _warm(robot, tgt, method)
     return fields
 

@@ -114,4 +114,5 @@ def compiled_chains(robot: Robot) -> CompiledChains:
 def compiled_chain(robot: Robot, frame_id: int) -> CompiledChain | None:
     """The :class:`CompiledChain` to frame ``frame_id`` of ``robot``, or None (no Numba, or a joint on the
     path that the kernel does not model: the solvers then iterate with Pinocchio's algorithms)."""
-    return compiled_chains(robot).chains[frame_id]
+    chains = robot.lm_chains  # (compiled_chains inlined: called on every solve)
+    return (chains if chains is not None else warm(robot)).chains[frame_id]
