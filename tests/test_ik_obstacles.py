@@ -546,3 +546,37 @@ def test_sphere_rows_after_margin_match_fresh_rows_and_the_general_path(panda, f
         assert np.allclose(lo, -0.4 * c[near], rtol=0.0, atol=1e-15)
         n_rows += G.shape[0]
     assert n_rows > 10
+
+
+class _Tables:
+    """A stand-in for bound tables: what :class:`BoundTables` reads of them."""
+
+    def __init__(self, obstacles, link_radius=0.0, margin=0.0):
+        self.obstacles, self.link_radius, self.margin = tuple(obstacles), link_radius, margin
+
+
+def test_bound_tables_find_by_identity_and_evict_in_order():
+    """BoundTables finds the tables of the same obstacle objects (not of equal ones), keeps the newest
+    ``size`` and forgets the evicted ones - its first-obstacle index stays in step with its entries."""
+    from kinserve.ik.constraints.robot_skeleton import BoundTables
+
+    store = BoundTables(size=3)
+    sets = [[ik.Sphere((k, 0.0, 1.0), 0.1), ik.Sphere((k, 1.0, 1.0), 0.1)] for k in range(5)]
+    tables = [_Tables(s) for s in sets]
+    for t in tables[:3]:
+        store.add(t)
+    assert store.find(sets[1], 0.0, 0.0) is tables[1]
+    assert store.find([ik.Sphere((1, 0.0, 1.0), 0.1), sets[1][1]], 0.0, 0.0) is None  # equal, not the same
+    assert store.find(sets[1], 0.01, 0.0) is None  # another link radius
+    assert store.find(sets[1][:1], 0.0, 0.0) is None  # a prefix of the set
+    store.add(tables[3])  # evicts the least recently used: set 0 (set 1 was just found)
+    assert store.find(sets[0], 0.0, 0.0) is None
+    assert [store.find(s, 0.0, 0.0) for s in sets[1:4]] == tables[1:4]
+    shared = _Tables([sets[2][0]], 0.0, 0.0)  # another entry with the same first obstacle
+    store.add(shared)  # evicts set 1
+    assert store.find([sets[2][0]], 0.0, 0.0) is shared and store.find(sets[2], 0.0, 0.0) is tables[2]
+    assert len(store.entries) == 3
+    assert sorted(store.first_ids.values()) == [1, 2]  # set 2's first obstacle twice, set 3's once
+    empty = _Tables([])
+    store.add(empty)
+    assert store.find([], 0.0, 0.0) is empty
