@@ -42,6 +42,7 @@ from . import schemas as S
 from .executor import BoundedExecutor, Deadline, ServiceBusy
 from .fields import FieldError, field
 from .limits import BodyLimitMiddleware
+from .offline_docs import add_redoc
 from .responses import error_body, json_response, json_safe
 from .robot_pool import RobotPool
 from .settings import ServiceSettings
@@ -104,7 +105,9 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
                     "HTTP.",
         swagger_ui_parameters={"validatorUrl": None},
         lifespan=lifespan,
+        redoc_url=None,  # (add_redoc: the same page without its one request to a CDN)
     )
+    add_redoc(app)
     from .collision_endpoint import router as collision_router
 
     app.include_router(collision_router)

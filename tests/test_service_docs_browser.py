@@ -66,6 +66,16 @@ def test_swagger_ui_lists_every_endpoint_offline(server, api_paths):
     assert not errors, errors
 
 
+def test_redoc_page_has_no_cdn_reference(server):
+    """The ReDoc page and the script it loads name no address outside the service (the bundle's badge
+    image pointed at cdn.redoc.ly: the browser fetched it whenever the sidebar rendered in time)."""
+    page = httpx.get(server.url + "/redoc", timeout=10).text
+    assert "/offline-docs/redoc.standalone.js" in page and "cdn" not in page.lower()
+    js = httpx.get(server.url + "/offline-docs/redoc.standalone.js", timeout=10)
+    assert js.status_code == 200 and len(js.content) > 500_000 and "Redoc" in js.text
+    assert "cdn.redoc.ly" not in js.text and "/static-offline-docs/favicon.png" in js.text
+
+
 def test_redoc_lists_every_endpoint_offline(server, api_paths):
     found, requested, errors = open_offline(server.url + "/redoc", REDOC_PATHS_JS)
     assert found["operations"] >= len(api_paths)
