@@ -40,9 +40,10 @@ certify. Their arguments are two flat arrays (:func:`~.precheck_packing.pack`;
 a compiled call pays per array argument), the robot half packed once per
 layout, the obstacle rows added per scene (:func:`placed_floats`). Each call
 allocates its own workspace: one kernel may run on many threads at once.
-Everything the kernels call is in this file (Numba's on-disk cache is keyed by
-the file), and every kernel has its signature: importing this module compiles
-them, or loads them from that cache, so no call compiles anything.
+The tree's forward kinematics is :mod:`.kernel_primitives`' (inlined); the cache
+key covers every kernel file (:mod:`.kernel_cache`). Every kernel has its
+signature: importing this module compiles them, or loads them from that cache,
+so no call compiles anything.
 
 Units: metres and radians.
 """
@@ -54,7 +55,8 @@ import math
 import numba
 import numpy as np
 
-from .serial_chain import REVOLUTE as _REVOLUTE
+from .kernel_cache import compiled, inline, jit
+from .kernel_primitives import tree_placements_into
 
 #: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
 #: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.
@@ -73,9 +75,7 @@ OBSTACLE_COLUMNS = 16
 #: Pair kinds of the pair table (column 2).
 SELF_PAIR, OBSTACLE_PAIR = 0, 1
 
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-#: Small helpers are inlined into their callers at Numba's IR level (a call passes whole array structures).
-_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+_jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source)
 _t = numba.types
 _F1 = _t.Array(_t.float64, 1, "C", readonly=True)
 _I1 = _t.Array(_t.int64, 1, "C", readonly=True)
@@ -90,7 +90,7 @@ _BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
 _PLACED_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _F2, _F2, _t.Array(_t.float64, 3, "A", readonly=True))
 
 
-@numba.njit(_PLACED_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_PLACED_SIGNATURE)
 def placed_floats(head: np.ndarray, templates: np.ndarray, centres: np.ndarray,
                   poses: np.ndarray) -> np.ndarray:
     """``head`` followed by the obstacle rows ``templates`` ``(O, 16)`` placed at ``poses`` ``(O, 4, 4)``:
@@ -112,40 +112,12 @@ def placed_floats(head: np.ndarray, templates: np.ndarray, centres: np.ndarray,
 _TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
 
 
-@numba.njit(_TREE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_TREE_SIGNATURE)
 def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.ndarray) -> None:
     """World placements of every joint into ``X`` ``(J + 1, 12)``: row ``j`` = Pinocchio joint ``j``'s
     rotation (row-major) and translation, row 0 the universe (identity).
-    ``oMj = oM(parent) * Mj * exp(a_j q_j)``."""
-    for c in range(12):
-        X[0, c] = 0.0
-    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
-    for k in range(joints.shape[0]):
-        g = tree[k]
-        P = X[joints[k, 2]]
-        out = X[k + 1]
-        # out.t = P.t + P.R Mk.t ; T = P.R Mk.R (kept in out.R for now)
-        for i in range(3):
-            p0, p1, p2 = P[3 * i], P[3 * i + 1], P[3 * i + 2]
-            out[9 + i] = P[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
-            for c in range(3):
-                out[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
-        ax, ay, az = g[12], g[13], g[14]
-        qk = q[joints[k, 1]]
-        if joints[k, 0] == _REVOLUTE:  # R = T Rot(a, q), Rodrigues
-            s, c = math.sin(qk), math.cos(qk)
-            v = 1.0 - c
-            r00, r01, r02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
-            r10, r11, r12 = v * ax * ay + s * az, c + v * ay * ay, v * ay * az - s * ax
-            r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, c + v * az * az
-            for i in range(3):
-                t0, t1, t2 = out[3 * i], out[3 * i + 1], out[3 * i + 2]
-                out[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
-                out[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
-                out[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
-        else:  # prismatic: t += T a q, R = T
-            for i in range(3):
-                out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qk
+    ``oMj = oM(parent) * Mj * exp(a_j q_j)`` (:func:`.kernel_primitives.tree_placements_into`)."""
+    tree_placements_into(tree, joints, q, X)
 
 
 @_inline
@@ -302,7 +274,7 @@ def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol
     return m
 
 
-@numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_ONE_SIGNATURE)
 def certify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
     """True when configuration ``q`` is certified collision free (every pair's lower bound > ``tol``, m);
     False when it is not, or when ``q`` has not one entry per joint. ``floats, ints``:
@@ -316,7 +288,7 @@ def certify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, t
     return margin >= 0.0
 
 
-@numba.njit(_BATCH_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_BATCH_SIGNATURE)
 def certify_configurations(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, tol: float) -> np.ndarray:
     """:func:`certify_configuration` of every row of ``qs`` ``(N, nq)``: a boolean array ``(N,)``."""
     tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
@@ -332,7 +304,7 @@ def certify_configurations(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray,
     return out
 
 
-@numba.njit(_FIRST_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_FIRST_SIGNATURE)
 def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
     """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that is not certified, ``N`` when every
     one is (``start`` when the rows have not one entry per joint).
@@ -399,7 +371,7 @@ def _obstacle_gap(W, i, obstacles, o):
     return math.sqrt(er * er + ez * ez) + min(max(qr, qz), 0.0) - W[i, 3]
 
 
-@numba.njit(_BOUNDS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_BOUNDS_SIGNATURE)
 def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Per pair of the scene (in the scene's order), the lower bound (m) of its distance at ``q`` that the
     certification tests against the tolerance: with ``B`` the bounding spheres, ``i``, ``j`` the cover
@@ -440,7 +412,7 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
     return out
 
 
-@numba.njit(_ONE_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_ONE_SIGNATURE)
 def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
     """True when configuration ``q`` is in collision for certain: a point inside a robot geometry (its inner
     points, :func:`~.sphere_cover.geometry_inner_points`) lies deeper than ``tol`` (m) inside an obstacle of a

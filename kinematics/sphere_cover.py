@@ -48,6 +48,8 @@ import coal
 import numba
 import numpy as np
 
+from .kernel_cache import compiled
+
 #: Padding (m) added to every cover radius (rounding of the slab points and of the enclosing-ball distances).
 PAD = 1e-9
 #: Largest number of cover spheres per robot geometry (pairs of geometries cost up to its square).
@@ -142,7 +144,7 @@ _CROSSINGS_SIGNATURE = numba.types.void(_F2, _F1, _F2, _F1, numba.types.float64,
                                         numba.types.float64[::1])
 
 
-@numba.njit(_CROSSINGS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_CROSSINGS_SIGNATURE)
 def plane_crossings(below: np.ndarray, s_below: np.ndarray, above: np.ndarray, s_above: np.ndarray,
                     plane: float, centre: np.ndarray, out: np.ndarray) -> None:
     """Accumulate into ``out`` ``(5,)`` the crossings of the plane ``s = plane`` by every segment from a

@@ -33,11 +33,9 @@ check of a run's iterates is two compiled calls and no Pinocchio call per
 configuration. For the QP steps with spheres only, :func:`sphere_geometry`
 gives the clearances, unit normals and near pairs at one configuration and
 :func:`sphere_rows` the velocity-damper rows ``n^T J_v + (o x n)^T J_w`` from
-Pinocchio's joint Jacobians (see :mod:`..sphere_rows`). Everything the kernels
-call is in this file: Numba's on-disk cache of a function is invalidated by
-changes to its own file only, so a compiled primitive called from another file
-would keep stale code (the tree FK repeats the few lines of
-:func:`kinserve.kinematics.precheck_kernels.tree_placements` for that reason).
+Pinocchio's joint Jacobians (see :mod:`..sphere_rows`). The tree FK is
+:func:`kinserve.kinematics.kernel_primitives.tree_placements_into` (inlined); the cache key of these
+kernels covers every kernel file (:mod:`kinserve.kinematics.kernel_cache`).
 """
 
 from __future__ import annotations
@@ -47,7 +45,8 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.serial_chain import REVOLUTE as _REVOLUTE
+from kinserve.kinematics.kernel_cache import compiled, jit
+from kinserve.kinematics.kernel_primitives import tree_placements_into
 
 _t = numba.types
 _F1, _F2, _F3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))
@@ -62,38 +61,14 @@ _SPHERES_SIGNATURE = _t.float64(_F2, _I2, _I1, _F2, _F1A, _I1, _I1, _F2, _F1, _F
 _ROWS_SIGNATURE = _t.int64(_F2, _F2, _F2A, _F2, _t.Array(_t.boolean, 1, "C", readonly=True),
                            _t.float64[:, ::1])
 _SEPARATED_SIGNATURE = _t.boolean(_F1A, _F1A, _F1A, _t.float64)
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+_jit = jit  # (kernel_cache's: one cache key over every kernel source)
 
 
 @_jit
 def _points_at(tree, joints, point_joint, point_local, q, X, out):
     """``out[i] = R_j l_i + p_j`` at configuration ``q`` (``X`` ``(J + 1, 12)``: the joints' world placements,
-    row 0 the identity, filled here)."""
-    for m in range(joints.shape[0]):
-        g = tree[m]
-        Pa = X[joints[m, 2]]
-        o = X[m + 1]
-        for i in range(3):  # o.t = P.t + P.R M.t ; o.R = P.R M.R (then the joint motion)
-            p0, p1, p2 = Pa[3 * i], Pa[3 * i + 1], Pa[3 * i + 2]
-            o[9 + i] = Pa[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
-            for c in range(3):
-                o[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
-        ax, ay, az = g[12], g[13], g[14]
-        qm = q[joints[m, 1]]
-        if joints[m, 0] == _REVOLUTE:  # R = T Rot(a, q), Rodrigues
-            s, co = math.sin(qm), math.cos(qm)
-            v = 1.0 - co
-            r00, r01, r02 = co + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
-            r10, r11, r12 = v * ax * ay + s * az, co + v * ay * ay, v * ay * az - s * ax
-            r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, co + v * az * az
-            for i in range(3):
-                t0, t1, t2 = o[3 * i], o[3 * i + 1], o[3 * i + 2]
-                o[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
-                o[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
-                o[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
-        else:  # p += T a q
-            for i in range(3):
-                o[9 + i] += (o[3 * i] * ax + o[3 * i + 1] * ay + o[3 * i + 2] * az) * qm
+    filled here by :func:`kinserve.kinematics.kernel_primitives.tree_placements_into`)."""
+    tree_placements_into(tree, joints, q, X)
     for i in range(point_joint.shape[0]):
         Xj = X[point_joint[i]]
         l0, l1, l2 = point_local[i, 0], point_local[i, 1], point_local[i, 2]
@@ -101,29 +76,18 @@ def _points_at(tree, joints, point_joint, point_local, q, X, out):
             out[i, r] = Xj[9 + r] + Xj[3 * r] * l0 + Xj[3 * r + 1] * l1 + Xj[3 * r + 2] * l2
 
 
-@_jit
-def _identity_placements(J: int) -> np.ndarray:
-    """``(J + 1, 12)`` placements, row 0 (the universe) the identity; the others filled by
-    :func:`_points_at`."""
-    X = np.empty((J + 1, 12))
-    for c in range(12):
-        X[0, c] = 0.0
-    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
-    return X
-
-
-@numba.njit(_POINTS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_POINTS_SIGNATURE)
 def skeleton_points(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
                     Q: np.ndarray, P: np.ndarray) -> None:
     """World points ``P[k, i] = R_j l_i + p_j`` (``j = point_joint[i]``, ``l_i = point_local[i]``; joint 0 is
     the world) of every configuration ``Q[k]``, by forward kinematics of the packed tree (module
     docstring)."""
-    X = _identity_placements(joints.shape[0])
+    X = np.empty((joints.shape[0] + 1, 12))
     for k in range(Q.shape[0]):
         _points_at(tree, joints, point_joint, point_local, Q[k], X, P[k])
 
 
-@numba.njit(_SPHERES_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_SPHERES_SIGNATURE)
 def sphere_geometry(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarray, point_local: np.ndarray,
                     q: np.ndarray, ia: np.ndarray, ib: np.ndarray, centers: np.ndarray, inv_len2: np.ndarray,
                     r_off: np.ndarray, influence: float, c: np.ndarray, V: np.ndarray,
@@ -131,7 +95,7 @@ def sphere_geometry(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarra
     """Clearances ``c = |x - o| - (r + off)`` of the sphere pairs at ``q`` (rigid segments: ``1 / |b - a|^2``
     given), the unit normals ``V`` (witness point ``x`` minus centre ``o``, rows) and the pairs within
     ``influence`` with a defined normal (``near``); returns the smallest clearance (m)."""
-    X = _identity_placements(joints.shape[0])
+    X = np.empty((joints.shape[0] + 1, 12))
     P = np.empty((point_joint.shape[0], 3))
     _points_at(tree, joints, point_joint, point_local, q, X, P)
     lowest = np.inf
@@ -150,7 +114,7 @@ def sphere_geometry(tree: np.ndarray, joints: np.ndarray, point_joint: np.ndarra
     return lowest
 
 
-@numba.njit(_ROWS_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_ROWS_SIGNATURE)
 def sphere_rows(V: np.ndarray, centers: np.ndarray, J: np.ndarray, support: np.ndarray, near: np.ndarray,
                 G: np.ndarray) -> int:
     """Rows ``n^T J_v + (o x n)^T J_w`` (masked by the support of the pair's segment) of the ``near`` pairs
@@ -256,7 +220,7 @@ def segment_to_box(a: np.ndarray, b: np.ndarray, h: np.ndarray) -> float:
     return math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
 
 
-@numba.njit(_SEPARATED_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_SEPARATED_SIGNATURE)
 def separated(a: np.ndarray, b: np.ndarray, h: np.ndarray, off: float) -> bool:
     """True when the segment ``[a, b]`` is separated from the box ``|y| <= h + off`` (its frame) by an axis.
 
@@ -278,7 +242,7 @@ def separated(a: np.ndarray, b: np.ndarray, h: np.ndarray, off: float) -> bool:
             or abs(c0 * w1 - c1 * w0) > e0 * v1 + e1 * v0)
 
 
-@numba.njit(_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_SIGNATURE)
 def violations(P: np.ndarray, sph_ia: np.ndarray, sph_ib: np.ndarray, sph_c: np.ndarray,
                sph_r_off2: np.ndarray, cap_ia: np.ndarray, cap_ib: np.ndarray, cap_a: np.ndarray,
                cap_b: np.ndarray, cap_r_off: np.ndarray, box_ia: np.ndarray, box_ib: np.ndarray,

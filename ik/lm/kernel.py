@@ -22,8 +22,9 @@ SE(3) logarithm: ``w = log3(R) = theta / sin(theta) vee(R - R^T) / 2``, ``v = V(
 for the last coefficient, ``1e-2``; near ``theta = pi`` the axis from ``(R + R^T) / 2 - cos(theta) I =
 (1 - cos(theta)) a a^T``).
 
-Every function the kernels call is in this file, so that Numba's on-disk cache (keyed by this file's time
-stamp) is never stale; the constants it imports (joint kinds, status codes) are fixed. Metres, radians."""
+The rotation about a joint axis is :func:`kinserve.kinematics.kernel_primitives.axis_rotation` (inlined); the
+cache key of these kernels covers every kernel file (:mod:`kinserve.kinematics.kernel_cache`). Metres,
+radians."""
 
 from __future__ import annotations
 
@@ -33,6 +34,8 @@ import numba
 import numpy as np
 
 from kinserve.ik.lm import status as _status
+from kinserve.kinematics.kernel_cache import compiled, inline, jit
+from kinserve.kinematics.kernel_primitives import axis_rotation
 from kinserve.kinematics.serial_chain import REVOLUTE as _REVOLUTE
 
 #: Entries of :func:`run_many`'s ``params`` (floats) ...
@@ -41,8 +44,7 @@ TP2, TR2, LAMBDA0, GAIN, STALL_RATIO, ROTATION_SCALE = range(6)
 #: ``q0``, 1 ``q0`` first, 2 ``q0`` ranked among the table's samples by its pose distance.
 PATIENCE, MAX_ITER, MAX_STARTS, BUDGET, Q0_MODE, N_TABLE, N_FULL, ROTATION = range(8)
 
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
-_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")  # per-iteration steps
+_jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source; inline: per-iteration)
 _t = numba.types
 _IN1, _IN2, _IN3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))  # writable arrays convert
 _INT1, _INT2 = (_t.Array(_t.int64, d, "C", readonly=True) for d in (1, 2))
@@ -66,12 +68,8 @@ def _place(Rw, pw, g, out) -> None:
 
 @_inline
 def _rotate(T, ax, ay, az, qk, Rw) -> None:
-    """``Rw = T @ Rot(a, qk)`` by Rodrigues' formula ``I + s [a]x + (1 - c) [a]x^2``."""
-    s, c = math.sin(qk), math.cos(qk)
-    v = 1.0 - c
-    r00, r01, r02 = c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay
-    r10, r11, r12 = v * ax * ay + s * az, c + v * ay * ay, v * ay * az - s * ax
-    r20, r21, r22 = v * ax * az - s * ay, v * ay * az + s * ax, c + v * az * az
+    """``Rw = T @ Rot(a, qk)`` (:func:`kinserve.kinematics.kernel_primitives.axis_rotation`)."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = axis_rotation(ax, ay, az, qk)
     for i in range(3):
         t0, t1, t2 = T[i, 0], T[i, 1], T[i, 2]
         Rw[i, 0] = t0 * r00 + t1 * r10 + t2 * r20
@@ -348,7 +346,7 @@ def _iterate(geometry, joints, q0, lo, hi, Rd, pd, relaxed, Aw, kept, tp2, tr2, 
     return _status.ITERATION_LIMIT, max_iter, max_iter + 1
 
 
-@numba.njit(_RUN_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_RUN_SIGNATURE)
 def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.ndarray, hi: np.ndarray,
               Td: np.ndarray, relaxed: bool, Aw: np.ndarray, kept: np.ndarray, tp2: float, tr2: float,
               lam0: float, gain: float, stall_ratio: float, patience: int, max_iter: int, qs: np.ndarray,
@@ -468,7 +466,7 @@ def _solve_target(geometry, joints, lo, hi, Td, relaxed, Aw, kept, params, limit
     return _status.STARTS_EXHAUSTED, used, n
 
 
-@numba.njit(_MANY_SIGNATURE, cache=True, nogil=True, error_model="numpy")
+@compiled(_MANY_SIGNATURE)
 def run_many(geometry: np.ndarray, joints: np.ndarray, lo: np.ndarray, hi: np.ndarray, targets: np.ndarray,
              relaxed: bool, target_axes: bool, kept: np.ndarray, params: np.ndarray, limits: np.ndarray,
              q0s: np.ndarray, table_Gt: np.ndarray, table_Q: np.ndarray, full_Gt: np.ndarray,

@@ -1,0 +1,113 @@
+"""Numba's on-disk cache for kinserve's compiled kernels, with one key over every kernel source.
+
+Numba keys a cached function on the content of *its own* source file only (numba#1833): a kernel that
+calls a compiled primitive of another file keeps its stale machine code when only that primitive changes.
+kinserve's kernels therefore share one source stamp: :class:`KernelSetLocator` finds the cache folder as
+Numba would (``__pycache__`` beside the file, or the user-wide cache when that is not writable) and stamps
+every function of :data:`KERNEL_FILES` with the SHA-256 of all of those files together. Changing any one of
+them recompiles every kernel on the next import.
+
+The decorators :data:`jit` and :data:`inline` (``cache=True``, ``nogil``, NumPy's error model; ``inline``
+also inlines at Numba's IR level) are the ones every kernel module uses; importing this module installs the
+locator first, so it is in place before any of them is decorated. :func:`kernel_set_locator` makes a locator
+class for another set of files (the tests use it on files of their own).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+import numba
+from numba.core import caching
+
+_ROOT = Path(__file__).resolve().parents[1]
+
+#: The files with compiled code of kinserve (relative to the package), sharing one source stamp.
+KERNEL_FILES = tuple(str(_ROOT / p) for p in (
+    "kinematics/kernel_primitives.py",
+    "kinematics/precheck_kernels.py",
+    "kinematics/sphere_cover.py",
+    "ik/constraints/clearance_kernel.py",
+    "ik/lm/kernel.py",
+))
+
+
+def set_stamp(files: Iterable[str]) -> bytes:
+    """The SHA-256 of the contents of ``files`` (in order, each with its name): one stamp for all."""
+    h = hashlib.sha256()
+    for path in files:
+        h.update(os.path.basename(path).encode())
+        with open(path, "rb") as f:
+            h.update(hashlib.sha256(f.read()).digest())
+    return h.digest()
+
+
+class KernelSetLocator(caching._CacheLocator):
+    """A Numba cache locator for the functions of one set of source files (:attr:`files`): the cache folder
+    and disambiguator of the locator Numba would pick, the source stamp of the whole set."""
+
+    files: tuple[str, ...] = KERNEL_FILES
+
+    def __init__(self, inner: caching._CacheLocator) -> None:
+        self._inner = inner
+
+    def ensure_cache_path(self) -> None:
+        """Make the cache folder (the inner locator's)."""
+        self._inner.ensure_cache_path()
+
+    def get_cache_path(self) -> str:
+        """The cache folder of the inner locator."""
+        return self._inner.get_cache_path()
+
+    def get_disambiguator(self) -> str:
+        """The inner locator's (the function's line number)."""
+        return self._inner.get_disambiguator()
+
+    def get_source_stamp(self) -> bytes:
+        """:func:`set_stamp` of the whole set: any file of it changed, every function's cache is stale."""
+        return set_stamp(self.files)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        """A locator for ``py_func`` when ``py_file`` is one of :attr:`files`, else None (Numba's own)."""
+        if os.path.abspath(py_file) not in cls.files:
+            return None
+        for other in caching.CacheImpl._locator_classes:
+            if issubclass(other, KernelSetLocator):
+                continue
+            inner = other.from_function(py_func, py_file)
+            if inner is not None:
+                return cls(inner)
+        return None
+
+
+def kernel_set_locator(files: Iterable[str]) -> type[KernelSetLocator]:
+    """A :class:`KernelSetLocator` class for ``files``, installed ahead of Numba's locators."""
+    locator = type("KernelSetLocator", (KernelSetLocator,),
+                   {"files": tuple(os.path.abspath(f) for f in files)})
+    install(locator)
+    return locator
+
+
+def install(locator: type[KernelSetLocator]) -> None:
+    """Put ``locator`` first among Numba's cache locators (once)."""
+    classes = caching.CacheImpl._locator_classes
+    if locator not in classes:
+        classes.insert(0, locator)
+
+
+install(KernelSetLocator)
+
+#: ``numba.njit`` as kinserve's kernels use it (cached under the kernel set's stamp).
+jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+#: :data:`jit`, inlined into its callers at Numba's IR level (a call passes whole array structures).
+inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+
+
+def compiled(signature):
+    """:data:`jit` with an explicit signature: compiled (or loaded from the cache) when its module is
+    imported."""
+    return numba.njit(signature, cache=True, nogil=True, error_model="numpy")

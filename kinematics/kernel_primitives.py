@@ -1,0 +1,62 @@
+"""Compiled primitives shared by the kernels: a rotation about an axis and the forward kinematics of a tree.
+
+Written once here and inlined (Numba IR) into the kernels of :mod:`.precheck_kernels`,
+:mod:`kinserve.ik.constraints.clearance_kernel` and :mod:`kinserve.ik.lm.kernel`; the cache key of all of
+them covers this file (:mod:`.kernel_cache`), so a change here recompiles every kernel that inlines it.
+
+* :func:`axis_rotation`: ``Rot(a, q) = I + sin(q) [a]x + (1 - cos(q)) [a]x^2`` (Rodrigues, ``a`` a unit
+  axis), its nine entries row by row.
+* :func:`tree_placements_into`: every joint's world placement ``oMj = oM(parent) Mj exp(a_j q_j)`` of a
+  tree packed by :func:`kinserve.kinematics.serial_chain.kinematic_tree` (``tree[k]``: ``Mj``'s rotation
+  row-major 0-8, translation 9-11, axis 12-14; ``joints[k]``: kind, ``q`` index, parent row), into rows of
+  12 (rotation row-major, translation), row 0 the universe.
+
+Metres and radians.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .kernel_cache import inline
+from .serial_chain import REVOLUTE as _REVOLUTE
+
+
+@inline
+def axis_rotation(ax, ay, az, q):
+    """The entries ``(r00, r01, r02, r10, ..., r22)`` of ``Rot(a, q)`` (Rodrigues' formula)."""
+    s, c = math.sin(q), math.cos(q)
+    v = 1.0 - c
+    return (c + v * ax * ax, v * ax * ay - s * az, v * ax * az + s * ay,
+            v * ax * ay + s * az, c + v * ay * ay, v * ay * az - s * ax,
+            v * ax * az - s * ay, v * ay * az + s * ax, c + v * az * az)
+
+
+@inline
+def tree_placements_into(tree, joints, q, X) -> None:
+    """Every joint's world placement at ``q`` into ``X`` ``(J + 1, 12)`` (module docstring)."""
+    for c in range(12):
+        X[0, c] = 0.0
+    X[0, 0] = X[0, 4] = X[0, 8] = 1.0
+    for k in range(joints.shape[0]):
+        g = tree[k]
+        P = X[joints[k, 2]]
+        out = X[k + 1]
+        # out.t = P.t + P.R Mk.t ; T = P.R Mk.R (kept in out.R for now)
+        for i in range(3):
+            p0, p1, p2 = P[3 * i], P[3 * i + 1], P[3 * i + 2]
+            out[9 + i] = P[9 + i] + p0 * g[9] + p1 * g[10] + p2 * g[11]
+            for c in range(3):
+                out[3 * i + c] = p0 * g[c] + p1 * g[3 + c] + p2 * g[6 + c]
+        ax, ay, az = g[12], g[13], g[14]
+        qk = q[joints[k, 1]]
+        if joints[k, 0] == _REVOLUTE:  # R = T Rot(a, q)
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = axis_rotation(ax, ay, az, qk)
+            for i in range(3):
+                t0, t1, t2 = out[3 * i], out[3 * i + 1], out[3 * i + 2]
+                out[3 * i] = t0 * r00 + t1 * r10 + t2 * r20
+                out[3 * i + 1] = t0 * r01 + t1 * r11 + t2 * r21
+                out[3 * i + 2] = t0 * r02 + t1 * r12 + t2 * r22
+        else:  # prismatic: t += T a q, R = T
+            for i in range(3):
+                out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qk

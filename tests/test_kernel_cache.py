@@ -1,0 +1,100 @@
+"""The compiled kernels' on-disk cache: one key over every kernel source (kinserve.kinematics.kernel_cache).
+
+Numba keys a cached function on its own file only, so a kernel inlining a primitive of another file would
+keep stale machine code after the primitive changed. The test builds a primitive and a kernel in two files
+of its own, in fresh processes: the second run loads the kernel from the cache, and after the primitive's
+file changes the third run recompiles and returns the new value.
+"""
+
+from __future__ import annotations
+
+import ast
+import json
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+from kinserve.kinematics import kernel_cache
+
+ROOT = Path(kernel_cache.__file__).resolve().parents[1]
+
+RUNNER = textwrap.dedent("""
+    import json, sys
+    sys.path.insert(0, sys.argv[1])
+    from kinserve.kinematics.kernel_cache import kernel_set_locator
+    kernel_set_locator([sys.argv[1] + "/prim_mod.py", sys.argv[1] + "/kern_mod.py"])
+    import kern_mod
+    value = kern_mod.kernel(1.0)
+    stats = kern_mod.kernel.stats
+    print(json.dumps({"value": value, "hits": sum(stats.cache_hits.values()),
+                      "misses": sum(stats.cache_misses.values())}))
+""")
+
+PRIMITIVE = textwrap.dedent("""
+    from kinserve.kinematics.kernel_cache import inline
+
+    @inline
+    def scale(x):
+        return {factor} * x
+""")
+
+KERNEL = textwrap.dedent("""
+    from kinserve.kinematics.kernel_cache import jit
+    from prim_mod import scale
+
+    @jit
+    def kernel(x):
+        return scale(x) + 1.0
+""")
+
+
+def _run(folder: Path) -> dict:
+    out = subprocess.run([sys.executable, "-c", RUNNER, str(folder)], capture_output=True, text=True,
+                         timeout=300, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_a_changed_primitive_recompiles_the_kernel_that_inlines_it(tmp_path):
+    (tmp_path / "prim_mod.py").write_text(PRIMITIVE.format(factor="2.0"))
+    (tmp_path / "kern_mod.py").write_text(KERNEL)
+    first = _run(tmp_path)
+    assert first["value"] == 3.0 and first["misses"] == 1
+    second = _run(tmp_path)
+    assert second["value"] == 3.0 and second["hits"] == 1, second  # the cache serves an unchanged set
+    (tmp_path / "prim_mod.py").write_text(PRIMITIVE.format(factor="3.0"))  # only the primitive's file
+    third = _run(tmp_path)
+    assert third["value"] == 4.0 and third["hits"] == 0, third  # recompiled, not the stale code
+
+
+def _compiled_modules() -> list[str]:
+    """The modules of kinserve that decorate functions with Numba (directly or through kernel_cache)."""
+    found = []
+    for path in sorted(ROOT.rglob("*.py")):
+        rel = path.relative_to(ROOT)
+        if rel.parts[0] in ("tests", "benchmarks", "bench-out", "demo-out") or ".venv" in rel.parts:
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and any(
+                    "njit" in ast.unparse(d) or ast.unparse(d).split("(")[0] in
+                    ("jit", "inline", "compiled", "_jit", "_inline") for d in node.decorator_list):
+                found.append(str(path))
+                break
+    return found
+
+
+def test_every_module_with_compiled_code_shares_the_kernel_key():
+    modules = _compiled_modules()
+    assert len(modules) >= 5, modules
+    assert set(modules) == set(kernel_cache.KERNEL_FILES), (sorted(modules), kernel_cache.KERNEL_FILES)
+    assert all(Path(f).exists() for f in kernel_cache.KERNEL_FILES)
+
+
+def test_each_compiled_primitive_is_written_once():
+    """Rodrigues' formula and the tree's forward kinematics live in kernel_primitives only."""
+    signature = "c + v * ax * ax, v * ax * ay - s * az"  # the first row of Rot(a, q)
+    tree_step = "out[9 + i] = P[9 + i] + p0 * g[9]"
+    holders = {s: [f for f in kernel_cache.KERNEL_FILES if s in Path(f).read_text()]
+               for s in (signature, tree_step)}
+    assert holders == {s: [str(ROOT / "kinematics/kernel_primitives.py")] for s in holders}, holders
