@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 import numba
 from numba.core import caching
@@ -71,7 +72,7 @@ class KernelSetLocator(caching._CacheLocator):
         return set_stamp(self.files)
 
     @classmethod
-    def from_function(cls, py_func, py_file):
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> KernelSetLocator | None:
         """A locator for ``py_func`` when ``py_file`` is one of :attr:`files`, else None (Numba's own)."""
         if os.path.abspath(py_file) not in cls.files:
             return None
@@ -107,7 +108,7 @@ jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
-def compiled(signature):
-    """:data:`jit` with an explicit signature: compiled (or loaded from the cache) when its module is
-    imported."""
+def compiled(signature: Any) -> Callable[[Callable[..., Any]], Any]:
+    """:data:`jit` with an explicit ``signature`` (a Numba signature: a ``numba.types`` return type called on
+    the argument types): compiled (or loaded from the cache) when its module is imported."""
     return numba.njit(signature, cache=True, nogil=True, error_model="numpy")

@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from .kernel_cache import inline
 from .serial_chain import REVOLUTE as _REVOLUTE
 
 
 @inline
-def axis_rotation(ax, ay, az, q):
+def axis_rotation(ax: float, ay: float, az: float, q: float) -> tuple[float, ...]:
     """The entries ``(r00, r01, r02, r10, ..., r22)`` of ``Rot(a, q)`` (Rodrigues' formula)."""
     s, c = math.sin(q), math.cos(q)
     v = 1.0 - c
@@ -33,7 +35,7 @@ def axis_rotation(ax, ay, az, q):
 
 
 @inline
-def tree_placements_into(tree, joints, q, X) -> None:
+def tree_placements_into(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.ndarray) -> None:
     """Every joint's world placement at ``q`` into ``X`` ``(J + 1, 12)`` (module docstring)."""
     for c in range(12):
         X[0, c] = 0.0

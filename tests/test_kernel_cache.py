@@ -21,7 +21,6 @@ ROOT = Path(kernel_cache.__file__).resolve().parents[1]
 
 RUNNER = textwrap.dedent("""
     import json, sys
-    sys.path.insert(0, sys.argv[1])
     from kinserve.kinematics.kernel_cache import kernel_set_locator
     kernel_set_locator([sys.argv[1] + "/prim_mod.py", sys.argv[1] + "/kern_mod.py"])
     import kern_mod
@@ -50,8 +49,9 @@ KERNEL = textwrap.dedent("""
 
 
 def _run(folder: Path) -> dict:
+    # run in ``folder``: ``python -c`` imports the two modules from its working directory
     out = subprocess.run([sys.executable, "-c", RUNNER, str(folder)], capture_output=True, text=True,
-                         timeout=300, check=True)
+                         timeout=300, check=True, cwd=folder)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
