@@ -24,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from kinserve.ik.constraints import robot_segments
+from kinserve.ik.constraints.segment_distance import segment_segment
 from kinserve.ik.result import Result
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError
@@ -43,30 +44,6 @@ def joint_limit_distance(robot: Robot, q: VectorLike) -> float:
     return float(np.min(np.minimum(q - robot.lower, robot.upper - q) / rng))
 
 
-def _segment_distance(p1, q1, p2, q2) -> float:
-    """Shortest distance between segments ``[p1, q1]`` and ``[p2, q2]`` (3-D)."""
-    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
-    a, e, f = d1 @ d1, d2 @ d2, d2 @ r
-    if a < 1e-18 and e < 1e-18:
-        return float(np.linalg.norm(r))
-    if a < 1e-18:
-        s, t = 0.0, min(max(f / e, 0.0), 1.0)
-    else:
-        c = d1 @ r
-        if e < 1e-18:
-            t, s = 0.0, min(max(-c / a, 0.0), 1.0)
-        else:
-            b = d1 @ d2
-            den = a * e - b * b
-            s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-18 else 0.0
-            t = (b * s + f) / e
-            if t < 0.0:
-                t, s = 0.0, min(max(-c / a, 0.0), 1.0)
-            elif t > 1.0:
-                t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
-    return float(np.linalg.norm((p1 + s * d1) - (p2 + t * d2)))
-
-
 def self_overlap(robot: Robot, q: VectorLike, frame: str | None = None) -> bool:
     """True when two non-adjacent link segments of the arm at ``q`` touch (within :data:`OVERLAP_TOL`)."""
     frame = robot.tip if frame is None else frame
@@ -78,11 +55,12 @@ def self_overlap(robot: Robot, q: VectorLike, frame: str | None = None) -> bool:
         b = r.data.oMi[seg.jb].act(seg.lb) if seg.jb else seg.lb
         if np.linalg.norm(b - a) > 1e-9:
             segs.append((np.asarray(a), np.asarray(b)))
-    for i in range(len(segs)):
-        for j in range(i + 2, len(segs)):
-            if _segment_distance(*segs[i], *segs[j]) < OVERLAP_TOL:
-                return True
-    return False
+    pairs = [(i, j) for i in range(len(segs)) for j in range(i + 2, len(segs))]
+    if not pairs:
+        return False
+    A, B = np.array([segs[i] for i, _ in pairs]), np.array([segs[j] for _, j in pairs])  # (P, 2, 3)
+    _, _, X, Y = segment_segment(A[:, 0], A[:, 1], B[:, 0], B[:, 1])
+    return bool(np.min(np.linalg.norm(X - Y, axis=1)) < OVERLAP_TOL)
 
 
 def _as_q(c):
