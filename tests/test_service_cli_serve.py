@@ -15,8 +15,8 @@ from service_server import Server
 
 def test_listener_reports_tcp_so_accepted_connections_get_nodelay():
     config = uvicorn.Config("kinserve.service.app:app", host="127.0.0.1", port=0, log_level="critical")
-    with config.bind_socket() as plain:
-        assert plain.proto == 0  # the uvicorn behaviour being worked around
+    # (uvicorn before its fix of #3149 bound proto 0, and asyncio then skipped TCP_NODELAY; newer uvicorn
+    # releases bind proto 6 themselves, so only kinserve's own listener is asserted)
     sock = tcp_listener(config)
     assert sock.proto == socket.IPPROTO_TCP
     port = sock.getsockname()[1]
