@@ -259,20 +259,17 @@ def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
 
 @_inline
 def _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk, last) -> bool:
-    """After a step that left the limits: ``last`` (the third re-solve) clips every joint into its range and
-    returns True; otherwise fixes the free joints now out of range at their bound, sets ``r = e - J dfix``
-    over every fixed joint and returns False (re-solve)."""
+    """After a step that left the limits: fixes the free joints now out of range at their bound (the fixed
+    ones already are, so every joint is then in range). ``last`` (the third re-solve): returns True, the step
+    stays clipped; otherwise sets ``r = e - J dfix`` over every fixed joint and returns False (re-solve)."""
     n = joints.shape[0]
-    if last:
-        for k in range(n):
-            j = joints[k, 1]
-            qn[j] = min(max(qn[j], lok[k]), hik[k])
-        return True
     for k in range(n):
         j = joints[k, 1]
         if free[k] and not lok[k] <= qn[j] <= hik[k]:
             free[k] = False
             qn[j] = min(max(qn[j], lok[k]), hik[k])
+    if last:
+        return True
     for i in range(m):
         s = e[i]
         for k in range(n):
@@ -326,8 +323,8 @@ def _iterate(geometry, joints, q0, lo, hi, Rd, pd, relaxed, Aw, kept, tp2, tr2, 
         best = E if stalls == 0 else best
         if stalls >= patience:
             return _status.STALLED, it + 1, it + 1
-        # the damped step within the limits, written here: an inlined helper taking these arrays cost 7 % of
-        # an iteration in reference counting (its fixing of joints out of range, rarely run, is _fix_out)
+        # the damped step within the limits, written here: an inlined helper taking these arrays costs
+        # reference counting on every iteration (its fixing of joints out of range, rarely run, is _fix_out)
         lam = gain * E + lam0
         for k in range(n):
             qk[k] = q[joints[k, 1]]
