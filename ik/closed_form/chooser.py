@@ -55,11 +55,11 @@ def self_overlap(robot: Robot, q: VectorLike, frame: str | None = None) -> bool:
         b = r.data.oMi[seg.jb].act(seg.lb) if seg.jb else seg.lb
         if np.linalg.norm(b - a) > 1e-9:
             segs.append((np.asarray(a), np.asarray(b)))
-    pairs = [(i, j) for i in range(len(segs)) for j in range(i + 2, len(segs))]
-    if not pairs:
+    i, j = np.triu_indices(len(segs), 2)  # every non-adjacent pair
+    if i.size == 0:
         return False
-    A, B = np.array([segs[i] for i, _ in pairs]), np.array([segs[j] for _, j in pairs])  # (P, 2, 3)
-    _, _, X, Y = segment_segment(A[:, 0], A[:, 1], B[:, 0], B[:, 1])
+    S = np.array(segs)  # (segments, 2, 3): start, end
+    _, _, X, Y = segment_segment(S[i, 0], S[i, 1], S[j, 0], S[j, 1])
     return bool(np.min(np.linalg.norm(X - Y, axis=1)) < OVERLAP_TOL)
 
 
