@@ -440,8 +440,153 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
     return False
 
 
+@_inline
+def _rate_radius(gap, rate):
+    """The largest ``|ds|`` over which a bound ``gap`` (m, minus the tolerance) that falls by at most ``rate``
+    (m per unit ``s``) stays positive: ``gap / rate``; ``inf`` when it does not fall and is positive, -1 when
+    it is not positive (the spheres tell nothing)."""
+    if gap <= 0.0:
+        return -1.0
+    if rate <= 0.0:
+        return math.inf
+    return gap / rate
+
+
+@_jit
+def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit, tol, X, W, placed,
+                   stamp):
+    """The certified radius at ``q`` of a motion whose sphere centres move by at most ``v[s]`` and whose self
+    pairs' sphere gaps change by at most ``w[p]`` per unit of its parameter (:func:`certify_motion`), over
+    the pairs ``skip`` leaves out, and the table row of the pair that decides it: ``(radius, row)``, ``limit``
+    and -1 when no pair is smaller; a negative radius when the spheres of pair ``row`` are not apart. A
+    pair's radius is that of its bounding spheres or, when that one is below the running minimum, the
+    larger of it and the smallest radius of its cover spheres (either family staying apart keeps the pair
+    apart)."""
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        _place(X, geoms[g, 0], spheres, g, W)
+    best, decider = limit, -1
+    for p in range(pairs.shape[0]):
+        if skip[pairs[p, 3]]:
+            continue
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] == SELF_PAIR:
+            rate = w[p]
+            r = _rate_radius(_gap(W, a, b) - tol, rate)
+            if r >= best:
+                continue
+            _place_cover(X, spheres, geoms, a, W, placed, stamp)
+            _place_cover(X, spheres, geoms, b, W, placed, stamp)
+            parts = math.inf
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                inner = math.inf
+                for j in range(geoms[b, 1], geoms[b, 2]):
+                    inner = min(inner, _gap(W, i, j))
+                parts = min(parts, max(_gap(W, i, b), inner))
+            r = max(r, _rate_radius(parts - tol, rate))
+        else:
+            r = _rate_radius(_obstacle_gap(W, a, obstacles, b) - tol, v[a])
+            if r >= best:
+                continue
+            _place_cover(X, spheres, geoms, a, W, placed, stamp)
+            parts = math.inf
+            for i in range(geoms[a, 1], geoms[a, 2]):
+                parts = min(parts, _rate_radius(_obstacle_gap(W, i, obstacles, b) - tol, v[i]))
+                if parts <= r:
+                    break
+            r = max(r, parts)
+        if r < best:
+            best, decider = r, p
+            if r < 0.0:
+                return -1.0, p
+    return best, decider
+
+
+_B1 = _t.Array(_t.boolean, 1, "C", readonly=True)
+_MOTION_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _F2, _F2, _B1, _Q1, _Q1, _t.float64, _t.float64,
+                                                 _t.int64)
+
+
+@compiled(_MOTION_SIGNATURE)
+def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
+                   skip: np.ndarray, qa: np.ndarray, qb: np.ndarray, tol: float, min_step: float,
+                   max_advances: int) -> np.ndarray:
+    """Conservative advancement on the sphere bounds along the straight motion ``q(s) = qa + s (qb - qa)``,
+    ``s`` in ``[0, 1]``: ``[lo, hi, advances]``, where ``[0, lo]`` and ``[hi, 1]`` are certified collision
+    free (every pair's lower bound above ``tol``, m, at every ``s`` of them), every pair but those
+    ``skip`` ``(P,)`` marks (by their index in the scene); the whole motion when ``lo >= hi``. ``stop``:
+    the scene index of the pair that decided the last radius when the motion is not certified, else -1.
+    Returns ``[lo, hi, advances, stop]``.
+
+    Per unit ``s``, sphere centre ``c`` moves by at most ``v[c] = sum_k sphere_reach[c, k] |u_k|``
+    (:func:`~.robot_spheres.sphere_reach`, ``u = qb - qa`` on joint ``k``'s coordinate), so a sphere's gap
+    to an obstacle (1-Lipschitz in its centre) falls by at most ``v[c] |ds|``; a self pair's sphere gaps by
+    at most ``w[p] = sum_k pair_reach[p, k] |u_k|`` (row ``p`` of the kernel's pair table; the joints
+    carrying both geometries move them rigidly together and count 0). A configuration ``q(s)`` therefore
+    certifies ``|s' - s| <= rho`` (:func:`_motion_radius`); the advances alternate between the two ends,
+    each from the end of the interval before it (no gap), and stop at ``lo >= hi``, at a radius below
+    ``min_step`` (the spheres do not decide: an exact check may go on from ``lo`` and ``hi``) or after
+    ``max_advances``.
+    Nothing certified (``[0, 1, 0, -1]``) when ``qa`` or ``qb`` has not one entry per joint or the tables do
+    not cover every sphere row and pair. ``floats, ints``: :func:`~.precheck_packing.pack`.
+    """
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    out = np.zeros(4)
+    out[1], out[3] = 1.0, -1.0
+    rows = sphere_reach.shape[0]
+    if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or pair_reach.shape[1] != n \
+            or pair_reach.shape[0] != pairs.shape[0] or rows > spheres.shape[0] \
+            or skip.shape[0] != pairs.shape[0]:
+        return out
+    for g in range(geoms.shape[0]):
+        if geoms[g, 2] > rows or g >= rows:  # a sphere without its rates: nothing is certified
+            return out
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    v = np.zeros(spheres.shape[0])
+    for c in range(rows):
+        acc = 0.0
+        for k in range(n):
+            acc += sphere_reach[c, k] * du[k]
+        v[c] = acc
+    w = np.zeros(pairs.shape[0])
+    for p in range(pairs.shape[0]):
+        acc = 0.0
+        for k in range(n):
+            acc += pair_reach[p, k] * du[k]
+        w[p] = acc
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    q = np.empty(n)
+    lo, hi = 0.0, 1.0
+    advances, last = 0, -1
+    while advances < max_advances and lo < hi:
+        from_lo = advances % 2 == 0
+        s = lo if from_lo else hi
+        for i in range(n):
+            q[i] = qa[i] + s * (qb[i] - qa[i])
+        limit = hi - lo
+        rho, decider = _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit,
+                                      tol, X, W, placed, advances)
+        advances += 1
+        last = decider
+        if rho >= limit:
+            lo = hi
+        elif rho < min_step:
+            break
+        elif from_lo:
+            lo += rho
+        else:
+            hi -= rho
+    out[0], out[1], out[2] = lo, hi, advances
+    if lo < hi and last >= 0:
+        out[3] = pairs[last, 3]
+    return out
+
+
 
 __all__ = ["BALL", "BOX", "CAPSULE", "CYLINDER", "EXACT", "KIND", "LIPSCHITZ_SAFETY", "MARGIN_CAP",
            "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE", "certainly_colliding",
-           "certify_configuration", "certify_configurations", "first_uncertified", "pair_lower_bounds",
-           "placed_floats", "tree_placements"]
+           "certify_configuration", "certify_configurations", "certify_motion", "first_uncertified",
+           "pair_lower_bounds", "placed_floats", "tree_placements"]

@@ -41,7 +41,10 @@ class RobotSpheres:
     * ``inner`` ``(I, 3)``: points inside the geometries (:func:`~.sphere_cover.geometry_inner_points`) in
       their joint frames, ``inner_ranges`` ``(G, 2)`` the first and end row of each geometry's;
     * ``reach`` ``(J,)``: per joint, a bound (m per unit of the joint's coordinate) of how far a change of
-      that coordinate moves any sphere centre (:func:`joint_reach`).
+      that coordinate moves any sphere centre (:func:`joint_reach`);
+    * ``sphere_reach`` ``(G + S, J)``: the same bound per sphere row (:func:`sphere_reach`);
+    * ``carrying`` ``(G, J)`` booleans: the joints whose motion moves each geometry
+      (:func:`carrying_joints`).
     """
 
     tree: np.ndarray
@@ -51,37 +54,61 @@ class RobotSpheres:
     inner: np.ndarray
     inner_ranges: np.ndarray
     reach: np.ndarray
+    sphere_reach: np.ndarray
+    carrying: np.ndarray
+
+
+def sphere_reach(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                 lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """``R`` ``(S, J)`` for the sphere rows ``spheres`` ``(S, 4)`` of the geometries ``geoms``: changing joint
+    ``k``'s coordinate by ``dq`` moves the centre of sphere ``s`` no farther than ``R[s, k] |dq|`` (m),
+    whatever the other coordinates; so ``sum_k R[s, k] |q'_k - q_k|`` bounds its displacement between ``q``
+    and ``q'`` (change the coordinates one at a time: triangle inequality).
+
+    Revolute ``k``: the centre turns about the joint's axis, which passes through the joint's origin, along
+    an arc of radius at most its distance to that origin, itself at most the centre's offset in its own
+    joint frame plus the offsets ``|t_m|`` of the joints ``m`` on the path down to that frame (plus the
+    largest travel ``max(|lower|, |upper|)`` of a prismatic joint on it; :data:`UNBOUNDED_REACH` without
+    limits). Prismatic ``k``: everything below translates by exactly ``|dq|``: ``R[s, k] = 1``. Joints that
+    do not carry the sphere: 0. ``lower``, ``upper``: the model's limits, indexed by the joints'
+    configuration index (``joints[:, 1]``).
+    """
+    reach = np.zeros((len(spheres), len(joints)))
+    for g in range(len(geoms)):
+        row = int(geoms[g, 0])  # the geometry's joint (placement row; 0 = the world)
+        rows = np.array([g, *range(int(geoms[g, 1]), int(geoms[g, 2]))])
+        offset = np.linalg.norm(spheres[rows, :3], axis=1)
+        while row > 0:
+            k = row - 1
+            if joints[k, 0] != REVOLUTE:
+                reach[rows, k] = 1.0
+                travel = max(abs(float(lower[joints[k, 1]])), abs(float(upper[joints[k, 1]])))
+                offset = offset + (travel if math.isfinite(travel) else UNBOUNDED_REACH)
+            else:
+                reach[rows, k] = offset
+            offset = offset + float(np.linalg.norm(tree[k, 9:12]))
+            row = int(joints[k, 2])
+    return np.minimum(reach, UNBOUNDED_REACH)
 
 
 def joint_reach(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
                 lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """``R`` ``(J,)``: changing joint ``k``'s coordinate by ``dq`` moves no sphere centre farther than
-    ``R[k] |dq|`` (m), whatever the other coordinates; so ``sum_k R[k] |q'_k - q_k|`` bounds every centre's
-    displacement between ``q`` and ``q'`` (change the coordinates one at a time: triangle inequality).
+    ``R[k] |dq|`` (m): the largest entry of each column of :func:`sphere_reach`."""
+    reach = sphere_reach(tree, joints, spheres, geoms, lower, upper)
+    return reach.max(axis=0) if len(reach) else np.zeros(len(joints))
 
-    Revolute ``k``: a centre turns about the joint's axis, which passes through the joint's origin, along an
-    arc of radius at most its distance to that origin, itself at most the centre's offset in its own joint
-    frame plus the offsets ``|t_m|`` of the joints ``m`` on the path down to that frame (plus the largest
-    travel ``max(|lower|, |upper|)`` of a prismatic joint on it; :data:`UNBOUNDED_REACH` without limits).
-    Prismatic ``k``: everything below translates by exactly ``|dq|``: ``R[k] = 1``. ``lower``, ``upper``: the
-    model's limits, indexed by the joints' configuration index (``joints[:, 1]``).
-    """
-    reach = np.zeros(len(joints))
+
+def carrying_joints(joints: np.ndarray, geoms: np.ndarray) -> np.ndarray:
+    """Boolean ``(G, J)``: the joints (tree rows) on the path from each geometry's joint to the root, those
+    whose motion moves the geometry."""
+    carrying = np.zeros((len(geoms), len(joints)), dtype=bool)
     for g in range(len(geoms)):
-        row = int(geoms[g, 0])  # the geometry's joint (placement row; 0 = the world)
-        rows = [g, *range(int(geoms[g, 1]), int(geoms[g, 2]))]
-        offset = max(float(np.linalg.norm(spheres[s, :3])) for s in rows)
+        row = int(geoms[g, 0])
         while row > 0:
-            k = row - 1
-            if joints[k, 0] != REVOLUTE:
-                reach[k] = max(reach[k], 1.0)
-                travel = max(abs(float(lower[joints[k, 1]])), abs(float(upper[joints[k, 1]])))
-                offset += travel if math.isfinite(travel) else UNBOUNDED_REACH
-            else:
-                reach[k] = max(reach[k], offset)
-            offset += float(np.linalg.norm(tree[k, 9:12]))
-            row = int(joints[k, 2])
-    return np.minimum(reach, UNBOUNDED_REACH)
+            carrying[g, row - 1] = True
+            row = int(joints[row - 1, 2])
+    return carrying
 
 
 def _moved(spheres: np.ndarray, placement: pin.SE3) -> np.ndarray:
@@ -121,10 +148,13 @@ def robot_spheres(model: pin.Model, geometry: pin.GeometryModel,
     joints = np.array([int(g.parentJoint) for g in objects], dtype=np.int64).reshape(-1, 1)
     geoms = np.column_stack([joints, _ranges([len(c) for c in moved], G)]) if G else np.zeros((0, 3), int)
     tree, tree_joints = packed
-    reach = joint_reach(tree, tree_joints, spheres, geoms, model.lowerPositionLimit, model.upperPositionLimit)
+    rows = sphere_reach(tree, tree_joints, spheres, geoms, model.lowerPositionLimit, model.upperPositionLimit)
+    reach = rows.max(axis=0) if len(rows) else np.zeros(len(tree_joints))
     inner_ranges = _ranges([len(p) for p in inner])
     return RobotSpheres(tree, tree_joints, np.ascontiguousarray(spheres), np.ascontiguousarray(geoms),
-                        np.ascontiguousarray(points), np.ascontiguousarray(inner_ranges), reach)
+                        np.ascontiguousarray(points), np.ascontiguousarray(inner_ranges), reach,
+                        np.ascontiguousarray(rows), carrying_joints(tree_joints, geoms))
 
 
-__all__ = ["UNBOUNDED_REACH", "RobotSpheres", "joint_reach", "robot_spheres"]
+__all__ = ["UNBOUNDED_REACH", "RobotSpheres", "carrying_joints", "joint_reach", "robot_spheres",
+           "sphere_reach"]

@@ -28,6 +28,7 @@ from .precheck_kernels import (
     certainly_colliding,
     certify_configuration,
     certify_configurations,
+    certify_motion,
     first_uncertified,
     placed_floats,
 )
@@ -42,6 +43,9 @@ class PrecheckArguments(NamedTuple):
     ``first_uncertified(floats, ints, rows, start, tolerance)``,
     ``certainly_colliding(floats, ints, q, tolerance)``; ``floats``, ``ints``: the scene's packed arrays
     (:mod:`.precheck_packing`); ``tolerance`` (m): :data:`~.precheck_kernels.TOLERANCE`.
+    ``certify_motion(floats, ints, sphere_reach, pair_reach, qa, qb, tolerance, min_step, max_advances)``
+    (:func:`~.precheck_kernels.certify_motion`) with the layout's ``sphere_reach`` ``(S, J)`` and
+    ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`).
     """
 
     certify: Callable[..., bool]
@@ -50,6 +54,9 @@ class PrecheckArguments(NamedTuple):
     ints: np.ndarray
     tolerance: float
     certainly_colliding: Callable[..., bool]
+    certify_motion: Callable[..., np.ndarray]
+    sphere_reach: np.ndarray
+    pair_reach: np.ndarray
 
 
 def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
@@ -90,10 +97,31 @@ class ScenePrecheck:
         self.reference = tuple(obstacles)
         self.reference_floats = self._floats([shape.pose for shape in obstacles]) if len(obstacles) else None
         self.centred = ~self.centres.any(axis=1)  #: obstacles whose row's translation is their pose's
+        #: :meth:`motion_reach`'s pair rates of the self pairs, per row of ``pairs``.
+        self.pair_reach = self.motion_reach()
 
     def _floats(self, poses: Any) -> np.ndarray:
         P = np.ascontiguousarray(np.asarray(poses, dtype=float).reshape(-1, 4, 4))
         return placed_floats(self.robot_floats, self.templates, self.centres, P)
+
+    def motion_reach(self) -> np.ndarray:
+        """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast
+        the gap of two spheres of a self pair can change (:func:`~.precheck_kernels.certify_motion`): the sum
+        of the two geometries' largest :attr:`~.robot_spheres.RobotSpheres.sphere_reach` on the joints that
+        carry one of them and not the other (a joint carrying both moves them rigidly together); 0 on the
+        rows of obstacle pairs (their rates are the spheres' own)."""
+        robot = self.robot
+        G = len(robot.geoms)
+        reach = np.zeros((G, len(robot.joints)))
+        for g in range(G):
+            rows = [g, *range(int(robot.geoms[g, 1]), int(robot.geoms[g, 2]))]
+            reach[g] = robot.sphere_reach[rows].max(axis=0)
+        out = np.zeros((len(self.pairs), len(robot.joints)))
+        own = self.pairs[:, 2] == SELF_PAIR
+        a, b = self.pairs[own, 0], self.pairs[own, 1]
+        apart = robot.carrying[a] != robot.carrying[b]
+        out[own] = np.where(apart, reach[a] + reach[b], 0.0)
+        return np.ascontiguousarray(out)
 
     def arguments(self, obstacles: Sequence[Any]) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of a scene with ``obstacles`` (one per obstacle geometry: shapes
@@ -111,7 +139,8 @@ class ScenePrecheck:
                     row[:9] = T[:3, :3].reshape(9)
                     row[9:12] = T[:3, 3] if self.centred[k] else T[:3, 3] + T[:3, :3] @ self.centres[k]
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
-                                 certainly_colliding)
+                                 certainly_colliding, certify_motion, self.robot.sphere_reach,
+                                 self.pair_reach)
 
 
 def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:

@@ -10,7 +10,16 @@ from .cartesian import CartesianPlan, cartesian_to_joint
 from .checkpoint_order import OrderResult, euclidean_cost_matrix, held_karp, path_cost, shortest_order
 from .errors import BlockedPointError, NoPathError, PlanningError
 from .joint_trajectory import JointTrajectory, finite_difference_velocities
-from .motion import MotionPlan, plan_motion
+from .motion import (
+    MotionPlan,
+    MotionProblem,
+    MotionRequest,
+    plan_many,
+    plan_motion,
+    read_motion_request,
+    read_planning_scene,
+    write_planning_scene,
+)
 from .polynomials import cubic_coefficients, quintic_coefficients
 from .resolved_rate import (
     ResolvedRateResult,
@@ -59,7 +68,8 @@ __all__ = [
     # Cartesian path -> joint trajectory
     "cartesian_to_joint", "CartesianPlan",
     # motion planning in joint space
-    "plan_motion", "MotionPlan",
+    "plan_motion", "MotionPlan", "plan_many", "MotionProblem", "read_planning_scene", "write_planning_scene",
+    "read_motion_request", "MotionRequest",
     # resolved rate
     "resolved_rate", "track_reference", "follow_circle", "ResolvedRateResult", "SingularityEvent",
     "damped_pseudo_inverse", "task_coordinates",

@@ -126,3 +126,97 @@ def test_first_uncertified_skips_rows_near_a_certified_one():
     skip = best(lambda: pk.first_uncertified(floats, ints, rows, 0, tol))
     each = best(lambda: pk.certify_configurations(floats, ints, rows, tol))
     assert skip < 0.25 * each, (skip, each)
+
+
+def _edge_samples(lo: float, hi: float, count: int = 300) -> np.ndarray:
+    """Dense samples of the two certified intervals ``[0, lo]`` and ``[hi, 1]``, their ends included."""
+    parts = [np.linspace(0.0, min(lo, 1.0), count)] if lo > 0.0 else [np.zeros(0)]
+    if hi < 1.0:
+        parts.append(np.linspace(max(hi, 0.0), 1.0, count))
+    return np.concatenate(parts)
+
+
+def test_certify_motion_keeps_every_bound_above_the_tolerance_on_what_it_certifies(tmp_path):
+    """Straight motions of the Panda between random configurations near obstacles: on every ``s`` of the
+    intervals ``certify_motion`` returns, densely sampled, every pair's sphere lower bound
+    (``pair_lower_bounds``) exceeds the tolerance - but the pairs it was told to skip; coal finds the samples
+    free; motions it certifies whole and motions it stops short both occur, and the pair it names as the
+    one that stopped it is below the tolerance near where it stopped or limits the step."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(21)
+    whole = short = 0
+    for _ in range(3):
+        q_s = robot.random_q(rng)
+        scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
+        pre = scene.precheck()
+        P = len(scene.pairs)
+        for trial in range(30):
+            qa = np.clip(q_s + rng.normal(scale=0.4, size=robot.nq), robot.lower, robot.upper)
+            qb = np.clip(qa + rng.normal(scale=0.1, size=robot.nq), robot.lower, robot.upper)
+            skip = np.zeros(P, dtype=bool)
+            if trial % 3 == 2:
+                skip[rng.integers(P, size=3)] = True
+            lo, hi, advances, stop = pk.certify_motion(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach,
+                                                       skip, qa, qb, pre.tolerance, 1e-3, 256)
+            assert 0.0 <= lo and hi <= 1.0 and advances >= (1 if lo > 0.0 or hi < 1.0 else 0)
+            samples = _edge_samples(lo, hi)
+            bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, qa + s * (qb - qa))
+                               for s in samples]).reshape(len(samples), P)
+            assert np.all(bounds[:, ~skip] > pre.tolerance), (lo, hi)
+            if not skip.any() and len(samples):
+                assert not coal_hits(scene, qa + samples[:, None] * (qb - qa)).any()
+            if lo >= hi:
+                whole += 1
+                assert stop == -1
+            else:
+                short += 1
+                assert 0 <= stop < P and not skip[int(stop)]
+    assert whole > 5 and short > 10, (whole, short)
+
+
+def test_certify_motion_certifies_nothing_on_wrong_shapes_and_everything_skipped():
+    """Arguments of the wrong size certify nothing (``[0, 1, 0, -1]``); a motion with every pair skipped is
+    certified without an advance needing a pair."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    P = len(scene.pairs)
+    qa, qb = robot.neutral(), robot.random_q(np.random.default_rng(3))
+    args = (pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach)
+    nothing = [0.0, 1.0, 0.0, -1.0]
+    none = np.zeros(P, dtype=bool)
+    assert list(pk.certify_motion(*args, none, qa[:-1], qb, 1e-5, 1e-3, 256)) == nothing
+    assert list(pk.certify_motion(*args, none[:-1], qa, qb, 1e-5, 1e-3, 256)) == nothing
+    short_rows = np.ascontiguousarray(pre.sphere_reach[:-1])
+    assert list(pk.certify_motion(pre.floats, pre.ints, short_rows, pre.pair_reach, none, qa, qb, 1e-5, 1e-3,
+                                  256)) == nothing
+    lo, hi, _, stop = pk.certify_motion(*args, np.ones(P, dtype=bool), qa, qb, 1e-5, 1e-3, 256)
+    assert lo >= hi and stop == -1
+
+
+def test_self_pair_bounds_change_no_faster_than_their_motion_reach():
+    """For the self pairs of the Panda, the sphere lower bound of the pair (``pair_lower_bounds``) changes
+    between two configurations by at most ``pair_reach[p] . |dq|`` (the rate ``certify_motion`` uses), for
+    steps from a micro-radian to the whole range; and the rate is not vacuous (within a factor ~10 of the
+    largest change seen on some pair)."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(())
+    pre = scene.precheck()
+    table = scene.layout.precheck().pairs
+    own = table[:, 2] == pk.SELF_PAIR
+    assert own.any()
+    idx = robot.collision.spheres.joints[:, 1]
+    rng = np.random.default_rng(5)
+    tight = 0.0
+    for _ in range(300):
+        q = robot.random_q(rng)
+        q2 = np.clip(q + 10.0 ** rng.uniform(-6, 0) * rng.normal(size=robot.nq), robot.lower, robot.upper)
+        change = np.abs(pk.pair_lower_bounds(pre.floats, pre.ints, q2) - pk.pair_lower_bounds(pre.floats,
+                                                                                               pre.ints, q))
+        rates = pre.pair_reach @ np.abs(q2[idx] - q[idx])
+        scene_index = table[own, 3]
+        assert np.all(change[scene_index] <= rates[own] * (1 + 1e-9) + 1e-12)
+        moving = rates[own] > 0
+        if moving.any():
+            tight = max(tight, float(np.max(change[scene_index][moving] / rates[own][moving])))
+    assert tight > 0.1, tight

@@ -185,3 +185,29 @@ def test_the_sphere_model_and_the_compiled_precheck_come_with_the_collision_mode
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.split() == ["True", "True", "True", "True", "[]"]
+
+
+@pytest.mark.parametrize("name", ["panda", "pr"])
+def test_sphere_reach_bounds_each_sphere_displacement(name):
+    """``sum_k R[s, k] |dq_k|`` bounds how far sphere ``s``'s centre moves from ``q`` to ``q + dq`` (each
+    sphere against its own bound, not the largest one); ``reach`` is the largest entry of each column; the
+    joints that do not carry a geometry have zero rates for its spheres, and ``carrying`` says which those
+    are."""
+    robot = robots.load(name)
+    spheres = robot.collision.spheres
+    R = spheres.sphere_reach
+    G = len(spheres.geoms)
+    assert R.shape == (len(spheres.spheres), len(spheres.joints))
+    assert np.allclose(spheres.reach, R.max(axis=0))
+    for g in range(G):
+        rows = [g, *range(int(spheres.geoms[g, 1]), int(spheres.geoms[g, 2]))]
+        assert np.all(R[np.ix_(rows, np.flatnonzero(~spheres.carrying[g]))] == 0.0)
+    idx = spheres.joints[:, 1]
+    rng = np.random.default_rng(17)
+    for _ in range(200):
+        q = robot.random_q(rng)
+        q2 = np.clip(q + 10.0 ** rng.uniform(-6, 0) * rng.normal(size=robot.nq), robot.lower, robot.upper)
+        moved = np.linalg.norm(_world_centres(spheres, q2) - _world_centres(spheres, q), axis=1)
+        order = [s for g in range(G) for s in (g, *range(int(spheres.geoms[g, 1]), int(spheres.geoms[g, 2])))]
+        bound = R[order] @ np.abs(q2[idx] - q[idx])
+        assert np.all(moved <= bound * (1 + 1e-9) + 1e-12)

@@ -174,3 +174,34 @@ def test_a_pair_that_does_not_move_only_has_to_be_apart(panda):
     assert oracle.radius(c, pair_rates(np.zeros(P))) == -1.0
     d[3] = 1e-6
     assert oracle.radius(c, pair_rates(np.zeros(P))) == float("inf")
+
+
+def test_edges_certified_with_pairs_handed_to_coal_are_free_when_densely_checked(panda):
+    """Random edges in the shelf scene: an edge ``certify`` accepts is free at samples no more than 0.5 mrad
+    apart per joint (the independent mesh check; the first four of each route); edges certified on the
+    spheres alone, edges whose close pairs the spheres hand over to coal (``hard_pairs``), and refused edges
+    all occur."""
+    from motion_scenes import DENSE_STEP, IndependentCheck, dense
+
+    obstacles = shelf_scene()
+    check = IndependentCheck(panda, obstacles)
+    scene = panda.collision_scene(obstacles)
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
+    rng = np.random.default_rng(8)
+    routes = {"spheres": 0, "handed over": 0, "refused": 0}
+    while min(routes.values()) < 3 or sum(routes.values()) < 12:
+        a = panda.random_q(rng)
+        b = np.clip(a + rng.normal(scale=0.4, size=panda.nq), panda.lower, panda.upper)
+        ca, cb = certifier.clearance(a), certifier.clearance(b)
+        if panda.in_collision(a, obstacles) or panda.in_collision(b, obstacles) or not (
+                certifier.clear(ca) and certifier.clear(cb)):
+            continue
+        hard = certifier.hard_pairs(a, b)
+        if not certifier.certify(ca, cb):
+            routes["refused"] += 1
+            continue
+        route = "spheres" if hard is not None and not len(hard) else "handed over"
+        routes[route] += 1
+        if routes[route] <= 4:  # the first few of each route
+            samples = dense(np.array([a, b]), DENSE_STEP)
+            assert check.first_collision(samples) == -1

@@ -146,6 +146,15 @@ class ClearanceOracle:
             c.exact[k] = True
         self.pair_distances += len(pairs)
 
+    def distances(self, q: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+        """Coal's distances (m) of ``pairs`` (indices) at ``q``."""
+        self.checks += 1
+        self._place(q)
+        self._placed = None
+        gm, gd = self.geometry, self.geometry_data
+        self.pair_distances += len(pairs)
+        return np.array([pin.computeDistance(gm, gd, int(k)).min_distance for k in pairs])
+
     def floor_violation(self, c: Clearance, need: np.ndarray) -> int:
         """Index of the closest pair of ``c`` below the distance it must keep, ``need`` ``(P,)`` (m; see
         :class:`PairRates`), -1 when none is. The bounds below ``need`` are refined first."""

@@ -17,20 +17,40 @@ each new point is the end of the interval before it. A configuration closer than
 :data:`~.clearance.CLEARANCE_FLOOR` (m) to anything stops the advance and rejects
 the edge, as do :data:`MAX_ADVANCES` steps.
 
-Cheap first: the scene's broad-phase / sphere pre-check ``in_collision`` at
-:data:`PROBES` interior points rejects most bad edges before any distance is asked.
+Three stages, cheapest first:
+
+1. the scene's broad-phase / sphere pre-check ``in_collision`` at :data:`PROBES`
+   interior points rejects most bad edges before any distance is asked;
+2. the same advancement on the sphere bounds alone, in one compiled call
+   (:func:`~kinserve.kinematics.precheck_kernels.certify_motion`: per sphere
+   centre the rate ``sum_k R[s, k] |u_k|`` of
+   :func:`~kinserve.kinematics.robot_spheres.sphere_reach`, tighter than the
+   geometry's), certifies every pair it can; a pair whose spheres stop it (their
+   bound too small to advance) is handed over, and the call repeated without it,
+   for up to :data:`HARD_PAIRS` pairs (:meth:`EdgeCertifier.hard_pairs`);
+3. the handed-over pairs alone advance on coal's exact distances
+   (:meth:`EdgeCertifier.certify_pairs`). Each stage certifies its pairs over the
+   whole edge, so together they certify every pair. When the spheres hand over
+   too many pairs (or the scene has none), every pair advances on bounds refined
+   by coal where they decide (:meth:`EdgeCertifier.certify_exactly`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .clearance import Clearance, ClearanceOracle, PairRates, need_of, pair_rates
+from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
 #: Interior points ``s`` probed by the cheap collision check before the advancement.
 PROBES = (0.5, 0.25, 0.75)
+#: Most advances of the sphere advancement of one edge (:meth:`EdgeCertifier.hard_pairs`).
+SPHERE_ADVANCES = 256
+#: Most pairs of one edge the spheres hand over to coal's distances (:meth:`EdgeCertifier.hard_pairs`).
+HARD_PAIRS = 4
+#: The sphere advancement hands over to the exact one at a radius below this (fraction of the edge).
+SPHERE_MIN_STEP = 1e-3
 
 
 class EdgeCertifier:
@@ -79,12 +99,68 @@ class EdgeCertifier:
         u = q_b - q_a
         return any(self.in_collision(q_a + s * u) for s in PROBES)
 
+    def hard_pairs(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
+        """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``: every other
+        pair is certified over the whole motion on the sphere bounds alone
+        (:func:`~kinserve.kinematics.precheck_kernels.certify_motion`, one compiled call per pair handed
+        over, at most :data:`HARD_PAIRS`); None when they do not get there (no sphere pre-check, too many
+        pairs, or the advance ran out of steps): every pair is then checked exactly."""
+        pre = self.oracle.precheck
+        if pre is None:
+            return None
+        skip = np.zeros(self.oracle.n_pairs, dtype=bool)
+        for _ in range(HARD_PAIRS + 1):
+            self.oracle.checks += 1
+            lo, hi, _, stop = pre.certify_motion(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, skip,
+                                                 qa, qb, TOLERANCE, SPHERE_MIN_STEP, SPHERE_ADVANCES)
+            if lo >= hi:
+                return np.flatnonzero(skip)
+            if stop < 0 or skip[int(stop)]:
+                return None
+            skip[int(stop)] = True
+        return None
+
     def certify(self, a: Clearance, b: Clearance, *, probe: bool = True,
                 max_advances: int = MAX_ADVANCES) -> bool:
         """True when the straight motion ``a.q -> b.q`` is certified collision free (``a``, ``b``: the
-        clearances of its ends, refined in place). ``probe``: first run the cheap test at the
-        :data:`PROBES` points the ends do not certify (False when the caller did: :meth:`blocked`).
-        ``max_advances``: the edge is rejected after that many advances (both ends together)."""
+        clearances of its ends, refined in place; module docstring). ``probe``: first run the cheap test at
+        the :data:`PROBES` points (False when the caller did: :meth:`blocked`). ``max_advances``: an exact
+        advancement is rejected after that many advances (both ends together)."""
+        u = b.q - a.q
+        if probe and any(self.in_collision(a.q + s * u) for s in PROBES):
+            return False
+        hard = self.hard_pairs(a.q, b.q)
+        if hard is None:
+            return self.certify_exactly(a, b, max_advances)
+        return not len(hard) or self.certify_pairs(a.q, u, hard, max_advances)
+
+    def certify_pairs(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, max_advances: int) -> bool:
+        """Conservative advancement of ``qa + s u``, ``s`` in ``[0, 1]``, on coal's distances of ``pairs``
+        (indices) alone: True when those pairs stay apart over the whole motion (a pair that moves keeps
+        :data:`~.clearance.CLEARANCE_FLOOR` at every point asked, or the motion is rejected)."""
+        rates = self.reach[pairs] @ np.abs(u)
+        moving = rates > 0.0
+        need = need_of(moving)
+        inverse = np.divide(1.0, rates, out=np.zeros_like(rates), where=moving)
+        offset = np.where(moving, 0.0, np.inf)
+        lo, hi = 0.0, 1.0
+        for k in range(max_advances):
+            from_lo = k % 2 == 0
+            d = self.oracle.distances(qa + (lo if from_lo else hi) * u, pairs)
+            if np.any(d < need):
+                return False
+            step = float(np.min((d - TOLERANCE) * inverse + offset))
+            if from_lo:
+                lo += step
+            else:
+                hi -= step
+            if lo >= hi:
+                return True
+        return False
+
+    def certify_exactly(self, a: Clearance, b: Clearance, max_advances: int) -> bool:
+        """Conservative advancement of ``a.q -> b.q`` on every pair: sphere bounds refined by coal where they
+        decide (:meth:`~.clearance.ClearanceOracle.radius`), from both ends."""
         u = b.q - a.q
         w = self.rates(u)
         radius = self.oracle.radius
@@ -92,11 +168,9 @@ class EdgeCertifier:
         if lo < 0.0 or back < 0.0:
             return False
         hi = 1.0 - back
-        if lo >= hi:
-            return True
-        if probe and any(lo < s < hi and self.in_collision(a.q + s * u) for s in PROBES):
-            return False
         for _ in range((max_advances + 1) // 2):
+            if lo >= hi:
+                return True
             step = radius(self.clearance(a.q + lo * u), w)
             if step < 0.0:
                 return False
@@ -107,9 +181,7 @@ class EdgeCertifier:
             if step < 0.0:
                 return False
             hi -= step
-            if lo >= hi:
-                return True
-        return False
+        return lo >= hi
 
 
-__all__ = ["MAX_ADVANCES", "PROBES", "EdgeCertifier"]
+__all__ = ["HARD_PAIRS", "MAX_ADVANCES", "PROBES", "SPHERE_ADVANCES", "SPHERE_MIN_STEP", "EdgeCertifier"]
