@@ -103,3 +103,61 @@ def test_plan_results_are_read_only(setting):
     with pytest.raises(AttributeError):
         plan.success = False
     assert "MotionPlan(" in repr(plan)
+
+
+def test_a_pruned_node_and_its_descendants_are_never_a_nearest_neighbour_again():
+    """SearchTree.prune: the node and everything grown from it leave the nearest-neighbour search, its
+    siblings and the root stay; a root's edge counts as certified, a lazily added edge does not until
+    marked."""
+    from kinserve.planners.motion.clearance import Clearance
+    from kinserve.planners.motion.search_tree import SearchTree
+
+    def c(x):
+        return Clearance(np.array([x, 0.0]), np.zeros(0), np.zeros(0, dtype=bool))
+
+    tree = SearchTree(2, capacity=2)  # grows while nodes are added
+    root = tree.add(c(0.0), -1)
+    a = tree.add(c(1.0), root, certified=False)
+    b = tree.add(c(2.0), a, certified=False)
+    sibling = tree.add(c(-1.0), root, certified=False)
+    grandchild = tree.add(c(3.0), b, certified=False)
+    assert tree.certified(root) and not tree.certified(a)
+    tree.mark_certified(a)
+    assert tree.certified(a)
+    assert tree.nearest(np.array([2.9, 0.0])) == grandchild
+    tree.prune(b)
+    assert tree.nearest(np.array([2.9, 0.0])) == a  # b and its child are gone
+    assert tree.nearest(np.array([-0.9, 0.0])) == sibling
+    tree.prune(a)
+    assert tree.nearest(np.array([5.0, 0.0])) == root
+    assert tree.branch(grandchild) == [grandchild, b, a, root]  # the records stay
+
+
+def test_certify_branch_prunes_at_the_first_edge_that_fails(setting):
+    """A branch root -> a -> b whose second edge passes through an obstacle: certify_branch certifies the
+    first edge, prunes b at the second and says False; a branch of free edges is certified whole."""
+    from kinserve import ik
+    from kinserve.planners.motion.clearance import ClearanceOracle
+    from kinserve.planners.motion.edges import EdgeCertifier
+    from kinserve.planners.motion.reach import pair_reach
+    from kinserve.planners.motion.rrt_connect import certify_branch
+    from kinserve.planners.motion.search_tree import SearchTree
+
+    robot, _, _ = setting
+    q0 = np.array([0.2, 0.3, 0.0, -1.8, 0.0, 2.0, 0.8])
+    qa, qb = q0.copy(), q0.copy()
+    qa[0] += 0.3
+    qb[0] += 0.9
+    hit = robot.fk(qa + 0.4 * (qb - qa), "panda_hand_tcp")[:3, 3]
+    ball = ik.Sphere(hit, 0.005)
+    assert robot.in_collision(qa + 0.4 * (qb - qa), [ball]) and not robot.in_collision(qb, [ball])
+    scene = robot.collision_scene([ball])
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(robot.model, scene))
+    tree = SearchTree(robot.nq)
+    root = tree.add(certifier.clearance(q0), -1)
+    a = tree.add(certifier.clearance(qa), root, certified=False)
+    b = tree.add(certifier.clearance(qb), a, certified=False)
+    assert not certify_branch(tree, b, certifier)
+    assert tree.certified(a) and not tree.certified(b)
+    assert tree.nearest(qb) == a
+    assert certify_branch(tree, a, certifier)

@@ -6,8 +6,16 @@ tree one step towards it (at most ``step`` rad, Euclidean) and, when that step
 succeeds, **connects** the other tree to the new node (steps until it reaches the
 node or is stopped); then the trees swap roles. A step is kept only when its end
 is free (the scene's cheap collision test first, then its pair distances above
-the floor) and its edge is certified (:class:`~.edges.EdgeCertifier`). Before the
-first iteration the start is joined straight to each goal, nearest first.
+the floor) and the cheap test finds its edge's probe points free
+(:meth:`~.edges.EdgeCertifier.blocked`).
+
+**Lazy certificates**: an edge is certified (:class:`~.edges.EdgeCertifier`) only
+when it lies on a candidate path, once the trees meet: every edge of the path not
+certified yet, from the roots outwards; the first one that fails prunes its node
+and everything grown from it (:meth:`~.search_tree.SearchTree.prune`) and the
+search goes on. Most edges of the trees never lie on a candidate path and are
+never certified; every edge of a returned path is. Before the first iteration
+the start is joined straight to each goal, nearest first.
 
 Deterministic: every random draw comes from the ``numpy.random.Generator`` passed
 in. The budget is an iteration count, a wall-clock time, or both (the first one
@@ -61,7 +69,8 @@ class _Step(NamedTuple):
 
 
 def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
-    """One step of ``tree`` from its node nearest ``target`` towards it: (status, new node or -1)."""
+    """One step of ``tree`` from its node nearest ``target`` towards it: (status, new node or -1); the new
+    edge is not certified yet (module docstring)."""
     near = tree.nearest(target)
     q_near = tree.node(near)
     delta = target - q_near
@@ -73,10 +82,23 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     if certifier.in_collision(q_new):
         return _Step(TRAPPED, -1)
     c_new = certifier.clearance(q_new)
-    if not certifier.clear(c_new) or not certifier.certify(tree.clearance(near), c_new):
+    if not certifier.clear(c_new) or certifier.blocked(q_near, q_new):
         return _Step(TRAPPED, -1)
-    k = tree.add(c_new, near)
+    k = tree.add(c_new, near, certified=False)
     return _Step(REACHED if reached else ADVANCED, k)
+
+
+def certify_branch(tree: SearchTree, node: int, certifier: EdgeCertifier) -> bool:
+    """Certify the edges from ``tree``'s root to ``node`` that are not yet, root first: True when all are;
+    at the first that fails, its node is pruned with everything grown from it and False."""
+    for k in reversed(tree.branch(node)):
+        if tree.certified(k):
+            continue
+        if not certifier.certify(tree.clearance(tree.parent(k)), tree.clearance(k), probe=False):
+            tree.prune(k)
+            return False
+        tree.mark_certified(k)
+    return True
 
 
 def connect(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
@@ -133,7 +155,8 @@ def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upp
         grown = extend(active, q_rand, certifier, step)
         if grown.status != TRAPPED:
             joined = connect(other, active.node(grown.node), certifier, step)
-            if joined.status == REACHED:
+            if joined.status == REACHED and certify_branch(active, grown.node, certifier) \
+                    and certify_branch(other, joined.node, certifier):
                 nodes = start_tree.size + goal_tree.size
                 if active is start_tree:
                     return _joined(start_tree, grown.node, goal_tree, joined.node, nodes, iterations)
@@ -143,4 +166,4 @@ def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upp
 
 
 __all__ = ["ADVANCED", "DIRECT_GOALS", "REACHED", "STEP", "TRAPPED", "SearchBudget", "SearchResult",
-           "connect", "extend", "rrt_connect"]
+           "certify_branch", "connect", "extend", "rrt_connect"]
