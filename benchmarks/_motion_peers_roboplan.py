@@ -86,7 +86,11 @@ class RoboplanMotion:
         start = core.JointConfiguration(self.joints, np.asarray(req["start"], dtype=float))
         goal = core.JointConfiguration(self.joints, np.asarray(req["goal"], dtype=float))
         t0 = time.perf_counter()
-        path = planner.plan(start, goal)
+        try:
+            path = planner.plan(start, goal)
+        except RuntimeError as exc:  # roboplan raises when its budget runs out ("RRT timed out after ...")
+            return {"success": False, "path": [], "raw_waypoints": 0, "plan_time": time.perf_counter() - t0,
+                    "simplify_time": 0.0, "message": str(exc)}
         t1 = time.perf_counter()
         if path is None or not list(path.positions):
             return {"success": False, "path": [], "raw_waypoints": 0, "plan_time": t1 - t0,

@@ -161,6 +161,7 @@ def run_peer(worker, problem: Problem, max_time: float) -> Outcome:
         return Outcome(False, np.zeros((0, len(problem.start))), max_time, 0.0, "worker failed")
     path = np.asarray(answer["path"], dtype=float).reshape(-1, len(problem.start))
     return Outcome(bool(answer["success"]), path, float(answer["plan_time"]), float(answer["simplify_time"]),
+                   str(answer.get("message", "")),
                    extra={k: answer[k] for k in ("raw_waypoints", "checks") if k in answer})
 
 
