@@ -28,7 +28,7 @@ def machine() -> dict:
     except OSError:
         pass
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
-            "platform": platform.platform()}
+            "platform": platform.platform(), "date": time.strftime("%Y-%m-%d", time.gmtime())}
 
 
 def per_call_seconds(fn, calls: int = 20000, repeats: int = 7) -> float:

@@ -38,7 +38,8 @@ def _x(v) -> str:
 
 def _machine(d: dict) -> str:
     m = d.get("machine", {})
-    return f"_{m.get('cpu', '?')}, {m.get('cores', '?')} cores, Python {m.get('python', '?')}_"
+    date = f", measured {m['date']}" if m.get("date") else ""
+    return f"_{m.get('cpu', '?')}, {m.get('cores', '?')} cores, Python {m.get('python', '?')}{date}_"
 
 
 def _targets(d: dict) -> list[str]:
