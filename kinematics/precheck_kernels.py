@@ -371,6 +371,20 @@ def _obstacle_gap(W, i, obstacles, o):
     return math.sqrt(er * er + ez * ez) + min(max(qr, qz), 0.0) - W[i, 3]
 
 
+@_inline
+def _self_cover_gap(W, geoms, a, b):
+    """``min_i max(gap(i, B_b), min_j gap(i, j))`` over the cover spheres ``i`` of geometry ``a`` and ``j`` of
+    ``b`` (``B_b``: ``b``'s bounding sphere; placed in ``W``): a lower bound (m) of the distance between the
+    two geometries."""
+    parts = math.inf
+    for i in range(geoms[a, 1], geoms[a, 2]):
+        inner = math.inf
+        for j in range(geoms[b, 1], geoms[b, 2]):
+            inner = min(inner, _gap(W, i, j))
+        parts = min(parts, max(_gap(W, i, b), inner))
+    return parts
+
+
 @compiled(_BOUNDS_SIGNATURE)
 def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Per pair of the scene (in the scene's order), the lower bound (m) of its distance at ``q`` that the
@@ -397,13 +411,7 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
         if pairs[p, 2] == SELF_PAIR:
-            parts = math.inf
-            for i in range(geoms[a, 1], geoms[a, 2]):
-                inner = math.inf
-                for j in range(geoms[b, 1], geoms[b, 2]):
-                    inner = min(inner, _gap(W, i, j))
-                parts = min(parts, max(_gap(W, i, b), inner))
-            out[pairs[p, 3]] = max(_gap(W, a, b), parts)
+            out[pairs[p, 3]] = max(_gap(W, a, b), _self_cover_gap(W, geoms, a, b))
         else:
             parts = math.inf
             for i in range(geoms[a, 1], geoms[a, 2]):
@@ -477,13 +485,7 @@ def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w
                 continue
             _place_cover(X, spheres, geoms, a, W, placed, stamp)
             _place_cover(X, spheres, geoms, b, W, placed, stamp)
-            parts = math.inf
-            for i in range(geoms[a, 1], geoms[a, 2]):
-                inner = math.inf
-                for j in range(geoms[b, 1], geoms[b, 2]):
-                    inner = min(inner, _gap(W, i, j))
-                parts = min(parts, max(_gap(W, i, b), inner))
-            r = max(r, _rate_radius(parts - tol, rate))
+            r = max(r, _rate_radius(_self_cover_gap(W, geoms, a, b) - tol, rate))
         else:
             r = _rate_radius(_obstacle_gap(W, a, obstacles, b) - tol, v[a])
             if r >= best:

@@ -73,6 +73,15 @@ def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
                     assert pk._obstacle_slack(W, 0, obstacles, o, tol, 0.5 * slack) == 0.5 * slack
 
 
+def _scenes_near_the_arm(robot, rng, tmp_path, count: int = 3):
+    """``count`` times ``(q_s, scene, precheck)``: a random configuration ``q_s`` and the scene of ``SCENE``
+    plus five obstacles near the arm at ``q_s``."""
+    for _ in range(count):
+        q_s = robot.random_q(rng)
+        scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
+        yield q_s, scene, scene.precheck()
+
+
 def test_first_uncertified_on_converging_paths_matches_every_row_certified(tmp_path):
     """IK-like paths (rows closing in geometrically on an answer near the arm's obstacles, the answer first,
     as the IK checks them): the index ``first_uncertified`` returns - skipping rows close to one it
@@ -81,10 +90,7 @@ def test_first_uncertified_on_converging_paths_matches_every_row_certified(tmp_p
     robot = robots.load("panda")
     rng = np.random.default_rng(12)
     checked = stopped = 0
-    for _ in range(3):
-        q_s = robot.random_q(rng)
-        scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
-        pre = scene.precheck()
+    for q_s, scene, pre in _scenes_near_the_arm(robot, rng, tmp_path):
         floats, ints, tol = pre.floats, pre.ints, pre.tolerance
         for _ in range(40):
             answer = np.clip(q_s + rng.normal(scale=0.3, size=robot.nq), robot.lower, robot.upper)
@@ -143,10 +149,7 @@ def test_certify_motion_keeps_every_bound_above_the_tolerance_on_what_it_certifi
     robot = robots.load("panda")
     rng = np.random.default_rng(21)
     whole = short = 0
-    for _ in range(3):
-        q_s = robot.random_q(rng)
-        scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
-        pre = scene.precheck()
+    for q_s, scene, pre in _scenes_near_the_arm(robot, rng, tmp_path):
         P = len(scene.pairs)
         for trial in range(30):
             qa = np.clip(q_s + rng.normal(scale=0.4, size=robot.nq), robot.lower, robot.upper)
