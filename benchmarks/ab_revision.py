@@ -79,11 +79,13 @@ def export(base: str, into: Path) -> Path:
     return tree
 
 
-def run_side(side: str, tree: Path, round_: int, out: Path) -> None:
-    """Every benchmark of one side (the scripts of ``tree``), its JSON in
-    ``out/<side>_<round>_<bench>.json``."""
+def run_side(side: str, tree: Path, round_: int, out: Path,
+             benches: tuple[str, ...] = tuple(BENCHES)) -> None:
+    """The benchmarks ``benches`` (names of :data:`BENCHES`) of one side (the scripts of ``tree``), each one's
+    JSON in ``out/<side>_<round>_<bench>.json``."""
     env = dict(os.environ, KINSERVE_BENCH_VENVS=str(ROOT / "bench-out" / "venvs"))
-    for name, (args, head_only) in BENCHES.items():
+    for name in benches:
+        args, head_only = BENCHES[name]
         extra = head_only if side == "head" else []
         target = out / f"{side}_{round_}_{name}.json"
         cmd = [sys.executable, *args, *extra] + ([] if name == "step" else ["--out", str(target)])
@@ -141,15 +143,22 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=2, help="alternating rounds (default 2)")
     ap.add_argument("--out", default=str(ROOT / "bench-out" / "ab"), help="folder of the JSON files")
     ap.add_argument("--table-only", action="store_true", help="print the table of an earlier run")
+    ap.add_argument("--benches", default=",".join(BENCHES),
+                    help=f"comma-separated benchmarks to run (default: all of {', '.join(BENCHES)}); the "
+                         "table also reads the files earlier runs left in --out")
     args = ap.parse_args()
+    benches = tuple(b for b in args.benches.split(",") if b)
+    unknown = [b for b in benches if b not in BENCHES]
+    if unknown:
+        ap.error(f"unknown benchmark(s) {', '.join(unknown)}; expected some of {', '.join(BENCHES)}")
     out = Path(args.out).resolve()  # (the base's scripts run in its own tree)
     if not args.table_only:
         out.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory() as tmp:
             tree = export(args.base, Path(tmp))
             for r in range(1, args.rounds + 1):
-                run_side("base", tree, r, out)
-                run_side("head", ROOT, r, out)
+                run_side("base", tree, r, out, benches)
+                run_side("head", ROOT, r, out, benches)
                 print(f"round {r}/{args.rounds} done", flush=True)
     print(table(out, args.base))
 
