@@ -136,8 +136,8 @@ def _unpack(floats, ints):
 
 @_inline
 def _reach(floats, ints):
-    """The packed :func:`~.robot_spheres.joint_reach` ``(J,)`` (:func:`~.precheck_packing.pack`; a view):
-    only :func:`first_uncertified` reads it."""
+    """The packed :attr:`~.robot_spheres.RobotSpheres.reach` ``(J,)`` (:func:`~.precheck_packing.pack`; a
+    view): only :func:`first_uncertified` reads it."""
     J = ints[0]
     return floats[15 * J:16 * J]
 
@@ -311,8 +311,8 @@ def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, star
 
     A row is certified by :func:`_configuration_margin` or, without forward kinematics, by the last row so
     certified (``q_ref``, margin ``m``) when ``2 sum_k R_k |q_k - q_ref,k| < m`` (``R``: the packed
-    :func:`~.robot_spheres.joint_reach`): no sphere centre has moved by half the margin, so every test that
-    certified ``q_ref`` still passes (the distance between two spheres, or from a sphere's centre to an
+    :attr:`~.robot_spheres.RobotSpheres.reach`): no sphere centre has moved by half the margin, so every test
+    that certified ``q_ref`` still passes (the distance between two spheres, or from a sphere's centre to an
     obstacle, changes by at most the sum of the two displacements): the iterates of a converging solve lie
     close together.
     """

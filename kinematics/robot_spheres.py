@@ -5,7 +5,7 @@ cover spheres and inner points of each geometry, in the geometry's frame) in the
 frame of the joint that carries the geometry (``c_joint = M_geometry c``), beside
 the robot's whole kinematic tree (:func:`~.serial_chain.kinematic_tree`), and
 bounds how far a change of each joint coordinate moves any sphere centre
-(:func:`joint_reach`). Built once per collision model
+(:func:`sphere_reach`). Built once per collision model
 (:class:`~.collision_model.CollisionModel`); the compiled pre-check
 (:mod:`.precheck_kernels`) moves the spheres to the world with the tree's forward
 kinematics.
@@ -41,8 +41,10 @@ class RobotSpheres:
     * ``inner`` ``(I, 3)``: points inside the geometries (:func:`~.sphere_cover.geometry_inner_points`) in
       their joint frames, ``inner_ranges`` ``(G, 2)`` the first and end row of each geometry's;
     * ``reach`` ``(J,)``: per joint, a bound (m per unit of the joint's coordinate) of how far a change of
-      that coordinate moves any sphere centre (:func:`joint_reach`);
+      that coordinate moves any sphere centre: the largest entry of each column of ``sphere_reach``;
     * ``sphere_reach`` ``(G + S, J)``: the same bound per sphere row (:func:`sphere_reach`);
+    * ``geometry_reach`` ``(G, J)``: the same bound per geometry, over its spheres
+      (:func:`reach_per_geometry`);
     * ``carrying`` ``(G, J)`` booleans: the joints whose motion moves each geometry
       (:func:`carrying_joints`).
     """
@@ -55,6 +57,7 @@ class RobotSpheres:
     inner_ranges: np.ndarray
     reach: np.ndarray
     sphere_reach: np.ndarray
+    geometry_reach: np.ndarray
     carrying: np.ndarray
 
 
@@ -91,12 +94,14 @@ def sphere_reach(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geom
     return np.minimum(reach, UNBOUNDED_REACH)
 
 
-def joint_reach(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
-                lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """``R`` ``(J,)``: changing joint ``k``'s coordinate by ``dq`` moves no sphere centre farther than
-    ``R[k] |dq|`` (m): the largest entry of each column of :func:`sphere_reach`."""
-    reach = sphere_reach(tree, joints, spheres, geoms, lower, upper)
-    return reach.max(axis=0) if len(reach) else np.zeros(len(joints))
+def reach_per_geometry(reach: np.ndarray, geoms: np.ndarray) -> np.ndarray:
+    """``(G, J)``: per geometry of ``geoms``, the largest :func:`sphere_reach` ``reach`` ``(S, J)`` over its
+    bounding sphere's and cover spheres' rows: no centre of the geometry's spheres moves farther than
+    ``sum_k R[g, k] |dq_k|``."""
+    out = np.zeros((len(geoms), reach.shape[1]))
+    for g in range(len(geoms)):
+        out[g] = reach[[g, *range(int(geoms[g, 1]), int(geoms[g, 2]))]].max(axis=0)
+    return out
 
 
 def carrying_joints(joints: np.ndarray, geoms: np.ndarray) -> np.ndarray:
@@ -149,12 +154,13 @@ def robot_spheres(model: pin.Model, geometry: pin.GeometryModel,
     geoms = np.column_stack([joints, _ranges([len(c) for c in moved], G)]) if G else np.zeros((0, 3), int)
     tree, tree_joints = packed
     rows = sphere_reach(tree, tree_joints, spheres, geoms, model.lowerPositionLimit, model.upperPositionLimit)
-    reach = rows.max(axis=0) if len(rows) else np.zeros(len(tree_joints))
+    per_geometry = reach_per_geometry(rows, geoms)
+    reach = per_geometry.max(axis=0) if G else np.zeros(len(tree_joints))
     inner_ranges = _ranges([len(p) for p in inner])
     return RobotSpheres(tree, tree_joints, np.ascontiguousarray(spheres), np.ascontiguousarray(geoms),
                         np.ascontiguousarray(points), np.ascontiguousarray(inner_ranges), reach,
-                        np.ascontiguousarray(rows), carrying_joints(tree_joints, geoms))
+                        np.ascontiguousarray(rows), per_geometry, carrying_joints(tree_joints, geoms))
 
 
-__all__ = ["UNBOUNDED_REACH", "RobotSpheres", "carrying_joints", "joint_reach", "robot_spheres",
+__all__ = ["UNBOUNDED_REACH", "RobotSpheres", "carrying_joints", "reach_per_geometry", "robot_spheres",
            "sphere_reach"]

@@ -43,7 +43,8 @@ class PrecheckArguments(NamedTuple):
     ``first_uncertified(floats, ints, rows, start, tolerance)``,
     ``certainly_colliding(floats, ints, q, tolerance)``; ``floats``, ``ints``: the scene's packed arrays
     (:mod:`.precheck_packing`); ``tolerance`` (m): :data:`~.precheck_kernels.TOLERANCE`.
-    ``certify_motion(floats, ints, sphere_reach, pair_reach, qa, qb, tolerance, min_step, max_advances)``
+    ``certify_motion(floats, ints, sphere_reach, pair_reach, skip, qa, qb, tolerance, min_step,
+    max_advances)``
     (:func:`~.precheck_kernels.certify_motion`) with the layout's ``sphere_reach`` ``(S, J)`` and
     ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`).
     """
@@ -107,15 +108,11 @@ class ScenePrecheck:
     def motion_reach(self) -> np.ndarray:
         """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast
         the gap of two spheres of a self pair can change (:func:`~.precheck_kernels.certify_motion`): the sum
-        of the two geometries' largest :attr:`~.robot_spheres.RobotSpheres.sphere_reach` on the joints that
+        of the two geometries' :attr:`~.robot_spheres.RobotSpheres.geometry_reach` on the joints that
         carry one of them and not the other (a joint carrying both moves them rigidly together); 0 on the
         rows of obstacle pairs (their rates are the spheres' own)."""
         robot = self.robot
-        G = len(robot.geoms)
-        reach = np.zeros((G, len(robot.joints)))
-        for g in range(G):
-            rows = [g, *range(int(robot.geoms[g, 1]), int(robot.geoms[g, 2]))]
-            reach[g] = robot.sphere_reach[rows].max(axis=0)
+        reach = robot.geometry_reach
         out = np.zeros((len(self.pairs), len(robot.joints)))
         own = self.pairs[:, 2] == SELF_PAIR
         a, b = self.pairs[own, 0], self.pairs[own, 1]

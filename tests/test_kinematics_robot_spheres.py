@@ -192,7 +192,7 @@ def test_sphere_reach_bounds_each_sphere_displacement(name):
     """``sum_k R[s, k] |dq_k|`` bounds how far sphere ``s``'s centre moves from ``q`` to ``q + dq`` (each
     sphere against its own bound, not the largest one); ``reach`` is the largest entry of each column; the
     joints that do not carry a geometry have zero rates for its spheres, and ``carrying`` says which those
-    are."""
+    are; ``geometry_reach`` is the largest rate over each geometry's spheres."""
     robot = robots.load(name)
     spheres = robot.collision.spheres
     R = spheres.sphere_reach
@@ -202,6 +202,7 @@ def test_sphere_reach_bounds_each_sphere_displacement(name):
     for g in range(G):
         rows = [g, *range(int(spheres.geoms[g, 1]), int(spheres.geoms[g, 2]))]
         assert np.all(R[np.ix_(rows, np.flatnonzero(~spheres.carrying[g]))] == 0.0)
+        assert np.array_equal(spheres.geometry_reach[g], R[rows].max(axis=0))
     idx = spheres.joints[:, 1]
     rng = np.random.default_rng(17)
     for _ in range(200):

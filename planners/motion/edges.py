@@ -138,18 +138,14 @@ class EdgeCertifier:
         """Conservative advancement of ``qa + s u``, ``s`` in ``[0, 1]``, on coal's distances of ``pairs``
         (indices) alone: True when those pairs stay apart over the whole motion (a pair that moves keeps
         :data:`~.clearance.CLEARANCE_FLOOR` at every point asked, or the motion is rejected)."""
-        rates = self.reach[pairs] @ np.abs(u)
-        moving = rates > 0.0
-        need = need_of(moving)
-        inverse = np.divide(1.0, rates, out=np.zeros_like(rates), where=moving)
-        offset = np.where(moving, 0.0, np.inf)
+        w = pair_rates(self.reach[pairs] @ np.abs(u))
         lo, hi = 0.0, 1.0
         for k in range(max_advances):
             from_lo = k % 2 == 0
             d = self.oracle.distances(qa + (lo if from_lo else hi) * u, pairs)
-            if np.any(d < need):
+            if np.any(d < w.need):
                 return False
-            step = float(np.min((d - TOLERANCE) * inverse + offset))
+            step = float(np.min((d - TOLERANCE) * w.inverse + w.offset))
             if from_lo:
                 lo += step
             else:
