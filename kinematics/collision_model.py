@@ -143,7 +143,27 @@ class CollisionModel:
             else:
                 self.disabled = self._computed_pairs(gm, lower, upper, model_text, samples, seed, bar.update)
                 self.pair_source = "computed"
-        self.self_pairs: list[tuple[int, int]] = candidate_geometry_pairs(model, gm, self.disabled)
+        self.attached: tuple = ()  #: the carried objects (:mod:`.attached`) of a model made by with_attached
+        self._assemble(gm, candidate_geometry_pairs(model, gm, self.disabled))
+
+    @classmethod
+    def from_urdf(cls, model: pin.Model, urdf: str, package_dirs: Sequence[str], lower: np.ndarray,
+                  upper: np.ndarray,
+                  **kw: Any) -> "CollisionModel":
+        """Build the collision ``GeometryModel`` from URDF text, then the model (see the class)."""
+        try:
+            gm = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.COLLISION,
+                                             package_dirs=list(package_dirs))
+        except (ValueError, RuntimeError, OSError) as exc:
+            name = kw.get("name", "robot")
+            raise ModelError(f"robot {name!r}: cannot build the collision geometry: {exc}") from None
+        return cls(model, gm, lower, upper, model_text=kw.pop("model_text", urdf), **kw)
+
+    def _assemble(self, gm: pin.GeometryModel, self_pairs: list[tuple[int, int]]) -> None:
+        """Set the self pairs of ``gm`` (hulls, no pairs yet) and make everything derived from the geometry:
+        the sphere model, the layouts' robot geometry, the viewer data, the base spheres, empty caches."""
+        model = self.model
+        self.self_pairs: list[tuple[int, int]] = self_pairs
         for i, j in self.self_pairs:
             gm.addCollisionPair(pin.CollisionPair(i, j))
         self.geometry = gm
@@ -165,18 +185,32 @@ class CollisionModel:
         self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
         self._lock = threading.Lock()
 
-    @classmethod
-    def from_urdf(cls, model: pin.Model, urdf: str, package_dirs: Sequence[str], lower: np.ndarray,
-                  upper: np.ndarray,
-                  **kw: Any) -> "CollisionModel":
-        """Build the collision ``GeometryModel`` from URDF text, then the model (see the class)."""
-        try:
-            gm = pin.buildGeomFromUrdfString(model, urdf, pin.GeometryType.COLLISION,
-                                             package_dirs=list(package_dirs))
-        except (ValueError, RuntimeError, OSError) as exc:
-            name = kw.get("name", "robot")
-            raise ModelError(f"robot {name!r}: cannot build the collision geometry: {exc}") from None
-        return cls(model, gm, lower, upper, model_text=kw.pop("model_text", urdf), **kw)
+    def with_attached(self, objects: Sequence[Any]) -> "CollisionModel":
+        """A new model: this one's geometry plus the carried ``objects`` (:class:`~.attached.AttachedObject`,
+        each fixed to its frame's parent joint at the frame placement times its ``placement``), with
+        the pairs of :mod:`.attached` (checked against every link except its touch links and the links of
+        its own body). This model is not changed; its hulls, pair source and disabled pairs are shared.
+        """
+        if self.attached:
+            raise ModelError("with_attached: start from the model without carried objects")
+        out = object.__new__(CollisionModel)
+        for key in ("name", "model", "hull_volume_ratio", "hull_fallbacks", "disabled", "pair_source"):
+            setattr(out, key, getattr(self, key))
+        gm = self.geometry.copy()
+        gm.removeAllCollisionPairs()
+        links = list(self.links)
+        for obj in objects:
+            frame = self.model.frames[self.model.getFrameId(obj.frame)]
+            placement = frame.placement * pin.SE3(np.asarray(obj.placement, dtype=float))
+            gm.addGeometryObject(pin.GeometryObject(obj.link_name, int(frame.parentJoint),
+                                                    self.model.getFrameId(obj.frame), placement,
+                                                    obj.shape.geometry()))
+            links.append(obj.link_name)
+        out.links = links
+        out.geometry_names = [g.name for g in gm.geometryObjects]
+        out.attached = tuple(objects)
+        out._assemble(gm, list(self.self_pairs) + _attached_pairs(gm, links, out.attached, len(self.links)))
+        return out
 
     @staticmethod
     def _cache_key(model_text: str | None, samples: int, seed: int) -> str | None:
@@ -277,6 +311,21 @@ def _sphere_model(model: pin.Model, geometry: pin.GeometryModel) -> Any:
     from .robot_spheres import robot_spheres
 
     return robot_spheres(model, geometry)
+
+
+def _attached_pairs(gm: pin.GeometryModel, links: list[str], objects: tuple,
+                    first: int) -> list[tuple[int, int]]:
+    """The pairs of the carried objects (geometries ``first, first + 1, ...`` of ``gm``): each against every
+    earlier geometry on another joint whose link is not one of its touch links (:mod:`.attached`)."""
+    objs = gm.geometryObjects
+    pairs = []
+    for k, obj in enumerate(objects):
+        a = first + k
+        touch = set(obj.touch_links)
+        for i in range(a):
+            if objs[i].parentJoint != objs[a].parentJoint and links[i] not in touch:
+                pairs.append((i, a))
+    return pairs
 
 
 def _base_spheres(geometry: pin.GeometryModel, joints: list[int]) -> list[tuple[int, np.ndarray, float]]:

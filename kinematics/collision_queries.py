@@ -18,11 +18,14 @@ Units: metres; distances are signed (negative = penetration depth).
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterable
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
 from .shapes import Shape, as_shape
 from .types import VectorLike
@@ -77,10 +80,27 @@ def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
     return tuple(as_shape(o, f"{name}[{k}]") for k, o in enumerate(items))
 
 
+def _frame_link(model: Any, frame_id: int, links: list[str]) -> str | None:
+    """The collision link ``frame_id`` belongs to: the frame itself or its nearest ancestor frame (through
+    ``parentFrame``) that carries collision geometry; None when none on its joint does."""
+    names = set(links)
+    joint = model.frames[frame_id].parentJoint
+    fid = frame_id
+    while True:
+        frame = model.frames[fid]
+        if frame.name in names:
+            return frame.name
+        if frame.parentJoint != joint or frame.parentFrame == fid:
+            return None
+        fid = frame.parentFrame
+
+
 class CollisionQueries:
     """Mixin of :class:`~.robot.Robot`: ``in_collision``, ``collisions``, ``distances``, ``min_distance``."""
 
     # provided by Robot
+    _attached: tuple = ()  # the carried objects (AttachedObject), in attach order
+    _attached_holder: list | None = None  # [this robot's CollisionModel with them] (None: nothing carried)
     model: Any
     nq: int
     name: str
@@ -94,10 +114,26 @@ class CollisionQueries:
 
     @property
     def collision(self) -> "CollisionModel":
-        """The robot's :class:`~.collision_model.CollisionModel` (built on first use, shared by copies).
+        """The robot's :class:`~.collision_model.CollisionModel`: the bare one (built on first use, shared by
+        copies and by every ``robots.load`` of one cached model), or with carried objects this robot's own
+        (:meth:`attach`; made by ``attach``, or on first use after unpickling).
 
         :class:`~.errors.ModelError` when the URDF has no ``<collision>`` elements.
         """
+        own = self._attached_holder
+        if own is not None:
+            cm = own[0]
+            if cm is None:
+                with _BUILD_LOCK:
+                    cm = own[0]
+                    if cm is None:
+                        cm = own[0] = self.bare_collision.with_attached(self._attached)
+            return cm
+        return self.bare_collision
+
+    @property
+    def bare_collision(self) -> "CollisionModel":
+        """The :class:`~.collision_model.CollisionModel` of the robot's own links, without carried objects."""
         holder = self._collision_holder
         cm = holder[0]
         if cm is None:
@@ -106,6 +142,61 @@ class CollisionQueries:
                 if cm is None:
                     cm = holder[0] = self._build_collision_model()
         return cm
+
+    # ---------------------------------------------------------- carried objects
+    @property
+    def attached(self) -> "MappingProxyType[str, AttachedObject]":
+        """The carried objects, ``{name: AttachedObject}`` (read-only; see :meth:`attach`)."""
+        return MappingProxyType({obj.name: obj for obj in self._attached})
+
+    def attach(self, name: str, shape: Any, frame: str, pose_in_frame: Any = None,
+               touch_links: Iterable[str] | None = None) -> Any:
+        """Carry ``shape`` with ``frame``: from now on this robot's collision queries, ``ik.solve(...,
+        self_collision=True)`` / ``obstacles=`` and ``planners.plan_motion`` check it (:mod:`.attached`).
+
+        ``pose_in_frame``: 4x4 pose of the shape's own frame in ``frame`` (default identity; the shape's own
+        ``pose`` / centre is then relative to it). ``touch_links``: the links it may touch (default: the link
+        ``frame`` belongs to; name a gripper's fingers too). Returns the robot (for chaining).
+
+        Changes this ``Robot`` object only (and copies made from it afterwards): another ``robots.load``
+        result, an earlier copy or a pooled service robot keep their own geometry - use
+        ``robot.copy().attach(...)`` to carry something in one request or thread. The robot's IK state
+        (seed tables, bound collision constraints) is dropped, since its collision model changed; the next
+        solve (or ``ik.warm``) builds it again. :class:`~.errors.InputError` for a name already carried, an
+        unknown frame or touch link, a mesh or a malformed pose.
+        """
+        if isinstance(name, str) and any(obj.name == name for obj in self._attached):
+            raise InputError(f"attach: {name!r} is already attached; detach it first "
+                             f"(attached: {sorted(self.attached)})")
+        fid = self.frame_id(frame)
+        cm = self.bare_collision
+        obj = attached_object(name, shape, frame, pose_in_frame, touch_links, cm.links,
+                              _frame_link(self.model, fid, cm.links))
+        self._set_attached((*self._attached, obj))
+        return self
+
+    def detach(self, name: str) -> "AttachedObject":
+        """Stop carrying ``name``; returns its :class:`~.attached.AttachedObject`. :class:`InputError` when
+        nothing of that name is attached."""
+        for obj in self._attached:
+            if obj.name == name:
+                self._set_attached(tuple(o for o in self._attached if o is not obj))
+                return obj
+        raise InputError(f"detach: nothing named {name!r} is attached (attached: {sorted(self.attached)})")
+
+    def attached_poses(self, q: VectorLike) -> dict[str, np.ndarray]:
+        """``{name: (4, 4) world pose}`` of each carried object's geometry at ``q``: ``fk(q, frame) @
+        placement``."""
+        q = self.check_q(q)
+        return {obj.name: self.fk(q, obj.frame) @ obj.placement for obj in self._attached}
+
+    def _set_attached(self, objects: tuple) -> None:
+        from .robot import Extensions
+
+        cm = self.bare_collision.with_attached(objects) if objects else None
+        self._attached = objects
+        self._attached_holder = None if cm is None else [cm]
+        self.extensions = Extensions()  # the IK state was bound to the other collision model
 
     def _build_collision_model(self):
         from .collision_model import CollisionModel

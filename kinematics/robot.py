@@ -244,6 +244,8 @@ class Robot(CollisionQueries):
             state[key] = None
         state["_chains"] = {}
         state["_collision_holder"] = [None]
+        if state.get("_attached_holder") is not None:  # carried objects travel; their model is rebuilt
+            state["_attached_holder"] = [None]
         state["extensions"] = Extensions()
         return state
 
