@@ -95,11 +95,11 @@ def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
     """Add the robot arguments shared by the sub-commands (and ``--q`` when ``q``) to ``p``."""
     p.add_argument("robot", help="built-in robot name (see `kinserve models`), or a .urdf/.xacro path")
     p.add_argument("--param", action="append", metavar="KEY=VALUE",
-                   help="model parameter / xacro arg (repeatable)")
+                   help="model parameter / xacro arg, repeatable (default: the model's own values)")
     p.add_argument("--package-dir", action="append", metavar="DIR",
                    help="folder resolving package://PKG/... and $(find PKG): a package, a folder of "
                         "packages or a workspace (repeatable; searched before the model's own folders, "
-                        "$ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH)")
+                        "$ROS_PACKAGE_PATH and $AMENT_PREFIX_PATH; default: none)")
     p.add_argument("--srdf", metavar="FILE",
                    help="SRDF with named states and groups (default: the one beside the model)")
     p.add_argument("--allow-outside", action="store_true",
@@ -107,9 +107,10 @@ def add_robot_args(p: argparse.ArgumentParser, q: bool = True) -> None:
                         "package folders")
     if q:
         p.add_argument("--q", nargs="+", metavar="Q",
-                       help="joint values (rad / m), space or comma separated; default: neutral")
+                       help="joint values (rad / m), space or comma separated (default: the neutral "
+                            "configuration)")
         p.add_argument("--frame", help="frame name (default: the robot's tool frame)")
-    p.add_argument("--json", action="store_true", help="print JSON")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
 
 
 # ---------------------------------------------------------------- commands
@@ -176,10 +177,17 @@ COMMANDS: dict[str, tuple] = {}
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse with its usage errors as one ``error: ...`` line (exit 2) instead of usage + message.
+    """argparse with its usage errors as one ``error: ...`` line (exit 2) instead of usage + message, and
+    every option's default in its help line (:class:`~kinserve.service.cli_help.DefaultsHelpFormatter`).
 
     Sub-command parsers inherit the class (``add_subparsers`` uses the parent's type).
     """
+
+    def __init__(self, *args, **kwargs) -> None:
+        from .cli_help import DefaultsHelpFormatter
+
+        kwargs.setdefault("formatter_class", DefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # type: ignore[override]
         """Exit with status 2 and one ``error: ...`` line on stderr."""
@@ -197,7 +205,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     p = sub.add_parser("models", help="list the built-in robots")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=cmd_models)
 
     p = sub.add_parser("fk", help="forward kinematics: pose of a frame")
@@ -206,7 +214,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("jacobian", help="geometric Jacobian and singularity measures")
     add_robot_args(p)
-    p.add_argument("--reference", default="world", choices=["world", "local", "spatial"])
+    p.add_argument("--reference", default="world", choices=["world", "local", "spatial"],
+                   help="world: the frame origin's velocity, world axes (geometric Jacobian); local: the "
+                        "same in the frame's own axes; spatial: Pinocchio's WORLD (the body point at the "
+                        "world origin)")
     p.add_argument("--axes", metavar="A,B,...",
                    help="task rows for the singularity measures, e.g. x,y,z or x,y,yaw (default: "
                         "the robot's task axes)")
@@ -222,7 +233,7 @@ def build_parser() -> argparse.ArgumentParser:
 #: Modules defining further sub-commands, each with ``register(subparsers)``.
 _EXTRA_COMMANDS = ("kinserve.service.cli_ik", "kinserve.service.cli_demo", "kinserve.service.cli_view",
                    "kinserve.service.cli_serve", "kinserve.service.cli_reach", "kinserve.service.cli_frames",
-                   "kinserve.service.cli_collide")
+                   "kinserve.service.cli_collide", "kinserve.service.cli_plan")
 
 
 def describe_os_error(exc: OSError) -> str:

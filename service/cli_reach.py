@@ -1,4 +1,8 @@
-"""``kinserve reach ROBOT --samples N [--backend ray]``: a reachability map saved as .npz and PNG."""
+"""``kinserve reach ROBOT --samples N [--backend ray]``: a reachability map saved as .npz and PNG.
+
+Obstacles are the shared ``--sphere`` / ``--box`` / ``--cylinder`` / ``--scene`` options
+(:mod:`.cli_obstacles`): with any (or ``--self-collision``) only collision-free solutions count.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli_obstacles import add_obstacle_args, obstacles_from_args
 from .cli_types import positive_float, positive_int
 
 
-def cmd_reach(args) -> int:
+def cmd_reach(args: argparse.Namespace) -> int:
     """``kinserve reach``: the reachability map of a frame, written as ``.npz`` and ``.png``; returns 0."""
     from kinserve.ik.batch.reachability import reachability_map
     from kinserve.service.cli import load_robot
@@ -19,8 +24,6 @@ def cmd_reach(args) -> int:
 
     robot = load_robot(args)
     orientation = {"free": "free", "random": "random", "down": np.diag([1.0, -1.0, -1.0])}[args.orientation]
-    from kinserve.service.cli_collide import obstacles_from_args
-
     obstacles = obstacles_from_args(args)
     rmap = reachability_map(robot, args.samples, frame=args.frame, resolution=args.resolution,
                             orientation=orientation, backend=args.backend, processes=args.processes,
@@ -46,22 +49,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reach", help="reachability map: share of sampled workspace poses that IK reaches")
     add_robot_args(p, q=False)
     p.add_argument("--frame", help="tool frame (default: the robot's tip)")
-    p.add_argument("--samples", type=positive_int, default=1000)
-    p.add_argument("--resolution", type=positive_int, default=8, help="cells per axis")
+    p.add_argument("--samples", type=positive_int, default=1000,
+                   help="target poses sampled (positions uniform in the workspace box)")
+    p.add_argument("--resolution", type=positive_int, default=8, help="cells per axis of the map")
     p.add_argument("--orientation", choices=["free", "random", "down"], default="free",
                    help="free = position only; random = uniform on SO(3); down = tool z pointing down")
-    p.add_argument("--backend", choices=["processes", "serial", "ray"], default="processes")
-    p.add_argument("--processes", type=positive_int, default=None)
+    p.add_argument("--backend", choices=["processes", "serial", "ray"], default="processes",
+                   help="where the IK solves run: a local process pool, this process, or a Ray cluster")
+    p.add_argument("--processes", type=positive_int, default=None,
+                   help="worker processes of the pool (default: every available core)")
     p.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local Ray)")
     p.add_argument("--max-time", type=positive_float, default=0.05, help="IK time budget per sample (s)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the sampled poses and of the solves")
     p.add_argument("--out", default="reach", help="output path stem: writes STEM.npz and STEM.png")
     p.add_argument("--self-collision", action="store_true",
                    help="count only solutions free of self-collision")
-    p.add_argument("--box", nargs=6, action="append", metavar="V",
-                   help="box obstacle CX CY CZ SX SY SZ (m), repeatable")
-    p.add_argument("--sphere", nargs=4, action="append", metavar="V",
-                   help="sphere obstacle CX CY CZ R (m), repeatable")
-    p.add_argument("--cylinder", nargs=5, action="append", metavar="V",
-                   help="vertical cylinder CX CY CZ R L (m)")
+    add_obstacle_args(p, "only solutions clear of them count")
     p.set_defaults(func=cmd_reach)

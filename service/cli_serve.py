@@ -136,7 +136,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     from kinserve.service.settings import ServiceSettings as D
 
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
-    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (0.0.0.0: every interface; the service has no authentication)")
     p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
     p.add_argument("--workers", type=positive_int, default=1,
                    help="worker processes (each with its own robot cache)")
@@ -162,6 +163,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="robot variants (name + params) kept loaded")
     p.add_argument("--robot-cache-mb", type=float, default=D.robot_cache_bytes / (1 << 20),
                    help="estimated memory of the cached robot variants, seed tables included (MiB)")
-    p.add_argument("--access-log", action="store_true", help="log every request (off by default)")
-    p.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"])
+    p.add_argument("--access-log", action="store_true", help="log every request")
+    p.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"],
+                   help="uvicorn's log level")
     p.set_defaults(func=cmd_serve)

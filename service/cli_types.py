@@ -69,3 +69,67 @@ def file_in_existing_folder(text: str) -> Path:
     if not folder.is_dir():
         raise argparse.ArgumentTypeError(f"the folder {str(folder)!r} does not exist (create it first)")
     return path
+
+
+def seconds_or_none(text: str) -> float | None:
+    """A time budget: a finite number of seconds > 0, or ``none`` for no clock (an iteration budget alone)."""
+    if text.strip().lower() == "none":
+        return None
+    return positive_float(text)
+
+
+def trajectory_file(text: str) -> Path:
+    """A trajectory file to write: ``.json`` or ``.csv`` (the format follows the extension), in an existing
+    folder."""
+    path = file_in_existing_folder(text)
+    if path.suffix.lower() not in (".json", ".csv"):
+        raise argparse.ArgumentTypeError(f"expected a file ending in .json or .csv, got {text!r}")
+    return path
+
+
+class Numbers(argparse.Action):
+    """An option taking a fixed count of finite numbers: ``--box 0.5 0 0.3 0.1 0.2 0.3``.
+
+    Keywords of ``add_argument`` besides argparse's own: ``counts`` (the accepted numbers of values,
+    e.g. ``(6, 9)`` for a box with an optional rotation), ``form`` (the values' names, shown in the usage
+    and in errors, e.g. ``"CX CY CZ SX SY SZ [ROLL PITCH YAW]"``) and ``kind`` (when given, the option
+    appends ``(kind, values)`` to a list shared by several options - ``dest`` - so the items keep the
+    order of the command line; otherwise the option stores its ``numpy`` array). The values may also be
+    one token separated by commas (``0.5,0,0.3,0.1``) or a JSON list (brackets are ignored). A wrong count
+    or a value that is not a finite number is a usage error naming the option and the form.
+    """
+
+    def __init__(self, option_strings, dest, *, counts: tuple[int, ...], form: str, kind: str | None = None,
+                 **kwargs) -> None:
+        kwargs.setdefault("metavar", form)
+        super().__init__(option_strings, dest, nargs="+", **kwargs)
+        self.counts = tuple(counts)
+        self.form = form
+        self.kind = kind
+
+    def values_of(self, tokens: list[str]):
+        """The tokens as a float array (``argparse.ArgumentError`` if they do not fit the form)."""
+        import numpy as np
+
+        text = " ".join(tokens).replace(",", " ").replace("[", " ").replace("]", " ")
+        counts = " or ".join(str(n) for n in self.counts)
+        try:
+            values = np.array([float(part) for part in text.split()])
+        except ValueError:
+            raise argparse.ArgumentError(self, f"expected {counts} numbers {self.form}, "
+                                               f"got {' '.join(tokens)!r}") from None
+        if values.size not in self.counts:
+            raise argparse.ArgumentError(self, f"expected {counts} numbers {self.form}, got {values.size}")
+        if not np.all(np.isfinite(values)):
+            raise argparse.ArgumentError(self, f"expected finite numbers {self.form}, "
+                                               f"got {' '.join(tokens)!r}")
+        return values
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        """Store (or, with ``kind``, append) the checked numbers."""
+        array = self.values_of(list(values))
+        if self.kind is None:
+            setattr(namespace, self.dest, array)
+            return
+        items = list(getattr(namespace, self.dest, None) or [])
+        setattr(namespace, self.dest, [*items, (self.kind, array)])

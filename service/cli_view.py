@@ -1,8 +1,11 @@
-"""``kinserve view ROBOT [--q ...] [--html FILE] [--collision --box ...]``: show a robot in the browser.
+"""``kinserve view ROBOT [--q ...] [--html FILE] [--collision] [--box ...]``: show a robot in the browser.
 
 Starts a local meshcat server, prints its URL and keeps serving until
 interrupted (Ctrl-C). ``--html FILE`` instead writes a self-contained static
-page (opens offline) and exits.
+page (opens offline) and exits. Every obstacle given (the shared ``--sphere`` /
+``--box`` / ``--cylinder`` / ``--scene`` options, :mod:`.cli_obstacles`) is
+drawn, the ones the robot touches in red; ``--collision`` adds the robot's
+collision shapes, those in collision (self-collision included) in red.
 """
 
 from __future__ import annotations
@@ -11,10 +14,20 @@ import argparse
 import os
 import sys
 
+from .cli_obstacles import add_obstacle_args, obstacles_from_args
 from .cli_types import file_in_existing_folder
 
 
-def cmd_view(args) -> int:
+def draw_obstacles(scene, robot, q, obstacles: list) -> None:
+    """Draw ``obstacles`` in ``scene`` (nodes ``obstacles/<k>``), the ones touching the robot at ``q`` red,
+    without the robot's collision shapes."""
+    from kinserve.viz.collision_drawing import draw_collision_scene
+
+    hits = robot.collisions(q, obstacles, self_collision=False)
+    draw_collision_scene(scene, robot.name, (), [o.to_dict() for o in obstacles], hits)
+
+
+def cmd_view(args: argparse.Namespace) -> int:
     """``kinserve view``: show the robot live in the browser, or write a static page with ``--html``."""
     from kinserve.service.cli import load_robot, robot_q
     from kinserve.viz import Scene, export_html
@@ -22,12 +35,10 @@ def cmd_view(args) -> int:
 
     robot = load_robot(args, geometry=True)
     q = robot_q(robot, args)
-    obstacles = []
-    if args.collision:
-        from kinserve.service.cli_collide import obstacles_from_args
-
-        obstacles = obstacles_from_args(args)
+    obstacles = obstacles_from_args(args)
     scene = Scene.for_robot(robot, q, collision=args.collision, obstacles=obstacles)
+    if obstacles and not args.collision:
+        draw_obstacles(scene, robot, q, obstacles)
     if args.html:
         path = export_html(scene, args.html)
         print(f"wrote {path}")
@@ -52,15 +63,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                                     "or --html for a static page)")
     add_robot_args(p)
     p.add_argument("--html", metavar="FILE", type=file_in_existing_folder,
-                   help="write a self-contained HTML page instead of serving (its folder must exist)")
-    p.add_argument("--zmq-url", help="use an existing meshcat server instead of starting one")
+                   help="write a self-contained HTML page instead of serving, its folder must exist "
+                        "(default: serve live)")
+    p.add_argument("--zmq-url", help="use an existing meshcat server (default: start one)")
     p.add_argument("--collision", action="store_true",
-                   help="also draw the collision shapes and the --box/--sphere/--cylinder obstacles, "
-                        "colliding ones red")
-    p.add_argument("--box", nargs=6, action="append", metavar="V",
-                   help="box obstacle CX CY CZ SX SY SZ (m), with --collision")
-    p.add_argument("--sphere", nargs=4, action="append", metavar="V",
-                   help="sphere obstacle CX CY CZ R (m), with --collision")
-    p.add_argument("--cylinder", nargs=5, action="append", metavar="V",
-                   help="vertical cylinder CX CY CZ R L (m)")
+                   help="also draw the robot's collision shapes, colliding ones red")
+    add_obstacle_args(p, "all drawn, the ones the robot touches in red")
     p.set_defaults(func=cmd_view)

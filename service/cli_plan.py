@@ -1,0 +1,156 @@
+"""``kinserve plan ROBOT --start Q... --goal Q... [--box ...] [--out traj.json] [--html plan.html]``: a
+collision-free joint-space motion from the command line.
+
+Calls :func:`kinserve.planners.plan_motion` (RRT-Connect, shortcut, toppra timing; every segment certified
+collision free) and prints a summary: success and message, waypoints, duration, the search statistics.
+``--out`` writes the trajectory (:class:`kinserve.planners.JointTrajectory`, JSON or CSV by the file's
+extension: times (s), positions, velocities, accelerations per joint, at rest at both ends); ``--html`` a
+self-contained page animating the motion among the obstacles (:func:`kinserve.viz.motion_plan_scene`).
+
+``--start`` / ``--goal``: joint values (rad / m), or the name of one of the robot's SRDF states
+(``kinserve frames ROBOT`` lists them). Obstacles: the shared ``--sphere`` / ``--box`` / ``--cylinder`` /
+``--scene`` options (:mod:`.cli_obstacles`). Budget: ``--max-time`` (s, or ``none`` for no clock) and
+``--max-iterations`` (RRT-Connect samples; with ``--max-time none`` the answer depends only on the inputs and
+``--seed``).
+
+Exit status: 0 with a plan; 1 when no plan was found (the reason, e.g. the colliding pair of a start in
+collision, on stderr; nothing written); 2 for bad input (one ``error:`` line).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from kinserve.kinematics.errors import ShapeError
+
+from .cli_obstacles import add_obstacle_args, obstacles_from_args
+from .cli_types import file_in_existing_folder, positive_float, positive_int, seconds_or_none, trajectory_file
+
+#: ``plan_motion``'s own default time budget (s); a test keeps the two equal.
+DEFAULT_MAX_TIME = 1.0
+
+
+def configuration(robot, values: list[str] | None, option: str) -> np.ndarray | None:
+    """``--start`` / ``--goal``: joint values, or the name of an SRDF state of ``robot``; None when absent.
+
+    :class:`ShapeError` naming ``option`` for a wrong count or an unknown name.
+    """
+    from kinserve.service.cli import parse_vector
+
+    if not values:
+        return None
+    if len(values) == 1 and values[0] in robot.named_states:
+        return np.array(robot.named_states[values[0]], dtype=float)
+    names = ", ".join(robot.named_states) or "none"
+    try:
+        q = parse_vector(values, option)
+    except ShapeError:
+        raise ShapeError(f"{option}: expected {robot.nq} joint values or a named state (the robot's: "
+                         f"{names}), got {' '.join(values)!r}") from None
+    if q.size != robot.nq:
+        raise ShapeError(f"{option}: expected {robot.nq} joint values (rad / m), got {q.size}")
+    return q
+
+
+def plan_summary(robot, plan, obstacles: list, self_collision: bool) -> tuple[dict, str]:
+    """``(JSON payload, text)`` describing ``plan``: success, message, waypoints, duration, statistics."""
+    traj = plan.trajectory
+    duration = traj.duration if traj is not None else None
+    stats = {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in plan.stats.items()}
+    payload = {
+        "robot": robot.name, "success": bool(plan.success), "message": plan.message,
+        "waypoints": int(len(plan.path)), "path": plan.path.tolist(), "duration": duration,
+        "trajectory_points": traj.n_points if traj is not None else 0, "goal_index": int(plan.goal_index),
+        "obstacles": [o.to_dict() for o in obstacles], "self_collision": bool(self_collision), "stats": stats,
+    }
+    checks = f"{len(obstacles)} obstacle(s)" + (", self-collision" if self_collision else "")
+    lines = [f"{robot.name}: {'plan found' if plan.success else 'NO PLAN'} ({checks})",
+             f"  {plan.message}"]
+    if plan.success:
+        lines.append(f"  {len(plan.path)} waypoints, duration {duration:.3f} s, {traj.n_points} trajectory "
+                     f"points, path length {stats['length_after']:.3f} rad (before shortcuts "
+                     f"{stats['length_before']:.3f})")
+    lines.append(f"  search: {stats['iterations']} iterations, {stats['nodes']} nodes, "
+                 f"{stats['checks']} collision checks; plan {1e3 * stats['plan_time']:.1f} ms, simplify "
+                 f"{1e3 * stats['simplify_time']:.1f} ms, timing {1e3 * stats['parameterize_time']:.1f} ms "
+                 f"({stats['timing']})")
+    return payload, "\n".join(lines)
+
+
+def write_outputs(robot, plan, obstacles: list, args: argparse.Namespace) -> list[Path]:
+    """Write ``--out`` (the trajectory) and ``--html`` (the animated page) of a successful ``plan``."""
+    written = []
+    if args.out is not None:
+        written.append(plan.trajectory.save(args.out))
+    if args.html is not None:
+        from kinserve.viz import export_html, motion_plan_scene
+
+        written.append(Path(export_html(motion_plan_scene(robot, plan, obstacles), args.html)))
+    return written
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    """``kinserve plan``: plan, print the summary, write the files; 0 with a plan, 1 without."""
+    from kinserve import planners
+    from kinserve.service.cli import emit, load_robot
+
+    robot = load_robot(args, geometry=args.html is not None)
+    start = configuration(robot, args.start, "--start")
+    goal = configuration(robot, args.goal, "--goal")
+    if goal is None:
+        raise ShapeError("a goal is needed: --goal Q... (joint values or a named state)")
+    if args.max_time is None and args.max_iterations is None:
+        raise ShapeError("--max-time none needs --max-iterations N: the search needs a budget")
+    obstacles = obstacles_from_args(args)
+    self_collision = not args.no_self
+    plan = planners.plan_motion(robot, robot.neutral() if start is None else start, goal, obstacles=obstacles,
+                                self_collision=self_collision, max_time=args.max_time, seed=args.seed,
+                                acceleration_limits=args.max_acceleration, simplify=not args.no_simplify,
+                                max_iterations=args.max_iterations)
+    written = write_outputs(robot, plan, obstacles, args) if plan.success else []
+    payload, text = plan_summary(robot, plan, obstacles, self_collision)
+    payload["written"] = [str(p) for p in written]
+    emit(args, payload, text + "".join(f"\nwrote {p}" for p in written))
+    if not plan.success:
+        skipped = [opt for opt in ("out", "html") if getattr(args, opt) is not None]
+        note = f" (nothing written to --{' / --'.join(skipped)})" if skipped else ""
+        print(f"plan failed: {plan.message}{note}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``plan`` sub-command to ``sub``."""
+    from kinserve.service.cli import add_robot_args
+
+    p = sub.add_parser("plan", help="collision-free motion plan: a timed joint trajectory from a start to a "
+                                    "goal among obstacles")
+    add_robot_args(p, q=False)
+    p.add_argument("--start", nargs="+", metavar="Q",
+                   help="start configuration: joint values (rad / m) or a named SRDF state (default: the "
+                        "neutral configuration)")
+    p.add_argument("--goal", nargs="+", metavar="Q",
+                   help="goal configuration: joint values (rad / m) or a named SRDF state (default: none; "
+                        "required)")
+    add_obstacle_args(p, "kept clear of the robot's collision geometry along the whole motion")
+    p.add_argument("--no-self", action="store_true", help="do not check the robot's self-collision pairs")
+    p.add_argument("--max-time", type=seconds_or_none, default=DEFAULT_MAX_TIME, metavar="SECONDS",
+                   help="time budget of the search (s), or 'none' for no clock (then give --max-iterations)")
+    p.add_argument("--max-iterations", type=positive_int, default=None, metavar="N",
+                   help="iteration budget of the search: RRT-Connect samples (default: none, the clock "
+                        "alone)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the search's samples (same seed and "
+                                                       "--max-time none: same plan)")
+    p.add_argument("--max-acceleration", type=positive_float, default=None, metavar="A",
+                   help="acceleration limit of every joint (rad/s^2 or m/s^2) (default: per joint, twice "
+                        "its URDF velocity limit per second)")
+    p.add_argument("--no-simplify", action="store_true", help="keep the search's raw path (no shortcuts)")
+    p.add_argument("--out", type=trajectory_file, metavar="FILE",
+                   help="write the trajectory as JSON or CSV, by the extension .json / .csv (default: none)")
+    p.add_argument("--html", type=file_in_existing_folder, metavar="FILE",
+                   help="write a self-contained page animating the motion (default: none)")
+    p.set_defaults(func=cmd_plan)

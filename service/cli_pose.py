@@ -1,0 +1,67 @@
+"""A pose on the command line, the same in every sub-command that takes one (``ik``, ``plan``).
+
+``--xyz X Y Z`` (m) with the orientation as ``--quat QX QY QZ QW`` (a unit quaternion in Pinocchio's and
+ROS's order, x y z w) or ``--rpy ROLL PITCH YAW`` (rad; ``R = Rz(yaw) Ry(pitch) Rx(roll)``), not both.
+Without either the orientation is left free (position only). The numbers must be finite; the quaternion's
+norm must be 1 within :data:`kinserve.planners.motion.scene_yaml.QUATERNION_TOL` (the tolerance the
+planning-scene reader applies; it is then normalised).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from kinserve.kinematics import se3
+from kinserve.kinematics.errors import InputError
+
+from .cli_types import Numbers
+
+#: The orientation components left free when a pose has no ``--quat`` / ``--rpy``.
+ORIENTATION = ("roll", "pitch", "yaw")
+
+
+def add_pose_args(p: argparse.ArgumentParser, what: str = "target") -> None:
+    """Add ``--xyz``, ``--quat`` and ``--rpy`` (the two orientations mutually exclusive) to ``p``."""
+    g = p.add_argument_group(f"{what} pose", "--xyz with --quat or --rpy; --xyz alone leaves the "
+                                             "orientation free")
+    g.add_argument("--xyz", action=Numbers, counts=(3,), form="X Y Z",
+                   help=f"{what} position of the frame in the world (m) (default: none)")
+    one = g.add_mutually_exclusive_group()
+    one.add_argument("--quat", action=Numbers, counts=(4,), form="QX QY QZ QW",
+                     help=f"{what} orientation, unit quaternion in x y z w order (Pinocchio, ROS) "
+                          "(default: orientation free)")
+    one.add_argument("--rpy", action=Numbers, counts=(3,), form="ROLL PITCH YAW",
+                     help=f"{what} orientation, R = Rz(yaw) Ry(pitch) Rx(roll) (rad) "
+                          "(default: orientation free)")
+
+
+def rotation_from_quat(q: np.ndarray) -> np.ndarray:
+    """The rotation of a ``--quat`` ``(x, y, z, w)``; :class:`InputError` unless its norm is 1 within the
+    planning-scene reader's ``QUATERNION_TOL``."""
+    from kinserve.planners.motion.scene_yaml import QUATERNION_TOL
+
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > QUATERNION_TOL:
+        raise InputError(f"--quat must be a unit quaternion QX QY QZ QW (norm 1 within {QUATERNION_TOL:g}), "
+                         f"got norm {norm:.6g}")
+    return se3.matrix_from_quat(q)
+
+
+def pose_from_args(args: argparse.Namespace) -> tuple[np.ndarray, tuple[str, ...]] | None:
+    """``(4x4 pose, components left free)`` from ``--xyz`` [``--quat`` | ``--rpy``], None without ``--xyz``.
+
+    The free components are ``("roll", "pitch", "yaw")`` without an orientation, else ``()``.
+    :class:`InputError` for ``--quat`` / ``--rpy`` without ``--xyz`` or a quaternion that is not unit.
+    """
+    quat, rpy = getattr(args, "quat", None), getattr(args, "rpy", None)
+    if args.xyz is None:
+        if quat is not None or rpy is not None:
+            raise InputError(f"{'--quat' if quat is not None else '--rpy'} needs --xyz X Y Z (the position)")
+        return None
+    if quat is not None:
+        return se3.pose(rotation_from_quat(quat), args.xyz), ()
+    if rpy is not None:
+        return se3.pose(se3.matrix_from_rpy(*rpy), args.xyz), ()
+    return se3.pose(None, args.xyz), ORIENTATION
