@@ -3,9 +3,16 @@
 One import namespace: the repository's top-level folders are installed as its
 subpackages::
 
+    import kinserve
     from kinserve import robots, ik
     panda = robots.load("panda")
-    result = ik.solve(panda, target_pose)
+    result = ik.solve(panda, kinserve.pose([0.4, 0.1, 0.5], quat=[1, 0, 0, 0]))
+
+Poses are accepted everywhere as a 4x4 homogeneous matrix, a ``pinocchio.SE3``,
+a pair ``(position [x, y, z], quaternion [qx, qy, qz, qw])`` (scalar last, as
+Pinocchio and ROS write it) or a 7-vector ``[x, y, z, qx, qy, qz, qw]``;
+:func:`kinserve.pose` builds the 4x4 from a position and a quaternion, roll /
+pitch / yaw or a rotation matrix.
 
 Subpackages: :mod:`kinserve.robots` (models and loaders), :mod:`kinserve.kinematics`
 (the ``Robot``, FK, Jacobians, errors), :mod:`kinserve.ik` (tasks, constraints,
@@ -20,6 +27,10 @@ from __future__ import annotations
 import importlib
 from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # kinserve.pose, imported on first use (see __getattr__)
+    from kinserve.kinematics.validation import make_pose as pose
 
 try:
     __version__: str = version("kinserve")
@@ -27,7 +38,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a tree that was 
     __version__ = "0+unknown"
 
 SUBPACKAGES = ("robots", "kinematics", "ik", "planners", "viz", "scenarios", "service")
-__all__ = ["__version__", "clear_caches", *SUBPACKAGES]
+__all__ = ["__version__", "clear_caches", "pose", *SUBPACKAGES]
 
 
 def clear_caches(*robots: object) -> None:
@@ -45,8 +56,13 @@ def clear_caches(*robots: object) -> None:
         clear(robot)
 
 
-def __getattr__(name: str) -> ModuleType:
-    """``kinserve.ik`` and friends without importing every subpackage up front (PEP 562)."""
+def __getattr__(name: str) -> ModuleType | Any:
+    """``kinserve.ik`` and friends without importing every subpackage up front (PEP 562); ``kinserve.pose``
+    is :func:`kinserve.kinematics.validation.make_pose`."""
     if name in SUBPACKAGES:
         return importlib.import_module(f"{__name__}.{name}")
+    if name == "pose":
+        from kinserve.kinematics.validation import make_pose
+
+        return make_pose
     raise AttributeError(f"module 'kinserve' has no attribute {name!r}")

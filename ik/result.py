@@ -176,6 +176,10 @@ class History:
         return cls(q, pos, rot, te, components, evaluate)
 
 
+#: Longest ``repr(Result)`` (characters): one readable line for ``print(result)``.
+REPR_WIDTH = 160
+
+
 @dataclass
 class Result:
     """Outcome of an inverse-kinematics solve.
@@ -228,6 +232,17 @@ class Result:
     frame: str = ""
     info: dict = field(default_factory=dict)
     task_errors: list = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        """One line of at most :data:`REPR_WIDTH` characters, no arrays: success, the two errors,
+        iterations and the reason (``message``, shortened with ``...`` when it does not fit)."""
+        head = (f"Result(success={bool(self.success)}, position_error={self.position_error:.1e} m, "
+                f"orientation_error={self.orientation_error:.1e} rad, iterations={self.iterations}, reason=")
+        reason = " ".join(str(self.message).split())
+        room = max(REPR_WIDTH - len(head) - 3, 12)  # 3 = the quotes and the closing parenthesis
+        if len(reason) > room:
+            reason = reason[:room - 3] + "..."
+        return f"{head}{reason!r})"
 
     def summary(self) -> str:
         """One line: success, errors, iterations, time and the message."""

@@ -60,11 +60,13 @@ _F64 = np.dtype(np.float64)
 
 
 def checked_pose(pose: object) -> np.ndarray:
-    """A private float64 copy of a 4x4 pose (or ``pinocchio.SE3``), validated.
+    """A private float64 4x4 copy of a pose, validated: a 4x4, a ``pinocchio.SE3``, ``(position,
+    quaternion [qx, qy, qz, qw])`` or ``[x, y, z, qx, qy, qz, qw]``.
 
-    Fast path in plain Python floats for a well-formed pose;
-    anything else goes through :func:`kinematics.as_pose`, which raises the
-    precise error (shape, NaN/inf, bottom row, rotation not orthonormal).
+    Fast path in plain Python floats for a well-formed 4x4 pose;
+    anything else goes through :func:`kinematics.as_pose`, which reads the
+    other forms and raises the precise error (shape, NaN/inf, bottom row,
+    rotation not orthonormal, quaternion not unit).
     """
     if type(pose) is np.ndarray and pose.dtype is _F64 and pose.shape == (4, 4) and is_pose_fast(pose):
         return pose.copy()  # C-ordered
@@ -113,8 +115,9 @@ class Target:
     robot:
         The :class:`kinserve.kinematics.Robot` (only used to resolve the frame).
     pose:
-        4x4 homogeneous pose or ``pinocchio.SE3`` (checked: finite, bottom row
-        ``[0 0 0 1]``, orthonormal rotation with det +1).
+        4x4 homogeneous pose, ``pinocchio.SE3``, ``(position, quaternion)`` or
+        ``[x, y, z, qx, qy, qz, qw]`` (quaternion scalar last; checked: finite,
+        bottom row ``[0 0 0 1]``, orthonormal rotation with det +1, unit quaternion).
     frame:
         Frame to place (default ``robot.tip``); unknown names raise ``FrameError``.
     relax:

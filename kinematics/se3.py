@@ -2,6 +2,9 @@
 
 Twists and pose errors are 6-vectors ``[v; w]`` (linear first, as Pinocchio's
 ``Motion``). Quaternions are ``(x, y, z, w)`` (Pinocchio / ROS / TRAC-IK order).
+RPY angles give ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (rad). These helpers trust
+their input; ``kinserve.pose(xyz, quat=... | rpy=... | R=...)``
+(:func:`kinserve.kinematics.validation.make_pose`) checks it and builds a pose.
 """
 
 from __future__ import annotations
@@ -13,7 +16,11 @@ from .types import MatrixLike, PoseLike, VectorLike
 
 
 def pose(R: MatrixLike | None = None, p: VectorLike | None = None) -> np.ndarray:
-    """Homogeneous matrix ``[[R, p], [0, 1]]`` (identity / zero by default)."""
+    """Homogeneous matrix ``[[R, p], [0, 1]]`` (identity / zero by default), unchecked.
+
+    Note the order: rotation first. ``kinserve.pose(xyz, quat=...)`` takes the
+    position first and checks every argument.
+    """
     T = np.eye(4)
     if R is not None:
         T[:3, :3] = R

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .errors import InputError, JointLimitError, NonFiniteError, RotationError, ShapeError
+from .se3 import matrix_from_quat, matrix_from_rpy
 from .types import ArrayLike, PoseLike
 
 #: Magnitudes beyond this are rejected as non-physical (metres or radians).
@@ -32,7 +33,14 @@ _HYPOT_MAX_N = 64
 #: Tolerance on ||R^T R - I|| (max abs entry) and on |det R - 1| for poses.
 ROTATION_TOL = 1e-6
 
-_hypot = math.hypot
+#: Largest accepted ``| |q| - 1 |`` of a quaternion given as input; within it the quaternion is normalised
+#: (rounded or printed values), beyond it the input is rejected (it is not a rotation, or not a quaternion).
+QUATERNION_TOL = 1e-3
+
+#: The pose forms every entry point accepts, quoted by the errors of :func:`as_pose`.
+POSE_FORMS = ("a 4x4 homogeneous matrix (shape (4, 4)), a pinocchio.SE3, a pair (position [x, y, z], "
+              "quaternion [qx, qy, qz, qw]) or a 7-vector [x, y, z, qx, qy, qz, qw]; "
+              "kinserve.pose(xyz, quat=... | rpy=... | R=...) builds one")
 
 
 def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
@@ -90,20 +98,121 @@ def as_matrix(value: ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray
 def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
     """Return a homogeneous 4x4 float64 pose, checking the rotation block.
 
-    Accepts a 4x4 array-like or a ``pinocchio.SE3``. The bottom row must be
-    ``[0, 0, 0, 1]`` and the rotation block orthonormal with det +1 (within
-    :data:`ROTATION_TOL`); otherwise :class:`RotationError` / :class:`ShapeError`.
+    Accepts (see :data:`POSE_FORMS`):
+
+    * a 4x4 array-like: bottom row ``[0, 0, 0, 1]``, rotation block orthonormal
+      with det +1 (within :data:`ROTATION_TOL`);
+    * a ``pinocchio.SE3``;
+    * a pair ``(position, quaternion)``: ``[x, y, z]`` (m) and ``[qx, qy, qz, qw]``
+      (scalar last: Pinocchio's and ROS's order), a unit quaternion within
+      :data:`QUATERNION_TOL` (normalised, see :func:`unit_quaternion`);
+    * a 7-vector ``[x, y, z, qx, qy, qz, qw]``, read the same way.
+
+    A well-formed float64 4x4 array is returned as it is (the fast path, tested
+    first); the other forms give a new array. Raises :class:`ShapeError` naming
+    the forms, :class:`RotationError`, :class:`NonFiniteError` or
+    :class:`InputError` (a quaternion far from unit).
     """
     if hasattr(value, "homogeneous") and hasattr(value, "rotation"):
         value = value.homogeneous
     if (type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4)
             and is_pose_fast(value)):
         return value
-    T = as_matrix(value, (4, 4), name)
-    if not np.allclose(T[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
-        raise ShapeError(f"{name} must be homogeneous: bottom row [0, 0, 0, 1], got {T[3].tolist()}")
-    check_rotation(T[:3, :3], name)
+    T = _position_quaternion_pair(value, name)
+    if T is not None:
+        return T
+    try:
+        if value is None or isinstance(value, (str, bytes, dict)):
+            raise TypeError
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got {_describe(value)}") from None
+    if arr.shape == (7,):
+        check_bounded(arr, name)
+        quat = unit_quaternion(arr[3:], f"{name}[3:7] (a 7-vector pose is [x, y, z, qx, qy, qz, qw])")
+        return _pose_matrix(arr[:3], quat)
+    if arr.shape != (4, 4):
+        raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got shape {arr.shape}")
+    check_bounded(arr, name)
+    if not np.allclose(arr[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9):
+        raise ShapeError(f"{name} must be homogeneous: bottom row [0, 0, 0, 1], got {arr[3].tolist()}")
+    check_rotation(arr[:3, :3], name)
+    return arr
+
+
+def make_pose(xyz: ArrayLike, quat: ArrayLike | None = None, rpy: ArrayLike | None = None,
+              R: ArrayLike | None = None) -> np.ndarray:
+    """The homogeneous 4x4 pose ``[[R, xyz], [0, 1]]`` from a position and at most one orientation.
+
+    Exported as ``kinserve.pose``. ``xyz`` is the position ``[x, y, z]`` (m).
+    The orientation is one of
+
+    * ``quat``: a unit quaternion ``[qx, qy, qz, qw]`` - scalar last, the order
+      of Pinocchio's ``Quaternion.coeffs()`` and of ROS messages (not
+      ``w, x, y, z``). Its norm must be within :data:`QUATERNION_TOL` of 1;
+      it is then normalised (:func:`unit_quaternion`);
+    * ``rpy``: ``[roll, pitch, yaw]`` (rad), ``R = Rz(yaw) Ry(pitch) Rx(roll)``
+      (roll about x first, then pitch about y, then yaw about z, all about
+      fixed axes; as URDF and :func:`kinserve.kinematics.se3.matrix_from_rpy`);
+    * ``R``: a 3x3 rotation matrix (orthonormal with det +1 within :data:`ROTATION_TOL`);
+
+    none of them is the identity rotation. Raises :class:`InputError` (two
+    orientations, a quaternion far from unit), :class:`ShapeError`,
+    :class:`NonFiniteError` or :class:`RotationError`, naming the argument.
+    """
+    given = [k for k, v in (("quat", quat), ("rpy", rpy), ("R", R)) if v is not None]
+    if len(given) > 1:
+        raise InputError(f"pose: give at most one orientation (quat, rpy or R), got {' and '.join(given)}")
+    p = as_vector(xyz, 3, "xyz")
+    if quat is not None:
+        return _pose_matrix(p, unit_quaternion(quat, "quat"))
+    T = np.eye(4)
+    T[:3, 3] = p
+    if rpy is not None:
+        T[:3, :3] = matrix_from_rpy(*as_vector(rpy, 3, "rpy").tolist())
+    elif R is not None:
+        T[:3, :3] = as_matrix(R, (3, 3), "R")
+        check_rotation(T[:3, :3], "R")
     return T
+
+
+def unit_quaternion(quat: ArrayLike, name: str = "quat") -> np.ndarray:
+    """``quat`` ``[qx, qy, qz, qw]`` (scalar last) divided by its norm, if that norm is within
+    :data:`QUATERNION_TOL` of 1; else :class:`InputError` naming ``name`` and the order."""
+    q = as_vector(quat, 4, name)
+    norm = math.hypot(*q.tolist())
+    if abs(norm - 1.0) > QUATERNION_TOL:
+        raise InputError(f"{name} must be a unit quaternion [qx, qy, qz, qw] (scalar last, Pinocchio's and "
+                         f"ROS's order), got {q.tolist()} with norm {norm:.6g} (accepted: within "
+                         f"{QUATERNION_TOL:g} of 1, then normalised)")
+    return q / norm
+
+
+def _pose_matrix(p: np.ndarray, quat: np.ndarray) -> np.ndarray:
+    """``[[R(quat), p], [0, 1]]`` of a checked position and unit quaternion ``[qx, qy, qz, qw]``."""
+    T = np.eye(4)
+    T[:3, :3] = matrix_from_quat(quat)
+    T[:3, 3] = p
+    return T
+
+
+def _position_quaternion_pair(value: object, name: str) -> np.ndarray | None:
+    """The pose of ``(position [x, y, z], quaternion [qx, qy, qz, qw])``; None when ``value`` is not a
+    tuple or list of two items whose first has three entries (then it is no such pair)."""
+    if type(value) not in (tuple, list) or len(value) != 2:
+        return None
+    position, quat = value
+    try:
+        if len(position) != 3:
+            return None
+        n_quat = len(quat)
+    except TypeError:
+        return None
+    p = as_vector(position, 3, f"{name} position")
+    if n_quat == 3:
+        raise ShapeError(f"{name}: a (position, orientation) pair takes a quaternion [qx, qy, qz, qw]; got 3 "
+                         "numbers - for roll, pitch, yaw use kinserve.pose(xyz, rpy=[roll, pitch, yaw])")
+    return _pose_matrix(p, unit_quaternion(quat, f"{name} quaternion"))
 
 
 def is_pose_fast(T: np.ndarray) -> bool:
