@@ -8,6 +8,16 @@ Limits: the velocity limits are the URDF's (``robot.model.velocityLimit``; a joi
 without one - zero, negative or not finite - gets :data:`DEFAULT_VELOCITY_LIMIT`);
 the acceleration limits default to :data:`DEFAULT_ACCELERATION_FACTOR` times the
 velocity limits (rad/s^2 or m/s^2: the joint reaches full speed in half a second).
+
+Goals: one configuration ``(nq,)``, a goal set ``(n, nq)``, or a pose of ``frame`` (an
+:class:`~kinserve.ik.targets.Target` in ``goal_pose``; turned into a goal set by
+:mod:`.pose_goal`). What makes ``goal`` a pose (:func:`goal_kind`):
+
+* a ``pinocchio.SE3``, or any other form :func:`kinserve.kinematics.validation.as_pose` accepts that is not
+  an array of one or two dimensions, is a pose;
+* a ``(4, 4)`` array is a pose - except on a robot with ``nq == 4``, where it is a goal set of four
+  configurations unless ``frame=`` or ``relax=`` is given (then it is a pose);
+* ``frame=`` or ``relax=`` with a configuration or a goal set is an error.
 """
 
 from __future__ import annotations
@@ -17,11 +27,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
+from kinserve.ik.targets import Target
 from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.robot import Robot
-from kinserve.kinematics.validation import as_matrix, check_limits
+from kinserve.kinematics.validation import as_matrix, as_pose, check_limits
 
 from .rrt_connect import SearchBudget
 
@@ -29,13 +41,17 @@ from .rrt_connect import SearchBudget
 DEFAULT_VELOCITY_LIMIT = 1.0
 #: Default acceleration limit of each joint: this factor (1/s) times its velocity limit.
 DEFAULT_ACCELERATION_FACTOR = 2.0
+#: Default cap on the size of a pose goal's goal set (``goal_count``).
+GOAL_COUNT = 4
 
 
 @dataclass(frozen=True)
 class MotionRequest:
     """The validated plan request: ``start`` ``(nq,)``, ``goals`` ``(n, nq)`` (``single_goal`` when ``goal``
-    was one configuration), ``obstacles`` (shapes), ``self_collision``, the search ``budget``, ``seed``,
-    ``velocity_limits`` and ``acceleration_limits`` ``(nq,)``, ``simplify``."""
+    was one configuration; ``(0, nq)`` for a pose goal), ``obstacles`` (shapes), ``self_collision``, the
+    search ``budget``, ``seed``, ``velocity_limits`` and ``acceleration_limits`` ``(nq,)``, ``simplify``,
+    ``goal_pose`` (the pose goal with its frame and relaxed components, None for joint goals) and
+    ``goal_count`` (cap on a pose goal's goal set)."""
 
     start: np.ndarray
     goals: np.ndarray
@@ -47,6 +63,8 @@ class MotionRequest:
     velocity_limits: np.ndarray
     acceleration_limits: np.ndarray
     simplify: bool
+    goal_pose: Target | None = None
+    goal_count: int = GOAL_COUNT
 
 
 def _flag(value: Any, name: str) -> bool:
@@ -55,18 +73,60 @@ def _flag(value: Any, name: str) -> bool:
     return bool(value)
 
 
+def _given(relax: Any) -> bool:
+    """Whether ``relax`` names any component (None and empty sequences name none)."""
+    if relax is None:
+        return False
+    return not (isinstance(relax, (str, tuple, list)) and len(relax) == 0)
+
+
+def _shape(value: Any) -> tuple[int, ...] | None:
+    """``np.shape(value)``, or None for a ragged or array-less value."""
+    try:
+        return np.shape(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def goal_kind(robot: Robot, goal: Any, frame: Any = None, relax: Any = ()) -> str:
+    """``"pose"``, ``"configuration"`` or ``"goal set"``: how :func:`motion_request` reads ``goal`` (module
+    docstring); :class:`InputError` when ``frame`` / ``relax`` come with joint goals."""
+    if isinstance(goal, pin.SE3):
+        return "pose"
+    shape = _shape(goal)
+    ndim = -1 if shape is None else len(shape)
+    pose_hint = frame is not None or _given(relax)
+    if ndim == 2 and shape == (4, 4) and (robot.nq != 4 or pose_hint):
+        return "pose"
+    if ndim not in (1, 2):
+        return "pose"  # as_pose decides (a position + quaternion form, or a clear error)
+    if pose_hint:
+        raise InputError(f"frame= and relax= apply to a pose goal (4x4 array or pinocchio.SE3); goal is a "
+                         f"{'configuration' if ndim == 1 else 'goal set'} of shape {shape}")
+    return "configuration" if ndim == 1 else "goal set"
+
+
+def _pose(robot: Robot, goal: Any, frame: Any, relax: Any) -> Target:
+    """The pose goal as an IK :class:`Target` (frame default ``robot.tip``); errors name ``goal`` / ``frame``
+    / ``relax``."""
+    if frame is not None and not isinstance(frame, str):
+        raise InputError(f"frame must be a frame name (str) or None, got {frame!r}")
+    try:
+        T = as_pose(goal, "goal")
+    except ShapeError as exc:
+        if not isinstance(goal, pin.SE3) and _shape(goal) == (4, 4):
+            raise  # a 4x4 pose with a wrong bottom row: as_pose's own message
+        raise ShapeError(f"goal must be one configuration ({robot.nq},), a goal set (n, {robot.nq}) or a "
+                         f"pose (4x4 array or pinocchio.SE3); {exc}") from None
+    return Target(robot, T, frame, relax)
+
+
 def _goals(robot: Robot, goal: Any) -> tuple[np.ndarray, bool]:
     """``(n, nq)`` goals within the limits and whether ``goal`` was a single configuration."""
-    try:
-        ndim = np.ndim(goal)
-    except (TypeError, ValueError):
-        ndim = -1
+    ndim = np.ndim(goal)
     if ndim == 1:
         q = robot.check_q(goal, "goal", check_limits=True)
         return q[None, :].copy(), True
-    if ndim != 2:
-        raise ShapeError(f"goal must be one configuration ({robot.nq},) or a goal set (n, {robot.nq}), "
-                         f"got {type(goal).__name__} of {ndim} dimensions")
     goals = as_matrix(goal, (-1, robot.nq), "goal")
     if len(goals) == 0:
         raise ShapeError(f"goal: a goal set needs at least one configuration (n, {robot.nq}), got none")
@@ -112,19 +172,31 @@ def _accelerations(value: Any, v_max: np.ndarray) -> np.ndarray:
     return a.copy()
 
 
+def _goal_count(value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise InputError(f"goal_count must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
 def motion_request(robot: Robot, start: Any, goal: Any, obstacles: Any, self_collision: Any, max_time: Any,
-                   seed: Any, acceleration_limits: Any, simplify: Any, max_iterations: Any) -> MotionRequest:
+                   seed: Any, acceleration_limits: Any, simplify: Any, max_iterations: Any, frame: Any = None,
+                   relax: Any = (), goal_count: Any = GOAL_COUNT) -> MotionRequest:
     """The :class:`MotionRequest` of :func:`~kinserve.planners.motion.plan.plan_motion`'s arguments."""
     if not isinstance(robot, Robot):
         raise InputError(f"robot must be a kinserve Robot (robots.load(...)), got {type(robot).__name__}")
     q0 = robot.check_q(start, "start", check_limits=True).copy()
-    goals, single = _goals(robot, goal)
+    pose = None
+    if goal_kind(robot, goal, frame, relax) == "pose":
+        pose = _pose(robot, goal, frame, relax)
+        goals, single = np.zeros((0, robot.nq)), False
+    else:
+        goals, single = _goals(robot, goal)
     v_max = velocity_limits(robot)
     return MotionRequest(q0, goals, single, as_obstacles(obstacles, "obstacles"),
                          _flag(self_collision, "self_collision"), _budget(max_time, max_iterations),
                          _seed(seed), v_max, _accelerations(acceleration_limits, v_max),
-                         _flag(simplify, "simplify"))
+                         _flag(simplify, "simplify"), pose, _goal_count(goal_count))
 
 
-__all__ = ["DEFAULT_ACCELERATION_FACTOR", "DEFAULT_VELOCITY_LIMIT", "MotionRequest", "motion_request",
-           "velocity_limits"]
+__all__ = ["DEFAULT_ACCELERATION_FACTOR", "DEFAULT_VELOCITY_LIMIT", "GOAL_COUNT", "MotionRequest",
+           "goal_kind", "motion_request", "velocity_limits"]

@@ -1,7 +1,8 @@
 """``MotionPlan``: the answer of :func:`~kinserve.planners.motion.plan.plan_motion`.
 
-A failure (start or goal in collision, no path within the budget) is a plan with
-``success = False`` and the reason in ``message``, never an exception.
+A failure (start or goal in collision, a goal pose that no collision-free IK solution
+reaches, no path within the budget) is a plan with ``success = False`` and the reason in
+``message``, never an exception.
 """
 
 from __future__ import annotations
@@ -24,8 +25,12 @@ class MotionPlan:
     * ``raw_path`` ``(m, nq)``: the planner's path before simplification (``(0, nq)`` on failure);
     * ``trajectory``: the time-parameterised path (:class:`~kinserve.planners.JointTrajectory`: times (s),
       positions, velocities, accelerations), at rest at both ends; None on failure;
-    * ``goal_index``: index of the goal reached in the goal set (0 for a single goal; -1 on failure);
-    * ``stats``: ``plan_time``, ``simplify_time``, ``parameterize_time`` (s), ``checks`` (configuration
+    * ``goal_index``: index of the goal reached in ``goals`` (0 for a single goal; -1 on failure);
+    * ``goals`` ``(n, nq)``: the goal configurations the search aimed at - the goal or goal set given, or,
+      for a pose goal, its goal set of collision-free IK solutions (``(0, nq)`` when the IK found none);
+    * ``stats``: ``plan_time``, ``simplify_time``, ``parameterize_time``, ``ik_time`` (s; the pose goal's
+      IK, 0 for joint goals), ``ik_starts`` and ``ik_iterations`` (its solves and their iterations),
+      ``goal_set_size`` (pose goals only), ``checks`` (configuration
       queries of the collision model), ``distance_checks`` (those asking pair distances),
       ``pair_distances`` (coal pair distances computed), ``nodes`` (of
       both trees), ``iterations`` (samples drawn), ``length_before``, ``length_after`` (joint-space path
@@ -39,11 +44,13 @@ class MotionPlan:
     trajectory: JointTrajectory | None
     goal_index: int
     stats: dict[str, Any] = field(default_factory=dict)
+    goals: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for name in ("path", "raw_path"):
+        for name in ("path", "raw_path", "goals"):
             array = getattr(self, name)
-            array.flags.writeable = False
+            if array is not None:
+                array.flags.writeable = False
 
     def __repr__(self) -> str:
         state = "success" if self.success else "failure"
