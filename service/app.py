@@ -25,9 +25,11 @@ arrival, queueing included. Every process has its own bounded robot cache
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
 import multiprocessing
+import os
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -60,13 +62,26 @@ __all__ = ["create_app", "app", "FieldError", "field"]
 
 
 def solver_executor(settings: ServiceSettings) -> BoundedExecutor:
-    """``settings.threads`` solver processes (spawned: no fork of a running event loop) and their queue."""
+    """``settings.threads`` solver processes (spawned: no fork of a running event loop) and their queue.
+
+    Each process follows the server process that made the pool (:func:`service.lifeline.follow_parent`):
+    it ends when the server does, even when the server dies while the process is still starting.
+    """
     def factory():
         return ProcessPoolExecutor(max_workers=settings.threads,
                                    mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=jobs.init_worker, initargs=(settings.to_env(),))
+                                   initializer=jobs.init_worker, initargs=(os.getpid(), settings.to_env()))
 
     return BoundedExecutor(factory, settings.threads, settings.queue, name="solver")
+
+
+async def warm_solvers(solvers: BoundedExecutor, count: int) -> None:
+    """Start ``count`` solver processes at once, each loading the most used robot (:func:`jobs.warm`)."""
+    results = await asyncio.gather(*(solvers.run(jobs.warm, Deadline(60.0)) for _ in range(count)),
+                                   return_exceptions=True)
+    for r in results:
+        if isinstance(r, BaseException):
+            log.warning("a solver process failed to warm up: %s: %s", type(r).__name__, r)
 
 
 def loader_executor(settings: ServiceSettings) -> BoundedExecutor:
@@ -86,14 +101,14 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI):
-        # start every solver process now (spawning one takes ~1 s) with the most used model loaded
-        warm = [solvers.run(jobs.warm, Deadline(60.0)) for _ in range(settings.threads)]
+        # start every solver process now (spawning one takes ~1 s) with the most used model loaded; the
+        # server answers meanwhile (heavy requests queue behind the warm-up)
+        warming = asyncio.ensure_future(warm_solvers(solvers, settings.threads))
         try:
             yield
         finally:
-            for w in warm:
-                w.close()
-            solvers.shutdown()
+            warming.cancel()
+            solvers.shutdown()  # returns once the solver processes have ended and their queues are released
             loader.shutdown()
 
     # /docs (Swagger UI) and /redoc load their JS/CSS from the fastapi-offline package, served here under

@@ -31,6 +31,7 @@ Admission policy (bounded queue, deadline-aware):
 from __future__ import annotations
 
 import asyncio
+import gc
 import math
 import threading
 import time
@@ -89,7 +90,10 @@ class BoundedExecutor:
         self.workers = int(workers)
         self.capacity = int(workers) + int(queue)
         self._factory = factory
-        self._executor = factory()
+        # made for the first job: an app that never serves (an import-time ``app``) starts no executor, and
+        # a process pool's queues (named semaphores) exist only while the service runs
+        self._executor: Executor | None = None
+        self._closed = False
         self._admitted = 0
         self._lock = threading.Lock()
         self._mean_job = 0.05  # s, running mean of job durations (for Retry-After)
@@ -112,13 +116,18 @@ class BoundedExecutor:
         ``job`` and ``args`` must be picklable for a process pool.
         """
         with self._lock:
+            if self._closed:
+                raise ServiceBusy(f"the server is shutting down: its {self.name} workers are stopped")
             if self._admitted >= self.capacity:
                 raise ServiceBusy(
                     f"the server is busy: {self._admitted} heavy requests running or queued "
                     f"(limit {self.capacity}); retry later", self.retry_after())
             self._admitted += 1
+            if self._executor is None:
+                self._executor = self._factory()
+            executor = self._executor
         try:
-            cf = self._executor.submit(_run_job, job, deadline, work_budget, args)
+            cf = executor.submit(_run_job, job, deadline, work_budget, args)
         except BrokenProcessPool:
             self._release(None)
             self._replace_broken()
@@ -158,11 +167,39 @@ class BoundedExecutor:
     def _replace_broken(self) -> None:
         with self._lock:
             old = self._executor
-            if not getattr(old, "_broken", False):  # another request replaced it already
+            if old is None or not getattr(old, "_broken", False):  # replaced already, or shut down
                 return
-            self._executor = self._factory()
+            self._executor = None  # the next job makes a new one (never once shut down)
         old.shutdown(wait=False, cancel_futures=True)
 
-    def shutdown(self) -> None:
-        """Stop the worker processes without waiting; pending jobs are cancelled."""
-        self._executor.shutdown(wait=False, cancel_futures=True)
+    def shutdown(self, grace: float = 2.0) -> None:
+        """Stop the workers: queued jobs are cancelled, running ones get ``grace`` s, then their processes are
+        killed (:func:`stop_executor`). Later jobs are refused with :class:`ServiceBusy`."""
+        with self._lock:
+            self._closed = True
+            executor, self._executor = self._executor, None
+        if executor is not None:
+            stop_executor(executor, grace)
+
+
+def stop_executor(executor: Executor, grace: float) -> None:
+    """Shut ``executor`` down and wait until its workers have ended: queued jobs cancelled, a running job
+    given ``grace`` s before its process (of a process pool) is killed; at most about ``2 * grace`` s.
+
+    For a process pool this also releases its queues, whose locks are named POSIX semaphores: their
+    finalizers unlink them here. Left for interpreter exit, they were never unlinked when the server ends by
+    a signal (uvicorn re-raises the SIGTERM it handled once it has shut down, and the process dies without
+    its exit handlers), and multiprocessing's resource tracker then warned of "leaked semaphore objects".
+    """
+    processes = list((getattr(executor, "_processes", None) or {}).values())  # process pools only
+    stopper = threading.Thread(target=executor.shutdown, kwargs={"wait": True, "cancel_futures": True},
+                               name="kinserve-executor-stop", daemon=True)
+    stopper.start()
+    stopper.join(grace)
+    if stopper.is_alive():  # a job still runs: end its process (a thread cannot be stopped)
+        for p in processes:
+            if p.is_alive():
+                p.kill()
+        stopper.join(grace)
+    del processes, stopper
+    gc.collect()  # the queues' semaphores, if anything still forms a reference cycle with them

@@ -9,7 +9,6 @@ bounded :class:`RobotPool`, created by :func:`init_worker`.
 from __future__ import annotations
 
 import os
-import threading
 import time
 
 import numpy as np
@@ -20,6 +19,7 @@ from kinserve.kinematics.errors import FrameError, InputError, KinserveError
 from . import schemas as S
 from .executor import Deadline
 from .fields import FieldError, field
+from .lifeline import follow_parent
 from .robot_pool import RobotPool
 from .settings import ServiceSettings
 
@@ -35,26 +35,11 @@ _pool: RobotPool | None = None
 _settings = ServiceSettings()
 
 
-def exit_with_parent(poll: float = 0.5) -> None:
-    """End this process when its parent (the server) is gone.
-
-    A pool worker holds both ends of its task queue's pipe, so it never sees
-    EOF when the server dies; without this watch it would live on as an orphan.
-    """
-    parent = os.getppid()
-
-    def watch():
-        while os.getppid() == parent:
-            time.sleep(poll)
-        os._exit(0)
-
-    threading.Thread(target=watch, name="kinserve-parent-watch", daemon=True).start()
-
-
-def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
-    """Set up a solver process: its settings, its robot pool, its niceness, a parent watch."""
+def init_worker(parent_pid: int, settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
+    """Set up a solver process started by the server of pid ``parent_pid``: follow that parent first (end
+    with it, :func:`service.lifeline.follow_parent`), then its settings, its robot pool and its niceness."""
     global _pool, _settings
-    exit_with_parent()
+    follow_parent(parent_pid)
     _settings = (ServiceSettings(**__import__("json").loads(settings_json)) if settings_json
                  else ServiceSettings())
     _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)
