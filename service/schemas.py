@@ -8,16 +8,16 @@ parameters are bounded the same way when the model is built.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator
 
-from kinserve.kinematics.validation import MAX_ABS
+from kinserve.kinematics.errors import KinserveError
+from kinserve.kinematics.validation import MAX_ABS, make_pose, unit_quaternion
 
 BOUND = MAX_ABS
 Number = Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
 Row4 = Annotated[list[Number], Field(min_length=4, max_length=4)]
-Pose = Annotated[list[Row4], Field(min_length=4, max_length=4, description="homogeneous 4x4 pose, row major")]
 JointVector = Annotated[list[Number], Field(min_length=1, max_length=64,
                                             description="joint values (rad / m)")]
 Name = Annotated[str, Field(min_length=1, max_length=200)]
@@ -32,6 +32,71 @@ class Strict(BaseModel):
     """A request model: unknown fields are rejected (422)."""
 
     model_config = ConfigDict(extra="forbid")
+
+
+# ---------------------------------------------------------------- poses: a 4x4, or a position and a rotation
+Point3 = Annotated[list[Number], Field(min_length=3, max_length=3)]
+Matrix4 = Annotated[list[Row4], Field(min_length=4, max_length=4,
+                                      description="homogeneous 4x4 pose, row major")]
+
+
+class PositionQuaternion(Strict):
+    """A pose as a position (m) and a unit quaternion ``[qx, qy, qz, qw]`` (scalar last, as Pinocchio and ROS
+    write it)."""
+
+    position: Point3 = Field(description="[x, y, z] (m)")
+    quaternion: Annotated[list[Number], Field(min_length=4, max_length=4)] = Field(
+        description="unit quaternion [qx, qy, qz, qw], scalar last (Pinocchio's and ROS's order); a norm "
+                    "more than 1e-3 from 1 is refused, the rest normalised")
+
+    @field_validator("quaternion")
+    @classmethod
+    def _unit(cls, value: list[float]) -> list[float]:
+        try:
+            unit_quaternion(value, "quaternion")  # the library's rule (kinserve.pose)
+        except KinserveError as exc:
+            raise ValueError(str(exc)) from None
+        return value
+
+    def matrix(self) -> list[list[float]]:
+        """The 4x4 pose (row major), as :func:`kinserve.pose` builds it."""
+        return make_pose(self.position, quat=self.quaternion).tolist()
+
+
+class PositionRPY(Strict):
+    """A pose as a position (m) and roll, pitch, yaw (rad): ``R = Rz(yaw) Ry(pitch) Rx(roll)``."""
+
+    position: Point3 = Field(description="[x, y, z] (m)")
+    rpy: Point3 = Field(description="[roll, pitch, yaw] (rad): R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes")
+
+    def matrix(self) -> list[list[float]]:
+        """The 4x4 pose (row major), as :func:`kinserve.pose` builds it."""
+        return make_pose(self.position, rpy=self.rpy).tolist()
+
+
+def _pose_form(value: Any) -> str:
+    """The form of a pose: an object with ``rpy`` or else one with ``quaternion``; anything else is read as
+    the 4x4 matrix (and gets that form's errors)."""
+    if isinstance(value, dict):
+        return "position_rpy" if "rpy" in value else "position_quaternion"
+    if isinstance(value, PositionRPY):
+        return "position_rpy"
+    return "position_quaternion" if isinstance(value, PositionQuaternion) else "matrix"
+
+
+def _pose_matrix(value: Any) -> list[list[float]]:
+    return value if isinstance(value, list) else value.matrix()
+
+
+Pose = Annotated[
+    Annotated[Matrix4, Tag("matrix")] | Annotated[PositionQuaternion, Tag("position_quaternion")]
+    | Annotated[PositionRPY, Tag("position_rpy")],
+    Discriminator(_pose_form), AfterValidator(_pose_matrix),
+    Field(description='a pose (m): a homogeneous 4x4 matrix (row major), or {"position": [x, y, z], '
+                      '"quaternion": [qx, qy, qz, qw]} (unit quaternion, scalar last: Pinocchio\'s and '
+                      'ROS\'s order), or {"position": [x, y, z], "rpy": [roll, pitch, yaw]} (rad, '
+                      "R = Rz(yaw) Ry(pitch) Rx(roll))"),
+]
 
 
 class RobotRef(Strict):
@@ -85,7 +150,6 @@ class SphereSpec(Strict):
 
 
 Length = Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
-Point3 = Annotated[list[Number], Field(min_length=3, max_length=3)]
 Frames = Annotated[list[Name], Field(max_length=64)] | None
 
 
