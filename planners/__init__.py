@@ -7,6 +7,7 @@ Imports ``kinematics`` (and may import ``ik``); never ``scenarios``, ``service``
 
 from . import mobile
 from .cartesian import CartesianPlan, cartesian_to_joint
+from .cartesian_move import CartesianMove, plan_cartesian
 from .checkpoint_order import OrderResult, euclidean_cost_matrix, held_karp, path_cost, shortest_order
 from .errors import BlockedPointError, NoPathError, PlanningError
 from .joint_trajectory import JointTrajectory, finite_difference_velocities
@@ -66,7 +67,7 @@ __all__ = [
     # ordering
     "shortest_order", "OrderResult", "held_karp", "path_cost", "euclidean_cost_matrix",
     # Cartesian path -> joint trajectory
-    "cartesian_to_joint", "CartesianPlan",
+    "cartesian_to_joint", "CartesianPlan", "plan_cartesian", "CartesianMove",
     # motion planning in joint space
     "plan_motion", "MotionPlan", "plan_many", "MotionProblem", "read_planning_scene", "write_planning_scene",
     "read_motion_request", "MotionRequest",
