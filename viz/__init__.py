@@ -18,6 +18,8 @@ objects; it never calls a solver.
     viz.export_html(scene, "scene.html")             # self-contained, opens offline
     viz.serve(scene)                                 # live meshcat server until Ctrl-C
 
+``motion_plan_scene(robot, plan, obstacles)`` is a motion plan (``planners.plan_motion``'s, or any
+``(times, positions)``) animated: the robot, the obstacles, the tool's path, what the robot carries.
 ``Scene.for_robot(robot, q)`` is a robot plus its tool triad (``kinserve view``).
 ``viz.screenshot(html, png)`` and ``viz.page_status(html)`` open an exported
 page in headless Chromium (software WebGL) for pictures and load checks.
@@ -40,6 +42,7 @@ from .animation import Animation
 from .export import export_html, read_html_commands, static_html
 from .live import LiveViewer, serve
 from .map2d import Circle, Grid, Rect
+from .motion_plan import motion_plan_scene, sample_motion
 from .plots import (
     errors_figure,
     joints_and_errors_figure,
@@ -58,7 +61,8 @@ from .skeleton import skeleton_geometry
 
 __all__ = [
     "Scene", "SceneRobot", "Animation", "export_html", "static_html", "read_html_commands",
-    "LiveViewer", "serve", "Rect", "Circle", "Grid", "skeleton_geometry",
+    "LiveViewer", "serve", "motion_plan_scene", "sample_motion", "Rect", "Circle", "Grid",
+    "skeleton_geometry",
     "save_png", "series_figure", "joints_figure", "errors_figure", "joints_and_errors_figure",
     "manipulability_figure", "xy_figure", "map_figure", "planar_arm_figure", "planar_chain",
     "screenshot", "page_status", "find_browser", "BrowserUnavailable", "colors", "map2d", "camera",
