@@ -1,5 +1,5 @@
-"""``kinserve plan ROBOT --start Q... --goal Q... [--box ...] [--out traj.json] [--html plan.html]``: a
-collision-free joint-space motion from the command line.
+"""``kinserve plan ROBOT --start Q... (--goal Q... | --xyz X Y Z [--quat ... | --rpy ...]) [--box ...]
+[--out traj.json] [--html plan.html]``: a collision-free joint-space motion from the command line.
 
 Calls :func:`kinserve.planners.plan_motion` (RRT-Connect, shortcut, toppra timing; every segment certified
 collision free) and prints a summary: success and message, waypoints, duration, the search statistics.
@@ -8,10 +8,13 @@ extension: times (s), positions, velocities, accelerations per joint, at rest at
 self-contained page animating the motion among the obstacles (:func:`kinserve.viz.motion_plan_scene`).
 
 ``--start`` / ``--goal``: joint values (rad / m), or the name of one of the robot's SRDF states
-(``kinserve frames ROBOT`` lists them). Obstacles: the shared ``--sphere`` / ``--box`` / ``--cylinder`` /
-``--scene`` options (:mod:`.cli_obstacles`). Budget: ``--max-time`` (s, or ``none`` for no clock) and
-``--max-iterations`` (RRT-Connect samples; with ``--max-time none`` the answer depends only on the inputs and
-``--seed``).
+(``kinserve frames ROBOT`` lists them). Instead of ``--goal``, a pose of ``--frame`` (default: the tool
+frame) in the shared pose form (:mod:`.cli_pose`): ``--xyz`` with ``--quat`` or ``--rpy`` (``--xyz`` alone
+leaves the orientation free; ``--relax`` frees more components); the planner turns it into a goal set of
+collision-free IK solutions and reaches one of them. Obstacles: the shared ``--sphere`` / ``--box`` /
+``--cylinder`` / ``--scene`` options (:mod:`.cli_obstacles`). Budget: ``--max-time`` (s, or ``none`` for
+no clock) and ``--max-iterations`` (RRT-Connect samples; with ``--max-time none`` the answer depends only on
+the inputs and ``--seed``).
 
 Exit status: 0 with a plan; 1 when no plan was found (the reason, e.g. the colliding pair of a start in
 collision, on stderr; nothing written); 2 for bad input (one ``error:`` line).
@@ -28,6 +31,7 @@ import numpy as np
 from kinserve.kinematics.errors import ShapeError
 
 from .cli_obstacles import add_obstacle_args, obstacles_from_args
+from .cli_pose import add_pose_args, pose_from_args
 from .cli_types import file_in_existing_folder, positive_float, positive_int, seconds_or_none, trajectory_file
 
 #: ``plan_motion``'s own default time budget (s); a test keeps the two equal.
@@ -54,6 +58,44 @@ def configuration(robot, values: list[str] | None, option: str) -> np.ndarray | 
     if q.size != robot.nq:
         raise ShapeError(f"{option}: expected {robot.nq} joint values (rad / m), got {q.size}")
     return q
+
+
+def goal_of(robot, args: argparse.Namespace) -> tuple[object, dict]:
+    """``(goal, plan_motion keywords)``: ``--goal``'s configuration, or the pose of ``--xyz`` ... as a
+    ``pinocchio.SE3`` with ``frame`` and ``relax``. :class:`ShapeError` unless exactly one is given."""
+    import pinocchio as pin
+
+    q = configuration(robot, args.goal, "--goal")
+    pose = pose_from_args(args)
+    if (q is None) == (pose is None):
+        raise ShapeError("give one goal: --goal Q... (joint values or a named state) or --xyz X Y Z "
+                         "[--quat QX QY QZ QW | --rpy R P Y] (a pose of --frame)" if q is None else
+                         "give either --goal or a goal pose (--xyz ...), not both")
+    if q is not None:
+        if args.relax or args.frame:
+            raise ShapeError("--frame and --relax belong to a goal pose (--xyz ...), not to --goal")
+        return q, {}
+    T, free = pose
+    relax = tuple(dict.fromkeys(tuple(args.relax or ()) + free))
+    return pin.SE3(T[:3, :3], T[:3, 3]), {"frame": args.frame, "relax": relax}
+
+
+def pose_goal_lines(robot, plan, goal, frame: str | None) -> tuple[dict, list[str]]:
+    """For a pose goal: the goal set's size and the pose error of the configuration reached."""
+    from kinserve.kinematics import se3
+
+    frame = frame or robot.tip
+    info = {"goal_pose": goal.homogeneous.tolist(), "frame": frame,
+            "goal_set": 0 if plan.goals is None else int(len(plan.goals))}
+    stats = plan.stats
+    lines = [f"  goal: pose of {frame}, {info['goal_set']} collision-free IK solution(s) in the goal set "
+             f"({stats.get('ik_starts', 0)} IK starts, {1e3 * stats.get('ik_time', 0.0):.1f} ms)"]
+    if plan.success:
+        dp, dr = se3.pose_error(robot.fk(plan.path[-1], frame), goal.homogeneous)
+        info.update(position_error=dp, orientation_error=dr)
+        lines.append(f"  reached goal {plan.goal_index}: position error {dp:.2e} m, orientation error "
+                     f"{dr:.2e} rad (all components, relaxed ones included)")
+    return info, lines
 
 
 def plan_summary(robot, plan, obstacles: list, self_collision: bool) -> tuple[dict, str]:
@@ -100,9 +142,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
     robot = load_robot(args, geometry=args.html is not None)
     start = configuration(robot, args.start, "--start")
-    goal = configuration(robot, args.goal, "--goal")
-    if goal is None:
-        raise ShapeError("a goal is needed: --goal Q... (joint values or a named state)")
+    goal, pose_keywords = goal_of(robot, args)
     if args.max_time is None and args.max_iterations is None:
         raise ShapeError("--max-time none needs --max-iterations N: the search needs a budget")
     obstacles = obstacles_from_args(args)
@@ -110,9 +150,13 @@ def cmd_plan(args: argparse.Namespace) -> int:
     plan = planners.plan_motion(robot, robot.neutral() if start is None else start, goal, obstacles=obstacles,
                                 self_collision=self_collision, max_time=args.max_time, seed=args.seed,
                                 acceleration_limits=args.max_acceleration, simplify=not args.no_simplify,
-                                max_iterations=args.max_iterations)
+                                max_iterations=args.max_iterations, **pose_keywords)
     written = write_outputs(robot, plan, obstacles, args) if plan.success else []
     payload, text = plan_summary(robot, plan, obstacles, self_collision)
+    if pose_keywords:
+        info, lines = pose_goal_lines(robot, plan, goal, args.frame)
+        payload.update(info)
+        text = "\n".join([text, *lines])
     payload["written"] = [str(p) for p in written]
     emit(args, payload, text + "".join(f"\nwrote {p}" for p in written))
     if not plan.success:
@@ -135,7 +179,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "neutral configuration)")
     p.add_argument("--goal", nargs="+", metavar="Q",
                    help="goal configuration: joint values (rad / m) or a named SRDF state (default: none; "
-                        "required)")
+                        "give it or a goal pose)")
+    add_pose_args(p, "goal")
+    p.add_argument("--frame", help="frame of the goal pose (default: the robot's tool frame)")
+    p.add_argument("--relax", nargs="+", choices=["x", "y", "z", "roll", "pitch", "yaw", "phi"],
+                   metavar="AXIS",
+                   help="goal pose components left free, any of x y z roll pitch yaw (phi = yaw), world "
+                        "axes (default: none; roll pitch yaw without an orientation)")
     add_obstacle_args(p, "kept clear of the robot's collision geometry along the whole motion")
     p.add_argument("--no-self", action="store_true", help="do not check the robot's self-collision pairs")
     p.add_argument("--max-time", type=seconds_or_none, default=DEFAULT_MAX_TIME, metavar="SECONDS",

@@ -2,9 +2,9 @@
 
 ``--xyz X Y Z`` (m) with the orientation as ``--quat QX QY QZ QW`` (a unit quaternion in Pinocchio's and
 ROS's order, x y z w) or ``--rpy ROLL PITCH YAW`` (rad; ``R = Rz(yaw) Ry(pitch) Rx(roll)``), not both.
-Without either the orientation is left free (position only). The numbers must be finite; the quaternion's
-norm must be 1 within :data:`kinserve.planners.motion.scene_yaml.QUATERNION_TOL` (the tolerance the
-planning-scene reader applies; it is then normalised).
+Without either the orientation is left free (position only). The numbers must be finite; the pose is built
+by the library's own rule, :func:`kinserve.pose` (a quaternion whose norm is more than
+``QUATERNION_TOL`` = 1e-3 from 1 is refused, the rest normalised).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import argparse
 
 import numpy as np
 
-from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import make_pose, unit_quaternion
 
 from .cli_types import Numbers
 
@@ -37,18 +37,6 @@ def add_pose_args(p: argparse.ArgumentParser, what: str = "target") -> None:
                           "(default: orientation free)")
 
 
-def rotation_from_quat(q: np.ndarray) -> np.ndarray:
-    """The rotation of a ``--quat`` ``(x, y, z, w)``; :class:`InputError` unless its norm is 1 within the
-    planning-scene reader's ``QUATERNION_TOL``."""
-    from kinserve.planners.motion.scene_yaml import QUATERNION_TOL
-
-    norm = float(np.linalg.norm(q))
-    if abs(norm - 1.0) > QUATERNION_TOL:
-        raise InputError(f"--quat must be a unit quaternion QX QY QZ QW (norm 1 within {QUATERNION_TOL:g}), "
-                         f"got norm {norm:.6g}")
-    return se3.matrix_from_quat(q)
-
-
 def pose_from_args(args: argparse.Namespace) -> tuple[np.ndarray, tuple[str, ...]] | None:
     """``(4x4 pose, components left free)`` from ``--xyz`` [``--quat`` | ``--rpy``], None without ``--xyz``.
 
@@ -61,7 +49,6 @@ def pose_from_args(args: argparse.Namespace) -> tuple[np.ndarray, tuple[str, ...
             raise InputError(f"{'--quat' if quat is not None else '--rpy'} needs --xyz X Y Z (the position)")
         return None
     if quat is not None:
-        return se3.pose(rotation_from_quat(quat), args.xyz), ()
-    if rpy is not None:
-        return se3.pose(se3.matrix_from_rpy(*rpy), args.xyz), ()
-    return se3.pose(None, args.xyz), ORIENTATION
+        quat = unit_quaternion(quat, "--quat")
+    T = make_pose(args.xyz, quat=quat, rpy=rpy)
+    return T, (() if quat is not None or rpy is not None else ORIENTATION)
