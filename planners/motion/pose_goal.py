@@ -39,7 +39,7 @@ GOAL_SEPARATION = 0.5
 #: Starts tried per member wanted: at most ``STARTS_PER_GOAL * goal_count`` IK solves.
 STARTS_PER_GOAL = 2
 #: Iteration budget of one IK solve (all of its restarts together).
-IK_ITERATIONS = 200
+IK_ITERATIONS = 100
 #: Clearance (m) the IK keeps from obstacles and between checked pairs: twice the planner's floor
 #: (:data:`~.clearance.CLEARANCE_FLOOR`), so its answers clear the planner's check.
 IK_MARGIN = 2e-4
