@@ -1,13 +1,25 @@
-"""kinserve.viz.LiveViewer / viz.serve: a real meshcat server on 127.0.0.1 receives the scene."""
+"""kinserve.viz.LiveViewer / viz.serve: a real meshcat server on 127.0.0.1 receives the scene.
 
+Where the server listens is read from the kernel (``/proc/net/tcp[6]``, the sockets among the server
+process's file descriptors), and checked by connecting: by default only 127.0.0.1 answers (another
+loopback address, 127.0.0.2, is refused); ``host=`` moves the page and says so, ZeroMQ stays on 127.0.0.1.
+"""
+
+import errno
+import os
 import re
+import socket
 import threading
 import urllib.request
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from kinserve import robots, viz
+from kinserve.kinematics.errors import InputError
+
+from process_leaks import alive, parent_of
 
 
 @pytest.fixture(scope="module")
@@ -65,3 +77,90 @@ def test_a_viewer_never_closed_stops_its_server_when_python_exits(tmp_path):
     server = int(out.stdout.split()[0])
     assert not wait_gone([server], timeout=10), f"meshcat server {server} outlived its Python process"
     assert not alive(server)
+
+
+def _address(hex_address: str) -> tuple[str, int]:
+    """``(ip, port)`` of a ``/proc/net/tcp[6]`` address: the IP as 32-bit words in host (little-endian)
+    order, the port big-endian, in hex."""
+    ip_hex, port_hex = hex_address.split(":")
+    raw = b"".join(bytes.fromhex(ip_hex[i:i + 8])[::-1] for i in range(0, len(ip_hex), 8))
+    return socket.inet_ntop(socket.AF_INET if len(raw) == 4 else socket.AF_INET6, raw), int(port_hex, 16)
+
+
+def listening(pid: int) -> set[tuple[str, int]]:
+    """The ``(ip, port)`` TCP sockets process ``pid`` listens on (state 0A = LISTEN)."""
+    inodes = set()
+    for fd in os.listdir(f"/proc/{pid}/fd"):
+        try:
+            target = os.readlink(f"/proc/{pid}/fd/{fd}")
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[8:-1])
+    out = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        for line in Path(table).read_text().splitlines()[1:]:
+            fields = line.split()
+            if fields[3] == "0A" and fields[9] in inodes:
+                out.add(_address(fields[1]))
+    return out
+
+
+def refused(host: str, port: int) -> bool:
+    """True when nothing accepts a TCP connection at ``host:port``."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.settimeout(5)
+        return s.connect_ex((host, port)) == errno.ECONNREFUSED
+
+
+def test_the_viewer_listens_on_127_0_0_1_only_by_default(scene):
+    with viz.LiveViewer() as viewer:
+        pid, port = viewer.server_pid, int(viewer.url.split(":")[2].split("/")[0])
+        zmq_port = int(viewer.zmq_url.rsplit(":", 1)[1])
+        assert listening(pid) == {("127.0.0.1", port), ("127.0.0.1", zmq_port)}
+        assert viewer.bind == f"127.0.0.1:{port}"
+        assert urllib.request.urlopen(viewer.url, timeout=10).status == 200
+        # another address of this machine (loopback 127.0.0.2) is refused: meshcat's own server accepts it
+        assert refused("127.0.0.2", port)
+    assert not alive(pid)
+
+
+def test_host_moves_the_page_and_serve_says_where_it_listens(scene):
+    lines, stop, result = [], threading.Event(), {}
+    thread = threading.Thread(target=lambda: result.setdefault(
+        "url", viz.serve(scene, host="127.0.0.2", announce=lines.append, stop=stop, poll=0.05)))
+    thread.start()
+    try:
+        for _ in range(400):
+            if lines or not thread.is_alive():
+                break
+            threading.Event().wait(0.05)
+        (line,) = lines
+        m = re.search(r"(http://127\.0\.0\.2:(\d+)/static/) +\(listening on 127\.0\.0\.2:(\d+); "
+                      r"meshcat server pid (\d+);", line)
+        assert m and m.group(2) == m.group(3), line
+        url, port, pid = m.group(1), int(m.group(2)), int(m.group(4))
+        web = {(ip, p) for ip, p in listening(pid) if p == port}
+        assert web == {("127.0.0.2", port)}  # the page on the address asked for; ZeroMQ stays on 127.0.0.1
+        assert all(ip == "127.0.0.1" for ip, p in listening(pid) if p != port)
+        assert "MeshCat.Viewer" in urllib.request.urlopen(url, timeout=10).read().decode()
+        assert refused("127.0.0.1", port)
+    finally:
+        stop.set()
+        thread.join(timeout=20)
+    assert not thread.is_alive() and result["url"] == url
+    assert not alive(pid)
+
+
+def test_a_host_that_is_no_address_here_is_refused_and_leaves_no_server():
+    def children() -> set[int]:
+        return {int(p) for p in os.listdir("/proc") if p.isdigit() and parent_of(int(p)) == os.getpid()
+                and alive(int(p))}
+
+    before = children()
+    for host in ("", "no-such-host.invalid", "192.0.2.1"):  # the last is TEST-NET-1: not on this machine
+        with pytest.raises(InputError, match="host"):
+            viz.LiveViewer(host=host)
+    assert children() <= before  # the server that could not listen was stopped and reaped
+    with pytest.raises(InputError, match="started here"):
+        viz.LiveViewer("tcp://127.0.0.1:6000", host="127.0.0.2")
