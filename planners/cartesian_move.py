@@ -104,7 +104,9 @@ class CartesianMove:
       ``sigma_min`` ``(k,)``: their IK errors and the smallest singular value of their task Jacobian;
     * ``trajectory``: ``path`` timed (None when ``path`` is empty); ``timing``: ``"toppra"``,
       ``"rest-to-rest"`` or ``"none"``;
-    * ``poses`` ``(n + 1, 4, 4)``: the line's poses at ``s = i / n``; ``events``: every event met.
+    * ``poses`` ``(n + 1, 4, 4)``: the line's poses at ``s = i / n``; ``events``: every event met;
+    * ``stop_q`` ``(nq,)``: the solution of the pose the move stopped at, rejected (None when it completed,
+      ran out of time or did not start).
     """
 
     success: bool
@@ -121,6 +123,7 @@ class CartesianMove:
     events: list[dict] = field(default_factory=list)
     stop_detail: dict = field(default_factory=dict)
     timing: str = "none"
+    stop_q: np.ndarray | None = None
 
     def __repr__(self) -> str:
         return (f"CartesianMove({self.stop}: fraction {self.fraction:.3f}, {len(self.path)} waypoints, "
@@ -325,7 +328,7 @@ def _move_of(robot: Robot, request: MotionRequest, solving: PoseSolving, poses: 
                          np.concatenate([[0.0], track.position_errors[:valid]]),
                          np.concatenate([[0.0], track.orientation_errors[:valid]]),
                          np.concatenate([[sigma0], track.sigma_min[:valid]]), poses, track.events, event,
-                         timing)
+                         timing, None if valid == len(track.q) else track.q[valid].copy())
 
 
 def _blocked_start(robot: Robot, request: MotionRequest, poses: np.ndarray, why: dict) -> CartesianMove:
