@@ -2,7 +2,8 @@
 
 Endpoints: ``GET /health``, ``GET /robots``, ``GET /robots/{name}``,
 ``POST /fk``, ``POST /jacobian``, ``POST /ik``, ``POST /ik/batch``,
-``POST /plan/cartesian``, ``POST /collision`` (:mod:`.collision_endpoint`). Poses are 4x4 row-major lists;
+``POST /plan/cartesian``, ``POST /plan/motion`` (:mod:`.motion_jobs`), ``POST /collision``
+(:mod:`.collision_endpoint`). Poses are 4x4 row-major lists;
 joint vectors are lists of ``nq`` numbers (rad / m).
 
 Errors are JSON ``{"detail": [{"loc": [...], "msg": ..., "type": ...}]}``:
@@ -17,8 +18,8 @@ Where work runs (see :mod:`service.executor`): the microsecond endpoints
 (health, catalogue, FK, Jacobian) compute inline on the event loop; IK,
 batches and plans run in the solver processes (:mod:`service.jobs`). A
 request waits there at most the request time cap; an ``/ik`` solve then gets
-its ``max_time`` (capped by ``--max-time-cap``), and ``/ik/batch`` and
-``/plan/cartesian`` end within the request time cap counted from their
+its ``max_time`` (capped by ``--max-time-cap``), so does a ``/plan/motion`` plan
+(default 1 s), and ``/ik/batch`` and ``/plan/cartesian`` end within the request time cap counted from their
 arrival, queueing included. Every process has its own bounded robot cache
 (:class:`RobotPool`).
 """
@@ -39,7 +40,8 @@ from fastapi_offline import FastAPIOffline
 
 from kinserve.kinematics.errors import KinserveError
 
-from . import jobs
+from . import jobs, motion_jobs
+from . import motion_schemas as M
 from . import schemas as S
 from .executor import BoundedExecutor, Deadline, ServiceBusy
 from .fields import FieldError, field
@@ -238,6 +240,11 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
         budget = (settings.request_time_cap if req.max_time is None
                   else min(req.max_time, settings.request_time_cap))
         return await heavy(req, jobs.plan_cartesian, budget)
+
+    @app.post("/plan/motion", response_model=M.MotionPlanResponse, responses=_HEAVY_ERRORS)
+    async def plan_motion(req: M.MotionPlanRequest):
+        return await heavy(req, motion_jobs.plan_motion, settings.request_time_cap,
+                           motion_jobs.plan_time(req.max_time, settings.max_time_cap))
 
     return app
 

@@ -248,6 +248,17 @@ def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
             "stop_reason": "completed" if attempted == len(out) else "time_cap"}
 
 
+def trajectory_out(traj) -> dict:
+    """A :class:`~kinserve.planners.JointTrajectory` as the JSON-ready dict of
+    :class:`~kinserve.service.schemas.JointTrajectoryOut`."""
+    return {
+        "joint_names": list(traj.joint_names), "times": np.asarray(traj.times).tolist(),
+        "positions": np.asarray(traj.positions).tolist(),
+        "velocities": np.asarray(traj.velocities).tolist(),
+        "accelerations": None if traj.accelerations is None else np.asarray(traj.accelerations).tolist(),
+    }
+
+
 def plan_cartesian(deadline: Deadline, req: S.CartesianPlanRequest) -> dict:
     """``POST /plan/cartesian`` within the time left, stopping at the first failure unless told not to."""
     from kinserve.planners import cartesian_to_joint
@@ -264,15 +275,9 @@ def plan_cartesian(deadline: Deadline, req: S.CartesianPlanRequest) -> dict:
             dt=req.dt, interpolation=req.interpolation, relax=tuple(req.relax), max_time=capped(None),
             total_time=max(deadline.remaining, 1e-3), stop_on_failure=req.stop_on_failure,
         )
-    traj = plan.trajectory
     return {
         "success": bool(plan.success),
-        "trajectory": {
-            "joint_names": list(traj.joint_names), "times": np.asarray(traj.times).tolist(),
-            "positions": np.asarray(traj.positions).tolist(),
-            "velocities": np.asarray(traj.velocities).tolist(),
-            "accelerations": None if traj.accelerations is None else np.asarray(traj.accelerations).tolist(),
-        },
+        "trajectory": trajectory_out(plan.trajectory),
         "max_position_error": float(plan.max_position_error),
         "max_orientation_error": float(plan.max_orientation_error),
         "events": [dict(e) for e in plan.events],
