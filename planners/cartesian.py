@@ -180,7 +180,7 @@ def follow_poses(robot: Robot, poses: np.ndarray, q_start: np.ndarray, solving: 
         if budget is not None and budget < 0:
             stop_reason = "time_cap"
             stop_events = [{"kind": "time_cap", "index": i,
-                            "detail": f"the plan's time was spent; poses {i}..{n - 1} not attempted"}]
+                            "detail": f"the plan's time was spent; {n - i} of {n} poses not attempted"}]
             events += stop_events
             break
         res = solving.solve(robot, T, q_prev, budget)

@@ -357,9 +357,10 @@ def plan_cartesian(robot: Robot, start: ArrayLike, T_goal: PoseLike, *, frame: s
     value of the task Jacobian), collisions with ``obstacles`` (shapes of :mod:`kinserve.kinematics.shapes`)
     and, with ``self_collision``, of the robot with itself. ``relax``, ``tol_pos`` (m), ``tol_rot`` (rad),
     ``method`` and ``seed`` go to :func:`ik.solve`; ``iteration_budget`` is each pose's IK iterations,
-    ``max_time`` (s) the whole move's (at least one of them; with ``max_time=None`` the answer does not
-    depend on the clock). ``acceleration_limits`` (rad/s^2, per joint or one value; default 2 x the URDF
-    velocity limits) and the URDF velocity limits bound the trajectory.
+    ``max_time`` (s) the whole move's IK (at least one of them; with ``max_time=None`` the answer does not
+    depend on the clock; the set-up before and the timing after are not counted). ``acceleration_limits``
+    (rad/s^2, per joint or one value; default 2 x the URDF velocity limits) and the URDF velocity limits
+    bound the trajectory.
 
     A move cut short is a :class:`CartesianMove` with ``success=False``, its ``stop`` and reason; invalid
     arguments raise :class:`InputError` / :class:`ShapeError` naming the argument.

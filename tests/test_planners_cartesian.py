@@ -10,7 +10,8 @@ from fake_clock import stepping_clock
 
 from kinserve import robots
 from kinserve.kinematics import InputError, RotationError, ShapeError, se3
-from kinserve.planners import cartesian_to_joint
+from kinserve.planners import cartesian_to_joint, interpolate_checkpoints
+from kinserve.planners.cartesian import PoseSolving, follow_poses
 
 
 @pytest.fixture(scope="module")
@@ -133,3 +134,45 @@ def test_total_time_caps_the_whole_plan(panda):
     assert np.all(np.isfinite(plan.trajectory.positions))
     full = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, **NO_CLOCK)
     assert full.stop_reason == "completed" and full.total_poses == len(full.poses) == 5
+
+
+def test_events_carry_the_joint_the_size_and_the_side(panda):
+    T0, T1 = line(panda, [0.05, 0.0, 0.0])
+    margin = 1.0  # joint 4 (at -2.2) is 0.87 rad from its lower bound
+    plan = cartesian_to_joint(panda, [T0, T1], Q0, frame="panda_link8", steps=3, jump_threshold=1e-9,
+                              limit_margin=margin, **NO_CLOCK)
+    Q = plan.trajectory.positions
+    jumps = [e for e in plan.events if e["kind"] == "joint_jump"]
+    for e in jumps:
+        dq = np.abs(Q[e["index"]] - Q[e["index"] - 1])
+        assert e["size"] == pytest.approx(dq.max()) and e["joint"] == panda.joint_names[int(np.argmax(dq))]
+    for e in (e for e in plan.events if e["kind"] == "limit_contact"):
+        q = Q[e["index"]]
+        expected = [(name, "lower" if q[j] - panda.lower[j] < margin else "upper")
+                    for j, name in enumerate(panda.joint_names)
+                    if min(q[j] - panda.lower[j], panda.upper[j] - q[j]) < margin]
+        assert list(zip(e["joints"], e["sides"])) == expected and expected
+    assert jumps and any(e["kind"] == "limit_contact" for e in plan.events)
+
+
+def test_follow_poses_stops_on_the_kinds_asked_and_runs_the_check_on_the_others(panda):
+    T0, T1 = line(panda, [0.08, 0.0, 0.0])
+    poses = interpolate_checkpoints([T0, T1], 6)
+    solving = PoseSolving(frame="panda_link8", max_time=None, iteration_budget=300)
+    seen = []
+
+    def check(index, q):
+        seen.append(index)
+        return [{"kind": "blocked", "index": index, "detail": "test"}] if index == 3 else []
+
+    track = follow_poses(panda, poses, Q0, solving, stop_on=("blocked",), check=check)
+    assert track.stop_reason == "blocked" and seen == [0, 1, 2, 3] and len(track.q) == 4
+    assert track.stop_events == [{"kind": "blocked", "index": 3, "detail": "test"}] and track.total == 8
+    full = follow_poses(panda, poses, Q0, solving)
+    assert full.stop_reason == "completed" and np.array_equal(full.q[:4], track.q)
+    # a jump stop before the check: the check does not run on that solution
+    seen.clear()
+    jumpy = PoseSolving(frame="panda_link8", max_time=None, iteration_budget=300, jump_threshold=1e-9)
+    stopped = follow_poses(panda, poses[1:], Q0, jumpy, stop_on=("joint_jump", "blocked"), q_before=Q0,
+                           check=check)
+    assert stopped.stop_reason == "joint_jump" and seen == [] and len(stopped.q) == 1

@@ -10,6 +10,7 @@ numpy's SVD of Pinocchio's Jacobian. Each pose's IK runs on an iteration budget 
 import numpy as np
 import pinocchio as pin
 import pytest
+from fake_clock import stepping_clock
 from scipy.linalg import expm, logm
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -246,6 +247,18 @@ def test_the_answer_does_not_depend_on_the_clock(panda):
     a = plan_cartesian(panda, Q0, T1, iteration_budget=200)
     b = plan_cartesian(panda, Q0, T1, iteration_budget=200)
     assert np.array_equal(a.path, b.path) and np.array_equal(a.trajectory.positions, b.trajectory.positions)
+
+
+def test_max_time_caps_the_whole_move(panda):
+    """On a fake clock (1 ms a reading): a 0.05 s move ends by its cap, its path still on the line."""
+    T0, T1 = moved(panda, [0.0, 0.3, 0.0])
+    plan_cartesian(panda, Q0, T1, self_collision=False)  # nothing left to build
+    with stepping_clock(1e-3) as clock:
+        move = plan_cartesian(panda, Q0, T1, self_collision=False, max_time=0.05)
+    assert clock.now <= 0.05 + 5e-3, clock.now
+    assert move.stop == "time_cap" and 0.0 <= move.fraction < 1.0 and move.stop_q is None
+    reference = reference_line(T0, T1, move.s, "decoupled")
+    assert max(se3.pose_error(panda.fk(q, HAND), T)[0] for q, T in zip(move.path, reference)) < 1e-4
 
 
 def test_line_steps_follow_the_path_of_the_origin():
