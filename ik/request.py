@@ -126,6 +126,9 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
         bound, avoid = _bind_collision(robot, collision, tgt.frame)
     else:
         avoid = _link_obstacles(robot, spheres, obstacles, link_radius, tgt.frame)
+        if avoid is not None and robot.attached:  # carried objects: in the collision model, not the capsules
+            collision = CollisionRequest(False, tuple(avoid.obstacles), 0.0)
+            bound, avoid = _bind_collision(robot, collision, tgt.frame)
     if avoid is not None and method in NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
                          "use 'qp' or 'auto'")

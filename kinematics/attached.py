@@ -1,18 +1,20 @@
 """Carried objects: a shape held by one frame of the robot, moving with it.
 
 ``robot.attach(name, shape, frame, pose_in_frame, touch_links)`` (see
-:class:`~.robot.Robot`) makes an :class:`AttachedObject`: the shape's geometry is
-fixed to ``frame``'s parent joint at ``frame placement @ pose_in_frame @ shape pose``,
-so it moves as that body moves. The robot's collision model then holds it as one
-more robot geometry (:meth:`~.collision_model.CollisionModel.with_attached`), named
-``"attached:<name>"`` in pair names:
+:meth:`~.collision_queries.CollisionQueries.attach`) makes an :class:`AttachedObject`: the
+shape's geometry is fixed to ``frame``'s parent joint, so at ``q`` its world pose is
+``fk(q, frame) @ pose_in_frame @ shape pose`` (``placement = pose_in_frame @ shape pose``).
+The robot's collision model then holds it as one more robot geometry
+(:meth:`~.collision_model.CollisionModel.with_attached`), named ``"attached:<name>"`` in
+pair names:
 
-* against obstacles: always checked (like every moving robot geometry);
-* against the robot's own links (when self-collision is checked): every link
-  except the ``touch_links`` (default: the link the frame belongs to - a gripper's
-  fingers should be named too) and the links on the same rigid body (they cannot
-  move relative to it);
-* two attached objects on different bodies are checked against each other.
+* against obstacles: always checked (like every geometry on a moving joint; a frame fixed to
+  the world is refused);
+* against the robot's own links (when self-collision is checked): every link except the
+  ``touch_links`` (default: the link the frame belongs to - name a gripper's fingers when
+  they move on joints of their own) and the links on the same rigid body (Pinocchio joint:
+  they cannot move relative to it);
+* two attached objects on different bodies are checked against each other; on one body, not.
 
 Units: metres; poses are 4x4 homogeneous matrices.
 """
@@ -45,6 +47,13 @@ class AttachedObject:
     pose_in_frame: np.ndarray
     touch_links: tuple[str, ...]
     placement: np.ndarray
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickling: the poses read-only again (as :func:`attached_object` makes them)."""
+        for key in ("pose_in_frame", "placement"):
+            state[key] = np.array(state[key], dtype=float)
+            state[key].flags.writeable = False
+        self.__dict__.update(state)
 
     @property
     def link_name(self) -> str:

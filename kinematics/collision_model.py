@@ -144,6 +144,8 @@ class CollisionModel:
                 self.disabled = self._computed_pairs(gm, lower, upper, model_text, samples, seed, bar.update)
                 self.pair_source = "computed"
         self.attached: tuple = ()  #: the carried objects (:mod:`.attached`) of a model made by with_attached
+        #: The model without carried objects that :meth:`with_attached` made this one from (None: this one).
+        self.bare: CollisionModel | None = None
         self._assemble(gm, candidate_geometry_pairs(model, gm, self.disabled))
 
     @classmethod
@@ -186,10 +188,17 @@ class CollisionModel:
         self._lock = threading.Lock()
 
     def with_attached(self, objects: Sequence[Any]) -> "CollisionModel":
-        """A new model: this one's geometry plus the carried ``objects`` (:class:`~.attached.AttachedObject`,
-        each fixed to its frame's parent joint at the frame placement times its ``placement``), with
-        the pairs of :mod:`.attached` (checked against every link except its touch links and the links of
-        its own body). This model is not changed; its hulls, pair source and disabled pairs are shared.
+        """A new model: this one's geometry plus the carried ``objects`` (:class:`~.attached.AttachedObject`).
+
+        Object ``k`` becomes geometry ``G + k`` (``G``: this model's geometries), named and linked
+        ``"attached:<name>"``, fixed to the parent joint ``j`` of its frame ``f`` at ``jMf @ placement`` (the
+        frame's placement on its joint times the object's ``pose_in_frame @ shape pose``), so its world pose
+        is ``oMj(q) @ jMf @ placement = fk(q, frame) @ placement``. Its self pairs: with every geometry on
+        another joint whose link is not one of its touch links (geometries on its own joint cannot move
+        relative to it; an earlier object on another joint is paired too); obstacle pairs as for every
+        geometry on a moving joint. The sphere model and the pre-check are built over the whole geometry,
+        so they cover the objects too. This model is not changed; its hulls, pair source and disabled
+        pairs are shared; :attr:`bare` is this model.
         """
         if self.attached:
             raise ModelError("with_attached: start from the model without carried objects")
@@ -200,15 +209,16 @@ class CollisionModel:
         gm.removeAllCollisionPairs()
         links = list(self.links)
         for obj in objects:
-            frame = self.model.frames[self.model.getFrameId(obj.frame)]
-            placement = frame.placement * pin.SE3(np.asarray(obj.placement, dtype=float))
-            gm.addGeometryObject(pin.GeometryObject(obj.link_name, int(frame.parentJoint),
-                                                    self.model.getFrameId(obj.frame), placement,
+            fid = self.model.getFrameId(obj.frame)
+            frame = self.model.frames[fid]
+            placement = frame.placement * pin.SE3(np.array(obj.placement, dtype=float))
+            gm.addGeometryObject(pin.GeometryObject(obj.link_name, int(frame.parentJoint), fid, placement,
                                                     obj.shape.geometry()))
             links.append(obj.link_name)
         out.links = links
         out.geometry_names = [g.name for g in gm.geometryObjects]
         out.attached = tuple(objects)
+        out.bare = self
         out._assemble(gm, list(self.self_pairs) + _attached_pairs(gm, links, out.attached, len(self.links)))
         return out
 

@@ -116,20 +116,33 @@ class CollisionQueries:
     def collision(self) -> "CollisionModel":
         """The robot's :class:`~.collision_model.CollisionModel`: the bare one (built on first use, shared by
         copies and by every ``robots.load`` of one cached model), or with carried objects this robot's own
-        (:meth:`attach`; made by ``attach``, or on first use after unpickling).
+        (:meth:`attach`; made by ``attach``, again on first use after unpickling or after the bare model was
+        replaced, e.g. by a new SRDF).
 
         :class:`~.errors.ModelError` when the URDF has no ``<collision>`` elements.
         """
         own = self._attached_holder
-        if own is not None:
-            cm = own[0]
-            if cm is None:
-                with _BUILD_LOCK:
-                    cm = own[0]
-                    if cm is None:
-                        cm = own[0] = self.bare_collision.with_attached(self._attached)
+        if own is None:
+            return self.bare_collision
+        cm = own[0]
+        if cm is not None and cm.bare is self._collision_holder[0]:
             return cm
-        return self.bare_collision
+        return self._attached_model()
+
+    def _attached_model(self) -> "CollisionModel":
+        """Build this robot's model with its carried objects from the current bare model (once: under the
+        build lock, which is not held while the bare model is built - that takes the lock itself)."""
+        bare = self.bare_collision
+        with _BUILD_LOCK:
+            own = self._attached_holder
+            cm = own[0]
+            if cm is None or cm.bare is not bare:
+                cm = bare.with_attached(self._attached)
+                if own[0] is None:  # after unpickling: shared with the copies made since
+                    own[0] = cm
+                else:  # the bare model changed under this robot only: its own holder
+                    self._attached_holder = [cm]
+        return cm
 
     @property
     def bare_collision(self) -> "CollisionModel":
@@ -151,24 +164,44 @@ class CollisionQueries:
 
     def attach(self, name: str, shape: Any, frame: str, pose_in_frame: Any = None,
                touch_links: Iterable[str] | None = None) -> Any:
-        """Carry ``shape`` with ``frame``: from now on this robot's collision queries, ``ik.solve(...,
-        self_collision=True)`` / ``obstacles=`` and ``planners.plan_motion`` check it (:mod:`.attached`).
+        """Carry ``shape`` with ``frame`` (a gripped part, a tool): returns the robot (for chaining).
 
-        ``pose_in_frame``: 4x4 pose of the shape's own frame in ``frame`` (default identity; the shape's own
-        ``pose`` / centre is then relative to it). ``touch_links``: the links it may touch (default: the link
-        ``frame`` belongs to; name a gripper's fingers too). Returns the robot (for chaining).
+        ``shape``: a sphere, box, capsule or cylinder of :mod:`.shapes` (or its ``to_dict()``); its own
+        ``pose`` / centre is read in the object's frame, whose pose in ``frame`` is ``pose_in_frame`` (4x4 or
+        ``pinocchio.SE3``, m; default identity). So the geometry's world pose at ``q`` is
+        ``fk(q, frame) @ pose_in_frame @ shape.pose`` (:meth:`attached_poses`). ``touch_links``: the
+        collision links it may touch, never checked against it (default: the link ``frame`` belongs to; name
+        a gripper's fingers when they sit on other joints). Links on the same rigid body (Pinocchio joint) as
+        ``frame`` are never checked against it either: they cannot move relative to it.
 
-        Changes this ``Robot`` object only (and copies made from it afterwards): another ``robots.load``
-        result, an earlier copy or a pooled service robot keep their own geometry - use
-        ``robot.copy().attach(...)`` to carry something in one request or thread. The robot's IK state
-        (seed tables, bound collision constraints) is dropped, since its collision model changed; the next
-        solve (or ``ik.warm``) builds it again. :class:`~.errors.InputError` for a name already carried, an
-        unknown frame or touch link, a mesh or a malformed pose.
+        Where it counts: :meth:`in_collision`, :meth:`collisions`, :meth:`distances`, :meth:`min_distance`
+        (pair name ``"attached:<name>"``, against the obstacles always, against the other links with
+        ``self_collision``), ``planners.plan_motion`` and ``ik.solve`` - through the collision model: with
+        ``self_collision=True`` or ``collision_margin``, and also with ``obstacles=`` / ``spheres=`` alone
+        (while something is carried, those are checked against the collision model, carried objects
+        included, instead of the link capsules of ``ik.ObstacleAvoidance``; ``link_radius`` then plays no
+        part). Constraints a caller builds and binds himself (``ik.ObstacleAvoidance``, ``tasks=`` /
+        ``constraints=`` compositions) use the link capsules and do not see carried objects.
+
+        Changes this ``Robot`` object only (and copies made from it afterwards; ``robot.copy()`` and
+        pickling carry the objects): another ``robots.load`` result, an earlier copy or a pooled service
+        robot keep their own geometry, and ``kinserve.clear_caches`` detaches nothing. Attaching is not
+        meant to race with queries on the same object: to carry something in one request or thread, use
+        ``robot.copy().attach(...)``. The robot's IK state (seed tables, bound collision constraints) is
+        dropped, since its collision model changed; the next solve (or ``ik.warm``) builds it again.
+
+        :class:`~.errors.InputError` (naming the argument) for a name already carried, an unknown frame or
+        one fixed to the world (add the shape as an obstacle instead), an unknown touch link, a mesh or a
+        malformed pose (NaN, not 4x4, rotation not orthonormal). :class:`~.errors.ModelError` when the
+        robot has no collision geometry.
         """
         if isinstance(name, str) and any(obj.name == name for obj in self._attached):
             raise InputError(f"attach: {name!r} is already attached; detach it first "
                              f"(attached: {sorted(self.attached)})")
         fid = self.frame_id(frame)
+        if self.model.frames[fid].parentJoint == 0:
+            raise InputError(f"attach({name!r}): frame {frame!r} is fixed to the world, so the object would "
+                             "never move; expected a frame on a moving link (or pass it as an obstacle)")
         cm = self.bare_collision
         obj = attached_object(name, shape, frame, pose_in_frame, touch_links, cm.links,
                               _frame_link(self.model, fid, cm.links))

@@ -17,7 +17,10 @@ A ``Robot`` is safe to share between threads: the ``pinocchio.Model`` is
 immutable, and every thread works on its own ``pinocchio.Data`` workspace
 (:attr:`Robot.data` is the calling thread's, created on its first use in that
 thread and freed when the thread ends). Nothing else a ``Robot`` holds changes
-after construction except caches of immutable objects (``fk_batch`` chains).
+after construction except caches of immutable objects (``fk_batch`` chains)
+and what its owner changes on purpose: ``attach`` / ``detach`` (carried
+objects) change that object, so a thread or request that carries something
+works on its own ``robot.copy()``.
 """
 
 from __future__ import annotations
@@ -222,7 +225,10 @@ class Robot(CollisionQueries):
         """A Robot sharing this (immutable) model with its own workspaces.
 
         Not needed for threads (a ``Robot`` is already safe to share); useful
-        to change a copy's attributes (e.g. ``visual_model``) independently.
+        to change a copy's attributes (e.g. ``visual_model``) independently, or
+        to carry an object in one thread or request: the copy carries what this
+        robot carries now (:meth:`attach`), and attaching to or detaching from
+        either one afterwards leaves the other unchanged.
         """
         other = object.__new__(Robot)
         other.__dict__.update(self.__dict__)
@@ -236,7 +242,8 @@ class Robot(CollisionQueries):
         Meshes (``visual_model``/``collision_model``) can weigh hundreds of MB;
         a pickled Robot (sent to a worker process or a Ray node) is for
         kinematics. ``source`` and ``package_dirs`` travel, so a viewer on the
-        other side can rebuild the geometry from them.
+        other side can rebuild the geometry from them. Carried objects
+        (:meth:`attach`) travel too; their collision model is rebuilt on first use.
         """
         state = dict(self.__dict__)
         del state["_tls"]
