@@ -7,7 +7,8 @@ SRDF the loader found (or MoveIt-style computed pairs), then shared by every
 copy of the robot.
 
 Pair names: a robot geometry is named by its **link**; obstacle ``k`` of the
-``obstacles`` argument by ``"obstacle[k]:<kind>"`` (e.g. ``"obstacle[0]:box"``).
+``obstacles`` argument by ``"obstacle[k]:<kind>"`` (e.g. ``"obstacle[0]:box"``); a
+carried object (:meth:`CollisionQueries.attach`) by ``"attached:<name>"``.
 Obstacles are :mod:`~.shapes` (``Sphere``, ``Box``, ``Capsule``, ``Cylinder``,
 ``Mesh``; ``kinserve.ik`` re-exports them) or their ``to_dict()`` forms. Their
 ``frames`` option is an IK setting; these queries always use the whole geometry.
