@@ -7,8 +7,9 @@
    run is ``benchmarks/bare_app.py``: FastAPI routes returning a constant,
    served by the same code (uvicorn, same protocol and options).
    Target: ``/fk`` p50 <= 1.5 x the bare route's p50 (1 client).
-2. Starvation: ``/health`` p95 while 45 unreachable ``/ik`` requests run at once
-   (target <= 50 ms), and how long those took against their ``max_time``.
+2. Starvation: ``/health`` p95 while 45 unreachable ``/ik`` requests run at once,
+   and while 20 ``/plan/motion`` requests that search for their whole ``max_time``
+   run at once (target <= 50 ms each), and how long those took against their ``max_time``.
 3. ``ik.solve_many`` targets/s at 1 and 2 processes (and on a local Ray when the
    optional ``ray`` extra is installed; skipped with a message otherwise).
 
@@ -42,6 +43,7 @@ helpers = load_test_helper("service_server")
 # the tests' raw keep-alive client: one HTTP/1.1 connection, cheap enough on the client side to time the
 # server
 Server, free_port, KeepAliveClient = helpers.Server, helpers.free_port, helpers.KeepAliveClient
+scenes = load_test_helper("service_scenes")  # planning problems as request data
 
 
 def tree_cpu_seconds(pid: int) -> float:
@@ -182,26 +184,24 @@ def bench_latency(n: int, client_counts=(1, 8, 32)) -> list[dict]:
     return rows
 
 
-def bench_starvation(n_ik: int = 45, max_time: float = 0.5) -> dict:
-    """``/health`` latency sampled every 20 ms while ``n_ik`` unreachable ``/ik`` run at once."""
-    far = np.eye(4)
-    far[:3, 3] = (3.0, 0.0, 0.5)  # 3 m away: out of the Panda's reach
-    body = json.dumps({"robot": "panda", "target": far.tolist(), "max_time": max_time}).encode()
+def health_under_load(path: str, body: bytes, n: int, max_time: float, label: str) -> dict:
+    """``/health`` latency sampled every 20 ms while ``n`` requests ``POST path`` with ``body`` (each running
+    its whole ``max_time``) run at once, on a server capped at ``max_time``."""
     srv = Server(max_time_cap=max_time)
     try:
         warm = KeepAliveClient(srv.port)
-        warm.request("POST", "/ik", body)  # model and seed table loaded
+        warm.request("POST", path, body)  # model, seed table, collision model loaded
         warm.close()
-        ik_times, statuses, health = [], [], []
+        times, statuses, health = [], [], []
         lock = threading.Lock()
         done = threading.Event()
 
-        def one_ik():
+        def one():
             c = KeepAliveClient(srv.port)
             t0 = time.perf_counter()
-            status, _, _ = c.request("POST", "/ik", body)
+            status, _, _ = c.request("POST", path, body)
             with lock:
-                ik_times.append(time.perf_counter() - t0)
+                times.append(time.perf_counter() - t0)
                 statuses.append(status)
             c.close()
 
@@ -217,7 +217,7 @@ def bench_starvation(n_ik: int = 45, max_time: float = 0.5) -> dict:
         sampler = threading.Thread(target=sample_health)
         sampler.start()
         t0 = time.perf_counter()
-        threads = [threading.Thread(target=one_ik) for _ in range(n_ik)]
+        threads = [threading.Thread(target=one) for _ in range(n)]
         for t in threads:
             t.start()
         for t in threads:
@@ -227,13 +227,29 @@ def bench_starvation(n_ik: int = 45, max_time: float = 0.5) -> dict:
         sampler.join()
     finally:
         srv.stop()
-    out = {"unreachable_ik": n_ik, "max_time": max_time, "wall_s": wall, "health": percentiles(health),
-           "ik": percentiles(ik_times),
-           "ik_status_counts": {str(s): statuses.count(s) for s in sorted(set(statuses))}}
-    print(f"  /health while {n_ik} unreachable /ik run: p50 {out['health']['p50_ms']:.2f} ms  p95 "
+    out = {"requests": n, "endpoint": path, "max_time": max_time, "wall_s": wall,
+           "health": percentiles(health), "request": percentiles(times),
+           "status_counts": {str(s): statuses.count(s) for s in sorted(set(statuses))}}
+    print(f"  /health while {n} {label} run: p50 {out['health']['p50_ms']:.2f} ms  p95 "
           f"{out['health']['p95_ms']:.2f} ms (n={out['health']['n']}); "
-          f"/ik statuses {out['ik_status_counts']}, p95 {out['ik']['p95_ms']:.0f} ms, wall {wall:.1f} s")
+          f"{path} statuses {out['status_counts']}, p95 {out['request']['p95_ms']:.0f} ms, wall {wall:.1f} s")
     return out
+
+
+def bench_starvation(n_ik: int = 45, max_time: float = 0.5) -> dict:
+    """``/health`` latency while ``n_ik`` unreachable ``/ik`` run at once."""
+    far = np.eye(4)
+    far[:3, 3] = (3.0, 0.0, 0.5)  # 3 m away: out of the Panda's reach
+    body = json.dumps({"robot": "panda", "target": far.tolist(), "max_time": max_time}).encode()
+    return health_under_load("/ik", body, n_ik, max_time, "unreachable /ik")
+
+
+def bench_planning_load(n_plans: int = 20, max_time: float = 0.5) -> dict:
+    """``/health`` latency while ``n_plans`` ``/plan/motion`` run at once, each searching for its whole
+    ``max_time`` (the Panda's hand caged: ``tests/service_scenes.py``)."""
+    body = json.dumps({"robot": "panda", "start": scenes.READY, "goal": scenes.ASIDE,
+                       "obstacles": scenes.cage(), "max_time": max_time}).encode()
+    return health_under_load("/plan/motion", body, n_plans, max_time, "caged /plan/motion")
 
 
 def bench_batch(n: int, with_ray: bool) -> dict:
@@ -279,7 +295,7 @@ def bench_batch(n: int, with_ray: bool) -> dict:
     return out
 
 
-def summary(rows: list[dict], starvation: dict, batch: dict) -> dict:
+def summary(rows: list[dict], starvation: dict, planning: dict, batch: dict) -> dict:
     def p50(server, path, workers=1, clients=1):
         return next(r["p50_ms"] for r in rows if (r["server"], r["endpoint"], r["workers"], r["clients"]) ==
                     (server, path, workers, clients))
@@ -289,6 +305,8 @@ def summary(rows: list[dict], starvation: dict, batch: dict) -> dict:
         "fk_p50_over_bare": {"value": ratio, "target": 1.5, "met": ratio <= 1.5},
         "health_p95_ms_under_45_unreachable_ik": {"value": starvation["health"]["p95_ms"], "target": 50.0,
                                                   "met": starvation["health"]["p95_ms"] <= 50.0},
+        "health_p95_ms_under_20_plans": {"value": planning["health"]["p95_ms"], "target": 50.0,
+                                         "met": planning["health"]["p95_ms"] <= 50.0},
     }
     if "speedup_2_over_1" in batch:
         out["solve_many_2_over_1"] = {"value": batch["speedup_2_over_1"], "target": 1.8,
@@ -311,12 +329,13 @@ def main() -> None:
     rows = bench_latency(args.requests)
     print("starvation")
     starvation = bench_starvation()
+    planning = bench_planning_load()
     print("batch IK")
     batch = bench_batch(args.batch, with_ray=not args.no_ray)
     print("targets")
-    targets = summary(rows, starvation, batch)
-    write_json(args.out, {"machine": m, "latency": rows, "starvation": starvation, "batch": batch,
-                          "targets": targets})
+    targets = summary(rows, starvation, planning, batch)
+    write_json(args.out, {"machine": m, "latency": rows, "starvation": starvation, "planning_load": planning,
+                          "batch": batch, "targets": targets})
 
 
 if __name__ == "__main__":
