@@ -1,6 +1,7 @@
-"""Render the README's benchmark tables (Markdown) from the JSON files that ``make bench`` writes.
+"""Render the benchmark tables (Markdown) of docs/benchmarks.md from the JSON files ``make bench`` writes.
 
-    .venv/bin/python benchmarks/render_tables.py bench-out [--out bench-out/tables.md]
+    .venv/bin/python benchmarks/render_tables.py bench-out [--out bench-out/tables.md] \
+        [--docs docs/benchmarks.md]
 
 Reads ``ik.json`` (bench_ik.py), ``ik_constrained.json`` (bench_ik_constrained.py),
 ``collision.json`` (bench_collision.py) and ``motion.json`` (bench_motion.py) when
@@ -11,7 +12,9 @@ venvs): on a shared machine a long solve is preempted, so wall times of long
 solves swell while short ones do not - read the CPU ratios alongside. Any other JSON file in
 the folder is listed with its numeric figures flattened (``a.b.c = value``), so
 nothing measured is left out. Missing files are skipped with a note. The numbers
-are copied, never recomputed: the README shows what the run wrote.
+are copied, never recomputed: the page shows what the run wrote. ``--docs`` writes each file's table into
+its own generated section of the page (``<!-- ik:begin ... -->`` .. ``<!-- ik:end -->``, and ``other`` for
+the flattened files); a file the folder lacks leaves its section as it was, with the date of its own run.
 """
 
 from __future__ import annotations
@@ -209,21 +212,43 @@ def render(folder: Path) -> str:
     for path in sorted(folder.glob("*.json")):
         if path.name in RENDERERS:
             continue
-        flat: list[str] = []
-        _flatten("", {k: v for k, v in json.loads(path.read_text()).items() if k != "machine"}, flat)
-        lines += [f"### {path.stem}", ""] + flat + [""]
+        lines += render_flat(path) + [""]
     return "\n".join(lines)
+
+
+def render_flat(path: Path) -> list[str]:
+    """A JSON file without a renderer of its own: its machine line and its numeric figures, flattened."""
+    d = json.loads(path.read_text())
+    flat: list[str] = []
+    _flatten("", {k: v for k, v in d.items() if k != "machine"}, flat)
+    machine = [_machine(d), ""] if "machine" in d else []
+    return [f"### {path.stem}", "", *machine, *flat]
+
+
+def write_docs(folder: Path, page: Path) -> None:
+    """Write each benchmark JSON file of ``folder`` into its generated section of ``page`` (see the module
+    docstring); the sections of files that ``folder`` lacks stay as they were."""
+    for name, fn in RENDERERS.items():
+        if (folder / name).exists():
+            write_section(page, Path(name).stem, fn(json.loads((folder / name).read_text())))
+    others = [p for p in sorted(folder.glob("*.json")) if p.name not in RENDERERS]
+    if others:
+        write_section(page, "other", [line for p in others for line in [*render_flat(p), ""]][:-1])
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("folder", nargs="?", default="bench-out", help="where the benchmark JSON files are")
     ap.add_argument("--out", help="also write the Markdown to this file")
+    ap.add_argument("--docs", help="also write the tables into their generated sections of this page "
+                                   "(docs/benchmarks.md)")
     args = ap.parse_args()
     text = render(Path(args.folder))
     print(text)
     if args.out:
         Path(args.out).write_text(text)
+    if args.docs:
+        write_docs(Path(args.folder), Path(args.docs))
 
 
 if __name__ == "__main__":
