@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 PIP    := $(PY) -m pip
 DEMO_OUT ?= demo-out
 
-.PHONY: demo lint test bench peers gallery install install-test browser clean
+.PHONY: demo lint test docs bench peers gallery install install-test browser clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -18,11 +18,15 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 
 $(VENV)/.installed-test: pyproject.toml | $(PY)
 	$(PIP) install --quiet -e ".[test]"
+	touch $@ $(VENV)/.installed $(VENV)/.installed-docs
+
+$(VENV)/.installed-docs: pyproject.toml | $(PY)
+	$(PIP) install --quiet -e ".[docs]"
 	touch $@ $(VENV)/.installed
 
 $(VENV)/.installed-bench: pyproject.toml | $(PY)
 	$(PIP) install --quiet -e ".[test,bench]"
-	touch $@ $(VENV)/.installed-test $(VENV)/.installed
+	touch $@ $(VENV)/.installed-test $(VENV)/.installed-docs $(VENV)/.installed
 
 install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
@@ -42,7 +46,19 @@ demo: $(VENV)/.installed
 lint: $(VENV)/.installed-test
 	$(PY) -m ruff check .
 
+# The user guide and API reference (mkdocs.yml, docs/) into site/. `python -m mkdocs`, not the `mkdocs`
+# script: the script's folder (.venv/bin) holds the `kinserve` console script, which the API reference's
+# loader (griffe) would take for the package. --strict: a broken link or reference, or a page missing from
+# the navigation, fails the build.
+MKDOCS := NO_MKDOCS_2_WARNING=1 $(PY) -m mkdocs build --strict
+DOCS_OUT ?= site
+
+docs: $(VENV)/.installed-docs
+	$(MKDOCS) -d $(DOCS_OUT)
+
+# The suite also runs every Python snippet of README.md and docs/ (tests/test_docs_snippets.py).
 test: $(VENV)/.installed-test browser lint
+	$(MKDOCS) --quiet -d $(DOCS_OUT)
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
 # README gallery: one plot per scenario + browser screenshots of two scenes (needs chromium).
@@ -84,7 +100,7 @@ bench: $(VENV)/.installed-bench peers
 	$(PY) benchmarks/bench_service.py --out bench-out/service.json
 	$(PY) benchmarks/bench_motion.py --dataset $(MBM_DATASET) $(BENCH_IK_N) --out bench-out/motion.json
 	$(PY) benchmarks/bench_clutter.py --dataset $(MBM_DATASET) $(if $(BENCH_N),--per-set $(BENCH_N),--all) --out bench-out/clutter.json
-	$(PY) benchmarks/render_tables.py bench-out --out bench-out/tables.md
+	$(PY) benchmarks/render_tables.py bench-out --out bench-out/tables.md --docs docs/benchmarks.md
 
 clean:
-	rm -rf $(VENV) $(DEMO_OUT) bench-out .pytest_cache
+	rm -rf $(VENV) $(DEMO_OUT) bench-out .pytest_cache $(DOCS_OUT)

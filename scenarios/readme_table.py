@@ -1,13 +1,13 @@
-"""The README's scenario table, generated from each scenario's ``result.json``.
+"""The scenario table of docs/scenarios.md, generated from each scenario's ``result.json``.
 
-    python -m kinserve.scenarios.readme_table [--demo DIR] [--readme README.md] [--check]
+    python -m kinserve.scenarios.readme_table [--demo DIR] [--readme docs/scenarios.md] [--check]
 
 Reads ``DIR/NAME/result.json`` for every scenario (running the scenarios
 that have none yet, as ``kinserve demo`` would), builds one Markdown row per
 scenario (:func:`row`) and replaces the block between :data:`BEGIN` and
-:data:`END` in the README. ``--check`` changes nothing and exits with 1 when
-the README's table differs from the results. The tests compare each row with
-a fresh run of its scenario, so the README's numbers cannot drift from the code.
+:data:`END` in the page (``--readme``, default ``docs/scenarios.md``). ``--check`` changes nothing and
+exits with 1 when the page's table differs from the results. The tests compare each row with
+a fresh run of its scenario, so the page's numbers cannot drift from the code.
 
 Numbers at round-off level are written as a bound (``< 1e-15``), which holds
 on every machine; the others keep two to four significant digits.
@@ -142,7 +142,7 @@ KEY_NUMBERS: dict[str, Callable[[Mapping], str]] = {
 
 
 def row(name: str, result: Mapping) -> str:
-    """The README's Markdown row of scenario ``name`` for its ``result.json`` contents."""
+    """The Markdown table row of scenario ``name`` for its ``result.json`` contents."""
     if name not in KEY_NUMBERS:
         raise InputError(f"unknown scenario {name!r}; known: {', '.join(KEY_NUMBERS)}")
     label, shows = SHOWS[name]
@@ -155,7 +155,7 @@ def table(results: Mapping[str, Mapping]) -> str:
 
 
 def readme_rows(text: str) -> dict[str, str]:
-    """The generated rows found in README text: scenario name -> row."""
+    """The generated rows found in a page's text: scenario name -> row."""
     block = _block(text)[1]
     rows = {}
     for line in block.splitlines():
@@ -167,7 +167,7 @@ def readme_rows(text: str) -> dict[str, str]:
 def _block(text: str) -> tuple[int, str, int]:
     start, end = text.find(BEGIN), text.find(END)
     if start < 0 or end < start:
-        raise InputError(f"README: no generated scenario table (markers {BEGIN!r} ... {END!r})")
+        raise InputError(f"no generated scenario table (markers {BEGIN!r} ... {END!r})")
     body_start = start + len(BEGIN)
     return body_start, text[body_start:end], end
 
@@ -191,11 +191,13 @@ def load_results(demo: Path) -> dict[str, dict]:
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point (see the module docstring): 0, or 1 when ``--check`` finds the table stale."""
-    ap = argparse.ArgumentParser(description="Regenerate the README's scenario table from demo results.")
+    ap = argparse.ArgumentParser(
+        description="Regenerate the scenario table of docs/scenarios.md from demo results.")
     ap.add_argument("--demo", default="demo-out",
                     help="folder of `kinserve demo all` output (default demo-out)")
-    ap.add_argument("--readme", default="README.md")
-    ap.add_argument("--check", action="store_true", help="only compare; exit 1 if the README differs")
+    ap.add_argument("--readme", default="docs/scenarios.md",
+                    help="the Markdown page holding the table (default docs/scenarios.md)")
+    ap.add_argument("--check", action="store_true", help="only compare; exit 1 if the page differs")
     args = ap.parse_args(argv)
     readme = Path(args.readme)
     text = readme.read_text(encoding="utf-8")

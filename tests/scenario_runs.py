@@ -31,14 +31,14 @@ def figures(out) -> dict:
     return FIGURES[Path(out)]
 
 def assert_readme_row(name: str, result: dict) -> None:
-    """The README's scenario-table row of ``name`` is the row that this fresh ``result.json`` produces."""
+    """docs/scenarios.md's table row of ``name`` is the row that this fresh ``result.json`` produces."""
     from pathlib import Path
 
     from kinserve.scenarios import readme_table
 
-    readme = Path(__file__).resolve().parents[1] / "README.md"
+    readme = Path(__file__).resolve().parents[1] / "docs" / "scenarios.md"
     rows = readme_table.readme_rows(readme.read_text(encoding="utf-8"))
-    assert name in rows, f"README.md has no generated row for {name}"
+    assert name in rows, f"docs/scenarios.md has no generated row for {name}"
     assert rows[name] == readme_table.row(name, result), (
-        f"README.md's {name} row differs from a fresh run; regenerate it with "
+        f"docs/scenarios.md's {name} row differs from a fresh run; regenerate it with "
         "`kinserve demo all --out demo-out && python -m kinserve.scenarios.readme_table --demo demo-out`")
