@@ -28,6 +28,7 @@ import numpy as np
 
 from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
+from .extensions import Extensions
 from .shapes import Shape, as_shape
 from .types import VectorLike
 from .validation import as_vector
@@ -225,8 +226,6 @@ class CollisionQueries:
         return {obj.name: self.fk(q, obj.frame) @ obj.placement for obj in self._attached}
 
     def _set_attached(self, objects: tuple) -> None:
-        from .robot import Extensions
-
         cm = self.bare_collision.with_attached(objects) if objects else None
         self._attached = objects
         self._attached_holder = None if cm is None else [cm]

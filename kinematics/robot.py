@@ -37,6 +37,7 @@ from . import singularity
 from .batch_fk import ChainFK
 from .collision_queries import CollisionQueries
 from .errors import FrameError, ModelError, ShapeError, SingularityError, suggest
+from .extensions import Extensions
 from .types import MatrixLike, VectorLike
 from .validation import MAX_ABS, as_matrix, as_vector, check_limits
 
@@ -57,20 +58,6 @@ _forward_kinematics = pin.forwardKinematics
 _update_frame_placement = pin.updateFramePlacement
 _frame_jacobian = pin.computeFrameJacobian
 _LWA = pin.LOCAL_WORLD_ALIGNED
-
-
-class Extensions:
-    """State that higher layers keep for one robot, shared by every :meth:`Robot.copy`.
-
-    ``ik``: the :class:`kinserve.ik.state.IKState` (seed tables, closed-form solvers, bound collision
-    constraints), set by :func:`kinserve.ik.state.ik_state`; None until the first solve or
-    ``ik.warm(robot)``. Pickling a robot drops it (a worker builds or receives its own).
-    """
-
-    __slots__ = ("ik",)
-
-    def __init__(self) -> None:
-        self.ik: object | None = None
 
 
 class _PerThreadData(threading.local):
