@@ -338,3 +338,22 @@ def test_commands_are_deterministic(panda):
     scene = viz.Scene()
     scene.add_robot(panda)
     assert scene.commands() == scene.commands()
+
+
+def test_box_and_cylinder_take_every_pose_form():
+    """A box or cylinder pose may be a point, a 4x4, (position, quaternion [x, y, z, w]) or a 7-vector: the
+    drawn transform is the 4x4 that scipy's rotation of the quaternion gives."""
+    from scipy.spatial.transform import Rotation
+
+    quat = np.array([0.1, -0.3, 0.2, 0.9]) / np.linalg.norm([0.1, -0.3, 0.2, 0.9])
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = Rotation.from_quat(quat).as_matrix(), [0.3, -0.2, 0.5]
+    scene = viz.Scene()
+    for k, pose in enumerate(([0.3, -0.2, 0.5], T, (T[:3, 3], quat), np.r_[T[:3, 3], quat])):
+        scene.add_box(f"box{k}", [0.1, 0.2, 0.3], pose)
+        scene.add_cylinder(f"can{k}", 0.05, 0.2, pose)
+        expected = se3.pose(None, T[:3, 3]) if k == 0 else T
+        np.testing.assert_allclose(scene.transform(f"box{k}"), expected, atol=1e-12)
+        np.testing.assert_allclose(scene.transform(f"can{k}"), expected, atol=1e-12)
+    with pytest.raises(InputError, match="pose"):
+        scene.add_box("bad", [0.1, 0.1, 0.1], ([0.1, 0.2], quat))

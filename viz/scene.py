@@ -583,10 +583,10 @@ class Scene:
     def _pose_or_point(pose) -> np.ndarray:
         if pose is None:
             return np.eye(4)
-        arr = np.asarray(pose.homogeneous if hasattr(pose, "homogeneous") else pose, dtype=float)
-        if arr.shape == (3,):
-            return _translation(as_vector(arr, 3, "pose"))
-        return as_pose(arr, "pose")
+        point = isinstance(pose, (list, tuple, np.ndarray)) and len(pose) == 3
+        if point and all(np.ndim(v) == 0 for v in pose):  # a point: the pose with that translation
+            return _translation(as_vector(pose, 3, "pose"))
+        return as_pose(pose, "pose")  # 4x4, SE3, (xyz, quat) or 7-vector
 
     def add_path(self, name: str, points, color="blue", linewidth: float = 2.0,
                  markers: float | None = None) -> str:
