@@ -40,7 +40,7 @@ from fastapi_offline import FastAPIOffline
 
 from kinserve.kinematics.errors import KinserveError
 
-from . import jobs, motion_jobs
+from . import cartesian_line, jobs, motion_jobs
 from . import motion_schemas as M
 from . import schemas as S
 from .executor import BoundedExecutor, Deadline, ServiceBusy
@@ -239,7 +239,8 @@ def create_app(settings: ServiceSettings | None = None, *, max_time_cap: float |
     async def plan_cartesian(req: S.CartesianPlanRequest):
         budget = (settings.request_time_cap if req.max_time is None
                   else min(req.max_time, settings.request_time_cap))
-        return await heavy(req, jobs.plan_cartesian, budget)
+        job = cartesian_line.move_through if cartesian_line.wants_line(req) else jobs.plan_cartesian
+        return await heavy(req, job, budget)
 
     @app.post("/plan/motion", response_model=M.MotionPlanResponse, responses=_HEAVY_ERRORS)
     async def plan_motion(req: M.MotionPlanRequest):

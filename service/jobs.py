@@ -263,6 +263,9 @@ def plan_cartesian(deadline: Deadline, req: S.CartesianPlanRequest) -> dict:
     """``POST /plan/cartesian`` within the time left, stopping at the first failure unless told not to."""
     from kinserve.planners import cartesian_to_joint
 
+    if len(req.poses) < 2:
+        raise FieldError("poses", InputError(f"poses: the interpolated mode passes through at least 2 poses, "
+                                             f"got {len(req.poses)} (the line mode moves from q0)"))
     r = robot_of(req)
     with field("q0"):
         q0 = None if req.q0 is None else r.check_q(req.q0, "q0")

@@ -293,10 +293,27 @@ class IKBatchResponse(BaseModel):
 
 
 class CartesianPlanRequest(RobotRef):
-    """Body of ``POST /plan/cartesian``: poses to pass through and the interpolation."""
+    """Body of ``POST /plan/cartesian``: poses to pass through and the interpolation.
 
-    poses: Annotated[list[Pose], Field(min_length=2, max_length=200,
-                                       description="poses to pass through, in order")]
+    Interpolated mode (the default): ``steps`` poses per segment, each solved from the one before
+    (``planners.cartesian_to_joint``; ``q0`` is the first solve's start). Line mode, chosen by giving any of
+    ``jump_threshold``, ``obstacles``, ``self_collision``, ``max_step``, ``max_rotation_step``: from ``q0``
+    (required: the start configuration) the frame moves on straight lines to each pose in turn
+    (``planners.plan_cartesian``, at rest at each pose), stopping where a pose is not reached, a joint jumps,
+    meets its limit or a singularity, or the robot would collide.
+    """
+
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [
+        {"robot": "panda", "q0": [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], "frame": "panda_hand_tcp",
+         "poses": [[[1, 0, 0, 0.307], [0, -1, 0, 0.0], [0, 0, -1, 0.487], [0, 0, 0, 1]],
+                   {"position": [0.4, 0.1, 0.45], "quaternion": [1.0, 0.0, 0.0, 0.0]}],
+         "jump_threshold": 0.3, "max_step": 0.01,
+         "obstacles": [{"kind": "sphere", "center": [0.6, -0.3, 0.3], "radius": 0.05}]},
+    ]})
+
+    poses: Annotated[list[Pose], Field(min_length=1, max_length=200,
+                                       description="poses to pass through, in order (at least 2 in the "
+                                                   "interpolated mode)")]
     q0: JointVector | None = None
     frame: Name | None = None
     steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10,
@@ -310,6 +327,19 @@ class CartesianPlanRequest(RobotRef):
     )
     stop_on_failure: bool = Field(default=True,
                                   description="stop at the first pose not reached (false: try every pose)")
+    # the line mode (planners.plan_cartesian), chosen by giving any of these
+    jump_threshold: Annotated[float, Field(allow_inf_nan=False, gt=0, le=10)] | None = Field(
+        default=None, description="line mode: stop where a step moves a joint by more than this (rad or m; "
+                                  "default 0.25)")
+    obstacles: Obstacles = Field(default_factory=list,
+                                 description="line mode: stop before the robot would touch one of these")
+    self_collision: bool | None = Field(default=None,
+                                        description="line mode: check the robot's own link pairs (default "
+                                                    "true)")
+    max_step: Annotated[float, Field(allow_inf_nan=False, ge=1e-3, le=1.0)] | None = Field(
+        default=None, description="line mode: largest move of the frame's origin per step (m; default 0.01)")
+    max_rotation_step: Annotated[float, Field(allow_inf_nan=False, ge=5e-3, le=1.0)] | None = Field(
+        default=None, description="line mode: largest turn of the frame per step (rad; default 0.05)")
 
 
 class JointTrajectoryOut(BaseModel):
@@ -331,9 +361,11 @@ class CartesianPlanResponse(BaseModel):
     max_orientation_error: float
     events: list[dict]
     message: str
-    stop_reason: Literal["completed", "ik_failed", "time_cap"] = Field(
+    stop_reason: Literal["completed", "ik_failed", "time_cap", "joint_limit", "joint_jump", "singularity",
+                         "collision"] = Field(
         description="completed: every pose attempted; ik_failed: stopped at the first pose not reached; "
-        "time_cap: the plan's time ran out"
+        "time_cap: the plan's time ran out; line mode also: joint_limit, joint_jump (a step over "
+        "jump_threshold), singularity, collision"
     )
     poses_attempted: int
     total_poses: int = Field(description="interpolated poses of the whole path")
