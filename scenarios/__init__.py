@@ -7,6 +7,7 @@ plain data. :func:`run` adds ``result.json`` (that dict) to the folder.
 
     kinserve demo NAME [--out DIR]       one scenario into DIR/NAME/
     kinserve demo all --out DIR          all of them
+    kinserve demo NAME --planned         its planned variant (:data:`VARIANTS`) into DIR/NAME-planned/
 """
 
 from __future__ import annotations
@@ -43,26 +44,40 @@ SCENARIOS: dict[str, tuple[str, str]] = {
               "S9 SCARA RRPR: Jacobian methods, relaxed phi / z with joint centring and a sphere obstacle"),
 }
 
+#: name -> {variant: (module, one-line description)}: other versions of a scenario, run by
+#: ``run(name, out, variant=...)`` (``kinserve demo NAME --planned``); not part of ``kinserve demo all``.
+VARIANTS: dict[str, dict[str, tuple[str, str]]] = {
+    "pick-place": {"planned": ("kinserve.scenarios.pick_place_planned",
+                               "S4 planned: the cylinder carried on a planned motion around the open box, "
+                               "straight-line approach / retreat, clearance along the whole trajectory")},
+}
+
 
 def available() -> dict[str, str]:
     """Scenario names with their one-line descriptions."""
     return {name: desc for name, (_, desc) in SCENARIOS.items()}
 
 
-def run(name: str, out, **options) -> dict:
-    """Run scenario ``name`` into folder ``out`` (created), write ``result.json``, return the result."""
+def run(name: str, out, variant: str | None = None, **options) -> dict:
+    """Run scenario ``name`` (its ``variant`` of :data:`VARIANTS` when given) into folder ``out`` (created),
+    write ``result.json``, return the result."""
     from kinserve.kinematics.errors import InputError, suggest
 
     if name not in SCENARIOS:
         raise InputError(f"unknown scenario {name!r}.{suggest(name, SCENARIOS)} Known: "
                          f"{', '.join(SCENARIOS)}")
+    if variant is not None and variant not in VARIANTS.get(name, {}):
+        raise InputError(f"scenario {name!r} has no variant {variant!r}; its variants: "
+                         f"{sorted(VARIANTS.get(name, {}))}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    module = importlib.import_module(SCENARIOS[name][0])
+    module = importlib.import_module(SCENARIOS[name][0] if variant is None else VARIANTS[name][variant][0])
     t0 = time.perf_counter()
     result = module.run(out, **options)
     result = dict(result)
     result.setdefault("scenario", name)
+    if variant is not None:
+        result.setdefault("variant", variant)
     result["elapsed_s"] = round(time.perf_counter() - t0, 3)
     write_json(out / "result.json", result)
     return result

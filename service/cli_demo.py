@@ -18,16 +18,21 @@ def cmd_demo(args) -> int:
     """``kinserve demo``: run one scenario (or all) into ``--out``; returns the exit status."""
     from kinserve import scenarios
 
+    variant = "planned" if getattr(args, "planned", False) else None
     names = list(scenarios.SCENARIOS) if args.name == "all" else [args.name]
+    if variant is not None and args.name == "all":
+        names = [n for n in names if variant in scenarios.VARIANTS.get(n, {})]
     out = Path(args.out)
     results = {}
     for name in names:
-        folder = out / name
-        result = scenarios.run(name, folder)
-        results[name] = result
+        label = name if variant is None else f"{name}-{variant}"
+        folder = out / label
+        result = scenarios.run(name, folder, variant=variant)
+        results[label] = result
         if args.json:
             continue
-        print(f"[{name}] {scenarios.SCENARIOS[name][1]}")
+        desc = scenarios.SCENARIOS[name][1] if variant is None else scenarios.VARIANTS[name][variant][1]
+        print(f"[{label}] {desc}")
         print(f"    {_summary(result)}")
         for path in sorted(folder.iterdir()):
             print(f"    {path}")
@@ -52,4 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", default="demo-out", help="output folder (default ./demo-out)")
     p.add_argument("--open", action="store_true", help="open each scene.html in the default browser")
     p.add_argument("--json", action="store_true", help="print all results as JSON")
+    p.add_argument("--planned", action="store_true",
+                   help="run the planned variant into OUT/NAME-planned (pick-place: the cylinder carried on "
+                        "a planned motion around the box); with all, every scenario that has one")
     p.set_defaults(func=cmd_demo)
