@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,9 @@ from .fields import FieldError, field
 from .lifeline import follow_parent
 from .robot_pool import RobotPool
 from .settings import ServiceSettings
+
+if TYPE_CHECKING:
+    from kinserve.planners import JointTrajectory
 
 #: IK budget (s) of a request that names no ``max_time``.
 DEFAULT_MAX_TIME = 0.5
@@ -248,7 +252,7 @@ def solve_ik_batch(deadline: Deadline, req: S.IKBatchRequest) -> dict:
             "stop_reason": "completed" if attempted == len(out) else "time_cap"}
 
 
-def trajectory_out(traj) -> dict:
+def trajectory_out(traj: JointTrajectory) -> dict:
     """A :class:`~kinserve.planners.JointTrajectory` as the JSON-ready dict of
     :class:`~kinserve.service.schemas.JointTrajectoryOut`."""
     return {

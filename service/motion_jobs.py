@@ -9,6 +9,8 @@ own, so an error answer names it (``start``, ``goal``, ``frame``,
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pinocchio as pin
 
@@ -20,6 +22,9 @@ from .collision_endpoint import obstacles_of
 from .executor import Deadline
 from .fields import FieldError, field
 from .jobs import robot_of, trajectory_out
+
+if TYPE_CHECKING:
+    from kinserve.planners import MotionPlan
 
 #: Plan budget (s) of a request that names no ``max_time`` (``plan_motion``'s default), before the cap.
 DEFAULT_PLAN_TIME = 1.0
@@ -47,7 +52,7 @@ def carrying(robot: Robot, specs: list[M.AttachedSpec]) -> Robot:
     return robot
 
 
-def goal_of(goal) -> np.ndarray | pin.SE3:
+def goal_of(goal: list | M.PositionQuaternion | M.PositionRPY) -> np.ndarray | pin.SE3:
     """The ``goal`` argument of ``plan_motion``: a pose object as a ``pinocchio.SE3`` (always a pose), a list
     as an array (``plan_motion`` reads a 4x4 as a pose or a goal set by its own rule)."""
     if isinstance(goal, (M.PositionQuaternion, M.PositionRPY)):
@@ -58,7 +63,7 @@ def goal_of(goal) -> np.ndarray | pin.SE3:
     return np.asarray(goal, dtype=float)
 
 
-def accelerations_of(robot: Robot, value) -> float | np.ndarray | None:
+def accelerations_of(robot: Robot, value: float | list[float] | None) -> float | np.ndarray | None:
     """``acceleration_limits``: None, one value, or one per joint (a 422 on the field for another length)."""
     if value is None or isinstance(value, float):
         return value
@@ -68,7 +73,7 @@ def accelerations_of(robot: Robot, value) -> float | np.ndarray | None:
     return np.asarray(value, dtype=float)
 
 
-def plan_out(plan, nq: int) -> dict:
+def plan_out(plan: MotionPlan, nq: int) -> dict:
     """A :class:`~kinserve.planners.MotionPlan` as the JSON-ready dict of
     :class:`~service.motion_schemas.MotionPlanResponse` (a trajectory over the sample limit left out)."""
     message = str(plan.message)

@@ -2,7 +2,7 @@
 
 A real ``kinserve serve`` is killed while busy - SIGTERM then SIGKILL 2 s later, or SIGKILL alone - right
 after it answers ``/health`` (its solver processes are then still starting: the race that left orphans)
-and while slow requests run; every process that descended from it (seen in ``/proc`` while it lived) must
+and while slow plans run; every process that descended from it (seen in ``/proc`` while it lived) must
 be gone within 5 s. A server stopped with SIGTERM prints no warning (issue 24: no "leaked semaphore").
 """
 
@@ -17,11 +17,11 @@ import httpx
 import pytest
 
 from process_leaks import alive, command_line, parent_of, wait_gone
+from service_scenes import ASIDE, READY, cage
 from service_server import Server
 
-#: An /ik request that runs for its whole max_time (the target is out of reach).
-SLOW_IK = {"robot": "panda", "target": [[1, 0, 0, 3.0], [0, 1, 0, 0], [0, 0, 1, 0.5], [0, 0, 0, 1]],
-           "max_time": 1.0}
+#: A plan that searches for its whole max_time (the hand is caged).
+SLOW_PLAN = {"robot": "panda", "start": READY, "goal": ASIDE, "obstacles": cage(), "max_time": 1.0}
 
 
 def descendants(root: int) -> set[int]:
@@ -61,7 +61,7 @@ class Watcher:
 def send_slow_requests(url: str, count: int) -> list[threading.Thread]:
     def one():
         try:
-            httpx.post(url + "/ik", json=SLOW_IK, timeout=30)
+            httpx.post(url + "/plan/motion", json=SLOW_PLAN, timeout=30)
         except httpx.HTTPError:
             pass  # the server was killed under it
 
