@@ -2,6 +2,7 @@
 
     .venv/bin/python benchmarks/bench_motion.py --dataset /work/shared/datasets/motion-bench-maker \\
         --out bench-out/motion.json [--sets cage,box] [--n 10]
+    .venv/bin/python benchmarks/bench_motion.py --pose-goals --planners kinserve   # + pose goals
 
 The dataset: the MotionBenchMaker problems (Chamzas et al., RA-L 2022) as VAMP ships them
 (``KavrakiLab/vamp``, ``resources/panda/``: ``problems.tar.bz2``, ``panda.urdf``, ``panda.srdf``,
@@ -20,7 +21,15 @@ and total (plan + simplify) times, measured by each planner around its own calls
 space, rad); the returned paths that an independent dense check (Pinocchio + coal on the dataset's
 meshes, no joint moving more than 0.5 mrad between checks; ``_motion_check.py``) finds invalid; for
 kinserve also the trajectory duration and the TOPP-RA time. The issue's targets are printed beside the
-figures. ``--pose-goals`` (goal = the pose of the goal configuration) is not implemented yet.
+figures.
+
+``--pose-goals`` adds the pose-goal variant, ``kinserve-pose``: the same problems with the goal given as
+the pose of the robot's tip (``robot.tip``) at the problem's goal configuration (FK), which
+``plan_motion`` turns into a goal set of collision-free IK solutions; peers keep their joint goals. Its
+total counts the IK too (IK + plan + simplify, against the same budget), its IK time is reported, and
+``pose missed`` counts returned paths whose last waypoint is off the pose (> 1e-4 m or 1e-3 rad). The run
+writes ``bench-out/motion_pose.json`` (unless ``--out``) and, after a full run, the ``motion_pose``
+section of docs/benchmarks.md - the joint-goal table with the peers (``motion``) is left as it is.
 """
 
 from __future__ import annotations
@@ -34,9 +43,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 from _motion_check import DENSE_STEP, DenseChecker
 from _motion_peers import start_motion_peer
-from render_tables import render_motion, write_section
+from render_tables import render_motion, render_motion_pose, write_section
 
 from kinserve import robots
 from kinserve.planners.motion import plan_motion
@@ -48,6 +58,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SETS = ("table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall", "bookshelf_thin",
         "cage")
 PLANNERS = ("kinserve", "roboplan", "ompl")
+#: The pose-goal variant's name among the planners (``--pose-goals``).
+POSE = "kinserve-pose"
+#: A pose-goal path ends on the pose when its last waypoint is within these (m, rad).
+POSE_TOL = (1e-4, 1e-3)
 #: The issue's targets (ms / counts); the stretch is VAMP's figure times ten.
 TARGETS = {"solved_of_700": 699, "median_total_ms": 10.0, "cage_median_total_ms": 25.0,
            "stretch_median_total_ms": 3.3}
@@ -67,7 +81,7 @@ class Problem:
 
 @dataclass
 class Outcome:
-    """One planner's answer to one problem (times in s, length in rad)."""
+    """One planner's answer to one problem (times in s, length in rad; ``ik_s``: a pose goal's IK)."""
 
     success: bool
     path: np.ndarray
@@ -78,10 +92,11 @@ class Outcome:
     toppra_s: float | None = None
     invalid: bool | None = None
     extra: dict = field(default_factory=dict)
+    ik_s: float = 0.0
 
     @property
     def total_s(self) -> float:
-        return self.plan_s + self.simplify_s
+        return self.ik_s + self.plan_s + self.simplify_s
 
     @property
     def length(self) -> float:
@@ -135,18 +150,32 @@ def load_problems(problems: Path, robot, sets=SETS, n: int | None = None) -> lis
 
 
 # --------------------------------------------------------------------------- planners
-def run_kinserve(robot, problem: Problem, max_time: float | None,
-                 max_iterations: int | None = None) -> Outcome:
+def pose_error(robot, q: np.ndarray, T: np.ndarray) -> tuple[float, float]:
+    """(position (m), orientation (rad)) error of ``robot.tip`` at ``q`` from the pose ``T``."""
+    F = robot.fk(q)
+    rotation = pin.log3(T[:3, :3] @ F[:3, :3].T)
+    return float(np.linalg.norm(F[:3, 3] - T[:3, 3])), float(np.linalg.norm(rotation))
+
+
+def run_kinserve(robot, problem: Problem, max_time: float | None, max_iterations: int | None = None,
+                 pose: bool = False) -> Outcome:
     """``plan_motion`` on one problem; the times are its own stats (``max_iterations``: for tests, whose
-    answers may not depend on the machine's speed)."""
-    plan = plan_motion(robot, problem.start, problem.goal, obstacles=problem.obstacles, max_time=max_time,
+    answers may not depend on the machine's speed). ``pose``: the goal is the pose of ``robot.tip`` at the
+    problem's goal configuration (its end's pose error in ``extra["pose_error"]``)."""
+    goal = robot.fk(problem.goal) if pose else problem.goal
+    plan = plan_motion(robot, problem.start, goal, obstacles=problem.obstacles, max_time=max_time,
                        seed=problem.seed, max_iterations=max_iterations)
     s = plan.stats
     duration = plan.trajectory.duration if plan.trajectory is not None else None
+    extra = {"raw_waypoints": len(plan.raw_path), "checks": s.get("checks")}
+    if pose:
+        extra.update(goal_set=len(plan.goals), ik_starts=s.get("ik_starts"))
+        if plan.success:
+            extra["pose_error"] = pose_error(robot, plan.path[-1], goal)
     return Outcome(bool(plan.success), np.asarray(plan.path), float(s.get("plan_time", 0.0)),
                    float(s.get("simplify_time", 0.0)), plan.message, duration,
                    float(s.get("parameterize_time", 0.0)) if plan.success else None,
-                   extra={"raw_waypoints": len(plan.raw_path), "checks": s.get("checks")})
+                   extra=extra, ik_s=float(s.get("ik_time", 0.0)))
 
 
 def run_peer(worker, problem: Problem, max_time: float) -> Outcome:
@@ -180,6 +209,9 @@ def start_planners(robot, dataset: Path, names) -> dict:
     for name in names:
         if name == "kinserve":
             planners[name] = lambda p, t: run_kinserve(robot, p, t)
+            continue
+        if name == POSE:
+            planners[name] = lambda p, t: run_kinserve(robot, p, t, pose=True)
             continue
         worker = start_motion_peer(name, peer_setup(name, dataset, 0))
         if worker is not None:
@@ -230,8 +262,9 @@ def _ms(values) -> tuple[float | None, float | None]:
 def figures(results: list[Outcome], max_time: float | None = None) -> dict:
     """Counts, median / p95 times (ms) over the solved problems, median length, invalid paths.
 
-    ``solved``: paths returned; ``within_budget``: those whose plan + simplify time was at most
-    ``max_time`` (all of them when ``max_time`` is None) - the count the targets judge.
+    ``solved``: paths returned; ``within_budget``: those whose total (IK + plan + simplify) time was at most
+    ``max_time`` (all of them when ``max_time`` is None) - the count the targets judge. Pose goals add
+    ``ik_median_ms`` / ``ik_p95_ms``, ``goal_set_median`` and ``pose_missed`` (paths ending off the pose).
     """
     solved = [r for r in results if r.success]
     within = [r for r in solved if max_time is None or r.total_s <= max_time]
@@ -239,12 +272,24 @@ def figures(results: list[Outcome], max_time: float | None = None) -> dict:
     for key, attr in (("plan", "plan_s"), ("simplify", "simplify_s"), ("total", "total_s")):
         out[f"{key}_median_ms"], out[f"{key}_p95_ms"] = _ms(getattr(r, attr) for r in solved)
     out["length_median"] = float(np.median([r.length for r in solved])) if solved else None
+    if any("goal_set" in r.extra for r in results):
+        out.update(_pose_figures(results, solved))
     out["invalid"] = sum(1 for r in solved if r.invalid)
     out["checked"] = sum(1 for r in solved if r.invalid is not None)
     if any(r.duration_s is not None for r in solved):
         durations = [r.duration_s for r in solved if r.duration_s is not None]
         out["duration_median_s"] = float(np.median(durations))
         out["toppra_median_ms"], out["toppra_p95_ms"] = _ms(r.toppra_s for r in solved)
+    return out
+
+
+def _pose_figures(results: list[Outcome], solved: list[Outcome]) -> dict:
+    """The pose variant's extra figures (see :func:`figures`)."""
+    out = {}
+    out["ik_median_ms"], out["ik_p95_ms"] = _ms(r.ik_s for r in results)
+    out["goal_set_median"] = float(np.median([r.extra["goal_set"] for r in results]))
+    errors = [r.extra.get("pose_error", (np.inf, np.inf)) for r in solved]
+    out["pose_missed"] = sum(1 for e in errors if e[0] > POSE_TOL[0] or e[1] > POSE_TOL[1])
     return out
 
 
@@ -287,15 +332,16 @@ def _fmt(v, unit="") -> str:
 def print_table(summary: dict, met: dict) -> None:
     rows = [("overall", summary["overall"])] + list(summary["per_set"].items())
     print(f"\n{'set':<18} {'planner':<9} {'solved':>9} {'plan ms':>15} {'simplify ms':>15} {'total ms':>15} "
-          f"{'length':>7} {'invalid':>7} {'traj s':>7} {'toppra ms':>9}")
+          f"{'length':>7} {'invalid':>7} {'traj s':>7} {'toppra ms':>9} {'ik ms':>7}")
     for label, per_planner in rows:
         for name, f in per_planner.items():
             times = " ".join(f"{_fmt(f[f'{k}_median_ms']) + '/' + _fmt(f[f'{k}_p95_ms']):>15}"
                              for k in ("plan", "simplify", "total"))
             print(f"{label:<18} {name:<9} {f['within_budget']:>4}/{f['n']:<4} {times} "
                   f"{_fmt(f['length_median']):>7} {f['invalid']:>3}/{f['checked']:<3} "
-                  f"{_fmt(f.get('duration_median_s')):>7} {_fmt(f.get('toppra_median_ms')):>9}")
-    print("  (solved = paths returned within the budget, plan + simplify; median/p95 over all returned "
+                  f"{_fmt(f.get('duration_median_s')):>7} {_fmt(f.get('toppra_median_ms')):>9} "
+                  f"{_fmt(f.get('ik_median_ms')):>7}")
+    print("  (solved = paths returned within the budget, IK + plan + simplify; median/p95 over all returned "
           "paths; invalid = returned paths the dense check rejects)")
     for k, v in met.items():
         print(f"  target {k}: {'met' if v else 'NOT met'}")
@@ -305,7 +351,8 @@ def print_table(summary: dict, met: dict) -> None:
 def _record(o: Outcome) -> dict:
     """One planner's answer to one problem in the JSON (the path too, for a later look)."""
     return {"success": o.success, "plan_ms": o.plan_s * 1e3, "simplify_ms": o.simplify_s * 1e3,
-            "length": o.length, "invalid": o.invalid, "message": o.message, "path": o.path.tolist()}
+            "ik_ms": o.ik_s * 1e3, "length": o.length, "invalid": o.invalid, "message": o.message,
+            "path": o.path.tolist(), **{k: o.extra[k] for k in ("goal_set", "pose_error") if k in o.extra}}
 
 
 def run(dataset: Path, sets=SETS, n: int | None = None, planners=PLANNERS, max_time: float = 1.0,
@@ -342,7 +389,8 @@ def main() -> None:
     ap.add_argument("--dataset", type=Path, default=Path("/work/shared/datasets/motion-bench-maker"),
                     help="folder with panda/problems.tar.bz2, panda.urdf, panda.srdf, meshes/ (VAMP's "
                          "resources/panda/ from KavrakiLab/vamp)")
-    ap.add_argument("--out", default="bench-out/motion.json", help="JSON output")
+    ap.add_argument("--out", default=None, help="JSON output (default bench-out/motion.json; "
+                                                "bench-out/motion_pose.json with --pose-goals)")
     ap.add_argument("--sets", default=",".join(SETS), help=f"comma-separated sets (default: all of {SETS})")
     ap.add_argument("--n", type=int, default=None, help="problems per set (default: all 100)")
     ap.add_argument("--planners", default=",".join(PLANNERS), help="comma-separated planners to run")
@@ -350,25 +398,25 @@ def main() -> None:
     ap.add_argument("--check-step", type=float, default=DENSE_STEP, help="dense check step (rad)")
     ap.add_argument("--docs", default=None, help="Markdown file whose motion section is rewritten (default: "
                                                  "docs/benchmarks.md after a full run, none after a subset)")
-    ap.add_argument("--pose-goals", action="store_true", help="goal = pose of the goal configuration "
-                                                              "(not implemented yet)")
+    ap.add_argument("--pose-goals", action="store_true",
+                    help=f"also run {POSE}: kinserve with goal = the tip's pose at the goal configuration")
     args = ap.parse_args()
-    if args.pose_goals:
-        print("SKIP --pose-goals: pose goals are not implemented yet (plan_motion's pose goals come with a "
-              "later issue); nothing was run")
-        return
     sets = tuple(s for s in args.sets.split(",") if s)
     unknown = sorted(set(sets) - set(SETS))
     if unknown:
         raise SystemExit(f"unknown sets {unknown}; the sets are {SETS}")
-    doc = run(args.dataset, sets, args.n, tuple(args.planners.split(",")), args.max_time,
-              check_step=args.check_step)
+    names = tuple(p for p in args.planners.split(",") if p)
+    if args.pose_goals:
+        names = tuple(dict.fromkeys(("kinserve",) + names + (POSE,)))
+    doc = run(args.dataset, sets, args.n, names, args.max_time, check_step=args.check_step)
     print_table({"overall": doc["overall"], "per_set": doc["per_set"]}, doc["targets_met"])
-    write_json(args.out, doc)
+    write_json(args.out or f"bench-out/motion{'_pose' if args.pose_goals else ''}.json", doc)
     docs = args.docs or (str(ROOT / "docs" / "benchmarks.md") if args.n is None and sets == SETS else None)
     if docs:
-        write_section(Path(docs), "motion", render_motion(doc))
-        print(f"wrote the motion table into {docs}")
+        section, lines = ("motion_pose", render_motion_pose(doc)) if args.pose_goals else \
+            ("motion", render_motion(doc))
+        write_section(Path(docs), section, lines)
+        print(f"wrote the {section} table into {docs}")
 
 
 if __name__ == "__main__":

@@ -4,10 +4,10 @@
         [--docs docs/benchmarks.md]
 
 Reads ``ik.json`` (bench_ik.py), ``ik_constrained.json`` (bench_ik_constrained.py),
-``collision.json`` (bench_collision.py) and ``motion.json`` (bench_motion.py) when
-present and prints one section per file: the per-solver table (success, median / p95 / mean, ratios) with the
-issue's targets in brackets and whether the run met them. "CPU" columns are
-``time.process_time`` around each solve (the worker's own, for peers in their
+``collision.json`` (bench_collision.py), ``motion.json`` and ``motion_pose.json`` (bench_motion.py, the
+second with ``--pose-goals``) when present and prints one section per file: the per-solver table (success,
+median / p95 / mean, ratios) with the issue's targets in brackets and whether the run met them. "CPU"
+columns are ``time.process_time`` around each solve (the worker's own, for peers in their
 venvs): on a shared machine a long solve is preempted, so wall times of long
 solves swell while short ones do not - read the CPU ratios alongside. Any other JSON file in
 the folder is listed with its numeric figures flattened (``a.b.c = value``), so
@@ -170,6 +170,42 @@ def render_motion(d: dict) -> list[str]:
     return out + _targets(d)
 
 
+def _pose_row(label: str, name: str, f: dict) -> str:
+    solved = f"{f.get('within_budget', f['solved'])}/{f['n']}"
+    late = f["solved"] - f.get("within_budget", f["solved"])
+    solved += f" (+{late} late)" if late else ""
+    goals = "pose" if "ik_median_ms" in f else "joint"
+    ik = f"{_ms(f.get('ik_median_ms'))} / {_ms(f.get('ik_p95_ms'))}" if goals == "pose" else "–"
+    missed = f"{f['pose_missed']}/{f['solved']}" if "pose_missed" in f else "–"
+    sizes = "–" if f.get("goal_set_median") is None else f"{f['goal_set_median']:g}"
+    return (f"| {label} | {goals} ({name}) | {solved} | {_ms(f.get('total_median_ms'))} / "
+            f"{_ms(f.get('total_p95_ms'))} | {ik} | {_ms(f.get('plan_median_ms'))} | "
+            f"{_ms(f.get('simplify_median_ms'))} | {sizes} | {f['invalid']}/{f['checked']} | {missed} |")
+
+
+def render_motion_pose(d: dict) -> list[str]:
+    """bench_motion.py --pose-goals: kinserve on the joint goals and on the goal poses, per set, overall."""
+    w = d["workload"]
+    out = [f"### Motion planning to pose goals (bench_motion.py --pose-goals): MotionBenchMaker Panda, "
+           f"{w['problems']} problems, {w['max_time_s']} s per problem", "", _machine(d), "",
+           "The same problems twice in one run, problem after problem: the joint goal, and the pose of the "
+           "robot's tip at that goal configuration (FK), which `plan_motion` turns into a goal set of up to "
+           "4 collision-free IK solutions more than 0.5 rad apart. Solved = a path returned with IK + plan + "
+           "simplify within the budget (+ late: after it); total = IK + plan + simplify, median / p95 over "
+           "every returned path; IK = the pose goal's IK time, median / p95 over every problem. Goal set = "
+           "median size. Invalid = returned paths the dense check rejects; pose missed = returned paths "
+           "whose last waypoint is more than 1e-4 m / 1e-3 rad off the pose.", "",
+           "| set | goals | solved | total median / p95 | IK median / p95 | plan median | simplify median | "
+           "goal set | invalid | pose missed |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for name, f in d["overall"].items():
+        out.append(_pose_row("**all**", name, f))
+    for label, per_planner in d["per_set"].items():
+        for name, f in per_planner.items():
+            out.append(_pose_row(label, name, f))
+    return out
+
+
 def write_section(path: Path, name: str, lines: list[str]) -> None:
     """Replace the ``<!-- name:begin -->`` .. ``<!-- name:end -->`` section of a Markdown file by ``lines``
     (appended when the file or the section does not exist yet)."""
@@ -198,7 +234,8 @@ def _flatten(prefix: str, v, out: list[str]) -> None:
 
 
 RENDERERS = {"ik.json": render_ik, "ik_constrained.json": render_ik_constrained,
-             "collision.json": render_collision, "motion.json": render_motion}
+             "collision.json": render_collision, "motion.json": render_motion,
+             "motion_pose.json": render_motion_pose}
 
 
 def render(folder: Path) -> str:
