@@ -100,14 +100,15 @@ LINE_TOL = (1e-6, 1e-5)
 
 
 # ------------------------------------------------------------------ scene
-def release_pose(release_xy=(0.52, 0.52), release_height: float = 0.10) -> tuple[np.ndarray, np.ndarray]:
+def release_pose(release_xy: tuple[float, float] = (0.52, 0.52), release_height: float = 0.10
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """``(flange pose, cylinder pose)`` of the release: the cylinder upright with its axis at
     ``release_xy`` (m) and its bottom ``release_height`` m above the top of the box's floor plate, held as
     at the grasp (``flange = W_cyl_release W_cyl^-1 DOC_GRASP``)."""
     xy = np.asarray(release_xy, dtype=float)
     if xy.shape != (2,) or not np.all(np.isfinite(xy)):
         raise InputError(f"release_xy must be two finite numbers (m), got {release_xy!r}")
-    if not (np.isfinite(release_height) and release_height >= 0):
+    if not (isinstance(release_height, (int, float)) and np.isfinite(release_height) and release_height >= 0):
         raise InputError(f"release_height must be a number >= 0 (m), got {release_height!r}")
     floor_top = BOX_CENTRE[2] - BOX_SIZE / 2 + BOX_WALL
     cylinder = se3.pose(p=[xy[0], xy[1], floor_top + release_height + CYLINDER_HEIGHT / 2])
@@ -247,7 +248,7 @@ def join_stages(stages: list[Stage], joint_names: list[str], dwell: float,
     for a stage without motion). Each stage starts where the one before ended, at rest; the shared point is
     kept once, except after the stages in ``hold_after``, where the arm holds still ``dwell`` s (the
     gripper closing or opening)."""
-    if not (np.isfinite(dwell) and dwell >= 0):
+    if not (isinstance(dwell, (int, float)) and np.isfinite(dwell) and dwell >= 0):
         raise InputError(f"dwell must be a number >= 0 (s), got {dwell!r}")
     times, Q, V, A, spans = [], [], [], [], []
     t_end, hold = 0.0, 0.0
@@ -272,7 +273,7 @@ def join_stages(stages: list[Stage], joint_names: list[str], dwell: float,
 def dense_samples(traj: JointTrajectory, max_joint_step: float) -> tuple[np.ndarray, np.ndarray]:
     """``(t, Q)``: every point of ``traj`` and linear interpolation between consecutive points, so that no
     joint moves more than ``max_joint_step`` (rad) between two samples."""
-    if not (np.isfinite(max_joint_step) and max_joint_step > 0):
+    if not (isinstance(max_joint_step, (int, float)) and np.isfinite(max_joint_step) and max_joint_step > 0):
         raise InputError(f"max_joint_step must be a number > 0 (rad), got {max_joint_step!r}")
     t_out, q_out = [traj.times[:1]], [traj.positions[:1]]
     for k in range(traj.n_points - 1):
@@ -416,44 +417,18 @@ def _plots(out: Path, arm: Robot, traj: JointTrajectory, clearance: dict, spans:
     viz.save_png(clearance_figure(clearance, ev, marks_t), out / "clearance.png")
 
 
-def run(out: Path, *, approach: float = 0.12, release_xy=(0.52, 0.52), release_height: float = 0.10,
-        seed: int = 0, max_iterations: int = 2000, ik_budget: int = IK_BUDGET, dwell: float = 0.5,
-        max_joint_step: float = 0.01, fps: float = 30.0, scene: bool = True) -> dict:
-    """Run the planned S4 into ``out``; returns the key numbers (module docstring). ``max_iterations``: each
-    :func:`planners.plan_motion`'s RRT-Connect samples; ``ik_budget``: each pose IK's iterations; ``seed``:
-    every plan's, line's and IK's seed. A stage that fails ends the sequence: ``success`` is False,
-    ``failed_stage`` names it and no artefact but the result is written."""
-    out = Path(out)
-    panda = robots.load("panda")
-    arm = planning_arm(panda)
-    q_start = start_configuration(panda)[0]
-    release, cylinder_target = release_pose(release_xy, release_height)
-    seq, placed = plan_sequence(arm, q_start, release, approach=approach, seed=seed,
-                                max_iterations=max_iterations, ik_budget=ik_budget)
-    result = {"success": placed is not None and seq.stages[-1].name == "home"
-              and all(s.success for s in seq.stages)}
-    failed = next((s for s in seq.stages if not s.success), None)
-    if not result["success"]:
-        return {**result, "failed_stage": None if failed is None else failed.name,
-                "message": None if failed is None else failed.message,
-                "stages": [_stage_dict(s, (0.0, 0.0), None) for s in seq.stages], "q_start": q_start}
-    traj, span_list = join_stages(seq.stages, arm.joint_names, dwell)
-    spans = {s.name: sp for s, sp in zip(seq.stages, span_list)}
-    traj.save(out / "trajectory.json")
-    traj.save(out / "trajectory.csv")
-    grasp_t, release_t, lifted_t = spans["approach"][1], spans["lower"][1], spans["lift"][1]
-    t, Q = dense_samples(traj, max_joint_step)
-    carried = (t >= grasp_t - 1e-9) & (t <= release_t + 1e-9)
-    clearance = trajectory_clearance(arm, t, Q, seq.placement, carried, carried & (t >= lifted_t - 1e-9))
-    _plots(out, arm, traj, clearance, spans, grasp_t, release_t)
-    frames = write_scene(out, arm, traj, grasp_t, release_t, release, fps) if scene else 0
+def _report(arm: Robot, seq: Sequencer, placed: Cylinder, traj: JointTrajectory, spans: dict[str, Span],
+            t: np.ndarray, Q: np.ndarray, clearance: dict, cylinder_target: np.ndarray) -> dict:
+    """The result of a complete run (every stage succeeded), JSON-ready; scalars first: ``kinserve demo``
+    prints the first few."""
     final = placed.pose
     doc_ideal = DOC_RELEASE @ se3.inverse(DOC_GRASP) @ CYLINDER_POSE
     stages = [_stage_dict(s, spans[s.name], line_deviation(arm, t, Q, spans[s.name])
                           if s.kind == "plan_cartesian" else None) for s in seq.stages]
     minima = {k: v for k, v in clearance.items() if k.startswith("min_")}
-    return {  # scalars first: `kinserve demo` prints the first few
-        **result,
+    grasp_t, release_t = spans["approach"][1], spans["lower"][1]
+    return {
+        "success": True,
         "duration": traj.duration,
         **{k: minima[k] for k in ("min_arm_box_distance", "min_cylinder_box_distance",
                                   "min_arm_table_distance", "min_cylinder_table_distance")},
@@ -468,22 +443,48 @@ def run(out: Path, *, approach: float = 0.12, release_xy=(0.52, 0.52), release_h
         "stages": stages,
         "clearance": minima,
         "dense_samples": len(t),
-        "max_joint_step": max_joint_step,
         "trajectory_points": traj.n_points,
-        "animation_frames": frames,
-        "q_start": q_start,
         "q_final": traj.positions[-1],
-        "final_configuration_error": float(np.abs(traj.positions[-1] - q_start).max()),
         "cylinder_initial_pose": CYLINDER_POSE,
         "cylinder_final_pose": final,
         "cylinder_release_target": cylinder_target,
         "cylinder_document_ideal_pose": doc_ideal,
         "cylinder_pose_in_flange": seq.placement,
         "grasp_pose": DOC_GRASP,
-        "release_pose": release,
-        "approach": approach,
-        "dwell": dwell,
-        "seed": seed,
-        "max_iterations": max_iterations,
         "touch_links": list(TOUCH_LINKS),
     }
+
+
+def run(out: Path, *, approach: float = 0.12, release_xy: tuple[float, float] = (0.52, 0.52),
+        release_height: float = 0.10, seed: int = 0, max_iterations: int = 2000, ik_budget: int = IK_BUDGET,
+        dwell: float = 0.5, max_joint_step: float = 0.01, fps: float = 30.0, scene: bool = True) -> dict:
+    """Run the planned S4 into ``out``; returns the key numbers (module docstring). ``max_iterations``: each
+    :func:`planners.plan_motion`'s RRT-Connect samples; ``ik_budget``: each pose IK's iterations; ``seed``:
+    every plan's, line's and IK's seed. A stage that fails ends the sequence: ``success`` is False,
+    ``failed_stage`` names it and no artefact but the result is written."""
+    out = Path(out)
+    panda = robots.load("panda")
+    arm = planning_arm(panda)
+    q_start = start_configuration(panda)[0]
+    release, cylinder_target = release_pose(release_xy, release_height)
+    seq, placed = plan_sequence(arm, q_start, release, approach=approach, seed=seed,
+                                max_iterations=max_iterations, ik_budget=ik_budget)
+    settings = {"q_start": q_start, "release_pose": release, "approach": approach, "dwell": dwell,
+                "seed": seed, "max_iterations": max_iterations, "ik_budget": ik_budget,
+                "max_joint_step": max_joint_step}
+    if placed is None or seq.stages[-1].name != "home" or not seq.stages[-1].success:
+        failed = next(s for s in seq.stages if not s.success)
+        return {"success": False, "failed_stage": failed.name, "message": failed.message,
+                "stages": [_stage_dict(s, (0.0, 0.0), None) for s in seq.stages], **settings}
+    traj, span_list = join_stages(seq.stages, arm.joint_names, dwell)
+    spans = {s.name: sp for s, sp in zip(seq.stages, span_list)}
+    traj.save(out / "trajectory.json")
+    traj.save(out / "trajectory.csv")
+    grasp_t, release_t, lifted_t = spans["approach"][1], spans["lower"][1], spans["lift"][1]
+    t, Q = dense_samples(traj, max_joint_step)
+    carried = (t >= grasp_t - 1e-9) & (t <= release_t + 1e-9)
+    clearance = trajectory_clearance(arm, t, Q, seq.placement, carried, carried & (t >= lifted_t - 1e-9))
+    _plots(out, arm, traj, clearance, spans, grasp_t, release_t)
+    frames = write_scene(out, arm, traj, grasp_t, release_t, release, fps) if scene else 0
+    return {**_report(arm, seq, placed, traj, spans, t, Q, clearance, cylinder_target),
+            "animation_frames": frames, **settings}
