@@ -83,7 +83,7 @@ def plan_out(plan: MotionPlan, nq: int) -> dict:
                     f"{M.MAX_TRAJECTORY_POINTS} (raise acceleration_limits for a shorter motion)")
         traj = None
     stats = {str(k): v if isinstance(v, str) else float(v) if isinstance(v, (float, np.floating)) else int(v)
-             for k, v in plan.stats.items()}
+             for k, v in plan.stats.items() if v is not None}
     goals = np.zeros((0, nq)) if plan.goals is None else plan.goals
     return {"success": bool(plan.success), "message": message, "path": np.asarray(plan.path).tolist(),
             "trajectory": None if traj is None else trajectory_out(traj), "goal_index": int(plan.goal_index),
