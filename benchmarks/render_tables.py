@@ -183,6 +183,15 @@ def _pose_row(label: str, name: str, f: dict) -> str:
             f"{_ms(f.get('simplify_median_ms'))} | {sizes} | {f['invalid']}/{f['checked']} | {missed} |")
 
 
+def _load(d: dict) -> str:
+    """A sentence on the machine's load average at the end of the run ("" when the JSON has none)."""
+    load = d.get("machine", {}).get("load_average")
+    if not load:
+        return ""
+    return (f" The machine was shared with other jobs: load average {', '.join(f'{x:.1f}' for x in load)} "
+            f"(1, 5, 15 min) at the end of the run, on {d['machine'].get('cores', '?')} cores.")
+
+
 def render_motion_pose(d: dict) -> list[str]:
     """bench_motion.py --pose-goals: kinserve on the joint goals and on the goal poses, per set, overall."""
     w = d["workload"]
@@ -194,7 +203,7 @@ def render_motion_pose(d: dict) -> list[str]:
            "simplify within the budget (+ late: after it); total = IK + plan + simplify, median / p95 over "
            "every returned path; IK = the pose goal's IK time, median / p95 over every problem. Goal set = "
            "median size. Invalid = returned paths the dense check rejects; pose missed = returned paths "
-           "whose last waypoint is more than 1e-4 m / 1e-3 rad off the pose.", "",
+           "whose last waypoint is more than 1e-4 m / 1e-3 rad off the pose." + _load(d), "",
            "| set | goals | solved | total median / p95 | IK median / p95 | plan median | simplify median | "
            "goal set | invalid | pose missed |",
            "|---|---|---|---|---|---|---|---|---|---|"]
