@@ -460,6 +460,45 @@ def _rate_radius(gap, rate):
     return gap / rate
 
 
+@_inline
+def _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
+    """True when ``qa``, ``qb`` have one entry per joint and the rate tables cover every joint, sphere row
+    (bounding and cover spheres) and pair of the packed scene."""
+    n = joints.shape[0]
+    rows = sphere_reach.shape[0]
+    if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or pair_reach.shape[1] != n \
+            or pair_reach.shape[0] != pairs.shape[0] or rows > spheres.shape[0]:
+        return False
+    for g in range(geoms.shape[0]):
+        if geoms[g, 2] > rows or g >= rows:  # a sphere without its rates
+            return False
+    return True
+
+
+@_inline
+def _motion_rates(joints, sphere_reach, pair_reach, S, qa, qb):
+    """``(v, w)`` of the straight motion ``qa -> qb`` (``u = qb - qa``): per sphere row ``c``,
+    ``v[c] = sum_k sphere_reach[c, k] |u_k|`` (m per unit of the motion's parameter; ``(S,)``, 0 beyond the
+    table's rows), and per pair-table row ``p``, ``w[p] = sum_k pair_reach[p, k] |u_k|``."""
+    n = joints.shape[0]
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    v = np.zeros(S)
+    for c in range(sphere_reach.shape[0]):
+        acc = 0.0
+        for k in range(n):
+            acc += sphere_reach[c, k] * du[k]
+        v[c] = acc
+    w = np.zeros(pair_reach.shape[0])
+    for p in range(pair_reach.shape[0]):
+        acc = 0.0
+        for k in range(n):
+            acc += pair_reach[p, k] * du[k]
+        w[p] = acc
+    return v, w
+
+
 @_jit
 def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit, tol, X, W, placed,
                    stamp):
@@ -536,29 +575,10 @@ def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarra
     n = joints.shape[0]
     out = np.zeros(4)
     out[1], out[3] = 1.0, -1.0
-    rows = sphere_reach.shape[0]
-    if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or pair_reach.shape[1] != n \
-            or pair_reach.shape[0] != pairs.shape[0] or rows > spheres.shape[0] \
-            or skip.shape[0] != pairs.shape[0]:
+    if skip.shape[0] != pairs.shape[0] or not _rates_fit(joints, spheres, geoms, pairs, sphere_reach,
+                                                         pair_reach, qa, qb):
         return out
-    for g in range(geoms.shape[0]):
-        if geoms[g, 2] > rows or g >= rows:  # a sphere without its rates: nothing is certified
-            return out
-    du = np.empty(n)
-    for k in range(n):
-        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
-    v = np.zeros(spheres.shape[0])
-    for c in range(rows):
-        acc = 0.0
-        for k in range(n):
-            acc += sphere_reach[c, k] * du[k]
-        v[c] = acc
-    w = np.zeros(pairs.shape[0])
-    for p in range(pairs.shape[0]):
-        acc = 0.0
-        for k in range(n):
-            acc += pair_reach[p, k] * du[k]
-        w[p] = acc
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     q = np.empty(n)
     lo, hi = 0.0, 1.0
@@ -587,8 +607,156 @@ def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarra
     return out
 
 
+@_inline
+def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol):
+    """The certified radius of pair-table row ``p`` alone at the configuration placed in ``X`` / ``W``
+    (:func:`_motion_radius`'s, one pair): its bounding spheres' radius, or, when that one is below ``need``,
+    the larger of it and its cover spheres' (placed on first need, marked with ``stamp``)."""
+    a, b = pairs[p, 0], pairs[p, 1]
+    if pairs[p, 2] == SELF_PAIR:
+        r = _rate_radius(_gap(W, a, b) - tol, w[p])
+        if r >= need:
+            return r
+        _place_cover(X, spheres, geoms, a, W, placed, stamp)
+        _place_cover(X, spheres, geoms, b, W, placed, stamp)
+        return max(r, _rate_radius(_self_cover_gap(W, geoms, a, b) - tol, w[p]))
+    r = _rate_radius(_obstacle_gap(W, a, obstacles, b) - tol, v[a])
+    if r >= need:
+        return r
+    _place_cover(X, spheres, geoms, a, W, placed, stamp)
+    parts = math.inf
+    for i in range(geoms[a, 1], geoms[a, 2]):
+        parts = min(parts, _rate_radius(_obstacle_gap(W, i, obstacles, b) - tol, v[i]))
+        if parts <= r:
+            break
+    return max(r, parts)
+
+
+#: Pairs :func:`motion_hard_pairs` re-evaluates at a point: those whose certified front lies within this
+#: fraction of the side's last smallest radius (the others are certified well ahead).
+PAIR_HORIZON = 0.5
+
+
+@_jit
+def _pair_advance(X, W, placed, stamp, spheres, geoms, pairs, obstacles, v, w, tol, min_step, live, m,
+                  front, back, state, s, from_lo, horizon):
+    """One advance of :func:`motion_hard_pairs` at ``s`` (placements in ``X`` / ``W``) over the open pairs
+    ``live[:m]`` whose front (from below, ``from_lo``) or back lies within ``horizon`` of ``s``: their
+    radius ``r`` certifies ``[s - r, s + r]``, joined to ``[0, front]`` / ``[back, 1]`` (``s`` is inside
+    or at the end of it); a pair is certified (``state`` 1) when the two meet, hard (2) when ``r`` is below
+    ``min_step``. Returns the smallest radius found (``inf``: none) and the number of new hard pairs."""
+    best, hard = math.inf, 0
+    for t in range(m):
+        p = live[t]
+        if from_lo:
+            if front[p] > s + horizon:
+                continue
+            need = back[p] - s
+        else:
+            if back[p] < s - horizon:
+                continue
+            need = s - front[p]
+        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol)
+        if r < min_step:
+            state[p] = 2
+            hard += 1
+            continue
+        best = min(best, r)
+        if r >= need:
+            state[p] = 1
+        elif from_lo:
+            front[p] = max(front[p], s + r)
+        else:
+            back[p] = min(back[p], s - r)
+    return best, hard
+
+
+@_inline
+def _open_end(live, m, state, front, back, from_lo):
+    """Keep the open pairs (``state`` 0) of ``live[:m]`` at its start: ``(their count, the end to advance
+    from)``: the smallest front (``from_lo``) or the largest back."""
+    s = math.inf if from_lo else -math.inf
+    k = 0
+    for t in range(m):
+        p = live[t]
+        if state[p] == 0:
+            live[k] = p
+            k += 1
+            s = min(s, front[p]) if from_lo else max(s, back[p])
+    return k, s
+
+
+_HARD_SIGNATURE = _t.Array(_t.int64, 1, "C")(_F1, _I1, _F2, _F2, _Q1, _Q1, _t.float64, _t.float64, _t.int64,
+                                             _t.int64)
+
+
+@compiled(_HARD_SIGNATURE)
+def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
+                      qa: np.ndarray, qb: np.ndarray, tol: float, min_step: float, max_advances: int,
+                      max_hard: int) -> np.ndarray:
+    """The pairs the sphere bounds cannot certify over the straight motion ``q(s) = qa + s (qb - qa)``,
+    ``s`` in ``[0, 1]``: ``[h, advances, pair, ...]`` with the scene indices of the ``h`` hard pairs (every
+    other pair's lower bound stays above ``tol``, m, over the whole motion), or ``h = -1`` when more than
+    ``max_hard`` pairs are hard (or the arguments do not fit: ``[-1, 0, ...]``). Length ``max_hard + 2``,
+    -1 where unused.
+
+    Conservative advancement per pair (the rates ``v``, ``w`` and radii of :func:`certify_motion`): pair
+    ``p`` is certified on ``[0, front[p]]`` and ``[back[p], 1]``; an advance from below evaluates at ``s``,
+    the smallest front of the open pairs, the pairs whose front is within :data:`PAIR_HORIZON` of the last
+    smallest radius of ``s`` (at least those at ``s``: ``s <= front[p]``, so a radius ``r`` at ``s`` extends
+    the certified interval without a gap to ``s + r``); advances from above likewise, alternately. A pair is
+    certified once ``front[p] >= back[p]`` (the two intervals cover ``[0, 1]``); a pair whose radius falls
+    below ``min_step`` (fraction of the motion; also when its spheres are not apart) is hard, and so is
+    every pair still open after ``max_advances``. A pair far from everything is done in one or two
+    evaluations; only the close ones are advanced in small steps.
+    """
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n, P = joints.shape[0], pairs.shape[0]
+    out = np.full(max_hard + 2, -1, dtype=np.int64)
+    out[1] = 0
+    if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
+        return out
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    front, back = np.zeros(P), np.ones(P)
+    state = np.zeros(P, dtype=np.int64)  # 0 open, 1 certified, 2 hard
+    live = np.arange(P)
+    q = np.empty(n)
+    m, hard, advances, steps = P, 0, 0, np.zeros(2)
+    while hard <= max_hard:
+        from_lo = advances % 2 == 0
+        m, s = _open_end(live, m, state, front, back, from_lo)
+        if m == 0:
+            break
+        if advances >= max_advances:  # the open pairs are hard
+            hard += m
+            for t in range(m):
+                state[live[t]] = 2
+            break
+        for i in range(n):
+            q[i] = qa[i] + s * (qb[i] - qa[i])
+        tree_placements(tree, joints, q, X)
+        for g in range(geoms.shape[0]):
+            _place(X, geoms[g, 0], spheres, g, W)
+        best, new = _pair_advance(X, W, placed, advances, spheres, geoms, pairs, obstacles, v, w, tol,
+                                  min_step, live, m, front, back, state, s, from_lo, steps[advances % 2])
+        hard += new
+        if best < math.inf:
+            steps[advances % 2] = PAIR_HORIZON * best
+        advances += 1
+    out[1] = advances
+    if hard > max_hard:
+        return out
+    out[0] = hard
+    k = 2
+    for p in range(P):
+        if state[p] == 2:
+            out[k] = pairs[p, 3]
+            k += 1
+    return out
+
 
 __all__ = ["BALL", "BOX", "CAPSULE", "CYLINDER", "EXACT", "KIND", "LIPSCHITZ_SAFETY", "MARGIN_CAP",
-           "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE", "certainly_colliding",
-           "certify_configuration", "certify_configurations", "certify_motion", "first_uncertified",
-           "pair_lower_bounds", "placed_floats", "tree_placements"]
+           "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "PAIR_HORIZON", "SELF_PAIR", "TOLERANCE",
+           "certainly_colliding", "certify_configuration", "certify_configurations", "certify_motion",
+           "first_uncertified", "motion_hard_pairs", "pair_lower_bounds", "placed_floats", "tree_placements"]

@@ -21,13 +21,15 @@ Three stages, cheapest first:
 
 1. the scene's broad-phase / sphere pre-check ``in_collision`` at :data:`PROBES`
    interior points rejects most bad edges before any distance is asked;
-2. the same advancement on the sphere bounds alone, in one compiled call
-   (:func:`~kinserve.kinematics.precheck_kernels.certify_motion`: per sphere
-   centre the rate ``sum_k R[s, k] |u_k|`` of
+2. the same advancement on the sphere bounds alone, pair by pair, in one
+   compiled call (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`:
+   per sphere centre the rate ``sum_k R[s, k] |u_k|`` of
    :func:`~kinserve.kinematics.robot_spheres.sphere_reach`, tighter than the
-   geometry's), certifies every pair it can; a pair whose spheres stop it (their
-   bound too small to advance) is handed over, and the call repeated without it,
-   for up to :data:`HARD_PAIRS` pairs (:meth:`EdgeCertifier.hard_pairs`);
+   geometry's; each pair keeps its own certified ends, so a pair far from
+   everything is done in one or two evaluations and only the close ones advance
+   in small steps), certifies every pair it can; the pairs whose spheres stop
+   (their bound too small to advance) are handed over, up to
+   :data:`HARD_PAIRS` of them (:meth:`EdgeCertifier.hard_pairs`);
 3. the handed-over pairs alone advance on coal's exact distances
    (:meth:`EdgeCertifier.certify_pairs`). Each stage certifies its pairs over the
    whole edge, so together they certify every pair. When the spheres hand over
@@ -39,14 +41,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from kinserve.kinematics.precheck_kernels import motion_hard_pairs
+
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
 #: Interior points ``s`` probed by the cheap collision check before the advancement.
 PROBES = (0.5, 0.25, 0.75)
-#: Most advances of the sphere advancement of one edge (:meth:`EdgeCertifier.hard_pairs`).
-SPHERE_ADVANCES = 256
+#: Most advances of the sphere advancement of one edge (:meth:`EdgeCertifier.hard_pairs`; an advance
+#: evaluates the pairs due at one point, often a few): the pairs still open after them are handed over.
+SPHERE_ADVANCES = 1024
 #: Most pairs of one edge the spheres hand over to coal's distances (:meth:`EdgeCertifier.hard_pairs`).
 HARD_PAIRS = 4
 #: The sphere advancement hands over to the exact one at a radius below this (fraction of the edge).
@@ -101,24 +106,17 @@ class EdgeCertifier:
 
     def hard_pairs(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
         """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``: every other
-        pair is certified over the whole motion on the sphere bounds alone
-        (:func:`~kinserve.kinematics.precheck_kernels.certify_motion`, one compiled call per pair handed
-        over, at most :data:`HARD_PAIRS`); None when they do not get there (no sphere pre-check, too many
-        pairs, or the advance ran out of steps): every pair is then checked exactly."""
+        pair is certified over the whole motion on the sphere bounds alone, in one compiled call
+        (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`); None when they do not get there
+        (no sphere pre-check, or more than :data:`HARD_PAIRS` pairs left): every pair is then checked
+        exactly."""
         pre = self.oracle.precheck
         if pre is None:
             return None
-        skip = np.zeros(self.oracle.n_pairs, dtype=bool)
-        for _ in range(HARD_PAIRS + 1):
-            self.oracle.checks += 1
-            lo, hi, _, stop = pre.certify_motion(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, skip,
-                                                 qa, qb, TOLERANCE, SPHERE_MIN_STEP, SPHERE_ADVANCES)
-            if lo >= hi:
-                return np.flatnonzero(skip)
-            if stop < 0 or skip[int(stop)]:
-                return None
-            skip[int(stop)] = True
-        return None
+        self.oracle.checks += 1
+        out = motion_hard_pairs(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, qa, qb, TOLERANCE,
+                                SPHERE_MIN_STEP, SPHERE_ADVANCES, HARD_PAIRS)
+        return None if out[0] < 0 else out[2:2 + out[0]]
 
     def certify(self, a: Clearance, b: Clearance, *, probe: bool = True,
                 max_advances: int = MAX_ADVANCES) -> bool:
