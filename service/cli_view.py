@@ -44,7 +44,7 @@ def cmd_view(args: argparse.Namespace) -> int:
         print(f"wrote {path}")
         return 0
     try:
-        serve(scene, zmq_url=args.zmq_url, announce=lambda line: print(line, flush=True))
+        serve(scene, zmq_url=args.zmq_url, host=args.host, announce=lambda line: print(line, flush=True))
         status = 0
     except SystemExit as exc:  # SIGTERM / SIGHUP: the server is stopped already, exit 128 + signal
         status = exc.code if isinstance(exc.code, int) else 1
@@ -66,6 +66,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="write a self-contained HTML page instead of serving, its folder must exist "
                         "(default: serve live)")
     p.add_argument("--zmq-url", help="use an existing meshcat server (default: start one)")
+    p.add_argument("--host", default=None,
+                   help="address the started viewer's page listens on; 0.0.0.0 lets other machines open it "
+                        "(default: 127.0.0.1, this machine only)")
     p.add_argument("--collision", action="store_true",
                    help="also draw the robot's collision shapes, colliding ones red")
     add_obstacle_args(p, "all drawn, the ones the robot touches in red")

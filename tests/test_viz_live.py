@@ -136,10 +136,10 @@ def test_host_moves_the_page_and_serve_says_where_it_listens(scene):
                 break
             threading.Event().wait(0.05)
         (line,) = lines
-        m = re.search(r"(http://127\.0\.0\.2:(\d+)/static/) +\(listening on 127\.0\.0\.2:(\d+); "
-                      r"meshcat server pid (\d+);", line)
-        assert m and m.group(2) == m.group(3), line
-        url, port, pid = m.group(1), int(m.group(2)), int(m.group(4))
+        m = re.search(r"(http://127\.0\.0\.2:(\d+)/static/) +\(meshcat server pid (\d+); "
+                      r"listening on 127\.0\.0\.2:(\d+);", line)
+        assert m and m.group(2) == m.group(4), line
+        url, port, pid = m.group(1), int(m.group(2)), int(m.group(3))
         web = {(ip, p) for ip, p in listening(pid) if p == port}
         assert web == {("127.0.0.2", port)}  # the page on the address asked for; ZeroMQ stays on 127.0.0.1
         assert all(ip == "127.0.0.1" for ip, p in listening(pid) if p != port)

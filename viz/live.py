@@ -327,7 +327,7 @@ def _where(viewer: LiveViewer) -> str:
         return ""
     host = viewer.bind.rsplit(":", 1)[0].strip("[]")
     reach = " - every interface: other machines can open it" if host in _WILDCARDS else ""
-    return f"listening on {viewer.bind}{reach}; meshcat server pid {viewer.server_pid}; "
+    return f"meshcat server pid {viewer.server_pid}; listening on {viewer.bind}{reach}; "
 
 
 @contextlib.contextmanager
