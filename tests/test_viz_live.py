@@ -46,6 +46,31 @@ def test_live_viewer_serves_the_scene(scene):
     assert not viewer.running and proc.poll() is not None
 
 
+def test_the_live_viewer_keeps_a_motion_plan_animation():
+    """viz.motion_plan_scene on the live server: its own export of the scene holds the same animation."""
+    import base64
+
+    import umsgpack
+
+    from kinserve.viz.animation import pose_at
+
+    arm = robots.load("planar4r")
+    a, b = np.zeros(4), np.array([1.0, 0.5, -0.5, 0.2])
+    plan_scene = viz.motion_plan_scene(arm, ([0.0, 1.0], np.vstack([a, b])), fps=10)
+    with viz.LiveViewer() as viewer:
+        viewer.show(plan_scene)
+        html = viewer.static_html()
+    blobs = re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+    (anim,) = [c for c in map(umsgpack.unpackb, map(base64.b64decode, blobs)) if c["type"] == "set_animation"]
+    g = arm.visual_model.geometryObjects[-1]  # the last link's mesh
+    path = "/meshcat/planar4r/visuals/" + g.name
+    for k in (0, 5, 10):  # frame k at t = k / 10 s on the straight line from a to b
+        q = a + (b - a) * k / 10
+        np.testing.assert_allclose(pose_at(anim, path, k),
+                                   arm.fk(q, arm.model.names[g.parentJoint]) @ g.placement.homogeneous,
+                                   atol=1e-9)
+
+
 def test_serve_announces_and_stops(scene):
     lines, stop = [], threading.Event()
     result = {}
