@@ -47,7 +47,7 @@ from typing import NamedTuple
 from kinserve.ik.options import CLASSICAL_METHODS
 from kinserve.ik.request import SolveRequest
 from kinserve.ik.result import Result
-from kinserve.ik.state import ik_state
+from kinserve.ik.state import frame_state
 from kinserve.ik.strategies.checked import checked_first
 from kinserve.ik.strategies.closed_form import closed_form
 from kinserve.ik.strategies.direct import classical, levenberg_marquardt, target_qp, task_qp
@@ -113,7 +113,7 @@ def features(req: SolveRequest) -> Features:
     if req.problem is not None:
         return Features("tasks", req.method, False, False, False, False)
     method = "classical" if req.method in CLASSICAL_METHODS else req.method
-    solver = ik_state(req.robot).closed_form(req.target.frame)
+    solver = frame_state(req.robot, req.target.frame).closed_form
     closed = solver is not None and solver.finite and solver.supports(req.target.relaxed)
     return Features("target", method, closed, req.avoid is not None, req.collision_constraint is not None,
                     req.weights is not None or bool(req.extra))

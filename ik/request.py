@@ -27,7 +27,6 @@ from kinserve.ik.arguments import (
 from kinserve.ik.collision.request import CollisionRequest, collision_request
 from kinserve.ik.constraints.base import Constraint
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
-from kinserve.ik.lm.solver import compiled_chain
 from kinserve.ik.obstacle_arguments import link_obstacles
 from kinserve.ik.options import (
     DEFAULT_TOL_POS,
@@ -82,28 +81,28 @@ def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = 
                  relax_frame: str = "world", method: str = "auto", tol_pos: float = DEFAULT_TOL_POS,
                  tol_rot: float = DEFAULT_TOL_ROT, max_time: float | None = None, seed: int | None = None,
                  options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
-    """The request of a pose target with every other argument at its default (the common call)."""
-    return SolveRequest(*_pose_fields(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot,
-                                      max_time, seed, options))
-
-
-def _pose_fields(robot: Robot, target: Any, q0: Any, frame: str | None, relax: Any, relax_frame: str,
-                 method: str, tol_pos: float, tol_rot: float, max_time: float | None, seed: int | None,
-                 options: Mapping[str, Any]) -> tuple:
-    """The fields of a pose request with the defaults of the rest, validated; the frame's state warmed."""
+    """The request of a pose target with every other argument at its default (the common call), validated;
+    the frame's IK state prepared (:meth:`kinserve.ik.state.IKState.frame`)."""
     # (the checks are skipped for the defaults, which pass them: the common call makes fewer calls)
     if type(robot) is not Robot:
         check_robot(robot)
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
     if tol_pos != DEFAULT_TOL_POS or tol_rot != DEFAULT_TOL_ROT:
         tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
-    fields = (robot, tgt, None, None if q0 is None else check_q0(robot, q0),
-              method if method == "auto" else check_method(method), DEFAULT_BACKEND, tol_pos, tol_rot,
-              None if max_time is None else check_max_time(max_time),
-              None if seed is None else check_seed(seed), None, None, (), None, None,
-              _checked_options(method, options) if options else _NO_OPTIONS)
-    _warm(robot, tgt, method)
-    return fields
+    if method != "auto":
+        check_method(method)
+    if options:
+        check_options(method, options)
+        options = MappingProxyType(dict(options))
+    else:
+        options = _NO_OPTIONS
+    req = SolveRequest(robot, tgt, None, None if q0 is None else check_q0(robot, q0), method, DEFAULT_BACKEND,
+                       tol_pos, tol_rot, None if max_time is None else check_max_time(max_time),
+                       None if seed is None else check_seed(seed), None, None, (), None, None, options)
+    state = robot.extensions.ik
+    if state is None or method == "analytic" or tgt.frame not in state.frames:
+        _warm(robot, tgt, method)
+    return req
 
 
 def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | None = None, relax: Any = (),
@@ -114,9 +113,9 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
                    self_collision: Any = False, collision_margin: Any = 0.0,
                    options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
     """The request of ``ik.solve(robot, target, ...)`` (see :func:`kinserve.ik.solve`)."""
-    fields = _pose_fields(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
-                          seed, options)
-    tgt = fields[1]
+    req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                       options)
+    tgt = req.target
     weights = None if type(centring) is float and centring == 0.0 else centring_weights(robot, centring)
     if weights is not None and method in NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
@@ -133,8 +132,8 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
                          "use 'qp' or 'auto'")
     extra = _extra_constraints(constraints, method, tgt.frame)
-    return SolveRequest(robot, tgt, None, fields[3], fields[4], check_backend(backend), fields[6], fields[7],
-                        fields[8], fields[9], weights, avoid, extra, collision, bound, fields[15])
+    return SolveRequest(robot, tgt, None, req.q0, method, check_backend(backend), req.tol_pos, req.tol_rot,
+                        req.max_time, req.seed, weights, avoid, extra, collision, bound, req.options)
 
 
 def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = None, *, method: str = "auto",
@@ -165,12 +164,9 @@ def _checked_options(method: str, options: Mapping[str, Any]) -> Mapping[str, An
 
 
 def _warm(robot: Robot, tgt: Target, method: str) -> None:
-    """The one-time set-up of the target's frame, before any clock starts; a clear error when ``"analytic"``
-    is named for a frame without a usable closed form."""
-    state = ik_state(robot)
-    state.seed_table(tgt.frame)
-    solver = state.closed_form(tgt.frame)
-    compiled_chain(robot, tgt.frame_id)
+    """The one-time set-up of the target's frame (its :class:`~kinserve.ik.state.FrameState`), before any
+    clock starts; a clear error when ``"analytic"`` is named for a frame without a usable closed form."""
+    solver = ik_state(robot).frame(tgt.frame).closed_form
     if method != "analytic":
         return
     if solver is None:

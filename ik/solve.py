@@ -166,7 +166,7 @@ def solve(
                              max_time=max_time, seed=seed, constraints=constraints,
                              self_collision=self_collision, collision_margin=collision_margin,
                              options=options)
-    return run(req)
+    return choose_strategy(req).run(req)  # (run's body: one call less on every solve)
 
 
 def solve_all(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = None, *,

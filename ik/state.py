@@ -10,7 +10,9 @@ model) and built outside any solve's time budget:
 * :func:`ik_state` returns it, and every front door (:func:`kinserve.ik.solve`, ``solve_many``, ``step``)
   warms the frames of its request while validating it, before the clock of the solve starts.
 
-Seed tables and solvers are immutable once built and shared by all threads (built under the state's lock).
+Seed tables and solvers are immutable once built and shared by all threads (built under the state's lock);
+a frame's seed table, closed form and compiled LM chain are also gathered in one :class:`FrameState`, which a
+solve finds with one look-up.
 Bound collision constraints keep a memo of their last configuration while solving, so each thread has its
 own store (:class:`BoundConstraints`, a few per thread, least recently used dropped first). So do the
 bound problems of ``ik.step`` (:class:`~kinserve.ik.step_problems.StepProblems`: a control loop's tasks and
@@ -23,13 +25,13 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
 from kinserve.ik.collision.request import collision_request
 from kinserve.ik.constraints.base_overlap import BaseClearance
 from kinserve.ik.constraints.robot_skeleton import RobotSkeleton, build_robot_skeleton
-from kinserve.ik.lm.chains import compiled_chains
+from kinserve.ik.lm.chains import CompiledChain, compiled_chain, compiled_chains
 from kinserve.ik.starts.seed_table import SeedTable
 from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
@@ -79,6 +81,15 @@ class BoundConstraints:
         return bound
 
 
+class FrameState(NamedTuple):
+    """What a solve of one frame reads from the IK state, prepared once (:meth:`IKState.frame`): one look-up
+    per solve instead of one per piece."""
+
+    seed_table: SeedTable
+    closed_form: ClosedFormSolver | None  #: None: the robot has no closed form for the frame
+    chain: CompiledChain | None  #: the compiled LM's chain (None: Pinocchio's iteration)
+
+
 def _remember(store: OrderedDict, key: tuple, value: Any, size: int) -> None:
     store[key] = value
     while len(store) > size:
@@ -93,6 +104,7 @@ class IKState:
         self.lock = threading.Lock()
         self.seed_tables: dict[str, SeedTable] = {}
         self.closed_forms: dict[str, ClosedFormSolver | None] = {}
+        self.frames: dict[str, FrameState] = {}  # read without the lock: complete records only
         self.skeletons: dict[tuple[tuple[str, ...], tuple[str, ...]], RobotSkeleton] = {}
         self.threads = threading.local()  # .bound: this thread's BoundConstraints
         self.step_problems = StepProblems()  # this thread's bound problems of ik.step (per thread)
@@ -112,6 +124,17 @@ class IKState:
         """Use an existing table for ``frame`` (one shipped to a worker process)."""
         with self.lock:
             self.seed_tables[frame] = table
+            self.frames.pop(frame, None)  # prepared again with this table
+
+    def frame(self, name: str) -> FrameState:
+        """The :class:`FrameState` of frame ``name`` (its seed table, closed form and compiled chain built
+        once; an unknown name raises ``FrameError``)."""
+        record = self.frames.get(name)
+        if record is None:
+            chain = compiled_chain(self.robot, self.robot.frame_id(name))
+            record = FrameState(self.seed_table(name), self.closed_form(name), chain)
+            self.frames[name] = record  # (two threads may both build it: equal records, either is kept)
+        return record
 
     def closed_form(self, frame: str) -> ClosedFormSolver | None:
         """The closed-form solver of ``frame``, or None when the robot has none (decided once)."""
@@ -174,13 +197,18 @@ def warm(robot: Robot, frames: str | Iterable[str] | None = None, *, self_collis
     compiled_chains(robot)  # the compiled LM's chains of every frame (robot.lm_chains)
     names = [robot.tip] if frames is None else [frames] if isinstance(frames, str) else list(frames)
     for frame in names:
-        robot.frame_id(frame)  # a clear FrameError for an unknown name
-        state.seed_table(frame)
-        state.closed_form(frame)
+        state.frame(frame)  # (a clear FrameError for an unknown name)
     if self_collision or len(obstacles):
         req = collision_request(self_collision, obstacles, collision_margin)
         state.collision_constraint(req.obstacles, req.self_collision, req.margin)
     return state
+
+
+def frame_state(robot: Robot, frame: str) -> FrameState:
+    """The :class:`FrameState` of ``frame`` of ``robot`` (``ik_state(robot).frame(frame)``)."""
+    state = robot.extensions.ik
+    record = None if state is None else state.frames.get(frame)
+    return record if record is not None else ik_state(robot).frame(frame)
 
 
 def clear(robot: Robot) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.ik.starts.seed_table import start_sequence
-from kinserve.ik.state import seed_table
+from kinserve.ik.state import frame_state, seed_table
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -71,7 +71,7 @@ def frame_starts(robot: Robot, frame: str, frame_id: int, R: np.ndarray, p: np.n
     if prefer_q0 and q0 is not None:
         # q0 goes first whatever its pose distance: rank the table only if a restart needs it
         return _q0_then(q0, robot, frame, R, p, rotation, rng_seed, n_table)
-    table = seed_table(robot, frame)
+    table = frame_state(robot, frame).seed_table
     f = table.features(R, p, rotation=rotation)
     q0_dist = None
     if q0 is not None:
@@ -86,7 +86,7 @@ def frame_starts(robot: Robot, frame: str, frame_id: int, R: np.ndarray, p: np.n
 def _q0_then(q0, robot, frame, R, p, rotation, rng_seed, n_table):
     """``q0``, then the table's starts (the sequence of ``prefer_q0=True``, ranked only when needed)."""
     yield np.array(q0, dtype=float)
-    table = seed_table(robot, frame)
+    table = frame_state(robot, frame).seed_table
     yield from start_sequence(robot, table, table.features(R, p, rotation=rotation), None, rng_seed,
                               n_table=n_table)
 

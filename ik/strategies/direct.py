@@ -21,19 +21,23 @@ from kinserve.ik.request import SolveRequest
 from kinserve.ik.result import Result
 from kinserve.ik.strategies.budget import Budget, request_budget
 
+#: Options of a request that are :func:`solve_lm`'s keywords as they are and leave the budget alone.
+_LM_KEYWORDS = frozenset(("max_iter", "damping", "prefer_q0"))
+
 
 def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, accept: Any = None,
                         admit: Any = None, max_starts: int | None = None) -> Result:
     """LM from the request's start sequence; ``accept`` / ``admit`` / ``max_starts``: the checked strategy's
     tests of a converged run and of a start, and its cap on the starts (the request's ``max_starts`` option
     when None)."""
-    if not req.options:  # the common call: no keyword dictionary to build (no iteration budget either)
+    opts = req.options
+    if opts.keys() <= _LM_KEYWORDS:  # the common calls: no keyword dictionary to build, no iteration budget
         seconds, iterations = (req.max_time, None) if budget is None else budget
         if seconds is None and budget is None:
             seconds = MAX_TIME_LM
         return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot,
                         seed=req.seed, max_time=seconds, iteration_budget=iterations, max_starts=max_starts,
-                        accept=accept, admit=admit)
+                        accept=accept, admit=admit, **opts)
     if budget is None:
         budget = request_budget(req, MAX_TIME_LM)
     opts = options_for("lm", req.options)
