@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import Shape, as_shape
 from kinserve.kinematics.validation import as_matrix
 
@@ -131,7 +132,7 @@ def _draw_carried(scene: Scene, node: str, shape: Shape, poses: np.ndarray, colo
         scene._note_points(key, [p for W in poses[picks] for p in local @ W[:3, :3].T + W[:3, 3]])
 
 
-def motion_plan_scene(robot: Any, plan: Any, obstacles: Any = (), frame: str | None = None, *,
+def motion_plan_scene(robot: Robot, plan: Any, obstacles: Any = (), frame: str | None = None, *,
                       fps: float = 30.0, title: str | None = None, name: str | None = None,
                       path_speed: float = 0.5, obstacle_color: Any = "purple", obstacle_opacity: float = 0.6,
                       path_color: Any = "yellow", attached_color: Any = "orange") -> Scene:
