@@ -357,3 +357,20 @@ def test_box_and_cylinder_take_every_pose_form():
         np.testing.assert_allclose(scene.transform(f"can{k}"), expected, atol=1e-12)
     with pytest.raises(InputError, match="pose"):
         scene.add_box("bad", [0.1, 0.1, 0.1], ([0.1, 0.2], quat))
+
+
+def test_sweep_points_frames_a_moving_node_at_every_pose():
+    """The camera points of a node drawn in its own frame become its corners under each pose given."""
+    scene = viz.Scene()
+    scene.add_box("carried/shape", [0.2, 0.4, 0.6])
+    scene.add_sphere("still", [5.0, 0.0, 0.0], 0.1)
+    poses = np.stack([se3.pose(se3.rot_z(a), [a, 1.0, 2.0]) for a in (0.0, 0.5, 1.0)])
+    before = len(scene.drawn_points())
+    scene.sweep_points("carried", poses)
+    corners = np.array([0.5 * np.array([0.2, 0.4, 0.6]) * (2 * np.array(i) - 1) for i in np.ndindex(2, 2, 2)])
+    expected = np.concatenate([corners @ T[:3, :3].T + T[:3, 3] for T in poses])
+    drawn = scene.drawn_points()
+    for p in expected:
+        assert np.min(np.linalg.norm(drawn - p, axis=1)) < 1e-12
+    assert np.min(np.linalg.norm(drawn - [5.0, 0.0, 0.0], axis=1)) < 0.2  # other nodes untouched
+    assert len(drawn) == before - 8 + 3 * 8  # the box's 8 corners became 8 per pose

@@ -123,13 +123,10 @@ def _draw_carried(scene: Scene, node: str, shape: Shape, poses: np.ndarray, colo
     The points the drawing noted for the camera (in the node's frame) are replaced by their world
     positions at up to :data:`_EXTENT_SAMPLES` poses of the motion.
     """
-    known = set(scene._extent)
     draw_shape(scene, f"{node}/shape", _local_dict(shape), color, opacity=1.0)
     scene[node].set_transform(poses[0])
     picks = np.unique(np.linspace(0, len(poses) - 1, min(len(poses), _EXTENT_SAMPLES)).round().astype(int))
-    for key in set(scene._extent) - known:
-        local = np.array(scene._extent[key], dtype=float).reshape(-1, 3)
-        scene._note_points(key, [p for W in poses[picks] for p in local @ W[:3, :3].T + W[:3, 3]])
+    scene.sweep_points(f"{node}/shape", poses[picks])
 
 
 def motion_plan_scene(robot: Robot, plan: Any, obstacles: Any = (), frame: str | None = None, *,

@@ -406,6 +406,17 @@ class Scene:
             raise InputError("camera eye and target must differ")
         self._camera = (eye.copy(), target.copy())
 
+    def sweep_points(self, name: str, poses) -> None:
+        """Frame a moving node: the points noted for the camera under ``name`` (given in that node's own
+        frame, as drawn before it is moved) become their world positions under each 4x4 of ``poses``
+        (``(K, 4, 4)``), so that :meth:`drawn_points` and the auto camera see the node's whole motion."""
+        prefix = self.path(name)
+        poses = np.asarray(poses, dtype=float).reshape(-1, 4, 4)
+        for key in [k for k in self._extent
+                    if self.path(k) == prefix or self.path(k).startswith(prefix + "/")]:
+            local = np.array(self._extent[key], dtype=float).reshape(-1, 3)
+            self._extent[key] = [p for W in poses for p in local @ W[:3, :3].T + W[:3, 3]]
+
     def _note_points(self, key: str, points) -> None:
         pts = [np.asarray(p, dtype=float)[:3] for p in points]
         if pts:
