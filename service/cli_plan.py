@@ -12,9 +12,10 @@ self-contained page animating the motion among the obstacles (:func:`kinserve.vi
 frame) in the shared pose form (:mod:`.cli_pose`): ``--xyz`` with ``--quat`` or ``--rpy`` (``--xyz`` alone
 leaves the orientation free; ``--relax`` frees more components); the planner turns it into a goal set of
 collision-free IK solutions and reaches one of them. Obstacles: the shared ``--sphere`` / ``--box`` /
-``--cylinder`` / ``--scene`` options (:mod:`.cli_obstacles`). Budget: ``--max-time`` (s, or ``none`` for
-no clock) and ``--max-iterations`` (RRT-Connect samples; with ``--max-time none`` the answer depends only on
-the inputs and ``--seed``).
+``--cylinder`` / ``--scene`` options (:mod:`.cli_obstacles`). ``--attach-box FRAME SX SY SZ [X Y Z]``:
+the robot carries a box (full edges, centre in ``FRAME``, m; ``Robot.attach``) that the plan keeps clear
+too. Budget: ``--max-time`` (s, or ``none`` for no clock) and ``--max-iterations`` (RRT-Connect samples;
+with ``--max-time none`` the answer depends only on the inputs and ``--seed``).
 
 Exit status: 0 with a plan; 1 when no plan was found (the reason, e.g. the colliding pair of a start in
 collision, on stderr; nothing written); 2 for bad input (one ``error:`` line).
@@ -32,10 +33,42 @@ from kinserve.kinematics.errors import ShapeError
 
 from .cli_obstacles import add_obstacle_args, obstacles_from_args
 from .cli_pose import add_pose_args, pose_from_args
-from .cli_types import file_in_existing_folder, positive_float, positive_int, seconds_or_none, trajectory_file
+from .cli_types import (
+    Numbers,
+    file_in_existing_folder,
+    positive_float,
+    positive_int,
+    seconds_or_none,
+    trajectory_file,
+)
 
 #: ``plan_motion``'s own default time budget (s); a test keeps the two equal.
 DEFAULT_MAX_TIME = 1.0
+
+
+class AttachBox(Numbers):
+    """``--attach-box FRAME SX SY SZ [X Y Z]``: appends ``(FRAME, numbers)`` to ``args.attach_box``."""
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        """Check the frame name and the 3 or 6 numbers after it; append them."""
+        values = list(values)
+        if len(values) < 2:
+            raise argparse.ArgumentError(self, f"expected {self.form}, got {' '.join(values)!r}")
+        items = list(getattr(namespace, self.dest, None) or [])
+        setattr(namespace, self.dest, [*items, (values[0], self.values_of(values[1:]))])
+
+
+def attach_boxes(robot, args: argparse.Namespace) -> list[str]:
+    """Attach the ``--attach-box`` boxes to ``robot`` (names ``box0``, ``box1``, ...); returns the names."""
+    from kinserve.kinematics import se3
+    from kinserve.kinematics.shapes import Box
+
+    names = []
+    for k, (frame, v) in enumerate(args.attach_box or []):
+        centre = v[3:6] if v.size == 6 else None
+        robot.attach(f"box{k}", Box(se3.pose(None, centre), v[:3]), frame, touch_links=args.touch_links)
+        names.append(f"box{k}")
+    return names
 
 
 def configuration(robot, values: list[str] | None, option: str) -> np.ndarray | None:
@@ -108,8 +141,11 @@ def plan_summary(robot, plan, obstacles: list, self_collision: bool) -> tuple[di
         "waypoints": int(len(plan.path)), "path": plan.path.tolist(), "duration": duration,
         "trajectory_points": traj.n_points if traj is not None else 0, "goal_index": int(plan.goal_index),
         "obstacles": [o.to_dict() for o in obstacles], "self_collision": bool(self_collision), "stats": stats,
+        "attached": {name: {"frame": obj.frame, "placement": obj.placement.tolist(), **obj.shape.to_dict()}
+                     for name, obj in robot.attached.items()},
     }
-    checks = f"{len(obstacles)} obstacle(s)" + (", self-collision" if self_collision else "")
+    checks = (f"{len(obstacles)} obstacle(s)" + (f", {len(robot.attached)} carried" if robot.attached else "")
+              + (", self-collision" if self_collision else ""))
     lines = [f"{robot.name}: {'plan found' if plan.success else 'NO PLAN'} ({checks})",
              f"  {plan.message}"]
     if plan.success:
@@ -146,6 +182,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     if args.max_time is None and args.max_iterations is None:
         raise ShapeError("--max-time none needs --max-iterations N: the search needs a budget")
     obstacles = obstacles_from_args(args)
+    attach_boxes(robot, args)
     self_collision = not args.no_self
     plan = planners.plan_motion(robot, robot.neutral() if start is None else start, goal, obstacles=obstacles,
                                 self_collision=self_collision, max_time=args.max_time, seed=args.seed,
@@ -187,6 +224,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="goal pose components left free, any of x y z roll pitch yaw (phi = yaw), world "
                         "axes (default: none; roll pitch yaw without an orientation)")
     add_obstacle_args(p, "kept clear of the robot's collision geometry along the whole motion")
+    p.add_argument("--attach-box", action=AttachBox, counts=(3, 6), form="FRAME SX SY SZ [X Y Z]",
+                   help="carry a box: full edge lengths and its centre in FRAME (m), repeatable; the plan "
+                        "keeps it clear of the obstacles and the links (default: none)")
+    p.add_argument("--touch-links", nargs="+", metavar="LINK",
+                   help="links the carried boxes may touch, e.g. the fingers (default: the link of FRAME)")
     p.add_argument("--no-self", action="store_true", help="do not check the robot's self-collision pairs")
     p.add_argument("--max-time", type=seconds_or_none, default=DEFAULT_MAX_TIME, metavar="SECONDS",
                    help="time budget of the search (s), or 'none' for no clock (then give --max-iterations)")

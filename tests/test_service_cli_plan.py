@@ -127,3 +127,19 @@ def test_html_page_of_the_motion(tmp_path):
 
 def test_the_default_time_budget_is_plan_motions():
     assert DEFAULT_MAX_TIME == inspect.signature(planners.plan_motion).parameters["max_time"].default
+
+
+def test_a_carried_box_is_checked(tmp_path):
+    """A sphere 13 cm below the hand: the arm alone is clear of it, the box it carries is not."""
+    sphere = ("--sphere", "0.325", "-0.506", "0.009", "0.04")
+    free = kinserve("plan", "panda", "--start", *numbers(START), "--goal", *numbers(GOAL), *sphere, *BUDGET,
+                    "--json", cwd=tmp_path)
+    assert free.returncode == 0, free.stderr
+    assert json.loads(free.stdout)["attached"] == {}
+    out = kinserve("plan", "panda", "--start", *numbers(START), "--goal", *numbers(GOAL), *sphere, *BUDGET,
+                   "--attach-box", "panda_hand", "0.04", "0.04", "0.3", "0", "0", "0.2", cwd=tmp_path)
+    assert out.returncode == 1 and "(1 obstacle(s), 1 carried, self-collision)" in out.stdout
+    assert out.stderr.startswith("plan failed: start is in collision: attached:box0 with obstacle[0]:sphere")
+    bad = kinserve("plan", "panda", "--goal", "default", "--attach-box", "panda_hand", "0.1", cwd=tmp_path)
+    assert bad.returncode == 2
+    assert "argument --attach-box: expected 3 or 6 numbers FRAME SX SY SZ [X Y Z], got 1" in bad.stderr
