@@ -31,9 +31,15 @@ def obstacles_of(specs) -> list:
 
 
 @router.post("/collision", response_model=C.CollisionResponse,
-             responses={404: {"model": ErrorResponse}, 422: {"model": ErrorResponse}})
+             responses={404: {"model": ErrorResponse}, 422: {"model": ErrorResponse}},
+             summary="Self- and obstacle collisions of the robot at a configuration")
 def collision(req: C.CollisionRequest, request: Request):
-    """``POST /collision``: self- and obstacle collisions of the robot at ``q``, with distances if asked."""
+    """Whether the robot at `q` collides with itself (SRDF / MoveIt-style link pairs of its collision
+    geometry, with `self_collision`) or with `obstacles` (sphere, box, capsule, cylinder; m); the colliding
+    pairs, named by link and `obstacle[k]:kind`; the smallest signed distance (m, negative: penetration
+    depth) over the checked pairs and its pair; with `distances: true` every checked pair's distance, witness
+    points and normal. Collision is a result (`in_collision: true`), not an error. Errors: 422 naming `q`,
+    `obstacles[k]`, or `robot` for a robot without collision geometry; 404 for an unknown robot."""
     from .fields import field
 
     pool = request.app.state.pool

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from .schemas import JointVector, Obstacles, RobotRef, Strict
+from .schemas import PANDA_READY, JointVector, Obstacles, RobotRef, Strict, examples
 
 
 class CollisionOptions(Strict):
@@ -24,6 +24,12 @@ class CollisionOptions(Strict):
 
 class CollisionRequest(RobotRef, CollisionOptions):
     """Body of ``POST /collision``: a robot, a configuration and the collision options."""
+
+    model_config = examples({
+        "robot": "panda", "q": PANDA_READY, "obstacles": [
+            {"kind": "sphere", "center": [0.31, 0.0, 0.59], "radius": 0.05},
+            {"kind": "box", "pose": {"position": [0.0, 0.0, -0.05], "quaternion": [0.0, 0.0, 0.0, 1.0]},
+             "size": [1.0, 1.0, 0.1]}]})
 
     q: JointVector
     distances: bool = Field(default=False,
@@ -43,6 +49,12 @@ class PairDistanceOut(BaseModel):
 
 class CollisionResponse(BaseModel):
     """Answer of ``POST /collision``."""
+
+    model_config = examples({
+        "in_collision": True,
+        "pairs": [["panda_link7", "obstacle[0]:sphere"], ["panda_hand", "obstacle[0]:sphere"]],
+        "min_distance": -0.0692, "closest_pair": ["panda_hand", "obstacle[0]:sphere"], "distances": None},
+        strict=False)
 
     in_collision: bool
     pairs: list[list[str]] = Field(description="colliding pairs, named by link / obstacle[k]:kind")

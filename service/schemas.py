@@ -12,6 +12,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Discriminator, Field, Tag, field_validator
 
+from kinserve.ik.options import MAX_TIME_QP
 from kinserve.kinematics.errors import KinserveError
 from kinserve.kinematics.validation import MAX_ABS, make_pose, unit_quaternion
 
@@ -32,6 +33,21 @@ class Strict(BaseModel):
     """A request model: unknown fields are rejected (422)."""
 
     model_config = ConfigDict(extra="forbid")
+
+
+def examples(*bodies: dict, strict: bool = True) -> ConfigDict:
+    """The model configuration carrying ``bodies`` as the schema's ``examples`` (shown in ``/docs`` and
+    ``/redoc``; a test posts every request example and validates every answer example); ``strict``: unknown
+    fields rejected, as every request model."""
+    extra = {"json_schema_extra": {"examples": list(bodies)}}
+    return ConfigDict(extra="forbid", **extra) if strict else ConfigDict(**extra)
+
+
+#: The Panda's "ready" configuration (rad), the start of the examples.
+PANDA_READY = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+#: The examples' IK target of ``panda_hand_tcp``: 0.4 m ahead, 0.1 m left, 0.45 m up, pointing down (a half
+#: turn about x: quaternion [qx, qy, qz, qw] = [1, 0, 0, 0]).
+EXAMPLE_TARGET = {"position": [0.4, 0.1, 0.45], "quaternion": [1.0, 0.0, 0.0, 0.0]}
 
 
 # ---------------------------------------------------------------- poses: a 4x4, or a position and a rotation
@@ -112,6 +128,8 @@ class RobotRef(Strict):
 class FKRequest(RobotRef):
     """Body of ``POST /fk``."""
 
+    model_config = examples({"robot": "panda", "q": PANDA_READY, "frame": "panda_hand_tcp"})
+
     q: JointVector
     frame: Name | None = Field(default=None, description="frame name; default the robot's tool frame")
 
@@ -119,26 +137,44 @@ class FKRequest(RobotRef):
 class FKResponse(BaseModel):
     """Answer of ``POST /fk``: the frame's 4x4 pose (m)."""
 
+    model_config = examples({"robot": "panda", "frame": "panda_hand_tcp", "pose": [
+        [1.0, 0.0004, 0.0, 0.307], [0.0004, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.4869], [0.0, 0.0, 0.0, 1.0]]},
+        strict=False)
+
     robot: str
-    frame: str
-    pose: list[list[float]]
+    frame: str = Field(description="the frame whose pose this is (the tool frame when none was asked)")
+    pose: list[list[float]] = Field(description="homogeneous 4x4 pose in the world frame, row major (m)")
 
 
 class JacobianRequest(FKRequest):
     """Body of ``POST /jacobian``."""
 
-    reference: Literal["world", "local", "spatial"] = "world"
+    model_config = examples({"robot": "planar4r", "q": [0.3, 0.6, -0.4, 0.2], "frame": "tool",
+                             "reference": "world"})
+
+    reference: Literal["world", "local", "spatial"] = Field(
+        default="world", description="world: the frame's origin velocity and angular velocity in world axes "
+                                     "(Pinocchio's LOCAL_WORLD_ALIGNED); local: both in the frame's axes; "
+                                     "spatial: the spatial (world-origin) twist")
 
 
 class JacobianResponse(BaseModel):
     """Answer of ``POST /jacobian``: the 6 x nq Jacobian, its singular values and manipulability."""
 
+    model_config = examples({
+        "robot": "planar4r", "frame": "tool", "reference": "world",
+        "jacobian": [[-1.4675, -1.172, -0.5453, -0.2577], [2.2851, 1.3298, 0.8325, 0.3059],
+                     [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0]],
+        "singular_values": [3.8475, 0.9043, 0.2169], "manipulability": 0.7547}, strict=False)
+
     robot: str
     frame: str
     reference: str
-    jacobian: list[list[float]]
-    singular_values: list[float]
-    manipulability: float
+    jacobian: list[list[float]] = Field(description="6 x nq, rows [vx, vy, vz, wx, wy, wz] (m/s and rad/s "
+                                                    "per unit joint velocity)")
+    singular_values: list[float] = Field(description="of the world Jacobian's rows of the robot's task axes "
+                                                       "(GET /robots/{name}), largest first")
+    manipulability: float = Field(description="product of the singular values")
 
 
 class SphereSpec(Strict):
@@ -209,9 +245,14 @@ class IKOptions(Strict):
     centring: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e3)] = 0.0
     method: Method = "auto"
     max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
-        default=None, description="seconds; capped server-side"
+        default=None, description=f"time budget (s) of one solve (each target of a batch); default "
+                                  f"{MAX_TIME_QP:g} s whichever solver runs, capped by the server's "
+                                  "--max-time-cap (ik.solve in Python: 0.1 s when LM alone answers, "
+                                  f"{MAX_TIME_QP:g} s when the QP may run)"
     )
-    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = Field(
+        default=None, description="seed of the random restarts (none: 0); the same seed gives the same "
+                                  "answer unless the time budget cut the solve")
     self_collision: bool = Field(
         default=False,
         description="keep the robot's collision geometry free of self-collision; obstacles are then "
@@ -246,6 +287,14 @@ FrameTargets = Annotated[list[FrameTarget], Field(min_length=1, max_length=8,
 class IKRequest(RobotRef, IKOptions):
     """Body of ``POST /ik``: one target pose (``target``) or several frames at once (``targets``)."""
 
+    model_config = examples(
+        {"robot": "panda", "frame": "panda_hand_tcp", "target": EXAMPLE_TARGET, "q0": PANDA_READY, "seed": 0,
+         "max_time": 0.2},
+        {"robot": "panda", "seed": 0, "max_time": 0.2, "targets": [
+            {"frame": "panda_hand_tcp", "pose": EXAMPLE_TARGET},
+            {"frame": "panda_link4", "pose": {"position": [-0.0722, 0.0103, 0.6513], "rpy": [0.0, 0.0, 0.0]},
+             "relax": ["roll", "pitch", "yaw"]}]})
+
     target: Pose | None = Field(default=None, description="pose of `frame`; or give `targets`")
     targets: FrameTargets | None = None
 
@@ -261,22 +310,36 @@ class TaskErrorOut(BaseModel):
     orientation_error: float
 
 
+IK_ANSWER = {
+    "success": True, "q": [0.04335, -0.47362, 0.16329, -2.22751, 0.07555, 1.75878, 0.96018],
+    "position_error": 1.0e-06, "orientation_error": 1.7e-06, "iterations": 3, "restarts": 0,
+    "elapsed": 0.0006, "message": "converged", "task_errors": []}
+
+
 class IKResponse(BaseModel):
     """Answer of ``POST /ik``: success, joint values and residuals (m, rad)."""
 
-    success: bool
-    q: list[float]
-    position_error: float
-    orientation_error: float
+    model_config = examples(IK_ANSWER, strict=False)
+
+    success: bool = Field(description="both errors within tol_pos and tol_rot (every goal task's, for "
+                                      "targets)")
+    q: list[float] = Field(description="the joint values found (rad / m); on failure the closest found")
+    position_error: float = Field(description="m, largest over the goal tasks")
+    orientation_error: float = Field(description="rad, largest over the goal tasks")
     iterations: int
     restarts: int
-    elapsed: float
-    message: str
-    task_errors: list[TaskErrorOut] = Field(default_factory=list)
+    elapsed: float = Field(description="seconds spent solving")
+    message: str = Field(description="how the solve ended (e.g. converged, or why it failed)")
+    task_errors: list[TaskErrorOut] = Field(default_factory=list,
+                                            description="per task, for a `targets` request")
 
 
 class IKBatchRequest(RobotRef, IKOptions):
     """Body of ``POST /ik/batch``: many independent problems with the same options."""
+
+    model_config = examples({
+        "robot": "panda", "frame": "panda_hand_tcp", "q0": PANDA_READY, "seed": 0, "max_time": 0.2,
+        "targets": [EXAMPLE_TARGET, {"position": [0.5, -0.1, 0.3], "rpy": [3.1416, 0.0, 0.0]}]})
 
     targets: Annotated[list[Pose | FrameTargets], Field(min_length=1, max_length=1000)] = Field(
         description="one problem per item: a 4x4 pose of `frame`, or a list of frame targets solved together")
@@ -284,6 +347,12 @@ class IKBatchRequest(RobotRef, IKOptions):
 
 class IKBatchResponse(BaseModel):
     """Answer of ``POST /ik/batch``."""
+
+    model_config = examples({
+        "results": [IK_ANSWER, {**IK_ANSWER, "q": [1.95990, 0.14341, -2.18018, -2.23781, 0.14055, 2.15096,
+                                                   0.48291], "position_error": 2.7e-05,
+                                "orientation_error": 0.00017, "elapsed": 0.0001}],
+        "success_rate": 1.0, "elapsed": 0.0012, "attempted": 2, "stop_reason": "completed"}, strict=False)
 
     results: list[IKResponse] = Field(description="one per target, in order (targets not attempted included)")
     success_rate: float
@@ -303,13 +372,14 @@ class CartesianPlanRequest(RobotRef):
     meets its limit or a singularity, or the robot would collide.
     """
 
-    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [
-        {"robot": "panda", "q0": [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785], "frame": "panda_hand_tcp",
-         "poses": [[[1, 0, 0, 0.307], [0, -1, 0, 0.0], [0, 0, -1, 0.487], [0, 0, 0, 1]],
-                   {"position": [0.4, 0.1, 0.45], "quaternion": [1.0, 0.0, 0.0, 0.0]}],
+    model_config = examples(
+        {"robot": "panda", "q0": PANDA_READY, "frame": "panda_hand_tcp", "steps": 1, "dt": 0.5,
+         "poses": [{"position": [0.307, 0.0, 0.487], "quaternion": [1.0, 0.0, 0.0, 0.0]},
+                   {"position": [0.307, 0.0, 0.387], "quaternion": [1.0, 0.0, 0.0, 0.0]}]},
+        {"robot": "panda", "q0": PANDA_READY, "frame": "panda_hand_tcp",
+         "poses": [[[1, 0, 0, 0.307], [0, -1, 0, 0.0], [0, 0, -1, 0.487], [0, 0, 0, 1]], EXAMPLE_TARGET],
          "jump_threshold": 0.3, "max_step": 0.01,
-         "obstacles": [{"kind": "sphere", "center": [0.6, -0.3, 0.3], "radius": 0.05}]},
-    ]})
+         "obstacles": [{"kind": "sphere", "center": [0.6, -0.3, 0.3], "radius": 0.05}]})
 
     poses: Annotated[list[Pose], Field(min_length=1, max_length=200,
                                        description="poses to pass through, in order (at least 2 in the "
@@ -355,6 +425,20 @@ class JointTrajectoryOut(BaseModel):
 class CartesianPlanResponse(BaseModel):
     """Answer of ``POST /plan/cartesian``."""
 
+    model_config = examples({
+        "success": True, "trajectory": {
+            "joint_names": [f"panda_joint{i}" for i in range(1, 8)], "times": [0.0, 0.5, 1.0],
+            "positions": [[-0.0001, -0.785, 0.0001, -2.3556, 0.0001, 1.5707, 0.7853],
+                          [-0.0001, -0.8101, 0.0001, -2.4988, 0.0001, 1.6886, 0.7853],
+                          [-0.0001, -0.8157, 0.0001, -2.6293, 0.0001, 1.8137, 0.7853]],
+            "velocities": [[0.0, -0.07, 0.0, -0.2989, 0.0, 0.2289, 0.0],
+                           [0.0, -0.0307, 0.0, -0.2737, 0.0, 0.243, 0.0],
+                           [0.0, 0.0086, 0.0, -0.2485, 0.0, 0.2571, 0.0]],
+            "accelerations": None},
+        "max_position_error": 1.6e-05, "max_orientation_error": 1e-07, "events": [],
+        "message": "all poses reached, joint path continuous", "stop_reason": "completed",
+        "poses_attempted": 3, "total_poses": 3}, strict=False)
+
     success: bool
     trajectory: JointTrajectoryOut
     max_position_error: float
@@ -371,17 +455,37 @@ class CartesianPlanResponse(BaseModel):
     total_poses: int = Field(description="interpolated poses of the whole path")
 
 
+class HealthResponse(BaseModel):
+    """Answer of ``GET /health``."""
+
+    model_config = examples({"status": "ok", "robots_loaded": 1, "solver_jobs": 0}, strict=False)
+
+    status: Literal["ok"]
+    robots_loaded: int = Field(description="robot variants (name + params) loaded in the serving process")
+    solver_jobs: int = Field(description="heavy requests (IK, batches, plans) running or waiting now")
+
+
 class RobotInfo(BaseModel):
     """A built-in robot: joints, limits, tool frame, task axes and frames."""
+
+    model_config = examples({
+        "name": "planar4r", "nq": 4,
+        "description": "S1 planar 4R arm, joints about z, links l1..l4 = 1.0/0.8/0.6/0.4 m",
+        "joint_names": ["joint1", "joint2", "joint3", "joint4"],
+        "lower": [-3.141592653589793] * 4, "upper": [3.141592653589793] * 4, "tip": "tool",
+        "task_axes": ["x", "y", "yaw"],
+        "frames": ["universe", "base_link", "joint1", "link1", "joint2", "link2", "joint3", "link3", "joint4",
+                   "link4", "tool_joint", "tool"]}, strict=False)
 
     name: str
     description: str
     nq: int
     joint_names: list[str]
-    lower: list[float]
-    upper: list[float]
-    tip: str
-    task_axes: list[str]
+    lower: list[float] = Field(description="joint lower limits (rad / m)")
+    upper: list[float] = Field(description="joint upper limits (rad / m)")
+    tip: str = Field(description="the default tool frame (a request's `frame` overrides it)")
+    task_axes: list[str] = Field(description="the task-space components this robot can control (x y z roll "
+                                             "pitch yaw); IK relaxes the others")
     frames: list[str]
 
 
