@@ -686,7 +686,7 @@ def _open_end(live, m, state, front, back, from_lo):
     return k, s
 
 
-_HARD_SIGNATURE = _t.Array(_t.int64, 1, "C")(_F1, _I1, _F2, _F2, _Q1, _Q1, _t.float64, _t.float64, _t.int64,
+_HARD_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _F2, _F2, _Q1, _Q1, _t.float64, _t.float64, _t.int64,
                                              _t.int64)
 
 
@@ -695,10 +695,11 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
                       qa: np.ndarray, qb: np.ndarray, tol: float, min_step: float, max_advances: int,
                       max_hard: int) -> np.ndarray:
     """The pairs the sphere bounds cannot certify over the straight motion ``q(s) = qa + s (qb - qa)``,
-    ``s`` in ``[0, 1]``: ``[h, advances, pair, ...]`` with the scene indices of the ``h`` hard pairs (every
-    other pair's lower bound stays above ``tol``, m, over the whole motion), or ``h = -1`` when more than
-    ``max_hard`` pairs are hard (or the arguments do not fit: ``[-1, 0, ...]``). Length ``max_hard + 2``,
-    -1 where unused.
+    ``s`` in ``[0, 1]``: ``[h, advances, lo, hi, pair, ...]`` with the scene indices of the ``h`` hard
+    pairs (every other pair's lower bound stays above ``tol``, m, over the whole motion; the hard ones too
+    on ``[0, lo)`` and ``(hi, 1]``: an exact check need only cover ``[lo, hi]``), or ``h = -1`` when more
+    than ``max_hard`` pairs are hard (or the arguments do not fit: ``[-1, 0, 0, 1, ...]``). Length
+    ``max_hard + 4``, -1 where unused.
 
     Conservative advancement per pair (the rates ``v``, ``w`` and radii of :func:`certify_motion`): pair
     ``p`` is certified on ``[0, front[p]]`` and ``[back[p], 1]``; an advance from below evaluates at ``s``,
@@ -712,8 +713,8 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     """
     tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n, P = joints.shape[0], pairs.shape[0]
-    out = np.full(max_hard + 2, -1, dtype=np.int64)
-    out[1] = 0
+    out = np.full(max_hard + 4, -1.0)
+    out[1], out[2], out[3] = 0.0, 0.0, 1.0
     if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
         return out
     v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
@@ -747,12 +748,14 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     out[1] = advances
     if hard > max_hard:
         return out
-    out[0] = hard
-    k = 2
+    out[0], lo, hi = hard, 1.0, 0.0
+    k = 4
     for p in range(P):
         if state[p] == 2:
             out[k] = pairs[p, 3]
+            lo, hi = min(lo, front[p]), max(hi, back[p])
             k += 1
+    out[2], out[3] = (lo, hi) if hard else (1.0, 0.0)
     return out
 
 

@@ -178,9 +178,9 @@ def test_certify_motion_keeps_every_bound_above_the_tolerance_on_what_it_certifi
 def test_motion_hard_pairs_keeps_every_other_bound_above_the_tolerance_over_the_whole_motion(tmp_path):
     """Straight motions of the Panda near obstacles: every pair ``motion_hard_pairs`` does not hand over
     keeps its sphere lower bound (``pair_lower_bounds``) above the tolerance at 400 samples of the whole
-    motion, and coal finds the samples of a motion with no hard pair free; motions with no hard pair, with
-    some and with too many (``-1``) all occur; a hard pair is one whose bound is at most the tolerance at a
-    sample or that limits the motion (more than ``max_hard`` of them: ``-1``)."""
+    motion, the hard ones on the samples of ``[0, lo)`` and ``(hi, 1]``, and coal finds the samples of a
+    motion with no hard pair free; motions with no hard pair, with some and with too many (``-1``) all
+    occur."""
     robot = robots.load("panda")
     rng = np.random.default_rng(22)
     kinds = {"none": 0, "some": 0, "too many": 0}
@@ -191,28 +191,33 @@ def test_motion_hard_pairs_keeps_every_other_bound_above_the_tolerance_over_the_
             qb = np.clip(qa + rng.normal(scale=0.1, size=robot.nq), robot.lower, robot.upper)
             out = pk.motion_hard_pairs(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, qa, qb,
                                        pre.tolerance, 1e-3, 1024, 4)
-            assert len(out) == 6 and out[1] >= 1
+            assert len(out) == 8 and out[1] >= 1
             if out[0] < 0:
                 kinds["too many"] += 1
                 continue
-            hard = out[2:2 + out[0]]
-            assert np.all(out[2 + out[0]:] == -1) and len(set(hard.tolist())) == len(hard)
+            h, lo, hi = int(out[0]), out[2], out[3]
+            hard = out[4:4 + h].astype(int)
+            assert np.all(out[4 + h:] == -1) and len(set(hard.tolist())) == len(hard)
             samples = np.linspace(0.0, 1.0, 400)
             bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, qa + s * (qb - qa))
                                for s in samples]).reshape(len(samples), P)
             keep = np.ones(P, dtype=bool)
             keep[hard] = False
             assert np.all(bounds[:, keep] > pre.tolerance)
+            ends = (samples < lo) | (samples > hi)
+            assert np.all(bounds[np.ix_(ends, hard)] > pre.tolerance)
             if not len(hard):
+                assert lo >= hi
                 kinds["none"] += 1
                 assert not coal_hits(scene, qa + samples[:, None] * (qb - qa)).any()
             else:
                 kinds["some"] += 1
+                assert 0.0 <= lo < hi <= 1.0
     assert kinds["none"] > 5 and kinds["some"] > 3 and kinds["too many"] > 0, kinds
 
 
 def test_motion_hard_pairs_fits_its_arguments_and_agrees_with_certify_motion():
-    """Arguments of the wrong size: ``[-1, 0, -1, ...]``; ``max_hard = 0`` on a motion with hard pairs:
+    """Arguments of the wrong size: ``[-1, 0, 0, 1, -1, ...]``; ``max_hard = 0`` on a motion with hard pairs:
     ``-1``; a motion ``certify_motion`` certifies whole on the spheres has no hard pair."""
     robot = robots.load("panda")
     scene = robot.collision_scene(SCENE)
@@ -221,7 +226,7 @@ def test_motion_hard_pairs_fits_its_arguments_and_agrees_with_certify_motion():
     args = (pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach)
     rng = np.random.default_rng(4)
     qa, qb = robot.neutral(), robot.random_q(rng)
-    assert list(pk.motion_hard_pairs(*args, qa[:-1], qb, 1e-5, 1e-3, 64, 2)) == [-1, 0, -1, -1]
+    assert list(pk.motion_hard_pairs(*args, qa[:-1], qb, 1e-5, 1e-3, 64, 2)) == [-1, 0, 0, 1, -1, -1]
     short_rows = np.ascontiguousarray(pre.sphere_reach[:-1])
     assert pk.motion_hard_pairs(pre.floats, pre.ints, short_rows, pre.pair_reach, qa, qb, 1e-5, 1e-3, 64,
                                 2)[0] == -1

@@ -105,18 +105,26 @@ class EdgeCertifier:
         return any(self.in_collision(q_a + s * u) for s in PROBES)
 
     def hard_pairs(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
-        """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``: every other
-        pair is certified over the whole motion on the sphere bounds alone, in one compiled call
-        (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`); None when they do not get there
-        (no sphere pre-check, or more than :data:`HARD_PAIRS` pairs left): every pair is then checked
-        exactly."""
+        """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``
+        (:meth:`sphere_stage`'s), None when the spheres do not get there."""
+        stage = self.sphere_stage(qa, qb)
+        return None if stage is None else stage[0]
+
+    def sphere_stage(self, qa: np.ndarray, qb: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+        """``(hard, lo, hi)``: the pairs of the scene (indices) the spheres leave to the exact check on
+        ``qa -> qb``, which they certify on ``[0, lo)`` and ``(hi, 1]`` of ``qa + s (qb - qa)`` all the
+        same; every other pair is certified over the whole motion on the sphere bounds alone, in one
+        compiled call (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`). None when they do
+        not get there (no sphere pre-check, or more than :data:`HARD_PAIRS` pairs left): every pair is then
+        checked exactly."""
         pre = self.oracle.precheck
         if pre is None:
             return None
         self.oracle.checks += 1
         out = motion_hard_pairs(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, qa, qb, TOLERANCE,
                                 SPHERE_MIN_STEP, SPHERE_ADVANCES, HARD_PAIRS)
-        return None if out[0] < 0 else out[2:2 + out[0]]
+        h = int(out[0])
+        return None if h < 0 else (out[4:4 + h].astype(np.int64), float(out[2]), float(out[3]))
 
     def certify(self, a: Clearance, b: Clearance, *, probe: bool = True,
                 max_advances: int = MAX_ADVANCES) -> bool:
@@ -127,17 +135,22 @@ class EdgeCertifier:
         u = b.q - a.q
         if probe and any(self.in_collision(a.q + s * u) for s in PROBES):
             return False
-        hard = self.hard_pairs(a.q, b.q)
-        if hard is None:
+        stage = self.sphere_stage(a.q, b.q)
+        if stage is None:
             return self.certify_exactly(a, b, max_advances)
-        return not len(hard) or self.certify_pairs(a.q, u, hard, max_advances)
+        hard, lo, hi = stage
+        return not len(hard) or self.certify_pairs(a.q, u, hard, max_advances, lo, hi)
 
-    def certify_pairs(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, max_advances: int) -> bool:
-        """Conservative advancement of ``qa + s u``, ``s`` in ``[0, 1]``, on coal's distances of ``pairs``
-        (indices) alone: True when those pairs stay apart over the whole motion (a pair that moves keeps
-        :data:`~.clearance.CLEARANCE_FLOOR` at every point asked, or the motion is rejected)."""
+    def certify_pairs(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, max_advances: int,
+                      lo: float = 0.0, hi: float = 1.0) -> bool:
+        """Conservative advancement of ``qa + s u``, ``s`` in ``[lo, hi]``, on coal's distances of ``pairs``
+        (indices) alone: True when those pairs stay apart over that stretch (a pair that moves keeps
+        :data:`~.clearance.CLEARANCE_FLOOR` at every point asked, or the motion is rejected). ``[0, lo)`` and
+        ``(hi, 1]``: certified for these pairs already (by the spheres); the whole motion by default. The
+        points ``lo`` and ``hi`` themselves are the first two asked of coal."""
         w = pair_rates(self.reach[pairs] @ np.abs(u))
-        lo, hi = 0.0, 1.0
+        if lo >= hi:
+            return True
         for k in range(max_advances):
             from_lo = k % 2 == 0
             d = self.oracle.distances(qa + (lo if from_lo else hi) * u, pairs)
