@@ -112,11 +112,16 @@ def features(req: SolveRequest) -> Features:
     """The request's columns of :data:`TABLE`."""
     if req.problem is not None:
         return Features("tasks", req.method, False, False, False, False)
+    return Features(*_target_columns(req))
+
+
+def _target_columns(req: SolveRequest) -> tuple:
+    """:func:`features` of a target request as a plain tuple (a key of :data:`LOOKUP`)."""
     method = "classical" if req.method in CLASSICAL_METHODS else req.method
     solver = frame_state(req.robot, req.target.frame).closed_form
     closed = solver is not None and solver.finite and solver.supports(req.target.relaxed)
-    return Features("target", method, closed, req.avoid is not None, req.collision_constraint is not None,
-                    req.weights is not None or bool(req.extra))
+    return ("target", method, closed, req.avoid is not None, req.collision_constraint is not None,
+            req.weights is not None or bool(req.extra))
 
 
 def first_match(have: tuple) -> Strategy:
@@ -140,4 +145,4 @@ def choose_strategy(req: SolveRequest) -> Strategy:
     """The first row of :data:`TABLE` matching the request's :func:`features`."""
     if req.problem is not None:
         return TASK_QP
-    return LOOKUP[features(req)]
+    return LOOKUP[_target_columns(req)]

@@ -8,6 +8,7 @@ so the one-time set-up never counts against the solve's time budget.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from types import MappingProxyType
 from typing import Any, NamedTuple
@@ -96,9 +97,12 @@ def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = 
         options = MappingProxyType(dict(options))
     else:
         options = _NO_OPTIONS
+    if max_time is not None and not (type(max_time) is float and 0.0 < max_time < math.inf):
+        max_time = check_max_time(max_time)
+    if seed is not None and not (type(seed) is int and seed >= 0):
+        seed = check_seed(seed)
     req = SolveRequest(robot, tgt, None, None if q0 is None else check_q0(robot, q0), method, DEFAULT_BACKEND,
-                       tol_pos, tol_rot, None if max_time is None else check_max_time(max_time),
-                       None if seed is None else check_seed(seed), None, None, (), None, None, options)
+                       tol_pos, tol_rot, max_time, seed, None, None, (), None, None, options)
     state = robot.extensions.ik
     if state is None or method == "analytic" or tgt.frame not in state.frames:
         _warm(robot, tgt, method)
@@ -131,9 +135,10 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
     if avoid is not None and method in NO_OBSTACLE_METHODS:
         raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
                          "use 'qp' or 'auto'")
-    extra = _extra_constraints(constraints, method, tgt.frame)
-    return SolveRequest(robot, tgt, None, req.q0, method, check_backend(backend), req.tol_pos, req.tol_rot,
-                        req.max_time, req.seed, weights, avoid, extra, collision, bound, req.options)
+    extra = () if constraints is None else _extra_constraints(constraints, method, tgt.frame)
+    backend = DEFAULT_BACKEND if backend is None else check_backend(backend)
+    return SolveRequest(robot, tgt, None, req.q0, method, backend, req.tol_pos, req.tol_rot, req.max_time,
+                        req.seed, weights, avoid, extra, collision, bound, req.options)
 
 
 def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = None, *, method: str = "auto",
@@ -191,15 +196,18 @@ def _link_obstacles(robot: Robot, spheres: Any, obstacles: Any, link_radius: Any
 def _bind_collision(robot: Robot, collision: CollisionRequest, frame: str) -> tuple:
     """``(bound collision constraint, None)``; a robot without collision geometry keeps obstacles clear of
     its link capsules instead (``(None, ObstacleAvoidance)``) and refuses ``self_collision``."""
-    try:
-        robot.collision
-    except ModelError as exc:
-        if not collision.self_collision and collision.obstacles:
-            return None, ObstacleAvoidance(list(collision.obstacles), tool_frames=(frame,)).bind(robot)
-        raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to the "
-                         "link capsules of ik.ObstacleAvoidance)") from None
-    state = ik_state(robot)
-    return state.collision_constraint(collision.obstacles, collision.self_collision, collision.margin), None
+    try:  # (a scene bound before is found without asking for the collision model)
+        return ik_state(robot).collision_constraint(collision.obstacles, collision.self_collision,
+                                                    collision.margin), None
+    except ModelError:
+        try:
+            robot.collision
+        except ModelError as exc:  # no collision model: that, not something the binding ran into
+            if not collision.self_collision and collision.obstacles:
+                return None, ObstacleAvoidance(list(collision.obstacles), tool_frames=(frame,)).bind(robot)
+            raise ModelError(f"{exc}; ik.solve(self_collision=True) needs it (obstacles alone fall back to "
+                             "the link capsules of ik.ObstacleAvoidance)") from None
+        raise
 
 
 def _extra_constraints(constraints: Any, method: str, frame: str) -> tuple[Constraint, ...]:

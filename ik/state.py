@@ -25,6 +25,7 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
+from operator import is_
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
@@ -50,16 +51,30 @@ class BoundConstraints:
 
     Shapes are immutable and hash by value, so a request repeating a scene - the same objects or equal
     ones - finds its bound constraint; a scene whose obstacles have the shapes and sizes of one bound before
-    at other poses is bound by moving that one (:meth:`CollisionConstraint.moved`).
+    at other poses is bound by moving that one (:meth:`CollisionConstraint.moved`). The scene of the last
+    call (``last``) is found again without hashing when the same shape objects come back.
     """
 
     def __init__(self, size: int = BOUND_CONSTRAINTS_PER_THREAD) -> None:
         self.size = size
         self.by_scene: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
         self.by_layout: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
+        #: ``(obstacles, self_collision, margin, bound)`` of the last :meth:`get`
+        self.last: tuple = ((), None, None, None)
 
     def get(self, robot: Robot, obstacles: tuple, self_collision: bool, margin: float) -> CollisionConstraint:
         """The constraint of ``obstacles`` (validated shapes) bound to ``robot``."""
+        last = self.last  # the same objects as the last call: that constraint (most recently used already)
+        if last[1] == self_collision and last[2] == margin and len(last[0]) == len(obstacles) \
+                and all(map(is_, last[0], obstacles)):
+            return last[3]
+        bound = self._lookup(robot, obstacles, self_collision, margin)
+        self.last = (obstacles, self_collision, margin, bound)
+        return bound
+
+    def _lookup(self, robot: Robot, obstacles: tuple, self_collision: bool,
+                margin: float) -> CollisionConstraint:
+        """:meth:`get` by value: the scene's entry, a moved template, or a new binding."""
         key = (self_collision, margin, obstacles)
         bound = self.by_scene.get(key)
         if bound is not None:
@@ -68,7 +83,7 @@ class BoundConstraints:
         from kinserve.ik.constraints.collision import CollisionConstraint
         from kinserve.kinematics.collision_layout import shape_signature
 
-        layout = (self_collision, margin, tuple(shape_signature(o) for o in obstacles))
+        layout = (self_collision, margin, tuple(map(shape_signature, obstacles)))
         template = self.by_layout.get(layout)
         if template is not None:
             bound = template.moved(obstacles)
@@ -157,17 +172,13 @@ class IKState:
                     skeleton = self.skeletons[key] = build_robot_skeleton(self.robot, tool_frames, frames)
         return skeleton
 
-    def bound_constraints(self) -> BoundConstraints:
-        """This thread's :class:`BoundConstraints`."""
-        store = getattr(self.threads, "bound", None)
-        if store is None:
-            store = self.threads.bound = BoundConstraints()
-        return store
-
     def collision_constraint(self, obstacles: tuple, self_collision: bool,
                              margin: float) -> CollisionConstraint:
         """The collision constraint of the validated ``obstacles`` bound to the robot (this thread's)."""
-        return self.bound_constraints().get(self.robot, obstacles, self_collision, margin)
+        store = getattr(self.threads, "bound", None)  # this thread's BoundConstraints
+        if store is None:
+            store = self.threads.bound = BoundConstraints()
+        return store.get(self.robot, obstacles, self_collision, margin)
 
 
 def ik_state(robot: Robot) -> IKState:

@@ -119,8 +119,8 @@ class CollisionConstraint(Constraint):
         """A constraint with this one's settings (its public attributes) bound to ``robot`` and ``scene``; no
         state of another scene comes along (memos, caches kept on a bound constraint by its users)."""
         bound = object.__new__(type(self))
-        bound.__dict__.update((k, v) for k, v in self.__dict__.items()
-                              if not k.startswith("_") and k not in ("in_collision", "first_collision"))
+        bound.__dict__.update({k: v for k, v in self.__dict__.items()
+                               if not k.startswith("_") and k not in ("in_collision", "first_collision")})
         bound.scene = scene
         bound.robot = robot
         bound._threshold = self.clearance + self.influence

@@ -49,6 +49,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -57,7 +58,7 @@ from scipy.linalg import get_lapack_funcs
 
 from kinserve.ik import numpy_fast
 from kinserve.ik import options as _options
-from kinserve.ik.lm.chains import compiled_chain
+from kinserve.ik.lm.chains import compiled_chain, compiled_chains
 from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, STALLED
 from kinserve.ik.result import History, Result, task_evaluator
 from kinserve.ik.starts.multistart import frame_starts
@@ -315,17 +316,15 @@ def solve_lm(
     converged. ``admit``: a test of a start before its run (e.g. a collision check); a start it refuses is
     skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
     """
-    chain = compiled_chain(robot, target.frame_id)  # (warmed before the clock starts)
+    chains = robot.lm_chains  # (compiled_chain inlined: warmed before the clock starts)
+    chain = (chains if chains is not None else compiled_chains(robot)).chains[target.frame_id]
     t0 = _now()
     clocked = max_time is not None or iteration_budget is None
     deadline = t0 + (MAX_TIME if max_time is None else max_time) if clocked else None
     if q0 is not None:
         q0 = _clip(q0, robot.lower, robot.upper)  # a fresh array
     problem = (robot, target, chain, tol_pos * tol_pos, tol_rot * tol_rot, float(damping), tol_pos, tol_rot)
-
-    def starts():
-        return _starts(robot, target, q0, seed, seed_table_enabled, prefer_q0)
-
+    starts = partial(_starts, robot, target, q0, seed, seed_table_enabled, prefer_q0)
     outcome = _search(problem, q0 if prefer_q0 else None, starts,
                       (deadline, max_starts, iteration_budget, int(max_iter)), accept, admit)
     return _result(problem, outcome, q0, t0)

@@ -64,7 +64,8 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
         run = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}[attempts]
         found, failed, used, tried = run(req, checker, budget.share(CHECKED_BUDGET_SHARE))
     if found is not None:
-        found.message += _q0_note(checker)
+        if checker.name == "obstacles":
+            found.message += _q0_note(checker)
         found.elapsed = time.perf_counter() - t0
         return found
     reason = checker.infeasible(req.target)  # (asked only now: no passing answer is its common answer)
@@ -127,7 +128,8 @@ def _lm_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
         verdict.append(k > 0)  # True: the answer passes, its path does not
         return True
 
-    res = levenberg_marquardt(req, budget, accept=accept, admit=checker.admit, max_starts=_cap(req))
+    res = levenberg_marquardt(req, budget, accept=accept, admit=checker.admit,
+                              max_starts=_cap(req) if req.options else 1 + CHECKED_ATTEMPTS)
     if res.success:
         return _passed(res, checker, 1 + res.restarts, verdict[-1]), None, res.iterations, 1 + res.restarts
     failed = rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
