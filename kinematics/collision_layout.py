@@ -34,10 +34,12 @@ other shape) is its own signature (by identity: its file may change).
 from __future__ import annotations
 
 import threading
-from collections.abc import Sequence
+import warnings
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+import coal
 import numpy as np
 import pinocchio as pin
 
@@ -56,6 +58,9 @@ SPHERE_PRECHECK = True
 #: tree.
 NAIVE_MAX_GEOMETRIES = 96
 
+_SE3 = pin.SE3
+_DEFAULT_GUESS = coal.GJKInitialGuess.DefaultGuess
+
 #: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
 GJK_TOLERANCE = 1e-9
 
@@ -67,7 +72,9 @@ class RobotCollisionGeometry:
     ``model``: the Pinocchio model; ``geometry``: the convex collision ``GeometryModel`` with the self pairs;
     ``links``: the link name of each geometry; ``geometry_joints``: the Pinocchio joint of each (0 = fixed
     base); ``model_pairs``: the self pairs in model order; ``spheres``: the robot's sphere model
-    (:func:`~.robot_spheres.robot_spheres`; None when its tree has none).
+    (:func:`~.robot_spheres.robot_spheres`; None when its tree has none); ``inner_radii``: the radius (m)
+    of the ball about each of its inner points inside its geometry (:func:`~.inner_balls.robot_inner_radii`,
+    made with this object when not given; None without spheres).
     """
 
     model: pin.Model
@@ -76,6 +83,14 @@ class RobotCollisionGeometry:
     geometry_joints: tuple[int, ...]
     model_pairs: tuple[tuple[int, int], ...]
     spheres: RobotSpheres | None
+    inner_radii: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.inner_radii is None and self.spheres is not None:
+            from .inner_balls import robot_inner_radii
+
+            radii = robot_inner_radii(self.geometry, self.spheres.inner, self.spheres.inner_ranges)
+            object.__setattr__(self, "inner_radii", radii)
 
 
 @dataclass(eq=False)
@@ -101,6 +116,21 @@ class MarginWorkspace(NamedTuple):
     geometry_data: pin.GeometryData
     manager: Any
     collector: Any
+
+
+def history_free(requests: Iterable[Any]) -> None:
+    """Make coal's GJK start every call of these ``coal.CollisionRequest`` from its default guess.
+
+    Pinocchio's ``GeometryData`` enables coal's cached guess (the last call's GJK direction and support
+    vertices), so a contact within a few times GJK's relative tolerance could get either answer depending on
+    which configurations were checked before (seen at 1.5e-5 m of penetration between two Panda hulls). Both
+    of coal's switches are set: ``gjk_initial_guess`` and the deprecated ``enable_cached_gjk_guess``, which
+    coal 3 still honours on its own."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for req in requests:
+            req.gjk_initial_guess = _DEFAULT_GUESS
+            req.enable_cached_gjk_guess = False
 
 
 def broad_phase_manager_class(n_geometries: int) -> type:
@@ -176,16 +206,17 @@ class SceneLayout:
         self.pair_names: list[tuple[str, str]] = [(names[a], names[b]) for a, b in pairs]
         self.pair_joints = np.asarray(joints, dtype=int)[self.pairs].reshape(-1, 2)
         self.broad_phase = broad_phase_manager_class(gm.ngeoms)
-        self._precheck = self._build_precheck(robot.spheres)
+        self._precheck = self._build_precheck(robot)
         self._threads = threading.local()  # .workspace: Workspace; .margin: {threshold: margin workspace}
         self._threads.workspace = self._new_workspace()
 
-    def _build_precheck(self, spheres: RobotSpheres | None) -> ScenePrecheck | None:
-        if not SPHERE_PRECHECK or spheres is None or not len(self.pairs):
+    def _build_precheck(self, robot: RobotCollisionGeometry) -> ScenePrecheck | None:
+        if not SPHERE_PRECHECK or robot.spheres is None or not len(self.pairs):
             return None
         from .scene_precheck import ScenePrecheck  # Numba's kernels: loaded with the collision model
 
-        return ScenePrecheck(spheres, self.pairs, self.n_robot, self.obstacle_geometries, self.obstacles)
+        return ScenePrecheck(robot.spheres, self.pairs, self.n_robot, self.obstacle_geometries,
+                             self.obstacles, robot.inner_radii)
 
     def precheck(self) -> ScenePrecheck | None:
         """The layout's sphere pre-check (:class:`~.scene_precheck.ScenePrecheck`: the robot's spheres and the
@@ -195,19 +226,20 @@ class SceneLayout:
     def placements_of(self, obstacles: Sequence[Shape]) -> list[pin.SE3]:
         """The ``pinocchio.SE3`` pose of each of ``obstacles`` (the layout's own placement for an obstacle
         that is the layout's own object)."""
-        return [placed if shape is first else shape.placement()
-                for shape, first, placed in zip(obstacles, self.obstacles, self.placements)]
+        return [self._placement(k, shape) for k, shape in enumerate(obstacles)]
 
-    def placed(self, obstacles: Sequence[Shape], placements: Sequence[pin.SE3]) -> pin.GeometryModel:
+    def placed(self, obstacles: Sequence[Shape], placements: Sequence[pin.SE3] | None = None
+               ) -> pin.GeometryModel:
         """A copy of the layout's ``GeometryModel`` with the obstacle objects at ``placements`` (the poses of
-        ``obstacles``; the layout's own model when they are its own obstacles)."""
+        ``obstacles``; None: made from them; the layout's own model when they are its own obstacles)."""
         if obstacles is self.obstacles:
             return self.geometry
         gm = self.geometry.copy()  # shares the coal shapes; the placements are the copy's own
         objects = gm.geometryObjects
         for k, (shape, first) in enumerate(zip(obstacles, self.obstacles)):
             if shape is not first:  # the layout's own obstacles are in place already (shapes are immutable)
-                objects[self.n_robot + k].placement = placements[k]
+                objects[self.n_robot + k].placement = self._placement(k, shape) if placements is None \
+                    else placements[k]
         return gm
 
     def _new_workspace(self) -> Workspace:
@@ -215,14 +247,16 @@ class SceneLayout:
         gd = pin.GeometryData(gm)
         for req in gd.collisionRequests:  # the exact check (Pinocchio's default, set for certain)
             req.security_margin = 0.0
+        history_free(gd.collisionRequests)
         data = self.model.createData()
         bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
         check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
         return Workspace(data, gd, bpm, gm, self.obstacles, check)
 
-    def workspace(self, obstacles: tuple, placements: Sequence[pin.SE3]) -> Workspace:
-        """This thread's :class:`Workspace` holding the placements of ``obstacles`` (``placements``: their
-        ``pinocchio.SE3`` poses); only the obstacles that differ from the ones it holds are placed."""
+    def workspace(self, obstacles: tuple, placements: Sequence[pin.SE3] | None = None) -> Workspace:
+        """This thread's :class:`Workspace` holding the placements of ``obstacles``; only the obstacles that
+        differ from the ones it holds are placed (``placements``: their ``pinocchio.SE3`` poses; None: made
+        from the shapes' poses, the layout's own placement for an obstacle that is the layout's own)."""
         ws = getattr(self._threads, "workspace", None)
         if ws is None:  # a thread's first query of this layout
             ws = self._threads.workspace = self._new_workspace()
@@ -231,9 +265,14 @@ class SceneLayout:
             objects = ws.geometry.geometryObjects
             for k, (now, shape) in enumerate(zip(held, obstacles)):
                 if now is not shape:  # shapes are immutable: the same object, the same pose
-                    objects[self.n_robot + k].placement = placements[k]
+                    objects[self.n_robot + k].placement = self._placement(k, shape) if placements is None \
+                        else placements[k]
             ws.held = obstacles
         return ws
+
+    def _placement(self, k: int, shape: Shape) -> pin.SE3:
+        """The ``pinocchio.SE3`` pose of ``shape`` as obstacle ``k`` (the layout's own when it is its own)."""
+        return self.placements[k] if shape is self.obstacles[k] else _SE3(shape.pose)
 
     def margin_workspace(self, threshold: float) -> MarginWorkspace:
         """This thread's :class:`MarginWorkspace` over its workspace's geometry whose collision requests use
@@ -257,5 +296,5 @@ class SceneLayout:
 
 
 __all__ = ["GJK_TOLERANCE", "NAIVE_MAX_GEOMETRIES", "SPHERE_PRECHECK", "MarginWorkspace",
-           "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class", "obstacle_name",
-           "shape_signature"]
+           "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class", "history_free",
+           "obstacle_name", "shape_signature"]

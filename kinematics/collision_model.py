@@ -185,6 +185,9 @@ class CollisionModel:
         self._scenes: OrderedDict = OrderedDict()  #: (self_collision, *ids) -> (scene, obstacles)
         self._scenes_by_value: OrderedDict = OrderedDict()  #: (self_collision, *shapes) -> scene
         self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
+        #: (obstacles tuple, self_collision, scene) of the last tuple looked up: a repeated call with the same
+        #: tuple skips the key of ids (the tuple is kept alive here: the same object, the same shapes).
+        self._last_scene: tuple = (None, None, None)
         self._lock = threading.Lock()
 
     def with_attached(self, objects: Sequence[Any]) -> "CollisionModel":
@@ -266,11 +269,18 @@ class CollisionModel:
         A hit is safe without validating ``obstacles``: every cache entry holds
         the (validated, immutable) shapes whose ids form its key, so no other
         live object can carry those ids - equal ids mean the very same shapes.
-        Dict forms never hit.
+        Dict forms never hit. The same tuple (immutable) as the last lookup's answers without the key.
         """
+        last = self._last_scene
+        if obstacles is last[0] and self_collision is last[1]:
+            return last[2]
         if type(obstacles) is tuple or type(obstacles) is list:
             entry = self._scenes.get((self_collision, *map(id, obstacles)))
-            return None if entry is None else entry[0]
+            if entry is None:
+                return None
+            if type(obstacles) is tuple:
+                self._last_scene = (obstacles, self_collision, entry[0])
+            return entry[0]
         return None
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:

@@ -18,8 +18,10 @@ Queries are single Pinocchio calls over all pairs:
   give a lower bound of every checked pair's distance; a configuration whose
   bounds all exceed 10 um is certified free and never reaches coal (the same
   answer: a certified configuration is one coal finds free); one it cannot
-  certify but with a point inside the robot deep in an obstacle is in collision
-  without coal (:func:`~.precheck_kernels.certainly_colliding`).
+  certify but with a ball inside the robot deep in an obstacle or in another
+  link's is in collision without coal (:func:`~.precheck_kernels.certainly_colliding`);
+  coal checks the others on the pairs the spheres do not certify only
+  (:func:`~.configuration_checks.pair_test`).
   ``first_collision`` certifies stacked rows (the IK's runs) in one compiled
   call (a sequence: its first configuration alone - the IK's answer, the
   likeliest to collide - then the rest in one call) and runs coal on the ones
@@ -53,10 +55,12 @@ manager (:class:`~.collision_layout.Workspace`), so a scene - like a ``Robot`` -
 may be shared between threads. The geometry layout, the pair table, the
 pre-check of the pairs and the per-thread workspaces belong to a
 :class:`~.collision_layout.SceneLayout` shared by every scene whose obstacles
-have the same shapes (poses aside); a scene holds its obstacles, their
-placements, its ``GeometryModel`` and its pre-check arguments, all made with the
-scene; a query puts the placements into its thread's workspace when another
-scene of the layout used it last.
+have the same shapes (poses aside); a scene holds its obstacles and its
+pre-check arguments (the obstacle rows placed in one compiled call), made with
+the scene; a query that reaches coal puts the obstacles' placements into its
+thread's workspace when another scene of the layout used it last. The scene's
+own ``GeometryModel`` (:attr:`CollisionScene.geometry`, for the planners' and
+viewers' Pinocchio calls) is made on its first read: no query reads it.
 """
 
 from __future__ import annotations
@@ -68,7 +72,7 @@ import numpy as np
 import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
-from .configuration_checks import check_configurations
+from .configuration_checks import COLLIDING, FREE, PAIRWISE_MAX, check_configurations
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -127,16 +131,12 @@ class CollisionScene:
         self.pair_names: list[tuple[str, str]] = layout.pair_names
         #: Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2).
         self.pair_joints = layout.pair_joints
-        #: The ``pinocchio.SE3`` pose of each obstacle (the layout's own when the obstacle is the layout's).
-        self.placements: list[pin.SE3] = layout.placements_of(obstacles)
-        #: The scene's ``GeometryModel``: robot geometry, then the obstacles at their poses (the queries run
-        #: on the thread's workspace).
-        self.geometry: pin.GeometryModel = layout.placed(obstacles, self.placements)
+        self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
         layout_check = layout.precheck()
         self._precheck = None if layout_check is None else layout_check.arguments(obstacles)
         pre = self._precheck  # its parts, read by in_collision without a record lookup
-        self._certify = None if pre is None else pre.certify
-        self._certain = None if pre is None else pre.certainly_colliding
+        self._classify = None if pre is None else pre.classify
+        self._uncertified = None if pre is None else pre.uncertified_pairs
         self._floats = None if pre is None else pre.floats
         self._ints = None if pre is None else pre.ints
         self._tolerance = 0.0 if pre is None else pre.tolerance
@@ -144,10 +144,26 @@ class CollisionScene:
     def __len__(self) -> int:
         return len(self.pairs)
 
+    @property
+    def placements(self) -> list[pin.SE3]:
+        """The ``pinocchio.SE3`` pose of each obstacle (the layout's own when the obstacle is the layout's),
+        made on each read."""
+        return self.layout.placements_of(self.obstacles)
+
+    @property
+    def geometry(self) -> pin.GeometryModel:
+        """The scene's ``GeometryModel``: robot geometry, then the obstacles at their poses, for the planners'
+        and viewers' own Pinocchio calls. Made on its first read and kept (the queries never read it: they run
+        on the thread's workspace, so building a scene does not copy a ``GeometryModel``)."""
+        gm = self._geometry
+        if gm is None:
+            gm = self._geometry = self.layout.placed(self.obstacles)
+        return gm
+
     def workspace(self) -> Workspace:
         """This thread's :class:`~.collision_layout.Workspace` of the layout, holding this scene's
         obstacles."""
-        return self.layout.workspace(self.obstacles, self.placements)
+        return self.layout.workspace(self.obstacles)
 
     def precheck(self) -> PrecheckArguments | None:
         """The arguments of the compiled sphere pre-check with this scene's obstacle poses
@@ -159,25 +175,36 @@ class CollisionScene:
     def in_collision(self, q: np.ndarray) -> bool:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
 
-        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`): a
-        configuration it certifies is free without coal, one with an inner point deep in an obstacle is in
-        collision without coal; otherwise coal's check (:mod:`.configuration_checks`), its steps inlined.
+        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`, one compiled
+        call): a configuration it certifies is free without coal, one with an inner ball deep in an obstacle
+        or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
+        certify (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
+        :data:`~.configuration_checks.PAIRWISE_MAX` are left; :func:`~.configuration_checks.pair_test`, its
+        steps inlined).
         """
-        certify = self._certify
-        if certify is not None:
+        classify = self._classify
+        pairs = None
+        if classify is not None:
             try:
-                if certify(self._floats, self._ints, q, self._tolerance):
+                verdict = classify(self._floats, self._ints, q, self._tolerance)
+                if verdict == FREE:
                     return False
-                if self._certain(self._floats, self._ints, q, self._tolerance):
+                if verdict == COLLIDING:
                     return True
+                pairs = self._uncertified(self._floats, self._ints, q, self._tolerance)
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass
-        check = self.layout.workspace(self.obstacles, self.placements).check
+        check = self.layout.workspace(self.obstacles).check
         if check is None:
             return False
         model, data, gm, gd, update, collide, callback = check
         _forward_kinematics(model, data, q)
         _update_placements(model, data, gm, gd)
+        if pairs is not None and len(pairs) <= PAIRWISE_MAX:
+            for k in pairs.tolist():
+                if _compute_collision(gm, gd, k):
+                    return True
+            return False
         update(False)
         return collide(callback)
 

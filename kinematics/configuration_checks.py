@@ -1,12 +1,16 @@
-"""Collision checks of configurations in order: the sphere pre-check first, coal's broad phase on the rest.
+"""Collision checks of configurations in order: the sphere pre-check first, coal on the rest.
 
 :func:`collision_check` binds the four C++ calls of one broad-phase check
 (forward kinematics, geometry placements, ``BroadPhaseManager.update``,
-``collide`` with a reused callback) once; :func:`check_configurations` runs them
+``collide`` with a reused callback) once; :func:`check_configurations` runs coal
 on every configuration the sphere pre-check (:mod:`.scene_precheck`) cannot
-decide, in order, and stops at the first collision. The answer is coal's alone:
-a configuration the pre-check certifies is one coal finds free, and one it finds
-in collision for certain is one coal finds in collision.
+decide, in order, and stops at the first collision. Coal checks only the pairs
+the spheres do not certify at that configuration (:func:`pair_test`:
+``pinocchio.computeCollision`` pair by pair, the narrow phase the broad phase
+would run on them with the same requests), or the whole broad phase when more
+than :data:`PAIRWISE_MAX` are left. The answer is coal's alone: a pair the
+pre-check certifies is one coal finds free, and a configuration it finds in
+collision for certain is one coal finds in collision.
 """
 
 from __future__ import annotations
@@ -20,8 +24,17 @@ import pinocchio as pin
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
 
+#: The verdicts of :func:`~.precheck_kernels.classify_configuration`: certified free, in collision for
+#: certain, for coal to decide.
+FREE, COLLIDING, UNDECIDED = 0, 1, 2
+
 _forward_kinematics = pin.forwardKinematics
 _update_placements = pin.updateGeometryPlacements
+_compute_collision = pin.computeCollision
+
+#: Most pairs :func:`pair_test` checks one by one; with more, the broad phase checks every pair (its AABB
+#: tests are cheaper than that many narrow-phase calls).
+PAIRWISE_MAX = 8
 
 
 class CoalCheck(NamedTuple):
@@ -63,6 +76,28 @@ def coal_test(check: CoalCheck) -> Callable[[np.ndarray], bool]:
     return hits
 
 
+def pair_test(check: CoalCheck) -> Callable[[np.ndarray, np.ndarray], bool]:
+    """``hits(q, pairs)``: whether one of the scene pairs ``pairs`` (an int array of pair indices, the
+    others being certified free) intersects at ``q``: forward kinematics, placements, then
+    ``pinocchio.computeCollision`` on each pair (the pair's own request, security margin 0) up to the first
+    hit; the broad phase over every pair when there are more than :data:`PAIRWISE_MAX`."""
+    model, data, gm, gd, update, collide, callback = check
+    fk, place, one = _forward_kinematics, _update_placements, _compute_collision
+
+    def hits(q, pairs) -> bool:
+        fk(model, data, q)
+        place(model, data, gm, gd)
+        if len(pairs) > PAIRWISE_MAX:
+            update(False)
+            return collide(callback)
+        for k in pairs.tolist():
+            if one(gm, gd, k):
+                return True
+        return False
+
+    return hits
+
+
 def _is_stacked(qs: Any) -> bool:
     """Whether ``qs`` is a float ``(N, nq)`` array (rows the pre-check takes in one compiled call)."""
     return type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64
@@ -78,8 +113,9 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
     array in one compiled call; otherwise the first configuration alone (the IK checks its answer first, the
     likeliest to collide: when it does, no array is built), then the rest in one compiled call
     (``first_uncertified``, resumed after an uncertified configuration coal finds free). An uncertified
-    configuration goes to ``certainly_colliding`` first (a point inside the robot deep in an obstacle: in
-    collision, no coal). ``uncertified``: for stacked rows, the first row the pre-check cannot certify when
+    configuration goes to ``certainly_colliding`` first (an inner ball of the robot deep in an obstacle or in
+    another link's: in collision, no coal), then to coal on the pairs the spheres leave
+    (:func:`pair_test`). ``uncertified``: for stacked rows, the first row the pre-check cannot certify when
     the caller has found it already (the rows before it are certified).
     """
     if precheck is None:
@@ -94,10 +130,10 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
     if not len(qs):
         return -1
     try:
-        clear = precheck.certify(floats, ints, qs[0], tol)
+        verdict = precheck.classify(floats, ints, qs[0], tol)
     except TypeError:  # not a float vector: coal decides (and raises as before)
-        clear = False
-    if not clear and hits(qs[0]):
+        verdict = UNDECIDED
+    if verdict == COLLIDING or (verdict == UNDECIDED and hits(qs[0])):
         return 0
     if len(qs) == 1:
         return -1
@@ -111,19 +147,20 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
 
 
 def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> Callable[[np.ndarray], bool]:
-    """``hits(q)`` for a configuration the pre-check did not certify: an inner point deep in an obstacle
-    answers without coal, coal otherwise."""
-    certain, tol = precheck.certainly_colliding, precheck.tolerance
+    """``hits(q)`` for a configuration the pre-check did not certify: an inner ball deep in an obstacle or in
+    another link's answers without coal, coal on the pairs the spheres do not certify otherwise."""
+    certain, pairs_of, tol = precheck.certainly_colliding, precheck.uncertified_pairs, precheck.tolerance
     floats, ints = precheck.floats, precheck.ints
-    coal_hits = coal_test(check)
+    coal_hits, pair_hits = coal_test(check), pair_test(check)
 
     def hits(q) -> bool:
         try:
             if certain(floats, ints, q, tol):
                 return True
+            pairs = pairs_of(floats, ints, q, tol)
         except TypeError:  # not a float vector: coal decides (and raises as before)
-            pass
-        return coal_hits(q)
+            return coal_hits(q)
+        return pair_hits(q, pairs)
 
     return hits
 
@@ -142,4 +179,5 @@ def _first_hit_after(hits: Callable[[np.ndarray], bool], precheck: PrecheckArgum
     return -1
 
 
-__all__ = ["CoalCheck", "check_configurations", "coal_test", "collision_check"]
+__all__ = ["COLLIDING", "FREE", "PAIRWISE_MAX", "UNDECIDED", "CoalCheck", "check_configurations", "coal_test",
+           "collision_check", "pair_test"]

@@ -22,10 +22,14 @@ Each geometry's bounding sphere is tested first; its cover spheres only when
 the bounding spheres of a pair are not apart.
 
 **Certain collisions** (the other verdict, for configurations not certified):
-when a point inside a robot geometry (its inner points) lies deeper than
-:data:`TOLERANCE` inside an obstacle whose exact distance the table has, the two
-shapes share that point and coal would report the collision:
-:func:`certainly_colliding` answers without it.
+when a ball inside a robot geometry (its inner points with their radii,
+:mod:`.inner_balls`) reaches deeper than :data:`TOLERANCE` into an obstacle whose
+exact distance the table has, or two inner balls of the geometries of a checked
+self pair overlap by more than :data:`TOLERANCE`, the two shapes share that
+region and coal would report the collision: :func:`certainly_colliding` answers
+without it. :func:`classify_configuration` gives both verdicts (or "undecided")
+on one forward kinematics; :func:`uncertified_pairs` lists the pairs the spheres
+do not certify, the only ones an exact check of an undecided configuration needs.
 
 **The kernels** (:func:`certify_configuration` for one configuration,
 :func:`first_uncertified` and :func:`certify_configurations` over a batch in
@@ -55,6 +59,7 @@ import math
 import numba
 import numpy as np
 
+from .configuration_checks import COLLIDING, FREE, UNDECIDED
 from .kernel_cache import compiled, inline, jit
 from .kernel_primitives import tree_placements_into
 
@@ -420,13 +425,46 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
     return out
 
 
+@_inline
+def _place_inner(X, spheres, geoms, W):
+    """Every geometry's inner balls (centre in the world, radius) into their rows of ``W``."""
+    for g in range(geoms.shape[0]):
+        j = geoms[g, 0]
+        for i in range(geoms[g, 3], geoms[g, 4]):
+            _place(X, j, spheres, i, W)
+
+
+@_jit
+def _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
+    """True when a checked pair intersects for certain at the joint placements ``X``: an inner ball of a robot
+    geometry reaches deeper than ``tol`` (m) into an obstacle whose exact distance the table has, or two
+    inner balls of the geometries of a self pair overlap by more than ``tol`` (a ball inside each shape:
+    the shapes share their overlap). Inner balls of radius 0 are points."""
+    _place_inner(X, spheres, geoms, W)
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] == OBSTACLE_PAIR:
+            if obstacles[b, KIND] == BALL and obstacles[b, EXACT] != 1.0:
+                continue
+            for i in range(geoms[a, 3], geoms[a, 4]):
+                if _obstacle_gap(W, i, obstacles, b) < -tol:
+                    return True
+        else:
+            for i in range(geoms[a, 3], geoms[a, 4]):
+                for j in range(geoms[b, 3], geoms[b, 4]):
+                    if _gap(W, i, j) < -tol:
+                        return True
+    return False
+
+
 @compiled(_ONE_SIGNATURE)
 def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
-    """True when configuration ``q`` is in collision for certain: a point inside a robot geometry (its inner
-    points, :func:`~.sphere_cover.geometry_inner_points`) lies deeper than ``tol`` (m) inside an obstacle of a
-    checked pair whose exact signed distance the kernel has (every kind but a BALL that stands for another
-    shape). Then the two shapes share that point: coal finds them in collision. False says nothing (coal
-    decides), also when ``q`` has not one entry per joint. ``floats, ints``:
+    """True when configuration ``q`` is in collision for certain (:func:`_certain_hit`: an inner ball of a
+    robot geometry, :func:`~.sphere_cover.geometry_inner_points` with the radii packed beside them, deeper
+    than ``tol`` (m) inside an obstacle of a checked pair whose exact signed distance the kernel has - every
+    kind but a BALL that stands for another shape - or two inner balls of a checked self pair overlapping by
+    more than ``tol``). Then the two shapes share that region: coal finds them in collision. False says
+    nothing (coal decides), also when ``q`` has not one entry per joint. ``floats, ints``:
     :func:`~.precheck_packing.pack`."""
     tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
     n = joints.shape[0]
@@ -434,18 +472,80 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
         return False
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
     tree_placements(tree, joints, q, X)
-    for p in range(pairs.shape[0]):
-        if pairs[p, 2] != OBSTACLE_PAIR:
-            continue
-        a, o = pairs[p, 0], pairs[p, 1]
-        if obstacles[o, KIND] == BALL and obstacles[o, EXACT] != 1.0:
-            continue
-        j = geoms[a, 0]
-        for i in range(geoms[a, 3], geoms[a, 4]):
-            _place(X, j, spheres, i, W)  # radius 0: the gap is the point's signed distance
-            if _obstacle_gap(W, i, obstacles, o) < -tol:
-                return True
-    return False
+    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol)
+
+
+_CLASSIFY_SIGNATURE = _t.int64(_F1, _I1, _Q1, _t.float64)
+
+
+@compiled(_CLASSIFY_SIGNATURE)
+def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> int:
+    """:data:`FREE` when :func:`certify_configuration` certifies ``q``, else :data:`COLLIDING` when
+    :func:`certainly_colliding` finds it in collision, else :data:`UNDECIDED` (also when ``q`` has not one
+    entry per joint): both tests on one forward kinematics, in one call. ``tol`` (m)."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n = joints.shape[0]
+    if q.shape[0] != n:
+        return UNDECIDED
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0:
+        return FREE
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
+        return COLLIDING
+    return UNDECIDED
+
+
+@_inline
+def _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, stamp):
+    """Whether pair-table row ``p``'s lower bound exceeds ``tol`` (m) at the placements ``X`` (bounding
+    spheres in ``W``): the tests of :func:`_configuration_margin` on this pair alone."""
+    a, b = pairs[p, 0], pairs[p, 1]
+    if pairs[p, 2] == SELF_PAIR:
+        if _sphere_slack(W, a, b, tol, MARGIN_CAP) >= 0.0:
+            return True
+        _place_cover(X, spheres, geoms, a, W, placed, stamp)
+        _place_cover(X, spheres, geoms, b, W, placed, stamp)
+        for i in range(geoms[a, 1], geoms[a, 2]):
+            if _sphere_slack(W, i, b, tol, MARGIN_CAP) >= 0.0:
+                continue
+            for j in range(geoms[b, 1], geoms[b, 2]):
+                if _sphere_slack(W, i, j, tol, MARGIN_CAP) < 0.0:
+                    return False
+        return True
+    if _obstacle_slack(W, a, obstacles, b, tol, MARGIN_CAP) >= 0.0:
+        return True
+    _place_cover(X, spheres, geoms, a, W, placed, stamp)
+    for i in range(geoms[a, 1], geoms[a, 2]):
+        if _obstacle_slack(W, i, obstacles, b, tol, MARGIN_CAP) < 0.0:
+            return False
+    return True
+
+
+_PAIRS_SIGNATURE = _t.Array(_t.int64, 1, "C")(_F1, _I1, _Q1, _t.float64)
+
+
+@compiled(_PAIRS_SIGNATURE)
+def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> np.ndarray:
+    """The scene indices of the pairs whose lower bound at ``q`` does not exceed ``tol`` (m), in the pair
+    table's order (obstacle pairs first): every other pair is certified free (:func:`certify_configuration`'s
+    tests, pair by pair), so an exact check of these pairs alone decides ``q``. Every pair when ``q`` has not
+    one entry per joint."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n, P = joints.shape[0], pairs.shape[0]
+    out = np.empty(P, dtype=np.int64)
+    if q.shape[0] != n:
+        out[:] = pairs[:, 3]
+        return out
+    X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        _place(X, geoms[g, 0], spheres, g, W)
+    k = 0
+    for p in range(P):
+        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
+            out[k] = pairs[p, 3]
+            k += 1
+    return out[:k].copy()
 
 
 @_inline
@@ -759,7 +859,8 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     return out
 
 
-__all__ = ["BALL", "BOX", "CAPSULE", "CYLINDER", "EXACT", "KIND", "LIPSCHITZ_SAFETY", "MARGIN_CAP",
-           "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "PAIR_HORIZON", "SELF_PAIR", "TOLERANCE",
-           "certainly_colliding", "certify_configuration", "certify_configurations", "certify_motion",
-           "first_uncertified", "motion_hard_pairs", "pair_lower_bounds", "placed_floats", "tree_placements"]
+__all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
+           "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "PAIR_HORIZON", "SELF_PAIR", "TOLERANCE",
+           "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
+           "certify_motion", "classify_configuration", "first_uncertified", "motion_hard_pairs",
+           "pair_lower_bounds", "placed_floats", "tree_placements", "uncertified_pairs"]

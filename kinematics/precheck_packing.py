@@ -5,7 +5,7 @@ A compiled call pays per array argument, so the kernels of
 (:func:`pack`; the kernels' ``_unpack`` gives the arrays back as views, no copy):
 
 * ``floats``: ``tree`` ``(J, 15)``, ``reach`` ``(J,)``, ``spheres`` ``(S, 4)`` (the
-  robot's spheres, then its inner points with radius 0), ``obstacles``
+  robot's spheres, then its inner balls: inner points with their radii), ``obstacles``
   ``(O, 16)`` (:mod:`.obstacle_table`), row-major, in turn;
 * ``ints``: ``(J, S, G, P, O)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 5)``
   (joint, first and end cover row, first and end inner point row), ``pairs``
@@ -32,11 +32,14 @@ class PackedArrays(NamedTuple):
     ints: np.ndarray
 
 
-def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray) -> PackedArrays:
+def pack(robot: RobotSpheres, pairs: np.ndarray, obstacles: np.ndarray,
+         inner_radii: np.ndarray | None = None) -> PackedArrays:
     """The kernels' two arguments for the robot's spheres ``robot``, the pair table ``pairs`` ``(P, 4)`` and
-    the obstacle table ``obstacles`` ``(O, 16)`` (module docstring)."""
+    the obstacle table ``obstacles`` ``(O, 16)`` (module docstring); ``inner_radii`` ``(I,)``: the radius (m)
+    of the ball inside its geometry about each inner point (:mod:`.inner_balls`; None: 0, points)."""
     n_spheres = len(robot.spheres)
-    rows = np.concatenate([robot.spheres, np.column_stack([robot.inner, np.zeros(len(robot.inner))])])
+    radii = np.zeros(len(robot.inner)) if inner_radii is None else np.asarray(inner_radii, dtype=float)
+    rows = np.concatenate([robot.spheres, np.column_stack([robot.inner, radii])])
     geoms = np.column_stack([robot.geoms, robot.inner_ranges + n_spheres]).astype(np.int64)
     obstacles = np.asarray(obstacles, dtype=float)
     sizes = [len(robot.joints), len(rows), len(robot.geoms), len(pairs), len(obstacles)]  # J, S, G, P, O

@@ -29,8 +29,10 @@ from .precheck_kernels import (
     certify_configuration,
     certify_configurations,
     certify_motion,
+    classify_configuration,
     first_uncertified,
     placed_floats,
+    uncertified_pairs,
 )
 from .precheck_packing import pack
 from .robot_spheres import RobotSpheres
@@ -47,6 +49,9 @@ class PrecheckArguments(NamedTuple):
     max_advances)``
     (:func:`~.precheck_kernels.certify_motion`) with the layout's ``sphere_reach`` ``(S, J)`` and
     ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`).
+    ``classify(floats, ints, q, tolerance)`` (:func:`~.precheck_kernels.classify_configuration`: free, in
+    collision or undecided, in one call) and ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene
+    indices of the pairs the spheres do not certify at ``q``: coal need check only those).
     """
 
     certify: Callable[..., bool]
@@ -58,6 +63,8 @@ class PrecheckArguments(NamedTuple):
     certify_motion: Callable[..., np.ndarray]
     sphere_reach: np.ndarray
     pair_reach: np.ndarray
+    classify: Callable[..., int]
+    uncertified_pairs: Callable[..., np.ndarray]
 
 
 def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
@@ -79,30 +86,27 @@ class ScenePrecheck:
     """The pre-check of one layout: the robot's spheres ``robot``, the pair table ``pairs`` ``(P, 4)``
     (:func:`pair_table`) and the obstacle templates; :meth:`arguments` adds a scene's obstacle poses.
 
-    ``obstacles``: the layout's own obstacles (shapes with a 4x4 world ``pose``), placed once: a scene sharing
-    some of them copies their rows and places only the others.
+    ``obstacles``: the layout's own obstacles (unused: every scene places its rows in one compiled call);
+    ``inner_radii``: the radii (m) of the robot's inner balls (:mod:`.inner_balls`; None: points).
     """
 
     def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int,
                  obstacle_geometries: Sequence[coal.CollisionGeometry],
-                 obstacles: Sequence[Any] = ()) -> None:
+                 obstacles: Sequence[Any] = (), inner_radii: np.ndarray | None = None) -> None:
         self.robot = robot
         self.pairs = pair_table(pairs, n_robot)
         made = [obstacle_template(g) for g in obstacle_geometries]
         self.templates = np.array([t.row for t in made]).reshape(-1, OBSTACLE_COLUMNS)
         self.centres = np.array([t.centre for t in made]).reshape(-1, 3)
-        packed = pack(robot, self.pairs, self.templates)
+        packed = pack(robot, self.pairs, self.templates, inner_radii)
         #: The packed floats but the obstacle rows (a scene appends its own).
         self.robot_floats = packed.floats[:len(packed.floats) - self.templates.size]
         self.ints = packed.ints
-        self.reference = tuple(obstacles)
-        self.reference_floats = self._floats([shape.pose for shape in obstacles]) if len(obstacles) else None
-        self.centred = ~self.centres.any(axis=1)  #: obstacles whose row's translation is their pose's
         #: :meth:`motion_reach`'s pair rates of the self pairs, per row of ``pairs``.
         self.pair_reach = self.motion_reach()
 
     def _floats(self, poses: Any) -> np.ndarray:
-        P = np.ascontiguousarray(np.asarray(poses, dtype=float).reshape(-1, 4, 4))
+        P = np.array(poses, dtype=float).reshape(-1, 4, 4)
         return placed_floats(self.robot_floats, self.templates, self.centres, P)
 
     def motion_reach(self) -> np.ndarray:
@@ -122,22 +126,12 @@ class ScenePrecheck:
 
     def arguments(self, obstacles: Sequence[Any]) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of a scene with ``obstacles`` (one per obstacle geometry: shapes
-        with a 4x4 world ``pose``). The rows of the obstacles that are the layout's own (same objects) are
-        copied, the others placed."""
-        if self.reference_floats is None or len(obstacles) != len(self.reference):
-            floats = self._floats([shape.pose for shape in obstacles])
-        else:
-            floats = self.reference_floats.copy()
-            start = len(self.robot_floats)
-            for k, (shape, own) in enumerate(zip(obstacles, self.reference)):
-                if shape is not own:
-                    T = shape.pose
-                    row = floats[start + OBSTACLE_COLUMNS * k:start + OBSTACLE_COLUMNS * (k + 1)]
-                    row[:9] = T[:3, :3].reshape(9)
-                    row[9:12] = T[:3, 3] if self.centred[k] else T[:3, 3] + T[:3, :3] @ self.centres[k]
+        with a 4x4 world ``pose``): the packed robot half and every obstacle row placed at its pose, in one
+        compiled call (:func:`~.precheck_kernels.placed_floats`)."""
+        floats = self._floats([shape.pose for shape in obstacles])
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
                                  certainly_colliding, certify_motion, self.robot.sphere_reach,
-                                 self.pair_reach)
+                                 self.pair_reach, classify_configuration, uncertified_pairs)
 
 
 def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:

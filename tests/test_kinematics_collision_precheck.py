@@ -4,7 +4,10 @@ against coal.
 * conservativeness on the Panda (SRDF pairs) with the benchmark's table and wall plus spheres, boxes,
   capsules, cylinders and a mesh near the arm's surface, and on the UR5: every pair's lower bound is below
   coal's distance, no configuration coal finds in collision is certified, certification is exactly "every
-  bound above the tolerance", and ``in_collision`` / ``first_collision`` answer as pair-by-pair coal;
+  bound above the tolerance", no free one is found in collision for certain, ``classify_configuration``
+  gives the verdicts of the two tests, the pairs left to coal (``uncertified_pairs``) are exactly those
+  whose bound is not above the tolerance (every colliding pair among them), and ``in_collision`` /
+  ``first_collision`` answer as pair-by-pair coal;
 * the certification rate of the open scene (reported, above a floor);
 * scenes of one layout share its pre-check, each with its own obstacle poses; the pre-check's arguments are
   made with the scene; robots without a sphere model (and layouts built with the switch off) keep coal alone;
@@ -63,8 +66,14 @@ def _check_scene(robot, scene, Q):
         assert not (certain and not hit.any()), "a free configuration was found in collision for certain"
         assert not (certain and cert)
         _check_scene.certain += int(certain)
+        verdict = pk.classify_configuration(*arrays, q, pk.TOLERANCE)
+        assert verdict == (pk.FREE if cert else pk.COLLIDING if certain else pk.UNDECIDED)
+        # the pairs left to coal: every pair whose bound is not above the tolerance, every colliding one
+        left = pk.uncertified_pairs(*arrays, q, pk.TOLERANCE)
+        assert set(np.flatnonzero(hit)) <= set(left.tolist())
         if np.abs(bounds - pk.TOLERANCE).min() > 1e-9:
             assert cert == bool(np.all(bounds > pk.TOLERANCE))
+            assert sorted(left.tolist()) == np.flatnonzero(bounds <= pk.TOLERANCE).tolist()
         truth.append(bool(hit.any()))
     truth = np.array(truth)
     assert [scene.in_collision(q) for q in Q] == truth.tolist()
@@ -143,7 +152,8 @@ def test_scene_checks_share_the_layout_precheck_and_follow_moved_obstacles():
     for scene in (away, onto):
         # rows copied from the layout's own obstacles or placed: as packed from scratch
         rows = np.array([obstacle_row(shape.geometry(), shape.placement()) for shape in scene.obstacles])
-        floats, ints = pack(layout_check.robot, layout_check.pairs, rows)
+        radii = robot.collision.robot_geometry.inner_radii
+        floats, ints = pack(layout_check.robot, layout_check.pairs, rows, radii)
         assert np.allclose(scene.precheck().floats, floats, rtol=0, atol=1e-15)
         assert np.array_equal(scene.precheck().ints, ints)
     assert certify(away.precheck(), [q])[0] and not certify(onto.precheck(), [q])[0]
@@ -178,13 +188,14 @@ def test_the_precheck_is_made_with_the_scene():
     pre, layout_check = scene.precheck(), scene.layout.precheck()
     assert pre is not None and layout_check is not None
     rows = np.array([obstacle_row(s.geometry(), s.placement()) for s in scene.obstacles])
-    floats, ints = pack(layout_check.robot, layout_check.pairs, rows)
+    radii = robot.collision.robot_geometry.inner_radii
+    floats, ints = pack(layout_check.robot, layout_check.pairs, rows, radii)
     assert np.allclose(pre.floats, floats, rtol=0, atol=1e-15) and np.array_equal(pre.ints, ints)
     assert pre.tolerance == pk.TOLERANCE
     Q = robot.random_q(np.random.default_rng(12), 200)
     calls = []
-    real = pre.certify
-    scene._certify = lambda *a: calls.append(1) or real(*a)  # a spy on the kernel the scene calls
+    real = pre.classify
+    scene._classify = lambda *a: calls.append(1) or real(*a)  # a spy on the kernel the scene calls
     answers = [scene.in_collision(q) for q in Q]
     assert len(calls) == len(Q) and answers == coal_hits(scene, Q).tolist()
 
