@@ -56,6 +56,21 @@ class Server:
         return out or ""
 
 
+def running(*extra: str, max_time_cap: float = 1.0):
+    """A module fixture's body: yield a :class:`Server` started with ``extra`` options; stop it after."""
+    srv = Server(*extra, max_time_cap=max_time_cap)
+    try:
+        yield srv
+    finally:
+        srv.stop()
+
+
+def client_of(server: "Server", timeout: float = 120.0):
+    """A module fixture's body: yield an ``httpx.Client`` on ``server`` (closed after)."""
+    with httpx.Client(base_url=server.url, timeout=timeout) as c:
+        yield c
+
+
 class KeepAliveClient:
     """One raw HTTP/1.1 keep-alive connection: cheap enough on the client side to time the server.
 

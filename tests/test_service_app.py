@@ -13,20 +13,17 @@ import pytest
 
 from kinserve import robots
 
-from service_server import ROOT, Server
+from service_server import ROOT, client_of, running
 
 
 @pytest.fixture(scope="module")
 def server():
-    srv = Server(max_time_cap=0.2)
-    yield srv
-    srv.stop()
+    yield from running(max_time_cap=0.2)
 
 
 @pytest.fixture(scope="module")
 def client(server):
-    with httpx.Client(base_url=server.url, timeout=30) as c:
-        yield c
+    yield from client_of(server, timeout=30)
 
 
 @pytest.fixture(scope="module")

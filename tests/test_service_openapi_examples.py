@@ -18,7 +18,6 @@ import io
 import json
 import re
 
-import httpx
 import jsonschema
 import numpy as np
 import pytest
@@ -31,7 +30,7 @@ from kinserve.service import schemas as S
 from kinserve.service.executor import Deadline
 from kinserve.service.settings import ServiceSettings
 
-from service_server import ROOT, Server
+from service_server import ROOT, client_of, running
 
 METHODS = ("get", "post", "put", "patch", "delete")
 #: Answers whose example is the server's own answer to the first request example (to TOL), but for these
@@ -45,15 +44,12 @@ OVERRUN = 10 * STEP  # readings a solve may take after its last check of the clo
 
 @pytest.fixture(scope="module")
 def server():
-    srv = Server("--solver-threads", "1", max_time_cap=1.0)
-    yield srv
-    srv.stop()
+    yield from running("--solver-threads", "1", max_time_cap=1.0)
 
 
 @pytest.fixture(scope="module")
 def client(server):
-    with httpx.Client(base_url=server.url, timeout=120) as c:
-        yield c
+    yield from client_of(server, timeout=120)
 
 
 @pytest.fixture(scope="module")

@@ -14,22 +14,19 @@ from kinserve.service.schemas import CartesianPlanRequest, CartesianPlanResponse
 
 from motion_scenes import IndependentCheck
 from service_scenes import READY, box
-from service_server import Server
+from service_server import client_of, running
 
 TCP = "panda_hand_tcp"
 
 
 @pytest.fixture(scope="module")
 def server():
-    srv = Server("--solver-threads", "1", max_time_cap=1.0)
-    yield srv
-    srv.stop()
+    yield from running("--solver-threads", "1", max_time_cap=1.0)
 
 
 @pytest.fixture(scope="module")
 def client(server):
-    with httpx.Client(base_url=server.url, timeout=120) as c:
-        yield c
+    yield from client_of(server, timeout=120)
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from kinserve.service.motion_schemas import EXAMPLE_REQUEST, MotionPlanRequest, 
 
 from motion_scenes import IndependentCheck, dense
 from service_scenes import ASIDE, READY, box, cage
-from service_server import KeepAliveClient, Server
+from service_server import KeepAliveClient, client_of, running
 
 CAP = 1.0  # --max-time-cap (s)
 
@@ -24,15 +24,12 @@ CAP = 1.0  # --max-time-cap (s)
 def server():
     # one solver process: consecutive requests run in the same process (a carried object that leaked into
     # the pooled robot would show in the next request)
-    srv = Server("--solver-threads", "1", max_time_cap=CAP)
-    yield srv
-    srv.stop()
+    yield from running("--solver-threads", "1", max_time_cap=CAP)
 
 
 @pytest.fixture(scope="module")
 def client(server):
-    with httpx.Client(base_url=server.url, timeout=120) as c:
-        yield c
+    yield from client_of(server, timeout=120)
 
 
 @pytest.fixture(scope="module")

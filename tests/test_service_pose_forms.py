@@ -7,7 +7,6 @@ The quaternions and angles here come from scipy (its ``as_quat`` is scalar last 
 
 from __future__ import annotations
 
-import httpx
 import jsonschema
 import numpy as np
 import pytest
@@ -15,20 +14,17 @@ from scipy.spatial.transform import Rotation
 
 from kinserve import robots
 
-from service_server import Server
+from service_server import client_of, running
 
 
 @pytest.fixture(scope="module")
 def server():
-    srv = Server(max_time_cap=2.0)
-    yield srv
-    srv.stop()
+    yield from running(max_time_cap=2.0)
 
 
 @pytest.fixture(scope="module")
 def client(server):
-    with httpx.Client(base_url=server.url, timeout=60) as c:
-        yield c
+    yield from client_of(server, timeout=60)
 
 
 @pytest.fixture(scope="module")

@@ -5,27 +5,23 @@ from __future__ import annotations
 import json
 import math
 
-import httpx
 import numpy as np
 import pytest
 
 from kinserve import robots
 from kinserve.service.responses import json_response
 
-from service_server import Server
+from service_server import client_of, running
 
 
 @pytest.fixture(scope="module")
 def server():
-    srv = Server(max_time_cap=0.3)
-    yield srv
-    srv.stop()
+    yield from running(max_time_cap=0.3)
 
 
 @pytest.fixture(scope="module")
 def client(server):
-    with httpx.Client(base_url=server.url, timeout=30) as c:
-        yield c
+    yield from client_of(server, timeout=30)
 
 
 @pytest.fixture(scope="module")
