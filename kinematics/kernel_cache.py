@@ -33,6 +33,7 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "kinematics/sphere_cover.py",
     "ik/constraints/clearance_kernel.py",
     "ik/lm/kernel.py",
+    "planners/motion/extend_kernel.py",
 ))
 
 

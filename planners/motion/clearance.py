@@ -132,6 +132,12 @@ class ClearanceOracle:
         d = np.fromiter((r.min_distance for r in self.geometry_data.distanceResults), float, self.n_pairs)
         return Clearance(q, d, np.ones(self.n_pairs, dtype=bool))
 
+    def bounded(self, q: np.ndarray, bounds: np.ndarray) -> Clearance:
+        """The :class:`Clearance` of ``q`` from its sphere bounds ``bounds`` ``(P,)`` computed already (the
+        compiled extension step's, :func:`~.extend_kernel.extend_probe`; the same as :meth:`clearance`'s)."""
+        self.distance_checks += 1
+        return Clearance(q, bounds, np.zeros(self.n_pairs, dtype=bool))
+
     def _place(self, q: np.ndarray) -> None:
         pin.forwardKinematics(self.model, self.data, q)
         pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data)

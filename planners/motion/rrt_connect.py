@@ -7,7 +7,11 @@ succeeds, **connects** the other tree to the new node (steps until it reaches th
 node or is stopped); then the trees swap roles. A step is kept only when its end
 is free (the scene's cheap collision test first, then its pair distances above
 the floor) and the cheap test finds its edge's probe points free
-(:meth:`~.edges.EdgeCertifier.blocked`).
+(:meth:`~.edges.EdgeCertifier.blocked`). With the scene's sphere pre-check, one
+compiled call (:func:`~.extend_kernel.extend_probe`) finds the nearest node,
+makes the step and certifies the new node and the probe points free on the
+spheres, with the new node's pair bounds; coal runs only on the points the
+spheres leave uncertain, in one call (same answers as the tests one by one).
 
 **Lazy certificates**: an edge is certified (:class:`~.edges.EdgeCertifier`) only
 when it lies on a candidate path, once the trees meet: every edge of the path not
@@ -31,8 +35,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .clearance import Clearance
-from .edges import EdgeCertifier
+from .clearance import Clearance, ClearanceOracle
+from .edges import PROBES, EdgeCertifier
+from .extend_kernel import AT_TARGET, END, FLOOR, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
 from .search_tree import SearchTree
 
 #: Default extension step (rad, Euclidean norm of the joint change).
@@ -41,6 +46,7 @@ STEP = 0.5
 DIRECT_GOALS = 3
 
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
+_PROBES = np.array(PROBES)
 
 
 @dataclass(frozen=True)
@@ -71,6 +77,40 @@ class _Step(NamedTuple):
 def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
     """One step of ``tree`` from its node nearest ``target`` towards it: (status, new node or -1); the new
     edge is not certified yet (module docstring)."""
+    oracle = certifier.oracle
+    pre = oracle.precheck
+    if pre is None:
+        return extend_exactly(tree, target, certifier, step)
+    codes, q_new, bounds = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
+                                        float(step), pre.tolerance, certifier.end_need, _PROBES)
+    near = int(codes[NEAR])
+    if codes[KIND] == AT_TARGET:
+        return _Step(REACHED, near)
+    oracle.checks += 1 + len(_PROBES)
+    verdicts = codes[END:].tolist()
+    if UNCERTAIN in verdicts and _collides(oracle, tree.node(near), q_new, verdicts):
+        return _Step(TRAPPED, -1)
+    c_new = oracle.bounded(q_new, bounds) if len(bounds) else certifier.clearance(q_new)
+    if codes[FLOOR] != 1 and not certifier.clear(c_new):
+        return _Step(TRAPPED, -1)
+    k = tree.add(c_new, near, certified=False)
+    return _Step(REACHED if codes[KIND] == ONTO else ADVANCED, k)
+
+
+def _collides(oracle: ClearanceOracle, q_near: np.ndarray, q_new: np.ndarray, verdicts: list[int]) -> bool:
+    """Whether the scene's collision test finds ``q_new`` or a probe point ``q_near + s (q_new - q_near)``
+    (``s`` in :data:`~.edges.PROBES`) in collision, asked in that order of the points whose ``verdicts``
+    (:func:`~.extend_kernel.extend_probe`'s, ``q_new`` first) are uncertain; the others are certified free."""
+    if verdicts[0] == UNCERTAIN and oracle.scene.in_collision(q_new):
+        return True
+    u = q_new - q_near
+    hits = oracle.scene.in_collision
+    return any(v == UNCERTAIN and hits(q_near + s * u) for s, v in zip(PROBES, verdicts[1:]))
+
+
+def extend_exactly(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
+    """:func:`extend` one test at a time (the scene's collision test, clearance, probe points): the scenes
+    without a sphere pre-check, and the reference of the compiled step."""
     near = tree.nearest(target)
     q_near = tree.node(near)
     delta = target - q_near
@@ -166,4 +206,4 @@ def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upp
 
 
 __all__ = ["ADVANCED", "DIRECT_GOALS", "REACHED", "STEP", "TRAPPED", "SearchBudget", "SearchResult",
-           "certify_branch", "connect", "extend", "rrt_connect"]
+           "certify_branch", "connect", "extend", "extend_exactly", "rrt_connect"]

@@ -7,7 +7,10 @@ goal the node leads to) and whether the edge from its parent is certified yet
 (a lazy search certifies the edges of a candidate path only). A node whose edge
 fails its certificate is pruned with everything grown from it: pruned nodes keep
 their index but are never a nearest neighbour again. Nearest neighbour: a
-vectorised squared Euclidean search over the nodes that are not pruned.
+compiled squared Euclidean scan over the nodes that are not pruned
+(:func:`~.extend_kernel.nearest_node`); :attr:`SearchTree.points` and
+:attr:`SearchTree.pruned` hand the arrays to the compiled extension step
+(:func:`~.extend_kernel.extend_probe`).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .clearance import Clearance
+from .extend_kernel import nearest_node
 
 
 class SearchTree:
@@ -45,6 +49,16 @@ class SearchTree:
         self._certified.append(certified or parent < 0)
         self.size += 1
         return k
+
+    @property
+    def points(self) -> np.ndarray:
+        """The node array ``(capacity, nq)``: rows ``[:size]`` are the nodes (read only by callers)."""
+        return self._nodes
+
+    @property
+    def pruned(self) -> np.ndarray:
+        """The pruned mask ``(capacity,)`` of :attr:`points`' rows (read only by callers)."""
+        return self._pruned
 
     def node(self, k: int) -> np.ndarray:
         """Configuration of node ``k`` (a view)."""
@@ -81,10 +95,7 @@ class SearchTree:
     def nearest(self, q: np.ndarray) -> int:
         """Index of the node closest to ``q`` (Euclidean; the first one on ties) among those not pruned (a
         root is never pruned)."""
-        diff = self._nodes[:self.size] - q
-        d2 = np.einsum("ij,ij->i", diff, diff)
-        d2[self._pruned[:self.size]] = np.inf
-        return int(np.argmin(d2))
+        return int(nearest_node(self._nodes, self._pruned, self.size, np.asarray(q, dtype=float)))
 
     def branch(self, k: int) -> list[int]:
         """Node indices from node ``k`` up to its root (``k`` first)."""

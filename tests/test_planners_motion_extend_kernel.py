@@ -1,0 +1,151 @@
+"""The compiled extension step of RRT-Connect (kinserve.planners.motion.extend_kernel) against Python.
+
+``nearest_node`` against a NumPy scan; ``extend_probe`` against the step computed in NumPy and the
+pre-check's own kernels called one point at a time; ``rrt_connect.extend`` (compiled step, coal on the
+uncertain points) against ``extend_exactly`` (the scene's collision test, clearance and probes one by one)
+on the same trees and targets: the same status, node and clearance bounds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kinserve import robots
+from kinserve.kinematics.precheck_kernels import certify_configuration, pair_lower_bounds
+from kinserve.planners.motion.clearance import Clearance, ClearanceOracle
+from kinserve.planners.motion.edges import PROBES, EdgeCertifier
+from kinserve.planners.motion.extend_kernel import (
+    AT_TARGET,
+    END,
+    FLOOR,
+    FREE,
+    KIND,
+    NEAR,
+    ONTO,
+    TOWARDS,
+    UNCERTAIN,
+    extend_probe,
+    nearest_node,
+)
+from kinserve.planners.motion.reach import pair_reach
+from kinserve.planners.motion.rrt_connect import TRAPPED, extend, extend_exactly
+from kinserve.planners.motion.search_tree import SearchTree
+
+from motion_scenes import shelf_scene
+
+
+@pytest.fixture(scope="module")
+def setting():
+    robot = robots.load("panda")
+    scene = robot.collision_scene(shelf_scene())
+    return robot, EdgeCertifier(ClearanceOracle(scene), pair_reach(robot.model, scene))
+
+
+def test_nearest_node_is_the_first_closest_row_not_pruned():
+    rng = np.random.default_rng(5)
+    for trial in range(200):
+        size = int(rng.integers(1, 40))
+        nodes = rng.normal(size=(size + 7, 3))
+        nodes[size // 2] = nodes[0]  # a tie: the first one wins
+        pruned = rng.random(size + 7) < 0.3
+        pruned[int(rng.integers(size))] = False  # at least one candidate
+        q = nodes[0] + rng.normal(scale=0.01 if trial % 2 else 1.0, size=3)
+        d2 = np.where(pruned[:size], np.inf, ((nodes[:size] - q) ** 2).sum(axis=1))
+        assert nearest_node(nodes, pruned, size, q) == int(np.argmin(d2))
+    assert nearest_node(nodes, np.ones(len(nodes), dtype=bool), size, q) == -1
+    assert nearest_node(nodes, pruned, 0, q) == -1
+
+
+def _tree(robot, rng, n):
+    """Free-or-not random nodes in the joint limits (the kernel does not care whether they are free)."""
+    nodes = robot.lower + (robot.upper - robot.lower) * rng.random((n + 5, robot.nq))
+    pruned = rng.random(n + 5) < 0.2
+    pruned[0] = False
+    return nodes, pruned
+
+
+def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
+    robot, certifier = setting
+    pre = certifier.oracle.precheck
+    rng = np.random.default_rng(11)
+    probes = np.array(PROBES)
+    kinds = set()
+    for trial in range(300):
+        n = int(rng.integers(1, 30))
+        nodes, pruned = _tree(robot, rng, n)
+        step = 0.5 if trial % 3 else 3.0  # some steps reach the target
+        target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
+        if trial % 50 == 0:
+            target = nodes[0].copy()  # the nearest node is the target itself
+        codes, q_new, bounds = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step,
+                                            pre.tolerance, certifier.end_need, probes)
+        near = nearest_node(nodes, pruned, n, target)
+        assert codes[NEAR] == near
+        delta = target - nodes[near]
+        dist = np.linalg.norm(delta)
+        kinds.add(int(codes[KIND]))
+        if dist <= 1e-12:
+            assert codes[KIND] == AT_TARGET
+            continue
+        assert codes[KIND] == (ONTO if dist <= step else TOWARDS)
+        expected = target if dist <= step else nodes[near] + delta * (step / dist)
+        np.testing.assert_allclose(q_new, expected, rtol=0, atol=1e-12)
+        points = [q_new] + [nodes[near] + s * (q_new - nodes[near]) for s in PROBES]
+        verdicts = [FREE if certify_configuration(pre.floats, pre.ints, p, pre.tolerance) else UNCERTAIN
+                    for p in points]
+        assert codes[END:].tolist() == verdicts
+        if UNCERTAIN in verdicts:
+            assert len(bounds) == 0 and codes[FLOOR] == -1
+        else:
+            reference = pair_lower_bounds(pre.floats, pre.ints, q_new)
+            np.testing.assert_array_equal(bounds, reference)
+            assert codes[FLOOR] == int(not np.any(reference < certifier.end_need))
+    assert kinds == {AT_TARGET, TOWARDS, ONTO}
+
+
+def _grown(robot, certifier, rng):
+    """A tree of free nodes above the floor, grown by the Python step, with a few nodes pruned."""
+    tree = SearchTree(robot.nq, capacity=4)
+    for _ in range(1000):  # a free root above the floor
+        q = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
+        if not certifier.in_collision(q) and certifier.clear(certifier.clearance(q)):
+            break
+    tree.add(certifier.clearance(q), -1)
+    for _ in range(2000):
+        if tree.size >= 12:
+            break
+        extend_exactly(tree, robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq), certifier, 0.5)
+    assert tree.size >= 12
+    tree.prune(int(rng.integers(1, tree.size)))
+    return tree
+
+
+def _copy(tree: SearchTree) -> SearchTree:
+    other = SearchTree(tree.node(0).shape[0])
+    for k in range(tree.size):
+        c = tree.clearance(k)
+        other.add(Clearance(c.q.copy(), c.distance.copy(), c.exact.copy()), tree.parent(k), tree.certified(k))
+    other.pruned[:tree.size] = tree.pruned[:tree.size]
+    return other
+
+
+def test_compiled_extend_takes_the_same_steps_as_the_python_one(setting):
+    robot, certifier = setting
+    rng = np.random.default_rng(3)
+    statuses = set()
+    for _ in range(8):
+        a = _grown(robot, certifier, rng)
+        b = _copy(a)
+        for _ in range(25):
+            target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
+            fast, slow = extend(a, target, certifier, 0.5), extend_exactly(b, target, certifier, 0.5)
+            assert fast == slow
+            statuses.add(fast.status)
+            if fast.status != TRAPPED:
+                ca, cb = a.clearance(fast.node), b.clearance(slow.node)
+                np.testing.assert_allclose(ca.q, cb.q, rtol=0, atol=1e-12)
+                both = ~ca.exact & ~cb.exact
+                np.testing.assert_allclose(ca.distance[both], cb.distance[both], rtol=0, atol=1e-12)
+        assert a.size == b.size
+    assert len(statuses) >= 2  # trapped and advanced steps both seen
