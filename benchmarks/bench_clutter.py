@@ -29,7 +29,8 @@ Reported: median and p95 of the first check (µs), median and p95 per configurat
 configurations checked, the share in collision, the ratios kinserve / roboplan measured in this run,
 and the targets (median <= 5 µs per configuration, <= 50 µs for the first check; VAMP's 1.8 µs per
 configuration on the project's machine type is the reference). Defaults: 3 scenes per set x 200
-configurations; ``--all``: every scene x 1000 configurations.
+configurations; ``--all``: every scene x 1000 configurations, and the run's table is written into the
+``clutter`` section of docs/benchmarks.md (``--docs``; ``render_tables.render_clutter``).
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from pathlib import Path
 import numpy as np
 from _motion_peers import MotionPeer
 from bench_motion import SETS, load_robot, model_files, unpack
+from render_tables import render_clutter, write_section
 
 from kinserve.planners.motion.scene_yaml import read_planning_scene
 
@@ -310,10 +312,15 @@ def main() -> None:
     ap.add_argument("--configs", type=int, default=200, help="configurations per scene (default 200)")
     ap.add_argument("--all", action="store_true", help="all 700 scenes x 1000 configurations")
     ap.add_argument("--checkers", default=",".join(CHECKERS), help="comma-separated: kinserve,roboplan")
+    ap.add_argument("--docs", default=str(ROOT / "docs" / "benchmarks.md"),
+                    help="page whose generated clutter section a full run (--all) rewrites ('' : none)")
     args = ap.parse_args()
     per_set, n_configs = (None, 1000) if args.all else (args.per_set, args.configs)
     doc = run(args.dataset, per_set, n_configs, tuple(args.checkers.split(",")))
     write_json(args.out, doc)
+    if args.all and args.docs:
+        write_section(Path(args.docs), "clutter", render_clutter(doc))
+        print(f"wrote the clutter section of {args.docs}")
 
 
 if __name__ == "__main__":

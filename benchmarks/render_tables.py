@@ -5,10 +5,10 @@
 
 Reads ``ik.json`` (bench_ik.py), ``ik_constrained.json`` (bench_ik_constrained.py),
 ``collision.json`` (bench_collision.py), ``motion.json`` and ``motion_pose.json`` (bench_motion.py, the
-second with ``--pose-goals``) when present and prints one section per file: the per-solver table (success,
-median / p95 / mean, ratios) with the issue's targets in brackets and whether the run met them. "CPU"
-columns are ``time.process_time`` around each solve (the worker's own, for peers in their
-venvs): on a shared machine a long solve is preempted, so wall times of long
+second with ``--pose-goals``) and ``clutter.json`` (bench_clutter.py) when present and prints one section
+per file: the per-solver table (success, median / p95 / mean, ratios) with the issue's targets in brackets
+and whether the run met them. "CPU" columns are ``time.process_time`` around each solve (the worker's own,
+for peers in their venvs): on a shared machine a long solve is preempted, so wall times of long
 solves swell while short ones do not - read the CPU ratios alongside. Any other JSON file in
 the folder is listed with its numeric figures flattened (``a.b.c = value``), so
 nothing measured is left out. Missing files are skipped with a note. The numbers
@@ -215,6 +215,62 @@ def render_motion_pose(d: dict) -> list[str]:
     return out
 
 
+def _us(v) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.1f} µs"
+
+
+def _clutter_row(label: str, f: dict, per_q: str = "per_configuration") -> str:
+    first, second, q = f.get("first_check"), f.get("second_check"), f[per_q]
+    head = "– | –" if first is None else \
+        f"{_us(first['median_us'])} / {_us(first['p95_us'])} | {_us(second['median_us'])}"
+    return (f"| {label} | {f['scenes']} | {f['configurations']} | {head} | {_us(q['median_us'])} / "
+            f"{_us(q['p95_us'])} | {_us(q['mean_us'])} | {_pct(100 * f['in_collision_share'])} |")
+
+
+def render_clutter(d: dict) -> list[str]:
+    """bench_clutter.py: the first check in a new scene and the check per configuration, kinserve beside
+    roboplan on MotionBenchMaker's Panda scenes, with the ratios, the verdicts compared and the targets."""
+    w, summary = d["workload"], d["summary"]
+    out = [f"### Collision check in clutter (bench_clutter.py): MotionBenchMaker Panda, {w['scenes']} scenes "
+           f"x {w['configurations_per_scene']} configurations", "", _machine(d), "",
+           "Each scene's obstacles (about a dozen boxes and cylinders) read from its YAML, then: the "
+           "first check in the new scene (`robot.in_collision(q0, shapes)`: the scene built from the shapes "
+           "plus its first check; roboplan: adding the obstacles to its scene plus its first "
+           "`hasCollisions`), the second check, and every configuration (uniform in the joint limits) timed "
+           "alone through the front door `robot.in_collision(q, shapes)` and through the scene's own "
+           "`in_collision(q)`; roboplan's `hasCollisions(q)` timed inside its worker, in the same run, the "
+           "checker that goes first alternating from scene to scene. kinserve checks the meshes' convex "
+           "hulls (exact on that model: the sphere pre-check decides only what it can certify, coal the "
+           "rest); roboplan checks the meshes."
+           + _load(d), "",
+           "| checker | scenes | configurations | first check median / p95 | second check median | "
+           "per configuration median / p95 | mean | in collision |",
+           "|---|---|---|---|---|---|---|---|"]
+    for name, f in summary.items():
+        out.append(_clutter_row(f"{name} (robot.in_collision)" if name == "kinserve" else name, f))
+        if "per_configuration_scene_call" in f:
+            out.append(_clutter_row("kinserve (scene.in_collision)", {**f, "first_check": None},
+                                    "per_configuration_scene_call"))
+    ratio, agree = d.get("ratios_kinserve_over_roboplan") or {}, d.get("verdicts")
+    if ratio:
+        out += ["", "kinserve / roboplan (medians of this run): " + ", ".join(
+            f"{key.replace('_', ' ')} {_x(value)}" for key, value in ratio.items())]
+    if agree:
+        out += ["", f"Verdicts: {agree['same']}/{agree['configurations']} equal; in collision for kinserve "
+                    f"only (the hulls contain the meshes): {agree['kinserve_only_collision']}, for roboplan "
+                    f"only: {agree['roboplan_only_collision']}."]
+    t, k, met = d.get("targets", {}), summary.get("kinserve", {}), list((d.get("targets_met") or {}).values())
+    if k:
+        verdicts = [" (met)" if ok else " (**not met**)" for ok in met] if len(met) == 2 else ["", ""]
+        per_q, first = k["per_configuration"]["median_us"], k["first_check"]["median_us"]
+        out += ["", f"Targets: median per configuration {_us(per_q)} "
+                    f"[<= {t.get('per_configuration_median_us', 5):g} µs]{verdicts[0]}, first check in a new "
+                    f"scene {_us(first)} [<= {t.get('first_check_median_us', 50):g} µs]{verdicts[1]}; "
+                    f"VAMP's {t.get('vamp_per_configuration_us', 1.8):g} µs per configuration on this "
+                    "machine type is the reference."]
+    return out
+
+
 def write_section(path: Path, name: str, lines: list[str]) -> None:
     """Replace the ``<!-- name:begin -->`` .. ``<!-- name:end -->`` section of a Markdown file by ``lines``
     (appended when the file or the section does not exist yet)."""
@@ -244,7 +300,7 @@ def _flatten(prefix: str, v, out: list[str]) -> None:
 
 RENDERERS = {"ik.json": render_ik, "ik_constrained.json": render_ik_constrained,
              "collision.json": render_collision, "motion.json": render_motion,
-             "motion_pose.json": render_motion_pose}
+             "motion_pose.json": render_motion_pose, "clutter.json": render_clutter}
 
 
 def render(folder: Path) -> str:
