@@ -25,6 +25,7 @@ by counts of attempts, not by the clock.
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from typing import NamedTuple
 
 import numpy as np
@@ -65,21 +66,28 @@ def _arc(points: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
 
 
-def _point_at(points: np.ndarray, arc: np.ndarray, t: float) -> tuple[int, np.ndarray]:
-    """Segment ``i`` holding arc length ``t`` and the point there."""
-    i = int(np.clip(np.searchsorted(arc, t, side="right") - 1, 0, len(points) - 2))
+def _segment(arc: list[float], t: float) -> int:
+    """Segment ``i`` holding arc length ``t`` (``arc``: :func:`_arc` as a list): the last waypoint at or
+    before ``t``, clamped to the segments."""
+    return min(max(bisect_right(arc, t) - 1, 0), len(arc) - 2)
+
+
+def _point_at(points: np.ndarray, arc: list[float], i: int, t: float) -> np.ndarray:
+    """The point at arc length ``t`` on segment ``i``."""
     length = arc[i + 1] - arc[i]
     f = 0.0 if length <= 0.0 else (t - arc[i]) / length
-    return i, points[i] + f * (points[i + 1] - points[i])
+    return points[i] + f * (points[i + 1] - points[i])
 
 
 def _draw(path: CertifiedPath, rng: np.random.Generator):
-    """Two positions on different segments: ``(i, qa, t1, j, qb, t2)``, or None."""
+    """Two positions on different segments: ``(i, qa, t1, j, qb, t2, arc)``, or None."""
     arc = _arc(path.points)
-    t1, t2 = np.sort(rng.random(2) * arc[-1])
-    i, qa = _point_at(path.points, arc, float(t1))
-    j, qb = _point_at(path.points, arc, float(t2))
-    return None if i == j else (i, qa, float(t1), j, qb, float(t2), arc)
+    t1, t2 = sorted((rng.random(2) * arc[-1]).tolist())
+    at = arc.tolist()
+    i, j = _segment(at, t1), _segment(at, t2)
+    if i == j:
+        return None
+    return i, _point_at(path.points, at, i, t1), t1, j, _point_at(path.points, at, j, t2), t2, arc
 
 
 def _splice(path: CertifiedPath, i: int, j: int, points: list, clearances: list) -> CertifiedPath:
