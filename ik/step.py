@@ -23,6 +23,7 @@ and bound again.
 from __future__ import annotations
 
 import math
+from itertools import chain
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -43,16 +44,13 @@ STEP_DAMPING = 1e-6
 _clip = numpy_fast.clip
 
 
-def _version(obj: Any) -> int:
-    """The change counter of a task or constraint (0 for objects without one: shapes are immutable)."""
-    return getattr(obj, "_version", 0)
-
-
 def _problem(robot: Robot, tasks: list, constraints: list) -> Problem:
     """The bound problem of these objects: the one the robot's IK state keeps for them in this thread
     (:class:`~kinserve.ik.step_problems.StepProblems`), or a new one when none is kept or one of them
     changed since (its change counter moved)."""
-    versions = (*map(_version, tasks), *map(_version, constraints))
+    # the change counters, tasks first (0 for objects without one: shapes are immutable); one comprehension,
+    # not a call per object
+    versions = tuple([getattr(obj, "_version", 0) for obj in chain(tasks, constraints)])
     store = ik_state(robot).step_problems
     pb = store.find(robot, tasks, constraints, versions)
     if pb is None:
