@@ -12,8 +12,8 @@ differ. A layout holds all of that once, built with it:
   from the robot's spheres; None when the robot has none, the layout has no
   pairs or :data:`SPHERE_PRECHECK` is off);
 * per thread, a :class:`Workspace`: a copy of that ``GeometryModel``, the
-  ``pinocchio.Data``, the ``GeometryData`` (collision requests with
-  ``security_margin = 0``) and the broad-phase manager over them, plus one
+  ``pinocchio.Data``, the ``GeometryData`` (collision requests that answer as
+  fresh ones, security margin 0: :func:`exact_requests`) and the broad-phase manager over them, plus one
   ``GeometryData`` / manager per security margin for the near-pair queries, and
   which obstacles the workspace's placements currently hold (the building
   thread's is made with the layout). A query of a scene first makes the
@@ -118,17 +118,24 @@ class MarginWorkspace(NamedTuple):
     collector: Any
 
 
-def history_free(requests: Iterable[Any]) -> None:
-    """Make coal's GJK start every call of these ``coal.CollisionRequest`` from its default guess.
+def exact_requests(requests: Iterable[Any]) -> None:
+    """Make these ``coal.CollisionRequest`` (a workspace's exact checks) answer as a fresh request does.
 
-    Pinocchio's ``GeometryData`` enables coal's cached guess (the last call's GJK direction and support
-    vertices), so a contact within a few times GJK's relative tolerance could get either answer depending on
-    which configurations were checked before (seen at 1.5e-5 m of penetration between two Panda hulls). Both
-    of coal's switches are set: ``gjk_initial_guess`` and the deprecated ``enable_cached_gjk_guess``, which
-    coal 3 still honours on its own."""
+    * ``security_margin = 0``;
+    * ``enable_contact = True`` (Pinocchio's ``GeometryData`` turns it off): coal 3's GJK without it reports
+      some pairs of hulls free while they overlap by millimetres (13 of 700 000 MotionBenchMaker
+      configurations, up to 7.4 mm deep, that a fresh request and ``coal.distance`` find in collision);
+    * GJK starts every call from its default guess, not the cached one of the call before (Pinocchio enables
+      the cache): with it a contact within a few times GJK's relative tolerance got either answer depending
+      on which configurations were checked before (1.5e-5 m of penetration between two Panda hulls). Both of
+      coal's switches: ``gjk_initial_guess`` and the deprecated ``enable_cached_gjk_guess``, which coal 3
+      still honours on its own.
+    """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         for req in requests:
+            req.security_margin = 0.0
+            req.enable_contact = True
             req.gjk_initial_guess = _DEFAULT_GUESS
             req.enable_cached_gjk_guess = False
 
@@ -245,9 +252,7 @@ class SceneLayout:
     def _new_workspace(self) -> Workspace:
         gm = self.geometry.copy()  # the thread's own placements; shares the coal shapes
         gd = pin.GeometryData(gm)
-        for req in gd.collisionRequests:  # the exact check (Pinocchio's default, set for certain)
-            req.security_margin = 0.0
-        history_free(gd.collisionRequests)
+        exact_requests(gd.collisionRequests)
         data = self.model.createData()
         bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
         check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
@@ -296,5 +301,5 @@ class SceneLayout:
 
 
 __all__ = ["GJK_TOLERANCE", "NAIVE_MAX_GEOMETRIES", "SPHERE_PRECHECK", "MarginWorkspace",
-           "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class", "history_free",
-           "obstacle_name", "shape_signature"]
+           "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class",
+           "exact_requests", "obstacle_name", "shape_signature"]

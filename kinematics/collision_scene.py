@@ -72,7 +72,8 @@ import numpy as np
 import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
-from .configuration_checks import COLLIDING, FREE, PAIRWISE_MAX, check_configurations
+from .configuration_checks import PAIRWISE_MAX, check_configurations
+from .precheck_verdicts import COLLIDING, FREE
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments

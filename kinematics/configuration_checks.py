@@ -21,12 +21,11 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from .precheck_verdicts import COLLIDING, UNDECIDED
+
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
 
-#: The verdicts of :func:`~.precheck_kernels.classify_configuration`: certified free, in collision for
-#: certain, for coal to decide.
-FREE, COLLIDING, UNDECIDED = 0, 1, 2
 
 _forward_kinematics = pin.forwardKinematics
 _update_placements = pin.updateGeometryPlacements
@@ -179,5 +178,4 @@ def _first_hit_after(hits: Callable[[np.ndarray], bool], precheck: PrecheckArgum
     return -1
 
 
-__all__ = ["COLLIDING", "FREE", "PAIRWISE_MAX", "UNDECIDED", "CoalCheck", "check_configurations", "coal_test",
-           "collision_check", "pair_test"]
+__all__ = ["PAIRWISE_MAX", "CoalCheck", "check_configurations", "coal_test", "collision_check", "pair_test"]

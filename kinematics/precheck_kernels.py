@@ -59,9 +59,9 @@ import math
 import numba
 import numpy as np
 
-from .configuration_checks import COLLIDING, FREE, UNDECIDED
 from .kernel_cache import compiled, inline, jit
 from .kernel_primitives import tree_placements_into
+from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
 
 #: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
 #: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.

@@ -62,9 +62,30 @@ def near_obstacles(robot, q, rng, k, tmp_path) -> list:
     return out
 
 
+def fresh_requests(gd):
+    """``gd`` (a ``pinocchio.GeometryData``) with every collision request set as a fresh
+    ``coal.CollisionRequest``: contact computation on, GJK from its default guess, no security margin.
+    Pinocchio's defaults turn contacts off and the cached guess on; coal 3's GJK without contacts reports
+    some overlapping hulls free (millimetres deep), and the cached guess makes near-contact answers depend
+    on the calls before."""
+    import warnings
+
+    import coal
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # enable_cached_gjk_guess: deprecated, still read
+        for req in gd.collisionRequests:
+            req.security_margin = 0.0
+            req.enable_contact = True
+            req.gjk_initial_guess = coal.GJKInitialGuess.DefaultGuess
+            req.enable_cached_gjk_guess = False
+    return gd
+
+
 def coal_hits(scene, Q) -> np.ndarray:
-    """Per configuration of ``Q``: coal's answer pair by pair (no broad phase, no pre-check)."""
+    """Per configuration of ``Q``: coal's answer pair by pair (no broad phase, no pre-check; fresh
+    requests)."""
     import pinocchio as pin
 
-    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+    data, gd = scene.model.createData(), fresh_requests(pin.GeometryData(scene.geometry))
     return np.array([pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True) for q in Q])

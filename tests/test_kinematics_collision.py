@@ -13,7 +13,7 @@ from kinserve.kinematics import errors
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 from kinserve.robots import paths
 
-from collision_scenes import SCENE
+from collision_scenes import SCENE, fresh_requests
 from collision_scenes import pose as _pose
 
 #: Two more obstacles in the arm's workspace (a broad phase must handle any number).
@@ -299,9 +299,7 @@ def _pairs_by_broad_phase(scene, q):
 
 def _pairs_by_all_pairs_narrow_phase(scene, q):
     """Indices of the colliding pairs by GJK on every pair (no broad phase), on a GeometryData of its own."""
-    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
-    for req in gd.collisionRequests:
-        req.security_margin = 0.0
+    data, gd = scene.model.createData(), fresh_requests(pin.GeometryData(scene.geometry))
     pin.computeCollisions(scene.model, data, scene.geometry, gd, q, False)
     return {k for k, res in enumerate(gd.collisionResults) if res.isCollision()}
 

@@ -31,7 +31,7 @@ from kinserve.kinematics.precheck_packing import pack
 from kinserve.kinematics.scene_precheck import certify
 from kinserve.kinematics.shapes import Box, Sphere
 
-from collision_scenes import SCENE, coal_hits, near_obstacles, pose
+from collision_scenes import SCENE, coal_hits, fresh_requests, near_obstacles, pose
 
 
 def _coal_pairs(scene, q, data, gd):
@@ -49,9 +49,7 @@ def _check_scene(robot, scene, Q):
     pre = scene.precheck()
     assert pre is not None
     arrays = (pre.floats, pre.ints)
-    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
-    for req in gd.collisionRequests:
-        req.security_margin = 0.0
+    data, gd = scene.model.createData(), fresh_requests(pin.GeometryData(scene.geometry))
     certified = certify(pre, Q)
     assert certified.tolist() == [pk.certify_configuration(*arrays, q, pk.TOLERANCE) for q in Q]
     truth = []
@@ -128,7 +126,7 @@ def test_open_scene_certification_rate():
     robot = robots.load("panda")
     scene = robot.collision_scene(SCENE)
     Q = robot.random_q(np.random.default_rng(9), 1000)
-    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+    data, gd = scene.model.createData(), fresh_requests(pin.GeometryData(scene.geometry))
     truth = np.array([pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True) for q in Q])
     certified = certify(scene.precheck(), Q)
     assert not np.any(certified & truth)
