@@ -281,7 +281,8 @@ class SceneLayout:
 
     def margin_workspace(self, threshold: float) -> MarginWorkspace:
         """This thread's :class:`MarginWorkspace` over its workspace's geometry whose collision requests use
-        ``security_margin = threshold`` (the manager inflates every AABB by half of it; GJK distances to
+        ``security_margin = threshold``, otherwise as :func:`exact_requests` makes them (the manager inflates
+        every AABB by half of it; GJK distances to
         :data:`GJK_TOLERANCE`); made on a thread's first query with that threshold.
         Call :meth:`workspace` first: the placements are the workspace's."""
         by_margin = getattr(self._threads, "margin", None)
@@ -291,6 +292,7 @@ class SceneLayout:
         if entry is None:
             gm = self._threads.workspace.geometry
             gd = pin.GeometryData(gm)
+            exact_requests(gd.collisionRequests)  # contacts on, no cached guess: see exact_requests
             for req in gd.collisionRequests:
                 req.security_margin = threshold
             for req in gd.distanceRequests:  # GJK to 1e-9 m (default 1e-6): smooth enough for step rows

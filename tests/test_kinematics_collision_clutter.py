@@ -298,4 +298,9 @@ def test_penetrations_coal_missed_without_its_contact_computation(problems, pand
     shapes = tuple(read_planning_scene(scene_file))
     assert robot.in_collision(q, shapes)
     assert robot.collisions(q, shapes)
-    assert robot.collision_scene(shapes).first_collision([q]) == 0
+    scene = robot.collision_scene(shapes)
+    assert scene.first_collision([q]) == 0
+    # the IK's near-pair query (its own collision requests, with a security margin) finds them too
+    for threshold in (0.0, 1e-4):
+        hits = {scene.pair_names[k] for k in scene.near(threshold, q)}
+        assert {tuple(p) for p in robot.collisions(q, shapes)} <= hits, threshold
