@@ -88,7 +88,7 @@ peers: $(PEER_VENVS)/placo/.installed $(PEER_VENVS)/roboplan/.installed $(PEER_V
 BENCH_N ?=
 BENCH_IK_N := $(if $(BENCH_N),--n $(BENCH_N))
 # MotionBenchMaker's Panda problems (VAMP's resources/panda/): the archive is unpacked into bench-out/
-MBM_DATASET ?= /work/shared/datasets/motion-bench-maker
+MBM_DATASET ?= $(CURDIR)/../shared/datasets/motion-bench-maker
 
 bench: $(VENV)/.installed-bench peers
 	mkdir -p bench-out

@@ -1,6 +1,6 @@
 """The collision check in clutter: MotionBenchMaker's 700 Panda scenes, kinserve beside roboplan.
 
-    .venv/bin/python benchmarks/bench_clutter.py --dataset /work/shared/datasets/motion-bench-maker \\
+    .venv/bin/python benchmarks/bench_clutter.py --dataset ../shared/datasets/motion-bench-maker \\
         --out bench-out/clutter.json [--per-set 3] [--configs 200] [--all]
 
 Scenes: the MotionBenchMaker problems (Chamzas et al., RA-L 2022) as VAMP ships them (7 sets x 100
@@ -87,6 +87,9 @@ class ClutterPeer(MotionPeer):
     def __init__(self, peer: str = "roboplan", timeout: float = 120.0) -> None:
         super().__init__(peer, timeout, script="_clutter_peer_roboplan.py", log_prefix="clutter")
 
+
+#: The dataset beside the repository: ../shared/datasets/motion-bench-maker
+SHARED_DATASET = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "motion-bench-maker"
 
 def start_roboplan(dataset: Path) -> ClutterPeer | None:
     """The roboplan worker with the dataset's Panda, or None after printing why it is skipped."""
@@ -305,7 +308,7 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--dataset", type=Path, default=Path("/work/shared/datasets/motion-bench-maker"),
+    ap.add_argument("--dataset", type=Path, default=SHARED_DATASET,
                     help="folder with panda/problems.tar.bz2, panda.urdf, panda.srdf, meshes/")
     ap.add_argument("--out", default="bench-out/clutter.json", help="JSON output")
     ap.add_argument("--per-set", type=int, default=3, help="scenes per set (default 3: 21 scenes)")

@@ -1,6 +1,6 @@
 """MotionBenchMaker's 700 Panda problems: kinserve's plan_motion beside roboplan and OMPL, in one run.
 
-    .venv/bin/python benchmarks/bench_motion.py --dataset /work/shared/datasets/motion-bench-maker \\
+    .venv/bin/python benchmarks/bench_motion.py --dataset ../shared/datasets/motion-bench-maker \\
         --out bench-out/motion.json [--sets cage,box] [--n 10]
     .venv/bin/python benchmarks/bench_motion.py --pose-goals --planners kinserve   # + pose goals
 
@@ -105,6 +105,9 @@ class Outcome:
 
 
 # --------------------------------------------------------------------------- dataset
+#: The dataset beside the repository: ../shared/datasets/motion-bench-maker
+SHARED_DATASET = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "motion-bench-maker"
+
 def unpack(dataset: Path, work: Path) -> Path:
     """The ``problems/`` folder of the dataset's archive, unpacked into ``work`` (once)."""
     archive = dataset / "panda" / "problems.tar.bz2"
@@ -386,7 +389,7 @@ def run(dataset: Path, sets=SETS, n: int | None = None, planners=PLANNERS, max_t
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--dataset", type=Path, default=Path("/work/shared/datasets/motion-bench-maker"),
+    ap.add_argument("--dataset", type=Path, default=SHARED_DATASET,
                     help="folder with panda/problems.tar.bz2, panda.urdf, panda.srdf, meshes/ (VAMP's "
                          "resources/panda/ from KavrakiLab/vamp)")
     ap.add_argument("--out", default=None, help="JSON output (default bench-out/motion.json; "

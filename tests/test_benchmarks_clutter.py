@@ -6,15 +6,16 @@ from __future__ import annotations
 
 import importlib.util
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+from shared_data import MBM_DATASET
+
 ROOT = Path(__file__).resolve().parents[1]
-DATASET = Path(os.environ.get("KINSERVE_MBM_DATASET", "/work/shared/datasets/motion-bench-maker"))
+DATASET = MBM_DATASET
 
 pytestmark = pytest.mark.skipif(not (DATASET / "panda" / "problems.tar.bz2").is_file(),
                                 reason=f"MotionBenchMaker dataset not found at {DATASET} "

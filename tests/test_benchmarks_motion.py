@@ -3,7 +3,7 @@
 The benchmark modules live in ``benchmarks/`` (not installed) and import each other by bare name: they are
 loaded from their files in dependency order and registered under those names (no ``sys.path`` edit). The
 dataset-dependent tests skip with a message when
-``/work/shared/datasets/motion-bench-maker/`` is absent. kinserve's plans use iteration budgets here
+``../shared/datasets/motion-bench-maker/`` is absent. kinserve's plans use iteration budgets here
 (``max_time=None``), so no answer depends on the machine's speed.
 """
 
@@ -18,8 +18,10 @@ from types import ModuleType
 import numpy as np
 import pytest
 
+from shared_data import MBM_DATASET
+
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-DATASET = Path("/work/shared/datasets/motion-bench-maker")
+DATASET = MBM_DATASET
 
 
 def _load(name: str) -> ModuleType:

@@ -1,6 +1,6 @@
 """``Robot.in_collision`` in clutter equals an independent coal check, on MotionBenchMaker's Panda scenes.
 
-The dataset (``/work/shared/datasets/motion-bench-maker``, or ``$KINSERVE_MBM_DATASET``): 7 sets x 100
+The dataset (``../shared/datasets/motion-bench-maker``, or ``$KINSERVE_MBM_DATASET``): 7 sets x 100
 scenes of boxes and cylinders, and the Panda model they were made with (URDF, SRDF, meshes). The test is
 skipped with a message when the folder is absent. Its archive is unpacked into a temporary folder.
 
@@ -29,7 +29,6 @@ the reference.
 
 from __future__ import annotations
 
-import os
 import tarfile
 from pathlib import Path
 
@@ -43,7 +42,9 @@ pin = pytest.importorskip("pinocchio")
 from kinserve import robots  # noqa: E402
 from kinserve.planners.motion.scene_yaml import read_planning_scene  # noqa: E402
 
-DATASET = Path(os.environ.get("KINSERVE_MBM_DATASET", "/work/shared/datasets/motion-bench-maker"))
+from shared_data import MBM_DATASET  # noqa: E402
+
+DATASET = MBM_DATASET
 SETS = ("table_pick", "table_under_pick", "box", "bookshelf_small", "bookshelf_tall", "bookshelf_thin",
         "cage")
 #: Scenes per set (3 x 7 = 21 scenes), uniform configurations and bisections per scene.

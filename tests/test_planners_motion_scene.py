@@ -2,7 +2,6 @@
 
 import math
 import tarfile
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +18,9 @@ from kinserve.planners.motion.scene_yaml import (
     write_planning_scene,
 )
 
-DATASET = Path("/work/shared/datasets/motion-bench-maker")
+from shared_data import MBM_DATASET
+
+DATASET = MBM_DATASET
 
 
 def _pose(xyz, rpy=(0.0, 0.0, 0.0)):
