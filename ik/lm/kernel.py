@@ -22,9 +22,8 @@ SE(3) logarithm: ``w = log3(R) = theta / sin(theta) vee(R - R^T) / 2``, ``v = V(
 for the last coefficient, ``1e-2``; near ``theta = pi`` the axis from ``(R + R^T) / 2 - cos(theta) I =
 (1 - cos(theta)) a a^T``).
 
-The rotation about a joint axis is :func:`kinserve.kinematics.kernel_primitives.axis_rotation` (inlined); the
-cache key of these kernels covers every kernel file (:mod:`kinserve.kinematics.kernel_cache`). Metres,
-radians."""
+Joint rotations: :func:`kinserve.kinematics.kernel_primitives.axis_rotation` (inlined); one cache key covers
+every kernel file (``jit``/``inline`` of :mod:`kinserve.kinematics.kernel_cache`). Metres, radians."""
 
 from __future__ import annotations
 
@@ -44,7 +43,6 @@ TP2, TR2, LAMBDA0, GAIN, STALL_RATIO, ROTATION_SCALE = range(6)
 #: ``q0``, 1 ``q0`` first, 2 ``q0`` ranked among the table's samples by its pose distance.
 PATIENCE, MAX_ITER, MAX_STARTS, BUDGET, Q0_MODE, N_TABLE, N_FULL, ROTATION = range(8)
 
-_jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source; inline: per-iteration)
 _t = numba.types
 _IN1, _IN2, _IN3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))  # writable arrays convert
 _INT1, _INT2 = (_t.Array(_t.int64, d, "C", readonly=True) for d in (1, 2))
@@ -56,7 +54,7 @@ _MANY_SIGNATURE = _t.void(_IN2, _INT2, _IN1, _IN1, _IN3, _t.boolean, _t.boolean,
                           *(_IN2,) * 6, _OUT2, _OUT2, _t.int64[:, ::1])
 
 
-@_inline
+@inline
 def _place(Rw, pw, g, out) -> None:
     """``pw <- pw + Rw t_g``, ``out = Rw R_g``: placement ``(R_g, t_g)`` (geometry row ``g``) after ``Rw``."""
     for i in range(3):
@@ -66,7 +64,7 @@ def _place(Rw, pw, g, out) -> None:
             out[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
 
 
-@_inline
+@inline
 def _rotate(T, ax, ay, az, qk, Rw) -> None:
     """``Rw = T @ Rot(a, qk)`` (:func:`kinserve.kinematics.kernel_primitives.axis_rotation`)."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = axis_rotation(ax, ay, az, qk)
@@ -77,7 +75,7 @@ def _rotate(T, ax, ay, az, qk, Rw) -> None:
         Rw[i, 2] = t0 * r02 + t1 * r12 + t2 * r22
 
 
-@_inline
+@inline
 def _forward(geometry, joints, q, R, p, z, o) -> None:
     """The frame's world pose into ``R``, ``p``; joint k's world axis into ``z[k]``, origin ``o[k]``."""
     n = joints.shape[0]
@@ -102,7 +100,7 @@ def _forward(geometry, joints, q, R, p, z, o) -> None:
         p[i] = pw[i]
 
 
-@_inline
+@inline
 def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R: np.ndarray, p: np.ndarray,
                       J: np.ndarray, local: bool = True) -> None:
     """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n):
@@ -129,7 +127,7 @@ def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R
             J[0, k], J[1, k], J[2, k], J[3, k], J[4, k], J[5, k] = vx, vy, vz, wx, wy, wz
 
 
-@_jit
+@jit
 def _log3(Re, w) -> float:
     """``w = log3(Re)`` (rotation vector, module docstring); returns the angle ``|w|``."""
     c = 0.5 * (Re[0, 0] + Re[1, 1] + Re[2, 2] - 1.0)
@@ -159,7 +157,7 @@ def _log3(Re, w) -> float:
     return theta
 
 
-@_jit
+@jit
 def _log6(Rf, pf, Rd, pd, e):
     """``e = [v; w] = log6(oMf^-1 oMd)``; returns ``|t|^2`` (``t = R_f^T (p_d - p_f)``)."""
     Re = np.empty((3, 3))
@@ -189,7 +187,7 @@ def _log6(Rf, pf, Rd, pd, e):
     return tx * tx + ty * ty + tz * tz
 
 
-@_jit
+@jit
 def _solve_damped(J, r, lam, free, x, A):
     """``x = (Jf^T Jf + lam I)^-1 Jf^T r``, ``Jf = J * free`` (fixed joints' columns zeroed); Cholesky."""
     n = J.shape[1]
@@ -228,7 +226,7 @@ def _solve_damped(J, r, lam, free, x, A):
         x[a] = s / A[a, a]
 
 
-@_jit
+@jit
 def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
     """The kept rows of ``e6 = [A^T (p* - p); A^T log3(R* R^T)]`` into ``e`` and of ``blockdiag(A^T, A^T) J``
     (``J`` world-aligned) into ``Jt``; returns the squared position and orientation errors (kept rows)."""
@@ -257,7 +255,7 @@ def _relaxed_error(R, p, Rd, pd, Aw, kept, J, Jt, e) -> tuple[float, float]:
     return pe2, re2
 
 
-@_inline
+@inline
 def _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk, last) -> bool:
     """After a step that left the limits: fixes the free joints now out of range at their bound (the fixed
     ones already are, so every joint is then in range). ``last`` (the third re-solve): returns True, the step
@@ -279,7 +277,7 @@ def _fix_out(Jt, e, qn, joints, lok, hik, m, free, r, qk, last) -> bool:
     return False
 
 
-@_inline
+@inline
 def _chain_bounds(joints, lo, hi) -> tuple[np.ndarray, np.ndarray]:
     """The limits of the chain's joints in chain order: ``lo[joints[k, 1]]``, ``hi[joints[k, 1]]``."""
     n = joints.shape[0]
@@ -289,7 +287,7 @@ def _chain_bounds(joints, lo, hi) -> tuple[np.ndarray, np.ndarray]:
     return lok, hik
 
 
-@_inline
+@inline
 def _iterate(geometry, joints, q0, lo, hi, Rd, pd, relaxed, Aw, kept, tp2, tr2, lam0, gain, stall_ratio,
              patience, max_iter, qs, errs) -> tuple[int, int, int]:
     """One start from ``q0`` on the target ``(Rd, pd)`` (module docstring): ``(status, iterations, rows)``;
@@ -362,7 +360,7 @@ def run_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray, lo: np.n
                     gain, stall_ratio, patience, max_iter, qs, errs)
 
 
-@_jit
+@jit
 def _scores(Gt, f, S) -> None:
     """``S_j = sum_c Gt[c, j] f[c]``: a seed table's ``D_j - |f*|^2`` (``Gt`` its ``G`` transposed)."""
     S[:] = 0.0
@@ -372,7 +370,7 @@ def _scores(Gt, f, S) -> None:
             S[j] += Gt[c, j] * fc
 
 
-@_jit
+@jit
 def _next_start(st, q, q0, D0, f, tables, S, limits) -> bool:
     """The next start of :func:`ik.starts.seed_table.start_sequence` into ``q``; False when none is left.
 
@@ -413,7 +411,7 @@ def _next_start(st, q, q0, D0, f, tables, S, limits) -> bool:
             return False
 
 
-@_jit
+@jit
 def _features(Td, scale, rotation, f) -> None:
     """``f[:13]``: the seed-table feature ``[p, scale vec(R), 1]`` of ``Td`` (rotation part 0 without
     ``rotation``); ``f[13] = |f[:12]|^2``."""
@@ -425,7 +423,7 @@ def _features(Td, scale, rotation, f) -> None:
     f[13] = (f[:12] * f[:12]).sum()
 
 
-@_jit
+@jit
 def _q0_distance(geometry, joints, q0, f, scale) -> float:
     """Pose distance ``D`` (m^2) of the frame at ``q0`` (its full feature) from the target feature ``f``."""
     n = joints.shape[0]
@@ -439,7 +437,7 @@ def _q0_distance(geometry, joints, q0, f, scale) -> float:
     return D
 
 
-@_jit
+@jit
 def _solve_target(geometry, joints, lo, hi, Td, relaxed, Aw, kept, params, limits, starts, qs, errs, q_out,
                   err_out) -> tuple[int, int, int]:
     """Starts from ``starts = (st, q, q0, D0, f, tables, S)`` (:func:`_next_start`) until one converges or a
