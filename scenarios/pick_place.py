@@ -319,7 +319,22 @@ def draw_open_box(scene, name: str, centre, size: float, wall: float, color="#b0
                       color=color, opacity=0.85)
 
 
-def _events_on(ax, events: dict, marks_t=None):
+def joints_with_events(times, Q, robot, title: str, events: dict, marks_t) -> Figure:
+    """The joints plot of S4 (and its planned variant): ``Q`` against ``times`` within ``robot``'s limits, the
+    ``events`` ({label: (time, colour)}) as dashed lines and the segment boundaries ``marks_t`` dotted."""
+    fig = viz.joints_figure(times, Q, robot.joint_names, limits=(robot.lower, robot.upper), xlabel="time (s)",
+                            ylabel="joint angle (rad)", title=title)
+    ax = fig.axes[0]
+    events_on(ax, events, marks_t)
+    ax.set_ylim(-3.3, 4.0)
+    ax.legend(loc="upper center", fontsize=7, ncol=5, framealpha=0.9)
+    fig.set_size_inches(8.0, 4.6)
+    return fig
+
+
+def events_on(ax, events: dict, marks_t=None):
+    """Draw ``events`` ({label: (time or None, colour)}) as dashed vertical lines and the inner ``marks_t``
+    (segment boundaries, s) as dotted ones on ``ax``."""
     for label, (t, color) in events.items():
         if t is not None:
             ax.axvline(t, color=color, linestyle="--", linewidth=1.1, label=label)
@@ -344,7 +359,7 @@ def tracking_errors_figure(times, position_error, orientation_error, *, tol_pos:
                label=f"DLS tol_pos {tol_pos:g} m")
     ax.axhline(tol_rot, color=viz.colors.to_rgb(viz.colors.cycle(1)), linestyle=":", linewidth=1.0,
                label=f"DLS tol_rot {tol_rot:g} rad")
-    _events_on(ax, events, marks_t)
+    events_on(ax, events, marks_t)
     if marks_t is not None and len(marks_t) > 2:
         ax.plot([], [], color="grey", linestyle=":", linewidth=0.7, label="via points")
     handles, labels = ax.get_legend_handles_labels()
@@ -435,14 +450,8 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     ev = {f"grasped (step {grasp_step})": (None if grasp_step is None else times[grasp_step], "green"),
           f"released (step {release_step})": (None if release_step is None else times[release_step], "red")}
     marks_t = times[marks]
-    fig = viz.joints_figure(times, Q, panda.joint_names, limits=(panda.lower, panda.upper), xlabel="time (s)",
-                            ylabel="joint angle (rad)",
-                            title="S4 Panda: joints tracking the SE(3) trajectory (dotted: limits)")
-    ax = fig.axes[0]
-    _events_on(ax, ev, marks_t)
-    ax.set_ylim(-3.3, 4.0)
-    ax.legend(loc="upper center", fontsize=7, ncol=5, framealpha=0.9)
-    fig.set_size_inches(8.0, 4.6)
+    fig = joints_with_events(times, Q, panda,
+                             "S4 Panda: joints tracking the SE(3) trajectory (dotted: limits)", ev, marks_t)
     viz.save_png(fig, out / "joints.png")
 
     fig = tracking_errors_figure(times, track_pe, track_re, tol_pos=tol_pos, tol_rot=tol_rot, events=ev,
@@ -452,7 +461,7 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
     fig = viz.manipulability_figure(times, {"manipulability w = √det(J Jᵀ)": manip, "σ_min(J)": sigma_min},
                                     title="S4 manipulability of the flange Jacobian (6×7) along the motion")
     ax = fig.axes[0]
-    _events_on(ax, ev, marks_t)
+    events_on(ax, ev, marks_t)
     ax.set_ylim(bottom=0)
     ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
     viz.save_png(fig, out / "manipulability.png")
@@ -464,7 +473,7 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
         a1.plot(times, flange[:, j, 3], color=c, linewidth=1.0, linestyle="--", label=f"{lab} tracked")
     top = a1.secondary_xaxis("top")
     top.set_xticks(marks_t, [w.name for w in wps], fontsize=7, rotation=30, ha="left")
-    _events_on(a1, {}, marks_t)
+    events_on(a1, {}, marks_t)
     a1.set_ylabel("flange position (m)")
     a1.set_ylim(-0.05, 1.2)
     a1.set_title(f"S4 flange trajectory: {order} T(t) = T_s·exp(ξ(t)) per segment, "
@@ -475,7 +484,7 @@ def run(out: Path, *, order: str = "quintic", approach: float = 0.12, via_speed:
             color=viz.colors.to_rgb("blue"))
     a2.plot(times, np.linalg.norm(twists[:, 3:], axis=1), label="|ω| planned (rad/s)",
             color=viz.colors.to_rgb("red"))
-    _events_on(a2, ev, marks_t)
+    events_on(a2, ev, marks_t)
     a2.set_xlabel("time (s)")
     a2.set_ylabel("body twist norm")
     a2.grid(True, alpha=0.3)

@@ -64,7 +64,9 @@ def arm_only(robot):
     return arm
 
 
-def _cylinder_distance(pose: np.ndarray, radius: float, height: float, obstacles) -> float:
+def cylinder_distance(pose: np.ndarray, radius: float, height: float, obstacles) -> float:
+    """Smallest coal distance (m; negative: penetration) of the cylinder of ``radius`` and ``height`` at
+    ``pose`` (4x4, axis along its z) to ``obstacles``."""
     cyl = Cylinder(pose, radius, height)
     T = coal.Transform3s(pose[:3, :3], pose[:3, 3])
     req, res = coal.DistanceRequest(), coal.DistanceResult()
@@ -102,7 +104,7 @@ def motion_clearance(robot, Q: np.ndarray, cylinder_poses: np.ndarray, grasp_ste
     }
     if grasp_step is not None and release_step is not None and release_step - grasp_step > 1:
         carried = range(grasp_step + 1, release_step)
-        dists = np.array([_cylinder_distance(cylinder_poses[k], radius, height, obstacles) for k in carried])
+        dists = np.array([cylinder_distance(cylinder_poses[k], radius, height, obstacles) for k in carried])
         j = int(dists.argmin())
         out["min_cylinder_scene_distance"] = float(dists[j])
         out["min_cylinder_scene_distance_step"] = grasp_step + 1 + j

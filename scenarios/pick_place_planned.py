@@ -82,12 +82,13 @@ from .pick_place import (
     DOC_GRASP,
     DOC_RELEASE,
     FLANGE,
-    _events_on,
     arm_without_hand,
     draw_open_box,
+    events_on,
+    joints_with_events,
     start_configuration,
 )
-from .pick_place_clearance import TABLE_CENTRE, TABLE_SIZE, _cylinder_distance, arm_only, box_plates
+from .pick_place_clearance import TABLE_CENTRE, TABLE_SIZE, arm_only, box_plates, cylinder_distance
 
 #: The collision link the cylinder touches at the grasp (the flange's own link; link 8 has no geometry).
 TOUCH_LINKS = ("panda_link7",)
@@ -310,8 +311,8 @@ def trajectory_clearance(arm: Robot, t: np.ndarray, Q: np.ndarray, placement: np
     cyl_table = np.full(len(Q), np.nan)
     for k in np.flatnonzero(carried):
         W = arm.fk(Q[k], FLANGE) @ placement
-        cyl_box[k] = _cylinder_distance(W, CYLINDER_RADIUS, CYLINDER_HEIGHT, plates)
-        cyl_table[k] = _cylinder_distance(W, CYLINDER_RADIUS, CYLINDER_HEIGHT, tables)
+        cyl_box[k] = cylinder_distance(W, CYLINDER_RADIUS, CYLINDER_HEIGHT, plates)
+        cyl_table[k] = cylinder_distance(W, CYLINDER_RADIUS, CYLINDER_HEIGHT, tables)
     out = {"samples": len(Q)}
     for key, values, mask in (("arm_box", arm_box, None), ("arm_table", arm_table, None),
                               ("cylinder_box", cyl_box, carried), ("cylinder_table", cyl_table, lifted)):
@@ -334,7 +335,7 @@ def clearance_figure(clearance: dict, events: dict, marks_t) -> Figure:
                        ("cylinder_box", "cylinder - box (carried)"),
                        ("cylinder_table", "cylinder - table (carried; 0 while it stands on it)")):
         ax.plot(t, clearance[key], label=label, linewidth=1.2)
-    _events_on(ax, events, marks_t)
+    events_on(ax, events, marks_t)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("signed distance (m)")
     ax.set_ylim(bottom=0)
@@ -405,14 +406,8 @@ def _plots(out: Path, arm: Robot, traj: JointTrajectory, clearance: dict, spans:
            release_t: float) -> None:
     ev = {f"grasp ({grasp_t:.2f} s)": (grasp_t, "green"), f"release ({release_t:.2f} s)": (release_t, "red")}
     marks_t = np.array([0.0, *sorted({s[1] for s in spans.values()})])
-    fig = viz.joints_figure(traj.times, traj.positions, arm.joint_names, limits=(arm.lower, arm.upper),
-                            xlabel="time (s)", ylabel="joint angle (rad)",
-                            title="S4 planned: joints (planned transfers, straight-line approach / retreat)")
-    ax = fig.axes[0]
-    _events_on(ax, ev, marks_t)
-    ax.set_ylim(-3.3, 4.0)
-    ax.legend(loc="upper center", fontsize=7, ncol=5, framealpha=0.9)
-    fig.set_size_inches(8.0, 4.6)
+    title = "S4 planned: joints (planned transfers, straight-line approach / retreat)"
+    fig = joints_with_events(traj.times, traj.positions, arm, title, ev, marks_t)
     viz.save_png(fig, out / "joints.png")
     viz.save_png(clearance_figure(clearance, ev, marks_t), out / "clearance.png")
 
