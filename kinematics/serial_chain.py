@@ -1,44 +1,46 @@
-"""The serial chain from the root to one frame: its joints, and the same as flat arrays for compiled kernels.
+"""One encoding of a model's joints for the compiled kernels and the batch FK: :class:`JointTable`.
 
-:func:`joint_chain` lists the joints from the root to a frame and
-:func:`joint_axis` reads a joint's kind and axis (used by the batch FK, the
-batched LM and the planar closed form). :func:`serial_chain` reads a
-Pinocchio model's path to a frame - every joint that moves the frame, in
-order from the root - and packs it as
+:func:`joint_table` is the one reader of a Pinocchio model's joints and frames. Its table has a row per
+joint (row ``k`` is Pinocchio joint ``k + 1``):
 
-* ``geometry`` ``(n + 1, 15)``: row ``k < n`` is joint ``k``'s placement in
-  its parent joint frame (rotation row-major, 9 numbers; translation, 3) and
-  its unit axis in its own frame (3); row ``n`` is the frame's placement in
-  its parent joint frame (axis entries zero);
-* ``joints`` ``(n, 2)`` integers: the joint's kind (:data:`REVOLUTE` or
-  :data:`PRISMATIC`) and its index in ``q`` (= its index in ``v``).
+* ``geometry`` ``(J, 15)``: the joint's placement in its parent joint frame (rotation row-major, 9
+  numbers; translation, 3) and its unit axis in its own frame (3);
+* ``joints`` ``(J, 3)`` integers: the joint's kind (:data:`REVOLUTE`, :data:`PRISMATIC`, or
+  :data:`OTHER` for any joint the kernels do not model: free-flyer, planar, spherical, continuous,
+  helical, mimic...; its geometry row is then zero), its index in ``q`` and the Pinocchio index of its
+  parent joint (``0`` = the universe; always below ``k + 1``, so rows taken in order see their parent's
+  world placement already computed);
 
-The compiled kernels of :mod:`kinserve.ik.lm.kernel` evaluate the chain from
-these arrays (pose and Jacobian, checked against Pinocchio in the tests).
-Units: metres and radians.
+and a row per frame: ``frame_parent`` ``(F,)`` (the frame's parent joint) and ``frame_placement``
+``(F, 12)`` (its placement in that joint's frame, rotation row-major then translation).
 
-:func:`kinematic_tree` packs every joint of a model the same way (the whole
-tree, for the compiled collision pre-check of :mod:`.precheck_kernels`):
+The three uses derive from it:
 
-* ``geometry`` ``(J, 15)``: row ``k`` is Pinocchio joint ``k + 1`` (rows as
-  above: placement in its parent joint frame, unit axis);
-* ``joints`` ``(J, 3)`` integers: kind, index in ``q``, and the Pinocchio
-  index of the parent joint (``0`` = the universe; always below ``k + 1``, so
-  rows taken in order see their parent's world placement already computed).
+* :func:`kinematic_tree` / :meth:`JointTable.tree` - every joint, ``(geometry (J, 15), joints (J, 3))``,
+  for the compiled collision pre-check (:mod:`.precheck_kernels`), the clearance kernel, the robot's
+  spheres and the batch tree FK; None when any joint is :data:`OTHER`;
+* :func:`serial_chain` / :meth:`JointTable.serial` - the path from the root to one frame,
+  ``geometry`` ``(n + 1, 15)`` (the tree's rows of the joints on the path, root first, then the frame's
+  placement with zero axis) and ``joints`` ``(n, 2)`` (kind, index in ``q``: the tree's first two
+  columns), for the compiled LM of :mod:`kinserve.ik.lm.kernel`; None when a joint on the path is
+  :data:`OTHER`;
+* :class:`~.batch_fk.ChainFK` - the NumPy batch FK of one frame, built from :meth:`JointTable.chain`.
 
-Only chains of one-degree-of-freedom revolute and prismatic joints (any
-axis) are packed; any other joint on the path - for the tree, anywhere in the
-model - (free-flyer, planar, spherical, continuous, mimic...) gives ``None``
-and the caller keeps Pinocchio's own algorithms.
+The compiled kernels also assume ``q + dq`` is the integration: :func:`kinematic_tree` and
+:func:`serial_chain` give None when the model's configuration and velocity sizes differ
+(``JointTable.same_sizes`` false). :func:`joint_axis` and :func:`joint_chain` are the per-joint readers
+the table is built with (also used by the planar closed form). Units: metres and radians.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 
-#: Joint kinds of the ``joints`` array.
-REVOLUTE, PRISMATIC = 0, 1
+#: Joint kinds of the ``joints`` array; OTHER: a joint the kernels do not model.
+REVOLUTE, PRISMATIC, OTHER = 0, 1, -1
 
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
@@ -72,6 +74,77 @@ def joint_chain(model: pin.Model, frame_id: int) -> list[int]:
     return chain
 
 
+@dataclass(frozen=True, eq=False)
+class JointTable:
+    """Every joint and frame of one model (module docstring); built by :func:`joint_table`."""
+
+    geometry: np.ndarray  #: ``(J, 15)``: placement in the parent joint frame, unit axis
+    joints: np.ndarray  #: ``(J, 3)`` int64: kind, index in ``q``, parent Pinocchio joint
+    frame_parent: np.ndarray  #: ``(F,)`` int64: each frame's parent Pinocchio joint
+    frame_placement: np.ndarray  #: ``(F, 12)``: each frame's placement in its parent joint frame
+    same_sizes: bool  #: the model's ``nq == nv``
+
+    def path_to(self, frame_id: int) -> list[int]:
+        """Rows of the joints from the root to frame ``frame_id``'s parent joint, root first (each row's
+        parent column names the previous row's joint)."""
+        rows = []
+        j = int(self.frame_parent[frame_id])
+        while j > 0:
+            rows.append(j - 1)
+            j = int(self.joints[j - 1, 2])
+        rows.reverse()
+        return rows
+
+    def chain(self, frame_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(geometry (n + 1, 15), joints (n, 2))`` of the path to frame ``frame_id`` (the layout of
+        :func:`serial_chain`) whatever the model's sizes, or None when a joint on the path is
+        :data:`OTHER`."""
+        rows = self.path_to(frame_id)
+        if (self.joints[rows, 0] == OTHER).any():
+            return None
+        geometry = np.zeros((len(rows) + 1, 15))
+        geometry[:-1] = self.geometry[rows]
+        geometry[-1, :12] = self.frame_placement[frame_id]
+        return geometry, np.ascontiguousarray(self.joints[rows, :2])
+
+    def serial(self, frame_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """:meth:`chain`, or None when the model's ``nq != nv`` (what the compiled LM reads)."""
+        return self.chain(frame_id) if self.same_sizes else None
+
+    def tree(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``(geometry (J, 15), joints (J, 3))`` of every joint, or None when a joint is :data:`OTHER` or
+        the model's ``nq != nv``."""
+        if not self.same_sizes or (self.joints[:, 0] == OTHER).any():
+            return None
+        return self.geometry, self.joints
+
+
+def joint_table(model: pin.Model) -> JointTable:
+    """The :class:`JointTable` of ``model``: the one place the kernels' arrays are read from a model."""
+    n = model.njoints - 1
+    geometry = np.zeros((n, 15))
+    joints = np.zeros((n, 3), dtype=np.int64)
+    for j in range(1, model.njoints):
+        kind_axis = joint_axis(model.joints[j])
+        joints[j - 1, 1:] = model.joints[j].idx_q, model.parents[j]
+        if kind_axis is None:
+            joints[j - 1, 0] = OTHER
+            continue
+        kind, axis = kind_axis
+        M = model.jointPlacements[j]
+        row = geometry[j - 1]
+        row[:9] = M.rotation.reshape(9)
+        row[9:12] = M.translation
+        row[12:] = axis / np.linalg.norm(axis)
+        joints[j - 1, 0] = REVOLUTE if kind == "R" else PRISMATIC
+    frame_parent = np.array([f.parentJoint for f in model.frames], dtype=np.int64)
+    frame_placement = np.zeros((model.nframes, 12))
+    for f, frame in enumerate(model.frames):
+        frame_placement[f, :9] = frame.placement.rotation.reshape(9)
+        frame_placement[f, 9:] = frame.placement.translation
+    return JointTable(geometry, joints, frame_parent, frame_placement, model.nq == model.nv)
+
+
 def serial_chain(model: pin.Model, frame_id: int) -> tuple[np.ndarray, np.ndarray] | None:
     """``(geometry, joints)`` of the path from the root to frame ``frame_id`` (module docstring), or None.
 
@@ -79,25 +152,7 @@ def serial_chain(model: pin.Model, frame_id: int) -> tuple[np.ndarray, np.ndarra
     or when the model's configuration and velocity sizes differ (``q + dq``
     would not be the integration the kernels assume).
     """
-    if model.nq != model.nv:
-        return None
-    frame = model.frames[frame_id]
-    path = joint_chain(model, frame_id)
-    geometry = np.zeros((len(path) + 1, 15))
-    joints = np.zeros((len(path), 2), dtype=np.int64)
-    for k, j in enumerate(path):
-        kind_axis = joint_axis(model.joints[j])
-        if kind_axis is None:
-            return None
-        kind, axis = kind_axis
-        M = model.jointPlacements[j]
-        geometry[k, :9] = M.rotation.reshape(9)
-        geometry[k, 9:12] = M.translation
-        geometry[k, 12:] = axis / np.linalg.norm(axis)
-        joints[k] = REVOLUTE if kind == "R" else PRISMATIC, model.joints[j].idx_q
-    geometry[-1, :9] = frame.placement.rotation.reshape(9)
-    geometry[-1, 9:12] = frame.placement.translation
-    return geometry, joints
+    return joint_table(model).serial(frame_id)
 
 
 def kinematic_tree(model: pin.Model) -> tuple[np.ndarray, np.ndarray] | None:
@@ -107,20 +162,4 @@ def kinematic_tree(model: pin.Model) -> tuple[np.ndarray, np.ndarray] | None:
     configuration and velocity sizes differ. A model without joints gives
     arrays of zero rows.
     """
-    if model.nq != model.nv:
-        return None
-    n = model.njoints - 1
-    geometry = np.zeros((n, 15))
-    joints = np.zeros((n, 3), dtype=np.int64)
-    for j in range(1, model.njoints):
-        kind_axis = joint_axis(model.joints[j])
-        if kind_axis is None:
-            return None
-        kind, axis = kind_axis
-        M = model.jointPlacements[j]
-        row = geometry[j - 1]
-        row[:9] = M.rotation.reshape(9)
-        row[9:12] = M.translation
-        row[12:] = axis / np.linalg.norm(axis)
-        joints[j - 1] = REVOLUTE if kind == "R" else PRISMATIC, model.joints[j].idx_q, model.parents[j]
-    return geometry, joints
+    return joint_table(model).tree()

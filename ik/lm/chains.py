@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from kinserve.kinematics.serial_chain import kinematic_tree, serial_chain
+from kinserve.kinematics.serial_chain import joint_table
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -45,28 +45,11 @@ def _load_kernel() -> ModuleType | None:
 
 
 def packed_chains(model: pin.Model) -> tuple[tuple[np.ndarray, np.ndarray] | None, ...]:
-    """:func:`kinserve.kinematics.serial_chain.serial_chain` of every frame of ``model``, in frame order.
-
-    When every joint of the model is one the kernel models, the joints are packed once
-    (:func:`kinserve.kinematics.serial_chain.kinematic_tree`) and each frame's chain is the rows of the
-    joints on its path, root first, plus the frame's own placement.
-    """
-    tree = kinematic_tree(model)
-    if tree is None:
-        return tuple(serial_chain(model, f) for f in range(model.nframes))
-    geometry, joints = tree
-    paths: list[list[int]] = [[]]  # rows of the joints from the root to Pinocchio joint j (0: the universe)
-    for k in range(joints.shape[0]):
-        paths.append(paths[int(joints[k, 2])] + [k])
-    out = []
-    for frame in model.frames:
-        rows = paths[frame.parentJoint]
-        g = np.zeros((len(rows) + 1, 15))
-        g[:-1] = geometry[rows]
-        g[-1, :9] = frame.placement.rotation.reshape(9)
-        g[-1, 9:12] = frame.placement.translation
-        out.append((g, np.ascontiguousarray(joints[rows, :2])))
-    return tuple(out)
+    """:func:`kinserve.kinematics.serial_chain.serial_chain` of every frame of ``model``, in frame order:
+    the model is read once (:func:`kinserve.kinematics.serial_chain.joint_table`) and each frame's chain is
+    the table's rows of the joints on its path, root first, plus the frame's own placement."""
+    table = joint_table(model)
+    return tuple(table.serial(f) for f in range(model.nframes))
 
 
 class CompiledChains:
