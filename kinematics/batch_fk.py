@@ -20,31 +20,32 @@ import numpy as np
 import pinocchio as pin
 
 from .errors import ModelError
-from .serial_chain import joint_axis, joint_chain
+from .serial_chain import OTHER, REVOLUTE, JointTable, joint_table
 
 
 class ChainFK:
-    """Vectorised FK of frame ``frame_id`` of ``model``; call with ``Q`` (N, nq)."""
+    """Vectorised FK of frame ``frame_id`` of ``model``; call with ``Q`` (N, nq).
 
-    def __init__(self, model: pin.Model, frame_id: int):
-        frame = model.frames[frame_id]
-        chain = joint_chain(model, frame_id)
+    Built from the model's :class:`~.serial_chain.JointTable` (``table``, read from ``model`` when not
+    given): the rows of the joints on the path to the frame and the frame's placement. Raises
+    :class:`~.errors.ModelError` when a joint on the path is not a one-DoF revolute / prismatic joint."""
+
+    def __init__(self, model: pin.Model, frame_id: int, table: JointTable | None = None):
+        table = joint_table(model) if table is None else table
+        chain = table.chain(frame_id)
+        if chain is None:
+            other = next(r for r in table.path_to(frame_id) if table.joints[r, 0] == OTHER)
+            raise ModelError("batch FK supports revolute and prismatic joints only, "
+                             f"got {model.joints[other + 1].shortname()}")
+        geometry, joints = chain
         self.steps = []
-        for j in chain:
-            info = joint_axis(model.joints[j])
-            if info is None:
-                raise ModelError("batch FK supports revolute and prismatic joints only, "
-                                 f"got {model.joints[j].shortname()}")
-            kind, axis = info
-            M = model.jointPlacements[j]
-            MR = M.rotation.copy()
+        for row, (kind, iq) in zip(geometry[:-1], joints.tolist()):
+            MR, Mp, axis = row[:9].reshape(3, 3).copy(), row[9:12].copy(), row[12:15].copy()
             K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
             # M_R Rot(a, q) = M_R + sin q (M_R K) + (1 - cos q) (M_R K^2): one stacked product per joint
-            self.steps.append((model.joints[j].idx_q, kind, M.translation.copy(), MR, MR @ K, MR @ K @ K,
-                               MR @ axis))
-        F = frame.placement
-        self.frame_R = F.rotation.copy()
-        self.frame_p = F.translation.copy()
+            self.steps.append((iq, kind, Mp, MR, MR @ K, MR @ K @ K, MR @ axis))
+        self.frame_R = geometry[-1, :9].reshape(3, 3).copy()
+        self.frame_p = geometry[-1, 9:12].copy()
 
     def __call__(self, Q: np.ndarray) -> np.ndarray:
         """World poses ``(N, 4, 4)`` of the frame at the configurations ``Q`` ``(N, nq)``."""
@@ -54,7 +55,7 @@ class ChainFK:
         for iq, kind, Mp, MR, MRK, MRK2, MRa in self.steps:
             p = p + R @ Mp
             qi = Q[:, iq]
-            if kind == "R":
+            if kind == REVOLUTE:
                 A = MR + np.sin(qi)[:, None, None] * MRK + (1.0 - np.cos(qi))[:, None, None] * MRK2
                 R = R @ A
             else:
