@@ -55,7 +55,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics import Robot
-from kinserve.kinematics.serial_chain import joint_axis, joint_chain
+from kinserve.kinematics.serial_chain import OTHER, REVOLUTE, JointTable, joint_table
 from kinserve.kinematics.types import VectorLike
 
 #: One closed-form branch: ``(q, label, free parameter value or None)``.
@@ -96,23 +96,22 @@ def two_link(wx: float, wy: float, L1: float, L2: float) -> tuple[list[tuple[flo
     return sols, reachable
 
 
-def _joints_about_z(model: pin.Model, data: pin.Data, chain: list[int]) -> tuple[list, list]:
-    """``(revolute, prismatic)`` of a chain at ``q = 0`` (``data`` holds its kinematics): ``(q index, sign,
-    axis xy point)`` per revolute joint and ``(q index, sign)`` per prismatic joint, the sign that of the
-    world axis along ``+-z``; ValueError when a joint is of another type or not along ``z``, or the chain
-    has no revolute joint or more than one prismatic joint."""
+def _joints_about_z(table: JointTable, data: pin.Data, rows: list[int]) -> tuple[list, list]:
+    """``(revolute, prismatic)`` of the joints of ``table``'s ``rows`` (a path, root first) at ``q = 0``
+    (``data`` holds its kinematics): ``(q index, sign, axis xy point)`` per revolute joint and ``(q index,
+    sign)`` per prismatic joint, the sign that of the world axis along ``+-z``; ValueError when a joint is of
+    another type or not along ``z``, or the chain has no revolute joint or more than one prismatic joint."""
     revolute, prismatic = [], []
-    for j in chain:
-        info = joint_axis(model.joints[j])
-        if info is None:
+    for r in rows:
+        kind, iq = (int(x) for x in table.joints[r, :2])
+        if kind == OTHER:
             raise ValueError("unsupported joint type")
-        kind, axis = info
-        aw = data.oMi[j].rotation @ axis
+        j = r + 1  # the row's Pinocchio joint
+        aw = data.oMi[j].rotation @ table.geometry[r, 12:15]
         if abs(abs(aw[2]) - 1.0) > 1e-9:
             raise ValueError("joint axis not parallel to world z")
         sign = 1.0 if aw[2] > 0 else -1.0
-        iq = model.joints[j].idx_q
-        if kind == "R":
+        if kind == REVOLUTE:
             revolute.append((iq, sign, data.oMi[j].translation[:2].copy()))
         else:
             prismatic.append((iq, sign))
@@ -185,8 +184,9 @@ class PlanarChain:
     def __init__(self, robot: Robot, frame: str) -> None:
         model = robot.model
         fid = robot.frame_id(frame)
-        chain = joint_chain(model, fid)
-        if len(chain) != robot.nq:
+        table = joint_table(model)
+        rows = table.path_to(fid)
+        if len(rows) != robot.nq:
             raise ValueError("frame does not depend on every joint")
         data = model.createData()
         q0 = np.zeros(model.nq)
@@ -194,7 +194,7 @@ class PlanarChain:
         T0 = pin.updateFramePlacement(model, data, fid)
         self.robot = robot
         self.frame = frame
-        self.revolute, self.prismatic = _joints_about_z(model, data, chain)
+        self.revolute, self.prismatic = _joints_about_z(table, data, rows)
         self.R0 = T0.rotation.copy()  # any tool tilt is fine: R(q) = Rz(Theta) R0
         self.z0 = float(T0.translation[2])
         self.c1 = self.revolute[0][2]
