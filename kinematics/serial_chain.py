@@ -28,8 +28,8 @@ The three uses derive from it:
 
 The compiled kernels also assume ``q + dq`` is the integration: :func:`kinematic_tree` and
 :func:`serial_chain` give None when the model's configuration and velocity sizes differ
-(``JointTable.same_sizes`` false). :func:`joint_axis` and :func:`joint_chain` are the per-joint readers
-the table is built with (also used by the planar closed form). Units: metres and radians.
+(``JointTable.same_sizes`` false). :func:`joint_axis` reads one joint's kind and axis for the table; the
+planar closed form reads its chain from the table too. Units: metres and radians.
 """
 
 from __future__ import annotations
@@ -61,17 +61,6 @@ def joint_axis(joint: pin.JointModel) -> tuple[str, np.ndarray] | None:
     if short == "JointModelPrismaticUnaligned":
         return "P", np.asarray(joint.extract().axis, dtype=float).copy()
     return None
-
-
-def joint_chain(model: pin.Model, frame_id: int) -> list[int]:
-    """Indices of the joints from the root to the parent joint of frame ``frame_id``, root first."""
-    chain = []
-    j = model.frames[frame_id].parentJoint
-    while j > 0:
-        chain.append(j)
-        j = model.parents[j]
-    chain.reverse()
-    return chain
 
 
 @dataclass(frozen=True, eq=False)
