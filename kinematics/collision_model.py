@@ -55,6 +55,8 @@ from .mesh_hulls import HullFallback, convex_hulls
 #: Scenes (obstacle sets) kept per model, least recently used dropped first (also: layouts kept).
 SCENE_CACHE_SIZE = 32
 
+_NO_MISS = (None, None, None)  # CollisionModel._missed when no lookup missed since the last scene was built
+
 
 def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
     """Centre and radius (m) of a sphere containing ``geometry`` placed at ``placement``: coal's local AABB
@@ -188,6 +190,9 @@ class CollisionModel:
         #: (obstacles tuple, self_collision, scene) of the last tuple looked up: a repeated call with the same
         #: tuple skips the key of ids (the tuple is kept alive here: the same object, the same shapes).
         self._last_scene: tuple = (None, None, None)
+        #: (obstacles, self_collision, key of ids) of the last tuple :meth:`cached_scene` did not find: the
+        #: scene built next for it skips the key and the lookup (kept alive here, so its ids stay its own).
+        self._missed: tuple = _NO_MISS
         self._lock = threading.Lock()
 
     def with_attached(self, objects: Sequence[Any]) -> "CollisionModel":
@@ -275,8 +280,11 @@ class CollisionModel:
         if obstacles is last[0] and self_collision is last[1]:
             return last[2]
         if type(obstacles) is tuple or type(obstacles) is list:
-            entry = self._scenes.get((self_collision, *map(id, obstacles)))
+            key = (self_collision, *map(id, obstacles))
+            entry = self._scenes.get(key)
             if entry is None:
+                if type(obstacles) is tuple:  # the caller builds the scene next (:meth:`scene`): reuses key
+                    self._missed = (obstacles, self_collision, key)
                 return None
             if type(obstacles) is tuple:
                 self._last_scene = (obstacles, self_collision, entry[0])
@@ -294,10 +302,15 @@ class CollisionModel:
         the Panda). Meshes are cached by identity only (their file may change).
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
-        key = (self_collision, *map(id, obs))
-        entry = self._scenes.get(key)
-        if entry is not None:  # the entry keeps these objects alive: same ids, same objects
-            return entry[0]
+        missed = self._missed
+        if obs is missed[0] and self_collision is missed[1]:  # cached_scene just missed this very tuple
+            key = missed[2]
+            self._missed = _NO_MISS  # once: a later call looks the tuple up again
+        else:
+            key = (self_collision, *map(id, obs))
+            entry = self._scenes.get(key)
+            if entry is not None:  # the entry keeps these objects alive: same ids, same objects
+                return entry[0]
         by_value = all(shape.kind != "mesh" for shape in obs)
         vkey = (self_collision, *obs)
         scene = self._scenes_by_value.get(vkey) if by_value else None

@@ -379,6 +379,21 @@ def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
     assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
 
 
+def test_a_tuple_that_missed_the_cache_gets_one_scene_however_it_is_asked_again():
+    """``cached_scene`` misses a new tuple, ``scene`` builds its scene on the key of that miss; every later
+    lookup of the tuple (front door, ``cached_scene``, ``scene`` twice) answers that same scene."""
+    robot = robots.load("panda")
+    cm = robot.collision
+    obstacles = (Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)), Sphere((0.2, 0.4, 0.6), 0.07))
+    assert cm.cached_scene(obstacles) is None
+    scene = cm.scene(obstacles)
+    assert cm.scene(obstacles) is scene and cm.scene(obstacles) is scene
+    assert cm.cached_scene(obstacles) is scene and robot.collision_scene(obstacles) is scene
+    other = (Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)), Sphere((0.2, 0.4, 0.6), 0.07))  # equal values
+    assert cm.cached_scene(other) is None and cm.scene(other) is scene  # a miss, then the by-value cache
+    assert cm.scene(obstacles, self_collision=False) is not scene
+
+
 PANDA = ("panda", "panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf",
          ("panda_finger_joint1", "panda_finger_joint2"))
 
