@@ -131,15 +131,27 @@ def render_collision(d: dict) -> list[str]:
     return out + _targets(d)
 
 
+def _solved(f: dict) -> str:
+    """``"within/n"``, with ``" (+k late)"`` when k paths came back after the budget."""
+    within = f.get("within_budget", f["solved"])
+    late = f["solved"] - within
+    return f"{within}/{f['n']}" + (f" (+{late} late)" if late else "")
+
+
+def _set_rows(d: dict, row) -> list[str]:
+    """The rows of a motion table: ``row(label, planner, figures)`` overall, then per set."""
+    rows = [row("**all**", name, f) for name, f in d["overall"].items()]
+    return rows + [row(label, name, f) for label, per_planner in d["per_set"].items()
+                   for name, f in per_planner.items()]
+
+
 def _motion_row(label: str, name: str, f: dict) -> str:
     def pair(key: str) -> str:
         return f"{_ms(f.get(key + '_median_ms'))} / {_ms(f.get(key + '_p95_ms'))}"
 
     length = "–" if f.get("length_median") is None else f"{f['length_median']:.2f}"
     duration = "–" if f.get("duration_median_s") is None else f"{f['duration_median_s']:.2f} s"
-    solved = f"{f.get('within_budget', f['solved'])}/{f['n']}"
-    late = f["solved"] - f.get("within_budget", f["solved"])
-    solved += f" (+{late} late)" if late else ""
+    solved = _solved(f)
     return (f"| {label} | {name} | {solved} | {pair('plan')} | {pair('simplify')} | "
             f"{pair('total')} | {length} | {f['invalid']}/{f['checked']} | {duration} | "
             f"{_ms(f.get('toppra_median_ms'))} |")
@@ -162,18 +174,11 @@ def render_motion(d: dict) -> list[str]:
            "| set | planner | solved | plan median / p95 | simplify median / p95 | total median / p95 | "
            "length (rad) | invalid | trajectory | TOPP-RA |",
            "|---|---|---|---|---|---|---|---|---|---|"]
-    for name, f in d["overall"].items():
-        out.append(_motion_row("**all**", name, f))
-    for label, per_planner in d["per_set"].items():
-        for name, f in per_planner.items():
-            out.append(_motion_row(label, name, f))
-    return out + _targets(d)
+    return out + _set_rows(d, _motion_row) + _targets(d)
 
 
 def _pose_row(label: str, name: str, f: dict) -> str:
-    solved = f"{f.get('within_budget', f['solved'])}/{f['n']}"
-    late = f["solved"] - f.get("within_budget", f["solved"])
-    solved += f" (+{late} late)" if late else ""
+    solved = _solved(f)
     goals = "pose" if "ik_median_ms" in f else "joint"
     ik = f"{_ms(f.get('ik_median_ms'))} / {_ms(f.get('ik_p95_ms'))}" if goals == "pose" else "–"
     missed = f"{f['pose_missed']}/{f['solved']}" if "pose_missed" in f else "–"
@@ -207,12 +212,7 @@ def render_motion_pose(d: dict) -> list[str]:
            "| set | goals | solved | total median / p95 | IK median / p95 | plan median | simplify median | "
            "goal set | invalid | pose missed |",
            "|---|---|---|---|---|---|---|---|---|---|"]
-    for name, f in d["overall"].items():
-        out.append(_pose_row("**all**", name, f))
-    for label, per_planner in d["per_set"].items():
-        for name, f in per_planner.items():
-            out.append(_pose_row(label, name, f))
-    return out
+    return out + _set_rows(d, _pose_row)
 
 
 def _us(v) -> str:
