@@ -80,14 +80,21 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     return arr
 
 
+def _float_array(value: object) -> np.ndarray | None:
+    """``value`` as a float64 array, or None when it is not numeric (None, text, a mapping, ragged lists)."""
+    if value is None or isinstance(value, (str, bytes, dict)):
+        return None
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+
+
 def as_matrix(value: ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a finite float64 array of exactly ``shape`` (-1 = any)."""
-    try:
-        if value is None or isinstance(value, (str, bytes, dict)):
-            raise TypeError
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {_describe(value)}") from None
+    arr = _float_array(value)
+    if arr is None:
+        raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {_describe(value)}")
     if arr.ndim != len(shape) or any(s != -1 and s != a for s, a in zip(shape, arr.shape)):
         want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
         raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
@@ -121,12 +128,9 @@ def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
     T = _position_quaternion_pair(value, name)
     if T is not None:
         return T
-    try:
-        if value is None or isinstance(value, (str, bytes, dict)):
-            raise TypeError
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got {_describe(value)}") from None
+    arr = _float_array(value)
+    if arr is None:
+        raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got {_describe(value)}")
     if arr.shape == (7,):
         check_bounded(arr, name)
         quat = unit_quaternion(arr[3:], f"{name}[3:7] (a 7-vector pose is [x, y, z, qx, qy, qz, qw])")
