@@ -132,7 +132,7 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
         cases.append((T, start, cube))
 
     def objects():
-        return [*cm._layouts.values(), *(s for s, _ in cm._scenes.values()), *cm._scenes_by_value.values()]
+        return [*cm._layouts.values(), *(s for s, _ in cm._scenes.values())]
 
     def put(on: bool) -> None:
         for o in objects():
@@ -148,7 +148,6 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
                 put(on)
                 if w == "cube" and fresh:
                     cm._scenes.clear()
-                    cm._scenes_by_value.clear()
                     getattr(collision_solve._BOUND, "cache", {}).clear()
                 obs = obstacles if w == "open" else [*obstacles, cube]
                 t0 = time.process_time()

@@ -81,9 +81,8 @@ class BoundConstraints:
             self.by_scene.move_to_end(key)
             return bound
         from kinserve.ik.constraints.collision import CollisionConstraint
-        from kinserve.kinematics.collision_layout import shape_signature
 
-        layout = (self_collision, margin, tuple(map(shape_signature, obstacles)))
+        layout = (self_collision, margin, tuple(shape.signature for shape in obstacles))
         template = self.by_layout.get(layout)
         if template is not None:
             bound = template.moved(obstacles)

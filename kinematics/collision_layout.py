@@ -24,11 +24,12 @@ A scene of an existing layout therefore allocates nothing in Pinocchio or coal.
 Sharing is sound because every query recomputes the world placements it reads
 (``oMg``) from the workspace's ``GeometryModel``; the per-pair narrow-phase
 functors refer to the layout's geometry objects, whose shapes equal every
-scene's (same :func:`shape_signature`); and a thread runs one query at a time.
+scene's (same :attr:`~.shapes.Shape.signature`); and a thread runs one query at a time.
 
-The **signature** of an obstacle is its kind and sizes (``Sphere``: radius;
-``Box``: edges; ``Capsule``, ``Cylinder``: radius and length); a ``Mesh`` (or any
-other shape) is its own signature (by identity: its file may change).
+The **signature** of an obstacle (:attr:`~.shapes.Shape.signature`, made with the
+shape) is its kind and sizes (``Sphere``: radius; ``Box``: edges; ``Capsule``,
+``Cylinder``: radius and length); a ``Mesh`` is its own signature (by identity:
+its file may change).
 """
 
 from __future__ import annotations
@@ -148,20 +149,6 @@ def broad_phase_manager_class(n_geometries: int) -> type:
     return pin.BroadPhaseManager_DynamicAABBTreeCollisionManager
 
 
-def shape_signature(shape: Shape) -> tuple:
-    """What makes two obstacles interchangeable up to their pose (see the module docstring)."""
-    kind = shape.kind
-    if kind == "box":
-        return ("box", shape.size)
-    if kind == "sphere":
-        return ("sphere", shape.radius)
-    if kind == "capsule":
-        return ("capsule", shape.radius, shape.length)
-    if kind == "cylinder":
-        return ("cylinder", shape.radius, shape.length)
-    return (kind, id(shape))  # meshes and unknown kinds: this very object (the layout keeps it alive)
-
-
 def obstacle_name(k: int, shape: Shape) -> str:
     """Name of obstacle ``k`` in pair names: ``obstacle[k]:<kind>``."""
     return f"obstacle[{k}]:{shape.kind}"
@@ -222,8 +209,7 @@ class SceneLayout:
             return None
         from .scene_precheck import ScenePrecheck  # Numba's kernels: loaded with the collision model
 
-        return ScenePrecheck(robot.spheres, self.pairs, self.n_robot, self.obstacle_geometries,
-                             self.obstacles, robot.inner_radii)
+        return ScenePrecheck(robot.spheres, self.pairs, self.n_robot, len(self.obstacles), robot.inner_radii)
 
     def precheck(self) -> ScenePrecheck | None:
         """The layout's sphere pre-check (:class:`~.scene_precheck.ScenePrecheck`: the robot's spheres and the
@@ -304,4 +290,4 @@ class SceneLayout:
 
 __all__ = ["GJK_TOLERANCE", "NAIVE_MAX_GEOMETRIES", "SPHERE_PRECHECK", "MarginWorkspace",
            "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class",
-           "exact_requests", "obstacle_name", "shape_signature"]
+           "exact_requests", "obstacle_name"]

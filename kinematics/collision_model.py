@@ -37,7 +37,7 @@ import pinocchio as pin
 
 from . import collision_cache
 from .build_progress import build_progress
-from .collision_layout import RobotCollisionGeometry, SceneLayout, shape_signature
+from .collision_layout import RobotCollisionGeometry, SceneLayout
 from .collision_pairs import (
     ALGORITHM_VERSION,
     SAMPLES,
@@ -185,7 +185,6 @@ class CollisionModel:
         self._shape_data = [_shape_dict(g, link) for g, link in zip(gm.geometryObjects, self.links)]
         self._base_spheres = _base_spheres(gm, self.geometry_joints)
         self._scenes: OrderedDict = OrderedDict()  #: (self_collision, *ids) -> (scene, obstacles)
-        self._scenes_by_value: OrderedDict = OrderedDict()  #: (self_collision, *shapes) -> scene
         self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
         #: (obstacles tuple, self_collision, scene) of the last tuple looked up: a repeated call with the same
         #: tuple skips the key of ids (the tuple is kept alive here: the same object, the same shapes).
@@ -292,14 +291,12 @@ class CollisionModel:
         return None
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
-        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes, cached).
-
-        Two caches of :data:`SCENE_CACHE_SIZE` scenes each: by the identity of
-        the obstacle objects (passing the same list again costs a dictionary
-        lookup), then by their value (``Shape`` equality: new objects describing
-        the same obstacles - e.g. every service request - reuse the scene built
-        for the first ones instead of building a new one, which costs ~0.3 ms on
-        the Panda). Meshes are cached by identity only (their file may change).
+        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes), cached by
+        the identity of the obstacle objects (:data:`SCENE_CACHE_SIZE` scenes): passing the same objects again
+        costs a dictionary lookup. New objects - equal to earlier ones or not - get a new scene on the layout
+        of their signatures (:meth:`layout`): the obstacle rows are the shapes' own
+        (:attr:`~.shapes.Shape.obstacle_row`), so that costs a few microseconds and allocates nothing in
+        Pinocchio or coal.
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
         missed = self._missed
@@ -311,23 +308,16 @@ class CollisionModel:
             entry = self._scenes.get(key)
             if entry is not None:  # the entry keeps these objects alive: same ids, same objects
                 return entry[0]
-        by_value = all(shape.kind != "mesh" for shape in obs)
-        vkey = (self_collision, *obs)
-        scene = self._scenes_by_value.get(vkey) if by_value else None
-        scene_is_new = scene is None
-        if scene_is_new:
-            scene = CollisionScene(self.layout(obs, self_collision), obs)
-        with self._lock:  # the identity key was absent above (and the value key too when no scene was found)
+        scene = CollisionScene(self.layout(obs, self_collision), obs)
+        with self._lock:  # the identity key was absent above
             _remember(self._scenes, key, (scene, obs), new=True)
-            if by_value:
-                _remember(self._scenes_by_value, vkey, scene, new=scene_is_new)
         return scene
 
     def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:
         """The :class:`~.collision_layout.SceneLayout` of obstacles shaped like ``obstacles`` (validated
-        shapes), cached by their signatures (:func:`~.collision_layout.shape_signature`): scenes whose
+        shapes), cached by their signatures (:attr:`~.shapes.Shape.signature`): scenes whose
         obstacles differ only by pose share it, so a moved obstacle does not rebuild a scene from nothing."""
-        key = (self_collision, *map(shape_signature, obstacles))
+        key = (self_collision, *[shape.signature for shape in obstacles])
         layout = self._layouts.get(key)
         if layout is None:
             layout = SceneLayout(self.robot_geometry, obstacles, self_collision)

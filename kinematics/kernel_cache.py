@@ -4,8 +4,9 @@ Numba keys a cached function on the content of *its own* source file only (numba
 calls a compiled primitive of another file keeps its stale machine code when only that primitive changes.
 kinserve's kernels therefore share one source stamp: :class:`KernelSetLocator` finds the cache folder as
 Numba would (``__pycache__`` beside the file, or the user-wide cache when that is not writable) and stamps
-every function of :data:`KERNEL_FILES` with the SHA-256 of all of those files together. Changing any one of
-them recompiles every kernel on the next import.
+every function of :data:`KERNEL_FILES` (the files with compiled code and the files whose constants that code
+reads) with the SHA-256 of all of those files together. Changing any one of them recompiles every kernel on
+the next import.
 
 The decorators :data:`jit` and :data:`inline` (``cache=True``, ``nogil``, NumPy's error model; ``inline``
 also inlines at Numba's IR level) are the ones every kernel module uses; importing this module installs the
@@ -26,7 +27,8 @@ from numba.core import caching
 
 _ROOT = Path(__file__).resolve().parents[1]
 
-#: The files with compiled code of kinserve (relative to the package), sharing one source stamp.
+#: The files with compiled code of kinserve (relative to the package), and the files whose names that code
+#: reads (constants and encodings baked into the machine code), sharing one source stamp.
 KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "kinematics/kernel_primitives.py",
     "kinematics/precheck_kernels.py",
@@ -34,6 +36,12 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "ik/constraints/clearance_kernel.py",
     "ik/lm/kernel.py",
     "planners/motion/extend_kernel.py",
+    # read by the kernels above: the obstacle table's encoding, the pre-check's verdicts, the joint kinds of
+    # the chain encoding, the LM's status codes
+    "kinematics/obstacle_table.py",
+    "kinematics/precheck_verdicts.py",
+    "kinematics/serial_chain.py",
+    "ik/lm/status.py",
 ))
 
 

@@ -1,28 +1,43 @@
-"""The obstacle table of the compiled pre-check: one row of 16 numbers per obstacle.
+"""The obstacle table of the compiled pre-check: one row of 16 numbers per obstacle, and its encoding.
 
-A row (columns of :mod:`.precheck_kernels`): the obstacle's world rotation
-(row-major, 0-8) and translation (9-11), its kind (:data:`~.precheck_kernels.KIND`:
-``BALL``, ``BOX``, ``CAPSULE``, ``CYLINDER``) and its sizes (13-15): a box its
-half extents, a capsule or cylinder its radius and half length (along its local
-z), a ball its radius then :data:`~.precheck_kernels.EXACT` (1: the ball is the
-obstacle; 0: it stands for a shape without a closed form - a mesh, anything with
-a swept-sphere radius but a sphere - as the sphere of its local AABB, whose centre
-the row's translation then holds).
+A row (read by :mod:`.precheck_kernels`): the obstacle's world rotation
+(row-major, 0-8) and translation (9-11), its kind (column :data:`KIND`:
+:data:`BALL`, :data:`BOX`, :data:`CAPSULE`, :data:`CYLINDER`) and its sizes
+(13-15): a box its half extents, a capsule or cylinder its radius and half
+length (along its local z), a ball its radius then :data:`EXACT` (1: the ball
+is the obstacle; 0: it stands for a shape without a closed form - a mesh,
+anything with a swept-sphere radius but a sphere - as the sphere of its local
+AABB, whose centre the row's translation then holds).
 
-The kind and sizes depend on the shape only (:func:`obstacle_template`); a
-scene places the templates at its obstacles' poses (:func:`obstacle_rows`).
+The kind and sizes depend on the shape only (:func:`obstacle_template`); the row
+places the template at the obstacle's pose (:func:`placed_row`). Every
+:class:`~.shapes.Shape` computes its row when it is made
+(:attr:`~.shapes.Shape.obstacle_row`), so a scene of new shapes only
+concatenates their rows. This module owns the encoding: the compiled kernels
+import its constants (it is one of the kernel cache's files,
+:data:`~.kernel_cache.KERNEL_FILES`). NumPy only: ``import kinserve`` and
+making a shape load no compiled kernel.
 """
 
 from __future__ import annotations
 
 from typing import Any, NamedTuple
 
-import coal
 import numpy as np
-import pinocchio as pin
 
-from .precheck_kernels import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS, placed_floats
-from .sphere_cover import aabb_sphere
+#: Obstacle kinds of the obstacle table (column :data:`KIND` of a row).
+BALL, BOX, CAPSULE, CYLINDER = 0, 1, 2, 3
+#: Columns of an obstacle row: rotation (row-major) 0-8, translation 9-11, kind 12, sizes 13-15 (a BALL: its
+#: radius, then :data:`EXACT`).
+KIND = 12
+#: Column of a BALL row: 1 when the ball is the obstacle itself, 0 when it stands for a shape without a closed
+#: form (its AABB sphere: a point inside it need not be inside the shape). Other kinds are always exact.
+EXACT = 14
+#: Width of an obstacle row.
+OBSTACLE_COLUMNS = 16
+#: Padding (m) added to the radius of every containing sphere against rounding: the AABB spheres here
+#: (:func:`aabb_sphere`) and the robot's cover spheres (:mod:`.sphere_cover`).
+PAD = 1e-9
 
 
 class ObstacleTemplate(NamedTuple):
@@ -34,8 +49,18 @@ class ObstacleTemplate(NamedTuple):
     centre: np.ndarray
 
 
-def obstacle_template(geometry: coal.CollisionGeometry) -> ObstacleTemplate:
+def aabb_sphere(geometry: Any) -> np.ndarray:
+    """``(centre, radius)`` ``(4,)`` (m, the geometry's own frame) of coal's local AABB sphere of ``geometry``
+    (computed when missing), the radius padded by :data:`PAD`."""
+    if geometry.aabb_radius < 0.0:
+        geometry.computeLocalAABB()
+    return np.array([*np.asarray(geometry.aabb_center, dtype=float), float(geometry.aabb_radius) + PAD])
+
+
+def obstacle_template(geometry: Any) -> ObstacleTemplate:
     """The :class:`ObstacleTemplate` of a coal geometry (module docstring's kinds)."""
+    import coal  # with Pinocchio; imported here so that this module stays importable without it
+
     row = np.zeros(OBSTACLE_COLUMNS)
     centre = np.zeros(3)
     swept = float(geometry.getSweptSphereRadius())
@@ -52,20 +77,32 @@ def obstacle_template(geometry: coal.CollisionGeometry) -> ObstacleTemplate:
     return ObstacleTemplate(row, centre)
 
 
+def placed_row(template: ObstacleTemplate, pose: np.ndarray) -> np.ndarray:
+    """The row ``(16,)`` of ``template`` at the 4x4 world ``pose``: its rotation (row-major) and the
+    translation ``t + R centre``."""
+    T = np.asarray(pose, dtype=float)
+    row = template.row.copy()
+    row[0:9] = T[:3, :3].ravel()
+    row[9:12] = T[:3, 3] + T[:3, :3] @ template.centre
+    return row
+
+
+def obstacle_row(geometry: Any, pose: Any) -> np.ndarray:
+    """The obstacle table row ``(16,)`` of a coal geometry at ``pose`` (a 4x4 array or a ``pinocchio.SE3``):
+    rotation, translation, kind, sizes."""
+    T = pose.homogeneous if hasattr(pose, "homogeneous") else pose
+    return placed_row(obstacle_template(geometry), T)
+
+
 def obstacle_rows(templates: np.ndarray, centres: np.ndarray, poses: Any) -> np.ndarray:
     """The obstacle table ``(O, 16)``: the rows ``templates`` ``(O, 16)`` of :func:`obstacle_template`
-    placed at ``poses`` (``O`` 4x4 world poses): rotation (row-major) and translation ``t + R centre``."""
-    P = np.ascontiguousarray(np.asarray(poses, dtype=float).reshape(-1, 4, 4))
-    table = placed_floats(np.zeros(0), np.ascontiguousarray(templates, dtype=float),
-                          np.ascontiguousarray(centres, dtype=float), P)
-    return table.reshape(-1, OBSTACLE_COLUMNS)
+    with their ``centres`` ``(O, 3)``, placed at ``poses`` (``O`` 4x4 world poses)."""
+    P = np.asarray(poses, dtype=float).reshape(-1, 4, 4)
+    rows = [placed_row(ObstacleTemplate(np.asarray(r, dtype=float), np.asarray(c, dtype=float)), T)
+            for r, c, T in zip(templates, centres, P)]
+    return np.array(rows).reshape(-1, OBSTACLE_COLUMNS)
 
 
-def obstacle_row(geometry: coal.CollisionGeometry, placement: pin.SE3) -> np.ndarray:
-    """The obstacle table row ``(16,)`` of a coal geometry at ``placement``: rotation, translation, kind,
-    sizes."""
-    template = obstacle_template(geometry)
-    return obstacle_rows(template.row[None, :], template.centre[None, :], placement.homogeneous[None])[0]
-
-
-__all__ = ["ObstacleTemplate", "obstacle_row", "obstacle_rows", "obstacle_template"]
+__all__ = ["BALL", "BOX", "CAPSULE", "CYLINDER", "EXACT", "KIND", "OBSTACLE_COLUMNS", "PAD",
+           "ObstacleTemplate", "aabb_sphere", "obstacle_row", "obstacle_rows", "obstacle_template",
+           "placed_row"]

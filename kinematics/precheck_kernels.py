@@ -42,7 +42,7 @@ and test the scene's pairs, obstacle pairs first (a configuration in
 collision usually hits an obstacle), stopping at the first pair they cannot
 certify. Their arguments are two flat arrays (:func:`~.precheck_packing.pack`;
 a compiled call pays per array argument), the robot half packed once per
-layout, the obstacle rows added per scene (:func:`placed_floats`). Each call
+layout, the obstacle rows (:mod:`.obstacle_table`, made with each shape) appended per scene. Each call
 allocates its own workspace: one kernel may run on many threads at once.
 The tree's forward kinematics is :mod:`.kernel_primitives`' (inlined); the cache
 key covers every kernel file (:mod:`.kernel_cache`). Every kernel has its
@@ -61,22 +61,13 @@ import numpy as np
 
 from .kernel_cache import compiled, inline, jit
 from .kernel_primitives import tree_placements_into
+from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
 
 #: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
 #: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.
 TOLERANCE = 1e-5
 
-#: Obstacle kinds of the obstacle table (column :data:`KIND` of a row).
-BALL, BOX, CAPSULE, CYLINDER = 0, 1, 2, 3
-#: Columns of an obstacle row: rotation (row-major) 0-8, translation 9-11, kind 12, sizes 13-15 (a BALL: its
-#: radius, then :data:`EXACT`).
-KIND = 12
-#: Column of a BALL row: 1 when the ball is the obstacle itself, 0 when it stands for a shape without a closed
-#: form (its AABB sphere: a point inside it need not be inside the shape). Other kinds are always exact.
-EXACT = 14
-#: Width of an obstacle row.
-OBSTACLE_COLUMNS = 16
 #: Pair kinds of the pair table (column 2).
 SELF_PAIR, OBSTACLE_PAIR = 0, 1
 
@@ -92,26 +83,6 @@ _ONE_SIGNATURE = _t.boolean(_F1, _I1, _Q1, _t.float64)
 _BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F1, _I1, _Q2, _t.float64)
 _FIRST_SIGNATURE = _t.int64(_F1, _I1, _Q2, _t.int64, _t.float64)
 _BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
-_PLACED_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _F2, _F2, _t.Array(_t.float64, 3, "A", readonly=True))
-
-
-@compiled(_PLACED_SIGNATURE)
-def placed_floats(head: np.ndarray, templates: np.ndarray, centres: np.ndarray,
-                  poses: np.ndarray) -> np.ndarray:
-    """``head`` followed by the obstacle rows ``templates`` ``(O, 16)`` placed at ``poses`` ``(O, 4, 4)``:
-    rotation (row-major) into columns 0-8, ``t + R centre`` into 9-11 (a scene's floats in one call)."""
-    H = head.shape[0]
-    out = np.empty(H + 16 * templates.shape[0])
-    out[:H] = head
-    for o in range(templates.shape[0]):
-        row = out[H + 16 * o:H + 16 * (o + 1)]
-        row[:] = templates[o]
-        for i in range(3):
-            for c in range(3):
-                row[3 * i + c] = poses[o, i, c]
-            row[9 + i] = poses[o, i, 3] + poses[o, i, 0] * centres[o, 0] + poses[o, i, 1] * centres[o, 1] \
-                + poses[o, i, 2] * centres[o, 2]
-    return out
 
 
 _TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
@@ -863,4 +834,4 @@ __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "PAIR_HORIZON", "SELF_PAIR", "TOLERANCE",
            "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
            "certify_motion", "classify_configuration", "first_uncertified", "motion_hard_pairs",
-           "pair_lower_bounds", "placed_floats", "tree_placements", "uncertified_pairs"]
+           "pair_lower_bounds", "tree_placements", "uncertified_pairs"]

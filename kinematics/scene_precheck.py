@@ -1,14 +1,14 @@
 """The sphere pre-check of one scene layout, and the arguments of its compiled kernels for one scene.
 
 A :class:`~.collision_layout.SceneLayout` (obstacles of given shapes, any poses)
-builds one :class:`ScenePrecheck`: the robot's spheres (:mod:`.robot_spheres`),
+builds one :class:`ScenePrecheck`: the robot's spheres (:mod:`.robot_spheres`) and
 its pair table - robot geometry, other geometry or obstacle, pair kind, index of
 the pair in the scene; obstacle pairs first (a configuration in collision usually
-hits an obstacle: found sooner; the verdict does not depend on the order) - and the
-obstacles' templates (:mod:`.obstacle_table`), everything but the obstacle poses
-packed once (:mod:`.precheck_packing`). Each scene of the layout then gets its
-:class:`PrecheckArguments` (:meth:`ScenePrecheck.arguments`): its obstacle rows
-placed and appended to the robot half.
+hits an obstacle: found sooner; the verdict does not depend on the order) - packed
+once (:mod:`.precheck_packing`) but the obstacle rows. Each scene of the layout then gets its
+:class:`PrecheckArguments` (:meth:`ScenePrecheck.arguments`): its obstacles' rows
+(:attr:`~.shapes.Shape.obstacle_row`, made with each shape) appended to the robot
+half, one concatenation.
 """
 
 from __future__ import annotations
@@ -16,12 +16,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
-import coal
 import numpy as np
 
-from .obstacle_table import obstacle_template
+from .obstacle_table import OBSTACLE_COLUMNS
 from .precheck_kernels import (
-    OBSTACLE_COLUMNS,
     OBSTACLE_PAIR,
     SELF_PAIR,
     TOLERANCE,
@@ -31,7 +29,6 @@ from .precheck_kernels import (
     certify_motion,
     classify_configuration,
     first_uncertified,
-    placed_floats,
     uncertified_pairs,
 )
 from .precheck_packing import pack
@@ -83,31 +80,24 @@ def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
 
 
 class ScenePrecheck:
-    """The pre-check of one layout: the robot's spheres ``robot``, the pair table ``pairs`` ``(P, 4)``
-    (:func:`pair_table`) and the obstacle templates; :meth:`arguments` adds a scene's obstacle poses.
-
-    ``obstacles``: the layout's own obstacles (unused: every scene places its rows in one compiled call);
-    ``inner_radii``: the radii (m) of the robot's inner balls (:mod:`.inner_balls`; None: points).
+    """The pre-check of one layout: the robot's spheres ``robot`` and the pair table ``pairs`` ``(P, 4)``
+    (:func:`pair_table`) of a layout with ``n_obstacles`` obstacles; :meth:`arguments` adds a scene's
+    obstacle rows. ``inner_radii``: the radii (m) of the robot's inner balls (:mod:`.inner_balls`; None:
+    points).
     """
 
-    def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int,
-                 obstacle_geometries: Sequence[coal.CollisionGeometry],
-                 obstacles: Sequence[Any] = (), inner_radii: np.ndarray | None = None) -> None:
+    def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, n_obstacles: int,
+                 inner_radii: np.ndarray | None = None) -> None:
         self.robot = robot
         self.pairs = pair_table(pairs, n_robot)
-        made = [obstacle_template(g) for g in obstacle_geometries]
-        self.templates = np.array([t.row for t in made]).reshape(-1, OBSTACLE_COLUMNS)
-        self.centres = np.array([t.centre for t in made]).reshape(-1, 3)
-        packed = pack(robot, self.pairs, self.templates, inner_radii)
+        self.n_obstacles = int(n_obstacles)
+        blank = np.zeros((self.n_obstacles, OBSTACLE_COLUMNS))  # the rows each scene brings
+        packed = pack(robot, self.pairs, blank, inner_radii)
         #: The packed floats but the obstacle rows (a scene appends its own).
-        self.robot_floats = packed.floats[:len(packed.floats) - self.templates.size]
+        self.robot_floats = packed.floats[:len(packed.floats) - blank.size]
         self.ints = packed.ints
         #: :meth:`motion_reach`'s pair rates of the self pairs, per row of ``pairs``.
         self.pair_reach = self.motion_reach()
-
-    def _floats(self, poses: Any) -> np.ndarray:
-        P = np.array(poses, dtype=float).reshape(-1, 4, 4)
-        return placed_floats(self.robot_floats, self.templates, self.centres, P)
 
     def motion_reach(self) -> np.ndarray:
         """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast
@@ -125,10 +115,10 @@ class ScenePrecheck:
         return np.ascontiguousarray(out)
 
     def arguments(self, obstacles: Sequence[Any]) -> PrecheckArguments:
-        """The :class:`PrecheckArguments` of a scene with ``obstacles`` (one per obstacle geometry: shapes
-        with a 4x4 world ``pose``): the packed robot half and every obstacle row placed at its pose, in one
-        compiled call (:func:`~.precheck_kernels.placed_floats`)."""
-        floats = self._floats([shape.pose for shape in obstacles])
+        """The :class:`PrecheckArguments` of a scene with ``obstacles`` (one per obstacle geometry: shapes of
+        the layout's signatures, each with its :attr:`~.shapes.Shape.obstacle_row`): the packed robot half
+        followed by the obstacles' rows."""
+        floats = np.concatenate((self.robot_floats, *[shape.obstacle_row for shape in obstacles]))
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
                                  certainly_colliding, certify_motion, self.robot.sphere_reach,
                                  self.pair_reach, classify_configuration, uncertified_pairs)

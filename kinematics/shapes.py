@@ -8,7 +8,10 @@ shape is immutable, validated on construction, and knows
 * ``pose`` - its 4x4 placement in the world (m);
 * ``geometry()`` - the matching `coal` collision geometry, built with the shape
   (coal ships with Pinocchio; distances with witness points come from it), as are
-  its bounding ball and its hash (the shape is immutable);
+  its bounding ball, its hash, its ``signature`` (what a collision scene's layout
+  depends on: the kind and sizes, not the pose) and its ``obstacle_row`` (the row
+  of the compiled collision pre-check, :mod:`.obstacle_table`) - the shape is
+  immutable, so a scene of new shapes is built from these without computing them;
 * ``signed_distance(points)`` - the exact Euclidean signed distance (m) from
   world points, ``(N, 3) -> (N,)``, negative inside (closed forms below; the
   mesh uses its convex hull's face planes, exact inside and a lower bound on the
@@ -39,6 +42,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import InputError, ModelError, NonFiniteError, ShapeError
+from .obstacle_table import obstacle_template, placed_row
 from .validation import MAX_ABS, as_pose, as_vector
 
 if TYPE_CHECKING:
@@ -104,13 +108,20 @@ class Shape:
     kind: str = "shape"
     pose: np.ndarray
     frames: tuple[str, ...] | None
+    #: What makes two obstacles interchangeable up to their pose (a collision scene's layout is shared by
+    #: the scenes whose obstacles have the same signatures): the kind and sizes; a mesh: the object itself.
+    signature: tuple
+    #: The shape's row ``(16,)`` of the compiled pre-check's obstacle table at its pose (read-only;
+    #: :func:`~.obstacle_table.placed_row`).
+    obstacle_row: np.ndarray
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
 
     def _set(self, **fields: Any) -> None:
         """Set the constructor's ``fields`` (arrays copied read-only), then what follows from them: the coal
-        geometry, the bounding ball and the hash (the shape is immutable, so they never change)."""
+        geometry, the bounding ball, the hash, the signature and the obstacle row (the shape is immutable, so
+        they never change)."""
         for k, v in fields.items():
             if isinstance(v, np.ndarray):  # immutable all the way down: hashes and cached scenes stay valid
                 v = v.copy()
@@ -120,6 +131,14 @@ class Shape:
         object.__setattr__(self, "_ball", self._world_ball())
         plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
         object.__setattr__(self, "_hash", hash(plain))
+        object.__setattr__(self, "signature", self._signature())
+        row = placed_row(obstacle_template(self._geometry), self.pose)
+        row.setflags(write=False)
+        object.__setattr__(self, "obstacle_row", row)
+
+    def _signature(self) -> tuple:
+        """:attr:`signature`: this very object (a mesh; the subclasses with sizes override it)."""
+        return (self.kind, id(self))
 
     # -- coal ------------------------------------------------------------------------------------------
     def geometry(self) -> coal.CollisionGeometry:
@@ -194,7 +213,8 @@ class Shape:
         return self._hash
 
     def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
-        return {k: v for k, v in self.__dict__.items() if k not in ("_geometry", "_hash", "_ball")}
+        return {k: v for k, v in self.__dict__.items()
+                if k not in ("_geometry", "_hash", "_ball", "signature", "obstacle_row")}
 
     def __setstate__(self, state: dict) -> None:
         self._set(**state)
@@ -216,6 +236,9 @@ class Sphere(Shape):
         import coal
 
         return coal.Sphere(self.radius)
+
+    def _signature(self) -> tuple:
+        return ("sphere", self.radius)
 
     def _radius_about_origin(self) -> float:
         return self.radius
@@ -253,6 +276,9 @@ class Box(Shape):
         import coal
 
         return coal.Box(*self.size)
+
+    def _signature(self) -> tuple:
+        return ("box", self.size)
 
     def _radius_about_origin(self) -> float:  # half the diagonal
         return 0.5 * math.sqrt(sum(v * v for v in self.size))
@@ -292,6 +318,9 @@ class Capsule(Shape):
 
         return coal.Capsule(self.radius, self.length)
 
+    def _signature(self) -> tuple:
+        return ("capsule", self.radius, self.length)
+
     def _radius_about_origin(self) -> float:  # the pose's origin is the segment's midpoint
         return 0.5 * self.length + self.radius
 
@@ -320,6 +349,9 @@ class Cylinder(Shape):
         import coal
 
         return coal.Cylinder(self.radius, self.length)
+
+    def _signature(self) -> tuple:
+        return ("cylinder", self.radius, self.length)
 
     def _radius_about_origin(self) -> float:  # a rim point
         return math.hypot(self.radius, 0.5 * self.length)

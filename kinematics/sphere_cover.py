@@ -49,9 +49,8 @@ import numba
 import numpy as np
 
 from .kernel_cache import compiled
+from .obstacle_table import PAD, aabb_sphere
 
-#: Padding (m) added to every cover radius (rounding of the slab points and of the enclosing-ball distances).
-PAD = 1e-9
 #: Largest number of cover spheres per robot geometry (pairs of geometries cost up to its square).
 MAX_COVER_SPHERES = 6
 #: Slab length of a cover, as a multiple of the geometry's radius about its axis (1: the sphere of a slab of a
@@ -244,13 +243,6 @@ def _axis_cover(radius: float, half_length: float, end_balls: bool) -> tuple[np.
     else:
         bounding = np.array([0.0, 0.0, 0.0, math.hypot(r, L) + PAD])
     return bounding, np.array(cover)
-
-
-def aabb_sphere(geometry: coal.CollisionGeometry) -> np.ndarray:
-    """``(centre, radius)`` of coal's local AABB sphere of ``geometry`` (computed when missing)."""
-    if geometry.aabb_radius < 0.0:
-        geometry.computeLocalAABB()
-    return np.array([*np.asarray(geometry.aabb_center, dtype=float), float(geometry.aabb_radius) + PAD])
 
 
 def convex_triangles(geometry: coal.ConvexBase) -> np.ndarray:

@@ -352,9 +352,10 @@ def test_near_pairs_match_all_pairs_gjk_with_the_margin():
     assert found > 200  # near pairs are common: the comparison has substance
 
 
-def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
-    """The scene's pair table (indices, joints, names) is the GeometryModel's; equal obstacles reuse one
-    scene."""
+def test_scene_pairs_follow_the_geometry_model_and_equal_obstacles_share_the_layout():
+    """The scene's pair table (indices, joints, names) is the GeometryModel's; the same obstacle objects reuse
+    one scene; new objects of equal values get a scene of their own on the same layout, with the same
+    pre-check arrays."""
     robot = robots.load("panda")
     for self_collision in (True, False):
         scene = robot.collision_scene(SCENE + EXTRA, self_collision)
@@ -365,8 +366,11 @@ def test_scene_pairs_follow_the_geometry_model_and_scenes_are_shared_by_value():
         assert len(scene) == (len(robot.collision.self_pairs) if self_collision else 0) + 4 * sum(
             1 for g in gm.geometryObjects[:scene.n_robot] if g.parentJoint != 0)
     same = [Box(b.pose, b.size) for b in SCENE]  # new objects, equal values
-    assert robot.collision_scene(same) is robot.collision_scene(SCENE)
-    assert robot.collision_scene([b.to_dict() for b in SCENE]) is robot.collision_scene(SCENE)
+    assert robot.collision_scene(list(SCENE)) is robot.collision_scene(list(SCENE))
+    first = robot.collision_scene(SCENE)
+    for other in (robot.collision_scene(same), robot.collision_scene([b.to_dict() for b in SCENE])):
+        assert other is not first and other.layout is first.layout
+        assert np.array_equal(other.precheck().floats, first.precheck().floats)
     moved = [Box(_pose((0.65, 0.0, -0.04)), (0.7, 1.2, 0.1)), SCENE[1]]
     assert robot.collision_scene(moved) is not robot.collision_scene(SCENE)
     assert robot.collision_scene(SCENE, self_collision=False) is not robot.collision_scene(SCENE)
@@ -390,7 +394,9 @@ def test_a_tuple_that_missed_the_cache_gets_one_scene_however_it_is_asked_again(
     assert cm.scene(obstacles) is scene and cm.scene(obstacles) is scene
     assert cm.cached_scene(obstacles) is scene and robot.collision_scene(obstacles) is scene
     other = (Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)), Sphere((0.2, 0.4, 0.6), 0.07))  # equal values
-    assert cm.cached_scene(other) is None and cm.scene(other) is scene  # a miss, then the by-value cache
+    assert cm.cached_scene(other) is None  # equal values, other objects: a scene of their own, same layout
+    assert cm.scene(other) is not scene and cm.scene(other).layout is scene.layout
+    assert cm.scene(other) is cm.scene(other)
     assert cm.scene(obstacles, self_collision=False) is not scene
 
 

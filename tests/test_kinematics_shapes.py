@@ -141,8 +141,8 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
 
 
 def test_pose_arrays_are_read_only(rng, ico_path):
-    """A shape's arrays cannot be changed in place (its hash and the scenes cached by value depend on
-    them)."""
+    """A shape's arrays cannot be changed in place (its hash, its obstacle row and the scenes built from
+    them depend on them)."""
     for shape in shapes(rng, ico_path):
         with pytest.raises(ValueError):
             shape.pose[0, 3] = 1.0
@@ -150,3 +150,43 @@ def test_pose_arrays_are_read_only(rng, ico_path):
     box = Box(T, [0.1, 0.1, 0.1])
     T[0, 3] = 5.0  # the caller's array stays the caller's
     assert box.pose[0, 3] == 0.0
+
+
+def test_obstacle_rows_and_signatures_are_made_with_the_shape(rng, ico_path):
+    """Each shape's pre-check row (made with the shape) holds its rotation row-major, its centre and its
+    sizes, written here from the constructor's arguments; the mesh's row is a ball (not exact) that contains
+    every hull vertex. Signatures: kind and sizes, not the pose; a mesh is its own. Both survive pickling and
+    the row is read-only."""
+    from kinserve.kinematics.obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND
+
+    sphere, box, capsule, cylinder, mesh = shapes(rng, ico_path)
+    expected = {
+        id(sphere): (np.eye(3), [0.1, 0.2, 0.3], BALL, [0.2, 1.0, 0.0]),
+        id(box): (box.pose[:3, :3], box.pose[:3, 3], BOX, [0.15, 0.1, 0.25]),
+        id(cylinder): (cylinder.pose[:3, :3], cylinder.pose[:3, 3], CYLINDER, [0.15, 0.2, 0.0]),
+    }
+    for shape in (sphere, box, cylinder):
+        R, t, kind, sizes = expected[id(shape)]
+        row = shape.obstacle_row
+        assert row.shape == (16,) and not row.flags.writeable
+        np.testing.assert_allclose(row[:9], np.asarray(R).ravel(), atol=1e-15)
+        np.testing.assert_allclose(row[9:12], t, atol=1e-15)
+        assert row[KIND] == kind
+        np.testing.assert_allclose(row[13:16], sizes, atol=1e-15)
+    row = capsule.obstacle_row
+    axis = np.array([0.3, 0.1, 0.2])
+    assert row[KIND] == CAPSULE and row[13] == 0.1 and row[14] == pytest.approx(0.5 * np.linalg.norm(axis))
+    np.testing.assert_allclose(row[9:12], 0.5 * axis, atol=1e-15)
+    np.testing.assert_allclose(row[:9].reshape(3, 3)[:, 2], axis / np.linalg.norm(axis), atol=1e-12)
+    row = mesh.obstacle_row
+    assert row[KIND] == BALL and row[EXACT] == 0.0
+    world = mesh.hull_vertices @ mesh.pose[:3, :3].T + mesh.pose[:3, 3]
+    assert np.linalg.norm(world - row[9:12], axis=1).max() <= row[13]
+    moved = Box(random_pose(rng), box.size)
+    assert moved.signature == box.signature == ("box", (0.3, 0.2, 0.5))
+    assert Box(box.pose, (0.3, 0.2, 0.51)).signature != box.signature
+    assert Mesh(ico_path).signature != Mesh(ico_path).signature  # its file may change: the object itself
+    assert cylinder.signature == ("cylinder", 0.15, 0.4) and sphere.signature == ("sphere", 0.2)
+    clone = pickle.loads(pickle.dumps(box))
+    assert "obstacle_row" not in box.__getstate__()
+    assert clone.signature == box.signature and np.array_equal(clone.obstacle_row, box.obstacle_row)

@@ -103,8 +103,8 @@ class CollisionConstraint(Constraint):
 
     def moved(self, obstacles: tuple) -> "CollisionConstraint":
         """This bound constraint with ``obstacles`` instead of its own: validated shapes, each the same shape
-        and size as the obstacle in its place here (the same :func:`~kinserve.kinematics.collision_layout.
-        shape_signature`), at any pose. Its scene shares this one's layout and is built without the collision
+        and size as the obstacle in its place here (the same :attr:`~kinserve.kinematics.shapes.Shape.
+        signature`), at any pose. Its scene shares this one's layout and is built without the collision
         model's scene caches (a few microseconds); the base-overlap check runs on the obstacles that are not
         this constraint's own objects."""
         old = self.scene
