@@ -13,7 +13,7 @@ A compiled call pays per array argument, so the kernels of
   of the pair in the scene).
 
 The obstacle rows come last, so the robot half is packed once per layout and a
-scene appends its rows (:func:`~.precheck_kernels.placed_floats`).
+scene appends its obstacles' rows (:attr:`~.shapes.Shape.obstacle_row`, made with each shape).
 """
 
 from __future__ import annotations
