@@ -109,11 +109,20 @@ def coal_truth(scene, robot, qs) -> np.ndarray:
     return np.array([bool(pin.computeCollisions(robot.model, data, gm, gd, q, True)) for q in qs])
 
 
+def forget_bound_scenes(robot) -> None:
+    """Drop this thread's collision constraints bound by obstacle set (the IK state's ``BoundConstraints``),
+    keeping the ones bound by layout: the next solve with the cube binds its scene anew, by moving the
+    layout's template, as a solve in a new scene does."""
+    state = robot.extensions.ik
+    store = None if state is None else getattr(state.threads, "bound", None)
+    if store is not None:
+        store.by_scene.clear()
+        store.last = ((), None, None, None)
+
+
 def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
     """Per-target best-of-3 CPU times (us) of collision-aware solves with and without the pre-check (module
     docstring, ``--ik``); the pre-check objects once built are kept and put back when switched on."""
-    from kinserve.ik.collision import solve as collision_solve
-
     cm = robot.collision
     scene = robot.collision_scene(obstacles)
     rng = np.random.default_rng(seed)
@@ -148,7 +157,7 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
                 put(on)
                 if w == "cube" and fresh:
                     cm._scenes.clear()
-                    getattr(collision_solve._BOUND, "cache", {}).clear()
+                    forget_bound_scenes(robot)
                 obs = obstacles if w == "open" else [*obstacles, cube]
                 t0 = time.process_time()
                 if w == "plain":
