@@ -93,10 +93,11 @@ RANK_TOL = 1e-6
 _vdot = np.vdot
 
 
-def _qr_constants(m: int, n: int) -> np.ndarray:
-    """The last ``n - m`` columns of ``I_n`` (Fortran order; made per call, a few floats)."""
+def _last_unit_columns(m: int, n: int) -> np.ndarray:
+    """The last ``n - m`` columns of ``I_n``, a fresh Fortran-ordered array (``ormqr`` overwrites it): the
+    ones of entries ``(m + j, j)`` sit every ``n + 1`` floats of its column-major storage, from ``m`` on."""
     E = np.zeros((n, n - m), order="F")
-    E[np.arange(m, n), np.arange(n - m)] = 1.0
+    E.T.reshape(-1)[m::n + 1] = 1.0  # (E.T is E's storage in row-major order: a view)
     return E
 
 
@@ -125,8 +126,7 @@ def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | N
     F = math.sqrt(_vdot(J, J))
     if not (abs(det) > tol * max(1.0, F) * F ** (m - 1)):  # NaN fails too
         return None
-    E = _qr_constants(m, n)
-    Z, _, info = _ormqr(b"L", b"N", qr, tau, E, n - m)
+    Z, _, info = _ormqr(b"L", b"N", qr, tau, _last_unit_columns(m, n), n - m, overwrite_c=1)
     return Z if info == 0 else None
 
 
