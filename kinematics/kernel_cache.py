@@ -111,6 +111,15 @@ def install(locator: type[KernelSetLocator]) -> None:
 
 install(KernelSetLocator)
 
+#: The array types of the kernels' signatures, defined once: read-only float arrays of 1 to 3 dimensions,
+#: C-contiguous (``F1``, ``F2``, ``F3``) or of any layout (``F1_ANY``, ``F2_ANY``: views such as reversed
+#: rows), read-only int64 (``I1``, ``I2``) and boolean (``B1``) arrays. A writable array converts to its
+#: read-only type.
+F1, F2, F3 = (numba.types.Array(numba.types.float64, d, "C", readonly=True) for d in (1, 2, 3))
+F1_ANY, F2_ANY = (numba.types.Array(numba.types.float64, d, "A", readonly=True) for d in (1, 2))
+I1, I2 = (numba.types.Array(numba.types.int64, d, "C", readonly=True) for d in (1, 2))
+B1 = numba.types.Array(numba.types.boolean, 1, "C", readonly=True)
+
 #: ``numba.njit`` as kinserve's kernels use it (cached under the kernel set's stamp).
 jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: :data:`jit`, inlined into its callers at Numba's IR level (a call passes whole array structures).

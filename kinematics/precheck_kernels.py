@@ -59,7 +59,7 @@ import math
 import numba
 import numpy as np
 
-from .kernel_cache import compiled, inline, jit
+from .kernel_cache import B1, F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit
 from .kernel_primitives import tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
@@ -73,19 +73,13 @@ SELF_PAIR, OBSTACLE_PAIR = 0, 1
 
 _jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source)
 _t = numba.types
-_F1 = _t.Array(_t.float64, 1, "C", readonly=True)
-_I1 = _t.Array(_t.int64, 1, "C", readonly=True)
-_F2 = _t.Array(_t.float64, 2, "C", readonly=True)
-_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
-_Q1 = _t.Array(_t.float64, 1, "A", readonly=True)
-_Q2 = _t.Array(_t.float64, 2, "A", readonly=True)
-_ONE_SIGNATURE = _t.boolean(_F1, _I1, _Q1, _t.float64)
-_BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(_F1, _I1, _Q2, _t.float64)
-_FIRST_SIGNATURE = _t.int64(_F1, _I1, _Q2, _t.int64, _t.float64)
-_BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _Q1)
+_ONE_SIGNATURE = _t.boolean(F1, I1, F1_ANY, _t.float64)
+_BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(F1, I1, F2_ANY, _t.float64)
+_FIRST_SIGNATURE = _t.int64(F1, I1, F2_ANY, _t.int64, _t.float64)
+_BOUNDS_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F1_ANY)
 
 
-_TREE_SIGNATURE = _t.void(_F2, _I2, _Q1, _t.float64[:, ::1])
+_TREE_SIGNATURE = _t.void(F2, I2, F1_ANY, _t.float64[:, ::1])
 
 
 @compiled(_TREE_SIGNATURE)
@@ -446,7 +440,7 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
     return _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol)
 
 
-_CLASSIFY_SIGNATURE = _t.int64(_F1, _I1, _Q1, _t.float64)
+_CLASSIFY_SIGNATURE = _t.int64(F1, I1, F1_ANY, _t.float64)
 
 
 @compiled(_CLASSIFY_SIGNATURE)
@@ -492,7 +486,7 @@ def _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, stam
     return True
 
 
-_PAIRS_SIGNATURE = _t.Array(_t.int64, 1, "C")(_F1, _I1, _Q1, _t.float64)
+_PAIRS_SIGNATURE = _t.Array(_t.int64, 1, "C")(F1, I1, F1_ANY, _t.float64)
 
 
 @compiled(_PAIRS_SIGNATURE)
@@ -570,6 +564,34 @@ def _motion_rates(joints, sphere_reach, pair_reach, S, qa, qb):
     return v, w
 
 
+@_inline
+def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol):
+    """The certified radius of pair-table row ``p`` alone at the configuration placed in ``X`` / ``W``, for a
+    motion whose sphere centres move by at most ``v[s]`` and whose self pairs' sphere gaps change by at most
+    ``w[p]`` per unit of its parameter: its bounding spheres' radius, or, when that one is below ``need``,
+    the larger of it and its cover spheres' (placed on first need, marked with ``stamp``; either family
+    staying apart keeps the pair apart). :func:`_motion_radius` asks it of every pair with ``need`` = the
+    running minimum, :func:`_pair_advance` of the pairs it advances."""
+    a, b = pairs[p, 0], pairs[p, 1]
+    if pairs[p, 2] == SELF_PAIR:
+        r = _rate_radius(_gap(W, a, b) - tol, w[p])
+        if r >= need:
+            return r
+        _place_cover(X, spheres, geoms, a, W, placed, stamp)
+        _place_cover(X, spheres, geoms, b, W, placed, stamp)
+        return max(r, _rate_radius(_self_cover_gap(W, geoms, a, b) - tol, w[p]))
+    r = _rate_radius(_obstacle_gap(W, a, obstacles, b) - tol, v[a])
+    if r >= need:
+        return r
+    _place_cover(X, spheres, geoms, a, W, placed, stamp)
+    parts = math.inf
+    for i in range(geoms[a, 1], geoms[a, 2]):
+        parts = min(parts, _rate_radius(_obstacle_gap(W, i, obstacles, b) - tol, v[i]))
+        if parts <= r:
+            break
+    return max(r, parts)
+
+
 @_jit
 def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit, tol, X, W, placed,
                    stamp):
@@ -587,35 +609,15 @@ def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w
     for p in range(pairs.shape[0]):
         if skip[pairs[p, 3]]:
             continue
-        a, b = pairs[p, 0], pairs[p, 1]
-        if pairs[p, 2] == SELF_PAIR:
-            rate = w[p]
-            r = _rate_radius(_gap(W, a, b) - tol, rate)
-            if r >= best:
-                continue
-            _place_cover(X, spheres, geoms, a, W, placed, stamp)
-            _place_cover(X, spheres, geoms, b, W, placed, stamp)
-            r = max(r, _rate_radius(_self_cover_gap(W, geoms, a, b) - tol, rate))
-        else:
-            r = _rate_radius(_obstacle_gap(W, a, obstacles, b) - tol, v[a])
-            if r >= best:
-                continue
-            _place_cover(X, spheres, geoms, a, W, placed, stamp)
-            parts = math.inf
-            for i in range(geoms[a, 1], geoms[a, 2]):
-                parts = min(parts, _rate_radius(_obstacle_gap(W, i, obstacles, b) - tol, v[i]))
-                if parts <= r:
-                    break
-            r = max(r, parts)
-        if r < best:
+        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, best, tol)
+        if r < best:  # (a pair at or above the running minimum does not decide it: its covers are not asked)
             best, decider = r, p
             if r < 0.0:
                 return -1.0, p
     return best, decider
 
 
-_B1 = _t.Array(_t.boolean, 1, "C", readonly=True)
-_MOTION_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _F2, _F2, _B1, _Q1, _Q1, _t.float64, _t.float64,
+_MOTION_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, B1, F1_ANY, F1_ANY, _t.float64, _t.float64,
                                                  _t.int64)
 
 
@@ -678,31 +680,6 @@ def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarra
     return out
 
 
-@_inline
-def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol):
-    """The certified radius of pair-table row ``p`` alone at the configuration placed in ``X`` / ``W``
-    (:func:`_motion_radius`'s, one pair): its bounding spheres' radius, or, when that one is below ``need``,
-    the larger of it and its cover spheres' (placed on first need, marked with ``stamp``)."""
-    a, b = pairs[p, 0], pairs[p, 1]
-    if pairs[p, 2] == SELF_PAIR:
-        r = _rate_radius(_gap(W, a, b) - tol, w[p])
-        if r >= need:
-            return r
-        _place_cover(X, spheres, geoms, a, W, placed, stamp)
-        _place_cover(X, spheres, geoms, b, W, placed, stamp)
-        return max(r, _rate_radius(_self_cover_gap(W, geoms, a, b) - tol, w[p]))
-    r = _rate_radius(_obstacle_gap(W, a, obstacles, b) - tol, v[a])
-    if r >= need:
-        return r
-    _place_cover(X, spheres, geoms, a, W, placed, stamp)
-    parts = math.inf
-    for i in range(geoms[a, 1], geoms[a, 2]):
-        parts = min(parts, _rate_radius(_obstacle_gap(W, i, obstacles, b) - tol, v[i]))
-        if parts <= r:
-            break
-    return max(r, parts)
-
-
 #: Pairs :func:`motion_hard_pairs` re-evaluates at a point: those whose certified front lies within this
 #: fraction of the side's last smallest radius (the others are certified well ahead).
 PAIR_HORIZON = 0.5
@@ -757,8 +734,8 @@ def _open_end(live, m, state, front, back, from_lo):
     return k, s
 
 
-_HARD_SIGNATURE = _t.Array(_t.float64, 1, "C")(_F1, _I1, _F2, _F2, _Q1, _Q1, _t.float64, _t.float64, _t.int64,
-                                             _t.int64)
+_HARD_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, F1_ANY, F1_ANY, _t.float64, _t.float64,
+                                             _t.int64, _t.int64)
 
 
 @compiled(_HARD_SIGNATURE)

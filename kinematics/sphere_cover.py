@@ -48,7 +48,7 @@ import coal
 import numba
 import numpy as np
 
-from .kernel_cache import compiled
+from .kernel_cache import F1, F2, compiled
 from .obstacle_table import PAD, aabb_sphere
 
 #: Largest number of cover spheres per robot geometry (pairs of geometries cost up to its square).
@@ -139,10 +139,7 @@ def _slab_planes(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, planes
 
 
-_F1 = numba.types.Array(numba.types.float64, 1, "C", readonly=True)
-_F2 = numba.types.Array(numba.types.float64, 2, "C", readonly=True)
-_CROSSINGS_SIGNATURE = numba.types.void(_F2, _F1, _F2, _F1, numba.types.float64, _F1,
-                                        numba.types.float64[::1])
+_CROSSINGS_SIGNATURE = numba.types.void(F2, F1, F2, F1, numba.types.float64, F1, numba.types.float64[::1])
 
 
 @compiled(_CROSSINGS_SIGNATURE)

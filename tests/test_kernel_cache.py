@@ -128,3 +128,12 @@ def test_each_compiled_primitive_is_written_once():
     holders = {s: [f for f in kernel_cache.KERNEL_FILES if s in Path(f).read_text()]
                for s in (signature, tree_step)}
     assert holders == {s: [str(ROOT / "kinematics/kernel_primitives.py")] for s in holders}, holders
+
+
+def test_the_signatures_array_types_are_defined_once():
+    """The read-only array types of every kernel's signature are kernel_cache's (F1, F2, I1, ...): no kernel
+    file spells one out again."""
+    spelled = [f for f in kernel_cache.KERNEL_FILES if "readonly=True" in Path(f).read_text()]
+    assert spelled == [], spelled
+    assert "readonly=True" in Path(kernel_cache.__file__).read_text()
+    assert kernel_cache.F2_ANY.layout == "A" and kernel_cache.F1.layout == "C" and kernel_cache.I2.ndim == 2

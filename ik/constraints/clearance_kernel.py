@@ -45,22 +45,17 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.kernel_cache import compiled, jit
+from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, F2_ANY, F3, I1, I2, compiled, jit
 from kinserve.kinematics.kernel_primitives import tree_placements_into
 
 _t = numba.types
-_F1, _F2, _F3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))
-_F1A, _F2A = (_t.Array(_t.float64, d, "A", readonly=True) for d in (1, 2))
-_I1 = _t.Array(_t.int64, 1, "C", readonly=True)
-_I2 = _t.Array(_t.int64, 2, "C", readonly=True)
-_SIGNATURE = _t.void(_F3, _I1, _I1, _F2, _F1, _I1, _I1, _F2, _F2, _F1, _I1, _I1, _F3, _F2, _F2, _t.float64,
+_SIGNATURE = _t.void(F3, I1, I1, F2, F1, I1, I1, F2, F2, F1, I1, I1, F3, F2, F2, _t.float64,
                      _t.boolean[::1])
-_POINTS_SIGNATURE = _t.void(_F2, _I2, _I1, _F2, _F2, _t.float64[:, :, ::1])
-_SPHERES_SIGNATURE = _t.float64(_F2, _I2, _I1, _F2, _F1A, _I1, _I1, _F2, _F1, _F1, _t.float64,
+_POINTS_SIGNATURE = _t.void(F2, I2, I1, F2, F2, _t.float64[:, :, ::1])
+_SPHERES_SIGNATURE = _t.float64(F2, I2, I1, F2, F1_ANY, I1, I1, F2, F1, F1, _t.float64,
                                 _t.float64[::1], _t.float64[:, ::1], _t.boolean[::1])
-_ROWS_SIGNATURE = _t.int64(_F2, _F2, _F2A, _F2, _t.Array(_t.boolean, 1, "C", readonly=True),
-                           _t.float64[:, ::1])
-_SEPARATED_SIGNATURE = _t.boolean(_F1A, _F1A, _F1A, _t.float64)
+_ROWS_SIGNATURE = _t.int64(F2, F2, F2_ANY, F2, B1, _t.float64[:, ::1])
+_SEPARATED_SIGNATURE = _t.boolean(F1_ANY, F1_ANY, F1_ANY, _t.float64)
 _jit = jit  # (kernel_cache's: one cache key over every kernel source)
 
 

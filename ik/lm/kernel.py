@@ -33,7 +33,7 @@ import numba
 import numpy as np
 
 from kinserve.ik.lm import status as _status
-from kinserve.kinematics.kernel_cache import compiled, inline, jit
+from kinserve.kinematics.kernel_cache import F1, F2, F3, I1, I2, compiled, inline, jit
 from kinserve.kinematics.kernel_primitives import axis_rotation
 from kinserve.kinematics.serial_chain import REVOLUTE as _REVOLUTE
 
@@ -44,14 +44,12 @@ TP2, TR2, LAMBDA0, GAIN, STALL_RATIO, ROTATION_SCALE = range(6)
 PATIENCE, MAX_ITER, MAX_STARTS, BUDGET, Q0_MODE, N_TABLE, N_FULL, ROTATION = range(8)
 
 _t = numba.types
-_IN1, _IN2, _IN3 = (_t.Array(_t.float64, d, "C", readonly=True) for d in (1, 2, 3))  # writable arrays convert
-_INT1, _INT2 = (_t.Array(_t.int64, d, "C", readonly=True) for d in (1, 2))
 _OUT2 = _t.float64[:, ::1]
 #: The signatures of :func:`run_start` and :func:`run_many`, compiled (or loaded from the cache) on import.
-_RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(_IN2, _INT2, _IN1, _IN1, _IN1, _IN2, _t.boolean, _IN2, _INT1,
+_RUN_SIGNATURE = _t.UniTuple(_t.int64, 3)(F2, I2, F1, F1, F1, F2, _t.boolean, F2, I1,
                                           *(_t.float64,) * 5, _t.int64, _t.int64, _OUT2, _OUT2)
-_MANY_SIGNATURE = _t.void(_IN2, _INT2, _IN1, _IN1, _IN3, _t.boolean, _t.boolean, _INT1, _IN1, _INT1,
-                          *(_IN2,) * 6, _OUT2, _OUT2, _t.int64[:, ::1])
+_MANY_SIGNATURE = _t.void(F2, I2, F1, F1, F3, _t.boolean, _t.boolean, I1, F1, I1,
+                          *(F2,) * 6, _OUT2, _OUT2, _t.int64[:, ::1])
 
 
 @inline

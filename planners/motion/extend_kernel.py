@@ -32,7 +32,7 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.kernel_cache import compiled
+from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled
 from kinserve.kinematics.precheck_kernels import certify_configuration, pair_lower_bounds
 
 #: Verdicts of one configuration: certified free by the spheres, or left to coal.
@@ -45,14 +45,9 @@ AT_TARGET, TOWARDS, ONTO = 0, 1, 2
 NEAR, KIND, FLOOR, END = 0, 1, 2, 3
 
 _t = numba.types
-_F1 = _t.Array(_t.float64, 1, "C", readonly=True)
-_I1 = _t.Array(_t.int64, 1, "C", readonly=True)
-_F2 = _t.Array(_t.float64, 2, "C", readonly=True)
-_B1 = _t.Array(_t.boolean, 1, "C", readonly=True)
-_Q1 = _t.Array(_t.float64, 1, "A", readonly=True)
-_NEAREST_SIGNATURE = _t.int64(_F2, _B1, _t.int64, _Q1)
+_NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
 _OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C"), _t.Array(_t.float64, 1, "C")))
-_EXTEND_SIGNATURE = _OUT(_F1, _I1, _F2, _B1, _t.int64, _Q1, _t.float64, _t.float64, _Q1, _F1)
+_EXTEND_SIGNATURE = _OUT(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64, F1_ANY, F1)
 
 
 @compiled(_NEAREST_SIGNATURE)
