@@ -28,7 +28,7 @@ from kinserve.ik.arguments import (
 from kinserve.ik.collision.request import CollisionRequest, collision_request
 from kinserve.ik.constraints.base import Constraint
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
-from kinserve.ik.obstacle_arguments import link_obstacles
+from kinserve.ik.link_obstacles import link_obstacles
 from kinserve.ik.options import (
     DEFAULT_TOL_POS,
     DEFAULT_TOL_ROT,
