@@ -130,6 +130,7 @@ class Shape:
         object.__setattr__(self, "_geometry", self._make_geometry())
         object.__setattr__(self, "_ball", self._world_ball())
         plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
+        object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))
         object.__setattr__(self, "signature", self._signature())
         row = placed_row(obstacle_template(self._geometry), self.pose)
@@ -205,16 +206,18 @@ class Shape:
         return f"{type(self).__name__}({args})"
 
     def __eq__(self, other: object) -> bool:
-        return type(other) is type(self) and other.to_dict() == self.to_dict()
+        """Same type and the same plain data (:meth:`to_dict`'s values, made with the shape as one flat
+        tuple): value-keyed look-ups (the IK state's bound scenes) compare one tuple per shape."""
+        return type(other) is type(self) and other._plain == self._plain
 
     def __hash__(self) -> int:
         """Hash of the plain data (the kind, the frames and the constructor's numbers, consistent with
-        ``==``), computed with the shape: it is immutable and the scene caches hash it per solve."""
+        ``==``), computed with the shape: it is immutable and value-keyed caches hash it per solve."""
         return self._hash
 
     def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
         return {k: v for k, v in self.__dict__.items()
-                if k not in ("_geometry", "_hash", "_ball", "signature", "obstacle_row")}
+                if k not in ("_geometry", "_hash", "_plain", "_ball", "signature", "obstacle_row")}
 
     def __setstate__(self, state: dict) -> None:
         self._set(**state)
