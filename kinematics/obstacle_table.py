@@ -10,7 +10,7 @@ anything with a swept-sphere radius but a sphere - as the sphere of its local
 AABB, whose centre the row's translation then holds).
 
 The kind and sizes depend on the shape only (:func:`obstacle_template`); the row
-places the template at the obstacle's pose (:func:`placed_row`). Every
+places the template at the obstacle's pose (:func:`obstacle_row`). Every
 :class:`~.shapes.Shape` computes its row when it is made
 (:attr:`~.shapes.Shape.obstacle_row`), so a scene of new shapes only
 concatenates their rows. This module owns the encoding: the compiled kernels
@@ -77,32 +77,17 @@ def obstacle_template(geometry: Any) -> ObstacleTemplate:
     return ObstacleTemplate(row, centre)
 
 
-def placed_row(template: ObstacleTemplate, pose: np.ndarray) -> np.ndarray:
-    """The row ``(16,)`` of ``template`` at the 4x4 world ``pose``: its rotation (row-major) and the
-    translation ``t + R centre``."""
-    T = np.asarray(pose, dtype=float)
-    row = template.row.copy()
+def obstacle_row(geometry: Any, pose: Any) -> np.ndarray:
+    """The obstacle table row ``(16,)`` of a coal geometry at ``pose`` (a 4x4 world pose or a
+    ``pinocchio.SE3``): the :func:`obstacle_template`'s kind and sizes, the pose's rotation (row-major) and
+    the translation ``t + R centre``."""
+    T = np.asarray(pose.homogeneous if hasattr(pose, "homogeneous") else pose, dtype=float)
+    template = obstacle_template(geometry)
+    row = template.row
     row[0:9] = T[:3, :3].ravel()
     row[9:12] = T[:3, 3] + T[:3, :3] @ template.centre
     return row
 
 
-def obstacle_row(geometry: Any, pose: Any) -> np.ndarray:
-    """The obstacle table row ``(16,)`` of a coal geometry at ``pose`` (a 4x4 array or a ``pinocchio.SE3``):
-    rotation, translation, kind, sizes."""
-    T = pose.homogeneous if hasattr(pose, "homogeneous") else pose
-    return placed_row(obstacle_template(geometry), T)
-
-
-def obstacle_rows(templates: np.ndarray, centres: np.ndarray, poses: Any) -> np.ndarray:
-    """The obstacle table ``(O, 16)``: the rows ``templates`` ``(O, 16)`` of :func:`obstacle_template`
-    with their ``centres`` ``(O, 3)``, placed at ``poses`` (``O`` 4x4 world poses)."""
-    P = np.asarray(poses, dtype=float).reshape(-1, 4, 4)
-    rows = [placed_row(ObstacleTemplate(np.asarray(r, dtype=float), np.asarray(c, dtype=float)), T)
-            for r, c, T in zip(templates, centres, P)]
-    return np.array(rows).reshape(-1, OBSTACLE_COLUMNS)
-
-
 __all__ = ["BALL", "BOX", "CAPSULE", "CYLINDER", "EXACT", "KIND", "OBSTACLE_COLUMNS", "PAD",
-           "ObstacleTemplate", "aabb_sphere", "obstacle_row", "obstacle_rows", "obstacle_template",
-           "placed_row"]
+           "ObstacleTemplate", "aabb_sphere", "obstacle_row", "obstacle_template"]

@@ -90,8 +90,7 @@ class ScenePrecheck:
                  inner_radii: np.ndarray | None = None) -> None:
         self.robot = robot
         self.pairs = pair_table(pairs, n_robot)
-        self.n_obstacles = int(n_obstacles)
-        blank = np.zeros((self.n_obstacles, OBSTACLE_COLUMNS))  # the rows each scene brings
+        blank = np.zeros((int(n_obstacles), OBSTACLE_COLUMNS))  # the rows each scene brings
         packed = pack(robot, self.pairs, blank, inner_radii)
         #: The packed floats but the obstacle rows (a scene appends its own).
         self.robot_floats = packed.floats[:len(packed.floats) - blank.size]

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import InputError, ModelError, NonFiniteError, ShapeError
-from .obstacle_table import obstacle_template, placed_row
+from .obstacle_table import obstacle_row
 from .validation import MAX_ABS, as_pose, as_vector
 
 if TYPE_CHECKING:
@@ -112,7 +112,7 @@ class Shape:
     #: the scenes whose obstacles have the same signatures): the kind and sizes; a mesh: the object itself.
     signature: tuple
     #: The shape's row ``(16,)`` of the compiled pre-check's obstacle table at its pose (read-only;
-    #: :func:`~.obstacle_table.placed_row`).
+    #: :func:`~.obstacle_table.obstacle_row`).
     obstacle_row: np.ndarray
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -133,7 +133,7 @@ class Shape:
         object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))
         object.__setattr__(self, "signature", self._signature())
-        row = placed_row(obstacle_template(self._geometry), self.pose)
+        row = obstacle_row(self._geometry, self.pose)
         row.setflags(write=False)
         object.__setattr__(self, "obstacle_row", row)
 
