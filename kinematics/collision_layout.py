@@ -44,7 +44,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from .configuration_checks import CoalCheck, collision_check
+from .configuration_checks import CoalCheck, coal_test, collision_check, pair_test
 
 if TYPE_CHECKING:
     from .robot_spheres import RobotSpheres
@@ -99,7 +99,9 @@ class Workspace:
     """One thread's Pinocchio and coal state of a layout: ``data``, ``geometry_data`` (exact checks:
     security margin 0), the broad-phase ``manager`` (None without pairs), its own ``geometry`` (shares the
     coal shapes; holds the placements of ``held``, the obstacles of the scene that used it last) and the
-    bound ``check`` (:func:`~.configuration_checks.collision_check`; None without pairs)."""
+    bound ``check`` (:func:`~.configuration_checks.collision_check`; None without pairs) with its tests
+    ``hits(q)`` (every pair, :func:`~.configuration_checks.coal_test`) and ``pair_hits(q, pairs)`` (the pairs
+    given, :func:`~.configuration_checks.pair_test`), None without pairs."""
 
     data: pin.Data
     geometry_data: pin.GeometryData
@@ -107,6 +109,8 @@ class Workspace:
     geometry: pin.GeometryModel
     held: tuple
     check: CoalCheck | None
+    hits: Any = None
+    pair_hits: Any = None
 
 
 class MarginWorkspace(NamedTuple):
@@ -242,7 +246,9 @@ class SceneLayout:
         data = self.model.createData()
         bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
         check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
-        return Workspace(data, gd, bpm, gm, self.obstacles, check)
+        if check is None:
+            return Workspace(data, gd, bpm, gm, self.obstacles, None)
+        return Workspace(data, gd, bpm, gm, self.obstacles, check, coal_test(check), pair_test(check))
 
     def workspace(self, obstacles: tuple, placements: Sequence[pin.SE3] | None = None) -> Workspace:
         """This thread's :class:`Workspace` holding the placements of ``obstacles``; only the obstacles that

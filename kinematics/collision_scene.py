@@ -56,7 +56,7 @@ may be shared between threads. The geometry layout, the pair table, the
 pre-check of the pairs and the per-thread workspaces belong to a
 :class:`~.collision_layout.SceneLayout` shared by every scene whose obstacles
 have the same shapes (poses aside); a scene holds its obstacles and its
-pre-check arguments (the obstacle rows placed in one compiled call), made with
+pre-check arguments (the robot half and its shapes' own obstacle rows), made with
 the scene; a query that reaches coal puts the obstacles' placements into its
 thread's workspace when another scene of the layout used it last. The scene's
 own ``GeometryModel`` (:attr:`CollisionScene.geometry`, for the planners' and
@@ -72,7 +72,7 @@ import numpy as np
 import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
-from .configuration_checks import PAIRWISE_MAX, check_configurations
+from .configuration_checks import check_configurations
 from .precheck_verdicts import COLLIDING, FREE
 
 if TYPE_CHECKING:
@@ -80,8 +80,6 @@ if TYPE_CHECKING:
 
 _compute_collisions = pin.computeCollisions
 _compute_collision = pin.computeCollision
-_forward_kinematics = pin.forwardKinematics
-_update_placements = pin.updateGeometryPlacements
 
 
 class DistanceArrays(NamedTuple):
@@ -180,8 +178,8 @@ class CollisionScene:
         call): a configuration it certifies is free without coal, one with an inner ball deep in an obstacle
         or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
         certify (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
-        :data:`~.configuration_checks.PAIRWISE_MAX` are left; :func:`~.configuration_checks.pair_test`, its
-        steps inlined).
+        :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
+        :func:`~.configuration_checks.pair_test`).
         """
         classify = self._classify
         pairs = None
@@ -195,19 +193,10 @@ class CollisionScene:
                 pairs = self._uncertified(self._floats, self._ints, q, self._tolerance)
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass
-        check = self.layout.workspace(self.obstacles).check
-        if check is None:
+        ws = self.layout.workspace(self.obstacles)
+        if ws.check is None:
             return False
-        model, data, gm, gd, update, collide, callback = check
-        _forward_kinematics(model, data, q)
-        _update_placements(model, data, gm, gd)
-        if pairs is not None and len(pairs) <= PAIRWISE_MAX:
-            for k in pairs.tolist():
-                if _compute_collision(gm, gd, k):
-                    return True
-            return False
-        update(False)
-        return collide(callback)
+        return ws.hits(q) if pairs is None else ws.pair_hits(q, pairs)
 
     def first_collision(self, qs: Sequence[np.ndarray], uncertified: int | None = None) -> int:
         """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
