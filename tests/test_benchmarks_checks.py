@@ -6,10 +6,8 @@ from their files, as ``benchmarks/_common.load_test_helper`` does the other way.
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -17,20 +15,11 @@ import pytest
 
 from kinserve import robots
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+from benchmark_scripts import BENCH, load_benchmark
 
-
-def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"_kinserve_bench_{name}", BENCH / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up while the class is built
-    spec.loader.exec_module(mod)
-    return mod
-
-
-oc = _load("_obstacle_check")
-peers = _load("_peers")
-render = _load("render_tables")
+oc = load_benchmark("_obstacle_check", "_kinserve_bench__obstacle_check")
+peers = load_benchmark("_peers", "_kinserve_bench__peers")
+render = load_benchmark("render_tables", "_kinserve_bench_render_tables")
 
 
 def _random_pose(rng) -> np.ndarray:

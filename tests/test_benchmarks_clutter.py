@@ -4,7 +4,6 @@ with a message when the dataset is absent (``$KINSERVE_MBM_DATASET`` or ../share
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -12,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from benchmark_scripts import load_benchmark
 from shared_data import MBM_DATASET
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -23,11 +23,7 @@ pytestmark = pytest.mark.skipif(not (DATASET / "panda" / "problems.tar.bz2").is_
 
 
 def _render_tables():
-    path = ROOT / "benchmarks" / "render_tables.py"
-    spec = importlib.util.spec_from_file_location("render_tables_clutter", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("render_tables", "render_tables_clutter")
 
 
 def test_bench_clutter_runs_and_its_table_copies_the_figures(tmp_path):

@@ -9,34 +9,21 @@ dataset-dependent tests skip with a message when
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import sys
-from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 import pytest
 
+from benchmark_scripts import load_benchmark
 from shared_data import MBM_DATASET
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 DATASET = MBM_DATASET
 
 
-def _load(name: str) -> ModuleType:
-    """``benchmarks/<name>.py`` loaded from its file and registered as ``name`` (its siblings import it
-    so)."""
-    spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 for _dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables"):
-    _load(_dep)
-bm = _load("bench_motion")
+    load_benchmark(_dep)
+bm = load_benchmark("bench_motion")
 render_tables = sys.modules["render_tables"]
 DenseChecker = sys.modules["_motion_check"].DenseChecker
 

@@ -3,10 +3,11 @@ and machine, and ``render_tables --docs`` rewrites the sections of the files a r
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 from pathlib import Path
+
+from benchmark_scripts import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGE = ROOT / "docs" / "benchmarks.md"
@@ -16,11 +17,7 @@ DATED_MACHINE = re.compile(r"_[^_\n]+, \d+ cores, Python [\d.]+, measured \d{4}-
 
 
 def _render_tables():
-    path = ROOT / "benchmarks" / "render_tables.py"
-    spec = importlib.util.spec_from_file_location("render_tables_docs", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("render_tables", "render_tables_docs")
 
 
 def test_every_table_of_the_page_is_generated_and_states_date_and_machine():
