@@ -4,9 +4,9 @@
 Plain integers, in a module of their own so that the compiled kernels (:mod:`.precheck_kernels`, which
 return them) and the Python checks that read them (:mod:`.configuration_checks`, :mod:`.collision_scene`)
 share one definition without an import circle and without loading Numba. The compiled kernels embed the
-values when they are compiled, and this module is no kernel file (it has no compiled code): changing a value
-needs a kernel file touched too (tests/test_kinematics_collision_precheck.py checks the kernel's verdicts
-against these names).
+values when they are compiled, so this file is one of the kernel cache's files
+(:data:`~.kernel_cache.KERNEL_FILES`): changing a value recompiles them
+(tests/test_kinematics_collision_precheck.py checks the kernel's verdicts against these names).
 """
 
 #: Certified collision free: every pair's lower bound exceeds the tolerance.
