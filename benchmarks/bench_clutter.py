@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 from _motion_peers import MotionPeer
-from bench_motion import SETS, load_robot, model_files, unpack
+from bench_motion import SETS, SHARED_DATASET, load_robot, model_files, unpack
 from render_tables import render_clutter, write_section
 
 from kinserve.planners.motion.scene_yaml import read_planning_scene
@@ -87,9 +87,6 @@ class ClutterPeer(MotionPeer):
     def __init__(self, peer: str = "roboplan", timeout: float = 120.0) -> None:
         super().__init__(peer, timeout, script="_clutter_peer_roboplan.py", log_prefix="clutter")
 
-
-#: The dataset beside the repository: ../shared/datasets/motion-bench-maker
-SHARED_DATASET = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "motion-bench-maker"
 
 def start_roboplan(dataset: Path) -> ClutterPeer | None:
     """The roboplan worker with the dataset's Panda, or None after printing why it is skipped."""
