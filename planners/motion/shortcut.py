@@ -1,4 +1,5 @@
-"""Path simplification: random shortcuts, partial (one-joint) shortcuts and vertex removal, all certified.
+"""Path simplification: random shortcuts, partial (one-joint) shortcuts, corner cutting and vertex removal,
+all certified.
 
 A path is its waypoints ``Q`` ``(k, nq)`` with the :class:`~.clearance.Clearance` of
 each (:class:`~.edges.EdgeCertifier`); its length is the joint-space length
@@ -13,6 +14,13 @@ piece of a certified segment is certified, so the path stays certified.
   points, the other joints keep their path; kept when shorter and every new
   segment is certified (stretches of at most :data:`PARTIAL_MAX_VERTICES` inner
   waypoints).
+* **Corner cutting** (a smoothing pass): each inner waypoint ``Q[i]`` in turn moves
+  to the midpoint of its neighbours, ``(Q[i-1] + Q[i+1]) / 2`` (``Q[i-1]`` as already
+  moved), when both new segments are certified. The path then runs straight where the
+  corner was, as if the waypoint had been dropped, but as two segments, each with its
+  own certificate: a straight run that grazes an obstacle too long for one
+  certificate of at most :data:`SHORTCUT_ADVANCES` advances may pass as two, and the
+  next corner is cut from the midpoint, a shorter cut than from the waypoint before.
 * **Vertex removal**: each inner waypoint in turn is dropped when the segment that
   joins its neighbours is certified (it is never longer).
 
@@ -36,7 +44,7 @@ from .edges import EdgeCertifier
 #: Random shortcut attempts.
 SHORTCUT_ATTEMPTS = 40
 #: Partial (one joint) shortcut attempts.
-PARTIAL_ATTEMPTS = 15
+PARTIAL_ATTEMPTS = 4
 #: Attempts in a row without a gain after which a series of attempts stops.
 FRUITLESS = 10
 #: Most inner waypoints of a stretch a partial shortcut rewrites.
@@ -146,6 +154,25 @@ def remove_vertices(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedP
     return CertifiedPath(np.array(Q), C)
 
 
+def cut_corners(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedPath:
+    """Corner cutting (module docstring): each inner waypoint, first to last, moves to the midpoint of its
+    neighbours (the one before it as already moved) when that shortens the path by at least
+    :data:`MIN_GAIN` and both new segments are certified. Never longer than ``path``, with the same ends."""
+    Q, C = list(path.points), list(path.clearances)
+    for i in range(1, len(Q) - 1):
+        a, v, b = Q[i - 1], Q[i], Q[i + 1]
+        c = 0.5 * (a + b)
+        gain = float(np.linalg.norm(v - a) + np.linalg.norm(b - v) - np.linalg.norm(b - a))
+        if gain < MIN_GAIN or certifier.blocked(a, c) or certifier.blocked(c, b):
+            continue
+        cc = certifier.clearance(c)
+        if (certifier.clear(cc)
+                and certifier.certify(C[i - 1], cc, probe=False, max_advances=SHORTCUT_ADVANCES)
+                and certifier.certify(cc, C[i + 1], probe=False, max_advances=SHORTCUT_ADVANCES)):
+            Q[i], C[i] = c, cc
+    return CertifiedPath(np.array(Q), C)
+
+
 def _attempts(path: CertifiedPath, attempt, certifier: EdgeCertifier, rng: np.random.Generator,
               count: int) -> CertifiedPath:
     """Up to ``count`` calls ``attempt(path, certifier, rng)``, stopping after :data:`FRUITLESS` in a row that
@@ -162,14 +189,15 @@ def _attempts(path: CertifiedPath, attempt, certifier: EdgeCertifier, rng: np.ra
 
 def simplify_path(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
     """Vertex removal, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS` partial shortcuts (each
-    series stops after :data:`FRUITLESS` attempts in a row without a gain) and vertex removal again; never
-    longer than ``path``, with the same ends."""
+    series stops after :data:`FRUITLESS` attempts in a row without a gain), corner cutting and vertex removal
+    again; never longer than ``path``, with the same ends."""
     path = remove_vertices(path, certifier)
     path = _attempts(path, try_shortcut, certifier, rng, SHORTCUT_ATTEMPTS)
     path = _attempts(path, try_partial_shortcut, certifier, rng, PARTIAL_ATTEMPTS)
+    path = cut_corners(path, certifier)
     return remove_vertices(path, certifier)
 
 
 __all__ = ["FRUITLESS", "MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES", "SHORTCUT_ADVANCES",
-           "SHORTCUT_ATTEMPTS", "CertifiedPath", "path_length", "remove_vertices", "simplify_path",
-           "try_partial_shortcut", "try_shortcut"]
+           "SHORTCUT_ATTEMPTS", "CertifiedPath", "cut_corners", "path_length", "remove_vertices",
+           "simplify_path", "try_partial_shortcut", "try_shortcut"]
