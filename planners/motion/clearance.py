@@ -45,6 +45,8 @@ TOLERANCE = 1e-5
 #: Pairs refined together by :meth:`ClearanceOracle.radius` per round.
 REFINE_BATCH = 4
 
+_compute_distance = pin.computeDistance
+
 
 class PairRates(NamedTuple):
     """The pair rates of one motion and what :meth:`ClearanceOracle.radius` derives from them, once.
@@ -152,14 +154,26 @@ class ClearanceOracle:
             c.exact[k] = True
         self.pair_distances += len(pairs)
 
-    def distances(self, q: np.ndarray, pairs: np.ndarray) -> np.ndarray:
-        """Coal's distances (m) of ``pairs`` (indices) at ``q``."""
+    def step(self, q: np.ndarray, pairs: list[int], need: list[float], inverse: list[float],
+             offset: list[float]) -> float:
+        """The certified radius ``min_j (d_j - TOLERANCE) * inverse[j] + offset[j]`` at ``q`` of ``pairs``
+        (pair indices) from coal's distances ``d_j`` (m), or -1 when one is below ``need[j]``: one advance of
+        :meth:`~.edges.EdgeCertifier.certify_pairs` (per pair ``j``: the :class:`PairRates` entries, as
+        lists; a few pairs: plain floats, no array per call)."""
         self.checks += 1
         self._place(q)
         self._placed = None
         gm, gd = self.geometry, self.geometry_data
-        self.pair_distances += len(pairs)
-        return np.array([pin.computeDistance(gm, gd, int(k)).min_distance for k in pairs])
+        rho = float("inf")
+        for j, k in enumerate(pairs):
+            d = _compute_distance(gm, gd, k).min_distance
+            self.pair_distances += 1
+            if d < need[j]:
+                return -1.0
+            r = (d - TOLERANCE) * inverse[j] + offset[j]
+            if r < rho:
+                rho = r
+        return rho
 
     def floor_violation(self, c: Clearance, need: np.ndarray) -> int:
         """Index of the closest pair of ``c`` below the distance it must keep, ``need`` ``(P,)`` (m; see

@@ -151,16 +151,17 @@ class EdgeCertifier:
         w = pair_rates(self.reach[pairs] @ np.abs(u))
         if lo >= hi:
             return True
+        step = self.oracle.step
+        ks, need, inverse, offset = pairs.tolist(), w.need.tolist(), w.inverse.tolist(), w.offset.tolist()
         for k in range(max_advances):
             from_lo = k % 2 == 0
-            d = self.oracle.distances(qa + (lo if from_lo else hi) * u, pairs)
-            if np.any(d < w.need):
+            rho = step(qa + (lo if from_lo else hi) * u, ks, need, inverse, offset)
+            if rho < 0.0:
                 return False
-            step = float(np.min((d - TOLERANCE) * w.inverse + w.offset))
             if from_lo:
-                lo += step
+                lo += rho
             else:
-                hi -= step
+                hi -= rho
             if lo >= hi:
                 return True
         return False
