@@ -208,13 +208,20 @@ def orange(image):  # the carried part, viz.colors "orange" (0xE69F00) under Lam
 def test_the_browser_draws_the_robot_where_fk_puts_it_mid_motion(planned):
     panda, plan, page, commands = planned
     t, Q = frames_of(plan)
-    mid = len(t) // 2
-    start, middle = render_at(page, 0.0), render_at(page, mid / FPS)
-    changed = np.abs(start - middle).max(axis=2) > 40
     eye, target = page_camera(commands)
 
     def uv(point):
         return camera_project([point], eye, target, SIZE)[0]
+
+    def moved(k):  # the smaller on-screen displacement of the two links from the start to frame k (px)
+        return min(np.linalg.norm(uv(panda.fk(Q[k], link)[:3, 3]) - uv(panda.fk(Q[0], link)[:3, 3]))
+                   for link in ("panda_link7", "panda_hand"))
+
+    # mid-motion: the frame nearest the middle where both links are apart on screen from their start
+    mid = next(k for k in sorted(range(len(t) // 4, 3 * len(t) // 4 + 1), key=lambda k: abs(2 * k - len(t)))
+               if moved(k) > 40)
+    start, middle = render_at(page, 0.0), render_at(page, mid / FPS)
+    changed = np.abs(start - middle).max(axis=2) > 40
 
     for link in ("panda_link7", "panda_hand"):
         at_mid, at_start = uv(panda.fk(Q[mid], link)[:3, 3]), uv(panda.fk(Q[0], link)[:3, 3])

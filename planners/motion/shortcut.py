@@ -44,7 +44,7 @@ from .edges import EdgeCertifier
 #: Random shortcut attempts.
 SHORTCUT_ATTEMPTS = 40
 #: Partial (one joint) shortcut attempts.
-PARTIAL_ATTEMPTS = 4
+PARTIAL_ATTEMPTS = 6
 #: Attempts in a row without a gain after which a series of attempts stops.
 FRUITLESS = 10
 #: Most inner waypoints of a stretch a partial shortcut rewrites.
@@ -188,10 +188,10 @@ def _attempts(path: CertifiedPath, attempt, certifier: EdgeCertifier, rng: np.ra
 
 
 def simplify_path(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
-    """Vertex removal, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS` partial shortcuts (each
-    series stops after :data:`FRUITLESS` attempts in a row without a gain), corner cutting and vertex removal
-    again; never longer than ``path``, with the same ends."""
-    path = remove_vertices(path, certifier)
+    """Vertex removal and corner cutting, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS`
+    partial shortcuts (each series stops after :data:`FRUITLESS` attempts in a row without a gain), corner
+    cutting and vertex removal again; never longer than ``path``, with the same ends."""
+    path = cut_corners(remove_vertices(path, certifier), certifier)
     path = _attempts(path, try_shortcut, certifier, rng, SHORTCUT_ATTEMPTS)
     path = _attempts(path, try_partial_shortcut, certifier, rng, PARTIAL_ATTEMPTS)
     path = cut_corners(path, certifier)
