@@ -1,7 +1,8 @@
 """The compiled extension step of RRT-Connect (kinserve.planners.motion.extend_kernel) against Python.
 
 ``nearest_node`` against a NumPy scan; ``extend_probe`` against the step computed in NumPy and the
-pre-check's own kernels called one point at a time; ``rrt_connect.extend`` (compiled step, coal on the
+pre-check's own kernels called one point at a time (a new node in collision for certain also by coal's test
+of every pair); ``rrt_connect.extend`` (compiled step, coal on the
 uncertain points) against ``extend_exactly`` (the scene's collision test, clearance and probes one by one)
 on the same trees and targets: the same status, node and clearance bounds.
 """
@@ -12,11 +13,12 @@ import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.kinematics.precheck_kernels import certify_configuration, pair_lower_bounds
+from kinserve.kinematics.precheck_kernels import certainly_colliding, certify_configuration, pair_lower_bounds
 from kinserve.planners.motion.clearance import Clearance, ClearanceOracle
 from kinserve.planners.motion.edges import PROBES, EdgeCertifier
 from kinserve.planners.motion.extend_kernel import (
     AT_TARGET,
+    COLLIDES,
     END,
     FLOOR,
     FREE,
@@ -71,6 +73,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
     rng = np.random.default_rng(11)
     probes = np.array(PROBES)
     kinds = set()
+    colliding = 0
     for trial in range(300):
         n = int(rng.integers(1, 30))
         nodes, pruned = _tree(robot, rng, n)
@@ -94,14 +97,19 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         points = [q_new] + [nodes[near] + s * (q_new - nodes[near]) for s in PROBES]
         verdicts = [FREE if certify_configuration(pre.floats, pre.ints, p, pre.tolerance) else UNCERTAIN
                     for p in points]
+        if verdicts[0] == UNCERTAIN and certainly_colliding(pre.floats, pre.ints, q_new, pre.tolerance):
+            verdicts = [COLLIDES] + [-1] * len(PROBES)  # refused: no probe asked
+            assert certifier.oracle.scene.colliding(q_new)  # coal on every pair agrees
+            colliding += 1
         assert codes[END:].tolist() == verdicts
-        if UNCERTAIN in verdicts:
+        if UNCERTAIN in verdicts or COLLIDES in verdicts:
             assert len(bounds) == 0 and codes[FLOOR] == -1
         else:
             reference = pair_lower_bounds(pre.floats, pre.ints, q_new)
             np.testing.assert_array_equal(bounds, reference)
             assert codes[FLOOR] == int(not np.any(reference < certifier.end_need))
     assert kinds == {AT_TARGET, TOWARDS, ONTO}
+    assert colliding > 10  # the refusal was met
 
 
 def _grown(robot, certifier, rng):

@@ -6,10 +6,14 @@ Euclidean distance, the first one on ties) among those ``pruned`` does not mark;
 :func:`extend_probe`: one extension step of a tree (:func:`~.rrt_connect.extend`) up to what only coal can
 decide, in one call. From the nearest node ``q_near`` towards ``target`` (distance ``dist``) it steps to
 ``q_new = target`` when ``dist <= step``, else ``q_new = q_near + (target - q_near) step / dist`` (rad), and
-asks the scene's sphere pre-check (:func:`~kinserve.kinematics.precheck_kernels.certify_configuration`,
-tolerance ``tol``, m) about ``q_new`` and the points ``q_near + s (q_new - q_near)`` for each ``s`` of
-``probes``: each is **certified free** or **uncertain** (coal decides: the pre-check's spheres contain the
-robot's geometry, so a certified configuration is one coal finds free). When every one is certified, it
+asks the scene's sphere pre-check about ``q_new``
+(:func:`~kinserve.kinematics.precheck_kernels.classify_configuration`, tolerance ``tol``, m): **certified
+free**, **colliding** for certain (then nothing else is asked: the step is refused) or **uncertain**; then
+about the points ``q_near + s (q_new - q_near)`` for each ``s`` of ``probes``
+(:func:`~kinserve.kinematics.precheck_kernels.certify_configuration`): certified free or uncertain (coal
+decides: the pre-check's spheres contain the robot's geometry, so a certified configuration is one coal
+finds free, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
+collision). When every one is certified, it
 also gives ``q_new``'s pair lower bounds
 (:func:`~kinserve.kinematics.precheck_kernels.pair_lower_bounds`, m, in the scene's pair order) and
 whether none is below ``need`` ``(P,)`` (the distance each pair must keep at a node: the clearance floor).
@@ -18,7 +22,8 @@ Its answer: ``(codes, q_new, bounds)``, ``codes`` ``(4 + len(probes),)`` int64:
 ``[near, kind, floor, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
 else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`; ``floor``
 1 when the bounds were computed and none is below ``need``, 0 when one is, -1 when not computed;
-``end`` and ``probe_k``: :data:`FREE` or :data:`UNCERTAIN`. ``bounds`` is empty when not computed.
+``end``: :data:`FREE`, :data:`COLLIDES` (the ``probe_k`` are then -1) or :data:`UNCERTAIN`; ``probe_k``:
+:data:`FREE` or :data:`UNCERTAIN`. ``bounds`` is empty when not computed.
 ``near`` is -1 (and ``kind`` :data:`AT_TARGET`) when every node is pruned or ``size`` is 0.
 
 The cache key covers every kernel source (:mod:`kinserve.kinematics.kernel_cache`); every kernel has its
@@ -33,10 +38,16 @@ import numba
 import numpy as np
 
 from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled
-from kinserve.kinematics.precheck_kernels import certify_configuration, pair_lower_bounds
+from kinserve.kinematics.precheck_kernels import (
+    certify_configuration,
+    classify_configuration,
+    pair_lower_bounds,
+)
+from kinserve.kinematics.precheck_verdicts import COLLIDING as _COLLIDING
+from kinserve.kinematics.precheck_verdicts import FREE as _FREE
 
-#: Verdicts of one configuration: certified free by the spheres, or left to coal.
-FREE, UNCERTAIN = 0, 1
+#: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
+FREE, UNCERTAIN, COLLIDES = 0, 1, 2
 #: ``codes[1]`` of :func:`extend_probe`: the nearest node is the target itself (no step), a step short of
 #: the target, a step onto it.
 AT_TARGET, TOWARDS, ONTO = 0, 1, 2
@@ -95,7 +106,11 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
     f = 1.0 if dist <= step else step / dist
     for c in range(n):
         q_new[c] = target[c] if dist <= step else nodes[near, c] + (target[c] - nodes[near, c]) * f
-    free = certify_configuration(floats, ints, q_new, tol)
+    verdict = classify_configuration(floats, ints, q_new, tol)
+    if verdict == _COLLIDING:
+        codes[END] = COLLIDES
+        return codes, q_new, np.empty(0)
+    free = verdict == _FREE
     codes[END] = FREE if free else UNCERTAIN
     q = np.empty(n)
     for k in range(probes.shape[0]):
@@ -115,5 +130,5 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
     return codes, q_new, bounds
 
 
-__all__ = ["AT_TARGET", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
+__all__ = ["AT_TARGET", "COLLIDES", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
            "extend_probe", "nearest_node"]

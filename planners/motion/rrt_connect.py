@@ -9,9 +9,10 @@ is free (the scene's cheap collision test first, then its pair distances above
 the floor) and the cheap test finds its edge's probe points free
 (:meth:`~.edges.EdgeCertifier.blocked`). With the scene's sphere pre-check, one
 compiled call (:func:`~.extend_kernel.extend_probe`) finds the nearest node,
-makes the step and certifies the new node and the probe points free on the
-spheres, with the new node's pair bounds; coal runs only on the points the
-spheres leave uncertain, in one call (same answers as the tests one by one).
+makes the step, refuses it when the spheres find the new node in collision for
+certain, and certifies the new node and the probe points free on the spheres,
+with the new node's pair bounds; coal runs only on the points the spheres leave
+uncertain, in one call (same answers as the tests one by one).
 
 **Lazy certificates**: an edge is certified (:class:`~.edges.EdgeCertifier`) only
 when it lies on a candidate path, once the trees meet: every edge of the path not
@@ -37,7 +38,7 @@ import numpy as np
 
 from .clearance import Clearance, ClearanceOracle
 from .edges import PROBES, EdgeCertifier
-from .extend_kernel import AT_TARGET, END, FLOOR, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
+from .extend_kernel import AT_TARGET, COLLIDES, END, FLOOR, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
 from .search_tree import SearchTree
 
 #: Default extension step (rad, Euclidean norm of the joint change).
@@ -86,6 +87,9 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     near = int(codes[NEAR])
     if codes[KIND] == AT_TARGET:
         return _Step(REACHED, near)
+    if codes[END] == COLLIDES:  # q_new in collision for certain: no probe asked
+        oracle.checks += 1
+        return _Step(TRAPPED, -1)
     oracle.checks += 1 + len(_PROBES)
     verdicts = codes[END:].tolist()
     if UNCERTAIN in verdicts and _collides(oracle, tree.node(near), q_new, verdicts):
