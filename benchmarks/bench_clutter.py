@@ -306,7 +306,8 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dataset", type=Path, default=SHARED_DATASET,
-                    help="folder with panda/problems.tar.bz2, panda.urdf, panda.srdf, meshes/")
+                    help="folder with panda/problems.tar.bz2, panda.urdf, panda.srdf, meshes/ (default "
+                         "$KINSERVE_MBM_DATASET, else ../shared/datasets/motion-bench-maker)")
     ap.add_argument("--out", default="bench-out/clutter.json", help="JSON output")
     ap.add_argument("--per-set", type=int, default=3, help="scenes per set (default 3: 21 scenes)")
     ap.add_argument("--configs", type=int, default=200, help="configurations per scene (default 200)")

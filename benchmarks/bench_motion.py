@@ -105,8 +105,10 @@ class Outcome:
 
 
 # --------------------------------------------------------------------------- dataset
-#: The dataset beside the repository: ../shared/datasets/motion-bench-maker
-SHARED_DATASET = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "motion-bench-maker"
+#: The dataset: ``$KINSERVE_MBM_DATASET`` (as the tests read it, ``tests/shared_data.py``), else the folder
+#: beside the repository, ../shared/datasets/motion-bench-maker
+SHARED_DATASET = Path(os.environ.get("KINSERVE_MBM_DATASET", Path(__file__).resolve().parents[2] / "shared"
+                                     / "datasets" / "motion-bench-maker"))
 
 def unpack(dataset: Path, work: Path) -> Path:
     """The ``problems/`` folder of the dataset's archive, unpacked into ``work`` (once)."""
@@ -391,7 +393,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--dataset", type=Path, default=SHARED_DATASET,
                     help="folder with panda/problems.tar.bz2, panda.urdf, panda.srdf, meshes/ (VAMP's "
-                         "resources/panda/ from KavrakiLab/vamp)")
+                         "resources/panda/ from KavrakiLab/vamp; default $KINSERVE_MBM_DATASET, else "
+                         "../shared/datasets/motion-bench-maker beside the repository)")
     ap.add_argument("--out", default=None, help="JSON output (default bench-out/motion.json; "
                                                 "bench-out/motion_pose.json with --pose-goals)")
     ap.add_argument("--sets", default=",".join(SETS), help=f"comma-separated sets (default: all of {SETS})")
