@@ -63,6 +63,7 @@ from .kernel_cache import B1, F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, 
 from .kernel_primitives import tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
+from .serial_chain import REVOLUTE as _REVOLUTE
 
 #: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
 #: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.
@@ -565,6 +566,180 @@ def _motion_rates(joints, sphere_reach, pair_reach, S, qa, qb):
 
 
 @_inline
+def _axis_distances(X, tree, joints, W, geoms, g, du, out):
+    """Add to ``out[k]`` the distance (m) of geometry ``g``'s bounding-sphere centre (placed in ``W``) from
+    the axis of each revolute joint ``k`` carrying it that the motion turns (``du[k] > 0``), at the
+    placements ``X``: ``|a_k x (c - o_k)|``, ``a_k`` the joint's unit axis in the world, ``o_k`` its
+    origin."""
+    cx, cy, cz = W[g, 0], W[g, 1], W[g, 2]
+    j = geoms[g, 0]
+    while j > 0:
+        k = j - 1
+        if joints[k, 0] == _REVOLUTE and du[k] > 0.0:
+            x = X[j]
+            ax, ay, az = tree[k, 12], tree[k, 13], tree[k, 14]
+            wx = x[0] * ax + x[1] * ay + x[2] * az
+            wy = x[3] * ax + x[4] * ay + x[5] * az
+            wz = x[6] * ax + x[7] * ay + x[8] * az
+            dx, dy, dz = cx - x[9], cy - x[10], cz - x[11]
+            ex, ey, ez = wy * dz - wz * dy, wz * dx - wx * dz, wx * dy - wy * dx
+            out[k] += math.sqrt(ex * ex + ey * ey + ez * ez)
+        j = joints[k, 2]
+
+
+@_inline
+def _end_distances(tree, joints, spheres, geoms, qa, qb, du, X, W):
+    """``(G, J)``: per geometry and joint, ``rho_k(qa) + rho_k(qb)``, the distances (m) of the geometry's
+    bounding-sphere centre from revolute joint ``k``'s axis at the two configurations
+    (:func:`_axis_distances`; 0 where the joint does not carry it, is prismatic or does not turn). ``X``,
+    ``W``: scratch."""
+    ends = np.zeros((geoms.shape[0], joints.shape[0]))
+    for q in (qa, qb):
+        tree_placements(tree, joints, q, X)
+        for g in range(geoms.shape[0]):
+            _place(X, geoms[g, 0], spheres, g, W)
+            _axis_distances(X, tree, joints, W, geoms, g, du, ends[g])
+    return ends
+
+
+@_inline
+def _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W):
+    """Lower the rates ``v`` (sphere rows) and ``w`` (self pairs) of :func:`_motion_rates` to bounds of this
+    motion (placements ``X``, ``W`` used as scratch).
+
+    Along ``q(s) = qa + s u`` a sphere centre ``c`` moves at speed at most ``sum_k |u_k| rho_k(s)``,
+    ``rho_k`` its distance from revolute joint ``k``'s axis (1 for a prismatic joint). ``rho_k`` changes
+    only as ``c`` moves relative to joint ``k``'s body, by the joints below ``k``: by at most
+    ``C_k = sum_{j below k} sphere_reach[c, j] |u_j|`` per unit ``s``. So over the motion ``rho_k <=
+    (rho_k(0) + rho_k(1) + C_k) / 2`` (the two ends' bounds ``rho_k(0) + s C_k`` and ``rho_k(1) + (1 - s)
+    C_k`` meet there), and never above ``sphere_reach[c, k]``. ``rho_k`` is measured at both ends for each
+    geometry's bounding-sphere centre; a cover sphere at ``d`` from it (fixed in the same frame) is at most
+    ``d`` farther from any axis. A self pair's gaps change at most as fast as the two geometries' spheres
+    move on the joints carrying one of them and not the other: the same per-joint bounds with the
+    geometry's largest rates. The results are constant rates over the whole motion, at most the global
+    ones: the advancement is unchanged, its steps longer."""
+    n, G = joints.shape[0], geoms.shape[0]
+    rows = sphere_reach.shape[0]
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    ends = _end_distances(tree, joints, spheres, geoms, qa, qb, du, X, W)
+    joint_rate = np.zeros((G, n))  # per geometry and joint: the largest rate of its rows
+    for g in range(min(G, rows)):
+        for c in range(geoms[g, 1] - 1, min(geoms[g, 2], rows)):
+            row = g if c < geoms[g, 1] else c  # the bounding sphere first, then the cover spheres
+            dx, dy, dz = spheres[row, 0] - spheres[g, 0], spheres[row, 1] - spheres[g, 1], \
+                spheres[row, 2] - spheres[g, 2]
+            offset = math.sqrt(dx * dx + dy * dy + dz * dz)
+            below, rate = 0.0, 0.0
+            j = geoms[g, 0]
+            while j > 0:
+                k = j - 1
+                reach = sphere_reach[row, k]
+                if joints[k, 0] == _REVOLUTE:
+                    reach = min(reach, 0.5 * ends[g, k] + offset + 0.5 * below)
+                joint_rate[g, k] = max(joint_rate[g, k], reach)
+                rate += reach * du[k]
+                below += sphere_reach[row, k] * du[k]
+                j = joints[k, 2]
+            v[row] = min(v[row], rate * LIPSCHITZ_SAFETY)
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] != SELF_PAIR or a >= rows or b >= rows:
+            continue
+        rate = 0.0
+        for k in range(n):
+            if pair_reach[p, k] > 0.0:  # a joint carrying one of the two and not the other
+                rate += (joint_rate[a, k] + joint_rate[b, k]) * du[k]
+        w[p] = min(w[p], rate * LIPSCHITZ_SAFETY)
+
+
+_RATES_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, F1_ANY, F1_ANY)
+
+
+@compiled(_RATES_SIGNATURE)
+def motion_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
+                 qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+    """The rates :func:`certify_motion` and :func:`motion_hard_pairs` advance with on ``qa -> qb``:
+    ``[v (S,), w (P,)]``, per sphere row the bound (m per unit ``s``) of its centre's speed and per pair-table
+    row the bound of a self pair's sphere gaps' rate (:func:`_motion_rates` lowered by
+    :func:`_tighten_rates`); empty when the arguments do not fit."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
+        return np.zeros(0)
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    X, W, placed = _workspace(joints.shape[0], spheres.shape[0], geoms.shape[0])
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
+    return np.concatenate((v, w))
+
+
+_GEOMETRY_RATES_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F1_ANY, F1_ANY, _t.float64, _t.float64,
+                                                         I1)
+
+
+@compiled(_GEOMETRY_RATES_SIGNATURE)
+def geometry_pair_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, qa: np.ndarray,
+                        qb: np.ndarray, lo: float, hi: float, scene_pairs: np.ndarray) -> np.ndarray:
+    """Per scene pair of ``scene_pairs`` (indices), a bound ``w`` (m per unit ``s``) of how fast the distance
+    between its two *shapes* (the robot geometries, not their spheres) can change on the stretch ``s`` in
+    ``[lo, hi]`` of the straight motion ``q(s) = qa + s (qb - qa)``: ``inf`` for a pair the scene's table
+    lacks or when the arguments do not fit (``qa``, ``qb`` not one entry per joint, the rate table short).
+
+    The bounds of :func:`_tighten_rates` for every point ``x`` of a geometry: within its bounding sphere
+    (centre ``c``, radius ``r``), so ``rho_k(x) <= rho_k(c) + r`` and its distance from joint ``k``'s origin
+    is at most ``sphere_reach[c, k] + r``; with ``C_k = sum_{j below k} (sphere_reach[c, j] + r) |u_j|``, over
+    the stretch ``rho_k(x) <= (rho_k(c, lo) + rho_k(c, hi)) / 2 + r + C_k (hi - lo) / 2``. An obstacle pair:
+    ``sum_k |u_k| bound_k`` over the joints carrying the geometry (a prismatic one: ``|u_k|``); a self pair:
+    the two geometries' bounds on the joints carrying one of them and not the other (the joints carrying both
+    move them rigidly together)."""
+    tree, joints, spheres, geoms, pairs, obstacles = _unpack(floats, ints)
+    n, G = joints.shape[0], geoms.shape[0]
+    out = np.full(scene_pairs.shape[0], math.inf)
+    if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or sphere_reach.shape[0] < G:
+        return out
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    X, W, placed = _workspace(n, spheres.shape[0], G)
+    q_lo, q_hi = np.empty(n), np.empty(n)
+    for i in range(n):
+        q_lo[i] = qa[i] + lo * (qb[i] - qa[i])
+        q_hi[i] = qa[i] + hi * (qb[i] - qa[i])
+    ends = _end_distances(tree, joints, spheres, geoms, q_lo, q_hi, du, X, W)
+    bound = np.full((G, n), -1.0)  # per geometry and joint carrying it: the rate of its points
+    for g in range(G):
+        r = spheres[g, 3]
+        below = 0.0
+        j = geoms[g, 0]
+        while j > 0:
+            k = j - 1
+            if joints[k, 0] == _REVOLUTE:
+                reach = sphere_reach[g, k] + r
+                bound[g, k] = min(reach, 0.5 * ends[g, k] + r + 0.5 * (hi - lo) * below)
+            else:
+                reach = 1.0
+                bound[g, k] = 1.0
+            below += reach * du[k]
+            j = joints[k, 2]
+    for t in range(scene_pairs.shape[0]):
+        for p in range(pairs.shape[0]):
+            if pairs[p, 3] != scene_pairs[t]:
+                continue
+            a, b = pairs[p, 0], pairs[p, 1]
+            rate = 0.0
+            for k in range(n):
+                ka = bound[a, k] >= 0.0
+                kb = pairs[p, 2] == SELF_PAIR and bound[b, k] >= 0.0
+                if ka and not kb:
+                    rate += bound[a, k] * du[k]
+                elif kb and not ka:
+                    rate += bound[b, k] * du[k]
+            out[t] = rate * LIPSCHITZ_SAFETY
+            break
+    return out
+
+
+@_inline
 def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol):
     """The certified radius of pair-table row ``p`` alone at the configuration placed in ``X`` / ``W``, for a
     motion whose sphere centres move by at most ``v[s]`` and whose self pairs' sphere gaps change by at most
@@ -636,7 +811,9 @@ def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarra
     (:func:`~.robot_spheres.sphere_reach`, ``u = qb - qa`` on joint ``k``'s coordinate), so a sphere's gap
     to an obstacle (1-Lipschitz in its centre) falls by at most ``v[c] |ds|``; a self pair's sphere gaps by
     at most ``w[p] = sum_k pair_reach[p, k] |u_k|`` (row ``p`` of the kernel's pair table; the joints
-    carrying both geometries move them rigidly together and count 0). A configuration ``q(s)`` therefore
+    carrying both geometries move them rigidly together and count 0). Both are then lowered to this motion's
+    own bounds, from the centres' distances to the joint axes at its two ends (:func:`_tighten_rates`;
+    :func:`motion_rates` returns them). A configuration ``q(s)`` therefore
     certifies ``|s' - s| <= rho`` (:func:`_motion_radius`); the advances alternate between the two ends,
     each from the end of the interval before it (no gap), and stop at ``lo >= hi``, at a radius below
     ``min_step`` (the spheres do not decide: an exact check may go on from ``lo`` and ``hi``) or after
@@ -653,6 +830,7 @@ def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarra
         return out
     v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
     q = np.empty(n)
     lo, hi = 0.0, 1.0
     advances, last = 0, -1
@@ -767,6 +945,7 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
         return out
     v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
     X, W, placed = _workspace(n, spheres.shape[0], geoms.shape[0])
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
     front, back = np.zeros(P), np.ones(P)
     state = np.zeros(P, dtype=np.int64)  # 0 open, 1 certified, 2 hard
     live = np.arange(P)
@@ -810,5 +989,5 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
 __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "PAIR_HORIZON", "SELF_PAIR", "TOLERANCE",
            "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
-           "certify_motion", "classify_configuration", "first_uncertified", "motion_hard_pairs",
-           "pair_lower_bounds", "tree_placements", "uncertified_pairs"]
+           "certify_motion", "classify_configuration", "first_uncertified", "geometry_pair_rates",
+           "motion_hard_pairs", "motion_rates", "pair_lower_bounds", "tree_placements", "uncertified_pairs"]

@@ -16,7 +16,7 @@ import pytest
 from kinserve import robots
 from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.obstacle_table import obstacle_row
-from kinserve.kinematics.serial_chain import kinematic_tree
+from kinserve.kinematics.serial_chain import REVOLUTE, kinematic_tree
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
 from collision_scenes import SCENE, coal_hits, near_obstacles, pose, rotation, tetrahedron_file
@@ -291,3 +291,131 @@ def test_self_pair_bounds_change_no_faster_than_their_motion_reach():
         if moving.any():
             tight = max(tight, float(np.max(change[scene_index][moving] / rates[own][moving])))
     assert tight > 0.1, tight
+
+
+def _centres(spheres, q: np.ndarray) -> np.ndarray:
+    """World centres ``(G + S, 3)`` of every sphere row of the robot's sphere model at ``q`` (Pinocchio's
+    forward kinematics, not the kernels')."""
+    rows = np.empty((len(spheres.spheres), 3))
+    X = np.empty((len(spheres.joints) + 1, 12))
+    pk.tree_placements(spheres.tree, spheres.joints, q, X)
+    for g, (joint, first, end) in enumerate(spheres.geoms):
+        for r in [g, *range(first, end)]:
+            R, t = X[joint, :9].reshape(3, 3), X[joint, 9:]
+            rows[r] = t + R @ spheres.spheres[r, :3]
+    return rows
+
+
+def _axis_rate_sum(spheres, qs: np.ndarray, du: np.ndarray) -> np.ndarray:
+    """Per sphere row, ``sum_k du[k] max_s rho_k(s)`` over the samples ``qs``: ``rho_k`` the centre's distance
+    from revolute joint ``k``'s axis (1 for a prismatic joint), over the joints carrying the row. A rate
+    whose every per-joint term bounds that joint's part of the speed is at least this."""
+    J = len(spheres.joints)
+    peak = np.zeros((len(spheres.spheres), J))
+    X = np.empty((J + 1, 12))
+    for q in qs:
+        pk.tree_placements(spheres.tree, spheres.joints, q, X)
+        C = _centres(spheres, q)
+        for g, (joint, first, end) in enumerate(spheres.geoms):
+            rows = [g, *range(first, end)]
+            j = int(joint)
+            while j > 0:
+                k = j - 1
+                if spheres.joints[k, 0] == REVOLUTE:
+                    axis = X[j, :9].reshape(3, 3) @ spheres.tree[k, 12:15]
+                    rho = np.linalg.norm(np.cross(axis, C[rows] - X[j, 9:]), axis=1)
+                else:
+                    rho = np.ones(len(rows))
+                peak[rows, k] = np.maximum(peak[rows, k], rho)
+                j = int(spheres.joints[k, 2])
+    return peak @ du
+
+
+def _motions(robot, rng, count):
+    """Straight motions of every length: short steps to moves across the joint ranges."""
+    for _ in range(count):
+        qa = robot.random_q(rng)
+        scale = 10.0 ** rng.uniform(-2, 0.5)
+        yield qa, np.clip(qa + scale * rng.normal(size=robot.nq), robot.lower, robot.upper)
+
+
+def test_motion_rates_bound_every_sphere_centre_and_self_pair_on_the_motion():
+    """``motion_rates`` (the rates the sphere advancement uses) on straight Panda motions of every length:
+    between any two of 40 samples ``s, s'`` of the motion, every sphere centre moves by at most
+    ``v[c] |s - s'|`` and every self pair's sphere lower bound changes by at most ``w[p] |s - s'|`` (centres
+    from the tree's placements), and each rate is at least ``sum_k |u_k| max_s rho_k(s)`` (the centre's
+    distance from each joint's axis at its largest on 200 samples: each joint's term bounds its part); the
+    rates are never above the global ones (``sphere_reach . |u|``,
+    ``pair_reach . |u|``), below them on most motions, and not vacuous (the largest centre displacement seen
+    is more than half the bound on some motion)."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(())
+    pre = scene.precheck()
+    spheres = robot.collision.spheres
+    table = scene.layout.precheck().pairs
+    own = np.flatnonzero(table[:, 2] == pk.SELF_PAIR)
+    S = len(spheres.spheres)  # the model's sphere rows (the packed rows go on with its inner balls: rate 0)
+    idx = spheres.joints[:, 1]
+    rng = np.random.default_rng(31)
+    s = np.linspace(0.0, 1.0, 40)
+    ds = np.abs(s[:, None] - s[None, :])
+    lower_than_global, tightest = 0, 0.0
+    for qa, qb in _motions(robot, rng, 60):
+        rates = pk.motion_rates(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, qa, qb)
+        v, w = rates[:S], rates[len(rates) - len(table):]
+        assert not rates[S:len(rates) - len(table)].any()
+        du = np.abs(qb[idx] - qa[idx])
+        v_global, w_global = spheres.sphere_reach @ du, pre.pair_reach @ du
+        assert np.all(v <= v_global * (1 + 1e-9) + 1e-15) and np.all(w <= w_global * (1 + 1e-9) + 1e-15)
+        lower_than_global += bool(np.median(v / np.maximum(v_global, 1e-300)) < 0.9)
+        qs = qa + s[:, None] * (qb - qa)
+        C = np.array([_centres(spheres, q) for q in qs])  # (40, S, 3)
+        moved = np.linalg.norm(C[:, None] - C[None, :], axis=-1)  # (40, 40, S)
+        assert np.all(moved <= v[None, None, :] * ds[:, :, None] * (1 + 1e-9) + 1e-12)
+        assert np.all(v >= _axis_rate_sum(spheres, np.linspace(qa, qb, 200), du) * (1 - 1e-9))
+        moving = v > 0
+        seen = moved[..., moving] / (v[moving] * np.maximum(ds, 1e-300)[..., None])
+        tightest = max(tightest, float(np.max(seen)))
+        bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, q) for q in qs])[:, table[own, 3]]
+        change = np.abs(bounds[:, None] - bounds[None, :])
+        assert np.all(change <= w[own][None, None, :] * ds[:, :, None] * (1 + 1e-9) + 1e-12)
+    assert lower_than_global > 40 and tightest > 0.5, (lower_than_global, tightest)
+
+
+def test_geometry_pair_rates_bound_coal_distances_on_the_stretch():
+    """``geometry_pair_rates`` on stretches ``[lo, hi]`` of straight Panda motions in a scene with obstacles:
+    between any two of 25 samples of the stretch, every pair's coal distance (the shapes, not their spheres)
+    changes by at most the pair's rate times ``|s - s'|`` (plus coal's distance error); the rates are below
+    the planner's global ones (``EdgeCertifier.reach . |u|``) on most pairs; a pair the scene lacks and
+    arguments of the wrong size get ``inf``."""
+    from kinserve.planners.motion.clearance import ClearanceOracle
+    from kinserve.planners.motion.edges import EdgeCertifier
+    from kinserve.planners.motion.reach import pair_reach
+
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    P = len(scene.pairs)
+    reach = pair_reach(robot.model, scene)
+    certifier = EdgeCertifier(ClearanceOracle(scene), reach)
+    everything = np.arange(P, dtype=np.int64)
+    rng = np.random.default_rng(32)
+    tighter = total = 0
+    for qa, qb in _motions(robot, rng, 25):
+        lo, hi = np.sort(rng.uniform(0.0, 1.0, 2))
+        rates = pk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa, qb, lo, hi, everything)
+        glob = reach @ np.abs(qb - qa)
+        assert np.allclose(certifier.pair_rates(qa, qb - qa, everything, lo, hi), np.minimum(rates, glob))
+        tighter += int(np.sum(rates < glob * 0.95))
+        total += P
+        s = np.linspace(lo, hi, 25)
+        d = np.array([scene.distance_arrays(qa + t * (qb - qa)).distance for t in s])
+        change = np.abs(d[:, None] - d[None, :])
+        ds = np.abs(s[:, None] - s[None, :])
+        assert np.all(change <= rates[None, None, :] * ds[:, :, None] + 2e-6)
+    assert tighter > total / 2, (tighter, total)
+    qa, qb = robot.neutral(), robot.random_q(rng)
+    missing = np.array([P + 5], dtype=np.int64)
+    assert np.isinf(pk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa, qb, 0.0, 1.0, missing))
+    assert np.all(np.isinf(pk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa[:-1], qb, 0.0,
+                                                  1.0, everything)))

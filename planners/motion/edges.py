@@ -25,23 +25,28 @@ Three stages, cheapest first:
    compiled call (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`:
    per sphere centre the rate ``sum_k R[s, k] |u_k|`` of
    :func:`~kinserve.kinematics.robot_spheres.sphere_reach`, tighter than the
-   geometry's; each pair keeps its own certified ends, so a pair far from
-   everything is done in one or two evaluations and only the close ones advance
-   in small steps), certifies every pair it can; the pairs whose spheres stop
-   (their bound too small to advance) are handed over, up to
-   :data:`HARD_PAIRS` of them (:meth:`EdgeCertifier.hard_pairs`);
+   geometry's, lowered to the motion's own bound from the centres' distances to
+   the joint axes at its two ends
+   (:func:`~kinserve.kinematics.precheck_kernels.motion_rates`); each pair keeps
+   its own certified ends, so a pair far from everything is done in one or two
+   evaluations and only the close ones advance in small steps), certifies every
+   pair it can; the pairs whose spheres stop (their bound too small to advance)
+   are handed over, up to :data:`HARD_PAIRS` of them (:meth:`EdgeCertifier.hard_pairs`);
 3. the handed-over pairs alone advance on coal's exact distances
-   (:meth:`EdgeCertifier.certify_pairs`). Each stage certifies its pairs over the
-   whole edge, so together they certify every pair. When the spheres hand over
-   too many pairs (or the scene has none), every pair advances on bounds refined
-   by coal where they decide (:meth:`EdgeCertifier.certify_exactly`).
+   (:meth:`EdgeCertifier.certify_pairs`), with the pair rates of the stretch they
+   cover (:meth:`EdgeCertifier.pair_rates`: ``W[p] . |u|`` or, lower, the
+   stretch's own bound from the geometries' distances to the joint axes at its
+   two ends). Each stage certifies its pairs over the whole edge, so together
+   they certify every pair. When the spheres hand over too many pairs (or the
+   scene has none), every pair advances on bounds refined by coal where they
+   decide (:meth:`EdgeCertifier.certify_exactly`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from kinserve.kinematics.precheck_kernels import motion_hard_pairs
+from kinserve.kinematics.precheck_kernels import geometry_pair_rates, motion_hard_pairs
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 
@@ -148,9 +153,9 @@ class EdgeCertifier:
         :data:`~.clearance.CLEARANCE_FLOOR` at every point asked, or the motion is rejected). ``[0, lo)`` and
         ``(hi, 1]``: certified for these pairs already (by the spheres); the whole motion by default. The
         points ``lo`` and ``hi`` themselves are the first two asked of coal."""
-        w = pair_rates(self.reach[pairs] @ np.abs(u))
         if lo >= hi:
             return True
+        w = pair_rates(self.pair_rates(qa, u, pairs, lo, hi))
         step = self.oracle.step
         ks, need, inverse, offset = pairs.tolist(), w.need.tolist(), w.inverse.tolist(), w.offset.tolist()
         for k in range(max_advances):
@@ -165,6 +170,19 @@ class EdgeCertifier:
             if lo >= hi:
                 return True
         return False
+
+    def pair_rates(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, lo: float = 0.0,
+                   hi: float = 1.0) -> np.ndarray:
+        """Per pair of ``pairs`` (indices), a bound (m per unit ``s``) of how fast its distance can change on
+        the stretch ``[lo, hi]`` of ``qa + s u``: the smaller of the global ``W[p] . |u|`` and, with a sphere
+        pre-check, the stretch's own bound measured at its two ends
+        (:func:`~kinserve.kinematics.precheck_kernels.geometry_pair_rates`)."""
+        rates = self.reach[pairs] @ np.abs(u)
+        pre = self.oracle.precheck
+        if pre is not None:
+            rates = np.minimum(rates, geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa, qa + u,
+                                                          lo, hi, pairs))
+        return rates
 
     def certify_exactly(self, a: Clearance, b: Clearance, max_advances: int) -> bool:
         """Conservative advancement of ``a.q -> b.q`` on every pair: sphere bounds refined by coal where they
