@@ -32,6 +32,7 @@ _ROOT = Path(__file__).resolve().parents[1]
 KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "kinematics/kernel_primitives.py",
     "kinematics/precheck_kernels.py",
+    "kinematics/motion_kernels.py",
     "kinematics/sphere_cover.py",
     "ik/constraints/clearance_kernel.py",
     "ik/lm/kernel.py",

@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .motion_kernels import certify_motion
 from .obstacle_table import OBSTACLE_COLUMNS
 from .precheck_kernels import (
     OBSTACLE_PAIR,
@@ -26,7 +27,6 @@ from .precheck_kernels import (
     certainly_colliding,
     certify_configuration,
     certify_configurations,
-    certify_motion,
     classify_configuration,
     first_uncertified,
     uncertified_pairs,
@@ -44,7 +44,7 @@ class PrecheckArguments(NamedTuple):
     (:mod:`.precheck_packing`); ``tolerance`` (m): :data:`~.precheck_kernels.TOLERANCE`.
     ``certify_motion(floats, ints, sphere_reach, pair_reach, skip, qa, qb, tolerance, min_step,
     max_advances)``
-    (:func:`~.precheck_kernels.certify_motion`) with the layout's ``sphere_reach`` ``(S, J)`` and
+    (:func:`~.motion_kernels.certify_motion`) with the layout's ``sphere_reach`` ``(S, J)`` and
     ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`).
     ``classify(floats, ints, q, tolerance)`` (:func:`~.precheck_kernels.classify_configuration`: free, in
     collision or undecided, in one call) and ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene
@@ -100,7 +100,7 @@ class ScenePrecheck:
 
     def motion_reach(self) -> np.ndarray:
         """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast
-        the gap of two spheres of a self pair can change (:func:`~.precheck_kernels.certify_motion`): the sum
+        the gap of two spheres of a self pair can change (:func:`~.motion_kernels.certify_motion`): the sum
         of the two geometries' :attr:`~.robot_spheres.RobotSpheres.geometry_reach` on the joints that
         carry one of them and not the other (a joint carrying both moves them rigidly together); 0 on the
         rows of obstacle pairs (their rates are the spheres' own)."""

@@ -89,3 +89,12 @@ def coal_hits(scene, Q) -> np.ndarray:
 
     data, gd = scene.model.createData(), fresh_requests(pin.GeometryData(scene.geometry))
     return np.array([pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True) for q in Q])
+
+
+def scenes_near_the_arm(robot, rng, tmp_path, count: int = 3):
+    """``count`` times ``(q_s, scene, precheck)``: a random configuration ``q_s`` and the scene of ``SCENE``
+    plus five obstacles near the arm at ``q_s``."""
+    for _ in range(count):
+        q_s = robot.random_q(rng)
+        scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
+        yield q_s, scene, scene.precheck()

@@ -22,12 +22,12 @@ Three stages, cheapest first:
 1. the scene's broad-phase / sphere pre-check ``in_collision`` at :data:`PROBES`
    interior points rejects most bad edges before any distance is asked;
 2. the same advancement on the sphere bounds alone, pair by pair, in one
-   compiled call (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`:
+   compiled call (:func:`~kinserve.kinematics.motion_kernels.motion_hard_pairs`:
    per sphere centre the rate ``sum_k R[s, k] |u_k|`` of
    :func:`~kinserve.kinematics.robot_spheres.sphere_reach`, tighter than the
    geometry's, lowered to the motion's own bound from the centres' distances to
    the joint axes at its two ends
-   (:func:`~kinserve.kinematics.precheck_kernels.motion_rates`); each pair keeps
+   (:func:`~kinserve.kinematics.motion_kernels.motion_rates`); each pair keeps
    its own certified ends, so a pair far from everything is done in one or two
    evaluations and only the close ones advance in small steps), certifies every
    pair it can; the pairs whose spheres stop (their bound too small to advance)
@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kinserve.kinematics.precheck_kernels import geometry_pair_rates, motion_hard_pairs
+from kinserve.kinematics.motion_kernels import geometry_pair_rates, motion_hard_pairs
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 
@@ -119,7 +119,7 @@ class EdgeCertifier:
         """``(hard, lo, hi)``: the pairs of the scene (indices) the spheres leave to the exact check on
         ``qa -> qb``, which they certify on ``[0, lo)`` and ``(hi, 1]`` of ``qa + s (qb - qa)`` all the
         same; every other pair is certified over the whole motion on the sphere bounds alone, in one
-        compiled call (:func:`~kinserve.kinematics.precheck_kernels.motion_hard_pairs`). None when they do
+        compiled call (:func:`~kinserve.kinematics.motion_kernels.motion_hard_pairs`). None when they do
         not get there (no sphere pre-check, or more than :data:`HARD_PAIRS` pairs left): every pair is then
         checked exactly."""
         pre = self.oracle.precheck
@@ -176,7 +176,7 @@ class EdgeCertifier:
         """Per pair of ``pairs`` (indices), a bound (m per unit ``s``) of how fast its distance can change on
         the stretch ``[lo, hi]`` of ``qa + s u``: the smaller of the global ``W[p] . |u|`` and, with a sphere
         pre-check, the stretch's own bound measured at its two ends
-        (:func:`~kinserve.kinematics.precheck_kernels.geometry_pair_rates`)."""
+        (:func:`~kinserve.kinematics.motion_kernels.geometry_pair_rates`)."""
         rates = self.reach[pairs] @ np.abs(u)
         pre = self.oracle.precheck
         if pre is not None:

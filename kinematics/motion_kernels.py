@@ -1,0 +1,524 @@
+"""The compiled certificates of straight motions on the sphere bounds (Numba): the rates, the advancement.
+
+A straight joint-space motion ``q(s) = qa + s (qb - qa)``, ``s`` in ``[0, 1]``, is
+certified collision free on a stretch of ``s`` when every checked pair's lower
+bound (:mod:`.precheck_kernels`: spheres fixed in the joint frames that contain
+the robot's geometries, against each other and the obstacles) stays above the
+tolerance there. A configuration with bound ``d`` (minus the tolerance) certifies
+``|s' - s| <= d / rate`` when the bound falls by at most ``rate`` per unit ``s``.
+
+**Rates.** Per sphere centre, the global bound ``sum_k sphere_reach[c, k] |u_k|``
+(:func:`~.robot_spheres.sphere_reach`), lowered to the motion's own from the
+centres' distances to the joint axes at its two ends (:func:`motion_rates`); per
+self pair, the two geometries' rates on the joints carrying one of them and not the
+other. :func:`geometry_pair_rates` gives the same bound for the shapes themselves
+(not their spheres), for the exact stage that advances on coal's distances.
+
+**Advancement.** :func:`certify_motion`: from both ends, the smallest radius of all
+pairs at each point; :func:`motion_hard_pairs`: pair by pair, each with its own
+certified ends, handing over the pairs whose spheres cannot decide.
+
+Each kernel has its signature: importing this module compiles them or loads them
+from the kernel set's cache (:mod:`.kernel_cache`, whose key covers this file).
+Metres and radians.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .kernel_cache import B1, F1, F1_ANY, F2, I1, compiled, inline, jit
+from .precheck_kernels import (
+    LIPSCHITZ_SAFETY,
+    SELF_PAIR,
+    obstacle_gap,
+    place_cover,
+    place_sphere,
+    self_cover_gap,
+    sphere_gap,
+    tree_placements,
+    unpack,
+    workspace,
+)
+from .serial_chain import REVOLUTE as _REVOLUTE
+
+_jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source)
+_t = numba.types
+
+
+@_inline
+def _rate_radius(gap, rate):
+    """The largest ``|ds|`` over which a bound ``gap`` (m, minus the tolerance) that falls by at most ``rate``
+    (m per unit ``s``) stays positive: ``gap / rate``; ``inf`` when it does not fall and is positive, -1 when
+    it is not positive (the spheres tell nothing)."""
+    if gap <= 0.0:
+        return -1.0
+    if rate <= 0.0:
+        return math.inf
+    return gap / rate
+
+
+@_inline
+def _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
+    """True when ``qa``, ``qb`` have one entry per joint and the rate tables cover every joint, sphere row
+    (bounding and cover spheres) and pair of the packed scene."""
+    n = joints.shape[0]
+    rows = sphere_reach.shape[0]
+    if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or pair_reach.shape[1] != n \
+            or pair_reach.shape[0] != pairs.shape[0] or rows > spheres.shape[0]:
+        return False
+    for g in range(geoms.shape[0]):
+        if geoms[g, 2] > rows or g >= rows:  # a sphere without its rates
+            return False
+    return True
+
+
+@_inline
+def _motion_rates(joints, sphere_reach, pair_reach, S, qa, qb):
+    """``(v, w)`` of the straight motion ``qa -> qb`` (``u = qb - qa``): per sphere row ``c``,
+    ``v[c] = sum_k sphere_reach[c, k] |u_k|`` (m per unit of the motion's parameter; ``(S,)``, 0 beyond the
+    table's rows), and per pair-table row ``p``, ``w[p] = sum_k pair_reach[p, k] |u_k|``."""
+    n = joints.shape[0]
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    v = np.zeros(S)
+    for c in range(sphere_reach.shape[0]):
+        acc = 0.0
+        for k in range(n):
+            acc += sphere_reach[c, k] * du[k]
+        v[c] = acc
+    w = np.zeros(pair_reach.shape[0])
+    for p in range(pair_reach.shape[0]):
+        acc = 0.0
+        for k in range(n):
+            acc += pair_reach[p, k] * du[k]
+        w[p] = acc
+    return v, w
+
+
+@_inline
+def _axis_distances(X, tree, joints, W, geoms, g, du, out):
+    """Add to ``out[k]`` the distance (m) of geometry ``g``'s bounding-sphere centre (placed in ``W``) from
+    the axis of each revolute joint ``k`` carrying it that the motion turns (``du[k] > 0``), at the
+    placements ``X``: ``|a_k x (c - o_k)|``, ``a_k`` the joint's unit axis in the world, ``o_k`` its
+    origin."""
+    cx, cy, cz = W[g, 0], W[g, 1], W[g, 2]
+    j = geoms[g, 0]
+    while j > 0:
+        k = j - 1
+        if joints[k, 0] == _REVOLUTE and du[k] > 0.0:
+            x = X[j]
+            ax, ay, az = tree[k, 12], tree[k, 13], tree[k, 14]
+            wx = x[0] * ax + x[1] * ay + x[2] * az
+            wy = x[3] * ax + x[4] * ay + x[5] * az
+            wz = x[6] * ax + x[7] * ay + x[8] * az
+            dx, dy, dz = cx - x[9], cy - x[10], cz - x[11]
+            ex, ey, ez = wy * dz - wz * dy, wz * dx - wx * dz, wx * dy - wy * dx
+            out[k] += math.sqrt(ex * ex + ey * ey + ez * ez)
+        j = joints[k, 2]
+
+
+@_inline
+def _end_distances(tree, joints, spheres, geoms, qa, qb, du, X, W):
+    """``(G, J)``: per geometry and joint, ``rho_k(qa) + rho_k(qb)``, the distances (m) of the geometry's
+    bounding-sphere centre from revolute joint ``k``'s axis at the two configurations
+    (:func:`_axis_distances`; 0 where the joint does not carry it, is prismatic or does not turn). ``X``,
+    ``W``: scratch."""
+    ends = np.zeros((geoms.shape[0], joints.shape[0]))
+    for q in (qa, qb):
+        tree_placements(tree, joints, q, X)
+        for g in range(geoms.shape[0]):
+            place_sphere(X, geoms[g, 0], spheres, g, W)
+            _axis_distances(X, tree, joints, W, geoms, g, du, ends[g])
+    return ends
+
+
+@_inline
+def _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W):
+    """Lower the rates ``v`` (sphere rows) and ``w`` (self pairs) of :func:`_motion_rates` to bounds of this
+    motion (placements ``X``, ``W`` used as scratch).
+
+    Along ``q(s) = qa + s u`` a sphere centre ``c`` moves at speed at most ``sum_k |u_k| rho_k(s)``,
+    ``rho_k`` its distance from revolute joint ``k``'s axis (1 for a prismatic joint). ``rho_k`` changes
+    only as ``c`` moves relative to joint ``k``'s body, by the joints below ``k``: by at most
+    ``C_k = sum_{j below k} sphere_reach[c, j] |u_j|`` per unit ``s``. So over the motion ``rho_k <=
+    (rho_k(0) + rho_k(1) + C_k) / 2`` (the two ends' bounds ``rho_k(0) + s C_k`` and ``rho_k(1) + (1 - s)
+    C_k`` meet there), and never above ``sphere_reach[c, k]``. ``rho_k`` is measured at both ends for each
+    geometry's bounding-sphere centre; a cover sphere at ``d`` from it (fixed in the same frame) is at most
+    ``d`` farther from any axis. A self pair's gaps change at most as fast as the two geometries' spheres
+    move on the joints carrying one of them and not the other: the same per-joint bounds with the
+    geometry's largest rates. The results are constant rates over the whole motion, at most the global
+    ones: the advancement is unchanged, its steps longer."""
+    n, G = joints.shape[0], geoms.shape[0]
+    rows = sphere_reach.shape[0]
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    ends = _end_distances(tree, joints, spheres, geoms, qa, qb, du, X, W)
+    joint_rate = np.zeros((G, n))  # per geometry and joint: the largest rate of its rows
+    for g in range(min(G, rows)):
+        for c in range(geoms[g, 1] - 1, min(geoms[g, 2], rows)):
+            row = g if c < geoms[g, 1] else c  # the bounding sphere first, then the cover spheres
+            dx, dy, dz = spheres[row, 0] - spheres[g, 0], spheres[row, 1] - spheres[g, 1], \
+                spheres[row, 2] - spheres[g, 2]
+            offset = math.sqrt(dx * dx + dy * dy + dz * dz)
+            below, rate = 0.0, 0.0
+            j = geoms[g, 0]
+            while j > 0:
+                k = j - 1
+                reach = sphere_reach[row, k]
+                if joints[k, 0] == _REVOLUTE:
+                    reach = min(reach, 0.5 * ends[g, k] + offset + 0.5 * below)
+                joint_rate[g, k] = max(joint_rate[g, k], reach)
+                rate += reach * du[k]
+                below += sphere_reach[row, k] * du[k]
+                j = joints[k, 2]
+            v[row] = min(v[row], rate * LIPSCHITZ_SAFETY)
+    for p in range(pairs.shape[0]):
+        a, b = pairs[p, 0], pairs[p, 1]
+        if pairs[p, 2] != SELF_PAIR or a >= rows or b >= rows:
+            continue
+        rate = 0.0
+        for k in range(n):
+            if pair_reach[p, k] > 0.0:  # a joint carrying one of the two and not the other
+                rate += (joint_rate[a, k] + joint_rate[b, k]) * du[k]
+        w[p] = min(w[p], rate * LIPSCHITZ_SAFETY)
+
+
+_RATES_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, F1_ANY, F1_ANY)
+
+
+@compiled(_RATES_SIGNATURE)
+def motion_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
+                 qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
+    """The rates :func:`certify_motion` and :func:`motion_hard_pairs` advance with on ``qa -> qb``:
+    ``[v (S,), w (P,)]``, per sphere row the bound (m per unit ``s``) of its centre's speed and per pair-table
+    row the bound of a self pair's sphere gaps' rate (:func:`_motion_rates` lowered by
+    :func:`_tighten_rates`); empty when the arguments do not fit."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
+        return np.zeros(0)
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    X, W, placed = workspace(joints.shape[0], spheres.shape[0], geoms.shape[0])
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
+    return np.concatenate((v, w))
+
+
+_GEOMETRY_RATES_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F1_ANY, F1_ANY, _t.float64, _t.float64,
+                                                         I1)
+
+
+@compiled(_GEOMETRY_RATES_SIGNATURE)
+def geometry_pair_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, qa: np.ndarray,
+                        qb: np.ndarray, lo: float, hi: float, scene_pairs: np.ndarray) -> np.ndarray:
+    """Per scene pair of ``scene_pairs`` (indices), a bound ``w`` (m per unit ``s``) of how fast the distance
+    between its two *shapes* (the robot geometries, not their spheres) can change on the stretch ``s`` in
+    ``[lo, hi]`` of the straight motion ``q(s) = qa + s (qb - qa)``: ``inf`` for a pair the scene's table
+    lacks or when the arguments do not fit (``qa``, ``qb`` not one entry per joint, the rate table short).
+
+    The bounds of :func:`_tighten_rates` for every point ``x`` of a geometry: within its bounding sphere
+    (centre ``c``, radius ``r``), so ``rho_k(x) <= rho_k(c) + r`` and its distance from joint ``k``'s origin
+    is at most ``sphere_reach[c, k] + r``; with ``C_k = sum_{j below k} (sphere_reach[c, j] + r) |u_j|``, over
+    the stretch ``rho_k(x) <= (rho_k(c, lo) + rho_k(c, hi)) / 2 + r + C_k (hi - lo) / 2``. An obstacle pair:
+    ``sum_k |u_k| bound_k`` over the joints carrying the geometry (a prismatic one: ``|u_k|``); a self pair:
+    the two geometries' bounds on the joints carrying one of them and not the other (the joints carrying both
+    move them rigidly together)."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n, G = joints.shape[0], geoms.shape[0]
+    out = np.full(scene_pairs.shape[0], math.inf)
+    if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or sphere_reach.shape[0] < G:
+        return out
+    du = np.empty(n)
+    for k in range(n):
+        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    X, W, placed = workspace(n, spheres.shape[0], G)
+    q_lo, q_hi = np.empty(n), np.empty(n)
+    for i in range(n):
+        q_lo[i] = qa[i] + lo * (qb[i] - qa[i])
+        q_hi[i] = qa[i] + hi * (qb[i] - qa[i])
+    ends = _end_distances(tree, joints, spheres, geoms, q_lo, q_hi, du, X, W)
+    bound = np.full((G, n), -1.0)  # per geometry and joint carrying it: the rate of its points
+    for g in range(G):
+        r = spheres[g, 3]
+        below = 0.0
+        j = geoms[g, 0]
+        while j > 0:
+            k = j - 1
+            if joints[k, 0] == _REVOLUTE:
+                reach = sphere_reach[g, k] + r
+                bound[g, k] = min(reach, 0.5 * ends[g, k] + r + 0.5 * (hi - lo) * below)
+            else:
+                reach = 1.0
+                bound[g, k] = 1.0
+            below += reach * du[k]
+            j = joints[k, 2]
+    for t in range(scene_pairs.shape[0]):
+        for p in range(pairs.shape[0]):
+            if pairs[p, 3] != scene_pairs[t]:
+                continue
+            a, b = pairs[p, 0], pairs[p, 1]
+            rate = 0.0
+            for k in range(n):
+                ka = bound[a, k] >= 0.0
+                kb = pairs[p, 2] == SELF_PAIR and bound[b, k] >= 0.0
+                if ka and not kb:
+                    rate += bound[a, k] * du[k]
+                elif kb and not ka:
+                    rate += bound[b, k] * du[k]
+            out[t] = rate * LIPSCHITZ_SAFETY
+            break
+    return out
+
+
+@_inline
+def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol):
+    """The certified radius of pair-table row ``p`` alone at the configuration placed in ``X`` / ``W``, for a
+    motion whose sphere centres move by at most ``v[s]`` and whose self pairs' sphere gaps change by at most
+    ``w[p]`` per unit of its parameter: its bounding spheres' radius, or, when that one is below ``need``,
+    the larger of it and its cover spheres' (placed on first need, marked with ``stamp``; either family
+    staying apart keeps the pair apart). :func:`_motion_radius` asks it of every pair with ``need`` = the
+    running minimum, :func:`_pair_advance` of the pairs it advances."""
+    a, b = pairs[p, 0], pairs[p, 1]
+    if pairs[p, 2] == SELF_PAIR:
+        r = _rate_radius(sphere_gap(W, a, b) - tol, w[p])
+        if r >= need:
+            return r
+        place_cover(X, spheres, geoms, a, W, placed, stamp)
+        place_cover(X, spheres, geoms, b, W, placed, stamp)
+        return max(r, _rate_radius(self_cover_gap(W, geoms, a, b) - tol, w[p]))
+    r = _rate_radius(obstacle_gap(W, a, obstacles, b) - tol, v[a])
+    if r >= need:
+        return r
+    place_cover(X, spheres, geoms, a, W, placed, stamp)
+    parts = math.inf
+    for i in range(geoms[a, 1], geoms[a, 2]):
+        parts = min(parts, _rate_radius(obstacle_gap(W, i, obstacles, b) - tol, v[i]))
+        if parts <= r:
+            break
+    return max(r, parts)
+
+
+@_jit
+def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit, tol, X, W, placed,
+                   stamp):
+    """The certified radius at ``q`` of a motion whose sphere centres move by at most ``v[s]`` and whose self
+    pairs' sphere gaps change by at most ``w[p]`` per unit of its parameter (:func:`certify_motion`), over
+    the pairs ``skip`` leaves out, and the table row of the pair that decides it: ``(radius, row)``, ``limit``
+    and -1 when no pair is smaller; a negative radius when the spheres of pair ``row`` are not apart. A
+    pair's radius is that of its bounding spheres or, when that one is below the running minimum, the
+    larger of it and the smallest radius of its cover spheres (either family staying apart keeps the pair
+    apart)."""
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        place_sphere(X, geoms[g, 0], spheres, g, W)
+    best, decider = limit, -1
+    for p in range(pairs.shape[0]):
+        if skip[pairs[p, 3]]:
+            continue
+        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, best, tol)
+        if r < best:  # (a pair at or above the running minimum does not decide it: its covers are not asked)
+            best, decider = r, p
+            if r < 0.0:
+                return -1.0, p
+    return best, decider
+
+
+_MOTION_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, B1, F1_ANY, F1_ANY, _t.float64, _t.float64,
+                                                 _t.int64)
+
+
+@compiled(_MOTION_SIGNATURE)
+def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
+                   skip: np.ndarray, qa: np.ndarray, qb: np.ndarray, tol: float, min_step: float,
+                   max_advances: int) -> np.ndarray:
+    """Conservative advancement on the sphere bounds along the straight motion ``q(s) = qa + s (qb - qa)``,
+    ``s`` in ``[0, 1]``: ``[lo, hi, advances]``, where ``[0, lo]`` and ``[hi, 1]`` are certified collision
+    free (every pair's lower bound above ``tol``, m, at every ``s`` of them), every pair but those
+    ``skip`` ``(P,)`` marks (by their index in the scene); the whole motion when ``lo >= hi``. ``stop``:
+    the scene index of the pair that decided the last radius when the motion is not certified, else -1.
+    Returns ``[lo, hi, advances, stop]``.
+
+    Per unit ``s``, sphere centre ``c`` moves by at most ``v[c] = sum_k sphere_reach[c, k] |u_k|``
+    (:func:`~.robot_spheres.sphere_reach`, ``u = qb - qa`` on joint ``k``'s coordinate), so a sphere's gap
+    to an obstacle (1-Lipschitz in its centre) falls by at most ``v[c] |ds|``; a self pair's sphere gaps by
+    at most ``w[p] = sum_k pair_reach[p, k] |u_k|`` (row ``p`` of the kernel's pair table; the joints
+    carrying both geometries move them rigidly together and count 0). Both are then lowered to this motion's
+    own bounds, from the centres' distances to the joint axes at its two ends (:func:`_tighten_rates`;
+    :func:`motion_rates` returns them). A configuration ``q(s)`` therefore
+    certifies ``|s' - s| <= rho`` (:func:`_motion_radius`); the advances alternate between the two ends,
+    each from the end of the interval before it (no gap), and stop at ``lo >= hi``, at a radius below
+    ``min_step`` (the spheres do not decide: an exact check may go on from ``lo`` and ``hi``) or after
+    ``max_advances``.
+    Nothing certified (``[0, 1, 0, -1]``) when ``qa`` or ``qb`` has not one entry per joint or the tables do
+    not cover every sphere row and pair. ``floats, ints``: :func:`~.precheck_packing.pack`.
+    """
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n = joints.shape[0]
+    out = np.zeros(4)
+    out[1], out[3] = 1.0, -1.0
+    if skip.shape[0] != pairs.shape[0] or not _rates_fit(joints, spheres, geoms, pairs, sphere_reach,
+                                                         pair_reach, qa, qb):
+        return out
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
+    q = np.empty(n)
+    lo, hi = 0.0, 1.0
+    advances, last = 0, -1
+    while advances < max_advances and lo < hi:
+        from_lo = advances % 2 == 0
+        s = lo if from_lo else hi
+        for i in range(n):
+            q[i] = qa[i] + s * (qb[i] - qa[i])
+        limit = hi - lo
+        rho, decider = _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit,
+                                      tol, X, W, placed, advances)
+        advances += 1
+        last = decider
+        if rho >= limit:
+            lo = hi
+        elif rho < min_step:
+            break
+        elif from_lo:
+            lo += rho
+        else:
+            hi -= rho
+    out[0], out[1], out[2] = lo, hi, advances
+    if lo < hi and last >= 0:
+        out[3] = pairs[last, 3]
+    return out
+
+
+#: Pairs :func:`motion_hard_pairs` re-evaluates at a point: those whose certified front lies within this
+#: fraction of the side's last smallest radius (the others are certified well ahead).
+PAIR_HORIZON = 0.5
+
+
+@_jit
+def _pair_advance(X, W, placed, stamp, spheres, geoms, pairs, obstacles, v, w, tol, min_step, live, m,
+                  front, back, state, s, from_lo, horizon):
+    """One advance of :func:`motion_hard_pairs` at ``s`` (placements in ``X`` / ``W``) over the open pairs
+    ``live[:m]`` whose front (from below, ``from_lo``) or back lies within ``horizon`` of ``s``: their
+    radius ``r`` certifies ``[s - r, s + r]``, joined to ``[0, front]`` / ``[back, 1]`` (``s`` is inside
+    or at the end of it); a pair is certified (``state`` 1) when the two meet, hard (2) when ``r`` is below
+    ``min_step``. Returns the smallest radius found (``inf``: none) and the number of new hard pairs."""
+    best, hard = math.inf, 0
+    for t in range(m):
+        p = live[t]
+        if from_lo:
+            if front[p] > s + horizon:
+                continue
+            need = back[p] - s
+        else:
+            if back[p] < s - horizon:
+                continue
+            need = s - front[p]
+        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol)
+        if r < min_step:
+            state[p] = 2
+            hard += 1
+            continue
+        best = min(best, r)
+        if r >= need:
+            state[p] = 1
+        elif from_lo:
+            front[p] = max(front[p], s + r)
+        else:
+            back[p] = min(back[p], s - r)
+    return best, hard
+
+
+@_inline
+def _open_end(live, m, state, front, back, from_lo):
+    """Keep the open pairs (``state`` 0) of ``live[:m]`` at its start: ``(their count, the end to advance
+    from)``: the smallest front (``from_lo``) or the largest back."""
+    s = math.inf if from_lo else -math.inf
+    k = 0
+    for t in range(m):
+        p = live[t]
+        if state[p] == 0:
+            live[k] = p
+            k += 1
+            s = min(s, front[p]) if from_lo else max(s, back[p])
+    return k, s
+
+
+_HARD_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, F1_ANY, F1_ANY, _t.float64, _t.float64,
+                                             _t.int64, _t.int64)
+
+
+@compiled(_HARD_SIGNATURE)
+def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
+                      qa: np.ndarray, qb: np.ndarray, tol: float, min_step: float, max_advances: int,
+                      max_hard: int) -> np.ndarray:
+    """The pairs the sphere bounds cannot certify over the straight motion ``q(s) = qa + s (qb - qa)``,
+    ``s`` in ``[0, 1]``: ``[h, advances, lo, hi, pair, ...]`` with the scene indices of the ``h`` hard
+    pairs (every other pair's lower bound stays above ``tol``, m, over the whole motion; the hard ones too
+    on ``[0, lo)`` and ``(hi, 1]``: an exact check need only cover ``[lo, hi]``), or ``h = -1`` when more
+    than ``max_hard`` pairs are hard (or the arguments do not fit: ``[-1, 0, 0, 1, ...]``). Length
+    ``max_hard + 4``, -1 where unused.
+
+    Conservative advancement per pair (the rates ``v``, ``w`` and radii of :func:`certify_motion`): pair
+    ``p`` is certified on ``[0, front[p]]`` and ``[back[p], 1]``; an advance from below evaluates at ``s``,
+    the smallest front of the open pairs, the pairs whose front is within :data:`PAIR_HORIZON` of the last
+    smallest radius of ``s`` (at least those at ``s``: ``s <= front[p]``, so a radius ``r`` at ``s`` extends
+    the certified interval without a gap to ``s + r``); advances from above likewise, alternately. A pair is
+    certified once ``front[p] >= back[p]`` (the two intervals cover ``[0, 1]``); a pair whose radius falls
+    below ``min_step`` (fraction of the motion; also when its spheres are not apart) is hard, and so is
+    every pair still open after ``max_advances``. A pair far from everything is done in one or two
+    evaluations; only the close ones are advanced in small steps.
+    """
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n, P = joints.shape[0], pairs.shape[0]
+    out = np.full(max_hard + 4, -1.0)
+    out[1], out[2], out[3] = 0.0, 0.0, 1.0
+    if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
+        return out
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
+    front, back = np.zeros(P), np.ones(P)
+    state = np.zeros(P, dtype=np.int64)  # 0 open, 1 certified, 2 hard
+    live = np.arange(P)
+    q = np.empty(n)
+    m, hard, advances, steps = P, 0, 0, np.zeros(2)
+    while hard <= max_hard:
+        from_lo = advances % 2 == 0
+        m, s = _open_end(live, m, state, front, back, from_lo)
+        if m == 0:
+            break
+        if advances >= max_advances:  # the open pairs are hard
+            hard += m
+            for t in range(m):
+                state[live[t]] = 2
+            break
+        for i in range(n):
+            q[i] = qa[i] + s * (qb[i] - qa[i])
+        tree_placements(tree, joints, q, X)
+        for g in range(geoms.shape[0]):
+            place_sphere(X, geoms[g, 0], spheres, g, W)
+        best, new = _pair_advance(X, W, placed, advances, spheres, geoms, pairs, obstacles, v, w, tol,
+                                  min_step, live, m, front, back, state, s, from_lo, steps[advances % 2])
+        hard += new
+        if best < math.inf:
+            steps[advances % 2] = PAIR_HORIZON * best
+        advances += 1
+    out[1] = advances
+    if hard > max_hard:
+        return out
+    out[0], lo, hi = hard, 1.0, 0.0
+    k = 4
+    for p in range(P):
+        if state[p] == 2:
+            out[k] = pairs[p, 3]
+            lo, hi = min(lo, front[p]), max(hi, back[p])
+            k += 1
+    out[2], out[3] = (lo, hi) if hard else (1.0, 0.0)
+    return out
+
+
+__all__ = ["PAIR_HORIZON", "certify_motion", "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]

@@ -1,0 +1,306 @@
+"""The compiled motion certificates (kinserve.kinematics.motion_kernels) against sampled motions and coal.
+
+* ``certify_motion`` and ``motion_hard_pairs``: on densely sampled Panda motions near obstacles, every pair
+  they certify keeps its sphere lower bound above the tolerance, and coal finds the samples free;
+* the rates they advance with (``motion_rates``) against sampled sphere-centre displacements, the centres'
+  distances from the joint axes and the self pairs' bound changes; ``geometry_pair_rates`` against coal's
+  distances of the shapes themselves.
+"""
+
+import numpy as np
+
+from kinserve import robots
+from kinserve.kinematics import motion_kernels as mk
+from kinserve.kinematics import precheck_kernels as pk
+from kinserve.kinematics.serial_chain import REVOLUTE
+
+from collision_scenes import SCENE, coal_hits, scenes_near_the_arm
+
+
+def _edge_samples(lo: float, hi: float, count: int = 300) -> np.ndarray:
+    """Dense samples of the two certified intervals ``[0, lo]`` and ``[hi, 1]``, their ends included."""
+    parts = [np.linspace(0.0, min(lo, 1.0), count)] if lo > 0.0 else [np.zeros(0)]
+    if hi < 1.0:
+        parts.append(np.linspace(max(hi, 0.0), 1.0, count))
+    return np.concatenate(parts)
+
+
+def test_certify_motion_keeps_every_bound_above_the_tolerance_on_what_it_certifies(tmp_path):
+    """Straight motions of the Panda between random configurations near obstacles: on every ``s`` of the
+    intervals ``certify_motion`` returns, densely sampled, every pair's sphere lower bound
+    (``pair_lower_bounds``) exceeds the tolerance - but the pairs it was told to skip; coal finds the samples
+    free; motions it certifies whole and motions it stops short both occur, and the pair it names as the
+    one that stopped it is below the tolerance near where it stopped or limits the step."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(21)
+    whole = short = 0
+    for q_s, scene, pre in scenes_near_the_arm(robot, rng, tmp_path):
+        P = len(scene.pairs)
+        for trial in range(30):
+            qa = np.clip(q_s + rng.normal(scale=0.4, size=robot.nq), robot.lower, robot.upper)
+            qb = np.clip(qa + rng.normal(scale=0.1, size=robot.nq), robot.lower, robot.upper)
+            skip = np.zeros(P, dtype=bool)
+            if trial % 3 == 2:
+                skip[rng.integers(P, size=3)] = True
+            lo, hi, advances, stop = mk.certify_motion(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach,
+                                                       skip, qa, qb, pre.tolerance, 1e-3, 256)
+            assert 0.0 <= lo and hi <= 1.0 and advances >= (1 if lo > 0.0 or hi < 1.0 else 0)
+            samples = _edge_samples(lo, hi)
+            bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, qa + s * (qb - qa))
+                               for s in samples]).reshape(len(samples), P)
+            assert np.all(bounds[:, ~skip] > pre.tolerance), (lo, hi)
+            if not skip.any() and len(samples):
+                assert not coal_hits(scene, qa + samples[:, None] * (qb - qa)).any()
+            if lo >= hi:
+                whole += 1
+                assert stop == -1
+            else:
+                short += 1
+                assert 0 <= stop < P and not skip[int(stop)]
+    assert whole > 5 and short > 10, (whole, short)
+
+
+def test_motion_hard_pairs_keeps_every_other_bound_above_the_tolerance_over_the_whole_motion(tmp_path):
+    """Straight motions of the Panda near obstacles: every pair ``motion_hard_pairs`` does not hand over
+    keeps its sphere lower bound (``pair_lower_bounds``) above the tolerance at 400 samples of the whole
+    motion, the hard ones on the samples of ``[0, lo)`` and ``(hi, 1]``, and coal finds the samples of a
+    motion with no hard pair free; motions with no hard pair, with some and with too many (``-1``) all
+    occur."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(22)
+    kinds = {"none": 0, "some": 0, "too many": 0}
+    for q_s, scene, pre in scenes_near_the_arm(robot, rng, tmp_path):
+        P = len(scene.pairs)
+        for _ in range(30):
+            qa = np.clip(q_s + rng.normal(scale=0.4, size=robot.nq), robot.lower, robot.upper)
+            qb = np.clip(qa + rng.normal(scale=0.1, size=robot.nq), robot.lower, robot.upper)
+            out = mk.motion_hard_pairs(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, qa, qb,
+                                       pre.tolerance, 1e-3, 1024, 4)
+            assert len(out) == 8 and out[1] >= 1
+            if out[0] < 0:
+                kinds["too many"] += 1
+                continue
+            h, lo, hi = int(out[0]), out[2], out[3]
+            hard = out[4:4 + h].astype(int)
+            assert np.all(out[4 + h:] == -1) and len(set(hard.tolist())) == len(hard)
+            samples = np.linspace(0.0, 1.0, 400)
+            bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, qa + s * (qb - qa))
+                               for s in samples]).reshape(len(samples), P)
+            keep = np.ones(P, dtype=bool)
+            keep[hard] = False
+            assert np.all(bounds[:, keep] > pre.tolerance)
+            ends = (samples < lo) | (samples > hi)
+            assert np.all(bounds[np.ix_(ends, hard)] > pre.tolerance)
+            if not len(hard):
+                assert lo >= hi
+                kinds["none"] += 1
+                assert not coal_hits(scene, qa + samples[:, None] * (qb - qa)).any()
+            else:
+                kinds["some"] += 1
+                assert 0.0 <= lo < hi <= 1.0
+    assert kinds["none"] > 5 and kinds["some"] > 3 and kinds["too many"] > 0, kinds
+
+
+def test_motion_hard_pairs_fits_its_arguments_and_agrees_with_certify_motion():
+    """Arguments of the wrong size: ``[-1, 0, 0, 1, -1, ...]``; ``max_hard = 0`` on a motion with hard pairs:
+    ``-1``; a motion ``certify_motion`` certifies whole on the spheres has no hard pair."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    P = len(scene.pairs)
+    args = (pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach)
+    rng = np.random.default_rng(4)
+    qa, qb = robot.neutral(), robot.random_q(rng)
+    assert list(mk.motion_hard_pairs(*args, qa[:-1], qb, 1e-5, 1e-3, 64, 2)) == [-1, 0, 0, 1, -1, -1]
+    short_rows = np.ascontiguousarray(pre.sphere_reach[:-1])
+    assert mk.motion_hard_pairs(pre.floats, pre.ints, short_rows, pre.pair_reach, qa, qb, 1e-5, 1e-3, 64,
+                                2)[0] == -1
+    whole = handed = 0
+    for _ in range(200):
+        qa = robot.random_q(rng)
+        qb = np.clip(qa + rng.normal(scale=0.3, size=robot.nq), robot.lower, robot.upper)
+        lo, hi, _, _ = mk.certify_motion(*args, np.zeros(P, dtype=bool), qa, qb, 1e-5, 1e-3, 256)
+        out = mk.motion_hard_pairs(*args, qa, qb, 1e-5, 1e-3, 1024, P)
+        if lo >= hi:
+            whole += 1
+            assert out[0] == 0
+        elif out[0] > 0:
+            handed += 1
+            assert mk.motion_hard_pairs(*args, qa, qb, 1e-5, 1e-3, 1024, 0)[0] == -1
+    assert whole > 10 and handed > 10, (whole, handed)
+
+
+def test_certify_motion_certifies_nothing_on_wrong_shapes_and_everything_skipped():
+    """Arguments of the wrong size certify nothing (``[0, 1, 0, -1]``); a motion with every pair skipped is
+    certified without an advance needing a pair."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    P = len(scene.pairs)
+    qa, qb = robot.neutral(), robot.random_q(np.random.default_rng(3))
+    args = (pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach)
+    nothing = [0.0, 1.0, 0.0, -1.0]
+    none = np.zeros(P, dtype=bool)
+    assert list(mk.certify_motion(*args, none, qa[:-1], qb, 1e-5, 1e-3, 256)) == nothing
+    assert list(mk.certify_motion(*args, none[:-1], qa, qb, 1e-5, 1e-3, 256)) == nothing
+    short_rows = np.ascontiguousarray(pre.sphere_reach[:-1])
+    assert list(mk.certify_motion(pre.floats, pre.ints, short_rows, pre.pair_reach, none, qa, qb, 1e-5, 1e-3,
+                                  256)) == nothing
+    lo, hi, _, stop = mk.certify_motion(*args, np.ones(P, dtype=bool), qa, qb, 1e-5, 1e-3, 256)
+    assert lo >= hi and stop == -1
+
+
+def test_self_pair_bounds_change_no_faster_than_their_motion_reach():
+    """For the self pairs of the Panda, the sphere lower bound of the pair (``pair_lower_bounds``) changes
+    between two configurations by at most ``pair_reach[p] . |dq|`` (the rate ``certify_motion`` uses), for
+    steps from a micro-radian to the whole range; and the rate is not vacuous (within a factor ~10 of the
+    largest change seen on some pair)."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(())
+    pre = scene.precheck()
+    table = scene.layout.precheck().pairs
+    own = table[:, 2] == pk.SELF_PAIR
+    assert own.any()
+    idx = robot.collision.spheres.joints[:, 1]
+    rng = np.random.default_rng(5)
+    tight = 0.0
+    for _ in range(300):
+        q = robot.random_q(rng)
+        q2 = np.clip(q + 10.0 ** rng.uniform(-6, 0) * rng.normal(size=robot.nq), robot.lower, robot.upper)
+        change = np.abs(pk.pair_lower_bounds(pre.floats, pre.ints, q2) - pk.pair_lower_bounds(pre.floats,
+                                                                                               pre.ints, q))
+        rates = pre.pair_reach @ np.abs(q2[idx] - q[idx])
+        scene_index = table[own, 3]
+        assert np.all(change[scene_index] <= rates[own] * (1 + 1e-9) + 1e-12)
+        moving = rates[own] > 0
+        if moving.any():
+            tight = max(tight, float(np.max(change[scene_index][moving] / rates[own][moving])))
+    assert tight > 0.1, tight
+
+
+def _centres(spheres, q: np.ndarray) -> np.ndarray:
+    """World centres ``(G + S, 3)`` of every sphere row of the robot's sphere model at ``q`` (Pinocchio's
+    forward kinematics, not the kernels')."""
+    rows = np.empty((len(spheres.spheres), 3))
+    X = np.empty((len(spheres.joints) + 1, 12))
+    pk.tree_placements(spheres.tree, spheres.joints, q, X)
+    for g, (joint, first, end) in enumerate(spheres.geoms):
+        for r in [g, *range(first, end)]:
+            R, t = X[joint, :9].reshape(3, 3), X[joint, 9:]
+            rows[r] = t + R @ spheres.spheres[r, :3]
+    return rows
+
+
+def _axis_rate_sum(spheres, qs: np.ndarray, du: np.ndarray) -> np.ndarray:
+    """Per sphere row, ``sum_k du[k] max_s rho_k(s)`` over the samples ``qs``: ``rho_k`` the centre's distance
+    from revolute joint ``k``'s axis (1 for a prismatic joint), over the joints carrying the row. A rate
+    whose every per-joint term bounds that joint's part of the speed is at least this."""
+    J = len(spheres.joints)
+    peak = np.zeros((len(spheres.spheres), J))
+    X = np.empty((J + 1, 12))
+    for q in qs:
+        pk.tree_placements(spheres.tree, spheres.joints, q, X)
+        C = _centres(spheres, q)
+        for g, (joint, first, end) in enumerate(spheres.geoms):
+            rows = [g, *range(first, end)]
+            j = int(joint)
+            while j > 0:
+                k = j - 1
+                if spheres.joints[k, 0] == REVOLUTE:
+                    axis = X[j, :9].reshape(3, 3) @ spheres.tree[k, 12:15]
+                    rho = np.linalg.norm(np.cross(axis, C[rows] - X[j, 9:]), axis=1)
+                else:
+                    rho = np.ones(len(rows))
+                peak[rows, k] = np.maximum(peak[rows, k], rho)
+                j = int(spheres.joints[k, 2])
+    return peak @ du
+
+
+def _motions(robot, rng, count):
+    """Straight motions of every length: short steps to moves across the joint ranges."""
+    for _ in range(count):
+        qa = robot.random_q(rng)
+        scale = 10.0 ** rng.uniform(-2, 0.5)
+        yield qa, np.clip(qa + scale * rng.normal(size=robot.nq), robot.lower, robot.upper)
+
+
+def test_motion_rates_bound_every_sphere_centre_and_self_pair_on_the_motion():
+    """``motion_rates`` (the rates the sphere advancement uses) on straight Panda motions of every length:
+    between any two of 40 samples ``s, s'`` of the motion, every sphere centre moves by at most
+    ``v[c] |s - s'|`` and every self pair's sphere lower bound changes by at most ``w[p] |s - s'|`` (centres
+    from the tree's placements), and each rate is at least ``sum_k |u_k| max_s rho_k(s)`` (the centre's
+    distance from each joint's axis at its largest on 200 samples: each joint's term bounds its part); the
+    rates are never above the global ones (``sphere_reach . |u|``,
+    ``pair_reach . |u|``), below them on most motions, and not vacuous (the largest centre displacement seen
+    is more than half the bound on some motion)."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(())
+    pre = scene.precheck()
+    spheres = robot.collision.spheres
+    table = scene.layout.precheck().pairs
+    own = np.flatnonzero(table[:, 2] == pk.SELF_PAIR)
+    S = len(spheres.spheres)  # the model's sphere rows (the packed rows go on with its inner balls: rate 0)
+    idx = spheres.joints[:, 1]
+    rng = np.random.default_rng(31)
+    s = np.linspace(0.0, 1.0, 40)
+    ds = np.abs(s[:, None] - s[None, :])
+    lower_than_global, tightest = 0, 0.0
+    for qa, qb in _motions(robot, rng, 60):
+        rates = mk.motion_rates(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach, qa, qb)
+        v, w = rates[:S], rates[len(rates) - len(table):]
+        assert not rates[S:len(rates) - len(table)].any()
+        du = np.abs(qb[idx] - qa[idx])
+        v_global, w_global = spheres.sphere_reach @ du, pre.pair_reach @ du
+        assert np.all(v <= v_global * (1 + 1e-9) + 1e-15) and np.all(w <= w_global * (1 + 1e-9) + 1e-15)
+        lower_than_global += bool(np.median(v / np.maximum(v_global, 1e-300)) < 0.9)
+        qs = qa + s[:, None] * (qb - qa)
+        C = np.array([_centres(spheres, q) for q in qs])  # (40, S, 3)
+        moved = np.linalg.norm(C[:, None] - C[None, :], axis=-1)  # (40, 40, S)
+        assert np.all(moved <= v[None, None, :] * ds[:, :, None] * (1 + 1e-9) + 1e-12)
+        assert np.all(v >= _axis_rate_sum(spheres, np.linspace(qa, qb, 200), du) * (1 - 1e-9))
+        moving = v > 0
+        seen = moved[..., moving] / (v[moving] * np.maximum(ds, 1e-300)[..., None])
+        tightest = max(tightest, float(np.max(seen)))
+        bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, q) for q in qs])[:, table[own, 3]]
+        change = np.abs(bounds[:, None] - bounds[None, :])
+        assert np.all(change <= w[own][None, None, :] * ds[:, :, None] * (1 + 1e-9) + 1e-12)
+    assert lower_than_global > 40 and tightest > 0.5, (lower_than_global, tightest)
+
+
+def test_geometry_pair_rates_bound_coal_distances_on_the_stretch():
+    """``geometry_pair_rates`` on stretches ``[lo, hi]`` of straight Panda motions in a scene with obstacles:
+    between any two of 25 samples of the stretch, every pair's coal distance (the shapes, not their spheres)
+    changes by at most the pair's rate times ``|s - s'|`` (plus coal's distance error); the rates are below
+    the planner's global ones (``EdgeCertifier.reach . |u|``) on most pairs; a pair the scene lacks and
+    arguments of the wrong size get ``inf``."""
+    from kinserve.planners.motion.clearance import ClearanceOracle
+    from kinserve.planners.motion.edges import EdgeCertifier
+    from kinserve.planners.motion.reach import pair_reach
+
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    pre = scene.precheck()
+    P = len(scene.pairs)
+    reach = pair_reach(robot.model, scene)
+    certifier = EdgeCertifier(ClearanceOracle(scene), reach)
+    everything = np.arange(P, dtype=np.int64)
+    rng = np.random.default_rng(32)
+    tighter = total = 0
+    for qa, qb in _motions(robot, rng, 25):
+        lo, hi = np.sort(rng.uniform(0.0, 1.0, 2))
+        rates = mk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa, qb, lo, hi, everything)
+        glob = reach @ np.abs(qb - qa)
+        assert np.allclose(certifier.pair_rates(qa, qb - qa, everything, lo, hi), np.minimum(rates, glob))
+        tighter += int(np.sum(rates < glob * 0.95))
+        total += P
+        s = np.linspace(lo, hi, 25)
+        d = np.array([scene.distance_arrays(qa + t * (qb - qa)).distance for t in s])
+        change = np.abs(d[:, None] - d[None, :])
+        ds = np.abs(s[:, None] - s[None, :])
+        assert np.all(change <= rates[None, None, :] * ds[:, :, None] + 2e-6)
+    assert tighter > total / 2, (tighter, total)
+    qa, qb = robot.neutral(), robot.random_q(rng)
+    missing = np.array([P + 5], dtype=np.int64)
+    assert np.isinf(mk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa, qb, 0.0, 1.0, missing))
+    assert np.all(np.isinf(mk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa[:-1], qb, 0.0,
+                                                  1.0, everything)))
