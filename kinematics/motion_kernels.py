@@ -14,9 +14,8 @@ self pair, the two geometries' rates on the joints carrying one of them and not 
 other. :func:`geometry_pair_rates` gives the same bound for the shapes themselves
 (not their spheres), for the exact stage that advances on coal's distances.
 
-**Advancement.** :func:`certify_motion`: from both ends, the smallest radius of all
-pairs at each point; :func:`motion_hard_pairs`: pair by pair, each with its own
-certified ends, handing over the pairs whose spheres cannot decide.
+**Advancement.** :func:`motion_hard_pairs`: from both ends, pair by pair, each with
+its own certified ends, handing over the pairs whose spheres cannot decide.
 
 Each kernel has its signature: importing this module compiles them or loads them
 from the kernel set's cache (:mod:`.kernel_cache`, whose key covers this file).
@@ -30,7 +29,7 @@ import math
 import numba
 import numpy as np
 
-from .kernel_cache import B1, F1, F1_ANY, F2, I1, compiled, inline, jit
+from .kernel_cache import F1, F1_ANY, F2, I1, compiled, inline, jit
 from .precheck_kernels import (
     LIPSCHITZ_SAFETY,
     SELF_PAIR,
@@ -195,7 +194,7 @@ _RATES_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, F1_ANY, F1_ANY)
 @compiled(_RATES_SIGNATURE)
 def motion_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
                  qa: np.ndarray, qb: np.ndarray) -> np.ndarray:
-    """The rates :func:`certify_motion` and :func:`motion_hard_pairs` advance with on ``qa -> qb``:
+    """The rates :func:`motion_hard_pairs` advances with on ``qa -> qb``:
     ``[v (S,), w (P,)]``, per sphere row the bound (m per unit ``s``) of its centre's speed and per pair-table
     row the bound of a self pair's sphere gaps' rate (:func:`_motion_rates` lowered by
     :func:`_tighten_rates`); empty when the arguments do not fit."""
@@ -280,8 +279,7 @@ def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w,
     motion whose sphere centres move by at most ``v[s]`` and whose self pairs' sphere gaps change by at most
     ``w[p]`` per unit of its parameter: its bounding spheres' radius, or, when that one is below ``need``,
     the larger of it and its cover spheres' (placed on first need, marked with ``stamp``; either family
-    staying apart keeps the pair apart). :func:`_motion_radius` asks it of every pair with ``need`` = the
-    running minimum, :func:`_pair_advance` of the pairs it advances."""
+    staying apart keeps the pair apart). :func:`_pair_advance` asks it of the pairs it advances."""
     a, b = pairs[p, 0], pairs[p, 1]
     if pairs[p, 2] == SELF_PAIR:
         r = _rate_radius(sphere_gap(W, a, b) - tol, w[p])
@@ -300,97 +298,6 @@ def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w,
         if parts <= r:
             break
     return max(r, parts)
-
-
-@_jit
-def _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit, tol, X, W, placed,
-                   stamp):
-    """The certified radius at ``q`` of a motion whose sphere centres move by at most ``v[s]`` and whose self
-    pairs' sphere gaps change by at most ``w[p]`` per unit of its parameter (:func:`certify_motion`), over
-    the pairs ``skip`` leaves out, and the table row of the pair that decides it: ``(radius, row)``, ``limit``
-    and -1 when no pair is smaller; a negative radius when the spheres of pair ``row`` are not apart. A
-    pair's radius is that of its bounding spheres or, when that one is below the running minimum, the
-    larger of it and the smallest radius of its cover spheres (either family staying apart keeps the pair
-    apart)."""
-    tree_placements(tree, joints, q, X)
-    for g in range(geoms.shape[0]):
-        place_sphere(X, geoms[g, 0], spheres, g, W)
-    best, decider = limit, -1
-    for p in range(pairs.shape[0]):
-        if skip[pairs[p, 3]]:
-            continue
-        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, best, tol)
-        if r < best:  # (a pair at or above the running minimum does not decide it: its covers are not asked)
-            best, decider = r, p
-            if r < 0.0:
-                return -1.0, p
-    return best, decider
-
-
-_MOTION_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, F2, B1, F1_ANY, F1_ANY, _t.float64, _t.float64,
-                                                 _t.int64)
-
-
-@compiled(_MOTION_SIGNATURE)
-def certify_motion(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray, pair_reach: np.ndarray,
-                   skip: np.ndarray, qa: np.ndarray, qb: np.ndarray, tol: float, min_step: float,
-                   max_advances: int) -> np.ndarray:
-    """Conservative advancement on the sphere bounds along the straight motion ``q(s) = qa + s (qb - qa)``,
-    ``s`` in ``[0, 1]``: ``[lo, hi, advances]``, where ``[0, lo]`` and ``[hi, 1]`` are certified collision
-    free (every pair's lower bound above ``tol``, m, at every ``s`` of them), every pair but those
-    ``skip`` ``(P,)`` marks (by their index in the scene); the whole motion when ``lo >= hi``. ``stop``:
-    the scene index of the pair that decided the last radius when the motion is not certified, else -1.
-    Returns ``[lo, hi, advances, stop]``.
-
-    Per unit ``s``, sphere centre ``c`` moves by at most ``v[c] = sum_k sphere_reach[c, k] |u_k|``
-    (:func:`~.robot_spheres.sphere_reach`, ``u = qb - qa`` on joint ``k``'s coordinate), so a sphere's gap
-    to an obstacle (1-Lipschitz in its centre) falls by at most ``v[c] |ds|``; a self pair's sphere gaps by
-    at most ``w[p] = sum_k pair_reach[p, k] |u_k|`` (row ``p`` of the kernel's pair table; the joints
-    carrying both geometries move them rigidly together and count 0). Both are then lowered to this motion's
-    own bounds, from the centres' distances to the joint axes at its two ends (:func:`_tighten_rates`;
-    :func:`motion_rates` returns them). A configuration ``q(s)`` therefore
-    certifies ``|s' - s| <= rho`` (:func:`_motion_radius`); the advances alternate between the two ends,
-    each from the end of the interval before it (no gap), and stop at ``lo >= hi``, at a radius below
-    ``min_step`` (the spheres do not decide: an exact check may go on from ``lo`` and ``hi``) or after
-    ``max_advances``.
-    Nothing certified (``[0, 1, 0, -1]``) when ``qa`` or ``qb`` has not one entry per joint or the tables do
-    not cover every sphere row and pair. ``floats, ints``: :func:`~.precheck_packing.pack`.
-    """
-    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
-    n = joints.shape[0]
-    out = np.zeros(4)
-    out[1], out[3] = 1.0, -1.0
-    if skip.shape[0] != pairs.shape[0] or not _rates_fit(joints, spheres, geoms, pairs, sphere_reach,
-                                                         pair_reach, qa, qb):
-        return out
-    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
-    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
-    q = np.empty(n)
-    lo, hi = 0.0, 1.0
-    advances, last = 0, -1
-    while advances < max_advances and lo < hi:
-        from_lo = advances % 2 == 0
-        s = lo if from_lo else hi
-        for i in range(n):
-            q[i] = qa[i] + s * (qb[i] - qa[i])
-        limit = hi - lo
-        rho, decider = _motion_radius(tree, joints, spheres, geoms, pairs, obstacles, skip, q, v, w, limit,
-                                      tol, X, W, placed, advances)
-        advances += 1
-        last = decider
-        if rho >= limit:
-            lo = hi
-        elif rho < min_step:
-            break
-        elif from_lo:
-            lo += rho
-        else:
-            hi -= rho
-    out[0], out[1], out[2] = lo, hi, advances
-    if lo < hi and last >= 0:
-        out[3] = pairs[last, 3]
-    return out
 
 
 #: Pairs :func:`motion_hard_pairs` re-evaluates at a point: those whose certified front lies within this
@@ -462,14 +369,23 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     than ``max_hard`` pairs are hard (or the arguments do not fit: ``[-1, 0, 0, 1, ...]``). Length
     ``max_hard + 4``, -1 where unused.
 
-    Conservative advancement per pair (the rates ``v``, ``w`` and radii of :func:`certify_motion`): pair
-    ``p`` is certified on ``[0, front[p]]`` and ``[back[p], 1]``; an advance from below evaluates at ``s``,
-    the smallest front of the open pairs, the pairs whose front is within :data:`PAIR_HORIZON` of the last
-    smallest radius of ``s`` (at least those at ``s``: ``s <= front[p]``, so a radius ``r`` at ``s`` extends
-    the certified interval without a gap to ``s + r``); advances from above likewise, alternately. A pair is
-    certified once ``front[p] >= back[p]`` (the two intervals cover ``[0, 1]``); a pair whose radius falls
-    below ``min_step`` (fraction of the motion; also when its spheres are not apart) is hard, and so is
-    every pair still open after ``max_advances``. A pair far from everything is done in one or two
+    Per unit ``s``, sphere centre ``c`` moves by at most ``v[c] = sum_k sphere_reach[c, k] |u_k|``
+    (:func:`~.robot_spheres.sphere_reach`, ``u = qb - qa`` on joint ``k``'s coordinate), so a sphere's gap
+    to an obstacle (1-Lipschitz in its centre) falls by at most ``v[c] |ds|``; a self pair's sphere gaps by
+    at most ``w[p] = sum_k pair_reach[p, k] |u_k|`` (row ``p`` of the kernel's pair table; the joints
+    carrying both geometries move them rigidly together and count 0). Both are then lowered to this motion's
+    own bounds, from the centres' distances to the joint axes at its two ends (:func:`_tighten_rates`;
+    :func:`motion_rates` returns them). A configuration ``q(s)`` therefore certifies a pair on
+    ``|s' - s| <= rho`` (:func:`_pair_radius`).
+
+    Conservative advancement per pair: pair ``p`` is certified on ``[0, front[p]]`` and ``[back[p], 1]``;
+    an advance from below evaluates at ``s``, the smallest front of the open pairs, the pairs whose front is
+    within :data:`PAIR_HORIZON` of the last smallest radius of ``s`` (at least those at ``s``: ``s <=
+    front[p]``, so a radius ``r`` at ``s`` extends the certified interval without a gap to ``s + r``);
+    advances from above likewise, alternately. A pair is certified once ``front[p] >= back[p]`` (the two
+    intervals cover ``[0, 1]``); a pair whose radius falls below ``min_step`` (fraction of the motion; also
+    when its spheres are not apart) is hard, and so is every pair still open after ``max_advances``. A pair
+    far from everything is done in one or two
     evaluations; only the close ones are advanced in small steps.
     """
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
@@ -521,4 +437,4 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     return out
 
 
-__all__ = ["PAIR_HORIZON", "certify_motion", "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]
+__all__ = ["PAIR_HORIZON", "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]

@@ -18,7 +18,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .motion_kernels import certify_motion
 from .obstacle_table import OBSTACLE_COLUMNS
 from .precheck_kernels import (
     OBSTACLE_PAIR,
@@ -42,10 +41,8 @@ class PrecheckArguments(NamedTuple):
     ``first_uncertified(floats, ints, rows, start, tolerance)``,
     ``certainly_colliding(floats, ints, q, tolerance)``; ``floats``, ``ints``: the scene's packed arrays
     (:mod:`.precheck_packing`); ``tolerance`` (m): :data:`~.precheck_kernels.TOLERANCE`.
-    ``certify_motion(floats, ints, sphere_reach, pair_reach, skip, qa, qb, tolerance, min_step,
-    max_advances)``
-    (:func:`~.motion_kernels.certify_motion`) with the layout's ``sphere_reach`` ``(S, J)`` and
-    ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`).
+    ``sphere_reach`` ``(S, J)`` and ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`): the
+    layout's rate tables of the motion certificates (:mod:`.motion_kernels`).
     ``classify(floats, ints, q, tolerance)`` (:func:`~.precheck_kernels.classify_configuration`: free, in
     collision or undecided, in one call) and ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene
     indices of the pairs the spheres do not certify at ``q``: coal need check only those).
@@ -57,7 +54,6 @@ class PrecheckArguments(NamedTuple):
     ints: np.ndarray
     tolerance: float
     certainly_colliding: Callable[..., bool]
-    certify_motion: Callable[..., np.ndarray]
     sphere_reach: np.ndarray
     pair_reach: np.ndarray
     classify: Callable[..., int]
@@ -100,7 +96,7 @@ class ScenePrecheck:
 
     def motion_reach(self) -> np.ndarray:
         """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast
-        the gap of two spheres of a self pair can change (:func:`~.motion_kernels.certify_motion`): the sum
+        the gap of two spheres of a self pair can change (:func:`~.motion_kernels.motion_hard_pairs`): the sum
         of the two geometries' :attr:`~.robot_spheres.RobotSpheres.geometry_reach` on the joints that
         carry one of them and not the other (a joint carrying both moves them rigidly together); 0 on the
         rows of obstacle pairs (their rates are the spheres' own)."""
@@ -119,7 +115,7 @@ class ScenePrecheck:
         followed by the obstacles' rows."""
         floats = np.concatenate((self.robot_floats, *[shape.obstacle_row for shape in obstacles]))
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
-                                 certainly_colliding, certify_motion, self.robot.sphere_reach,
+                                 certainly_colliding, self.robot.sphere_reach,
                                  self.pair_reach, classify_configuration, uncertified_pairs)
 
 

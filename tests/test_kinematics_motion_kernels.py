@@ -1,7 +1,7 @@
 """The compiled motion certificates (kinserve.kinematics.motion_kernels) against sampled motions and coal.
 
-* ``certify_motion`` and ``motion_hard_pairs``: on densely sampled Panda motions near obstacles, every pair
-  they certify keeps its sphere lower bound above the tolerance, and coal finds the samples free;
+* ``motion_hard_pairs``: on densely sampled Panda motions near obstacles, every pair it certifies keeps its
+  sphere lower bound above the tolerance, and coal finds the samples free;
 * the rates they advance with (``motion_rates``) against sampled sphere-centre displacements, the centres'
   distances from the joint axes and the self pairs' bound changes; ``geometry_pair_rates`` against coal's
   distances of the shapes themselves.
@@ -15,49 +15,6 @@ from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.serial_chain import REVOLUTE
 
 from collision_scenes import SCENE, coal_hits, scenes_near_the_arm
-
-
-def _edge_samples(lo: float, hi: float, count: int = 300) -> np.ndarray:
-    """Dense samples of the two certified intervals ``[0, lo]`` and ``[hi, 1]``, their ends included."""
-    parts = [np.linspace(0.0, min(lo, 1.0), count)] if lo > 0.0 else [np.zeros(0)]
-    if hi < 1.0:
-        parts.append(np.linspace(max(hi, 0.0), 1.0, count))
-    return np.concatenate(parts)
-
-
-def test_certify_motion_keeps_every_bound_above_the_tolerance_on_what_it_certifies(tmp_path):
-    """Straight motions of the Panda between random configurations near obstacles: on every ``s`` of the
-    intervals ``certify_motion`` returns, densely sampled, every pair's sphere lower bound
-    (``pair_lower_bounds``) exceeds the tolerance - but the pairs it was told to skip; coal finds the samples
-    free; motions it certifies whole and motions it stops short both occur, and the pair it names as the
-    one that stopped it is below the tolerance near where it stopped or limits the step."""
-    robot = robots.load("panda")
-    rng = np.random.default_rng(21)
-    whole = short = 0
-    for q_s, scene, pre in scenes_near_the_arm(robot, rng, tmp_path):
-        P = len(scene.pairs)
-        for trial in range(30):
-            qa = np.clip(q_s + rng.normal(scale=0.4, size=robot.nq), robot.lower, robot.upper)
-            qb = np.clip(qa + rng.normal(scale=0.1, size=robot.nq), robot.lower, robot.upper)
-            skip = np.zeros(P, dtype=bool)
-            if trial % 3 == 2:
-                skip[rng.integers(P, size=3)] = True
-            lo, hi, advances, stop = mk.certify_motion(pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach,
-                                                       skip, qa, qb, pre.tolerance, 1e-3, 256)
-            assert 0.0 <= lo and hi <= 1.0 and advances >= (1 if lo > 0.0 or hi < 1.0 else 0)
-            samples = _edge_samples(lo, hi)
-            bounds = np.array([pk.pair_lower_bounds(pre.floats, pre.ints, qa + s * (qb - qa))
-                               for s in samples]).reshape(len(samples), P)
-            assert np.all(bounds[:, ~skip] > pre.tolerance), (lo, hi)
-            if not skip.any() and len(samples):
-                assert not coal_hits(scene, qa + samples[:, None] * (qb - qa)).any()
-            if lo >= hi:
-                whole += 1
-                assert stop == -1
-            else:
-                short += 1
-                assert 0 <= stop < P and not skip[int(stop)]
-    assert whole > 5 and short > 10, (whole, short)
 
 
 def test_motion_hard_pairs_keeps_every_other_bound_above_the_tolerance_over_the_whole_motion(tmp_path):
@@ -101,9 +58,10 @@ def test_motion_hard_pairs_keeps_every_other_bound_above_the_tolerance_over_the_
     assert kinds["none"] > 5 and kinds["some"] > 3 and kinds["too many"] > 0, kinds
 
 
-def test_motion_hard_pairs_fits_its_arguments_and_agrees_with_certify_motion():
-    """Arguments of the wrong size: ``[-1, 0, 0, 1, -1, ...]``; ``max_hard = 0`` on a motion with hard pairs:
-    ``-1``; a motion ``certify_motion`` certifies whole on the spheres has no hard pair."""
+def test_motion_hard_pairs_fits_its_arguments_and_counts_its_hard_pairs():
+    """Arguments of the wrong size: ``[-1, 0, 0, 1, -1, ...]``; a motion with no hard pair has none whatever
+    ``max_hard`` allows (and ``lo >= hi``); one with hard pairs is ``-1`` when ``max_hard = 0``; both kinds
+    occur on random Panda motions."""
     robot = robots.load("panda")
     scene = robot.collision_scene(SCENE)
     pre = scene.precheck()
@@ -119,42 +77,22 @@ def test_motion_hard_pairs_fits_its_arguments_and_agrees_with_certify_motion():
     for _ in range(200):
         qa = robot.random_q(rng)
         qb = np.clip(qa + rng.normal(scale=0.3, size=robot.nq), robot.lower, robot.upper)
-        lo, hi, _, _ = mk.certify_motion(*args, np.zeros(P, dtype=bool), qa, qb, 1e-5, 1e-3, 256)
         out = mk.motion_hard_pairs(*args, qa, qb, 1e-5, 1e-3, 1024, P)
-        if lo >= hi:
+        none_allowed = mk.motion_hard_pairs(*args, qa, qb, 1e-5, 1e-3, 1024, 0)
+        if out[0] == 0:
             whole += 1
-            assert out[0] == 0
+            assert none_allowed[0] == 0 and out[2] >= out[3]
         elif out[0] > 0:
             handed += 1
-            assert mk.motion_hard_pairs(*args, qa, qb, 1e-5, 1e-3, 1024, 0)[0] == -1
+            assert none_allowed[0] == -1
     assert whole > 10 and handed > 10, (whole, handed)
-
-
-def test_certify_motion_certifies_nothing_on_wrong_shapes_and_everything_skipped():
-    """Arguments of the wrong size certify nothing (``[0, 1, 0, -1]``); a motion with every pair skipped is
-    certified without an advance needing a pair."""
-    robot = robots.load("panda")
-    scene = robot.collision_scene(SCENE)
-    pre = scene.precheck()
-    P = len(scene.pairs)
-    qa, qb = robot.neutral(), robot.random_q(np.random.default_rng(3))
-    args = (pre.floats, pre.ints, pre.sphere_reach, pre.pair_reach)
-    nothing = [0.0, 1.0, 0.0, -1.0]
-    none = np.zeros(P, dtype=bool)
-    assert list(mk.certify_motion(*args, none, qa[:-1], qb, 1e-5, 1e-3, 256)) == nothing
-    assert list(mk.certify_motion(*args, none[:-1], qa, qb, 1e-5, 1e-3, 256)) == nothing
-    short_rows = np.ascontiguousarray(pre.sphere_reach[:-1])
-    assert list(mk.certify_motion(pre.floats, pre.ints, short_rows, pre.pair_reach, none, qa, qb, 1e-5, 1e-3,
-                                  256)) == nothing
-    lo, hi, _, stop = mk.certify_motion(*args, np.ones(P, dtype=bool), qa, qb, 1e-5, 1e-3, 256)
-    assert lo >= hi and stop == -1
 
 
 def test_self_pair_bounds_change_no_faster_than_their_motion_reach():
     """For the self pairs of the Panda, the sphere lower bound of the pair (``pair_lower_bounds``) changes
-    between two configurations by at most ``pair_reach[p] . |dq|`` (the rate ``certify_motion`` uses), for
-    steps from a micro-radian to the whole range; and the rate is not vacuous (within a factor ~10 of the
-    largest change seen on some pair)."""
+    between two configurations by at most ``pair_reach[p] . |dq|`` (the global rate the motion certificates
+    start from), for steps from a micro-radian to the whole range; and the rate is not vacuous (within a
+    factor ~10 of the largest change seen on some pair)."""
     robot = robots.load("panda")
     scene = robot.collision_scene(())
     pre = scene.precheck()
