@@ -198,3 +198,38 @@ def test_corner_cutting_moves_a_waypoint_to_its_neighbours_midpoint_only_when_bo
     assert robot.in_collision(mid, [ball]) and not robot.in_collision(v, [ball])
     path, kept = corner([ball])
     np.testing.assert_array_equal(kept.points, path.points)
+
+
+def test_vertex_removal_drops_a_waypoint_on_its_neighbours_segment_without_a_certificate(setting):
+    """on_chord: a waypoint between its neighbours on their segment (within 1e-12 rad) is on it; one off it
+    by 1e-9 rad, or on the line beyond an end, is not. remove_vertices drops the waypoints of a straight run
+    (as RRT-Connect's connect steps make them) without asking for a certificate, and certifies the segment
+    of a corner before dropping it."""
+    from kinserve.planners.motion.clearance import ClearanceOracle
+    from kinserve.planners.motion.edges import EdgeCertifier
+    from kinserve.planners.motion.reach import pair_reach
+    from kinserve.planners.motion.shortcut import CertifiedPath, remove_vertices
+
+    robot, _, _ = setting
+    scene = robot.collision_scene(())
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(robot.model, scene))
+    a = np.array([0.2, 0.3, 0.0, -1.8, 0.0, 2.0, 0.8])
+    u = np.array([0.3, -0.2, 0.1, 0.2, 0.0, -0.1, 0.3])
+    off = np.zeros(7)
+    off[4] = 1e-9
+    assert certifier.on_chord(a, a + 0.3 * u, a + u)
+    assert not certifier.on_chord(a, a + 0.3 * u + off, a + u)
+    assert not certifier.on_chord(a, a + 1.3 * u, a + u) and not certifier.on_chord(a, a, a)
+
+    run = np.array([a + s * u for s in (0.0, 0.25, 0.5, 0.75, 1.0)])  # a straight run
+    path = CertifiedPath(run, [certifier.clearance(q) for q in run])
+    asked = []
+    real = certifier.certify
+    certifier.certify = lambda *args, **kw: asked.append(1) or real(*args, **kw)
+    out = remove_vertices(path, certifier)
+    np.testing.assert_array_equal(out.points, run[[0, -1]])
+    assert not asked
+    corner = run.copy()
+    corner[2, 3] += 0.2
+    out = remove_vertices(CertifiedPath(corner, [certifier.clearance(q) for q in corner]), certifier)
+    assert len(asked) >= 1 and len(out.points) < len(corner)

@@ -22,7 +22,8 @@ piece of a certified segment is certified, so the path stays certified.
   certificate of at most :data:`SHORTCUT_ADVANCES` advances may pass as two, and the
   next corner is cut from the midpoint, a shorter cut than from the waypoint before.
 * **Vertex removal**: each inner waypoint in turn is dropped when the segment that
-  joins its neighbours is certified (it is never longer).
+  joins its neighbours is certified (it is never longer); a waypoint on that segment
+  already (the runs of RRT-Connect's connect steps) without a new certificate.
 
 A new segment whose certificate needs more than :data:`SHORTCUT_ADVANCES`
 advances (one that grazes an obstacle) is given up, like one in collision.
@@ -143,11 +144,14 @@ def try_partial_shortcut(path: CertifiedPath, certifier: EdgeCertifier,
 
 
 def remove_vertices(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedPath:
-    """Drop each inner waypoint, first to last, whose neighbours are joined by a certified segment."""
+    """Drop each inner waypoint, first to last, whose neighbours are joined by a certified segment: one on
+    the segment already (:meth:`~.edges.EdgeCertifier.on_chord`: its two certified edges are that segment)
+    without a new certificate."""
     Q, C = list(path.points), list(path.clearances)
     k = 1
     while k < len(Q) - 1:
-        if certifier.certify(C[k - 1], C[k + 1], max_advances=SHORTCUT_ADVANCES):
+        if certifier.on_chord(Q[k - 1], Q[k], Q[k + 1]) \
+                or certifier.certify(C[k - 1], C[k + 1], max_advances=SHORTCUT_ADVANCES):
             del Q[k], C[k]
         else:
             k += 1
