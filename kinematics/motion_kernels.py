@@ -221,11 +221,12 @@ def geometry_pair_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.n
 
     The bounds of :func:`_tighten_rates` for every point ``x`` of a geometry: within its bounding sphere
     (centre ``c``, radius ``r``), so ``rho_k(x) <= rho_k(c) + r`` and its distance from joint ``k``'s origin
-    is at most ``sphere_reach[c, k] + r``; with ``C_k = sum_{j below k} (sphere_reach[c, j] + r) |u_j|``, over
-    the stretch ``rho_k(x) <= (rho_k(c, lo) + rho_k(c, hi)) / 2 + r + C_k (hi - lo) / 2``. An obstacle pair:
-    ``sum_k |u_k| bound_k`` over the joints carrying the geometry (a prismatic one: ``|u_k|``); a self pair:
-    the two geometries' bounds on the joints carrying one of them and not the other (the joints carrying both
-    move them rigidly together)."""
+    is at most ``sphere_reach[c, k] + r``; with ``C_k = sum_{j below k} R_j |u_j|`` (``R_j =
+    sphere_reach[c, j] + r`` for a revolute ``j``, 1 for a prismatic one), over the stretch ``rho_k(x) <=
+    (rho_k(c, lo) + rho_k(c, hi)) / 2 + r + C_k (hi - lo) / 2``. An obstacle pair: ``sum_k |u_k| bound_k``
+    over the joints carrying the geometry (a prismatic one: ``|u_k|``); a self pair: the two geometries'
+    bounds on the joints carrying one of them and not the other (the joints carrying both move them rigidly
+    together)."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n, G = joints.shape[0], geoms.shape[0]
     out = np.full(scene_pairs.shape[0], math.inf)
