@@ -93,7 +93,7 @@ def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.n
 
 
 @_inline
-def unpack(floats, ints):
+def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays
     (:func:`~.precheck_packing.pack`)."""
     J, S, G, P, O = ints[0], ints[1], ints[2], ints[3], ints[4]  # noqa: E741 - the packing's names
@@ -115,7 +115,7 @@ def _reach(floats, ints):
 
 
 @_inline
-def workspace(n, S, G):
+def workspace(n: int, S: int, G: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One allocation per call: joint placements ``X`` ``(n + 1, 12)``, world spheres ``W`` ``(S, 4)`` and the
     per-geometry stamps ``placed`` ``(G,)`` (-1: cover not placed yet)."""
     buffer = np.empty(12 * (n + 1) + 4 * S + G)
@@ -127,7 +127,7 @@ def workspace(n, S, G):
 
 
 @_inline
-def place_sphere(X, j, spheres, s, W):
+def place_sphere(X: np.ndarray, j: int, spheres: np.ndarray, s: int, W: np.ndarray) -> None:
     """``W[s]`` = (world centre, radius) of sphere ``s``, fixed in joint ``j`` (placements ``X``)."""
     c0, c1, c2 = spheres[s, 0], spheres[s, 1], spheres[s, 2]
     for i in range(3):
@@ -136,7 +136,8 @@ def place_sphere(X, j, spheres, s, W):
 
 
 @_inline
-def place_cover(X, spheres, geoms, g, W, placed, stamp):
+def place_cover(X: np.ndarray, spheres: np.ndarray, geoms: np.ndarray, g: int, W: np.ndarray,
+                placed: np.ndarray, stamp: int) -> None:
     """The cover spheres of geometry ``g`` into ``W``, unless already placed for this configuration
     (``stamp``)."""
     if placed[g] != stamp:
@@ -312,7 +313,7 @@ def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, star
 
 
 @_inline
-def sphere_gap(W, i, j):
+def sphere_gap(W: np.ndarray, i: int, j: int) -> float:
     """``|c_i - c_j| - r_i - r_j`` (m): a lower bound of the distance between what spheres ``i`` and ``j``
     hold."""
     dx, dy, dz = W[i, 0] - W[j, 0], W[i, 1] - W[j, 1], W[i, 2] - W[j, 2]
@@ -320,7 +321,7 @@ def sphere_gap(W, i, j):
 
 
 @_inline
-def obstacle_gap(W, i, obstacles, o):
+def obstacle_gap(W: np.ndarray, i: int, obstacles: np.ndarray, o: int) -> float:
     """The exact distance (m) from sphere ``i``'s centre to obstacle ``o`` (a BALL: to its sphere), minus the
     sphere's radius: a lower bound of the distance between what the sphere holds and the obstacle."""
     dx, dy, dz = W[i, 0] - obstacles[o, 9], W[i, 1] - obstacles[o, 10], W[i, 2] - obstacles[o, 11]
@@ -344,7 +345,7 @@ def obstacle_gap(W, i, obstacles, o):
 
 
 @_inline
-def self_cover_gap(W, geoms, a, b):
+def self_cover_gap(W: np.ndarray, geoms: np.ndarray, a: int, b: int) -> float:
     """``min_i max(gap(i, B_b), min_j gap(i, j))`` over the cover spheres ``i`` of geometry ``a`` and ``j`` of
     ``b`` (``B_b``: ``b``'s bounding sphere; placed in ``W``): a lower bound (m) of the distance between the
     two geometries."""
