@@ -2,7 +2,8 @@
 
 Where the server listens is read from the kernel (``/proc/net/tcp[6]``, the sockets among the server
 process's file descriptors), and checked by connecting: by default only 127.0.0.1 answers (another
-loopback address, 127.0.0.2, is refused); ``host=`` moves the page and says so, ZeroMQ stays on 127.0.0.1.
+loopback address, 127.0.0.2, is refused, or answered by another process's socket: tests run in parallel and
+meshcat counts its ports up from 7000); ``host=`` moves the page and says so, ZeroMQ stays on 127.0.0.1.
 """
 
 import errno
@@ -112,8 +113,19 @@ def _address(hex_address: str) -> tuple[str, int]:
     return socket.inet_ntop(socket.AF_INET if len(raw) == 4 else socket.AF_INET6, raw), int(port_hex, 16)
 
 
-def listening(pid: int) -> set[tuple[str, int]]:
-    """The ``(ip, port)`` TCP sockets process ``pid`` listens on (state 0A = LISTEN)."""
+def _listeners() -> list[tuple[str, int, str]]:
+    """Every listening TCP socket of this machine (state 0A = LISTEN): ``(ip, port, inode)``."""
+    out = []
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        for line in Path(table).read_text().splitlines()[1:]:
+            fields = line.split()
+            if fields[3] == "0A":
+                out.append((*_address(fields[1]), fields[9]))
+    return out
+
+
+def _socket_inodes(pid: int) -> set[str]:
+    """The inodes of the sockets among process ``pid``'s file descriptors."""
     inodes = set()
     for fd in os.listdir(f"/proc/{pid}/fd"):
         try:
@@ -122,13 +134,13 @@ def listening(pid: int) -> set[tuple[str, int]]:
             continue
         if target.startswith("socket:["):
             inodes.add(target[8:-1])
-    out = set()
-    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
-        for line in Path(table).read_text().splitlines()[1:]:
-            fields = line.split()
-            if fields[3] == "0A" and fields[9] in inodes:
-                out.add(_address(fields[1]))
-    return out
+    return inodes
+
+
+def listening(pid: int) -> set[tuple[str, int]]:
+    """The ``(ip, port)`` TCP sockets process ``pid`` listens on."""
+    inodes = _socket_inodes(pid)
+    return {(ip, port) for ip, port, inode in _listeners() if inode in inodes}
 
 
 def refused(host: str, port: int) -> bool:
@@ -136,6 +148,18 @@ def refused(host: str, port: int) -> bool:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.settimeout(5)
         return s.connect_ex((host, port)) == errno.ECONNREFUSED
+
+
+def not_served_by(pid: int, host: str, port: int) -> bool:
+    """True when process ``pid`` does not accept TCP connections at ``host:port``: none of its sockets
+    listens there or on a wildcard address, and a connection there is refused - or, when another test's
+    server (the suite runs in parallel and meshcat counts its ports up from 7000) took that very address,
+    accepted by a socket of another process."""
+    ours = _socket_inodes(pid)
+    if any(p == port and ip in (host, "0.0.0.0", "::") and inode in ours for ip, p, inode in _listeners()):
+        return False
+    return refused(host, port) or any(ip == host and p == port and inode not in ours
+                                      for ip, p, inode in _listeners())
 
 
 def test_the_viewer_listens_on_127_0_0_1_only_by_default(scene):
@@ -146,7 +170,7 @@ def test_the_viewer_listens_on_127_0_0_1_only_by_default(scene):
         assert viewer.bind == f"127.0.0.1:{port}"
         assert urllib.request.urlopen(viewer.url, timeout=10).status == 200
         # another address of this machine (loopback 127.0.0.2) is refused: meshcat's own server accepts it
-        assert refused("127.0.0.2", port)
+        assert not_served_by(pid, "127.0.0.2", port)
     assert not alive(pid)
 
 
@@ -169,7 +193,7 @@ def test_host_moves_the_page_and_serve_says_where_it_listens(scene):
         assert web == {("127.0.0.2", port)}  # the page on the address asked for; ZeroMQ stays on 127.0.0.1
         assert all(ip == "127.0.0.1" for ip, p in listening(pid) if p != port)
         assert "MeshCat.Viewer" in urllib.request.urlopen(url, timeout=10).read().decode()
-        assert refused("127.0.0.1", port)
+        assert not_served_by(pid, "127.0.0.1", port)
     finally:
         stop.set()
         thread.join(timeout=20)
