@@ -228,7 +228,7 @@ def test_geometry_pair_rates_bound_coal_distances_on_the_stretch():
         lo, hi = np.sort(rng.uniform(0.0, 1.0, 2))
         rates = mk.geometry_pair_rates(pre.floats, pre.ints, pre.sphere_reach, qa, qb, lo, hi, everything)
         glob = reach @ np.abs(qb - qa)
-        assert np.allclose(certifier.pair_rates(qa, qb - qa, everything, lo, hi), np.minimum(rates, glob))
+        assert np.allclose(certifier.stretch_rates(qa, qb - qa, everything, lo, hi), np.minimum(rates, glob))
         tighter += int(np.sum(rates < glob * 0.95))
         total += P
         s = np.linspace(lo, hi, 25)

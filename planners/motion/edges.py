@@ -34,7 +34,7 @@ Three stages, cheapest first:
    are handed over, up to :data:`HARD_PAIRS` of them (:meth:`EdgeCertifier.hard_pairs`);
 3. the handed-over pairs alone advance on coal's exact distances
    (:meth:`EdgeCertifier.certify_pairs`), with the pair rates of the stretch they
-   cover (:meth:`EdgeCertifier.pair_rates`: ``W[p] . |u|`` or, lower, the
+   cover (:meth:`EdgeCertifier.stretch_rates`: ``W[p] . |u|`` or, lower, the
    stretch's own bound from the geometries' distances to the joint axes at its
    two ends). Each stage certifies its pairs over the whole edge, so together
    they certify every pair. When the spheres hand over too many pairs (or the
@@ -176,7 +176,7 @@ class EdgeCertifier:
         points ``lo`` and ``hi`` themselves are the first two asked of coal."""
         if lo >= hi:
             return True
-        w = pair_rates(self.pair_rates(qa, u, pairs, lo, hi))
+        w = pair_rates(self.stretch_rates(qa, u, pairs, lo, hi))
         step = self.oracle.step
         ks, need, inverse, offset = pairs.tolist(), w.need.tolist(), w.inverse.tolist(), w.offset.tolist()
         for k in range(max_advances):
@@ -192,8 +192,8 @@ class EdgeCertifier:
                 return True
         return False
 
-    def pair_rates(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, lo: float = 0.0,
-                   hi: float = 1.0) -> np.ndarray:
+    def stretch_rates(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, lo: float = 0.0,
+                      hi: float = 1.0) -> np.ndarray:
         """Per pair of ``pairs`` (indices), a bound (m per unit ``s``) of how fast its distance can change on
         the stretch ``[lo, hi]`` of ``qa + s u``: the smaller of the global ``W[p] . |u|`` and, with a sphere
         pre-check, the stretch's own bound measured at its two ends
