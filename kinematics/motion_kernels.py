@@ -76,14 +76,21 @@ def _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
 
 
 @_inline
-def _motion_rates(joints, sphere_reach, pair_reach, S, qa, qb):
-    """``(v, w)`` of the straight motion ``qa -> qb`` (``u = qb - qa``): per sphere row ``c``,
-    ``v[c] = sum_k sphere_reach[c, k] |u_k|`` (m per unit of the motion's parameter; ``(S,)``, 0 beyond the
-    table's rows), and per pair-table row ``p``, ``w[p] = sum_k pair_reach[p, k] |u_k|``."""
-    n = joints.shape[0]
-    du = np.empty(n)
-    for k in range(n):
+def _joint_steps(joints, qa, qb):
+    """``du`` ``(J,)``: ``|u_k|`` of the straight motion ``qa -> qb`` (``u = qb - qa``) on each tree row's
+    coordinate."""
+    du = np.empty(joints.shape[0])
+    for k in range(joints.shape[0]):
         du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    return du
+
+
+@_inline
+def _motion_rates(joints, sphere_reach, pair_reach, S, du):
+    """``(v, w)`` of the straight motion whose joint steps are ``du`` (:func:`_joint_steps`): per sphere row
+    ``c``, ``v[c] = sum_k sphere_reach[c, k] du[k]`` (m per unit of the motion's parameter; ``(S,)``, 0
+    beyond the table's rows), and per pair-table row ``p``, ``w[p] = sum_k pair_reach[p, k] du[k]``."""
+    n = joints.shape[0]
     v = np.zeros(S)
     for c in range(sphere_reach.shape[0]):
         acc = 0.0
@@ -137,9 +144,35 @@ def _end_distances(tree, joints, spheres, geoms, qa, qb, du, X, W):
 
 
 @_inline
-def _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W):
+def _chain_rate(joints, geoms, sphere_reach, du, ends, g, row, extra, offset, span, joint_rate):
+    """``sum_k du[k] bound_k`` over the joints ``k`` carrying geometry ``g``, for a point of sphere row
+    ``row`` at ``offset`` (m) from the geometry's bounding centre, on a stretch ``span`` of the motion long;
+    ``joint_rate[g, k]`` is raised to each ``bound_k``.
+
+    Revolute ``k``: ``R_k = sphere_reach[row, k] + extra`` bounds the point's distance from the joint's
+    axis anywhere; along the stretch it is at most ``ends[g, k] / 2 + offset + span C_k / 2`` (``ends``:
+    :func:`_end_distances`, ``C_k = sum_{j below k} R_j du[j]``), and ``bound_k`` is the smaller of the two.
+    Prismatic ``k``: ``bound_k = R_k = sphere_reach[row, k]`` (1)."""
+    below, rate = 0.0, 0.0
+    j = geoms[g, 0]
+    while j > 0:
+        k = j - 1
+        if joints[k, 0] == _REVOLUTE:
+            full = sphere_reach[row, k] + extra
+            bound = min(full, 0.5 * ends[g, k] + offset + 0.5 * span * below)
+        else:
+            full = bound = sphere_reach[row, k]
+        joint_rate[g, k] = max(joint_rate[g, k], bound)
+        rate += bound * du[k]
+        below += full * du[k]
+        j = joints[k, 2]
+    return rate
+
+
+@_inline
+def _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, du, v, w, X, W):
     """Lower the rates ``v`` (sphere rows) and ``w`` (self pairs) of :func:`_motion_rates` to bounds of this
-    motion (placements ``X``, ``W`` used as scratch).
+    motion (``du``: its joint steps, :func:`_joint_steps`; placements ``X``, ``W`` used as scratch).
 
     Along ``q(s) = qa + s u`` a sphere centre ``c`` moves at speed at most ``sum_k |u_k| rho_k(s)``,
     ``rho_k`` its distance from revolute joint ``k``'s axis (1 for a prismatic joint). ``rho_k`` changes
@@ -154,9 +187,6 @@ def _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach
     ones: the advancement is unchanged, its steps longer."""
     n, G = joints.shape[0], geoms.shape[0]
     rows = sphere_reach.shape[0]
-    du = np.empty(n)
-    for k in range(n):
-        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
     ends = _end_distances(tree, joints, spheres, geoms, qa, qb, du, X, W)
     joint_rate = np.zeros((G, n))  # per geometry and joint: the largest rate of its rows
     for g in range(min(G, rows)):
@@ -165,17 +195,7 @@ def _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach
             dx, dy, dz = spheres[row, 0] - spheres[g, 0], spheres[row, 1] - spheres[g, 1], \
                 spheres[row, 2] - spheres[g, 2]
             offset = math.sqrt(dx * dx + dy * dy + dz * dz)
-            below, rate = 0.0, 0.0
-            j = geoms[g, 0]
-            while j > 0:
-                k = j - 1
-                reach = sphere_reach[row, k]
-                if joints[k, 0] == _REVOLUTE:
-                    reach = min(reach, 0.5 * ends[g, k] + offset + 0.5 * below)
-                joint_rate[g, k] = max(joint_rate[g, k], reach)
-                rate += reach * du[k]
-                below += sphere_reach[row, k] * du[k]
-                j = joints[k, 2]
+            rate = _chain_rate(joints, geoms, sphere_reach, du, ends, g, row, 0.0, offset, 1.0, joint_rate)
             v[row] = min(v[row], rate * LIPSCHITZ_SAFETY)
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
@@ -201,9 +221,10 @@ def motion_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.ndarray,
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
         return np.zeros(0)
-    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    du = _joint_steps(joints, qa, qb)
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], du)
     X, W, placed = workspace(joints.shape[0], spheres.shape[0], geoms.shape[0])
-    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, du, v, w, X, W)
     return np.concatenate((v, w))
 
 
@@ -232,9 +253,7 @@ def geometry_pair_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.n
     out = np.full(scene_pairs.shape[0], math.inf)
     if qa.shape[0] != n or qb.shape[0] != n or sphere_reach.shape[1] != n or sphere_reach.shape[0] < G:
         return out
-    du = np.empty(n)
-    for k in range(n):
-        du[k] = abs(qb[joints[k, 1]] - qa[joints[k, 1]])
+    du = _joint_steps(joints, qa, qb)
     X, W, placed = workspace(n, spheres.shape[0], G)
     q_lo, q_hi = np.empty(n), np.empty(n)
     for i in range(n):
@@ -243,19 +262,8 @@ def geometry_pair_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.n
     ends = _end_distances(tree, joints, spheres, geoms, q_lo, q_hi, du, X, W)
     bound = np.full((G, n), -1.0)  # per geometry and joint carrying it: the rate of its points
     for g in range(G):
-        r = spheres[g, 3]
-        below = 0.0
-        j = geoms[g, 0]
-        while j > 0:
-            k = j - 1
-            if joints[k, 0] == _REVOLUTE:
-                reach = sphere_reach[g, k] + r
-                bound[g, k] = min(reach, 0.5 * ends[g, k] + r + 0.5 * (hi - lo) * below)
-            else:
-                reach = 1.0
-                bound[g, k] = 1.0
-            below += reach * du[k]
-            j = joints[k, 2]
+        r = spheres[g, 3]  # every point of the geometry: within r of its bounding centre
+        _chain_rate(joints, geoms, sphere_reach, du, ends, g, g, r, r, hi - lo, bound)
     for t in range(scene_pairs.shape[0]):
         for p in range(pairs.shape[0]):
             if pairs[p, 3] != scene_pairs[t]:
@@ -395,9 +403,10 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     out[1], out[2], out[3] = 0.0, 0.0, 1.0
     if not _rates_fit(joints, spheres, geoms, pairs, sphere_reach, pair_reach, qa, qb):
         return out
-    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], qa, qb)
+    du = _joint_steps(joints, qa, qb)
+    v, w = _motion_rates(joints, sphere_reach, pair_reach, spheres.shape[0], du)
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, v, w, X, W)
+    _tighten_rates(tree, joints, spheres, geoms, sphere_reach, pairs, pair_reach, qa, qb, du, v, w, X, W)
     front, back = np.zeros(P), np.ones(P)
     state = np.zeros(P, dtype=np.int64)  # 0 open, 1 certified, 2 hard
     live = np.arange(P)
