@@ -35,13 +35,12 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.precheck_kernels import pair_lower_bounds
+from kinserve.kinematics.precheck_kernels import TOLERANCE, pair_lower_bounds
 
 #: Smallest clearance (m) from which a motion may advance; closer configurations reject it.
 CLEARANCE_FLOOR = 1e-4
-#: Distance kept in reserve (m) against the error of coal's distances: a certified interval keeps every
-#: pair at least this far apart.
-TOLERANCE = 1e-5
+# TOLERANCE (m, the sphere pre-check's): the distance kept in reserve against the error of coal's distances;
+# a certified interval keeps every pair at least this far apart, on the spheres and on coal's distances alike.
 #: Pairs refined together by :meth:`ClearanceOracle.radius` per round.
 REFINE_BATCH = 4
 
