@@ -14,7 +14,7 @@ self pair, the two geometries' rates on the joints carrying one of them and not 
 other. :func:`geometry_pair_rates` gives the same bound for the shapes themselves
 (not their spheres), for the exact stage that advances on coal's distances.
 
-**Advancement.** :func:`motion_hard_pairs`: from both ends, pair by pair, each with
+**Advancement.** :func:`motion_hard_pairs`: from both ends with look-ahead, pair by pair, each with
 its own certified ends, handing over the pairs whose spheres cannot decide.
 
 Each kernel has its signature: importing this module compiles them or loads them
@@ -312,54 +312,69 @@ def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w,
 #: Pairs :func:`motion_hard_pairs` re-evaluates at a point: those whose certified front lies within this
 #: fraction of the side's last smallest radius (the others are certified well ahead).
 PAIR_HORIZON = 0.5
+#: Look-ahead of an advance: the next point from one side lies this fraction of its pair's last radius
+#: beyond the pair's certified end, so that the ball there covers new ground on both of its sides (a radius
+#: of at least that fraction joins it to the certified end).
+LOOKAHEAD = 0.6
 
 
 @_jit
 def _pair_advance(X, W, placed, stamp, spheres, geoms, pairs, obstacles, v, w, tol, min_step, live, m,
-                  front, back, state, s, from_lo, horizon):
+                  front, back, last, state, s, from_lo, horizon):
     """One advance of :func:`motion_hard_pairs` at ``s`` (placements in ``X`` / ``W``) over the open pairs
-    ``live[:m]`` whose front (from below, ``from_lo``) or back lies within ``horizon`` of ``s``: their
-    radius ``r`` certifies ``[s - r, s + r]``, joined to ``[0, front]`` / ``[back, 1]`` (``s`` is inside
-    or at the end of it); a pair is certified (``state`` 1) when the two meet, hard (2) when ``r`` is below
-    ``min_step``. Returns the smallest radius found (``inf``: none) and the number of new hard pairs."""
+    ``live[:m]`` whose front (from below, ``from_lo``) or back lies within ``horizon`` of ``s`` (``s`` may
+    lie beyond it: the look-ahead). A pair's radius ``r`` certifies ``[s - r, s + r]``; that ball is joined
+    to ``[0, front]`` when ``s - r <= front`` and to ``[back, 1]`` when ``s + r >= back``, and otherwise not
+    kept (the pair's next point from this side is then its end itself: ``last`` 0). A pair is certified
+    (``state`` 1) when the two meet, hard (2) when ``r`` is below ``min_step``. ``last`` ``(2P,)``: per pair
+    the radius of its last joined ball from below, then from above. Returns the smallest radius found
+    (``inf``: none) and the number of new hard pairs."""
     best, hard = math.inf, 0
+    P = front.shape[0]
     for t in range(m):
         p = live[t]
         if from_lo:
             if front[p] > s + horizon:
                 continue
-            need = back[p] - s
-        else:
-            if back[p] < s - horizon:
-                continue
-            need = s - front[p]
+        elif back[p] < s - horizon:
+            continue
+        need = max(back[p] - s, s - front[p])
         r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol)
         if r < min_step:
             state[p] = 2
             hard += 1
             continue
         best = min(best, r)
-        if r >= need:
+        joins_lo, joins_hi = s - r <= front[p], s + r >= back[p]
+        if joins_lo and joins_hi:
             state[p] = 1
-        elif from_lo:
+            continue
+        if joins_lo:
             front[p] = max(front[p], s + r)
-        else:
+        if joins_hi:
             back[p] = min(back[p], s - r)
+        side = p if from_lo else P + p
+        last[side] = r if (joins_lo if from_lo else joins_hi) else 0.0
     return best, hard
 
 
 @_inline
-def _open_end(live, m, state, front, back, from_lo):
-    """Keep the open pairs (``state`` 0) of ``live[:m]`` at its start: ``(their count, the end to advance
-    from)``: the smallest front (``from_lo``) or the largest back."""
+def _open_end(live, m, state, front, back, last, from_lo):
+    """Keep the open pairs (``state`` 0) of ``live[:m]`` at its start: ``(their count, the point to advance
+    from)``: the smallest ``front + LOOKAHEAD last`` (``from_lo``; at most the pair's back) or the largest
+    ``back - LOOKAHEAD last``."""
     s = math.inf if from_lo else -math.inf
+    P = front.shape[0]
     k = 0
     for t in range(m):
         p = live[t]
         if state[p] == 0:
             live[k] = p
             k += 1
-            s = min(s, front[p]) if from_lo else max(s, back[p])
+            if from_lo:
+                s = min(s, min(front[p] + LOOKAHEAD * last[p], back[p]))
+            else:
+                s = max(s, max(back[p] - LOOKAHEAD * last[P + p], front[p]))
     return k, s
 
 
@@ -387,11 +402,14 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     :func:`motion_rates` returns them). A configuration ``q(s)`` therefore certifies a pair on
     ``|s' - s| <= rho`` (:func:`_pair_radius`).
 
-    Conservative advancement per pair: pair ``p`` is certified on ``[0, front[p]]`` and ``[back[p], 1]``;
-    an advance from below evaluates at ``s``, the smallest front of the open pairs, the pairs whose front is
-    within :data:`PAIR_HORIZON` of the last smallest radius of ``s`` (at least those at ``s``: ``s <=
-    front[p]``, so a radius ``r`` at ``s`` extends the certified interval without a gap to ``s + r``);
-    advances from above likewise, alternately. A pair is certified once ``front[p] >= back[p]`` (the two
+    Conservative advancement per pair, with look-ahead: pair ``p`` is certified on ``[0, front[p]]`` and
+    ``[back[p], 1]``; an advance from below evaluates at ``s``, the smallest ``front[p] + LOOKAHEAD r_p``
+    of the open pairs (``r_p``: the radius of the pair's last ball joined from below, 0 at first), the
+    pairs whose front is within :data:`PAIR_HORIZON` of the last smallest radius of ``s``. A radius ``r``
+    at ``s`` certifies ``[s - r, s + r]``; it extends ``[0, front[p]]`` to ``s + r`` when ``s - r <=
+    front[p]`` (no gap), else it is dropped and the pair's next point is its front itself (so each ball
+    counts on both of its sides, not only ahead of the front: about half the advances of plain advancement
+    on a pair whose radius changes slowly). Advances from above likewise, alternately. A pair is certified once ``front[p] >= back[p]`` (the two
     intervals cover ``[0, 1]``); a pair whose radius falls below ``min_step`` (fraction of the motion; also
     when its spheres are not apart) is hard, and so is every pair still open after ``max_advances``. A pair
     far from everything is done in one or two
@@ -410,11 +428,12 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     front, back = np.zeros(P), np.ones(P)
     state = np.zeros(P, dtype=np.int64)  # 0 open, 1 certified, 2 hard
     live = np.arange(P)
+    last = np.zeros(2 * P)  # per pair, its last joined radius from below, then from above
     q = np.empty(n)
     m, hard, advances, steps = P, 0, 0, np.zeros(2)
     while hard <= max_hard:
         from_lo = advances % 2 == 0
-        m, s = _open_end(live, m, state, front, back, from_lo)
+        m, s = _open_end(live, m, state, front, back, last, from_lo)
         if m == 0:
             break
         if advances >= max_advances:  # the open pairs are hard
@@ -428,7 +447,8 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
         for g in range(geoms.shape[0]):
             place_sphere(X, geoms[g, 0], spheres, g, W)
         best, new = _pair_advance(X, W, placed, advances, spheres, geoms, pairs, obstacles, v, w, tol,
-                                  min_step, live, m, front, back, state, s, from_lo, steps[advances % 2])
+                                  min_step, live, m, front, back, last, state, s, from_lo,
+                                  steps[advances % 2])
         hard += new
         if best < math.inf:
             steps[advances % 2] = PAIR_HORIZON * best
@@ -447,4 +467,4 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     return out
 
 
-__all__ = ["PAIR_HORIZON", "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]
+__all__ = ["LOOKAHEAD", "PAIR_HORIZON", "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]

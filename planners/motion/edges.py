@@ -10,11 +10,13 @@ at most ``w_p |s' - s|`` with ``w_p = W[p] . |u|``, so a configuration ``q(s)`` 
 
 on which every pair keeps a distance of at least :data:`~.clearance.TOLERANCE` (m,
 above coal's distance error; :meth:`~.clearance.ClearanceOracle.radius`).
-**Conservative advancement** from both ends: ``[0, lo]`` and ``[hi, 1]`` are
-certified; the distances at ``q(lo)`` advance ``lo`` by their ``rho``, those at
-``q(hi)`` move ``hi`` back, until ``lo >= hi``. The intervals join without a gap:
-each new point is the end of the interval before it. A configuration closer than
-:data:`~.clearance.CLEARANCE_FLOOR` (m) to anything stops the advance and rejects
+**Conservative advancement** from both ends, with look-ahead (:func:`advance`):
+``[0, lo]`` and ``[hi, 1]`` are certified; the distances at ``q(s)``, ``s`` a fraction
+(:data:`~kinserve.kinematics.motion_kernels.LOOKAHEAD`) of the last ``rho`` beyond
+``lo``, advance ``lo`` to ``s + rho`` when ``s - rho <= lo``, those on the other side
+move ``hi`` back likewise, until ``lo >= hi``. The intervals join without a gap: each
+new end is that of a ball that reaches the interval before it. A configuration closer
+than :data:`~.clearance.CLEARANCE_FLOOR` (m) to anything stops the advance and rejects
 the edge, as do :data:`MAX_ADVANCES` steps.
 
 Three stages, cheapest first:
@@ -44,9 +46,11 @@ Three stages, cheapest first:
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
-from kinserve.kinematics.motion_kernels import geometry_pair_rates, motion_hard_pairs
+from kinserve.kinematics.motion_kernels import LOOKAHEAD, geometry_pair_rates, motion_hard_pairs
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 
@@ -179,18 +183,7 @@ class EdgeCertifier:
         w = pair_rates(self.stretch_rates(qa, u, pairs, lo, hi))
         step = self.oracle.step
         ks, need, inverse, offset = pairs.tolist(), w.need.tolist(), w.inverse.tolist(), w.offset.tolist()
-        for k in range(max_advances):
-            from_lo = k % 2 == 0
-            rho = step(qa + (lo if from_lo else hi) * u, ks, need, inverse, offset)
-            if rho < 0.0:
-                return False
-            if from_lo:
-                lo += rho
-            else:
-                hi -= rho
-            if lo >= hi:
-                return True
-        return False
+        return advance(lambda s: step(qa + s * u, ks, need, inverse, offset), lo, hi, max_advances)
 
     def stretch_rates(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, lo: float = 0.0,
                       hi: float = 1.0) -> np.ndarray:
@@ -214,22 +207,41 @@ class EdgeCertifier:
         lo, back = radius(a, w), radius(b, w)
         if lo < 0.0 or back < 0.0:
             return False
-        hi = 1.0 - back
-        for _ in range((max_advances + 1) // 2):
-            if lo >= hi:
-                return True
-            step = radius(self.clearance(a.q + lo * u), w)
-            if step < 0.0:
-                return False
-            lo += step
-            if lo >= hi:
-                return True
-            step = radius(self.clearance(a.q + hi * u), w)
-            if step < 0.0:
-                return False
-            hi -= step
-        return lo >= hi
+        return advance(lambda s: radius(self.clearance(a.q + s * u), w), lo, 1.0 - back, max_advances,
+                       lo, back)
 
+
+def advance(radius_at: Callable[[float], float], lo: float, hi: float, max_advances: int,
+            last_lo: float = 0.0, last_hi: float = 0.0) -> bool:
+    """Conservative advancement with look-ahead of a motion certified on ``[0, lo]`` and ``[hi, 1]`` of its
+    parameter ``s``: True when the two meet within ``max_advances`` calls ``radius_at(s)`` (the radius ``r``
+    that certifies ``[s - r, s + r]``, or ``r < 0``: the motion is refused there, and False is returned).
+
+    The advances alternate, from below first. From below, ``s = lo + LOOKAHEAD r_lo`` (at most ``hi``),
+    ``r_lo`` the radius of the last ball that extended ``lo`` (``last_lo`` at first): a ball with ``s - r <=
+    lo`` extends ``lo`` to ``s + r``; one that does not reach back to ``lo`` is dropped and the next point
+    from below is ``lo`` itself. A ball that reaches ``hi`` moves ``hi`` to ``s - r`` as well. From above
+    likewise. Each new ``lo`` or ``hi`` is the end of a ball that joins the certified interval before it,
+    so ``[0, lo]`` and ``[hi, 1]`` stay certified without a gap."""
+    r_lo, r_hi = last_lo, last_hi
+    for k in range(max_advances):
+        if lo >= hi:
+            return True
+        from_lo = k % 2 == 0
+        s = min(lo + LOOKAHEAD * r_lo, hi) if from_lo else max(hi - LOOKAHEAD * r_hi, lo)
+        r = radius_at(s)
+        if r < 0.0:
+            return False
+        joins_lo, joins_hi = s - r <= lo, s + r >= hi
+        if joins_lo:
+            lo = max(lo, s + r)
+        if joins_hi:
+            hi = min(hi, s - r)
+        if from_lo:
+            r_lo = r if joins_lo else 0.0
+        else:
+            r_hi = r if joins_hi else 0.0
+    return lo >= hi
 
 __all__ = ["CHORD_TOLERANCE", "HARD_PAIRS", "MAX_ADVANCES", "PROBES", "SPHERE_ADVANCES", "SPHERE_MIN_STEP",
-           "EdgeCertifier"]
+           "EdgeCertifier", "advance"]

@@ -54,7 +54,7 @@ PARTIAL_MAX_VERTICES = 4
 MIN_GAIN = 1e-6
 #: Most advances of the certificate of one new segment (:meth:`~.edges.EdgeCertifier.certify`): a
 #: segment that grazes an obstacle needs many; the simplifier gives it up instead.
-SHORTCUT_ADVANCES = 24
+SHORTCUT_ADVANCES = 16
 
 
 class CertifiedPath(NamedTuple):
