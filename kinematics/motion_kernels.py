@@ -407,12 +407,12 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     of the open pairs (``r_p``: the radius of the pair's last ball joined from below, 0 at first), the
     pairs whose front is within :data:`PAIR_HORIZON` of the last smallest radius of ``s``. A radius ``r``
     at ``s`` certifies ``[s - r, s + r]``; it extends ``[0, front[p]]`` to ``s + r`` when ``s - r <=
-    front[p]`` (no gap), else it is dropped and the pair's next point is its front itself (so each ball
-    counts on both of its sides, not only ahead of the front: about half the advances of plain advancement
-    on a pair whose radius changes slowly). Advances from above likewise, alternately. A pair is certified once ``front[p] >= back[p]`` (the two
-    intervals cover ``[0, 1]``); a pair whose radius falls below ``min_step`` (fraction of the motion; also
-    when its spheres are not apart) is hard, and so is every pair still open after ``max_advances``. A pair
-    far from everything is done in one or two
+    front[p]`` (no gap), else it is dropped and the pair's next point is its front itself. Each ball thus
+    counts on both of its sides, not only ahead of the front: on a pair whose radius changes slowly, a point
+    gains ``(1 + LOOKAHEAD) r`` instead of ``r``. Advances from above likewise, alternately. A pair is
+    certified once ``front[p] >= back[p]`` (the two intervals cover ``[0, 1]``); a pair whose radius falls
+    below ``min_step`` (fraction of the motion; also when its spheres are not apart) is hard, and so is
+    every pair still open after ``max_advances``. A pair far from everything is done in one or two
     evaluations; only the close ones are advanced in small steps.
     """
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
