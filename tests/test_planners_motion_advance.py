@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from kinserve.kinematics.motion_kernels import LOOKAHEAD
-from kinserve.planners.motion.edges import advance
+from kinserve.planners.motion.edges import PACE_WINDOW, advance
 
 RATE, TOL = 1.0, 1e-3
 
@@ -101,3 +101,23 @@ def test_the_look_ahead_asks_fewer_points_than_plain_advancement_far_from_the_to
     assert advance(radius_of(np.array([0.0, 1.0]), np.array([d, d]), asked), 0.0, 1.0, 10_000)
     plain = 1.0 / 0.01
     assert len(asked) <= plain / (1.0 + LOOKAHEAD) + 3 < 0.7 * plain
+
+
+def test_a_grazing_motion_is_given_up_before_its_budget_and_a_steady_one_is_not():
+    """A profile that comes within 1.5 tol of the tolerance mid-way: with a large budget it is certified;
+    with a budget its pace cannot meet, it is refused after fewer points than the budget (the pace rule),
+    while a flat profile whose pace just meets its budget is still certified."""
+    s_knots = np.array([0.0, 0.5, 1.0])
+    d_knots = np.array([0.3, 2.5 * TOL, 0.3])
+    asked: list = []
+    assert advance(radius_of(s_knots, d_knots, asked), 0.0, 1.0, 10_000)
+    needed = len(asked)
+    asked.clear()
+    budget = needed // 3
+    assert not advance(radius_of(s_knots, d_knots, asked), 0.0, 1.0, budget)
+    assert PACE_WINDOW <= len(asked) < budget
+    flat: list = []
+    d = 0.01 + TOL
+    assert advance(radius_of(np.array([0.0, 1.0]), np.array([d, d]), flat), 0.0, 1.0, 10_000)
+    asked.clear()
+    assert advance(radius_of(np.array([0.0, 1.0]), np.array([d, d]), asked), 0.0, 1.0, len(flat))
