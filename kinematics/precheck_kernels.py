@@ -369,7 +369,8 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
 
     (``gap``: centre distance minus radii; for an obstacle, the exact point distance minus the radius).
     :func:`certify_configuration` certifies ``q`` exactly when every entry exceeds its tolerance (it compares
-    squares instead); this form is for tests and diagnostics.
+    squares instead), :func:`pairs_keep` when each exceeds its own; this form gives the values (a
+    :class:`~kinserve.planners.motion.clearance.Clearance`'s first bounds, tests and diagnostics).
     """
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
@@ -516,9 +517,33 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
     return out[:k].copy()
 
 
+_KEEP_SIGNATURE = _t.boolean(F1, I1, F1_ANY, F1_ANY)
+
+
+@compiled(_KEEP_SIGNATURE)
+def pairs_keep(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, need: np.ndarray) -> bool:
+    """True when every pair's lower bound at ``q`` (:func:`pair_lower_bounds`) exceeds the distance it must
+    keep, ``need`` ``(P,)`` (m, in the scene's pair order): the tests of :func:`uncertified_pairs` with each
+    pair's own tolerance, so the pairs that the bounding spheres keep apart cost one sphere test and only
+    the close ones their cover spheres. False when one does not, or when ``q`` or ``need`` do not fit."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n, P = joints.shape[0], pairs.shape[0]
+    if q.shape[0] != n or need.shape[0] != P:
+        return False
+    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        place_sphere(X, geoms[g, 0], spheres, g, W)
+    for p in range(P):
+        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, need[pairs[p, 3]], placed, 0):
+            return False
+    return True
+
+
 __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE",
            "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
-           "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds", "place_cover",
+           "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds", "pairs_keep",
+           "place_cover",
            "place_sphere", "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack",
            "workspace"]

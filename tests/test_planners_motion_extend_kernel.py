@@ -13,7 +13,12 @@ import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.kinematics.precheck_kernels import certainly_colliding, certify_configuration, pair_lower_bounds
+from kinserve.kinematics.precheck_kernels import (
+    certainly_colliding,
+    certify_configuration,
+    pair_lower_bounds,
+    pairs_keep,
+)
 from kinserve.planners.motion.clearance import Clearance, ClearanceOracle
 from kinserve.planners.motion.edges import PROBES, EdgeCertifier
 from kinserve.planners.motion.extend_kernel import (
@@ -74,6 +79,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
     probes = np.array(PROBES)
     kinds = set()
     colliding = 0
+    floors = {0: 0, 1: 0}
     for trial in range(300):
         n = int(rng.integers(1, 30))
         nodes, pruned = _tree(robot, rng, n)
@@ -81,7 +87,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
         if trial % 50 == 0:
             target = nodes[0].copy()  # the nearest node is the target itself
-        codes, q_new, bounds = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step,
+        codes, q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step,
                                             pre.tolerance, certifier.end_need, probes)
         near = nearest_node(nodes, pruned, n, target)
         assert codes[NEAR] == near
@@ -103,13 +109,36 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
             colliding += 1
         assert codes[END:].tolist() == verdicts
         if UNCERTAIN in verdicts or COLLIDES in verdicts:
-            assert len(bounds) == 0 and codes[FLOOR] == -1
+            assert codes[FLOOR] == -1
         else:
             reference = pair_lower_bounds(pre.floats, pre.ints, q_new)
-            np.testing.assert_array_equal(bounds, reference)
-            assert codes[FLOOR] == int(not np.any(reference < certifier.end_need))
+            assert codes[FLOOR] == int(np.all(reference > certifier.end_need))
+            floors[int(codes[FLOOR])] += 1
     assert kinds == {AT_TARGET, TOWARDS, ONTO}
     assert colliding > 10  # the refusal was met
+    assert floors[1] > 10, floors
+
+
+def test_pairs_keep_is_every_lower_bound_above_its_own_need(setting):
+    """``pairs_keep`` against ``pair_lower_bounds``: the same answer for needs drawn around the bounds
+    (each pair's own), both answers seen; arguments that do not fit give False."""
+    robot, certifier = setting
+    pre = certifier.oracle.precheck
+    rng = np.random.default_rng(12)
+    seen = set()
+    for _ in range(300):
+        q = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
+        bounds = pair_lower_bounds(pre.floats, pre.ints, q)
+        need = np.full(len(bounds), 1e-4)
+        if rng.random() < 0.5:  # one pair asked for just more, or just less, than its bound
+            k = int(rng.integers(len(bounds)))
+            need[k] = bounds[k] + (1e-6 if rng.random() < 0.5 else -1e-6)
+        keep = pairs_keep(pre.floats, pre.ints, q, need)
+        assert keep == bool(np.all(bounds > need))
+        seen.add(keep)
+    assert seen == {True, False}
+    assert not pairs_keep(pre.floats, pre.ints, q[:-1], need)
+    assert not pairs_keep(pre.floats, pre.ints, q, need[:-1])
 
 
 def _grown(robot, certifier, rng):

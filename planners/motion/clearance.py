@@ -29,7 +29,7 @@ the oracle's own ``pinocchio.Data`` / ``GeometryData``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -77,14 +77,44 @@ def need_of(moving: np.ndarray) -> np.ndarray:
     return np.where(moving, CLEARANCE_FLOOR, np.finfo(float).tiny)
 
 
-@dataclass(eq=False)
 class Clearance:
     """Configuration ``q`` ``(nq,)``, lower bounds ``distance`` ``(P,)`` (m) of its pair distances and the
-    mask ``exact`` ``(P,)`` of those that are coal's values (refined in place)."""
+    mask ``exact`` ``(P,)`` of those that are coal's values (refined in place).
 
-    q: np.ndarray
-    distance: np.ndarray
-    exact: np.ndarray
+    Given ``distance`` (and ``exact``: all False when omitted), or ``bounds``: the function that makes the
+    first bounds from ``q``, called on the first read of ``distance`` or ``exact`` - most configurations a
+    planner meets (tree nodes off the path, shortcut ends) are certified without them, on the motion
+    certificates' own bounds (:mod:`.edges`).
+    """
+
+    __slots__ = ("q", "_distance", "_exact", "_bounds")
+
+    def __init__(self, q: np.ndarray, distance: np.ndarray | None = None, exact: np.ndarray | None = None,
+                 bounds: Callable[[np.ndarray], np.ndarray] | None = None) -> None:
+        if distance is None and bounds is None:
+            raise ValueError("Clearance: give its distances or the function that makes them")
+        self.q = q
+        self._distance = distance
+        self._exact = exact if exact is not None or distance is None else np.zeros(len(distance), dtype=bool)
+        self._bounds = bounds
+
+    def _make(self) -> None:
+        self._distance = self._bounds(self.q)
+        self._exact = np.zeros(len(self._distance), dtype=bool)
+
+    @property
+    def distance(self) -> np.ndarray:
+        """Lower bounds ``(P,)`` (m) of the pair distances (coal's exact values where :attr:`exact`)."""
+        if self._distance is None:
+            self._make()
+        return self._distance
+
+    @property
+    def exact(self) -> np.ndarray:
+        """``(P,)``: True where :attr:`distance` is coal's value."""
+        if self._distance is None:
+            self._make()
+        return self._exact
 
 
 class ClearanceOracle:
@@ -117,13 +147,13 @@ class ClearanceOracle:
         return bool(self.scene.in_collision(q))
 
     def clearance(self, q: np.ndarray) -> Clearance:
-        """The :class:`Clearance` of ``q``: sphere bounds (or every exact distance without a sphere model)."""
-        self.checks += 1
-        self.distance_checks += 1
+        """The :class:`Clearance` of ``q``: sphere bounds, made on its first read (:meth:`sphere_bounds`),
+        or every exact distance without a sphere model."""
         q = np.array(q, dtype=float)
         if self.precheck is not None:
-            bounds = pair_lower_bounds(self.precheck.floats, self.precheck.ints, q)
-            return Clearance(q, bounds, np.zeros(self.n_pairs, dtype=bool))
+            return Clearance(q, bounds=self.sphere_bounds)
+        self.checks += 1
+        self.distance_checks += 1
         if not self.n_pairs:
             return Clearance(q, np.zeros(0), np.zeros(0, dtype=bool))
         self._place(q)
@@ -133,11 +163,13 @@ class ClearanceOracle:
         d = np.fromiter((r.min_distance for r in self.geometry_data.distanceResults), float, self.n_pairs)
         return Clearance(q, d, np.ones(self.n_pairs, dtype=bool))
 
-    def bounded(self, q: np.ndarray, bounds: np.ndarray) -> Clearance:
-        """The :class:`Clearance` of ``q`` from its sphere bounds ``bounds`` ``(P,)`` computed already (the
-        compiled extension step's, :func:`~.extend_kernel.extend_probe`; the same as :meth:`clearance`'s)."""
+    def sphere_bounds(self, q: np.ndarray) -> np.ndarray:
+        """The sphere pre-check's lower bounds ``(P,)`` (m) of the pair distances at ``q``
+        (:func:`~kinserve.kinematics.precheck_kernels.pair_lower_bounds`): a :class:`Clearance`'s first
+        bounds. Counted as a clearance made."""
+        self.checks += 1
         self.distance_checks += 1
-        return Clearance(q, bounds, np.zeros(self.n_pairs, dtype=bool))
+        return pair_lower_bounds(self.precheck.floats, self.precheck.ints, q)
 
     def _place(self, q: np.ndarray) -> None:
         pin.forwardKinematics(self.model, self.data, q)

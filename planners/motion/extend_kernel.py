@@ -14,16 +14,18 @@ about the points ``q_near + s (q_new - q_near)`` for each ``s`` of ``probes``
 decides: the pre-check's spheres contain the robot's geometry, so a certified configuration is one coal
 finds free, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
 collision). When every one is certified, it
-also gives ``q_new``'s pair lower bounds
-(:func:`~kinserve.kinematics.precheck_kernels.pair_lower_bounds`, m, in the scene's pair order) and
-whether none is below ``need`` ``(P,)`` (the distance each pair must keep at a node: the clearance floor).
+also tells whether ``q_new``'s pair lower bounds
+(:func:`~kinserve.kinematics.precheck_kernels.pair_lower_bounds`, m) all exceed ``need`` ``(P,)`` (the
+distance each pair must keep at a node, in the scene's pair order: the clearance floor;
+:func:`~kinserve.kinematics.precheck_kernels.pairs_keep`, which computes the cover spheres' bounds of the
+close pairs only).
 
-Its answer: ``(codes, q_new, bounds)``, ``codes`` ``(4 + len(probes),)`` int64:
+Its answer: ``(codes, q_new)``, ``codes`` ``(4 + len(probes),)`` int64:
 ``[near, kind, floor, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
 else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`; ``floor``
-1 when the bounds were computed and none is below ``need``, 0 when one is, -1 when not computed;
+1 when every bound exceeds its ``need``, 0 when one may not (coal decides), -1 when not asked;
 ``end``: :data:`FREE`, :data:`COLLIDES` (the ``probe_k`` are then -1) or :data:`UNCERTAIN`; ``probe_k``:
-:data:`FREE` or :data:`UNCERTAIN`. ``bounds`` is empty when not computed.
+:data:`FREE` or :data:`UNCERTAIN`.
 ``near`` is -1 (and ``kind`` :data:`AT_TARGET`) when every node is pruned or ``size`` is 0.
 
 The cache key covers every kernel source (:mod:`kinserve.kinematics.kernel_cache`); every kernel has its
@@ -38,11 +40,7 @@ import numba
 import numpy as np
 
 from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled
-from kinserve.kinematics.precheck_kernels import (
-    certify_configuration,
-    classify_configuration,
-    pair_lower_bounds,
-)
+from kinserve.kinematics.precheck_kernels import certify_configuration, classify_configuration, pairs_keep
 from kinserve.kinematics.precheck_verdicts import COLLIDING as _COLLIDING
 from kinserve.kinematics.precheck_verdicts import FREE as _FREE
 
@@ -57,7 +55,7 @@ NEAR, KIND, FLOOR, END = 0, 1, 2, 3
 
 _t = numba.types
 _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
-_OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C"), _t.Array(_t.float64, 1, "C")))
+_OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C")))
 _EXTEND_SIGNATURE = _OUT(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64, F1_ANY, F1)
 
 
@@ -81,9 +79,9 @@ def nearest_node(nodes: np.ndarray, pruned: np.ndarray, size: int, q: np.ndarray
 @compiled(_EXTEND_SIGNATURE)
 def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
                  target: np.ndarray, step: float, tol: float, need: np.ndarray,
-                 probes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One extension step of a tree towards ``target`` up to what coal must decide: ``(codes, q_new,
-    bounds)`` (module docstring). ``floats, ints``: the scene's packed pre-check
+                 probes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One extension step of a tree towards ``target`` up to what coal must decide: ``(codes, q_new)``
+    (module docstring). ``floats, ints``: the scene's packed pre-check
     (:mod:`kinserve.kinematics.precheck_packing`); ``nodes`` ``(N, nq)`` with ``pruned`` ``(N,)``, the first
     ``size`` rows in use; ``step`` (rad), ``tol`` (m), ``need`` ``(P,)`` (m), ``probes`` (fractions of the
     step)."""
@@ -94,14 +92,14 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
     codes[NEAR] = near
     q_new = np.empty(n)
     if near < 0:
-        return codes, q_new, np.empty(0)
+        return codes, q_new
     dist2 = 0.0
     for c in range(n):
         d = target[c] - nodes[near, c]
         dist2 += d * d
     dist = math.sqrt(dist2)
     if dist <= 1e-12:
-        return codes, q_new, np.empty(0)
+        return codes, q_new
     codes[KIND] = ONTO if dist <= step else TOWARDS
     f = 1.0 if dist <= step else step / dist
     for c in range(n):
@@ -109,7 +107,7 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
     verdict = classify_configuration(floats, ints, q_new, tol)
     if verdict == _COLLIDING:
         codes[END] = COLLIDES
-        return codes, q_new, np.empty(0)
+        return codes, q_new
     free = verdict == _FREE
     codes[END] = FREE if free else UNCERTAIN
     q = np.empty(n)
@@ -120,14 +118,9 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
         ok = certify_configuration(floats, ints, q, tol)
         codes[END + 1 + k] = FREE if ok else UNCERTAIN
         free = free and ok
-    if not free:
-        return codes, q_new, np.empty(0)
-    bounds = pair_lower_bounds(floats, ints, q_new)
-    codes[FLOOR] = 1
-    for p in range(min(bounds.shape[0], need.shape[0])):
-        if bounds[p] < need[p]:
-            codes[FLOOR] = 0
-    return codes, q_new, bounds
+    if free:
+        codes[FLOOR] = 1 if pairs_keep(floats, ints, q_new, need) else 0
+    return codes, q_new
 
 
 __all__ = ["AT_TARGET", "COLLIDES", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",

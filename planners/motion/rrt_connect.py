@@ -11,8 +11,10 @@ the floor) and the cheap test finds its edge's probe points free
 compiled call (:func:`~.extend_kernel.extend_probe`) finds the nearest node,
 makes the step, refuses it when the spheres find the new node in collision for
 certain, and certifies the new node and the probe points free on the spheres,
-with the new node's pair bounds; coal runs only on the points the spheres leave
-uncertain, in one call (same answers as the tests one by one).
+and the new node's pair bounds above the clearance floor; coal runs only on the
+points the spheres leave uncertain, in one call (same answers as the tests one by
+one). A node's pair bounds (its :class:`~.clearance.Clearance`) are made only when
+read: most nodes never lie on a path.
 
 **Lazy certificates**: an edge is certified (:class:`~.edges.EdgeCertifier`) only
 when it lies on a candidate path, once the trees meet: every edge of the path not
@@ -82,8 +84,8 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     pre = oracle.precheck
     if pre is None:
         return extend_exactly(tree, target, certifier, step)
-    codes, q_new, bounds = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
-                                        float(step), pre.tolerance, certifier.end_need, _PROBES)
+    codes, q_new = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
+                                float(step), pre.tolerance, certifier.end_need, _PROBES)
     near = int(codes[NEAR])
     if codes[KIND] == AT_TARGET:
         return _Step(REACHED, near)
@@ -94,7 +96,7 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     verdicts = codes[END:].tolist()
     if UNCERTAIN in verdicts and _collides(oracle, tree.node(near), q_new, verdicts):
         return _Step(TRAPPED, -1)
-    c_new = oracle.bounded(q_new, bounds) if len(bounds) else certifier.clearance(q_new)
+    c_new = certifier.clearance(q_new)
     if codes[FLOOR] != 1 and not certifier.clear(c_new):
         return _Step(TRAPPED, -1)
     k = tree.add(c_new, near, certified=False)
