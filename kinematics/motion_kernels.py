@@ -283,22 +283,22 @@ def geometry_pair_rates(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.n
 
 
 @_inline
-def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol):
+def _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, enough, tol):
     """The certified radius of pair-table row ``p`` alone at the configuration placed in ``X`` / ``W``, for a
     motion whose sphere centres move by at most ``v[s]`` and whose self pairs' sphere gaps change by at most
-    ``w[p]`` per unit of its parameter: its bounding spheres' radius, or, when that one is below ``need``,
+    ``w[p]`` per unit of its parameter: its bounding spheres' radius, or, when that one is below ``enough``,
     the larger of it and its cover spheres' (placed on first need, marked with ``stamp``; either family
     staying apart keeps the pair apart). :func:`_pair_advance` asks it of the pairs it advances."""
     a, b = pairs[p, 0], pairs[p, 1]
     if pairs[p, 2] == SELF_PAIR:
         r = _rate_radius(sphere_gap(W, a, b) - tol, w[p])
-        if r >= need:
+        if r >= enough:
             return r
         place_cover(X, spheres, geoms, a, W, placed, stamp)
         place_cover(X, spheres, geoms, b, W, placed, stamp)
         return max(r, _rate_radius(self_cover_gap(W, geoms, a, b) - tol, w[p]))
     r = _rate_radius(obstacle_gap(W, a, obstacles, b) - tol, v[a])
-    if r >= need:
+    if r >= enough:
         return r
     place_cover(X, spheres, geoms, a, W, placed, stamp)
     parts = math.inf
@@ -316,6 +316,11 @@ PAIR_HORIZON = 0.5
 #: beyond the pair's certified end, so that the ball there covers new ground on both of its sides (a radius
 #: of at least that fraction joins it to the certified end).
 LOOKAHEAD = 0.6
+#: An advance asks a pair's cover spheres only when its bounding spheres' radius is below this fraction of
+#: what the pair needs to be certified (and below twice the hand-over step): a radius above it is progress
+#: enough, and the covers cost several sphere tests each (on 2760 recorded motions: 17% less time per
+#: call, the same hand-overs).
+COVER_FRACTION = 0.1
 
 
 @_jit
@@ -326,9 +331,11 @@ def _pair_advance(X, W, placed, stamp, spheres, geoms, pairs, obstacles, v, w, t
     lie beyond it: the look-ahead). A pair's radius ``r`` certifies ``[s - r, s + r]``; that ball is joined
     to ``[0, front]`` when ``s - r <= front`` and to ``[back, 1]`` when ``s + r >= back``, and otherwise not
     kept (the pair's next point from this side is then its end itself: ``last`` 0). A pair is certified
-    (``state`` 1) when the two meet, hard (2) when ``r`` is below ``min_step``. ``last`` ``(2P,)``: per pair
-    the radius of its last joined ball from below, then from above. Returns the smallest radius found
-    (``inf``: none) and the number of new hard pairs."""
+    (``state`` 1) when the two meet, hard (2) when ``r`` is below ``min_step``; its cover spheres are asked
+    only when the bounding spheres' radius is below :data:`COVER_FRACTION` of what it needs (the distance
+    from ``s`` to the farther certified end). ``last`` ``(2P,)``: per pair the radius of its last joined
+    ball from below, then from above. Returns the smallest radius found (``inf``: none) and the number of
+    new hard pairs."""
     best, hard = math.inf, 0
     P = front.shape[0]
     for t in range(m):
@@ -339,7 +346,8 @@ def _pair_advance(X, W, placed, stamp, spheres, geoms, pairs, obstacles, v, w, t
         elif back[p] < s - horizon:
             continue
         need = max(back[p] - s, s - front[p])
-        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, need, tol)
+        enough = min(need, max(COVER_FRACTION * need, 2.0 * min_step))
+        r = _pair_radius(X, W, placed, stamp, spheres, geoms, pairs, obstacles, p, v, w, enough, tol)
         if r < min_step:
             state[p] = 2
             hard += 1
@@ -467,4 +475,5 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     return out
 
 
-__all__ = ["LOOKAHEAD", "PAIR_HORIZON", "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]
+__all__ = ["COVER_FRACTION", "LOOKAHEAD", "PAIR_HORIZON", "geometry_pair_rates", "motion_hard_pairs",
+           "motion_rates"]
