@@ -165,12 +165,13 @@ def test_certify_branch_prunes_at_the_first_edge_that_fails(setting):
 
 def test_corner_cutting_moves_a_waypoint_to_its_neighbours_midpoint_only_when_both_halves_are_free(setting):
     """cut_corners: a free corner becomes the straight line (the waypoint at its neighbours' midpoint, the
-    path shorter, the ends kept); a corner whose midpoint is in an obstacle stays where it was."""
+    path shorter, the ends kept); a corner whose midpoint is in an obstacle stays where it was, and so does
+    a free one whose cut would gain less than CORNER_MIN_GAIN (without a certificate asked)."""
     from kinserve import ik
     from kinserve.planners.motion.clearance import ClearanceOracle
     from kinserve.planners.motion.edges import EdgeCertifier
     from kinserve.planners.motion.reach import pair_reach
-    from kinserve.planners.motion.shortcut import CertifiedPath, cut_corners
+    from kinserve.planners.motion.shortcut import CORNER_MIN_GAIN, CertifiedPath, cut_corners
 
     robot, _, _ = setting
     a = np.array([0.2, 0.3, 0.0, -1.8, 0.0, 2.0, 0.8])
@@ -180,14 +181,16 @@ def test_corner_cutting_moves_a_waypoint_to_its_neighbours_midpoint_only_when_bo
     v[3] += 0.3  # the corner: off the straight line a -> b
     mid = 0.5 * (a + b)
 
-    def corner(obstacles):
+    def corner(obstacles, v=v):
         scene = robot.collision_scene(obstacles)
         certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(robot.model, scene))
         path = CertifiedPath(np.array([a, v, b]), [certifier.clearance(q) for q in (a, v, b)])
         assert all(certifier.certify(p, q) for p, q in zip(path.clearances[:-1], path.clearances[1:]))
-        return path, cut_corners(path, certifier)
+        asked = certifier.oracle.checks
+        cut = cut_corners(path, certifier)
+        return path, cut, certifier.oracle.checks - asked
 
-    path, cut = corner([])
+    path, cut, _ = corner([])
     np.testing.assert_array_equal(cut.points[[0, 2]], path.points[[0, 2]])
     np.testing.assert_allclose(cut.points[1], mid, atol=0.0)
     assert path_length(cut.points) == pytest.approx(float(np.linalg.norm(b - a)), rel=1e-12)
@@ -196,8 +199,16 @@ def test_corner_cutting_moves_a_waypoint_to_its_neighbours_midpoint_only_when_bo
 
     ball = ik.Sphere(robot.fk(mid, "panda_hand_tcp")[:3, 3], 0.02)  # the midpoint is in collision
     assert robot.in_collision(mid, [ball]) and not robot.in_collision(v, [ball])
-    path, kept = corner([ball])
+    path, kept, _ = corner([ball])
     np.testing.assert_array_equal(kept.points, path.points)
+
+    shallow = a + 0.5 * (b - a)
+    shallow[3] += 0.02  # gain 2 sqrt(0.4^2 + 0.02^2) - 0.8 = 1.0e-3 rad
+    path, kept, asked = corner([], shallow)
+    gain = path_length(path.points) - float(np.linalg.norm(b - a))
+    assert 0.0 < gain < CORNER_MIN_GAIN
+    np.testing.assert_array_equal(kept.points, path.points)
+    assert asked == 0
 
 
 def test_vertex_removal_drops_a_waypoint_on_its_neighbours_segment_without_a_certificate(setting):

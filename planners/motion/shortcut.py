@@ -16,7 +16,8 @@ piece of a certified segment is certified, so the path stays certified.
   waypoints).
 * **Corner cutting** (a smoothing pass): each inner waypoint ``Q[i]`` in turn moves
   to the midpoint of its neighbours, ``(Q[i-1] + Q[i+1]) / 2`` (``Q[i-1]`` as already
-  moved), when both new segments are certified. The path then runs straight where the
+  moved), when that shortens the path by at least :data:`CORNER_MIN_GAIN` and both new
+  segments are certified. The path then runs straight where the
   corner was, as if the waypoint had been dropped, but as two segments, each with its
   own certificate: a straight run that grazes an obstacle too long for one
   certificate of at most :data:`SHORTCUT_ADVANCES` advances may pass as two, and the
@@ -52,6 +53,10 @@ FRUITLESS = 10
 PARTIAL_MAX_VERTICES = 4
 #: Smallest length gain (rad) for which a shortcut is tried.
 MIN_GAIN = 1e-6
+#: Smallest length gain (rad) for which a corner is cut: a smaller one is not worth its two certificates.
+CORNER_MIN_GAIN = 3e-3
+#: Corner-cutting passes that end the simplification.
+SMOOTHING_PASSES = 2
 #: Most advances of the certificate of one new segment (:meth:`~.edges.EdgeCertifier.certify`): a
 #: segment that grazes an obstacle needs many; the simplifier gives it up instead.
 SHORTCUT_ADVANCES = 16
@@ -161,13 +166,14 @@ def remove_vertices(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedP
 def cut_corners(path: CertifiedPath, certifier: EdgeCertifier) -> CertifiedPath:
     """Corner cutting (module docstring): each inner waypoint, first to last, moves to the midpoint of its
     neighbours (the one before it as already moved) when that shortens the path by at least
-    :data:`MIN_GAIN` and both new segments are certified. Never longer than ``path``, with the same ends."""
+    :data:`CORNER_MIN_GAIN` and both new segments are certified. Never longer than ``path``, with the same
+    ends."""
     Q, C = list(path.points), list(path.clearances)
     for i in range(1, len(Q) - 1):
         a, v, b = Q[i - 1], Q[i], Q[i + 1]
         c = 0.5 * (a + b)
         gain = float(np.linalg.norm(v - a) + np.linalg.norm(b - v) - np.linalg.norm(b - a))
-        if gain < MIN_GAIN or certifier.blocked(a, c) or certifier.blocked(c, b):
+        if gain < CORNER_MIN_GAIN or certifier.blocked(a, c) or certifier.blocked(c, b):
             continue
         cc = certifier.clearance(c)
         if (certifier.clear(cc)
@@ -193,15 +199,19 @@ def _attempts(path: CertifiedPath, attempt, certifier: EdgeCertifier, rng: np.ra
 
 def simplify_path(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
     """Vertex removal and corner cutting, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS`
-    partial shortcuts (each series stops after :data:`FRUITLESS` attempts in a row without a gain), corner
-    cutting and vertex removal again; never longer than ``path``, with the same ends."""
+    partial shortcuts (each series stops after :data:`FRUITLESS` attempts in a row without a gain), then
+    :data:`SMOOTHING_PASSES` corner-cutting passes; never longer than ``path``, with the same ends.
+
+    A last vertex removal is not worth its certificates: on the benchmark's problems it shortened the path by
+    4 mrad (median) for about a tenth of the simplification's time, less than a second smoothing pass."""
     path = cut_corners(remove_vertices(path, certifier), certifier)
     path = _attempts(path, try_shortcut, certifier, rng, SHORTCUT_ATTEMPTS)
     path = _attempts(path, try_partial_shortcut, certifier, rng, PARTIAL_ATTEMPTS)
-    path = cut_corners(path, certifier)
-    return remove_vertices(path, certifier)
+    for _ in range(SMOOTHING_PASSES):
+        path = cut_corners(path, certifier)
+    return path
 
 
-__all__ = ["FRUITLESS", "MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES", "SHORTCUT_ADVANCES",
-           "SHORTCUT_ATTEMPTS", "CertifiedPath", "cut_corners", "path_length", "remove_vertices",
-           "simplify_path", "try_partial_shortcut", "try_shortcut"]
+__all__ = ["CORNER_MIN_GAIN", "FRUITLESS", "MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES",
+           "SHORTCUT_ADVANCES", "SHORTCUT_ATTEMPTS", "SMOOTHING_PASSES", "CertifiedPath", "cut_corners",
+           "path_length", "remove_vertices", "simplify_path", "try_partial_shortcut", "try_shortcut"]
