@@ -203,7 +203,7 @@ def test_corner_cutting_moves_a_waypoint_to_its_neighbours_midpoint_only_when_bo
     np.testing.assert_array_equal(kept.points, path.points)
 
     shallow = a + 0.5 * (b - a)
-    shallow[3] += 0.02  # gain 2 sqrt(0.4^2 + 0.02^2) - 0.8 = 1.0e-3 rad
+    shallow[3] += 0.01  # gain 2 sqrt(0.4^2 + 0.01^2) - 0.8 = 2.5e-4 rad
     path, kept, asked = corner([], shallow)
     gain = path_length(path.points) - float(np.linalg.norm(b - a))
     assert 0.0 < gain < CORNER_MIN_GAIN

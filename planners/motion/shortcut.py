@@ -54,12 +54,10 @@ PARTIAL_MAX_VERTICES = 4
 #: Smallest length gain (rad) for which a shortcut is tried.
 MIN_GAIN = 1e-6
 #: Smallest length gain (rad) for which a corner is cut: a smaller one is not worth its two certificates.
-CORNER_MIN_GAIN = 3e-3
-#: Corner-cutting passes that end the simplification.
-SMOOTHING_PASSES = 2
+CORNER_MIN_GAIN = 1e-3
 #: Most advances of the certificate of one new segment (:meth:`~.edges.EdgeCertifier.certify`): a
 #: segment that grazes an obstacle needs many; the simplifier gives it up instead.
-SHORTCUT_ADVANCES = 16
+SHORTCUT_ADVANCES = 24
 
 
 class CertifiedPath(NamedTuple):
@@ -200,18 +198,16 @@ def _attempts(path: CertifiedPath, attempt, certifier: EdgeCertifier, rng: np.ra
 def simplify_path(path: CertifiedPath, certifier: EdgeCertifier, rng: np.random.Generator) -> CertifiedPath:
     """Vertex removal and corner cutting, :data:`SHORTCUT_ATTEMPTS` shortcuts, :data:`PARTIAL_ATTEMPTS`
     partial shortcuts (each series stops after :data:`FRUITLESS` attempts in a row without a gain), then
-    :data:`SMOOTHING_PASSES` corner-cutting passes; never longer than ``path``, with the same ends.
+    corner cutting again; never longer than ``path``, with the same ends.
 
     A last vertex removal is not worth its certificates: on the benchmark's problems it shortened the path by
-    4 mrad (median) for about a tenth of the simplification's time, less than a second smoothing pass."""
+    4 mrad (median) for about a tenth of the simplification's time."""
     path = cut_corners(remove_vertices(path, certifier), certifier)
     path = _attempts(path, try_shortcut, certifier, rng, SHORTCUT_ATTEMPTS)
     path = _attempts(path, try_partial_shortcut, certifier, rng, PARTIAL_ATTEMPTS)
-    for _ in range(SMOOTHING_PASSES):
-        path = cut_corners(path, certifier)
-    return path
+    return cut_corners(path, certifier)
 
 
 __all__ = ["CORNER_MIN_GAIN", "FRUITLESS", "MIN_GAIN", "PARTIAL_ATTEMPTS", "PARTIAL_MAX_VERTICES",
-           "SHORTCUT_ADVANCES", "SHORTCUT_ATTEMPTS", "SMOOTHING_PASSES", "CertifiedPath", "cut_corners",
+           "SHORTCUT_ADVANCES", "SHORTCUT_ATTEMPTS", "CertifiedPath", "cut_corners",
            "path_length", "remove_vertices", "simplify_path", "try_partial_shortcut", "try_shortcut"]
