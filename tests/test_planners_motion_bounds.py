@@ -227,3 +227,30 @@ def test_edges_certified_with_pairs_handed_to_coal_are_free_when_densely_checked
         if routes[route] <= 4:  # the first few of each route
             samples = dense(np.array([a, b]), DENSE_STEP)
             assert check.first_collision(samples) == -1
+
+
+def test_edges_certified_on_every_pair_with_coal_refinements_are_free_when_densely_checked(panda):
+    """The exact stage on every pair (``certify_exactly``: the route of an edge whose spheres hand over more
+    than HARD_PAIRS pairs): random edges in the shelf scene it accepts are free at samples no more than
+    0.5 mrad apart per joint (the independent mesh check); accepted and refused edges both occur."""
+    from kinserve.planners.motion.edges import MAX_ADVANCES
+
+    from motion_scenes import DENSE_STEP, IndependentCheck, dense
+
+    obstacles = shelf_scene()
+    check = IndependentCheck(panda, obstacles)
+    scene = panda.collision_scene(obstacles)
+    certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
+    rng = np.random.default_rng(9)
+    outcomes = {True: 0, False: 0}
+    while min(outcomes.values()) < 3:
+        a = panda.random_q(rng)
+        b = np.clip(a + rng.normal(scale=0.4, size=panda.nq), panda.lower, panda.upper)
+        ca, cb = certifier.clearance(a), certifier.clearance(b)
+        if panda.in_collision(a, obstacles) or panda.in_collision(b, obstacles) or not (
+                certifier.clear(ca) and certifier.clear(cb)):
+            continue
+        ok = certifier.certify_exactly(ca, cb, MAX_ADVANCES)
+        outcomes[ok] += 1
+        if ok and outcomes[True] <= 3:
+            assert check.first_collision(dense(np.array([a, b]), DENSE_STEP)) == -1

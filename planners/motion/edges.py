@@ -62,7 +62,7 @@ PROBES = (0.5, 0.25, 0.75)
 #: evaluates the pairs due at one point, often a few): the pairs still open after them are handed over.
 SPHERE_ADVANCES = 1024
 #: Most pairs of one edge the spheres hand over to coal's distances (:meth:`EdgeCertifier.hard_pairs`).
-HARD_PAIRS = 4
+HARD_PAIRS = 16
 #: The sphere advancement hands over to the exact one at a radius below this (fraction of the edge).
 SPHERE_MIN_STEP = 1e-3
 #: A waypoint this close (rad, Euclidean) to the straight segment joining its neighbours lies on it
