@@ -198,6 +198,18 @@ def test_a_pair_that_does_not_move_only_has_to_be_apart(panda):
     assert oracle.radius(c, pair_rates(np.zeros(P))) == float("inf")
 
 
+def _edges_with_clear_ends(panda, obstacles, certifier, rng):
+    """Endless random edges ``(a, b, clearance of a, clearance of b)`` (steps of 0.4 rad per joint, normal)
+    whose two ends are free and above the clearance floor."""
+    while True:
+        a = panda.random_q(rng)
+        b = np.clip(a + rng.normal(scale=0.4, size=panda.nq), panda.lower, panda.upper)
+        ca, cb = certifier.clearance(a), certifier.clearance(b)
+        if not (panda.in_collision(a, obstacles) or panda.in_collision(b, obstacles)) \
+                and certifier.clear(ca) and certifier.clear(cb):
+            yield a, b, ca, cb
+
+
 def test_edges_certified_with_pairs_handed_to_coal_are_free_when_densely_checked(panda):
     """Random edges in the shelf scene: an edge ``certify`` accepts is free at samples no more than 0.5 mrad
     apart per joint (the independent mesh check; the first four of each route); edges certified on the
@@ -209,15 +221,10 @@ def test_edges_certified_with_pairs_handed_to_coal_are_free_when_densely_checked
     check = IndependentCheck(panda, obstacles)
     scene = panda.collision_scene(obstacles)
     certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
-    rng = np.random.default_rng(8)
     routes = {"spheres": 0, "handed over": 0, "refused": 0}
-    while min(routes.values()) < 3 or sum(routes.values()) < 12:
-        a = panda.random_q(rng)
-        b = np.clip(a + rng.normal(scale=0.4, size=panda.nq), panda.lower, panda.upper)
-        ca, cb = certifier.clearance(a), certifier.clearance(b)
-        if panda.in_collision(a, obstacles) or panda.in_collision(b, obstacles) or not (
-                certifier.clear(ca) and certifier.clear(cb)):
-            continue
+    for a, b, ca, cb in _edges_with_clear_ends(panda, obstacles, certifier, np.random.default_rng(8)):
+        if min(routes.values()) >= 3 and sum(routes.values()) >= 12:
+            break
         hard = certifier.hard_pairs(a, b)
         if not certifier.certify(ca, cb):
             routes["refused"] += 1
@@ -241,15 +248,10 @@ def test_edges_certified_on_every_pair_with_coal_refinements_are_free_when_dense
     check = IndependentCheck(panda, obstacles)
     scene = panda.collision_scene(obstacles)
     certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
-    rng = np.random.default_rng(9)
     outcomes = {True: 0, False: 0}
-    while min(outcomes.values()) < 3:
-        a = panda.random_q(rng)
-        b = np.clip(a + rng.normal(scale=0.4, size=panda.nq), panda.lower, panda.upper)
-        ca, cb = certifier.clearance(a), certifier.clearance(b)
-        if panda.in_collision(a, obstacles) or panda.in_collision(b, obstacles) or not (
-                certifier.clear(ca) and certifier.clear(cb)):
-            continue
+    for a, b, ca, cb in _edges_with_clear_ends(panda, obstacles, certifier, np.random.default_rng(9)):
+        if min(outcomes.values()) >= 3:
+            break
         ok = certifier.certify_exactly(ca, cb, MAX_ADVANCES)
         outcomes[ok] += 1
         if ok and outcomes[True] <= 3:
