@@ -34,6 +34,7 @@ from .precheck_kernels import (
     LIPSCHITZ_SAFETY,
     SELF_PAIR,
     obstacle_gap,
+    place_bounding_spheres,
     place_cover,
     place_sphere,
     self_cover_gap,
@@ -450,9 +451,7 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
             break
         for i in range(n):
             q[i] = qa[i] + s * (qb[i] - qa[i])
-        tree_placements(tree, joints, q, X)
-        for g in range(geoms.shape[0]):
-            place_sphere(X, geoms[g, 0], spheres, g, W)
+        place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
         best, new = _pair_advance(X, W, placed, advances, spheres, geoms, pairs, obstacles, v, w, tol,
                                   min_step, live, m, front, back, last, state, s, from_lo,
                                   steps[advances % 2])

@@ -136,6 +136,16 @@ def place_sphere(X: np.ndarray, j: int, spheres: np.ndarray, s: int, W: np.ndarr
 
 
 @_inline
+def place_bounding_spheres(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                           q: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
+    """The joint placements of configuration ``q`` into ``X`` (:func:`tree_placements`), then each
+    geometry's bounding sphere into its row of ``W``."""
+    tree_placements(tree, joints, q, X)
+    for g in range(geoms.shape[0]):
+        place_sphere(X, geoms[g, 0], spheres, g, W)
+
+
+@_inline
 def place_cover(X: np.ndarray, spheres: np.ndarray, geoms: np.ndarray, g: int, W: np.ndarray,
                 placed: np.ndarray, stamp: int) -> None:
     """The cover spheres of geometry ``g`` into ``W``, unless already placed for this configuration
@@ -212,9 +222,7 @@ def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol
     pairs - every sphere may move by up to ``m / 2`` and those tests still pass (:func:`first_uncertified`).
     Forward kinematics into ``X``, the bounding spheres into ``W``, then per pair the bounding spheres and,
     when they are not apart, the cover spheres (placed on first need, marked with ``stamp`` in ``placed``)."""
-    tree_placements(tree, joints, q, X)
-    for g in range(geoms.shape[0]):
-        place_sphere(X, geoms[g, 0], spheres, g, W)
+    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
     m = MARGIN_CAP
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
@@ -506,9 +514,7 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
         out[:] = pairs[:, 3]
         return out
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    tree_placements(tree, joints, q, X)
-    for g in range(geoms.shape[0]):
-        place_sphere(X, geoms[g, 0], spheres, g, W)
+    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
     k = 0
     for p in range(P):
         if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
@@ -531,9 +537,7 @@ def pairs_keep(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, need: np.nda
     if q.shape[0] != n or need.shape[0] != P:
         return False
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    tree_placements(tree, joints, q, X)
-    for g in range(geoms.shape[0]):
-        place_sphere(X, geoms[g, 0], spheres, g, W)
+    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
     for p in range(P):
         if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, need[pairs[p, 3]], placed, 0):
             return False
@@ -544,6 +548,6 @@ __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE",
            "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
            "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds", "pairs_keep",
-           "place_cover",
+           "place_bounding_spheres", "place_cover",
            "place_sphere", "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack",
            "workspace"]
