@@ -333,17 +333,19 @@ def trajectory_clearance(arm: Robot, t: np.ndarray, Q: np.ndarray, placement: np
         return lambda q: cylinder_distance(arm.fk(q, FLANGE) @ placement, CYLINDER_RADIUS, CYLINDER_HEIGHT,
                                            shapes)
 
-    measures = {"arm_box": (arm_to(plates), None), "arm_table": (arm_to(tables), None),
-                "cylinder_box": (cylinder_to(plates), carried),
-                "cylinder_table": (cylinder_to(tables), lifted)}
+    every = np.ones(len(Q), dtype=bool)
+    # per measure: its distance, the samples it is computed on, the samples its minimum is taken over
+    measures = {"arm_box": (arm_to(plates), every, None), "arm_table": (arm_to(tables), every, None),
+                "cylinder_box": (cylinder_to(plates), carried, carried),
+                "cylinder_table": (cylinder_to(tables), carried, lifted)}
     arrays = {}
-    for key, (distance, mask) in measures.items():
-        rows = np.arange(len(Q)) if key.startswith("arm") else np.flatnonzero(carried)
+    for key, (distance, computed, _) in measures.items():
+        rows = np.flatnonzero(computed)
         values = np.full(len(Q), np.nan)
         values[rows] = [distance(Q[k]) for k in rows]
         arrays[key] = values
     out = {"samples": len(Q)}
-    for key, (distance, mask) in measures.items():
+    for key, (distance, _, mask) in measures.items():
         minimum = _minimum(arrays[key], t, Q, distance, mask)
         out[f"min_{key}_distance"], out[f"min_{key}_distance_time"] = minimum
     arm_box = arrays["arm_box"]
