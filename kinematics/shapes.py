@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from itertools import chain
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -95,11 +94,12 @@ def _translation(t: np.ndarray) -> np.ndarray:
 
 
 def _hashable(value: Any) -> Any:
-    """A field of :meth:`Shape._fields` as a hashable value: a list (of lists: a pose's rows) as one flat
-    tuple."""
+    """A field of :meth:`Shape._fields` as a hashable value: a list of numbers (of lists: a pose's rows) as
+    the bytes of its float64 values, with ``-0.0`` made ``0.0`` (equal numbers, equal bytes; the fields
+    hold no NaN). One object, not one per number: a shape is freed as fast as it is made."""
     if type(value) is not list:
         return value
-    return tuple(chain.from_iterable(value)) if value and type(value[0]) is list else tuple(value)
+    return (np.asarray(value, dtype=np.float64) + 0.0).tobytes()
 
 
 class Shape:
