@@ -5,7 +5,8 @@ import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
-from kinserve.ik.qp.hierarchy import hierarchical_step, stack_level
+from kinserve.ik.qp.hierarchy import _line_level, hierarchical_step, stack_level
+from kinserve.ik.qp.line_kernel import line_level, line_qp
 
 
 @pytest.fixture(scope="module")
@@ -117,8 +118,6 @@ def test_a_lower_level_on_a_line_is_solved_exactly_as_the_qp_solver_does(panda, 
 
 
 def test_line_qp_matches_brute_force():
-    from kinserve.ik.qp.hierarchy import line_qp
-
     rng = np.random.default_rng(5)
     grid = np.linspace(-3, 3, 60001)
     for _ in range(200):
@@ -129,7 +128,7 @@ def test_line_qp_matches_brute_force():
         p, c = rng.random() + 0.1, rng.normal()
         # rows' values at z = 0 (feasible): the bounds on a z are lo - v, hi - v
         v = rng.uniform(np.maximum(lo, -1.0), hi)
-        z = line_qp(p, c, a.tolist(), v.tolist(), (lo + v).tolist(), (hi + v).tolist(), 2.5)
+        z = line_qp(p, c, a, v, lo + v, hi + v, 2.5)
         ok = ((np.abs(grid) <= 2.5)
               & np.all((a[:, None] * grid >= lo[:, None]) & (a[:, None] * grid <= hi[:, None]), axis=0))
         f = 0.5 * p * grid ** 2 + c * grid
@@ -141,20 +140,20 @@ def test_line_qp_matches_brute_force():
 def test_line_qp_ignores_round_off_rows_at_their_bounds():
     """A joint at its bound (by round-off just past it) with a 1e-17 component along the line must not freeze
     the line (the S9 relax-z regression: centring stopped 5 cm short of the sphere)."""
-    from kinserve.ik.qp.hierarchy import line_qp
-
     # row 0: the line barely touches it and it sits 1e-16 past its lower bound; row 1: the joint that moves
-    z = line_qp(1.0, -0.3, [1e-17, 1.0], [-1.0 - 4.5e-16, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
+    z = line_qp(1.0, -0.3, np.array([1e-17, 1.0]), np.array([-1.0 - 4.5e-16, 0.0]), np.array([-1.0, -1.0]),
+                np.array([1.0, 1.0]), 1.0)
     assert z == pytest.approx(0.3)
     # a genuine row (not round-off) still bounds the line
-    z = line_qp(1.0, -0.3, [0.5, 1.0], [0.95, 0.0], [-1.0, -1.0], [1.0, 1.0], 1.0)
+    z = line_qp(1.0, -0.3, np.array([0.5, 1.0]), np.array([0.95, 0.0]), np.array([-1.0, -1.0]),
+                np.array([1.0, 1.0]), 1.0)
     assert z == pytest.approx(0.1)
 
 
 def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
-    """_line_level reads the box first and skips the rows once the line is blocked: the same bytes as
-    line_qp over every row, for steps inside the box, at vertices of the box and on its faces."""
-    from kinserve.ik.qp.hierarchy import _line_level, line_qp
+    """line_level reads the box first and skips the rows once the line is blocked: the same answer as
+    line_qp over every row, for steps inside the box, at vertices of the box and on its faces (a blocked line
+    gives exactly 0 in both; the objective's sums may differ in the last bits from NumPy's)."""
 
     rng = np.random.default_rng(6)
     blocked = 0
@@ -173,10 +172,13 @@ def test_line_level_narrowing_box_first_is_line_qp_over_all_rows():
                                                           Gd + rng.uniform(0.0, 0.05, m))
         Jk, ek = rng.normal(size=(3, n)), rng.normal(size=3)
         jz, r = Jk @ z0, Jk @ dq + ek
-        got = z0 * _line_level(z0, jz, Jk, ek, dq, lb, ub, G, gl, gu, 0.5)
+        got = z0 * line_level(z0, jz, Jk, ek, dq, lb, ub, G, gl, gu, 0.5)
         p, c = float(jz @ jz) + 1e-9, float(r @ jz)
-        want = z0 * line_qp(p, c, z0.tolist() + (G @ z0).tolist(), dq.tolist() + Gd.tolist(),
-                            lb.tolist() + gl.tolist(), ub.tolist() + gu.tolist(), 0.5)
-        assert np.array_equal(got, want), k
+        want = z0 * line_qp(p, c, np.concatenate((z0, G @ z0)), np.concatenate((dq, Gd)),
+                            np.concatenate((lb, gl)), np.concatenate((ub, gu)), 0.5)
+        assert np.allclose(got, want, rtol=1e-12, atol=1e-15) and got.any() == want.any(), k
+        box_only = line_qp(p, c, z0, dq, lb, ub, 0.5)  # the hierarchy's call without rows: the box alone
+        assert np.isclose(_line_level(z0, jz, Jk, ek, dq, lb, ub, None, None, None, 0.5), box_only,
+                          rtol=1e-12, atol=1e-15), k
         blocked += not got.any()
     assert 50 < blocked < 390  # both the blocked line and the free one were exercised

@@ -28,8 +28,8 @@ nothing (:func:`level_steps` gives each level's part). This is the nullspace for
 hierarchical QP; it needs no more than one small QP per level. When the
 freedom left is a line (``Z`` has one column: a 6-D task on a 7-joint arm)
 the level's QP is one-dimensional and is solved exactly in closed form
-(:func:`line_qp`: the unconstrained minimiser clipped to the feasible
-interval).
+(:func:`~kinserve.ik.qp.line_kernel.line_qp`, compiled: the unconstrained minimiser clipped to the
+feasible interval).
 """
 
 from __future__ import annotations
@@ -39,20 +39,20 @@ from typing import NamedTuple
 import numpy as np
 
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND, QPCalls, solve_dense
+from kinserve.ik.qp.line_kernel import LOWER_DAMPING, line_level
 from kinserve.ik.tasks.centring_weights import null_space_basis
 
 _concat = np.concatenate
 
-#: Damping of the lower levels (regularises the null-space coordinates).
-LOWER_DAMPING = 1e-9
-
-#: Solve a lower level whose freedom is a line with :func:`line_qp` instead of the QP solver.
+#: Solve a lower level whose freedom is a line in closed form (:mod:`~kinserve.ik.qp.line_kernel`) instead
+#: of with the QP solver.
 LINE_LEVEL = True
 
-#: Rows whose coefficient along the line is at most this (in magnitude) do not restrict it (round-off of
-#: a null-space basis vector: without this, a joint at its bound with a 1e-17 component along the line
-#: froze the line - the S9 relax-z centring stopped 5 cm short of the sphere).
-LINE_ROW_TOL = 1e-12
+#: The rows of a step without constraint rows, as the line kernel takes them (constants: never written).
+_NO_ROWS = np.zeros((0, 0))
+_NO_ROWS.setflags(write=False)
+_NO_BOUNDS = np.zeros(0)
+_NO_BOUNDS.setflags(write=False)
 
 
 def stack_level(pairs: list, sqrt_weights: list) -> tuple[np.ndarray, np.ndarray]:
@@ -183,84 +183,11 @@ def _lower_level(Z, JZ, Jk, ek, dq, lb, ub, G, l, u, max_step, backend, shortcut
     return None if z is None else Z.dot(z)
 
 
-def line_qp(p: float, c: float, a: list, v: list, lo: list, hi: list, limit: float) -> float:
-    """Exact ``argmin 1/2 p z^2 + c z`` over the scalar ``z`` with ``lo_i <= v_i + a_i z <= hi_i`` and
-    ``|z| <= limit``.
-
-    ``p > 0``; ``v`` are the rows' values at ``z = 0``, taken as feasible
-    (``lo_i <= v_i <= hi_i``: the rows at a feasible step, round-off included),
-    so every bound on ``z`` is clamped at 0 and the interval ``[z_lo, z_hi]`` of
-    feasible ``z`` contains 0. A strictly convex function of one variable on an
-    interval is minimised by its unconstrained minimiser ``-c / p`` clipped to
-    the interval. Rows with ``a_i = 0`` do not restrict ``z``.
-    """
-    zlo, zhi = _line_interval(a, v, lo, hi, -limit, limit)
-    return _clip_to(-c / p, zlo, zhi)
-
-
-def _clip_to(z: float, zlo: float, zhi: float) -> float:
-    """``z`` clipped to ``[zlo, zhi]`` (an interval holding 0); an end at 0 gives exactly ``0.0``."""
-    if z < zlo:
-        return zlo if zlo < 0.0 else 0.0
-    if z > zhi:
-        return zhi if zhi > 0.0 else 0.0
-    return z
-
-
-def _line_interval(a: list, v: list, lo: list, hi: list, zlo: float, zhi: float) -> tuple[float, float]:
-    """``[zlo, zhi]`` narrowed by the rows ``lo_i <= v_i + a_i z <= hi_i`` (slacks clamped at 0, see
-    :func:`line_qp`).
-
-    Stops as soon as the interval is ``[0, 0]`` (the remaining rows cannot widen it).
-    """
-    for ai, vi, li, hi_ in zip(a, v, lo, hi):
-        # slacks clamped at 0 (a row at its bound by round-off does not push z away from 0), and a row the
-        # line barely moves (|a_i| <= LINE_ROW_TOL, e.g. 1e-17 of a basis vector) does not restrict z: a
-        # bound of (1e-16 / 1e-17) would be noise, as the QP solver's feasibility tolerance also treats it.
-        # For a_i > 0 the bounds are (lo_i - v_i) / a_i <= z <= (hi_i - v_i) / a_i, reversed for a_i < 0;
-        # written with conditionals, not min/max (this loop runs for every row of every line level)
-        if ai > LINE_ROW_TOL:
-            down, up = li - vi, hi_ - vi
-        elif ai < -LINE_ROW_TOL:
-            down, up = vi - hi_, vi - li
-            ai = -ai
-        else:
-            continue
-        if down < 0.0:
-            b = down / ai
-            if b > zlo:
-                zlo = b
-        elif zlo < 0.0:
-            zlo = 0.0
-        if up > 0.0:
-            b = up / ai
-            if b < zhi:
-                zhi = b
-        elif zhi > 0.0:
-            zhi = 0.0
-        if zlo >= 0.0 and zhi <= 0.0:  # collapsed to [0, 0]
-            break
-    return zlo, zhi
-
-
 def _line_level(z0: np.ndarray, jz: np.ndarray, Jk: np.ndarray, ek: np.ndarray, dq: np.ndarray,
                 lb: np.ndarray, ub: np.ndarray, G: np.ndarray | None, l: np.ndarray | None,  # noqa: E741
                 u: np.ndarray | None, max_step: float) -> float:
     """The coordinate ``z`` of the lower level's step ``z z0`` when its freedom is the line along the unit
-    vector ``z0``.
-
-    The level's QP (module docstring) with ``Z = z0``: ``Pz = |J_k z0|^2 + eps``,
-    ``cz = (J_k dq + e_k)^T J_k z0`` (``jz = J_k z0``), the box
-    ``lb <= dq + z0 z <= ub`` and the rows ``l <= G dq + (G z0) z <= u``,
-    solved exactly as :func:`line_qp` does: the box narrows the interval first, the
-    rows are evaluated only when the box leaves the line some freedom, and the
-    objective only when the rows do too (a line blocked at ``[0, 0]`` gives ``0.0``).
-    """
-    zlo, zhi = _line_interval(z0.tolist(), dq.tolist(), lb.tolist(), ub.tolist(), -max_step, max_step)
-    if G is not None and (zlo < 0.0 or zhi > 0.0):
-        zlo, zhi = _line_interval(G.dot(z0).tolist(), G.dot(dq).tolist(), l.tolist(), u.tolist(), zlo, zhi)
-    if zlo >= 0.0 and zhi <= 0.0:
-        return 0.0
-    p = float(jz.dot(jz)) + LOWER_DAMPING
-    c = float((Jk.dot(dq) + ek).dot(jz))
-    return _clip_to(-c / p, zlo, zhi)
+    vector ``z0``: :func:`~kinserve.ik.qp.line_kernel.line_level` (``G`` None: no rows)."""
+    if G is None:
+        return line_level(z0, jz, Jk, ek, dq, lb, ub, _NO_ROWS, _NO_BOUNDS, _NO_BOUNDS, max_step)
+    return line_level(z0, jz, Jk, ek, dq, lb, ub, G, l, u, max_step)
