@@ -37,6 +37,7 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "ik/constraints/clearance_kernel.py",
     "ik/lm/kernel.py",
     "ik/qp/line_kernel.py",
+    "ik/tasks/null_space_kernel.py",
     "planners/motion/extend_kernel.py",
     # read by the kernels above: the obstacle table's encoding, the pre-check's verdicts, the joint kinds of
     # the chain encoding, the LM's status codes

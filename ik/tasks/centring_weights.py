@@ -37,12 +37,12 @@ the middle of its range; relaxing ``z`` leaves ``d3`` free, which goes to
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import get_lapack_funcs
 
+from kinserve.ik.tasks.null_space_kernel import certified_null_space
 from kinserve.kinematics.errors import InputError, NonFiniteError
 
 if TYPE_CHECKING:  # annotations only
@@ -85,49 +85,23 @@ def centring_objective(robot: Robot, q: VectorLike, weights: np.ndarray) -> floa
 
 
 _gesdd = get_lapack_funcs(("gesdd",), (np.eye(2),))[0]
-_geqrf, _ormqr = get_lapack_funcs(("geqrf", "ormqr"), (np.eye(2),))
 
 #: Singular values below ``RANK_TOL * max(1, sigma_max)`` count as zero.
 RANK_TOL = 1e-6
-
-_vdot = np.vdot
-
-
-def _last_unit_columns(m: int, n: int) -> np.ndarray:
-    """The last ``n - m`` columns of ``I_n``, a fresh Fortran-ordered array (``ormqr`` overwrites it): the
-    ones of entries ``(m + j, j)`` sit every ``n + 1`` floats of its column-major storage, from ``m`` on."""
-    E = np.zeros((n, n - m), order="F")
-    E.T.reshape(-1)[m::n + 1] = 1.0  # (E.T is E's storage in row-major order: a view)
-    return E
 
 
 def full_rank_null_space(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray | None:
     """Orthonormal basis ``(n, n - m)`` of the null space of a wide ``J`` certified of full row rank, or None.
 
-    Householder QR of the transpose, ``J^T = Q [R; 0]`` (LAPACK ``geqrf``): when ``R``
-    is invertible the last ``n - m`` columns of ``Q`` (``ormqr`` applied to the
-    unit vectors) span the null space of ``J``. ``J`` and ``R`` have the same
-    singular values, ``|det R| = prod |R_ii| = prod sigma_i <= sigma_min sigma_max^(m-1)``
-    and ``sigma_max <= |J|_F = F``, so ``sigma_min >= prod |R_ii| / F^(m-1)``: when
-    that bound exceeds ``tol * max(1, F)`` every singular value exceeds
-    ``tol * max(1, sigma_max)``, :func:`null_space_basis`'s SVD would find rank
-    ``m`` too, and the two bases span the same space. None when the certificate
-    fails (a nearly singular ``J``: the caller uses the SVD) or ``m >= n``.
+    Householder QR of the transpose, ``J^T = Q [R; 0]``, in one compiled call
+    (:func:`~kinserve.ik.tasks.null_space_kernel.certified_null_space`): when ``R`` is invertible the last
+    ``n - m`` columns of ``Q`` span the null space of ``J``. Its certificate (``prod |R_ii| / F^(m-1) >
+    tol * max(1, F)``, ``F = |J|_F``) guarantees that every singular value exceeds ``tol * max(1,
+    sigma_max)``, so :func:`null_space_basis`'s SVD would find rank ``m`` too and the two bases span the same
+    space. None when the certificate fails (a nearly singular ``J``: the caller uses the SVD) or ``m >= n``.
     """
-    m, n = J.shape
-    if m == 0 or m >= n:
-        return None
-    qr, tau, _, info = _geqrf(J.T)
-    if info != 0:  # pragma: no cover - LAPACK failure
-        return None
-    det = 1.0
-    for r in qr.diagonal().tolist():
-        det *= r
-    F = math.sqrt(_vdot(J, J))
-    if not (abs(det) > tol * max(1.0, F) * F ** (m - 1)):  # NaN fails too
-        return None
-    Z, _, info = _ormqr(b"L", b"N", qr, tau, _last_unit_columns(m, n), n - m, overwrite_c=1)
-    return Z if info == 0 else None
+    ok, Z = certified_null_space(J, tol)
+    return Z if ok else None
 
 
 def null_space_basis(J: np.ndarray, tol: float = RANK_TOL) -> np.ndarray:
