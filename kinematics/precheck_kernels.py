@@ -498,6 +498,35 @@ def _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, stam
     return True
 
 
+@_inline
+def _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out):
+    """The scene indices of the pairs whose lower bound at the placements ``X`` (bounding spheres in ``W``)
+    does not exceed ``tol`` (m) into ``out``, in the pair table's order; returns how many."""
+    k = 0
+    for p in range(pairs.shape[0]):
+        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
+            out[k] = pairs[p, 3]
+            k += 1
+    return k
+
+
+@_inline
+def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float, out: np.ndarray) -> int:
+    """What coal must check at ``q`` (one entry per joint): -1 when ``q`` is in collision for certain
+    (:func:`certainly_colliding`'s test), else the number ``k`` of pairs whose lower bound does not exceed
+    ``tol`` (m), their scene indices written into ``out[:k]`` in the pair table's order (``out``: at least one
+    entry per pair). ``k = 0``: certified free (:func:`certify_configuration`'s tests, pair by pair). One
+    forward kinematics for both tests; the inner balls first (a configuration in collision for certain needs
+    no pair list). Meant for configurations :func:`certify_configuration` did not certify: a certain
+    collision is tested even when every pair would be certified."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    X, W, placed = workspace(joints.shape[0], spheres.shape[0], geoms.shape[0])
+    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (no pair list to make then)
+        return -1
+    return _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out)
+
+
 _PAIRS_SIGNATURE = _t.Array(_t.int64, 1, "C")(F1, I1, F1_ANY, _t.float64)
 
 
@@ -515,11 +544,7 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
         return out
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
     place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
-    k = 0
-    for p in range(P):
-        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
-            out[k] = pairs[p, 3]
-            k += 1
+    k = _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out)
     return out[:k].copy()
 
 
@@ -548,6 +573,7 @@ __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE",
            "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
            "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds", "pairs_keep",
+           "pairs_to_check",
            "place_bounding_spheres", "place_cover",
            "place_sphere", "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack",
            "workspace"]

@@ -1,8 +1,8 @@
 """The compiled extension step of RRT-Connect (kinserve.planners.motion.extend_kernel) against Python.
 
 ``nearest_node`` against a NumPy scan; ``extend_probe`` against the step computed in NumPy and the
-pre-check's own kernels called one point at a time (a new node in collision for certain also by coal's test
-of every pair); ``rrt_connect.extend`` (compiled step, coal on the
+pre-check's own kernels called one point at a time (verdicts and the pairs left to coal; a point in
+collision for certain also by coal's test of every pair); ``rrt_connect.extend`` (compiled step, coal on the
 uncertain points) against ``extend_exactly`` (the scene's collision test, clearance and probes one by one)
 on the same trees and targets: the same status, node and clearance bounds.
 """
@@ -18,6 +18,7 @@ from kinserve.kinematics.precheck_kernels import (
     certify_configuration,
     pair_lower_bounds,
     pairs_keep,
+    uncertified_pairs,
 )
 from kinserve.planners.motion.clearance import Clearance, ClearanceOracle
 from kinserve.planners.motion.edges import PROBES, EdgeCertifier
@@ -80,6 +81,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
     kinds = set()
     colliding = 0
     floors = {0: 0, 1: 0}
+    uncertain = 0
     for trial in range(300):
         n = int(rng.integers(1, 30))
         nodes, pruned = _tree(robot, rng, n)
@@ -87,7 +89,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
         if trial % 50 == 0:
             target = nodes[0].copy()  # the nearest node is the target itself
-        codes, q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step,
+        codes, q_new, checks = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step,
                                             pre.tolerance, certifier.end_need, probes)
         near = nearest_node(nodes, pruned, n, target)
         assert codes[NEAR] == near
@@ -101,13 +103,24 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         expected = target if dist <= step else nodes[near] + delta * (step / dist)
         np.testing.assert_allclose(q_new, expected, rtol=0, atol=1e-12)
         points = [q_new] + [nodes[near] + s * (q_new - nodes[near]) for s in PROBES]
-        verdicts = [FREE if certify_configuration(pre.floats, pre.ints, p, pre.tolerance) else UNCERTAIN
-                    for p in points]
-        if verdicts[0] == UNCERTAIN and certainly_colliding(pre.floats, pre.ints, q_new, pre.tolerance):
-            verdicts = [COLLIDES] + [-1] * len(PROBES)  # refused: no probe asked
-            assert certifier.oracle.scene.colliding(q_new)  # coal on every pair agrees
-            colliding += 1
+        verdicts, pairs = [], []
+        for p in points:  # in order, up to the first point in collision for certain
+            if certify_configuration(pre.floats, pre.ints, p, pre.tolerance):
+                verdicts.append(FREE), pairs.append([])
+            elif certainly_colliding(pre.floats, pre.ints, p, pre.tolerance):
+                verdicts.append(COLLIDES)
+                assert certifier.oracle.scene.colliding(p)  # coal on every pair agrees
+                colliding += 1
+                break
+            else:
+                verdicts.append(UNCERTAIN), pairs.append(
+                    uncertified_pairs(pre.floats, pre.ints, p, pre.tolerance).tolist())
+        verdicts += [-1] * (len(points) - len(verdicts))  # refused: no point after it asked
         assert codes[END:].tolist() == verdicts
+        for k, listed in enumerate(pairs):  # the pairs coal must check: the pre-check's own list
+            if verdicts[k] == UNCERTAIN:
+                assert listed and checks[k, 1:1 + checks[k, 0]].tolist() == listed
+                uncertain += 1
         if UNCERTAIN in verdicts or COLLIDES in verdicts:
             assert codes[FLOOR] == -1
         else:
@@ -116,6 +129,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
             floors[int(codes[FLOOR])] += 1
     assert kinds == {AT_TARGET, TOWARDS, ONTO}
     assert colliding > 10  # the refusal was met
+    assert uncertain > 10  # and the pair lists were compared
     assert floors[1] > 10, floors
 
 

@@ -6,26 +6,27 @@ Euclidean distance, the first one on ties) among those ``pruned`` does not mark;
 :func:`extend_probe`: one extension step of a tree (:func:`~.rrt_connect.extend`) up to what only coal can
 decide, in one call. From the nearest node ``q_near`` towards ``target`` (distance ``dist``) it steps to
 ``q_new = target`` when ``dist <= step``, else ``q_new = q_near + (target - q_near) step / dist`` (rad), and
-asks the scene's sphere pre-check about ``q_new``
-(:func:`~kinserve.kinematics.precheck_kernels.classify_configuration`, tolerance ``tol``, m): **certified
-free**, **colliding** for certain (then nothing else is asked: the step is refused) or **uncertain**; then
-about the points ``q_near + s (q_new - q_near)`` for each ``s`` of ``probes``
-(:func:`~kinserve.kinematics.precheck_kernels.certify_configuration`): certified free or uncertain (coal
-decides: the pre-check's spheres contain the robot's geometry, so a certified configuration is one coal
-finds free, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
-collision). When every one is certified, it
-also tells whether ``q_new``'s pair lower bounds
+asks the scene's sphere pre-check about ``q_new`` and then about the points ``q_near + s (q_new - q_near)``
+for each ``s`` of ``probes`` (:func:`~kinserve.kinematics.precheck_kernels.certify_configuration`, then for
+a point it cannot certify :func:`~kinserve.kinematics.precheck_kernels.pairs_to_check`; tolerance ``tol``,
+m): **certified free**,
+**colliding** for certain (then nothing more is asked: the step is refused) or **uncertain**, with the pairs
+coal must check there (every other pair is certified free: the pre-check's spheres contain the robot's
+geometry, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
+collision). When every point is certified, it also tells whether ``q_new``'s pair lower bounds
 (:func:`~kinserve.kinematics.precheck_kernels.pair_lower_bounds`, m) all exceed ``need`` ``(P,)`` (the
 distance each pair must keep at a node, in the scene's pair order: the clearance floor;
 :func:`~kinserve.kinematics.precheck_kernels.pairs_keep`, which computes the cover spheres' bounds of the
 close pairs only).
 
-Its answer: ``(codes, q_new)``, ``codes`` ``(4 + len(probes),)`` int64:
+Its answer: ``(codes, q_new, checks)``, ``codes`` ``(4 + len(probes),)`` int64:
 ``[near, kind, floor, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
 else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`; ``floor``
 1 when every bound exceeds its ``need``, 0 when one may not (coal decides), -1 when not asked;
-``end``: :data:`FREE`, :data:`COLLIDES` (the ``probe_k`` are then -1) or :data:`UNCERTAIN`; ``probe_k``:
-:data:`FREE` or :data:`UNCERTAIN`.
+``end`` and ``probe_k``: :data:`FREE`, :data:`UNCERTAIN` or :data:`COLLIDES` (-1: not asked, after a point
+colliding for certain). ``checks`` ``(1 + len(probes), P + 1)``: row ``k`` (0: ``q_new``, then the probes)
+holds, for an uncertain point, the number ``c`` of pairs coal must check there, then their scene indices in
+``[1, c]`` (the other rows are not written).
 ``near`` is -1 (and ``kind`` :data:`AT_TARGET`) when every node is pruned or ``size`` is 0.
 
 The cache key covers every kernel source (:mod:`kinserve.kinematics.kernel_cache`); every kernel has its
@@ -39,10 +40,8 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled
-from kinserve.kinematics.precheck_kernels import certify_configuration, classify_configuration, pairs_keep
-from kinserve.kinematics.precheck_verdicts import COLLIDING as _COLLIDING
-from kinserve.kinematics.precheck_verdicts import FREE as _FREE
+from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled, inline
+from kinserve.kinematics.precheck_kernels import certify_configuration, pairs_keep, pairs_to_check, unpack
 
 #: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
 FREE, UNCERTAIN, COLLIDES = 0, 1, 2
@@ -55,7 +54,7 @@ NEAR, KIND, FLOOR, END = 0, 1, 2, 3
 
 _t = numba.types
 _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
-_OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C")))
+_OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C"), _t.Array(_t.int64, 2, "C")))
 _EXTEND_SIGNATURE = _OUT(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64, F1_ANY, F1)
 
 
@@ -76,51 +75,66 @@ def nearest_node(nodes: np.ndarray, pruned: np.ndarray, size: int, q: np.ndarray
     return k
 
 
+@inline
+def _judge(floats, ints, q, tol, codes, checks, k):
+    """Point ``k`` of the step (0: ``q_new``, then the probes) at configuration ``q``: its verdict into
+    ``codes[END + k]`` and, when uncertain, the pairs coal must check into row ``k`` of ``checks`` (count
+    first; the rows of other points are left unwritten); True when certified free."""
+    if certify_configuration(floats, ints, q, tol):  # the common answer, from the cheaper test
+        codes[END + k] = FREE
+        return True
+    found = pairs_to_check(floats, ints, q, tol, checks[k, 1:])
+    if found < 0:
+        codes[END + k] = COLLIDES
+        return False
+    checks[k, 0] = found
+    codes[END + k] = FREE if found == 0 else UNCERTAIN
+    return found == 0
+
+
 @compiled(_EXTEND_SIGNATURE)
 def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
                  target: np.ndarray, step: float, tol: float, need: np.ndarray,
-                 probes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One extension step of a tree towards ``target`` up to what coal must decide: ``(codes, q_new)``
-    (module docstring). ``floats, ints``: the scene's packed pre-check
+                 probes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One extension step of a tree towards ``target`` up to what coal must decide: ``(codes, q_new,
+    checks)`` (module docstring). ``floats, ints``: the scene's packed pre-check
     (:mod:`kinserve.kinematics.precheck_packing`); ``nodes`` ``(N, nq)`` with ``pruned`` ``(N,)``, the first
     ``size`` rows in use; ``step`` (rad), ``tol`` (m), ``need`` ``(P,)`` (m), ``probes`` (fractions of the
     step)."""
     n = nodes.shape[1]
     codes = np.full(4 + probes.shape[0], -1, dtype=np.int64)
     codes[KIND] = AT_TARGET
+    checks = np.empty((1 + probes.shape[0], unpack(floats, ints)[4].shape[0] + 1), dtype=np.int64)
     near = nearest_node(nodes, pruned, size, target)
     codes[NEAR] = near
     q_new = np.empty(n)
     if near < 0:
-        return codes, q_new
+        return codes, q_new, checks
     dist2 = 0.0
     for c in range(n):
         d = target[c] - nodes[near, c]
         dist2 += d * d
     dist = math.sqrt(dist2)
     if dist <= 1e-12:
-        return codes, q_new
+        return codes, q_new, checks
     codes[KIND] = ONTO if dist <= step else TOWARDS
     f = 1.0 if dist <= step else step / dist
     for c in range(n):
         q_new[c] = target[c] if dist <= step else nodes[near, c] + (target[c] - nodes[near, c]) * f
-    verdict = classify_configuration(floats, ints, q_new, tol)
-    if verdict == _COLLIDING:
-        codes[END] = COLLIDES
-        return codes, q_new
-    free = verdict == _FREE
-    codes[END] = FREE if free else UNCERTAIN
+    free = _judge(floats, ints, q_new, tol, codes, checks, 0)
+    if codes[END] == COLLIDES:
+        return codes, q_new, checks
     q = np.empty(n)
     for k in range(probes.shape[0]):
         s = probes[k]
         for c in range(n):
             q[c] = nodes[near, c] + s * (q_new[c] - nodes[near, c])
-        ok = certify_configuration(floats, ints, q, tol)
-        codes[END + 1 + k] = FREE if ok else UNCERTAIN
-        free = free and ok
+        free = _judge(floats, ints, q, tol, codes, checks, 1 + k) and free
+        if codes[END + 1 + k] == COLLIDES:
+            return codes, q_new, checks
     if free:
         codes[FLOOR] = 1 if pairs_keep(floats, ints, q_new, need) else 0
-    return codes, q_new
+    return codes, q_new, checks
 
 
 __all__ = ["AT_TARGET", "COLLIDES", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",

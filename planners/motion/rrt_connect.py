@@ -84,17 +84,17 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     pre = oracle.precheck
     if pre is None:
         return extend_exactly(tree, target, certifier, step)
-    codes, q_new = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
-                                float(step), pre.tolerance, certifier.end_need, _PROBES)
+    codes, q_new, checks = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
+                                        float(step), pre.tolerance, certifier.end_need, _PROBES)
     near = int(codes[NEAR])
     if codes[KIND] == AT_TARGET:
         return _Step(REACHED, near)
-    if codes[END] == COLLIDES:  # q_new in collision for certain: no probe asked
-        oracle.checks += 1
+    verdicts = codes[END:].tolist()
+    if COLLIDES in verdicts:  # a point in collision for certain: the points after it not asked
+        oracle.checks += verdicts.index(COLLIDES) + 1
         return _Step(TRAPPED, -1)
     oracle.checks += 1 + len(_PROBES)
-    verdicts = codes[END:].tolist()
-    if UNCERTAIN in verdicts and _collides(oracle, tree.node(near), q_new, verdicts):
+    if UNCERTAIN in verdicts and _collides(oracle, tree.node(near), q_new, verdicts, checks):
         return _Step(TRAPPED, -1)
     c_new = certifier.clearance(q_new)
     if codes[FLOOR] != 1 and not certifier.clear(c_new):
@@ -103,15 +103,20 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     return _Step(REACHED if codes[KIND] == ONTO else ADVANCED, k)
 
 
-def _collides(oracle: ClearanceOracle, q_near: np.ndarray, q_new: np.ndarray, verdicts: list[int]) -> bool:
-    """Whether the scene's collision test finds ``q_new`` or a probe point ``q_near + s (q_new - q_near)``
-    (``s`` in :data:`~.edges.PROBES`) in collision, asked in that order of the points whose ``verdicts``
-    (:func:`~.extend_kernel.extend_probe`'s, ``q_new`` first) are uncertain; the others are certified free."""
-    if verdicts[0] == UNCERTAIN and oracle.scene.in_collision(q_new):
-        return True
+def _collides(oracle: ClearanceOracle, q_near: np.ndarray, q_new: np.ndarray, verdicts: list[int],
+              checks: np.ndarray) -> bool:
+    """Whether coal finds ``q_new`` or a probe point ``q_near + s (q_new - q_near)`` (``s`` in
+    :data:`~.edges.PROBES`) in collision, asked in that order of the points whose ``verdicts``
+    (:func:`~.extend_kernel.extend_probe`'s, ``q_new`` first) are uncertain, on the pairs ``checks`` lists
+    for each (the others are certified free there)."""
+    pair_hits = oracle.scene.workspace().pair_hits
     u = q_new - q_near
-    hits = oracle.scene.in_collision
-    return any(v == UNCERTAIN and hits(q_near + s * u) for s, v in zip(PROBES, verdicts[1:]))
+    for k, verdict in enumerate(verdicts):
+        if verdict == UNCERTAIN:
+            q = q_new if k == 0 else q_near + PROBES[k - 1] * u
+            if pair_hits(q, checks[k, 1:1 + checks[k, 0]]):
+                return True
+    return False
 
 
 def extend_exactly(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
