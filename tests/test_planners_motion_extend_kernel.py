@@ -21,7 +21,7 @@ from kinserve.kinematics.precheck_kernels import (
     uncertified_pairs,
 )
 from kinserve.planners.motion.clearance import Clearance, ClearanceOracle
-from kinserve.planners.motion.edges import PROBES, EdgeCertifier
+from kinserve.planners.motion.edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
 from kinserve.planners.motion.extend_kernel import (
     AT_TARGET,
     COLLIDES,
@@ -35,6 +35,7 @@ from kinserve.planners.motion.extend_kernel import (
     UNCERTAIN,
     extend_probe,
     nearest_node,
+    probe_segment,
 )
 from kinserve.planners.motion.reach import pair_reach
 from kinserve.planners.motion.rrt_connect import TRAPPED, extend, extend_exactly
@@ -200,3 +201,40 @@ def test_compiled_extend_takes_the_same_steps_as_the_python_one(setting):
                 np.testing.assert_allclose(ca.distance[both], cb.distance[both], rtol=0, atol=1e-12)
         assert a.size == b.size
     assert len(statuses) >= 2  # trapped and advanced steps both seen
+
+
+def test_probe_segment_and_blocked_match_the_precheck_and_coal_point_by_point(setting):
+    """``probe_segment`` against the pre-check's kernels at each probe point (verdicts in order up to the
+    first point in collision for certain, the pair lists of the uncertain ones), and
+    ``EdgeCertifier.blocked`` (compiled probes, coal on the listed pairs) against the scene's own collision
+    test at every probe point."""
+    robot, certifier = setting
+    pre = certifier.oracle.precheck
+    scene = certifier.oracle.scene
+    rng = np.random.default_rng(13)
+    seen = {FREE: 0, UNCERTAIN: 0, COLLIDES: 0}
+    blocked = 0
+    for _ in range(300):
+        qa = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
+        qb = qa + rng.normal(scale=0.4, size=robot.nq)
+        verdicts, checks = probe_segment(pre.floats, pre.ints, qa, qb, PROBE_FRACTIONS, pre.tolerance)
+        expected = []
+        for k, s in enumerate(PROBES):
+            p = qa + s * (qb - qa)
+            if certify_configuration(pre.floats, pre.ints, p, pre.tolerance):
+                expected.append(FREE)
+            elif certainly_colliding(pre.floats, pre.ints, p, pre.tolerance):
+                expected.append(COLLIDES)
+            else:
+                expected.append(UNCERTAIN)
+                listed = uncertified_pairs(pre.floats, pre.ints, p, pre.tolerance).tolist()
+                assert checks[k, 1:1 + checks[k, 0]].tolist() == listed
+            seen[expected[-1]] += 1
+            if expected[-1] == COLLIDES:
+                break
+        expected += [-1] * (len(PROBES) - len(expected))
+        assert verdicts.tolist() == expected
+        reference = any(scene.in_collision(qa + s * (qb - qa)) for s in PROBES)
+        assert certifier.blocked(qa, qb) == reference
+        blocked += reference
+    assert min(seen.values()) > 10 and 20 < blocked < 280, (seen, blocked)

@@ -37,6 +37,8 @@ import pinocchio as pin
 
 from kinserve.kinematics.precheck_kernels import TOLERANCE, pair_lower_bounds
 
+from .extend_kernel import UNCERTAIN
+
 #: Smallest clearance (m) from which a motion may advance; closer configurations reject it.
 CLEARANCE_FLOOR = 1e-4
 # TOLERANCE (m, the sphere pre-check's): the distance kept in reserve against the error of coal's distances;
@@ -145,6 +147,19 @@ class ClearanceOracle:
         """The scene's collision test at ``q`` (float ``(nq,)``)."""
         self.checks += 1
         return bool(self.scene.in_collision(q))
+
+    def coal_decides(self, point: Callable[[int], np.ndarray], verdicts: list[int],
+                     checks: np.ndarray) -> bool:
+        """Whether coal finds one of the points the sphere pre-check left uncertain in collision: point ``k``
+        is ``point(k)``, its verdict ``verdicts[k]`` (:data:`~.extend_kernel.UNCERTAIN` for those asked, in
+        order) and row ``k`` of ``checks`` the pairs to check there (count first; the others are certified
+        free at that point): :func:`~.extend_kernel.extend_probe` and
+        :func:`~.extend_kernel.probe_segment`'s answers."""
+        pair_hits = self.scene.workspace().pair_hits
+        for k, verdict in enumerate(verdicts):
+            if verdict == UNCERTAIN and pair_hits(point(k), checks[k, 1:1 + checks[k, 0]]):
+                return True
+        return False
 
     def clearance(self, q: np.ndarray) -> Clearance:
         """The :class:`Clearance` of ``q``: sphere bounds, made on its first read (:meth:`sphere_bounds`),

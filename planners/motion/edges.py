@@ -53,11 +53,15 @@ import numpy as np
 from kinserve.kinematics.motion_kernels import LOOKAHEAD, geometry_pair_rates, motion_hard_pairs
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
+from .extend_kernel import COLLIDES, UNCERTAIN, probe_segment
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
 #: Interior points ``s`` probed by the cheap collision check before the advancement.
 PROBES = (0.5, 0.25, 0.75)
+#: :data:`PROBES` as the compiled probes take them (read-only).
+PROBE_FRACTIONS = np.array(PROBES)
+PROBE_FRACTIONS.setflags(write=False)
 #: Most advances of the sphere advancement of one edge (:meth:`EdgeCertifier.hard_pairs`; an advance
 #: evaluates the pairs due at one point, often a few): the pairs still open after them are handed over.
 SPHERE_ADVANCES = 1024
@@ -135,9 +139,19 @@ class EdgeCertifier:
 
     def blocked(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
         """True when the cheap collision test finds one of the :data:`PROBES` points of ``q_a -> q_b`` in
-        collision (the edge is then certainly not free)."""
+        collision (the edge is then certainly not free): with a sphere pre-check, one compiled call
+        (:func:`~.extend_kernel.probe_segment`) and coal on the pairs it leaves uncertain, point by point."""
         u = q_b - q_a
-        return any(self.in_collision(q_a + s * u) for s in PROBES)
+        oracle = self.oracle
+        pre = oracle.precheck
+        if pre is None:
+            return any(self.in_collision(q_a + s * u) for s in PROBES)
+        codes, checks = probe_segment(pre.floats, pre.ints, q_a, q_b, PROBE_FRACTIONS, pre.tolerance)
+        verdicts = codes.tolist()
+        oracle.checks += len(PROBES) - verdicts.count(-1)
+        if COLLIDES in verdicts:
+            return True
+        return UNCERTAIN in verdicts and oracle.coal_decides(lambda k: q_a + PROBES[k] * u, verdicts, checks)
 
     def hard_pairs(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
         """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``
@@ -167,14 +181,13 @@ class EdgeCertifier:
         clearances of its ends, refined in place; module docstring). ``probe``: first run the cheap test at
         the :data:`PROBES` points (False when the caller did: :meth:`blocked`). ``max_advances``: an exact
         advancement is rejected after that many advances (both ends together)."""
-        u = b.q - a.q
-        if probe and any(self.in_collision(a.q + s * u) for s in PROBES):
+        if probe and self.blocked(a.q, b.q):
             return False
         stage = self.sphere_stage(a.q, b.q)
         if stage is None:
             return self.certify_exactly(a, b, max_advances)
         hard, lo, hi = stage
-        return not len(hard) or self.certify_pairs(a.q, u, hard, max_advances, lo, hi)
+        return not len(hard) or self.certify_pairs(a.q, b.q - a.q, hard, max_advances, lo, hi)
 
     def certify_pairs(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, max_advances: int,
                       lo: float = 0.0, hi: float = 1.0) -> bool:

@@ -1,4 +1,5 @@
-"""The compiled inner loop of RRT-Connect's extension step (Numba): nearest node, the step, its sphere checks.
+"""The planner's compiled probes (Numba): RRT-Connect's extension step (nearest node, the step, its sphere
+checks) and the probe points of a motion.
 
 :func:`nearest_node`: the index of the node of ``nodes[:size]`` ``(N, nq)`` closest to ``q`` (squared
 Euclidean distance, the first one on ties) among those ``pruned`` does not mark; -1 when there is none.
@@ -29,6 +30,9 @@ holds, for an uncertain point, the number ``c`` of pairs coal must check there, 
 ``[1, c]`` (the other rows are not written).
 ``near`` is -1 (and ``kind`` :data:`AT_TARGET`) when every node is pruned or ``size`` is 0.
 
+:func:`probe_segment`: the same verdicts and pair lists at the probe points ``qa + s (qb - qa)`` of a
+motion (the cheap test that refuses a motion before its certificate: :meth:`~.edges.EdgeCertifier.blocked`).
+
 The cache key covers every kernel source (:mod:`kinserve.kinematics.kernel_cache`); every kernel has its
 signature: importing this module compiles them or loads them from that cache. Metres and radians.
 """
@@ -56,6 +60,8 @@ _t = numba.types
 _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
 _OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C"), _t.Array(_t.int64, 2, "C")))
 _EXTEND_SIGNATURE = _OUT(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64, F1_ANY, F1)
+_SEGMENT_SIGNATURE = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.int64, 2, "C")))(
+    F1, I1, F1_ANY, F1_ANY, F1, _t.float64)
 
 
 @compiled(_NEAREST_SIGNATURE)
@@ -137,5 +143,27 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
     return codes, q_new, checks
 
 
+@compiled(_SEGMENT_SIGNATURE)
+def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.ndarray, probes: np.ndarray,
+                  tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """The sphere pre-check at the points ``qa + s (qb - qa)``, ``s`` in ``probes`` (rad; tolerance ``tol``,
+    m), in one call: ``(verdicts, checks)``, ``verdicts`` ``(len(probes),)`` each :data:`FREE`,
+    :data:`UNCERTAIN` or :data:`COLLIDES` (-1 after a point colliding for certain: not asked), ``checks`` as
+    :func:`extend_probe`'s (row ``k``: for an uncertain point, the number of pairs coal must check there,
+    then their scene indices)."""
+    n = qa.shape[0]
+    codes = np.full(END + probes.shape[0], -1, dtype=np.int64)
+    checks = np.empty((probes.shape[0], unpack(floats, ints)[4].shape[0] + 1), dtype=np.int64)
+    q = np.empty(n)
+    for k in range(probes.shape[0]):
+        s = probes[k]
+        for c in range(n):
+            q[c] = qa[c] + s * (qb[c] - qa[c])
+        _judge(floats, ints, q, tol, codes, checks, k)
+        if codes[END + k] == COLLIDES:
+            break
+    return codes[END:].copy(), checks
+
+
 __all__ = ["AT_TARGET", "COLLIDES", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
-           "extend_probe", "nearest_node"]
+           "extend_probe", "nearest_node", "probe_segment"]

@@ -38,8 +38,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .clearance import Clearance, ClearanceOracle
-from .edges import PROBES, EdgeCertifier
+from .clearance import Clearance
+from .edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
 from .extend_kernel import AT_TARGET, COLLIDES, END, FLOOR, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
 from .search_tree import SearchTree
 
@@ -49,7 +49,6 @@ STEP = 0.5
 DIRECT_GOALS = 3
 
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
-_PROBES = np.array(PROBES)
 
 
 @dataclass(frozen=True)
@@ -85,7 +84,7 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     if pre is None:
         return extend_exactly(tree, target, certifier, step)
     codes, q_new, checks = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
-                                        float(step), pre.tolerance, certifier.end_need, _PROBES)
+                                        float(step), pre.tolerance, certifier.end_need, PROBE_FRACTIONS)
     near = int(codes[NEAR])
     if codes[KIND] == AT_TARGET:
         return _Step(REACHED, near)
@@ -93,30 +92,17 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     if COLLIDES in verdicts:  # a point in collision for certain: the points after it not asked
         oracle.checks += verdicts.index(COLLIDES) + 1
         return _Step(TRAPPED, -1)
-    oracle.checks += 1 + len(_PROBES)
-    if UNCERTAIN in verdicts and _collides(oracle, tree.node(near), q_new, verdicts, checks):
-        return _Step(TRAPPED, -1)
+    oracle.checks += 1 + len(PROBES)
+    if UNCERTAIN in verdicts:
+        q_near = tree.node(near)
+        u = q_new - q_near
+        if oracle.coal_decides(lambda k: q_new if k == 0 else q_near + PROBES[k - 1] * u, verdicts, checks):
+            return _Step(TRAPPED, -1)
     c_new = certifier.clearance(q_new)
     if codes[FLOOR] != 1 and not certifier.clear(c_new):
         return _Step(TRAPPED, -1)
     k = tree.add(c_new, near, certified=False)
     return _Step(REACHED if codes[KIND] == ONTO else ADVANCED, k)
-
-
-def _collides(oracle: ClearanceOracle, q_near: np.ndarray, q_new: np.ndarray, verdicts: list[int],
-              checks: np.ndarray) -> bool:
-    """Whether coal finds ``q_new`` or a probe point ``q_near + s (q_new - q_near)`` (``s`` in
-    :data:`~.edges.PROBES`) in collision, asked in that order of the points whose ``verdicts``
-    (:func:`~.extend_kernel.extend_probe`'s, ``q_new`` first) are uncertain, on the pairs ``checks`` lists
-    for each (the others are certified free there)."""
-    pair_hits = oracle.scene.workspace().pair_hits
-    u = q_new - q_near
-    for k, verdict in enumerate(verdicts):
-        if verdict == UNCERTAIN:
-            q = q_new if k == 0 else q_near + PROBES[k - 1] * u
-            if pair_hits(q, checks[k, 1:1 + checks[k, 0]]):
-                return True
-    return False
 
 
 def extend_exactly(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
