@@ -74,6 +74,28 @@ def _tree(robot, rng, n):
     return nodes, pruned
 
 
+def _buffers(certifier, short: int = 0):
+    """Fresh output buffers of the compiled probes for the certifier's scene (``short``: that many pair
+    columns too few)."""
+    P = len(certifier.oracle.scene.pairs)
+    return (np.full(END + 1 + len(PROBES), -7, dtype=np.int64),
+            np.full((1 + len(PROBES), P + 1 - short), -7, dtype=np.int64))
+
+
+def test_buffers_too_small_are_refused_without_a_write(setting):
+    """Buffers that cannot hold every pair of the scene: nothing written, an empty ``q_new`` / False."""
+    robot, certifier = setting
+    pre = certifier.oracle.precheck
+    nodes, pruned = _tree(robot, np.random.default_rng(3), 5)
+    codes, checks = _buffers(certifier, short=1)
+    q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, 5, robot.upper.copy(), 0.5, pre.tolerance,
+                         certifier.end_need, PROBE_FRACTIONS, codes, checks)
+    assert q_new.shape == (0,)
+    assert not probe_segment(pre.floats, pre.ints, nodes[0], nodes[1], PROBE_FRACTIONS, pre.tolerance, codes,
+                             checks)
+    assert (codes == -7).all() and (checks == -7).all()
+
+
 def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
     robot, certifier = setting
     pre = certifier.oracle.precheck
@@ -90,8 +112,9 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
         if trial % 50 == 0:
             target = nodes[0].copy()  # the nearest node is the target itself
-        codes, q_new, checks = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step,
-                                            pre.tolerance, certifier.end_need, probes)
+        codes, checks = _buffers(certifier)
+        q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step, pre.tolerance,
+                             certifier.end_need, probes, codes, checks)
         near = nearest_node(nodes, pruned, n, target)
         assert codes[NEAR] == near
         delta = target - nodes[near]
@@ -217,7 +240,9 @@ def test_probe_segment_and_blocked_match_the_precheck_and_coal_point_by_point(se
     for _ in range(300):
         qa = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
         qb = qa + rng.normal(scale=0.4, size=robot.nq)
-        verdicts, checks = probe_segment(pre.floats, pre.ints, qa, qb, PROBE_FRACTIONS, pre.tolerance)
+        codes, checks = _buffers(certifier)
+        assert probe_segment(pre.floats, pre.ints, qa, qb, PROBE_FRACTIONS, pre.tolerance, codes, checks)
+        verdicts = codes[END:END + len(PROBES)]
         expected = []
         for k, s in enumerate(PROBES):
             p = qa + s * (qb - qa)

@@ -53,7 +53,7 @@ import numpy as np
 from kinserve.kinematics.motion_kernels import LOOKAHEAD, geometry_pair_rates, motion_hard_pairs
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
-from .extend_kernel import COLLIDES, UNCERTAIN, probe_segment
+from .extend_kernel import COLLIDES, END, UNCERTAIN, probe_segment
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
@@ -92,6 +92,10 @@ class EdgeCertifier:
         #: The distance each pair must keep at a path's end (:func:`~.clearance.need_of`): the pairs no joint
         #: moves keep their distance whatever the motion, they only have to be apart.
         self.end_need = need_of(self.reach.any(axis=1))
+        #: The compiled probes' output buffers (:mod:`~.extend_kernel`): verdict codes and the pairs left to
+        #: coal at each point, rewritten by every extension step and every :meth:`blocked`.
+        self.codes = np.empty(END + 1 + len(PROBES), dtype=np.int64)
+        self.checks = np.empty((1 + len(PROBES), len(oracle.scene.pairs) + 1), dtype=np.int64)
 
     def in_collision(self, q: np.ndarray) -> bool:
         """The scene's collision test at ``q`` (float ``(nq,)``)."""
@@ -146,8 +150,10 @@ class EdgeCertifier:
         pre = oracle.precheck
         if pre is None:
             return any(self.in_collision(q_a + s * u) for s in PROBES)
-        codes, checks = probe_segment(pre.floats, pre.ints, q_a, q_b, PROBE_FRACTIONS, pre.tolerance)
-        verdicts = codes.tolist()
+        codes, checks = self.codes, self.checks
+        if not probe_segment(pre.floats, pre.ints, q_a, q_b, PROBE_FRACTIONS, pre.tolerance, codes, checks):
+            raise RuntimeError("probe_segment: the certifier's buffers do not fit its scene")
+        verdicts = codes[END:END + len(PROBES)].tolist()
         oracle.checks += len(PROBES) - verdicts.count(-1)
         if COLLIDES in verdicts:
             return True

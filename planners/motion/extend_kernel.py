@@ -20,7 +20,8 @@ distance each pair must keep at a node, in the scene's pair order: the clearance
 :func:`~kinserve.kinematics.precheck_kernels.pairs_keep`, which computes the cover spheres' bounds of the
 close pairs only).
 
-Its answer: ``(codes, q_new, checks)``, ``codes`` ``(4 + len(probes),)`` int64:
+Its answer: ``q_new``, and into the caller's buffers (owned by the planner's
+:class:`~.edges.EdgeCertifier`, written on every call) ``codes`` ``(4 + len(probes),)`` int64:
 ``[near, kind, floor, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
 else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`; ``floor``
 1 when every bound exceeds its ``need``, 0 when one may not (coal decides), -1 when not asked;
@@ -30,8 +31,9 @@ holds, for an uncertain point, the number ``c`` of pairs coal must check there, 
 ``[1, c]`` (the other rows are not written).
 ``near`` is -1 (and ``kind`` :data:`AT_TARGET`) when every node is pruned or ``size`` is 0.
 
-:func:`probe_segment`: the same verdicts and pair lists at the probe points ``qa + s (qb - qa)`` of a
-motion (the cheap test that refuses a motion before its certificate: :meth:`~.edges.EdgeCertifier.blocked`).
+:func:`probe_segment`: the same verdicts (from ``codes[END]`` on) and pair lists at the probe points
+``qa + s (qb - qa)`` of a motion (the cheap test that refuses a motion before its certificate:
+:meth:`~.edges.EdgeCertifier.blocked`).
 
 The cache key covers every kernel source (:mod:`kinserve.kinematics.kernel_cache`); every kernel has its
 signature: importing this module compiles them or loads them from that cache. Metres and radians.
@@ -58,10 +60,12 @@ NEAR, KIND, FLOOR, END = 0, 1, 2, 3
 
 _t = numba.types
 _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
-_OUT = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 1, "C"), _t.Array(_t.int64, 2, "C")))
-_EXTEND_SIGNATURE = _OUT(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64, F1_ANY, F1)
-_SEGMENT_SIGNATURE = _t.Tuple((_t.Array(_t.int64, 1, "C"), _t.Array(_t.int64, 2, "C")))(
-    F1, I1, F1_ANY, F1_ANY, F1, _t.float64)
+#: The caller's buffers (written): ``codes`` and ``checks``. One array returned at most: each array a
+#: compiled call returns costs an unpickling of its type when it is boxed.
+_CODES, _CHECKS = _t.Array(_t.int64, 1, "C"), _t.Array(_t.int64, 2, "C")
+_EXTEND_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64,
+                                                 F1_ANY, F1, _CODES, _CHECKS)
+_SEGMENT_SIGNATURE = _t.boolean(F1, I1, F1_ANY, F1_ANY, F1, _t.float64, _CODES, _CHECKS)
 
 
 @compiled(_NEAREST_SIGNATURE)
@@ -98,38 +102,48 @@ def _judge(floats, ints, q, tol, codes, checks, k):
     return found == 0
 
 
+@inline
+def _fits(floats, ints, rows, codes, checks):
+    """Whether ``codes`` has ``END + rows`` entries and ``checks`` ``rows`` rows of one count and one entry
+    per pair of the scene."""
+    return (codes.shape[0] >= END + rows and checks.shape[0] >= rows
+            and checks.shape[1] >= unpack(floats, ints)[4].shape[0] + 1)
+
+
 @compiled(_EXTEND_SIGNATURE)
 def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
-                 target: np.ndarray, step: float, tol: float, need: np.ndarray,
-                 probes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One extension step of a tree towards ``target`` up to what coal must decide: ``(codes, q_new,
-    checks)`` (module docstring). ``floats, ints``: the scene's packed pre-check
-    (:mod:`kinserve.kinematics.precheck_packing`); ``nodes`` ``(N, nq)`` with ``pruned`` ``(N,)``, the first
-    ``size`` rows in use; ``step`` (rad), ``tol`` (m), ``need`` ``(P,)`` (m), ``probes`` (fractions of the
-    step)."""
+                 target: np.ndarray, step: float, tol: float, need: np.ndarray, probes: np.ndarray,
+                 codes: np.ndarray, checks: np.ndarray) -> np.ndarray:
+    """One extension step of a tree towards ``target`` up to what coal must decide: returns ``q_new`` and
+    writes ``codes`` and ``checks`` (module docstring; the caller's buffers, at least ``4 + len(probes)``
+    and ``(1 + len(probes), P + 1)``: when they are smaller nothing is written and ``q_new`` is empty).
+    ``floats, ints``: the scene's packed pre-check (:mod:`kinserve.kinematics.precheck_packing`); ``nodes``
+    ``(N, nq)`` with ``pruned`` ``(N,)``, the first ``size`` rows in use; ``step`` (rad), ``tol`` (m),
+    ``need`` ``(P,)`` (m), ``probes`` (fractions of the step)."""
     n = nodes.shape[1]
-    codes = np.full(4 + probes.shape[0], -1, dtype=np.int64)
+    if not _fits(floats, ints, 1 + probes.shape[0], codes, checks):
+        return np.empty(0)
+    codes[:END + 1 + probes.shape[0]] = -1
     codes[KIND] = AT_TARGET
-    checks = np.empty((1 + probes.shape[0], unpack(floats, ints)[4].shape[0] + 1), dtype=np.int64)
     near = nearest_node(nodes, pruned, size, target)
     codes[NEAR] = near
     q_new = np.empty(n)
     if near < 0:
-        return codes, q_new, checks
+        return q_new
     dist2 = 0.0
     for c in range(n):
         d = target[c] - nodes[near, c]
         dist2 += d * d
     dist = math.sqrt(dist2)
     if dist <= 1e-12:
-        return codes, q_new, checks
+        return q_new
     codes[KIND] = ONTO if dist <= step else TOWARDS
     f = 1.0 if dist <= step else step / dist
     for c in range(n):
         q_new[c] = target[c] if dist <= step else nodes[near, c] + (target[c] - nodes[near, c]) * f
     free = _judge(floats, ints, q_new, tol, codes, checks, 0)
     if codes[END] == COLLIDES:
-        return codes, q_new, checks
+        return q_new
     q = np.empty(n)
     for k in range(probes.shape[0]):
         s = probes[k]
@@ -137,23 +151,25 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
             q[c] = nodes[near, c] + s * (q_new[c] - nodes[near, c])
         free = _judge(floats, ints, q, tol, codes, checks, 1 + k) and free
         if codes[END + 1 + k] == COLLIDES:
-            return codes, q_new, checks
+            return q_new
     if free:
         codes[FLOOR] = 1 if pairs_keep(floats, ints, q_new, need) else 0
-    return codes, q_new, checks
+    return q_new
 
 
 @compiled(_SEGMENT_SIGNATURE)
 def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.ndarray, probes: np.ndarray,
-                  tol: float) -> tuple[np.ndarray, np.ndarray]:
+                  tol: float, codes: np.ndarray, checks: np.ndarray) -> bool:
     """The sphere pre-check at the points ``qa + s (qb - qa)``, ``s`` in ``probes`` (rad; tolerance ``tol``,
-    m), in one call: ``(verdicts, checks)``, ``verdicts`` ``(len(probes),)`` each :data:`FREE`,
+    m), in one call, into the caller's buffers: ``codes[END + k]`` the verdict of point ``k``, :data:`FREE`,
     :data:`UNCERTAIN` or :data:`COLLIDES` (-1 after a point colliding for certain: not asked), ``checks`` as
     :func:`extend_probe`'s (row ``k``: for an uncertain point, the number of pairs coal must check there,
-    then their scene indices)."""
+    then their scene indices). False (nothing written) when the buffers are smaller than
+    :func:`extend_probe` needs with these probes."""
     n = qa.shape[0]
-    codes = np.full(END + probes.shape[0], -1, dtype=np.int64)
-    checks = np.empty((probes.shape[0], unpack(floats, ints)[4].shape[0] + 1), dtype=np.int64)
+    if not _fits(floats, ints, 1 + probes.shape[0], codes, checks):
+        return False
+    codes[END:END + probes.shape[0]] = -1
     q = np.empty(n)
     for k in range(probes.shape[0]):
         s = probes[k]
@@ -162,7 +178,7 @@ def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.n
         _judge(floats, ints, q, tol, codes, checks, k)
         if codes[END + k] == COLLIDES:
             break
-    return codes[END:].copy(), checks
+    return True
 
 
 __all__ = ["AT_TARGET", "COLLIDES", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",

@@ -83,8 +83,11 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
     pre = oracle.precheck
     if pre is None:
         return extend_exactly(tree, target, certifier, step)
-    codes, q_new, checks = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target,
-                                        float(step), pre.tolerance, certifier.end_need, PROBE_FRACTIONS)
+    codes, checks = certifier.codes, certifier.checks
+    q_new = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target, float(step),
+                         pre.tolerance, certifier.end_need, PROBE_FRACTIONS, codes, checks)
+    if not len(q_new):
+        raise RuntimeError("extend_probe: the certifier's buffers do not fit its scene")
     near = int(codes[NEAR])
     if codes[KIND] == AT_TARGET:
         return _Step(REACHED, near)
