@@ -93,7 +93,8 @@ class EdgeCertifier:
         #: moves keep their distance whatever the motion, they only have to be apart.
         self.end_need = need_of(self.reach.any(axis=1))
         #: The compiled probes' output buffers (:mod:`~.extend_kernel`): verdict codes and the pairs left to
-        #: coal at each point, rewritten by every extension step and every :meth:`blocked`.
+        #: coal at each point, rewritten by every extension step and every :meth:`blocked` (a certifier serves
+        #: one planning call, in one thread: ``plan_motion`` makes its own).
         self.codes = np.empty(END + 1 + len(PROBES), dtype=np.int64)
         self.checks = np.empty((1 + len(PROBES), len(oracle.scene.pairs) + 1), dtype=np.int64)
 
