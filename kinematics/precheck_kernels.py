@@ -512,16 +512,21 @@ def _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out):
 
 @_inline
 def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float, out: np.ndarray) -> int:
-    """What coal must check at ``q`` (one entry per joint): -1 when ``q`` is in collision for certain
+    """What coal must check at ``q``, on one forward kinematics: 0 when ``q`` is certified free
+    (:func:`certify_configuration`'s test), -1 when it is in collision for certain
     (:func:`certainly_colliding`'s test), else the number ``k`` of pairs whose lower bound does not exceed
     ``tol`` (m), their scene indices written into ``out[:k]`` in the pair table's order (``out``: at least one
-    entry per pair). ``k = 0``: certified free (:func:`certify_configuration`'s tests, pair by pair). One
-    forward kinematics for both tests; the inner balls first (a configuration in collision for certain needs
-    no pair list). Meant for configurations :func:`certify_configuration` did not certify: a certain
-    collision is tested even when every pair would be certified."""
+    entry per pair). :func:`classify_configuration`'s answer with the pair list of :func:`uncertified_pairs`
+    (the cover spheres the first test placed are reused); every pair when ``q`` has not one entry per
+    joint."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
-    X, W, placed = workspace(joints.shape[0], spheres.shape[0], geoms.shape[0])
-    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
+    n = joints.shape[0]
+    if q.shape[0] != n:
+        out[:pairs.shape[0]] = pairs[:, 3]
+        return pairs.shape[0]
+    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
+    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0:
+        return 0
     if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (no pair list to make then)
         return -1
     return _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out)

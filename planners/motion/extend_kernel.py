@@ -8,9 +8,8 @@ Euclidean distance, the first one on ties) among those ``pruned`` does not mark;
 decide, in one call. From the nearest node ``q_near`` towards ``target`` (distance ``dist``) it steps to
 ``q_new = target`` when ``dist <= step``, else ``q_new = q_near + (target - q_near) step / dist`` (rad), and
 asks the scene's sphere pre-check about ``q_new`` and then about the points ``q_near + s (q_new - q_near)``
-for each ``s`` of ``probes`` (:func:`~kinserve.kinematics.precheck_kernels.certify_configuration`, then for
-a point it cannot certify :func:`~kinserve.kinematics.precheck_kernels.pairs_to_check`; tolerance ``tol``,
-m): **certified free**,
+for each ``s`` of ``probes`` (:func:`~kinserve.kinematics.precheck_kernels.pairs_to_check`, one forward
+kinematics per point; tolerance ``tol``, m): **certified free**,
 **colliding** for certain (then nothing more is asked: the step is refused) or **uncertain**, with the pairs
 coal must check there (every other pair is certified free: the pre-check's spheres contain the robot's
 geometry, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
@@ -47,7 +46,7 @@ import numba
 import numpy as np
 
 from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled, inline
-from kinserve.kinematics.precheck_kernels import certify_configuration, pairs_keep, pairs_to_check, unpack
+from kinserve.kinematics.precheck_kernels import pairs_keep, pairs_to_check, unpack
 
 #: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
 FREE, UNCERTAIN, COLLIDES = 0, 1, 2
@@ -90,9 +89,6 @@ def _judge(floats, ints, q, tol, codes, checks, k):
     """Point ``k`` of the step (0: ``q_new``, then the probes) at configuration ``q``: its verdict into
     ``codes[END + k]`` and, when uncertain, the pairs coal must check into row ``k`` of ``checks`` (count
     first; the rows of other points are left unwritten); True when certified free."""
-    if certify_configuration(floats, ints, q, tol):  # the common answer, from the cheaper test
-        codes[END + k] = FREE
-        return True
     found = pairs_to_check(floats, ints, q, tol, checks[k, 1:])
     if found < 0:
         codes[END + k] = COLLIDES
