@@ -305,9 +305,8 @@ def _minimum(values: np.ndarray, t: np.ndarray, Q: np.ndarray, distance, mask: n
         return None, None
     k = idx[int(np.argmin(values[idx]))]
     best, when = float(values[k]), float(t[k])
-    inside = set(idx.tolist())
     for j in (k - 1, k + 1):
-        if j not in inside:
+        if not (0 <= j < len(values) and (mask is None or mask[j])):
             continue
         for f in np.linspace(0.0, 1.0, REFINE_POINTS + 1)[1:-1]:
             d = float(distance(Q[k] + f * (Q[j] - Q[k])))
