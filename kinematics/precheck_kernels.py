@@ -403,30 +403,44 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
 
 
 @_inline
-def _place_inner(X, spheres, geoms, W):
-    """Every geometry's inner balls (centre in the world, radius) into their rows of ``W``."""
-    for g in range(geoms.shape[0]):
+def _place_inner(X, spheres, geoms, g, W, inner):
+    """Geometry ``g``'s inner balls (centre in the world, radius) into their rows of ``W``, unless
+    ``inner[g]`` says they are there already (then set)."""
+    if not inner[g]:
         j = geoms[g, 0]
         for i in range(geoms[g, 3], geoms[g, 4]):
             place_sphere(X, j, spheres, i, W)
+        inner[g] = True
 
 
 @_jit
 def _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
-    """True when a checked pair intersects for certain at the joint placements ``X``: an inner ball of a robot
-    geometry reaches deeper than ``tol`` (m) into an obstacle whose exact distance the table has, or two
-    inner balls of the geometries of a self pair overlap by more than ``tol`` (a ball inside each shape:
-    the shapes share their overlap). Inner balls of radius 0 are points."""
-    _place_inner(X, spheres, geoms, W)
+    """True when a checked pair intersects for certain at the joint placements ``X`` (each geometry's
+    bounding sphere placed in ``W``, :func:`place_bounding_spheres`): an inner ball of a robot geometry
+    reaches deeper than ``tol`` (m) into an obstacle whose exact distance the table has, or two inner balls
+    of the geometries of a self pair overlap by more than ``tol`` (a ball inside each shape: the shapes
+    share their overlap). Inner balls of radius 0 are points.
+
+    A pair whose bounding spheres are apart (gap ``>= 0``) is not asked further: an inner ball lies inside
+    its geometry, so inside the bounding sphere, and its gap (centre distance minus radius, 1-Lipschitz in
+    the centre) is at least the bounding sphere's. The inner balls are placed on first need."""
+    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
     for p in range(pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
         if pairs[p, 2] == OBSTACLE_PAIR:
             if obstacles[b, KIND] == BALL and obstacles[b, EXACT] != 1.0:
                 continue
+            if obstacle_gap(W, a, obstacles, b) >= 0.0:
+                continue
+            _place_inner(X, spheres, geoms, a, W, inner)
             for i in range(geoms[a, 3], geoms[a, 4]):
                 if obstacle_gap(W, i, obstacles, b) < -tol:
                     return True
         else:
+            if sphere_gap(W, a, b) >= 0.0:
+                continue
+            _place_inner(X, spheres, geoms, a, W, inner)
+            _place_inner(X, spheres, geoms, b, W, inner)
             for i in range(geoms[a, 3], geoms[a, 4]):
                 for j in range(geoms[b, 3], geoms[b, 4]):
                     if sphere_gap(W, i, j) < -tol:
@@ -448,7 +462,7 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
     if q.shape[0] != n:
         return False
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    tree_placements(tree, joints, q, X)
+    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
     return _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol)
 
 
