@@ -377,7 +377,7 @@ def pair_lower_bounds(floats: np.ndarray, ints: np.ndarray, q: np.ndarray) -> np
 
     (``gap``: centre distance minus radii; for an obstacle, the exact point distance minus the radius).
     :func:`certify_configuration` certifies ``q`` exactly when every entry exceeds its tolerance (it compares
-    squares instead), :func:`pairs_keep` when each exceeds its own; this form gives the values (a
+    squares instead); this form gives the values (a
     :class:`~kinserve.planners.motion.clearance.Clearance`'s first bounds, tests and diagnostics).
     """
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
@@ -525,25 +525,27 @@ def _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out):
 
 
 @_inline
-def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float, out: np.ndarray) -> int:
-    """What coal must check at ``q``, on one forward kinematics: 0 when ``q`` is certified free
-    (:func:`certify_configuration`'s test), -1 when it is in collision for certain
+def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: float, tol: float,
+                   out: np.ndarray) -> int:
+    """What coal must check at ``q``, on one forward kinematics: 0 when every pair's lower bound exceeds
+    ``keep`` (m, at least ``tol``; :func:`certify_configuration`'s test with that tolerance: with ``keep =
+    tol``, ``q`` is certified free), -1 when ``q`` is in collision for certain at depth ``tol``
     (:func:`certainly_colliding`'s test), else the number ``k`` of pairs whose lower bound does not exceed
-    ``tol`` (m), their scene indices written into ``out[:k]`` in the pair table's order (``out``: at least one
-    entry per pair). :func:`classify_configuration`'s answer with the pair list of :func:`uncertified_pairs`
-    (the cover spheres the first test placed are reused); every pair when ``q`` has not one entry per
-    joint."""
+    ``keep``, their scene indices written into ``out[:k]`` in the pair table's order (``out``: at least one
+    entry per pair; every other pair is at least ``keep`` apart). With ``keep = tol``,
+    :func:`classify_configuration`'s answer with the pair list of :func:`uncertified_pairs` (the cover
+    spheres the first test placed are reused); every pair when ``q`` has not one entry per joint."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
     if q.shape[0] != n:
         out[:pairs.shape[0]] = pairs[:, 3]
         return pairs.shape[0]
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0:
+    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, keep, X, W, placed, 0) >= 0.0:
         return 0
     if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (no pair list to make then)
         return -1
-    return _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out)
+    return _uncertified_into(X, W, spheres, geoms, pairs, obstacles, keep, placed, out)
 
 
 _PAIRS_SIGNATURE = _t.Array(_t.int64, 1, "C")(F1, I1, F1_ANY, _t.float64)
@@ -567,32 +569,10 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
     return out[:k].copy()
 
 
-_KEEP_SIGNATURE = _t.boolean(F1, I1, F1_ANY, F1_ANY)
-
-
-@compiled(_KEEP_SIGNATURE)
-def pairs_keep(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, need: np.ndarray) -> bool:
-    """True when every pair's lower bound at ``q`` (:func:`pair_lower_bounds`) exceeds the distance it must
-    keep, ``need`` ``(P,)`` (m, in the scene's pair order): the tests of :func:`uncertified_pairs` with each
-    pair's own tolerance, so the pairs that the bounding spheres keep apart cost one sphere test and only
-    the close ones their cover spheres. False when one does not, or when ``q`` or ``need`` do not fit."""
-    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
-    n, P = joints.shape[0], pairs.shape[0]
-    if q.shape[0] != n or need.shape[0] != P:
-        return False
-    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
-    for p in range(P):
-        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, need[pairs[p, 3]], placed, 0):
-            return False
-    return True
-
-
 __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE",
            "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
-           "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds", "pairs_keep",
-           "pairs_to_check",
-           "place_bounding_spheres", "place_cover",
+           "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds",
+           "pairs_to_check", "place_bounding_spheres", "place_cover",
            "place_sphere", "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack",
            "workspace"]

@@ -10,6 +10,7 @@ on the same trees and targets: the same status, node and clearance bounds.
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from kinserve import robots
@@ -17,16 +18,14 @@ from kinserve.kinematics.precheck_kernels import (
     certainly_colliding,
     certify_configuration,
     pair_lower_bounds,
-    pairs_keep,
     uncertified_pairs,
 )
-from kinserve.planners.motion.clearance import Clearance, ClearanceOracle
+from kinserve.planners.motion.clearance import CLEARANCE_FLOOR, Clearance, ClearanceOracle
 from kinserve.planners.motion.edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
 from kinserve.planners.motion.extend_kernel import (
     AT_TARGET,
     COLLIDES,
     END,
-    FLOOR,
     FREE,
     KIND,
     NEAR,
@@ -89,7 +88,7 @@ def test_buffers_too_small_are_refused_without_a_write(setting):
     nodes, pruned = _tree(robot, np.random.default_rng(3), 5)
     codes, checks = _buffers(certifier, short=1)
     q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, 5, robot.upper.copy(), 0.5, pre.tolerance,
-                         certifier.end_need, PROBE_FRACTIONS, codes, checks)
+                         CLEARANCE_FLOOR, PROBE_FRACTIONS, codes, checks)
     assert q_new.shape == (0,)
     assert not probe_segment(pre.floats, pre.ints, nodes[0], nodes[1], PROBE_FRACTIONS, pre.tolerance, codes,
                              checks)
@@ -103,7 +102,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
     probes = np.array(PROBES)
     kinds = set()
     colliding = 0
-    floors = {0: 0, 1: 0}
+    floors = 0
     uncertain = 0
     for trial in range(300):
         n = int(rng.integers(1, 30))
@@ -114,7 +113,7 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
             target = nodes[0].copy()  # the nearest node is the target itself
         codes, checks = _buffers(certifier)
         q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step, pre.tolerance,
-                             certifier.end_need, probes, codes, checks)
+                             CLEARANCE_FLOOR, probes, codes, checks)
         near = nearest_node(nodes, pruned, n, target)
         assert codes[NEAR] == near
         delta = target - nodes[near]
@@ -128,55 +127,55 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         np.testing.assert_allclose(q_new, expected, rtol=0, atol=1e-12)
         points = [q_new] + [nodes[near] + s * (q_new - nodes[near]) for s in PROBES]
         verdicts, pairs = [], []
-        for p in points:  # in order, up to the first point in collision for certain
-            if certify_configuration(pre.floats, pre.ints, p, pre.tolerance):
+        for k, p in enumerate(points):  # in order, up to the first point in collision for certain
+            keep = CLEARANCE_FLOOR if k == 0 else pre.tolerance  # the new node keeps the floor
+            if certify_configuration(pre.floats, pre.ints, p, keep):
                 verdicts.append(FREE), pairs.append([])
+                if k == 0:
+                    assert np.all(pair_lower_bounds(pre.floats, pre.ints, p) > CLEARANCE_FLOOR)
+                    floors += 1
             elif certainly_colliding(pre.floats, pre.ints, p, pre.tolerance):
                 verdicts.append(COLLIDES)
                 assert certifier.oracle.scene.colliding(p)  # coal on every pair agrees
                 colliding += 1
                 break
             else:
-                verdicts.append(UNCERTAIN), pairs.append(
-                    uncertified_pairs(pre.floats, pre.ints, p, pre.tolerance).tolist())
+                listed = uncertified_pairs(pre.floats, pre.ints, p, keep).tolist()
+                verdicts.append(UNCERTAIN), pairs.append(listed)
         verdicts += [-1] * (len(points) - len(verdicts))  # refused: no point after it asked
         assert codes[END:].tolist() == verdicts
         for k, listed in enumerate(pairs):  # the pairs coal must check: the pre-check's own list
             if verdicts[k] == UNCERTAIN:
                 assert listed and checks[k, 1:1 + checks[k, 0]].tolist() == listed
                 uncertain += 1
-        if UNCERTAIN in verdicts or COLLIDES in verdicts:
-            assert codes[FLOOR] == -1
-        else:
-            reference = pair_lower_bounds(pre.floats, pre.ints, q_new)
-            assert codes[FLOOR] == int(np.all(reference > certifier.end_need))
-            floors[int(codes[FLOOR])] += 1
     assert kinds == {AT_TARGET, TOWARDS, ONTO}
     assert colliding > 10  # the refusal was met
     assert uncertain > 10  # and the pair lists were compared
-    assert floors[1] > 10, floors
+    assert floors > 10  # new nodes certified above the floor
 
 
-def test_pairs_keep_is_every_lower_bound_above_its_own_need(setting):
-    """``pairs_keep`` against ``pair_lower_bounds``: the same answer for needs drawn around the bounds
-    (each pair's own), both answers seen; arguments that do not fit give False."""
+def test_keeps_is_coal_distance_of_the_listed_pairs_at_their_need(setting):
+    """``ClearanceOracle.keeps`` against coal's distances of every pair: True exactly when each listed pair's
+    distance is at least its need (pairs in collision never keep it); both answers seen."""
     robot, certifier = setting
-    pre = certifier.oracle.precheck
+    oracle = certifier.oracle
+    scene = oracle.scene
+    data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
     rng = np.random.default_rng(12)
     seen = set()
-    for _ in range(300):
+    for _ in range(200):
         q = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
-        bounds = pair_lower_bounds(pre.floats, pre.ints, q)
-        need = np.full(len(bounds), 1e-4)
-        if rng.random() < 0.5:  # one pair asked for just more, or just less, than its bound
-            k = int(rng.integers(len(bounds)))
-            need[k] = bounds[k] + (1e-6 if rng.random() < 0.5 else -1e-6)
-        keep = pairs_keep(pre.floats, pre.ints, q, need)
-        assert keep == bool(np.all(bounds > need))
-        seen.add(keep)
+        pin.computeDistances(scene.model, data, scene.geometry, gd, q)
+        d = np.array([r.min_distance for r in gd.distanceResults])
+        listed = np.sort(rng.choice(len(d), size=int(rng.integers(1, 6)), replace=False))
+        need = np.full(len(d), CLEARANCE_FLOOR)
+        if rng.random() < 0.5:  # one listed pair asked for just more, or just less, than its distance
+            k = int(listed[0])
+            need[k] = d[k] + (1e-7 if rng.random() < 0.5 else -1e-7)
+        keeps = oracle.keeps(q, listed, need)
+        assert keeps == bool(np.all(d[listed] >= need[listed]))
+        seen.add(keeps)
     assert seen == {True, False}
-    assert not pairs_keep(pre.floats, pre.ints, q[:-1], need)
-    assert not pairs_keep(pre.floats, pre.ints, q, need[:-1])
 
 
 def _grown(robot, certifier, rng):

@@ -161,6 +161,21 @@ class ClearanceOracle:
                 return True
         return False
 
+    def keeps(self, q: np.ndarray, pairs: np.ndarray, need: np.ndarray) -> bool:
+        """True when coal's distance at ``q`` of each pair of ``pairs`` (scene indices) is at least
+        ``need[pair]`` (m; :func:`need_of`): a pair in collision (negative distance) does not keep it. The
+        pairs a node's sphere bounds leave below the clearance floor
+        (:func:`~.extend_kernel.extend_probe`)."""
+        self.checks += 1
+        self._place(q)
+        self._placed = None
+        gm, gd = self.geometry, self.geometry_data
+        for k in pairs.tolist():
+            self.pair_distances += 1
+            if _compute_distance(gm, gd, k).min_distance < need[k]:
+                return False
+        return True
+
     def clearance(self, q: np.ndarray) -> Clearance:
         """The :class:`Clearance` of ``q``: sphere bounds, made on its first read (:meth:`sphere_bounds`),
         or every exact distance without a sphere model."""

@@ -13,17 +13,14 @@ kinematics per point; tolerance ``tol``, m): **certified free**,
 **colliding** for certain (then nothing more is asked: the step is refused) or **uncertain**, with the pairs
 coal must check there (every other pair is certified free: the pre-check's spheres contain the robot's
 geometry, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
-collision). When every point is certified, it also tells whether ``q_new``'s pair lower bounds
-(:func:`~kinserve.kinematics.precheck_kernels.pair_lower_bounds`, m) all exceed ``need`` ``(P,)`` (the
-distance each pair must keep at a node, in the scene's pair order: the clearance floor;
-:func:`~kinserve.kinematics.precheck_kernels.pairs_keep`, which computes the cover spheres' bounds of the
-close pairs only).
+collision). ``q_new``, a new node, must also keep the clearance floor: it is certified with ``floor`` (m)
+instead of ``tol``, so **free** there means every pair's lower bound exceeds the floor, and its uncertain
+pairs are those whose bound does not (coal's distances decide them against the floor).
 
 Its answer: ``q_new``, and into the caller's buffers (owned by the planner's
 :class:`~.edges.EdgeCertifier`, written on every call) ``codes`` ``(4 + len(probes),)`` int64:
-``[near, kind, floor, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
-else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`; ``floor``
-1 when every bound exceeds its ``need``, 0 when one may not (coal decides), -1 when not asked;
+``[near, kind, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
+else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`;
 ``end`` and ``probe_k``: :data:`FREE`, :data:`UNCERTAIN` or :data:`COLLIDES` (-1: not asked, after a point
 colliding for certain). ``checks`` ``(1 + len(probes), P + 1)``: row ``k`` (0: ``q_new``, then the probes)
 holds, for an uncertain point, the number ``c`` of pairs coal must check there, then their scene indices in
@@ -46,16 +43,16 @@ import numba
 import numpy as np
 
 from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled, inline
-from kinserve.kinematics.precheck_kernels import pairs_keep, pairs_to_check, unpack
+from kinserve.kinematics.precheck_kernels import pairs_to_check, unpack
 
 #: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
 FREE, UNCERTAIN, COLLIDES = 0, 1, 2
 #: ``codes[1]`` of :func:`extend_probe`: the nearest node is the target itself (no step), a step short of
 #: the target, a step onto it.
 AT_TARGET, TOWARDS, ONTO = 0, 1, 2
-#: Positions in ``codes`` of :func:`extend_probe`: nearest node, kind, floor test, verdict of ``q_new``
-#: (the probes' verdicts follow it).
-NEAR, KIND, FLOOR, END = 0, 1, 2, 3
+#: Positions in ``codes`` of :func:`extend_probe`: nearest node, kind, verdict of ``q_new`` (the probes'
+#: verdicts follow it).
+NEAR, KIND, END = 0, 1, 2
 
 _t = numba.types
 _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
@@ -63,7 +60,7 @@ _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
 #: compiled call returns costs an unpickling of its type when it is boxed.
 _CODES, _CHECKS = _t.Array(_t.int64, 1, "C"), _t.Array(_t.int64, 2, "C")
 _EXTEND_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64,
-                                                 F1_ANY, F1, _CODES, _CHECKS)
+                                                 _t.float64, F1, _CODES, _CHECKS)
 _SEGMENT_SIGNATURE = _t.boolean(F1, I1, F1_ANY, F1_ANY, F1, _t.float64, _CODES, _CHECKS)
 
 
@@ -85,11 +82,12 @@ def nearest_node(nodes: np.ndarray, pruned: np.ndarray, size: int, q: np.ndarray
 
 
 @inline
-def _judge(floats, ints, q, tol, codes, checks, k):
-    """Point ``k`` of the step (0: ``q_new``, then the probes) at configuration ``q``: its verdict into
-    ``codes[END + k]`` and, when uncertain, the pairs coal must check into row ``k`` of ``checks`` (count
-    first; the rows of other points are left unwritten); True when certified free."""
-    found = pairs_to_check(floats, ints, q, tol, checks[k, 1:])
+def _judge(floats, ints, q, keep, tol, codes, checks, k):
+    """Point ``k`` of the step (0: ``q_new``, then the probes) at configuration ``q``, certified with
+    ``keep`` (m; in collision for certain at depth ``tol``): its verdict into ``codes[END + k]`` and, when
+    uncertain, the pairs coal must check into row ``k`` of ``checks`` (count first; the rows of other points
+    are left unwritten); True when certified free."""
+    found = pairs_to_check(floats, ints, q, keep, tol, checks[k, 1:])
     if found < 0:
         codes[END + k] = COLLIDES
         return False
@@ -108,14 +106,15 @@ def _fits(floats, ints, rows, codes, checks):
 
 @compiled(_EXTEND_SIGNATURE)
 def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
-                 target: np.ndarray, step: float, tol: float, need: np.ndarray, probes: np.ndarray,
+                 target: np.ndarray, step: float, tol: float, floor: float, probes: np.ndarray,
                  codes: np.ndarray, checks: np.ndarray) -> np.ndarray:
     """One extension step of a tree towards ``target`` up to what coal must decide: returns ``q_new`` and
     writes ``codes`` and ``checks`` (module docstring; the caller's buffers, at least ``4 + len(probes)``
     and ``(1 + len(probes), P + 1)``: when they are smaller nothing is written and ``q_new`` is empty).
     ``floats, ints``: the scene's packed pre-check (:mod:`kinserve.kinematics.precheck_packing`); ``nodes``
     ``(N, nq)`` with ``pruned`` ``(N,)``, the first ``size`` rows in use; ``step`` (rad), ``tol`` (m),
-    ``need`` ``(P,)`` (m), ``probes`` (fractions of the step)."""
+    ``floor`` (m, the distance ``q_new``'s pairs must keep, at least ``tol``), ``probes`` (fractions of the
+    step)."""
     n = nodes.shape[1]
     if not _fits(floats, ints, 1 + probes.shape[0], codes, checks):
         return np.empty(0)
@@ -137,7 +136,7 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
     f = 1.0 if dist <= step else step / dist
     for c in range(n):
         q_new[c] = target[c] if dist <= step else nodes[near, c] + (target[c] - nodes[near, c]) * f
-    free = _judge(floats, ints, q_new, tol, codes, checks, 0)
+    _judge(floats, ints, q_new, max(floor, tol), tol, codes, checks, 0)
     if codes[END] == COLLIDES:
         return q_new
     q = np.empty(n)
@@ -145,11 +144,9 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
         s = probes[k]
         for c in range(n):
             q[c] = nodes[near, c] + s * (q_new[c] - nodes[near, c])
-        free = _judge(floats, ints, q, tol, codes, checks, 1 + k) and free
+        _judge(floats, ints, q, tol, tol, codes, checks, 1 + k)
         if codes[END + 1 + k] == COLLIDES:
             return q_new
-    if free:
-        codes[FLOOR] = 1 if pairs_keep(floats, ints, q_new, need) else 0
     return q_new
 
 
@@ -171,11 +168,11 @@ def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.n
         s = probes[k]
         for c in range(n):
             q[c] = qa[c] + s * (qb[c] - qa[c])
-        _judge(floats, ints, q, tol, codes, checks, k)
+        _judge(floats, ints, q, tol, tol, codes, checks, k)
         if codes[END + k] == COLLIDES:
             break
     return True
 
 
-__all__ = ["AT_TARGET", "COLLIDES", "END", "FLOOR", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
+__all__ = ["AT_TARGET", "COLLIDES", "END", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
            "extend_probe", "nearest_node", "probe_segment"]

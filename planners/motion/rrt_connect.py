@@ -3,18 +3,19 @@
 One tree grows from the start, one from every goal (each goal a root). An
 iteration draws ``q_rand`` uniformly in the joint limits, **extends** the active
 tree one step towards it (at most ``step`` rad, Euclidean) and, when that step
-succeeds, **connects** the other tree to the new node (steps until it reaches the
-node or is stopped); then the trees swap roles. A step is kept only when its end
-is free (the scene's cheap collision test first, then its pair distances above
-the floor) and the cheap test finds its edge's probe points free
+succeeds, **connects** the other tree to the new node (steps until it reaches
+the node or is stopped); then the trees swap roles. A step is kept only when its
+end is free (the scene's cheap collision test first, then its pair distances
+above the floor) and the cheap test finds its edge's probe points free
 (:meth:`~.edges.EdgeCertifier.blocked`). With the scene's sphere pre-check, one
 compiled call (:func:`~.extend_kernel.extend_probe`) finds the nearest node,
 makes the step, refuses it when the spheres find the new node in collision for
-certain, and certifies the new node and the probe points free on the spheres,
-and the new node's pair bounds above the clearance floor; coal runs only on the
-points the spheres leave uncertain, in one call (same answers as the tests one by
-one). A node's pair bounds (its :class:`~.clearance.Clearance`) are made only when
-read: most nodes never lie on a path.
+certain, and certifies the new node's pair bounds above the clearance floor and
+the probe points free on the spheres; coal runs only on the pairs the spheres
+leave uncertain: their distances at the new node (against the floor), their
+collision tests at the probe points (same answers as the tests one by one). A
+node's pair bounds (its :class:`~.clearance.Clearance`) are made only when read:
+most nodes never lie on a path.
 
 **Lazy certificates**: an edge is certified (:class:`~.edges.EdgeCertifier`) only
 when it lies on a candidate path, once the trees meet: every edge of the path not
@@ -38,9 +39,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .clearance import Clearance
+from .clearance import CLEARANCE_FLOOR, Clearance
 from .edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
-from .extend_kernel import AT_TARGET, COLLIDES, END, FLOOR, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
+from .extend_kernel import AT_TARGET, COLLIDES, END, FREE, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
 from .search_tree import SearchTree
 
 #: Default extension step (rad, Euclidean norm of the joint change).
@@ -85,7 +86,7 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
         return extend_exactly(tree, target, certifier, step)
     codes, checks = certifier.codes, certifier.checks
     q_new = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target, float(step),
-                         pre.tolerance, certifier.end_need, PROBE_FRACTIONS, codes, checks)
+                         pre.tolerance, CLEARANCE_FLOOR, PROBE_FRACTIONS, codes, checks)
     if not len(q_new):
         raise RuntimeError("extend_probe: the certifier's buffers do not fit its scene")
     near = int(codes[NEAR])
@@ -97,14 +98,15 @@ def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step:
         return _Step(TRAPPED, -1)
     oracle.checks += 1 + len(PROBES)
     if UNCERTAIN in verdicts:
+        if verdicts[0] == UNCERTAIN and not oracle.keeps(q_new, checks[0, 1:1 + checks[0, 0]],
+                                                         certifier.end_need):
+            return _Step(TRAPPED, -1)
         q_near = tree.node(near)
         u = q_new - q_near
-        if oracle.coal_decides(lambda k: q_new if k == 0 else q_near + PROBES[k - 1] * u, verdicts, checks):
+        verdicts[0] = FREE  # (decided)
+        if oracle.coal_decides(lambda k: q_near + PROBES[k - 1] * u, verdicts, checks):
             return _Step(TRAPPED, -1)
-    c_new = certifier.clearance(q_new)
-    if codes[FLOOR] != 1 and not certifier.clear(c_new):
-        return _Step(TRAPPED, -1)
-    k = tree.add(c_new, near, certified=False)
+    k = tree.add(certifier.clearance(q_new), near, certified=False)
     return _Step(REACHED if codes[KIND] == ONTO else ADVANCED, k)
 
 
