@@ -39,6 +39,7 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "ik/qp/line_kernel.py",
     "ik/tasks/null_space_kernel.py",
     "planners/motion/extend_kernel.py",
+    "planners/motion/search_kernel.py",
     # read by the kernels above: the obstacle table's encoding, the pre-check's verdicts, the joint kinds of
     # the chain encoding, the LM's status codes
     "kinematics/obstacle_table.py",

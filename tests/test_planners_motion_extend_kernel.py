@@ -2,9 +2,9 @@
 
 ``nearest_node`` against a NumPy scan; ``extend_probe`` against the step computed in NumPy and the
 pre-check's own kernels called one point at a time (verdicts and the pairs left to coal; a point in
-collision for certain also by coal's test of every pair); ``rrt_connect.extend`` (compiled step, coal on the
-uncertain points) against ``extend_exactly`` (the scene's collision test, clearance and probes one by one)
-on the same trees and targets: the same status, node and clearance bounds.
+collision for certain also by coal's test of every pair); ``rrt_connect.search_with_kernel`` (the compiled
+loop, coal on the held steps) against ``search_step_by_step`` (``extend_exactly``: the scene's collision
+test, clearance and probes one by one) from the same trees and seed: the same results and trees.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from kinserve.kinematics.precheck_kernels import (
     pair_lower_bounds,
     uncertified_pairs,
 )
-from kinserve.planners.motion.clearance import CLEARANCE_FLOOR, Clearance, ClearanceOracle
+from kinserve.planners.motion.clearance import CLEARANCE_FLOOR, ClearanceOracle
 from kinserve.planners.motion.edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
 from kinserve.planners.motion.extend_kernel import (
     AT_TARGET,
@@ -37,7 +37,7 @@ from kinserve.planners.motion.extend_kernel import (
     probe_segment,
 )
 from kinserve.planners.motion.reach import pair_reach
-from kinserve.planners.motion.rrt_connect import TRAPPED, extend, extend_exactly
+from kinserve.planners.motion.rrt_connect import SearchBudget, search_step_by_step, search_with_kernel
 from kinserve.planners.motion.search_tree import SearchTree
 
 from motion_scenes import shelf_scene
@@ -178,51 +178,51 @@ def test_keeps_is_coal_distance_of_the_listed_pairs_at_their_need(setting):
     assert seen == {True, False}
 
 
-def _grown(robot, certifier, rng):
-    """A tree of free nodes above the floor, grown by the Python step, with a few nodes pruned."""
-    tree = SearchTree(robot.nq, capacity=4)
-    for _ in range(1000):  # a free root above the floor
+def _free(robot, certifier, rng):
+    """A random configuration free of collision and above the clearance floor."""
+    for _ in range(1000):
         q = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
         if not certifier.in_collision(q) and certifier.clear(certifier.clearance(q)):
-            break
-    tree.add(certifier.clearance(q), -1)
-    for _ in range(2000):
-        if tree.size >= 12:
-            break
-        extend_exactly(tree, robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq), certifier, 0.5)
-    assert tree.size >= 12
-    tree.prune(int(rng.integers(1, tree.size)))
-    return tree
+            return q
+    raise AssertionError("no free configuration drawn")
 
 
-def _copy(tree: SearchTree) -> SearchTree:
-    other = SearchTree(tree.node(0).shape[0])
-    for k in range(tree.size):
-        c = tree.clearance(k)
-        other.add(Clearance(c.q.copy(), c.distance.copy(), c.exact.copy()), tree.parent(k), tree.certified(k))
-    other.pruned[:tree.size] = tree.pruned[:tree.size]
-    return other
+def _search(search, robot, certifier, start, goals, seed, iterations):
+    """``search`` from fresh trees (capacity 4: they must grow) with its own generator."""
+    trees = [SearchTree(robot.nq, capacity=4, clearance=certifier.clearance) for _ in range(2)]
+    trees[0].add(certifier.clearance(start), -1)
+    for q in goals:
+        trees[1].add(certifier.clearance(q), -1)
+    found = search(trees[0], trees[1], robot.lower, robot.upper, certifier, np.random.default_rng(seed),
+                   SearchBudget(iterations, None))
+    return found, trees
 
 
-def test_compiled_extend_takes_the_same_steps_as_the_python_one(setting):
+def test_the_compiled_search_takes_the_python_search_steps(setting):
+    """``search_with_kernel`` (compiled loop, coal on the held steps, samples in batches) against
+    ``search_step_by_step`` (``extend_exactly``: the scene's collision test, clearance and probes one at a
+    time; a sample per iteration) from the same trees and seed: the same result (path, goal, iterations,
+    nodes) and the same trees (nodes, parents, pruned nodes), paths found and budgets spent both seen."""
     robot, certifier = setting
     rng = np.random.default_rng(3)
-    statuses = set()
-    for _ in range(8):
-        a = _grown(robot, certifier, rng)
-        b = _copy(a)
-        for _ in range(25):
-            target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
-            fast, slow = extend(a, target, certifier, 0.5), extend_exactly(b, target, certifier, 0.5)
-            assert fast == slow
-            statuses.add(fast.status)
-            if fast.status != TRAPPED:
-                ca, cb = a.clearance(fast.node), b.clearance(slow.node)
-                np.testing.assert_allclose(ca.q, cb.q, rtol=0, atol=1e-12)
-                both = ~ca.exact & ~cb.exact
-                np.testing.assert_allclose(ca.distance[both], cb.distance[both], rtol=0, atol=1e-12)
-        assert a.size == b.size
-    assert len(statuses) >= 2  # trapped and advanced steps both seen
+    outcomes = set()
+    for trial in range(10):
+        start = _free(robot, certifier, rng)
+        goals = [_free(robot, certifier, rng) for _ in range(1 + trial % 2)]
+        iterations = 3 + 13 * trial  # short budgets stop inside a batch, long ones span several
+        (fast, fast_trees), (slow, slow_trees) = (
+            _search(search, robot, certifier, start, goals, 100 + trial, iterations)
+            for search in (search_with_kernel, search_step_by_step))
+        assert (fast.goal, fast.iterations, fast.nodes) == (slow.goal, slow.iterations, slow.nodes)
+        np.testing.assert_allclose(fast.path, slow.path, rtol=0, atol=1e-12)
+        for a, b in zip(fast_trees, slow_trees):
+            assert a.size == b.size
+            np.testing.assert_allclose(a.points[:a.size], b.points[:b.size], rtol=0, atol=1e-12)
+            assert a.parents[:a.size].tolist() == b.parents[:b.size].tolist()
+            assert a.pruned[:a.size].tolist() == b.pruned[:b.size].tolist()
+        outcomes.add(fast.goal >= 0)
+        assert fast.goal >= 0 or fast.iterations == iterations
+    assert outcomes == {True, False}
 
 
 def test_probe_segment_and_blocked_match_the_precheck_and_coal_point_by_point(setting):

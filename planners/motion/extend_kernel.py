@@ -97,48 +97,40 @@ def _judge(floats, ints, q, keep, tol, codes, checks, k):
 
 
 @inline
-def _fits(floats, ints, rows, codes, checks):
+def fits(floats: np.ndarray, ints: np.ndarray, rows: int, codes: np.ndarray, checks: np.ndarray) -> bool:
     """Whether ``codes`` has ``END + rows`` entries and ``checks`` ``rows`` rows of one count and one entry
     per pair of the scene."""
     return (codes.shape[0] >= END + rows and checks.shape[0] >= rows
             and checks.shape[1] >= unpack(floats, ints)[4].shape[0] + 1)
 
 
-@compiled(_EXTEND_SIGNATURE)
-def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
-                 target: np.ndarray, step: float, tol: float, floor: float, probes: np.ndarray,
-                 codes: np.ndarray, checks: np.ndarray) -> np.ndarray:
-    """One extension step of a tree towards ``target`` up to what coal must decide: returns ``q_new`` and
-    writes ``codes`` and ``checks`` (module docstring; the caller's buffers, at least ``4 + len(probes)``
-    and ``(1 + len(probes), P + 1)``: when they are smaller nothing is written and ``q_new`` is empty).
-    ``floats, ints``: the scene's packed pre-check (:mod:`kinserve.kinematics.precheck_packing`); ``nodes``
-    ``(N, nq)`` with ``pruned`` ``(N,)``, the first ``size`` rows in use; ``step`` (rad), ``tol`` (m),
-    ``floor`` (m, the distance ``q_new``'s pairs must keep, at least ``tol``), ``probes`` (fractions of the
-    step)."""
+@inline
+def step_into(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
+              target: np.ndarray, step: float, tol: float, floor: float, probes: np.ndarray,
+              q_new: np.ndarray, codes: np.ndarray, checks: np.ndarray) -> None:
+    """:func:`extend_probe`'s step with ``q_new`` written into the caller's ``q_new`` ``(nq,)`` (the buffers
+    fit: :func:`fits`)."""
     n = nodes.shape[1]
-    if not _fits(floats, ints, 1 + probes.shape[0], codes, checks):
-        return np.empty(0)
     codes[:END + 1 + probes.shape[0]] = -1
     codes[KIND] = AT_TARGET
     near = nearest_node(nodes, pruned, size, target)
     codes[NEAR] = near
-    q_new = np.empty(n)
     if near < 0:
-        return q_new
+        return
     dist2 = 0.0
     for c in range(n):
         d = target[c] - nodes[near, c]
         dist2 += d * d
     dist = math.sqrt(dist2)
     if dist <= 1e-12:
-        return q_new
+        return
     codes[KIND] = ONTO if dist <= step else TOWARDS
     f = 1.0 if dist <= step else step / dist
     for c in range(n):
         q_new[c] = target[c] if dist <= step else nodes[near, c] + (target[c] - nodes[near, c]) * f
     _judge(floats, ints, q_new, max(floor, tol), tol, codes, checks, 0)
     if codes[END] == COLLIDES:
-        return q_new
+        return
     q = np.empty(n)
     for k in range(probes.shape[0]):
         s = probes[k]
@@ -146,7 +138,24 @@ def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned
             q[c] = nodes[near, c] + s * (q_new[c] - nodes[near, c])
         _judge(floats, ints, q, tol, tol, codes, checks, 1 + k)
         if codes[END + 1 + k] == COLLIDES:
-            return q_new
+            return
+
+
+@compiled(_EXTEND_SIGNATURE)
+def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
+                 target: np.ndarray, step: float, tol: float, floor: float, probes: np.ndarray,
+                 codes: np.ndarray, checks: np.ndarray) -> np.ndarray:
+    """One extension step of a tree towards ``target`` up to what coal must decide: returns ``q_new`` and
+    writes ``codes`` and ``checks`` (module docstring; the caller's buffers, at least ``3 + len(probes)``
+    and ``(1 + len(probes), P + 1)``: when they are smaller nothing is written and ``q_new`` is empty).
+    ``floats, ints``: the scene's packed pre-check (:mod:`kinserve.kinematics.precheck_packing`); ``nodes``
+    ``(N, nq)`` with ``pruned`` ``(N,)``, the first ``size`` rows in use; ``step`` (rad), ``tol`` (m),
+    ``floor`` (m, the distance ``q_new``'s pairs must keep, at least ``tol``), ``probes`` (fractions of the
+    step)."""
+    if not fits(floats, ints, 1 + probes.shape[0], codes, checks):
+        return np.empty(0)
+    q_new = np.empty(nodes.shape[1])
+    step_into(floats, ints, nodes, pruned, size, target, step, tol, floor, probes, q_new, codes, checks)
     return q_new
 
 
@@ -160,7 +169,7 @@ def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.n
     then their scene indices). False (nothing written) when the buffers are smaller than
     :func:`extend_probe` needs with these probes."""
     n = qa.shape[0]
-    if not _fits(floats, ints, 1 + probes.shape[0], codes, checks):
+    if not fits(floats, ints, 1 + probes.shape[0], codes, checks):
         return False
     codes[END:END + probes.shape[0]] = -1
     q = np.empty(n)

@@ -7,15 +7,19 @@ succeeds, **connects** the other tree to the new node (steps until it reaches
 the node or is stopped); then the trees swap roles. A step is kept only when its
 end is free (the scene's cheap collision test first, then its pair distances
 above the floor) and the cheap test finds its edge's probe points free
-(:meth:`~.edges.EdgeCertifier.blocked`). With the scene's sphere pre-check, one
-compiled call (:func:`~.extend_kernel.extend_probe`) finds the nearest node,
-makes the step, refuses it when the spheres find the new node in collision for
+(:meth:`~.edges.EdgeCertifier.blocked`). With the scene's sphere pre-check, the
+iterations run in a compiled loop (:func:`~.search_kernel.search_steps`, on
+:data:`BATCH` samples drawn at a time): per step it finds the nearest node, makes
+the step, refuses it when the spheres find the new node in collision for
 certain, and certifies the new node's pair bounds above the clearance floor and
-the probe points free on the spheres; coal runs only on the pairs the spheres
-leave uncertain: their distances at the new node (against the floor), their
-collision tests at the probe points (same answers as the tests one by one). A
-node's pair bounds (its :class:`~.clearance.Clearance`) are made only when read:
-most nodes never lie on a path.
+the probe points free on the spheres; a step the spheres leave uncertain comes
+back to Python, where coal decides the pairs the spheres left (their distances
+at the new node, against the floor; their collision tests at the probe points:
+:func:`held_free`), and the meeting of the trees comes back for the branches'
+certificates. The decisions are those of the tests one by one
+(:func:`search_step_by_step`, the path of scenes without a pre-check). A node's
+pair bounds (its :class:`~.clearance.Clearance`) are made only when read: most
+nodes never lie on a path.
 
 **Lazy certificates**: an edge is certified (:class:`~.edges.EdgeCertifier`) only
 when it lies on a candidate path, once the trees meet: every edge of the path not
@@ -26,9 +30,11 @@ never certified; every edge of a returned path is. Before the first iteration
 the start is joined straight to each goal, nearest first.
 
 Deterministic: every random draw comes from the ``numpy.random.Generator`` passed
-in. The budget is an iteration count, a wall-clock time, or both (the first one
-spent ends the search); with the count alone the answer depends only on the
-inputs and the generator.
+in (the compiled loop draws its samples :data:`BATCH` at a time: the same values
+in the same order, the last batch in part unused). The budget is an iteration
+count, a wall-clock time, or both (the first one spent ends the search; the
+compiled loop reads the clock between batches); with the count alone the answer
+depends only on the inputs and the generator.
 """
 
 from __future__ import annotations
@@ -41,13 +47,34 @@ import numpy as np
 
 from .clearance import CLEARANCE_FLOOR, Clearance
 from .edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
-from .extend_kernel import AT_TARGET, COLLIDES, END, FREE, KIND, NEAR, ONTO, UNCERTAIN, extend_probe
+from .extend_kernel import END, FREE, NEAR, UNCERTAIN
+from .search_kernel import (
+    ACCEPT,
+    ACTIVE,
+    BATCH_DONE,
+    CHECKS,
+    DECISION,
+    FULL,
+    GROWN,
+    HELD,
+    IT,
+    JOINED,
+    MET,
+    REJECT,
+    SIZE_A,
+    SIZE_B,
+    STATE_LENGTH,
+    grows_start_tree,
+    search_steps,
+)
 from .search_tree import SearchTree
 
 #: Default extension step (rad, Euclidean norm of the joint change).
 STEP = 0.5
 #: Goals tried by a straight edge from the start before the search (nearest first).
 DIRECT_GOALS = 3
+#: Iterations per batch of samples of the compiled search (the clock is read between batches).
+BATCH = 16
 
 TRAPPED, ADVANCED, REACHED = 0, 1, 2
 
@@ -77,37 +104,21 @@ class _Step(NamedTuple):
     node: int
 
 
-def extend(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
-    """One step of ``tree`` from its node nearest ``target`` towards it: (status, new node or -1); the new
-    edge is not certified yet (module docstring)."""
+def held_free(tree: SearchTree, near: int, q_new: np.ndarray, certifier: EdgeCertifier, codes: np.ndarray,
+              checks: np.ndarray) -> bool:
+    """Coal's decision about a step the spheres left uncertain (:data:`~.search_kernel.HELD`): from node
+    ``near`` of ``tree`` to ``q_new``, with the verdicts in ``codes`` and the pairs left to coal in
+    ``checks`` (:func:`~.extend_kernel.extend_probe`'s). True when ``q_new``'s uncertain pairs keep the
+    clearance floor (coal's distances) and coal finds no uncertain probe point in collision."""
     oracle = certifier.oracle
-    pre = oracle.precheck
-    if pre is None:
-        return extend_exactly(tree, target, certifier, step)
-    codes, checks = certifier.codes, certifier.checks
-    q_new = extend_probe(pre.floats, pre.ints, tree.points, tree.pruned, tree.size, target, float(step),
-                         pre.tolerance, CLEARANCE_FLOOR, PROBE_FRACTIONS, codes, checks)
-    if not len(q_new):
-        raise RuntimeError("extend_probe: the certifier's buffers do not fit its scene")
-    near = int(codes[NEAR])
-    if codes[KIND] == AT_TARGET:
-        return _Step(REACHED, near)
-    verdicts = codes[END:].tolist()
-    if COLLIDES in verdicts:  # a point in collision for certain: the points after it not asked
-        oracle.checks += verdicts.index(COLLIDES) + 1
-        return _Step(TRAPPED, -1)
-    oracle.checks += 1 + len(PROBES)
-    if UNCERTAIN in verdicts:
-        if verdicts[0] == UNCERTAIN and not oracle.keeps(q_new, checks[0, 1:1 + checks[0, 0]],
-                                                         certifier.end_need):
-            return _Step(TRAPPED, -1)
-        q_near = tree.node(near)
-        u = q_new - q_near
-        verdicts[0] = FREE  # (decided)
-        if oracle.coal_decides(lambda k: q_near + PROBES[k - 1] * u, verdicts, checks):
-            return _Step(TRAPPED, -1)
-    k = tree.add(certifier.clearance(q_new), near, certified=False)
-    return _Step(REACHED if codes[KIND] == ONTO else ADVANCED, k)
+    verdicts = codes[END:END + 1 + len(PROBES)].tolist()
+    if verdicts[0] == UNCERTAIN \
+            and not oracle.keeps(q_new, checks[0, 1:1 + checks[0, 0]], certifier.end_need):
+        return False
+    q_near = tree.node(near)
+    u = q_new - q_near
+    verdicts[0] = FREE  # (decided)
+    return not oracle.coal_decides(lambda k: q_near + PROBES[k - 1] * u, verdicts, checks)
 
 
 def extend_exactly(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
@@ -144,9 +155,10 @@ def certify_branch(tree: SearchTree, node: int, certifier: EdgeCertifier) -> boo
 
 
 def connect(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step: float) -> _Step:
-    """Steps of ``tree`` towards ``target`` until it reaches it (REACHED) or is stopped (TRAPPED)."""
+    """Steps of ``tree`` towards ``target`` (:func:`extend_exactly`) until it reaches it (REACHED) or is
+    stopped (TRAPPED)."""
     while True:
-        result = extend(tree, target, certifier, step)
+        result = extend_exactly(tree, target, certifier, step)
         if result.status != ADVANCED:
             return result
 
@@ -171,20 +183,12 @@ def _direct(start: Clearance, goals: list[Clearance], certifier: EdgeCertifier) 
     return -1
 
 
-def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upper: np.ndarray,
-                certifier: EdgeCertifier, rng: np.random.Generator, budget: SearchBudget,
-                step: float = STEP) -> SearchResult:
-    """A certified path from ``start`` to one of ``goals`` (free configurations above the clearance floor,
-    with their clearances) inside ``[lower, upper]``, or an empty :class:`SearchResult` when the budget runs
-    out (module docstring)."""
-    g = _direct(start, goals, certifier)
-    if g >= 0:
-        return SearchResult(np.array([start.q, goals[g].q]), [start, goals[g]], g, 0, 2)
-    nq = len(start.q)
-    start_tree, goal_tree = SearchTree(nq), SearchTree(nq)
-    start_tree.add(start, -1)
-    for c in goals:
-        goal_tree.add(c, -1)
+def search_step_by_step(start_tree: SearchTree, goal_tree: SearchTree, lower: np.ndarray, upper: np.ndarray,
+                        certifier: EdgeCertifier, rng: np.random.Generator, budget: SearchBudget,
+                        step: float = STEP) -> SearchResult:
+    """The search in Python, one test at a time (:func:`extend_exactly`): the scenes without a sphere
+    pre-check, and the reference of :func:`search_with_kernel` (the same decisions, the same draws)."""
+    nq = start_tree.points.shape[1]
     active, other = start_tree, goal_tree
     deadline = None if budget.max_time is None else time.perf_counter() + budget.max_time
     span = upper - lower
@@ -194,7 +198,7 @@ def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upp
             break
         iterations += 1
         q_rand = lower + span * rng.random(nq)
-        grown = extend(active, q_rand, certifier, step)
+        grown = extend_exactly(active, q_rand, certifier, step)
         if grown.status != TRAPPED:
             joined = connect(other, active.node(grown.node), certifier, step)
             if joined.status == REACHED and certify_branch(active, grown.node, certifier) \
@@ -207,5 +211,78 @@ def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upp
     return SearchResult(np.zeros((0, nq)), [], -1, iterations, start_tree.size + goal_tree.size)
 
 
-__all__ = ["ADVANCED", "DIRECT_GOALS", "REACHED", "STEP", "TRAPPED", "SearchBudget", "SearchResult",
-           "certify_branch", "connect", "extend", "extend_exactly", "rrt_connect"]
+def search_with_kernel(start_tree: SearchTree, goal_tree: SearchTree, lower: np.ndarray, upper: np.ndarray,
+                       certifier: EdgeCertifier, rng: np.random.Generator, budget: SearchBudget,
+                       step: float = STEP) -> SearchResult:
+    """The search in the compiled loop (:func:`~.search_kernel.search_steps`), :data:`BATCH` iterations
+    per batch of samples; coal's decisions (:func:`held_free`), the branch certificates and the budget
+    here, between its calls. The scene needs a sphere pre-check."""
+    pre = certifier.oracle.precheck
+    nq = start_tree.points.shape[1]
+    trees = (start_tree, goal_tree)
+    state = np.zeros(STATE_LENGTH, dtype=np.int64)
+    state[SIZE_A], state[SIZE_B] = start_tree.size, goal_tree.size
+    held = np.empty(nq)
+    codes, checks = certifier.codes, certifier.checks
+    deadline = None if budget.max_time is None else time.perf_counter() + budget.max_time
+    span = upper - lower
+    randoms = np.empty((0, nq))
+    begun = 0  # iterations of the batches before this one
+    while True:
+        event = search_steps(pre.floats, pre.ints, start_tree.points, start_tree.pruned, start_tree.parents,
+                             goal_tree.points, goal_tree.pruned, goal_tree.parents, randoms, float(step),
+                             pre.tolerance, CLEARANCE_FLOOR, PROBE_FRACTIONS, state, held, codes, checks)
+        certifier.oracle.checks += int(state[CHECKS])
+        state[CHECKS] = 0
+        start_tree.size, goal_tree.size = int(state[SIZE_A]), int(state[SIZE_B])
+        if event == BATCH_DONE:
+            begun += len(randoms)
+            left = None if budget.max_iterations is None else budget.max_iterations - begun
+            if left == 0 or (deadline is not None and time.perf_counter() > deadline):
+                break
+            randoms = lower + span * rng.random((BATCH if left is None else min(BATCH, left), nq))
+            state[IT] = 0
+        elif event == FULL:
+            start_tree.reserve()
+            goal_tree.reserve()
+        elif event == HELD:
+            tree = start_tree if grows_start_tree(state) else goal_tree
+            free = held_free(tree, int(codes[NEAR]), held, certifier, codes, checks)
+            state[DECISION] = ACCEPT if free else REJECT
+        elif event == MET:
+            active, other = trees if state[ACTIVE] == 0 else trees[::-1]
+            grown, joined = int(state[GROWN]), int(state[JOINED])
+            if certify_branch(active, grown, certifier) and certify_branch(other, joined, certifier):
+                nodes, iterations = start_tree.size + goal_tree.size, begun + int(state[IT]) + 1
+                if active is start_tree:
+                    return _joined(start_tree, grown, goal_tree, joined, nodes, iterations)
+                return _joined(start_tree, joined, goal_tree, grown, nodes, iterations)
+            state[DECISION] = REJECT  # the iteration ends
+        else:
+            raise RuntimeError("search_steps: the trees or the certifier's buffers do not fit its scene")
+    return SearchResult(np.zeros((0, nq)), [], -1, begun, start_tree.size + goal_tree.size)
+
+
+def rrt_connect(start: Clearance, goals: list[Clearance], lower: np.ndarray, upper: np.ndarray,
+                certifier: EdgeCertifier, rng: np.random.Generator, budget: SearchBudget,
+                step: float = STEP) -> SearchResult:
+    """A certified path from ``start`` to one of ``goals`` (free configurations above the clearance floor,
+    with their clearances) inside ``[lower, upper]``, or an empty :class:`SearchResult` when the budget runs
+    out (module docstring): :func:`search_with_kernel` on a scene with a sphere pre-check, else
+    :func:`search_step_by_step`."""
+    g = _direct(start, goals, certifier)
+    if g >= 0:
+        return SearchResult(np.array([start.q, goals[g].q]), [start, goals[g]], g, 0, 2)
+    nq = len(start.q)
+    start_tree = SearchTree(nq, clearance=certifier.clearance)
+    goal_tree = SearchTree(nq, clearance=certifier.clearance)
+    start_tree.add(start, -1)
+    for c in goals:
+        goal_tree.add(c, -1)
+    search = search_step_by_step if certifier.oracle.precheck is None else search_with_kernel
+    return search(start_tree, goal_tree, lower, upper, certifier, rng, budget, step)
+
+
+__all__ = ["ADVANCED", "BATCH", "DIRECT_GOALS", "REACHED", "STEP", "TRAPPED", "SearchBudget", "SearchResult",
+           "certify_branch", "connect", "extend_exactly", "held_free", "rrt_connect", "search_step_by_step",
+           "search_with_kernel"]
