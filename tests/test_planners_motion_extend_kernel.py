@@ -1,10 +1,11 @@
 """The compiled extension step of RRT-Connect (kinserve.planners.motion.extend_kernel) against Python.
 
-``nearest_node`` against a NumPy scan; ``extend_probe`` against the step computed in NumPy and the
-pre-check's own kernels called one point at a time (verdicts and the pairs left to coal; a point in
-collision for certain also by coal's test of every pair); ``rrt_connect.search_with_kernel`` (the compiled
-loop, coal on the held steps) against ``search_step_by_step`` (``extend_exactly``: the scene's collision
-test, clearance and probes one by one) from the same trees and seed: the same results and trees.
+``nearest_node`` against a NumPy scan; the extension step (``step_into`` inside ``search_steps``) against the
+step computed in NumPy and the pre-check's own kernels called one point at a time (verdicts and the pairs left
+to coal; a point in collision for certain also by coal's test of every pair);
+``rrt_connect.search_with_kernel`` (the compiled loop, coal on the held steps) against ``search_step_by_step``
+(``extend_exactly``: the scene's collision test, clearance and probes one by one) from the same trees and
+seed: the same results and trees.
 """
 
 from __future__ import annotations
@@ -32,12 +33,22 @@ from kinserve.planners.motion.extend_kernel import (
     ONTO,
     TOWARDS,
     UNCERTAIN,
-    extend_probe,
     nearest_node,
     probe_segment,
 )
 from kinserve.planners.motion.reach import pair_reach
 from kinserve.planners.motion.rrt_connect import SearchBudget, search_step_by_step, search_with_kernel
+from kinserve.planners.motion.search_kernel import (
+    BATCH_DONE,
+    FULL,
+    GROWN,
+    HELD,
+    SIZE_A,
+    SIZE_B,
+    STATE_LENGTH,
+    UNFIT,
+    search_steps,
+)
 from kinserve.planners.motion.search_tree import SearchTree
 
 from motion_scenes import shelf_scene
@@ -81,25 +92,46 @@ def _buffers(certifier, short: int = 0):
             np.full((1 + len(PROBES), P + 1 - short), -7, dtype=np.int64))
 
 
+def _one_step(certifier, nodes, pruned, n, target, step, codes, checks):
+    """One extension step of the tree ``nodes`` (``pruned``, ``n`` in use) towards ``target`` through
+    ``search_steps``: the other tree has one node and no free row, so the search returns right after that
+    step (trapped: BATCH_DONE; held: HELD; a node added or the target reached: FULL, the connect's tree
+    full) with its codes, pair lists and ``q_new`` (the held buffer) as the step left them."""
+    pre = certifier.oracle.precheck
+    nq = nodes.shape[1]
+    parents = np.full(len(nodes), -1, dtype=np.int64)
+    other = np.zeros((1, nq))
+    state = np.zeros(STATE_LENGTH, dtype=np.int64)
+    state[SIZE_A], state[SIZE_B] = n, 1
+    held = np.full(nq, np.nan)
+    event = search_steps(pre.floats, pre.ints, nodes, pruned, parents, other, np.zeros(1, dtype=bool),
+                         np.full(1, -1, dtype=np.int64), target[None, :].copy(), step, pre.tolerance,
+                         CLEARANCE_FLOOR, np.array(PROBES), state, held, codes, checks)
+    return event, held, state
+
+
 def test_buffers_too_small_are_refused_without_a_write(setting):
-    """Buffers that cannot hold every pair of the scene: nothing written, an empty ``q_new`` / False."""
+    """Buffers that cannot hold every pair of the scene: nothing written (UNFIT / False)."""
     robot, certifier = setting
     pre = certifier.oracle.precheck
     nodes, pruned = _tree(robot, np.random.default_rng(3), 5)
     codes, checks = _buffers(certifier, short=1)
-    q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, 5, robot.upper.copy(), 0.5, pre.tolerance,
-                         CLEARANCE_FLOOR, PROBE_FRACTIONS, codes, checks)
-    assert q_new.shape == (0,)
+    event, held, state = _one_step(certifier, nodes, pruned, 5, robot.upper.copy(), 0.5, codes, checks)
+    assert event == UNFIT and np.isnan(held).all() and state[SIZE_A] == 5
     assert not probe_segment(pre.floats, pre.ints, nodes[0], nodes[1], PROBE_FRACTIONS, pre.tolerance, codes,
                              checks)
     assert (codes == -7).all() and (checks == -7).all()
 
 
-def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
+def test_the_step_matches_numpy_and_the_precheck_point_by_point(setting):
+    """The compiled extension step (``step_into``, through ``search_steps``: ``_one_step``) against the step
+    computed in NumPy and the pre-check's kernels called one point at a time: the nearest node, the kind of
+    step, ``q_new``, the verdicts in order up to the first point in collision for certain (``q_new``
+    certified with the clearance floor, the probes with the tolerance; a point in collision for certain
+    also by coal's test of every pair), the pairs left to coal, and the event each outcome gives."""
     robot, certifier = setting
     pre = certifier.oracle.precheck
     rng = np.random.default_rng(11)
-    probes = np.array(PROBES)
     kinds = set()
     colliding = 0
     floors = 0
@@ -112,15 +144,15 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
         if trial % 50 == 0:
             target = nodes[0].copy()  # the nearest node is the target itself
         codes, checks = _buffers(certifier)
-        q_new = extend_probe(pre.floats, pre.ints, nodes, pruned, n, target, step, pre.tolerance,
-                             CLEARANCE_FLOOR, probes, codes, checks)
+        event, q_new, state = _one_step(certifier, nodes, pruned, n, target, step, codes, checks)
         near = nearest_node(nodes, pruned, n, target)
         assert codes[NEAR] == near
         delta = target - nodes[near]
         dist = np.linalg.norm(delta)
         kinds.add(int(codes[KIND]))
         if dist <= 1e-12:
-            assert codes[KIND] == AT_TARGET
+            assert codes[KIND] == AT_TARGET  # reached: the connect next
+            assert event == FULL and state[GROWN] == near
             continue
         assert codes[KIND] == (ONTO if dist <= step else TOWARDS)
         expected = target if dist <= step else nodes[near] + delta * (step / dist)
@@ -144,6 +176,13 @@ def test_extend_probe_matches_the_step_and_the_precheck_point_by_point(setting):
                 verdicts.append(UNCERTAIN), pairs.append(listed)
         verdicts += [-1] * (len(points) - len(verdicts))  # refused: no point after it asked
         assert codes[END:].tolist() == verdicts
+        if COLLIDES in verdicts:  # trapped: the iteration ends, the tree unchanged
+            assert event == BATCH_DONE and state[SIZE_A] == n
+        elif UNCERTAIN in verdicts:  # held for coal
+            assert event == HELD and state[SIZE_A] == n
+        else:  # added, then the connect finds the other tree full
+            assert event == FULL and state[SIZE_A] == n + 1 and state[GROWN] == n
+            np.testing.assert_array_equal(nodes[n], q_new)
         for k, listed in enumerate(pairs):  # the pairs coal must check: the pre-check's own list
             if verdicts[k] == UNCERTAIN:
                 assert listed and checks[k, 1:1 + checks[k, 0]].tolist() == listed

@@ -153,7 +153,7 @@ class ClearanceOracle:
         """Whether coal finds one of the points the sphere pre-check left uncertain in collision: point ``k``
         is ``point(k)``, its verdict ``verdicts[k]`` (:data:`~.extend_kernel.UNCERTAIN` for those asked, in
         order) and row ``k`` of ``checks`` the pairs to check there (count first; the others are certified
-        free at that point): :func:`~.extend_kernel.extend_probe` and
+        free at that point): :func:`~.extend_kernel.step_into` and
         :func:`~.extend_kernel.probe_segment`'s answers."""
         pair_hits = self.scene.workspace().pair_hits
         for k, verdict in enumerate(verdicts):
@@ -165,7 +165,7 @@ class ClearanceOracle:
         """True when coal's distance at ``q`` of each pair of ``pairs`` (scene indices) is at least
         ``need[pair]`` (m; :func:`need_of`): a pair in collision (negative distance) does not keep it. The
         pairs a node's sphere bounds leave below the clearance floor
-        (:func:`~.extend_kernel.extend_probe`)."""
+        (:func:`~.extend_kernel.step_into`)."""
         self.checks += 1
         self._place(q)
         self._placed = None

@@ -4,21 +4,22 @@ checks) and the probe points of a motion.
 :func:`nearest_node`: the index of the node of ``nodes[:size]`` ``(N, nq)`` closest to ``q`` (squared
 Euclidean distance, the first one on ties) among those ``pruned`` does not mark; -1 when there is none.
 
-:func:`extend_probe`: one extension step of a tree (:func:`~.rrt_connect.extend`) up to what only coal can
-decide, in one call. From the nearest node ``q_near`` towards ``target`` (distance ``dist``) it steps to
-``q_new = target`` when ``dist <= step``, else ``q_new = q_near + (target - q_near) step / dist`` (rad), and
-asks the scene's sphere pre-check about ``q_new`` and then about the points ``q_near + s (q_new - q_near)``
-for each ``s`` of ``probes`` (:func:`~kinserve.kinematics.precheck_kernels.pairs_to_check`, one forward
-kinematics per point; tolerance ``tol``, m): **certified free**,
-**colliding** for certain (then nothing more is asked: the step is refused) or **uncertain**, with the pairs
-coal must check there (every other pair is certified free: the pre-check's spheres contain the robot's
-geometry, and its inner balls lie inside it, so a configuration colliding for certain is one coal finds in
-collision). ``q_new``, a new node, must also keep the clearance floor: it is certified with ``floor`` (m)
-instead of ``tol``, so **free** there means every pair's lower bound exceeds the floor, and its uncertain
-pairs are those whose bound does not (coal's distances decide them against the floor).
+:func:`step_into`: one extension step of a tree up to what only coal can decide (inlined into the search's
+compiled loop, :func:`~.search_kernel.search_steps`). From the nearest node ``q_near`` towards ``target``
+(distance ``dist``) it steps to ``q_new = target`` when ``dist <= step``, else ``q_new = q_near + (target -
+q_near) step / dist`` (rad), and asks the scene's sphere pre-check about ``q_new`` and then about the points
+``q_near + s (q_new - q_near)`` for each ``s`` of ``probes``
+(:func:`~kinserve.kinematics.precheck_kernels.pairs_to_check`, one forward kinematics per point; tolerance
+``tol``, m): **certified free**, **colliding** for certain (then nothing more is asked: the step is refused)
+or **uncertain**, with the pairs coal must check there (every other pair is certified free: the pre-check's
+spheres contain the robot's geometry, and its inner balls lie inside it, so a configuration colliding for
+certain is one coal finds in collision). ``q_new``, a new node, must also keep the clearance floor: it is
+certified with ``floor`` (m) instead of ``tol``, so **free** there means every pair's lower bound exceeds the
+floor, and its uncertain pairs are those whose bound does not (coal's distances decide them against the
+floor).
 
-Its answer: ``q_new``, and into the caller's buffers (owned by the planner's
-:class:`~.edges.EdgeCertifier`, written on every call) ``codes`` ``(4 + len(probes),)`` int64:
+Its answer, into the caller's buffers: ``q_new`` ``(nq,)``, and (owned by the planner's
+:class:`~.edges.EdgeCertifier`, written on every call) ``codes`` ``(3 + len(probes),)`` int64:
 ``[near, kind, end, probe_0, ...]`` with ``kind`` :data:`AT_TARGET` (``dist <= 1e-12``: nothing
 else filled), :data:`ONTO` (``dist <= step``: ``q_new`` is the target) or :data:`TOWARDS`;
 ``end`` and ``probe_k``: :data:`FREE`, :data:`UNCERTAIN` or :data:`COLLIDES` (-1: not asked, after a point
@@ -47,10 +48,10 @@ from kinserve.kinematics.precheck_kernels import pairs_to_check, unpack
 
 #: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
 FREE, UNCERTAIN, COLLIDES = 0, 1, 2
-#: ``codes[1]`` of :func:`extend_probe`: the nearest node is the target itself (no step), a step short of
+#: ``codes[1]`` of :func:`step_into`: the nearest node is the target itself (no step), a step short of
 #: the target, a step onto it.
 AT_TARGET, TOWARDS, ONTO = 0, 1, 2
-#: Positions in ``codes`` of :func:`extend_probe`: nearest node, kind, verdict of ``q_new`` (the probes'
+#: Positions in ``codes`` of :func:`step_into`: nearest node, kind, verdict of ``q_new`` (the probes'
 #: verdicts follow it).
 NEAR, KIND, END = 0, 1, 2
 
@@ -59,8 +60,6 @@ _NEAREST_SIGNATURE = _t.int64(F2, B1, _t.int64, F1_ANY)
 #: The caller's buffers (written): ``codes`` and ``checks``. One array returned at most: each array a
 #: compiled call returns costs an unpickling of its type when it is boxed.
 _CODES, _CHECKS = _t.Array(_t.int64, 1, "C"), _t.Array(_t.int64, 2, "C")
-_EXTEND_SIGNATURE = _t.Array(_t.float64, 1, "C")(F1, I1, F2, B1, _t.int64, F1_ANY, _t.float64, _t.float64,
-                                                 _t.float64, F1, _CODES, _CHECKS)
 _SEGMENT_SIGNATURE = _t.boolean(F1, I1, F1_ANY, F1_ANY, F1, _t.float64, _CODES, _CHECKS)
 
 
@@ -108,8 +107,11 @@ def fits(floats: np.ndarray, ints: np.ndarray, rows: int, codes: np.ndarray, che
 def step_into(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
               target: np.ndarray, step: float, tol: float, floor: float, probes: np.ndarray,
               q_new: np.ndarray, codes: np.ndarray, checks: np.ndarray) -> None:
-    """:func:`extend_probe`'s step with ``q_new`` written into the caller's ``q_new`` ``(nq,)`` (the buffers
-    fit: :func:`fits`)."""
+    """One extension step of the tree ``nodes`` ``(N, nq)`` (``pruned`` ``(N,)``, the first ``size`` rows in
+    use) towards ``target`` up to what coal must decide, into ``q_new``, ``codes`` and ``checks`` (module
+    docstring; the buffers fit: :func:`fits`). ``floats, ints``: the scene's packed pre-check
+    (:mod:`kinserve.kinematics.precheck_packing`); ``step`` (rad), ``tol`` (m), ``floor`` (m, the distance
+    ``q_new``'s pairs must keep, at least ``tol``), ``probes`` (fractions of the step)."""
     n = nodes.shape[1]
     codes[:END + 1 + probes.shape[0]] = -1
     codes[KIND] = AT_TARGET
@@ -141,33 +143,15 @@ def step_into(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: n
             return
 
 
-@compiled(_EXTEND_SIGNATURE)
-def extend_probe(floats: np.ndarray, ints: np.ndarray, nodes: np.ndarray, pruned: np.ndarray, size: int,
-                 target: np.ndarray, step: float, tol: float, floor: float, probes: np.ndarray,
-                 codes: np.ndarray, checks: np.ndarray) -> np.ndarray:
-    """One extension step of a tree towards ``target`` up to what coal must decide: returns ``q_new`` and
-    writes ``codes`` and ``checks`` (module docstring; the caller's buffers, at least ``3 + len(probes)``
-    and ``(1 + len(probes), P + 1)``: when they are smaller nothing is written and ``q_new`` is empty).
-    ``floats, ints``: the scene's packed pre-check (:mod:`kinserve.kinematics.precheck_packing`); ``nodes``
-    ``(N, nq)`` with ``pruned`` ``(N,)``, the first ``size`` rows in use; ``step`` (rad), ``tol`` (m),
-    ``floor`` (m, the distance ``q_new``'s pairs must keep, at least ``tol``), ``probes`` (fractions of the
-    step)."""
-    if not fits(floats, ints, 1 + probes.shape[0], codes, checks):
-        return np.empty(0)
-    q_new = np.empty(nodes.shape[1])
-    step_into(floats, ints, nodes, pruned, size, target, step, tol, floor, probes, q_new, codes, checks)
-    return q_new
-
-
 @compiled(_SEGMENT_SIGNATURE)
 def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.ndarray, probes: np.ndarray,
                   tol: float, codes: np.ndarray, checks: np.ndarray) -> bool:
     """The sphere pre-check at the points ``qa + s (qb - qa)``, ``s`` in ``probes`` (rad; tolerance ``tol``,
     m), in one call, into the caller's buffers: ``codes[END + k]`` the verdict of point ``k``, :data:`FREE`,
     :data:`UNCERTAIN` or :data:`COLLIDES` (-1 after a point colliding for certain: not asked), ``checks`` as
-    :func:`extend_probe`'s (row ``k``: for an uncertain point, the number of pairs coal must check there,
+    :func:`step_into`'s (row ``k``: for an uncertain point, the number of pairs coal must check there,
     then their scene indices). False (nothing written) when the buffers are smaller than
-    :func:`extend_probe` needs with these probes."""
+    :func:`step_into` needs with these probes."""
     n = qa.shape[0]
     if not fits(floats, ints, 1 + probes.shape[0], codes, checks):
         return False
@@ -184,4 +168,4 @@ def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.n
 
 
 __all__ = ["AT_TARGET", "COLLIDES", "END", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
-           "extend_probe", "nearest_node", "probe_segment"]
+           "fits", "nearest_node", "probe_segment", "step_into"]

@@ -108,7 +108,7 @@ def held_free(tree: SearchTree, near: int, q_new: np.ndarray, certifier: EdgeCer
               checks: np.ndarray) -> bool:
     """Coal's decision about a step the spheres left uncertain (:data:`~.search_kernel.HELD`): from node
     ``near`` of ``tree`` to ``q_new``, with the verdicts in ``codes`` and the pairs left to coal in
-    ``checks`` (:func:`~.extend_kernel.extend_probe`'s). True when ``q_new``'s uncertain pairs keep the
+    ``checks`` (:func:`~.extend_kernel.step_into`'s). True when ``q_new``'s uncertain pairs keep the
     clearance floor (coal's distances) and coal finds no uncertain probe point in collision."""
     oracle = certifier.oracle
     verdicts = codes[END:END + 1 + len(PROBES)].tolist()

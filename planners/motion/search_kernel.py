@@ -27,7 +27,7 @@ it with coal and calls again with its decision. Every decision is the one
 The call returns an event: :data:`BATCH_DONE` (every row of ``randoms`` used), :data:`FULL` (the tree
 to grow has no free row: the caller grows its arrays and calls again, the step is made then), :data:`HELD`
 (the step's ``q_new`` in ``held``, its codes and pair lists in ``codes`` / ``checks`` as
-:func:`~.extend_kernel.extend_probe`'s), :data:`MET` (the trees met: node ``GROWN`` of the active tree and
+:func:`~.extend_kernel.step_into`'s), :data:`MET` (the trees met: node ``GROWN`` of the active tree and
 ``JOINED`` of the other are the same configuration; the caller certifies the two branches and, when that
 fails, calls again with the decision :data:`REJECT`: the iteration ends) or :data:`UNFIT` (the buffers or
 trees do not fit: nothing done).
@@ -117,8 +117,8 @@ def search_steps(floats: np.ndarray, ints: np.ndarray, nodes_a: np.ndarray, prun
                  state: np.ndarray, held: np.ndarray, codes: np.ndarray, checks: np.ndarray) -> int:
     """Iterations of RRT-Connect from ``state`` until an event (module docstring). ``floats, ints``: the
     scene's packed pre-check; ``randoms`` ``(B, nq)``: the iterations' samples; ``step`` (rad), ``tol`` and
-    ``floor`` (m) and ``probes`` as :func:`~.extend_kernel.extend_probe`'s; ``held`` ``(nq,)``: the held
-    step's ``q_new``; ``codes``, ``checks``: :func:`~.extend_kernel.extend_probe`'s buffers."""
+    ``floor`` (m) and ``probes`` as :func:`~.extend_kernel.step_into`'s; ``held`` ``(nq,)``: the held
+    step's ``q_new``; ``codes``, ``checks``: :func:`~.extend_kernel.step_into`'s buffers."""
     nq = nodes_a.shape[1]
     if not fits(floats, ints, 1 + probes.shape[0], codes, checks) or state.shape[0] < STATE_LENGTH \
             or nodes_b.shape[1] != nq or randoms.shape[1] != nq or held.shape[0] != nq \
