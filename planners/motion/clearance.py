@@ -164,17 +164,11 @@ class ClearanceOracle:
     def keeps(self, q: np.ndarray, pairs: np.ndarray, need: np.ndarray) -> bool:
         """True when coal's distance at ``q`` of each pair of ``pairs`` (scene indices) is at least
         ``need[pair]`` (m; :func:`need_of`): a pair in collision (negative distance) does not keep it. The
-        pairs a node's sphere bounds leave below the clearance floor
-        (:func:`~.extend_kernel.step_into`)."""
-        self.checks += 1
-        self._place(q)
-        self._placed = None
-        gm, gd = self.geometry, self.geometry_data
-        for k in pairs.tolist():
-            self.pair_distances += 1
-            if _compute_distance(gm, gd, k).min_distance < need[k]:
-                return False
-        return True
+        pairs a node's sphere bounds leave below the clearance floor (:func:`~.extend_kernel.step_into`).
+        :meth:`step`'s test with rates 0 (its radius is then 0 when every pair keeps its need)."""
+        ks = pairs.tolist()
+        zeros = [0.0] * len(ks)
+        return self.step(q, ks, [float(need[k]) for k in ks], zeros, zeros) >= 0.0
 
     def clearance(self, q: np.ndarray) -> Clearance:
         """The :class:`Clearance` of ``q``: sphere bounds, made on its first read (:meth:`sphere_bounds`),

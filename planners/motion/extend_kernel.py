@@ -85,14 +85,13 @@ def _judge(floats, ints, q, keep, tol, codes, checks, k):
     """Point ``k`` of the step (0: ``q_new``, then the probes) at configuration ``q``, certified with
     ``keep`` (m; in collision for certain at depth ``tol``): its verdict into ``codes[END + k]`` and, when
     uncertain, the pairs coal must check into row ``k`` of ``checks`` (count first; the rows of other points
-    are left unwritten); True when certified free."""
+    are left unwritten)."""
     found = pairs_to_check(floats, ints, q, keep, tol, checks[k, 1:])
     if found < 0:
         codes[END + k] = COLLIDES
-        return False
-    checks[k, 0] = found
-    codes[END + k] = FREE if found == 0 else UNCERTAIN
-    return found == 0
+    else:
+        checks[k, 0] = found
+        codes[END + k] = FREE if found == 0 else UNCERTAIN
 
 
 @inline

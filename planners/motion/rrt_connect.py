@@ -163,14 +163,16 @@ def connect(tree: SearchTree, target: np.ndarray, certifier: EdgeCertifier, step
             return result
 
 
-def _joined(start_tree: SearchTree, start_node: int, goal_tree: SearchTree, goal_node: int,
-            nodes: int, iterations: int) -> SearchResult:
-    """The path start root -> ``start_node`` = ``goal_node`` -> goal root (the two nodes coincide)."""
+def _joined(start_tree: SearchTree, goal_tree: SearchTree, active: SearchTree, grown: int, joined: int,
+            iterations: int) -> SearchResult:
+    """The path start root -> meeting node -> goal root: node ``grown`` of the ``active`` tree (the one that
+    extended) and node ``joined`` of the other one are the same configuration."""
+    start_node, goal_node = (grown, joined) if active is start_tree else (joined, grown)
     head = start_tree.branch(start_node)[::-1]
     tail = goal_tree.branch(goal_node)[1:]
     path = np.array([start_tree.node(k) for k in head] + [goal_tree.node(k) for k in tail])
     clear = [start_tree.clearance(k) for k in head] + [goal_tree.clearance(k) for k in tail]
-    return SearchResult(path, clear, goal_tree.root(goal_node), iterations, nodes)
+    return SearchResult(path, clear, goal_tree.root(goal_node), iterations, start_tree.size + goal_tree.size)
 
 
 def _direct(start: Clearance, goals: list[Clearance], certifier: EdgeCertifier) -> int:
@@ -203,10 +205,7 @@ def search_step_by_step(start_tree: SearchTree, goal_tree: SearchTree, lower: np
             joined = connect(other, active.node(grown.node), certifier, step)
             if joined.status == REACHED and certify_branch(active, grown.node, certifier) \
                     and certify_branch(other, joined.node, certifier):
-                nodes = start_tree.size + goal_tree.size
-                if active is start_tree:
-                    return _joined(start_tree, grown.node, goal_tree, joined.node, nodes, iterations)
-                return _joined(start_tree, joined.node, goal_tree, grown.node, nodes, iterations)
+                return _joined(start_tree, goal_tree, active, grown.node, joined.node, iterations)
         active, other = other, active
     return SearchResult(np.zeros((0, nq)), [], -1, iterations, start_tree.size + goal_tree.size)
 
@@ -253,10 +252,7 @@ def search_with_kernel(start_tree: SearchTree, goal_tree: SearchTree, lower: np.
             active, other = trees if state[ACTIVE] == 0 else trees[::-1]
             grown, joined = int(state[GROWN]), int(state[JOINED])
             if certify_branch(active, grown, certifier) and certify_branch(other, joined, certifier):
-                nodes, iterations = start_tree.size + goal_tree.size, begun + int(state[IT]) + 1
-                if active is start_tree:
-                    return _joined(start_tree, grown, goal_tree, joined, nodes, iterations)
-                return _joined(start_tree, joined, goal_tree, grown, nodes, iterations)
+                return _joined(start_tree, goal_tree, active, grown, joined, begun + int(state[IT]) + 1)
             state[DECISION] = REJECT  # the iteration ends
         else:
             raise RuntimeError("search_steps: the trees or the certifier's buffers do not fit its scene")

@@ -60,7 +60,7 @@ BATCH_DONE, FULL, HELD, MET, UNFIT = 0, 1, 2, 3, 4
 _TRAPPED, _REACHED_NODE, _ADDED, _HELD = 0, 1, 2, 3
 
 _t = numba.types
-_I1W, _B1W, _F2W = _t.Array(_t.int64, 1, "C"), _t.Array(_t.boolean, 1, "C"), _t.Array(_t.float64, 2, "C")
+_I1W, _F2W = _t.Array(_t.int64, 1, "C"), _t.Array(_t.float64, 2, "C")
 _SEARCH_SIGNATURE = _t.int64(F1, I1, _F2W, B1, _I1W, _F2W, B1, _I1W,
                              F2, _t.float64, _t.float64, _t.float64, F1, _I1W, _t.Array(_t.float64, 1, "C"),
                              _I1W, _t.Array(_t.int64, 2, "C"))
