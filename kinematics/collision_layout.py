@@ -45,6 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from .configuration_checks import CoalCheck, coal_test, collision_check, pair_test
+from .hull_table import HullTable, hull_table
 
 if TYPE_CHECKING:
     from .robot_spheres import RobotSpheres
@@ -75,6 +76,8 @@ class RobotCollisionGeometry:
     base); ``model_pairs``: the self pairs in model order; ``spheres``: the robot's sphere model
     (:func:`~.robot_spheres.robot_spheres`; None when its tree has none); ``inner_radii``: the radius (m)
     of the ball about each of its inner points inside its geometry (:func:`~.inner_balls.robot_inner_radii`,
+    made with this object when not given; None without spheres); ``hulls``: the cores of its geometries in
+    their joints' frames (:func:`~.hull_table.hull_table`, for the motion certificates' compiled distances;
     made with this object when not given; None without spheres).
     """
 
@@ -85,6 +88,7 @@ class RobotCollisionGeometry:
     model_pairs: tuple[tuple[int, int], ...]
     spheres: RobotSpheres | None
     inner_radii: np.ndarray | None = None
+    hulls: HullTable | None = None
 
     def __post_init__(self) -> None:
         if self.inner_radii is None and self.spheres is not None:
@@ -92,6 +96,8 @@ class RobotCollisionGeometry:
 
             radii = robot_inner_radii(self.geometry, self.spheres.inner, self.spheres.inner_ranges)
             object.__setattr__(self, "inner_radii", radii)
+        if self.hulls is None and self.spheres is not None:
+            object.__setattr__(self, "hulls", hull_table(self.geometry.geometryObjects))
 
 
 @dataclass(eq=False)
@@ -213,7 +219,8 @@ class SceneLayout:
             return None
         from .scene_precheck import ScenePrecheck  # Numba's kernels: loaded with the collision model
 
-        return ScenePrecheck(robot.spheres, self.pairs, self.n_robot, len(self.obstacles), robot.inner_radii)
+        return ScenePrecheck(robot.spheres, self.pairs, self.n_robot, len(self.obstacles), robot.inner_radii,
+                             robot.hulls)
 
     def precheck(self) -> ScenePrecheck | None:
         """The layout's sphere pre-check (:class:`~.scene_precheck.ScenePrecheck`: the robot's spheres and the

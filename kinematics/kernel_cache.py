@@ -31,6 +31,7 @@ _ROOT = Path(__file__).resolve().parents[1]
 #: reads (constants and encodings baked into the machine code), sharing one source stamp.
 KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "kinematics/kernel_primitives.py",
+    "kinematics/convex_distance.py",
     "kinematics/precheck_kernels.py",
     "kinematics/motion_kernels.py",
     "kinematics/sphere_cover.py",
@@ -40,9 +41,10 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "ik/tasks/null_space_kernel.py",
     "planners/motion/extend_kernel.py",
     "planners/motion/search_kernel.py",
-    # read by the kernels above: the obstacle table's encoding, the pre-check's verdicts, the joint kinds of
-    # the chain encoding, the LM's status codes
+    # read by the kernels above: the obstacle table's encoding, the hull table's kinds, the pre-check's
+    # verdicts, the joint kinds of the chain encoding, the LM's status codes
     "kinematics/obstacle_table.py",
+    "kinematics/hull_table.py",
     "kinematics/precheck_verdicts.py",
     "kinematics/serial_chain.py",
     "ik/lm/status.py",

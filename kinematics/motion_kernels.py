@@ -16,6 +16,10 @@ other. :func:`geometry_pair_rates` gives the same bound for the shapes themselve
 
 **Advancement.** :func:`motion_hard_pairs`: from both ends with look-ahead, pair by pair, each with
 its own certified ends, handing over the pairs whose spheres cannot decide.
+:func:`advance_on_distances`: the advancement of those handed-over pairs on the
+distances of the shapes themselves (:mod:`.convex_distance`: GJK's lower bound
+between the convex cores, less their radii), the algorithm of
+:func:`kinserve.planners.motion.edges.advance` in one compiled call.
 
 Each kernel has its signature: importing this module compiles them or loads them
 from the kernel set's cache (:mod:`.kernel_cache`, whose key covers this file).
@@ -29,10 +33,13 @@ import math
 import numba
 import numpy as np
 
-from .kernel_cache import F1, F1_ANY, F2, I1, compiled, inline, jit
+from .convex_distance import core_distance_bound, obstacle_radius
+from .hull_table import VERTICES
+from .kernel_cache import F1, F1_ANY, F2, I1, I2, compiled, inline, jit
 from .precheck_kernels import (
     LIPSCHITZ_SAFETY,
     SELF_PAIR,
+    TOLERANCE,
     obstacle_gap,
     place_bounding_spheres,
     place_cover,
@@ -473,5 +480,119 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     return out
 
 
-__all__ = ["COVER_FRACTION", "LOOKAHEAD", "PAIR_HORIZON", "geometry_pair_rates", "motion_hard_pairs",
+#: :func:`advance_on_distances` (and :func:`kinserve.planners.motion.edges.advance`) gives up when, at the
+#: pace of its last :data:`PACE_WINDOW` advances, the open stretch would take more than :data:`PACE_MARGIN`
+#: times the advances it has left: the budget would almost always refuse the motion anyway.
+PACE_WINDOW = 4
+PACE_MARGIN = 2.0
+#: :func:`advance_on_distances`' answers: certified, refused, and a pair it cannot measure (the caller's
+#: exact check decides then).
+CERTIFIED, REFUSED, NOT_MEASURED = 1, 0, -1
+
+_ADVANCE_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, F1, _t.float64, _t.float64,
+                              _t.int64, _t.Array(_t.int64, 1, "C"))
+
+
+@_inline
+def _measurable(hull_geoms, pairs, obstacles, rows):
+    """Whether every pair-table row of ``rows`` joins two shapes :mod:`.convex_distance` measures."""
+    for j in range(rows.shape[0]):
+        p = rows[j]
+        if hull_geoms[pairs[p, 0], 0] != VERTICES:
+            return False
+        if pairs[p, 2] == SELF_PAIR:
+            if hull_geoms[pairs[p, 1], 0] != VERTICES:
+                return False
+        elif obstacle_radius(obstacles, pairs[p, 1]) < 0.0:
+            return False
+    return True
+
+
+@_inline
+def _distance_radius(tree, joints, pairs, obstacles, points, hull_geoms, radius, rows, need, inverse, offset,
+                     q, X, S, T, guesses, counts):
+    """The certified radius ``min_j (d_j - TOLERANCE) inverse[j] + offset[j]`` at ``q`` of the pairs
+    ``rows`` (the shapes' distance lower bounds ``d_j``, m), or -1 when one is below ``need[j]``
+    (``guesses[j]``: pair ``j``'s GJK start, :func:`~.convex_distance.core_distance_bound`)."""
+    tree_placements(tree, joints, q, X)
+    rho = math.inf
+    for j in range(rows.shape[0]):
+        p = rows[j]
+        a, b = pairs[p, 0], pairs[p, 1]
+        own = pairs[p, 2] == SELF_PAIR
+        grown = radius[a] + (radius[b] if own else obstacle_radius(obstacles, b))
+        d = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guesses[j]) - grown
+        counts[1] += 1
+        if not d >= need[j]:  # (NaN: refused)
+            return -1.0
+        r = (d - TOLERANCE) * inverse[j] + offset[j]
+        if r < rho:
+            rho = r
+    return rho
+
+
+@compiled(_ADVANCE_SIGNATURE)
+def advance_on_distances(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull_geoms: np.ndarray,
+                         radius: np.ndarray, rows: np.ndarray, qa: np.ndarray, u: np.ndarray,
+                         need: np.ndarray, inverse: np.ndarray, offset: np.ndarray, lo: float, hi: float,
+                         max_advances: int, counts: np.ndarray) -> int:
+    """Conservative advancement of ``qa + s u`` on ``[lo, hi]`` (``[0, lo)`` and ``(hi, 1]`` certified
+    already) on the distances of the pairs at rows ``rows`` of the scene's pair table (``floats, ints``: its
+    packed pre-check; ``points, hull_geoms, radius``: the robot's
+    :class:`~.hull_table.HullTable`): per pair ``j`` the rates of the motion as ``need[j]`` (m, the
+    distance it must keep), ``inverse[j]`` and ``offset[j]`` (:class:`~kinserve.planners.motion.clearance.
+    PairRates`). :data:`CERTIFIED` when every pair stays apart over the stretch, :data:`REFUSED` when a
+    point asked is too close or the ``max_advances`` advances (or the pace rule) run out, the algorithm and
+    the decisions of :func:`kinserve.planners.motion.edges.advance` on the radii a coal step would give
+    with these distances; :data:`NOT_MEASURED` (nothing asked) when a pair joins a shape
+    :mod:`.convex_distance` does not measure. ``counts`` += (advances, pair distances)."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n = joints.shape[0]
+    if qa.shape[0] != n or u.shape[0] != n or hull_geoms.shape[0] < geoms.shape[0] \
+            or need.shape[0] < rows.shape[0] or inverse.shape[0] < rows.shape[0] \
+            or offset.shape[0] < rows.shape[0] or counts.shape[0] < 2:
+        return NOT_MEASURED
+    for j in range(rows.shape[0]):
+        if rows[j] < 0 or rows[j] >= pairs.shape[0]:
+            return NOT_MEASURED
+    if not _measurable(hull_geoms, pairs, obstacles, rows):
+        return NOT_MEASURED
+    X = np.empty((n + 1, 12))
+    S, T = np.empty((4, 3)), np.empty((7, 3))
+    q = np.empty(n)
+    guesses = np.zeros((2, rows.shape[0], 3))  # per side, each pair's last closest point of A - B
+    opened = np.empty(max(max_advances, 0) + 1)  # the open stretch before each advance
+    opened[0] = hi - lo
+    r_lo, r_hi = 0.0, 0.0
+    for k in range(max_advances):
+        if lo >= hi:
+            return CERTIFIED
+        if k >= PACE_WINDOW:
+            closed = opened[k - PACE_WINDOW] - (hi - lo)
+            if (hi - lo) * PACE_WINDOW > PACE_MARGIN * closed * (max_advances - k):
+                return REFUSED
+        from_lo = k % 2 == 0
+        s = min(lo + LOOKAHEAD * r_lo, hi) if from_lo else max(hi - LOOKAHEAD * r_hi, lo)
+        for c in range(n):
+            q[c] = qa[c] + s * u[c]
+        counts[0] += 1
+        r = _distance_radius(tree, joints, pairs, obstacles, points, hull_geoms, radius, rows, need, inverse,
+                             offset, q, X, S, T, guesses[0 if from_lo else 1], counts)
+        if r < 0.0:
+            return REFUSED
+        joins_lo, joins_hi = s - r <= lo, s + r >= hi
+        if joins_lo:
+            lo = max(lo, s + r)
+        if joins_hi:
+            hi = min(hi, s - r)
+        if from_lo:
+            r_lo = r if joins_lo else 0.0
+        else:
+            r_hi = r if joins_hi else 0.0
+        opened[k + 1] = hi - lo
+    return CERTIFIED if lo >= hi else REFUSED
+
+
+__all__ = ["CERTIFIED", "COVER_FRACTION", "LOOKAHEAD", "NOT_MEASURED", "PACE_MARGIN", "PACE_WINDOW",
+           "PAIR_HORIZON", "REFUSED", "advance_on_distances", "geometry_pair_rates", "motion_hard_pairs",
            "motion_rates"]

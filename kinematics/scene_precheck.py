@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .hull_table import HullTable
 from .obstacle_table import OBSTACLE_COLUMNS
 from .precheck_kernels import (
     OBSTACLE_PAIR,
@@ -46,6 +47,9 @@ class PrecheckArguments(NamedTuple):
     ``classify(floats, ints, q, tolerance)`` (:func:`~.precheck_kernels.classify_configuration`: free, in
     collision or undecided, in one call) and ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene
     indices of the pairs the spheres do not certify at ``q``: coal need check only those).
+    ``hulls``: the robot's :class:`~.hull_table.HullTable` (None: the compiled distances are not available)
+    and ``table_rows`` ``(P,)``: the row of the pair table of each scene pair (:func:`pair_table`), for
+    :func:`~.motion_kernels.advance_on_distances`.
     """
 
     certify: Callable[..., bool]
@@ -58,6 +62,8 @@ class PrecheckArguments(NamedTuple):
     pair_reach: np.ndarray
     classify: Callable[..., int]
     uncertified_pairs: Callable[..., np.ndarray]
+    hulls: HullTable | None
+    table_rows: np.ndarray
 
 
 def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
@@ -79,13 +85,18 @@ class ScenePrecheck:
     """The pre-check of one layout: the robot's spheres ``robot`` and the pair table ``pairs`` ``(P, 4)``
     (:func:`pair_table`) of a layout with ``n_obstacles`` obstacles; :meth:`arguments` adds a scene's
     obstacle rows. ``inner_radii``: the radii (m) of the robot's inner balls (:mod:`.inner_balls`; None:
-    points).
+    points); ``hulls``: the cores of its geometries (:mod:`.hull_table`; None: no compiled distances).
     """
 
     def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, n_obstacles: int,
-                 inner_radii: np.ndarray | None = None) -> None:
+                 inner_radii: np.ndarray | None = None, hulls: HullTable | None = None) -> None:
         self.robot = robot
+        self.hulls = hulls
         self.pairs = pair_table(pairs, n_robot)
+        #: The row of :attr:`pairs` of each scene pair.
+        self.table_rows = np.empty(len(self.pairs), dtype=np.int64)
+        self.table_rows[self.pairs[:, 3]] = np.arange(len(self.pairs))
+        self.table_rows.setflags(write=False)
         blank = np.zeros((int(n_obstacles), OBSTACLE_COLUMNS))  # the rows each scene brings
         packed = pack(robot, self.pairs, blank, inner_radii)
         #: The packed floats but the obstacle rows (a scene appends its own).
@@ -116,7 +127,8 @@ class ScenePrecheck:
         floats = np.concatenate((self.robot_floats, *[shape.obstacle_row for shape in obstacles]))
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
                                  certainly_colliding, self.robot.sphere_reach,
-                                 self.pair_reach, classify_configuration, uncertified_pairs)
+                                 self.pair_reach, classify_configuration, uncertified_pairs, self.hulls,
+                                 self.table_rows)
 
 
 def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:

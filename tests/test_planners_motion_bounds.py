@@ -210,7 +210,7 @@ def _edges_with_clear_ends(panda, obstacles, certifier, rng):
             yield a, b, ca, cb
 
 
-def test_edges_certified_with_pairs_handed_to_coal_are_free_when_densely_checked(panda):
+def test_edges_certified_with_pairs_handed_to_the_exact_stage_are_free_when_densely_checked(panda):
     """Random edges in the shelf scene: an edge ``certify`` accepts is free at samples no more than 0.5 mrad
     apart per joint (the independent mesh check; the first four of each route); edges certified on the
     spheres alone, edges whose close pairs the spheres hand over to coal (``hard_pairs``), and refused edges

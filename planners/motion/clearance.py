@@ -122,8 +122,9 @@ class Clearance:
 class ClearanceOracle:
     """Collision tests and pair distances of one scene (module docstring), counted.
 
-    ``checks``: configurations asked (collision tests and clearances); ``distance_checks``: clearances
-    made; ``pair_distances``: coal pair distances computed.
+    ``checks``: configurations asked (collision tests, clearances and the points of the motion
+    certificates' advances); ``distance_checks``: clearances made; ``pair_distances``: pair distances
+    computed (coal's, and the compiled ones of the motion certificates).
     """
 
     def __init__(self, scene: Any) -> None:

@@ -34,11 +34,17 @@ Three stages, cheapest first:
    evaluations and only the close ones advance in small steps), certifies every
    pair it can; the pairs whose spheres stop (their bound too small to advance)
    are handed over, up to :data:`HARD_PAIRS` of them (:meth:`EdgeCertifier.hard_pairs`);
-3. the handed-over pairs alone advance on coal's exact distances
-   (:meth:`EdgeCertifier.certify_pairs`), with the pair rates of the stretch they
-   cover (:meth:`EdgeCertifier.stretch_rates`: ``W[p] . |u|`` or, lower, the
-   stretch's own bound from the geometries' distances to the joint axes at its
-   two ends). Each stage certifies its pairs over the whole edge, so together
+3. the handed-over pairs alone advance on the distances of the shapes
+   themselves (:meth:`EdgeCertifier.certify_pairs`), with the pair rates of the
+   stretch they cover (:meth:`EdgeCertifier.stretch_rates`: ``W[p] . |u|`` or,
+   lower, the stretch's own bound from the geometries' distances to the joint
+   axes at its two ends): in one compiled call on GJK's lower bounds of the
+   distances between the convex shapes
+   (:func:`~kinserve.kinematics.motion_kernels.advance_on_distances`, the
+   algorithm of :func:`advance`; never above the true distance, within a few
+   micrometres of coal's), or, for a pair of shapes it does not measure (a
+   cylinder of the robot, an obstacle mesh), in :func:`advance` on coal's
+   distances. Each stage certifies its pairs over the whole edge, so together
    they certify every pair. When the spheres hand over too many pairs (or the
    scene has none), every pair advances on bounds refined by coal where they
    decide (:meth:`EdgeCertifier.certify_exactly`).
@@ -50,7 +56,16 @@ from collections.abc import Callable
 
 import numpy as np
 
-from kinserve.kinematics.motion_kernels import LOOKAHEAD, geometry_pair_rates, motion_hard_pairs
+from kinserve.kinematics.motion_kernels import (
+    CERTIFIED,
+    LOOKAHEAD,
+    NOT_MEASURED,
+    PACE_MARGIN,
+    PACE_WINDOW,
+    advance_on_distances,
+    geometry_pair_rates,
+    motion_hard_pairs,
+)
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
 from .extend_kernel import COLLIDES, END, UNCERTAIN, probe_segment
@@ -72,11 +87,6 @@ SPHERE_MIN_STEP = 1e-3
 #: A waypoint this close (rad, Euclidean) to the straight segment joining its neighbours lies on it
 #: (:meth:`EdgeCertifier.on_chord`).
 CHORD_TOLERANCE = 1e-12
-#: :func:`advance` gives up when, at the pace of its last :data:`PACE_WINDOW` advances, the open stretch
-#: would take more than :data:`PACE_MARGIN` times the advances it has left: the budget would almost always
-#: refuse the motion anyway.
-PACE_WINDOW = 4
-PACE_MARGIN = 2.0
 
 
 class EdgeCertifier:
@@ -97,6 +107,8 @@ class EdgeCertifier:
         #: one planning call, in one thread: ``plan_motion`` makes its own).
         self.codes = np.empty(END + 1 + len(PROBES), dtype=np.int64)
         self.checks = np.empty((1 + len(PROBES), len(oracle.scene.pairs) + 1), dtype=np.int64)
+        #: :func:`~kinserve.kinematics.motion_kernels.advance_on_distances`' counts (advances, distances).
+        self.counts = np.zeros(2, dtype=np.int64)
 
     def in_collision(self, q: np.ndarray) -> bool:
         """The scene's collision test at ``q`` (float ``(nq,)``)."""
@@ -198,15 +210,30 @@ class EdgeCertifier:
 
     def certify_pairs(self, qa: np.ndarray, u: np.ndarray, pairs: np.ndarray, max_advances: int,
                       lo: float = 0.0, hi: float = 1.0) -> bool:
-        """Conservative advancement of ``qa + s u``, ``s`` in ``[lo, hi]``, on coal's distances of ``pairs``
+        """Conservative advancement of ``qa + s u``, ``s`` in ``[lo, hi]``, on the distances of ``pairs``
         (indices) alone: True when those pairs stay apart over that stretch (a pair that moves keeps
         :data:`~.clearance.CLEARANCE_FLOOR` at every point asked, or the motion is rejected). ``[0, lo)`` and
         ``(hi, 1]``: certified for these pairs already (by the spheres); the whole motion by default. The
-        points ``lo`` and ``hi`` themselves are the first two asked of coal."""
+        points ``lo`` and ``hi`` themselves are the first two asked. The distances are the compiled lower
+        bounds of :func:`~kinserve.kinematics.motion_kernels.advance_on_distances` when it measures every
+        pair, else coal's (:meth:`~.clearance.ClearanceOracle.step` in :func:`advance`)."""
         if lo >= hi:
             return True
         w = pair_rates(self.stretch_rates(qa, u, pairs, lo, hi))
-        step = self.oracle.step
+        oracle = self.oracle
+        pre = oracle.precheck
+        if pre is not None and pre.hulls is not None:
+            counts = self.counts
+            counts[:] = 0
+            hulls = pre.hulls
+            verdict = advance_on_distances(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius,
+                                           pre.table_rows[pairs], qa, u, w.need, w.inverse, w.offset, lo, hi,
+                                           max_advances, counts)
+            if verdict != NOT_MEASURED:
+                oracle.checks += int(counts[0])
+                oracle.pair_distances += int(counts[1])
+                return verdict == CERTIFIED
+        step = oracle.step
         ks, need, inverse, offset = pairs.tolist(), w.need.tolist(), w.inverse.tolist(), w.offset.tolist()
         return advance(lambda s: step(qa + s * u, ks, need, inverse, offset), lo, hi, max_advances)
 
