@@ -253,7 +253,8 @@ def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a:
     GJK's largest lower bound, 0 when the cores intersect). ``points``, ``geoms``: the
     :class:`~.hull_table.HullTable`'s; ``S``, ``T``: scratch ``(4, 3)`` and ``(7, 3)``; ``guess`` ``(3,)``:
     the direction to start from (the last call's closest point of ``A - B`` for a nearby configuration:
-    GJK then needs few iterations; zeros: any), overwritten with this call's."""
+    GJK then needs few iterations; zeros: any), overwritten with this call's, whose norm is an **upper
+    bound** of the distance between the cores (a point of ``A - B``; zeros when they intersect)."""
     gx, gy, gz = guess[0], guess[1], guess[2]
     if not gx * gx + gy * gy + gz * gz > 0.0:
         gx, gy, gz = 1.0, 0.0, 0.0
@@ -263,9 +264,9 @@ def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a:
     lower = -math.inf
     for _ in range(GJK_ITERATIONS):
         vn = math.sqrt(vx * vx + vy * vy + vz * vz)
+        guess[0], guess[1], guess[2] = vx, vy, vz
         if not vn > 0.0:
             return 0.0
-        guess[0], guess[1], guess[2] = vx, vy, vz
         wx, wy, wz = _support_difference(points, geoms, X, a, b, obstacles, other_is_obstacle, -vx, -vy, -vz)
         bound = (vx * wx + vy * wy + vz * wz) / vn
         if bound > lower:
@@ -275,6 +276,7 @@ def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a:
         S[n, 0], S[n, 1], S[n, 2] = wx, wy, wz
         vx, vy, vz, n = closest_on_simplex(S, n + 1, T)
         if n == 4:
+            guess[0], guess[1], guess[2] = 0.0, 0.0, 0.0
             return min(lower, 0.0)
     return lower
 

@@ -68,7 +68,7 @@ from kinserve.kinematics.motion_kernels import (
 )
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
-from .extend_kernel import COLLIDES, END, UNCERTAIN, probe_segment
+from .extend_kernel import COLLIDES, END, STEP_UNDECIDED, UNCERTAIN, exact_verdict, probe_segment
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
@@ -171,6 +171,20 @@ class EdgeCertifier:
         if COLLIDES in verdicts:
             return True
         return UNCERTAIN in verdicts and oracle.coal_decides(lambda k: q_a + PROBES[k] * u, verdicts, checks)
+
+    def step_verdict(self, q_near: np.ndarray, q_new: np.ndarray) -> int:
+        """The compiled distances' decision about the extension step ``q_near -> q_new`` whose sphere verdicts
+        and uncertain pairs are in :attr:`codes` / :attr:`checks` (:func:`~.extend_kernel.exact_verdict`:
+        ``q_new`` above :attr:`end_need` and the probe points apart, where the distances are clear-cut),
+        :data:`~.extend_kernel.STEP_UNDECIDED` without them."""
+        pre = self.oracle.precheck
+        if pre is None or pre.hulls is None:
+            return STEP_UNDECIDED
+        hulls = pre.hulls
+        verdict = exact_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius, pre.table_rows,
+                                q_near, q_new, PROBE_FRACTIONS, self.end_need, self.codes, self.checks)
+        self.oracle.checks += verdict != STEP_UNDECIDED
+        return int(verdict)
 
     def hard_pairs(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
         """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``

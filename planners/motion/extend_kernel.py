@@ -32,6 +32,11 @@ holds, for an uncertain point, the number ``c`` of pairs coal must check there, 
 ``qa + s (qb - qa)`` of a motion (the cheap test that refuses a motion before its certificate:
 :meth:`~.edges.EdgeCertifier.blocked`).
 
+:func:`exact_verdict`: the decision about an uncertain step on the distances of the shapes themselves
+(:mod:`kinserve.kinematics.convex_distance`: GJK's lower and upper bounds between the convex shapes), taken
+only where it is clear-cut - :data:`EXACT_MARGIN` from the threshold - so that it is coal's decision too; the
+others are left to coal.
+
 The cache key covers every kernel source (:mod:`kinserve.kinematics.kernel_cache`); every kernel has its
 signature: importing this module compiles them or loads them from that cache. Metres and radians.
 """
@@ -43,8 +48,10 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, compiled, inline
-from kinserve.kinematics.precheck_kernels import pairs_to_check, unpack
+from kinserve.kinematics.convex_distance import core_distance_bound, obstacle_radius
+from kinserve.kinematics.hull_table import VERTICES
+from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, I2, compiled, inline
+from kinserve.kinematics.precheck_kernels import SELF_PAIR, pairs_to_check, tree_placements, unpack
 
 #: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
 FREE, UNCERTAIN, COLLIDES = 0, 1, 2
@@ -166,5 +173,83 @@ def probe_segment(floats: np.ndarray, ints: np.ndarray, qa: np.ndarray, qb: np.n
     return True
 
 
-__all__ = ["AT_TARGET", "COLLIDES", "END", "FREE", "KIND", "NEAR", "ONTO", "TOWARDS", "UNCERTAIN",
-           "fits", "nearest_node", "probe_segment", "step_into"]
+#: :func:`exact_verdict` decides a pair only when its distance bounds lie at least this far (m) from the
+#: threshold: coal's distances are within about 1e-6 m of the true ones, GJK's bounds (of which the lower is
+#: used) within 1e-8 m of each other or returned as they are, so coal would decide the same.
+EXACT_MARGIN = 1e-5
+#: Answers of :func:`exact_verdict`: every uncertain point of the step is free (``q_new`` above its floor),
+#: ``q_new`` is below its floor, or coal must decide.
+STEP_FREE, STEP_REFUSED, STEP_UNDECIDED = 1, 0, -1
+
+_VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, I1, _t.Array(_t.int64, 2, "C",
+                                                                                            readonly=True))
+
+
+@inline
+def _pair_bounds(points, hull_geoms, radius, pairs, obstacles, p, X, S, T, guess):
+    """``(lower, upper)`` bounds (m) of the distance of pair-table row ``p`` at the placements ``X``, or
+    ``(nan, nan)`` when a shape of the pair is not measured."""
+    a, b = pairs[p, 0], pairs[p, 1]
+    own = pairs[p, 2] == SELF_PAIR
+    if hull_geoms[a, 0] != VERTICES or (own and hull_geoms[b, 0] != VERTICES):
+        return math.nan, math.nan
+    rb = radius[b] if own else obstacle_radius(obstacles, b)
+    if rb < 0.0:
+        return math.nan, math.nan
+    guess[:] = 0.0
+    lower = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guess)
+    upper = math.sqrt(guess[0] * guess[0] + guess[1] * guess[1] + guess[2] * guess[2])
+    return lower - radius[a] - rb, upper - radius[a] - rb
+
+
+@compiled(_VERDICT_SIGNATURE)
+def exact_verdict(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull_geoms: np.ndarray,
+                  radius: np.ndarray, table_rows: np.ndarray, q_near: np.ndarray, q_new: np.ndarray,
+                  probes: np.ndarray, need: np.ndarray, codes: np.ndarray, checks: np.ndarray) -> int:
+    """The decision about a step :func:`step_into` left uncertain (``codes``, ``checks``: its answer; from
+    ``q_near`` to ``q_new``, its probe points at the fractions ``probes``) on the distances of the shapes
+    (``points, hull_geoms, radius``: the robot's :class:`~kinserve.kinematics.hull_table.HullTable`;
+    ``table_rows``: the pair-table row of each scene pair; ``need`` ``(P,)``: the distance each scene pair
+    must keep at ``q_new``, m). :data:`STEP_REFUSED` when an uncertain pair of ``q_new`` is surely below its
+    need (its distance's upper bound below ``need - EXACT_MARGIN``); :data:`STEP_FREE` when every uncertain
+    pair of ``q_new`` is surely above it (lower bound at least ``need + EXACT_MARGIN``) and every uncertain
+    pair of every uncertain probe point surely apart (lower bound above :data:`EXACT_MARGIN`);
+    :data:`STEP_UNDECIDED` otherwise (a pair closer to its threshold, one not measured: coal decides)."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n = joints.shape[0]
+    if q_near.shape[0] != n or q_new.shape[0] != n or hull_geoms.shape[0] < geoms.shape[0] \
+            or table_rows.shape[0] != pairs.shape[0] or need.shape[0] < pairs.shape[0] \
+            or codes.shape[0] < END + 1 + probes.shape[0] or checks.shape[0] < 1 + probes.shape[0]:
+        return STEP_UNDECIDED
+    X = np.empty((n + 1, 12))
+    S, T = np.empty((4, 3)), np.empty((7, 3))
+    guess = np.zeros(3)
+    q = np.empty(n)
+    free = True
+    for k in range(1 + probes.shape[0]):
+        if codes[END + k] != UNCERTAIN:
+            continue
+        if k == 0:
+            for c in range(n):
+                q[c] = q_new[c]
+        else:
+            for c in range(n):
+                q[c] = q_near[c] + probes[k - 1] * (q_new[c] - q_near[c])
+        tree_placements(tree, joints, q, X)
+        for i in range(1, 1 + checks[k, 0]):
+            pair = checks[k, i]
+            if pair < 0 or pair >= pairs.shape[0]:
+                return STEP_UNDECIDED
+            row = table_rows[pair]
+            lower, upper = _pair_bounds(points, hull_geoms, radius, pairs, obstacles, row, X, S, T, guess)
+            if k == 0 and upper < need[pair] - EXACT_MARGIN:
+                return STEP_REFUSED
+            threshold = need[pair] if k == 0 else 0.0
+            if not lower >= threshold + EXACT_MARGIN:  # (NaN: not measured)
+                free = False
+    return STEP_FREE if free else STEP_UNDECIDED
+
+
+__all__ = ["AT_TARGET", "COLLIDES", "END", "EXACT_MARGIN", "FREE", "KIND", "NEAR", "ONTO", "STEP_FREE",
+           "STEP_REFUSED", "STEP_UNDECIDED", "TOWARDS", "UNCERTAIN", "exact_verdict", "fits", "nearest_node",
+           "probe_segment", "step_into"]

@@ -47,7 +47,7 @@ import numpy as np
 
 from .clearance import CLEARANCE_FLOOR, Clearance
 from .edges import PROBE_FRACTIONS, PROBES, EdgeCertifier
-from .extend_kernel import END, FREE, NEAR, UNCERTAIN
+from .extend_kernel import END, FREE, NEAR, STEP_FREE, STEP_UNDECIDED, UNCERTAIN
 from .search_kernel import (
     ACCEPT,
     ACTIVE,
@@ -106,16 +106,21 @@ class _Step(NamedTuple):
 
 def held_free(tree: SearchTree, near: int, q_new: np.ndarray, certifier: EdgeCertifier, codes: np.ndarray,
               checks: np.ndarray) -> bool:
-    """Coal's decision about a step the spheres left uncertain (:data:`~.search_kernel.HELD`): from node
+    """The decision about a step the spheres left uncertain (:data:`~.search_kernel.HELD`): from node
     ``near`` of ``tree`` to ``q_new``, with the verdicts in ``codes`` and the pairs left to coal in
     ``checks`` (:func:`~.extend_kernel.step_into`'s). True when ``q_new``'s uncertain pairs keep the
-    clearance floor (coal's distances) and coal finds no uncertain probe point in collision."""
+    clearance floor and no uncertain probe point is in collision: the compiled distances decide where they
+    are clear-cut (:meth:`~.edges.EdgeCertifier.step_verdict`, coal's decision too), coal's distances and
+    collision tests otherwise."""
+    q_near = tree.node(near)
+    verdict = certifier.step_verdict(q_near, q_new)
+    if verdict != STEP_UNDECIDED:
+        return verdict == STEP_FREE
     oracle = certifier.oracle
     verdicts = codes[END:END + 1 + len(PROBES)].tolist()
     if verdicts[0] == UNCERTAIN \
             and not oracle.keeps(q_new, checks[0, 1:1 + checks[0, 0]], certifier.end_need):
         return False
-    q_near = tree.node(near)
     u = q_new - q_near
     verdicts[0] = FREE  # (decided)
     return not oracle.coal_decides(lambda k: q_near + PROBES[k - 1] * u, verdicts, checks)
