@@ -2,7 +2,8 @@
 
 ``nearest_node`` against a NumPy scan; the extension step (``step_into`` inside ``search_steps``) against the
 step computed in NumPy and the pre-check's own kernels called one point at a time (verdicts and the pairs left
-to coal; a point in collision for certain also by coal's test of every pair);
+to coal; a point in collision for certain also by coal's test of every pair); ``exact_verdict``'s decisions
+about the steps left uncertain against coal's;
 ``rrt_connect.search_with_kernel`` (the compiled loop, coal on the held steps) against ``search_step_by_step``
 (``extend_exactly``: the scene's collision test, clearance and probes one by one) from the same trees and
 seed: the same results and trees.
@@ -31,6 +32,9 @@ from kinserve.planners.motion.extend_kernel import (
     KIND,
     NEAR,
     ONTO,
+    STEP_FREE,
+    STEP_REFUSED,
+    STEP_UNDECIDED,
     TOWARDS,
     UNCERTAIN,
     nearest_node,
@@ -328,3 +332,39 @@ def test_probe_segment_and_blocked_match_the_precheck_and_coal_point_by_point(se
         assert certifier.blocked(qa, qb) == reference
         blocked += reference
     assert min(seen.values()) > 10 and 20 < blocked < 280, (seen, blocked)
+
+
+def test_the_compiled_distances_decide_held_steps_as_coal_does(setting):
+    """Steps the spheres leave uncertain in the shelf scene: where ``exact_verdict`` decides (the new node
+    surely below or above its floor, the probe points surely apart), coal's decision (``held_free``'s coal
+    path: the node's pair distances against the floor, the probe points' collision tests) is the same; it
+    accepts and refuses steps, and leaves some to coal."""
+    robot, certifier = setting
+    oracle = certifier.oracle
+    rng = np.random.default_rng(21)
+    seen = {STEP_FREE: 0, STEP_REFUSED: 0, STEP_UNDECIDED: 0}
+    for _ in range(4000):
+        if min(seen.values()) >= 3 and sum(seen.values()) >= 60:
+            break
+        nodes, pruned = _tree(robot, rng, 1)
+        pruned[:] = False
+        codes, checks = _buffers(certifier)
+        target = robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
+        event, held, _ = _one_step(certifier, nodes, pruned, 1, target, 0.5, codes, checks)
+        if event != HELD:
+            continue
+        certifier.codes[:], certifier.checks[:] = codes, checks
+        q_near = nodes[codes[NEAR]]
+        verdict = certifier.step_verdict(q_near, held)
+        seen[verdict] += 1
+        if verdict == STEP_UNDECIDED:
+            continue
+        low = checks[0, 1:1 + checks[0, 0]]
+        keeps = codes[END] != UNCERTAIN or oracle.keeps(held, low, certifier.end_need)
+        verdicts = codes[END:END + 1 + len(PROBES)].tolist()
+        verdicts[0] = FREE
+        apart = not oracle.coal_decides(lambda k: q_near + PROBES[k - 1] * (held - q_near), verdicts, checks)
+        assert (verdict == STEP_FREE) == (keeps and apart)
+        if verdict == STEP_REFUSED:
+            assert not keeps
+    assert min(seen.values()) >= 3, seen
