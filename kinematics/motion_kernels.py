@@ -480,14 +480,95 @@ def motion_hard_pairs(floats: np.ndarray, ints: np.ndarray, sphere_reach: np.nda
     return out
 
 
-#: :func:`advance_on_distances` (and :func:`kinserve.planners.motion.edges.advance`) gives up when, at the
-#: pace of its last :data:`PACE_WINDOW` advances, the open stretch would take more than :data:`PACE_MARGIN`
-#: times the advances it has left: the budget would almost always refuse the motion anyway.
+#: The advancement (:func:`advance_on_distances`, :func:`kinserve.planners.motion.edges.advance`) gives up
+#: when, at the pace of its last :data:`PACE_WINDOW` advances, the open stretch would take more than
+#: :data:`PACE_MARGIN` times the advances it has left: the budget would almost always refuse the motion
+#: anyway.
 PACE_WINDOW = 4
 PACE_MARGIN = 2.0
-#: :func:`advance_on_distances`' answers: certified, refused, and a pair it cannot measure (the caller's
-#: exact check decides then).
-CERTIFIED, REFUSED, NOT_MEASURED = 1, 0, -1
+#: The advancement's answers: certified, refused, and (:func:`advance_on_distances`) a pair it cannot measure
+#: (the caller's exact check decides then); :func:`advance_ask`'s "ask the radius at ``state[ASKED]``".
+CERTIFIED, REFUSED, NOT_MEASURED, ASK = 1, 0, -1, 2
+#: The advancement's state, a float array of :data:`ADVANCE_STATE`: the certified ends ``lo``, ``hi``, the
+#: radii of the last balls that moved them, the number of advances made, the point asked, then the open
+#: stretch ``hi - lo`` before each of the last ``PACE_WINDOW + 1`` advances (a ring).
+LO, HI, RADIUS_LO, RADIUS_HI, MADE, ASKED, OPENED = 0, 1, 2, 3, 4, 5, 6
+ADVANCE_STATE = OPENED + PACE_WINDOW + 1
+
+_STATE = _t.Array(_t.float64, 1, "C")
+
+
+@_inline
+def _begin(state, lo, hi, last_lo, last_hi):
+    """The state of an advancement certified on ``[0, lo]`` and ``[hi, 1]``, the last balls' radii
+    ``last_lo`` / ``last_hi``."""
+    state[LO], state[HI], state[RADIUS_LO], state[RADIUS_HI], state[MADE], state[ASKED] = \
+        lo, hi, last_lo, last_hi, 0.0, math.nan
+    state[OPENED] = hi - lo
+
+
+@_inline
+def _ask(state, max_advances):
+    """The next step of the advancement (:func:`kinserve.planners.motion.edges.advance`'s rules):
+    :data:`CERTIFIED` when the ends have met, :data:`REFUSED` when ``max_advances`` are made or the pace rule
+    gives up, else :data:`ASK` with the point to ask in ``state[ASKED]``: from below on even advances
+    (``lo + LOOKAHEAD r_lo``, at most ``hi``), from above on odd ones."""
+    lo, hi, k = state[LO], state[HI], int(state[MADE])
+    if lo >= hi:
+        return CERTIFIED
+    if k >= max_advances:
+        return REFUSED
+    if k >= PACE_WINDOW:
+        closed = state[OPENED + (k - PACE_WINDOW) % (PACE_WINDOW + 1)] - (hi - lo)
+        if (hi - lo) * PACE_WINDOW > PACE_MARGIN * closed * (max_advances - k):
+            return REFUSED
+    if k % 2 == 0:
+        state[ASKED] = min(lo + LOOKAHEAD * state[RADIUS_LO], hi)
+    else:
+        state[ASKED] = max(hi - LOOKAHEAD * state[RADIUS_HI], lo)
+    return ASK
+
+
+@_inline
+def _answer(state, r):
+    """Take the radius ``r`` of the ball at ``state[ASKED]``: :data:`REFUSED` when ``r < 0`` (or NaN); else
+    the ball moves ``lo`` when it reaches back to it (to ``s + r``) and ``hi`` likewise, and :data:`ASK`."""
+    if not r >= 0.0:
+        return REFUSED
+    s, lo, hi, k = state[ASKED], state[LO], state[HI], int(state[MADE])
+    joins_lo, joins_hi = s - r <= lo, s + r >= hi
+    if joins_lo:
+        lo = max(lo, s + r)
+    if joins_hi:
+        hi = min(hi, s - r)
+    if k % 2 == 0:
+        state[RADIUS_LO] = r if joins_lo else 0.0
+    else:
+        state[RADIUS_HI] = r if joins_hi else 0.0
+    state[LO], state[HI], state[MADE] = lo, hi, k + 1
+    state[OPENED + (k + 1) % (PACE_WINDOW + 1)] = hi - lo
+    return ASK
+
+
+@compiled(_t.void(_STATE, _t.float64, _t.float64, _t.float64, _t.float64))
+def advance_begin(state: np.ndarray, lo: float, hi: float, last_lo: float, last_hi: float) -> None:
+    """Start an advancement in ``state`` (:data:`ADVANCE_STATE` floats): certified on ``[0, lo]`` and
+    ``[hi, 1]``, the last balls' radii ``last_lo`` / ``last_hi``."""
+    _begin(state, lo, hi, last_lo, last_hi)
+
+
+@compiled(_t.int64(_STATE, _t.int64))
+def advance_ask(state: np.ndarray, max_advances: int) -> int:
+    """:data:`CERTIFIED`, :data:`REFUSED`, or :data:`ASK` for the radius at ``state[ASKED]`` (the rules of
+    :func:`kinserve.planners.motion.edges.advance`)."""
+    return _ask(state, max_advances)
+
+
+@compiled(_t.int64(_STATE, _t.float64))
+def advance_answer(state: np.ndarray, r: float) -> int:
+    """Take the radius ``r`` at ``state[ASKED]``: :data:`REFUSED` when it is negative, else :data:`ASK`."""
+    return _answer(state, r)
+
 
 _ADVANCE_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, F1, _t.float64, _t.float64,
                               _t.int64, _t.Array(_t.int64, 1, "C"))
@@ -545,7 +626,8 @@ def advance_on_distances(floats: np.ndarray, ints: np.ndarray, points: np.ndarra
     point asked is too close or the ``max_advances`` advances (or the pace rule) run out, the algorithm and
     the decisions of :func:`kinserve.planners.motion.edges.advance` on the radii a coal step would give
     with these distances; :data:`NOT_MEASURED` (nothing asked) when a pair joins a shape
-    :mod:`.convex_distance` does not measure. ``counts`` += (advances, pair distances)."""
+    :mod:`.convex_distance` does not measure. ``counts`` += (advances, pair distances). The steps are
+    :func:`advance_ask` / :func:`advance_answer`'s."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
     if qa.shape[0] != n or u.shape[0] != n or hull_geoms.shape[0] < geoms.shape[0] \
@@ -561,38 +643,24 @@ def advance_on_distances(floats: np.ndarray, ints: np.ndarray, points: np.ndarra
     S, T = np.empty((4, 3)), np.empty((7, 3))
     q = np.empty(n)
     guesses = np.zeros((2, rows.shape[0], 3))  # per side, each pair's last closest point of A - B
-    opened = np.empty(max(max_advances, 0) + 1)  # the open stretch before each advance
-    opened[0] = hi - lo
-    r_lo, r_hi = 0.0, 0.0
-    for k in range(max_advances):
-        if lo >= hi:
-            return CERTIFIED
-        if k >= PACE_WINDOW:
-            closed = opened[k - PACE_WINDOW] - (hi - lo)
-            if (hi - lo) * PACE_WINDOW > PACE_MARGIN * closed * (max_advances - k):
-                return REFUSED
-        from_lo = k % 2 == 0
-        s = min(lo + LOOKAHEAD * r_lo, hi) if from_lo else max(hi - LOOKAHEAD * r_hi, lo)
+    state = np.empty(ADVANCE_STATE)
+    _begin(state, lo, hi, 0.0, 0.0)
+    while True:
+        step = _ask(state, max_advances)
+        if step != ASK:
+            return step
+        s = state[ASKED]
         for c in range(n):
             q[c] = qa[c] + s * u[c]
         counts[0] += 1
+        side = int(state[MADE]) % 2
         r = _distance_radius(tree, joints, pairs, obstacles, points, hull_geoms, radius, rows, need, inverse,
-                             offset, q, X, S, T, guesses[0 if from_lo else 1], counts)
-        if r < 0.0:
+                             offset, q, X, S, T, guesses[side], counts)
+        if _answer(state, r) == REFUSED:
             return REFUSED
-        joins_lo, joins_hi = s - r <= lo, s + r >= hi
-        if joins_lo:
-            lo = max(lo, s + r)
-        if joins_hi:
-            hi = min(hi, s - r)
-        if from_lo:
-            r_lo = r if joins_lo else 0.0
-        else:
-            r_hi = r if joins_hi else 0.0
-        opened[k + 1] = hi - lo
-    return CERTIFIED if lo >= hi else REFUSED
 
 
-__all__ = ["CERTIFIED", "COVER_FRACTION", "LOOKAHEAD", "NOT_MEASURED", "PACE_MARGIN", "PACE_WINDOW",
-           "PAIR_HORIZON", "REFUSED", "advance_on_distances", "geometry_pair_rates", "motion_hard_pairs",
-           "motion_rates"]
+__all__ = ["ADVANCE_STATE", "ASK", "ASKED", "CERTIFIED", "COVER_FRACTION", "HI", "LO", "LOOKAHEAD", "MADE",
+           "NOT_MEASURED", "OPENED", "PACE_MARGIN", "PACE_WINDOW", "PAIR_HORIZON", "RADIUS_HI", "RADIUS_LO",
+           "REFUSED", "advance_answer", "advance_ask", "advance_begin", "advance_on_distances",
+           "geometry_pair_rates", "motion_hard_pairs", "motion_rates"]

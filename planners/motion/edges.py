@@ -57,11 +57,17 @@ from collections.abc import Callable
 import numpy as np
 
 from kinserve.kinematics.motion_kernels import (
+    ADVANCE_STATE,
+    ASK,
+    ASKED,
     CERTIFIED,
-    LOOKAHEAD,
     NOT_MEASURED,
     PACE_MARGIN,
     PACE_WINDOW,
+    REFUSED,
+    advance_answer,
+    advance_ask,
+    advance_begin,
     advance_on_distances,
     geometry_pair_rates,
     motion_hard_pairs,
@@ -292,32 +298,20 @@ def advance(radius_at: Callable[[float], float], lo: float, hi: float, max_advan
 
     A grazing motion closes the stretch ever more slowly: after :data:`PACE_WINDOW` advances, one whose open
     stretch ``hi - lo`` exceeds :data:`PACE_MARGIN` times what the last :data:`PACE_WINDOW` advances closed,
-    scaled to the advances left, is refused (False) without spending them."""
-    r_lo, r_hi = last_lo, last_hi
-    open_before = [hi - lo]  # the open stretch before each advance
-    for k in range(max_advances):
-        if lo >= hi:
-            return True
-        if k >= PACE_WINDOW:
-            closed = open_before[k - PACE_WINDOW] - (hi - lo)
-            if (hi - lo) * PACE_WINDOW > PACE_MARGIN * closed * (max_advances - k):
-                return False
-        from_lo = k % 2 == 0
-        s = min(lo + LOOKAHEAD * r_lo, hi) if from_lo else max(hi - LOOKAHEAD * r_hi, lo)
-        r = radius_at(s)
-        if r < 0.0:
+    scaled to the advances left, is refused (False) without spending them.
+
+    The rules are compiled once (:func:`~kinserve.kinematics.motion_kernels.advance_ask` /
+    :func:`~kinserve.kinematics.motion_kernels.advance_answer`, the steps of
+    :func:`~kinserve.kinematics.motion_kernels.advance_on_distances` too); this loop asks ``radius_at``.
+    A NaN radius refuses the motion."""
+    state = np.empty(ADVANCE_STATE)
+    advance_begin(state, lo, hi, last_lo, last_hi)
+    while True:
+        step = advance_ask(state, max_advances)
+        if step != ASK:
+            return step == CERTIFIED
+        if advance_answer(state, float(radius_at(float(state[ASKED])))) == REFUSED:
             return False
-        joins_lo, joins_hi = s - r <= lo, s + r >= hi
-        if joins_lo:
-            lo = max(lo, s + r)
-        if joins_hi:
-            hi = min(hi, s - r)
-        if from_lo:
-            r_lo = r if joins_lo else 0.0
-        else:
-            r_hi = r if joins_hi else 0.0
-        open_before.append(hi - lo)
-    return lo >= hi
 
 
 __all__ = ["CHORD_TOLERANCE", "HARD_PAIRS", "MAX_ADVANCES", "PROBES", "SPHERE_ADVANCES", "SPHERE_MIN_STEP",

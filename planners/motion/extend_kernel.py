@@ -181,8 +181,7 @@ EXACT_MARGIN = 1e-5
 #: ``q_new`` is below its floor, or coal must decide.
 STEP_FREE, STEP_REFUSED, STEP_UNDECIDED = 1, 0, -1
 
-_VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, I1, _t.Array(_t.int64, 2, "C",
-                                                                                            readonly=True))
+_VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, I1, I2)
 
 
 @inline

@@ -17,8 +17,9 @@ back to Python (:func:`held_free`), where the pairs the spheres left are decided
 on the compiled distances of the shapes when those are clear-cut
 (:func:`~.extend_kernel.exact_verdict`), by coal otherwise (their distances at the
 new node, against the floor; their collision tests at the probe points), and the
-meeting of the trees comes back for the branches' certificates. The decisions are those of the tests one by one
-(:func:`search_step_by_step`, the path of scenes without a pre-check). A node's
+meeting of the trees comes back for the branches' certificates. The decisions are
+those of the tests one by one (:func:`search_step_by_step`, the path of scenes
+without a pre-check). A node's
 pair bounds (its :class:`~.clearance.Clearance`) are made only when read: most
 nodes never lie on a path.
 
