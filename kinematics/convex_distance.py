@@ -125,6 +125,21 @@ def _keep(S, T, first, m):
             S[r, c] = T[first + r, c]
 
 
+@inline
+def _vertex(T, x, y, z):
+    """The closest point is the vertex ``(x, y, z)``: it alone is the feature (``T[0]``)."""
+    T[0, 0], T[0, 1], T[0, 2] = x, y, z
+    return x, y, z, 1
+
+
+@inline
+def _on_edge(T, px, py, pz, qx, qy, qz, t):
+    """The closest point is ``p + t (q - p)`` on edge ``p q``: the edge is the feature (``T[:2]``)."""
+    T[0, 0], T[0, 1], T[0, 2] = px, py, pz
+    T[1, 0], T[1, 1], T[1, 2] = qx, qy, qz
+    return px + t * (qx - px), py + t * (qy - py), pz + t * (qz - pz), 2
+
+
 @jit
 def closest_on_triangle(S: np.ndarray, T: np.ndarray, i: int, j: int, k: int) -> tuple:
     """The point of triangle ``S[i], S[j], S[k]`` closest to the origin (Ericson 5.1.5): ``(x, y, z, m)``,
@@ -137,40 +152,27 @@ def closest_on_triangle(S: np.ndarray, T: np.ndarray, i: int, j: int, k: int) ->
     d1 = -(abx * ax + aby * ay + abz * az)
     d2 = -(acx * ax + acy * ay + acz * az)
     if d1 <= 0.0 and d2 <= 0.0:
-        T[0, 0], T[0, 1], T[0, 2] = ax, ay, az
-        return ax, ay, az, 1
+        return _vertex(T, ax, ay, az)
     d3 = -(abx * bx + aby * by + abz * bz)
     d4 = -(acx * bx + acy * by + acz * bz)
     if d3 >= 0.0 and d4 <= d3:
-        T[0, 0], T[0, 1], T[0, 2] = bx, by, bz
-        return bx, by, bz, 1
+        return _vertex(T, bx, by, bz)
     vc = d1 * d4 - d3 * d2
     if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        v = d1 / (d1 - d3)
-        T[0, 0], T[0, 1], T[0, 2] = ax, ay, az
-        T[1, 0], T[1, 1], T[1, 2] = bx, by, bz
-        return ax + v * abx, ay + v * aby, az + v * abz, 2
+        return _on_edge(T, ax, ay, az, bx, by, bz, d1 / (d1 - d3))
     d5 = -(abx * cx + aby * cy + abz * cz)
     d6 = -(acx * cx + acy * cy + acz * cz)
     if d6 >= 0.0 and d5 <= d6:
-        T[0, 0], T[0, 1], T[0, 2] = cx, cy, cz
-        return cx, cy, cz, 1
+        return _vertex(T, cx, cy, cz)
     vb = d5 * d2 - d1 * d6
     if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        w = d2 / (d2 - d6)
-        T[0, 0], T[0, 1], T[0, 2] = ax, ay, az
-        T[1, 0], T[1, 1], T[1, 2] = cx, cy, cz
-        return ax + w * acx, ay + w * acy, az + w * acz, 2
+        return _on_edge(T, ax, ay, az, cx, cy, cz, d2 / (d2 - d6))
     va = d3 * d6 - d5 * d4
     if va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0:
-        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        T[0, 0], T[0, 1], T[0, 2] = bx, by, bz
-        T[1, 0], T[1, 1], T[1, 2] = cx, cy, cz
-        return bx + w * (cx - bx), by + w * (cy - by), bz + w * (cz - bz), 2
+        return _on_edge(T, bx, by, bz, cx, cy, cz, (d4 - d3) / ((d4 - d3) + (d5 - d6)))
     den = va + vb + vc
-    if not den > 0.0:  # a degenerate (flat) triangle: its closest edge
-        T[0, 0], T[0, 1], T[0, 2] = ax, ay, az
-        return ax, ay, az, 1
+    if not den > 0.0:  # a degenerate (flat) triangle: its first vertex
+        return _vertex(T, ax, ay, az)
     v, w = vb / den, vc / den
     T[0, 0], T[0, 1], T[0, 2] = ax, ay, az
     T[1, 0], T[1, 1], T[1, 2] = bx, by, bz
