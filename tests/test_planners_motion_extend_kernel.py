@@ -298,8 +298,8 @@ def test_the_compiled_search_takes_the_python_search_steps_through_failed_branch
 def test_probe_segment_and_blocked_match_the_precheck_and_coal_point_by_point(setting):
     """``probe_segment`` against the pre-check's kernels at each probe point (verdicts in order up to the
     first point in collision for certain, the pair lists of the uncertain ones), and
-    ``EdgeCertifier.blocked`` (compiled probes, coal on the listed pairs) against the scene's own collision
-    test at every probe point."""
+    ``EdgeCertifier.blocked`` (compiled probes, the compiled distances or coal on the listed pairs) against
+    the scene's own collision test at every probe point."""
     robot, certifier = setting
     pre = certifier.oracle.precheck
     scene = certifier.oracle.scene

@@ -74,7 +74,7 @@ from kinserve.kinematics.motion_kernels import (
 )
 
 from .clearance import TOLERANCE, Clearance, ClearanceOracle, PairRates, need_of, pair_rates
-from .extend_kernel import COLLIDES, END, STEP_UNDECIDED, UNCERTAIN, exact_verdict, probe_segment
+from .extend_kernel import COLLIDES, END, STEP_FREE, STEP_UNDECIDED, UNCERTAIN, exact_verdict, probe_segment
 
 #: Most advances of one edge (both ends together) before it is rejected.
 MAX_ADVANCES = 400
@@ -163,7 +163,9 @@ class EdgeCertifier:
     def blocked(self, q_a: np.ndarray, q_b: np.ndarray) -> bool:
         """True when the cheap collision test finds one of the :data:`PROBES` points of ``q_a -> q_b`` in
         collision (the edge is then certainly not free): with a sphere pre-check, one compiled call
-        (:func:`~.extend_kernel.probe_segment`) and coal on the pairs it leaves uncertain, point by point."""
+        (:func:`~.extend_kernel.probe_segment`); the pairs it leaves uncertain are apart when the compiled
+        distances say so clearly (:func:`~.extend_kernel.exact_verdict`), else coal tests them, point by
+        point."""
         u = q_b - q_a
         oracle = self.oracle
         pre = oracle.precheck
@@ -176,7 +178,16 @@ class EdgeCertifier:
         oracle.checks += len(PROBES) - verdicts.count(-1)
         if COLLIDES in verdicts:
             return True
-        return UNCERTAIN in verdicts and oracle.coal_decides(lambda k: q_a + PROBES[k] * u, verdicts, checks)
+        if UNCERTAIN not in verdicts:
+            return False
+        if pre.hulls is not None:  # the compiled distances first: apart where clear-cut (coal's answer too)
+            hulls = pre.hulls
+            apart = exact_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius,
+                                  pre.table_rows, q_a, q_b, PROBE_FRACTIONS, False, self.end_need, codes,
+                                  checks)
+            if apart == STEP_FREE:
+                return False
+        return oracle.coal_decides(lambda k: q_a + PROBES[k] * u, verdicts, checks)
 
     def step_verdict(self, q_near: np.ndarray, q_new: np.ndarray) -> int:
         """The compiled distances' decision about the extension step ``q_near -> q_new`` whose sphere verdicts
@@ -188,7 +199,7 @@ class EdgeCertifier:
             return STEP_UNDECIDED
         hulls = pre.hulls
         verdict = exact_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius, pre.table_rows,
-                                q_near, q_new, PROBE_FRACTIONS, self.end_need, self.codes, self.checks)
+                                q_near, q_new, PROBE_FRACTIONS, True, self.end_need, self.codes, self.checks)
         self.oracle.checks += verdict != STEP_UNDECIDED
         return int(verdict)
 

@@ -181,7 +181,7 @@ EXACT_MARGIN = 1e-5
 #: ``q_new`` is below its floor, or coal must decide.
 STEP_FREE, STEP_REFUSED, STEP_UNDECIDED = 1, 0, -1
 
-_VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, I1, I2)
+_VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, _t.boolean, F1, I1, I2)
 
 
 @inline
@@ -204,36 +204,40 @@ def _pair_bounds(points, hull_geoms, radius, pairs, obstacles, p, X, S, T, guess
 @compiled(_VERDICT_SIGNATURE)
 def exact_verdict(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull_geoms: np.ndarray,
                   radius: np.ndarray, table_rows: np.ndarray, q_near: np.ndarray, q_new: np.ndarray,
-                  probes: np.ndarray, need: np.ndarray, codes: np.ndarray, checks: np.ndarray) -> int:
-    """The decision about a step :func:`step_into` left uncertain (``codes``, ``checks``: its answer; from
-    ``q_near`` to ``q_new``, its probe points at the fractions ``probes``) on the distances of the shapes
-    (``points, hull_geoms, radius``: the robot's :class:`~kinserve.kinematics.hull_table.HullTable`;
-    ``table_rows``: the pair-table row of each scene pair; ``need`` ``(P,)``: the distance each scene pair
-    must keep at ``q_new``, m). :data:`STEP_REFUSED` when an uncertain pair of ``q_new`` is surely below its
-    need (its distance's upper bound below ``need - EXACT_MARGIN``); :data:`STEP_FREE` when every uncertain
-    pair of ``q_new`` is surely above it (lower bound at least ``need + EXACT_MARGIN``) and every uncertain
-    pair of every uncertain probe point surely apart (lower bound above :data:`EXACT_MARGIN`);
-    :data:`STEP_UNDECIDED` otherwise (a pair closer to its threshold, one not measured: coal decides)."""
+                  probes: np.ndarray, with_node: bool, need: np.ndarray, codes: np.ndarray,
+                  checks: np.ndarray) -> int:
+    """The decision about the points :func:`step_into` (``with_node``) or :func:`probe_segment` left uncertain
+    (``codes``, ``checks``: its answer; from ``q_near`` to ``q_new``, the probe points at the fractions
+    ``probes``, after ``q_new`` itself with ``with_node``) on the distances of the shapes (``points,
+    hull_geoms, radius``: the robot's :class:`~kinserve.kinematics.hull_table.HullTable`; ``table_rows``: the
+    pair-table row of each scene pair; ``need`` ``(P,)``: the distance each scene pair must keep at ``q_new``,
+    m). :data:`STEP_REFUSED` when an uncertain pair of ``q_new`` is surely below its need (its distance's
+    upper bound below ``need - EXACT_MARGIN``); :data:`STEP_FREE` when every uncertain pair of ``q_new`` is
+    surely above it (lower bound at least ``need + EXACT_MARGIN``) and every uncertain pair of every
+    uncertain probe point surely apart (lower bound above :data:`EXACT_MARGIN`); :data:`STEP_UNDECIDED`
+    otherwise (a pair closer to its threshold, one not measured: coal decides)."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
+    first = 1 if with_node else 0  # the point of probes[0]
     if q_near.shape[0] != n or q_new.shape[0] != n or hull_geoms.shape[0] < geoms.shape[0] \
             or table_rows.shape[0] != pairs.shape[0] or need.shape[0] < pairs.shape[0] \
-            or codes.shape[0] < END + 1 + probes.shape[0] or checks.shape[0] < 1 + probes.shape[0]:
+            or codes.shape[0] < END + first + probes.shape[0] or checks.shape[0] < first + probes.shape[0]:
         return STEP_UNDECIDED
     X = np.empty((n + 1, 12))
     S, T = np.empty((4, 3)), np.empty((7, 3))
     guess = np.zeros(3)
     q = np.empty(n)
     free = True
-    for k in range(1 + probes.shape[0]):
+    for k in range(first + probes.shape[0]):
         if codes[END + k] != UNCERTAIN:
             continue
-        if k == 0:
+        node = k < first
+        if node:
             for c in range(n):
                 q[c] = q_new[c]
         else:
             for c in range(n):
-                q[c] = q_near[c] + probes[k - 1] * (q_new[c] - q_near[c])
+                q[c] = q_near[c] + probes[k - first] * (q_new[c] - q_near[c])
         tree_placements(tree, joints, q, X)
         for i in range(1, 1 + checks[k, 0]):
             pair = checks[k, i]
@@ -241,9 +245,9 @@ def exact_verdict(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull
                 return STEP_UNDECIDED
             row = table_rows[pair]
             lower, upper = _pair_bounds(points, hull_geoms, radius, pairs, obstacles, row, X, S, T, guess)
-            if k == 0 and upper < need[pair] - EXACT_MARGIN:
+            if node and upper < need[pair] - EXACT_MARGIN:
                 return STEP_REFUSED
-            threshold = need[pair] if k == 0 else 0.0
+            threshold = need[pair] if node else 0.0
             if not lower >= threshold + EXACT_MARGIN:  # (NaN: not measured)
                 free = False
     return STEP_FREE if free else STEP_UNDECIDED
