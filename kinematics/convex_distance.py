@@ -37,8 +37,10 @@ import math
 
 import numpy as np
 
+from .hull_table import VERTICES
 from .kernel_cache import inline, jit
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND
+from .precheck_kernels import SELF_PAIR
 
 #: GJK stops when its upper and lower bounds of a distance are this close (m).
 GJK_ACCURACY = 1e-8
@@ -283,5 +285,35 @@ def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a:
     return lower
 
 
+@inline
+def pair_measured(hull_geoms: np.ndarray, pairs: np.ndarray, obstacles: np.ndarray, p: int) -> bool:
+    """Whether row ``p`` of the pre-check's pair table joins two shapes this module measures: a robot
+    geometry with a core (:data:`~.hull_table.VERTICES`) and another one, or an obstacle
+    :func:`obstacle_radius` supports."""
+    if hull_geoms[pairs[p, 0], 0] != VERTICES:
+        return False
+    if pairs[p, 2] == SELF_PAIR:
+        return hull_geoms[pairs[p, 1], 0] == VERTICES
+    return obstacle_radius(obstacles, pairs[p, 1]) >= 0.0
+
+
+@inline
+def pair_distance_bounds(points: np.ndarray, hull_geoms: np.ndarray, radius: np.ndarray, pairs: np.ndarray,
+                         obstacles: np.ndarray, p: int, X: np.ndarray, S: np.ndarray, T: np.ndarray,
+                         guess: np.ndarray) -> tuple[float, float]:
+    """``(lower, upper)`` bounds (m) of the distance between the two shapes of pair-table row ``p`` at the
+    joint placements ``X``: :func:`core_distance_bound` and the norm it leaves in ``guess`` (its start,
+    overwritten), less the radii the cores are grown by; ``(nan, nan)`` when the pair is not
+    :func:`pair_measured`. ``points, hull_geoms, radius``: the :class:`~.hull_table.HullTable`."""
+    if not pair_measured(hull_geoms, pairs, obstacles, p):
+        return math.nan, math.nan
+    a, b = pairs[p, 0], pairs[p, 1]
+    own = pairs[p, 2] == SELF_PAIR
+    grown = radius[a] + (radius[b] if own else obstacle_radius(obstacles, b))
+    lower = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guess)
+    upper = math.sqrt(guess[0] * guess[0] + guess[1] * guess[1] + guess[2] * guess[2])
+    return lower - grown, upper - grown
+
+
 __all__ = ["FLAT_TETRAHEDRON", "GJK_ACCURACY", "GJK_ITERATIONS", "closest_on_simplex", "closest_on_triangle",
-           "core_distance_bound", "obstacle_radius"]
+           "core_distance_bound", "obstacle_radius", "pair_distance_bounds", "pair_measured"]

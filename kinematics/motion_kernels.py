@@ -33,8 +33,7 @@ import math
 import numba
 import numpy as np
 
-from .convex_distance import core_distance_bound, obstacle_radius
-from .hull_table import VERTICES
+from .convex_distance import pair_distance_bounds, pair_measured
 from .kernel_cache import F1, F1_ANY, F2, I1, I2, compiled, inline, jit
 from .precheck_kernels import (
     LIPSCHITZ_SAFETY,
@@ -575,21 +574,6 @@ _ADVANCE_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, F1, F1
 
 
 @_inline
-def _measurable(hull_geoms, pairs, obstacles, rows):
-    """Whether every pair-table row of ``rows`` joins two shapes :mod:`.convex_distance` measures."""
-    for j in range(rows.shape[0]):
-        p = rows[j]
-        if hull_geoms[pairs[p, 0], 0] != VERTICES:
-            return False
-        if pairs[p, 2] == SELF_PAIR:
-            if hull_geoms[pairs[p, 1], 0] != VERTICES:
-                return False
-        elif obstacle_radius(obstacles, pairs[p, 1]) < 0.0:
-            return False
-    return True
-
-
-@_inline
 def _distance_radius(tree, joints, pairs, obstacles, points, hull_geoms, radius, rows, need, inverse, offset,
                      q, X, S, T, guesses, counts):
     """The certified radius ``min_j (d_j - TOLERANCE) inverse[j] + offset[j]`` at ``q`` of the pairs
@@ -598,11 +582,8 @@ def _distance_radius(tree, joints, pairs, obstacles, points, hull_geoms, radius,
     tree_placements(tree, joints, q, X)
     rho = math.inf
     for j in range(rows.shape[0]):
-        p = rows[j]
-        a, b = pairs[p, 0], pairs[p, 1]
-        own = pairs[p, 2] == SELF_PAIR
-        grown = radius[a] + (radius[b] if own else obstacle_radius(obstacles, b))
-        d = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guesses[j]) - grown
+        d, _ = pair_distance_bounds(points, hull_geoms, radius, pairs, obstacles, rows[j], X, S, T,
+                                    guesses[j])
         counts[1] += 1
         if not d >= need[j]:  # (NaN: refused)
             return -1.0
@@ -635,10 +616,9 @@ def advance_on_distances(floats: np.ndarray, ints: np.ndarray, points: np.ndarra
             or offset.shape[0] < rows.shape[0] or counts.shape[0] < 2:
         return NOT_MEASURED
     for j in range(rows.shape[0]):
-        if rows[j] < 0 or rows[j] >= pairs.shape[0]:
+        p = rows[j]
+        if p < 0 or p >= pairs.shape[0] or not pair_measured(hull_geoms, pairs, obstacles, p):
             return NOT_MEASURED
-    if not _measurable(hull_geoms, pairs, obstacles, rows):
-        return NOT_MEASURED
     X = np.empty((n + 1, 12))
     S, T = np.empty((4, 3)), np.empty((7, 3))
     q = np.empty(n)

@@ -180,13 +180,8 @@ class EdgeCertifier:
             return True
         if UNCERTAIN not in verdicts:
             return False
-        if pre.hulls is not None:  # the compiled distances first: apart where clear-cut (coal's answer too)
-            hulls = pre.hulls
-            apart = exact_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius,
-                                  pre.table_rows, q_a, q_b, PROBE_FRACTIONS, False, self.end_need, codes,
-                                  checks)
-            if apart == STEP_FREE:
-                return False
+        if self._exact_verdict(q_a, q_b, with_node=False) == STEP_FREE:  # (clear-cut: coal's answer too)
+            return False
         return oracle.coal_decides(lambda k: q_a + PROBES[k] * u, verdicts, checks)
 
     def step_verdict(self, q_near: np.ndarray, q_new: np.ndarray) -> int:
@@ -194,14 +189,21 @@ class EdgeCertifier:
         and uncertain pairs are in :attr:`codes` / :attr:`checks` (:func:`~.extend_kernel.exact_verdict`:
         ``q_new`` above :attr:`end_need` and the probe points apart, where the distances are clear-cut),
         :data:`~.extend_kernel.STEP_UNDECIDED` without them."""
+        verdict = self._exact_verdict(q_near, q_new, with_node=True)
+        self.oracle.checks += verdict != STEP_UNDECIDED
+        return verdict
+
+    def _exact_verdict(self, q_a: np.ndarray, q_b: np.ndarray, with_node: bool) -> int:
+        """:func:`~.extend_kernel.exact_verdict` on the uncertain points in :attr:`codes` / :attr:`checks`
+        (``q_b`` itself first ``with_node``, then the probe points of ``q_a -> q_b``);
+        :data:`~.extend_kernel.STEP_UNDECIDED` without a sphere pre-check or hull table."""
         pre = self.oracle.precheck
         if pre is None or pre.hulls is None:
             return STEP_UNDECIDED
         hulls = pre.hulls
-        verdict = exact_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius, pre.table_rows,
-                                q_near, q_new, PROBE_FRACTIONS, True, self.end_need, self.codes, self.checks)
-        self.oracle.checks += verdict != STEP_UNDECIDED
-        return int(verdict)
+        return int(exact_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius,
+                                 pre.table_rows, q_a, q_b, PROBE_FRACTIONS, with_node, self.end_need,
+                                 self.codes, self.checks))
 
     def hard_pairs(self, qa: np.ndarray, qb: np.ndarray) -> np.ndarray | None:
         """The pairs of the scene (indices) the spheres leave to the exact check on ``qa -> qb``

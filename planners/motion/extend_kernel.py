@@ -48,10 +48,9 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.convex_distance import core_distance_bound, obstacle_radius
-from kinserve.kinematics.hull_table import VERTICES
+from kinserve.kinematics.convex_distance import pair_distance_bounds
 from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, I1, I2, compiled, inline
-from kinserve.kinematics.precheck_kernels import SELF_PAIR, pairs_to_check, tree_placements, unpack
+from kinserve.kinematics.precheck_kernels import pairs_to_check, tree_placements, unpack
 
 #: Verdicts of one configuration: certified free by the spheres, left to coal, in collision for certain.
 FREE, UNCERTAIN, COLLIDES = 0, 1, 2
@@ -184,23 +183,6 @@ STEP_FREE, STEP_REFUSED, STEP_UNDECIDED = 1, 0, -1
 _VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, F1_ANY, F1, _t.boolean, F1, I1, I2)
 
 
-@inline
-def _pair_bounds(points, hull_geoms, radius, pairs, obstacles, p, X, S, T, guess):
-    """``(lower, upper)`` bounds (m) of the distance of pair-table row ``p`` at the placements ``X``, or
-    ``(nan, nan)`` when a shape of the pair is not measured."""
-    a, b = pairs[p, 0], pairs[p, 1]
-    own = pairs[p, 2] == SELF_PAIR
-    if hull_geoms[a, 0] != VERTICES or (own and hull_geoms[b, 0] != VERTICES):
-        return math.nan, math.nan
-    rb = radius[b] if own else obstacle_radius(obstacles, b)
-    if rb < 0.0:
-        return math.nan, math.nan
-    guess[:] = 0.0
-    lower = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guess)
-    upper = math.sqrt(guess[0] * guess[0] + guess[1] * guess[1] + guess[2] * guess[2])
-    return lower - radius[a] - rb, upper - radius[a] - rb
-
-
 @compiled(_VERDICT_SIGNATURE)
 def exact_verdict(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull_geoms: np.ndarray,
                   radius: np.ndarray, table_rows: np.ndarray, q_near: np.ndarray, q_new: np.ndarray,
@@ -243,8 +225,9 @@ def exact_verdict(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull
             pair = checks[k, i]
             if pair < 0 or pair >= pairs.shape[0]:
                 return STEP_UNDECIDED
-            row = table_rows[pair]
-            lower, upper = _pair_bounds(points, hull_geoms, radius, pairs, obstacles, row, X, S, T, guess)
+            guess[:] = 0.0  # (no start: the pairs of a step are measured once each)
+            lower, upper = pair_distance_bounds(points, hull_geoms, radius, pairs, obstacles,
+                                                table_rows[pair], X, S, T, guess)
             if node and upper < need[pair] - EXACT_MARGIN:
                 return STEP_REFUSED
             threshold = need[pair] if node else 0.0
