@@ -82,7 +82,11 @@ CLOSED_FORM = Strategy("closed form", closed_form)
 CLOSED_FORM_OR_LM = Strategy("closed form, LM when no branch is usable", _closed_form_or_lm)
 LM = Strategy("LM", levenberg_marquardt)
 QP = Strategy("QP (constraints hard)", target_qp)
-CHECKED_LM = Strategy("checked LM, then constrained QP", partial(checked_first, attempts="lm"))
+def _checked_lm(req: SolveRequest) -> Result:
+    return checked_first(req, "lm")
+
+
+CHECKED_LM = Strategy("checked LM, then constrained QP", _checked_lm)
 CHECKED_CLOSED_FORM = Strategy("checked closed form, then constrained QP",
                                partial(checked_first, attempts="closed_form"))
 CHECKED_QP = Strategy("checked QP, then constrained QP", partial(checked_first, attempts="qp"))
@@ -120,7 +124,7 @@ def _target_columns(req: SolveRequest) -> tuple:
     method = "classical" if req.method in CLASSICAL_METHODS else req.method
     solver = frame_state(req.robot, req.target.frame).closed_form
     closed = solver is not None and solver.finite and solver.supports(req.target.relaxed)
-    return ("target", method, closed, req.avoid is not None, req.collision_constraint is not None,
+    return ("target", method, closed, req.avoid is not None, req.collision_checker is not None,
             req.weights is not None or bool(req.extra))
 
 

@@ -54,8 +54,9 @@ class SolveRequest(NamedTuple):
     Exactly one of ``target`` (one frame at one pose) and ``problem`` (tasks and constraints bound to the
     robot) is set. ``weights``: centring weights (None = off); ``avoid``: obstacles kept clear of the link
     capsules (bound :class:`ObstacleAvoidance`, None = none); ``extra``: further constraints of a target
-    request; ``collision``: the collision options (None = none); ``collision_constraint``: their constraint
-    bound to the robot (None when the robot has no collision model: then ``avoid`` holds the obstacles);
+    request; ``collision``: the collision options (None = none); ``collision_checker``: the
+    :class:`~kinserve.ik.collision.checkers.CollisionChecker` of their constraint bound to the robot (its
+    ``constraint``; None when the robot has no collision model: then ``avoid`` holds the obstacles);
     ``options``: the method's options (names and values checked by :func:`kinserve.ik.options.check_options`).
     ``max_time`` None means the method's default budget (:mod:`kinserve.ik.options`).
     """
@@ -74,7 +75,7 @@ class SolveRequest(NamedTuple):
     avoid: ObstacleAvoidance | None
     extra: tuple[Constraint, ...]
     collision: CollisionRequest | None
-    collision_constraint: Any
+    collision_checker: Any
     options: Mapping[str, Any]
 
 
@@ -109,6 +110,36 @@ def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = 
     return req
 
 
+def collision_pose_request(robot: Robot, target: Any, q0: Any, frame: str | None, relax: Any,
+                           relax_frame: str, method: str, tol_pos: float, tol_rot: float,
+                           max_time: float | None, seed: int | None, options: Mapping[str, Any],
+                           self_collision: Any, obstacles: Any, collision_margin: Any,
+                           spheres: Any) -> SolveRequest:
+    """The request of a pose target with collision options (``self_collision`` or ``collision_margin`` set)
+    and every argument that is neither a collision option nor a pose request's at its default: what
+    :func:`target_request` makes of it, with positional arguments (the common collision-aware call)."""
+    req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
+                       options)
+    last = None
+    if (type(obstacles) is list or type(obstacles) is tuple) and type(spheres) is tuple and not spheres \
+            and type(collision_margin) is float:  # the shapes of this thread's last scene: validated then
+        last = ik_state(robot).last_collision(obstacles, self_collision, collision_margin)
+    if last is not None:
+        (collision, checker), avoid = last, None
+    else:
+        collision = collision_request(self_collision, obstacles, collision_margin, spheres)
+        checker, avoid = _bind_collision(robot, collision, req.target.frame)
+    if avoid is not None and method in NO_OBSTACLE_METHODS:
+        _refuse_obstacles(method)
+    return SolveRequest(robot, req.target, None, req.q0, method, DEFAULT_BACKEND, req.tol_pos, req.tol_rot,
+                        req.max_time, req.seed, None, avoid, (), collision, checker, req.options)
+
+
+def _refuse_obstacles(method: str) -> None:
+    raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
+                     "use 'qp' or 'auto'")
+
+
 def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | None = None, relax: Any = (),
                    relax_frame: str = "world", spheres: Any = (), obstacles: Any = (), link_radius: Any = 0.0,
                    centring: Any = 0.0, method: str = "auto", backend: str | None = None,
@@ -133,8 +164,7 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
             collision = CollisionRequest(False, tuple(avoid.obstacles), 0.0)
             bound, avoid = _bind_collision(robot, collision, tgt.frame)
     if avoid is not None and method in NO_OBSTACLE_METHODS:
-        raise InputError(f"method {method!r} cannot honour obstacle constraints (spheres/obstacles); "
-                         "use 'qp' or 'auto'")
+        _refuse_obstacles(method)
     extra = () if constraints is None else _extra_constraints(constraints, method, tgt.frame)
     backend = DEFAULT_BACKEND if backend is None else check_backend(backend)
     return SolveRequest(robot, tgt, None, req.q0, method, backend, req.tol_pos, req.tol_rot, req.max_time,
@@ -194,11 +224,12 @@ def _link_obstacles(robot: Robot, spheres: Any, obstacles: Any, link_radius: Any
 
 
 def _bind_collision(robot: Robot, collision: CollisionRequest, frame: str) -> tuple:
-    """``(bound collision constraint, None)``; a robot without collision geometry keeps obstacles clear of
-    its link capsules instead (``(None, ObstacleAvoidance)``) and refuses ``self_collision``."""
+    """``(checker of the bound collision constraint, None)``; a robot without collision geometry keeps
+    obstacles clear of its link capsules instead (``(None, ObstacleAvoidance)``) and refuses
+    ``self_collision``."""
     try:  # (a scene bound before is found without asking for the collision model)
-        return ik_state(robot).collision_constraint(collision.obstacles, collision.self_collision,
-                                                    collision.margin), None
+        return ik_state(robot).collision_checker(collision.obstacles, collision.self_collision,
+                                                 collision.margin), None
     except ModelError:
         try:
             robot.collision

@@ -17,7 +17,13 @@ from collections.abc import Iterable
 from typing import Any
 
 from kinserve.ik.plan import choose_strategy
-from kinserve.ik.request import SolveRequest, pose_request, target_request, task_request
+from kinserve.ik.request import (
+    SolveRequest,
+    collision_pose_request,
+    pose_request,
+    target_request,
+    task_request,
+)
 from kinserve.ik.result import Result
 from kinserve.ik.state import closed_form_solver
 from kinserve.ik.strategies.closed_form import relaxed_names
@@ -159,6 +165,11 @@ def solve(
             and constraints is None and self_collision is False and collision_margin == 0.0:
         req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
                            seed, options)
+    elif (self_collision is True or collision_margin) and type(centring) is float and centring == 0.0 \
+            and backend is None and constraints is None:  # the common collision-aware call (no link_radius)
+        req = collision_pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos,
+                                     tol_rot, max_time, seed, options, self_collision, obstacles,
+                                     collision_margin, spheres)
     else:
         req = target_request(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame,
                              spheres=spheres, obstacles=obstacles, link_radius=link_radius, centring=centring,

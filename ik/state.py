@@ -29,7 +29,7 @@ from operator import is_
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
-from kinserve.ik.collision.request import collision_request
+from kinserve.ik.collision.request import CollisionRequest, collision_request
 from kinserve.ik.constraints.base_overlap import BaseClearance
 from kinserve.ik.constraints.robot_skeleton import RobotSkeleton, build_robot_skeleton
 from kinserve.ik.lm.chains import CompiledChain, compiled_chain, compiled_chains
@@ -38,6 +38,7 @@ from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
 
 if TYPE_CHECKING:
+    from kinserve.ik.collision.checkers import CollisionChecker
     from kinserve.ik.constraints.collision import CollisionConstraint
 
 #: Bound collision constraints one thread keeps per robot (least recently used dropped first).
@@ -47,7 +48,8 @@ _CREATE_LOCK = threading.Lock()  # makes the one IKState of a robot (a lock, not
 
 
 class BoundConstraints:
-    """One thread's collision constraints bound to one robot, by obstacle set (value equality of shapes).
+    """One thread's collision constraints bound to one robot, by obstacle set (value equality of shapes), each
+    with its :class:`~kinserve.ik.collision.checkers.CollisionChecker` (made with the binding).
 
     Shapes are immutable and hash by value, so a request repeating a scene - the same objects or equal
     ones - finds its bound constraint; a scene whose obstacles have the shapes and sizes of one bound before
@@ -57,29 +59,36 @@ class BoundConstraints:
 
     def __init__(self, size: int = BOUND_CONSTRAINTS_PER_THREAD) -> None:
         self.size = size
-        self.by_scene: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
+        self.by_scene: OrderedDict[tuple, CollisionChecker] = OrderedDict()
         self.by_layout: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
-        #: ``(obstacles, self_collision, margin, bound)`` of the last :meth:`get`
-        self.last: tuple = ((), None, None, None)
+        #: ``(obstacles, self_collision, margin, checker, CollisionRequest)`` of the last :meth:`get`
+        self.last: tuple = ((), None, None, None, None)
 
-    def get(self, robot: Robot, obstacles: tuple, self_collision: bool, margin: float) -> CollisionConstraint:
-        """The constraint of ``obstacles`` (validated shapes) bound to ``robot``."""
-        last = self.last  # the same objects as the last call: that constraint (most recently used already)
-        if last[1] == self_collision and last[2] == margin and len(last[0]) == len(obstacles) \
-                and all(map(is_, last[0], obstacles)):
-            return last[3]
-        bound = self._lookup(robot, obstacles, self_collision, margin)
-        self.last = (obstacles, self_collision, margin, bound)
-        return bound
+    def get(self, robot: Robot, obstacles: tuple, self_collision: bool, margin: float) -> CollisionChecker:
+        """The checker of the constraint of ``obstacles`` (validated shapes) bound to ``robot``."""
+        if self.same_as_last(obstacles, self_collision, margin):  # that constraint (most recently used)
+            return self.last[3]
+        checker = self._lookup(robot, obstacles, self_collision, margin)
+        request = CollisionRequest(self_collision, obstacles, margin)
+        self.last = (obstacles, self_collision, margin, checker, request)
+        return checker
+
+    def same_as_last(self, obstacles: Any, self_collision: bool, margin: float) -> bool:
+        """True when ``obstacles`` (a tuple or list; not validated) holds the very shape objects of the last
+        :meth:`get`, with the same options: the shapes were validated then and are immutable."""
+        last = self.last
+        return last[1] is self_collision and last[2] == margin and len(last[0]) == len(obstacles) \
+            and all(map(is_, last[0], obstacles))
 
     def _lookup(self, robot: Robot, obstacles: tuple, self_collision: bool,
-                margin: float) -> CollisionConstraint:
+                margin: float) -> CollisionChecker:
         """:meth:`get` by value: the scene's entry, a moved template, or a new binding."""
         key = (self_collision, margin, obstacles)
-        bound = self.by_scene.get(key)
-        if bound is not None:
+        checker = self.by_scene.get(key)
+        if checker is not None:
             self.by_scene.move_to_end(key)
-            return bound
+            return checker
+        from kinserve.ik.collision.checkers import CollisionChecker
         from kinserve.ik.constraints.collision import CollisionConstraint
 
         layout = (self_collision, margin, tuple(shape.signature for shape in obstacles))
@@ -91,8 +100,9 @@ class BoundConstraints:
             _remember(self.by_layout, layout, bound, self.size)
         if bound.clearance == 0.0:
             bound.scene.precheck()  # the compiled sphere pre-check built with the constraint
-        _remember(self.by_scene, key, bound, self.size)
-        return bound
+        checker = CollisionChecker(robot, bound)
+        _remember(self.by_scene, key, checker, self.size)
+        return checker
 
 
 class FrameState(NamedTuple):
@@ -171,13 +181,27 @@ class IKState:
                     skeleton = self.skeletons[key] = build_robot_skeleton(self.robot, tool_frames, frames)
         return skeleton
 
-    def collision_constraint(self, obstacles: tuple, self_collision: bool,
-                             margin: float) -> CollisionConstraint:
-        """The collision constraint of the validated ``obstacles`` bound to the robot (this thread's)."""
+    def collision_checker(self, obstacles: tuple, self_collision: bool, margin: float) -> CollisionChecker:
+        """The :class:`~kinserve.ik.collision.checkers.CollisionChecker` of the collision constraint of the
+        validated ``obstacles`` bound to the robot (this thread's)."""
         store = getattr(self.threads, "bound", None)  # this thread's BoundConstraints
         if store is None:
             store = self.threads.bound = BoundConstraints()
         return store.get(self.robot, obstacles, self_collision, margin)
+
+    def last_collision(self, obstacles: Any, self_collision: Any, margin: float) -> tuple | None:
+        """``(CollisionRequest, CollisionChecker)`` of this thread's last :meth:`collision_checker` when
+        ``obstacles`` (a tuple or list, not validated) holds the very shape objects it was asked for, with the
+        same options (``self_collision`` the same bool object); else None."""
+        store = getattr(self.threads, "bound", None)
+        if store is None or not store.same_as_last(obstacles, self_collision, margin):
+            return None
+        return store.last[4], store.last[3]
+
+    def collision_constraint(self, obstacles: tuple, self_collision: bool,
+                             margin: float) -> CollisionConstraint:
+        """The collision constraint of the validated ``obstacles`` bound to the robot (this thread's)."""
+        return self.collision_checker(obstacles, self_collision, margin).constraint
 
 
 def ik_state(robot: Robot) -> IKState:

@@ -37,6 +37,7 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "kinematics/sphere_cover.py",
     "ik/constraints/clearance_kernel.py",
     "ik/lm/kernel.py",
+    "ik/lm/screened_kernel.py",
     "ik/qp/line_kernel.py",
     "ik/tasks/null_space_kernel.py",
     "planners/motion/extend_kernel.py",

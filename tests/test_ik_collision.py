@@ -249,9 +249,8 @@ def test_attempt_starts_follow_the_ordinary_order_minus_the_ones_in_collision(pa
         ordinary = list(itertools.islice(frame_starts(panda, tgt.frame, tgt.frame_id, tgt.T[:3, :3],
                                                       tgt.T[:3, 3], True, q0, 5 + case), 40))
         q0_placed += any(np.array_equal(q, q0) for q in ordinary[1:9])
-        checker = checked.ClearanceChecker(panda, None)  # admits every start: the order alone
-        checker.admit = lambda q: not panda.in_collision(q, SCENE)
-        starts = list(itertools.islice(checked._admissible_starts(req, checker), 30))
+        admit = lambda q: not panda.in_collision(q, SCENE)  # noqa: E731 - the order alone
+        starts = list(itertools.islice(checked._admissible_starts(req, admit), 30))
         assert len(starts) == 30
         assert all(not panda.in_collision(q, SCENE) for q in starts)
         if case % 3 == 0:
@@ -389,14 +388,14 @@ def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     real = con.in_collision
     con.in_collision = lambda q: coal_calls.append(q) or real(q)
     try:
-        admit = checkers.CollisionChecker(panda, con).admit
+        admit = checkers.CollisionChecker(panda, con).admission()
         assert admit(clear[0]) and not coal_calls  # certified: no coal
         skips = checkers.UNCERTIFIED_SKIPS
         assert skips >= 1
         assert [admit(q) for q in near[:skips]] == [False] * skips and not coal_calls  # skipped unasked
         assert admit(near[skips]) and len(coal_calls) == 1  # then coal decides: free, admitted
         assert not admit(inside[0]) and len(coal_calls) == 2  # ... and in collision, refused
-        chosen = checkers.CollisionChecker(panda, con, near[3]).admit
+        chosen = checkers.CollisionChecker(panda, con).admission(near[3])
         assert chosen(near[3].copy()) and len(coal_calls) == 3  # the caller's q0 is never skipped unasked
     finally:
         con.in_collision = real

@@ -133,12 +133,31 @@ def test_equal_obstacles_built_anew_share_one_layout(panda):
 
 
 def test_every_iterate_is_still_checked(panda, monkeypatch):
-    """The checked LM checks the answer and every other iterate of the returned run (the checker's
-    ``first_violation``: the sphere pre-check, then coal), the start by the admission before its run, the
-    answer once."""
+    """The checked LM checks the answer and every other iterate of the returned run, and the start before its
+    run: in the screen's compiled call (the sphere pre-check) when it certifies them, else by the admission
+    and the checker's ``first_violation`` (the pre-check, then coal); the answer once."""
     from kinserve.ik.collision import checkers
+    from kinserve.ik.lm.solver import LMScreen
+    from kinserve.ik.lm.status import ROWS_CERTIFIED, START_UNCERTIFIED
+    from kinserve.ik.state import ik_state
 
     checked = []
+    checker = ik_state(panda).collision_checker((), True, 0.0)  # the one the solve below uses
+    screen = checker.screen
+    assert screen is not None
+
+    calls = []
+
+    def screened(*args):
+        calls.append(1)
+        status, it, k, flag = screen.run(*args)
+        q0, qs, admit_start = args[2], args[16], args[-1]
+        if admit_start and flag != START_UNCERTIFIED:
+            checked.append(np.array(q0))
+        if flag == ROWS_CERTIFIED and status == 0:
+            checked.extend(np.array(q) for q in qs[1:k])
+        return status, it, k, flag
+
     real_admission = checkers._admission
 
     def admission(*args):
@@ -159,6 +178,7 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
         checked.extend(np.array(q) for q in (rows if k < 0 else rows[:k + 1]))
         return k
 
+    monkeypatch.setattr(checker, "screen", LMScreen(screened, *screen[1:]))
     monkeypatch.setattr(checkers, "_admission", admission)
     monkeypatch.setattr(checkers.CollisionChecker, "first_violation", first_violation)
     rng = np.random.default_rng(6)
@@ -166,6 +186,7 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
     res = ik.solve(panda, T, panda.random_q(rng), frame=FRAME, self_collision=True, seed=1,
                    iteration_budget=2000)
     assert res.success and res.info["collision"] == "unconstrained, checked"
+    assert calls  # the starts ran through the screen
     hist = res.history.q
     assert len(hist) >= 3
     for q in hist:

@@ -3,7 +3,8 @@
 
 A checker answers four questions about one request's obstacles:
 
-* ``admit(q)``: may a run start at ``q``? (None: every start runs, its run's check includes it);
+* ``admission(chosen)``: one solve's ``admit(q)``, may a run start at ``q``? (None: every start runs, its
+  run's check includes it);
 * ``first_violation(rows)``: the index of the first configuration of ``rows`` that violates the constraint,
   or -1 - the strategy passes a run's rows answer first, so 0 means the answer itself violates it;
 * ``infeasible(target)``: a reason when no configuration can reach the target (its position lies inside an
@@ -26,6 +27,7 @@ import numpy as np
 
 from kinserve.ik.constraints.collision import CollisionConstraint
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
+from kinserve.ik.lm.solver import LMScreen
 from kinserve.ik.targets import Target
 from kinserve.kinematics.robot import Robot
 
@@ -68,7 +70,7 @@ class ClearanceChecker:
     """Obstacles against the robot's link capsules (a bound :class:`ObstacleAvoidance`)."""
 
     name = "obstacles"
-    admit = None
+    screen = None  #: no compiled pre-check runs with the LM's starts
 
     def __init__(self, robot: Robot, avoid: ObstacleAvoidance, q0: np.ndarray | None = None) -> None:
         """``q0``: the request's start (inside the limits), judged with the first rows checked (one call)."""
@@ -87,6 +89,10 @@ class ClearanceChecker:
         if judge_q0:
             self.q0_violates, bad = bool(bad[-1]), bad[:-1]
         return int(bad.argmax()) if bad.any() else -1
+
+    def admission(self, chosen: np.ndarray | None = None) -> None:
+        """None: every start runs (a run's check includes its start, and ``q0`` rides along with it)."""
+        return None
 
     def q0_inside(self) -> bool:
         """True when the request's ``q0`` violates the obstacles (False without a ``q0``)."""
@@ -109,18 +115,29 @@ class CollisionChecker:
     """Self-collision and obstacles against the robot's collision model (a bound
     :class:`CollisionConstraint`).
 
-    ``chosen``: the caller's ``q0`` when it must run first (``prefer_q0``): never skipped without coal's word.
+    Made once per bound constraint (by :class:`kinserve.ik.state.BoundConstraints`, with the binding) and
+    shared by every solve of that scene in the thread: it holds no state of a solve. A solve's admission of
+    starts (:meth:`admission`) is made per solve.
     """
 
     name = "collision"
 
-    def __init__(self, robot: Robot, constraint: CollisionConstraint,
-                 chosen: np.ndarray | None = None) -> None:
+    def __init__(self, robot: Robot, constraint: CollisionConstraint) -> None:
         self.robot = robot
         self.constraint = constraint
         pre = constraint.scene.precheck() if constraint.clearance == 0.0 else None
         self.precheck = pre
-        self.admit = _admission(constraint, pre, chosen)
+        #: The pre-check run with each LM start in one compiled call (None without a pre-check).
+        self.screen: LMScreen | None = None
+        if pre is not None:
+            from kinserve.ik.lm.screened_kernel import run_screened_start  # compiled (or loaded) now
+
+            self.screen = LMScreen(run_screened_start, pre.floats, pre.ints, pre.tolerance)
+
+    def admission(self, chosen: np.ndarray | None = None) -> Callable[[np.ndarray], bool]:
+        """One solve's ``admit(q)`` (:func:`_admission`); ``chosen``: the caller's ``q0`` when it must run
+        first (``prefer_q0``): never skipped without coal's word."""
+        return _admission(self.constraint.in_collision, self.precheck, chosen)
 
     def first_violation(self, rows: np.ndarray) -> int:
         """Index of the first colliding row, or -1: the sphere pre-check certifies rows in one compiled call,
@@ -149,11 +166,11 @@ class CollisionChecker:
                 "geometry: no collision-free configuration reaches it")
 
 
-def _admission(constraint: CollisionConstraint, pre: Any,
+def _admission(in_collision: Callable[[np.ndarray], bool], pre: Any,
                chosen: np.ndarray | None) -> Callable[[np.ndarray], bool]:
     """``admit(q)``: a start the pre-check certifies runs at once; the first :data:`UNCERTIFIED_SKIPS` it
-    cannot certify are skipped without coal (except ``chosen``); later ones run when coal finds them free."""
-    in_collision = constraint.in_collision
+    cannot certify are skipped without coal (except ``chosen``); later ones run when coal finds them free
+    (``in_collision``: the constraint's coal check)."""
     if pre is None:
         return lambda q: not in_collision(q)
     certify, floats, ints, tol = pre.certify, pre.floats, pre.ints, pre.tolerance

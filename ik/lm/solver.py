@@ -50,7 +50,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from functools import partial
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -59,7 +59,7 @@ from scipy.linalg import get_lapack_funcs
 from kinserve.ik import numpy_fast
 from kinserve.ik import options as _options
 from kinserve.ik.lm.chains import compiled_chain, compiled_chains
-from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, STALLED
+from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, ROWS_CERTIFIED, STALLED, START_UNCERTIFIED
 from kinserve.ik.result import History, Result, task_evaluator
 from kinserve.ik.starts.multistart import frame_starts
 
@@ -179,6 +179,18 @@ def python_start(model: pin.Model, data: pin.Data, target: Target, q0: np.ndarra
     return ITERATION_LIMIT, max_iter, max_iter + 1
 
 
+class LMScreen(NamedTuple):
+    """A pre-check that runs in the same compiled call as each LM start
+    (:func:`kinserve.ik.lm.screened_kernel.run_screened_start` is ``run``): it certifies the start before the
+    run and the converged run's rows after it. ``floats``, ``ints``, ``tolerance``: the scene's pre-check
+    arguments (:class:`~kinserve.kinematics.scene_precheck.PrecheckArguments`)."""
+
+    run: Callable[..., tuple[int, int, int, int]]
+    floats: np.ndarray
+    ints: np.ndarray
+    tolerance: float
+
+
 def _run_start(problem: tuple, q: np.ndarray, max_iter: int) -> tuple[bool, int, tuple]:
     """One start: ``(converged, iterations, run)``; ``run`` is ``(k, qs, pos2, rot2, pe2, re2)`` (the answer
     row ``k``) when converged, else ``(qs, pos2, rot2)`` for :func:`_best_run`."""
@@ -193,10 +205,60 @@ def _run_start(problem: tuple, q: np.ndarray, max_iter: int) -> tuple[bool, int,
     else:
         status, it, k = python_start(robot.model, robot.data, target, q, robot.lower, robot.upper, tp2, tr2,
                                      damping, max_iter, qs, errs)
+    return _run(status, it, k, qs, errs)
+
+
+def _run(status: int, it: int, k: int, qs: np.ndarray, errs: np.ndarray) -> tuple[bool, int, tuple]:
+    """:func:`_run_start`'s answer from a kernel's ``(status, iterations, rows)`` and its buffers."""
     qs, pos2, rot2 = qs[:k], errs[:k, 0], errs[:k, 1]
     if status == CONVERGED:
         return True, it, (k - 1, qs, pos2, rot2, pos2[k - 1], rot2[k - 1])
     return False, it, (qs, pos2, rot2)
+
+
+def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, admit_start: bool) -> tuple:
+    """One start through the screen's compiled call (:mod:`ik.lm.screened_kernel`): :func:`_run_start`'s
+    answer and the screen's flag; ``(False, 0, None, START_UNCERTIFIED)`` when the start was not certified
+    (nothing ran)."""
+    robot, target, chain, tp2, tr2, damping = problem[:6]
+    screen = problem[8]
+    rows = max_iter + 1
+    qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
+    status, it, k, flag = screen.run(chain.geometry, chain.joints, q, robot.lower, robot.upper, target.T,
+                                     not target.full, target.A, target.kept, tp2, tr2, damping, DAMPING_GAIN,
+                                     STALL_RATIO, STALL_PATIENCE, max_iter, qs, errs, screen.floats,
+                                     screen.ints, screen.tolerance, admit_start)
+    if flag == START_UNCERTIFIED:
+        return False, 0, None, flag
+    return (*_run(status, it, k, qs, errs), flag)
+
+
+#: What became of one start (:func:`_try_start`).
+REFUSED, FAILED, REJECTED, ACCEPTED = range(4)
+
+
+def _try_start(problem: tuple, q: np.ndarray, cap: int, accept, admit) -> tuple[int, int, tuple | None]:
+    """One start of :func:`_search`: ``(outcome, iterations, run)``, outcome :data:`REFUSED` (``admit`` said
+    no: no run), :data:`FAILED` (no convergence), :data:`REJECTED` (converged, ``accept`` said no) or
+    :data:`ACCEPTED`. With a screen (``problem[8]``) ``admit`` is asked only of a start the screen could not
+    certify and ``accept`` only of a converged run whose rows it could not all certify."""
+    if problem[8] is None or problem[2] is None:
+        if admit is not None and not admit(q):
+            return REFUSED, 0, None
+        ok, it, run = _run_start(problem, q, cap)
+        sure = False
+    else:
+        ok, it, run, flag = _run_screened(problem, q, cap, True)
+        if flag == START_UNCERTIFIED:
+            if not admit(q):
+                return REFUSED, 0, None
+            ok, it, run, flag = _run_screened(problem, q, cap, False)
+        sure = flag == ROWS_CERTIFIED
+    if not ok:
+        return FAILED, it, run
+    if sure or accept is None or accept(run[1][: run[0] + 1]):
+        return ACCEPTED, it, run
+    return REJECTED, it, run
 
 
 def _best_run(runs: list, best: tuple | None) -> tuple:
@@ -242,15 +304,15 @@ def _search(problem: tuple, first: np.ndarray | None, starts: Callable[[], Itera
     unscored: list = []  # failed runs: scored only if no start converges (or when many have piled up)
     iterations = n_starts = misses = 0
     while True:
-        if admit is None or admit(q):
+        cap = max_iter if budget is None else min(max_iter, budget - iterations)
+        outcome, it, run = _try_start(problem, q, cap, accept, admit)
+        if outcome == ACCEPTED:
+            return True, run, rejected, n_starts + 1, iterations + it, 0, "converged", q
+        if outcome != REFUSED:
             misses = 0
             n_starts += 1
-            cap = max_iter if budget is None else min(max_iter, budget - iterations)
-            ok, it, run = _run_start(problem, q, cap)
             iterations += it
-            if ok and (accept is None or accept(run[1][: run[0] + 1])):
-                return True, run, rejected, n_starts, iterations, 0, "converged", q
-            if ok:
+            if outcome == REJECTED:
                 rejected = run if rejected is None else rejected
             else:
                 unscored.append(run)
@@ -302,6 +364,7 @@ def solve_lm(
     iteration_budget: int | None = None,
     accept: Callable[[Sequence[np.ndarray]], bool] | None = None,
     admit: Callable[[np.ndarray], bool] | None = None,
+    screen: LMScreen | None = None,
 ) -> Result:
     """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
 
@@ -315,6 +378,9 @@ def solve_lm(
     run is accepted the answer is the best unconverged run's, or the first rejected run's when every run
     converged. ``admit``: a test of a start before its run (e.g. a collision check); a start it refuses is
     skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
+    ``screen``: a pre-check run in the same compiled call as each start (:class:`LMScreen`, compiled chains
+    only): ``admit`` is then asked only of the starts it cannot certify and ``accept`` only of the converged
+    runs whose rows it cannot all certify (the screen's "certified" must imply both tests' yes).
     """
     chains = robot.lm_chains  # (compiled_chain inlined: warmed before the clock starts)
     chain = (chains if chains is not None else compiled_chains(robot)).chains[target.frame_id]
@@ -323,7 +389,8 @@ def solve_lm(
     deadline = t0 + (MAX_TIME if max_time is None else max_time) if clocked else None
     if q0 is not None:
         q0 = _clip(q0, robot.lower, robot.upper)  # a fresh array
-    problem = (robot, target, chain, tol_pos * tol_pos, tol_rot * tol_rot, float(damping), tol_pos, tol_rot)
+    problem = (robot, target, chain, tol_pos * tol_pos, tol_rot * tol_rot, float(damping), tol_pos, tol_rot,
+               screen)
     starts = partial(_starts, robot, target, q0, seed, seed_table_enabled, prefer_q0)
     outcome = _search(problem, q0 if prefer_q0 else None, starts,
                       (deadline, max_starts, iteration_budget, int(max_iter)), accept, admit)

@@ -5,3 +5,6 @@ CONVERGED, STALLED, ITERATION_LIMIT = 0, 1, 2
 #: One target of :func:`kinserve.ik.lm.kernel.run_many` when no start converged: the start limit, the
 #: iteration budget, or the prepared starts ran out (the caller goes on with its own start sequence).
 START_LIMIT, BUDGET_EXHAUSTED, STARTS_EXHAUSTED = 3, 4, 5
+#: The screen's flag of one start (:func:`kinserve.ik.lm.screened_kernel.run_screened_start`): the start
+#: was not certified (nothing ran), the converged run's rows are all certified, or one of them is not.
+START_UNCERTIFIED, ROWS_CERTIFIED, ROWS_UNCERTIFIED = 0, 1, 2

@@ -21,6 +21,7 @@ checker's constraint on every iterate, warm-started from the last clear iterate 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from itertools import islice
 from typing import Any
 
@@ -37,15 +38,18 @@ from kinserve.ik.strategies.closed_form import closed_form
 from kinserve.ik.strategies.direct import levenberg_marquardt, target_qp
 
 Checker = ClearanceChecker | CollisionChecker
+Admit = Callable[[np.ndarray], bool] | None
 _CLEAR = "unconstrained, checked"
 
 
-def make_checker(req: SolveRequest) -> Checker:
-    """The request's checker: the collision model's when it has one bound, else the link capsules'."""
-    if req.collision_constraint is not None:
-        chosen = _clipped_q0(req) if req.options and req.options.get("prefer_q0") else None
-        return CollisionChecker(req.robot, req.collision_constraint, chosen)
-    return ClearanceChecker(req.robot, req.avoid, _clipped_q0(req))
+def make_checker(req: SolveRequest) -> tuple[Checker, Admit]:
+    """The request's checker - the collision model's when it has one bound (made with the binding), else the
+    link capsules' - and this solve's admission of starts (None: every start runs)."""
+    checker = req.collision_checker
+    if checker is None:
+        return ClearanceChecker(req.robot, req.avoid, _clipped_q0(req)), None
+    chosen = _clipped_q0(req) if req.options and req.options.get("prefer_q0") else None
+    return checker, checker.admission(chosen)
 
 
 def _clipped_q0(req: SolveRequest) -> np.ndarray | None:
@@ -57,12 +61,12 @@ def _clipped_q0(req: SolveRequest) -> np.ndarray | None:
 def checked_first(req: SolveRequest, attempts: str) -> Result:
     """Solve ``req`` as the module docstring says; ``attempts``: ``"lm"``, ``"closed_form"`` or ``"qp"``."""
     t0 = time.perf_counter()
-    checker = make_checker(req)
+    checker, admit = make_checker(req)
     budget = request_budget(req)
     found, failed, used, tried = None, None, 0, 0
     if CHECKED_ATTEMPTS > 0:  # (0: straight to the constrained solve)
-        run = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}[attempts]
-        found, failed, used, tried = run(req, checker, budget.share(CHECKED_BUDGET_SHARE))
+        run = _ATTEMPTS[attempts]
+        found, failed, used, tried = run(req, checker, admit, budget.share(CHECKED_BUDGET_SHARE))
     if found is not None:
         if checker.name == "obstacles":
             found.message += _q0_note(checker)
@@ -93,18 +97,26 @@ def _q0_note(checker: Checker) -> str:
 def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> Result:
     """Mark a result that passed the checker (``answer_only``: its path did not; its history is the
     answer)."""
-    what = "clear of the obstacles" if checker.name == "obstacles" else "collision free"
+    collision = checker.name == "collision"
+    what = "collision free" if collision else "clear of the obstacles"
     if answer_only:
         res.history = res.history.final()
         res.message = (f"converged: an unconstrained run's answer, {what}, taken as a start of its own "
                        "(the run's path was not; the history is that configuration alone)")
+    elif collision and attempt == 1 and res.message == "converged":  # the common answer, written once
+        res.message = _COLLISION_FREE_FIRST
     else:
         res.message += f"; {what} (unconstrained answer and every iterate checked, attempt {attempt})"
-    res.info["strategy"] = _CLEAR
-    if checker.name == "collision":
-        res.info["collision"] = _CLEAR
-        res.info["collision_attempts"] = attempt
+    info = res.info
+    info["strategy"] = _CLEAR
+    if collision:
+        info["collision"] = _CLEAR
+        info["collision_attempts"] = attempt
     return res
+
+
+_COLLISION_FREE_FIRST = ("converged; collision free (unconstrained answer and every iterate checked, "
+                         "attempt 1)")
 
 
 def _cap(req: SolveRequest) -> int:
@@ -112,11 +124,11 @@ def _cap(req: SolveRequest) -> int:
     return 1 + CHECKED_ATTEMPTS if starts is None else min(int(starts), 1 + CHECKED_ATTEMPTS)
 
 
-def _lm_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
+def _lm_attempts(req: SolveRequest, checker: Checker, admit: Admit, budget: Budget) -> tuple:
     """One LM call: each converged run accepted when the checker passes its rows (answer first)."""
     rejected: list = []
     verdict: list = []
-    skip_start = checker.admit is not None  # an admitted start was checked before its run
+    skip_start = admit is not None  # an admitted start was checked before its run
     first_violation = checker.first_violation
 
     def accept(qs: np.ndarray) -> bool:
@@ -128,30 +140,32 @@ def _lm_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
         verdict.append(k > 0)  # True: the answer passes, its path does not
         return True
 
-    res = levenberg_marquardt(req, budget, accept=accept, admit=checker.admit,
+    screen = checker.screen if admit is not None else None  # (the screen admits as the admission does)
+    res = levenberg_marquardt(req, budget, accept=accept, admit=admit, screen=screen,
                               max_starts=_cap(req) if req.options else 1 + CHECKED_ATTEMPTS)
-    if res.success:
-        return _passed(res, checker, 1 + res.restarts, verdict[-1]), None, res.iterations, 1 + res.restarts
+    if res.success:  # (verdict is empty when the screen certified the whole run: accept was not asked)
+        return _passed(res, checker, 1 + res.restarts, bool(verdict) and verdict[-1]), None, res.iterations, \
+            1 + res.restarts
     failed = rejected[0] if rejected else (res.history.iterates() if res.history is not None else None)
     return None, failed, res.iterations, 1 + res.restarts
 
 
-def _closed_form_attempt(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
+def _closed_form_attempt(req: SolveRequest, checker: Checker, admit: Admit, budget: Budget) -> tuple:
     """The chosen closed-form branch among those the checker passes; LM attempts when no branch is usable."""
     res = closed_form(req, fallback=True, admissible=lambda q: checker.first_violation(q[None, :]) < 0)
     if res is not None and res.success:
         return _passed(res, checker, 1, False), None, 0, 1
     if req.method == "analytic":
         return None, None, 0, 1
-    return _lm_attempts(req, checker, budget)
+    return _lm_attempts(req, checker, admit, budget)
 
 
-def _qp_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
+def _qp_attempts(req: SolveRequest, checker: Checker, admit: Admit, budget: Budget) -> tuple:
     """The QP from one admissible start at a time, in the usual order, each answer checked."""
     t0 = time.perf_counter()
     failed, used, attempt = None, 0, 0
-    skip_start = checker.admit is not None
-    for start in islice(_admissible_starts(req, checker), _cap(req)):
+    skip_start = admit is not None
+    for start in islice(_admissible_starts(req, admit), _cap(req)):
         if not _within(budget, t0, used):
             break
         attempt += 1
@@ -169,6 +183,10 @@ def _qp_attempts(req: SolveRequest, checker: Checker, budget: Budget) -> tuple:
     return None, failed, used, attempt
 
 
+#: The attempts of each ``attempts`` argument of :func:`checked_first`.
+_ATTEMPTS = {"lm": _lm_attempts, "closed_form": _closed_form_attempt, "qp": _qp_attempts}
+
+
 def _within(budget: Budget, t0: float, used: int) -> bool:
     """True while ``budget`` (from ``t0``, ``used`` iterations spent) is not spent."""
     if budget.seconds is not None and time.perf_counter() - t0 >= budget.seconds:
@@ -176,13 +194,13 @@ def _within(budget: Budget, t0: float, used: int) -> bool:
     return budget.iterations is None or used < budget.iterations
 
 
-def _admissible_starts(req: SolveRequest, checker: Checker) -> Any:
+def _admissible_starts(req: SolveRequest, admit: Admit) -> Any:
     tgt = req.target
     q0 = _clipped_q0(req)
     seq = frame_starts(req.robot, tgt.frame, tgt.frame_id, tgt.T[:3, :3], tgt.T[:3, 3],
                        len(tgt.rot_rows) == 3, q0, req.seed or 0, bool(req.options.get("seed_table", True)),
                        bool(req.options.get("prefer_q0", False)))
-    admit, misses = checker.admit, 0
+    misses = 0
     for q in seq:
         if admit is None or admit(q):
             misses = 0

@@ -26,10 +26,10 @@ _LM_KEYWORDS = frozenset(("max_iter", "damping", "prefer_q0"))
 
 
 def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, accept: Any = None,
-                        admit: Any = None, max_starts: int | None = None) -> Result:
-    """LM from the request's start sequence; ``accept`` / ``admit`` / ``max_starts``: the checked strategy's
-    tests of a converged run and of a start, and its cap on the starts (the request's ``max_starts`` option
-    when None)."""
+                        admit: Any = None, max_starts: int | None = None, screen: Any = None) -> Result:
+    """LM from the request's start sequence; ``accept`` / ``admit`` / ``max_starts`` / ``screen``: the checked
+    strategy's tests of a converged run and of a start, its cap on the starts (the request's ``max_starts``
+    option when None) and the pre-check run with each start (:class:`~kinserve.ik.lm.solver.LMScreen`)."""
     opts = req.options
     if opts.keys() <= _LM_KEYWORDS:  # the common calls: no keyword dictionary to build, no iteration budget
         seconds, iterations = (req.max_time, None) if budget is None else budget
@@ -37,7 +37,7 @@ def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, acce
             seconds = MAX_TIME_LM
         return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot,
                         seed=req.seed, max_time=seconds, iteration_budget=iterations, max_starts=max_starts,
-                        accept=accept, admit=admit, **opts)
+                        accept=accept, admit=admit, screen=screen, **opts)
     if budget is None:
         budget = request_budget(req, MAX_TIME_LM)
     opts = options_for("lm", req.options)
@@ -45,7 +45,7 @@ def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, acce
         opts["max_starts"] = max_starts
     return solve_lm(req.robot, req.target, req.q0, tol_pos=req.tol_pos, tol_rot=req.tol_rot, seed=req.seed,
                     max_time=budget.seconds, iteration_budget=budget.iterations, accept=accept, admit=admit,
-                    **opts)
+                    screen=screen, **opts)
 
 
 def target_qp(req: SolveRequest, constraints: tuple | None = None, budget: Budget | None = None,
@@ -55,7 +55,9 @@ def target_qp(req: SolveRequest, constraints: tuple | None = None, budget: Budge
     solver
     keywords)."""
     if constraints is None:
-        constraints = tuple(c for c in (req.avoid, req.collision_constraint) if c is not None) + req.extra
+        checker = req.collision_checker
+        constraints = tuple(c for c in (req.avoid, None if checker is None else checker.constraint)
+                            if c is not None) + req.extra
     budget = request_budget(req) if budget is None else budget
     opts = options_for("qp", req.options)
     return solve_qp(req.robot, req.target, req.q0 if q_start is None else q_start, spheres=list(constraints),

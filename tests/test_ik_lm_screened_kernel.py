@@ -1,0 +1,97 @@
+"""The screened LM start (ik.lm.screened_kernel): one compiled call that admits the start with the sphere
+pre-check, runs the LM and certifies the converged run's rows, against the three separate calls
+(``certify_configuration``, ``run_start``, ``first_uncertified``) and against coal.
+
+Over many random targets and starts in a scene with a wall and a table (and the arm itself):
+
+* an uncertified start runs nothing and says so; a certified one runs exactly as ``run_start`` does (the same
+  status, iterations, rows and iterates);
+* the flag of a converged run is "certified" exactly when ``first_uncertified`` certifies every row from the
+  answer back to the row after the start, and then coal finds every one of those rows free;
+* with ``admit_start=False`` the start is not asked.
+"""
+
+import numpy as np
+import pytest
+
+from kinserve import ik, robots
+from kinserve.ik.lm import kernel as lm_kernel
+from kinserve.ik.lm import solver as lm_solver
+from kinserve.ik.lm.screened_kernel import run_screened_start
+from kinserve.ik.lm.status import CONVERGED, ROWS_CERTIFIED, ROWS_UNCERTIFIED, START_UNCERTIFIED
+from kinserve.ik.state import ik_state
+from kinserve.ik.targets import Target
+from kinserve.kinematics.precheck_kernels import certify_configuration, first_uncertified
+
+FRAME = "panda_link8"
+
+
+def _box(centre, size):
+    T = np.eye(4)
+    T[:3, 3] = centre
+    return ik.Box(T, size)
+
+
+@pytest.fixture(scope="module")
+def panda():
+    robot = robots.load("panda", tip=FRAME)
+    ik.warm(robot, FRAME)
+    return robot
+
+
+@pytest.fixture(scope="module")
+def scene(panda):
+    obstacles = (_box((0.65, 0.0, -0.05), (0.7, 1.2, 0.1)), _box((0.45, 0.0, 0.5), (0.05, 1.0, 1.0)))
+    checker = ik_state(panda).collision_checker(obstacles, True, 0.0)
+    return checker.constraint.scene, checker.precheck
+
+
+def _arguments(robot, q0, T, max_iter=60):
+    chain = robot.lm_chains.chains[robot.frame_id(FRAME)]
+    tgt = Target(robot, T, FRAME)
+    rows = max_iter + 1
+    return (chain.geometry, chain.joints, q0, robot.lower, robot.upper, tgt.T, not tgt.full, tgt.A, tgt.kept,
+            1e-8, 1e-6, lm_solver.DAMPING, lm_solver.DAMPING_GAIN, lm_solver.STALL_RATIO,
+            lm_solver.STALL_PATIENCE, max_iter, np.empty((rows, robot.nq)), np.empty((rows, 2)))
+
+
+def test_screened_start_equals_the_separate_calls_and_coal(panda, scene):
+    coal_scene, pre = scene
+    rng = np.random.default_rng(11)
+    seen = {START_UNCERTIFIED: 0, ROWS_CERTIFIED: 0, ROWS_UNCERTIFIED: 0}
+    for _ in range(300):
+        T = panda.fk(panda.random_q(rng), FRAME)
+        q0 = panda.random_q(rng)
+        args = _arguments(panda, q0, T)
+        status, it, k, flag = run_screened_start(*args, pre.floats, pre.ints, pre.tolerance, True)
+        if not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance):
+            assert flag == START_UNCERTIFIED and k == 0 and it == 0
+            seen[flag] += 1
+            continue
+        plain = _arguments(panda, q0, T)
+        assert (status, it, k) == lm_kernel.run_start(*plain)
+        np.testing.assert_array_equal(args[16][:k], plain[16][:k])
+        if status != CONVERGED:
+            assert flag == ROWS_CERTIFIED
+            continue
+        rows = np.ascontiguousarray(args[16][k - 1:0:-1])  # answer first, the start left out
+        expected = first_uncertified(pre.floats, pre.ints, rows, 0, pre.tolerance) >= len(rows)
+        assert flag == (ROWS_CERTIFIED if expected else ROWS_UNCERTIFIED)
+        seen[flag] += 1
+        if flag == ROWS_CERTIFIED:
+            assert not any(coal_scene.in_collision(q) for q in rows)
+    assert min(seen.values()) >= 3, seen  # every flag was met
+
+
+def test_admit_start_false_skips_the_start(panda, scene):
+    _, pre = scene
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        q0 = panda.random_q(rng)
+        if not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance):
+            break
+    T = panda.fk(panda.random_q(rng), FRAME)
+    status, it, k, flag = run_screened_start(*_arguments(panda, q0, T), pre.floats, pre.ints, pre.tolerance,
+                                             False)
+    assert flag != START_UNCERTIFIED and k >= 1
+    assert (status, it, k) == lm_kernel.run_start(*_arguments(panda, q0, T))
