@@ -55,8 +55,9 @@ class SolveRequest(NamedTuple):
     robot) is set. ``weights``: centring weights (None = off); ``avoid``: obstacles kept clear of the link
     capsules (bound :class:`ObstacleAvoidance`, None = none); ``extra``: further constraints of a target
     request; ``collision``: the collision options (None = none); ``collision_checker``: the
-    :class:`~kinserve.ik.collision.checkers.CollisionChecker` of their constraint bound to the robot (its
-    ``constraint``; None when the robot has no collision model: then ``avoid`` holds the obstacles);
+    :class:`~kinserve.ik.collision.collision_checker.CollisionChecker` of their constraint bound to the
+    robot (its ``constraint``; None when the robot has no collision model: then ``avoid`` holds the
+    obstacles);
     ``options``: the method's options (names and values checked by :func:`kinserve.ik.options.check_options`).
     ``max_time`` None means the method's default budget (:mod:`kinserve.ik.options`).
     """

@@ -38,7 +38,7 @@ from kinserve.ik.step_problems import StepProblems
 from kinserve.kinematics.robot import Robot
 
 if TYPE_CHECKING:
-    from kinserve.ik.collision.checkers import CollisionChecker
+    from kinserve.ik.collision.collision_checker import CollisionChecker
     from kinserve.ik.constraints.collision import CollisionConstraint
 
 #: Bound collision constraints one thread keeps per robot (least recently used dropped first).
@@ -49,7 +49,7 @@ _CREATE_LOCK = threading.Lock()  # makes the one IKState of a robot (a lock, not
 
 class BoundConstraints:
     """One thread's collision constraints bound to one robot, by obstacle set (value equality of shapes), each
-    with its :class:`~kinserve.ik.collision.checkers.CollisionChecker` (made with the binding).
+    with its :class:`~kinserve.ik.collision.collision_checker.CollisionChecker` (made with the binding).
 
     Shapes are immutable and hash by value, so a request repeating a scene - the same objects or equal
     ones - finds its bound constraint; a scene whose obstacles have the shapes and sizes of one bound before
@@ -88,7 +88,7 @@ class BoundConstraints:
         if checker is not None:
             self.by_scene.move_to_end(key)
             return checker
-        from kinserve.ik.collision.checkers import CollisionChecker
+        from kinserve.ik.collision.collision_checker import CollisionChecker
         from kinserve.ik.constraints.collision import CollisionConstraint
 
         layout = (self_collision, margin, tuple(shape.signature for shape in obstacles))
@@ -182,8 +182,8 @@ class IKState:
         return skeleton
 
     def collision_checker(self, obstacles: tuple, self_collision: bool, margin: float) -> CollisionChecker:
-        """The :class:`~kinserve.ik.collision.checkers.CollisionChecker` of the collision constraint of the
-        validated ``obstacles`` bound to the robot (this thread's)."""
+        """The :class:`~kinserve.ik.collision.collision_checker.CollisionChecker` of the collision constraint
+        of the validated ``obstacles`` bound to the robot (this thread's)."""
         store = getattr(self.threads, "bound", None)  # this thread's BoundConstraints
         if store is None:
             store = self.threads.bound = BoundConstraints()

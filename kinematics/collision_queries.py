@@ -61,6 +61,9 @@ class PairDistance:
                 "normal": self.normal.tolist()}
 
 
+#: :attr:`CollisionQueries.attached` of a robot that carries nothing (read-only, shared).
+_NOTHING_ATTACHED: MappingProxyType = MappingProxyType({})
+
 def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
     """A tuple of shapes from a shape, a sequence of shapes / shape dicts, or None."""
     if obstacles is None:
@@ -162,6 +165,8 @@ class CollisionQueries:
     @property
     def attached(self) -> "MappingProxyType[str, AttachedObject]":
         """The carried objects, ``{name: AttachedObject}`` (read-only; see :meth:`attach`)."""
+        if not self._attached:
+            return _NOTHING_ATTACHED
         return MappingProxyType({obj.name: obj for obj in self._attached})
 
     def attach(self, name: str, shape: Any, frame: str, pose_in_frame: Any = None,

@@ -328,7 +328,7 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
     """``max_starts=1``: one unconstrained run, then the constrained solve; without it, one unconstrained
     solve whose starts are capped at 1 + CHECKED_ATTEMPTS, a run that meets the block followed by the next
     start."""
-    from kinserve.ik.collision import checkers
+    from kinserve.ik.collision import collision_checker as checkers
     from kinserve.ik.lm import solver as lm_solver
     from kinserve.ik.strategies import checked as collision_solve
     from kinserve.ik.strategies import direct
@@ -369,7 +369,7 @@ def test_max_starts_caps_the_unconstrained_runs(panda, monkeypatch):
 def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     """The checked LM's admission: a start the sphere pre-check certifies runs; the first UNCERTIFIED_SKIPS
     uncertified ones are refused without coal, later ones (and the caller's q0 with prefer_q0) go to coal."""
-    from kinserve.ik.collision import checkers
+    from kinserve.ik.collision import collision_checker as checkers
     from kinserve.ik.state import ik_state
     from kinserve.kinematics.scene_precheck import certify
 

@@ -136,8 +136,8 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
     """The checked LM checks the answer and every other iterate of the returned run, and the start before its
     run: in the screen's compiled call (the sphere pre-check) when it certifies them, else by the admission
     and the checker's ``first_violation`` (the pre-check, then coal); the answer once."""
-    from kinserve.ik.collision import checkers
-    from kinserve.ik.lm.solver import LMScreen
+    from kinserve.ik.collision import collision_checker as checkers
+    from kinserve.ik.lm.screen import LMScreen
     from kinserve.ik.lm.status import ROWS_CERTIFIED, START_UNCERTIFIED
     from kinserve.ik.state import ik_state
 

@@ -407,7 +407,7 @@ def test_a_free_answer_reached_through_an_obstacle_is_only_a_start(panda, monkey
     T = panda.fk(q_goal).copy()
     calls = []
 
-    def fake_lm(req, budget, accept=None, admit=None, max_starts=None, screen=None):  # "converges" through q_mid
+    def fake_lm(req, budget, accept=None, admit=None, max_starts=None, screen=None):  # "converges" via q_mid
         qs = np.array([panda.neutral(), q_mid, q_goal])
         calls.append(qs)
         assert accept(qs)  # the answer is clear (its path is not): accepted

@@ -69,6 +69,8 @@ def non_negative(value: Any, name: str) -> float:
 
 def damper_gain(value: Any, name: str = "gain") -> float:
     """The velocity-damper gain ``xi`` as a float, checked in ``(0, 1]``."""
+    if type(value) is float and 0.0 < value <= 1.0:  # the common case, checked in one test
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
             or not (0.0 < value <= 1.0):
         raise InputError(f"{name} (velocity damper xi) must be in (0, 1], got {value!r}")
@@ -81,6 +83,8 @@ def frame_names(frames: Sequence[str] | str | None, name: str = "tool_frames") -
         return None
     if isinstance(frames, str):
         return (frames,)
+    if type(frames) is tuple and len(frames) == 1 and type(frames[0]) is str:  # the common case: one name
+        return frames
     try:
         names = tuple(frames)
     except TypeError:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any, NamedTuple
 
 import coal
@@ -159,6 +160,8 @@ class ObstacleTables:
     coal_shapes: CoalPairs
     m: int
     sphere_only: bool
+    #: :mod:`.clearance_kernel` (the skeleton's: loaded with it, never inside a solve)
+    kernel: ModuleType
 
     @property
     def links(self) -> LinkSkeleton:
@@ -202,7 +205,8 @@ class _Group(NamedTuple):
 
 def obstacle_frames(obstacles: Sequence[Shape]) -> tuple[str, ...]:
     """The frames the obstacles with ``frames`` are kept clear of, each once, in order of appearance."""
-    return tuple(dict.fromkeys(f for ob in obstacles if ob.frames is not None for f in ob.frames))
+    named = [ob.frames for ob in obstacles if ob.frames is not None]
+    return tuple(dict.fromkeys(f for frames in named for f in frames)) if named else ()
 
 
 def build_obstacle_tables(skeleton: RobotSkeleton, obstacles: Sequence[Shape], link_radius: float,
@@ -219,7 +223,7 @@ def build_obstacle_tables(skeleton: RobotSkeleton, obstacles: Sequence[Shape], l
     m = spheres.seg.size + capsules.seg.size + boxes.seg.size + coal_shapes.seg.size
     sphere_only = spheres.inv_len2 is not None and m == spheres.seg.size
     return ObstacleTables(tuple(obstacles), link_radius, margin, skeleton, offset, spheres, capsules, boxes,
-                          coal_shapes, m, sphere_only)
+                          coal_shapes, m, sphere_only, skeleton.kernel)
 
 
 def _groups(skeleton: RobotSkeleton, obstacles: Sequence[Shape], link_radius: float) -> list[_Group]:

@@ -154,11 +154,8 @@ class ObstacleAvoidance(Constraint):
         return self._take(tables)
 
     def _take(self, tables: ObstacleTables) -> ObstacleAvoidance:
-        """Hold ``tables`` (checked to be this constraint's) and the compiled kernels."""
-        # Numba and the compiled code: loaded here, once (never inside a solve's time budget)
-        from kinserve.ik.constraints import clearance_kernel
-
-        self.tables, self._kernel, self._last = tables, clearance_kernel, None
+        """Hold ``tables`` (checked to be this constraint's) and their compiled kernels."""
+        self.tables, self._kernel, self._last = tables, tables.kernel, None
         return self
 
     def bound_copy(self, robot: Robot, gain: float | None = None,

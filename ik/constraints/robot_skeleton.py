@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Sequence
+from operator import is_
+from types import ModuleType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -121,7 +123,7 @@ class BoundTables:
             for i in range(len(entries) - 1, -1, -1):
                 obs = entries[i].obstacles
                 if len(obs) == n and (not n or obs[0] is first) \
-                        and all(a is b for a, b in zip(obs, obstacles)) \
+                        and all(map(is_, obs, obstacles)) \
                         and entries[i].link_radius == link_radius and entries[i].margin == margin:
                     tables = entries[i]
                     if i != len(entries) - 1:
@@ -150,11 +152,12 @@ class RobotSkeleton:
     """The moving segments and the fixed base of a robot for one ``(tool_frames, frames)`` (module docstring).
 
     Attributes are set once by :func:`build_robot_skeleton` and only read afterwards; ``bound_tables`` keeps
-    the pair tables bound on it.
+    the pair tables bound on it; ``kernel``: :mod:`.clearance_kernel` (Numba and the compiled code, loaded
+    with the skeleton: never inside a solve's time budget).
     """
 
     __slots__ = ("model", "tool_frames", "frames", "links", "n_default", "base", "base_ball", "bound_tables",
-                 "_default_pairs")
+                 "_default_pairs", "kernel")
 
     def __init__(self, model: pin.Model, tool_frames: tuple[str, ...], frames: tuple[str, ...],
                  links: LinkSkeleton, n_default: int, base: tuple[BaseSegment, ...]) -> None:
@@ -169,6 +172,9 @@ class RobotSkeleton:
         self.bound_tables = BoundTables()
         self._default_pairs = tuple(default_pair_index(links, n_default, k)
                                     for k in range(1, PRECOMPUTED_BLOCKS + 1))
+        from kinserve.ik.constraints import clearance_kernel
+
+        self.kernel: ModuleType = clearance_kernel
 
     def matches(self, robot: Robot, tool_frames: Sequence[str], frames: Sequence[str]) -> bool:
         """True when this skeleton is ``robot``'s for these tool frames and frames."""

@@ -50,7 +50,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from functools import partial
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -59,6 +59,7 @@ from scipy.linalg import get_lapack_funcs
 from kinserve.ik import numpy_fast
 from kinserve.ik import options as _options
 from kinserve.ik.lm.chains import compiled_chain, compiled_chains
+from kinserve.ik.lm.screen import LMScreen
 from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, ROWS_CERTIFIED, STALLED, START_UNCERTIFIED
 from kinserve.ik.result import History, Result, task_evaluator
 from kinserve.ik.starts.multistart import frame_starts
@@ -177,18 +178,6 @@ def python_start(model: pin.Model, data: pin.Data, target: Target, q0: np.ndarra
                 return STALLED, it + 1, it + 1
         qs[it + 1] = _bounded_step(J, e, DAMPING_GAIN * E + lam0, q, lo, hi)
     return ITERATION_LIMIT, max_iter, max_iter + 1
-
-
-class LMScreen(NamedTuple):
-    """A pre-check that runs in the same compiled call as each LM start
-    (:func:`kinserve.ik.lm.screened_kernel.run_screened_start` is ``run``): it certifies the start before the
-    run and the converged run's rows after it. ``floats``, ``ints``, ``tolerance``: the scene's pre-check
-    arguments (:class:`~kinserve.kinematics.scene_precheck.PrecheckArguments`)."""
-
-    run: Callable[..., tuple[int, int, int, int]]
-    floats: np.ndarray
-    ints: np.ndarray
-    tolerance: float
 
 
 def _run_start(problem: tuple, q: np.ndarray, max_iter: int) -> tuple[bool, int, tuple]:

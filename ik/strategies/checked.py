@@ -27,7 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from kinserve.ik.collision.checkers import ClearanceChecker, CollisionChecker, last_clear
+from kinserve.ik.collision.checkers import ClearanceChecker, last_clear
+from kinserve.ik.collision.collision_checker import CollisionChecker
 from kinserve.ik.lm.solver import ADMIT_MISSES
 from kinserve.ik.options import CHECKED_ATTEMPTS, CHECKED_BUDGET_SHARE
 from kinserve.ik.request import SolveRequest
@@ -103,8 +104,8 @@ def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> R
         res.history = res.history.final()
         res.message = (f"converged: an unconstrained run's answer, {what}, taken as a start of its own "
                        "(the run's path was not; the history is that configuration alone)")
-    elif collision and attempt == 1 and res.message == "converged":  # the common answer, written once
-        res.message = _COLLISION_FREE_FIRST
+    elif attempt == 1 and res.message == "converged":  # the common answer, written once
+        res.message = _PASSED_FIRST[collision]
     else:
         res.message += f"; {what} (unconstrained answer and every iterate checked, attempt {attempt})"
     info = res.info
@@ -115,8 +116,9 @@ def _passed(res: Result, checker: Checker, attempt: int, answer_only: bool) -> R
     return res
 
 
-_COLLISION_FREE_FIRST = ("converged; collision free (unconstrained answer and every iterate checked, "
-                         "attempt 1)")
+#: :func:`_passed`'s message of a first attempt's converged run, by ``checker.name == "collision"``.
+_PASSED_FIRST = {flag: f"converged; {what} (unconstrained answer and every iterate checked, attempt 1)"
+                 for flag, what in ((True, "collision free"), (False, "clear of the obstacles"))}
 
 
 def _cap(req: SolveRequest) -> int:
