@@ -124,7 +124,7 @@ def collision_pose_request(robot: Robot, target: Any, q0: Any, frame: str | None
     last = None
     if (type(obstacles) is list or type(obstacles) is tuple) and type(spheres) is tuple and not spheres \
             and type(collision_margin) is float:  # the shapes of this thread's last scene: validated then
-        last = ik_state(robot).last_collision(obstacles, self_collision, collision_margin)
+        last = robot.extensions.ik.last_collision(obstacles, self_collision, collision_margin)  # (warm)
     if last is not None:
         (collision, checker), avoid = last, None
     else:
