@@ -118,22 +118,28 @@ class Shape:
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
 
+    #: Whether the shape keeps the coal geometry it makes (a mesh's hull: costly to build, shared); the
+    #: primitives make theirs on each :meth:`geometry` call, so a shape holds no coal object.
+    _keeps_geometry = False
+
     def _set(self, **fields: Any) -> None:
-        """Set the constructor's ``fields`` (arrays copied read-only), then what follows from them: the coal
-        geometry, the bounding ball, the hash, the signature and the obstacle row (the shape is immutable, so
-        they never change)."""
+        """Set the constructor's ``fields`` (arrays copied read-only), then what follows from them: the
+        bounding ball, the hash, the signature and the obstacle row (the shape is immutable, so they never
+        change); a mesh also keeps its coal geometry."""
         for k, v in fields.items():
             if isinstance(v, np.ndarray):  # immutable all the way down: hashes and cached scenes stay valid
                 v = v.copy()
                 v.setflags(write=False)
             object.__setattr__(self, k, v)
-        object.__setattr__(self, "_geometry", self._make_geometry())
+        geometry = self._make_geometry()
+        if self._keeps_geometry:
+            object.__setattr__(self, "_geometry", geometry)
         object.__setattr__(self, "_ball", self._world_ball())
         plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
         object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))
         object.__setattr__(self, "signature", self._signature())
-        row = obstacle_row(self._geometry, self.pose)
+        row = obstacle_row(geometry, self.pose)
         row.setflags(write=False)
         object.__setattr__(self, "obstacle_row", row)
 
@@ -143,8 +149,10 @@ class Shape:
 
     # -- coal ------------------------------------------------------------------------------------------
     def geometry(self) -> coal.CollisionGeometry:
-        """The coal collision geometry in the shape's own frame (built with the shape)."""
-        return self._geometry
+        """The coal collision geometry in the shape's own frame: a new one on each call (a sphere, box,
+        capsule or cylinder; the objects that query coal make theirs once and own them: a scene's layout, a
+        bound constraint's tables), or a mesh's convex hull, built with the mesh and shared."""
+        return self._make_geometry()
 
     def _make_geometry(self):  # pragma: no cover - every subclass overrides
         raise NotImplementedError
@@ -380,6 +388,7 @@ class Mesh(Shape):
     kind = "mesh"
     path: str
     scale: tuple[float, float, float]
+    _keeps_geometry = True
 
     def __init__(self, path: str | Path, pose: Any = None, scale: float | Sequence[float] = 1.0,
                  frames: Iterable[str] | None = None) -> None:
@@ -390,6 +399,10 @@ class Mesh(Shape):
         vertices, planes = _load_hull(Path(path), np.asarray(sc))
         self._set(path=str(path), pose=T, scale=sc, frames=_frames(frames, "mesh"),
                   hull_vertices=vertices, hull_planes=planes)
+
+    def geometry(self) -> coal.CollisionGeometry:
+        """The convex hull (coal ``Convex``) in the mesh's own frame, built with the mesh and shared."""
+        return self._geometry
 
     def _make_geometry(self):
         import coal

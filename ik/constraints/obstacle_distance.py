@@ -258,7 +258,8 @@ def _box_closed_form(a: np.ndarray, b: np.ndarray, h: np.ndarray,
 
 
 def box_penetration(boxes: BoxPairs, r: int, a: np.ndarray, b: np.ndarray) -> Penetration:
-    """coal's signed distance between box pair ``r``'s box and the core of the segment ``[a, b]`` (world)."""
+    """coal's signed distance between box pair ``r``'s box and the core of the segment ``[a, b]`` (world); the
+    box's coal geometry is made for the query (a segment inside a box is rare: the tables keep none)."""
     ab = b - a
     length = math.sqrt(ab.dot(ab))
     res = coal.DistanceResult()
@@ -322,7 +323,7 @@ def core_distance(pairs: CoalPairs, p: int, oMi: list, a: np.ndarray, b: np.ndar
         length = math.sqrt(ab.dot(ab))
         geom, tf = segment_core(length), segment_transform(a, ab, length)
     result.clear()
-    return coal.distance(pairs.shapes[p].geometry(), pairs.transforms[p], geom, tf, request, result)
+    return coal.distance(pairs.geometries[p], pairs.transforms[p], geom, tf, request, result)
 
 
 def coal_pairs(links: LinkSkeleton, data: pin.Data, P: np.ndarray, pairs: CoalPairs, far: float,

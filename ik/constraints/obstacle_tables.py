@@ -134,6 +134,8 @@ class CoalPairs:
     ib: np.ndarray
     shapes: tuple[Shape, ...]
     transforms: tuple[coal.Transform3s, ...]
+    #: per pair, its shape's coal geometry (made once per obstacle with the tables: the tables own them)
+    geometries: tuple[coal.CollisionGeometry, ...]
     center: np.ndarray
     R: np.ndarray
     bound: np.ndarray
@@ -192,7 +194,7 @@ _frozen(_I0, _F0, _F03, _F033, _F013)
 _NO_SPHERES = SpherePairs((), _I0, _I0, _I0, _I0, _I0, _F03, _F0, _F0, _F0, None, None, None, _F03, None)
 _NO_CAPSULES = CapsulePairs((), _I0, _I0, _I0, _I0, _F03, _F03, _F0, _F0)
 _NO_BOXES = BoxPairs((), _I0, _I0, _I0, _I0, _I0, _F033, _F013, _F033, _F03, _F03, ())
-_NO_COAL_PAIRS = CoalPairs((), _I0, _I0, _I0, _I0, (), (), _F03, _F033, _F0, _F03, _F03, ())
+_NO_COAL_PAIRS = CoalPairs((), _I0, _I0, _I0, _I0, (), (), (), _F03, _F033, _F0, _F03, _F03, ())
 
 
 class _Group(NamedTuple):
@@ -318,11 +320,13 @@ def _coal_pairs(skeleton: RobotSkeleton, group: _Group) -> CoalPairs:
     x = _pair_index(skeleton, group)
     rows = x.row.tolist()
     placements = [coal_transform(ob.pose) for _, ob, _ in group.members]  # per obstacle once
+    geometries = [ob.geometry() for _, ob, _ in group.members]
     poses = _per_obstacle(group, lambda ob: ob.pose).reshape(-1, 4, 4)
     extents = [local_extent(ob) for _, ob, _ in group.members]
     out = CoalPairs(
         tuple(k for k, _, _ in group.members), x.seg, x.row, x.ia, x.ib,
-        tuple(group.members[r][1] for r in rows), tuple(placements[r] for r in rows), poses[x.row, :3, 3],
+        tuple(group.members[r][1] for r in rows), tuple(placements[r] for r in rows),
+        tuple(geometries[r] for r in rows), poses[x.row, :3, 3],
         poses[x.row, :3, :3], _per_obstacle(group, bounding_radius)[x.row],
         np.array([e[0] for e in extents], dtype=float).reshape(-1, 3)[x.row],
         np.array([e[1] for e in extents], dtype=float).reshape(-1, 3)[x.row],

@@ -83,7 +83,7 @@ def _coal_violations(tables: ObstacleTables, P: np.ndarray, bad: np.ndarray, fir
         ab = B[r] - A[r]
         length = math.sqrt(ab.dot(ab))
         result.clear()
-        d = coal.distance(pairs.shapes[p].geometry(), pairs.transforms[p], segment_core(length),
+        d = coal.distance(pairs.geometries[p], pairs.transforms[p], segment_core(length),
                           segment_transform(A[r], ab, length), request, result)
         if d - off < 0.0:
             bad[k] = True
