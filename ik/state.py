@@ -194,13 +194,9 @@ class IKState:
         ``obstacles`` (a tuple or list, not validated) holds the very shape objects it was asked for, with the
         same options (``self_collision`` the same bool object); else None."""
         store = getattr(self.threads, "bound", None)
-        if store is None:
+        if store is None or not store.same_as_last(obstacles, self_collision, margin):
             return None
-        last = store.last  # (BoundConstraints.same_as_last, written out: one call less per solve)
-        if last[1] is self_collision and last[2] == margin and len(last[0]) == len(obstacles) \
-                and all(map(is_, last[0], obstacles)):
-            return last[4], last[3]
-        return None
+        return store.last[4], store.last[3]
 
     def collision_constraint(self, obstacles: tuple, self_collision: bool,
                              margin: float) -> CollisionConstraint:

@@ -13,6 +13,7 @@ from kinserve.ik.starts.multistart import frame_starts
 from kinserve.ik.starts.seed_table import start_sequence
 from kinserve.ik.state import seed_table
 from kinserve.kinematics import errors
+from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import ROTATION_TOL, as_pose, as_vector, is_pose_fast
 
 FRAME = "panda_link8"
@@ -194,6 +195,43 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
     assert sum(np.array_equal(res.q, c) for c in checked) == 1
     monkeypatch.undo()
     assert not any(panda.in_collision(q) for q in hist)
+
+
+def test_the_last_scene_is_reused_only_for_the_very_same_shapes(panda):
+    """A collision-aware request whose obstacles are the very shape objects of the thread's last one (and the
+    same options) skips re-validating them and reuses that binding; one other object, another order, other
+    options or bad input go through validation and binding (equal new shapes find the same binding by
+    value)."""
+    from kinserve.ik.request import collision_pose_request
+
+    def box(x):
+        T = np.eye(4)
+        T[:3, 3] = (x, 0.0, -0.05)
+        return ik.Box(T, (0.7, 1.2, 0.1))
+
+    table, wall, other = box(0.65), box(-0.9), box(-1.2)
+    T = panda.fk(panda.neutral(), FRAME)
+
+    def request(obstacles, self_collision=True, margin=0.0):
+        return collision_pose_request(panda, T, None, FRAME, (), "world", "auto", 1e-4, 1e-3, None, None, {},
+                                      self_collision, obstacles, margin, ())
+
+    first = request([table, wall])
+    again = request([table, wall])
+    assert again.collision_checker is first.collision_checker and again.collision == first.collision
+    assert request((table, wall)).collision is again.collision  # the last binding's validated options
+    swapped = request([table, other])
+    assert swapped.collision_checker is not first.collision_checker
+    assert swapped.collision_checker.constraint.obstacles[1] is other
+    assert request([wall, table]).collision_checker.constraint.obstacles[0] is wall
+    assert request([table, wall], margin=0.01).collision.margin == 0.01
+    assert request([table, wall], self_collision=False).collision.self_collision is False
+    with pytest.raises(InputError, match="collision margin"):
+        request([table, wall], margin=-1.0)
+    with pytest.raises(InputError, match="self_collision"):
+        request([table, wall], self_collision=1)
+    equal = request([box(0.65), box(-0.9)])  # equal new objects: validated, then the same binding by value
+    assert equal.collision_checker is first.collision_checker
 
 
 def test_bound_constraints_are_found_by_the_shapes_values(panda):

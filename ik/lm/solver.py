@@ -239,7 +239,7 @@ def _try_start(problem: tuple, q: np.ndarray, cap: int, accept, admit) -> tuple[
     else:
         ok, it, run, flag = _run_screened(problem, q, cap, True)
         if flag == START_UNCERTIFIED:
-            if not admit(q):
+            if admit is not None and not admit(q):
                 return REFUSED, 0, None
             ok, it, run, flag = _run_screened(problem, q, cap, False)
         sure = flag == ROWS_CERTIFIED
