@@ -82,11 +82,7 @@ CLOSED_FORM = Strategy("closed form", closed_form)
 CLOSED_FORM_OR_LM = Strategy("closed form, LM when no branch is usable", _closed_form_or_lm)
 LM = Strategy("LM", levenberg_marquardt)
 QP = Strategy("QP (constraints hard)", target_qp)
-def _checked_lm(req: SolveRequest) -> Result:
-    return checked_first(req, "lm")
-
-
-CHECKED_LM = Strategy("checked LM, then constrained QP", _checked_lm)
+CHECKED_LM = Strategy("checked LM, then constrained QP", partial(checked_first, attempts="lm"))
 CHECKED_CLOSED_FORM = Strategy("checked closed form, then constrained QP",
                                partial(checked_first, attempts="closed_form"))
 CHECKED_QP = Strategy("checked QP, then constrained QP", partial(checked_first, attempts="qp"))

@@ -121,19 +121,25 @@ def collision_pose_request(robot: Robot, target: Any, q0: Any, frame: str | None
     :func:`target_request` makes of it, with positional arguments (the common collision-aware call)."""
     req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
                        options)
-    last = None
-    if (type(obstacles) is list or type(obstacles) is tuple) and type(spheres) is tuple and not spheres \
-            and type(collision_margin) is float:  # the shapes of this thread's last scene: validated then
-        last = robot.extensions.ik.last_collision(obstacles, self_collision, collision_margin)  # (warm)
-    if last is not None:
-        (collision, checker), avoid = last, None
-    else:
-        collision = collision_request(self_collision, obstacles, collision_margin, spheres)
-        checker, avoid = _bind_collision(robot, collision, req.target.frame)
+    collision, checker, avoid = _collision_part(robot, req.target.frame, self_collision, obstacles,
+                                                collision_margin, spheres)
     if avoid is not None and method in NO_OBSTACLE_METHODS:
         _refuse_obstacles(method)
     return SolveRequest(robot, req.target, None, req.q0, method, DEFAULT_BACKEND, req.tol_pos, req.tol_rot,
                         req.max_time, req.seed, None, avoid, (), collision, checker, req.options)
+
+
+def _collision_part(robot: Robot, frame: str, self_collision: Any, obstacles: Any, collision_margin: Any,
+                    spheres: Any) -> tuple:
+    """``(CollisionRequest, checker, avoid)`` of the collision options (:func:`_bind_collision`); the shapes
+    of this thread's last scene (the very objects, the same options) were validated and bound then."""
+    if (type(obstacles) is list or type(obstacles) is tuple) and type(spheres) is tuple and not spheres \
+            and type(collision_margin) is float:
+        last = robot.extensions.ik.last_collision(obstacles, self_collision, collision_margin)  # (warm)
+        if last is not None:
+            return (*last, None)
+    collision = collision_request(self_collision, obstacles, collision_margin, spheres)
+    return (collision, *_bind_collision(robot, collision, frame))
 
 
 def _refuse_obstacles(method: str) -> None:
@@ -157,8 +163,8 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     collision, bound, avoid = None, None, None
     if self_collision or collision_margin:
-        collision = collision_request(self_collision, obstacles, collision_margin, spheres)
-        bound, avoid = _bind_collision(robot, collision, tgt.frame)
+        collision, bound, avoid = _collision_part(robot, tgt.frame, self_collision, obstacles,
+                                                  collision_margin, spheres)
     else:
         avoid = _link_obstacles(robot, spheres, obstacles, link_radius, tgt.frame)
         if avoid is not None and robot.attached:  # carried objects: in the collision model, not the capsules

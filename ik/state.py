@@ -41,6 +41,8 @@ if TYPE_CHECKING:
     from kinserve.ik.collision.collision_checker import CollisionChecker
     from kinserve.ik.constraints.collision import CollisionConstraint
 
+#: :attr:`BoundConstraints.last` before any binding: matches no request.
+_NO_REQUEST = CollisionRequest(None, (), None)  # type: ignore[arg-type]
 #: Bound collision constraints one thread keeps per robot (least recently used dropped first).
 BOUND_CONSTRAINTS_PER_THREAD = 16
 
@@ -61,24 +63,23 @@ class BoundConstraints:
         self.size = size
         self.by_scene: OrderedDict[tuple, CollisionChecker] = OrderedDict()
         self.by_layout: OrderedDict[tuple, CollisionConstraint] = OrderedDict()
-        #: ``(obstacles, self_collision, margin, checker, CollisionRequest)`` of the last :meth:`get`
-        self.last: tuple = ((), None, None, None, None)
+        #: ``(CollisionRequest, checker)`` of the last :meth:`get`
+        self.last: tuple[CollisionRequest, CollisionChecker | None] = (_NO_REQUEST, None)
 
     def get(self, robot: Robot, obstacles: tuple, self_collision: bool, margin: float) -> CollisionChecker:
         """The checker of the constraint of ``obstacles`` (validated shapes) bound to ``robot``."""
         if self.same_as_last(obstacles, self_collision, margin):  # that constraint (most recently used)
-            return self.last[3]
+            return self.last[1]
         checker = self._lookup(robot, obstacles, self_collision, margin)
-        request = CollisionRequest(self_collision, obstacles, margin)
-        self.last = (obstacles, self_collision, margin, checker, request)
+        self.last = (CollisionRequest(self_collision, obstacles, margin), checker)
         return checker
 
     def same_as_last(self, obstacles: Any, self_collision: bool, margin: float) -> bool:
         """True when ``obstacles`` (a tuple or list; not validated) holds the very shape objects of the last
         :meth:`get`, with the same options: the shapes were validated then and are immutable."""
-        last = self.last
-        return last[1] is self_collision and last[2] == margin and len(last[0]) == len(obstacles) \
-            and all(map(is_, last[0], obstacles))
+        last = self.last[0]
+        return last.self_collision is self_collision and last.margin == margin \
+            and len(last.obstacles) == len(obstacles) and all(map(is_, last.obstacles, obstacles))
 
     def _lookup(self, robot: Robot, obstacles: tuple, self_collision: bool,
                 margin: float) -> CollisionChecker:
@@ -196,7 +197,7 @@ class IKState:
         store = getattr(self.threads, "bound", None)
         if store is None or not store.same_as_last(obstacles, self_collision, margin):
             return None
-        return store.last[4], store.last[3]
+        return store.last
 
     def collision_constraint(self, obstacles: tuple, self_collision: bool,
                              margin: float) -> CollisionConstraint:

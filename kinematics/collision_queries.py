@@ -64,6 +64,7 @@ class PairDistance:
 #: :attr:`CollisionQueries.attached` of a robot that carries nothing (read-only, shared).
 _NOTHING_ATTACHED: MappingProxyType = MappingProxyType({})
 
+
 def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
     """A tuple of shapes from a shape, a sequence of shapes / shape dicts, or None."""
     if obstacles is None:

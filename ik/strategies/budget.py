@@ -40,13 +40,10 @@ class Budget(NamedTuple):
         return Budget(seconds, iterations)
 
 
-def request_budget(req: SolveRequest, default_seconds: float = MAX_TIME_QP, share: float = 1.0) -> Budget:
+def request_budget(req: SolveRequest, default_seconds: float = MAX_TIME_QP) -> Budget:
     """The budget of a request: its ``max_time`` (default ``default_seconds``, none with an iteration budget
-    alone) and its ``iteration_budget`` option; ``share`` < 1: a stage's part of it (:meth:`Budget.share`)."""
+    alone) and its ``iteration_budget`` option."""
     iterations = req.options.get("iteration_budget")
-    if share != 1.0:
-        return request_budget(req, default_seconds).share(share) if iterations is not None \
-            else Budget(share * (default_seconds if req.max_time is None else req.max_time), None)
     if req.max_time is not None:
         return Budget(req.max_time, iterations)
     return Budget(None if iterations is not None else default_seconds, iterations)

@@ -63,10 +63,11 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
     """Solve ``req`` as the module docstring says; ``attempts``: ``"lm"``, ``"closed_form"`` or ``"qp"``."""
     t0 = time.perf_counter()
     checker, admit = make_checker(req)
+    budget = request_budget(req)
     found, failed, used, tried = None, None, 0, 0
     if CHECKED_ATTEMPTS > 0:  # (0: straight to the constrained solve)
         run = _ATTEMPTS[attempts]
-        found, failed, used, tried = run(req, checker, admit, request_budget(req, share=CHECKED_BUDGET_SHARE))
+        found, failed, used, tried = run(req, checker, admit, budget.share(CHECKED_BUDGET_SHARE))
     if found is not None:
         if checker.name == "obstacles":
             found.message += _q0_note(checker)
@@ -76,7 +77,6 @@ def checked_first(req: SolveRequest, attempts: str) -> Result:
     if reason:
         return _infeasible(req, t0, reason, used)
     warm = None if failed is None else last_clear(checker, failed)
-    budget = request_budget(req)
     stage = budget.after(t0, used)
     res = _constrained(req, checker, warm, stage, tried)
     res.iterations += used  # the attempts' iterations count: the result reports the whole solve
@@ -142,8 +142,7 @@ def _lm_attempts(req: SolveRequest, checker: Checker, admit: Admit, budget: Budg
         verdict.append(k > 0)  # True: the answer passes, its path does not
         return True
 
-    screen = checker.screen if admit is not None else None  # (the screen admits as the admission does)
-    res = levenberg_marquardt(req, budget, accept=accept, admit=admit, screen=screen,
+    res = levenberg_marquardt(req, budget, accept=accept, admit=admit, screen=checker.screen,
                               max_starts=_cap(req) if req.options else 1 + CHECKED_ATTEMPTS)
     if res.success:  # (verdict is empty when the screen certified the whole run: accept was not asked)
         return _passed(res, checker, 1 + res.restarts, bool(verdict) and verdict[-1]), None, res.iterations, \
