@@ -17,7 +17,7 @@ With ``--ik N``: collision-aware ``ik.solve`` (flange targets of ``N`` collision
 random starts; the open scene, and a 10 cm cube on the elbow of each target's unconstrained answer), per
 target the best CPU time of 3 solves with the pre-check and 3 without, alternating; the medians, their
 ratios to the unconstrained solve and the median per-target difference. ``--fresh`` empties the scene
-caches before every cube solve (as in ``bench_collision.py`` with more targets than the 32 cached scenes).
+caches before every cube solve (a solve in a scene the process has not seen).
 
 Every timing is taken twice in the same process on the same inputs, alternating: with the pre-check
 (``..._us``) and with it switched off on the scenes (``..._coal_us``: coal alone, the code before the
@@ -37,6 +37,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve import ik, robots
+from kinserve.ik.state import _NO_REQUEST as NO_REQUEST
 
 FRAME = "panda_link8"
 
@@ -117,7 +118,7 @@ def forget_bound_scenes(robot) -> None:
     store = None if state is None else getattr(state.threads, "bound", None)
     if store is not None:
         store.by_scene.clear()
-        store.last = ((), None, None, None)
+        store.last = (NO_REQUEST, None)
 
 
 def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
@@ -141,7 +142,7 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
         cases.append((T, start, cube))
 
     def objects():
-        return [*cm._layouts.values(), *(s for s, _ in cm._scenes.values())]
+        return [*cm._layouts.values(), cm._last_scene.scene]
 
     def put(on: bool) -> None:
         for o in objects():
@@ -156,7 +157,7 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
                 on = r % 2 == 0
                 put(on)
                 if w == "cube" and fresh:
-                    cm._scenes.clear()
+                    cm._last_scene = cm._last_scene._replace(key=None, same=None)
                     forget_bound_scenes(robot)
                 obs = obstacles if w == "open" else [*obstacles, cube]
                 t0 = time.process_time()

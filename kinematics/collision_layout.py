@@ -44,7 +44,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from .configuration_checks import CoalCheck, coal_test, collision_check, pair_test
+from .configuration_checks import PAIRWISE_MAX, CoalCheck, coal_test, collision_check, pair_test
 from .hull_table import HullTable, hull_table
 
 if TYPE_CHECKING:
@@ -104,16 +104,18 @@ class RobotCollisionGeometry:
 class Workspace:
     """One thread's Pinocchio and coal state of a layout: ``data``, ``geometry_data`` (exact checks:
     security margin 0), the broad-phase ``manager`` (None without pairs), its own ``geometry`` (shares the
-    coal shapes; holds the placements of ``held``, the obstacles of the scene that used it last) and the
-    bound ``check`` (:func:`~.configuration_checks.collision_check`; None without pairs) with its tests
-    ``hits(q)`` (every pair, :func:`~.configuration_checks.coal_test`) and ``pair_hits(q, pairs)`` (the pairs
-    given, :func:`~.configuration_checks.pair_test`), None without pairs."""
+    coal shapes; obstacle ``k`` is at the pose of ``placed[k]``; ``held``: the obstacles tuple of the scene
+    whose every obstacle is in place, None when only some are) and the bound ``check``
+    (:func:`~.configuration_checks.collision_check`; None without pairs) with its tests ``hits(q)`` (every
+    pair, :func:`~.configuration_checks.coal_test`) and ``pair_hits(q, pairs)`` (the pairs given,
+    :func:`~.configuration_checks.pair_test`), None without pairs."""
 
     data: pin.Data
     geometry_data: pin.GeometryData
     manager: Any
     geometry: pin.GeometryModel
-    held: tuple
+    held: tuple | None
+    placed: list
     check: CoalCheck | None
     hits: Any = None
     pair_hits: Any = None
@@ -209,6 +211,8 @@ class SceneLayout:
         self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
         self.pair_names: list[tuple[str, str]] = [(names[a], names[b]) for a, b in pairs]
         self.pair_joints = np.asarray(joints, dtype=int)[self.pairs].reshape(-1, 2)
+        #: The obstacle (index into ``obstacles``) of each pair, -1 for a pair of robot geometries.
+        self.pair_obstacle: list[int] = [b - self.n_robot if b >= self.n_robot else -1 for _, b in pairs]
         self.broad_phase = broad_phase_manager_class(gm.ngeoms)
         self._precheck = self._build_precheck(robot)
         self._threads = threading.local()  # .workspace: Workspace; .margin: {threshold: margin workspace}
@@ -253,9 +257,10 @@ class SceneLayout:
         data = self.model.createData()
         bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
         check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
+        placed = list(self.obstacles)
         if check is None:
-            return Workspace(data, gd, bpm, gm, self.obstacles, None)
-        return Workspace(data, gd, bpm, gm, self.obstacles, check, coal_test(check), pair_test(check))
+            return Workspace(data, gd, bpm, gm, self.obstacles, placed, None)
+        return Workspace(data, gd, bpm, gm, self.obstacles, placed, check, coal_test(check), pair_test(check))
 
     def workspace(self, obstacles: tuple, placements: Sequence[pin.SE3] | None = None) -> Workspace:
         """This thread's :class:`Workspace` holding the placements of ``obstacles``; only the obstacles that
@@ -264,14 +269,33 @@ class SceneLayout:
         ws = getattr(self._threads, "workspace", None)
         if ws is None:  # a thread's first query of this layout
             ws = self._threads.workspace = self._new_workspace()
-        held = ws.held
-        if held is not obstacles:
-            objects = ws.geometry.geometryObjects
-            for k, (now, shape) in enumerate(zip(held, obstacles)):
-                if now is not shape:  # shapes are immutable: the same object, the same pose
-                    objects[self.n_robot + k].placement = self._placement(k, shape) if placements is None \
+        if ws.held is not obstacles:
+            placed, objects, n = ws.placed, ws.geometry.geometryObjects, self.n_robot
+            for k, shape in enumerate(obstacles):
+                if placed[k] is not shape:  # shapes are immutable: the same object, the same pose
+                    objects[n + k].placement = self._placement(k, shape) if placements is None \
                         else placements[k]
+                    placed[k] = shape
             ws.held = obstacles
+        return ws
+
+    def pair_workspace(self, obstacles: tuple, pairs: np.ndarray) -> Workspace:
+        """This thread's :class:`Workspace` with the obstacles of the scene pairs ``pairs`` (an int array of
+        indices) in
+        place - the others may hold another scene's poses - for a coal check of those pairs alone (every
+        obstacle when there are more than :data:`~.configuration_checks.PAIRWISE_MAX`: that check runs the
+        broad phase). A new scene's first undecided configuration places the one or two obstacles its
+        pairs meet, not all."""
+        ws = getattr(self._threads, "workspace", None)
+        if ws is None or ws.held is obstacles or len(pairs) > PAIRWISE_MAX:
+            return self.workspace(obstacles)
+        placed, slot = ws.placed, self.pair_obstacle
+        for p in pairs.tolist():
+            k = slot[p]
+            if k >= 0 and placed[k] is not obstacles[k]:
+                ws.geometry.geometryObjects[self.n_robot + k].placement = self._placement(k, obstacles[k])
+                placed[k] = obstacles[k]
+                ws.held = None
         return ws
 
     def _placement(self, k: int, shape: Shape) -> pin.SE3:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import coal
 import numpy as np
@@ -52,10 +52,24 @@ from .collision_scene import CollisionScene
 from .errors import ModelError
 from .mesh_hulls import HullFallback, convex_hulls
 
-#: Scenes (obstacle sets) kept per model, least recently used dropped first (also: layouts kept).
-SCENE_CACHE_SIZE = 32
+#: Scene layouts (obstacle shapes, poses aside) kept per model, least recently used dropped first.
+LAYOUT_CACHE_SIZE = 32
 
 _NO_MISS = (None, None, None)  # CollisionModel._missed when no lookup missed since the last scene was built
+
+
+class _LastScene(NamedTuple):
+    """The scene a model built last (:meth:`CollisionModel.scene`): ``obstacles`` the caller's tuple
+    (``same`` answers a repeated call with it by identity), ``key`` = ``(self_collision, *ids of the validated
+    shapes)``; ``scene.obstacles`` keeps those shapes alive, so no other live object carries their ids."""
+
+    same: tuple | None
+    self_collision: bool | None
+    key: tuple | None
+    scene: CollisionScene | None
+
+
+_NO_SCENE = _LastScene(None, None, None, None)
 
 
 def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
@@ -184,11 +198,9 @@ class CollisionModel:
                                                      self.spheres)
         self._shape_data = [_shape_dict(g, link) for g, link in zip(gm.geometryObjects, self.links)]
         self._base_spheres = _base_spheres(gm, self.geometry_joints)
-        self._scenes: OrderedDict = OrderedDict()  #: (self_collision, *ids) -> (scene, obstacles)
         self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
-        #: (obstacles tuple, self_collision, scene) of the last tuple looked up: a repeated call with the same
-        #: tuple skips the key of ids (the tuple is kept alive here: the same object, the same shapes).
-        self._last_scene: tuple = (None, None, None)
+        #: The last scene built (:class:`_LastScene`); one, so a new scene frees the one before it.
+        self._last_scene: _LastScene = _NO_SCENE
         #: (obstacles, self_collision, key of ids) of the last tuple :meth:`cached_scene` did not find: the
         #: scene built next for it skips the key and the lookup (kept alive here, so its ids stay its own).
         self._missed: tuple = _NO_MISS
@@ -268,35 +280,31 @@ class CollisionModel:
 
     # ----------------------------------------------------------------- scenes
     def cached_scene(self, obstacles: Any, self_collision: bool = True) -> CollisionScene | None:
-        """The cached scene of exactly these obstacle objects (a list or tuple, unvalidated), else None.
+        """The last scene built (:meth:`scene`) when ``obstacles`` (a list or tuple, unvalidated) are its very
+        objects, in order, else None.
 
-        A hit is safe without validating ``obstacles``: every cache entry holds
-        the (validated, immutable) shapes whose ids form its key, so no other
-        live object can carry those ids - equal ids mean the very same shapes.
-        Dict forms never hit. The same tuple (immutable) as the last lookup's answers without the key.
+        A hit is safe without validating ``obstacles``: the last scene holds the (validated, immutable) shapes
+        whose ids form its key, so no other live object can carry those ids - equal ids mean the very same
+        shapes. Dict forms never hit. The same tuple as the last scene's answers without the key.
         """
         last = self._last_scene
-        if obstacles is last[0] and self_collision is last[1]:
-            return last[2]
+        if obstacles is last.same and self_collision is last.self_collision:
+            return last.scene
         if type(obstacles) is tuple or type(obstacles) is list:
             key = (self_collision, *map(id, obstacles))
-            entry = self._scenes.get(key)
-            if entry is None:
-                if type(obstacles) is tuple:  # the caller builds the scene next (:meth:`scene`): reuses key
-                    self._missed = (obstacles, self_collision, key)
-                return None
-            if type(obstacles) is tuple:
-                self._last_scene = (obstacles, self_collision, entry[0])
-            return entry[0]
+            if key == last.key:
+                return last.scene
+            if type(obstacles) is tuple:  # the caller builds the scene next (:meth:`scene`): reuses key
+                self._missed = (obstacles, self_collision, key)
         return None
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
-        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes), cached by
-        the identity of the obstacle objects (:data:`SCENE_CACHE_SIZE` scenes): passing the same objects again
-        costs a dictionary lookup. New objects - equal to earlier ones or not - get a new scene on the layout
-        of their signatures (:meth:`layout`): the obstacle rows are the shapes' own
-        (:attr:`~.shapes.Shape.obstacle_row`), so that costs a few microseconds and allocates nothing in
-        Pinocchio or coal.
+        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes). The model
+        remembers the last scene it built: passing its very objects again costs a comparison of ids; other
+        objects - equal to those or not - get a new scene on the layout of their signatures (:meth:`layout`),
+        and the one before is freed (a caller that switches between scenes holds each one). The obstacle rows
+        are the shapes' own (:attr:`~.shapes.Shape.obstacle_row`), so a new scene costs a few microseconds and
+        allocates nothing in Pinocchio or coal.
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
         missed = self._missed
@@ -305,12 +313,11 @@ class CollisionModel:
             self._missed = _NO_MISS  # once: a later call looks the tuple up again
         else:
             key = (self_collision, *map(id, obs))
-            entry = self._scenes.get(key)
-            if entry is not None:  # the entry keeps these objects alive: same ids, same objects
-                return entry[0]
+            last = self._last_scene
+            if key == last.key:  # the last scene keeps these objects alive: same ids, same objects
+                return last.scene
         scene = CollisionScene(self.layout(obs, self_collision), obs)
-        with self._lock:  # the identity key was absent above
-            _remember(self._scenes, key, (scene, obs), new=True)
+        self._last_scene = _LastScene(obs, self_collision, key, scene)
         return scene
 
     def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:
@@ -362,11 +369,8 @@ def _base_spheres(geometry: pin.GeometryModel, joints: list[int]) -> list[tuple[
     return out
 
 
-def _remember(cache: OrderedDict, key: tuple, value: Any, new: bool = False) -> None:
-    """Put ``key`` last in ``cache`` and drop the oldest entries beyond :data:`SCENE_CACHE_SIZE` (``new``: the
-    caller just found ``key`` absent, so the insertion puts it last; no move)."""
+def _remember(cache: OrderedDict, key: tuple, value: Any) -> None:
+    """Put ``key`` (absent) last in ``cache`` and drop the oldest entries beyond :data:`LAYOUT_CACHE_SIZE`."""
     cache[key] = value
-    if not new:
-        cache.move_to_end(key)
-    while len(cache) > SCENE_CACHE_SIZE:
+    while len(cache) > LAYOUT_CACHE_SIZE:
         cache.popitem(last=False)

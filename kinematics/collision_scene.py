@@ -58,7 +58,8 @@ pre-check of the pairs and the per-thread workspaces belong to a
 have the same shapes (poses aside); a scene holds its obstacles and its
 pre-check arguments (the robot half and its shapes' own obstacle rows), made with
 the scene; a query that reaches coal puts the obstacles' placements into its
-thread's workspace when another scene of the layout used it last. The scene's
+thread's workspace when another scene of the layout used it last (``in_collision``:
+only the obstacles of the pairs coal checks). The scene's
 own ``GeometryModel`` (:attr:`CollisionScene.geometry`, for the planners' and
 viewers' Pinocchio calls) is made on its first read: no query reads it.
 """
@@ -179,7 +180,8 @@ class CollisionScene:
         or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
         certify (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
         :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
-        :func:`~.configuration_checks.pair_test`).
+        :func:`~.configuration_checks.pair_test`), with only their obstacles placed in coal
+        (:meth:`~.collision_layout.SceneLayout.pair_workspace`).
         """
         classify = self._classify
         pairs = None
@@ -193,10 +195,11 @@ class CollisionScene:
                 pairs = self._uncertified(self._floats, self._ints, q, self._tolerance)
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass
-        ws = self.layout.workspace(self.obstacles)
-        if ws.check is None:
-            return False
-        return ws.hits(q) if pairs is None else ws.pair_hits(q, pairs)
+        if pairs is None:
+            ws = self.layout.workspace(self.obstacles)
+            return False if ws.check is None else ws.hits(q)
+        ws = self.layout.pair_workspace(self.obstacles, pairs)  # the obstacles of these pairs placed
+        return False if ws.check is None else ws.pair_hits(q, pairs)
 
     def first_collision(self, qs: Sequence[np.ndarray], uncertified: int | None = None) -> int:
         """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)

@@ -400,6 +400,78 @@ def test_a_tuple_that_missed_the_cache_gets_one_scene_however_it_is_asked_again(
     assert cm.scene(obstacles, self_collision=False) is not scene
 
 
+def test_the_model_keeps_only_the_last_scene_it_built():
+    """A new obstacle set frees the scene before it: memory stays bounded however many scenes pass through the
+    front door (a layout keeps the shapes of its first scene, a thread's coal workspace those it placed
+    last); the very objects of the last scene answer that scene (a tuple, or a list of the same objects); a
+    list changed in place gets a scene of its new objects."""
+    import gc
+    import weakref
+
+    robot = robots.load("panda")
+    cm = robot.collision
+    q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])
+    first = [Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)), Sphere((0.2, 0.4, 0.6), 0.07)]
+    robot.in_collision(q, first)
+    scene = weakref.ref(robot.collision_scene(first))
+    assert robot.collision_scene(list(first)) is scene() and robot.collision_scene(tuple(first)) is scene()
+    del first
+    gc.collect()
+    assert scene() is not None  # the model holds its last scene
+    robot.in_collision(q, [Sphere((0.3, 0.1, 0.5), 0.05)])
+    gc.collect()
+    assert scene() is None
+    last = weakref.ref(robot.collision_scene([Sphere((0.3, 0.2, 0.5), 0.05)]))
+    robot.in_collision(q, [Sphere((0.3, 0.3, 0.5), 0.05)])
+    assert last() is None and cm.cached_scene([]) is None
+    changing = [Sphere((0.5, 0.0, 0.4), 0.05)]
+    a = robot.collision_scene(changing)
+    changing[0] = Sphere((0.5, 0.0, 0.41), 0.05)
+    b = robot.collision_scene(changing)
+    assert b is not a and b.obstacles[0] is changing[0]
+
+
+def test_an_undecided_first_check_places_only_the_obstacles_of_its_pairs():
+    """A new scene whose first undecided configuration leaves pairs with one obstacle places that obstacle
+    alone in coal; the other queries - on this scene and on another scene of the layout, in any order - place
+    the rest and answer like an independent coal model of their own obstacles."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(5)
+    centres = rng.uniform((0.3, -0.4, 0.2), (0.6, 0.4, 0.7), size=(2, 4, 3))
+    sets = [[Box(_pose(c), (0.12, 0.12, 0.12)) for c in row] for row in centres]
+    scenes = [robot.collision_scene(obs) for obs in sets]
+    assert scenes[1].layout is scenes[0].layout
+    refs = []
+    for obs in sets:
+        model, geom = _independent(*PANDA, scene=obs)
+        refs.append((model, model.createData(), geom, pin.GeometryData(geom)))
+    layout = scenes[0].layout
+    pre = scenes[1].precheck()
+    Q = robot.random_q(rng, 3000)
+    one = None
+    for q in Q:  # a configuration the spheres leave to coal on pairs of one obstacle of scene 1
+        pairs = pre.uncertified_pairs(pre.floats, pre.ints, q, pre.tolerance).tolist()
+        if pre.classify(pre.floats, pre.ints, q, pre.tolerance) == 2 and pairs:
+            slots = {layout.pair_obstacle[p] for p in pairs} - {-1}
+            if len(slots) == 1:
+                one = q, slots.pop()
+                break
+    assert one is not None
+    q, slot = one
+    scenes[0].workspace()  # every obstacle of scene 0 in place
+    model, data, geom, gd = refs[1]
+    assert scenes[1].in_collision(q) == bool(pin.computeCollisions(model, data, geom, gd, q, True))
+    placed = layout.pair_workspace(scenes[1].obstacles, np.array([], dtype=np.int64)).placed
+    assert [p is o for p, o in zip(placed, scenes[1].obstacles)] == [k == slot for k in range(4)]
+    assert [p is o for p, o in zip(placed, scenes[0].obstacles)] == [k != slot for k in range(4)]
+    for k, q in enumerate(Q[:200]):  # in_collision (pairs), colliding (every pair) alternating
+        s = k % 2
+        model, data, geom, gd = refs[s]
+        truth = bool(pin.computeCollisions(model, data, geom, gd, q, True))
+        assert scenes[s].in_collision(q) == truth
+        assert bool(scenes[1 - s].colliding(q)) == bool(pin.computeCollisions(*refs[1 - s], q, False))
+
+
 PANDA = ("panda", "panda_description/urdf/panda.urdf", "panda_description/srdf/panda.srdf",
          ("panda_finger_joint1", "panda_finger_joint2"))
 
