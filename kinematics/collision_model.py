@@ -316,6 +316,7 @@ class CollisionModel:
             last = self._last_scene
             if key == last.key:  # the last scene keeps these objects alive: same ids, same objects
                 return last.scene
+        self._last_scene = _NO_SCENE  # freed first: its arrays, warm from its checks, hold the new ones
         scene = CollisionScene(self.layout(obs, self_collision), obs)
         self._last_scene = _LastScene(obs, self_collision, key, scene)
         return scene
