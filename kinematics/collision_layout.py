@@ -279,9 +279,8 @@ class SceneLayout:
             ws.held = obstacles
         return ws
 
-    def pair_workspace(self, obstacles: tuple, pairs: np.ndarray) -> Workspace:
-        """This thread's :class:`Workspace` with the obstacles of the scene pairs ``pairs`` (an int array of
-        indices) in
+    def pair_workspace(self, obstacles: tuple, pairs: list[int]) -> Workspace:
+        """This thread's :class:`Workspace` with the obstacles of the scene pairs ``pairs`` (indices) in
         place - the others may hold another scene's poses - for a coal check of those pairs alone (every
         obstacle when there are more than :data:`~.configuration_checks.PAIRWISE_MAX`: that check runs the
         broad phase). A new scene's first undecided configuration places the one or two obstacles its
@@ -290,7 +289,7 @@ class SceneLayout:
         if ws is None or ws.held is obstacles or len(pairs) > PAIRWISE_MAX:
             return self.workspace(obstacles)
         placed, slot = ws.placed, self.pair_obstacle
-        for p in pairs.tolist():
+        for p in pairs:
             k = slot[p]
             if k >= 0 and placed[k] is not obstacles[k]:
                 ws.geometry.geometryObjects[self.n_robot + k].placement = self._placement(k, obstacles[k])

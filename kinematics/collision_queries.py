@@ -252,8 +252,8 @@ class CollisionQueries:
         return CollisionModel.from_urdf(self.model, urdf, self.package_dirs, self.lower, self.upper, **kw)
 
     def collision_scene(self, obstacles: Any = (), self_collision: bool = True) -> "CollisionScene":
-        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles``: the collision model's
-        last scene when they are its very objects, else a new one that replaces it
+        """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles``: the collision
+        model's last scene when they are its very objects, else a new one that replaces it
         (:meth:`~.collision_model.CollisionModel.scene`)."""
         cm = self.collision
         self_collision = self_collision is True or bool(self_collision)

@@ -74,7 +74,7 @@ import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
 from .configuration_checks import check_configurations
-from .precheck_verdicts import COLLIDING, FREE
+from .precheck_verdicts import COLLIDING, FREE, UNDECIDED, carried_pairs
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -135,7 +135,7 @@ class CollisionScene:
         layout_check = layout.precheck()
         self._precheck = None if layout_check is None else layout_check.arguments(obstacles)
         pre = self._precheck  # its parts, read by in_collision without a record lookup
-        self._classify = None if pre is None else pre.classify
+        self._classify = None if pre is None else pre.classify_with_pairs
         self._uncertified = None if pre is None else pre.uncertified_pairs
         self._floats = None if pre is None else pre.floats
         self._ints = None if pre is None else pre.ints
@@ -178,7 +178,9 @@ class CollisionScene:
         ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`, one compiled
         call): a configuration it certifies is free without coal, one with an inner ball deep in an obstacle
         or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
-        certify (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
+        certify - carried by the verdict when there are at most three
+        (:func:`~.precheck_kernels.classify_with_pairs`), else listed by a second compiled call
+        (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
         :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
         :func:`~.configuration_checks.pair_test`), with only their obstacles placed in coal
         (:meth:`~.collision_layout.SceneLayout.pair_workspace`).
@@ -192,7 +194,8 @@ class CollisionScene:
                     return False
                 if verdict == COLLIDING:
                     return True
-                pairs = self._uncertified(self._floats, self._ints, q, self._tolerance)
+                pairs = carried_pairs(verdict) if verdict != UNDECIDED \
+                    else self._uncertified(self._floats, self._ints, q, self._tolerance).tolist()
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass
         if pairs is None:

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from .precheck_verdicts import COLLIDING, UNDECIDED
+from .precheck_verdicts import COLLIDING, FREE, UNDECIDED, carried_pairs
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -75,9 +75,9 @@ def coal_test(check: CoalCheck) -> Callable[[np.ndarray], bool]:
     return hits
 
 
-def pair_test(check: CoalCheck) -> Callable[[np.ndarray, np.ndarray], bool]:
-    """``hits(q, pairs)``: whether one of the scene pairs ``pairs`` (an int array of pair indices, the
-    others being certified free) intersects at ``q``: forward kinematics, placements, then
+def pair_test(check: CoalCheck) -> Callable[[np.ndarray, list[int]], bool]:
+    """``hits(q, pairs)``: whether one of the scene pairs ``pairs`` (a list of pair indices, the others
+    being certified free) intersects at ``q``: forward kinematics, placements, then
     ``pinocchio.computeCollision`` on each pair (the pair's own request, security margin 0) up to the first
     hit; the broad phase over every pair when there are more than :data:`PAIRWISE_MAX`."""
     model, data, gm, gd, update, collide, callback = check
@@ -89,7 +89,7 @@ def pair_test(check: CoalCheck) -> Callable[[np.ndarray, np.ndarray], bool]:
         if len(pairs) > PAIRWISE_MAX:
             update(False)
             return collide(callback)
-        for k in pairs.tolist():
+        for k in pairs:
             if one(gm, gd, k):
                 return True
         return False
@@ -147,16 +147,20 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
 
 def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> Callable[[np.ndarray], bool]:
     """``hits(q)`` for a configuration the pre-check did not certify: an inner ball deep in an obstacle or in
-    another link's answers without coal, coal on the pairs the spheres do not certify otherwise."""
-    certain, pairs_of, tol = precheck.certainly_colliding, precheck.uncertified_pairs, precheck.tolerance
+    another link's answers without coal, coal on the pairs the spheres do not certify otherwise (carried by
+    the verdict of :func:`~.precheck_kernels.classify_with_pairs` when at most three, listed by
+    ``uncertified_pairs`` when more)."""
+    classify, pairs_of, tol = precheck.classify_with_pairs, precheck.uncertified_pairs, precheck.tolerance
     floats, ints = precheck.floats, precheck.ints
     coal_hits, pair_hits = coal_test(check), pair_test(check)
 
     def hits(q) -> bool:
         try:
-            if certain(floats, ints, q, tol):
-                return True
-            pairs = pairs_of(floats, ints, q, tol)
+            verdict = classify(floats, ints, q, tol)
+            if verdict == COLLIDING or verdict == FREE:
+                return verdict == COLLIDING
+            pairs = carried_pairs(verdict) if verdict != UNDECIDED \
+                else pairs_of(floats, ints, q, tol).tolist()
         except TypeError:  # not a float vector: coal decides (and raises as before)
             return coal_hits(q)
         return pair_hits(q, pairs)

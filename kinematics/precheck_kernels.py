@@ -64,7 +64,7 @@ import numpy as np
 from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit
 from .kernel_primitives import tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
-from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
+from .precheck_verdicts import COLLIDING, FREE, PACKED_PAIRS, PAIR_BITS, UNDECIDED
 
 #: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
 #: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.
@@ -548,6 +548,35 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
     return _uncertified_into(X, W, spheres, geoms, pairs, obstacles, keep, placed, out)
 
 
+@compiled(_CLASSIFY_SIGNATURE)
+def classify_with_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> int:
+    """:func:`classify_configuration`'s verdict, an undecided one carrying the pairs coal must check when
+    there are at most :data:`~.precheck_verdicts.PACKED_PAIRS` of them: ``UNDECIDED + sum_k (p_k + 1) << (2 +
+    20 k)`` over the scene indices ``p_k`` of :func:`uncertified_pairs`'s list (read with
+    :func:`~.precheck_verdicts.carried_pairs`); exactly :data:`UNDECIDED` when there are more (or the scene
+    has ``2**20 - 1`` pairs or more: ask :func:`uncertified_pairs`). One forward kinematics; the pair tests
+    stop at the fourth uncertified pair. ``tol`` (m)."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n = joints.shape[0]
+    if q.shape[0] != n:
+        return UNDECIDED
+    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
+    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0:
+        return FREE
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
+        return COLLIDING
+    if pairs.shape[0] >= (1 << PAIR_BITS) - 1:
+        return UNDECIDED
+    code, k = UNDECIDED, 0
+    for p in range(pairs.shape[0]):
+        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
+            if k == PACKED_PAIRS:
+                return UNDECIDED
+            code |= (pairs[p, 3] + 1) << (2 + PAIR_BITS * k)
+            k += 1
+    return code
+
+
 _PAIRS_SIGNATURE = _t.Array(_t.int64, 1, "C")(F1, I1, F1_ANY, _t.float64)
 
 
@@ -570,9 +599,8 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
 
 
 __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
-           "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE",
-           "UNDECIDED", "certainly_colliding", "certify_configuration", "certify_configurations",
-           "classify_configuration", "first_uncertified", "obstacle_gap", "pair_lower_bounds",
-           "pairs_to_check", "place_bounding_spheres", "place_cover",
-           "place_sphere", "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack",
-           "workspace"]
+           "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE", "UNDECIDED",
+           "certainly_colliding", "certify_configuration", "certify_configurations",
+           "classify_configuration", "classify_with_pairs", "first_uncertified", "obstacle_gap",
+           "pair_lower_bounds", "pairs_to_check", "place_bounding_spheres", "place_cover", "place_sphere",
+           "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack", "workspace"]

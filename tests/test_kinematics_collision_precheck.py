@@ -28,6 +28,7 @@ from kinserve.kinematics.collision_layout import SceneLayout
 from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.obstacle_table import obstacle_row
 from kinserve.kinematics.precheck_packing import pack
+from kinserve.kinematics.precheck_verdicts import PACKED_PAIRS, carried_pairs
 from kinserve.kinematics.scene_precheck import certify
 from kinserve.kinematics.shapes import Box, Sphere
 
@@ -68,6 +69,12 @@ def _check_scene(robot, scene, Q):
         assert verdict == (pk.FREE if cert else pk.COLLIDING if certain else pk.UNDECIDED)
         # the pairs left to coal: every pair whose bound is not above the tolerance, every colliding one
         left = pk.uncertified_pairs(*arrays, q, pk.TOLERANCE)
+        carrying = pk.classify_with_pairs(*arrays, q, pk.TOLERANCE)  # the verdict, with up to 3 pairs
+        if verdict != pk.UNDECIDED or not 1 <= len(left) <= PACKED_PAIRS:
+            assert carrying == verdict
+        else:
+            assert carrying > pk.UNDECIDED and carried_pairs(carrying) == left.tolist()
+            _check_scene.carried += 1
         assert set(np.flatnonzero(hit)) <= set(left.tolist())
         if np.abs(bounds - pk.TOLERANCE).min() > 1e-9:
             assert cert == bool(np.all(bounds > pk.TOLERANCE))
@@ -83,6 +90,7 @@ def _check_scene(robot, scene, Q):
 
 
 _check_scene.certain = 0  # configurations found in collision for certain (inner points), over the calls
+_check_scene.carried = 0  # undecided verdicts that carried their pairs
 
 
 def test_panda_with_obstacles_near_the_arm_is_never_certified_in_collision(tmp_path):
@@ -92,7 +100,7 @@ def test_panda_with_obstacles_near_the_arm_is_never_certified_in_collision(tmp_p
     robot = robots.load("panda")
     rng = np.random.default_rng(7)
     certified_total = hits_total = 0
-    _check_scene.certain = 0
+    _check_scene.certain = _check_scene.carried = 0
     for _ in range(4):
         q_s = robot.random_q(rng)
         scene = robot.collision_scene(SCENE + near_obstacles(robot, q_s, rng, 5, tmp_path))
@@ -103,6 +111,7 @@ def test_panda_with_obstacles_near_the_arm_is_never_certified_in_collision(tmp_p
         hits_total += int(truth.sum())
     assert 200 < hits_total < 1000 and certified_total > 200  # both answers occur: the checks have substance
     assert _check_scene.certain > 50  # and collisions found for certain
+    assert _check_scene.carried > 50  # and undecided verdicts carrying their pairs
 
 
 def test_ur5_self_and_obstacles_are_never_certified_in_collision(tmp_path):
@@ -192,7 +201,7 @@ def test_the_precheck_is_made_with_the_scene():
     assert pre.tolerance == pk.TOLERANCE
     Q = robot.random_q(np.random.default_rng(12), 200)
     calls = []
-    real = pre.classify
+    real = pre.classify_with_pairs
     scene._classify = lambda *a: calls.append(1) or real(*a)  # a spy on the kernel the scene calls
     answers = [scene.in_collision(q) for q in Q]
     assert len(calls) == len(Q) and answers == coal_hits(scene, Q).tolist()

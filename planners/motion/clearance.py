@@ -158,7 +158,7 @@ class ClearanceOracle:
         :func:`~.extend_kernel.probe_segment`'s answers."""
         pair_hits = self.scene.workspace().pair_hits
         for k, verdict in enumerate(verdicts):
-            if verdict == UNCERTAIN and pair_hits(point(k), checks[k, 1:1 + checks[k, 0]]):
+            if verdict == UNCERTAIN and pair_hits(point(k), checks[k, 1:1 + checks[k, 0]].tolist()):
                 return True
         return False
 
