@@ -135,7 +135,7 @@ class CollisionScene:
         layout_check = layout.precheck()
         self._precheck = None if layout_check is None else layout_check.arguments(obstacles)
         pre = self._precheck  # its parts, read by in_collision without a record lookup
-        self._classify = None if pre is None else pre.classify_with_pairs
+        self._classify = None if pre is None else pre.classify
         self._uncertified = None if pre is None else pre.uncertified_pairs
         self._floats = None if pre is None else pre.floats
         self._ints = None if pre is None else pre.ints
@@ -179,7 +179,7 @@ class CollisionScene:
         call): a configuration it certifies is free without coal, one with an inner ball deep in an obstacle
         or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
         certify - carried by the verdict when there are at most three
-        (:func:`~.precheck_kernels.classify_with_pairs`), else listed by a second compiled call
+        (:func:`~.precheck_kernels.classify_configuration`), else listed by a second compiled call
         (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
         :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
         :func:`~.configuration_checks.pair_test`), with only their obstacles placed in coal

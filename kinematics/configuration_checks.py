@@ -132,7 +132,7 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
         verdict = precheck.classify(floats, ints, qs[0], tol)
     except TypeError:  # not a float vector: coal decides (and raises as before)
         verdict = UNDECIDED
-    if verdict == COLLIDING or (verdict == UNDECIDED and hits(qs[0])):
+    if verdict == COLLIDING or (verdict >= UNDECIDED and hits(qs[0])):
         return 0
     if len(qs) == 1:
         return -1
@@ -148,9 +148,9 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
 def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> Callable[[np.ndarray], bool]:
     """``hits(q)`` for a configuration the pre-check did not certify: an inner ball deep in an obstacle or in
     another link's answers without coal, coal on the pairs the spheres do not certify otherwise (carried by
-    the verdict of :func:`~.precheck_kernels.classify_with_pairs` when at most three, listed by
+    the verdict of :func:`~.precheck_kernels.classify_configuration` when at most three, listed by
     ``uncertified_pairs`` when more)."""
-    classify, pairs_of, tol = precheck.classify_with_pairs, precheck.uncertified_pairs, precheck.tolerance
+    classify, pairs_of, tol = precheck.classify, precheck.uncertified_pairs, precheck.tolerance
     floats, ints = precheck.floats, precheck.ints
     coal_hits, pair_hits = coal_test(check), pair_test(check)
 

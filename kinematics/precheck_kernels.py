@@ -469,23 +469,6 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
 _CLASSIFY_SIGNATURE = _t.int64(F1, I1, F1_ANY, _t.float64)
 
 
-@compiled(_CLASSIFY_SIGNATURE)
-def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> int:
-    """:data:`FREE` when :func:`certify_configuration` certifies ``q``, else :data:`COLLIDING` when
-    :func:`certainly_colliding` finds it in collision, else :data:`UNDECIDED` (also when ``q`` has not one
-    entry per joint): both tests on one forward kinematics, in one call. ``tol`` (m)."""
-    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
-    n = joints.shape[0]
-    if q.shape[0] != n:
-        return UNDECIDED
-    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0:
-        return FREE
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
-        return COLLIDING
-    return UNDECIDED
-
-
 @_inline
 def _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, stamp):
     """Whether pair-table row ``p``'s lower bound exceeds ``tol`` (m) at the placements ``X`` (bounding
@@ -533,7 +516,7 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
     (:func:`certainly_colliding`'s test), else the number ``k`` of pairs whose lower bound does not exceed
     ``keep``, their scene indices written into ``out[:k]`` in the pair table's order (``out``: at least one
     entry per pair; every other pair is at least ``keep`` apart). With ``keep = tol``,
-    :func:`classify_configuration`'s answer with the pair list of :func:`uncertified_pairs` (the cover
+    :func:`classify_configuration`'s verdict with the pair list of :func:`uncertified_pairs` (the cover
     spheres the first test placed are reused); every pair when ``q`` has not one entry per joint."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
@@ -549,13 +532,15 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
 
 
 @compiled(_CLASSIFY_SIGNATURE)
-def classify_with_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> int:
-    """:func:`classify_configuration`'s verdict, an undecided one carrying the pairs coal must check when
-    there are at most :data:`~.precheck_verdicts.PACKED_PAIRS` of them: ``UNDECIDED + sum_k (p_k + 1) << (2 +
-    20 k)`` over the scene indices ``p_k`` of :func:`uncertified_pairs`'s list (read with
-    :func:`~.precheck_verdicts.carried_pairs`); exactly :data:`UNDECIDED` when there are more (or the scene
-    has ``2**20 - 1`` pairs or more: ask :func:`uncertified_pairs`). One forward kinematics; the pair tests
-    stop at the fourth uncertified pair. ``tol`` (m)."""
+def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> int:
+    """:data:`FREE` when :func:`certify_configuration` certifies ``q``, else :data:`COLLIDING` when
+    :func:`certainly_colliding` finds it in collision, else undecided: both tests on one forward kinematics,
+    in one call. ``tol`` (m). An undecided verdict carries the pairs coal must check when there are at most
+    :data:`~.precheck_verdicts.PACKED_PAIRS` of them: ``UNDECIDED + sum_k (p_k + 1) << (2 + 20 k)`` over the
+    scene indices ``p_k`` of :func:`uncertified_pairs`'s list (read with
+    :func:`~.precheck_verdicts.carried_pairs`); it is exactly :data:`UNDECIDED` when there are more, when the
+    scene has ``2**20 - 1`` pairs or more (ask :func:`uncertified_pairs` then) and when ``q`` has not one
+    entry per joint. The pair tests stop at the fourth uncertified pair."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
     if q.shape[0] != n:
@@ -601,6 +586,6 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
 __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE", "UNDECIDED",
            "certainly_colliding", "certify_configuration", "certify_configurations",
-           "classify_configuration", "classify_with_pairs", "first_uncertified", "obstacle_gap",
+           "classify_configuration", "first_uncertified", "obstacle_gap",
            "pair_lower_bounds", "pairs_to_check", "place_bounding_spheres", "place_cover", "place_sphere",
            "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack", "workspace"]

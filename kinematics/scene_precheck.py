@@ -28,7 +28,6 @@ from .precheck_kernels import (
     certify_configuration,
     certify_configurations,
     classify_configuration,
-    classify_with_pairs,
     first_uncertified,
     uncertified_pairs,
 )
@@ -46,13 +45,12 @@ class PrecheckArguments(NamedTuple):
     ``sphere_reach`` ``(S, J)`` and ``pair_reach`` ``(P, J)`` (:meth:`ScenePrecheck.motion_reach`): the
     layout's rate tables of the motion certificates (:mod:`.motion_kernels`).
     ``classify(floats, ints, q, tolerance)`` (:func:`~.precheck_kernels.classify_configuration`: free, in
-    collision or undecided, in one call) and ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene
-    indices of the pairs the spheres do not certify at ``q``: coal need check only those).
+    collision or undecided - carrying up to three pairs for coal - in one call) and
+    ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene indices of the pairs the spheres do not
+    certify at ``q``: coal need check only those).
     ``hulls``: the robot's :class:`~.hull_table.HullTable` (None: the compiled distances are not available)
     and ``table_rows`` ``(P,)``: the row of the pair table of each scene pair (:func:`pair_table`), for
-    :func:`~.motion_kernels.advance_on_distances`. ``classify_with_pairs(floats, ints, q, tolerance)``
-    (:func:`~.precheck_kernels.classify_with_pairs`): ``classify``'s verdict, an undecided one carrying up to
-    three pairs for coal.
+    :func:`~.motion_kernels.advance_on_distances`.
     """
 
     certify: Callable[..., bool]
@@ -67,7 +65,6 @@ class PrecheckArguments(NamedTuple):
     uncertified_pairs: Callable[..., np.ndarray]
     hulls: HullTable | None
     table_rows: np.ndarray
-    classify_with_pairs: Callable[..., int]
 
 
 def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
@@ -132,7 +129,7 @@ class ScenePrecheck:
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
                                  certainly_colliding, self.robot.sphere_reach,
                                  self.pair_reach, classify_configuration, uncertified_pairs, self.hulls,
-                                 self.table_rows, classify_with_pairs)
+                                 self.table_rows)
 
 
 def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:
