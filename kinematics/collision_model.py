@@ -59,9 +59,9 @@ _NO_MISS = (None, None, None)  # CollisionModel._missed when no lookup missed si
 
 
 class _LastScene(NamedTuple):
-    """The scene a model built last (:meth:`CollisionModel.scene`): ``obstacles`` the caller's tuple
-    (``same`` answers a repeated call with it by identity), ``key`` = ``(self_collision, *ids of the validated
-    shapes)``; ``scene.obstacles`` keeps those shapes alive, so no other live object carries their ids."""
+    """The scene a model built last (:meth:`CollisionModel.scene`): ``same`` the tuple of shapes it was built
+    from (a call with that very tuple answers by identity), ``key`` = ``(self_collision, *ids of those
+    shapes)``; ``scene.obstacles`` keeps the shapes alive, so no other live object carries their ids."""
 
     same: tuple | None
     self_collision: bool | None
