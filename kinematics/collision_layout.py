@@ -166,10 +166,11 @@ def obstacle_name(k: int, shape: Shape) -> str:
     return f"obstacle[{k}]:{shape.kind}"
 
 
-def _scene_geometry(robot: RobotCollisionGeometry, obstacles: tuple, placements: list, self_collision: bool):
-    """``(GeometryModel, names, joints, pairs)`` of the robot's geometry plus ``obstacles`` fixed to the world
-    at ``placements``: the self pairs when ``self_collision``, and every moving robot geometry against every
-    obstacle."""
+def _scene_geometry(robot: RobotCollisionGeometry, obstacles: tuple, geometries: list, placements: list,
+                    self_collision: bool):
+    """``(GeometryModel, names, joints, pairs)`` of the robot's geometry plus ``obstacles`` (their coal
+    ``geometries``) fixed to the world at ``placements``: the self pairs when ``self_collision``, and every
+    moving robot geometry against every obstacle."""
     gm = robot.geometry.copy()
     if not self_collision:
         gm.removeAllCollisionPairs()
@@ -178,7 +179,7 @@ def _scene_geometry(robot: RobotCollisionGeometry, obstacles: tuple, placements:
     pairs = list(robot.model_pairs) if self_collision else []
     for k, shape in enumerate(obstacles):
         name = obstacle_name(k, shape)
-        idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, placements[k], shape.geometry()))
+        idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, placements[k], geometries[k]))
         names.append(name)
         joints.append(0)
         for i in moving:
@@ -201,10 +202,12 @@ class SceneLayout:
         self.model = robot.model
         self.obstacles = obstacles
         self.self_collision = bool(self_collision)
-        #: The coal geometry and the ``pinocchio.SE3`` pose of each obstacle of the layout's first scene.
+        #: The coal geometry (the one in :attr:`geometry`) and the ``pinocchio.SE3`` pose of each obstacle of
+        #: the layout's first scene.
         self.obstacle_geometries = [shape.geometry() for shape in obstacles]
         self.placements = [shape.placement() for shape in obstacles]
-        gm, names, joints, pairs = _scene_geometry(robot, obstacles, self.placements, self.self_collision)
+        gm, names, joints, pairs = _scene_geometry(robot, obstacles, self.obstacle_geometries,
+                                                   self.placements, self.self_collision)
         self.geometry = gm
         self.n_robot = len(robot.links)
         self.geometry_owner: list[str] = names  #: link name (robot) or obstacle name, per geometry
