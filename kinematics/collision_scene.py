@@ -73,8 +73,8 @@ import numpy as np
 import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
-from .configuration_checks import check_configurations
-from .precheck_verdicts import COLLIDING, FREE, UNDECIDED, carried_pairs
+from .configuration_checks import check_configurations, undecided_pairs
+from .precheck_verdicts import COLLIDING, FREE
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -194,8 +194,8 @@ class CollisionScene:
                     return False
                 if verdict == COLLIDING:
                     return True
-                pairs = carried_pairs(verdict) if verdict != UNDECIDED \
-                    else self._uncertified(self._floats, self._ints, q, self._tolerance).tolist()
+                pairs = undecided_pairs(verdict, self._uncertified, self._floats, self._ints, q,
+                                        self._tolerance)
             except TypeError:  # not a float vector: coal decides (and raises as before)
                 pass
         if pairs is None:

@@ -112,15 +112,16 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
     array in one compiled call; otherwise the first configuration alone (the IK checks its answer first, the
     likeliest to collide: when it does, no array is built), then the rest in one compiled call
     (``first_uncertified``, resumed after an uncertified configuration coal finds free). An uncertified
-    configuration goes to ``certainly_colliding`` first (an inner ball of the robot deep in an obstacle or in
-    another link's: in collision, no coal), then to coal on the pairs the spheres leave
-    (:func:`pair_test`). ``uncertified``: for stacked rows, the first row the pre-check cannot certify when
-    the caller has found it already (the rows before it are certified).
+    configuration goes to ``classify`` first (an inner ball of the robot deep in an obstacle or in another
+    link's: in collision, no coal), then to coal on the pairs the spheres leave (:func:`undecided_pairs`,
+    :func:`pair_test`); the first configuration's verdict is not asked twice. ``uncertified``: for stacked
+    rows, the first row the pre-check cannot certify when the caller has found it already (the rows before
+    it are certified).
     """
     if precheck is None:
         coal_hits = coal_test(check)
         return next((k for k, q in enumerate(qs) if coal_hits(q)), -1)
-    hits = _hit_test(check, precheck)
+    hits, decide = _hit_test(check, precheck)
     first, floats, ints, tol = precheck.first_uncertified, precheck.floats, precheck.ints, precheck.tolerance
     if _is_stacked(qs):  # rows already stacked: one call
         k = first(floats, ints, qs, 0, tol) if uncertified is None else uncertified
@@ -131,8 +132,12 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
     try:
         verdict = precheck.classify(floats, ints, qs[0], tol)
     except TypeError:  # not a float vector: coal decides (and raises as before)
-        verdict = UNDECIDED
-    if verdict == COLLIDING or (verdict >= UNDECIDED and hits(qs[0])):
+        verdict = None
+    if verdict is None:
+        hit = hits(qs[0])
+    else:  # (the verdict in hand: an undecided one goes to coal without a second compiled call)
+        hit = verdict == COLLIDING or (verdict >= UNDECIDED and decide(qs[0], verdict))
+    if hit:
         return 0
     if len(qs) == 1:
         return -1
@@ -145,27 +150,39 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
     return next((k for k in range(1, len(qs)) if hits(qs[k])), -1)
 
 
-def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> Callable[[np.ndarray], bool]:
-    """``hits(q)`` for a configuration the pre-check did not certify: an inner ball deep in an obstacle or in
-    another link's answers without coal, coal on the pairs the spheres do not certify otherwise (carried by
-    the verdict of :func:`~.precheck_kernels.classify_configuration` when at most three, listed by
-    ``uncertified_pairs`` when more)."""
+def undecided_pairs(verdict: int, uncertified_pairs: Callable[..., np.ndarray], floats: np.ndarray,
+                    ints: np.ndarray, q: np.ndarray, tol: float) -> list[int]:
+    """The scene pairs coal must check at ``q`` after the pre-check's undecided ``verdict``
+    (:func:`~.precheck_kernels.classify_configuration`): the ones it carries, else the list of
+    ``uncertified_pairs(floats, ints, q, tol)``."""
+    if verdict != UNDECIDED:
+        return carried_pairs(verdict)
+    return uncertified_pairs(floats, ints, q, tol).tolist()
+
+
+def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> tuple[Callable[[np.ndarray], bool],
+                                                                      Callable[[np.ndarray, int], bool]]:
+    """``(hits(q), decide(q, verdict))`` for a configuration the pre-check did not certify: ``hits`` asks the
+    pre-check (an inner ball deep in an obstacle or in another link's answers without coal), then coal on the
+    pairs the spheres do not certify; ``decide`` is that coal check after the undecided ``verdict`` of
+    :func:`~.precheck_kernels.classify_configuration` (its pairs: :func:`undecided_pairs`)."""
     classify, pairs_of, tol = precheck.classify, precheck.uncertified_pairs, precheck.tolerance
     floats, ints = precheck.floats, precheck.ints
     coal_hits, pair_hits = coal_test(check), pair_test(check)
 
+    def decide(q, verdict: int) -> bool:
+        return pair_hits(q, undecided_pairs(verdict, pairs_of, floats, ints, q, tol))
+
     def hits(q) -> bool:
         try:
             verdict = classify(floats, ints, q, tol)
-            if verdict == COLLIDING or verdict == FREE:
-                return verdict == COLLIDING
-            pairs = carried_pairs(verdict) if verdict != UNDECIDED \
-                else pairs_of(floats, ints, q, tol).tolist()
         except TypeError:  # not a float vector: coal decides (and raises as before)
             return coal_hits(q)
-        return pair_hits(q, pairs)
+        if verdict == COLLIDING or verdict == FREE:
+            return verdict == COLLIDING
+        return decide(q, verdict)
 
-    return hits
+    return hits, decide
 
 
 def _first_hit_after(hits: Callable[[np.ndarray], bool], precheck: PrecheckArguments, Q: np.ndarray, qs: Any,
@@ -182,4 +199,5 @@ def _first_hit_after(hits: Callable[[np.ndarray], bool], precheck: PrecheckArgum
     return -1
 
 
-__all__ = ["PAIRWISE_MAX", "CoalCheck", "check_configurations", "coal_test", "collision_check", "pair_test"]
+__all__ = ["PAIRWISE_MAX", "CoalCheck", "check_configurations", "coal_test", "collision_check", "pair_test",
+           "undecided_pairs"]
