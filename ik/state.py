@@ -199,11 +199,6 @@ class IKState:
             return None
         return store.last
 
-    def collision_constraint(self, obstacles: tuple, self_collision: bool,
-                             margin: float) -> CollisionConstraint:
-        """The collision constraint of the validated ``obstacles`` bound to the robot (this thread's)."""
-        return self.collision_checker(obstacles, self_collision, margin).constraint
-
 
 def ik_state(robot: Robot) -> IKState:
     """The :class:`IKState` of ``robot`` (an empty one is made on first use; nothing is built)."""
@@ -235,7 +230,7 @@ def warm(robot: Robot, frames: str | Iterable[str] | None = None, *, self_collis
         state.frame(frame)  # (a clear FrameError for an unknown name)
     if self_collision or len(obstacles):
         req = collision_request(self_collision, obstacles, collision_margin)
-        state.collision_constraint(req.obstacles, req.self_collision, req.margin)
+        state.collision_checker(req.obstacles, req.self_collision, req.margin)  # bound with its checker
     return state
 
 

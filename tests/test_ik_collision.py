@@ -374,7 +374,7 @@ def test_uncertified_starts_are_skipped_without_coal_then_coal_decides(panda):
     from kinserve.kinematics.scene_precheck import certify
 
     wall = ik.Box(_pose((0.45, 0.0, 0.5)), (0.05, 1.0, 1.0))
-    con = ik_state(panda).collision_constraint((wall,), True, 0.0)
+    con = ik_state(panda).collision_checker((wall,), True, 0.0).constraint
     pre = con.scene.precheck()
     rng = np.random.default_rng(4)
     Q = panda.random_q(rng, 3000)
@@ -410,9 +410,9 @@ def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
     rng = np.random.default_rng(12)
     state = ik_state(panda)
     first = [*SCENE, ik.Box(_pose((0.5, 0.3, 0.6)), (0.1, 0.1, 0.1))]
-    template = state.collision_constraint(tuple(first), True, 0.0)
+    template = state.collision_checker(tuple(first), True, 0.0).constraint
     moved_obs = (*SCENE, ik.Box(_pose((0.4, -0.2, 0.5)), (0.1, 0.1, 0.1)))
-    moved = state.collision_constraint(moved_obs, True, 0.0)
+    moved = state.collision_checker(moved_obs, True, 0.0).constraint
     assert moved.scene.layout is template.scene.layout and moved.scene is not template.scene
     assert panda.collision.cached_scene(moved_obs) is None  # built without the model's scene caches
     fresh = CollisionConstraint(moved_obs, self_collision=True).bind(panda)
@@ -430,6 +430,6 @@ def test_moved_constraint_answers_like_one_bound_from_scratch(panda):
     # a moved copy onto the fixed base is still refused
     onto_base = (*SCENE, ik.Box(_pose((0.0, 0.0, 0.05)), (0.1, 0.1, 0.1)))
     with pytest.raises(errors.InputError, match="fixed base"):
-        state.collision_constraint(onto_base, True, 0.0)
+        state.collision_checker(onto_base, True, 0.0).constraint
 
 

@@ -244,10 +244,10 @@ def test_bound_constraints_are_found_by_the_shapes_values(panda):
     T[:3, 3] = (0.65, 0.0, -0.05)
     table = ik.Box(T, (0.7, 1.2, 0.1))
     state = ik_state(panda)
-    a = state.collision_constraint((table,), True, 0.0)
-    assert state.collision_constraint((table,), True, 0.0) is a
-    assert state.collision_constraint((ik.Box(T, (0.7, 1.2, 0.1)),), True, 0.0) is a  # equal shapes
-    assert state.collision_constraint((table,), False, 0.0) is not a
+    a = state.collision_checker((table,), True, 0.0).constraint
+    assert state.collision_checker((table,), True, 0.0).constraint is a
+    assert state.collision_checker((ik.Box(T, (0.7, 1.2, 0.1)),), True, 0.0).constraint is a  # equal shapes
+    assert state.collision_checker((table,), False, 0.0).constraint is not a
     assert a.obstacles == (table,)
     spec = {"kind": "box", "pose": T.tolist(), "size": [0.7, -1.2, 0.1]}
     for _ in range(2):
@@ -255,7 +255,7 @@ def test_bound_constraints_are_found_by_the_shapes_values(panda):
             collision_request(True, [spec], 0.0)
     T2 = T.copy()
     T2[2, 3] = 0.3  # the table raised into the arm's way: another pose of the same layout, moved
-    b = state.collision_constraint((ik.Box(T2, (0.7, 1.2, 0.1)),), True, 0.0)
+    b = state.collision_checker((ik.Box(T2, (0.7, 1.2, 0.1)),), True, 0.0).constraint
     assert b is not a and b.scene.layout is a.scene.layout
     q = panda.neutral()
     assert b.in_collision(q) == panda.in_collision(q, [ik.Box(T2, (0.7, 1.2, 0.1))])

@@ -29,7 +29,7 @@ def levenberg_marquardt(req: SolveRequest, budget: Budget | None = None, *, acce
                         admit: Any = None, max_starts: int | None = None, screen: Any = None) -> Result:
     """LM from the request's start sequence; ``accept`` / ``admit`` / ``max_starts`` / ``screen``: the checked
     strategy's tests of a converged run and of a start, its cap on the starts (the request's ``max_starts``
-    option when None) and the pre-check run with each start (:class:`~kinserve.ik.lm.solver.LMScreen`)."""
+    option when None) and the pre-check run with each start (:class:`~kinserve.ik.lm.screen.LMScreen`)."""
     opts = req.options
     if opts.keys() <= _LM_KEYWORDS:  # the common calls: no keyword dictionary to build, no iteration budget
         seconds, iterations = (req.max_time, None) if budget is None else budget
