@@ -83,9 +83,13 @@ class SolveRequest(NamedTuple):
 def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = None, relax: Any = (),
                  relax_frame: str = "world", method: str = "auto", tol_pos: float = DEFAULT_TOL_POS,
                  tol_rot: float = DEFAULT_TOL_ROT, max_time: float | None = None, seed: int | None = None,
-                 options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
+                 options: Mapping[str, Any] = _NO_OPTIONS, collision: tuple | None = None) -> SolveRequest:
     """The request of a pose target with every other argument at its default (the common call), validated;
-    the frame's IK state prepared (:meth:`kinserve.ik.state.IKState.frame`)."""
+    the frame's IK state prepared (:meth:`kinserve.ik.state.IKState.frame`).
+
+    ``collision``: ``(self_collision, obstacles, collision_margin, spheres)`` of a call that sets
+    ``self_collision`` or ``collision_margin`` (the common collision-aware call: every other argument as
+    here), bound to the robot's collision model (:func:`_collision_part`); None: no collision options."""
     # (the checks are skipped for the defaults, which pass them: the common call makes fewer calls)
     if type(robot) is not Robot:
         check_robot(robot)
@@ -103,30 +107,18 @@ def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = 
         max_time = check_max_time(max_time)
     if seed is not None and not (type(seed) is int and seed >= 0):
         seed = check_seed(seed)
-    req = SolveRequest(robot, tgt, None, None if q0 is None else check_q0(robot, q0), method, DEFAULT_BACKEND,
-                       tol_pos, tol_rot, max_time, seed, None, None, (), None, None, options)
+    q0 = None if q0 is None else check_q0(robot, q0)
     state = robot.extensions.ik
     if state is None or method == "analytic" or tgt.frame not in state.frames:
         _warm(robot, tgt, method)
-    return req
-
-
-def collision_pose_request(robot: Robot, target: Any, q0: Any, frame: str | None, relax: Any,
-                           relax_frame: str, method: str, tol_pos: float, tol_rot: float,
-                           max_time: float | None, seed: int | None, options: Mapping[str, Any],
-                           self_collision: Any, obstacles: Any, collision_margin: Any,
-                           spheres: Any) -> SolveRequest:
-    """The request of a pose target with collision options (``self_collision`` or ``collision_margin`` set)
-    and every argument that is neither a collision option nor a pose request's at its default: what
-    :func:`target_request` makes of it, with positional arguments (the common collision-aware call)."""
-    req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time, seed,
-                       options)
-    collision, checker, avoid = _collision_part(robot, req.target.frame, self_collision, obstacles,
-                                                collision_margin, spheres)
+    if collision is None:
+        return SolveRequest(robot, tgt, None, q0, method, DEFAULT_BACKEND, tol_pos, tol_rot, max_time, seed,
+                            None, None, (), None, None, options)
+    request, checker, avoid = _collision_part(robot, tgt.frame, *collision)
     if avoid is not None and method in NO_OBSTACLE_METHODS:
         _refuse_obstacles(method)
-    return SolveRequest(robot, req.target, None, req.q0, method, DEFAULT_BACKEND, req.tol_pos, req.tol_rot,
-                        req.max_time, req.seed, None, avoid, (), collision, checker, req.options)
+    return SolveRequest(robot, tgt, None, q0, method, DEFAULT_BACKEND, tol_pos, tol_rot, max_time, seed, None,
+                        avoid, (), request, checker, options)
 
 
 def _collision_part(robot: Robot, frame: str, self_collision: Any, obstacles: Any, collision_margin: Any,

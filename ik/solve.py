@@ -19,7 +19,6 @@ from typing import Any
 from kinserve.ik.plan import choose_strategy
 from kinserve.ik.request import (
     SolveRequest,
-    collision_pose_request,
     pose_request,
     target_request,
     task_request,
@@ -167,9 +166,8 @@ def solve(
                            seed, options)
     elif (self_collision is True or collision_margin) and type(centring) is float and centring == 0.0 \
             and backend is None and constraints is None:  # the common collision-aware call (no link_radius)
-        req = collision_pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos,
-                                     tol_rot, max_time, seed, options, self_collision, obstacles,
-                                     collision_margin, spheres)
+        req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
+                           seed, options, (self_collision, obstacles, collision_margin, spheres))
     else:
         req = target_request(robot, target, q0, frame=frame, relax=relax, relax_frame=relax_frame,
                              spheres=spheres, obstacles=obstacles, link_radius=link_radius, centring=centring,

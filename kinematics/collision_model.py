@@ -29,6 +29,7 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
+from operator import is_
 from typing import Any, NamedTuple
 
 import coal
@@ -51,11 +52,10 @@ from .collision_pairs import (
 from .collision_scene import CollisionScene
 from .errors import ModelError
 from .mesh_hulls import HullFallback, convex_hulls
+from .shapes import as_obstacles
 
 #: Scene layouts (obstacle shapes, poses aside) kept per model, least recently used dropped first.
 LAYOUT_CACHE_SIZE = 32
-
-_NO_MISS = (None, None, None)  # CollisionModel._missed when no lookup missed since the last scene was built
 
 
 class _LastScene(NamedTuple):
@@ -201,9 +201,6 @@ class CollisionModel:
         self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
         #: The last scene built (:class:`_LastScene`); one, so a new scene frees the one before it.
         self._last_scene: _LastScene = _NO_SCENE
-        #: (obstacles, self_collision, key of ids) of the last tuple :meth:`cached_scene` did not find: the
-        #: scene built next for it skips the key and the lookup (kept alive here, so its ids stay its own).
-        self._missed: tuple = _NO_MISS
         self._lock = threading.Lock()
 
     def with_attached(self, objects: Sequence[Any]) -> "CollisionModel":
@@ -290,13 +287,29 @@ class CollisionModel:
         last = self._last_scene
         if obstacles is last.same and self_collision is last.self_collision:
             return last.scene
+        if (type(obstacles) is tuple or type(obstacles) is list) and (self_collision, *map(id, obstacles)) \
+                == last.key:
+            return last.scene
+        return None
+
+    def scene_of(self, obstacles: Any, self_collision: bool = True) -> CollisionScene:
+        """The scene of ``obstacles`` as a caller gives them (a shape, a sequence of shapes or shape dicts, or
+        None; :func:`~.shapes.as_obstacles`): :meth:`cached_scene`'s answer, else a new scene
+        (:meth:`scene`). The ids of a list or tuple are read once, for the look-up and for the new scene's
+        key."""
+        last = self._last_scene
+        if obstacles is last.same and self_collision is last.self_collision:
+            return last.scene
         if type(obstacles) is tuple or type(obstacles) is list:
             key = (self_collision, *map(id, obstacles))
             if key == last.key:
                 return last.scene
-            if type(obstacles) is tuple:  # the caller builds the scene next (:meth:`scene`): reuses key
-                self._missed = (obstacles, self_collision, key)
-        return None
+            shapes = as_obstacles(obstacles)
+            if all(map(is_, shapes, obstacles)):  # no dict converted: the key is the shapes'
+                return self._new_scene(shapes, self_collision, key)
+        else:
+            shapes = as_obstacles(obstacles)
+        return self._new_scene(shapes, self_collision, (self_collision, *map(id, shapes)))
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes). The model
@@ -307,18 +320,18 @@ class CollisionModel:
         allocates nothing in Pinocchio or coal.
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
-        missed = self._missed
-        if obs is missed[0] and self_collision is missed[1]:  # cached_scene just missed this very tuple
-            key = missed[2]
-            self._missed = _NO_MISS  # once: a later call looks the tuple up again
-        else:
-            key = (self_collision, *map(id, obs))
-            last = self._last_scene
-            if key == last.key:  # the last scene keeps these objects alive: same ids, same objects
-                return last.scene
-        self._last_scene = _NO_SCENE  # freed first: its arrays, warm from its checks, hold the new ones
-        scene = CollisionScene(self.layout(obs, self_collision), obs)
-        self._last_scene = _LastScene(obs, self_collision, key, scene)
+        key = (self_collision, *map(id, obs))
+        last = self._last_scene
+        if key == last.key:  # the last scene keeps these objects alive: same ids, same objects
+            return last.scene
+        return self._new_scene(obs, self_collision, key)
+
+    def _new_scene(self, obstacles: tuple, self_collision: bool, key: tuple) -> CollisionScene:
+        """A new scene of ``obstacles`` (validated shapes; ``key``: :class:`_LastScene`'s), kept as the last
+        one; the one before is freed first (its arrays, warm from its checks, hold the new ones)."""
+        self._last_scene = _NO_SCENE
+        scene = CollisionScene(self.layout(obstacles, self_collision), obstacles)
+        self._last_scene = _LastScene(obstacles, self_collision, key, scene)
         return scene
 
     def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:

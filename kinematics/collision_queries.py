@@ -29,7 +29,6 @@ import numpy as np
 from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
 from .extensions import Extensions
-from .shapes import Shape, as_shape
 from .types import VectorLike
 from .validation import as_vector
 
@@ -63,27 +62,6 @@ class PairDistance:
 
 #: :attr:`CollisionQueries.attached` of a robot that carries nothing (read-only, shared).
 _NOTHING_ATTACHED: MappingProxyType = MappingProxyType({})
-
-
-def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
-    """A tuple of shapes from a shape, a sequence of shapes / shape dicts, or None."""
-    if obstacles is None:
-        return ()
-    if isinstance(obstacles, (Shape, dict)):
-        return (as_shape(obstacles, f"{name}[0]"),)
-    if isinstance(obstacles, (str, bytes)):
-        raise InputError(f"{name} must be a sequence of shapes (Sphere, Box, Capsule, Cylinder, Mesh), "
-                         "got a string")
-    try:
-        items = tuple(obstacles)
-    except TypeError:
-        raise InputError(f"{name} must be a sequence of shapes, got {type(obstacles).__name__}") from None
-    for o in items:
-        if not isinstance(o, Shape):
-            break
-    else:
-        return items
-    return tuple(as_shape(o, f"{name}[{k}]") for k, o in enumerate(items))
 
 
 def _frame_link(model: Any, frame_id: int, links: list[str]) -> str | None:
@@ -255,9 +233,7 @@ class CollisionQueries:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles``: the collision
         model's last scene when they are its very objects, else a new one that replaces it
         (:meth:`~.collision_model.CollisionModel.scene`)."""
-        cm = self.collision
-        self_collision = self_collision is True or bool(self_collision)
-        return cm.cached_scene(obstacles, self_collision) or cm.scene(as_obstacles(obstacles), self_collision)
+        return self.collision.scene_of(obstacles, self_collision is True or bool(self_collision))
 
     def collision_geometry(self, q: VectorLike) -> list[dict]:
         """Plain data of the robot's collision shapes at ``q``: :meth:`CollisionModel.shape_data` with
@@ -282,7 +258,8 @@ class CollisionQueries:
         the validation of ``q``, a dictionary lookup and that pass.
         """
         q = as_vector(q, self.nq)
-        return self.collision_scene(obstacles, self_collision).in_collision(q)
+        scene = self.collision.scene_of(obstacles, self_collision is True or bool(self_collision))
+        return scene.in_collision(q)
 
     def collisions(self, q: VectorLike, obstacles: Any = (), *,
                    self_collision: bool = True) -> list[tuple[str, str]]:

@@ -119,30 +119,61 @@ class CollisionScene:
     owns the obstacle placements.
     """
 
+    __slots__ = ("layout", "obstacles", "_geometry", "_precheck", "_classify", "_uncertified", "_floats",
+                 "_ints", "_tolerance", "__weakref__")
+
     def __init__(self, layout: SceneLayout, obstacles: tuple) -> None:
         self.layout = layout
-        self.model = layout.model
         self.obstacles = obstacles
-        self.self_collision = layout.self_collision
-        self.n_robot = layout.n_robot
-        #: The link name (robot) or obstacle name of each geometry.
-        self.geometry_owner: list[str] = layout.geometry_owner
-        self.pairs = layout.pairs
-        self.pair_names: list[tuple[str, str]] = layout.pair_names
-        #: Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2).
-        self.pair_joints = layout.pair_joints
         self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
         layout_check = layout.precheck()
-        self._precheck = None if layout_check is None else layout_check.arguments(obstacles)
-        pre = self._precheck  # its parts, read by in_collision without a record lookup
-        self._classify = None if pre is None else pre.classify
-        self._uncertified = None if pre is None else pre.uncertified_pairs
-        self._floats = None if pre is None else pre.floats
-        self._ints = None if pre is None else pre.ints
-        self._tolerance = 0.0 if pre is None else pre.tolerance
+        pre = self._precheck = None if layout_check is None else layout_check.arguments(obstacles)
+        # its parts, read by in_collision without a record lookup
+        if pre is None:
+            self._classify = self._uncertified = self._floats = self._ints = None
+            self._tolerance = 0.0
+        else:
+            self._classify, self._uncertified, self._floats, self._ints, self._tolerance = \
+                pre.classify, pre.uncertified_pairs, pre.floats, pre.ints, pre.tolerance
+
+    # the layout's, read through the scene
+    @property
+    def model(self) -> pin.Model:
+        """The robot's Pinocchio model."""
+        return self.layout.model
+
+    @property
+    def self_collision(self) -> bool:
+        """Whether the robot's self pairs are checked."""
+        return self.layout.self_collision
+
+    @property
+    def n_robot(self) -> int:
+        """The number of robot geometries (the obstacles follow them)."""
+        return self.layout.n_robot
+
+    @property
+    def geometry_owner(self) -> list[str]:
+        """The link name (robot) or obstacle name of each geometry."""
+        return self.layout.geometry_owner
+
+    @property
+    def pairs(self) -> np.ndarray:
+        """The checked pairs: geometry indices, int ``(P, 2)``, in scene order."""
+        return self.layout.pairs
+
+    @property
+    def pair_names(self) -> list[tuple[str, str]]:
+        """Each pair's two owners (:attr:`geometry_owner`)."""
+        return self.layout.pair_names
+
+    @property
+    def pair_joints(self) -> np.ndarray:
+        """Pinocchio joint of each pair's two geometries (0 = fixed in the world), shape (P, 2)."""
+        return self.layout.pair_joints
 
     def __len__(self) -> int:
-        return len(self.pairs)
+        return len(self.layout.pairs)
 
     @property
     def placements(self) -> list[pin.SE3]:

@@ -48,7 +48,7 @@ if TYPE_CHECKING:
     import coal
     import pinocchio as pin
 
-__all__ = ["Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "SHAPE_KINDS"]
+__all__ = ["Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "as_obstacles", "SHAPE_KINDS"]
 
 
 def _positive(value: Any, name: str) -> float:
@@ -491,6 +491,27 @@ def as_shape(value: Any, name: str = "obstacle") -> Shape:
 
         params = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
         raise InputError(f"{name} of kind {kind!r} takes {params}, got {sorted(args)}") from None
+
+
+def as_obstacles(obstacles: Any, name: str = "obstacles") -> tuple[Shape, ...]:
+    """A tuple of shapes from a shape, a sequence of shapes / shape dicts, or None."""
+    if obstacles is None:
+        return ()
+    if isinstance(obstacles, (Shape, dict)):
+        return (as_shape(obstacles, f"{name}[0]"),)
+    if isinstance(obstacles, (str, bytes)):
+        raise InputError(f"{name} must be a sequence of shapes (Sphere, Box, Capsule, Cylinder, Mesh), "
+                         "got a string")
+    try:
+        items = tuple(obstacles)
+    except TypeError:
+        raise InputError(f"{name} must be a sequence of shapes, got {type(obstacles).__name__}") from None
+    for o in items:
+        if not isinstance(o, Shape):
+            break
+    else:
+        return items
+    return tuple(as_shape(o, f"{name}[{k}]") for k, o in enumerate(items))
 
 
 def as_sphere(value: Any, name: str = "spheres") -> Sphere:

@@ -202,7 +202,7 @@ def test_the_last_scene_is_reused_only_for_the_very_same_shapes(panda):
     same options) skips re-validating them and reuses that binding; one other object, another order, other
     options or bad input go through validation and binding (equal new shapes find the same binding by
     value)."""
-    from kinserve.ik.request import collision_pose_request
+    from kinserve.ik.request import pose_request
 
     def box(x):
         T = np.eye(4)
@@ -213,8 +213,8 @@ def test_the_last_scene_is_reused_only_for_the_very_same_shapes(panda):
     T = panda.fk(panda.neutral(), FRAME)
 
     def request(obstacles, self_collision=True, margin=0.0):
-        return collision_pose_request(panda, T, None, FRAME, (), "world", "auto", 1e-4, 1e-3, None, None, {},
-                                      self_collision, obstacles, margin, ())
+        return pose_request(panda, T, None, FRAME, (), "world", "auto", 1e-4, 1e-3, None, None, {},
+                            (self_collision, obstacles, margin, ()))
 
     first = request([table, wall])
     again = request([table, wall])

@@ -383,21 +383,31 @@ def test_scene_pairs_follow_the_geometry_model_and_equal_obstacles_share_the_lay
     assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
 
 
-def test_a_tuple_that_missed_the_cache_gets_one_scene_however_it_is_asked_again():
-    """``cached_scene`` misses a new tuple, ``scene`` builds its scene on the key of that miss; every later
-    lookup of the tuple (front door, ``cached_scene``, ``scene`` twice) answers that same scene."""
+def test_a_new_tuple_gets_one_scene_however_it_is_asked_again():
+    """``cached_scene`` misses a new tuple; the scene built for it (``scene`` or the front door ``scene_of``)
+    answers every later lookup of the tuple or of a list of its objects; dict forms are validated into new
+    shapes on each call, so they get a new scene of the same layout."""
     robot = robots.load("panda")
     cm = robot.collision
     obstacles = (Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)), Sphere((0.2, 0.4, 0.6), 0.07))
     assert cm.cached_scene(obstacles) is None
-    scene = cm.scene(obstacles)
-    assert cm.scene(obstacles) is scene and cm.scene(obstacles) is scene
+    scene = cm.scene_of(obstacles)
+    assert scene.obstacles is obstacles
+    assert cm.scene(obstacles) is scene and cm.scene_of(list(obstacles)) is scene
     assert cm.cached_scene(obstacles) is scene and robot.collision_scene(obstacles) is scene
     other = (Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)), Sphere((0.2, 0.4, 0.6), 0.07))  # equal values
     assert cm.cached_scene(other) is None  # equal values, other objects: a scene of their own, same layout
     assert cm.scene(other) is not scene and cm.scene(other).layout is scene.layout
     assert cm.scene(other) is cm.scene(other)
     assert cm.scene(obstacles, self_collision=False) is not scene
+    dicts = [o.to_dict() for o in obstacles]
+    first = cm.scene_of(dicts)
+    assert first.obstacles == obstacles and first.layout is scene.layout
+    assert cm.scene_of(dicts) is not first  # new shapes: a new scene
+    mixed = [obstacles[0], dicts[1]]
+    a = cm.scene_of(mixed)
+    assert a.obstacles[0] is obstacles[0] and a.obstacles[1] == obstacles[1]
+    assert cm.scene_of(mixed) is not a  # the dict is a new shape each time: never the last scene's key
 
 
 def test_the_model_keeps_only_the_last_scene_it_built():

@@ -9,9 +9,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from kinserve.ik.constraints.collision import check_length
-from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.shapes import Shape
+from kinserve.kinematics.shapes import Shape, as_obstacles
 
 
 class CollisionRequest(NamedTuple):

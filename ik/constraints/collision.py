@@ -42,10 +42,10 @@ import pinocchio as pin
 
 from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
 from kinserve.ik.constraints.base_overlap import BaseClearance, check_base_overlap
-from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.shapes import as_obstacles
 
 #: Pairs closer than ``margin + INFLUENCE`` (m) contribute rows.
 INFLUENCE = 0.05
@@ -96,9 +96,7 @@ class CollisionConstraint(Constraint):
         (:func:`~kinserve.ik.constraints.base_overlap.check_base_overlap`, with the robot's memory of the
         obstacles found clear of it)."""
         scene = robot.collision.scene(self.obstacles, self.self_collision)  # obstacles validated by __init__
-        if not getattr(scene, "base_checked", False):  # once per scene (scenes are cached per obstacle set)
-            check_base_overlap(robot, scene, clear=_base_clearance(robot))
-            scene.base_checked = True
+        check_base_overlap(robot, scene, clear=_base_clearance(robot))  # (primitives found clear: remembered)
         return self._on_scene(robot, scene)
 
     def moved(self, obstacles: tuple) -> "CollisionConstraint":
@@ -110,7 +108,6 @@ class CollisionConstraint(Constraint):
         old = self.scene
         scene = CollisionScene(old.layout, obstacles)
         check_base_overlap(self.robot, scene, known=old.obstacles)
-        scene.base_checked = True
         bound = self._on_scene(self.robot, scene)
         bound.obstacles = obstacles
         return bound

@@ -28,8 +28,8 @@ import numpy as np
 
 from kinserve.ik.batch.ray_backend import ensure_ray
 from kinserve.ik.batch.runners import CHUNK_FACTOR, CHUNK_SLACK
-from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
+from kinserve.kinematics.shapes import as_obstacles
 from kinserve.kinematics.validation import as_positive
 
 from .batch_workers import ChunkPool, MotionJob, MotionProblem

@@ -30,9 +30,9 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.ik.targets import Target
-from kinserve.kinematics.collision_queries import as_obstacles
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.shapes import as_obstacles
 from kinserve.kinematics.validation import as_matrix, as_pose, check_limits
 
 from .rrt_connect import SearchBudget
