@@ -187,16 +187,16 @@ _SAVED: dict = {}
 
 def switch_object(o, on: bool) -> None:
     """A layout's or scene's pre-check off (None: coal alone) or back on (as built with the object); a scene's
-    ``in_collision`` reads the certifying kernel as ``_certify``."""
+    ``in_collision`` reads the classifying kernel as ``_classify``."""
     current = o._precheck
     if current is not None:
-        _SAVED[id(o)] = (o, current, getattr(o, "_certify", None))
+        _SAVED[id(o)] = (o, current, getattr(o, "_classify", None))
     saved = _SAVED.get(id(o))
     if saved is None or saved[0] is not o:
         return
     o._precheck = saved[1] if on else None
-    if hasattr(o, "_certify"):
-        o._certify = saved[2] if on else None
+    if hasattr(o, "_classify"):
+        o._classify = saved[2] if on else None
 
 
 def main() -> None:

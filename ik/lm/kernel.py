@@ -53,39 +53,35 @@ _MANY_SIGNATURE = _t.void(F2, I2, F1, F1, F3, _t.boolean, _t.boolean, I1, F1, I1
 
 
 @inline
-def _place(Rw, pw, g, out) -> None:
-    """``pw <- pw + Rw t_g``, ``out = Rw R_g``: placement ``(R_g, t_g)`` (geometry row ``g``) after ``Rw``."""
-    for i in range(3):
-        pw[i] += Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
-    for i in range(3):
-        for c in range(3):
-            out[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
-
-
-@inline
-def _rotate(T, ax, ay, az, qk, Rw) -> None:
-    """``Rw = T @ Rot(a, qk)`` (:func:`kinserve.kinematics.kernel_primitives.axis_rotation`)."""
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = axis_rotation(ax, ay, az, qk)
-    for i in range(3):
-        t0, t1, t2 = T[i, 0], T[i, 1], T[i, 2]
-        Rw[i, 0] = t0 * r00 + t1 * r10 + t2 * r20
-        Rw[i, 1] = t0 * r01 + t1 * r11 + t2 * r21
-        Rw[i, 2] = t0 * r02 + t1 * r12 + t2 * r22
-
-
-@inline
 def _forward(geometry, joints, q, R, p, z, o) -> None:
-    """The frame's world pose into ``R``, ``p``; joint k's world axis into ``z[k]``, origin ``o[k]``."""
+    """The frame's world pose into ``R``, ``p``; joint k's world axis into ``z[k]``, origin ``o[k]``.
+
+    Row ``k`` of ``geometry`` places joint ``k`` (row ``n``: the frame) after the running world placement
+    ``(Rw, pw)``: ``pw += Rw t_k``, ``T = Rw R_k``; the joint then moves it by ``Rot(a_k, q)``
+    (:func:`kinserve.kinematics.kernel_primitives.axis_rotation`) or ``a_k q``. Written without helpers that
+    take arrays: an inlined call passing arrays costs reference counting on every joint."""
     n = joints.shape[0]
     Rw, pw, T = np.eye(3), np.zeros(3), np.empty((3, 3))
-    for k in range(n):
+    for k in range(n + 1):
         g = geometry[k]
-        _place(Rw, pw, g, T)
         for i in range(3):
-            z[k, i] = T[i, 0] * g[12] + T[i, 1] * g[13] + T[i, 2] * g[14]
+            pw[i] += Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
+        for i in range(3):
+            for c in range(3):
+                T[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
+        if k == n:
+            break
+        ax, ay, az = g[12], g[13], g[14]
+        for i in range(3):
+            z[k, i] = T[i, 0] * ax + T[i, 1] * ay + T[i, 2] * az
         qk = q[joints[k, 1]]
         if joints[k, 0] == _REVOLUTE:
-            _rotate(T, g[12], g[13], g[14], qk, Rw)
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = axis_rotation(ax, ay, az, qk)
+            for i in range(3):
+                t0, t1, t2 = T[i, 0], T[i, 1], T[i, 2]
+                Rw[i, 0] = t0 * r00 + t1 * r10 + t2 * r20
+                Rw[i, 1] = t0 * r01 + t1 * r11 + t2 * r21
+                Rw[i, 2] = t0 * r02 + t1 * r12 + t2 * r22
         else:
             for i in range(3):
                 pw[i] += z[k, i] * qk
@@ -93,9 +89,10 @@ def _forward(geometry, joints, q, R, p, z, o) -> None:
                     Rw[i, c] = T[i, c]
         for i in range(3):
             o[k, i] = pw[i]
-    _place(Rw, pw, geometry[n], R)
     for i in range(3):
         p[i] = pw[i]
+        for c in range(3):
+            R[i, c] = T[i, c]
 
 
 @inline
