@@ -53,24 +53,27 @@ _MANY_SIGNATURE = _t.void(F2, I2, F1, F1, F3, _t.boolean, _t.boolean, I1, F1, I1
 
 
 @inline
-def _forward(geometry, joints, q, R, p, z, o) -> None:
-    """The frame's world pose into ``R``, ``p``; joint k's world axis into ``z[k]``, origin ``o[k]``.
+def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R: np.ndarray, p: np.ndarray,
+                      J: np.ndarray, local: bool = True) -> None:
+    """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n):
+    column ``k`` for the chain's joint ``k`` (``q`` index ``joints[k, 1]``), rows linear (m/s per joint unit)
+    then angular (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL) or, with
+    ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED).
 
-    Row ``k`` of ``geometry`` places joint ``k`` (row ``n``: the frame) after the running world placement
-    ``(Rw, pw)``: ``pw += Rw t_k``, ``T = Rw R_k``; the joint then moves it by ``Rot(a_k, q)``
-    (:func:`kinserve.kinematics.kernel_primitives.axis_rotation`) or ``a_k q``. Written without helpers that
-    take arrays: an inlined call passing arrays costs reference counting on every joint."""
+    The forward pass: row ``k`` of ``geometry`` places joint ``k`` after the running world placement
+    ``(Rw, pw)`` (``pw += Rw t_k``, ``T = Rw R_k``), which the joint then moves by ``Rot(a_k, q)``
+    (:func:`kinserve.kinematics.kernel_primitives.axis_rotation`) or ``a_k q``; row ``n`` places the frame.
+    Written in one function: an inlined helper taking arrays costs reference counting on every call
+    (measured: 5 % of an LM start with the forward pass in a helper)."""
     n = joints.shape[0]
     Rw, pw, T = np.eye(3), np.zeros(3), np.empty((3, 3))
-    for k in range(n + 1):
+    z, o = np.empty((n, 3)), np.empty((n, 3))  # joint k's world axis and origin
+    for k in range(n):
         g = geometry[k]
         for i in range(3):
             pw[i] += Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
-        for i in range(3):
             for c in range(3):
                 T[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
-        if k == n:
-            break
         ax, ay, az = g[12], g[13], g[14]
         for i in range(3):
             z[k, i] = T[i, 0] * ax + T[i, 1] * ay + T[i, 2] * az
@@ -87,24 +90,12 @@ def _forward(geometry, joints, q, R, p, z, o) -> None:
                 pw[i] += z[k, i] * qk
                 for c in range(3):
                     Rw[i, c] = T[i, c]
-        for i in range(3):
-            o[k, i] = pw[i]
+        o[k, 0], o[k, 1], o[k, 2] = pw[0], pw[1], pw[2]
+    g = geometry[n]
     for i in range(3):
-        p[i] = pw[i]
+        p[i] = pw[i] + Rw[i, 0] * g[9] + Rw[i, 1] * g[10] + Rw[i, 2] * g[11]
         for c in range(3):
-            R[i, c] = T[i, c]
-
-
-@inline
-def pose_and_jacobian(geometry: np.ndarray, joints: np.ndarray, q: np.ndarray, R: np.ndarray, p: np.ndarray,
-                      J: np.ndarray, local: bool = True) -> None:
-    """World pose of the chain's frame into ``R`` (3x3) and ``p`` (3), its Jacobian into ``J`` (6 x n):
-    column ``k`` for the chain's joint ``k`` (``q`` index ``joints[k, 1]``), rows linear (m/s per joint unit)
-    then angular (rad/s per joint unit) velocity of the frame, in its own axes (LOCAL) or, with
-    ``local=False``, in the world's axes at its origin (LOCAL_WORLD_ALIGNED)."""
-    n = joints.shape[0]
-    z, o = np.empty((n, 3)), np.empty((n, 3))
-    _forward(geometry, joints, q, R, p, z, o)
+            R[i, c] = Rw[i, 0] * g[c] + Rw[i, 1] * g[3 + c] + Rw[i, 2] * g[6 + c]
     for k in range(n):
         zx, zy, zz = z[k, 0], z[k, 1], z[k, 2]
         if joints[k, 0] == _REVOLUTE:
@@ -423,7 +414,7 @@ def _q0_distance(geometry, joints, q0, f, scale) -> float:
     """Pose distance ``D`` (m^2) of the frame at ``q0`` (its full feature) from the target feature ``f``."""
     n = joints.shape[0]
     R, p = np.empty((3, 3)), np.empty(3)
-    _forward(geometry, joints, q0, R, p, np.empty((n, 3)), np.empty((n, 3)))
+    pose_and_jacobian(geometry, joints, q0, R, p, np.empty((6, n)))  # (the frame's pose only is read)
     D = 0.0
     for i in range(3):
         D += (p[i] - f[i]) ** 2
