@@ -151,13 +151,13 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
 
     def screened(*args):
         calls.append(1)
-        status, it, k, flag = screen.run(*args)
+        status, it, k, flag, row = screen.run(*args)
         q0, qs, admit_start = args[2], args[16], args[-1]
         if admit_start and flag != START_UNCERTIFIED:
             checked.append(np.array(q0))
         if flag == ROWS_CERTIFIED and status == 0:
             checked.extend(np.array(q) for q in qs[1:k])
-        return status, it, k, flag
+        return status, it, k, flag, row
 
     real_admission = checkers._admission
 
@@ -174,8 +174,8 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
 
     real_first = checkers.CollisionChecker.first_violation
 
-    def first_violation(self, rows):
-        k = real_first(self, rows)
+    def first_violation(self, rows, uncertified=None):  # rows before uncertified: certified by the screen
+        k = real_first(self, rows, uncertified)
         checked.extend(np.array(q) for q in (rows if k < 0 else rows[:k + 1]))
         return k
 

@@ -8,7 +8,9 @@ Over many random targets and starts in a scene with a wall and a table (and the 
   status, iterations, rows and iterates);
 * the flag of a converged run is "certified" exactly when ``first_uncertified`` certifies every row from the
   answer back to the row after the start, and then coal finds every one of those rows free;
-* with ``admit_start=False`` the start is not asked.
+* with ``admit_start=False`` the start is not asked;
+* the collision checker's test of a run's rows, started from the screen's first uncertified row, gives the
+  answer it gives from the first row (and coal's).
 """
 
 import numpy as np
@@ -39,10 +41,12 @@ def panda():
     return robot
 
 
+OBSTACLES = (_box((0.65, 0.0, -0.05), (0.7, 1.2, 0.1)), _box((0.45, 0.0, 0.5), (0.05, 1.0, 1.0)))
+
+
 @pytest.fixture(scope="module")
 def scene(panda):
-    obstacles = (_box((0.65, 0.0, -0.05), (0.7, 1.2, 0.1)), _box((0.45, 0.0, 0.5), (0.05, 1.0, 1.0)))
-    checker = ik_state(panda).collision_checker(obstacles, True, 0.0)
+    checker = ik_state(panda).collision_checker(OBSTACLES, True, 0.0)
     return checker.constraint.scene, checker.precheck
 
 
@@ -63,20 +67,21 @@ def test_screened_start_equals_the_separate_calls_and_coal(panda, scene):
         T = panda.fk(panda.random_q(rng), FRAME)
         q0 = panda.random_q(rng)
         args = _arguments(panda, q0, T)
-        status, it, k, flag = run_screened_start(*args, pre.floats, pre.ints, pre.tolerance, True)
+        status, it, k, flag, row = run_screened_start(*args, pre.floats, pre.ints, pre.tolerance, True)
         if not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance):
-            assert flag == START_UNCERTIFIED and k == 0 and it == 0
+            assert flag == START_UNCERTIFIED and k == 0 and it == 0 and row == -1
             seen[flag] += 1
             continue
         plain = _arguments(panda, q0, T)
         assert (status, it, k) == lm_kernel.run_start(*plain)
         np.testing.assert_array_equal(args[16][:k], plain[16][:k])
         if status != CONVERGED:
-            assert flag == ROWS_CERTIFIED
+            assert flag == ROWS_CERTIFIED and row == -1
             continue
         rows = np.ascontiguousarray(args[16][k - 1:0:-1])  # answer first, the start left out
-        expected = first_uncertified(pre.floats, pre.ints, rows, 0, pre.tolerance) >= len(rows)
-        assert flag == (ROWS_CERTIFIED if expected else ROWS_UNCERTIFIED)
+        first = first_uncertified(pre.floats, pre.ints, rows, 0, pre.tolerance)
+        assert flag == (ROWS_CERTIFIED if first >= len(rows) else ROWS_UNCERTIFIED)
+        assert row == (-1 if first >= len(rows) else first)  # the first row the caller's check starts from
         seen[flag] += 1
         if flag == ROWS_CERTIFIED:
             assert not any(coal_scene.in_collision(q) for q in rows)
@@ -91,7 +96,27 @@ def test_admit_start_false_skips_the_start(panda, scene):
         if not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance):
             break
     T = panda.fk(panda.random_q(rng), FRAME)
-    status, it, k, flag = run_screened_start(*_arguments(panda, q0, T), pre.floats, pre.ints, pre.tolerance,
-                                             False)
+    status, it, k, flag, _ = run_screened_start(*_arguments(panda, q0, T), pre.floats, pre.ints,
+                                                pre.tolerance, False)
     assert flag != START_UNCERTIFIED and k >= 1
     assert (status, it, k) == lm_kernel.run_start(*_arguments(panda, q0, T))
+
+
+def test_the_checker_goes_on_from_the_screens_first_uncertified_row(panda, scene):
+    coal_scene, pre = scene
+    checker = ik_state(panda).collision_checker(OBSTACLES, True, 0.0)
+    rng = np.random.default_rng(12)
+    met = 0
+    for _ in range(400):
+        T = panda.fk(panda.random_q(rng), FRAME)
+        args = _arguments(panda, panda.random_q(rng), T)
+        status, it, k, flag, row = run_screened_start(*args, pre.floats, pre.ints, pre.tolerance, True)
+        if flag != ROWS_UNCERTIFIED:
+            continue
+        met += 1
+        rows = np.ascontiguousarray(args[16][k - 1:0:-1])
+        hinted = checker.first_violation(rows, row)
+        assert hinted == checker.first_violation(rows)
+        hits = [coal_scene.in_collision(q) for q in rows]
+        assert hinted == (hits.index(True) if True in hits else -1)
+    assert met >= 5

@@ -54,18 +54,20 @@ class CollisionChecker:
         first (``prefer_q0``): never skipped without coal's word."""
         return _admission(self.constraint.in_collision, self.precheck, chosen)
 
-    def first_violation(self, rows: np.ndarray) -> int:
+    def first_violation(self, rows: np.ndarray, uncertified: int | None = None) -> int:
         """Index of the first colliding row, or -1: the sphere pre-check certifies rows in one compiled call,
-        the scene's coal check decides from the first row it cannot certify."""
+        the scene's coal check decides from the first row it cannot certify. ``uncertified``: that row when
+        the caller's pre-check found it already (the rows before it certified: the screen of the LM's run)."""
         if not len(rows):
             return -1
         pre = self.precheck
         if pre is None:
             return self.constraint.first_collision(rows)
-        first_uncertified, floats, ints, tol = pre.first_uncertified, pre.floats, pre.ints, pre.tolerance
-        k = first_uncertified(floats, ints, rows, 0, tol)
-        if k >= rows.shape[0]:
-            return -1
+        k = uncertified
+        if k is None:
+            k = pre.first_uncertified(pre.floats, pre.ints, rows, 0, pre.tolerance)
+            if k >= rows.shape[0]:
+                return -1
         return self.constraint.scene.first_collision(rows, k)
 
     def infeasible(self, target: Target) -> str:

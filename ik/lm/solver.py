@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from functools import partial
 from typing import TYPE_CHECKING
 
@@ -207,19 +207,19 @@ def _run(status: int, it: int, k: int, qs: np.ndarray, errs: np.ndarray) -> tupl
 
 def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, admit_start: bool) -> tuple:
     """One start through the screen's compiled call (:mod:`ik.lm.screened_kernel`): :func:`_run_start`'s
-    answer and the screen's flag; ``(False, 0, None, START_UNCERTIFIED)`` when the start was not certified
-    (nothing ran)."""
+    answer, the screen's flag and its first uncertified row (answer first; -1: none); ``(False, 0, None,
+    START_UNCERTIFIED, -1)`` when the start was not certified (nothing ran)."""
     robot, target, chain, tp2, tr2, damping = problem[:6]
     screen = problem[8]
     rows = max_iter + 1
     qs, errs = np.empty((rows, q.shape[0])), np.empty((rows, 2))
-    status, it, k, flag = screen.run(chain.geometry, chain.joints, q, robot.lower, robot.upper, target.T,
-                                     not target.full, target.A, target.kept, tp2, tr2, damping, DAMPING_GAIN,
-                                     STALL_RATIO, STALL_PATIENCE, max_iter, qs, errs, screen.floats,
-                                     screen.ints, screen.tolerance, admit_start)
+    status, it, k, flag, row = screen.run(chain.geometry, chain.joints, q, robot.lower, robot.upper, target.T,
+                                          not target.full, target.A, target.kept, tp2, tr2, damping,
+                                          DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, max_iter, qs, errs,
+                                          screen.floats, screen.ints, screen.tolerance, admit_start)
     if flag == START_UNCERTIFIED:
-        return False, 0, None, flag
-    return (*_run(status, it, k, qs, errs), flag)
+        return False, 0, None, flag, row
+    return (*_run(status, it, k, qs, errs), flag, row)
 
 
 #: What became of one start (:func:`_try_start`).
@@ -230,22 +230,24 @@ def _try_start(problem: tuple, q: np.ndarray, cap: int, accept, admit) -> tuple[
     """One start of :func:`_search`: ``(outcome, iterations, run)``, outcome :data:`REFUSED` (``admit`` said
     no: no run), :data:`FAILED` (no convergence), :data:`REJECTED` (converged, ``accept`` said no) or
     :data:`ACCEPTED`. With a screen (``problem[8]``) ``admit`` is asked only of a start the screen could not
-    certify and ``accept`` only of a converged run whose rows it could not all certify."""
+    certify and ``accept`` only of a converged run whose rows it could not all certify, with the index of the
+    first of those (answer first: ``accept(qs, row)``)."""
     if problem[8] is None or problem[2] is None:
         if admit is not None and not admit(q):
             return REFUSED, 0, None
         ok, it, run = _run_start(problem, q, cap)
-        sure = False
+        row = None
     else:
-        ok, it, run, flag = _run_screened(problem, q, cap, True)
+        ok, it, run, flag, row = _run_screened(problem, q, cap, True)
         if flag == START_UNCERTIFIED:
             if admit is not None and not admit(q):
                 return REFUSED, 0, None
-            ok, it, run, flag = _run_screened(problem, q, cap, False)
-        sure = flag == ROWS_CERTIFIED
+            ok, it, run, flag, row = _run_screened(problem, q, cap, False)
+        if flag == ROWS_CERTIFIED:
+            return (ACCEPTED if ok else FAILED), it, run
     if not ok:
         return FAILED, it, run
-    if sure or accept is None or accept(run[1][: run[0] + 1]):
+    if accept is None or (accept(run[1][: run[0] + 1]) if row is None else accept(run[1][: run[0] + 1], row)):
         return ACCEPTED, it, run
     return REJECTED, it, run
 
@@ -351,7 +353,7 @@ def solve_lm(
     seed_table_enabled: bool = True,
     prefer_q0: bool = False,
     iteration_budget: int | None = None,
-    accept: Callable[[Sequence[np.ndarray]], bool] | None = None,
+    accept: Callable[..., bool] | None = None,
     admit: Callable[[np.ndarray], bool] | None = None,
     screen: LMScreen | None = None,
 ) -> Result:
@@ -369,7 +371,9 @@ def solve_lm(
     skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
     ``screen``: a pre-check run in the same compiled call as each start (:class:`LMScreen`, compiled chains
     only): ``admit`` is then asked only of the starts it cannot certify and ``accept`` only of the converged
-    runs whose rows it cannot all certify (the screen's "certified" must imply both tests' yes).
+    runs whose rows it cannot all certify, as ``accept(qs, row)``: ``row`` is the first row the screen could
+    not certify, counted from the answer back (the start left out), so the rows after the answer and before
+    it are certified (the screen's "certified" must imply both tests' yes).
     """
     chains = robot.lm_chains  # (compiled_chain inlined: warmed before the clock starts)
     chain = (chains if chains is not None else compiled_chains(robot)).chains[target.frame_id]
