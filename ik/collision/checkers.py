@@ -40,12 +40,8 @@ class ClearanceChecker:
         self.q0 = q0
         self.q0_violates: bool | None = None if q0 is not None else False  # (None: not judged yet)
 
-    def first_violation(self, rows: np.ndarray, uncertified: int | None = None) -> int:
-        """Index of the first row closer than the link radius to an obstacle, or -1. ``uncertified``: the
-        first row not known clear (the rows before it are skipped; None: every row is checked)."""
-        if uncertified:
-            k = self.first_violation(rows[uncertified:])
-            return k if k < 0 else uncertified + k
+    def first_violation(self, rows: np.ndarray) -> int:
+        """Index of the first row closer than the link radius to an obstacle, or -1."""
         if not len(rows):
             return -1
         judge_q0 = self.q0_violates is None  # q0 rides along with the first rows checked

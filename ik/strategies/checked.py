@@ -133,8 +133,10 @@ def _lm_attempts(req: SolveRequest, checker: Checker, admit: Admit, budget: Budg
     skip_start = admit is not None  # an admitted start was checked before its run
     first_violation = checker.first_violation
 
-    def accept(qs: np.ndarray, row: int | None = None) -> bool:  # row: the screen's first uncertified row
-        k = first_violation(qs[:0:-1] if skip_start else qs[::-1], row)
+    def accept(qs: np.ndarray, row: int | None = None) -> bool:
+        rows = qs[:0:-1] if skip_start else qs[::-1]
+        # row: the screen's first uncertified row (a screen runs with the collision checker only)
+        k = first_violation(rows) if row is None else first_violation(rows, row)
         if k == 0:  # the answer itself violates: the next start
             if not rejected:
                 rejected.append(qs)
