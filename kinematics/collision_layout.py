@@ -37,7 +37,7 @@ from __future__ import annotations
 import threading
 import warnings
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import coal
@@ -46,6 +46,7 @@ import pinocchio as pin
 
 from .configuration_checks import PAIRWISE_MAX, CoalCheck, coal_test, collision_check, pair_test
 from .hull_table import HullTable, hull_table
+from .precheck_packing import RobotPacking
 
 if TYPE_CHECKING:
     from .robot_spheres import RobotSpheres
@@ -78,7 +79,9 @@ class RobotCollisionGeometry:
     of the ball about each of its inner points inside its geometry (:func:`~.inner_balls.robot_inner_radii`,
     made with this object when not given; None without spheres); ``hulls``: the cores of its geometries in
     their joints' frames (:func:`~.hull_table.hull_table`, for the motion certificates' compiled distances;
-    made with this object when not given; None without spheres).
+    made with this object when not given; None without spheres); ``packings``: the pre-check's arrays that do
+    not depend on the obstacles (:class:`~.precheck_packing.RobotPacking`), with and without the self pairs
+    (keys True, False), made with this object, shared by every layout (None without spheres).
     """
 
     model: pin.Model
@@ -89,6 +92,7 @@ class RobotCollisionGeometry:
     spheres: RobotSpheres | None
     inner_radii: np.ndarray | None = None
     hulls: HullTable | None = None
+    packings: dict[bool, RobotPacking] | None = field(default=None, init=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.inner_radii is None and self.spheres is not None:
@@ -98,6 +102,12 @@ class RobotCollisionGeometry:
             object.__setattr__(self, "inner_radii", radii)
         if self.hulls is None and self.spheres is not None:
             object.__setattr__(self, "hulls", hull_table(self.geometry.geometryObjects))
+        packings = None
+        if self.spheres is not None:
+            moving = [i for i, j in enumerate(self.geometry_joints) if j != 0]
+            packings = {own: RobotPacking(self.spheres, self.model_pairs if own else (), moving,
+                                          self.inner_radii) for own in (True, False)}
+        object.__setattr__(self, "packings", packings)
 
 
 @dataclass(eq=False)
@@ -226,8 +236,8 @@ class SceneLayout:
             return None
         from .scene_precheck import ScenePrecheck  # Numba's kernels: loaded with the collision model
 
-        return ScenePrecheck(robot.spheres, self.pairs, self.n_robot, len(self.obstacles), robot.inner_radii,
-                             robot.hulls)
+        packing = robot.packings[self.self_collision]
+        return ScenePrecheck(packing, self.pairs, self.n_robot, len(self.obstacles), robot.hulls)
 
     def precheck(self) -> ScenePrecheck | None:
         """The layout's sphere pre-check (:class:`~.scene_precheck.ScenePrecheck`: the robot's spheres and the

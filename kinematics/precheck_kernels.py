@@ -40,9 +40,10 @@ move the bounding spheres to the world (``c_world = oMj * c``; joint 0 is the
 world) - a geometry's cover spheres only when one of its pairs needs them -
 and test the scene's pairs, obstacle pairs first (a configuration in
 collision usually hits an obstacle), stopping at the first pair they cannot
-certify. Their arguments are two flat arrays (:func:`~.precheck_packing.pack`;
-a compiled call pays per array argument), the robot half packed once per
-layout, the obstacle rows (:mod:`.obstacle_table`, made with each shape) appended per scene. Each call
+certify. Their arguments are two flat arrays (:mod:`.precheck_packing`; a
+compiled call pays per array argument): the integer array and the robot half
+of the floats are packed once per robot and shared by every scene, the obstacle
+rows (:mod:`.obstacle_table`, made with each shape) appended per scene. Each call
 allocates its own workspace: one kernel may run on many threads at once.
 The tree's forward kinematics is :mod:`.kernel_primitives`' (inlined); the cache
 key covers every kernel file (:mod:`.kernel_cache`). Every kernel has its
@@ -64,14 +65,13 @@ import numpy as np
 from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit
 from .kernel_primitives import tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
+from .precheck_packing import HEADER, OBSTACLE_PAIR, SELF_PAIR
 from .precheck_verdicts import COLLIDING, FREE, PACKED_PAIRS, PAIR_BITS, UNDECIDED
 
 #: A pair is certified free when its distance lower bound exceeds this (m): ten times coal's GJK tolerance, so
 #: that coal's contact test, whose distances are exact to about 1e-6 m on these shapes, agrees.
 TOLERANCE = 1e-5
 
-#: Pair kinds of the pair table (column 2).
-SELF_PAIR, OBSTACLE_PAIR = 0, 1
 
 _jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source)
 _t = numba.types
@@ -95,14 +95,21 @@ def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.n
 @_inline
 def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays
-    (:func:`~.precheck_packing.pack`)."""
-    J, S, G, P, O = ints[0], ints[1], ints[2], ints[3], ints[4]  # noqa: E741 - the packing's names
+    (:mod:`~.precheck_packing`): the obstacles are what ``floats`` holds after the robot half, the pairs the
+    last ``N + M O`` rows of the pair table. Raises ValueError when the table holds fewer obstacles."""
+    J, S, G, M, N = ints[0], ints[1], ints[2], ints[3], ints[4]  # noqa: E741 - the packing's names
+    robot = 16 * J + 4 * S
+    O = (floats.shape[0] - robot) // 16  # noqa: E741
+    P = N + M * O
+    start = HEADER + 3 * J + 5 * G
+    if O < 0 or ints.shape[0] - 4 * P < start:
+        raise ValueError("pre-check: the pair table holds fewer obstacles than the float array")
     tree = floats[:15 * J].reshape((J, 15))
-    spheres = floats[16 * J:16 * J + 4 * S].reshape((S, 4))
-    obstacles = floats[16 * J + 4 * S:16 * J + 4 * S + 16 * O].reshape((O, 16))
-    joints = ints[5:5 + 3 * J].reshape((J, 3))
-    geoms = ints[5 + 3 * J:5 + 3 * J + 5 * G].reshape((G, 5))
-    pairs = ints[5 + 3 * J + 5 * G:5 + 3 * J + 5 * G + 4 * P].reshape((P, 4))
+    spheres = floats[16 * J:robot].reshape((S, 4))
+    obstacles = floats[robot:robot + 16 * O].reshape((O, 16))
+    joints = ints[HEADER:HEADER + 3 * J].reshape((J, 3))
+    geoms = ints[HEADER + 3 * J:start].reshape((G, 5))
+    pairs = ints[ints.shape[0] - 4 * P:].reshape((P, 4))
     return tree, joints, spheres, geoms, pairs, obstacles
 
 

@@ -1,11 +1,12 @@
 """The sphere pre-check of one scene layout, and the arguments of its compiled kernels for one scene.
 
 A :class:`~.collision_layout.SceneLayout` (obstacles of given shapes, any poses)
-builds one :class:`ScenePrecheck`: the robot's spheres (:mod:`.robot_spheres`) and
-its pair table - robot geometry, other geometry or obstacle, pair kind, index of
-the pair in the scene; obstacle pairs first (a configuration in collision usually
-hits an obstacle: found sooner; the verdict does not depend on the order) - packed
-once (:mod:`.precheck_packing`) but the obstacle rows. Each scene of the layout then gets its
+builds one :class:`ScenePrecheck` on the robot's packing
+(:class:`~.precheck_packing.RobotPacking`: the robot's spheres and the pair table -
+robot geometry, other geometry or obstacle, pair kind, index of the pair in the
+scene; obstacle pairs first, a configuration in collision usually hits an
+obstacle: found sooner; the verdict does not depend on the order), which every
+layout and scene of the robot shares. Each scene of the layout then gets its
 :class:`PrecheckArguments` (:meth:`ScenePrecheck.arguments`): its obstacles' rows
 (:attr:`~.shapes.Shape.obstacle_row`, made with each shape) appended to the robot
 half, one concatenation.
@@ -19,7 +20,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .hull_table import HullTable
-from .obstacle_table import OBSTACLE_COLUMNS
 from .precheck_kernels import (
     OBSTACLE_PAIR,
     SELF_PAIR,
@@ -31,8 +31,7 @@ from .precheck_kernels import (
     first_uncertified,
     uncertified_pairs,
 )
-from .precheck_packing import pack
-from .robot_spheres import RobotSpheres
+from .precheck_packing import RobotPacking, table_view
 
 
 class PrecheckArguments(NamedTuple):
@@ -49,7 +48,7 @@ class PrecheckArguments(NamedTuple):
     ``uncertified_pairs(floats, ints, q, tolerance)`` (the scene indices of the pairs the spheres do not
     certify at ``q``: coal need check only those).
     ``hulls``: the robot's :class:`~.hull_table.HullTable` (None: the compiled distances are not available)
-    and ``table_rows`` ``(P,)``: the row of the pair table of each scene pair (:func:`pair_table`), for
+    and ``table_rows`` ``(P,)``: the row of the pair table of each scene pair (:mod:`.precheck_packing`), for
     :func:`~.motion_kernels.advance_on_distances`.
     """
 
@@ -67,42 +66,28 @@ class PrecheckArguments(NamedTuple):
     table_rows: np.ndarray
 
 
-def pair_table(pairs: np.ndarray, n_robot: int) -> np.ndarray:
-    """The pre-check's pair table ``(P, 4)`` of a scene's geometry pairs ``(P, 2)`` (robot geometries are
-    the first ``n_robot``, obstacles follow): robot geometry first, then the other robot geometry or the
-    obstacle's index, :data:`~.precheck_kernels.SELF_PAIR` / :data:`~.precheck_kernels.OBSTACLE_PAIR`, the
-    pair's index in the scene; obstacle pairs first, each kind in the scene's order."""
-    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-    robot_first = pairs[:, 0] < n_robot
-    first = np.where(robot_first, pairs[:, 0], pairs[:, 1])
-    second = np.where(robot_first, pairs[:, 1], pairs[:, 0])
-    obstacle = second >= n_robot
-    table = np.column_stack([first, np.where(obstacle, second - n_robot, second),
-                             np.where(obstacle, OBSTACLE_PAIR, SELF_PAIR), np.arange(len(pairs))])
-    return np.ascontiguousarray(table[np.argsort(~obstacle, kind="stable")].astype(np.int64))
-
-
 class ScenePrecheck:
-    """The pre-check of one layout: the robot's spheres ``robot`` and the pair table ``pairs`` ``(P, 4)``
-    (:func:`pair_table`) of a layout with ``n_obstacles`` obstacles; :meth:`arguments` adds a scene's
-    obstacle rows. ``inner_radii``: the radii (m) of the robot's inner balls (:mod:`.inner_balls`; None:
-    points); ``hulls``: the cores of its geometries (:mod:`.hull_table`; None: no compiled distances).
+    """The pre-check of one layout of ``n_obstacles`` obstacles: the robot's packing ``packing`` (shared by
+    every layout of the robot and self-collision choice: :class:`~.precheck_packing.RobotPacking`) and the
+    pair table ``pairs`` ``(P, 4)`` the layout's scenes read (a view of the packing's); :meth:`arguments`
+    adds a scene's obstacle rows. ``scene_pairs`` ``(P, 2)``: the layout's pairs (geometry indices, robot
+    geometries first then the obstacles from ``n_robot`` on), checked against the table; ``hulls``: the
+    cores of the robot's geometries (:mod:`.hull_table`; None: no compiled distances).
     """
 
-    def __init__(self, robot: RobotSpheres, pairs: np.ndarray, n_robot: int, n_obstacles: int,
-                 inner_radii: np.ndarray | None = None, hulls: HullTable | None = None) -> None:
-        self.robot = robot
+    def __init__(self, packing: RobotPacking, scene_pairs: np.ndarray, n_robot: int, n_obstacles: int,
+                 hulls: HullTable | None = None) -> None:
+        self.robot = packing.robot
         self.hulls = hulls
-        self.pairs = pair_table(pairs, n_robot)
+        #: The robot half of the packed floats and the packed integers, both the packing's own arrays.
+        self.robot_floats = packing.floats
+        self.ints = packing.ints_for(n_obstacles)
+        self.pairs = table_view(self.ints, n_obstacles)
+        _check_table(self.pairs, scene_pairs, n_robot)
         #: The row of :attr:`pairs` of each scene pair.
         self.table_rows = np.empty(len(self.pairs), dtype=np.int64)
         self.table_rows[self.pairs[:, 3]] = np.arange(len(self.pairs))
         self.table_rows.setflags(write=False)
-        blank = np.zeros((int(n_obstacles), OBSTACLE_COLUMNS))  # the rows each scene brings
-        packed = pack(robot, self.pairs, blank, inner_radii)
-        #: The packed floats but the obstacle rows (a scene appends its own).
-        self.robot_floats = packed.floats[:len(packed.floats) - blank.size]
-        self.ints = packed.ints
         #: :meth:`motion_reach`'s pair rates of the self pairs, per row of ``pairs``.
         self.pair_reach = self.motion_reach()
 
@@ -132,6 +117,17 @@ class ScenePrecheck:
                                  self.table_rows)
 
 
+def _check_table(table: np.ndarray, scene_pairs: np.ndarray, n_robot: int) -> None:
+    """Raise RuntimeError unless the pair table ``table`` ``(P, 4)`` lists exactly the scene's pairs
+    ``scene_pairs`` ``(P, 2)``, each at its scene index (robot geometry first, obstacles as indices from
+    ``n_robot``)."""
+    scene_pairs = np.asarray(scene_pairs, dtype=np.int64).reshape(-1, 2)
+    other = np.where(table[:, 2] == OBSTACLE_PAIR, table[:, 1] + n_robot, table[:, 1])
+    if len(table) != len(scene_pairs) or not np.array_equal(np.sort(table[:, 3]), np.arange(len(table))) \
+            or not np.array_equal(scene_pairs[table[:, 3]], np.column_stack([table[:, 0], other])):
+        raise RuntimeError("the pre-check's pair table does not list the scene's pairs")  # pragma: no cover
+
+
 def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:
     """:func:`~.precheck_kernels.certify_configurations` with a scene's ``arguments`` on configurations ``qs``
     (a sequence of ``(nq,)`` float arrays or an ``(N, nq)`` array): per configuration, True when certified
@@ -141,4 +137,4 @@ def certify(arguments: PrecheckArguments, qs: Any) -> np.ndarray:
     return certify_configurations(arguments.floats, arguments.ints, Q, arguments.tolerance)
 
 
-__all__ = ["PrecheckArguments", "ScenePrecheck", "certify", "pair_table"]
+__all__ = ["PrecheckArguments", "ScenePrecheck", "certify"]

@@ -27,7 +27,7 @@ from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.collision_layout import SceneLayout
 from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.obstacle_table import obstacle_row
-from kinserve.kinematics.precheck_packing import pack
+from kinserve.kinematics.precheck_packing import pack, table_capacity
 from kinserve.kinematics.precheck_verdicts import PACKED_PAIRS, carried_pairs
 from kinserve.kinematics.scene_precheck import certify
 from kinserve.kinematics.shapes import Box, Sphere
@@ -155,17 +155,26 @@ def test_scene_checks_share_the_layout_precheck_and_follow_moved_obstacles():
     away = robot.collision_scene(SCENE + [Box(pose(elbow + (0.0, 0.0, 0.6)), (0.1, 0.1, 0.1))])
     onto = robot.collision_scene(SCENE + [Box(pose(elbow), (0.1, 0.1, 0.1))])
     assert away.layout is onto.layout and away.layout.precheck() is onto.layout.precheck()
-    layout_check = away.layout.precheck()
     for scene in (away, onto):
         # rows copied from the layout's own obstacles or placed: as packed from scratch
         rows = np.array([obstacle_row(shape.geometry(), shape.placement()) for shape in scene.obstacles])
-        radii = robot.collision.robot_geometry.inner_radii
-        floats, ints = pack(layout_check.robot, layout_check.pairs, rows, radii)
+        floats, ints = packed_from_scratch(robot, scene, rows)
         assert np.allclose(scene.precheck().floats, floats, rtol=0, atol=1e-15)
         assert np.array_equal(scene.precheck().ints, ints)
     assert certify(away.precheck(), [q])[0] and not certify(onto.precheck(), [q])[0]
     assert not away.in_collision(q) and onto.in_collision(q)
     assert away.first_collision([q, q]) == -1 and onto.first_collision([q, q]) == 0
+
+
+def packed_from_scratch(robot, scene, rows):
+    """The pre-check's arrays of ``scene`` packed again from the robot's sphere model, its self pairs and
+    moving geometries (read from the Pinocchio models, not from the packing) and the obstacle ``rows``, with
+    a pair table as large as the scene's."""
+    cm = robot.collision
+    moving = [i for i, g in enumerate(cm.geometry.geometryObjects) if g.parentJoint != 0]
+    self_pairs = [(cp.first, cp.second) for cp in cm.geometry.collisionPairs] if scene.self_collision else []
+    return pack(cm.spheres, self_pairs, moving, rows, cm.robot_geometry.inner_radii,
+                capacity=table_capacity(scene.precheck().ints))
 
 
 def test_unpackable_robots_keep_the_coal_path(monkeypatch):
@@ -195,8 +204,7 @@ def test_the_precheck_is_made_with_the_scene():
     pre, layout_check = scene.precheck(), scene.layout.precheck()
     assert pre is not None and layout_check is not None
     rows = np.array([obstacle_row(s.geometry(), s.placement()) for s in scene.obstacles])
-    radii = robot.collision.robot_geometry.inner_radii
-    floats, ints = pack(layout_check.robot, layout_check.pairs, rows, radii)
+    floats, ints = packed_from_scratch(robot, scene, rows)
     assert np.allclose(pre.floats, floats, rtol=0, atol=1e-15) and np.array_equal(pre.ints, ints)
     assert pre.tolerance == pk.TOLERANCE
     Q = robot.random_q(np.random.default_rng(12), 200)
@@ -301,3 +309,34 @@ def test_certainly_colliding_equals_every_inner_ball_tested():
     print(f"{sum(answers)} of {len(Q)} in collision for certain")
     assert 50 < sum(answers) < 550  # both answers occur
     assert [pk.classify_configuration(*arrays, q, pk.TOLERANCE) == pk.COLLIDING for q in Q] == answers
+
+
+def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacles_grows_its_table():
+    """The pre-check's integer array and the robot half of its floats do not depend on the obstacles: every
+    layout of a robot (same self-collision choice) reads the same arrays, whatever its shapes and count. A
+    scene with more obstacles than the table holds gets a larger table (the scenes before keep theirs and
+    stay right); every scene answers as pair-by-pair coal; floats with more obstacles than a table raise."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(21)
+    few = robot.collision_scene([Box(pose((0.4, 0.0, 0.3)), (0.1, 0.2, 0.1))])
+    other = robot.collision_scene([Sphere((0.3, 0.2, 0.5), 0.08), Sphere((0.0, 0.4, 0.4), 0.05)])
+    alone = robot.collision_scene([Sphere((0.3, 0.2, 0.5), 0.08)], self_collision=False)
+    pf, po = few.layout.precheck(), other.layout.precheck()
+    assert few.layout is not other.layout
+    assert pf.ints is po.ints and pf.robot_floats is po.robot_floats
+    assert alone.layout.precheck().ints is not pf.ints  # no self pairs: the other packing
+    capacity = table_capacity(pf.ints)
+    n = capacity + 5  # small balls 0.45-1.1 m from the base axis: some configurations hit one
+    angle, radius, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(0.45, 1.1, n), rng.uniform(0.0, 1.2, n)
+    centres = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), z])
+    many = robot.collision_scene([Sphere(c, 0.03) for c in centres])
+    pm = many.layout.precheck()
+    assert table_capacity(pm.ints) >= capacity + 5 and pm.ints is not pf.ints
+    assert table_capacity(pf.ints) == capacity  # the earlier layouts keep their table
+    Q = robot.random_q(np.random.default_rng(22), 150)
+    for scene in (few, other, alone, many):
+        assert [scene.in_collision(q) for q in Q] == coal_hits(scene, Q).tolist()
+        assert len(scene.precheck().ints) >= 4 * len(scene)  # the table's suffix: one row per scene pair
+    assert any(many.in_collision(q) for q in Q) and not all(many.in_collision(q) for q in Q)
+    with pytest.raises(ValueError, match="fewer obstacles"):
+        pk.certify_configuration(many.precheck().floats, pf.ints, Q[0], pk.TOLERANCE)
