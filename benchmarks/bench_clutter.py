@@ -25,12 +25,15 @@ Measured per scene (the checker that goes first alternates from scene to scene):
     timed inside the worker the same way. Its verdicts are compared with kinserve's: kinserve checks
     the meshes' convex hulls, which contain the meshes, so it may report a collision roboplan does not.
 
-Reported: median and p95 of the first check (µs), median and p95 per configuration (µs) over all the
-configurations checked, the share in collision, the ratios kinserve / roboplan measured in this run,
-and the targets (median <= 5 µs per configuration, <= 50 µs for the first check; VAMP's 1.8 µs per
-configuration on the project's machine type is the reference). Defaults: 3 scenes per set x 200
-configurations; ``--all``: every scene x 1000 configurations, and the run's table is written into the
-``clutter`` section of docs/benchmarks.md (``--docs``; ``render_tables.render_clutter``).
+Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
+checker went first (its own previous scene's checks came just before) and those where it went second (the
+other checker's process ran just before: in this run the other process's code and data fill the caches, and
+a first check that touches a few kilobytes of its own takes about twice as long) - median and p95 per
+configuration (µs) over all the configurations checked, the share in collision, the ratios kinserve /
+roboplan measured in this run, and the targets (median <= 5 µs per configuration, <= 50 µs for the first
+check; VAMP's 1.8 µs per configuration on the project's machine type is the reference). Defaults: 3
+scenes per set x 200 configurations; ``--all``: every scene x 1000 configurations, and the run's table is
+written into the ``clutter`` section of docs/benchmarks.md (``--docs``; ``render_tables.render_clutter``).
 """
 
 from __future__ import annotations
@@ -78,6 +81,9 @@ class SceneTimes:
     collision: np.ndarray
     per_q_scene_s: np.ndarray | None = None
     scene_s: float | None = None
+    #: Whether the other checker's turn came just before this scene (its worker process ran right before
+    #: this checker read the scene: caches hold the other process's code and data).
+    after_peer: bool = False
 
 
 class ClutterPeer(MotionPeer):
@@ -183,12 +189,13 @@ def run_scenes(robot, worker, scenes: list[SceneFile], n_configs: int) -> dict[s
     for k, scene in enumerate(scenes):
         qs = configurations(robot, n_configs, scene.seed)
         order = list(out) if k % 2 == 0 else list(out)[::-1]
-        for name in order:
+        for turn, name in enumerate(order):
             times = time_kinserve(robot, scene.path, qs) if name == "kinserve" \
                 else time_roboplan(worker, scene.path, qs)
             if times is None:  # the peer failed: its rows stop here
                 out.pop(name)
                 continue
+            times.after_peer = turn > 0  # second in this scene: right after the other checker's turn
             out[name].append(times)
         if (k + 1) % 20 == 0 or k + 1 == len(scenes):
             print(f"  {k + 1}/{len(scenes)} scenes ({time.perf_counter() - t0:.0f} s)", flush=True)
@@ -210,6 +217,10 @@ def figures(rows: list[SceneTimes]) -> dict:
            "per_configuration": _us(np.concatenate([r.per_q_s for r in rows])),
            "per_configuration_scene_medians": _us([np.median(r.per_q_s) for r in rows]),
            "in_collision_share": float(np.mean(np.concatenate([r.collision for r in rows])))}
+    for key, after in (("first_check_after_own_turn", False), ("first_check_after_peer_turn", True)):
+        chosen = [r.first_s for r in rows if r.after_peer is after]
+        if chosen and len(chosen) < len(rows):
+            out[key] = {**_us(chosen), "scenes": len(chosen)}
     if rows and rows[0].per_q_scene_s is not None:
         out["per_configuration_scene_call"] = _us(np.concatenate([r.per_q_scene_s for r in rows]))
     if rows and rows[0].scene_s is not None:
@@ -260,6 +271,12 @@ def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> No
             print(f"{'  (scene.in_collision)':<22} {'':>6} {'':>8} {'':>17} {'':>10} "
                   f"{s['median_us']:>8.2f}/{s['p95_us']:<8.2f}")
     print("  (median/p95; first = scene built from the shapes + its first check; per q = one configuration)")
+    for name, f in summary.items():
+        if "first_check_after_peer_turn" in f:
+            own, peer = f["first_check_after_own_turn"], f["first_check_after_peer_turn"]
+            print(f"  {name} first check after its own previous scene: {own['median_us']:.1f}/"
+                  f"{own['p95_us']:.1f} us ({own['scenes']} scenes); right after the other checker's turn: "
+                  f"{peer['median_us']:.1f}/{peer['p95_us']:.1f} us ({peer['scenes']} scenes)")
     for key, value in ratio.items():
         print(f"  kinserve / roboplan, {key}: {value:.2f}")
     if agree:

@@ -251,6 +251,16 @@ def render_clutter(d: dict) -> list[str]:
         if "per_configuration_scene_call" in f:
             out.append(_clutter_row("kinserve (scene.in_collision)", {**f, "first_check": None},
                                     "per_configuration_scene_call"))
+    split = [(name, f) for name, f in summary.items() if "first_check_after_peer_turn" in f]
+    if split:
+        out += ["", "First check by what ran just before it (the checker that goes first alternates: a "
+                    "checker going first follows its own previous scene, one going second follows the other "
+                    "checker's process), median / p95:", ""]
+        for name, f in split:
+            own, peer = f["first_check_after_own_turn"], f["first_check_after_peer_turn"]
+            out.append(f"- {name}: after its own previous scene {_us(own['median_us'])} / "
+                       f"{_us(own['p95_us'])} ({own['scenes']} scenes); right after the other checker's turn "
+                       f"{_us(peer['median_us'])} / {_us(peer['p95_us'])} ({peer['scenes']} scenes)")
     ratio, agree = d.get("ratios_kinserve_over_roboplan") or {}, d.get("verdicts")
     if ratio:
         out += ["", "kinserve / roboplan (medians of this run): " + ", ".join(

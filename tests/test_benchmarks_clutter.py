@@ -53,3 +53,30 @@ def test_bench_clutter_runs_and_its_table_copies_the_figures(tmp_path):
     rt.write_section(page, "clutter", lines)
     text = page.read_text()
     assert "old" not in text and row in text and text.endswith("<!-- clutter:end -->\n\nafter\n")
+
+
+def test_the_first_check_is_reported_by_what_ran_just_before_it():
+    """Scenes where a checker went second (the other checker's process ran just before) and scenes where it
+    went first are summarised apart as well as together, and the table prints both; a run with one population
+    (one checker) has no split."""
+    import numpy as np
+
+    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion"):
+        load_benchmark(dep)  # the names bench_clutter imports its siblings by
+    bc = load_benchmark("bench_clutter", "bench_clutter_split")
+
+    def scene(first_s, after_peer):
+        return bc.SceneTimes(first_s, first_s / 10, np.full(3, 2e-6), np.zeros(3, dtype=bool),
+                             after_peer=after_peer)
+
+    rows = [scene(1e-5, False), scene(3e-5, False), scene(1e-4, True), scene(2e-4, True), scene(3e-4, True)]
+    f = bc.figures(rows)
+    own, peer = f["first_check_after_own_turn"], f["first_check_after_peer_turn"]
+    assert (own["scenes"], peer["scenes"]) == (2, 3)
+    assert own["median_us"] == pytest.approx(20.0) and peer["median_us"] == pytest.approx(200.0)
+    assert f["first_check"]["median_us"] == pytest.approx(100.0)
+    assert "first_check_after_peer_turn" not in bc.figures(rows[:2])
+    doc = {"workload": {"scenes": 5, "configurations_per_scene": 3}, "summary": {"kinserve": f}}
+    text = "\n".join(_render_tables().render_clutter(doc))
+    assert "- kinserve: after its own previous scene 20.0 µs" in text
+    assert "right after the other checker's turn 200.0 µs" in text and "(3 scenes)" in text
