@@ -105,8 +105,8 @@ class RobotCollisionGeometry:
         packings = None
         if self.spheres is not None:
             moving = [i for i, j in enumerate(self.geometry_joints) if j != 0]
-            packings = {own: RobotPacking(self.spheres, self.model_pairs if own else (), moving,
-                                          self.inner_radii) for own in (True, False)}
+            own = RobotPacking(self.spheres, self.model_pairs, moving, self.inner_radii)
+            packings = {True: own, False: RobotPacking(self.spheres, (), moving, floats=own.floats)}
         object.__setattr__(self, "packings", packings)
 
 

@@ -126,16 +126,19 @@ class RobotPacking:
 
     ``robot``: the sphere model; ``self_pairs`` ``(N, 2)``: the checked self pairs in scene order (empty
     without self collision); ``moving`` ``(M,)``: the robot geometries on a moving joint, each paired with
-    every obstacle; ``inner_radii``: as :func:`robot_floats`.
+    every obstacle; ``inner_radii``: as :func:`robot_floats`; ``floats``: the robot half when another packing
+    of the robot has it already (read-only; None: made here).
     """
 
     def __init__(self, robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray,
-                 inner_radii: np.ndarray | None = None) -> None:
+                 inner_radii: np.ndarray | None = None, floats: np.ndarray | None = None) -> None:
         self.robot = robot
         self.self_pairs = np.asarray(self_pairs, dtype=np.int64).reshape(-1, 2)
         self.moving = np.asarray(moving, dtype=np.int64).reshape(-1)
-        self.floats = robot_floats(robot, inner_radii)
-        self.floats.setflags(write=False)
+        if floats is None:
+            floats = robot_floats(robot, inner_radii)
+            floats.setflags(write=False)
+        self.floats = floats
         self._lock = threading.Lock()
         self._ints = robot_ints(robot, self.self_pairs, self.moving, FIRST_CAPACITY)
 

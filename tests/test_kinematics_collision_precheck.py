@@ -324,7 +324,9 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
     pf, po = few.layout.precheck(), other.layout.precheck()
     assert few.layout is not other.layout
     assert pf.ints is po.ints and pf.robot_floats is po.robot_floats
-    assert alone.layout.precheck().ints is not pf.ints  # no self pairs: the other packing
+    alone_check = alone.layout.precheck()
+    assert alone_check.ints is not pf.ints  # no self pairs: the other packing, on the same robot half
+    assert alone_check.robot_floats is pf.robot_floats and int(alone_check.ints[4]) == 0
     capacity = table_capacity(pf.ints)
     n = capacity + 5  # small balls 0.45-1.1 m from the base axis: some configurations hit one
     angle, radius, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(0.45, 1.1, n), rng.uniform(0.0, 1.2, n)
