@@ -116,17 +116,27 @@ def test_self_pair_bounds_change_no_faster_than_their_motion_reach():
     assert tight > 0.1, tight
 
 
-def _centres(spheres, q: np.ndarray) -> np.ndarray:
-    """World centres ``(G + S, 3)`` of every sphere row of the robot's sphere model at ``q`` (Pinocchio's
-    forward kinematics, not the kernels')."""
-    rows = np.empty((len(spheres.spheres), 3))
+def _placements(spheres, q: np.ndarray) -> np.ndarray:
+    """Every joint's world placement ``(J + 1, 12)`` at ``q`` (the tree's forward kinematics)."""
     X = np.empty((len(spheres.joints) + 1, 12))
     pk.tree_placements(spheres.tree, spheres.joints, q, X)
+    return X
+
+
+def _centres_at(spheres, X: np.ndarray) -> np.ndarray:
+    """World centres ``(G + S, 3)`` of every sphere row of the robot's sphere model at the placements ``X``:
+    ``t + R c`` for each row's joint."""
+    rows = np.empty((len(spheres.spheres), 3))
     for g, (joint, first, end) in enumerate(spheres.geoms):
-        for r in [g, *range(first, end)]:
-            R, t = X[joint, :9].reshape(3, 3), X[joint, 9:]
-            rows[r] = t + R @ spheres.spheres[r, :3]
+        own = [g, *range(first, end)]
+        R, t = X[joint, :9].reshape(3, 3), X[joint, 9:]
+        rows[own] = t + spheres.spheres[own, :3] @ R.T
     return rows
+
+
+def _centres(spheres, q: np.ndarray) -> np.ndarray:
+    """World centres ``(G + S, 3)`` of every sphere row of the robot's sphere model at ``q``."""
+    return _centres_at(spheres, _placements(spheres, q))
 
 
 def _axis_rate_sum(spheres, qs: np.ndarray, du: np.ndarray) -> np.ndarray:
@@ -135,22 +145,20 @@ def _axis_rate_sum(spheres, qs: np.ndarray, du: np.ndarray) -> np.ndarray:
     whose every per-joint term bounds that joint's part of the speed is at least this."""
     J = len(spheres.joints)
     peak = np.zeros((len(spheres.spheres), J))
-    X = np.empty((J + 1, 12))
-    for q in qs:
-        pk.tree_placements(spheres.tree, spheres.joints, q, X)
-        C = _centres(spheres, q)
-        for g, (joint, first, end) in enumerate(spheres.geoms):
-            rows = [g, *range(first, end)]
-            j = int(joint)
-            while j > 0:
-                k = j - 1
-                if spheres.joints[k, 0] == REVOLUTE:
-                    axis = X[j, :9].reshape(3, 3) @ spheres.tree[k, 12:15]
-                    rho = np.linalg.norm(np.cross(axis, C[rows] - X[j, 9:]), axis=1)
-                else:
-                    rho = np.ones(len(rows))
-                peak[rows, k] = np.maximum(peak[rows, k], rho)
-                j = int(spheres.joints[k, 2])
+    X = np.array([_placements(spheres, q) for q in qs])  # (N, J + 1, 12)
+    C = np.array([_centres_at(spheres, Xn) for Xn in X])  # (N, G + S, 3)
+    for g, (joint, first, end) in enumerate(spheres.geoms):
+        rows = [g, *range(first, end)]
+        j = int(joint)
+        while j > 0:
+            k = j - 1
+            if spheres.joints[k, 0] == REVOLUTE:
+                axis = X[:, j, :9].reshape(-1, 3, 3) @ spheres.tree[k, 12:15]  # (N, 3), every sample
+                rho = np.linalg.norm(np.cross(axis[:, None, :], C[:, rows] - X[:, j, None, 9:]), axis=-1)
+                peak[rows, k] = np.maximum(peak[rows, k], rho.max(axis=0))
+            else:
+                peak[rows, k] = np.maximum(peak[rows, k], 1.0)
+            j = int(spheres.joints[k, 2])
     return peak @ du
 
 
