@@ -27,13 +27,13 @@ Measured per scene (the checker that goes first alternates from scene to scene):
 
 Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
 checker went first (its own previous scene's checks came just before) and those where it went second (the
-other checker's process ran just before: in this run the other process's code and data fill the caches, and
-a first check that touches a few kilobytes of its own takes about twice as long) - median and p95 per
-configuration (µs) over all the configurations checked, the share in collision, the ratios kinserve /
-roboplan measured in this run, and the targets (median <= 5 µs per configuration, <= 50 µs for the first
-check; VAMP's 1.8 µs per configuration on the project's machine type is the reference). Defaults: 3
-scenes per set x 200 configurations; ``--all``: every scene x 1000 configurations, and the run's table is
-written into the ``clutter`` section of docs/benchmarks.md (``--docs``; ``render_tables.render_clutter``).
+other checker's process ran just before, and its code and data fill the caches; docs/benchmarks.md has the
+figures) - median and p95 per configuration (µs) over all the configurations checked, the share in
+collision, the ratios kinserve / roboplan measured in this run, and the targets (median <= 5 µs per
+configuration, <= 50 µs for the first check; VAMP's 1.8 µs per configuration on the project's machine type
+is the reference). Defaults: 3 scenes per set x 200 configurations; ``--all``: every scene x 1000
+configurations, and the run's table is written into the ``clutter`` section of docs/benchmarks.md
+(``--docs``; ``render_tables.render_clutter``).
 """
 
 from __future__ import annotations
