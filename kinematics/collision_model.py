@@ -198,7 +198,8 @@ class CollisionModel:
                                                      self.spheres)
         self._shape_data = [_shape_dict(g, link) for g, link in zip(gm.geometryObjects, self.links)]
         self._base_spheres = _base_spheres(gm, self.geometry_joints)
-        self._layouts: OrderedDict = OrderedDict()  #: (self_collision, *shape signatures) -> SceneLayout
+        #: (self_collision, the shapes' signature keys joined) -> SceneLayout
+        self._layouts: OrderedDict = OrderedDict()
         #: The last scene built (:class:`_LastScene`); one, so a new scene frees the one before it.
         self._last_scene: _LastScene = _NO_SCENE
         self._lock = threading.Lock()
@@ -337,8 +338,10 @@ class CollisionModel:
     def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:
         """The :class:`~.collision_layout.SceneLayout` of obstacles shaped like ``obstacles`` (validated
         shapes), cached by their signatures (:attr:`~.shapes.Shape.signature`): scenes whose
-        obstacles differ only by pose share it, so a moved obstacle does not rebuild a scene from nothing."""
-        key = (self_collision, *[shape.signature for shape in obstacles])
+        obstacles differ only by pose share it, so a moved obstacle does not rebuild a scene from nothing. The
+        key joins the shapes' :attr:`~.shapes.Shape.signature_key` (each a complete ``repr``, so the join is
+        unambiguous)."""
+        key = (self_collision, b"".join([shape.signature_key for shape in obstacles]))
         layout = self._layouts.get(key)
         if layout is None:
             layout = SceneLayout(self.robot_geometry, obstacles, self_collision)

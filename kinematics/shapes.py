@@ -102,6 +102,10 @@ def _hashable(value: Any) -> Any:
     return (np.asarray(value, dtype=np.float64) + 0.0).tobytes()
 
 
+#: What a shape makes from its fields (:meth:`Shape._set`): never pickled, made again when unpickled.
+_DERIVED = frozenset(("_geometry", "_hash", "_plain", "_ball", "signature", "signature_key", "obstacle_row"))
+
+
 class Shape:
     """Common behaviour of the solid shapes (not instantiated directly)."""
 
@@ -111,6 +115,10 @@ class Shape:
     #: What makes two obstacles interchangeable up to their pose (a collision scene's layout is shared by
     #: the scenes whose obstacles have the same signatures): the kind and sizes; a mesh: the object itself.
     signature: tuple
+    #: :attr:`signature` as bytes (its ``repr``, exact for floats): equal for equal signatures, and the part
+    #: of a layout's look-up key this shape brings (one block of memory to hash and compare, where the tuple
+    #: would be a dozen objects).
+    signature_key: bytes
     #: The shape's row ``(16,)`` of the compiled pre-check's obstacle table at its pose (read-only;
     #: :func:`~.obstacle_table.obstacle_row`).
     obstacle_row: np.ndarray
@@ -138,7 +146,9 @@ class Shape:
         plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
         object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))
-        object.__setattr__(self, "signature", self._signature())
+        signature = self._signature()
+        object.__setattr__(self, "signature", signature)
+        object.__setattr__(self, "signature_key", repr(signature).encode())
         row = obstacle_row(geometry, self.pose)
         row.setflags(write=False)
         object.__setattr__(self, "obstacle_row", row)
@@ -224,8 +234,7 @@ class Shape:
         return self._hash
 
     def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
-        return {k: v for k, v in self.__dict__.items()
-                if k not in ("_geometry", "_hash", "_plain", "_ball", "signature", "obstacle_row")}
+        return {k: v for k, v in self.__dict__.items() if k not in _DERIVED}
 
     def __setstate__(self, state: dict) -> None:
         self._set(**state)

@@ -208,6 +208,12 @@ def test_obstacle_rows_and_signatures_are_made_with_the_shape(rng, ico_path):
     assert Box(box.pose, (0.3, 0.2, 0.51)).signature != box.signature
     assert Mesh(ico_path).signature != Mesh(ico_path).signature  # its file may change: the object itself
     assert cylinder.signature == ("cylinder", 0.15, 0.4) and sphere.signature == ("sphere", 0.2)
+    # the bytes form: equal exactly when the signatures are
+    assert moved.signature_key == box.signature_key
+    assert Box(box.pose, (0.3, 0.2, 0.5 + 1e-12)).signature_key != box.signature_key
+    assert Mesh(ico_path).signature_key != Mesh(ico_path).signature_key
+    assert Box(box.pose, (0.2, 0.3, 0.5)).signature_key != box.signature_key != sphere.signature_key
     clone = pickle.loads(pickle.dumps(box))
-    assert "obstacle_row" not in box.__getstate__()
+    assert "obstacle_row" not in box.__getstate__() and "signature_key" not in box.__getstate__()
     assert clone.signature == box.signature and np.array_equal(clone.obstacle_row, box.obstacle_row)
+    assert clone.signature_key == box.signature_key
