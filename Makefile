@@ -57,8 +57,11 @@ docs: $(VENV)/.installed-docs
 	$(MKDOCS) -d $(DOCS_OUT)
 
 # The suite also runs every Python snippet of README.md and docs/ (tests/test_docs_snippets.py).
+# The kernels are compiled once (or loaded from Numba's cache) before the suite, so its two workers load them
+# and do not both compile them at the same time.
 test: $(VENV)/.installed-test browser lint
 	$(MKDOCS) --quiet -d $(DOCS_OUT)
+	$(PY) -c "from kinserve.kinematics.kernel_cache import compile_all; compile_all()"
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
 # README gallery: one plot per scenario + browser screenshots of two scenes (needs chromium).

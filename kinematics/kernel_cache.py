@@ -17,6 +17,7 @@ class for another set of files (the tests use it on files of their own).
 from __future__ import annotations
 
 import hashlib
+import importlib
 import os
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -139,3 +140,16 @@ def compiled(signature: Any) -> Callable[[Callable[..., Any]], Any]:
     """:data:`jit` with an explicit ``signature`` (a Numba signature: a ``numba.types`` return type called on
     the argument types): compiled (or loaded from the cache) when its module is imported."""
     return numba.njit(signature, cache=True, nogil=True, error_model="numpy")
+
+
+def compile_all() -> list[str]:
+    """Import every module of :data:`KERNEL_FILES` (``kinserve.`` + its path) and return their names. Each
+    kernel compiles, or loads from the cache, when its module is imported, so after this call the cache holds
+    every kernel: later processes load them and compile nothing (``make test`` calls it once before the
+    suite, whose workers would otherwise each compile the kernels at the same time)."""
+    names = []
+    for path in KERNEL_FILES:
+        name = ".".join(("kinserve", *Path(path).relative_to(_ROOT).with_suffix("").parts))
+        importlib.import_module(name)
+        names.append(name)
+    return names

@@ -137,3 +137,12 @@ def test_the_signatures_array_types_are_defined_once():
     assert spelled == [], spelled
     assert "readonly=True" in Path(kernel_cache.__file__).read_text()
     assert kernel_cache.F2_ANY.layout == "A" and kernel_cache.F1.layout == "C" and kernel_cache.I2.ndim == 2
+
+
+def test_compile_all_imports_every_kernel_file_as_its_module():
+    """``compile_all`` (what ``make test`` runs before the suite) imports the module of every kernel file:
+    the names it returns are those modules, loaded from exactly those files."""
+    names = kernel_cache.compile_all()
+    assert len(names) == len(kernel_cache.KERNEL_FILES)
+    for name, path in zip(names, kernel_cache.KERNEL_FILES):
+        assert name.startswith("kinserve.") and Path(sys.modules[name].__file__).resolve() == Path(path)
