@@ -79,7 +79,8 @@ class RobotCollisionGeometry:
     of the ball about each of its inner points inside its geometry (:func:`~.inner_balls.robot_inner_radii`,
     made with this object when not given; None without spheres); ``hulls``: the cores of its geometries in
     their joints' frames (:func:`~.hull_table.hull_table`, for the motion certificates' compiled distances;
-    made with this object when not given; None without spheres); ``packings``: the pre-check's arrays that do
+    made with this object when not given; None without spheres); ``moving``: the geometries on a moving joint
+    (each is paired with every obstacle), made with this object; ``packings``: the pre-check's arrays that do
     not depend on the obstacles (:class:`~.precheck_packing.RobotPacking`), with and without the self pairs
     (keys True, False), made with this object, shared by every layout (None without spheres).
     """
@@ -92,9 +93,11 @@ class RobotCollisionGeometry:
     spheres: RobotSpheres | None
     inner_radii: np.ndarray | None = None
     hulls: HullTable | None = None
+    moving: tuple[int, ...] = field(default=(), init=False, compare=False)
     packings: dict[bool, RobotPacking] | None = field(default=None, init=False, compare=False)
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "moving", tuple(i for i, j in enumerate(self.geometry_joints) if j != 0))
         if self.inner_radii is None and self.spheres is not None:
             from .inner_balls import robot_inner_radii
 
@@ -104,9 +107,8 @@ class RobotCollisionGeometry:
             object.__setattr__(self, "hulls", hull_table(self.geometry.geometryObjects))
         packings = None
         if self.spheres is not None:
-            moving = [i for i, j in enumerate(self.geometry_joints) if j != 0]
-            own = RobotPacking(self.spheres, self.model_pairs, moving, self.inner_radii)
-            packings = {True: own, False: RobotPacking(self.spheres, (), moving, floats=own.floats)}
+            own = RobotPacking(self.spheres, self.model_pairs, self.moving, self.inner_radii)
+            packings = {True: own, False: RobotPacking(self.spheres, (), self.moving, floats=own.floats)}
         object.__setattr__(self, "packings", packings)
 
 
@@ -185,14 +187,13 @@ def _scene_geometry(robot: RobotCollisionGeometry, obstacles: tuple, geometries:
     if not self_collision:
         gm.removeAllCollisionPairs()
     names, joints = list(robot.links), list(robot.geometry_joints)
-    moving = [i for i, j in enumerate(joints) if j != 0]
     pairs = list(robot.model_pairs) if self_collision else []
     for k, shape in enumerate(obstacles):
         name = obstacle_name(k, shape)
         idx = gm.addGeometryObject(pin.GeometryObject(name, 0, 0, placements[k], geometries[k]))
         names.append(name)
         joints.append(0)
-        for i in moving:
+        for i in robot.moving:
             gm.addCollisionPair(pin.CollisionPair(i, idx))
             pairs.append((i, idx))
     if len(pairs) != len(gm.collisionPairs):  # pragma: no cover - Pinocchio dropped or reordered a pair
