@@ -28,12 +28,13 @@ Measured per scene (the checker that goes first alternates from scene to scene):
 Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
 checker went first (its own previous scene's checks came just before) and those where it went second (the
 other checker's process ran just before, and its code and data fill the caches; docs/benchmarks.md has the
-figures) - median and p95 per configuration (µs) over all the configurations checked, the share in
-collision, the ratios kinserve / roboplan measured in this run, and the targets (median <= 5 µs per
-configuration, <= 50 µs for the first check; VAMP's 1.8 µs per configuration on the project's machine type
-is the reference). Defaults: 3 scenes per set x 200 configurations; ``--all``: every scene x 1000
-configurations, and the run's table is written into the ``clutter`` section of docs/benchmarks.md
-(``--docs``; ``render_tables.render_clutter``).
+figures), and by the sphere pre-check's verdict on the first configuration (certified free or certainly
+colliding: one compiled call; undecided: coal too; asked after the timings) - median and p95 per configuration
+(µs) over all the configurations checked, the share in collision, the ratios kinserve / roboplan measured in
+this run, and the targets (median <= 5 µs per configuration, <= 50 µs for the first check; VAMP's 1.8 µs per
+configuration on the project's machine type is the reference). Defaults: 3 scenes per set x 200
+configurations; ``--all``: every scene x 1000 configurations, and the run's table is written into the
+``clutter`` section of docs/benchmarks.md (``--docs``; ``render_tables.render_clutter``).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ from _motion_peers import MotionPeer
 from bench_motion import SETS, SHARED_DATASET, load_robot, model_files, unpack
 from render_tables import render_clutter, write_section
 
+from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE
 from kinserve.planners.motion.scene_yaml import read_planning_scene
 
 from _common import machine, write_json
@@ -59,6 +61,9 @@ ROOT = Path(__file__).resolve().parents[1]
 TARGETS = {"per_configuration_median_us": 5.0, "first_check_median_us": 50.0,
            "vamp_per_configuration_us": 1.8}
 CHECKERS = ("kinserve", "roboplan")
+#: The sphere pre-check's verdicts on a configuration: the path a kinserve check takes (certified free and
+#: certain collision: the compiled call alone; undecided: coal checks the pairs the spheres leave).
+PRECHECK_VERDICTS = ("certified free", "certain collision", "coal")
 
 
 @dataclass(frozen=True)
@@ -84,6 +89,9 @@ class SceneTimes:
     #: Whether the other checker's turn came just before this scene (its worker process ran right before
     #: this checker read the scene: caches hold the other process's code and data).
     after_peer: bool = False
+    #: kinserve: what its sphere pre-check said of the first configuration (:data:`PRECHECK_VERDICTS`; asked
+    #: after the timings): the path that first check took.
+    first_verdict: str | None = None
 
 
 class ClutterPeer(MotionPeer):
@@ -158,7 +166,19 @@ def time_kinserve(robot, path: Path, qs: np.ndarray) -> SceneTimes:
         s = clock()
         scene_check(q)
         per_q_scene[k] = clock() - s
-    return SceneTimes(t1 - t0, t2 - t1, per_q, hits, per_q_scene)
+    return SceneTimes(t1 - t0, t2 - t1, per_q, hits, per_q_scene,
+                      first_verdict=precheck_verdict(robot.collision_scene(shapes), q0))
+
+
+def precheck_verdict(scene, q: np.ndarray) -> str:
+    """The :data:`PRECHECK_VERDICTS` entry of the scene's sphere pre-check at ``q`` (``coal`` when the scene
+    has no pre-check)."""
+    pre = scene.precheck()
+    if pre is None:
+        return PRECHECK_VERDICTS[2]
+    verdict = pre.classify(pre.floats, pre.ints, q, pre.tolerance)
+    return PRECHECK_VERDICTS[0] if verdict == FREE else PRECHECK_VERDICTS[1] if verdict == COLLIDING \
+        else PRECHECK_VERDICTS[2]
 
 
 def time_roboplan(worker: ClutterPeer, path: Path, qs: np.ndarray) -> SceneTimes | None:
@@ -221,6 +241,11 @@ def figures(rows: list[SceneTimes]) -> dict:
         chosen = [r.first_s for r in rows if r.after_peer is after]
         if chosen and len(chosen) < len(rows):
             out[key] = {**_us(chosen), "scenes": len(chosen)}
+    if rows and all(r.first_verdict is not None for r in rows):
+        out["first_check_by_precheck"] = {
+            v: {**_us([r.first_s for r in rows if r.first_verdict == v]),
+                "scenes": sum(r.first_verdict == v for r in rows)}
+            for v in PRECHECK_VERDICTS if any(r.first_verdict == v for r in rows)}
     if rows and rows[0].per_q_scene_s is not None:
         out["per_configuration_scene_call"] = _us(np.concatenate([r.per_q_scene_s for r in rows]))
     if rows and rows[0].scene_s is not None:
@@ -277,6 +302,10 @@ def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> No
             print(f"  {name} first check after its own previous scene: {own['median_us']:.1f}/"
                   f"{own['p95_us']:.1f} us ({own['scenes']} scenes); right after the other checker's turn: "
                   f"{peer['median_us']:.1f}/{peer['p95_us']:.1f} us ({peer['scenes']} scenes)")
+        if "first_check_by_precheck" in f:
+            print(f"  {name} first check by the pre-check's verdict on it: " + "; ".join(
+                f"{v} {g['median_us']:.1f}/{g['p95_us']:.1f} us ({g['scenes']} scenes)"
+                for v, g in f["first_check_by_precheck"].items()))
     for key, value in ratio.items():
         print(f"  kinserve / roboplan, {key}: {value:.2f}")
     if agree:
@@ -309,7 +338,8 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
     per_scene = [{"set": s.set, "index": s.index,
                   **{name: {"first_us": rows[k].first_s * 1e6,
                             "per_configuration_median_us": float(np.median(rows[k].per_q_s)) * 1e6,
-                            "in_collision": int(rows[k].collision.sum())}
+                            "in_collision": int(rows[k].collision.sum()),
+                            **({"first_verdict": rows[k].first_verdict} if rows[k].first_verdict else {})}
                      for name, rows in results.items() if k < len(rows)}}
                  for k, s in enumerate(scenes)]
     return {"machine": {**machine(), "load_average": list(os.getloadavg())},

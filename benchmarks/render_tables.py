@@ -261,6 +261,13 @@ def render_clutter(d: dict) -> list[str]:
             out.append(f"- {name}: after its own previous scene {_us(own['median_us'])} / "
                        f"{_us(own['p95_us'])} ({own['scenes']} scenes); right after the other checker's turn "
                        f"{_us(peer['median_us'])} / {_us(peer['p95_us'])} ({peer['scenes']} scenes)")
+    by_verdict = summary.get("kinserve", {}).get("first_check_by_precheck")
+    if by_verdict:
+        out += ["", "kinserve's first check by the sphere pre-check's verdict on that configuration "
+                    "(certified free or certainly colliding: the compiled call decides; undecided: coal "
+                    "checks the pairs the spheres leave), median / p95: " + "; ".join(
+                        f"{v} {_us(g['median_us'])} / {_us(g['p95_us'])} ({g['scenes']} scenes)"
+                        for v, g in by_verdict.items())]
     ratio, agree = d.get("ratios_kinserve_over_roboplan") or {}, d.get("verdicts")
     if ratio:
         out += ["", "kinserve / roboplan (medians of this run): " + ", ".join(

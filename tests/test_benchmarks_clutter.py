@@ -39,6 +39,10 @@ def test_bench_clutter_runs_and_its_table_copies_the_figures(tmp_path):
     hits = sum(s["kinserve"]["in_collision"] for s in doc["scenes"])
     assert hits == round(k["in_collision_share"] * k["configurations"]) and 0 < hits < k["configurations"]
     assert 0 < k["per_configuration"]["median_us"] <= k["per_configuration"]["p95_us"]
+    verdicts = [s["kinserve"]["first_verdict"] for s in doc["scenes"]]
+    groups = k["first_check_by_precheck"]
+    assert sum(g["scenes"] for g in groups.values()) == 7
+    assert {v: verdicts.count(v) for v in set(verdicts)} == {v: g["scenes"] for v, g in groups.items()}
     rt = _render_tables()
     lines = rt.render_clutter(doc)
     row = next(line for line in lines if line.startswith("| kinserve (robot.in_collision)"))
@@ -80,3 +84,64 @@ def test_the_first_check_is_reported_by_what_ran_just_before_it():
     text = "\n".join(_render_tables().render_clutter(doc))
     assert "- kinserve: after its own previous scene 20.0 µs" in text
     assert "right after the other checker's turn 200.0 µs" in text and "(3 scenes)" in text
+
+
+def _bench_clutter():
+    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion"):
+        load_benchmark(dep)  # the names bench_clutter imports its siblings by
+    return load_benchmark("bench_clutter", "bench_clutter_verdicts")
+
+
+def test_the_first_check_is_reported_by_the_precheck_verdict():
+    """Scenes are grouped by the pre-check's verdict on their first configuration, summarised per group and
+    printed in the table; a run whose rows carry no verdict (roboplan's) has no such split."""
+    import numpy as np
+
+    bc = _bench_clutter()
+    free, certain, coal = bc.PRECHECK_VERDICTS
+
+    def scene(first_s, verdict):
+        return bc.SceneTimes(first_s, first_s / 10, np.full(3, 2e-6), np.zeros(3, dtype=bool),
+                             first_verdict=verdict)
+
+    rows = [scene(1e-5, free), scene(3e-5, free), scene(5e-5, free), scene(2e-5, certain), scene(2e-4, coal),
+            scene(4e-4, coal)]
+    groups = bc.figures(rows)["first_check_by_precheck"]
+    assert list(groups) == [free, certain, coal]
+    assert [g["scenes"] for g in groups.values()] == [3, 1, 2]
+    assert groups[free]["median_us"] == pytest.approx(30.0)
+    assert groups[coal]["median_us"] == pytest.approx(300.0)
+    assert "first_check_by_precheck" not in bc.figures([bc.SceneTimes(1e-3, 1e-5, np.full(3, 1e-5),
+                                                                      np.zeros(3, dtype=bool))])
+    doc = {"workload": {"scenes": 6, "configurations_per_scene": 3},
+           "summary": {"kinserve": bc.figures(rows)}}
+    text = "\n".join(_render_tables().render_clutter(doc))
+    assert "certified free 30.0 µs / 48.0 µs (3 scenes); certain collision 20.0 µs" in text
+    assert "coal 300.0 µs" in text
+
+
+def test_the_precheck_verdict_names_the_path_the_check_takes():
+    """On the Panda among boxes, random configurations get each verdict, and each agrees with the exact
+    check: certified free ones are free, certain collisions are collisions (coal decides the others)."""
+    import numpy as np
+
+    from kinserve import ik, robots
+
+    bc = _bench_clutter()
+    free, certain, coal = bc.PRECHECK_VERDICTS
+    robot = robots.load("panda")
+
+    def box(centre, size):
+        pose = np.eye(4)
+        pose[:3, 3] = centre
+        return ik.Box(pose, size)
+
+    shapes = (box((0.5, 0.0, 0.3), (0.3, 0.3, 0.3)), box((0.0, 0.5, 0.6), (0.2, 0.2, 0.2)))
+    scene = robot.collision_scene(shapes)
+    seen = {free: 0, certain: 0, coal: 0}
+    for q in robot.random_q(np.random.default_rng(7), 400):
+        verdict = bc.precheck_verdict(scene, q)
+        seen[verdict] += 1
+        if verdict != coal:
+            assert robot.in_collision(q, shapes) is (verdict == certain)
+    assert min(seen.values()) > 0, seen
