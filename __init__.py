@@ -46,7 +46,9 @@ def clear_caches(*robots: object) -> None:
 
     Process-wide: the registry's parsed models (:func:`kinserve.robots.registry.clear_cache`). Per robot,
     for each robot given: its IK state (seed tables, closed-form solvers, bound collision constraints; shared
-    with its copies). Files cached on disk (collision models) stay: delete the cache folder to drop them.
+    with its copies) and its collision models' scene layouts and last scene
+    (:meth:`~kinserve.kinematics.robot.Robot.forget_collision_scenes`; a model not built yet is not built).
+    Files cached on disk (collision models) stay: delete the cache folder to drop them.
     """
     from kinserve.ik.state import clear
     from kinserve.robots.registry import clear_cache
@@ -54,6 +56,7 @@ def clear_caches(*robots: object) -> None:
     clear_cache()
     for robot in robots:
         clear(robot)
+        robot.forget_collision_scenes()
 
 
 def __getattr__(name: str) -> ModuleType | Any:

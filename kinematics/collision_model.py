@@ -204,6 +204,14 @@ class CollisionModel:
         self._last_scene: _LastScene = _NO_SCENE
         self._lock = threading.Lock()
 
+    def forget_scenes(self) -> None:
+        """Forget the scene layouts and the last scene (:func:`kinserve.clear_caches`): the next scene of any
+        shapes builds its layout again. Scenes a caller holds stay valid (each keeps its layout); the robot's
+        geometry, spheres and pre-check packings are the model itself and stay."""
+        with self._lock:
+            self._layouts.clear()
+            self._last_scene = _NO_SCENE
+
     def with_attached(self, objects: Sequence[Any]) -> "CollisionModel":
         """A new model: this one's geometry plus the carried ``objects`` (:class:`~.attached.AttachedObject`).
 

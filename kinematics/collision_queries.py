@@ -140,6 +140,14 @@ class CollisionQueries:
                     cm = holder[0] = self._build_collision_model()
         return cm
 
+    def forget_collision_scenes(self) -> None:
+        """:meth:`~.collision_model.CollisionModel.forget_scenes` on the collision models this robot has built
+        (the bare one, shared with its copies, and its own with carried objects); builds none."""
+        own = self._attached_holder
+        for cm in (self._collision_holder[0], None if own is None else own[0]):
+            if cm is not None:
+                cm.forget_scenes()
+
     # ---------------------------------------------------------- carried objects
     @property
     def attached(self) -> "MappingProxyType[str, AttachedObject]":

@@ -383,6 +383,27 @@ def test_scene_pairs_follow_the_geometry_model_and_equal_obstacles_share_the_lay
     assert to_table(SCENE) - to_table(moved) == pytest.approx(0.01, abs=1e-6)  # the table top is 1 cm higher
 
 
+def test_clear_caches_forgets_the_scene_layouts_and_builds_no_collision_model():
+    """``kinserve.clear_caches(robot)`` drops the collision model's scene layouts and last scene: the same
+    shapes then get a new layout and a new scene, which answers as the old one (still valid for its holder);
+    on a robot whose collision model was never built it builds none."""
+    import kinserve
+
+    robot = robots.load("panda")
+    cm = robot.collision
+    scene = robot.collision_scene(SCENE)
+    q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])
+    kinserve.clear_caches(robot)
+    again = robot.collision_scene(SCENE)
+    assert robot.collision is cm and again is not scene and again.layout is not scene.layout
+    assert again.min_distance(q) == scene.min_distance(q)
+    assert robot.collision_scene(SCENE) is again and cm.layout(tuple(SCENE)) is again.layout
+    kinserve.clear_caches()  # the registry's models too: the next load parses anew (no shared model)
+    fresh = robots.load("ur5")
+    kinserve.clear_caches(fresh)
+    assert fresh._collision_holder[0] is None
+
+
 def test_a_new_tuple_gets_one_scene_however_it_is_asked_again():
     """``cached_scene`` misses a new tuple; the scene built for it (``scene`` or the front door ``scene_of``)
     answers every later lookup of the tuple or of a list of its objects; dict forms are validated into new
