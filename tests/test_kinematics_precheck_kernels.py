@@ -121,3 +121,58 @@ def test_first_uncertified_skips_rows_near_a_certified_one(monkeypatch):
     k = pk.first_uncertified.py_func(floats, ints, apart, 0, tol)
     assert k == pk.first_uncertified(floats, ints, apart, 0, tol)
     assert len(calls) == min(k + 1, len(apart))
+
+
+def test_the_group_sphere_contains_the_moving_geometries_and_nan_spheres_pass_no_test():
+    """``place_group_sphere`` contains every bounding sphere of the first block's geometries (random spheres,
+    the farthest one touching it from inside), and a NaN or infinite sphere makes its radius NaN."""
+    rng = np.random.default_rng(21)
+    pairs = np.array([[g, 0, pk.OBSTACLE_PAIR, g] for g in range(6)] + [[0, 1, pk.SELF_PAIR, 6]])
+    assert pk.obstacle_block(pairs) == 6 and pk.obstacle_block(pairs[6:]) == 0
+    W = np.empty((8, 4))
+    for _ in range(200):
+        W[:6, :3] = rng.normal(scale=0.5, size=(6, 3))
+        W[:6, 3] = rng.uniform(0.0, 0.2, 6)
+        pk.place_group_sphere(W, pairs, 6, 7)
+        reach = np.linalg.norm(W[:6, :3] - W[7, :3], axis=1) + W[:6, 3]
+        assert np.all(reach <= W[7, 3]) and reach.max() == pytest.approx(W[7, 3], rel=1e-9)
+    for bad in (np.nan, np.inf):
+        W[2, 1] = bad
+        pk.place_group_sphere(W, pairs, 6, 7)
+        assert np.isnan(W[7, 3])
+
+
+def test_certification_with_obstacles_far_and_near_equals_every_pair_bound_above_the_tolerance():
+    """Scenes of obstacles away from the arm (the group sphere certifies whole obstacle blocks) and near it:
+    a configuration is certified exactly when every pair's lower bound (``pair_lower_bounds``, computed pair
+    by pair without the group sphere) exceeds the tolerance, with and without self pairs; coal finds every
+    certified one free; a NaN configuration is never certified, even without self pairs."""
+    robot = robots.load("panda")
+    rng = np.random.default_rng(22)
+    far = [Box(pose(rng.uniform(-1, 1, 3) * [1.6, 1.6, 0.5] + [0, 0, 1.9], rotation(rng)), (0.3, 0.2, 0.1))
+           for _ in range(4)]
+    far += [Sphere((1.5, 0.2, 0.4), 0.2), Cylinder(pose((-1.4, -0.6, 0.5), rotation(rng)), 0.1, 0.6),
+            Capsule((0.2, 1.5, 0.1), (0.3, 1.6, 0.9), 0.05)]
+    near = [Box(pose((0.55, 0.0, 0.3)), (0.2, 0.3, 0.05)), Sphere((0.0, 0.45, 0.5), 0.1)]
+    ring = [Sphere((r * np.cos(a), r * np.sin(a), z), 0.05)  # at the edge of the arm's reach
+            for r, a, z in zip(rng.uniform(0.8, 1.1, 8), np.linspace(0, 2 * np.pi, 8, endpoint=False),
+                               rng.uniform(0.1, 1.0, 8))]
+    culled = certified = 0
+    for obstacles in (far, far + near, ring):
+        for self_collision in (True, False):
+            scene = robot.collision_scene(obstacles, self_collision)
+            pre = scene.precheck()
+            for q in robot.random_q(rng, 150):
+                bounds = pk.pair_lower_bounds(pre.floats, pre.ints, q)
+                cert = pk.certify_configuration(pre.floats, pre.ints, q, pre.tolerance)
+                if np.abs(bounds - pre.tolerance).min() > 1e-9:
+                    assert cert == bool(np.all(bounds > pre.tolerance))
+                if cert:
+                    certified += 1
+                    assert not coal_hits(scene, q[None, :]).any()
+                culled += int(np.all(bounds[scene.n_robot <= scene.pairs[:, 1]] > 0.3))
+            nan_q = robot.neutral().copy()
+            nan_q[3] = np.nan
+            assert not pk.certify_configuration(pre.floats, pre.ints, nan_q, pre.tolerance)
+            assert pk.first_uncertified(pre.floats, pre.ints, nan_q[None, :], 0, pre.tolerance) == 0
+    assert certified > 200 and culled > 50, (certified, culled)
