@@ -262,7 +262,7 @@ MARGIN_CAP = 1.0
 @_inline
 def _obstacle_rows_margin(X, W, spheres, geoms, pairs, obstacles, lo, hi, tol, m, placed, stamp):
     """:func:`_configuration_margin`'s tests of the obstacle rows ``lo..hi - 1`` of ``pairs``: the margin
-    ``m`` lowered to their slacks, or -1.0 when one of them is not certified."""
+    ``m`` lowered to their slacks, or ``-1 - p`` when row ``p`` is the first of them not certified."""
     for p in range(lo, hi):
         a, b = pairs[p, 0], pairs[p, 1]
         r = _obstacle_slack(W, a, obstacles, b, tol, m)
@@ -273,17 +273,19 @@ def _obstacle_rows_margin(X, W, spheres, geoms, pairs, obstacles, lo, hi, tol, m
         for i in range(geoms[a, 1], geoms[a, 2]):
             m = _obstacle_slack(W, i, obstacles, b, tol, m)
             if m < 0.0:
-                return -1.0
+                return -1.0 - p
     return m
 
 
 @_jit
 def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, stamp):
-    """The certificate of ``q``: -1.0 when some pair's lower bound does not exceed ``tol``, else the margin
-    ``m >= 0`` (m, at most :data:`MARGIN_CAP`): the smallest slack of the sphere tests that certified the
-    pairs - every sphere may move by up to ``m / 2`` and those tests still pass (:func:`first_uncertified`).
-    Forward kinematics into ``X``, the bounding spheres into ``W``, then per pair the bounding spheres and,
-    when they are not apart, the cover spheres (placed on first need, marked with ``stamp`` in ``placed``).
+    """The certificate of ``q``: ``-1 - p`` (negative) when some pair's lower bound does not exceed ``tol``,
+    ``p`` the first such row of ``pairs`` (every row before it is certified: :func:`uncertified_from`),
+    else the margin ``m >= 0`` (m, at most :data:`MARGIN_CAP`): the smallest slack of the sphere tests
+    that certified the pairs - every sphere may move by up to ``m / 2`` and those tests still pass
+    (:func:`first_uncertified`). Forward kinematics into ``X``, the bounding spheres into ``W``, then per
+    pair the bounding spheres and, when they are not apart, the cover spheres (placed on first need,
+    marked with ``stamp`` in ``placed``).
 
     The obstacle rows come in blocks, one per obstacle, each pairing it with the same ``M`` moving geometries
     (:func:`obstacle_block`): a block is certified at once when the **group sphere** of those geometries
@@ -307,7 +309,7 @@ def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol
             m = _obstacle_rows_margin(X, W, spheres, geoms, pairs, obstacles, start,
                                       min(start + M, pairs.shape[0]), tol, m, placed, stamp)
             if m < 0.0:
-                return -1.0
+                return m
             start += M
     for p in range(start, pairs.shape[0]):
         a, b = pairs[p, 0], pairs[p, 1]
@@ -326,11 +328,11 @@ def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol
                 for j in range(geoms[b, 1], geoms[b, 2]):
                     m = _sphere_slack(W, i, j, tol, m)
                     if m < 0.0:
-                        return -1.0
+                        return -1.0 - p
         else:  # (an obstacle row after the blocks: not in the packing's tables)
             m = _obstacle_rows_margin(X, W, spheres, geoms, pairs, obstacles, p, p + 1, tol, m, placed, stamp)
             if m < 0.0:
-                return -1.0
+                return m
     return m
 
 
@@ -502,11 +504,22 @@ def _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
 
     A pair whose bounding spheres are apart (gap ``>= 0``) is not asked further: an inner ball lies inside
     its geometry, so inside the bounding sphere, and its gap (centre distance minus radius, 1-Lipschitz in
-    the centre) is at least the bounding sphere's. The inner balls are placed on first need."""
+    the centre) is at least the bounding sphere's; nor an obstacle block whose group sphere
+    (:func:`place_group_sphere`, placed here) is apart from the obstacle. The inner balls are placed on first
+    need."""
     inner = np.zeros(geoms.shape[0], dtype=np.bool_)
-    for p in range(pairs.shape[0]):
+    M = obstacle_block(pairs)
+    group = spheres.shape[0]
+    if M > 0:
+        place_group_sphere(W, pairs, M, group)
+    p = -1
+    while p + 1 < pairs.shape[0]:
+        p += 1
         a, b = pairs[p, 0], pairs[p, 1]
         if pairs[p, 2] == OBSTACLE_PAIR:
+            if M > 0 and p % M == 0 and obstacle_gap(W, group, obstacles, b) >= 0.0:
+                p += M - 1  # (the block's rows: the obstacle's M pairs)
+                continue
             if obstacles[b, KIND] == BALL and obstacles[b, EXACT] != 1.0:
                 continue
             if obstacle_gap(W, a, obstacles, b) >= 0.0:
@@ -574,15 +587,40 @@ def _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, stam
     return True
 
 
-@_inline
-def _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out):
-    """The scene indices of the pairs whose lower bound at the placements ``X`` (bounding spheres in ``W``)
-    does not exceed ``tol`` (m) into ``out``, in the pair table's order; returns how many."""
-    k = 0
-    for p in range(pairs.shape[0]):
+@_jit
+def _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p, M, tol, placed):
+    """The first row from ``p`` on whose lower bound at the placements ``X`` (bounding spheres in ``W``, the
+    group sphere in its row when ``M > 0``) does not exceed ``tol`` (m), ``P`` when none: an obstacle block
+    (``M`` rows from a multiple of ``M``) whose group sphere is apart from the obstacle is skipped whole,
+    other rows are asked :func:`_pair_certified`."""
+    group = spheres.shape[0]
+    while p < pairs.shape[0]:
+        if M > 0 and p % M == 0 and pairs[p, 2] == OBSTACLE_PAIR \
+                and _obstacle_slack(W, group, obstacles, pairs[p, 1], tol, MARGIN_CAP) >= 0.0:
+            p += M
+            continue
         if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
-            out[k] = pairs[p, 3]
-            k += 1
+            return p
+        p += 1
+    return pairs.shape[0]
+
+
+@_inline
+def uncertified_from(X: np.ndarray, W: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                     pairs: np.ndarray, obstacles: np.ndarray, start: int, tol: float, placed: np.ndarray,
+                     out: np.ndarray) -> int:
+    """The scene indices of the pairs from row ``start`` on (the rows before it certified) whose lower bound
+    at the placements ``X`` (bounding spheres in ``W``) does not exceed ``tol`` (m) into ``out``, in the
+    pair table's order; returns how many. Places the group sphere (:func:`place_group_sphere`)."""
+    M = obstacle_block(pairs)
+    if M > 0:
+        place_group_sphere(W, pairs, M, spheres.shape[0])
+    k = 0
+    p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, start, M, tol, placed)
+    while p < pairs.shape[0]:
+        out[k] = pairs[p, 3]
+        k += 1
+        p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p + 1, M, tol, placed)
     return k
 
 
@@ -603,11 +641,12 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
         out[:pairs.shape[0]] = pairs[:, 3]
         return pairs.shape[0]
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, keep, X, W, placed, 0) >= 0.0:
+    m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, keep, X, W, placed, 0)
+    if m >= 0.0:
         return 0
     if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (no pair list to make then)
         return -1
-    return _uncertified_into(X, W, spheres, geoms, pairs, obstacles, keep, placed, out)
+    return uncertified_from(X, W, spheres, geoms, pairs, obstacles, int(-1.0 - m), keep, placed, out)
 
 
 @compiled(_CLASSIFY_SIGNATURE)
@@ -619,25 +658,30 @@ def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, 
     scene indices ``p_k`` of :func:`uncertified_pairs`'s list (read with
     :func:`~.precheck_verdicts.carried_pairs`); it is exactly :data:`UNDECIDED` when there are more, when the
     scene has ``2**20 - 1`` pairs or more (ask :func:`uncertified_pairs` then) and when ``q`` has not one
-    entry per joint. The pair tests stop at the fourth uncertified pair."""
+    entry per joint. The list starts at the pair the certificate failed on (the rows before it are
+    certified: not tested again), skips the obstacle blocks the group sphere certifies, and stops at the
+    fourth uncertified pair."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
     if q.shape[0] != n:
         return UNDECIDED
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    if _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0) >= 0.0:
+    m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0)
+    if m >= 0.0:
         return FREE
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (places the group sphere again)
         return COLLIDING
     if pairs.shape[0] >= (1 << PAIR_BITS) - 1:
         return UNDECIDED
+    M = obstacle_block(pairs)
     code, k = UNDECIDED, 0
-    for p in range(pairs.shape[0]):
-        if not _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, 0):
-            if k == PACKED_PAIRS:
-                return UNDECIDED
-            code |= (pairs[p, 3] + 1) << (2 + PAIR_BITS * k)
-            k += 1
+    p = int(-1.0 - m)  # the first row the certificate failed on: the rows before it are certified
+    while p < pairs.shape[0]:
+        if k == PACKED_PAIRS:
+            return UNDECIDED
+        code |= (pairs[p, 3] + 1) << (2 + PAIR_BITS * k)
+        k += 1
+        p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p + 1, M, tol, placed)
     return code
 
 
@@ -658,7 +702,7 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
         return out
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
     place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
-    k = _uncertified_into(X, W, spheres, geoms, pairs, obstacles, tol, placed, out)
+    k = uncertified_from(X, W, spheres, geoms, pairs, obstacles, 0, tol, placed, out)
     return out[:k].copy()
 
 
@@ -668,4 +712,5 @@ __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "
            "classify_configuration", "first_uncertified", "obstacle_gap",
            "obstacle_block", "pair_lower_bounds", "pairs_to_check", "place_bounding_spheres", "place_cover",
            "place_group_sphere", "place_sphere",
-           "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_pairs", "unpack", "workspace"]
+           "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_from", "uncertified_pairs",
+           "unpack", "workspace"]

@@ -294,6 +294,9 @@ def test_certainly_colliding_equals_every_inner_ball_tested():
         centre = points[rng.integers(len(points))] + rng.normal(scale=0.05, size=3)
         size = rng.uniform(0.02, 0.1)
         extra.append(Sphere(centre, size) if k % 2 else Box(pose(centre), (size, 1.5 * size, 0.7 * size)))
+    # and three beyond the arm's reach: whole obstacle blocks skipped on the group sphere
+    extra += [Box(pose((1.6, 0.3, 0.4)), (0.2, 0.2, 0.2)), Sphere((-1.5, -0.8, 1.2), 0.3),
+              Box(pose((0.2, 1.7, -0.3)), (0.5, 0.1, 0.3))]
     scene = robot.collision_scene(extra)
     pre = scene.precheck()
     arrays = (pre.floats, pre.ints)

@@ -16,6 +16,7 @@ import pytest
 from kinserve import robots
 from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.obstacle_table import obstacle_row
+from kinserve.kinematics.precheck_verdicts import carried_pairs
 from kinserve.kinematics.serial_chain import kinematic_tree
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 
@@ -145,8 +146,10 @@ def test_the_group_sphere_contains_the_moving_geometries_and_nan_spheres_pass_no
 def test_certification_with_obstacles_far_and_near_equals_every_pair_bound_above_the_tolerance():
     """Scenes of obstacles away from the arm (the group sphere certifies whole obstacle blocks) and near it:
     a configuration is certified exactly when every pair's lower bound (``pair_lower_bounds``, computed pair
-    by pair without the group sphere) exceeds the tolerance, with and without self pairs; coal finds every
-    certified one free; a NaN configuration is never certified, even without self pairs."""
+    by pair without the group sphere) exceeds the tolerance, with and without self pairs, and the pairs left
+    to coal (``uncertified_pairs``, and those an undecided verdict carries) are exactly those whose bound
+    does not; coal finds every certified one free; a NaN configuration is never certified, even without self
+    pairs."""
     robot = robots.load("panda")
     rng = np.random.default_rng(22)
     far = [Box(pose(rng.uniform(-1, 1, 3) * [1.6, 1.6, 0.5] + [0, 0, 1.9], rotation(rng)), (0.3, 0.2, 0.1))
@@ -165,8 +168,13 @@ def test_certification_with_obstacles_far_and_near_equals_every_pair_bound_above
             for q in robot.random_q(rng, 150):
                 bounds = pk.pair_lower_bounds(pre.floats, pre.ints, q)
                 cert = pk.certify_configuration(pre.floats, pre.ints, q, pre.tolerance)
+                left = pk.uncertified_pairs(pre.floats, pre.ints, q, pre.tolerance)
+                verdict = pk.classify_configuration(pre.floats, pre.ints, q, pre.tolerance)
+                if verdict > pk.UNDECIDED:  # the pairs it carries: the list, in the table's order
+                    assert carried_pairs(verdict) == left.tolist()
                 if np.abs(bounds - pre.tolerance).min() > 1e-9:
                     assert cert == bool(np.all(bounds > pre.tolerance))
+                    assert sorted(left.tolist()) == np.flatnonzero(bounds <= pre.tolerance).tolist()
                 if cert:
                     certified += 1
                     assert not coal_hits(scene, q[None, :]).any()
