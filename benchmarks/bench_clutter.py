@@ -160,14 +160,15 @@ def time_kinserve(robot, path: Path, qs: np.ndarray) -> SceneTimes:
         hit = in_collision(q, shapes)
         per_q[k] = clock() - s
         hits[k] = hit
-    scene_check = robot.collision_scene(shapes).in_collision
+    scene = robot.collision_scene(shapes)
+    scene_check = scene.in_collision
     per_q_scene = np.empty(len(qs))
     for k, q in enumerate(qs):
         s = clock()
         scene_check(q)
         per_q_scene[k] = clock() - s
     return SceneTimes(t1 - t0, t2 - t1, per_q, hits, per_q_scene,
-                      first_verdict=precheck_verdict(robot.collision_scene(shapes), q0))
+                      first_verdict=precheck_verdict(scene, q0))
 
 
 def precheck_verdict(scene, q: np.ndarray) -> str:
