@@ -146,8 +146,7 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
 
     def put(on: bool) -> None:
         for o in objects():
-            if hasattr(o, "_precheck"):
-                switch_object(o, on)
+            switch_object(o, on)
 
     times = {(w, on): [] for w in ("plain", "open", "cube") for on in (True, False)}
     for i, (T, start, cube) in enumerate(cases):
@@ -186,15 +185,17 @@ _SAVED: dict = {}
 
 
 def switch_object(o, on: bool) -> None:
-    """A layout's or scene's pre-check off (None: coal alone) or back on (as built with the object); a scene's
-    ``in_collision`` reads the classifying kernel as ``_classify``."""
-    current = o._precheck
+    """A layout's or scene's pre-check off (None: coal alone) or back on (as built with the object): a layout
+    holds it as ``_precheck``, a scene as ``_layout_check`` (the layout's, read by ``precheck()``) and reads
+    the classifying kernel as ``_classify`` in ``in_collision``."""
+    name = "_layout_check" if hasattr(o, "_layout_check") else "_precheck"
+    current = getattr(o, name)
     if current is not None:
         _SAVED[id(o)] = (o, current, getattr(o, "_classify", None))
     saved = _SAVED.get(id(o))
     if saved is None or saved[0] is not o:
         return
-    o._precheck = saved[1] if on else None
+    setattr(o, name, saved[1] if on else None)
     if hasattr(o, "_classify"):
         o._classify = saved[2] if on else None
 

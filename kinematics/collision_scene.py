@@ -119,22 +119,22 @@ class CollisionScene:
     owns the obstacle placements.
     """
 
-    __slots__ = ("layout", "obstacles", "_geometry", "_precheck", "_classify", "_uncertified", "_floats",
+    __slots__ = ("layout", "obstacles", "_geometry", "_layout_check", "_classify", "_uncertified", "_floats",
                  "_ints", "_tolerance", "__weakref__")
 
     def __init__(self, layout: SceneLayout, obstacles: tuple) -> None:
         self.layout = layout
         self.obstacles = obstacles
         self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
-        layout_check = layout.precheck()
-        pre = self._precheck = None if layout_check is None else layout_check.arguments(obstacles)
-        # its parts, read by in_collision without a record lookup
-        if pre is None:
+        # the pre-check's packed floats: all a new scene computes (read by in_collision without a look-up)
+        check = self._layout_check = layout.precheck()
+        if check is None:
             self._classify = self._uncertified = self._floats = self._ints = None
             self._tolerance = 0.0
         else:
-            self._classify, self._uncertified, self._floats, self._ints, self._tolerance = \
-                pre.classify, pre.uncertified_pairs, pre.floats, pre.ints, pre.tolerance
+            self._floats = check.scene_floats(obstacles)
+            self._ints, self._tolerance = check.ints, check.tolerance
+            self._classify, self._uncertified = check.classify, check.uncertified_pairs
 
     # the layout's, read through the scene
     @property
@@ -198,9 +198,11 @@ class CollisionScene:
 
     def precheck(self) -> PrecheckArguments | None:
         """The arguments of the compiled sphere pre-check with this scene's obstacle poses
-        (:class:`~.scene_precheck.PrecheckArguments`, made with the scene), or None when the layout has none
+        (:class:`~.scene_precheck.PrecheckArguments`: a new record on each call, for set-up code - every
+        record holds the scene's own packed floats), or None when the layout has none
         (:meth:`.collision_layout.SceneLayout.precheck`)."""
-        return self._precheck
+        check = self._layout_check
+        return None if check is None else check.arguments(self._floats)
 
     # ----------------------------------------------------------------- queries
     def in_collision(self, q: np.ndarray) -> bool:
@@ -242,7 +244,7 @@ class CollisionScene:
         :meth:`in_collision`'s coal check of each uncertified one, in order, stopping at the first hit
         (:func:`~.configuration_checks.check_configurations`). ``uncertified``: for stacked rows, the index
         the caller's own pre-check call returned (the rows before it are certified; not certified again)."""
-        pre = self._precheck
+        pre = self.precheck()
         if pre is not None and type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:
             # stacked rows (the IK's runs): one compiled call; coal only from the first uncertified row on
             k = pre.first_uncertified(pre.floats, pre.ints, qs, 0, pre.tolerance) if uncertified is None \

@@ -7,9 +7,11 @@ robot geometry, other geometry or obstacle, pair kind, index of the pair in the
 scene; obstacle pairs first, a configuration in collision usually hits an
 obstacle: found sooner; the verdict does not depend on the order), which every
 layout and scene of the robot shares. Each scene of the layout then gets its
-:class:`PrecheckArguments` (:meth:`ScenePrecheck.arguments`): its obstacles' rows
+packed floats (:meth:`ScenePrecheck.scene_floats`): its obstacles' rows
 (:attr:`~.shapes.Shape.obstacle_row`, made with each shape) appended to the robot
-half, one concatenation.
+half, one concatenation - all a new scene computes. Its :class:`PrecheckArguments`
+(:meth:`ScenePrecheck.arguments`), the record the planners and the IK read at set-up,
+are made from those floats when asked.
 """
 
 from __future__ import annotations
@@ -79,6 +81,10 @@ class ScenePrecheck:
                  hulls: HullTable | None = None) -> None:
         self.robot = packing.robot
         self.hulls = hulls
+        #: The kernels a scene's check calls (:mod:`.precheck_kernels`) and their tolerance (m), read by
+        #: :class:`~.collision_scene.CollisionScene` without importing the kernels itself.
+        self.classify, self.uncertified_pairs, self.tolerance = \
+            classify_configuration, uncertified_pairs, TOLERANCE
         #: The robot half of the packed floats and the packed integers, both the packing's own arrays.
         self.robot_floats = packing.floats
         self.ints = packing.ints_for(n_obstacles)
@@ -106,11 +112,15 @@ class ScenePrecheck:
         out[own] = np.where(apart, reach[a] + reach[b], 0.0)
         return np.ascontiguousarray(out)
 
-    def arguments(self, obstacles: Sequence[Any]) -> PrecheckArguments:
-        """The :class:`PrecheckArguments` of a scene with ``obstacles`` (one per obstacle geometry: shapes of
-        the layout's signatures, each with its :attr:`~.shapes.Shape.obstacle_row`): the packed robot half
-        followed by the obstacles' rows."""
-        floats = np.concatenate((self.robot_floats, *[shape.obstacle_row for shape in obstacles]))
+    def scene_floats(self, obstacles: Sequence[Any]) -> np.ndarray:
+        """The packed floats of a scene with ``obstacles`` (one per obstacle geometry: shapes of the layout's
+        signatures, each with its :attr:`~.shapes.Shape.obstacle_row`): the packed robot half followed by the
+        obstacles' rows, one new array."""
+        return np.concatenate((self.robot_floats, *[shape.obstacle_row for shape in obstacles]))
+
+    def arguments(self, floats: np.ndarray) -> PrecheckArguments:
+        """The :class:`PrecheckArguments` of the scene whose packed floats are ``floats``
+        (:meth:`scene_floats`): a new record on each call, holding ``floats`` itself."""
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
                                  certainly_colliding, self.robot.sphere_reach,
                                  self.pair_reach, classify_configuration, uncertified_pairs, self.hulls,
