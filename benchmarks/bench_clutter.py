@@ -25,16 +25,22 @@ Measured per scene (the checker that goes first alternates from scene to scene):
     timed inside the worker the same way. Its verdicts are compared with kinserve's: kinserve checks
     the meshes' convex hulls, which contain the meshes, so it may report a collision roboplan does not.
 
+(d) with roboplan in the run, once its worker has ended: kinserve's first check in each scene again, in a
+    pass of its own over the same scenes (the scene layouts forgotten first, so that it builds the same
+    ones; each scene's configurations checked after its first check, untimed), as a planning process
+    alone on the machine meets new scenes.
+
 Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
 checker went first (its own previous scene's checks came just before) and those where it went second (the
 other checker's process ran just before, and its code and data fill the caches; docs/benchmarks.md has the
-figures), and by the sphere pre-check's verdict on the first configuration (certified free or certainly
-colliding: one compiled call; undecided: coal too; asked after the timings) - median and p95 per configuration
-(µs) over all the configurations checked, the share in collision, the ratios kinserve / roboplan measured in
-this run, and the targets (median <= 5 µs per configuration, <= 50 µs for the first check; VAMP's 1.8 µs per
-configuration on the project's machine type is the reference). Defaults: 3 scenes per set x 200
-configurations; ``--all``: every scene x 1000 configurations, and the run's table is written into the
-``clutter`` section of docs/benchmarks.md (``--docs``; ``render_tables.render_clutter``).
+figures), kinserve's in the pass of its own (d), and by the sphere pre-check's verdict on the first
+configuration (certified free or certainly colliding: one compiled call; undecided: coal too; asked after
+the timings) - median and p95 per configuration (µs) over all the configurations checked, the share in
+collision, the ratios kinserve / roboplan measured in this run, and the targets (median <= 5 µs per
+configuration, <= 50 µs for the first check; VAMP's 1.8 µs per configuration on the project's machine type
+is the reference). Defaults: 3 scenes per set x 200 configurations; ``--all``: every scene x 1000
+configurations, and the run's table is written into the ``clutter`` section of docs/benchmarks.md
+(``--docs``; ``render_tables.render_clutter``).
 """
 
 from __future__ import annotations
@@ -171,6 +177,24 @@ def time_kinserve(robot, path: Path, qs: np.ndarray) -> SceneTimes:
                       first_verdict=precheck_verdict(scene, q0))
 
 
+def time_alone(robot, scenes: list[SceneFile], n_configs: int) -> list[float]:
+    """(d): kinserve's first check (s) in each of ``scenes``, in a pass of its own (see the module
+    docstring): the layouts forgotten, one untimed pass on the first scene, then per scene the first check
+    timed and its configurations checked."""
+    robot.collision.forget_scenes()
+    time_kinserve(robot, scenes[0].path, configurations(robot, 10, 10**6))
+    clock, out = time.perf_counter, []
+    for scene in scenes:
+        qs = configurations(robot, n_configs, scene.seed)
+        shapes = tuple(read_planning_scene(scene.path))
+        t0 = clock()
+        robot.in_collision(qs[0], shapes)
+        out.append(clock() - t0)
+        for q in qs:
+            robot.in_collision(q, shapes)
+    return out
+
+
 def precheck_verdict(scene, q: np.ndarray) -> str:
     """The :data:`PRECHECK_VERDICTS` entry of the scene's sphere pre-check at ``q`` (``coal`` when the scene
     has no pre-check)."""
@@ -298,6 +322,10 @@ def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> No
                   f"{s['median_us']:>8.2f}/{s['p95_us']:<8.2f}")
     print("  (median/p95; first = scene built from the shapes + its first check; per q = one configuration)")
     for name, f in summary.items():
+        if "first_check_alone" in f:
+            alone = f["first_check_alone"]
+            print(f"  {name} first check in a pass of its own, the peer's process ended: "
+                  f"{alone['median_us']:.1f}/{alone['p95_us']:.1f} us")
         if "first_check_after_peer_turn" in f:
             own, peer = f["first_check_after_own_turn"], f["first_check_after_peer_turn"]
             print(f"  {name} first check after its own previous scene: {own['median_us']:.1f}/"
@@ -333,6 +361,9 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
         if worker is not None:
             worker.close()
     summary = {name: figures(rows) for name, rows in results.items()}
+    if worker is not None and "kinserve" in summary:
+        print("kinserve's first checks in a pass of its own", flush=True)
+        summary["kinserve"]["first_check_alone"] = _us(time_alone(robot, scenes, n_configs))
     agree, ratio = agreement(results), ratios(summary)
     met = targets_met(summary)
     print_table(summary, agree, ratio, met)

@@ -261,6 +261,12 @@ def render_clutter(d: dict) -> list[str]:
             out.append(f"- {name}: after its own previous scene {_us(own['median_us'])} / "
                        f"{_us(own['p95_us'])} ({own['scenes']} scenes); right after the other checker's turn "
                        f"{_us(peer['median_us'])} / {_us(peer['p95_us'])} ({peer['scenes']} scenes)")
+    alone = summary.get("kinserve", {}).get("first_check_alone")
+    if alone:
+        out += ["", "kinserve's first check in a pass of its own over the same scenes once roboplan's worker "
+                    "had ended (the scene layouts forgotten first; each scene's configurations checked after "
+                    f"it), as a planning process alone meets new scenes: {_us(alone['median_us'])} / "
+                    f"{_us(alone['p95_us'])} (median / p95)."]
     by_verdict = summary.get("kinserve", {}).get("first_check_by_precheck")
     if by_verdict:
         out += ["", "kinserve's first check by the sphere pre-check's verdict on that configuration "

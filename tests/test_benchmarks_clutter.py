@@ -145,3 +145,30 @@ def test_the_precheck_verdict_names_the_path_the_check_takes():
         if verdict != coal:
             assert robot.in_collision(q, shapes) is (verdict == certain)
     assert min(seen.values()) > 0, seen
+
+
+def test_the_pass_of_its_own_times_each_scene_afresh():
+    """(d) of bench_clutter: one first check per scene, in scene order, on layouts built again (the robot's
+    layouts forgotten first: only the pass's scenes' layouts remain), each scene's checks left as its last
+    scene; the table prints the figure."""
+    import numpy as np
+
+    bc = _bench_clutter()
+    problems = bc.unpack(DATASET, ROOT / "bench-out" / "motion-bench-maker")
+    robot = bc.load_robot(DATASET)
+    scenes = bc.scene_files(problems, bc.SETS[:2], 1)
+    other = bc.scene_files(problems, bc.SETS[2:3], 1)
+    robot.in_collision(np.zeros(robot.nq), tuple(bc.read_planning_scene(other[0].path)))
+    layouts_before = set(robot.collision._layouts)
+    times = bc.time_alone(robot, scenes, 5)
+    assert len(times) == len(scenes) and all(np.isfinite(t) and t > 0 for t in times)
+    shapes = [tuple(bc.read_planning_scene(s.path)) for s in scenes]
+    keys = {(True, b"".join(shape.signature_key for shape in scene)) for scene in shapes}
+    assert set(robot.collision._layouts) == keys and not layouts_before <= keys
+    assert robot.collision._last_scene.scene.obstacles == shapes[-1]
+    f = {**bc.figures([bc.SceneTimes(1e-4, 1e-5, np.full(3, 2e-6), np.zeros(3, dtype=bool))]),
+         "first_check_alone": bc._us(times)}
+    doc = {"workload": {"scenes": 2, "configurations_per_scene": 5}, "summary": {"kinserve": f}}
+    text = "\n".join(_render_tables().render_clutter(doc))
+    assert "pass of its own over the same scenes" in text
+    assert f"{np.median(times) * 1e6:.1f} µs / " in text
