@@ -134,12 +134,12 @@ def test_equal_obstacles_built_anew_share_one_layout(panda):
 
 
 def test_every_iterate_is_still_checked(panda, monkeypatch):
-    """The checked LM checks the answer and every other iterate of the returned run, and the start before its
-    run: in the screen's compiled call (the sphere pre-check) when it certifies them, else by the admission
-    and the checker's ``first_violation`` (the pre-check, then coal); the answer once."""
+    """The checked LM checks the answer and every other iterate of the returned run, and its start: in the
+    screen's compiled call (the sphere pre-check, after the run) when it certifies them, else by the
+    admission and the checker's ``first_violation`` (the pre-check, then coal); the answer once."""
     from kinserve.ik.collision import collision_checker as checkers
     from kinserve.ik.lm.screen import LMScreen
-    from kinserve.ik.lm.status import ROWS_CERTIFIED, START_UNCERTIFIED
+    from kinserve.ik.lm.status import ROWS_CERTIFIED
     from kinserve.ik.state import ik_state
 
     checked = []
@@ -153,7 +153,7 @@ def test_every_iterate_is_still_checked(panda, monkeypatch):
         calls.append(1)
         status, it, k, flag, row = screen.run(*args)
         q0, qs, admit_start = args[2], args[16], args[-1]
-        if admit_start and flag != START_UNCERTIFIED:
+        if admit_start and flag == ROWS_CERTIFIED:  # the start certified by the screen
             checked.append(np.array(q0))
         if flag == ROWS_CERTIFIED and status == 0:
             checked.extend(np.array(q) for q in qs[1:k])

@@ -1,14 +1,16 @@
-"""The screened LM start (ik.lm.screened_kernel): one compiled call that admits the start with the sphere
-pre-check, runs the LM and certifies the converged run's rows, against the three separate calls
-(``certify_configuration``, ``run_start``, ``first_uncertified``) and against coal.
+"""The screened LM start (ik.lm.screened_kernel): one compiled call that runs the LM, then certifies with the
+sphere pre-check the converged run's rows and its start (answer first, start last; a run that did not
+converge: its start alone), against the separate calls (``run_start``, ``first_uncertified``,
+``certify_configuration``) and against coal.
 
 Over many random targets and starts in a scene with a wall and a table (and the arm itself):
 
-* an uncertified start runs nothing and says so; a certified one runs exactly as ``run_start`` does (the same
-  status, iterations, rows and iterates);
-* the flag of a converged run is "certified" exactly when ``first_uncertified`` certifies every row from the
-  answer back to the row after the start, and then coal finds every one of those rows free;
-* with ``admit_start=False`` the start is not asked;
+* every start runs exactly as ``run_start`` does (the same status, iterations, rows and iterates);
+* the flag says "start uncertified" exactly when every other row of a converged run is certified and the
+  start is not (a run that did not converge: when the start is not), "certified" exactly when
+  ``first_uncertified`` certifies every row from the answer back to the row after the start and the start,
+  and then coal finds every one of them free; otherwise the row is the first uncertified one;
+* with ``check_start=False`` the start is not asked;
 * the collision checker's test of a run's rows, started from the screen's first uncertified row, gives the
   answer it gives from the first row (and coal's).
 """
@@ -68,33 +70,34 @@ def test_screened_start_equals_the_separate_calls_and_coal(panda, scene):
         q0 = panda.random_q(rng)
         args = _arguments(panda, q0, T)
         status, it, k, flag, row = run_screened_start(*args, pre.floats, pre.ints, pre.tolerance, True)
-        if not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance):
-            assert flag == START_UNCERTIFIED and k == 0 and it == 0 and row == -1
-            seen[flag] += 1
-            continue
         plain = _arguments(panda, q0, T)
         assert (status, it, k) == lm_kernel.run_start(*plain)
         np.testing.assert_array_equal(args[16][:k], plain[16][:k])
+        start_free = certify_configuration(pre.floats, pre.ints, q0, pre.tolerance)
         if status != CONVERGED:
-            assert flag == ROWS_CERTIFIED and row == -1
+            assert flag == (ROWS_CERTIFIED if start_free else START_UNCERTIFIED) and row == -1
+            seen[flag] += 1
             continue
         rows = np.ascontiguousarray(args[16][k - 1:0:-1])  # answer first, the start left out
         first = first_uncertified(pre.floats, pre.ints, rows, 0, pre.tolerance)
-        assert flag == (ROWS_CERTIFIED if first >= len(rows) else ROWS_UNCERTIFIED)
-        assert row == (-1 if first >= len(rows) else first)  # the first row the caller's check starts from
+        if first < len(rows):
+            assert flag == ROWS_UNCERTIFIED and row == first  # the first row the caller's check starts from
+        else:
+            assert flag == (ROWS_CERTIFIED if start_free else START_UNCERTIFIED) and row == -1
         seen[flag] += 1
         if flag == ROWS_CERTIFIED:
-            assert not any(coal_scene.in_collision(q) for q in rows)
+            assert not any(coal_scene.in_collision(q) for q in (*rows, q0))
     assert min(seen.values()) >= 3, seen  # every flag was met
 
 
-def test_admit_start_false_skips_the_start(panda, scene):
+def test_check_start_false_skips_the_start(panda, scene):
     _, pre = scene
     rng = np.random.default_rng(3)
     for _ in range(200):
         q0 = panda.random_q(rng)
         if not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance):
             break
+    assert not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance)
     T = panda.fk(panda.random_q(rng), FRAME)
     status, it, k, flag, _ = run_screened_start(*_arguments(panda, q0, T), pre.floats, pre.ints,
                                                 pre.tolerance, False)

@@ -60,7 +60,7 @@ from kinserve.ik import numpy_fast
 from kinserve.ik import options as _options
 from kinserve.ik.lm.chains import compiled_chain, compiled_chains
 from kinserve.ik.lm.screen import LMScreen
-from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, ROWS_CERTIFIED, STALLED, START_UNCERTIFIED
+from kinserve.ik.lm.status import CONVERGED, ITERATION_LIMIT, ROWS_UNCERTIFIED, STALLED, START_UNCERTIFIED
 from kinserve.ik.result import History, Result, task_evaluator
 from kinserve.ik.starts.multistart import frame_starts
 
@@ -205,10 +205,10 @@ def _run(status: int, it: int, k: int, qs: np.ndarray, errs: np.ndarray) -> tupl
     return False, it, (qs, pos2, rot2)
 
 
-def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, admit_start: bool) -> tuple:
+def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, check_start: bool) -> tuple:
     """One start through the screen's compiled call (:mod:`ik.lm.screened_kernel`): :func:`_run_start`'s
-    answer, the screen's flag and its first uncertified row (answer first; -1: none); ``(False, 0, None,
-    START_UNCERTIFIED, -1)`` when the start was not certified (nothing ran)."""
+    answer, the screen's flag and its first uncertified row (answer first; -1: none). ``check_start``: the
+    screen certifies the start too (after the run)."""
     robot, target, chain, tp2, tr2, damping = problem[:6]
     screen = problem[8]
     rows = max_iter + 1
@@ -216,9 +216,7 @@ def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, admit_start: boo
     status, it, k, flag, row = screen.run(chain.geometry, chain.joints, q, robot.lower, robot.upper, target.T,
                                           not target.full, target.A, target.kept, tp2, tr2, damping,
                                           DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, max_iter, qs, errs,
-                                          screen.floats, screen.ints, screen.tolerance, admit_start)
-    if flag == START_UNCERTIFIED:
-        return False, 0, None, flag, row
+                                          screen.floats, screen.ints, screen.tolerance, check_start)
     return (*_run(status, it, k, qs, errs), flag, row)
 
 
@@ -228,23 +226,25 @@ REFUSED, FAILED, REJECTED, ACCEPTED = range(4)
 
 def _try_start(problem: tuple, q: np.ndarray, cap: int, accept, admit) -> tuple[int, int, tuple | None]:
     """One start of :func:`_search`: ``(outcome, iterations, run)``, outcome :data:`REFUSED` (``admit`` said
-    no: no run), :data:`FAILED` (no convergence), :data:`REJECTED` (converged, ``accept`` said no) or
-    :data:`ACCEPTED`. With a screen (``problem[8]``) ``admit`` is asked only of a start the screen could not
-    certify and ``accept`` only of a converged run whose rows it could not all certify, with the index of the
-    first of those (answer first: ``accept(qs, row)``)."""
+    no: no run is kept), :data:`FAILED` (no convergence), :data:`REJECTED` (converged, ``accept`` said no) or
+    :data:`ACCEPTED`. Without a screen ``admit`` is asked before the run (a refused start does not run). With
+    a screen (``problem[8]``) the start runs first and the screen certifies its rows and the start; ``admit``
+    is asked only of a start the screen could not certify (or did not check: a run with an uncertified row)
+    and ``accept`` only of a converged run whose rows it could not all certify, with the index of the first
+    of those (answer first: ``accept(qs, row)``); a refused start's iterations count."""
     if problem[8] is None or problem[2] is None:
         if admit is not None and not admit(q):
             return REFUSED, 0, None
         ok, it, run = _run_start(problem, q, cap)
         row = None
     else:
-        ok, it, run, flag, row = _run_screened(problem, q, cap, True)
-        if flag == START_UNCERTIFIED:
-            if admit is not None and not admit(q):
-                return REFUSED, 0, None
-            ok, it, run, flag, row = _run_screened(problem, q, cap, False)
-        if flag == ROWS_CERTIFIED:
+        ok, it, run, flag, row = _run_screened(problem, q, cap, admit is not None)
+        if flag == START_UNCERTIFIED and not admit(q):
+            return REFUSED, it, None
+        if flag != ROWS_UNCERTIFIED:  # (an admitted uncertified start: every other row is certified)
             return (ACCEPTED if ok else FAILED), it, run
+        if admit is not None and not admit(q):  # the screen stopped before the start
+            return REFUSED, it, None
     if not ok:
         return FAILED, it, run
     if accept is None or (accept(run[1][: run[0] + 1]) if row is None else accept(run[1][: run[0] + 1], row)):
@@ -310,9 +310,10 @@ def _search(problem: tuple, first: np.ndarray | None, starts: Callable[[], Itera
             if len(unscored) >= UNSCORED_RUNS:
                 best = _best_run(unscored, best)
             stop = _stop_reason(deadline, n_starts, max_starts, iterations, budget)
-        else:  # refused: no run, not counted as a start
+        else:  # refused: no run kept, not counted as a start (a screened run's iterations count)
             misses += 1
-            stop = _refusal_stop(deadline, misses)
+            iterations += it
+            stop = _refusal_stop(deadline, misses, iterations, budget)
         if stop:
             best = _best_run(unscored, best) if unscored or best is not None else None
             return False, best, rejected, n_starts, iterations, misses, stop, q
@@ -322,8 +323,10 @@ def _search(problem: tuple, first: np.ndarray | None, starts: Callable[[], Itera
         q = next(sequence)
 
 
-def _refusal_stop(deadline: float | None, misses: int) -> str:
+def _refusal_stop(deadline: float | None, misses: int, iterations: int, budget: int | None) -> str:
     """Why the search stops after a refused start ("" when it goes on)."""
+    if budget is not None and iterations >= budget:
+        return f"iteration budget exhausted ({iterations} iterations)"
     if deadline is not None and _now() > deadline:
         return "time budget exhausted"
     return f"{misses} starts refused in a row by the caller's test" if misses >= ADMIT_MISSES else ""
@@ -370,7 +373,9 @@ def solve_lm(
     converged. ``admit``: a test of a start before its run (e.g. a collision check); a start it refuses is
     skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
     ``screen``: a pre-check run in the same compiled call as each start (:class:`LMScreen`, compiled chains
-    only): ``admit`` is then asked only of the starts it cannot certify and ``accept`` only of the converged
+    only), after the run: ``admit`` is then asked, after the run, only of the starts it cannot certify (or
+    does not check: a converged run with an uncertified row), a refused start's run is discarded (its
+    iterations count), and ``accept`` only of the converged
     runs whose rows it cannot all certify, as ``accept(qs, row)``: ``row`` is the first row the screen could
     not certify, counted from the answer back (the start left out), so the rows after the answer and before
     it are certified (the screen's "certified" must imply both tests' yes).

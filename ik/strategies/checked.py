@@ -130,7 +130,7 @@ def _lm_attempts(req: SolveRequest, checker: Checker, admit: Admit, budget: Budg
     """One LM call: each converged run accepted when the checker passes its rows (answer first)."""
     rejected: list = []
     verdict: list = []
-    skip_start = admit is not None  # an admitted start was checked before its run
+    skip_start = admit is not None  # the start is admitted apart (before its run, or after it by the screen)
     first_violation = checker.first_violation
 
     def accept(qs: np.ndarray, row: int | None = None) -> bool:
