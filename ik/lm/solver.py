@@ -372,10 +372,10 @@ def solve_lm(
     run is accepted the answer is the best unconverged run's, or the first rejected run's when every run
     converged. ``admit``: a test of a start before its run (e.g. a collision check); a start it refuses is
     skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
-    ``screen``: a pre-check run in the same compiled call as each start (:class:`LMScreen`, compiled chains
-    only), after the run: ``admit`` is then asked, after the run, only of the starts it cannot certify (or
+    ``screen``: a pre-check run in the same compiled call as each start, after the run (:class:`LMScreen`,
+    compiled chains only): ``admit`` is then asked after the run, only of the starts it cannot certify (or
     does not check: a converged run with an uncertified row), a refused start's run is discarded (its
-    iterations count), and ``accept`` only of the converged
+    iterations count), and ``accept`` is asked only of the converged
     runs whose rows it cannot all certify, as ``accept(qs, row)``: ``row`` is the first row the screen could
     not certify, counted from the answer back (the start left out), so the rows after the answer and before
     it are certified (the screen's "certified" must imply both tests' yes).
