@@ -27,7 +27,7 @@ Measured per scene (the checker that goes first alternates from scene to scene):
 
 (d) with roboplan in the run, once its worker has ended: kinserve's first check in each scene again, in a
     pass of its own over the same scenes (the scene layouts forgotten first, so that it builds the same
-    ones; each scene's configurations checked after its first check, untimed), as a planning process
+    ones; each scene measured as in (a) and (b), only its first check reported), as a planning process
     alone on the machine meets new scenes.
 
 Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
@@ -179,20 +179,12 @@ def time_kinserve(robot, path: Path, qs: np.ndarray) -> SceneTimes:
 
 def time_alone(robot, scenes: list[SceneFile], n_configs: int) -> list[float]:
     """(d): kinserve's first check (s) in each of ``scenes``, in a pass of its own (see the module
-    docstring): the layouts forgotten, one untimed pass on the first scene, then per scene the first check
-    timed and its configurations checked."""
+    docstring): the layouts forgotten, one untimed pass on the first scene, then :func:`time_kinserve` on
+    each scene (its first check is the one reported; its configurations are checked after it)."""
     robot.collision.forget_scenes()
     time_kinserve(robot, scenes[0].path, configurations(robot, 10, 10**6))
-    clock, out = time.perf_counter, []
-    for scene in scenes:
-        qs = configurations(robot, n_configs, scene.seed)
-        shapes = tuple(read_planning_scene(scene.path))
-        t0 = clock()
-        robot.in_collision(qs[0], shapes)
-        out.append(clock() - t0)
-        for q in qs:
-            robot.in_collision(q, shapes)
-    return out
+    return [time_kinserve(robot, scene.path, configurations(robot, n_configs, scene.seed)).first_s
+            for scene in scenes]
 
 
 def precheck_verdict(scene, q: np.ndarray) -> str:
