@@ -190,6 +190,19 @@ def place_bounding_spheres(tree: np.ndarray, joints: np.ndarray, spheres: np.nda
 
 
 @_inline
+def place_scene_spheres(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
+                        pairs: np.ndarray, q: np.ndarray, X: np.ndarray, W: np.ndarray) -> int:
+    """:func:`place_bounding_spheres`, then, when the pair table starts with obstacle blocks, the moving
+    geometries' group sphere into ``W``'s last row (:func:`place_group_sphere`). Returns ``M``
+    (:func:`obstacle_block`): what the tests that read the group sphere need."""
+    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
+    M = obstacle_block(pairs)
+    if M > 0:
+        place_group_sphere(W, pairs, M, spheres.shape[0])
+    return M
+
+
+@_inline
 def place_cover(X: np.ndarray, spheres: np.ndarray, geoms: np.ndarray, g: int, W: np.ndarray,
                 placed: np.ndarray, stamp: int) -> None:
     """The cover spheres of geometry ``g`` into ``W``, unless already placed for this configuration
@@ -289,17 +302,16 @@ def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol
 
     The obstacle rows come in blocks, one per obstacle, each pairing it with the same ``M`` moving geometries
     (:func:`obstacle_block`): a block is certified at once when the **group sphere** of those geometries
-    (:func:`place_group_sphere`: it contains their bounding spheres) is apart from the obstacle - then every
-    bounding sphere is, by at least the group's slack, which still holds after each sphere moves by up to
-    ``m / 2``. Otherwise its rows are tested one by one. Most obstacles of a cluttered scene are away from
-    the arm (on the MotionBenchMaker scenes this leaves a fifth of the obstacle tests: docs/benchmarks.md)."""
-    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
+    (:func:`place_group_sphere`, placed here: it contains their bounding spheres) is apart from the
+    obstacle - then every bounding sphere is, by at least the group's slack, which still holds after each
+    sphere moves by up to ``m / 2``. Otherwise its rows are tested one by one. Most obstacles of a cluttered
+    scene are away from the arm (on the MotionBenchMaker scenes this leaves a fifth of the obstacle tests:
+    docs/benchmarks.md)."""
+    M = place_scene_spheres(tree, joints, spheres, geoms, pairs, q, X, W)
     m = MARGIN_CAP
     start = 0
-    M = obstacle_block(pairs)
     if M > 0:  # obstacle blocks: the group sphere first, each geometry only when it touches the obstacle
         group = spheres.shape[0]
-        place_group_sphere(W, pairs, M, group)
         while start < pairs.shape[0] and pairs[start, 2] == OBSTACLE_PAIR:
             r = _obstacle_slack(W, group, obstacles, pairs[start, 1], tol, m)
             if r >= 0.0:
@@ -495,9 +507,10 @@ def _place_inner(X, spheres, geoms, g, W, inner):
 
 
 @_jit
-def _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
+def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
     """True when a checked pair intersects for certain at the joint placements ``X`` (each geometry's
-    bounding sphere placed in ``W``, :func:`place_bounding_spheres`): an inner ball of a robot geometry
+    bounding sphere and the group sphere of the ``M`` rows of an obstacle block placed in ``W``,
+    :func:`place_scene_spheres`): an inner ball of a robot geometry
     reaches deeper than ``tol`` (m) into an obstacle whose exact distance the table has, or two inner balls
     of the geometries of a self pair overlap by more than ``tol`` (a ball inside each shape: the shapes
     share their overlap). Inner balls of radius 0 are points.
@@ -505,13 +518,9 @@ def _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):
     A pair whose bounding spheres are apart (gap ``>= 0``) is not asked further: an inner ball lies inside
     its geometry, so inside the bounding sphere, and its gap (centre distance minus radius, 1-Lipschitz in
     the centre) is at least the bounding sphere's; nor an obstacle block whose group sphere
-    (:func:`place_group_sphere`, placed here) is apart from the obstacle. The inner balls are placed on first
-    need."""
+    (:func:`place_group_sphere`) is apart from the obstacle. The inner balls are placed on first need."""
     inner = np.zeros(geoms.shape[0], dtype=np.bool_)
-    M = obstacle_block(pairs)
     group = spheres.shape[0]
-    if M > 0:
-        place_group_sphere(W, pairs, M, group)
     p = -1
     while p + 1 < pairs.shape[0]:
         p += 1
@@ -554,8 +563,8 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
     if q.shape[0] != n:
         return False
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
-    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol)
+    M = place_scene_spheres(tree, joints, spheres, geoms, pairs, q, X, W)
+    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol)
 
 
 _CLASSIFY_SIGNATURE = _t.int64(F1, I1, F1_ANY, _t.float64)
@@ -607,20 +616,20 @@ def _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p, M, tol, placed)
 
 @_inline
 def uncertified_from(X: np.ndarray, W: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
-                     pairs: np.ndarray, obstacles: np.ndarray, start: int, tol: float, placed: np.ndarray,
-                     out: np.ndarray) -> int:
+                     pairs: np.ndarray, obstacles: np.ndarray, start: int, M: int, tol: float,
+                     placed: np.ndarray, out: np.ndarray, limit: int) -> int:
     """The scene indices of the pairs from row ``start`` on (the rows before it certified) whose lower bound
-    at the placements ``X`` (bounding spheres in ``W``) does not exceed ``tol`` (m) into ``out``, in the
-    pair table's order; returns how many. Places the group sphere (:func:`place_group_sphere`)."""
-    M = obstacle_block(pairs)
-    if M > 0:
-        place_group_sphere(W, pairs, M, spheres.shape[0])
-    k = 0
-    p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, start, M, tol, placed)
-    while p < pairs.shape[0]:
+    at the placements ``X`` (bounding spheres and the group sphere of the ``M`` rows of an obstacle block in
+    ``W``: :func:`place_scene_spheres`) does not exceed ``tol`` (m) into ``out``, in the pair table's order,
+    stopping at the ``limit``-th; returns how many (``limit``: there may be more)."""
+    k, p = 0, start
+    while k < limit:
+        p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p, M, tol, placed)
+        if p >= pairs.shape[0]:
+            break
         out[k] = pairs[p, 3]
         k += 1
-        p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p + 1, M, tol, placed)
+        p += 1
     return k
 
 
@@ -644,9 +653,11 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
     m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, keep, X, W, placed, 0)
     if m >= 0.0:
         return 0
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (no pair list to make then)
+    M = obstacle_block(pairs)  # (the group sphere: placed by the certificate)
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):  # (no pair list to make then)
         return -1
-    return uncertified_from(X, W, spheres, geoms, pairs, obstacles, int(-1.0 - m), keep, placed, out)
+    return uncertified_from(X, W, spheres, geoms, pairs, obstacles, int(-1.0 - m), M, keep, placed, out,
+                            pairs.shape[0])
 
 
 @compiled(_CLASSIFY_SIGNATURE)
@@ -669,19 +680,20 @@ def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, 
     m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0)
     if m >= 0.0:
         return FREE
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, tol):  # (places the group sphere again)
+    M = obstacle_block(pairs)  # (the group sphere: placed by the certificate)
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
         return COLLIDING
     if pairs.shape[0] >= (1 << PAIR_BITS) - 1:
         return UNDECIDED
-    M = obstacle_block(pairs)
-    code, k = UNDECIDED, 0
-    p = int(-1.0 - m)  # the first row the certificate failed on: the rows before it are certified
-    while p < pairs.shape[0]:
-        if k == PACKED_PAIRS:
-            return UNDECIDED
-        code |= (pairs[p, 3] + 1) << (2 + PAIR_BITS * k)
-        k += 1
-        p = _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p + 1, M, tol, placed)
+    found = np.empty(PACKED_PAIRS + 1, dtype=np.int64)
+    # from the row the certificate failed on: the rows before it are certified
+    k = uncertified_from(X, W, spheres, geoms, pairs, obstacles, int(-1.0 - m), M, tol, placed, found,
+                         PACKED_PAIRS + 1)
+    if k > PACKED_PAIRS:
+        return UNDECIDED
+    code = UNDECIDED
+    for i in range(k):
+        code |= (found[i] + 1) << (2 + PAIR_BITS * i)
     return code
 
 
@@ -701,8 +713,8 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
         out[:] = pairs[:, 3]
         return out
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    place_bounding_spheres(tree, joints, spheres, geoms, q, X, W)
-    k = uncertified_from(X, W, spheres, geoms, pairs, obstacles, 0, tol, placed, out)
+    M = place_scene_spheres(tree, joints, spheres, geoms, pairs, q, X, W)
+    k = uncertified_from(X, W, spheres, geoms, pairs, obstacles, 0, M, tol, placed, out, P)
     return out[:k].copy()
 
 
@@ -711,6 +723,6 @@ __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "
            "certainly_colliding", "certify_configuration", "certify_configurations",
            "classify_configuration", "first_uncertified", "obstacle_gap",
            "obstacle_block", "pair_lower_bounds", "pairs_to_check", "place_bounding_spheres", "place_cover",
-           "place_group_sphere", "place_sphere",
+           "place_group_sphere", "place_scene_spheres", "place_sphere",
            "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_from", "uncertified_pairs",
            "unpack", "workspace"]

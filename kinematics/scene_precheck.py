@@ -121,9 +121,9 @@ class ScenePrecheck:
     def arguments(self, floats: np.ndarray) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of the scene whose packed floats are ``floats``
         (:meth:`scene_floats`): a new record on each call, holding ``floats`` itself."""
-        return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, TOLERANCE,
+        return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, self.tolerance,
                                  certainly_colliding, self.robot.sphere_reach,
-                                 self.pair_reach, classify_configuration, uncertified_pairs, self.hulls,
+                                 self.pair_reach, self.classify, self.uncertified_pairs, self.hulls,
                                  self.table_rows)
 
 
