@@ -34,6 +34,10 @@ BENCHES = {
               "--rounds", "3"], []),
     "step": (["benchmarks/time_ik_step.py", "400"], []),
 }
+#: ``--no-peers``: the options (both sides have them) that leave the peers' solvers out of each benchmark
+#: whose rows are kinserve against kinserve; RTB's ``ik_LM`` in ``bench_ik`` stays (rows are ratios to it).
+NO_PEERS = {"ik": ["--no-placo"], "cons": ["--no-pink", "--no-placo"], "coll": ["--no-pink", "--no-roboplan"],
+            "step": []}
 _A = "A: 3 spheres r 5 cm at 0.3/0.5/0.7 of shoulder->target"
 _B = "B: 2 cubes 8 cm at 0.35/0.65 of shoulder->target"
 #: The table: label, benchmark, path into its JSON, target.
@@ -79,16 +83,22 @@ def export(base: str, into: Path) -> Path:
     return tree
 
 
+def command(name: str, side: str, target: Path, no_peers: bool = False) -> list[str]:
+    """The command line of benchmark ``name`` (:data:`BENCHES`) for one side, writing ``target`` (the step
+    timing writes its own file); ``no_peers``: with :data:`NO_PEERS`' options."""
+    args, head_only = BENCHES[name]
+    extra = (head_only if side == "head" else []) + (NO_PEERS[name] if no_peers else [])
+    return [sys.executable, *args, *extra] + ([] if name == "step" else ["--out", str(target)])
+
+
 def run_side(side: str, tree: Path, round_: int, out: Path,
-             benches: tuple[str, ...] = tuple(BENCHES)) -> None:
+             benches: tuple[str, ...] = tuple(BENCHES), no_peers: bool = False) -> None:
     """The benchmarks ``benches`` (names of :data:`BENCHES`) of one side (the scripts of ``tree``), each one's
-    JSON in ``out/<side>_<round>_<bench>.json``."""
+    JSON in ``out/<side>_<round>_<bench>.json`` (``no_peers``: :func:`command`)."""
     env = dict(os.environ, KINSERVE_BENCH_VENVS=str(ROOT / "bench-out" / "venvs"))
     for name in benches:
-        args, head_only = BENCHES[name]
-        extra = head_only if side == "head" else []
         target = out / f"{side}_{round_}_{name}.json"
-        cmd = [sys.executable, *args, *extra] + ([] if name == "step" else ["--out", str(target)])
+        cmd = command(name, side, target, no_peers)
         with open(out / f"{side}_{round_}_{name}.txt", "w") as log:
             subprocess.run(cmd, cwd=tree, env=env, stdout=log, stderr=subprocess.STDOUT, check=False)
         if name == "step":  # (time_ik_step writes its own file)
@@ -146,6 +156,9 @@ def main() -> None:
     ap.add_argument("--benches", default=",".join(BENCHES),
                     help=f"comma-separated benchmarks to run (default: all of {', '.join(BENCHES)}); the "
                          "table also reads the files earlier runs left in --out")
+    ap.add_argument("--no-peers", action="store_true",
+                    help="leave the peers' solvers out (their solves between kinserve's change its caches); "
+                         "RTB's ik_LM stays")
     args = ap.parse_args()
     benches = tuple(b for b in args.benches.split(",") if b)
     unknown = [b for b in benches if b not in BENCHES]
@@ -157,8 +170,8 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             tree = export(args.base, Path(tmp))
             for r in range(1, args.rounds + 1):
-                run_side("base", tree, r, out, benches)
-                run_side("head", ROOT, r, out, benches)
+                run_side("base", tree, r, out, benches, args.no_peers)
+                run_side("head", ROOT, r, out, benches, args.no_peers)
                 print(f"round {r}/{args.rounds} done", flush=True)
     print(table(out, args.base))
 

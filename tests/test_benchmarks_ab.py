@@ -53,3 +53,25 @@ def test_the_base_revision_is_exported_as_a_kinserve_folder(tmp_path):
                          text=True, timeout=60, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert Path(out.stdout.strip()).resolve() == (tree / "__init__.py").resolve()
+
+
+def test_no_peers_adds_only_options_both_sides_accept(tmp_path):
+    """``--no-peers`` adds each benchmark's peer switches, on both sides, and the scripts of both sides (the
+    head's, and b69b75b's read from git) declare every one of them."""
+    ab = _ab()
+    target = tmp_path / "x.json"
+    for name in ab.BENCHES:
+        plain, quiet = ab.command(name, "base", target), ab.command(name, "base", target, no_peers=True)
+        assert [a for a in quiet if a not in plain] == ab.NO_PEERS[name]
+        head = ab.command(name, "head", target, no_peers=True)
+        assert set(ab.NO_PEERS[name]) <= set(head) and set(ab.BENCHES[name][1]) <= set(head)
+    root = Path(__file__).resolve().parents[1]
+    for name, options in ab.NO_PEERS.items():
+        script = ab.BENCHES[name][0][0]
+        shown = subprocess.run(["git", "-C", str(root), "show", f"b69b75b:{script}"], capture_output=True,
+                               text=True)
+        if shown.returncode:
+            pytest.skip("b69b75b is not in this checkout")
+        own = (root / script).read_text()
+        for option in options:
+            assert f'"{option}"' in shown.stdout and f'"{option}"' in own, (script, option)
