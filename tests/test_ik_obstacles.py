@@ -1,7 +1,6 @@
 """kinserve.ik obstacles: closed-form distances, clearances against independent code, gradients against finite
 differences of the true distance, every iterate outside every obstacle, start in collision, link radius."""
 
-import dataclasses
 
 import numpy as np
 import pinocchio as pin
@@ -347,8 +346,8 @@ def test_bound_copies_share_one_read_only_tables_object(panda):
     assert b.tables is a.tables and c.tables is a.tables  # shared by reference, not copied
     assert b.gain == 0.2 and a.gain != 0.2 and b.influence == a.influence  # own arguments
     t = a.tables
-    arrays = [getattr(kind, f.name) for kind in (t.spheres, t.capsules, t.boxes, t.coal_shapes)
-              for f in dataclasses.fields(kind)]
+    arrays = [getattr(kind, f) for kind in (t.spheres, t.capsules, t.boxes, t.coal_shapes)
+              for f in kind._fields]
     arrays = [a for a in arrays if isinstance(a, np.ndarray)]
     arrays += [t.links.support, t.links.inv_len2, *t.links.point_table, *t.links.tree]
     assert len(arrays) > 30 and not any(x.flags.writeable for x in arrays)
@@ -463,32 +462,40 @@ def test_points_into_and_box_frames_match_the_plain_forms(panda):
 
 
 def test_base_check_agrees_with_sampling_of_the_fixed_segments(panda):
-    """A sphere or box raises 'contains the robot base' exactly when it meets a fixed (base) segment."""
+    """Every kind of obstacle raises 'contains the robot base' exactly when it comes closer than the link
+    radius to a fixed (base) segment (its signed distance to 2001 points of each segment)."""
     from kinserve.ik.constraints import robot_segments
 
     fixed = [s for s in robot_segments(panda, panda.tip) if s.ja == 0 and s.jb == 0]
     assert fixed
     pts = np.concatenate([s.la + np.linspace(0, 1, 2001)[:, None] * (s.lb - s.la) for s in fixed])
     rng = np.random.default_rng(93)
-    outcomes = set()
-    for _ in range(60):
-        c = rng.uniform([-0.15, -0.15, 0.0], [0.15, 0.15, 0.5])
-        if rng.random() < 0.5:
+    outcomes = {kind: set() for kind in ("sphere", "box", "capsule", "cylinder")}
+    for _ in range(240):
+        c = rng.uniform([-0.2, -0.2, 0.0], [0.2, 0.2, 0.5])
+        kind = ("sphere", "box", "capsule", "cylinder")[rng.integers(4)]
+        if kind == "sphere":
             ob = ik.Sphere(c, rng.uniform(0.02, 0.1))
+        elif kind == "box":
+            ob = _box(c, rng.uniform(0.03, 0.2, 3), yaw=rng.uniform(-np.pi, np.pi))
+        elif kind == "capsule":
+            ob = ik.Capsule(c, c + rng.uniform(-0.15, 0.15, 3), rng.uniform(0.01, 0.06))
         else:
-            ob = _box(c, rng.uniform(0.03, 0.2, 3))
+            ob = ik.Cylinder(_box(c, (1, 1, 1), yaw=rng.uniform(-np.pi, np.pi)).pose, rng.uniform(0.02, 0.08),
+                             rng.uniform(0.05, 0.2))
+        rho = float(rng.choice([0.0, 0.03]))
         d = float(ob.signed_distance(pts).min())
-        if abs(d) < 1e-3:
+        if abs(d - rho) < 2e-3:
             continue
         try:
-            ObstacleAvoidance([ob]).bind(panda)
+            ObstacleAvoidance([ob], link_radius=rho).bind(panda)
             raised = False
         except InputError as exc:
             assert "base" in str(exc)
             raised = True
-        assert raised == (d < 0.0), (ob, d)
-        outcomes.add(raised)
-    assert outcomes == {True, False}
+        assert raised == (d < rho), (ob, rho, d)
+        outcomes[kind].add(raised)
+    assert all(seen == {True, False} for seen in outcomes.values()), outcomes
 
 
 def test_skeleton_of_the_right_model_after_binding_another(panda):

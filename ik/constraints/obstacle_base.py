@@ -4,12 +4,14 @@ The segments fixed to the world (:attr:`.robot_skeleton.RobotSkeleton.base`) can
 obstacle (kept clear of the default segments) whose distance to one of them is below the link radius
 ``rho`` makes every configuration infeasible. The test, cheapest first:
 
-1. the obstacle's bounding ball against the ball enclosing the base: farther than the sum of the radii
-   plus ``rho`` - clear;
-2. a box: every base segment separated from the box grown by ``rho`` (the separating-axis test
+1. the obstacle's bounding ball (:func:`bounding_ball`) against the ball enclosing the base: farther than
+   the sum of the radii plus ``rho`` - clear;
+2. the same ball against each base segment (point-segment distance): farther than its radius plus ``rho`` -
+   that segment is clear; for a sphere this is the exact test;
+3. a box: every remaining base segment separated from the box grown by ``rho`` (the separating-axis test
    :func:`.clearance_kernel.separated`, in the box's frame ``R^T (x - t)``) - clear;
-3. the distance of every base segment: closed form for a sphere (point-segment) and a capsule
-   (segment-segment); the shape's own signed distance at 33 points of the segment otherwise.
+4. the distance of every remaining base segment: closed form for a capsule (segment-segment); the shape's
+   own signed distance at 33 points of the segment otherwise.
 
 A distance below ``rho`` raises :class:`~kinserve.kinematics.errors.InputError` naming the obstacle
 and the first base segment it reaches.
@@ -33,30 +35,34 @@ def check_base(index: int, obstacle: Shape, base: Sequence[BaseSegment], ball: B
                link_radius: float) -> None:
     """Raise :class:`InputError` when ``obstacle`` (``obstacles[index]``) comes closer than ``link_radius``
     (m) to a segment of ``base`` (enclosed by ``ball``); module docstring."""
-    if not base or not _may_reach(obstacle, ball, link_radius):
+    if not base:
         return
-    if isinstance(obstacle, Box) and _box_clear_of(obstacle, base, link_radius):
+    (ox, oy, oz), rad = bounding_ball(obstacle)
+    (cx, cy, cz), R = ball
+    if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + link_radius:
         return
-    if isinstance(obstacle, Sphere):  # the closed form on plain floats (a few base segments)
-        o, r = obstacle.center, obstacle.radius
-        reached = [s.name for s in base if point_segment_distance(s.a, s.b, o) - r < link_radius]
+    o = (ox, oy, oz)
+    near = [s for s in base if point_segment_distance(s.a, s.b, o) - rad < link_radius]
+    if not near or isinstance(obstacle, Box) and _box_clear_of(obstacle, near, link_radius):
+        return
+    if isinstance(obstacle, Sphere):  # the bounding ball is the sphere: the test above is the closed form
+        reached = [s.name for s in near]
     else:
-        reached = [base[i].name for i in np.flatnonzero(base_distances(obstacle, base) < link_radius)]
+        reached = [near[i].name for i in np.flatnonzero(base_distances(obstacle, near) < link_radius)]
     if reached:
         raise InputError(f"obstacles[{index}] ({obstacle!r}) contains the robot base ({reached[0]}); "
                          "the base cannot move out of it")
 
 
-def _may_reach(obstacle: Shape, ball: Ball, link_radius: float) -> bool:
-    """False when the obstacle's bounding ball is farther than ``link_radius`` from ``ball``."""
+def bounding_ball(obstacle: Shape) -> tuple[tuple[float, float, float], float]:
+    """``(centre, radius)`` (m, world, plain floats) of a ball containing ``obstacle``: the sphere itself; a
+    capsule's or another shape's ball about its pose origin."""
     if isinstance(obstacle, Sphere):
-        (ox, oy, oz), rad = obstacle.center, obstacle.radius
-    elif isinstance(obstacle, Capsule):
-        (ox, oy, oz), rad = obstacle.pose[:3, 3].tolist(), 0.5 * obstacle.length + obstacle.radius
-    else:
-        (ox, oy, oz), rad = obstacle.pose[:3, 3].tolist(), bounding_radius(obstacle)
-    (cx, cy, cz), R = ball
-    return math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) <= R + rad + link_radius
+        return obstacle.center, obstacle.radius
+    ox, oy, oz = obstacle.pose[:3, 3].tolist()
+    if isinstance(obstacle, Capsule):
+        return (ox, oy, oz), 0.5 * obstacle.length + obstacle.radius
+    return (ox, oy, oz), bounding_radius(obstacle)
 
 
 def _box_clear_of(box: Box, base: Sequence[BaseSegment], link_radius: float) -> bool:

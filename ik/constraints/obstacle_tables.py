@@ -16,8 +16,8 @@ by obstacle: the order of the clearance vector. Per kind the table holds, per pa
   bounds), and per rigid segment its capsule core and its placement in its joint's frame.
 
 ``offset`` is ``link_radius + margin``. Every array is read-only (``arr.flags.writeable`` is False) and
-the records are frozen: constraints bound to the same obstacles share one :class:`ObstacleTables` by
-reference. An obstacle that contains the robot's base raises
+the records are immutable (named tuples and a frozen dataclass): constraints bound to the same obstacles
+share one :class:`ObstacleTables` by reference. An obstacle that contains the robot's base raises
 :class:`~kinserve.kinematics.errors.InputError` here (:mod:`.obstacle_base`).
 """
 
@@ -51,8 +51,7 @@ def _frozen(*arrays: np.ndarray) -> None:
             a.setflags(write=False)
 
 
-@dataclass(frozen=True, eq=False, slots=True)
-class SpherePairs:
+class SpherePairs(NamedTuple):
     """Sphere pairs (module docstring): ``seg``, ``row`` (the pair's sphere, an index of ``members``),
     ``ia``, ``ib``, ``iab = [ia, ib]``, centres ``(n, 3)``, radii, radii + offset and their squares
     ``(n,)``, ``support`` ``(n, nv)``. ``inv_len2`` is None when a pair's segment slides; ``blocks``:
@@ -78,8 +77,7 @@ class SpherePairs:
     W_blocks: np.ndarray | None
 
 
-@dataclass(frozen=True, eq=False, slots=True)
-class CapsulePairs:
+class CapsulePairs(NamedTuple):
     """Capsule pairs (module docstring): cores ``[a, b]`` ``(n, 3)``, radii and radii + offset ``(n,)``."""
 
     members: tuple[int, ...]
@@ -93,8 +91,7 @@ class CapsulePairs:
     r_off: np.ndarray
 
 
-@dataclass(frozen=True, eq=False, slots=True)
-class BoxPairs:
+class BoxPairs(NamedTuple):
     """Box pairs (module docstring). Per box: ``box_R`` ``(boxes, 3, 3)``, ``box_t`` ``(boxes, 1, 3)``;
     per pair: its box ``row``, ``R``, ``t``, ``h`` and the shape; ``iab_boxes``: the rows of a per-box
     stack of the points (``row * points + ia``, then ``+ ib``) holding the pairs' ends."""
@@ -122,8 +119,7 @@ class RigidCore(NamedTuple):
     geometry: coal.Capsule
 
 
-@dataclass(frozen=True, eq=False, slots=True)
-class CoalPairs:
+class CoalPairs(NamedTuple):
     """Pairs with a cylinder or a mesh (module docstring): per pair the shape, its coal placement, centre,
     rotation, bounding radius, local extent ``lo``, ``hi`` and the core of a rigid segment (else None)."""
 
@@ -201,8 +197,12 @@ class _Group(NamedTuple):
     """The obstacles of one kind: ``(obstacle index, shape, segment ids)`` each, and whether every one of them
     is kept clear of the default segments."""
 
-    members: list
+    members: Sequence
     default: bool
+
+
+#: The group of a kind without obstacles.
+_NO_GROUP = _Group((), True)
 
 
 def obstacle_frames(obstacles: Sequence[Shape]) -> tuple[str, ...]:
@@ -229,21 +229,23 @@ def build_obstacle_tables(skeleton: RobotSkeleton, obstacles: Sequence[Shape], l
 
 
 def _groups(skeleton: RobotSkeleton, obstacles: Sequence[Shape], link_radius: float) -> list[_Group]:
-    """The four kinds' groups (spheres, capsules, boxes, coal shapes); checks each obstacle against the
-    base."""
+    """The four kinds' groups (spheres, capsules, boxes, coal shapes; :data:`_NO_GROUP` for a kind without
+    obstacles); checks each obstacle against the base."""
     members: tuple = ([], [], [], [])
     default = [True, True, True, True]
+    base, ball = skeleton.base, skeleton.base_ball
     for k, ob in enumerate(obstacles):
         g = _KIND.get(type(ob))
         if g is None:  # (a subclass)
             g = next((_KIND[kind] for kind in _KIND if isinstance(ob, kind)), 3)
         if ob.frames is None:
-            check_base(k, ob, skeleton.base, skeleton.base_ball, link_radius)
+            if base:
+                check_base(k, ob, base, ball, link_radius)
             members[g].append((k, ob, None))
         else:
             members[g].append((k, ob, [skeleton.frame_segment(f) for f in ob.frames]))
             default[g] = False
-    return [_Group(m, d) for m, d in zip(members, default)]
+    return [_Group(m, d) if m else _NO_GROUP for m, d in zip(members, default)]
 
 
 #: The group of each shape type (by exact type; other shapes are the coal shapes).
@@ -277,9 +279,9 @@ def _sphere_pairs(skeleton: RobotSkeleton, group: _Group, offset: float) -> Sphe
     blocks = (len(members), skeleton.n_default) if group.default else None
     Wk = _moment_matrices(centers) if links.tree is None else None  # (the NumPy rows: no compiled tree)
     r_off = radius + offset if offset else radius  # (read-only arrays: one can serve twice)
-    out = SpherePairs(tuple(k for k, _, _ in members), x.seg, x.row, x.ia, x.ib, x.iab, centers[x.row],
-                      radius, r_off, r_off * r_off, x.inv_len2 if rigid else None, blocks,
-                      None if Wk is None or blocks is not None else Wk[x.row], x.support,
+    out = SpherePairs(tuple([k for k, _, _ in members]), x.seg, x.row, x.ia, x.ib, x.iab,
+                      centers.take(x.row, 0), radius, r_off, r_off * r_off, x.inv_len2 if rigid else None,
+                      blocks, None if Wk is None or blocks is not None else Wk[x.row], x.support,
                       None if Wk is None or blocks is None else Wk.reshape(-1, 6))
     _frozen(out.center, radius, r_off, out.r_off2, out.W, out.W_blocks)
     return out
@@ -306,12 +308,14 @@ def _capsule_pairs(skeleton: RobotSkeleton, group: _Group, offset: float) -> Cap
 
 def _box_pairs(skeleton: RobotSkeleton, group: _Group) -> BoxPairs:
     x = _pair_index(skeleton, group)
-    poses = _per_obstacle(group, lambda ob: ob.pose).reshape(-1, 4, 4)
+    row = x.row
+    poses = np.array([ob.pose for _, ob, _ in group.members], dtype=float)
     box_R, box_t = poses[:, :3, :3], poses[:, None, :3, 3]  # per box (t: (boxes, 1, 3))
-    h = (0.5 * _per_obstacle(group, lambda ob: ob.size))[x.row]
-    shapes = tuple(group.members[r][1] for r in x.row.tolist())
-    out = BoxPairs(tuple(k for k, _, _ in group.members), x.seg, x.row, x.ia, x.ib, x.iab_stacked, box_R,
-                   box_t, box_R[x.row], poses[x.row, :3, 3], h, shapes)
+    h = (0.5 * np.array([ob.size for _, ob, _ in group.members], dtype=float)).take(row, 0)
+    boxes = [ob for _, ob, _ in group.members]
+    out = BoxPairs(tuple([k for k, _, _ in group.members]), x.seg, row, x.ia, x.ib, x.iab_stacked, box_R,
+                   box_t, box_R.take(row, 0), poses[:, :3, 3].take(row, 0), h,
+                   tuple([boxes[r] for r in row.tolist()]))
     _frozen(box_R, box_t, out.R, out.t, h)
     return out
 
