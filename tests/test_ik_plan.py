@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import re
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -41,6 +42,20 @@ def test_the_docstring_table_is_the_table():
         cols = [w if isinstance(w, str) else spell[w] for w in row]
         assert words[:6] == cols
         assert " ".join(words[6:]) == strategy.name
+
+
+@pytest.mark.parametrize("page", ["README.md", "docs/ik.md"])
+def test_the_pages_strategy_table_is_the_table(page):
+    """The Markdown strategy table of the README and of the IK guide equals TABLE, row for row (an empty cell
+    is ANY)."""
+    text = (Path(kinserve.__file__).parent / page).read_text(encoding="utf-8")
+    start = text.index("| door | method | closed form |")
+    lines = text[start:].split("\n\n", 1)[0].splitlines()[2:]
+    cells = [[c.strip() for c in ln.strip().strip("|").split("|")] for ln in lines]
+    assert len(cells) == len(plan.TABLE), page
+    spell = {None: "", True: "yes", False: "no"}
+    for got, (row, strategy) in zip(cells, plan.TABLE):
+        assert got == [w if isinstance(w, str) else spell[w] for w in row] + [strategy.name], (page, got)
 
 
 def test_requests_pick_the_documented_strategy(panda):
