@@ -4,8 +4,8 @@ The segments fixed to the world (:attr:`.robot_skeleton.RobotSkeleton.base`) can
 obstacle (kept clear of the default segments) whose distance to one of them is below the link radius
 ``rho`` makes every configuration infeasible. The test, cheapest first:
 
-1. the obstacle's bounding ball (:func:`bounding_ball`) against the ball enclosing the base: farther than
-   the sum of the radii plus ``rho`` - clear;
+1. the obstacle's bounding ball (:meth:`~kinserve.kinematics.shapes.Shape.bounding_ball`, made with the
+   shape) against the ball enclosing the base: farther than the sum of the radii plus ``rho`` - clear;
 2. the same ball against each base segment (point-segment distance): farther than its radius plus ``rho`` -
    that segment is clear; for a sphere this is the exact test;
 3. a box: every remaining base segment separated from the box grown by ``rho`` (the separating-axis test
@@ -24,7 +24,6 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from kinserve.ik.constraints.obstacle_geometry import bounding_radius
 from kinserve.ik.constraints.robot_skeleton import Ball, BaseSegment
 from kinserve.ik.constraints.segment_distance import segment_segment
 from kinserve.kinematics.errors import InputError
@@ -37,7 +36,7 @@ def check_base(index: int, obstacle: Shape, base: Sequence[BaseSegment], ball: B
     (m) to a segment of ``base`` (enclosed by ``ball``); module docstring."""
     if not base:
         return
-    (ox, oy, oz), rad = bounding_ball(obstacle)
+    (ox, oy, oz), rad = obstacle.bounding_ball()
     (cx, cy, cz), R = ball
     if math.sqrt((ox - cx) ** 2 + (oy - cy) ** 2 + (oz - cz) ** 2) > R + rad + link_radius:
         return
@@ -52,17 +51,6 @@ def check_base(index: int, obstacle: Shape, base: Sequence[BaseSegment], ball: B
     if reached:
         raise InputError(f"obstacles[{index}] ({obstacle!r}) contains the robot base ({reached[0]}); "
                          "the base cannot move out of it")
-
-
-def bounding_ball(obstacle: Shape) -> tuple[tuple[float, float, float], float]:
-    """``(centre, radius)`` (m, world, plain floats) of a ball containing ``obstacle``: the sphere itself; a
-    capsule's or another shape's ball about its pose origin."""
-    if isinstance(obstacle, Sphere):
-        return obstacle.center, obstacle.radius
-    ox, oy, oz = obstacle.pose[:3, 3].tolist()
-    if isinstance(obstacle, Capsule):
-        return (ox, oy, oz), 0.5 * obstacle.length + obstacle.radius
-    return (ox, oy, oz), bounding_radius(obstacle)
 
 
 def _box_clear_of(box: Box, base: Sequence[BaseSegment], link_radius: float) -> bool:

@@ -233,14 +233,12 @@ def _groups(skeleton: RobotSkeleton, obstacles: Sequence[Shape], link_radius: fl
     obstacles); checks each obstacle against the base."""
     members: tuple = ([], [], [], [])
     default = [True, True, True, True]
-    base, ball = skeleton.base, skeleton.base_ball
     for k, ob in enumerate(obstacles):
         g = _KIND.get(type(ob))
         if g is None:  # (a subclass)
             g = next((_KIND[kind] for kind in _KIND if isinstance(ob, kind)), 3)
         if ob.frames is None:
-            if base:
-                check_base(k, ob, base, ball, link_radius)
+            check_base(k, ob, skeleton.base, skeleton.base_ball, link_radius)
             members[g].append((k, ob, None))
         else:
             members[g].append((k, ob, [skeleton.frame_segment(f) for f in ob.frames]))
