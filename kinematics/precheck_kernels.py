@@ -50,7 +50,9 @@ key covers every kernel file (:mod:`.kernel_cache`). Every kernel has its
 signature: importing this module compiles them, or loads them from that cache,
 so no call compiles anything. The primitives the motion certificates
 (:mod:`.motion_kernels`) share with these kernels are public names: :func:`unpack`, :func:`workspace`,
-:func:`place_sphere`, :func:`place_cover`, :func:`sphere_gap`, :func:`obstacle_gap`, :func:`self_cover_gap`.
+:func:`place_sphere`, :func:`place_cover`, :func:`sphere_gap`, :func:`obstacle_gap`, :func:`self_cover_gap`;
+the screened LM start (:mod:`kinserve.ik.lm.screened_kernel`) checks its start and its rows in one workspace
+(:func:`packed_workspace`, :func:`first_uncertified_in`).
 
 Units: metres and radians.
 """
@@ -378,6 +380,41 @@ def certify_configurations(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray,
     return out
 
 
+@_inline
+def packed_workspace(ints: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`workspace` of the packed arrays' robot (its header: joints, spheres, geometries)."""
+    return workspace(ints[0], ints[1], ints[2])
+
+
+@_inline
+def first_uncertified_in(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, start: int, tol: float,
+                         X: np.ndarray, W: np.ndarray, placed: np.ndarray, stamp: int) -> int:
+    """:func:`first_uncertified` in the caller's workspace (:func:`packed_workspace`), row ``k`` marked with
+    the stamp ``stamp + k``: a caller that checks several batches in one workspace starts each batch's stamps
+    after the last one used."""
+    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
+    n = joints.shape[0]
+    N = qs.shape[0]
+    if qs.shape[1] != n:
+        return max(start, 0)
+    reach = _reach(floats, ints)
+    ref, m = -1, 0.0
+    for k in range(max(start, 0), N):
+        if ref >= 0:
+            moved = 0.0
+            for j in range(n):
+                c = joints[j, 1]
+                moved += reach[j] * abs(qs[k, c] - qs[ref, c])
+            if 2.0 * moved * LIPSCHITZ_SAFETY < m:  # NaN: not skipped
+                continue
+        m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed,
+                                  stamp + k)
+        if m < 0.0:
+            return k
+        ref = k
+    return N
+
+
 @compiled(_FIRST_SIGNATURE)
 def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, start: int, tol: float) -> int:
     """Index of the first row of ``qs`` ``(N, nq)`` from ``start`` on that is not certified, ``N`` when every
@@ -390,27 +427,8 @@ def first_uncertified(floats: np.ndarray, ints: np.ndarray, qs: np.ndarray, star
     obstacle, changes by at most the sum of the two displacements): the iterates of a converging solve lie
     close together.
     """
-    tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
-    n = joints.shape[0]
-    N = qs.shape[0]
-    if qs.shape[1] != n:
-        return max(start, 0)
-    reach = _reach(floats, ints)
-    X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
-    ref, m = -1, 0.0
-    for k in range(max(start, 0), N):
-        if ref >= 0:
-            moved = 0.0
-            for j in range(n):
-                c = joints[j, 1]
-                moved += reach[j] * abs(qs[k, c] - qs[ref, c])
-            if 2.0 * moved * LIPSCHITZ_SAFETY < m:  # NaN: not skipped
-                continue
-        m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, qs[k], tol, X, W, placed, k)
-        if m < 0.0:
-            return k
-        ref = k
-    return N
+    X, W, placed = packed_workspace(ints)
+    return first_uncertified_in(floats, ints, qs, start, tol, X, W, placed, 0)
 
 
 @_inline

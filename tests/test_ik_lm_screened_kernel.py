@@ -1,18 +1,19 @@
-"""The screened LM start (ik.lm.screened_kernel): one compiled call that runs the LM, then certifies with the
-sphere pre-check the converged run's rows and its start (answer first, start last; a run that did not
-converge: its start alone), against the separate calls (``run_start``, ``first_uncertified``,
-``certify_configuration``) and against coal.
+"""The screened LM start (ik.lm.screened_kernel): one compiled call that certifies the start with the sphere
+pre-check, runs the LM from a certified start, then certifies the converged run's rows (answer first), against
+the separate calls (``run_start``, ``first_uncertified``, ``certify_configuration``) and against coal.
 
 Over many random targets and starts in a scene with a wall and a table (and the arm itself):
 
-* every start runs exactly as ``run_start`` does (the same status, iterations, rows and iterates);
-* the flag says "start uncertified" exactly when every other row of a converged run is certified and the
-  start is not (a run that did not converge: when the start is not), "certified" exactly when
-  ``first_uncertified`` certifies every row from the answer back to the row after the start and the start,
-  and then coal finds every one of them free; otherwise the row is the first uncertified one;
-* with ``check_start=False`` the start is not asked;
+* a start the pre-check cannot certify does not run (flag "start uncertified", no iterations, no rows);
+* every other start runs exactly as ``run_start`` does (the same status, iterations, rows and iterates);
+* the flag says "certified" exactly when the run did not converge or ``first_uncertified`` certifies every
+  row from the answer back to the row after the start, and then coal finds every one of them free; otherwise
+  the row is the first uncertified one;
+* with ``check_start=False`` the start is not asked (it runs);
 * the collision checker's test of a run's rows, started from the screen's first uncertified row, gives the
-  answer it gives from the first row (and coal's).
+  answer it gives from the first row (and coal's);
+* the checked LM (``ik.solve`` with ``self_collision``) runs no start the screen could not certify unless the
+  admission then admits it, and no refused start's iterations are counted.
 """
 
 import numpy as np
@@ -70,12 +71,17 @@ def test_screened_start_equals_the_separate_calls_and_coal(panda, scene):
         q0 = panda.random_q(rng)
         args = _arguments(panda, q0, T)
         status, it, k, flag, row = run_screened_start(*args, pre.floats, pre.ints, pre.tolerance, True)
+        start_free = certify_configuration(pre.floats, pre.ints, q0, pre.tolerance)
+        if not start_free:
+            assert (it, k, flag, row) == (0, 0, START_UNCERTIFIED, -1)
+            np.testing.assert_array_equal(args[16][0], q0)
+            seen[flag] += 1
+            continue
         plain = _arguments(panda, q0, T)
         assert (status, it, k) == lm_kernel.run_start(*plain)
         np.testing.assert_array_equal(args[16][:k], plain[16][:k])
-        start_free = certify_configuration(pre.floats, pre.ints, q0, pre.tolerance)
         if status != CONVERGED:
-            assert flag == (ROWS_CERTIFIED if start_free else START_UNCERTIFIED) and row == -1
+            assert flag == ROWS_CERTIFIED and row == -1
             seen[flag] += 1
             continue
         rows = np.ascontiguousarray(args[16][k - 1:0:-1])  # answer first, the start left out
@@ -83,7 +89,7 @@ def test_screened_start_equals_the_separate_calls_and_coal(panda, scene):
         if first < len(rows):
             assert flag == ROWS_UNCERTIFIED and row == first  # the first row the caller's check starts from
         else:
-            assert flag == (ROWS_CERTIFIED if start_free else START_UNCERTIFIED) and row == -1
+            assert flag == ROWS_CERTIFIED and row == -1
         seen[flag] += 1
         if flag == ROWS_CERTIFIED:
             assert not any(coal_scene.in_collision(q) for q in (*rows, q0))
@@ -123,3 +129,47 @@ def test_the_checker_goes_on_from_the_screens_first_uncertified_row(panda, scene
         hits = [coal_scene.in_collision(q) for q in rows]
         assert hinted == (hits.index(True) if True in hits else -1)
     assert met >= 5
+
+
+def test_the_checked_lm_runs_only_admitted_starts_and_counts_only_their_iterations(panda, scene):
+    coal_scene, pre = scene
+    checker = ik_state(panda).collision_checker(OBSTACLES, True, 0.0)
+    screen = checker.screen
+    calls = []
+
+    def recording_run(*args):
+        out = screen.run(*args)
+        calls.append((args[2].copy(), args[-1], out))
+        return out
+
+    checker.screen = screen._replace(run=recording_run)
+    rng = np.random.default_rng(21)
+    refused = checked = 0
+    try:
+        for i in range(60):
+            q = panda.random_q(rng)
+            if coal_scene.in_collision(q):
+                continue
+            calls.clear()
+            res = ik.solve(panda, panda.fk(q, FRAME), panda.random_q(rng), frame=FRAME, self_collision=True,
+                           obstacles=list(OBSTACLES), seed=i)
+            if res.info.get("strategy") != "unconstrained, checked":
+                continue
+            checked += 1
+            ran = 0
+            for j, (q0, check_start, (status, it, k, flag, row)) in enumerate(calls):
+                if flag == START_UNCERTIFIED:  # nothing ran; the start was not certified
+                    assert check_start and (it, k) == (0, 0)
+                    assert not certify_configuration(pre.floats, pre.ints, q0, pre.tolerance)
+                    admitted = j + 1 < len(calls) and not calls[j + 1][1] \
+                        and np.array_equal(calls[j + 1][0], q0)
+                    if admitted:  # run again only after the admission said yes: coal finds it free
+                        assert not coal_scene.in_collision(q0)
+                    else:
+                        refused += 1
+                    continue
+                ran += it
+            assert res.iterations == ran, (res.iterations, ran)
+    finally:
+        checker.screen = screen
+    assert checked >= 20 and refused >= 3, (checked, refused)

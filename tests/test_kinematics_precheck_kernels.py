@@ -100,9 +100,9 @@ def test_first_uncertified_on_converging_paths_matches_every_row_certified(tmp_p
 
 def test_first_uncertified_skips_rows_near_a_certified_one(monkeypatch):
     """A path of 3000 rows within a micro-radian of each other: every row is certified, and the rows after
-    the first are certified by their displacement, without forward kinematics: the kernel's source, run as
-    Python (``py_func``) with a counting spy on the per-configuration certificate, asks for it once; rows a
-    large step apart are each certified in full."""
+    the first are certified by their displacement, without forward kinematics: the kernel's loop
+    (``first_uncertified_in``), run as Python (``py_func``) with a counting spy on the per-configuration
+    certificate, asks for it once; rows a large step apart are each certified in full."""
     robot = robots.load("panda")
     scene = robot.collision_scene(SCENE)
     pre = scene.precheck()
@@ -115,11 +115,15 @@ def test_first_uncertified_skips_rows_near_a_certified_one(monkeypatch):
     calls = []
     real = pk._configuration_margin
     monkeypatch.setattr(pk, "_configuration_margin", lambda *a: calls.append(1) or real(*a))
-    assert pk.first_uncertified.py_func(floats, ints, rows, 0, tol) == 3000
+    def first_as_python(qs):  # first_uncertified's loop, run as Python in a workspace of its own
+        X, W, placed = pk.packed_workspace.py_func(ints)
+        return pk.first_uncertified_in.py_func(floats, ints, qs, 0, tol, X, W, placed, 0)
+
+    assert first_as_python(rows) == 3000
     assert len(calls) == 1
     apart = q + 0.05 * (np.arange(4) % 2)[:, None]  # each row 5 cm-ish from the one before: no skipping
     calls.clear()
-    k = pk.first_uncertified.py_func(floats, ints, apart, 0, tol)
+    k = first_as_python(apart)
     assert k == pk.first_uncertified(floats, ints, apart, 0, tol)
     assert len(calls) == min(k + 1, len(apart))
 

@@ -49,7 +49,7 @@ class CollisionChecker:
 
             self.screen = LMScreen(run_screened_start, pre.floats, pre.ints, pre.tolerance)
 
-    def admission(self, chosen: np.ndarray | None = None) -> Callable[[np.ndarray], bool]:
+    def admission(self, chosen: np.ndarray | None = None) -> Callable[..., bool]:
         """One solve's ``admit(q)`` (:func:`_admission`); ``chosen``: the caller's ``q0`` when it must run
         first (``prefer_q0``): never skipped without coal's word."""
         return _admission(self.constraint.in_collision, self.precheck, chosen)
@@ -84,18 +84,19 @@ class CollisionChecker:
 
 
 def _admission(in_collision: Callable[[np.ndarray], bool], pre: Any,
-               chosen: np.ndarray | None) -> Callable[[np.ndarray], bool]:
-    """``admit(q)``: a start the pre-check certifies runs at once; the first :data:`UNCERTIFIED_SKIPS` it
-    cannot certify are skipped without coal (except ``chosen``); later ones run when coal finds them free
-    (``in_collision``: the constraint's coal check)."""
+               chosen: np.ndarray | None) -> Callable[..., bool]:
+    """``admit(q, certify_first=True)``: a start the pre-check certifies runs at once; the first
+    :data:`UNCERTIFIED_SKIPS` it cannot certify are skipped without coal (except ``chosen``); later ones run
+    when coal finds them free (``in_collision``: the constraint's coal check). ``certify_first=False``: the
+    caller's pre-check (the LM's screen) has already failed to certify ``q``."""
     if pre is None:
-        return lambda q: not in_collision(q)
+        return lambda q, certify_first=True: not in_collision(q)
     certify, floats, ints, tol = pre.certify, pre.floats, pre.ints, pre.tolerance
     chosen_list = None if chosen is None else chosen.tolist()
     skips = [0]
 
-    def admit(q: np.ndarray) -> bool:
-        if certify(floats, ints, q, tol):
+    def admit(q: np.ndarray, certify_first: bool = True) -> bool:
+        if certify_first and certify(floats, ints, q, tol):
             return True
         if skips[0] < UNCERTIFIED_SKIPS and (chosen_list is None or q.tolist() != chosen_list):
             skips[0] += 1

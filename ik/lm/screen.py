@@ -10,8 +10,8 @@ import numpy as np
 
 class LMScreen(NamedTuple):
     """A pre-check that runs in the same compiled call as each LM start
-    (:func:`kinserve.ik.lm.screened_kernel.run_screened_start` is ``run``): after the run it certifies the
-    converged run's rows and the start. ``floats``, ``ints``, ``tolerance``: the scene's pre-check
+    (:func:`kinserve.ik.lm.screened_kernel.run_screened_start` is ``run``): it certifies the start before
+    the run and a converged run's rows after it. ``floats``, ``ints``, ``tolerance``: the scene's pre-check
     arguments (:class:`~kinserve.kinematics.scene_precheck.PrecheckArguments`)."""
 
     run: Callable[..., tuple[int, int, int, int]]

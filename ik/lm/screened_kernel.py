@@ -1,29 +1,27 @@
-"""One LM start screened by the sphere pre-check, in one compiled call: the run, then the check of its
-iterates and of its start.
+"""One LM start screened by the sphere pre-check, in one compiled call: the start's check, the run, then the
+check of its iterates.
 
 The checked LM (:mod:`kinserve.ik.strategies.checked`) keeps a start only when it is clear of collision and
 accepts a converged run only when its answer and every iterate are. The sphere pre-check
 (:mod:`kinserve.kinematics.precheck_kernels`) certifies most configurations free; :func:`run_screened_start`
-asks it after :func:`kinserve.ik.lm.kernel.run_start`, so that a run whose rows and start it certifies costs
-no call back into Python. A converged run's start is checked as the last of its rows (answer first, start
-last: one pass of the pre-check over the whole path, right after the run); a run that did not converge has
-its start alone checked. A run whose start the caller then refuses is discarded, as the start would have
-been refused before it. What the pre-check cannot certify it reports, and the caller's own tests decide
-(skipping a start, or coal): the answers are those of the separate calls.
+asks it of the start before :func:`kinserve.ik.lm.kernel.run_start` (a start it cannot certify is not run:
+the caller's own test decides whether it runs at all, so no run is spent on a start that is then refused),
+and of a converged run's rows after it (answer first, one pass over the path), so that a run whose start
+and rows it certifies costs no call back into Python. What the pre-check cannot certify it reports, and the
+caller's own tests decide (skipping a start, or coal): the answers are those of the separate calls.
 
 Returned flag (the fourth entry; the constants of :mod:`kinserve.ik.lm.status`) and row (the fifth):
 
-* ``START_UNCERTIFIED`` - ``check_start`` and the pre-check could not certify the start ``q0``; when the run
-  converged, every other row of it is certified;
-* ``ROWS_CERTIFIED`` - every row the flag speaks for is certified free: when the run converged, the rows
-  from the answer back to the row after the start (``qs[k-1], ..., qs[1]``) and the start when
-  ``check_start``; when it did not, the start when ``check_start`` (no answer: its other rows are not
-  checked);
+* ``START_UNCERTIFIED`` - ``check_start`` and the pre-check could not certify the start ``q0``: nothing ran
+  (status ``STALLED``, 0 iterations, 0 rows);
+* ``ROWS_CERTIFIED`` - the start ran (certified, or admitted by the caller when not ``check_start``) and,
+  when it converged, every row from the answer back to the row after the start (``qs[k-1], ..., qs[1]``) is
+  certified free;
 * ``ROWS_UNCERTIFIED`` - the run converged and one of the rows after the start is not certified: the row is
   the index, in that answer-first order, of the first one (the rows before it are certified; the caller's
-  check goes on from it). The start is then not checked here (the caller's own test decides it).
+  check goes on from it).
 
-The row is -1 with the other flags. With ``check_start`` False the caller has admitted the start itself.
+The row is -1 with the other flags.
 """
 
 from __future__ import annotations
@@ -32,9 +30,9 @@ import numba
 import numpy as np
 
 from kinserve.ik.lm.kernel import run_start
-from kinserve.ik.lm.status import CONVERGED, ROWS_CERTIFIED, ROWS_UNCERTIFIED, START_UNCERTIFIED
+from kinserve.ik.lm.status import CONVERGED, ROWS_CERTIFIED, ROWS_UNCERTIFIED, STALLED, START_UNCERTIFIED
 from kinserve.kinematics.kernel_cache import F1, F2, I1, I2, compiled
-from kinserve.kinematics.precheck_kernels import first_uncertified
+from kinserve.kinematics.precheck_kernels import first_uncertified_in, packed_workspace
 
 _t = numba.types
 _OUT2 = _t.float64[:, ::1]
@@ -51,19 +49,18 @@ def run_screened_start(geometry: np.ndarray, joints: np.ndarray, q0: np.ndarray,
     """``(status, iterations, rows, flag, row)``: :func:`~kinserve.ik.lm.kernel.run_start`'s answer (its
     arguments first), the flag and the row of the module docstring. ``floats, ints, tol``: the scene's
     pre-check (:class:`~kinserve.kinematics.scene_precheck.PrecheckArguments`); ``check_start``: certify
-    ``q0`` too (when False the caller admitted it). ``qs[0]`` is ``q0`` after the run."""
+    ``q0`` before the run (when False the caller admitted it). ``qs[0]`` is ``q0`` after the call."""
+    X, W, placed = packed_workspace(ints)  # (one workspace for both checks: stamp 0 the start, 1.. the rows)
+    qs[0, :] = q0
+    if check_start and first_uncertified_in(floats, ints, qs[:1], 0, tol, X, W, placed, 0) == 0:
+        return STALLED, 0, 0, START_UNCERTIFIED, -1
     status, it, k = run_start(geometry, joints, q0, lo, hi, Td, relaxed, Aw, kept, tp2, tr2, lam0, gain,
                               stall_ratio, patience, max_iter, qs, errs)
-    if status != CONVERGED:  # no answer: only the start may need its certificate
-        if check_start and first_uncertified(floats, ints, qs[:1], 0, tol) == 0:
-            return status, it, k, START_UNCERTIFIED, -1
+    if status != CONVERGED:  # no answer: no rows to check
         return status, it, k, ROWS_CERTIFIED, -1
-    last = k - 1 if check_start else k - 2  # the last row to check, in answer-first order
-    row = first_uncertified(floats, ints, qs[k - 1::-1] if check_start else qs[k - 1:0:-1], 0, tol)
-    if row > last:
+    row = first_uncertified_in(floats, ints, qs[k - 1:0:-1], 0, tol, X, W, placed, 1)
+    if row >= k - 1:
         return status, it, k, ROWS_CERTIFIED, -1
-    if row == k - 1:  # (check_start: every row before the start is certified)
-        return status, it, k, START_UNCERTIFIED, -1
     return status, it, k, ROWS_UNCERTIFIED, row
 
 

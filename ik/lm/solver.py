@@ -208,7 +208,7 @@ def _run(status: int, it: int, k: int, qs: np.ndarray, errs: np.ndarray) -> tupl
 def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, check_start: bool) -> tuple:
     """One start through the screen's compiled call (:mod:`ik.lm.screened_kernel`): :func:`_run_start`'s
     answer, the screen's flag and its first uncertified row (answer first; -1: none). ``check_start``: the
-    screen certifies the start too (after the run)."""
+    screen certifies the start first (not certified: nothing runs, the answer is None)."""
     robot, target, chain, tp2, tr2, damping = problem[:6]
     screen = problem[8]
     rows = max_iter + 1
@@ -217,6 +217,8 @@ def _run_screened(problem: tuple, q: np.ndarray, max_iter: int, check_start: boo
                                           not target.full, target.A, target.kept, tp2, tr2, damping,
                                           DAMPING_GAIN, STALL_RATIO, STALL_PATIENCE, max_iter, qs, errs,
                                           screen.floats, screen.ints, screen.tolerance, check_start)
+    if flag == START_UNCERTIFIED:
+        return False, 0, None, flag, row
     return (*_run(status, it, k, qs, errs), flag, row)
 
 
@@ -226,12 +228,12 @@ REFUSED, FAILED, REJECTED, ACCEPTED = range(4)
 
 def _try_start(problem: tuple, q: np.ndarray, cap: int, accept, admit) -> tuple[int, int, tuple | None]:
     """One start of :func:`_search`: ``(outcome, iterations, run)``, outcome :data:`REFUSED` (``admit`` said
-    no: no run is kept), :data:`FAILED` (no convergence), :data:`REJECTED` (converged, ``accept`` said no) or
-    :data:`ACCEPTED`. Without a screen ``admit`` is asked before the run (a refused start does not run). With
-    a screen (``problem[8]``) the start runs first and the screen certifies its rows and the start; ``admit``
-    is asked only of a start the screen could not certify (or did not check: a run with an uncertified row)
-    and ``accept`` only of a converged run whose rows it could not all certify, with the index of the first
-    of those (answer first: ``accept(qs, row)``); a refused start's iterations count."""
+    no: the start does not run), :data:`FAILED` (no convergence), :data:`REJECTED` (converged, ``accept``
+    said no) or :data:`ACCEPTED`. Without a screen ``admit`` is asked before the run. With a screen
+    (``problem[8]``) the compiled call certifies the start before its run and the run's rows after it;
+    ``admit`` is asked only of a start it could not certify (admitted: the start runs in a second call that
+    does not check it) and ``accept`` only of a converged run whose rows it could not all certify, with the
+    index of the first of those (answer first: ``accept(qs, row)``)."""
     if problem[8] is None or problem[2] is None:
         if admit is not None and not admit(q):
             return REFUSED, 0, None
@@ -239,12 +241,12 @@ def _try_start(problem: tuple, q: np.ndarray, cap: int, accept, admit) -> tuple[
         row = None
     else:
         ok, it, run, flag, row = _run_screened(problem, q, cap, admit is not None)
-        if flag == START_UNCERTIFIED and not admit(q):
-            return REFUSED, it, None
-        if flag != ROWS_UNCERTIFIED:  # (an admitted uncertified start: every other row is certified)
+        if flag == START_UNCERTIFIED:
+            if not admit(q, False):  # (the screen has already failed to certify it)
+                return REFUSED, 0, None
+            ok, it, run, flag, row = _run_screened(problem, q, cap, False)
+        if flag != ROWS_UNCERTIFIED:
             return (ACCEPTED if ok else FAILED), it, run
-        if admit is not None and not admit(q):  # the screen stopped before the start
-            return REFUSED, it, None
     if not ok:
         return FAILED, it, run
     if accept is None or (accept(run[1][: run[0] + 1]) if row is None else accept(run[1][: run[0] + 1], row)):
@@ -310,9 +312,8 @@ def _search(problem: tuple, first: np.ndarray | None, starts: Callable[[], Itera
             if len(unscored) >= UNSCORED_RUNS:
                 best = _best_run(unscored, best)
             stop = _stop_reason(deadline, n_starts, max_starts, iterations, budget)
-        else:  # refused: no run kept, not counted as a start (a screened run's iterations count)
+        else:  # refused: nothing ran, not counted as a start
             misses += 1
-            iterations += it
             stop = _refusal_stop(deadline, misses, iterations, budget)
         if stop:
             best = _best_run(unscored, best) if unscored or best is not None else None
@@ -357,7 +358,7 @@ def solve_lm(
     prefer_q0: bool = False,
     iteration_budget: int | None = None,
     accept: Callable[..., bool] | None = None,
-    admit: Callable[[np.ndarray], bool] | None = None,
+    admit: Callable[..., bool] | None = None,
     screen: LMScreen | None = None,
 ) -> Result:
     """Levenberg-Marquardt IK of ``target`` (an :class:`ik.targets.Target`) with restarts.
@@ -372,13 +373,12 @@ def solve_lm(
     run is accepted the answer is the best unconverged run's, or the first rejected run's when every run
     converged. ``admit``: a test of a start before its run (e.g. a collision check); a start it refuses is
     skipped without a run and without counting as a start (at most :data:`ADMIT_MISSES` in a row).
-    ``screen``: a pre-check run in the same compiled call as each start, after the run (:class:`LMScreen`,
-    compiled chains only): ``admit`` is then asked after the run, only of the starts it cannot certify (or
-    does not check: a converged run with an uncertified row), a refused start's run is discarded (its
-    iterations count), and ``accept`` is asked only of the converged
-    runs whose rows it cannot all certify, as ``accept(qs, row)``: ``row`` is the first row the screen could
-    not certify, counted from the answer back (the start left out), so the rows after the answer and before
-    it are certified (the screen's "certified" must imply both tests' yes).
+    ``screen``: a pre-check run in the same compiled call as each start, before and after the run
+    (:class:`LMScreen`, compiled chains only): ``admit`` is then asked only of the starts it cannot certify
+    (before their run, as ``admit(q, False)``: the screen has not certified ``q``), and ``accept`` only of
+    the converged runs whose rows it cannot all certify, as ``accept(qs, row)``: ``row`` is the first row
+    the screen could not certify, counted from the answer back (the start left out), so the rows after the
+    answer and before it are certified (the screen's "certified" must imply both tests' yes).
     """
     chains = robot.lm_chains  # (compiled_chain inlined: warmed before the clock starts)
     chain = (chains if chains is not None else compiled_chains(robot)).chains[target.frame_id]

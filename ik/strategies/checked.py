@@ -39,7 +39,7 @@ from kinserve.ik.strategies.closed_form import closed_form
 from kinserve.ik.strategies.direct import levenberg_marquardt, target_qp
 
 Checker = ClearanceChecker | CollisionChecker
-Admit = Callable[[np.ndarray], bool] | None
+Admit = Callable[..., bool] | None
 _CLEAR = "unconstrained, checked"
 
 
@@ -130,7 +130,7 @@ def _lm_attempts(req: SolveRequest, checker: Checker, admit: Admit, budget: Budg
     """One LM call: each converged run accepted when the checker passes its rows (answer first)."""
     rejected: list = []
     verdict: list = []
-    skip_start = admit is not None  # the start is admitted apart (before its run, or after it by the screen)
+    skip_start = admit is not None  # the start is admitted apart, before its run (by the screen or admit)
     first_violation = checker.first_violation
 
     def accept(qs: np.ndarray, row: int | None = None) -> bool:
