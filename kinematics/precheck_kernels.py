@@ -739,8 +739,8 @@ def uncertified_pairs(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: 
 __all__ = ["BALL", "BOX", "CAPSULE", "COLLIDING", "CYLINDER", "EXACT", "FREE", "KIND", "LIPSCHITZ_SAFETY",
            "MARGIN_CAP", "OBSTACLE_COLUMNS", "OBSTACLE_PAIR", "SELF_PAIR", "TOLERANCE", "UNDECIDED",
            "certainly_colliding", "certify_configuration", "certify_configurations",
-           "classify_configuration", "first_uncertified", "obstacle_gap",
-           "obstacle_block", "pair_lower_bounds", "pairs_to_check", "place_bounding_spheres", "place_cover",
-           "place_group_sphere", "place_scene_spheres", "place_sphere",
-           "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_from", "uncertified_pairs",
-           "unpack", "workspace"]
+           "classify_configuration", "first_uncertified", "first_uncertified_in", "obstacle_gap",
+           "obstacle_block", "packed_workspace", "pair_lower_bounds", "pairs_to_check",
+           "place_bounding_spheres", "place_cover", "place_group_sphere", "place_scene_spheres",
+           "place_sphere", "self_cover_gap", "sphere_gap", "tree_placements", "uncertified_from",
+           "uncertified_pairs", "unpack", "workspace"]
