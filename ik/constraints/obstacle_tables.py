@@ -307,9 +307,9 @@ def _capsule_pairs(skeleton: RobotSkeleton, group: _Group, offset: float) -> Cap
 def _box_pairs(skeleton: RobotSkeleton, group: _Group) -> BoxPairs:
     x = _pair_index(skeleton, group)
     row = x.row
-    poses = np.array([ob.pose for _, ob, _ in group.members], dtype=float)
+    poses = _per_obstacle(group, lambda ob: ob.pose)
     box_R, box_t = poses[:, :3, :3], poses[:, None, :3, 3]  # per box (t: (boxes, 1, 3))
-    h = (0.5 * np.array([ob.size for _, ob, _ in group.members], dtype=float)).take(row, 0)
+    h = (0.5 * _per_obstacle(group, lambda ob: ob.size)).take(row, 0)
     boxes = [ob for _, ob, _ in group.members]
     out = BoxPairs(tuple([k for k, _, _ in group.members]), x.seg, row, x.ia, x.ib, x.iab_stacked, box_R,
                    box_t, box_R.take(row, 0), poses[:, :3, 3].take(row, 0), h,
