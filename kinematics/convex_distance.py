@@ -38,7 +38,7 @@ import math
 import numpy as np
 
 from .hull_table import VERTICES
-from .kernel_cache import inline, jit
+from .kernel_cache import inline, leaf
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND
 from .precheck_kernels import SELF_PAIR
 
@@ -142,7 +142,7 @@ def _on_edge(T, px, py, pz, qx, qy, qz, t):
     return px + t * (qx - px), py + t * (qy - py), pz + t * (qz - pz), 2
 
 
-@jit
+@leaf
 def closest_on_triangle(S: np.ndarray, T: np.ndarray, i: int, j: int, k: int) -> tuple:
     """The point of triangle ``S[i], S[j], S[k]`` closest to the origin (Ericson 5.1.5): ``(x, y, z, m)``,
     and the ``m`` vertices of the feature it lies on (vertex, edge or face) written into ``T[:m]``."""
@@ -203,7 +203,7 @@ _FACES = np.array([[0, 1, 2, 3], [0, 1, 3, 2], [0, 2, 3, 1], [1, 2, 3, 0]], dtyp
 _FACES.setflags(write=False)
 
 
-@jit
+@leaf
 def closest_on_simplex(S: np.ndarray, n: int, T: np.ndarray) -> tuple:
     """The point of simplex ``S[:n]`` (1 to 4 points) closest to the origin: ``(x, y, z, m)`` with
     ``S[:m]`` reduced to the points of its feature; ``m = 4`` when the tetrahedron encloses the origin
@@ -248,7 +248,7 @@ def closest_on_simplex(S: np.ndarray, n: int, T: np.ndarray) -> tuple:
     return bx, by, bz, bm
 
 
-@jit
+@leaf
 def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a: int, b: int,
                         obstacles: np.ndarray, other_is_obstacle: bool, S: np.ndarray, T: np.ndarray,
                         guess: np.ndarray) -> float:

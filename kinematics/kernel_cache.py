@@ -8,8 +8,9 @@ every function of :data:`KERNEL_FILES` (the files with compiled code and the fil
 reads) with the SHA-256 of all of those files together. Changing any one of them recompiles every kernel on
 the next import.
 
-The decorators :data:`jit` and :data:`inline` (``cache=True``, ``nogil``, NumPy's error model; ``inline``
-also inlines at Numba's IR level) are the ones every kernel module uses; importing this module installs the
+The decorators :data:`jit`, :data:`inline` and :data:`leaf` (``cache=True``, ``nogil``, NumPy's error model;
+``inline`` also inlines at Numba's IR level, ``leaf`` compiles without reference counting) are the ones every
+kernel module uses; importing this module installs the
 locator first, so it is in place before any of them is decorated. :func:`kernel_set_locator` makes a locator
 class for another set of files (the tests use it on files of their own).
 """
@@ -134,6 +135,13 @@ B1 = numba.types.Array(numba.types.boolean, 1, "C", readonly=True)
 jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: :data:`jit`, inlined into its callers at Numba's IR level (a call passes whole array structures).
 inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
+#: :data:`jit` without Numba's reference counting (its ``_nrt`` option off), for a helper that a kernel calls
+#: in its hot loop, once per configuration or pair: a compiled function increments the reference count of
+#: each array it receives on entry and decrements it on exit, an atomic operation each (the pre-check's
+#: certificate took 17 of each per configuration, about a third of its time: docs/benchmarks.md). A leaf
+#: allocates no array and returns none (Numba refuses to compile one that does), so its callers' references
+#: keep its arguments alive and it need not count them; it may call kernels that count their own.
+leaf = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 
 
 def compiled(signature: Any) -> Callable[[Callable[..., Any]], Any]:

@@ -34,7 +34,7 @@ import numba
 import numpy as np
 
 from .convex_distance import pair_distance_bounds, pair_measured
-from .kernel_cache import F1, F1_ANY, F2, I1, I2, compiled, inline, jit
+from .kernel_cache import F1, F1_ANY, F2, I1, I2, compiled, inline, leaf
 from .precheck_kernels import (
     LIPSCHITZ_SAFETY,
     SELF_PAIR,
@@ -51,7 +51,7 @@ from .precheck_kernels import (
 )
 from .serial_chain import REVOLUTE as _REVOLUTE
 
-_jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source)
+_inline, _leaf = inline, leaf  # (kernel_cache's: one cache key over every kernel source)
 _t = numba.types
 
 
@@ -329,7 +329,7 @@ LOOKAHEAD = 0.6
 COVER_FRACTION = 0.1
 
 
-@_jit
+@_leaf
 def _pair_advance(X, W, placed, stamp, spheres, geoms, pairs, obstacles, v, w, tol, min_step, live, m,
                   front, back, last, state, s, from_lo, horizon):
     """One advance of :func:`motion_hard_pairs` at ``s`` (placements in ``X`` / ``W``) over the open pairs

@@ -64,7 +64,7 @@ import math
 import numba
 import numpy as np
 
-from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit
+from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit, leaf
 from .kernel_primitives import tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_packing import HEADER, OBSTACLE_PAIR, SELF_PAIR
@@ -75,7 +75,7 @@ from .precheck_verdicts import COLLIDING, FREE, PACKED_PAIRS, PAIR_BITS, UNDECID
 TOLERANCE = 1e-5
 
 
-_jit, _inline = jit, inline  # (kernel_cache's: one cache key over every kernel source)
+_jit, _inline, _leaf = jit, inline, leaf  # (kernel_cache's: one cache key over every kernel source)
 _t = numba.types
 _ONE_SIGNATURE = _t.boolean(F1, I1, F1_ANY, _t.float64)
 _BATCH_SIGNATURE = _t.Array(_t.boolean, 1, "C")(F1, I1, F2_ANY, _t.float64)
@@ -186,7 +186,7 @@ def place_bounding_spheres(tree: np.ndarray, joints: np.ndarray, spheres: np.nda
                            q: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
     """The joint placements of configuration ``q`` into ``X`` (:func:`tree_placements`), then each
     geometry's bounding sphere into its row of ``W``."""
-    tree_placements(tree, joints, q, X)
+    tree_placements_into(tree, joints, q, X)
     for g in range(geoms.shape[0]):
         place_sphere(X, geoms[g, 0], spheres, g, W)
 
@@ -292,7 +292,7 @@ def _obstacle_rows_margin(X, W, spheres, geoms, pairs, obstacles, lo, hi, tol, m
     return m
 
 
-@_jit
+@_leaf
 def _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, stamp):
     """The certificate of ``q``: ``-1 - p`` (negative) when some pair's lower bound does not exceed ``tol``,
     ``p`` the first such row of ``pairs`` (every row before it is certified: :func:`uncertified_from`),
@@ -524,8 +524,8 @@ def _place_inner(X, spheres, geoms, g, W, inner):
         inner[g] = True
 
 
-@_jit
-def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
+@_leaf
+def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):
     """True when a checked pair intersects for certain at the joint placements ``X`` (each geometry's
     bounding sphere and the group sphere of the ``M`` rows of an obstacle block placed in ``W``,
     :func:`place_scene_spheres`): an inner ball of a robot geometry
@@ -536,8 +536,8 @@ def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
     A pair whose bounding spheres are apart (gap ``>= 0``) is not asked further: an inner ball lies inside
     its geometry, so inside the bounding sphere, and its gap (centre distance minus radius, 1-Lipschitz in
     the centre) is at least the bounding sphere's; nor an obstacle block whose group sphere
-    (:func:`place_group_sphere`) is apart from the obstacle. The inner balls are placed on first need."""
-    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
+    (:func:`place_group_sphere`) is apart from the obstacle. The inner balls are placed on first need;
+    ``inner`` ``(G,)`` (all False on entry, the caller's) marks the geometries whose balls are placed."""
     group = spheres.shape[0]
     p = -1
     while p + 1 < pairs.shape[0]:
@@ -582,7 +582,8 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
         return False
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
     M = place_scene_spheres(tree, joints, spheres, geoms, pairs, q, X, W)
-    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol)
+    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
+    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner)
 
 
 _CLASSIFY_SIGNATURE = _t.int64(F1, I1, F1_ANY, _t.float64)
@@ -614,7 +615,7 @@ def _pair_certified(X, W, spheres, geoms, pairs, obstacles, p, tol, placed, stam
     return True
 
 
-@_jit
+@_leaf
 def _next_uncertified(X, W, spheres, geoms, pairs, obstacles, p, M, tol, placed):
     """The first row from ``p`` on whose lower bound at the placements ``X`` (bounding spheres in ``W``, the
     group sphere in its row when ``M > 0``) does not exceed ``tol`` (m), ``P`` when none: an obstacle block
@@ -672,7 +673,8 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
     if m >= 0.0:
         return 0
     M = obstacle_block(pairs)  # (the group sphere: placed by the certificate)
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):  # (no pair list to make then)
+    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):  # (no pair list to make then)
         return -1
     return uncertified_from(X, W, spheres, geoms, pairs, obstacles, int(-1.0 - m), M, keep, placed, out,
                             pairs.shape[0])
@@ -699,7 +701,8 @@ def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, 
     if m >= 0.0:
         return FREE
     M = obstacle_block(pairs)  # (the group sphere: placed by the certificate)
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
+    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):
         return COLLIDING
     if pairs.shape[0] >= (1 << PAIR_BITS) - 1:
         return UNDECIDED

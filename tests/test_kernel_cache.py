@@ -15,6 +15,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
+
 from kinserve.kinematics import kernel_cache
 
 ROOT = Path(kernel_cache.__file__).resolve().parents[1]
@@ -67,6 +69,9 @@ def test_a_changed_primitive_recompiles_the_kernel_that_inlines_it(tmp_path):
     assert third["value"] == 4.0 and third["hits"] == 0, third  # recompiled, not the stale code
 
 
+_DECORATORS = ("jit", "inline", "leaf", "compiled", "_jit", "_inline", "_leaf")
+
+
 def _compiled_modules() -> list[str]:
     """The modules of kinserve that decorate functions with Numba (directly or through kernel_cache)."""
     found = []
@@ -77,8 +82,8 @@ def _compiled_modules() -> list[str]:
         tree = ast.parse(path.read_text(encoding="utf-8"))
         for node in ast.walk(tree):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and any(
-                    "njit" in ast.unparse(d) or ast.unparse(d).split("(")[0] in
-                    ("jit", "inline", "compiled", "_jit", "_inline") for d in node.decorator_list):
+                    "njit" in ast.unparse(d) or ast.unparse(d).split("(")[0] in _DECORATORS
+                    for d in node.decorator_list):
                 found.append(str(path))
                 break
     return found
@@ -146,3 +151,79 @@ def test_compile_all_imports_every_kernel_file_as_its_module():
     assert len(names) == len(kernel_cache.KERNEL_FILES)
     for name, path in zip(names, kernel_cache.KERNEL_FILES):
         assert name.startswith("kinserve.") and Path(sys.modules[name].__file__).resolve() == Path(path)
+
+
+LEAF_RUNNER = textwrap.dedent("""
+    import json, re
+    import numpy as np
+    import leaf_mod  # (from the working directory: the test's folder)
+    X, pairs = np.arange(8.0).reshape(4, 2), np.array([3, 1, 2, 0])
+
+    def counts(dispatcher):  # calls of the reference-count functions in the function's own machine code
+        text = next(iter(dispatcher.inspect_llvm().values()))
+        return len(re.findall(r"call .*@NRT_(?:incref|decref)\\(", text))
+
+    answers = []
+    for margin in (leaf_mod.margin_leaf, leaf_mod.margin_jit):
+        W = np.zeros((4, 2))
+        answers.append([margin(X, W, pairs), W.tolist(), counts(margin)])
+    try:
+        leaf_mod.allocating(X[0])
+        refused = ""
+    except Exception as exc:  # Numba's typing error: no NRT, no allocation
+        refused = type(exc).__name__
+    print(json.dumps({"leaf": answers[0], "jit": answers[1], "refused": refused}))
+""")
+
+#: The pattern of the pre-check's certificate: a loop over pairs calling a compiled function and an inlined
+#: helper that takes a row view, with an early return; once as a leaf, once as jit.
+LEAF_BODY = """
+    m = 1.0
+    for p in range(pairs.shape[0]):
+        _touch(X, W, pairs[p])
+        m = min(m, _row_sum(W, pairs[p]))
+        if m < -10.0:
+            return -1.0 - p
+    return m
+"""
+LEAF_MODULE = textwrap.dedent("""
+    import numpy as np
+    from kinserve.kinematics.kernel_cache import inline, jit, leaf
+
+    @jit
+    def _touch(X, W, i):
+        W[i, 0] = X[i, 0] + W[i, 1]
+
+    @inline
+    def _row_sum(X, i):
+        row = X[i]
+        return row[0] + row[1]
+
+    @leaf
+    def margin_leaf(X, W, pairs):{body}
+    @jit
+    def margin_jit(X, W, pairs):{body}
+    @leaf
+    def allocating(x):
+        return np.empty(x.shape[0]).sum()
+""").format(body=textwrap.indent(LEAF_BODY, "    "))
+
+
+def test_a_leaf_counts_no_references_and_refuses_to_allocate(tmp_path):
+    """``leaf`` (the pre-check's hot helpers): the same answers and writes as ``jit``, without the calls of
+    Numba's reference counting that ``jit`` leaves in a function of this shape (the certificate's: a loop
+    calling a compiled function, a row view, an early return; their absence is what the decorator is for),
+    and Numba refuses to compile a leaf that allocates. A fresh cache folder: the machine code is compiled in
+    the process, so it can be inspected."""
+    (tmp_path / "leaf_mod.py").write_text(LEAF_MODULE)
+    out = subprocess.run([sys.executable, "-c", LEAF_RUNNER], capture_output=True, text=True, timeout=300,
+                         check=True, cwd=tmp_path)
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    X = np.arange(8.0).reshape(4, 2)
+    W = np.zeros((4, 2))
+    for i in (3, 1, 2, 0):  # the same loop in NumPy
+        W[i, 0] = X[i, 0] + W[i, 1]
+    expected = min(1.0, *(W[i].sum() for i in (3, 1, 2, 0)))
+    assert got["leaf"][:2] == got["jit"][:2] == [expected, W.tolist()], got
+    assert got["jit"][2] > 0 and got["leaf"][2] == 0, got
+    assert got["refused"], got  # the allocating leaf did not compile

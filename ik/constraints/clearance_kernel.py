@@ -45,7 +45,7 @@ import math
 import numba
 import numpy as np
 
-from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, F2_ANY, F3, I1, I2, compiled, jit
+from kinserve.kinematics.kernel_cache import B1, F1, F1_ANY, F2, F2_ANY, F3, I1, I2, compiled, jit, leaf
 from kinserve.kinematics.kernel_primitives import tree_placements_into
 
 _t = numba.types
@@ -59,7 +59,7 @@ _SEPARATED_SIGNATURE = _t.boolean(F1_ANY, F1_ANY, F1_ANY, _t.float64)
 _jit = jit  # (kernel_cache's: one cache key over every kernel source)
 
 
-@_jit
+@leaf
 def _points_at(tree, joints, point_joint, point_local, q, X, out):
     """``out[i] = R_j l_i + p_j`` at configuration ``q`` (``X`` ``(J + 1, 12)``: the joints' world placements,
     filled here by :func:`kinserve.kinematics.kernel_primitives.tree_placements_into`)."""
@@ -130,7 +130,7 @@ def sphere_rows(V: np.ndarray, centers: np.ndarray, J: np.ndarray, support: np.n
     return k
 
 
-@_jit
+@leaf
 def point_to_segment2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
     """Squared distance from point ``c`` to the segment ``[a, b]`` (3-vectors)."""
     ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
@@ -143,7 +143,7 @@ def point_to_segment2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
     return vx * vx + vy * vy + vz * vz
 
 
-@_jit
+@leaf
 def segment_to_segment(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray) -> float:
     """Distance between the segments ``[p1, q1]`` and ``[p2, q2]`` (module docstring)."""
     d1x, d1y, d1z = q1[0] - p1[0], q1[1] - p1[1], q1[2] - p1[2]
