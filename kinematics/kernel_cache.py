@@ -10,8 +10,8 @@ the next import.
 
 The decorators :data:`jit`, :data:`inline` and :data:`leaf` (``cache=True``, ``nogil``, NumPy's error model;
 ``inline`` also inlines at Numba's IR level, ``leaf`` compiles without reference counting) are the ones every
-kernel module uses; importing this module installs the
-locator first, so it is in place before any of them is decorated. :func:`kernel_set_locator` makes a locator
+kernel module uses; importing this module installs the locator first, so it is in place before any of them
+is decorated. :func:`kernel_set_locator` makes a locator
 class for another set of files (the tests use it on files of their own).
 """
 
@@ -136,11 +136,12 @@ jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 #: :data:`jit`, inlined into its callers at Numba's IR level (a call passes whole array structures).
 inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 #: :data:`jit` without Numba's reference counting (its ``_nrt`` option off), for a helper that a kernel calls
-#: in its hot loop, once per configuration or pair: a compiled function increments the reference count of
-#: each array it receives on entry and decrements it on exit, an atomic operation each (the pre-check's
-#: certificate took 17 of each per configuration, about a third of its time: docs/benchmarks.md). A leaf
-#: allocates no array and returns none (Numba refuses to compile one that does), so its callers' references
-#: keep its arguments alive and it need not count them; it may call kernels that count their own.
+#: in its hot loop, once per configuration or pair: a compiled function may increment the reference count of
+#: each array it receives on entry and decrement it on exit, an atomic operation each, which Numba's pruning
+#: does not remove from a loop that calls other compiled code and returns early (docs/benchmarks.md measures
+#: the pre-check's). A leaf neither allocates nor returns an array (Numba refuses to compile one that
+#: allocates), so its callers' references keep its arguments alive and it need not count them; it may call
+#: kernels that count their own.
 leaf = numba.njit(cache=True, nogil=True, error_model="numpy", _nrt=False)
 
 
