@@ -11,8 +11,8 @@ the next import.
 The decorators :data:`jit`, :data:`inline` and :data:`leaf` (``cache=True``, ``nogil``, NumPy's error model;
 ``inline`` also inlines at Numba's IR level, ``leaf`` compiles without reference counting) are the ones every
 kernel module uses; importing this module installs the locator first, so it is in place before any of them
-is decorated. :func:`kernel_set_locator` makes a locator
-class for another set of files (the tests use it on files of their own).
+is decorated. :func:`kernel_set_locator` makes a locator class for another set of files (the tests use it on
+files of their own).
 """
 
 from __future__ import annotations

@@ -184,8 +184,9 @@ def place_sphere(X: np.ndarray, j: int, spheres: np.ndarray, s: int, W: np.ndarr
 @_inline
 def place_bounding_spheres(tree: np.ndarray, joints: np.ndarray, spheres: np.ndarray, geoms: np.ndarray,
                            q: np.ndarray, X: np.ndarray, W: np.ndarray) -> None:
-    """The joint placements of configuration ``q`` into ``X`` (:func:`tree_placements`), then each
-    geometry's bounding sphere into its row of ``W``."""
+    """The joint placements of configuration ``q`` into ``X`` (inlined
+    :func:`.kernel_primitives.tree_placements_into`), then each geometry's bounding sphere into its row of
+    ``W``."""
     tree_placements_into(tree, joints, q, X)
     for g in range(geoms.shape[0]):
         place_sphere(X, geoms[g, 0], spheres, g, W)
@@ -525,7 +526,7 @@ def _place_inner(X, spheres, geoms, g, W, inner):
 
 
 @_leaf
-def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):
+def _certain_hit_marked(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):
     """True when a checked pair intersects for certain at the joint placements ``X`` (each geometry's
     bounding sphere and the group sphere of the ``M`` rows of an obstacle block placed in ``W``,
     :func:`place_scene_spheres`): an inner ball of a robot geometry
@@ -567,6 +568,13 @@ def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):
     return False
 
 
+@_inline
+def _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
+    """:func:`_certain_hit_marked` with its inner-ball marks made here (the leaf allocates none)."""
+    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
+    return _certain_hit_marked(X, W, spheres, geoms, pairs, obstacles, M, tol, inner)
+
+
 @compiled(_ONE_SIGNATURE)
 def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> bool:
     """True when configuration ``q`` is in collision for certain (:func:`_certain_hit`: an inner ball of a
@@ -582,8 +590,7 @@ def certainly_colliding(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol
         return False
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
     M = place_scene_spheres(tree, joints, spheres, geoms, pairs, q, X, W)
-    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
-    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner)
+    return _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol)
 
 
 _CLASSIFY_SIGNATURE = _t.int64(F1, I1, F1_ANY, _t.float64)
@@ -673,8 +680,7 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
     if m >= 0.0:
         return 0
     M = obstacle_block(pairs)  # (the group sphere: placed by the certificate)
-    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):  # (no pair list to make then)
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):  # (no pair list to make then)
         return -1
     return uncertified_from(X, W, spheres, geoms, pairs, obstacles, int(-1.0 - m), M, keep, placed, out,
                             pairs.shape[0])
@@ -701,8 +707,7 @@ def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, 
     if m >= 0.0:
         return FREE
     M = obstacle_block(pairs)  # (the group sphere: placed by the certificate)
-    inner = np.zeros(geoms.shape[0], dtype=np.bool_)
-    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol, inner):
+    if _certain_hit(X, W, spheres, geoms, pairs, obstacles, M, tol):
         return COLLIDING
     if pairs.shape[0] >= (1 << PAIR_BITS) - 1:
         return UNDECIDED
