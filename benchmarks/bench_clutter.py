@@ -33,14 +33,14 @@ Measured per scene (the checker that goes first alternates from scene to scene):
 Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
 checker went first (its own previous scene's checks came just before) and those where it went second (the
 other checker's process ran just before, and its code and data fill the caches; docs/benchmarks.md has the
-figures), kinserve's in the pass of its own (d), and by the sphere pre-check's verdict on the first
-configuration (certified free or certainly colliding: one compiled call; undecided: coal too; asked after
-the timings) - median and p95 per configuration (µs) over all the configurations checked, the share in
-collision, the ratios kinserve / roboplan measured in this run, and the targets (median <= 5 µs per
-configuration, <= 50 µs for the first check; VAMP's 1.8 µs per configuration on the project's machine type
-is the reference). Defaults: 3 scenes per set x 200 configurations; ``--all``: every scene x 1000
-configurations, and the run's table is written into the ``clutter`` section of docs/benchmarks.md
-(``--docs``; ``render_tables.render_clutter``).
+figures), kinserve's in the pass of its own (d), and by the path the first configuration's check took (the
+spheres decide: one compiled call; the hulls decide the pairs the spheres leave: a second one; coal checks the
+pairs both leave; asked after the timings) - median and p95 per configuration (µs) over all the configurations
+checked, the share in collision, the ratios kinserve / roboplan measured in this run, and the targets (median
+<= 5 µs per configuration, <= 50 µs for the first check; VAMP's 1.8 µs per configuration on the project's
+machine type is the reference). Defaults: 3 scenes per set x 200 configurations; ``--all``: every scene x 1000
+configurations, and the run's table is written into the ``clutter`` section of docs/benchmarks.md (``--docs``;
+``render_tables.render_clutter``).
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ from _motion_peers import MotionPeer
 from bench_motion import SETS, SHARED_DATASET, load_robot, model_files, unpack
 from render_tables import render_clutter, write_section
 
-from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE
+from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE, UNDECIDED
 from kinserve.planners.motion.scene_yaml import read_planning_scene
 
 from _common import machine, write_json
@@ -67,9 +67,10 @@ ROOT = Path(__file__).resolve().parents[1]
 TARGETS = {"per_configuration_median_us": 5.0, "first_check_median_us": 50.0,
            "vamp_per_configuration_us": 1.8}
 CHECKERS = ("kinserve", "roboplan")
-#: The sphere pre-check's verdicts on a configuration: the path a kinserve check takes (certified free and
-#: certain collision: the compiled call alone; undecided: coal checks the pairs the spheres leave).
-PRECHECK_VERDICTS = ("certified free", "certain collision", "coal")
+#: The paths a kinserve check takes on a configuration: the sphere pre-check certifies it free or finds it in
+#: collision for certain (one compiled call); the hulls' distances decide the pairs the spheres leave (a
+#: second compiled call, :mod:`kinserve.kinematics.hull_verdict`); coal checks the pairs both leave.
+PRECHECK_VERDICTS = ("spheres: free", "spheres: collision", "hulls", "coal")
 
 
 @dataclass(frozen=True)
@@ -95,8 +96,8 @@ class SceneTimes:
     #: Whether the other checker's turn came just before this scene (its worker process ran right before
     #: this checker read the scene: caches hold the other process's code and data).
     after_peer: bool = False
-    #: kinserve: what its sphere pre-check said of the first configuration (:data:`PRECHECK_VERDICTS`; asked
-    #: after the timings): the path that first check took.
+    #: kinserve: the path its check of the first configuration took (:data:`PRECHECK_VERDICTS`; asked after
+    #: the timings).
     first_verdict: str | None = None
 
 
@@ -188,14 +189,21 @@ def time_alone(robot, scenes: list[SceneFile], n_configs: int) -> list[float]:
 
 
 def precheck_verdict(scene, q: np.ndarray) -> str:
-    """The :data:`PRECHECK_VERDICTS` entry of the scene's sphere pre-check at ``q`` (``coal`` when the scene
-    has no pre-check)."""
+    """The :data:`PRECHECK_VERDICTS` entry of the path the scene's check takes at ``q`` (``coal`` when the
+    scene has no pre-check)."""
     pre = scene.precheck()
     if pre is None:
-        return PRECHECK_VERDICTS[2]
+        return PRECHECK_VERDICTS[3]
     verdict = pre.classify(pre.floats, pre.ints, q, pre.tolerance)
-    return PRECHECK_VERDICTS[0] if verdict == FREE else PRECHECK_VERDICTS[1] if verdict == COLLIDING \
-        else PRECHECK_VERDICTS[2]
+    if verdict == FREE or verdict == COLLIDING:
+        return PRECHECK_VERDICTS[0 if verdict == FREE else 1]
+    if verdict > UNDECIDED and pre.hull_verdict is not None:
+        hulls = pre.hulls
+        verdict = pre.hull_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius,
+                                   pre.table_rows, q, verdict, pre.tolerance)
+        if verdict == FREE or verdict == COLLIDING:
+            return PRECHECK_VERDICTS[2]
+    return PRECHECK_VERDICTS[3]
 
 
 def time_roboplan(worker: ClutterPeer, path: Path, qs: np.ndarray) -> SceneTimes | None:

@@ -269,9 +269,10 @@ def render_clutter(d: dict) -> list[str]:
                     f"{_us(alone['p95_us'])} (median / p95)."]
     by_verdict = summary.get("kinserve", {}).get("first_check_by_precheck")
     if by_verdict:
-        out += ["", "kinserve's first check by the sphere pre-check's verdict on that configuration "
-                    "(certified free or certainly colliding: the compiled call decides; undecided: coal "
-                    "checks the pairs the spheres leave), median / p95: " + "; ".join(
+        out += ["", "kinserve's first check by the path its check of that configuration took (spheres: "
+                    "the sphere pre-check decides, one compiled call; hulls: the hulls' distances decide "
+                    "the pairs the spheres leave, a second compiled call; coal: coal checks the pairs both "
+                    "leave), median / p95: " + "; ".join(
                         f"{v} {_us(g['median_us'])} / {_us(g['p95_us'])} ({g['scenes']} scenes)"
                         for v, g in by_verdict.items())]
     ratio, agree = d.get("ratios_kinserve_over_roboplan") or {}, d.get("verdicts")

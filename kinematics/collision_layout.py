@@ -228,7 +228,9 @@ class SceneLayout:
         #: The obstacle (index into ``obstacles``) of each pair, -1 for a pair of robot geometries.
         self.pair_obstacle: list[int] = [b - self.n_robot if b >= self.n_robot else -1 for _, b in pairs]
         self.broad_phase = broad_phase_manager_class(gm.ngeoms)
-        self._precheck = self._build_precheck(robot)
+        #: The layout's sphere pre-check (:class:`~.scene_precheck.ScenePrecheck`: the robot's spheres and the
+        #: pair table), or None (see the module docstring); also :meth:`precheck`'s answer.
+        self.sphere_precheck = self._build_precheck(robot)
         self._threads = threading.local()  # .workspace: Workspace; .margin: {threshold: margin workspace}
         self._threads.workspace = self._new_workspace()
 
@@ -243,7 +245,7 @@ class SceneLayout:
     def precheck(self) -> ScenePrecheck | None:
         """The layout's sphere pre-check (:class:`~.scene_precheck.ScenePrecheck`: the robot's spheres and the
         pair table), or None (see the module docstring)."""
-        return self._precheck
+        return self.sphere_precheck
 
     def placements_of(self, obstacles: Sequence[Shape]) -> list[pin.SE3]:
         """The ``pinocchio.SE3`` pose of each of ``obstacles`` (the layout's own placement for an obstacle

@@ -29,7 +29,8 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
-from operator import is_
+from itertools import repeat
+from operator import attrgetter
 from typing import Any, NamedTuple
 
 import coal
@@ -52,7 +53,7 @@ from .collision_pairs import (
 from .collision_scene import CollisionScene
 from .errors import ModelError
 from .mesh_hulls import HullFallback, convex_hulls
-from .shapes import as_obstacles
+from .shapes import Shape, as_obstacles
 
 #: Scene layouts (obstacle shapes, poses aside) kept per model, least recently used dropped first.
 LAYOUT_CACHE_SIZE = 32
@@ -70,6 +71,8 @@ class _LastScene(NamedTuple):
 
 
 _NO_SCENE = _LastScene(None, None, None, None)
+#: A shape's :attr:`~.shapes.Shape.signature_key` (read by ``map``: no Python frame per scene).
+_SIGNATURE_KEY = attrgetter("signature_key")
 
 
 def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
@@ -313,11 +316,10 @@ class CollisionModel:
             key = (self_collision, *map(id, obstacles))
             if key == last.key:
                 return last.scene
-            shapes = as_obstacles(obstacles)
-            if all(map(is_, shapes, obstacles)):  # no dict converted: the key is the shapes'
-                return self._new_scene(shapes, self_collision, key)
-        else:
-            shapes = as_obstacles(obstacles)
+            if all(map(isinstance, obstacles, repeat(Shape))):  # shapes already: the key is theirs
+                return self._new_scene(obstacles if type(obstacles) is tuple else tuple(obstacles),
+                                       self_collision, key)
+        shapes = as_obstacles(obstacles)
         return self._new_scene(shapes, self_collision, (self_collision, *map(id, shapes)))
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
@@ -349,7 +351,7 @@ class CollisionModel:
         obstacles differ only by pose share it, so a moved obstacle does not rebuild a scene from nothing. The
         key joins the shapes' :attr:`~.shapes.Shape.signature_key` (each a complete ``repr``, so the join is
         unambiguous)."""
-        key = (self_collision, b"".join([shape.signature_key for shape in obstacles]))
+        key = (self_collision, b"".join(map(_SIGNATURE_KEY, obstacles)))
         layout = self._layouts.get(key)
         if layout is None:
             layout = SceneLayout(self.robot_geometry, obstacles, self_collision)

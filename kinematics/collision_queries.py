@@ -106,8 +106,8 @@ class CollisionQueries:
         :class:`~.errors.ModelError` when the URDF has no ``<collision>`` elements.
         """
         own = self._attached_holder
-        if own is None:
-            return self.bare_collision
+        if own is None:  # the bare model: read here once built (one call less on every query)
+            return self._collision_holder[0] or self.bare_collision
         cm = own[0]
         if cm is not None and cm.bare is self._collision_holder[0]:
             return cm

@@ -74,7 +74,7 @@ import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
 from .configuration_checks import check_configurations, undecided_pairs
-from .precheck_verdicts import COLLIDING, FREE
+from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -120,21 +120,23 @@ class CollisionScene:
     """
 
     __slots__ = ("layout", "obstacles", "_geometry", "_layout_check", "_classify", "_uncertified", "_floats",
-                 "_ints", "_tolerance", "__weakref__")
+                 "_ints", "_tolerance", "_hull_verdict", "_hull_arguments", "__weakref__")
 
     def __init__(self, layout: SceneLayout, obstacles: tuple) -> None:
         self.layout = layout
         self.obstacles = obstacles
         self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
         # the pre-check's packed floats: all a new scene computes (read by in_collision without a look-up)
-        check = self._layout_check = layout.precheck()
+        check = self._layout_check = layout.sphere_precheck
         if check is None:
             self._classify = self._uncertified = self._floats = self._ints = None
+            self._hull_verdict = self._hull_arguments = None
             self._tolerance = 0.0
         else:
             self._floats = check.scene_floats(obstacles)
             self._ints, self._tolerance = check.ints, check.tolerance
             self._classify, self._uncertified = check.classify, check.uncertified_pairs
+            self._hull_verdict, self._hull_arguments = check.hull_verdict, check.hull_arguments
 
     # the layout's, read through the scene
     @property
@@ -212,7 +214,10 @@ class CollisionScene:
         call): a configuration it certifies is free without coal, one with an inner ball deep in an obstacle
         or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
         certify - carried by the verdict when there are at most three
-        (:func:`~.precheck_kernels.classify_configuration`), else listed by a second compiled call
+        (:func:`~.precheck_kernels.classify_configuration`), and then only those the hulls' distances leave
+        open (:func:`~.hull_verdict.hull_verdict`, a second compiled call: free when each pair is apart, in
+        collision when one pair's cores overlap deeper than the tolerance), else listed by a second
+        compiled call
         (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
         :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
         :func:`~.configuration_checks.pair_test`), with only their obstacles placed in coal
@@ -227,6 +232,11 @@ class CollisionScene:
                     return False
                 if verdict == COLLIDING:
                     return True
+                if verdict > UNDECIDED and self._hull_verdict is not None:
+                    verdict = self._hull_verdict(self._floats, self._ints, *self._hull_arguments, q, verdict,
+                                                 self._tolerance)
+                    if verdict == FREE or verdict == COLLIDING:
+                        return verdict == COLLIDING
                 pairs = undecided_pairs(verdict, self._uncertified, self._floats, self._ints, q,
                                         self._tolerance)
             except TypeError:  # not a float vector: coal decides (and raises as before)

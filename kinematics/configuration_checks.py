@@ -165,12 +165,20 @@ def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> tuple[Callable[[
     """``(hits(q), decide(q, verdict))`` for a configuration the pre-check did not certify: ``hits`` asks the
     pre-check (an inner ball deep in an obstacle or in another link's answers without coal), then coal on the
     pairs the spheres do not certify; ``decide`` is that coal check after the undecided ``verdict`` of
-    :func:`~.precheck_kernels.classify_configuration` (its pairs: :func:`undecided_pairs`)."""
+    :func:`~.precheck_kernels.classify_configuration` (its pairs: :func:`undecided_pairs`; the pairs it
+    carries go to the hulls' distances first, :func:`~.hull_verdict.hull_verdict`, which may decide the
+    configuration, and coal checks only the pairs they leave open)."""
     classify, pairs_of, tol = precheck.classify, precheck.uncertified_pairs, precheck.tolerance
     floats, ints = precheck.floats, precheck.ints
     coal_hits, pair_hits = coal_test(check), pair_test(check)
+    hull_verdict = precheck.hull_verdict
+    hull_arguments = None if hull_verdict is None else (*precheck.hulls, precheck.table_rows)
 
     def decide(q, verdict: int) -> bool:
+        if verdict > UNDECIDED and hull_verdict is not None:
+            verdict = hull_verdict(floats, ints, *hull_arguments, q, verdict, tol)
+            if verdict == FREE or verdict == COLLIDING:
+                return verdict == COLLIDING
         return pair_hits(q, undecided_pairs(verdict, pairs_of, floats, ints, q, tol))
 
     def hits(q) -> bool:

@@ -251,14 +251,19 @@ def closest_on_simplex(S: np.ndarray, n: int, T: np.ndarray) -> tuple:
 @leaf
 def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a: int, b: int,
                         obstacles: np.ndarray, other_is_obstacle: bool, S: np.ndarray, T: np.ndarray,
-                        guess: np.ndarray) -> float:
+                        guess: np.ndarray, above: float, below: float) -> float:
     """A lower bound (m) of the distance between the core of robot geometry ``a`` and that of obstacle
     ``b`` (``other_is_obstacle``) or robot geometry ``b``, at the joint placements ``X`` (module docstring:
     GJK's largest lower bound, 0 when the cores intersect). ``points``, ``geoms``: the
     :class:`~.hull_table.HullTable`'s; ``S``, ``T``: scratch ``(4, 3)`` and ``(7, 3)``; ``guess`` ``(3,)``:
     the direction to start from (the last call's closest point of ``A - B`` for a nearby configuration:
     GJK then needs few iterations; zeros: any), overwritten with this call's, whose norm is an **upper
-    bound** of the distance between the cores (a point of ``A - B``; zeros when they intersect)."""
+    bound** of the distance between the cores (a point of ``A - B``; zeros when they intersect). ``above``
+    and ``below`` (m) end the iteration early, for a caller that asks only whether the distance exceeds a
+    threshold: it stops once the lower bound exceeds ``above`` or the upper bound is at most ``below``
+    (``inf`` and ``-inf``: the accuracy alone ends it). When it ends on intersecting cores (``guess`` zeros),
+    ``S`` holds the tetrahedron of ``A - B`` that encloses the origin, or NaN in its last row when there is
+    none (:func:`enclosed_depth` reads it)."""
     gx, gy, gz = guess[0], guess[1], guess[2]
     if not gx * gx + gy * gy + gz * gz > 0.0:
         gx, gy, gz = 1.0, 0.0, 0.0
@@ -269,13 +274,16 @@ def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a:
     for _ in range(GJK_ITERATIONS):
         vn = math.sqrt(vx * vx + vy * vy + vz * vz)
         guess[0], guess[1], guess[2] = vx, vy, vz
-        if not vn > 0.0:
+        if not vn > 0.0:  # the origin on the simplex: no enclosing tetrahedron in S (NaN marks it)
+            S[3, 0] = math.nan
             return 0.0
+        if vn <= below:
+            return lower
         wx, wy, wz = _support_difference(points, geoms, X, a, b, obstacles, other_is_obstacle, -vx, -vy, -vz)
         bound = (vx * wx + vy * wy + vz * wz) / vn
         if bound > lower:
             lower = bound
-        if vn - lower <= GJK_ACCURACY:
+        if vn - lower <= GJK_ACCURACY or lower > above:
             return lower
         S[n, 0], S[n, 1], S[n, 2] = wx, wy, wz
         vx, vy, vz, n = closest_on_simplex(S, n + 1, T)
@@ -283,6 +291,28 @@ def core_distance_bound(points: np.ndarray, geoms: np.ndarray, X: np.ndarray, a:
             guess[0], guess[1], guess[2] = 0.0, 0.0, 0.0
             return min(lower, 0.0)
     return lower
+
+
+@inline
+def enclosed_depth(S: np.ndarray) -> float:
+    """How deep (m) the origin lies inside the tetrahedron ``S[:4]``: its distance to the nearest face plane,
+    0 when it is not strictly inside (or the tetrahedron is flat, or holds NaN). For a tetrahedron of points
+    of ``A - B`` (:func:`core_distance_bound`'s, on intersecting cores) this is a **lower bound of the
+    penetration depth**: the ball of that radius about the origin lies in ``conv(A - B)``, so ``A`` must
+    move at least that far to leave ``B``."""
+    depth = math.inf
+    for f in range(4):
+        i, j, k, o = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2], _FACES[f, 3]
+        ux, uy, uz = S[j, 0] - S[i, 0], S[j, 1] - S[i, 1], S[j, 2] - S[i, 2]
+        wx, wy, wz = S[k, 0] - S[i, 0], S[k, 1] - S[i, 1], S[k, 2] - S[i, 2]
+        nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+        side_origin = -(nx * S[i, 0] + ny * S[i, 1] + nz * S[i, 2])
+        side_o = nx * (S[o, 0] - S[i, 0]) + ny * (S[o, 1] - S[i, 1]) + nz * (S[o, 2] - S[i, 2])
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if not (side_origin * side_o > 0.0 and norm > 0.0):
+            return 0.0
+        depth = min(depth, abs(side_origin) / norm)
+    return depth
 
 
 @inline
@@ -300,20 +330,23 @@ def pair_measured(hull_geoms: np.ndarray, pairs: np.ndarray, obstacles: np.ndarr
 @inline
 def pair_distance_bounds(points: np.ndarray, hull_geoms: np.ndarray, radius: np.ndarray, pairs: np.ndarray,
                          obstacles: np.ndarray, p: int, X: np.ndarray, S: np.ndarray, T: np.ndarray,
-                         guess: np.ndarray) -> tuple[float, float]:
+                         guess: np.ndarray, above: float, below: float) -> tuple[float, float]:
     """``(lower, upper)`` bounds (m) of the distance between the two shapes of pair-table row ``p`` at the
     joint placements ``X``: :func:`core_distance_bound` and the norm it leaves in ``guess`` (its start,
     overwritten), less the radii the cores are grown by; ``(nan, nan)`` when the pair is not
-    :func:`pair_measured`. ``points, hull_geoms, radius``: the :class:`~.hull_table.HullTable`."""
+    :func:`pair_measured`. ``points, hull_geoms, radius``: the :class:`~.hull_table.HullTable`. ``above``,
+    ``below`` (m, between the shapes): :func:`core_distance_bound`'s early ends (``inf``, ``-inf``: none)."""
     if not pair_measured(hull_geoms, pairs, obstacles, p):
         return math.nan, math.nan
     a, b = pairs[p, 0], pairs[p, 1]
     own = pairs[p, 2] == SELF_PAIR
     grown = radius[a] + (radius[b] if own else obstacle_radius(obstacles, b))
-    lower = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guess)
+    lower = core_distance_bound(points, hull_geoms, X, a, b, obstacles, not own, S, T, guess, above + grown,
+                                below + grown)
     upper = math.sqrt(guess[0] * guess[0] + guess[1] * guess[1] + guess[2] * guess[2])
     return lower - grown, upper - grown
 
 
 __all__ = ["FLAT_TETRAHEDRON", "GJK_ACCURACY", "GJK_ITERATIONS", "closest_on_simplex", "closest_on_triangle",
-           "core_distance_bound", "obstacle_radius", "pair_distance_bounds", "pair_measured"]
+           "core_distance_bound", "enclosed_depth", "obstacle_radius", "pair_distance_bounds",
+           "pair_measured"]

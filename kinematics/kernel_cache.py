@@ -35,6 +35,7 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "kinematics/kernel_primitives.py",
     "kinematics/convex_distance.py",
     "kinematics/precheck_kernels.py",
+    "kinematics/hull_verdict.py",
     "kinematics/motion_kernels.py",
     "kinematics/sphere_cover.py",
     "ik/constraints/clearance_kernel.py",

@@ -583,7 +583,7 @@ def _distance_radius(tree, joints, pairs, obstacles, points, hull_geoms, radius,
     rho = math.inf
     for j in range(rows.shape[0]):
         d, _ = pair_distance_bounds(points, hull_geoms, radius, pairs, obstacles, rows[j], X, S, T,
-                                    guesses[j])
+                                    guesses[j], math.inf, -math.inf)
         counts[1] += 1
         if not d >= need[j]:  # (NaN: refused)
             return -1.0

@@ -17,11 +17,13 @@ are made from those floats when asked.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from operator import attrgetter
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from .hull_table import HullTable
+from .hull_verdict import hull_verdict
 from .precheck_kernels import (
     OBSTACLE_PAIR,
     SELF_PAIR,
@@ -34,6 +36,9 @@ from .precheck_kernels import (
     uncertified_pairs,
 )
 from .precheck_packing import RobotPacking, table_view
+
+#: A shape's :attr:`~.shapes.Shape.obstacle_row` (read by ``map``: no Python frame per scene).
+_OBSTACLE_ROW = attrgetter("obstacle_row")
 
 
 class PrecheckArguments(NamedTuple):
@@ -52,6 +57,9 @@ class PrecheckArguments(NamedTuple):
     ``hulls``: the robot's :class:`~.hull_table.HullTable` (None: the compiled distances are not available)
     and ``table_rows`` ``(P,)``: the row of the pair table of each scene pair (:mod:`.precheck_packing`), for
     :func:`~.motion_kernels.advance_on_distances`.
+    ``hull_verdict(floats, ints, points, hull_geoms, radius, table_rows, q, verdict, tolerance)``
+    (:func:`~.hull_verdict.hull_verdict`: the hulls' distances on the pairs an undecided ``classify``
+    verdict carries; None without ``hulls``).
     """
 
     certify: Callable[..., bool]
@@ -66,6 +74,7 @@ class PrecheckArguments(NamedTuple):
     uncertified_pairs: Callable[..., np.ndarray]
     hulls: HullTable | None
     table_rows: np.ndarray
+    hull_verdict: Callable[..., int] | None
 
 
 class ScenePrecheck:
@@ -96,6 +105,12 @@ class ScenePrecheck:
         self.table_rows.setflags(write=False)
         #: :meth:`motion_reach`'s pair rates of the self pairs, per row of ``pairs``.
         self.pair_reach = self.motion_reach()
+        #: The hulls' verdict on an undecided configuration's carried pairs
+        #: (:func:`~.hull_verdict.hull_verdict`) and what it reads after the packed arrays, ``(points, geoms,
+        #: radius, table_rows)``: None, None without ``hulls``.
+        self.hull_verdict = None if hulls is None else hull_verdict
+        self.hull_arguments = None if hulls is None else (hulls.points, hulls.geoms, hulls.radius,
+                                                          self.table_rows)
 
     def motion_reach(self) -> np.ndarray:
         """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast
@@ -116,7 +131,7 @@ class ScenePrecheck:
         """The packed floats of a scene with ``obstacles`` (one per obstacle geometry: shapes of the layout's
         signatures, each with its :attr:`~.shapes.Shape.obstacle_row`): the packed robot half followed by the
         obstacles' rows, one new array."""
-        return np.concatenate((self.robot_floats, *[shape.obstacle_row for shape in obstacles]))
+        return np.concatenate((self.robot_floats, *map(_OBSTACLE_ROW, obstacles)))
 
     def arguments(self, floats: np.ndarray) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of the scene whose packed floats are ``floats``
@@ -124,7 +139,7 @@ class ScenePrecheck:
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, self.tolerance,
                                  certainly_colliding, self.robot.sphere_reach,
                                  self.pair_reach, self.classify, self.uncertified_pairs, self.hulls,
-                                 self.table_rows)
+                                 self.table_rows, self.hull_verdict)
 
 
 def _check_table(table: np.ndarray, scene_pairs: np.ndarray, n_robot: int) -> None:

@@ -98,17 +98,17 @@ def test_the_first_check_is_reported_by_the_precheck_verdict():
     import numpy as np
 
     bc = _bench_clutter()
-    free, certain, coal = bc.PRECHECK_VERDICTS
+    free, certain, hulls, coal = bc.PRECHECK_VERDICTS
 
     def scene(first_s, verdict):
         return bc.SceneTimes(first_s, first_s / 10, np.full(3, 2e-6), np.zeros(3, dtype=bool),
                              first_verdict=verdict)
 
     rows = [scene(1e-5, free), scene(3e-5, free), scene(5e-5, free), scene(2e-5, certain), scene(2e-4, coal),
-            scene(4e-4, coal)]
+            scene(4e-4, coal), scene(6e-5, hulls)]
     groups = bc.figures(rows)["first_check_by_precheck"]
-    assert list(groups) == [free, certain, coal]
-    assert [g["scenes"] for g in groups.values()] == [3, 1, 2]
+    assert list(groups) == [free, certain, hulls, coal]
+    assert [g["scenes"] for g in groups.values()] == [3, 1, 1, 2]
     assert groups[free]["median_us"] == pytest.approx(30.0)
     assert groups[coal]["median_us"] == pytest.approx(300.0)
     assert "first_check_by_precheck" not in bc.figures([bc.SceneTimes(1e-3, 1e-5, np.full(3, 1e-5),
@@ -116,19 +116,21 @@ def test_the_first_check_is_reported_by_the_precheck_verdict():
     doc = {"workload": {"scenes": 6, "configurations_per_scene": 3},
            "summary": {"kinserve": bc.figures(rows)}}
     text = "\n".join(_render_tables().render_clutter(doc))
-    assert "certified free 30.0 µs / 48.0 µs (3 scenes); certain collision 20.0 µs" in text
-    assert "coal 300.0 µs" in text
+    assert "spheres: free 30.0 µs / 48.0 µs (3 scenes); spheres: collision 20.0 µs" in text
+    assert "hulls 60.0 µs" in text and "coal 300.0 µs" in text
 
 
 def test_the_precheck_verdict_names_the_path_the_check_takes():
-    """On the Panda among boxes, random configurations get each verdict, and each agrees with the exact
-    check: certified free ones are free, certain collisions are collisions (coal decides the others)."""
+    """On the Panda among boxes, random configurations take each path, and each agrees with the exact
+    check: the spheres' free ones are free, their certain collisions are collisions, and the hulls' are what
+    coal finds (coal decides the others)."""
     import numpy as np
+    import pinocchio as pin
 
     from kinserve import ik, robots
 
     bc = _bench_clutter()
-    free, certain, coal = bc.PRECHECK_VERDICTS
+    free, certain, hulls, coal = bc.PRECHECK_VERDICTS
     robot = robots.load("panda")
 
     def box(centre, size):
@@ -138,13 +140,17 @@ def test_the_precheck_verdict_names_the_path_the_check_takes():
 
     shapes = (box((0.5, 0.0, 0.3), (0.3, 0.3, 0.3)), box((0.0, 0.5, 0.6), (0.2, 0.2, 0.2)))
     scene = robot.collision_scene(shapes)
-    seen = {free: 0, certain: 0, coal: 0}
-    for q in robot.random_q(np.random.default_rng(7), 400):
+    seen = {free: 0, certain: 0, hulls: 0, coal: 0}
+    for q in robot.random_q(np.random.default_rng(7), 1000):
         verdict = bc.precheck_verdict(scene, q)
         seen[verdict] += 1
-        if verdict != coal:
+        if verdict in (free, certain):
             assert robot.in_collision(q, shapes) is (verdict == certain)
-    assert min(seen.values()) > 0, seen
+        if verdict == hulls:  # against coal on every pair of a fresh copy of the scene's geometry
+            data, gd = scene.model.createData(), pin.GeometryData(scene.geometry)
+            exact = pin.computeCollisions(scene.model, data, scene.geometry, gd, q, True)
+            assert robot.in_collision(q, shapes) is exact
+    assert min(seen[free], seen[certain], seen[hulls]) > 0, seen
 
 
 def test_the_pass_of_its_own_times_each_scene_afresh():

@@ -10,6 +10,7 @@ import pytest
 
 from kinserve import robots
 from kinserve.kinematics import errors
+from kinserve.kinematics.precheck_verdicts import UNDECIDED, carried_pairs
 from kinserve.kinematics.shapes import Box, Capsule, Cylinder, Mesh, Sphere
 from kinserve.robots import paths
 
@@ -480,9 +481,14 @@ def test_an_undecided_first_check_places_only_the_obstacles_of_its_pairs():
     pre = scenes[1].precheck()
     Q = robot.random_q(rng, 3000)
     one = None
-    for q in Q:  # a configuration the spheres leave to coal on pairs of one obstacle of scene 1
-        pairs = pre.uncertified_pairs(pre.floats, pre.ints, q, pre.tolerance).tolist()
-        if pre.classify(pre.floats, pre.ints, q, pre.tolerance) >= 2 and pairs:
+    for q in Q:  # a configuration the spheres and the hulls leave to coal on pairs of one obstacle of scene 1
+        verdict = pre.classify(pre.floats, pre.ints, q, pre.tolerance)
+        if verdict > UNDECIDED:
+            verdict = pre.hull_verdict(pre.floats, pre.ints, *pre.hulls, pre.table_rows, q, verdict,
+                                       pre.tolerance)
+        if verdict >= UNDECIDED:
+            pairs = carried_pairs(verdict) if verdict > UNDECIDED else \
+                pre.uncertified_pairs(pre.floats, pre.ints, q, pre.tolerance).tolist()
             slots = {layout.pair_obstacle[p] for p in pairs} - {-1}
             if len(slots) == 1:
                 one = q, slots.pop()

@@ -14,6 +14,8 @@ the compiled advancement on them (motion_kernels.advance_on_distances) against t
 
 from __future__ import annotations
 
+import math
+
 import coal
 import numba
 import numpy as np
@@ -46,8 +48,9 @@ def clutter() -> list:
 
 
 @numba.njit(cache=False)
-def _bounds(floats, ints, points, geoms, radius, q, guesses):
-    """Per pair-table row: GJK's lower bound of the shapes' distance at ``q`` (cores less radii)."""
+def _bounds(floats, ints, points, geoms, radius, q, guesses, above=math.inf, below=-math.inf, grown=False):
+    """Per pair-table row: GJK's lower bound of the shapes' distance at ``q`` (cores less radii; ``above``,
+    ``below``: the early ends, between the cores; ``grown``: the bound between the cores instead)."""
     tree, joints, spheres, sgeoms, pairs, obstacles = unpack(floats, ints)
     X = np.empty((joints.shape[0] + 1, 12))
     tree_placements(tree, joints, q, X)
@@ -62,7 +65,7 @@ def _bounds(floats, ints, points, geoms, radius, q, guesses):
         if rb < 0.0:
             continue
         out[pairs[p, 3]] = core_distance_bound(points, geoms, X, a, b, obstacles, not own, S, T,
-                                               guesses[p]) - radius[a] - rb
+                                               guesses[p], above, below) - (0.0 if grown else radius[a] + rb)
     return out
 
 
@@ -133,6 +136,32 @@ def test_cores_are_the_vertices_corners_centres_and_segment_ends():
 def test_the_bound_is_below_coal_and_close_to_it_for_hulls_boxes_and_every_obstacle_kind(panda):
     seen = _check_bounds(panda, clutter(), n=60, seed=1)
     assert seen["apart"] > 1000 and seen["intersecting"] > 20
+
+
+def test_early_ends_tell_which_side_of_the_threshold_the_distance_is(panda):
+    """Stopped once the lower bound exceeds a threshold or the upper bound reaches it, GJK still returns a
+    lower bound, and it is above the threshold exactly when the bound run to full accuracy is."""
+    scene = panda.collision_scene(clutter())
+    pre = scene.precheck()
+    h = pre.hulls
+    rng = np.random.default_rng(7)
+    sides = {True: 0, False: 0}
+    for _ in range(60):
+        q = panda.random_q(rng)
+        full = _bounds(pre.floats, pre.ints, h.points, h.geoms, h.radius, q, np.zeros((len(scene.pairs), 3)),
+                       grown=True)
+        for t in (1e-5, 0.01, 0.05):
+            early = _bounds(pre.floats, pre.ints, h.points, h.geoms, h.radius, q,
+                            np.zeros((len(scene.pairs), 3)), t, t, True)
+            measured = ~np.isnan(full)
+            assert np.array_equal(measured, ~np.isnan(early))
+            assert np.all(early[measured] <= full[measured] + 1e-12)
+            near = np.abs(full[measured] - t) < 1e-7  # (within GJK's accuracy of t: either side is right)
+            above_full, above_early = full[measured] > t, early[measured] > t
+            assert np.array_equal(above_full[~near], above_early[~near])
+            sides[True] += int(above_early.sum())
+            sides[False] += int((~above_early).sum())
+    assert sides[True] > 100 and sides[False] > 100
 
 
 def test_carried_spheres_and_capsules_are_measured_too(panda):

@@ -227,7 +227,7 @@ def exact_verdict(floats: np.ndarray, ints: np.ndarray, points: np.ndarray, hull
                 return STEP_UNDECIDED
             guess[:] = 0.0  # (no start: the pairs of a step are measured once each)
             lower, upper = pair_distance_bounds(points, hull_geoms, radius, pairs, obstacles,
-                                                table_rows[pair], X, S, T, guess)
+                                                table_rows[pair], X, S, T, guess, math.inf, -math.inf)
             if node and upper < need[pair] - EXACT_MARGIN:
                 return STEP_REFUSED
             threshold = need[pair] if node else 0.0
