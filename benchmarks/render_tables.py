@@ -240,8 +240,8 @@ def render_clutter(d: dict) -> list[str]:
            "alone through the front door `robot.in_collision(q, shapes)` and through the scene's own "
            "`in_collision(q)`; roboplan's `hasCollisions(q)` timed inside its worker, in the same run, the "
            "checker that goes first alternating from scene to scene. kinserve checks the meshes' convex "
-           "hulls (exact on that model: the sphere pre-check decides only what it can certify, coal the "
-           "rest); roboplan checks the meshes."
+           "hulls (exact on that model: the sphere pre-check and then the hulls' compiled distances decide "
+           "only what they can certify, coal the rest); roboplan checks the meshes."
            + _load(d), "",
            "| checker | scenes | configurations | first check median / p95 | second check median | "
            "per configuration median / p95 | mean | in collision |",
