@@ -203,6 +203,20 @@ _FACES = np.array([[0, 1, 2, 3], [0, 1, 3, 2], [0, 2, 3, 1], [1, 2, 3, 0]], dtyp
 _FACES.setflags(write=False)
 
 
+@inline
+def _face_sides(S: np.ndarray, f: int) -> tuple[float, float, float]:
+    """Face ``f`` of tetrahedron ``S[:4]`` (:data:`_FACES`: three vertices ``i, j, k`` and the fourth ``o``)
+    with normal ``n = (S[j] - S[i]) x (S[k] - S[i])``: ``(n . (0 - S[i]), n . (S[o] - S[i]), |n|)``, the
+    origin's and the fourth vertex's sides of its plane (same sign: same side) and the normal's length."""
+    i, j, k, o = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2], _FACES[f, 3]
+    ux, uy, uz = S[j, 0] - S[i, 0], S[j, 1] - S[i, 1], S[j, 2] - S[i, 2]
+    wx, wy, wz = S[k, 0] - S[i, 0], S[k, 1] - S[i, 1], S[k, 2] - S[i, 2]
+    nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+    side_origin = -(nx * S[i, 0] + ny * S[i, 1] + nz * S[i, 2])
+    side_o = nx * (S[o, 0] - S[i, 0]) + ny * (S[o, 1] - S[i, 1]) + nz * (S[o, 2] - S[i, 2])
+    return side_origin, side_o, math.sqrt(nx * nx + ny * ny + nz * nz)
+
+
 @leaf
 def closest_on_simplex(S: np.ndarray, n: int, T: np.ndarray) -> tuple:
     """The point of simplex ``S[:n]`` (1 to 4 points) closest to the origin: ``(x, y, z, m)`` with
@@ -226,13 +240,9 @@ def closest_on_simplex(S: np.ndarray, n: int, T: np.ndarray) -> tuple:
     flat = not abs(volume) > FLAT_TETRAHEDRON * scale
     best, bx, by, bz, bm = math.inf, 0.0, 0.0, 0.0, 0
     for f in range(4):
-        i, j, k, o = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2], _FACES[f, 3]
-        # is the origin on the other side of face (i, j, k) than vertex o?
-        ux, uy, uz = S[j, 0] - S[i, 0], S[j, 1] - S[i, 1], S[j, 2] - S[i, 2]
-        wx, wy, wz = S[k, 0] - S[i, 0], S[k, 1] - S[i, 1], S[k, 2] - S[i, 2]
-        nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
-        side_origin = -(nx * S[i, 0] + ny * S[i, 1] + nz * S[i, 2])
-        side_o = nx * (S[o, 0] - S[i, 0]) + ny * (S[o, 1] - S[i, 1]) + nz * (S[o, 2] - S[i, 2])
+        i, j, k = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2]
+        # is the origin on the other side of face (i, j, k) than the fourth vertex?
+        side_origin, side_o, _ = _face_sides(S, f)
         if not flat and side_origin * side_o >= 0.0:
             continue
         x, y, z, m = closest_on_triangle(S, T, i, j, k)
@@ -302,13 +312,7 @@ def enclosed_depth(S: np.ndarray) -> float:
     move at least that far to leave ``B``."""
     depth = math.inf
     for f in range(4):
-        i, j, k, o = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2], _FACES[f, 3]
-        ux, uy, uz = S[j, 0] - S[i, 0], S[j, 1] - S[i, 1], S[j, 2] - S[i, 2]
-        wx, wy, wz = S[k, 0] - S[i, 0], S[k, 1] - S[i, 1], S[k, 2] - S[i, 2]
-        nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
-        side_origin = -(nx * S[i, 0] + ny * S[i, 1] + nz * S[i, 2])
-        side_o = nx * (S[o, 0] - S[i, 0]) + ny * (S[o, 1] - S[i, 1]) + nz * (S[o, 2] - S[i, 2])
-        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        side_origin, side_o, norm = _face_sides(S, f)
         if not (side_origin * side_o > 0.0 and norm > 0.0):
             return 0.0
         depth = min(depth, abs(side_origin) / norm)

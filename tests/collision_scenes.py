@@ -30,6 +30,17 @@ def rotation(rng) -> np.ndarray:
     return pin.rpy.rpyToMatrix(*rng.uniform(-np.pi, np.pi, 3))
 
 
+def tilted_clutter() -> list:
+    """A box, a capsule, a cylinder and a ball around the Panda, the box and the cylinder tilted: one obstacle
+    of every kind the compiled distances measure."""
+    import pinocchio as pin
+
+    return [Box(pose((0.45, 0.1, 0.3), pin.rpy.rpyToMatrix(0.3, 0.2, 0.1)), (0.2, 0.1, 0.4)),
+            Capsule((0.3, -0.4, 0.2), (0.5, -0.2, 0.7), 0.05),
+            Cylinder(pose((-0.3, 0.35, 0.4), pin.rpy.rpyToMatrix(0.5, 0.0, 0.3)), 0.06, 0.5),
+            Sphere((0.0, 0.5, 0.8), 0.1)]
+
+
 def tetrahedron_file(tmp_path) -> Path:
     """A closed unit tetrahedron mesh (OBJ) in ``tmp_path``."""
     path = tmp_path / "tet.obj"

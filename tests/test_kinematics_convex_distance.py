@@ -31,20 +31,7 @@ from kinserve.planners.motion.clearance import ClearanceOracle, pair_rates
 from kinserve.planners.motion.edges import MAX_ADVANCES, EdgeCertifier, advance
 from kinserve.planners.motion.reach import pair_reach
 
-
-def _pose(xyz, rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = pin.rpy.rpyToMatrix(*rpy)
-    T[:3, 3] = xyz
-    return T
-
-
-def clutter() -> list:
-    """A box, a capsule, a cylinder and a ball around the Panda, tilted."""
-    return [ik.Box(_pose((0.45, 0.1, 0.3), (0.3, 0.2, 0.1)), (0.2, 0.1, 0.4)),
-            ik.Capsule((0.3, -0.4, 0.2), (0.5, -0.2, 0.7), 0.05),
-            ik.Cylinder(_pose((-0.3, 0.35, 0.4), (0.5, 0.0, 0.3)), 0.06, 0.5),
-            ik.Sphere((0.0, 0.5, 0.8), 0.1)]
+from collision_scenes import pose, tilted_clutter
 
 
 @numba.njit(cache=False)
@@ -134,14 +121,14 @@ def test_cores_are_the_vertices_corners_centres_and_segment_ends():
 
 
 def test_the_bound_is_below_coal_and_close_to_it_for_hulls_boxes_and_every_obstacle_kind(panda):
-    seen = _check_bounds(panda, clutter(), n=60, seed=1)
+    seen = _check_bounds(panda, tilted_clutter(), n=60, seed=1)
     assert seen["apart"] > 1000 and seen["intersecting"] > 20
 
 
 def test_early_ends_tell_which_side_of_the_threshold_the_distance_is(panda):
     """Stopped once the lower bound exceeds a threshold or the upper bound reaches it, GJK still returns a
     lower bound, and it is above the threshold exactly when the bound run to full accuracy is."""
-    scene = panda.collision_scene(clutter())
+    scene = panda.collision_scene(tilted_clutter())
     pre = scene.precheck()
     h = pre.hulls
     rng = np.random.default_rng(7)
@@ -168,9 +155,9 @@ def test_carried_spheres_and_capsules_are_measured_too(panda):
     robot = panda.copy()
     robot.attach("ball", ik.Sphere((0.0, 0.0, 0.12), 0.04), "panda_hand")
     robot.attach("stick", ik.Capsule((0.0, 0.0, 0.05), (0.0, 0.1, 0.25), 0.02), "panda_link6")
-    hulls = robot.collision_scene(clutter()).precheck().hulls
+    hulls = robot.collision_scene(tilted_clutter()).precheck().hulls
     assert (hulls.geoms[-2:, 0] == VERTICES).all() and np.allclose(hulls.radius[-2:], [0.04, 0.02])
-    seen = _check_bounds(robot, clutter(), n=25, seed=2)
+    seen = _check_bounds(robot, tilted_clutter(), n=25, seed=2)
     assert seen["apart"] > 300
 
 
@@ -189,7 +176,7 @@ def _random_edges(robot, scene, certifier, rng, n):
 
 
 def test_the_compiled_advancement_decides_as_the_python_one_on_coal(panda):
-    scene = panda.collision_scene(clutter())
+    scene = panda.collision_scene(tilted_clutter())
     certifier = EdgeCertifier(ClearanceOracle(scene), pair_reach(panda.model, scene))
     pre = certifier.oracle.precheck
     hulls = pre.hulls
@@ -222,8 +209,9 @@ def test_pairs_it_does_not_measure_are_left_to_coal(panda, tmp_path):
     mesh_file.write_text("".join(f"v {x} {y} {z}\n" for x, y, z in V)
                          + "".join(f"f {a} {b} {c}\n" for a, b, c in faces))
     robot = panda.copy()
-    robot.attach("can", ik.Cylinder(_pose((0.0, 0.0, 0.1)), 0.03, 0.1), "panda_hand")
-    for obstacles, unmeasured in (([ik.Mesh(str(mesh_file))], "obstacle"), (clutter(), "carried cylinder")):
+    robot.attach("can", ik.Cylinder(pose((0.0, 0.0, 0.1)), 0.03, 0.1), "panda_hand")
+    for obstacles, unmeasured in (([ik.Mesh(str(mesh_file))], "obstacle"),
+                                  (tilted_clutter(), "carried cylinder")):
         scene = robot.collision_scene(obstacles)
         pre = scene.precheck()
         hulls = pre.hulls

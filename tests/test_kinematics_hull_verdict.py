@@ -13,22 +13,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from kinserve import ik, robots
+from kinserve import robots
 from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE, UNDECIDED, carried_pairs
 
-
-def _pose(xyz, rpy=(0.0, 0.0, 0.0)) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3] = pin.rpy.rpyToMatrix(*rpy)
-    T[:3, 3] = xyz
-    return T
-
-
-def _clutter() -> list:
-    return [ik.Box(_pose((0.45, 0.1, 0.3), (0.3, 0.2, 0.1)), (0.2, 0.1, 0.4)),
-            ik.Capsule((0.3, -0.4, 0.2), (0.5, -0.2, 0.7), 0.05),
-            ik.Cylinder(_pose((-0.3, 0.35, 0.4), (0.5, 0.0, 0.3)), 0.06, 0.5),
-            ik.Sphere((0.0, 0.5, 0.8), 0.1)]
+from collision_scenes import tilted_clutter
 
 
 def _coal_colliding(scene, q: np.ndarray) -> set[int]:
@@ -45,7 +33,7 @@ def panda():
 
 
 def test_a_free_verdict_is_coals_and_the_open_pairs_hold_every_collision(panda):
-    scene = panda.collision_scene(_clutter())
+    scene = panda.collision_scene(tilted_clutter())
     pre = scene.precheck()
     h = pre.hulls
     rng = np.random.default_rng(3)
@@ -77,7 +65,7 @@ def test_a_free_verdict_is_coals_and_the_open_pairs_hold_every_collision(panda):
 
 
 def test_the_check_through_the_hulls_agrees_with_coal_on_every_configuration(panda):
-    scene = panda.collision_scene(_clutter())
+    scene = panda.collision_scene(tilted_clutter())
     rng = np.random.default_rng(11)
     qs = [panda.random_q(rng) for _ in range(600)]
     got = [scene.in_collision(q) for q in qs]
@@ -86,7 +74,7 @@ def test_the_check_through_the_hulls_agrees_with_coal_on_every_configuration(pan
 
 
 def test_other_verdicts_and_bad_arguments_pass_through_unchanged(panda):
-    scene = panda.collision_scene(_clutter())
+    scene = panda.collision_scene(tilted_clutter())
     pre = scene.precheck()
     h = pre.hulls
     q = panda.random_q(np.random.default_rng(0))
