@@ -20,7 +20,10 @@ Queries are single Pinocchio calls over all pairs:
   answer: a certified configuration is one coal finds free); one it cannot
   certify but with a ball inside the robot deep in an obstacle or in another
   link's is in collision without coal (:func:`~.precheck_kernels.certainly_colliding`);
-  coal checks the others on the pairs the spheres do not certify only
+  the pairs the spheres leave (at most three) are measured next on the hulls
+  (:func:`~.hull_verdict.hull_verdict`, compiled GJK: apart by more than 10 um
+  is free, cores overlapping deeper than 10 um a collision); coal checks the
+  others on the pairs neither certifies only
   (:func:`~.configuration_checks.pair_test`).
   ``first_collision`` certifies stacked rows (the IK's runs) in one compiled
   call (a sequence: its first configuration alone - the IK's answer, the

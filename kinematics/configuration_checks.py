@@ -8,9 +8,11 @@ decide, in order, and stops at the first collision. Coal checks only the pairs
 the spheres do not certify at that configuration (:func:`pair_test`:
 ``pinocchio.computeCollision`` pair by pair, the narrow phase the broad phase
 would run on them with the same requests), or the whole broad phase when more
-than :data:`PAIRWISE_MAX` are left. The answer is coal's alone: a pair the
-pre-check certifies is one coal finds free, and a configuration it finds in
-collision for certain is one coal finds in collision.
+than :data:`PAIRWISE_MAX` are left; the few pairs an undecided verdict carries
+go to the hulls' compiled distances first (:mod:`.hull_verdict`), which decide
+most configurations without coal. The answer is coal's alone: a pair the
+pre-check or the hulls certify is one coal finds free, and a configuration
+either finds in collision for certain is one coal finds in collision.
 """
 
 from __future__ import annotations

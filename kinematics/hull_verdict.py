@@ -58,6 +58,8 @@ def _start_direction(X: np.ndarray, spheres: np.ndarray, geoms: np.ndarray, pair
     else:
         for i in range(3):
             out[i] -= obstacles[b, 9 + i]
+
+
 _VERDICT_SIGNATURE = _t.int64(F1, I1, F2, I2, F1, I1, F1_ANY, _t.int64, _t.float64)
 
 
