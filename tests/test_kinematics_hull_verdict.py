@@ -16,13 +16,14 @@ import pytest
 from kinserve import robots
 from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE, UNDECIDED, carried_pairs
 
-from collision_scenes import tilted_clutter
+from collision_scenes import coal_hits, fresh_requests, tilted_clutter
 
 
 def _coal_colliding(scene, q: np.ndarray) -> set[int]:
-    """Every pair coal finds in collision at ``q``, on a fresh copy of the scene's geometry."""
+    """Every pair coal finds in collision at ``q``, on a fresh copy of the scene's geometry (fresh requests,
+    as :func:`collision_scenes.coal_hits`)."""
     model, geometry = scene.model, scene.geometry
-    data, gd = model.createData(), pin.GeometryData(geometry)
+    data, gd = model.createData(), fresh_requests(pin.GeometryData(geometry))
     pin.computeCollisions(model, data, geometry, gd, q, False)
     return {k for k, r in enumerate(gd.collisionResults) if r.isCollision()}
 
@@ -69,7 +70,7 @@ def test_the_check_through_the_hulls_agrees_with_coal_on_every_configuration(pan
     rng = np.random.default_rng(11)
     qs = [panda.random_q(rng) for _ in range(600)]
     got = [scene.in_collision(q) for q in qs]
-    assert got == [bool(_coal_colliding(scene, q)) for q in qs]
+    assert got == coal_hits(scene, qs).tolist()
     assert 0 < sum(got) < len(got)
 
 
