@@ -12,6 +12,11 @@ Requests (the protocol of benchmarks/_peers.py):
 * ``{"cmd": "checks", "qs": [[...], ...]}`` -> ``{"times_s": [...], "collision": [...]}``: one
   ``hasCollisions`` per configuration on the current scene, each timed alone (``perf_counter``) around
   the call only (the arrays are made before).
+* ``{"cmd": "pass", "scenes": [{"obstacles": [shape dicts], "qs": [[...], ...]}, ...]}`` ->
+  ``{"first_s": [...]}``: the scenes one after the other with no request in between (roboplan's pass of its
+  own): per scene, its configurations made into arrays (not timed), its obstacles set and the first
+  ``hasCollisions`` (timed together, as ``first``'s ``scene_s + check_s``), then ``hasCollisions`` on
+  each configuration (as ``checks``).
 * ``{"cmd": "quit"}``
 """
 
@@ -39,7 +44,20 @@ class _ClutterHandler(RoboplanHandler):
             return {"scene_s": t1 - t0, "check_s": t2 - t1, "collision": hit}
         if cmd == "checks":
             return self.checks(req["qs"])
+        if cmd == "pass":
+            return {"first_s": [self.first_then_checks(s["obstacles"], s["qs"]) for s in req["scenes"]]}
         return super().__call__(cmd, req)
+
+    def first_then_checks(self, obstacles: list, rows: list) -> float:
+        """One scene of a ``pass``: the time (s) of its obstacles set plus its first ``hasCollisions``."""
+        qs = [np.ascontiguousarray(q, dtype=float) for q in rows]
+        clock = time.perf_counter
+        t0 = clock()
+        self.rp.set_obstacles(obstacles)
+        self.rp.scene.hasCollisions(qs[0])
+        first = clock() - t0
+        self.checks(rows)
+        return first
 
     def checks(self, rows: list) -> dict:
         qs = [np.ascontiguousarray(q, dtype=float) for q in rows]

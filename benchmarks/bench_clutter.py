@@ -25,15 +25,21 @@ Measured per scene (the checker that goes first alternates from scene to scene):
     timed inside the worker the same way. Its verdicts are compared with kinserve's: kinserve checks
     the meshes' convex hulls, which contain the meshes, so it may report a collision roboplan does not.
 
-(d) with roboplan in the run, once its worker has ended: kinserve's first check in each scene again, in a
-    pass of its own over the same scenes (the scene layouts forgotten first, so that it builds the same
-    ones; each scene measured as in (a) and (b), only its first check reported), as a planning process
-    alone on the machine meets new scenes.
+(d) with roboplan in the run, each checker's **first check in a pass of its own** over the same scenes and
+    configurations, as a planning process alone on the machine meets new scenes: roboplan's worker runs
+    the scenes one after the other (``pass`` requests of :data:`PASS_CHUNK` scenes: no request between
+    two scenes of a chunk, so its process does not wait on the benchmark's), each scene's obstacles set
+    plus its first ``hasCollisions``, then its configurations; once the worker has ended, kinserve's
+    (the scene layouts forgotten first, so that it builds the same ones; each scene measured as in (a)
+    and (b), only its first check reported). The first-check target reads this pass: in the alternating
+    run, the checker that goes second in a scene meets it right after waiting for the other checker's
+    process, and that wait slows the next check of either checker, whatever it builds (docs/benchmarks.md
+    has the measurements).
 
 Reported: median and p95 of the first check (µs) - over every scene, and apart for the scenes where the
 checker went first (its own previous scene's checks came just before) and those where it went second (the
 other checker's process ran just before, and its code and data fill the caches; docs/benchmarks.md has the
-figures), kinserve's in the pass of its own (d), and by the path the first configuration's check took (the
+figures), each checker's in the pass of its own (d), and by the path the first configuration's check took (the
 spheres decide: one compiled call; the hulls decide the pairs the spheres leave: a second one; coal checks the
 pairs both leave; asked after the timings) - median and p95 per configuration (µs) over all the configurations
 checked, the share in collision, the ratios kinserve / roboplan measured in this run, and the targets (median
@@ -67,6 +73,9 @@ ROOT = Path(__file__).resolve().parents[1]
 TARGETS = {"per_configuration_median_us": 5.0, "first_check_median_us": 50.0,
            "vamp_per_configuration_us": 1.8}
 CHECKERS = ("kinserve", "roboplan")
+#: Scenes per ``pass`` request of roboplan's pass of its own (d): its worker waits on the benchmark's process
+#: before the first scene of each chunk only.
+PASS_CHUNK = 25
 #: The paths a kinserve check takes on a configuration: the sphere pre-check certifies it free or finds it in
 #: collision for certain (one compiled call); the hulls' distances decide the pairs the spheres leave (a
 #: second compiled call, :mod:`kinserve.kinematics.hull_verdict`); coal checks the pairs both leave.
@@ -188,6 +197,23 @@ def time_alone(robot, scenes: list[SceneFile], n_configs: int) -> list[float]:
             for scene in scenes]
 
 
+def time_alone_roboplan(worker: ClutterPeer, robot, scenes: list[SceneFile], n_configs: int
+                        ) -> list[float] | None:
+    """(d): roboplan's first check (s) in each of ``scenes``, in a pass of its own (``pass`` requests of
+    :data:`PASS_CHUNK` scenes, the configurations of :func:`configurations` as for kinserve); None once the
+    worker has failed."""
+    out: list[float] = []
+    for start in range(0, len(scenes), PASS_CHUNK):
+        chunk = [{"obstacles": [shape.to_dict() for shape in read_planning_scene(scene.path)],
+                  "qs": configurations(robot, n_configs, scene.seed).tolist()}
+                 for scene in scenes[start:start + PASS_CHUNK]]
+        answer = worker.try_call({"cmd": "pass", "scenes": chunk})
+        if answer is None:
+            return None
+        out += answer["first_s"]
+    return out
+
+
 def precheck_verdict(scene, q: np.ndarray) -> str:
     """The :data:`PRECHECK_VERDICTS` entry of the path the scene's check takes at ``q`` (``coal`` when the
     scene has no pre-check)."""
@@ -294,18 +320,31 @@ def ratios(summary: dict) -> dict:
         return {}
     k, r = summary["kinserve"], summary["roboplan"]
     peer_per_q = r["per_configuration"]["median_us"]
-    return {"first_check_median": k["first_check"]["median_us"] / r["first_check"]["median_us"],
+    alone = {"first_check_alone_median": k["first_check_alone"]["median_us"]
+             / r["first_check_alone"]["median_us"]} \
+        if "first_check_alone" in k and "first_check_alone" in r else {}
+    return {"first_check_median": k["first_check"]["median_us"] / r["first_check"]["median_us"], **alone,
             "per_configuration_median": k["per_configuration"]["median_us"] / peer_per_q,
             "per_configuration_scene_call_median":
                 k["per_configuration_scene_call"]["median_us"] / peer_per_q}
 
 
+def first_check_for_target(figures_of_checker: dict) -> tuple[str, dict]:
+    """The first-check figures the target reads, and their name: the pass of its own (d) when the run has
+    one, else the run's first checks (a run of kinserve alone is a pass of its own)."""
+    if "first_check_alone" in figures_of_checker:
+        return "first_check_alone", figures_of_checker["first_check_alone"]
+    return "first_check", figures_of_checker["first_check"]
+
+
 def targets_met(summary: dict) -> dict:
     k = summary["kinserve"]
+    first = first_check_for_target(k)[1]
     return {f"median per configuration <= {TARGETS['per_configuration_median_us']:g} us":
             k["per_configuration"]["median_us"] <= TARGETS["per_configuration_median_us"],
-            f"median first check in a new scene <= {TARGETS['first_check_median_us']:g} us":
-            k["first_check"]["median_us"] <= TARGETS["first_check_median_us"]}
+            f"median first check in a new scene, in a pass of its own <= "
+            f"{TARGETS['first_check_median_us']:g} us":
+            first["median_us"] <= TARGETS["first_check_median_us"]}
 
 
 def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> None:
@@ -324,7 +363,7 @@ def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> No
     for name, f in summary.items():
         if "first_check_alone" in f:
             alone = f["first_check_alone"]
-            print(f"  {name} first check in a pass of its own, the peer's process ended: "
+            print(f"  {name} first check in a pass of its own: "
                   f"{alone['median_us']:.1f}/{alone['p95_us']:.1f} us")
         if "first_check_after_peer_turn" in f:
             own, peer = f["first_check_after_own_turn"], f["first_check_after_peer_turn"]
@@ -355,12 +394,18 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
     scenes = scene_files(problems, SETS, per_set)
     print(f"{len(scenes)} scenes x {n_configs} configurations; checkers: {', '.join(checkers)}", flush=True)
     worker = start_roboplan(dataset) if "roboplan" in checkers else None
+    peer_alone = None
     try:
         results = run_scenes(robot, worker, scenes, n_configs)
+        if "roboplan" in results:
+            print("roboplan's first checks in a pass of its own", flush=True)
+            peer_alone = time_alone_roboplan(worker, robot, scenes, n_configs)
     finally:
         if worker is not None:
             worker.close()
     summary = {name: figures(rows) for name, rows in results.items()}
+    if peer_alone is not None and "roboplan" in summary:
+        summary["roboplan"]["first_check_alone"] = _us(peer_alone)
     if worker is not None and "kinserve" in summary:
         print("kinserve's first checks in a pass of its own", flush=True)
         summary["kinserve"]["first_check_alone"] = _us(time_alone(robot, scenes, n_configs))

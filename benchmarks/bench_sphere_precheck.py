@@ -38,6 +38,7 @@ import pinocchio as pin
 
 from kinserve import ik, robots
 from kinserve.ik.state import _NO_REQUEST as NO_REQUEST
+from kinserve.kinematics.collision_model import _NO_SCENE as NO_SCENE
 
 FRAME = "panda_link8"
 
@@ -142,7 +143,8 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
         cases.append((T, start, cube))
 
     def objects():
-        return [*cm._layouts.values(), cm._last_scene.scene]
+        last = cm._last_scene
+        return [*cm._layouts.values(), *(() if last is NO_SCENE else (last,))]
 
     def put(on: bool) -> None:
         for o in objects():
@@ -156,7 +158,7 @@ def ik_comparison(robot, obstacles, n: int, fresh: bool, seed: int) -> dict:
                 on = r % 2 == 0
                 put(on)
                 if w == "cube" and fresh:
-                    cm._last_scene = cm._last_scene._replace(key=None, same=None)
+                    cm._last_scene = NO_SCENE
                     forget_bound_scenes(robot)
                 obs = obstacles if w == "open" else [*obstacles, cube]
                 t0 = time.process_time()
@@ -186,9 +188,9 @@ _SAVED: dict = {}
 
 def switch_object(o, on: bool) -> None:
     """A layout's or scene's pre-check off (None: coal alone) or back on (as built with the object): a layout
-    holds it as ``_precheck``, a scene as ``_layout_check`` (the layout's, read by ``precheck()``) and reads
-    the classifying kernel as ``_classify`` in ``in_collision``."""
-    name = "_layout_check" if hasattr(o, "_layout_check") else "_precheck"
+    holds it as ``sphere_precheck``, a scene as ``_layout_check`` (the layout's, read by ``precheck()``) and
+    reads the classifying kernel as ``_classify`` in ``in_collision``."""
+    name = "_layout_check" if hasattr(o, "_layout_check") else "sphere_precheck"
     current = getattr(o, name)
     if current is not None:
         _SAVED[id(o)] = (o, current, getattr(o, "_classify", None))

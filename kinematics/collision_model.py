@@ -30,8 +30,8 @@ import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from itertools import repeat
-from operator import attrgetter
-from typing import Any, NamedTuple
+from operator import attrgetter, is_
+from typing import Any
 
 import coal
 import numpy as np
@@ -59,20 +59,27 @@ from .shapes import Shape, as_obstacles
 LAYOUT_CACHE_SIZE = 32
 
 
-class _LastScene(NamedTuple):
-    """The scene a model built last (:meth:`CollisionModel.scene`): ``same`` the tuple of shapes it was built
-    from (a call with that very tuple answers by identity), ``key`` = ``(self_collision, *ids of those
-    shapes)``; ``scene.obstacles`` keeps the shapes alive, so no other live object carries their ids."""
+class _NoScene:
+    """What :attr:`CollisionModel._last_scene` holds before a model's first scene: no call matches its
+    ``self_collision`` (None), so every call builds a scene."""
 
-    same: tuple | None
-    self_collision: bool | None
-    key: tuple | None
-    scene: CollisionScene | None
+    __slots__ = ()
+    obstacles: tuple = ()
+    self_collision = None
 
 
-_NO_SCENE = _LastScene(None, None, None, None)
+_NO_SCENE = _NoScene()
 #: A shape's :attr:`~.shapes.Shape.signature_key` (read by ``map``: no Python frame per scene).
 _SIGNATURE_KEY = attrgetter("signature_key")
+
+
+def _same_objects(last: CollisionScene | _NoScene, obstacles: Sequence, self_collision: bool) -> bool:
+    """Whether a call with ``obstacles`` and ``self_collision`` asks for the scene ``last``: the same choice
+    of self pairs and, item by item, the very objects ``last`` was built from (it keeps them alive, so no
+    other object can be identical to one of them)."""
+    held = last.obstacles
+    return self_collision is last.self_collision and len(obstacles) == len(held) \
+        and all(map(is_, obstacles, held))
 
 
 def bounding_sphere(geometry: coal.CollisionGeometry, placement: pin.SE3) -> tuple[np.ndarray, float]:
@@ -203,8 +210,9 @@ class CollisionModel:
         self._base_spheres = _base_spheres(gm, self.geometry_joints)
         #: (self_collision, the shapes' signature keys joined) -> SceneLayout
         self._layouts: OrderedDict = OrderedDict()
-        #: The last scene built (:class:`_LastScene`); one, so a new scene frees the one before it.
-        self._last_scene: _LastScene = _NO_SCENE
+        #: The last scene built (its ``obstacles`` and ``self_collision`` are what a call is compared with);
+        #: one, so a new scene frees the one before it.
+        self._last_scene: CollisionScene | _NoScene = _NO_SCENE
         self._lock = threading.Lock()
 
     def forget_scenes(self) -> None:
@@ -290,59 +298,57 @@ class CollisionModel:
     # ----------------------------------------------------------------- scenes
     def cached_scene(self, obstacles: Any, self_collision: bool = True) -> CollisionScene | None:
         """The last scene built (:meth:`scene`) when ``obstacles`` (a list or tuple, unvalidated) are its very
-        objects, in order, else None.
+        objects, in order, and ``self_collision`` (a bool) its choice, else None.
 
         A hit is safe without validating ``obstacles``: the last scene holds the (validated, immutable) shapes
-        whose ids form its key, so no other live object can carry those ids - equal ids mean the very same
-        shapes. Dict forms never hit. The same tuple as the last scene's answers without the key.
+        it was built from, so objects identical to those are those very shapes. Dict forms never hit. The
+        same tuple as the last scene's answers without comparing its items.
         """
         last = self._last_scene
-        if obstacles is last.same and self_collision is last.self_collision:
-            return last.scene
-        if (type(obstacles) is tuple or type(obstacles) is list) and (self_collision, *map(id, obstacles)) \
-                == last.key:
-            return last.scene
+        if obstacles is last.obstacles and self_collision is last.self_collision:
+            return last
+        if (type(obstacles) is tuple or type(obstacles) is list) and _same_objects(last, obstacles,
+                                                                                    self_collision):
+            return last
         return None
 
     def scene_of(self, obstacles: Any, self_collision: bool = True) -> CollisionScene:
         """The scene of ``obstacles`` as a caller gives them (a shape, a sequence of shapes or shape dicts, or
         None; :func:`~.shapes.as_obstacles`): :meth:`cached_scene`'s answer, else a new scene
-        (:meth:`scene`). The ids of a list or tuple are read once, for the look-up and for the new scene's
-        key."""
+        (:meth:`scene`)."""
         last = self._last_scene
-        if obstacles is last.same and self_collision is last.self_collision:
-            return last.scene
+        if obstacles is last.obstacles and self_collision is last.self_collision:
+            return last
         if type(obstacles) is tuple or type(obstacles) is list:
-            key = (self_collision, *map(id, obstacles))
-            if key == last.key:
-                return last.scene
-            if all(map(isinstance, obstacles, repeat(Shape))):  # shapes already: the key is theirs
+            held = last.obstacles  # _same_objects, without its frame: every new scene passes here
+            if self_collision is last.self_collision and len(obstacles) == len(held) \
+                    and all(map(is_, obstacles, held)):
+                return last
+            if all(map(isinstance, obstacles, repeat(Shape))):  # shapes already
                 return self._new_scene(obstacles if type(obstacles) is tuple else tuple(obstacles),
-                                       self_collision, key)
-        shapes = as_obstacles(obstacles)
-        return self._new_scene(shapes, self_collision, (self_collision, *map(id, shapes)))
+                                       self_collision)
+        return self._new_scene(as_obstacles(obstacles), self_collision)
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles`` (shapes). The model
-        remembers the last scene it built: passing its very objects again costs a comparison of ids; other
-        objects - equal to those or not - get a new scene on the layout of their signatures (:meth:`layout`),
-        and the one before is freed (a caller that switches between scenes holds each one). The obstacle rows
-        are the shapes' own (:attr:`~.shapes.Shape.obstacle_row`), so a new scene costs a few microseconds and
-        allocates nothing in Pinocchio or coal.
+        remembers the last scene it built: passing its very objects again costs a comparison of identities;
+        other objects - equal to those or not - get a new scene on the layout of their signatures
+        (:meth:`layout`), and the one before is freed (a caller that switches between scenes holds each one).
+        The obstacle rows are the shapes' own (:attr:`~.shapes.Shape.obstacle_row`), so a new scene costs a
+        few microseconds and allocates nothing in Pinocchio or coal.
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
-        key = (self_collision, *map(id, obs))
+        self_collision = self_collision is True or bool(self_collision)
         last = self._last_scene
-        if key == last.key:  # the last scene keeps these objects alive: same ids, same objects
-            return last.scene
-        return self._new_scene(obs, self_collision, key)
+        if _same_objects(last, obs, self_collision):
+            return last
+        return self._new_scene(obs, self_collision)
 
-    def _new_scene(self, obstacles: tuple, self_collision: bool, key: tuple) -> CollisionScene:
-        """A new scene of ``obstacles`` (validated shapes; ``key``: :class:`_LastScene`'s), kept as the last
-        one; the one before is freed first (its arrays, warm from its checks, hold the new ones)."""
+    def _new_scene(self, obstacles: tuple, self_collision: bool) -> CollisionScene:
+        """A new scene of ``obstacles`` (validated shapes), kept as the last one; the one before is freed
+        first (its arrays, warm from its checks, hold the new ones)."""
         self._last_scene = _NO_SCENE
-        scene = CollisionScene(self.layout(obstacles, self_collision), obstacles)
-        self._last_scene = _LastScene(obstacles, self_collision, key, scene)
+        scene = self._last_scene = CollisionScene(self.layout(obstacles, self_collision), obstacles)
         return scene
 
     def layout(self, obstacles: tuple, self_collision: bool = True) -> SceneLayout:

@@ -122,12 +122,15 @@ class CollisionScene:
     owns the obstacle placements.
     """
 
-    __slots__ = ("layout", "obstacles", "_geometry", "_layout_check", "_classify", "_uncertified", "_floats",
-                 "_ints", "_tolerance", "_hull_verdict", "_hull_arguments", "__weakref__")
+    __slots__ = ("layout", "obstacles", "self_collision", "_geometry", "_layout_check", "_classify",
+                 "_uncertified", "_floats", "_ints", "_tolerance", "_hull_verdict", "_hull_arguments",
+                 "__weakref__")
 
     def __init__(self, layout: SceneLayout, obstacles: tuple) -> None:
         self.layout = layout
         self.obstacles = obstacles
+        #: Whether the robot's self pairs are checked (the layout's choice, a bool).
+        self.self_collision: bool = layout.self_collision
         self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
         # the pre-check's packed floats: all a new scene computes (read by in_collision without a look-up)
         check = self._layout_check = layout.sphere_precheck
@@ -146,11 +149,6 @@ class CollisionScene:
     def model(self) -> pin.Model:
         """The robot's Pinocchio model."""
         return self.layout.model
-
-    @property
-    def self_collision(self) -> bool:
-        """Whether the robot's self pairs are checked."""
-        return self.layout.self_collision
 
     @property
     def n_robot(self) -> int:

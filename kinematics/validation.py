@@ -26,6 +26,9 @@ from .types import ArrayLike, PoseLike
 MAX_ABS = 1e6
 
 _hypot = math.hypot
+#: NumPy's float64 dtype: an array of native float64 holds this very object (another float64 dtype object,
+#: with metadata say, takes the general path of :func:`as_vector`).
+_FLOAT64 = np.dtype(np.float64)
 #: Longest vector whose fast check is ``hypot(*q)`` (a Python list of that many floats); longer ones
 #: use ``q·q``.
 _HYPOT_MAX_N = 64
@@ -50,7 +53,7 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     length/shape or non-numeric entries and :class:`NonFiniteError` for NaN,
     infinities or entries with magnitude above :data:`MAX_ABS`.
     """
-    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (n,):
+    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.shape == (n,):
         if ((_hypot(*value.tolist()) < MAX_ABS) if n <= _HYPOT_MAX_N
                 else (value.dot(value) < MAX_ABS * MAX_ABS)):
             return value  # NaN compares False, inf is not below the bound

@@ -170,10 +170,99 @@ def test_the_pass_of_its_own_times_each_scene_afresh():
     shapes = [tuple(bc.read_planning_scene(s.path)) for s in scenes]
     keys = {(True, b"".join(shape.signature_key for shape in scene)) for scene in shapes}
     assert set(robot.collision._layouts) == keys and not layouts_before <= keys
-    assert robot.collision._last_scene.scene.obstacles == shapes[-1]
+    assert robot.collision._last_scene.obstacles == shapes[-1]
     f = {**bc.figures([bc.SceneTimes(1e-4, 1e-5, np.full(3, 2e-6), np.zeros(3, dtype=bool))]),
          "first_check_alone": bc._us(times)}
     doc = {"workload": {"scenes": 2, "configurations_per_scene": 5}, "summary": {"kinserve": f}}
     text = "\n".join(_render_tables().render_clutter(doc))
     assert "pass of its own over the same scenes" in text
     assert f"{np.median(times) * 1e6:.1f} µs / " in text
+
+
+def test_roboplans_pass_of_its_own_runs_the_scenes_back_to_back():
+    """(d) for roboplan: the worker's ``pass`` request sets each scene's obstacles, times them with the first
+    ``hasCollisions`` (of that scene's first configuration), checks the scene's configurations, then goes on
+    to the next scene; the benchmark sends the scenes in chunks of ``PASS_CHUNK``, in order, with the
+    configurations kinserve checks, and stops at a failed request."""
+    import numpy as np
+
+    for dep in ("_worker_loop", "_motion_peers_roboplan"):
+        load_benchmark(dep)
+    peer = load_benchmark("_clutter_peer_roboplan", "clutter_peer_roboplan_pass")
+    calls = []
+
+    class FakeScene:
+        def hasCollisions(self, q):
+            calls.append(("check", float(q[0])))
+            return q[0] > 0
+
+    class FakeRoboplan:
+        scene = FakeScene()
+
+        def set_obstacles(self, obstacles):
+            calls.append(("set", obstacles[0]["name"]))
+
+    handler = peer._ClutterHandler()
+    handler.rp = FakeRoboplan()
+    answer = handler("pass", {"scenes": [{"obstacles": [{"name": "a"}], "qs": [[1.0, 0.0], [-2.0, 0.0]]},
+                                         {"obstacles": [{"name": "b"}], "qs": [[3.0, 0.0]]}]})
+    assert len(answer["first_s"]) == 2 and all(t >= 0 for t in answer["first_s"])
+    assert calls == [("set", "a"), ("check", 1.0), ("check", 1.0), ("check", -2.0),
+                     ("set", "b"), ("check", 3.0), ("check", 3.0)]
+
+    bc = _bench_clutter()
+    problems = bc.unpack(DATASET, ROOT / "bench-out" / "motion-bench-maker")
+    robot = bc.load_robot(DATASET)
+    scenes = bc.scene_files(problems, bc.SETS[:3], 1)
+
+    class FakeWorker:
+        def __init__(self, fail_at=None):
+            self.requests, self.fail_at = [], fail_at
+
+        def try_call(self, request):
+            self.requests.append(request)
+            if len(self.requests) == self.fail_at:
+                return None
+            return {"first_s": [1e-4 * (len(self.requests) + k) for k in range(len(request["scenes"]))]}
+
+    worker = FakeWorker()
+    original = bc.PASS_CHUNK
+    bc.PASS_CHUNK = 2
+    try:
+        times = bc.time_alone_roboplan(worker, robot, scenes, 4)
+        assert bc.time_alone_roboplan(FakeWorker(fail_at=2), robot, scenes, 4) is None
+    finally:
+        bc.PASS_CHUNK = original
+    assert [len(r["scenes"]) for r in worker.requests] == [2, 1] and len(times) == 3
+    sent = [s for r in worker.requests for s in r["scenes"]]
+    for scene, got in zip(scenes, sent):
+        assert np.array_equal(got["qs"], bc.configurations(robot, 4, scene.seed))
+        assert got["obstacles"] == [s.to_dict() for s in bc.read_planning_scene(scene.path)]
+
+
+def test_the_first_check_target_reads_the_pass_of_its_own():
+    """With a pass of its own in the run, the first-check target and the table read it, not the alternating
+    run's first checks (which follow the other checker's process half of the time); without one (kinserve
+    alone) they read the run's first checks; the ratio of the two passes is reported when both checkers
+    have one."""
+    import numpy as np
+
+    bc = _bench_clutter()
+    row = bc.SceneTimes(2e-4, 1e-5, np.full(3, 2e-6), np.zeros(3, dtype=bool))
+    row.per_q_scene_s = np.full(3, 1e-6)
+    k = {**bc.figures([row]), "first_check_alone": bc._us([4e-5, 4.5e-5])}
+    r = {**bc.figures([bc.SceneTimes(5e-4, 1e-5, np.full(3, 1e-5), np.zeros(3, dtype=bool))]),
+         "first_check_alone": bc._us([1e-4])}
+    met = bc.targets_met({"kinserve": k})
+    assert list(met.values()) == [True, True]
+    alone_gone = {key: value for key, value in k.items() if key != "first_check_alone"}
+    assert list(bc.targets_met({"kinserve": alone_gone}).values()) == [True, False]
+    ratio = bc.ratios({"kinserve": k, "roboplan": r})
+    assert ratio["first_check_alone_median"] == pytest.approx(42.5 / 100.0)
+    assert ratio["first_check_median"] == pytest.approx(200.0 / 500.0)
+    doc = {"workload": {"scenes": 1, "configurations_per_scene": 3},
+           "summary": {"kinserve": k, "roboplan": r}, "targets": bc.TARGETS, "targets_met": met,
+           "ratios_kinserve_over_roboplan": ratio}
+    text = "\n".join(_render_tables().render_clutter(doc))
+    assert "first check in a new scene, in a pass of its own 42.5 µs [<= 50 µs] (met)" in text
+    assert "- kinserve: 42.5 µs / " in text and "- roboplan: 100.0 µs / " in text

@@ -104,6 +104,23 @@ def test_as_vector_names_the_argument():
         as_vector([1, 2, 3], 2, "velocity")
 
 
+def test_every_float64_array_is_checked_whatever_its_dtype_object():
+    """The fast path takes arrays holding NumPy's own float64 dtype; float64 arrays with another dtype object
+    (metadata, the other byte order) and other dtypes take the general path: the same answer, the same
+    errors."""
+    plain = np.array([0.1, -0.2, 0.3])
+    tagged = plain.astype(np.dtype(np.float64, metadata={"unit": "rad"}))
+    assert tagged.dtype is not plain.dtype and tagged.dtype == np.float64
+    for value in (plain, tagged, plain.astype(">f8"), plain.astype(np.float32).astype(np.float64)):
+        out = as_vector(value, 3)
+        assert out.dtype == np.float64 and np.allclose(out, plain, atol=1e-7)
+    for bad in (np.array([0.1, np.nan, 0.3], dtype=tagged.dtype), np.array([0.1, np.inf, 0.3], dtype=">f8")):
+        with pytest.raises(NonFiniteError, match=r"^q must hold finite numbers.*bad entries: \[1\]="):
+            as_vector(bad, 3)
+    with pytest.raises(ShapeError, match=r"shape \(3,\)"):
+        as_vector(tagged[:2], 3)
+
+
 def test_one_per_entry_bound_whatever_the_container(panda):
     """|q_i| <= MAX_ABS for every entry: a list and an array of the same numbers are treated alike."""
     q = [5e5] * 7  # every entry within the bound, the norm beyond it
