@@ -334,7 +334,7 @@ class CollisionModel:
         remembers the last scene it built: passing its very objects again costs a comparison of identities;
         other objects - equal to those or not - get a new scene on the layout of their signatures
         (:meth:`layout`), and the one before is freed (a caller that switches between scenes holds each one).
-        The obstacle rows are the shapes' own (:attr:`~.shapes.Shape.obstacle_row`), so a new scene costs a
+        The obstacle rows are the shapes' own (:attr:`~.shapes.Shape.obstacle_bytes`), so a new scene costs a
         few microseconds and allocates nothing in Pinocchio or coal.
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)

@@ -26,7 +26,7 @@ makes one per robot geometry and self-collision choice, shared by every scene
 and every layout (a scene with more obstacles than the table holds gets a larger
 table, made once). Its memory - and the robot half of the floats - stays warm from
 one scene's checks to the next scene's first check. A scene appends its
-obstacles' rows (:attr:`~.shapes.Shape.obstacle_row`, made with each shape) to the
+obstacles' rows (:attr:`~.shapes.Shape.obstacle_bytes`, made with each shape) to the
 robot half.
 """
 

@@ -8,8 +8,8 @@ scene; obstacle pairs first, a configuration in collision usually hits an
 obstacle: found sooner; the verdict does not depend on the order), which every
 layout and scene of the robot shares. Each scene of the layout then gets its
 packed floats (:meth:`ScenePrecheck.scene_floats`): its obstacles' rows
-(:attr:`~.shapes.Shape.obstacle_row`, made with each shape) appended to the robot
-half, one concatenation - all a new scene computes. Its :class:`PrecheckArguments`
+(:attr:`~.shapes.Shape.obstacle_bytes`, made with each shape) appended to the robot
+half's bytes, one join - all a new scene computes. Its :class:`PrecheckArguments`
 (:meth:`ScenePrecheck.arguments`), the record the planners and the IK read at set-up,
 are made from those floats when asked.
 """
@@ -37,8 +37,8 @@ from .precheck_kernels import (
 )
 from .precheck_packing import RobotPacking, table_view
 
-#: A shape's :attr:`~.shapes.Shape.obstacle_row` (read by ``map``: no Python frame per scene).
-_OBSTACLE_ROW = attrgetter("obstacle_row")
+#: A shape's :attr:`~.shapes.Shape.obstacle_bytes` (read by ``map``: no Python frame per scene).
+_OBSTACLE_BYTES = attrgetter("obstacle_bytes")
 
 
 class PrecheckArguments(NamedTuple):
@@ -94,8 +94,10 @@ class ScenePrecheck:
         #: :class:`~.collision_scene.CollisionScene` without importing the kernels itself.
         self.classify, self.uncertified_pairs, self.tolerance = \
             classify_configuration, uncertified_pairs, TOLERANCE
-        #: The robot half of the packed floats and the packed integers, both the packing's own arrays.
+        #: The robot half of the packed floats and the packed integers, both the packing's own arrays, and the
+        #: robot half's bytes (a scene's floats start with them: :meth:`scene_floats`).
         self.robot_floats = packing.floats
+        self.robot_bytes = packing.floats.tobytes()
         self.ints = packing.ints_for(n_obstacles)
         self.pairs = table_view(self.ints, n_obstacles)
         _check_table(self.pairs, scene_pairs, n_robot)
@@ -129,9 +131,9 @@ class ScenePrecheck:
 
     def scene_floats(self, obstacles: Sequence[Any]) -> np.ndarray:
         """The packed floats of a scene with ``obstacles`` (one per obstacle geometry: shapes of the layout's
-        signatures, each with its :attr:`~.shapes.Shape.obstacle_row`): the packed robot half followed by the
-        obstacles' rows, one new array."""
-        return np.concatenate((self.robot_floats, *map(_OBSTACLE_ROW, obstacles)))
+        signatures, each with its :attr:`~.shapes.Shape.obstacle_bytes`): the packed robot half followed by
+        the obstacles' rows, a new read-only float64 array over one new ``bytes`` block (one join)."""
+        return np.frombuffer(b"".join((self.robot_bytes, *map(_OBSTACLE_BYTES, obstacles))))
 
     def arguments(self, floats: np.ndarray) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of the scene whose packed floats are ``floats``

@@ -9,9 +9,10 @@ shape is immutable, validated on construction, and knows
 * ``geometry()`` - the matching `coal` collision geometry, built with the shape
   (coal ships with Pinocchio; distances with witness points come from it), as are
   its bounding ball, its hash, its ``signature`` (what a collision scene's layout
-  depends on: the kind and sizes, not the pose) and its ``obstacle_row`` (the row
-  of the compiled collision pre-check, :mod:`.obstacle_table`) - the shape is
-  immutable, so a scene of new shapes is built from these without computing them;
+  depends on: the kind and sizes, not the pose) and its ``obstacle_bytes`` (the row
+  of the compiled collision pre-check, :mod:`.obstacle_table`, as bytes; ``obstacle_row``
+  reads it) - the shape is immutable, so a scene of new shapes is built from these
+  without computing them;
 * ``signed_distance(points)`` - the exact Euclidean signed distance (m) from
   world points, ``(N, 3) -> (N,)``, negative inside (closed forms below; the
   mesh uses its convex hull's face planes, exact inside and a lower bound on the
@@ -103,7 +104,8 @@ def _hashable(value: Any) -> Any:
 
 
 #: What a shape makes from its fields (:meth:`Shape._set`): never pickled, made again when unpickled.
-_DERIVED = frozenset(("_geometry", "_hash", "_plain", "_ball", "signature", "signature_key", "obstacle_row"))
+_DERIVED = frozenset(("_geometry", "_hash", "_plain", "_ball", "signature", "signature_key",
+                      "obstacle_bytes"))
 
 
 class Shape:
@@ -119,9 +121,11 @@ class Shape:
     #: of a layout's look-up key this shape brings (one block of memory to hash and compare, where the tuple
     #: would be a dozen objects).
     signature_key: bytes
-    #: The shape's row ``(16,)`` of the compiled pre-check's obstacle table at its pose (read-only;
-    #: :func:`~.obstacle_table.obstacle_row`).
-    obstacle_row: np.ndarray
+    #: The shape's row ``(16,)`` of the compiled pre-check's obstacle table at its pose
+    #: (:func:`~.obstacle_table.obstacle_row`) as the bytes of its float64 values, native order: a scene
+    #: joins its obstacles' rows with one ``bytes.join``, and a shape freed with its scene frees one plain
+    #: block, not an array.
+    obstacle_bytes: bytes
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise AttributeError(f"{type(self).__name__} is immutable")
@@ -149,13 +153,17 @@ class Shape:
         signature = self._signature()
         object.__setattr__(self, "signature", signature)
         object.__setattr__(self, "signature_key", repr(signature).encode())
-        row = obstacle_row(geometry, self.pose)
-        row.setflags(write=False)
-        object.__setattr__(self, "obstacle_row", row)
+        object.__setattr__(self, "obstacle_bytes", obstacle_row(geometry, self.pose).tobytes())
 
     def _signature(self) -> tuple:
         """:attr:`signature`: this very object (a mesh; the subclasses with sizes override it)."""
         return (self.kind, id(self))
+
+    @property
+    def obstacle_row(self) -> np.ndarray:
+        """The shape's row ``(16,)`` of the compiled pre-check's obstacle table at its pose, float64,
+        read-only: a view of :attr:`obstacle_bytes` made on each read."""
+        return np.frombuffer(self.obstacle_bytes)
 
     # -- coal ------------------------------------------------------------------------------------------
     def geometry(self) -> coal.CollisionGeometry:
