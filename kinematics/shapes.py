@@ -35,6 +35,7 @@ robot (its links, or its collision geometry when it has one).
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -44,6 +45,10 @@ import numpy as np
 from .errors import InputError, ModelError, NonFiniteError, ShapeError
 from .obstacle_table import obstacle_row
 from .validation import MAX_ABS, as_pose, as_vector
+
+#: A bounding ball's centre and radius (m) as the bytes a shape keeps (:meth:`Shape.bounding_ball`): one
+#: block, where a tuple of tuple and floats would be six objects to make and to free with the shape.
+_BALL = struct.Struct("4d")
 
 if TYPE_CHECKING:
     import coal
@@ -146,7 +151,7 @@ class Shape:
         geometry = self._make_geometry()
         if self._keeps_geometry:
             object.__setattr__(self, "_geometry", geometry)
-        object.__setattr__(self, "_ball", self._world_ball())
+        object.__setattr__(self, "_ball", _BALL.pack(*self._world_ball()))
         plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
         object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))
@@ -179,12 +184,14 @@ class Shape:
         """``(centre, radius)`` (world, m) of a ball that contains the shape (made with the shape): the local
         ball of :meth:`_local_ball` moved by the pose. Cheap tests of "certainly apart" (the base-overlap
         check)."""
-        return self._ball
+        x, y, z, r = _BALL.unpack(self._ball)
+        return (x, y, z), r
 
-    def _world_ball(self) -> tuple[tuple[float, float, float], float]:
+    def _world_ball(self) -> tuple[float, float, float, float]:
+        """The bounding ball's centre ``x, y, z`` and radius (world, m)."""
         c, r = self._local_ball()
         t = self.pose[:3, 3] if c is None else self.pose[:3, 3] + self.pose[:3, :3] @ c
-        return (tuple(t.tolist()), float(r))
+        return (*t.tolist(), float(r))
 
     def _local_ball(self) -> tuple[np.ndarray | None, float]:
         """Centre (shape frame; None: the origin) and radius (m) of a ball containing the shape."""
