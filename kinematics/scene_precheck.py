@@ -132,8 +132,9 @@ class ScenePrecheck:
     def scene_floats(self, obstacles: Sequence[Any]) -> np.ndarray:
         """The packed floats of a scene with ``obstacles`` (one per obstacle geometry: shapes of the layout's
         signatures, each with its :attr:`~.shapes.Shape.obstacle_bytes`): the packed robot half followed by
-        the obstacles' rows, a new read-only float64 array over one new ``bytes`` block (one join)."""
-        return np.frombuffer(b"".join((self.robot_bytes, *map(_OBSTACLE_BYTES, obstacles))))
+        the obstacles' rows, a new float64 array over one new ``bytearray`` (one join; writable, as the
+        compiled kernels' dispatch reads a writable array faster than a read-only one)."""
+        return np.frombuffer(bytearray().join((self.robot_bytes, *map(_OBSTACLE_BYTES, obstacles))))
 
     def arguments(self, floats: np.ndarray) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of the scene whose packed floats are ``floats``

@@ -345,3 +345,31 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
     assert any(many.in_collision(q) for q in Q) and not all(many.in_collision(q) for q in Q)
     with pytest.raises(ValueError, match="fewer obstacles"):
         pk.certify_configuration(many.precheck().floats, pf.ints, Q[0], pk.TOLERANCE)
+
+
+def test_a_scenes_floats_are_the_robot_half_then_each_shapes_row():
+    """A new scene's packed floats are the packing's robot half followed by each obstacle's row as
+    ``obstacle_row`` computes it from the shape's coal geometry and pose, in scene order; each scene owns its
+    floats (a writable array of its own, not shared with another scene or the packing); a shape's row reads
+    back from its bytes read-only, and a pickled shape makes its bytes again."""
+    import pickle
+
+    robot = robots.load("panda")
+    shapes = (Box(pose((0.4, 0.0, 0.3)), (0.1, 0.2, 0.1)), Sphere((0.3, 0.2, 0.5), 0.08),
+              Box(pose((-0.2, 0.5, 0.7)), (0.3, 0.05, 0.2)))
+    moved = (shapes[0], Sphere((0.1, -0.4, 0.6), 0.08), shapes[2])
+    a, b = robot.collision_scene(shapes), robot.collision_scene(moved)
+    assert a.layout is b.layout
+    pa, pb = a.precheck(), b.precheck()
+    robot_half = a.layout.precheck().robot_floats
+    for scene_shapes, floats in ((shapes, pa.floats), (moved, pb.floats)):
+        rows = [obstacle_row(s.geometry(), s.pose) for s in scene_shapes]
+        assert np.array_equal(floats, np.concatenate([robot_half, *rows]))
+        assert floats.dtype == np.float64 and floats.flags.c_contiguous and floats.flags.writeable
+    assert not np.shares_memory(pa.floats, pb.floats) and not np.shares_memory(pa.floats, robot_half)
+    for shape in shapes:
+        row = shape.obstacle_row
+        assert row.shape == (16,) and not row.flags.writeable
+        assert np.array_equal(row, obstacle_row(shape.geometry(), shape.pose))
+        clone = pickle.loads(pickle.dumps(shape))
+        assert "obstacle_bytes" not in shape.__getstate__() and clone.obstacle_bytes == shape.obstacle_bytes
