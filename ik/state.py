@@ -25,7 +25,7 @@ from __future__ import annotations
 import threading
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
-from operator import is_
+from operator import attrgetter, is_
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from kinserve.ik.closed_form import ClosedFormSolver, build_closed_form_solver
@@ -43,6 +43,8 @@ if TYPE_CHECKING:
 
 #: :attr:`BoundConstraints.last` before any binding: matches no request.
 _NO_REQUEST = CollisionRequest(None, (), None)  # type: ignore[arg-type]
+#: A shape's :attr:`~kinserve.kinematics.shapes.Shape.signature_key` (bytes, equal for equal signatures).
+_SIGNATURE_KEY = attrgetter("signature_key")
 #: Bound collision constraints one thread keeps per robot (least recently used dropped first).
 BOUND_CONSTRAINTS_PER_THREAD = 16
 
@@ -92,7 +94,7 @@ class BoundConstraints:
         from kinserve.ik.collision.collision_checker import CollisionChecker
         from kinserve.ik.constraints.collision import CollisionConstraint
 
-        layout = (self_collision, margin, tuple(shape.signature for shape in obstacles))
+        layout = (self_collision, margin, tuple(map(_SIGNATURE_KEY, obstacles)))
         template = self.by_layout.get(layout)
         if template is not None:
             bound = template.moved(obstacles)

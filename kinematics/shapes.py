@@ -99,18 +99,24 @@ def _translation(t: np.ndarray) -> np.ndarray:
     return T
 
 
-def _hashable(value: Any) -> Any:
-    """A field of :meth:`Shape._fields` as a hashable value: a list of numbers (of lists: a pose's rows) as
-    the bytes of its float64 values, with ``-0.0`` made ``0.0`` (equal numbers, equal bytes; the fields
-    hold no NaN). One object, not one per number: a shape is freed as fast as it is made."""
-    if type(value) is not list:
-        return value
-    return (np.asarray(value, dtype=np.float64) + 0.0).tobytes()
+def _plain_bytes(kind: str, frames: tuple[str, ...] | None, values: Iterable[Any]) -> bytes:
+    """A shape's plain data (its kind, frames and :meth:`Shape._fields`' ``values``) as one bytes object,
+    equal for equal data: the ``repr`` of the kind, the frames and the fields that are not lists (numbers,
+    a path), then each list of numbers (of lists: a pose's rows) as the bytes of its float64 values with
+    ``-0.0`` made ``0.0`` (the fields hold no NaN). A kind's lists have fixed lengths, so two shapes of one
+    kind are equal exactly when their bytes are. One object, not one per field: a shape is freed as fast as
+    it is made."""
+    scalars, blocks = [], []
+    for value in values:
+        if type(value) is list:
+            blocks.append((np.asarray(value, dtype=np.float64) + 0.0).tobytes())
+        else:
+            scalars.append(value)
+    return repr((kind, frames, *scalars)).encode() + b"".join(blocks)
 
 
 #: What a shape makes from its fields (:meth:`Shape._set`): never pickled, made again when unpickled.
-_DERIVED = frozenset(("_geometry", "_hash", "_plain", "_ball", "signature", "signature_key",
-                      "obstacle_bytes"))
+_DERIVED = frozenset(("_geometry", "_hash", "_plain", "_ball", "signature_key", "obstacle_bytes"))
 
 
 class Shape:
@@ -119,9 +125,6 @@ class Shape:
     kind: str = "shape"
     pose: np.ndarray
     frames: tuple[str, ...] | None
-    #: What makes two obstacles interchangeable up to their pose (a collision scene's layout is shared by
-    #: the scenes whose obstacles have the same signatures): the kind and sizes; a mesh: the object itself.
-    signature: tuple
     #: :attr:`signature` as bytes (its ``repr``, exact for floats): equal for equal signatures, and the part
     #: of a layout's look-up key this shape brings (one block of memory to hash and compare, where the tuple
     #: would be a dozen objects).
@@ -152,13 +155,18 @@ class Shape:
         if self._keeps_geometry:
             object.__setattr__(self, "_geometry", geometry)
         object.__setattr__(self, "_ball", _BALL.pack(*self._world_ball()))
-        plain = (self.kind, self.frames, *map(_hashable, self._fields().values()))
+        plain = _plain_bytes(self.kind, self.frames, self._fields().values())
         object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))
-        signature = self._signature()
-        object.__setattr__(self, "signature", signature)
-        object.__setattr__(self, "signature_key", repr(signature).encode())
+        object.__setattr__(self, "signature_key", repr(self._signature()).encode())
         object.__setattr__(self, "obstacle_bytes", obstacle_row(geometry, self.pose).tobytes())
+
+    @property
+    def signature(self) -> tuple:
+        """What makes two obstacles interchangeable up to their pose (a collision scene's layout is shared by
+        the scenes whose obstacles have the same signatures): the kind and sizes; a mesh: the object itself.
+        Made on each read; :attr:`signature_key`, its bytes, is kept."""
+        return self._signature()
 
     def _signature(self) -> tuple:
         """:attr:`signature`: this very object (a mesh; the subclasses with sizes override it)."""
@@ -239,8 +247,9 @@ class Shape:
         return f"{type(self).__name__}({args})"
 
     def __eq__(self, other: object) -> bool:
-        """Same type and the same plain data (:meth:`to_dict`'s values, made with the shape as one flat
-        tuple): value-keyed look-ups (the IK state's bound scenes) compare one tuple per shape."""
+        """Same type and the same plain data (:meth:`to_dict`'s values, made with the shape as one bytes
+        object, :func:`_plain_bytes`): value-keyed look-ups (the IK state's bound scenes) compare one bytes
+        object per shape."""
         return type(other) is type(self) and other._plain == self._plain
 
     def __hash__(self) -> int:

@@ -146,20 +146,23 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
 
 
 def test_equality_is_the_plain_data_equality(rng, ico_path):
-    """``==`` compares one tuple made with the shape; it answers as comparing ``to_dict()`` does, on equal
-    copies, on shapes of other kinds, and on copies with one number changed (sizes, poses, frames)."""
+    """``==`` compares one bytes object made with the shape; it answers as comparing ``to_dict()`` does, on
+    equal copies, on shapes of other kinds, and on copies with one number changed (sizes, poses, frames), or
+    two numbers traded between fields."""
     originals = shapes(rng, ico_path)
     copies = [type(s)(**{k: v for k, v in s.to_dict().items() if k != "kind"}) for s in originals]
     T = random_pose(rng)
     changed = [Sphere([0.1, 0.2, 0.3], 0.2000001), Box(originals[1].pose, [0.3, 0.2, 0.5000001]),
                Capsule([0, 0, 0], [0.3, 0.1, 0.2], 0.1, frames=["tool"]), Cylinder(T, 0.15, 0.4),
-               Mesh(ico_path, T)]
+               Mesh(ico_path, T), Cylinder(T, 0.4, 0.15), Cylinder(T, 0.15, 0.4, frames=["a", "b"]),
+               Cylinder(T, 0.15, 0.4, frames=["a, b"])]
     everything = originals + copies + changed
     for x in everything:
         for y in everything:
             assert (x == y) == (type(x) is type(y) and x.to_dict() == y.to_dict()), (x, y)
     assert all(a == b and hash(a) == hash(b) and a is not b for a, b in zip(originals, copies))
     assert not any(a == b for a, b in zip(originals, changed))
+    assert len({changed[3], changed[5], changed[6], changed[7]}) == 4
 
 
 def test_pose_arrays_are_read_only(rng, ico_path):
