@@ -8,11 +8,11 @@ shape is immutable, validated on construction, and knows
 * ``pose`` - its 4x4 placement in the world (m);
 * ``geometry()`` - the matching `coal` collision geometry, built with the shape
   (coal ships with Pinocchio; distances with witness points come from it), as are
-  its bounding ball, its hash, its ``signature`` (what a collision scene's layout
-  depends on: the kind and sizes, not the pose) and its ``obstacle_bytes`` (the row
-  of the compiled collision pre-check, :mod:`.obstacle_table`, as bytes; ``obstacle_row``
-  reads it) - the shape is immutable, so a scene of new shapes is built from these
-  without computing them;
+  its bounding ball, its hash, its ``signature_key`` (the bytes of its ``signature``,
+  what a collision scene's layout depends on: the kind and sizes, not the pose) and
+  its ``obstacle_bytes`` (the row of the compiled collision pre-check,
+  :mod:`.obstacle_table`, as bytes; ``obstacle_row`` reads it) - the shape is
+  immutable, so a scene of new shapes is built from these without computing them;
 * ``signed_distance(points)`` - the exact Euclidean signed distance (m) from
   world points, ``(N, 3) -> (N,)``, negative inside (closed forms below; the
   mesh uses its convex hull's face planes, exact inside and a lower bound on the
