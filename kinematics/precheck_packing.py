@@ -127,7 +127,8 @@ class RobotPacking:
     ``robot``: the sphere model; ``self_pairs`` ``(N, 2)``: the checked self pairs in scene order (empty
     without self collision); ``moving`` ``(M,)``: the robot geometries on a moving joint, each paired with
     every obstacle; ``inner_radii``: as :func:`robot_floats`; ``floats``: the robot half when another packing
-    of the robot has it already (read-only; None: made here).
+    of the robot has it already (read-only; None: made here). :attr:`floats_bytes` holds the robot half's
+    bytes, which a scene's floats start with (:meth:`~.scene_precheck.ScenePrecheck.scene_floats`).
     """
 
     def __init__(self, robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray,
@@ -139,6 +140,7 @@ class RobotPacking:
             floats = robot_floats(robot, inner_radii)
             floats.setflags(write=False)
         self.floats = floats
+        self.floats_bytes = floats.tobytes()
         self._lock = threading.Lock()
         self._ints = robot_ints(robot, self.self_pairs, self.moving, FIRST_CAPACITY)
 

@@ -95,9 +95,9 @@ class ScenePrecheck:
         self.classify, self.uncertified_pairs, self.tolerance = \
             classify_configuration, uncertified_pairs, TOLERANCE
         #: The robot half of the packed floats and the packed integers, both the packing's own arrays, and the
-        #: robot half's bytes (a scene's floats start with them: :meth:`scene_floats`).
+        #: robot half's bytes (the packing's too; a scene's floats start with them: :meth:`scene_floats`).
         self.robot_floats = packing.floats
-        self.robot_bytes = packing.floats.tobytes()
+        self.robot_bytes = packing.floats_bytes
         self.ints = packing.ints_for(n_obstacles)
         self.pairs = table_view(self.ints, n_obstacles)
         _check_table(self.pairs, scene_pairs, n_robot)

@@ -326,7 +326,7 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
     alone = robot.collision_scene([Sphere((0.3, 0.2, 0.5), 0.08)], self_collision=False)
     pf, po = few.layout.precheck(), other.layout.precheck()
     assert few.layout is not other.layout
-    assert pf.ints is po.ints and pf.robot_floats is po.robot_floats
+    assert pf.ints is po.ints and pf.robot_floats is po.robot_floats and pf.robot_bytes is po.robot_bytes
     alone_check = alone.layout.precheck()
     assert alone_check.ints is not pf.ints  # no self pairs: the other packing, on the same robot half
     assert alone_check.robot_floats is pf.robot_floats and int(alone_check.ints[4]) == 0
