@@ -224,9 +224,7 @@ def precheck_verdict(scene, q: np.ndarray) -> str:
     if verdict == FREE or verdict == COLLIDING:
         return PRECHECK_VERDICTS[0 if verdict == FREE else 1]
     if verdict > UNDECIDED and pre.hull_verdict is not None:
-        hulls = pre.hulls
-        verdict = pre.hull_verdict(pre.floats, pre.ints, hulls.points, hulls.geoms, hulls.radius,
-                                   pre.table_rows, q, verdict, pre.tolerance)
+        verdict = pre.hull_verdict(pre.floats, pre.ints, *pre.hull_arguments, q, verdict, pre.tolerance)
         if verdict == FREE or verdict == COLLIDING:
             return PRECHECK_VERDICTS[2]
     return PRECHECK_VERDICTS[3]

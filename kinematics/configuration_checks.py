@@ -173,8 +173,7 @@ def _hit_test(check: CoalCheck, precheck: PrecheckArguments) -> tuple[Callable[[
     classify, pairs_of, tol = precheck.classify, precheck.uncertified_pairs, precheck.tolerance
     floats, ints = precheck.floats, precheck.ints
     coal_hits, pair_hits = coal_test(check), pair_test(check)
-    hull_verdict = precheck.hull_verdict
-    hull_arguments = None if hull_verdict is None else (*precheck.hulls, precheck.table_rows)
+    hull_verdict, hull_arguments = precheck.hull_verdict, precheck.hull_arguments
 
     def decide(q, verdict: int) -> bool:
         if verdict > UNDECIDED and hull_verdict is not None:

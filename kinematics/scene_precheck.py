@@ -57,9 +57,10 @@ class PrecheckArguments(NamedTuple):
     ``hulls``: the robot's :class:`~.hull_table.HullTable` (None: the compiled distances are not available)
     and ``table_rows`` ``(P,)``: the row of the pair table of each scene pair (:mod:`.precheck_packing`), for
     :func:`~.motion_kernels.advance_on_distances`.
-    ``hull_verdict(floats, ints, points, hull_geoms, radius, table_rows, q, verdict, tolerance)``
+    ``hull_verdict(floats, ints, *hull_arguments, q, verdict, tolerance)``
     (:func:`~.hull_verdict.hull_verdict`: the hulls' distances on the pairs an undecided ``classify``
-    verdict carries; None without ``hulls``).
+    verdict carries; None without ``hulls``) and ``hull_arguments`` ``(points, hull_geoms, radius,
+    table_rows)``: the layout's :attr:`ScenePrecheck.hull_arguments` (None without ``hulls``).
     """
 
     certify: Callable[..., bool]
@@ -75,6 +76,7 @@ class PrecheckArguments(NamedTuple):
     hulls: HullTable | None
     table_rows: np.ndarray
     hull_verdict: Callable[..., int] | None
+    hull_arguments: tuple | None
 
 
 class ScenePrecheck:
@@ -142,7 +144,7 @@ class ScenePrecheck:
         return PrecheckArguments(certify_configuration, first_uncertified, floats, self.ints, self.tolerance,
                                  certainly_colliding, self.robot.sphere_reach,
                                  self.pair_reach, self.classify, self.uncertified_pairs, self.hulls,
-                                 self.table_rows, self.hull_verdict)
+                                 self.table_rows, self.hull_verdict, self.hull_arguments)
 
 
 def _check_table(table: np.ndarray, scene_pairs: np.ndarray, n_robot: int) -> None:

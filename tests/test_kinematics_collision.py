@@ -484,7 +484,7 @@ def test_an_undecided_first_check_places_only_the_obstacles_of_its_pairs():
     for q in Q:  # a configuration the spheres and the hulls leave to coal on pairs of one obstacle of scene 1
         verdict = pre.classify(pre.floats, pre.ints, q, pre.tolerance)
         if verdict > UNDECIDED:
-            verdict = pre.hull_verdict(pre.floats, pre.ints, *pre.hulls, pre.table_rows, q, verdict,
+            verdict = pre.hull_verdict(pre.floats, pre.ints, *pre.hull_arguments, q, verdict,
                                        pre.tolerance)
         if verdict >= UNDECIDED:
             pairs = carried_pairs(verdict) if verdict > UNDECIDED else \
