@@ -324,9 +324,12 @@ class CollisionModel:
             if self_collision is last.self_collision and len(obstacles) == len(held) \
                     and all(map(is_, obstacles, held)):
                 return last
+            del held
             if all(map(isinstance, obstacles, repeat(Shape))):  # shapes already
+                del last  # (below too) no local keeps the old scene alive while the new one is built
                 return self._new_scene(obstacles if type(obstacles) is tuple else tuple(obstacles),
                                        self_collision)
+        del last
         return self._new_scene(as_obstacles(obstacles), self_collision)
 
     def scene(self, obstacles: Iterable = (), self_collision: bool = True) -> CollisionScene:
@@ -342,11 +345,13 @@ class CollisionModel:
         last = self._last_scene
         if _same_objects(last, obs, self_collision):
             return last
+        del last  # no local keeps the old scene alive while the new one is built (:meth:`_new_scene`)
         return self._new_scene(obs, self_collision)
 
     def _new_scene(self, obstacles: tuple, self_collision: bool) -> CollisionScene:
-        """A new scene of ``obstacles`` (validated shapes), kept as the last one; the one before is freed
-        first (its arrays, warm from its checks, hold the new ones)."""
+        """A new scene of ``obstacles`` (validated shapes), kept as the last one. The one before is freed
+        first when the model holds the last reference to it (the callers keep no local one), so the memory
+        peak holds one scene's arrays, not two."""
         self._last_scene = _NO_SCENE
         scene = self._last_scene = CollisionScene(self.layout(obstacles, self_collision), obstacles)
         return scene

@@ -463,6 +463,36 @@ def test_the_model_keeps_only_the_last_scene_it_built():
     assert b is not a and b.obstacles[0] is changing[0]
 
 
+@pytest.mark.parametrize("entry", ["in_collision", "collision_scene", "scene_of", "scene", "dicts", "shape"])
+def test_the_old_scene_is_freed_before_the_new_one_is_built(entry, monkeypatch):
+    """When the model holds the last reference to its last scene, a new obstacle set frees that scene before
+    the new scene is built (the memory peak holds one scene's arrays), through every entry: no local of the
+    look-up keeps it alive until then."""
+    import weakref
+
+    from kinserve.kinematics import collision_model
+
+    robot = robots.load("panda")
+    cm = robot.collision
+    q = np.array([0.0, 0.3, 0.0, -2.0, 0.0, 2.6, 0.8])
+    old = weakref.ref(cm.scene_of((Box(_pose((0.5, -0.3, 0.2)), (0.13, 0.17, 0.19)),)))
+    alive_when_built = []
+    real_scene = collision_model.CollisionScene
+
+    def recording_scene(layout, obstacles):
+        alive_when_built.append(old() is not None)
+        return real_scene(layout, obstacles)
+
+    monkeypatch.setattr(collision_model, "CollisionScene", recording_scene)
+    new = Box(_pose((0.4, 0.3, 0.3)), (0.1, 0.1, 0.1))
+    {"in_collision": lambda: robot.in_collision(q, (new,)),
+     "collision_scene": lambda: robot.collision_scene([new]),
+     "scene_of": lambda: cm.scene_of((new,)),
+     "scene": lambda: cm.scene(iter([new])),
+     "dicts": lambda: cm.scene_of([new.to_dict()]),
+     "shape": lambda: cm.scene_of(new)}[entry]()
+    assert alive_when_built == [False] and old() is None
+    assert cm.cached_scene([]) is None and cm._last_scene.obstacles[0] == new
 def test_an_undecided_first_check_places_only_the_obstacles_of_its_pairs():
     """A new scene whose first undecided configuration leaves pairs with one obstacle places that obstacle
     alone in coal; the other queries - on this scene and on another scene of the layout, in any order - place
