@@ -493,6 +493,8 @@ def test_the_old_scene_is_freed_before_the_new_one_is_built(entry, monkeypatch):
      "shape": lambda: cm.scene_of(new)}[entry]()
     assert alive_when_built == [False] and old() is None
     assert cm.cached_scene([]) is None and cm._last_scene.obstacles[0] == new
+
+
 def test_an_undecided_first_check_places_only_the_obstacles_of_its_pairs():
     """A new scene whose first undecided configuration leaves pairs with one obstacle places that obstacle
     alone in coal; the other queries - on this scene and on another scene of the layout, in any order - place
