@@ -60,7 +60,7 @@ from pathlib import Path
 import numpy as np
 from _motion_peers import MotionPeer
 from bench_motion import SETS, SHARED_DATASET, load_robot, model_files, unpack
-from render_tables import render_clutter, write_section
+from render_tables import first_check_for_target, render_clutter, write_section
 
 from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE, UNDECIDED
 from kinserve.planners.motion.scene_yaml import read_planning_scene
@@ -325,14 +325,6 @@ def ratios(summary: dict) -> dict:
             "per_configuration_median": k["per_configuration"]["median_us"] / peer_per_q,
             "per_configuration_scene_call_median":
                 k["per_configuration_scene_call"]["median_us"] / peer_per_q}
-
-
-def first_check_for_target(figures_of_checker: dict) -> tuple[str, dict]:
-    """The first-check figures the target reads, and their name: the pass of its own (d) when the run has
-    one, else the run's first checks (a run of kinserve alone is a pass of its own)."""
-    if "first_check_alone" in figures_of_checker:
-        return "first_check_alone", figures_of_checker["first_check_alone"]
-    return "first_check", figures_of_checker["first_check"]
 
 
 def targets_met(summary: dict) -> dict:
