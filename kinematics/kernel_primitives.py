@@ -1,4 +1,5 @@
-"""Compiled primitives shared by the kernels: a rotation about an axis and the forward kinematics of a tree.
+"""Compiled primitives shared by the kernels: a rotation about an axis, the forward kinematics of a tree, and
+row views of packed arrays.
 
 Written once here and inlined (Numba IR) into the kernels of :mod:`.precheck_kernels`,
 :mod:`kinserve.ik.constraints.clearance_kernel` and :mod:`kinserve.ik.lm.kernel`; the cache key of all of
@@ -10,6 +11,9 @@ them covers this file (:mod:`.kernel_cache`), so a change here recompiles every 
   tree packed by :func:`kinserve.kinematics.serial_chain.kinematic_tree` (``tree[k]``: ``Mj``'s rotation
   row-major 0-8, translation 9-11, axis 12-14; ``joints[k]``: kind, ``q`` index, parent row), into rows of
   12 (rotation row-major, translation), row 0 the universe.
+* :func:`rows_view`: the ``(rows, cols)`` C-ordered view of the start of a flat C-ordered array, built
+  directly: Numba's ``reshape`` calls a C helper that works out the strides, and inlines its checks, on
+  every call, and the pre-check kernels view their packed arrays on every call.
 
 Metres and radians.
 """
@@ -17,8 +21,13 @@ Metres and radians.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numba.core import cgutils, types
+from numba.core.extending import intrinsic
+from numba.core.imputils import impl_ret_borrowed
+from numba.np.arrayobj import make_array, populate_array
 
 from .kernel_cache import inline
 from .serial_chain import REVOLUTE as _REVOLUTE
@@ -62,3 +71,27 @@ def tree_placements_into(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X:
         else:  # prismatic: t += T a q, R = T
             for i in range(3):
                 out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qk
+
+
+@intrinsic
+def rows_view(typingctx: Any, flat: types.Type, rows: types.Type, cols: types.Type) -> Any:
+    """``flat[:rows * cols].reshape((rows, cols))`` for a 1-D C-ordered array ``flat`` (compiled code only):
+    a C-ordered 2-D view sharing ``flat``'s memory and owner, read-only when ``flat`` is. Unchecked: the
+    caller guarantees ``0 <= rows``, ``0 <= cols`` and ``rows * cols <= len(flat)``."""
+    if not (isinstance(flat, types.Array) and flat.ndim == 1 and flat.layout == "C"
+            and isinstance(rows, types.Integer) and isinstance(cols, types.Integer)):
+        return None  # no implementation for these types: a typing error
+    view = flat.copy(ndim=2, layout="C")
+
+    def codegen(context, builder, signature, args):
+        source = make_array(signature.args[0])(context, builder, args[0])
+        out = make_array(view)(context, builder)
+        n_rows, n_cols = (context.cast(builder, value, kind, types.intp)
+                          for value, kind in zip(args[1:], signature.args[1:]))
+        item = source.itemsize
+        populate_array(out, data=source.data, shape=cgutils.pack_array(builder, [n_rows, n_cols]),
+                       strides=cgutils.pack_array(builder, [builder.mul(n_cols, item), item]),
+                       itemsize=item, meminfo=source.meminfo, parent=source.parent)
+        return impl_ret_borrowed(context, builder, view, out._getvalue())
+
+    return view(flat, rows, cols), codegen

@@ -65,7 +65,7 @@ import numba
 import numpy as np
 
 from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit, leaf
-from .kernel_primitives import tree_placements_into
+from .kernel_primitives import rows_view, tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_packing import HEADER, OBSTACLE_PAIR, SELF_PAIR
 from .precheck_verdicts import COLLIDING, FREE, PACKED_PAIRS, PAIR_BITS, UNDECIDED
@@ -106,12 +106,12 @@ def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
     start = HEADER + 3 * J + 5 * G
     if O < 0 or ints.shape[0] - 4 * P < start:
         raise ValueError("pre-check: the pair table holds fewer obstacles than the float array")
-    tree = floats[:15 * J].reshape((J, 15))
-    spheres = floats[16 * J:robot].reshape((S, 4))
-    obstacles = floats[robot:robot + 16 * O].reshape((O, 16))
-    joints = ints[HEADER:HEADER + 3 * J].reshape((J, 3))
-    geoms = ints[HEADER + 3 * J:start].reshape((G, 5))
-    pairs = ints[ints.shape[0] - 4 * P:].reshape((P, 4))
+    tree = rows_view(floats, J, 15)
+    spheres = rows_view(floats[16 * J:], S, 4)
+    obstacles = rows_view(floats[robot:], O, 16)
+    joints = rows_view(ints[HEADER:], J, 3)
+    geoms = rows_view(ints[HEADER + 3 * J:], G, 5)
+    pairs = rows_view(ints[ints.shape[0] - 4 * P:], P, 4)
     return tree, joints, spheres, geoms, pairs, obstacles
 
 
@@ -130,8 +130,8 @@ def workspace(n: int, S: int, G: int) -> tuple[np.ndarray, np.ndarray, np.ndarra
     ``placed`` ``(G,)`` (-1: cover not placed yet)."""
     rows = S + 1
     buffer = np.empty(12 * (n + 1) + 4 * rows + G)
-    X = buffer[:12 * (n + 1)].reshape((n + 1, 12))
-    W = buffer[12 * (n + 1):12 * (n + 1) + 4 * rows].reshape((rows, 4))
+    X = rows_view(buffer, n + 1, 12)
+    W = rows_view(buffer[12 * (n + 1):], rows, 4)
     placed = buffer[12 * (n + 1) + 4 * rows:]
     placed[:] = -1.0
     return X, W, placed

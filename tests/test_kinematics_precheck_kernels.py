@@ -4,17 +4,20 @@
   unaligned joints);
 * obstacle bounds against the closed-form signed distances of kinematics.shapes, and the squared test and
   slack of the certification against them;
+* the packed arrays' row views (``rows_view``) against NumPy's ``reshape``, sharing memory;
 * ``first_uncertified`` on converging paths against row-by-row certification and coal; rows near a certified
   one skipped without forward kinematics.
 """
 
 import coal
+import numba
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from kinserve import robots
 from kinserve.kinematics import precheck_kernels as pk
+from kinserve.kinematics.kernel_primitives import rows_view
 from kinserve.kinematics.obstacle_table import obstacle_row
 from kinserve.kinematics.precheck_verdicts import carried_pairs
 from kinserve.kinematics.serial_chain import kinematic_tree
@@ -37,6 +40,35 @@ def test_tree_placements_match_pinocchio_omi(name):
             M = data.oMi[j]
             assert np.abs(X[j, :9].reshape(3, 3) - M.rotation).max() < 1e-12
             assert np.abs(X[j, 9:] - M.translation).max() < 1e-12
+
+
+@numba.njit
+def _rows_of(flat, start, rows, cols):
+    return rows_view(flat[start:], rows, cols)
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.int64])
+def test_rows_view_is_reshape_of_the_slice_and_shares_its_memory(dtype):
+    """Every (start, rows, cols) that fits a flat array: the view equals NumPy's reshape of the slice, is
+    C-ordered (its compiled type too), writes through to the flat array, and is read-only when it is."""
+    flat = np.arange(30).astype(dtype)
+    for start in (0, 1, 7):
+        for rows, cols in ((0, 4), (1, 1), (3, 5), (2, 11), ((30 - start) // 4, 4)):
+            view = _rows_of(flat, start, rows, cols)
+            assert view.shape == (rows, cols) and view.flags.c_contiguous
+            assert np.array_equal(view, flat[start:start + rows * cols].reshape(rows, cols))
+            if rows:
+                view[rows - 1, cols - 1] = -5
+                assert flat[start + rows * cols - 1] == -5
+                flat[:] = np.arange(30)
+    item = numba.from_dtype(flat.dtype)
+    (signature,) = [s for s in _rows_of.nopython_signatures if s.args[0].dtype == item]
+    assert signature.return_type.layout == "C" and signature.return_type.ndim == 2
+    frozen = flat.copy()
+    frozen.setflags(write=False)
+    assert not _rows_of(frozen, 2, 3, 4).flags.writeable
+    with pytest.raises(numba.TypingError):
+        _rows_of(np.zeros((3, 4), dtype=dtype), 0, 2, 2)  # not 1-D: no implementation
 
 
 def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
