@@ -91,7 +91,9 @@ def pack(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, obstac
 
 
 def robot_ints(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, capacity: int) -> np.ndarray:
-    """The integer array (module docstring) with a pair table for ``capacity`` obstacles; read-only."""
+    """The integer array (module docstring) with a pair table for ``capacity`` obstacles. Never written once
+    made, but left writable: every compiled call reads it, and Numba's dispatch types a read-only array
+    through a slower path (a type fingerprint and a hash look-up, on every call) than a writable one."""
     moving = np.asarray(moving, dtype=np.int64).reshape(-1)
     table = pair_rows(self_pairs, moving, capacity)
     n_spheres = len(robot.spheres)
@@ -100,7 +102,6 @@ def robot_ints(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, 
     sizes = [len(robot.joints), n_spheres + len(robot.inner), len(robot.geoms), len(moving), n_self]
     ints = np.concatenate([np.array(sizes, dtype=np.int64), robot.joints.ravel().astype(np.int64),
                            geoms.ravel(), table.ravel()])
-    ints.setflags(write=False)
     return ints
 
 

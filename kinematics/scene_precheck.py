@@ -103,10 +103,9 @@ class ScenePrecheck:
         self.ints = packing.ints_for(n_obstacles)
         self.pairs = table_view(self.ints, n_obstacles)
         _check_table(self.pairs, scene_pairs, n_robot)
-        #: The row of :attr:`pairs` of each scene pair.
+        #: The row of :attr:`pairs` of each scene pair (never written once made; writable, as :attr:`ints`).
         self.table_rows = np.empty(len(self.pairs), dtype=np.int64)
         self.table_rows[self.pairs[:, 3]] = np.arange(len(self.pairs))
-        self.table_rows.setflags(write=False)
         #: :meth:`motion_reach`'s pair rates of the self pairs, per row of ``pairs``.
         self.pair_reach = self.motion_reach()
         #: The hulls' verdict on an undecided configuration's carried pairs

@@ -347,6 +347,27 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
         pk.certify_configuration(many.precheck().floats, pf.ints, Q[0], pk.TOLERANCE)
 
 
+def test_every_array_a_check_passes_to_the_kernels_is_typed_by_numbas_cache():
+    """Numba's dispatch types a C-ordered, aligned, writable array from a table (its typecode cache) and
+    any other through a fingerprint and a hash look-up on every call: every array a scene's check passes
+    to the compiled kernels (the packed floats and integers, the hull arguments) is of the first kind, and
+    ``typeof`` gives the kernels' own argument types (the signatures declare them read-only)."""
+    import numba
+
+    robot = robots.load("panda")
+    shapes = (Box(pose((0.4, 0.0, 0.3)), (0.1, 0.2, 0.1)), Sphere((0.3, 0.2, 0.5), 0.08))
+    scene = robot.collision_scene(shapes)
+    pre = scene.precheck()
+    arrays = [pre.floats, pre.ints, *(a for a in pre.hull_arguments if isinstance(a, np.ndarray))]
+    assert len(arrays) == 6
+    for array in arrays:
+        assert array.flags.c_contiguous and array.flags.aligned and array.flags.writeable
+    (signature,) = pre.classify.nopython_signatures
+    for array, declared in zip((pre.floats, pre.ints), signature.args):
+        typed = numba.typeof(array)
+        assert typed.mutable and typed.copy(readonly=True) == declared
+
+
 def test_a_scenes_floats_are_the_robot_half_then_each_shapes_row():
     """A new scene's packed floats are the packing's robot half followed by each obstacle's row as
     ``obstacle_row`` computes it from the shape's coal geometry and pose, in scene order; each scene owns its
