@@ -46,7 +46,10 @@ checked, the share in collision, the ratios kinserve / roboplan measured in this
 <= 5 µs per configuration, <= 50 µs for the first check; VAMP's 1.8 µs per configuration on the project's
 machine type is the reference). Defaults: 3 scenes per set x 200 configurations; ``--all``: every scene x 1000
 configurations, and the run's table is written into the ``clutter`` section of docs/benchmarks.md (``--docs``;
-``render_tables.render_clutter``).
+``render_tables.render_clutter``). Also the host's memory latency (:mod:`memory_latency`: one dependent
+load in an 8 MiB ring, in the L3 the host's guests share, and in a 256 MiB one, in memory) just before and
+after kinserve's pass of its own, in the JSON's ``machine`` section: the first check waits mostly on memory,
+so its figure moves with the host's state, which the warm per-configuration figures do not show.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import memory_latency
 import numpy as np
 from _motion_peers import MotionPeer
 from bench_motion import SETS, SHARED_DATASET, load_robot, model_files, unpack
@@ -375,6 +379,13 @@ def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> No
         print(f"  target {key}: {'met' if value else 'NOT met'}")
 
 
+def print_host(host: dict) -> None:
+    """The host's memory latency (:mod:`memory_latency`) before and after kinserve's pass of its own."""
+    for when, figures in host.items():
+        print(f"  host {when.removeprefix('memory_latency_ns_').replace('_', ' ')}: dependent load "
+              + ", ".join(f"{name.replace('_', ' ')} {ns:.0f} ns" for name, ns in figures.items()))
+
+
 # --------------------------------------------------------------------------- run
 def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
         work: Path = ROOT / "bench-out" / "motion-bench-maker") -> dict:
@@ -396,12 +407,15 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
     summary = {name: figures(rows) for name, rows in results.items()}
     if peer_alone is not None and "roboplan" in summary:
         summary["roboplan"]["first_check_alone"] = _us(peer_alone)
+    host = {"memory_latency_ns_before_pass": memory_latency.probe()}
     if worker is not None and "kinserve" in summary:
         print("kinserve's first checks in a pass of its own", flush=True)
         summary["kinserve"]["first_check_alone"] = _us(time_alone(robot, scenes, n_configs))
+    host["memory_latency_ns_after_pass"] = memory_latency.probe()
     agree, ratio = agreement(results), ratios(summary)
     met = targets_met(summary)
     print_table(summary, agree, ratio, met)
+    print_host(host)
     per_scene = [{"set": s.set, "index": s.index,
                   **{name: {"first_us": rows[k].first_s * 1e6,
                             "per_configuration_median_us": float(np.median(rows[k].per_q_s)) * 1e6,
@@ -409,7 +423,7 @@ def run(dataset: Path, per_set: int | None, n_configs: int, checkers=CHECKERS,
                             **({"first_verdict": rows[k].first_verdict} if rows[k].first_verdict else {})}
                      for name, rows in results.items() if k < len(rows)}}
                  for k, s in enumerate(scenes)]
-    return {"machine": {**machine(), "load_average": list(os.getloadavg())},
+    return {"machine": {**machine(), "load_average": list(os.getloadavg()), **host},
             "workload": {"dataset": str(dataset), "scenes": len(scenes), "per_set": per_set,
                          "configurations_per_scene": n_configs, "checkers": list(results),
                          "peer_version": None if worker is None else worker.version},

@@ -34,6 +34,9 @@ def test_bench_clutter_runs_and_its_table_copies_the_figures(tmp_path):
     doc = json.loads(out.read_text())
     k = doc["summary"]["kinserve"]
     assert k["scenes"] == 7 and k["configurations"] == 7 * 30
+    for when in ("memory_latency_ns_before_pass", "memory_latency_ns_after_pass"):  # the host's state
+        assert set(doc["machine"][when]) == {"l3_8MiB", "memory_256MiB"}
+        assert all(0 < ns < 1e5 for ns in doc["machine"][when].values())
     assert [s["set"] for s in doc["scenes"]] == ["table_pick", "table_under_pick", "box", "bookshelf_small",
                                                  "bookshelf_tall", "bookshelf_thin", "cage"]
     hits = sum(s["kinserve"]["in_collision"] for s in doc["scenes"])
@@ -65,7 +68,8 @@ def test_the_first_check_is_reported_by_what_ran_just_before_it():
     (one checker) has no split."""
     import numpy as np
 
-    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion"):
+    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion",
+                "memory_latency"):
         load_benchmark(dep)  # the names bench_clutter imports its siblings by
     bc = load_benchmark("bench_clutter", "bench_clutter_split")
 
@@ -87,7 +91,8 @@ def test_the_first_check_is_reported_by_what_ran_just_before_it():
 
 
 def _bench_clutter():
-    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion"):
+    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion",
+                "memory_latency"):
         load_benchmark(dep)  # the names bench_clutter imports its siblings by
     return load_benchmark("bench_clutter", "bench_clutter_verdicts")
 
