@@ -23,7 +23,7 @@ import numpy as np
 LINE_SLOTS = 8
 #: The probe's ring sizes (bytes): beyond this machine type's 1 MiB L2 and within its 32 MiB L3; then far
 #: beyond the L3.
-SIZES = {"l3_8MiB": 8 << 20, "memory_256MiB": 256 << 20}
+SIZES = {"8MiB": 8 << 20, "256MiB": 256 << 20}
 
 
 def ring(n_lines: int, seed: int = 0) -> np.ndarray:

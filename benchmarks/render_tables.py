@@ -235,6 +235,21 @@ def first_check_for_target(figures_of_checker: dict) -> tuple[str, dict]:
     return "first_check", figures_of_checker["first_check"]
 
 
+def _host_latency(m: dict) -> list[str]:
+    """The host's memory latency around kinserve's pass of its own (bench_clutter's ``machine`` section,
+    ``memory_latency.probe``), or nothing for a run without it."""
+    when = [(label, m[key]) for label, key in (("before", "memory_latency_ns_before_pass"),
+                                                ("after", "memory_latency_ns_after_pass")) if key in m]
+    if not when:
+        return []
+    parts = [f"{label} kinserve's pass of its own, "
+             + ", ".join(f"{name} {ns:.0f} ns" for name, ns in figures.items()) for label, figures in when]
+    return ["", "The host's memory at that moment, one dependent load in a ring of cache lines "
+                "(`memory_latency.py`: an 8 MiB ring sits in the L3 the host's guests share, a 256 MiB one "
+                "in memory; the cold first check waits mostly on memory, so its figure follows these): "
+                + "; ".join(parts) + "."]
+
+
 def render_clutter(d: dict) -> list[str]:
     """bench_clutter.py: the first check in a new scene and the check per configuration, kinserve beside
     roboplan on MotionBenchMaker's Panda scenes, with the ratios, the verdicts compared and the targets."""
@@ -277,6 +292,7 @@ def render_clutter(d: dict) -> list[str]:
                     "layouts forgotten first); each scene's configurations are checked after its first "
                     "check:", ""]
         out += [f"- {name}: {_us(f['median_us'])} / {_us(f['p95_us'])}" for name, f in alone]
+    out += _host_latency(d.get("machine", {}))
     by_verdict = summary.get("kinserve", {}).get("first_check_by_precheck")
     if by_verdict:
         out += ["", "kinserve's first check by the path its check of that configuration took (spheres: "
