@@ -383,7 +383,7 @@ def print_host(host: dict) -> None:
     """The host's memory latency (:mod:`memory_latency`) before and after kinserve's pass of its own."""
     for when, figures in host.items():
         print(f"  host {when.removeprefix('memory_latency_ns_').replace('_', ' ')}: dependent load "
-              + ", ".join(f"{name.replace('_', ' ')} {ns:.0f} ns" for name, ns in figures.items()))
+              + ", ".join(f"{name} {ns:.0f} ns" for name, ns in figures.items()))
 
 
 # --------------------------------------------------------------------------- run
