@@ -64,7 +64,7 @@ import memory_latency
 import numpy as np
 from _motion_peers import MotionPeer
 from bench_motion import SETS, SHARED_DATASET, load_robot, model_files, unpack
-from render_tables import first_check_for_target, render_clutter, write_section
+from render_tables import first_check_for_target, host_latency, render_clutter, write_section
 
 from kinserve.kinematics.precheck_verdicts import COLLIDING, FREE, UNDECIDED
 from kinserve.planners.motion.scene_yaml import read_planning_scene
@@ -380,10 +380,10 @@ def print_table(summary: dict, agree: dict | None, ratio: dict, met: dict) -> No
 
 
 def print_host(host: dict) -> None:
-    """The host's memory latency (:mod:`memory_latency`) before and after kinserve's pass of its own."""
-    for when, figures in host.items():
-        print(f"  host {when.removeprefix('memory_latency_ns_').replace('_', ' ')}: dependent load "
-              + ", ".join(f"{name} {ns:.0f} ns" for name, ns in figures.items()))
+    """The host's memory latency (:mod:`memory_latency`) before and after kinserve's pass of its own
+    (``render_tables.host_latency``)."""
+    for when, figures in host_latency(host):
+        print(f"  host {when} pass: dependent load {figures}")
 
 
 # --------------------------------------------------------------------------- run

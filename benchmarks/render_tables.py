@@ -235,19 +235,26 @@ def first_check_for_target(figures_of_checker: dict) -> tuple[str, dict]:
     return "first_check", figures_of_checker["first_check"]
 
 
+def host_latency(machine: dict) -> list[tuple[str, str]]:
+    """``(when, figures)`` for each memory probe in bench_clutter's ``machine`` section
+    (``memory_latency.probe`` just ``"before"`` and ``"after"`` kinserve's pass of its own; none for a run
+    without it), ``figures`` as ``"8MiB 21 ns, 256MiB 149 ns"``."""
+    return [(when, ", ".join(f"{name} {ns:.0f} ns" for name, ns in machine[key].items()))
+            for when, key in (("before", "memory_latency_ns_before_pass"),
+                              ("after", "memory_latency_ns_after_pass")) if key in machine]
+
+
 def _host_latency(m: dict) -> list[str]:
-    """The host's memory latency around kinserve's pass of its own (bench_clutter's ``machine`` section,
-    ``memory_latency.probe``), or nothing for a run without it."""
-    when = [(label, m[key]) for label, key in (("before", "memory_latency_ns_before_pass"),
-                                                ("after", "memory_latency_ns_after_pass")) if key in m]
+    """The host's memory latency around kinserve's pass of its own (:func:`host_latency`), or nothing for a
+    run without it."""
+    when = host_latency(m)
     if not when:
         return []
-    parts = [f"{label} kinserve's pass of its own, "
-             + ", ".join(f"{name} {ns:.0f} ns" for name, ns in figures.items()) for label, figures in when]
     return ["", "The host's memory at that moment, one dependent load in a ring of cache lines "
                 "(`memory_latency.py`: an 8 MiB ring sits in the L3 the host's guests share, a 256 MiB one "
                 "in memory; the cold first check waits mostly on memory, so its figure follows these): "
-                + "; ".join(parts) + "."]
+                + "; ".join(f"{label} kinserve's pass of its own, {figures}" for label, figures in when)
+                + "."]
 
 
 def render_clutter(d: dict) -> list[str]:
