@@ -66,16 +66,20 @@ def test_bench_clutter_runs_and_its_table_copies_the_figures(tmp_path):
     assert "stale table" not in text and row in text and text.endswith("<!-- clutter:end -->\n\nafter\n")
 
 
+def _bench_clutter():
+    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion",
+                "memory_latency"):
+        load_benchmark(dep)  # the names bench_clutter imports its siblings by
+    return load_benchmark("bench_clutter", "bench_clutter_verdicts")
+
+
 def test_the_first_check_is_reported_by_what_ran_just_before_it():
     """Scenes where a checker went second (the other checker's process ran just before) and scenes where it
     went first are summarised apart as well as together, and the table prints both; a run with one population
     (one checker) has no split."""
     import numpy as np
 
-    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion",
-                "memory_latency"):
-        load_benchmark(dep)  # the names bench_clutter imports its siblings by
-    bc = load_benchmark("bench_clutter", "bench_clutter_split")
+    bc = _bench_clutter()
 
     def scene(first_s, after_peer):
         return bc.SceneTimes(first_s, first_s / 10, np.full(3, 2e-6), np.zeros(3, dtype=bool),
@@ -92,13 +96,6 @@ def test_the_first_check_is_reported_by_what_ran_just_before_it():
     text = "\n".join(_render_tables().render_clutter(doc))
     assert "- kinserve: after its own previous scene 20.0 µs" in text
     assert "right after the other checker's turn 200.0 µs" in text and "(3 scenes)" in text
-
-
-def _bench_clutter():
-    for dep in ("_common", "_motion_check", "_peers", "_motion_peers", "render_tables", "bench_motion",
-                "memory_latency"):
-        load_benchmark(dep)  # the names bench_clutter imports its siblings by
-    return load_benchmark("bench_clutter", "bench_clutter_verdicts")
 
 
 def test_the_first_check_is_reported_by_the_precheck_verdict():
