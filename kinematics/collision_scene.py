@@ -83,6 +83,7 @@ if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
 
 _compute_collisions = pin.computeCollisions
+_NDARRAY, _FLOAT64 = np.ndarray, np.dtype(np.float64)
 _compute_collision = pin.computeCollision
 
 
@@ -141,8 +142,8 @@ class CollisionScene:
         else:
             self._floats = check.scene_floats(obstacles)
             self._ints, self._tolerance = check.ints, check.tolerance
-            self._classify, self._uncertified = check.classify, check.uncertified_pairs
-            self._hull_verdict, self._hull_arguments = check.hull_verdict, check.hull_arguments
+            self._classify, self._uncertified = check.classify_entry, check.uncertified_pairs
+            self._hull_verdict, self._hull_arguments = check.hull_verdict_entry, check.hull_arguments
 
     # the layout's, read through the scene
     @property
@@ -212,36 +213,34 @@ class CollisionScene:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
 
         ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`, one compiled
-        call): a configuration it certifies is free without coal, one with an inner ball deep in an obstacle
-        or in another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
-        certify - carried by the verdict when there are at most three
-        (:func:`~.precheck_kernels.classify_configuration`), and then only those the hulls' distances leave
-        open (:func:`~.hull_verdict.hull_verdict`, a second compiled call: free when each pair is apart, in
-        collision when one pair's cores overlap deeper than the tolerance), else listed by a second
-        compiled call
-        (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
-        :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
+        call, through the kernel's entry point, bound when the layout's pre-check was built: no dispatch per
+        call; a ``q`` that is not a float64 vector goes to coal alone): a configuration it certifies is free
+        without coal, one with an inner ball deep in an obstacle or in another link's is in collision without
+        coal; otherwise coal checks the pairs the spheres do not certify - carried by the verdict when there
+        are at most three (:func:`~.precheck_kernels.classify_configuration`), and then only those the hulls'
+        distances leave open (:func:`~.hull_verdict.hull_verdict`, a second compiled call: free when each pair
+        is apart, in collision when one pair's cores overlap deeper than the tolerance), else listed by a
+        second compiled call (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more
+        than :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
         :func:`~.configuration_checks.pair_test`), with only their obstacles placed in coal
         (:meth:`~.collision_layout.SceneLayout.pair_workspace`).
         """
         classify = self._classify
         pairs = None
-        if classify is not None:
-            try:
-                verdict = classify(self._floats, self._ints, q, self._tolerance)
-                if verdict == FREE:
-                    return False
-                if verdict == COLLIDING:
-                    return True
-                if verdict > UNDECIDED and self._hull_verdict is not None:
-                    verdict = self._hull_verdict(self._floats, self._ints, *self._hull_arguments, q, verdict,
-                                                 self._tolerance)
-                    if verdict == FREE or verdict == COLLIDING:
-                        return verdict == COLLIDING
-                pairs = undecided_pairs(verdict, self._uncertified, self._floats, self._ints, q,
-                                        self._tolerance)
-            except TypeError:  # not a float vector: coal decides (and raises as before)
-                pass
+        # the kernels' entry points read a float64 vector only (:func:`~.kernel_cache.entry_point`): anything
+        # else goes to coal, which decides (and raises on what it cannot read)
+        if classify is not None and type(q) is _NDARRAY and q.dtype is _FLOAT64 and q.ndim == 1:
+            verdict = classify(self._floats, self._ints, q, self._tolerance)
+            if verdict == FREE:
+                return False
+            if verdict == COLLIDING:
+                return True
+            if verdict > UNDECIDED and self._hull_verdict is not None:
+                verdict = self._hull_verdict(self._floats, self._ints, *self._hull_arguments, q, verdict,
+                                             self._tolerance)
+                if verdict == FREE or verdict == COLLIDING:
+                    return verdict == COLLIDING
+            pairs = undecided_pairs(verdict, self._uncertified, self._floats, self._ints, q, self._tolerance)
         if pairs is None:
             ws = self.layout.workspace(self.obstacles)
             return False if ws.check is None else ws.hits(q)

@@ -152,6 +152,23 @@ def compiled(signature: Any) -> Callable[[Callable[..., Any]], Any]:
     return numba.njit(signature, cache=True, nogil=True, error_model="numpy")
 
 
+def entry_point(kernel: Any) -> Callable[..., Any]:
+    """The machine code of ``kernel`` (a :func:`compiled` kernel: one signature) as Python calls it, without
+    Numba's dispatch. A dispatcher call types each argument and selects the overload on every call (about
+    0.3 µs per call on this project's machine, more on a first call in a new scene, whose dispatch code and
+    tables have left the caches: docs/benchmarks.md); the entry point only converts the arguments.
+
+    The caller guarantees the signature's types: the entry point converts an array by its item size and
+    reads it with the signature's dimensions and layout, so an array of another dtype of the same size (an
+    int64 array for a float64 one), of other dimensions or not C-contiguous where the signature says ``C`` is
+    misread, where the dispatcher would raise ``TypeError``. Use it for arrays the caller made itself or
+    checked (:meth:`~.collision_scene.CollisionScene.in_collision` checks the configuration's type first)."""
+    overloads = list(kernel.overloads.values())
+    if len(overloads) != 1:  # pragma: no cover - every compiled kernel has its one signature
+        raise RuntimeError(f"{kernel} has {len(overloads)} compiled signatures, expected one")
+    return overloads[0].entry_point
+
+
 def compile_all() -> list[str]:
     """Import every module of :data:`KERNEL_FILES` (``kinserve.`` + its path) and return their names. Each
     kernel compiles, or loads from the cache, when its module is imported, so after this call the cache holds

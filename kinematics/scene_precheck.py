@@ -24,6 +24,7 @@ import numpy as np
 
 from .hull_table import HullTable
 from .hull_verdict import hull_verdict
+from .kernel_cache import entry_point
 from .precheck_kernels import (
     OBSTACLE_PAIR,
     SELF_PAIR,
@@ -114,6 +115,12 @@ class ScenePrecheck:
         self.hull_verdict = None if hulls is None else hull_verdict
         self.hull_arguments = None if hulls is None else (hulls.points, hulls.geoms, hulls.radius,
                                                           self.table_rows)
+        #: :attr:`classify` and :attr:`hull_verdict` (None without ``hulls``) without Numba's dispatch
+        #: (:func:`~.kernel_cache.entry_point`), for a caller that passes the signatures' types only: this
+        #: pre-check's own arrays and a configuration it has checked is a float64 vector
+        #: (:meth:`~.collision_scene.CollisionScene.in_collision`).
+        self.classify_entry = entry_point(classify_configuration)
+        self.hull_verdict_entry = None if hulls is None else entry_point(hull_verdict)
 
     def motion_reach(self) -> np.ndarray:
         """``(P, J)``: per row of the pair table, a bound (m per unit of each joint's coordinate) of how fast

@@ -349,9 +349,11 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
 
 def test_every_array_a_check_passes_to_the_kernels_is_typed_by_numbas_cache():
     """Numba's dispatch types a C-ordered, aligned, writable array from a table (its typecode cache) and
-    any other through a fingerprint and a hash look-up on every call: every array a scene's check passes
+    any other through a fingerprint and a hash look-up on every call: every array a scene's checks pass
     to the compiled kernels (the packed floats and integers, the hull arguments) is of the first kind, and
-    ``typeof`` gives the kernels' own argument types (the signatures declare them read-only)."""
+    ``typeof`` gives the kernels' own argument types (the signatures declare them read-only). (A scene's
+    ``in_collision`` calls the kernels' entry points, which type nothing; the batch checks, the IK's and the
+    planners' call the dispatchers with the same arrays.)"""
     import numba
 
     robot = robots.load("panda")
@@ -366,6 +368,30 @@ def test_every_array_a_check_passes_to_the_kernels_is_typed_by_numbas_cache():
     for array, declared in zip((pre.floats, pre.ints), signature.args):
         typed = numba.typeof(array)
         assert typed.mutable and typed.copy(readonly=True) == declared
+
+
+def test_the_scenes_kernel_entry_points_answer_as_the_dispatchers_and_read_float64_vectors_only():
+    """A scene calls the pre-check's kernels through their entry points (no dispatch per call): they give the
+    dispatchers' verdicts, and a configuration that is not a float64 vector never reaches them (an entry
+    point would read an int64 array's bits as floats): coal decides it, so an int64 configuration gets its
+    float twin's answer, and a matrix or a list raises as coal does."""
+    from kinserve.kinematics.kernel_cache import entry_point
+
+    robot = robots.load("panda")
+    scene = robot.collision_scene((Box(pose((0.45, 0.0, 0.45)), (0.3, 0.6, 0.05)),
+                                   Sphere((0.3, 0.3, 0.6), 0.12)))
+    pre = scene.precheck()
+    Q = robot.random_q(np.random.default_rng(31), 300)
+    classify = entry_point(pk.classify_configuration)
+    assert [classify(pre.floats, pre.ints, q, pre.tolerance) for q in Q] == \
+        [pk.classify_configuration(pre.floats, pre.ints, q, pre.tolerance) for q in Q]
+    whole = np.round(Q).astype(np.int64)
+    answers = [scene.in_collision(q) for q in whole]
+    assert answers == [scene.in_collision(q.astype(float)) for q in whole] == coal_hits(scene, whole).tolist()
+    assert any(answers) and not all(answers)  # (the entry point, reading the bits, would see q ~ 0 each time)
+    for bad in (np.stack([Q[0], Q[0]]), list(Q[0])):
+        with pytest.raises(Exception, match="forwardKinematics"):
+            scene.in_collision(bad)
 
 
 def test_a_scenes_floats_are_the_robot_half_then_each_shapes_row():
