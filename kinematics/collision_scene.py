@@ -83,8 +83,8 @@ if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
 
 _compute_collisions = pin.computeCollisions
-_NDARRAY, _FLOAT64 = np.ndarray, np.dtype(np.float64)
 _compute_collision = pin.computeCollision
+_NDARRAY, _FLOAT64 = np.ndarray, np.dtype(np.float64)
 
 
 class DistanceArrays(NamedTuple):

@@ -154,9 +154,9 @@ def compiled(signature: Any) -> Callable[[Callable[..., Any]], Any]:
 
 def entry_point(kernel: Any) -> Callable[..., Any]:
     """The machine code of ``kernel`` (a :func:`compiled` kernel: one signature) as Python calls it, without
-    Numba's dispatch. A dispatcher call types each argument and selects the overload on every call (about
-    0.3 µs per call on this project's machine, more on a first call in a new scene, whose dispatch code and
-    tables have left the caches: docs/benchmarks.md); the entry point only converts the arguments.
+    Numba's dispatch. A dispatcher call types each argument and selects the overload on every call, and on
+    a first call in a new scene its code and tables have left the caches (docs/benchmarks.md, "The kernels
+    called without dispatch"); the entry point only converts the arguments.
 
     The caller guarantees the signature's types: the entry point converts an array by its item size and
     reads it with the signature's dimensions and layout, so an array of another dtype of the same size (an

@@ -117,7 +117,7 @@ class ScenePrecheck:
                                                           self.table_rows)
         #: :attr:`classify` and :attr:`hull_verdict` (None without ``hulls``) without Numba's dispatch
         #: (:func:`~.kernel_cache.entry_point`), for a caller that passes the signatures' types only: this
-        #: pre-check's own arrays and a configuration it has checked is a float64 vector
+        #: pre-check's own arrays and a configuration it has checked to be a float64 vector
         #: (:meth:`~.collision_scene.CollisionScene.in_collision`).
         self.classify_entry = entry_point(classify_configuration)
         self.hull_verdict_entry = None if hulls is None else entry_point(hull_verdict)
