@@ -162,11 +162,13 @@ def entry_point(kernel: Any) -> Callable[..., Any]:
     reads it with the signature's dimensions and layout, so an array of another dtype of the same size (an
     int64 array for a float64 one), of other dimensions or not C-contiguous where the signature says ``C`` is
     misread, where the dispatcher would raise ``TypeError``. Use it for arrays the caller made itself or
-    checked (:meth:`~.collision_scene.CollisionScene.in_collision` checks the configuration's type first)."""
+    checked (:meth:`~.collision_scene.CollisionScene.in_collision` checks the configuration's type first).
+    ``kernel`` itself when the compiled result has no ``entry_point`` (a Numba that no longer offers it):
+    slower, and stricter."""
     overloads = list(kernel.overloads.values())
-    if len(overloads) != 1:  # pragma: no cover - every compiled kernel has its one signature
+    if len(overloads) != 1:  # (every compiled kernel has its one signature)
         raise RuntimeError(f"{kernel} has {len(overloads)} compiled signatures, expected one")
-    return overloads[0].entry_point
+    return getattr(overloads[0], "entry_point", None) or kernel
 
 
 def compile_all() -> list[str]:

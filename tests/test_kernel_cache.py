@@ -16,6 +16,7 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from kinserve.kinematics import kernel_cache
 
@@ -227,3 +228,30 @@ def test_a_leaf_counts_no_references_and_refuses_to_allocate(tmp_path):
     assert got["leaf"][:2] == got["jit"][:2] == [expected, W.tolist()], got
     assert got["jit"][2] > 0 and got["leaf"][2] == 0, got
     assert got["refused"], got  # the allocating leaf did not compile
+
+
+
+def test_an_entry_point_is_the_kernels_machine_code_without_dispatch_or_the_kernel_itself():
+    """``entry_point`` gives the compiled function of a one-signature kernel, not its dispatcher, with the
+    dispatcher's answers; a compiled result without an entry point (a Numba that no longer offers it) gives
+    the dispatcher back, and a kernel of several signatures is refused."""
+    from types import SimpleNamespace
+
+    from kinserve import robots
+    from kinserve.kinematics import precheck_kernels as pk
+    from kinserve.kinematics.shapes import Box
+
+    robot = robots.load("panda")
+    pose = np.eye(4)
+    pose[:3, 3] = (0.45, 0.0, 0.45)
+    pre = robot.collision_scene((Box(pose, (0.3, 0.6, 0.05)),)).precheck()
+    certify = kernel_cache.entry_point(pk.certify_configuration)
+    assert certify is not pk.certify_configuration and not hasattr(certify, "overloads")
+    Q = robot.random_q(np.random.default_rng(4), 200)
+    answers = [certify(pre.floats, pre.ints, q, pre.tolerance) for q in Q]
+    assert answers == [pk.certify_configuration(pre.floats, pre.ints, q, pre.tolerance) for q in Q]
+    assert any(answers) and not all(answers)
+    fake = SimpleNamespace(overloads={"signature": SimpleNamespace()})
+    assert kernel_cache.entry_point(fake) is fake
+    with pytest.raises(RuntimeError, match="2 compiled signatures"):
+        kernel_cache.entry_point(SimpleNamespace(overloads={"a": SimpleNamespace(), "b": SimpleNamespace()}))
