@@ -230,7 +230,6 @@ def test_a_leaf_counts_no_references_and_refuses_to_allocate(tmp_path):
     assert got["refused"], got  # the allocating leaf did not compile
 
 
-
 def test_an_entry_point_is_the_kernels_machine_code_without_dispatch_or_the_kernel_itself():
     """``entry_point`` gives the compiled function of a one-signature kernel, not its dispatcher, with the
     dispatcher's answers; a compiled result without an entry point (a Numba that no longer offers it) gives
