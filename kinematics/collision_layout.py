@@ -108,7 +108,7 @@ class RobotCollisionGeometry:
         packings = None
         if self.spheres is not None:
             own = RobotPacking(self.spheres, self.model_pairs, self.moving, self.inner_radii)
-            packings = {True: own, False: RobotPacking(self.spheres, (), self.moving, floats=own.floats)}
+            packings = {True: own, False: RobotPacking(self.spheres, (), self.moving, self.inner_radii)}
         object.__setattr__(self, "packings", packings)
 
 

@@ -59,7 +59,7 @@ may be shared between threads. The geometry layout, the pair table, the
 pre-check of the pairs and the per-thread workspaces belong to a
 :class:`~.collision_layout.SceneLayout` shared by every scene whose obstacles
 have the same shapes (poses aside); a scene holds its obstacles and its
-pre-check arguments (the robot half and its shapes' own obstacle rows), made with
+pre-check floats (its shapes' own obstacle rows, joined), made with
 the scene; a query that reaches coal puts the obstacles' placements into its
 thread's workspace when another scene of the layout used it last (``in_collision``:
 only the obstacles of the pairs coal checks). The scene's

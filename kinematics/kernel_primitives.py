@@ -95,3 +95,31 @@ def rows_view(typingctx: Any, flat: types.Type, rows: types.Type, cols: types.Ty
         return impl_ret_borrowed(context, builder, view, out._getvalue())
 
     return view(flat, rows, cols), codegen
+
+
+@intrinsic
+def float_rows_view(typingctx: Any, words: types.Type, rows: types.Type, cols: types.Type) -> Any:
+    """``words[:rows * cols].view(np.float64).reshape((rows, cols))`` for a 1-D C-ordered int64 array
+    ``words`` (compiled code only): float64 values stored as their bit patterns among integer words, read as a
+    C-ordered 2-D float64 view sharing ``words``' memory and owner, read-only when ``words`` is (as
+    :func:`rows_view`; no call, no check). Unchecked: the caller guarantees ``0 <= rows``, ``0 <= cols`` and
+    ``rows * cols <= len(words)``."""
+    if not (isinstance(words, types.Array) and words.ndim == 1 and words.layout == "C"
+            and words.dtype == types.int64 and isinstance(rows, types.Integer)
+            and isinstance(cols, types.Integer)):
+        return None  # no implementation for these types: a typing error
+    view = words.copy(dtype=types.float64, ndim=2, layout="C")
+
+    def codegen(context, builder, signature, args):
+        source = make_array(signature.args[0])(context, builder, args[0])
+        out = make_array(view)(context, builder)
+        n_rows, n_cols = (context.cast(builder, value, kind, types.intp)
+                          for value, kind in zip(args[1:], signature.args[1:]))
+        item = source.itemsize  # 8: an int64 word holds one float64
+        populate_array(out, data=builder.bitcast(source.data, out.data.type),
+                       shape=cgutils.pack_array(builder, [n_rows, n_cols]),
+                       strides=cgutils.pack_array(builder, [builder.mul(n_cols, item), item]),
+                       itemsize=item, meminfo=source.meminfo, parent=source.parent)
+        return impl_ret_borrowed(context, builder, view, out._getvalue())
+
+    return view(words, rows, cols), codegen

@@ -41,10 +41,10 @@ world) - a geometry's cover spheres only when one of its pairs needs them -
 and test the scene's pairs, obstacle pairs first (a configuration in
 collision usually hits an obstacle), stopping at the first pair they cannot
 certify. Their arguments are two flat arrays (:mod:`.precheck_packing`; a
-compiled call pays per array argument): the integer array and the robot half
-of the floats are packed once per robot and shared by every scene, the obstacle
-rows (:mod:`.obstacle_table`, made with each shape) appended per scene. Each call
-allocates its own workspace: one kernel may run on many threads at once.
+compiled call pays per array argument): the integer array, which holds the
+robot's floats too, is packed once per robot and shared by every scene; the float
+array is the scene's obstacle rows (:mod:`.obstacle_table`, made with each shape).
+Each call allocates its own workspace: one kernel may run on many threads at once.
 The tree's forward kinematics is :mod:`.kernel_primitives`' (inlined); the cache
 key covers every kernel file (:mod:`.kernel_cache`). Every kernel has its
 signature: importing this module compiles them, or loads them from that cache,
@@ -65,7 +65,7 @@ import numba
 import numpy as np
 
 from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit, leaf
-from .kernel_primitives import rows_view, tree_placements_into
+from .kernel_primitives import float_rows_view, rows_view, tree_placements_into
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_packing import HEADER, OBSTACLE_PAIR, SELF_PAIR
 from .precheck_verdicts import COLLIDING, FREE, PACKED_PAIRS, PAIR_BITS, UNDECIDED
@@ -97,18 +97,19 @@ def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.n
 @_inline
 def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays
-    (:mod:`~.precheck_packing`): the obstacles are what ``floats`` holds after the robot half, the pairs the
-    last ``N + M O`` rows of the pair table. Raises ValueError when the table holds fewer obstacles."""
+    (:mod:`~.precheck_packing`): the obstacles are ``floats``' rows, the robot's floats a float64 view of
+    their words in ``ints``, the pairs the last ``N + M O`` rows of the pair table. Raises ValueError when
+    the table holds fewer obstacles."""
     J, S, G, M, N = ints[0], ints[1], ints[2], ints[3], ints[4]  # noqa: E741 - the packing's names
-    robot = 16 * J + 4 * S
-    O = (floats.shape[0] - robot) // 16  # noqa: E741
+    O = floats.shape[0] // 16  # noqa: E741
     P = N + M * O
     start = HEADER + 3 * J + 5 * G
-    if O < 0 or ints.shape[0] - 4 * P < start:
+    table = start + 16 * J + 4 * S
+    if ints.shape[0] - 4 * P < table:
         raise ValueError("pre-check: the pair table holds fewer obstacles than the float array")
-    tree = rows_view(floats, J, 15)
-    spheres = rows_view(floats[16 * J:], S, 4)
-    obstacles = rows_view(floats[robot:], O, 16)
+    tree = float_rows_view(ints[start:], J, 15)
+    spheres = float_rows_view(ints[start + 16 * J:], S, 4)
+    obstacles = rows_view(floats, O, 16)
     joints = rows_view(ints[HEADER:], J, 3)
     geoms = rows_view(ints[HEADER + 3 * J:], G, 5)
     pairs = rows_view(ints[ints.shape[0] - 4 * P:], P, 4)
@@ -118,9 +119,9 @@ def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
 @_inline
 def _reach(floats, ints):
     """The packed :attr:`~.robot_spheres.RobotSpheres.reach` ``(J,)`` (:func:`~.precheck_packing.pack`; a
-    view): only :func:`first_uncertified` reads it."""
-    J = ints[0]
-    return floats[15 * J:16 * J]
+    float64 view of its words in ``ints``): only :func:`first_uncertified` reads it."""
+    J, G = ints[0], ints[2]
+    return float_rows_view(ints[HEADER + 3 * J + 5 * G + 15 * J:], 1, J)[0]
 
 
 @_inline

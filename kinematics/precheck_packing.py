@@ -1,15 +1,18 @@
-"""The packed arguments of the compiled pre-check: one float array and one integer array per scene.
+"""The packed arguments of the compiled pre-check: one float array per scene, one integer array per robot.
 
 A compiled call pays per array argument, so the kernels of
 :mod:`.precheck_kernels` take everything they read in two flat arrays
 (:func:`pack`; the kernels' ``unpack`` gives the arrays back as views, no copy):
 
-* ``floats``: ``tree`` ``(J, 15)``, ``reach`` ``(J,)``, ``spheres`` ``(S, 4)`` (the
-  robot's spheres, then its inner balls: inner points with their radii), ``obstacles``
-  ``(O, 16)`` (:mod:`.obstacle_table`), row-major, in turn. ``O`` is what the array's
-  length leaves after the robot half;
-* ``ints``: ``(J, S, G, M, N)``, then ``joints`` ``(J, 3)``, ``geoms`` ``(G, 5)``
-  (joint, first and end cover row, first and end inner point row), then the **pair
+* ``floats``: the scene's obstacle table ``(O, 16)`` (:mod:`.obstacle_table`),
+  row-major: ``O`` is the array's length over 16. Nothing else: a new scene joins
+  its obstacles' rows and copies nothing of the robot;
+* ``ints``: the robot's words, int64: ``(J, S, G, M, N)``, then ``joints`` ``(J, 3)``,
+  ``geoms`` ``(G, 5)`` (joint, first and end cover row, first and end inner point
+  row), then the **robot's floats** - ``tree`` ``(J, 15)``, ``reach`` ``(J,)``,
+  ``spheres`` ``(S, 4)`` (the robot's spheres, then its inner balls: inner points
+  with their radii), row-major, as the bit patterns of their float64 values (the
+  kernels read them through a float64 view of these words) - then the **pair
   table**: rows of (robot geometry, other robot geometry or obstacle index, pair
   kind, index of the pair in the scene). ``M`` is the number of moving robot
   geometries (each is paired with every obstacle) and ``N`` the number of self
@@ -24,10 +27,9 @@ A compiled call pays per array argument, so the kernels of
 So the integer array does not depend on the obstacles: :class:`RobotPacking`
 makes one per robot geometry and self-collision choice, shared by every scene
 and every layout (a scene with more obstacles than the table holds gets a larger
-table, made once). Its memory - and the robot half of the floats - stays warm from
-one scene's checks to the next scene's first check. A scene appends its
-obstacles' rows (:attr:`~.shapes.Shape.obstacle_bytes`, made with each shape) to the
-robot half.
+table, made once). Its memory - the robot's floats with it - stays warm from one
+scene's checks to the next scene's first check, and a scene's own array holds its
+obstacles' rows only (:attr:`~.shapes.Shape.obstacle_bytes`, made with each shape).
 """
 
 from __future__ import annotations
@@ -56,8 +58,8 @@ class PackedArrays(NamedTuple):
 
 
 def robot_floats(robot: RobotSpheres, inner_radii: np.ndarray | None = None) -> np.ndarray:
-    """The robot half of the float array: ``tree``, ``reach``, the sphere rows then the inner balls (inner
-    points with ``inner_radii`` ``(I,)``, m; None: 0, points)."""
+    """The robot's floats (module docstring): ``tree``, ``reach``, the sphere rows then the inner balls (inner
+    points with ``inner_radii`` ``(I,)``, m; None: 0, points), float64 ``(16 J + 4 S,)``."""
     radii = np.zeros(len(robot.inner)) if inner_radii is None else np.asarray(inner_radii, dtype=float)
     rows = np.concatenate([robot.spheres, np.column_stack([robot.inner, radii])])
     return np.concatenate([robot.tree.ravel(), robot.reach, rows.ravel()])
@@ -86,23 +88,37 @@ def pack(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, obstac
     capacity = len(obstacles) if capacity is None else int(capacity)
     if capacity < len(obstacles):
         raise ValueError(f"a pair table for {capacity} obstacles cannot serve {len(obstacles)}")
-    floats = np.concatenate([robot_floats(robot, inner_radii), obstacles.ravel()])
-    return PackedArrays(floats, robot_ints(robot, self_pairs, moving, capacity))
+    ints = robot_ints(robot, self_pairs, moving, robot_floats(robot, inner_radii), capacity)
+    return PackedArrays(np.ascontiguousarray(obstacles.ravel()), ints)
 
 
-def robot_ints(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, capacity: int) -> np.ndarray:
-    """The integer array (module docstring) with a pair table for ``capacity`` obstacles. Never written once
-    made, but left writable: every compiled call reads it, and Numba's dispatch types a read-only array
-    through a slower path (a type fingerprint and a hash look-up, on every call) than a writable one."""
+def robot_ints(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, floats: np.ndarray,
+               capacity: int) -> np.ndarray:
+    """The integer array (module docstring) with the robot's floats ``floats`` (:func:`robot_floats`) and a
+    pair table for ``capacity`` obstacles. Never written once made, but left writable: every compiled call
+    reads it, and Numba's dispatch types a read-only array through a slower path (a type fingerprint and a
+    hash look-up, on every call) than a writable one."""
     moving = np.asarray(moving, dtype=np.int64).reshape(-1)
     table = pair_rows(self_pairs, moving, capacity)
     n_spheres = len(robot.spheres)
     geoms = np.column_stack([robot.geoms, robot.inner_ranges + n_spheres]).astype(np.int64)
     n_self = len(table) - capacity * len(moving)
     sizes = [len(robot.joints), n_spheres + len(robot.inner), len(robot.geoms), len(moving), n_self]
-    ints = np.concatenate([np.array(sizes, dtype=np.int64), robot.joints.ravel().astype(np.int64),
-                           geoms.ravel(), table.ravel()])
-    return ints
+    floats = np.ascontiguousarray(floats, dtype=np.float64)
+    if len(floats) != 16 * sizes[0] + 4 * sizes[1]:
+        raise ValueError(f"the robot's floats hold {len(floats)} values, not 16 J + 4 S = "
+                         f"{16 * sizes[0] + 4 * sizes[1]}")
+    return np.concatenate([np.array(sizes, dtype=np.int64), robot.joints.ravel().astype(np.int64),
+                           geoms.ravel(), floats.view(np.int64), table.ravel()])
+
+
+def robot_floats_of(ints: np.ndarray) -> np.ndarray:
+    """The robot's floats that ``ints`` holds (module docstring): a float64 view of its words, read-only."""
+    J, S, G = int(ints[0]), int(ints[1]), int(ints[2])
+    start = HEADER + 3 * J + 5 * G
+    out = ints[start:start + 16 * J + 4 * S].view(np.float64)
+    out.setflags(write=False)
+    return out
 
 
 def table_view(ints: np.ndarray, n_obstacles: int) -> np.ndarray:
@@ -115,35 +131,28 @@ def table_view(ints: np.ndarray, n_obstacles: int) -> np.ndarray:
 
 def table_capacity(ints: np.ndarray) -> int:
     """How many obstacles the pair table of ``ints`` holds."""
-    J, G, M, N = int(ints[0]), int(ints[2]), int(ints[3]), int(ints[4])
-    rows = (len(ints) - HEADER - 3 * J - 5 * G) // 4
+    J, S, G, M, N = (int(v) for v in ints[:HEADER])
+    rows = (len(ints) - HEADER - 3 * J - 5 * G - 16 * J - 4 * S) // 4
     return (rows - N) // M if M else 1 << 62
 
 
 class RobotPacking:
-    """The pre-check's arrays that do not depend on the obstacles, for one robot geometry and one
-    self-collision choice: the robot half of the floats (:attr:`floats`) and the integer array
-    (:meth:`ints_for`), shared by every layout and scene (module docstring).
+    """The pre-check's integer array (:meth:`ints_for`, holding the robot's floats), for one robot geometry
+    and one self-collision choice, shared by every layout and scene (module docstring).
 
     ``robot``: the sphere model; ``self_pairs`` ``(N, 2)``: the checked self pairs in scene order (empty
     without self collision); ``moving`` ``(M,)``: the robot geometries on a moving joint, each paired with
-    every obstacle; ``inner_radii``: as :func:`robot_floats`; ``floats``: the robot half when another packing
-    of the robot has it already (read-only; None: made here). :attr:`floats_bytes` holds the robot half's
-    bytes, which a scene's floats start with (:meth:`~.scene_precheck.ScenePrecheck.scene_floats`).
+    every obstacle; ``inner_radii``: as :func:`robot_floats`.
     """
 
     def __init__(self, robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray,
-                 inner_radii: np.ndarray | None = None, floats: np.ndarray | None = None) -> None:
+                 inner_radii: np.ndarray | None = None) -> None:
         self.robot = robot
         self.self_pairs = np.asarray(self_pairs, dtype=np.int64).reshape(-1, 2)
         self.moving = np.asarray(moving, dtype=np.int64).reshape(-1)
-        if floats is None:
-            floats = robot_floats(robot, inner_radii)
-            floats.setflags(write=False)
-        self.floats = floats
-        self.floats_bytes = floats.tobytes()
+        self._floats = robot_floats(robot, inner_radii)
         self._lock = threading.Lock()
-        self._ints = robot_ints(robot, self.self_pairs, self.moving, FIRST_CAPACITY)
+        self._ints = robot_ints(robot, self.self_pairs, self.moving, self._floats, FIRST_CAPACITY)
 
     def ints_for(self, n_obstacles: int) -> np.ndarray:
         """The shared integer array, its table holding at least ``n_obstacles`` obstacles (a larger one is
@@ -153,10 +162,10 @@ class RobotPacking:
             with self._lock:
                 ints = self._ints
                 if table_capacity(ints) < n_obstacles:
-                    ints = self._ints = robot_ints(self.robot, self.self_pairs, self.moving,
+                    ints = self._ints = robot_ints(self.robot, self.self_pairs, self.moving, self._floats,
                                                    max(2 * table_capacity(ints), int(n_obstacles)))
         return ints
 
 
 __all__ = ["FIRST_CAPACITY", "HEADER", "OBSTACLE_PAIR", "SELF_PAIR", "PackedArrays", "RobotPacking", "pack",
-           "pair_rows", "robot_floats", "robot_ints", "table_capacity", "table_view"]
+           "pair_rows", "robot_floats", "robot_floats_of", "robot_ints", "table_capacity", "table_view"]

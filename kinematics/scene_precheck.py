@@ -8,10 +8,10 @@ scene; obstacle pairs first, a configuration in collision usually hits an
 obstacle: found sooner; the verdict does not depend on the order), which every
 layout and scene of the robot shares. Each scene of the layout then gets its
 packed floats (:meth:`ScenePrecheck.scene_floats`): its obstacles' rows
-(:attr:`~.shapes.Shape.obstacle_bytes`, made with each shape) appended to the robot
-half's bytes, one join - all a new scene computes. Its :class:`PrecheckArguments`
-(:meth:`ScenePrecheck.arguments`), the record the planners and the IK read at set-up,
-are made from those floats when asked.
+(:attr:`~.shapes.Shape.obstacle_bytes`, made with each shape), one join - all a new
+scene computes (the robot's floats are in the packing's integer array). Its
+:class:`PrecheckArguments` (:meth:`ScenePrecheck.arguments`), the record the planners
+and the IK read at set-up, are made from those floats when asked.
 """
 
 from __future__ import annotations
@@ -97,10 +97,7 @@ class ScenePrecheck:
         #: :class:`~.collision_scene.CollisionScene` without importing the kernels itself.
         self.classify, self.uncertified_pairs, self.tolerance = \
             classify_configuration, uncertified_pairs, TOLERANCE
-        #: The robot half of the packed floats and the packed integers, both the packing's own arrays, and the
-        #: robot half's bytes (the packing's too; a scene's floats start with them: :meth:`scene_floats`).
-        self.robot_floats = packing.floats
-        self.robot_bytes = packing.floats_bytes
+        #: The packed integers (the robot's floats in them), the packing's own array.
         self.ints = packing.ints_for(n_obstacles)
         self.pairs = table_view(self.ints, n_obstacles)
         _check_table(self.pairs, scene_pairs, n_robot)
@@ -139,10 +136,10 @@ class ScenePrecheck:
 
     def scene_floats(self, obstacles: Sequence[Any]) -> np.ndarray:
         """The packed floats of a scene with ``obstacles`` (one per obstacle geometry: shapes of the layout's
-        signatures, each with its :attr:`~.shapes.Shape.obstacle_bytes`): the packed robot half followed by
-        the obstacles' rows, a new float64 array over one new ``bytearray`` (one join; writable, as the
-        compiled kernels' dispatch reads a writable array faster than a read-only one)."""
-        return np.frombuffer(bytearray().join((self.robot_bytes, *map(_OBSTACLE_BYTES, obstacles))))
+        signatures, each with its :attr:`~.shapes.Shape.obstacle_bytes`): the obstacles' rows, a new float64
+        array over one new ``bytearray`` (one join; writable, as the compiled kernels' dispatch reads a
+        writable array faster than a read-only one)."""
+        return np.frombuffer(bytearray().join(map(_OBSTACLE_BYTES, obstacles)))
 
     def arguments(self, floats: np.ndarray) -> PrecheckArguments:
         """The :class:`PrecheckArguments` of the scene whose packed floats are ``floats``

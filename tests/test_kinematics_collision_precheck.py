@@ -27,7 +27,7 @@ from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.collision_layout import SceneLayout
 from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.obstacle_table import obstacle_row
-from kinserve.kinematics.precheck_packing import pack, table_capacity
+from kinserve.kinematics.precheck_packing import pack, robot_floats_of, table_capacity
 from kinserve.kinematics.precheck_verdicts import PACKED_PAIRS, carried_pairs
 from kinserve.kinematics.scene_precheck import certify
 from kinserve.kinematics.shapes import Box, Sphere
@@ -315,8 +315,8 @@ def test_certainly_colliding_equals_every_inner_ball_tested():
 
 
 def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacles_grows_its_table():
-    """The pre-check's integer array and the robot half of its floats do not depend on the obstacles: every
-    layout of a robot (same self-collision choice) reads the same arrays, whatever its shapes and count. A
+    """The pre-check's integer array (the robot's floats in it) does not depend on the obstacles: every
+    layout of a robot (same self-collision choice) reads the same array, whatever its shapes and count. A
     scene with more obstacles than the table holds gets a larger table (the scenes before keep theirs and
     stay right); every scene answers as pair-by-pair coal; floats with more obstacles than a table raise."""
     robot = robots.load("panda")
@@ -326,10 +326,11 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
     alone = robot.collision_scene([Sphere((0.3, 0.2, 0.5), 0.08)], self_collision=False)
     pf, po = few.layout.precheck(), other.layout.precheck()
     assert few.layout is not other.layout
-    assert pf.ints is po.ints and pf.robot_floats is po.robot_floats and pf.robot_bytes is po.robot_bytes
+    assert pf.ints is po.ints
     alone_check = alone.layout.precheck()
-    assert alone_check.ints is not pf.ints  # no self pairs: the other packing, on the same robot half
-    assert alone_check.robot_floats is pf.robot_floats and int(alone_check.ints[4]) == 0
+    assert alone_check.ints is not pf.ints  # no self pairs: the other packing, with the same robot floats
+    assert np.array_equal(robot_floats_of(alone_check.ints), robot_floats_of(pf.ints))
+    assert int(alone_check.ints[4]) == 0 and int(pf.ints[4]) == len(robot.collision.geometry.collisionPairs)
     capacity = table_capacity(pf.ints)
     n = capacity + 5  # small balls 0.45-1.1 m from the base axis: some configurations hit one
     angle, radius, z = rng.uniform(0, 2 * np.pi, n), rng.uniform(0.45, 1.1, n), rng.uniform(0.0, 1.2, n)
@@ -394,11 +395,13 @@ def test_the_scenes_kernel_entry_points_answer_as_the_dispatchers_and_read_float
             scene.in_collision(bad)
 
 
-def test_a_scenes_floats_are_the_robot_half_then_each_shapes_row():
-    """A new scene's packed floats are the packing's robot half followed by each obstacle's row as
-    ``obstacle_row`` computes it from the shape's coal geometry and pose, in scene order; each scene owns its
-    floats (a writable array of its own, not shared with another scene or the packing); a shape's row reads
-    back from its bytes read-only, and a pickled shape makes its bytes again."""
+def test_a_scenes_floats_are_each_shapes_row_and_the_robots_floats_are_in_the_packings_words():
+    """A new scene's packed floats are each obstacle's row as ``obstacle_row`` computes it from the shape's
+    coal geometry and pose, in scene order, and nothing else; each scene owns its floats (a writable array of
+    its own, not shared with another scene or the packing); the robot's floats - the tree, the reach and the
+    sphere rows, read back from the sphere model - are the bits of the packing's words after the joints and
+    geometries; a shape's row reads back from its bytes read-only, and a pickled shape makes its bytes
+    again."""
     import pickle
 
     robot = robots.load("panda")
@@ -408,12 +411,20 @@ def test_a_scenes_floats_are_the_robot_half_then_each_shapes_row():
     a, b = robot.collision_scene(shapes), robot.collision_scene(moved)
     assert a.layout is b.layout
     pa, pb = a.precheck(), b.precheck()
-    robot_half = a.layout.precheck().robot_floats
     for scene_shapes, floats in ((shapes, pa.floats), (moved, pb.floats)):
         rows = [obstacle_row(s.geometry(), s.pose) for s in scene_shapes]
-        assert np.array_equal(floats, np.concatenate([robot_half, *rows]))
+        assert np.array_equal(floats, np.concatenate(rows))
         assert floats.dtype == np.float64 and floats.flags.c_contiguous and floats.flags.writeable
-    assert not np.shares_memory(pa.floats, pb.floats) and not np.shares_memory(pa.floats, robot_half)
+    assert not np.shares_memory(pa.floats, pb.floats) and not np.shares_memory(pa.floats, pa.ints)
+    spheres, inner_radii = robot.collision.spheres, robot.collision.robot_geometry.inner_radii
+    J, S, G = (int(v) for v in pa.ints[:3])
+    assert (J, S) == (len(spheres.joints), len(spheres.spheres) + len(spheres.inner))
+    words = pa.ints[5 + 3 * J + 5 * G:5 + 3 * J + 5 * G + 16 * J + 4 * S]
+    inner_rows = np.column_stack([spheres.inner, inner_radii])
+    expected = np.concatenate([spheres.tree.ravel(), spheres.reach, spheres.spheres.ravel(),
+                               inner_rows.ravel()])
+    assert np.array_equal(words, expected.view(np.int64))
+    assert np.array_equal(robot_floats_of(pa.ints), expected) and not robot_floats_of(pa.ints).flags.writeable
     for shape in shapes:
         row = shape.obstacle_row
         assert row.shape == (16,) and not row.flags.writeable

@@ -4,7 +4,8 @@
   unaligned joints);
 * obstacle bounds against the closed-form signed distances of kinematics.shapes, and the squared test and
   slack of the certification against them;
-* the packed arrays' row views (``rows_view``) against NumPy's ``reshape``, sharing memory;
+* the packed arrays' row views (``rows_view``, and ``float_rows_view`` of float64 values stored in int64
+  words) against NumPy's ``reshape`` and ``view``, sharing memory;
 * ``first_uncertified`` on converging paths against row-by-row certification and coal; rows near a certified
   one skipped without forward kinematics.
 """
@@ -17,7 +18,7 @@ import pytest
 
 from kinserve import robots
 from kinserve.kinematics import precheck_kernels as pk
-from kinserve.kinematics.kernel_primitives import rows_view
+from kinserve.kinematics.kernel_primitives import float_rows_view, rows_view
 from kinserve.kinematics.obstacle_table import obstacle_row
 from kinserve.kinematics.precheck_verdicts import carried_pairs
 from kinserve.kinematics.serial_chain import kinematic_tree
@@ -69,6 +70,38 @@ def test_rows_view_is_reshape_of_the_slice_and_shares_its_memory(dtype):
     assert not _rows_of(frozen, 2, 3, 4).flags.writeable
     with pytest.raises(numba.TypingError):
         _rows_of(np.zeros((3, 4), dtype=dtype), 0, 2, 2)  # not 1-D: no implementation
+
+
+@numba.njit
+def _float_rows_of(words, start, rows, cols):
+    return float_rows_view(words[start:], rows, cols)
+
+
+def test_float_rows_view_reads_the_words_bits_as_float64_rows_and_shares_their_memory():
+    """Float64 values stored as int64 words (as the pre-check's integer array holds the robot's floats):
+    every (start, rows, cols) that fits reads them back exactly - signed zeros, tiny and huge values - as
+    NumPy's ``view(float64)`` of the slice, reshaped, C-ordered; a write through the view lands in the words'
+    bits; a read-only array gives a read-only view; float64 or 2-D words have no implementation."""
+    rng = np.random.default_rng(40)
+    values = np.concatenate([rng.normal(size=24), [-0.0, 5e-324, 1.7e308, -np.pi, 1e-300, 0.1]])
+    words = values.view(np.int64).copy()
+    for start in (0, 1, 7):
+        for rows, cols in ((0, 4), (1, 1), (3, 5), (2, 11), ((30 - start) // 4, 4)):
+            view = _float_rows_of(words, start, rows, cols)
+            expected = words[start:start + rows * cols].view(np.float64).reshape(rows, cols)
+            assert view.dtype == np.float64 and view.shape == (rows, cols) and view.flags.c_contiguous
+            assert np.array_equal(view.view(np.int64), expected.view(np.int64))  # bit for bit (-0.0 too)
+            if rows:
+                view[rows - 1, cols - 1] = 2.5
+                assert words[start + rows * cols - 1] == np.float64(2.5).view(np.int64)
+                words[:] = values.view(np.int64)
+    frozen = words.copy()
+    frozen.setflags(write=False)
+    assert not _float_rows_of(frozen, 2, 3, 4).flags.writeable
+    with pytest.raises(numba.TypingError):
+        _float_rows_of(values.copy(), 0, 2, 2)  # float64 already: no implementation
+    with pytest.raises(numba.TypingError):
+        _float_rows_of(words.reshape(5, 6), 0, 2, 2)  # not 1-D
 
 
 def test_obstacle_bounds_are_the_shapes_signed_distances(tmp_path):
