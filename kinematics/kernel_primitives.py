@@ -73,15 +73,17 @@ def tree_placements_into(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X:
                 out[9 + i] += (out[3 * i] * ax + out[3 * i + 1] * ay + out[3 * i + 2] * az) * qk
 
 
-@intrinsic
-def rows_view(typingctx: Any, flat: types.Type, rows: types.Type, cols: types.Type) -> Any:
-    """``flat[:rows * cols].reshape((rows, cols))`` for a 1-D C-ordered array ``flat`` (compiled code only):
-    a C-ordered 2-D view sharing ``flat``'s memory and owner, read-only when ``flat`` is. Unchecked: the
-    caller guarantees ``0 <= rows``, ``0 <= cols`` and ``rows * cols <= len(flat)``."""
-    if not (isinstance(flat, types.Array) and flat.ndim == 1 and flat.layout == "C"
-            and isinstance(rows, types.Integer) and isinstance(cols, types.Integer)):
-        return None  # no implementation for these types: a typing error
-    view = flat.copy(ndim=2, layout="C")
+def _is_flat(array: types.Type, rows: types.Type, cols: types.Type) -> bool:
+    """Whether the row views below have an implementation for these argument types: a 1-D C-ordered array
+    and two integers."""
+    return (isinstance(array, types.Array) and array.ndim == 1 and array.layout == "C"
+            and isinstance(rows, types.Integer) and isinstance(cols, types.Integer))
+
+
+def _rows_view_codegen(view: types.Array) -> Any:
+    """The code of a ``(rows, cols)`` C-ordered view ``view`` of a 1-D C-ordered array's first
+    ``rows * cols`` items: its data pointer (cast to the view's item type), shape, strides, meminfo and
+    parent; no copy, no check. Both arrays' items are ``view``'s size."""
 
     def codegen(context, builder, signature, args):
         source = make_array(signature.args[0])(context, builder, args[0])
@@ -89,37 +91,34 @@ def rows_view(typingctx: Any, flat: types.Type, rows: types.Type, cols: types.Ty
         n_rows, n_cols = (context.cast(builder, value, kind, types.intp)
                           for value, kind in zip(args[1:], signature.args[1:]))
         item = source.itemsize
-        populate_array(out, data=source.data, shape=cgutils.pack_array(builder, [n_rows, n_cols]),
-                       strides=cgutils.pack_array(builder, [builder.mul(n_cols, item), item]),
-                       itemsize=item, meminfo=source.meminfo, parent=source.parent)
-        return impl_ret_borrowed(context, builder, view, out._getvalue())
-
-    return view(flat, rows, cols), codegen
-
-
-@intrinsic
-def float_rows_view(typingctx: Any, words: types.Type, rows: types.Type, cols: types.Type) -> Any:
-    """``words[:rows * cols].view(np.float64).reshape((rows, cols))`` for a 1-D C-ordered int64 array
-    ``words`` (compiled code only): float64 values stored as their bit patterns among integer words, read as a
-    C-ordered 2-D float64 view sharing ``words``' memory and owner, read-only when ``words`` is (as
-    :func:`rows_view`; no call, no check). Unchecked: the caller guarantees ``0 <= rows``, ``0 <= cols`` and
-    ``rows * cols <= len(words)``."""
-    if not (isinstance(words, types.Array) and words.ndim == 1 and words.layout == "C"
-            and words.dtype == types.int64 and isinstance(rows, types.Integer)
-            and isinstance(cols, types.Integer)):
-        return None  # no implementation for these types: a typing error
-    view = words.copy(dtype=types.float64, ndim=2, layout="C")
-
-    def codegen(context, builder, signature, args):
-        source = make_array(signature.args[0])(context, builder, args[0])
-        out = make_array(view)(context, builder)
-        n_rows, n_cols = (context.cast(builder, value, kind, types.intp)
-                          for value, kind in zip(args[1:], signature.args[1:]))
-        item = source.itemsize  # 8: an int64 word holds one float64
         populate_array(out, data=builder.bitcast(source.data, out.data.type),
                        shape=cgutils.pack_array(builder, [n_rows, n_cols]),
                        strides=cgutils.pack_array(builder, [builder.mul(n_cols, item), item]),
                        itemsize=item, meminfo=source.meminfo, parent=source.parent)
         return impl_ret_borrowed(context, builder, view, out._getvalue())
 
-    return view(words, rows, cols), codegen
+    return codegen
+
+
+@intrinsic
+def rows_view(typingctx: Any, flat: types.Type, rows: types.Type, cols: types.Type) -> Any:
+    """``flat[:rows * cols].reshape((rows, cols))`` for a 1-D C-ordered array ``flat`` (compiled code only):
+    a C-ordered 2-D view sharing ``flat``'s memory and owner, read-only when ``flat`` is. Unchecked: the
+    caller guarantees ``0 <= rows``, ``0 <= cols`` and ``rows * cols <= len(flat)``."""
+    if not _is_flat(flat, rows, cols):
+        return None  # no implementation for these types: a typing error
+    view = flat.copy(ndim=2, layout="C")
+    return view(flat, rows, cols), _rows_view_codegen(view)
+
+
+@intrinsic
+def float_rows_view(typingctx: Any, words: types.Type, rows: types.Type, cols: types.Type) -> Any:
+    """``words[:rows * cols].view(np.float64).reshape((rows, cols))`` for a 1-D C-ordered int64 array
+    ``words`` (compiled code only): float64 values stored as their bit patterns among integer words (one per
+    word), read as a C-ordered 2-D float64 view sharing ``words``' memory and owner, read-only when ``words``
+    is (as :func:`rows_view`; no call, no check). Unchecked: the caller guarantees ``0 <= rows``,
+    ``0 <= cols`` and ``rows * cols <= len(words)``."""
+    if not (_is_flat(words, rows, cols) and words.dtype == types.int64):
+        return None  # no implementation for these types: a typing error
+    view = words.copy(dtype=types.float64, ndim=2, layout="C")
+    return view(words, rows, cols), _rows_view_codegen(view)
