@@ -95,6 +95,13 @@ def tree_placements(tree: np.ndarray, joints: np.ndarray, q: np.ndarray, X: np.n
 
 
 @_inline
+def _robot_floats_start(J, G):
+    """Index in ``ints`` of the robot's first float word: after the header, ``joints`` ``(J, 3)`` and
+    ``geoms`` ``(G, 5)`` (:mod:`~.precheck_packing`; its ``robot_floats_span`` is the Python twin)."""
+    return HEADER + 3 * J + 5 * G
+
+
+@_inline
 def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(tree, joints, spheres, geoms, pairs, obstacles)``: views of the packed arrays
     (:mod:`~.precheck_packing`): the obstacles are ``floats``' rows, the robot's floats a float64 view of
@@ -103,7 +110,7 @@ def unpack(floats: np.ndarray, ints: np.ndarray) -> tuple[np.ndarray, ...]:
     J, S, G, M, N = ints[0], ints[1], ints[2], ints[3], ints[4]  # noqa: E741 - the packing's names
     O = floats.shape[0] // 16  # noqa: E741
     P = N + M * O
-    start = HEADER + 3 * J + 5 * G
+    start = _robot_floats_start(J, G)
     table = start + 16 * J + 4 * S
     if ints.shape[0] - 4 * P < table:
         raise ValueError("pre-check: the pair table holds fewer obstacles than the float array")
@@ -121,7 +128,7 @@ def _reach(floats, ints):
     """The packed :attr:`~.robot_spheres.RobotSpheres.reach` ``(J,)`` (:func:`~.precheck_packing.pack`; a
     float64 view of its words in ``ints``): only :func:`first_uncertified` reads it."""
     J, G = ints[0], ints[2]
-    return float_rows_view(ints[HEADER + 3 * J + 5 * G + 15 * J:], 1, J)[0]
+    return float_rows_view(ints[_robot_floats_start(J, G) + 15 * J:], 1, J)[0]
 
 
 @_inline

@@ -89,7 +89,7 @@ def pack(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, obstac
     if capacity < len(obstacles):
         raise ValueError(f"a pair table for {capacity} obstacles cannot serve {len(obstacles)}")
     ints = robot_ints(robot, self_pairs, moving, robot_floats(robot, inner_radii), capacity)
-    return PackedArrays(np.ascontiguousarray(obstacles.ravel()), ints)
+    return PackedArrays(obstacles.ravel(), ints)
 
 
 def robot_ints(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, floats: np.ndarray,
@@ -112,11 +112,19 @@ def robot_ints(robot: RobotSpheres, self_pairs: np.ndarray, moving: np.ndarray, 
                            geoms.ravel(), floats.view(np.int64), table.ravel()])
 
 
-def robot_floats_of(ints: np.ndarray) -> np.ndarray:
-    """The robot's floats that ``ints`` holds (module docstring): a float64 view of its words, read-only."""
+def robot_floats_span(ints: np.ndarray) -> tuple[int, int]:
+    """``(start, end)``: where the robot's floats lie in ``ints`` (module docstring), after the header,
+    ``joints`` and ``geoms``; the pair table starts at ``end``. (The kernels' ``_robot_floats_start`` is
+    the compiled twin of ``start``.)"""
     J, S, G = int(ints[0]), int(ints[1]), int(ints[2])
     start = HEADER + 3 * J + 5 * G
-    out = ints[start:start + 16 * J + 4 * S].view(np.float64)
+    return start, start + 16 * J + 4 * S
+
+
+def robot_floats_of(ints: np.ndarray) -> np.ndarray:
+    """The robot's floats that ``ints`` holds (module docstring): a float64 view of its words, read-only."""
+    start, end = robot_floats_span(ints)
+    out = ints[start:end].view(np.float64)
     out.setflags(write=False)
     return out
 
@@ -131,8 +139,8 @@ def table_view(ints: np.ndarray, n_obstacles: int) -> np.ndarray:
 
 def table_capacity(ints: np.ndarray) -> int:
     """How many obstacles the pair table of ``ints`` holds."""
-    J, S, G, M, N = (int(v) for v in ints[:HEADER])
-    rows = (len(ints) - HEADER - 3 * J - 5 * G - 16 * J - 4 * S) // 4
+    M, N = int(ints[3]), int(ints[4])
+    rows = (len(ints) - robot_floats_span(ints)[1]) // 4
     return (rows - N) // M if M else 1 << 62
 
 
@@ -150,9 +158,9 @@ class RobotPacking:
         self.robot = robot
         self.self_pairs = np.asarray(self_pairs, dtype=np.int64).reshape(-1, 2)
         self.moving = np.asarray(moving, dtype=np.int64).reshape(-1)
-        self._floats = robot_floats(robot, inner_radii)
         self._lock = threading.Lock()
-        self._ints = robot_ints(robot, self.self_pairs, self.moving, self._floats, FIRST_CAPACITY)
+        self._ints = robot_ints(robot, self.self_pairs, self.moving, robot_floats(robot, inner_radii),
+                                FIRST_CAPACITY)
 
     def ints_for(self, n_obstacles: int) -> np.ndarray:
         """The shared integer array, its table holding at least ``n_obstacles`` obstacles (a larger one is
@@ -162,10 +170,12 @@ class RobotPacking:
             with self._lock:
                 ints = self._ints
                 if table_capacity(ints) < n_obstacles:
-                    ints = self._ints = robot_ints(self.robot, self.self_pairs, self.moving, self._floats,
+                    ints = self._ints = robot_ints(self.robot, self.self_pairs, self.moving,
+                                                   robot_floats_of(ints),
                                                    max(2 * table_capacity(ints), int(n_obstacles)))
         return ints
 
 
 __all__ = ["FIRST_CAPACITY", "HEADER", "OBSTACLE_PAIR", "SELF_PAIR", "PackedArrays", "RobotPacking", "pack",
-           "pair_rows", "robot_floats", "robot_floats_of", "robot_ints", "table_capacity", "table_view"]
+           "pair_rows", "robot_floats", "robot_floats_of", "robot_floats_span", "robot_ints",
+           "table_capacity", "table_view"]

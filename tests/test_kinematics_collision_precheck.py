@@ -27,7 +27,7 @@ from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.collision_layout import SceneLayout
 from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.obstacle_table import obstacle_row
-from kinserve.kinematics.precheck_packing import pack, robot_floats_of, table_capacity
+from kinserve.kinematics.precheck_packing import pack, robot_floats_of, robot_floats_span, table_capacity
 from kinserve.kinematics.precheck_verdicts import PACKED_PAIRS, carried_pairs
 from kinserve.kinematics.scene_precheck import certify
 from kinserve.kinematics.shapes import Box, Sphere
@@ -339,6 +339,7 @@ def test_every_layout_of_a_robot_shares_one_packing_and_a_scene_of_many_obstacle
     pm = many.layout.precheck()
     assert table_capacity(pm.ints) >= capacity + 5 and pm.ints is not pf.ints
     assert table_capacity(pf.ints) == capacity  # the earlier layouts keep their table
+    assert np.array_equal(robot_floats_of(pm.ints), robot_floats_of(pf.ints))  # the grown table's
     Q = robot.random_q(np.random.default_rng(22), 150)
     for scene in (few, other, alone, many):
         assert [scene.in_collision(q) for q in Q] == coal_hits(scene, Q).tolist()
@@ -420,6 +421,7 @@ def test_a_scenes_floats_are_each_shapes_row_and_the_robots_floats_are_in_the_pa
     J, S, G = (int(v) for v in pa.ints[:3])
     assert (J, S) == (len(spheres.joints), len(spheres.spheres) + len(spheres.inner))
     words = pa.ints[5 + 3 * J + 5 * G:5 + 3 * J + 5 * G + 16 * J + 4 * S]
+    assert robot_floats_span(pa.ints) == (5 + 3 * J + 5 * G, 5 + 3 * J + 5 * G + 16 * J + 4 * S)
     inner_rows = np.column_stack([spheres.inner, inner_radii])
     expected = np.concatenate([spheres.tree.ravel(), spheres.reach, spheres.spheres.ravel(),
                                inner_rows.ravel()])
