@@ -8,9 +8,11 @@ its :class:`ik.batch.worker.Job` once, then solves whole chunks
 as a local worker, so results are identical, target for target, to the
 ``"processes"`` backend for the same seed.
 
-Time limits are those of the local pool (:mod:`ik.batch.runners`): an actor
-still on its chunk after ``chunk_limit(n)`` seconds, or the overall
-``deadline``, kills every actor and raises
+Time limits are those of the local pool (:mod:`ik.batch.runners`), with the
+actor's start timed apart (:mod:`ik.batch.ray_actors`): an actor not started
+after :data:`~ik.batch.ray_actors.ACTOR_START_LIMIT` seconds, or still on its
+chunk ``chunk_limit(n)`` seconds after it began, or the overall ``deadline``,
+kills every actor and raises
 :class:`kinserve.kinematics.errors.WorkerTimeoutError`.
 
 ``ray.init(address=...)`` joins an existing cluster when an address is
@@ -21,13 +23,13 @@ Ray with ``processes`` CPUs is started and left running for later batches
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING
 
+from kinserve.ik.batch.ray_actors import BatchLabels, run_on_actors
 from kinserve.ik.batch.worker import Job, limit_blas_threads, solve_chunk
-from kinserve.kinematics.errors import InputError, WorkerTimeoutError
+from kinserve.kinematics.errors import InputError
 
 if TYPE_CHECKING:  # annotations only
     import numpy as np
@@ -63,6 +65,10 @@ class _ChunkSolver:
         # the request built here warms the robot's IK state (seed table, compiled chains) once per actor
         self.job = Job(robot, common["kwargs"], options, keep_history, common["frame"])
 
+    def ready(self) -> bool:
+        """Answers once ``__init__`` has run (:func:`~ik.batch.ray_actors.run_on_actors` times the start)."""
+        return True
+
     def solve(self, start, poses, q0s):
         return solve_chunk(self.job, start, poses, q0s)
 
@@ -71,64 +77,24 @@ def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, np.ndarray, np.ndar
                    options: dict, keep_history: bool, processes: int, on_done: Callable[[dict], None],
                    address: str | None = None, chunk_limit: Callable[[int], float] | None = None,
                    deadline: float | None = None) -> None:
-    """Solve ``chunks`` (``(start, poses, q0s)``) on ``processes`` actors; ``on_done(result)`` for each."""
+    """Solve ``chunks`` (``(start, poses, q0s)``) on ``processes`` actors; ``on_done(result)`` for each.
+    The actors' start and each chunk are timed apart (:mod:`ik.batch.ray_actors`); ``chunk_limit`` None:
+    no chunk limit."""
     ray = ensure_ray(address, processes)
     actor_class = ray.remote(num_cpus=1)(_ChunkSolver)
     workers = max(1, min(processes, int(ray.available_resources().get("CPU", processes)) or 1, len(chunks)))
+    data = {start: (poses, q0s) for start, poses, q0s in chunks}
+    spans = [(start, start + len(poses)) for start, poses, _ in chunks]
     robot_ref = ray.put(robot)
     actors = [actor_class.remote(robot_ref, common, options, keep_history) for _ in range(workers)]
     try:
-        _solve_on(ray, actors, list(chunks), on_done, chunk_limit, deadline)
+        run_on_actors(ray, actors, spans, lambda actor, start, _: actor.solve.remote(start, *data[start]),
+                      lambda _, result: on_done(result), chunk_limit or _no_limit, deadline,
+                      BatchLabels("ik.solve_many:", "targets"))
     finally:
         for actor in actors:
             ray.kill(actor)
 
 
-class _Running(NamedTuple):
-    """A chunk on an actor: the actor, the chunk's first target index and size, when it was submitted
-    (``time.monotonic()``)."""
-
-    actor: Any
-    start: int
-    n: int
-    t0: float
-
-
-def _solve_on(ray: ModuleType, actors: list, queue: list, on_done: Callable[[dict], None],
-              chunk_limit: Callable[[int], float] | None, deadline: float | None) -> None:
-    """Hand the chunks of ``queue`` to the ``actors`` (one at a time each, the next to whichever finishes)
-    and ``on_done`` each result; :class:`WorkerTimeoutError` when a chunk or the batch runs late."""
-    pending: dict[Any, _Running] = {}  # result reference -> the chunk it belongs to
-
-    def submit(actor):
-        start, poses, q0s = queue.pop(0)
-        pending[actor.solve.remote(start, poses, q0s)] = _Running(actor, start, len(poses), time.monotonic())
-
-    for actor in actors:
-        if queue:
-            submit(actor)
-    while pending:
-        done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
-        if not done:
-            _check_lateness(pending.values(), time.monotonic(), chunk_limit, deadline)
-            continue
-        ref = done[0]
-        actor = pending.pop(ref).actor
-        on_done(ray.get(ref))
-        if queue:
-            submit(actor)
-
-
-def _check_lateness(running: Iterable[_Running], now: float, chunk_limit: Callable[[int], float] | None,
-                    deadline: float | None) -> None:
-    """:class:`WorkerTimeoutError` when a running chunk has taken longer than ``chunk_limit(n)`` seconds or
-    the batch's ``deadline`` (``time.monotonic()`` time) has passed."""
-    for _, start, n, t0 in running:
-        limit = chunk_limit(n) if chunk_limit is not None else None
-        if (limit is not None and now - t0 > limit) or (deadline is not None and now > deadline):
-            late = limit and now - t0 > limit
-            why = "chunk limit %.1f s" % limit if late else "overall timeout"
-            raise WorkerTimeoutError(
-                f"ik.solve_many: a Ray actor has not finished targets[{start}:{start + n}] after "
-                f"{now - t0:.1f} s ({why}); every actor was killed"
-            )
+def _no_limit(n: int) -> float:
+    return float("inf")

@@ -11,7 +11,9 @@ Design (that of :func:`kinserve.ik.solve_many`):
   (``backend="ray"``). Problem ``i`` is planned with seed ``seed + i`` wherever it runs, so the plans
   are those of ``plan_motion`` one by one, in order, for any number of processes.
 * Every chunk of ``n`` problems has the time limit ``CHUNK_FACTOR * n * budget + CHUNK_SLACK`` (s),
-  ``budget`` being ``max_time`` (the plan's wall-clock budget); ``timeout=`` bounds the whole call.
+  ``budget`` being ``max_time`` (the plan's wall-clock budget); ``timeout=`` bounds the whole call. A Ray
+  actor's start (its process, imports, the job's set-up) is timed apart, and its first chunk's limit counts
+  from when it is ready (:mod:`kinserve.ik.batch.ray_actors`).
   A stalled worker raises :class:`~kinserve.kinematics.errors.WorkerTimeoutError`, a killed one is
   replaced and its chunk retried once; no worker outlives the call.
 """
@@ -26,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from kinserve.ik.batch.ray_actors import BatchLabels, run_on_actors
 from kinserve.ik.batch.ray_backend import ensure_ray
 from kinserve.ik.batch.runners import CHUNK_FACTOR, CHUNK_SLACK
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
@@ -157,6 +160,7 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
     n = len(job.problems)
     if n == 0:
         return []
+    job.prepare()  # here, once, whatever the backend: a forked worker inherits the collision model
     processes = min(_cpu_count() if processes is None else processes, n)
     chunks = motion_chunks(n, processes, chunksize)
     plans: list = [None] * n
@@ -169,8 +173,6 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
     elif processes == 1:
         run_here(job, chunks, on_done, deadline)
     else:
-        if plan_kwargs.get("self_collision", True) or any(p.obstacles for p in job.problems):
-            robot.collision  # built once here: forked workers inherit it  # noqa: B018
         with ChunkPool(job, processes) as pool:
             pool.run(chunks, on_done, _chunk_limit(plan_kwargs), deadline)
     return plans
@@ -187,13 +189,20 @@ def run_here(job: MotionJob, chunks: Sequence[tuple[int, int]], on_done: Callabl
 
 
 class _RayPlanner:
-    """Body of a Ray actor: holds the job (robot, problems, keywords) received once, plans chunks."""
+    """Body of a Ray actor: holds the job (robot, problems, keywords) received once and prepared
+    (:meth:`~.batch_workers.MotionJob.prepare`), plans chunks."""
 
     def __init__(self, job: MotionJob) -> None:
         from kinserve.ik.batch.worker import limit_blas_threads
 
         limit_blas_threads()
         self.job = job
+        job.prepare()
+
+    def ready(self) -> bool:
+        """Answers once ``__init__`` has run (:func:`~kinserve.ik.batch.ray_actors.run_on_actors` times the
+        start)."""
+        return True
 
     def plan(self, start: int, stop: int) -> list:
         return self.job.plan_chunk(start, stop)
@@ -202,40 +211,17 @@ class _RayPlanner:
 def run_ray(job: MotionJob, chunks: Sequence[tuple[int, int]], processes: int,
             on_done: Callable[[int, list], None], limit: Callable[[int], float], deadline: float | None,
             address: str | None = None) -> None:
-    """Plan the chunks on ``processes`` Ray actors (each receives the job once); the same time limits
-    as the local pool, every actor killed at the end."""
+    """Plan the chunks on ``processes`` Ray actors (each receives the job once and prepares it); the
+    time limits of the local pool, the actors' start timed apart (:mod:`kinserve.ik.batch.ray_actors`),
+    every actor killed at the end."""
     ray = ensure_ray(address, processes)
     actor_class = ray.remote(num_cpus=1)(_RayPlanner)
     workers = max(1, min(processes, int(ray.available_resources().get("CPU", processes)) or 1, len(chunks)))
     job_ref = ray.put(job)
     actors = [actor_class.remote(job_ref) for _ in range(workers)]
-    queue, pending = list(chunks), {}
     try:
-        def submit(actor) -> None:
-            start, stop = queue.pop(0)
-            pending[actor.plan.remote(start, stop)] = (actor, start, stop, time.monotonic())
-
-        for actor in actors[:len(queue)]:
-            submit(actor)
-        while pending:
-            done, _ = ray.wait(list(pending), num_returns=1, timeout=0.5)
-            if not done:
-                _check_ray_stalls(pending.values(), limit, deadline)
-                continue
-            actor, start, _, _ = pending.pop(done[0])
-            on_done(start, ray.get(done[0]))
-            if queue:
-                submit(actor)
+        run_on_actors(ray, actors, chunks, lambda actor, start, stop: actor.plan.remote(start, stop), on_done,
+                      limit, deadline, BatchLabels("plan_many:", "problems"))
     finally:
         for actor in actors:
             ray.kill(actor)
-
-
-def _check_ray_stalls(pending: Any, limit: Callable[[int], float], deadline: float | None) -> None:
-    now = time.monotonic()
-    for _, start, stop, since in pending:
-        late = now - since > limit(stop - start)
-        if late or (deadline is not None and now > deadline):
-            why = f"chunk limit {limit(stop - start):.1f} s" if late else "overall timeout"
-            raise WorkerTimeoutError(f"plan_many: a Ray actor has not finished problems[{start}:{stop}] "
-                                     f"after {now - since:.1f} s ({why}); every actor was killed")

@@ -70,6 +70,12 @@ class MotionJob:
         self.seed = seed
         self.planner = planner
 
+    def prepare(self) -> None:
+        """Build what every plan reads, before any chunk is timed: the robot's collision model (with its
+        compiled pre-check) when a problem has obstacles or self collision is checked (the default)."""
+        if self.kwargs.get("self_collision", True) or any(p.obstacles for p in self.problems):
+            self.robot.collision  # noqa: B018 - built on first read, kept by the robot
+
     def plan_chunk(self, start: int, stop: int) -> list:
         """The plans of problems ``start .. stop - 1``, problem ``i`` with seed ``self.seed + i``."""
         out = []
@@ -93,6 +99,7 @@ def _worker_main(conn, job: MotionJob, prefix: str) -> None:
     """Loop of a worker: receive ``(start, stop)``, plan, write the plans to a file, send its name."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     limit_blas_threads()
+    job.prepare()  # nothing left to do in a forked worker; a spawned one builds the collision model here
     while True:
         try:
             msg = conn.recv()
