@@ -1,9 +1,11 @@
-"""run_on_actors: an actor's start is timed apart from its chunks, on a simulated clock (no Ray, no real
-time: what is checked cannot depend on how busy the machine is)."""
+"""run_on_actors: an actor's start is timed apart from its chunks, on a simulated clock that the fake Ray's
+``wait`` moves from event to event (no Ray, no real time: what is checked cannot depend on how busy the
+machine is)."""
 
 from types import SimpleNamespace
 
 import pytest
+from fake_clock import clock_replaced
 
 from kinserve.ik.batch import ray_actors
 from kinserve.ik.batch.ray_actors import ACTOR_START_LIMIT, BatchLabels, run_on_actors
@@ -78,10 +80,9 @@ class FakeRay:
 
 
 @pytest.fixture
-def clock(monkeypatch):
-    c = Clock()
-    monkeypatch.setattr(ray_actors.time, "monotonic", c)
-    return c
+def clock():
+    with clock_replaced(Clock()) as c:  # time.monotonic, as ray_actors reads it
+        yield c
 
 
 def run(clock, actors, chunks, chunk_limit=lambda n: 10.0, deadline=None, **kw):
