@@ -119,9 +119,20 @@ def _plain_bytes(kind: str, frames: tuple[str, ...] | None, values: Iterable[Any
 _DERIVED = frozenset(("_geometry", "_hash", "_plain", "_ball", "signature_key", "obstacle_bytes"))
 
 
-class Shape:
-    """Common behaviour of the solid shapes (not instantiated directly)."""
+def _fields_of(cls: type) -> tuple[str, ...]:
+    """The slots of ``cls`` and its bases that hold a shape's constructor fields (:data:`_DERIVED` aside):
+    what a shape pickles."""
+    slots = (k for c in reversed(cls.__mro__) for k in c.__dict__.get("__slots__", ()))
+    return tuple(k for k in slots if k not in _DERIVED)
 
+
+class Shape:
+    """Common behaviour of the solid shapes (not instantiated directly).
+
+    Every field lives in a slot, the subclasses' too (no instance dictionary): a scene's shapes are freed in
+    the call that makes the next scene, and a slotted shape is one block of memory, not two."""
+
+    __slots__ = ("pose", "frames", "_ball", "_plain", "_hash", "signature_key", "obstacle_bytes")
     kind: str = "shape"
     pose: np.ndarray
     frames: tuple[str, ...] | None
@@ -258,7 +269,7 @@ class Shape:
         return self._hash
 
     def __getstate__(self) -> dict:  # the hash of a str differs between processes: not pickled
-        return {k: v for k, v in self.__dict__.items() if k not in _DERIVED}
+        return {k: getattr(self, k) for k in _fields_of(type(self)) if hasattr(self, k)}
 
     def __setstate__(self, state: dict) -> None:
         self._set(**state)
@@ -267,6 +278,7 @@ class Shape:
 class Sphere(Shape):
     """A ball: ``center`` (3,) in metres (world), ``radius`` > 0 (m)."""
 
+    __slots__ = ("center", "radius")
     kind = "sphere"
     center: tuple[float, float, float]
     radius: float
@@ -302,6 +314,7 @@ class Box(Shape):
     """A box: 4x4 ``pose`` of its centre (world), ``size`` = full edge lengths (m), as URDF's ``<box
     size>``."""
 
+    __slots__ = ("size",)
     kind = "box"
     size: tuple[float, float, float]
 
@@ -340,6 +353,7 @@ class Box(Shape):
 class Capsule(Shape):
     """All points within ``radius`` (m) of the segment from ``a`` to ``b`` (world, m)."""
 
+    __slots__ = ("a", "b", "radius")
     kind = "capsule"
     a: tuple[float, float, float]
     b: tuple[float, float, float]
@@ -381,6 +395,7 @@ class Cylinder(Shape):
     """A solid cylinder along its local z axis: 4x4 ``pose`` of its centre, ``radius`` and ``length`` (m), as
     URDF."""
 
+    __slots__ = ("radius", "length")
     kind = "cylinder"
     radius: float
     length: float
@@ -418,6 +433,7 @@ class Mesh(Shape):
     has no meaning and :class:`~kinserve.kinematics.errors.ModelError` is raised.
     """
 
+    __slots__ = ("path", "scale", "hull_vertices", "hull_planes", "_geometry")
     kind = "mesh"
     path: str
     scale: tuple[float, float, float]

@@ -132,15 +132,16 @@ def test_hash_is_of_the_plain_data_computed_once_and_not_pickled():
     signed_zero[0, 1] = -0.0  # == 0.0: equal shapes, so equal hashes
     assert Box(signed_zero, (0.1, 0.2, 0.3)) == a and hash(Box(signed_zero, (0.1, 0.2, 0.3))) == hash(a)
     assert hash(Cylinder(np.eye(4), 0.1, 0.2)) != hash(Box(np.eye(4), (0.1, 0.2, 0.2)))
-    assert a.__dict__["_hash"] == hash(a)  # computed with the shape, as are its coal geometry and ball
-    assert a.__dict__["_ball"] == struct.pack("4d", *a.bounding_ball()[0], a.bounding_ball()[1])
-    assert "_geometry" not in a.__dict__  # a primitive holds no coal object: each geometry() is a new one
+    assert a._hash == hash(a)  # computed with the shape, as are its coal geometry and ball
+    assert a._ball == struct.pack("4d", *a.bounding_ball()[0], a.bounding_ball()[1])
+    assert not hasattr(a, "_geometry")  # a primitive holds no coal object: each geometry() is a new one
+    assert not hasattr(a, "__dict__")  # every field in a slot: one block of memory per shape
     g1, g2 = a.geometry(), a.geometry()
     assert g1 is not g2 and np.allclose(g1.halfSide, [0.05, 0.1, 0.15])
     assert np.allclose(g2.halfSide, g1.halfSide)
     assert "_hash" not in a.__getstate__()  # str hashes differ between processes
     clone = pickle.loads(pickle.dumps(a))
-    assert clone.__dict__["_hash"] == hash(a) and clone == a  # computed again when unpickled
+    assert clone._hash == hash(a) and clone == a  # computed again when unpickled
     assert isinstance(clone.geometry(), type(a.geometry())) and clone.bounding_ball() == a.bounding_ball()
     assert {a: 1}[b] == 1
 
