@@ -149,7 +149,22 @@ def test_a_failed_set_up_or_chunk_is_a_worker_error_with_the_reason(clock):
         run(clock, actors, [(0, 2)])
 
 
+class FakeTaskError(InputError):
+    """As Ray raises a kinserve error of a task: an instance of its class, Ray's traceback as its text, the
+    error itself as ``cause``."""
+
+    def __init__(self, cause: Exception) -> None:
+        super().__init__("ray::Actor.plan() (pid=1)\n  File ..., in plan\n" + str(cause))
+        self.cause = cause
+
+
 def test_a_kinserve_error_on_the_actor_is_raised_as_it_is(clock):
     actors = [FakeActor(1.0, 1.0, chunk_error=InputError("targets[1]: not a pose"))]
     with pytest.raises(InputError, match=r"^targets\[1\]: not a pose$"):
         run(clock, actors, [(0, 2)])
+    clock.t = 0.0
+    error = InputError("targets[3]: not a pose")
+    actors = [FakeActor(1.0, 1.0, chunk_error=FakeTaskError(error))]
+    with pytest.raises(InputError, match=r"^targets\[3\]: not a pose$") as raised:
+        run(clock, actors, [(2, 4)])
+    assert raised.value is error  # Ray's wrapper unwrapped: the error as the actor raised it

@@ -114,11 +114,16 @@ def check_lateness(running: Iterable[ActorChunk], now: float, made: float,
 
 
 def _result(ray: ModuleType, ref: Any, labels: BatchLabels, chunk: ActorChunk | None) -> Any:
-    """``ray.get(ref)``; a kinserve error raised on the actor as it is, any other failure (the actor died,
-    its set-up or chunk raised) as :class:`WorkerError` naming the chunk (None: the actor's set-up)."""
+    """``ray.get(ref)``; a kinserve error raised on the actor as it is (Ray's wrapper, an instance of the
+    error's class carrying Ray's traceback as its text, is unwrapped to the error itself), any other failure
+    (the actor died, its set-up or chunk raised) as :class:`WorkerError` naming the chunk (None: the actor's
+    set-up)."""
     try:
         return ray.get(ref)
-    except KinserveError:
+    except KinserveError as exc:
+        cause = getattr(exc, "cause", None)
+        if isinstance(cause, KinserveError):
+            raise cause from None
         raise
     except ray.exceptions.RayError as exc:
         what = "its set-up" if chunk is None else f"{labels.items}[{chunk.start}:{chunk.stop}]"
