@@ -8,7 +8,7 @@ import pytest
 from fake_clock import clock_replaced
 
 from kinserve.ik.batch import ray_actors
-from kinserve.ik.batch.ray_actors import ACTOR_START_LIMIT, BatchLabels, run_on_actors
+from kinserve.ik.batch.ray_actors import ACTOR_START_LIMIT, BatchLabels, run_on_actors, run_on_new_actors
 from kinserve.kinematics.errors import InputError, WorkerError, WorkerTimeoutError
 
 LABELS = BatchLabels("ik.solve_many:", "targets")
@@ -62,8 +62,10 @@ class FakeRay:
 
     exceptions = SimpleNamespace(RayError=FakeRayError)
 
-    def __init__(self, clock: Clock) -> None:
-        self.clock = clock
+    def __init__(self, clock: Clock, cpus: int = 2) -> None:
+        self.clock, self.cpus = clock, cpus
+        self.made: list[FakeActor] = []
+        self.killed: list[FakeActor] = []
 
     def wait(self, refs, num_returns, timeout):
         assert num_returns == 1
@@ -71,6 +73,22 @@ class FakeRay:
             self.clock.t = min(self.clock.t + timeout, min(r.at for r in refs))
         ready = [r for r in refs if r.at <= self.clock.t]
         return ready[:1], [r for r in refs if not ready or r is not ready[0]]
+
+    def remote(self, num_cpus):  # ray.remote(num_cpus=1)(body): the class, whose remote() makes an actor
+        assert num_cpus == 1
+
+        def actor_class(body):
+            def make(*args):
+                self.made.append(body(*args))
+                return self.made[-1]
+            return SimpleNamespace(remote=make)
+        return actor_class
+
+    def available_resources(self):
+        return {"CPU": self.cpus}
+
+    def kill(self, actor):
+        self.killed.append(actor)
 
     def get(self, ref):
         assert ref.at <= self.clock.t, "a result read before it is ready"
@@ -168,3 +186,21 @@ def test_a_kinserve_error_on_the_actor_is_raised_as_it_is(clock):
     with pytest.raises(InputError, match=r"^targets\[3\]: not a pose$") as raised:
         run(clock, actors, [(2, 4)])
     assert raised.value is error  # Ray's wrapper unwrapped: the error as the actor raised it
+
+
+@pytest.mark.parametrize("processes, cpus, n_chunks, made", [(4, 2, 5, 2), (2, 8, 5, 2), (4, 4, 1, 1),
+                                                               (3, 0, 5, 1)])
+def test_new_actors_as_many_as_allowed_and_every_one_killed(clock, processes, cpus, n_chunks, made):
+    ray = FakeRay(clock, cpus)
+    chunks = [(2 * k, 2 * k + 2) for k in range(n_chunks)]
+    done = []
+    run_on_new_actors(ray, FakeActor, (1.0, 1.0), processes, chunks, lambda a, s, t: a.plan.remote(s, t),
+                      lambda start, result: done.append(start), lambda n: 10.0, None, LABELS)
+    assert len(ray.made) == made and ray.killed == ray.made
+    assert sorted(done) == [start for start, _ in chunks]
+    clock.t = 0.0
+    ray = FakeRay(clock, cpus)  # a run that raises kills its actors too
+    with pytest.raises(WorkerTimeoutError):
+        run_on_new_actors(ray, FakeActor, (1.0, 50.0), processes, chunks, lambda a, s, t: a.plan.remote(s, t),
+                          lambda start, result: None, lambda n: 10.0, None, LABELS)
+    assert len(ray.made) == made and ray.killed == ray.made

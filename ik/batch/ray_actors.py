@@ -15,7 +15,8 @@ two apart:
 An actor late to start or late on a chunk, or the deadline passed, raises :class:`WorkerTimeoutError`
 naming the chunk; an actor that died, or whose ``__init__`` or chunk raised something other than a
 :class:`~kinserve.kinematics.errors.KinserveError`, raises :class:`WorkerError` with Ray's reason. The
-caller kills the actors (in a ``finally``), so none outlives the run.
+caller kills the actors (in a ``finally``; :func:`run_on_new_actors` makes and kills them), so none
+outlives the run.
 """
 
 from __future__ import annotations
@@ -51,6 +52,23 @@ class BatchLabels(NamedTuple):
 
     prefix: str
     items: str
+
+
+def run_on_new_actors(ray: ModuleType, body: type, args: Sequence[Any], processes: int,
+                      chunks: Sequence[tuple[int, int]], submit: Callable[[Any, int, int], Any],
+                      on_done: Callable[[int, Any], None], chunk_limit: Callable[[int], float],
+                      deadline: float | None, labels: BatchLabels) -> None:
+    """:func:`run_on_actors` on new actors of class ``body`` (one CPU each, made with ``args``): as many as
+    ``processes``, the cluster's CPUs and the chunks allow (at least one), every one killed when the run
+    ends, however it ends."""
+    actor_class = ray.remote(num_cpus=1)(body)
+    cpus = int(ray.available_resources().get("CPU", processes)) or 1
+    actors = [actor_class.remote(*args) for _ in range(max(1, min(processes, cpus, len(chunks))))]
+    try:
+        run_on_actors(ray, actors, chunks, submit, on_done, chunk_limit, deadline, labels)
+    finally:
+        for actor in actors:
+            ray.kill(actor)
 
 
 def run_on_actors(ray: ModuleType, actors: Sequence[Any], chunks: Iterable[tuple[int, int]],
@@ -132,4 +150,5 @@ def _result(ray: ModuleType, ref: Any, labels: BatchLabels, chunk: ActorChunk | 
                           f"{reason[-1] if reason else type(exc).__name__}; every actor was killed") from None
 
 
-__all__ = ["ACTOR_START_LIMIT", "ActorChunk", "BatchLabels", "check_lateness", "run_on_actors"]
+__all__ = ["ACTOR_START_LIMIT", "ActorChunk", "BatchLabels", "check_lateness", "run_on_actors",
+           "run_on_new_actors"]

@@ -27,7 +27,7 @@ from collections.abc import Callable, Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING
 
-from kinserve.ik.batch.ray_actors import BatchLabels, run_on_actors
+from kinserve.ik.batch.ray_actors import BatchLabels, run_on_new_actors
 from kinserve.ik.batch.worker import Job, limit_blas_threads, solve_chunk
 from kinserve.kinematics.errors import InputError
 
@@ -73,28 +73,16 @@ class _ChunkSolver:
         return solve_chunk(self.job, start, poses, q0s)
 
 
-def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, np.ndarray, np.ndarray | None]], common: dict,
+def run_ray_chunks(robot: Robot, chunks: Sequence[tuple[int, int]],
+                   chunk_data: Callable[[int, int], tuple[np.ndarray, np.ndarray | None]], common: dict,
                    options: dict, keep_history: bool, processes: int, on_done: Callable[[dict], None],
-                   address: str | None = None, chunk_limit: Callable[[int], float] | None = None,
+                   chunk_limit: Callable[[int], float], address: str | None = None,
                    deadline: float | None = None) -> None:
-    """Solve ``chunks`` (``(start, poses, q0s)``) on ``processes`` actors; ``on_done(result)`` for each.
-    The actors' start and each chunk are timed apart (:mod:`ik.batch.ray_actors`); ``chunk_limit`` None:
-    no chunk limit."""
+    """Solve ``chunks`` (``(start, stop)`` target indices; ``chunk_data(start, stop)`` gives their
+    ``(poses, q0s)``) on ``processes`` actors; ``on_done(result)`` for each. The actors' start and each
+    chunk are timed apart (:mod:`ik.batch.ray_actors`)."""
     ray = ensure_ray(address, processes)
-    actor_class = ray.remote(num_cpus=1)(_ChunkSolver)
-    workers = max(1, min(processes, int(ray.available_resources().get("CPU", processes)) or 1, len(chunks)))
-    data = {start: (poses, q0s) for start, poses, q0s in chunks}
-    spans = [(start, start + len(poses)) for start, poses, _ in chunks]
-    robot_ref = ray.put(robot)
-    actors = [actor_class.remote(robot_ref, common, options, keep_history) for _ in range(workers)]
-    try:
-        run_on_actors(ray, actors, spans, lambda actor, start, _: actor.solve.remote(start, *data[start]),
-                      lambda _, result: on_done(result), chunk_limit or _no_limit, deadline,
+    run_on_new_actors(ray, _ChunkSolver, (ray.put(robot), common, options, keep_history), processes, chunks,
+                      lambda actor, start, stop: actor.solve.remote(start, *chunk_data(start, stop)),
+                      lambda _, result: on_done(result), chunk_limit, deadline,
                       BatchLabels("ik.solve_many:", "targets"))
-    finally:
-        for actor in actors:
-            ray.kill(actor)
-
-
-def _no_limit(n: int) -> float:
-    return float("inf")

@@ -126,9 +126,8 @@ def run_ray(job: Job, chunks: Sequence[tuple[int, int]], processes: int, on_done
             limits: TimeLimits) -> None:
     """Solve the chunks on Ray actors (:mod:`ik.batch.ray_backend`)."""
     common = {"frame": job.frame, "kwargs": job.kwargs}
-    ray_chunks = [(start, *job.chunk(start, stop)) for start, stop in chunks]
-    run_ray_chunks(job.robot, ray_chunks, common, job.options, job.keep_history, processes, on_done,
-         address=job.ray_address, chunk_limit=limits.chunk, deadline=limits.deadline)
+    run_ray_chunks(job.robot, chunks, job.chunk, common, job.options, job.keep_history, processes, on_done,
+                   limits.chunk, address=job.ray_address, deadline=limits.deadline)
 
 
 #: Execution backends: ``name -> runner(job, chunks, processes, on_done, limits)``.

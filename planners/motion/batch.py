@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from kinserve.ik.batch.ray_actors import BatchLabels, run_on_actors
+from kinserve.ik.batch.ray_actors import BatchLabels, run_on_new_actors
 from kinserve.ik.batch.ray_backend import ensure_ray
 from kinserve.ik.batch.runners import CHUNK_FACTOR, CHUNK_SLACK
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
@@ -215,13 +215,6 @@ def run_ray(job: MotionJob, chunks: Sequence[tuple[int, int]], processes: int,
     time limits of the local pool, the actors' start timed apart (:mod:`kinserve.ik.batch.ray_actors`),
     every actor killed at the end."""
     ray = ensure_ray(address, processes)
-    actor_class = ray.remote(num_cpus=1)(_RayPlanner)
-    workers = max(1, min(processes, int(ray.available_resources().get("CPU", processes)) or 1, len(chunks)))
-    job_ref = ray.put(job)
-    actors = [actor_class.remote(job_ref) for _ in range(workers)]
-    try:
-        run_on_actors(ray, actors, chunks, lambda actor, start, stop: actor.plan.remote(start, stop), on_done,
-                      limit, deadline, BatchLabels("plan_many:", "problems"))
-    finally:
-        for actor in actors:
-            ray.kill(actor)
+    run_on_new_actors(ray, _RayPlanner, (ray.put(job),), processes, chunks,
+                      lambda actor, start, stop: actor.plan.remote(start, stop), on_done, limit, deadline,
+                      BatchLabels("plan_many:", "problems"))
