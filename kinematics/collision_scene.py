@@ -77,7 +77,9 @@ import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
 from .configuration_checks import check_configurations, undecided_pairs
+from .errors import ShapeError
 from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
+from .validation import as_rows, as_vector
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -123,7 +125,7 @@ class CollisionScene:
     owns the obstacle placements.
     """
 
-    __slots__ = ("layout", "obstacles", "self_collision", "_geometry", "_layout_check", "_classify",
+    __slots__ = ("layout", "obstacles", "self_collision", "_nq", "_geometry", "_layout_check", "_classify",
                  "_uncertified", "_floats", "_ints", "_tolerance", "_hull_verdict", "_hull_arguments",
                  "__weakref__")
 
@@ -132,6 +134,7 @@ class CollisionScene:
         self.obstacles = obstacles
         #: Whether the robot's self pairs are checked (the layout's choice, a bool).
         self.self_collision: bool = layout.self_collision
+        self._nq: int = layout.model.nq
         self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
         # the pre-check's packed floats: all a new scene computes (read by in_collision without a look-up)
         check = self._layout_check = layout.sphere_precheck
@@ -212,48 +215,63 @@ class CollisionScene:
     def in_collision(self, q: np.ndarray) -> bool:
         """True when any checked pair intersects at ``q`` (broad phase, stops at the first hit).
 
-        ``q``: a float ``(nq,)`` array (unchecked). The sphere pre-check first (:meth:`precheck`, one compiled
-        call, through the kernel's entry point, bound when the layout's pre-check was built: no dispatch per
-        call; a ``q`` that is not a float64 vector goes to coal alone): a configuration it certifies is free
-        without coal, one with an inner ball deep in an obstacle or in another link's is in collision without
-        coal; otherwise coal checks the pairs the spheres do not certify - carried by the verdict when there
-        are at most three (:func:`~.precheck_kernels.classify_configuration`), and then only those the hulls'
-        distances leave open (:func:`~.hull_verdict.hull_verdict`, a second compiled call: free when each pair
-        is apart, in collision when one pair's cores overlap deeper than the tolerance), else listed by a
-        second compiled call (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more
-        than :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
+        ``q``: ``nq`` finite numbers (:class:`~.errors.ShapeError` / :class:`~.errors.NonFiniteError`
+        otherwise, as :func:`~.validation.as_vector` words them). The sphere pre-check first
+        (:meth:`precheck`, one compiled call, through the kernel's entry point, bound when the layout's
+        pre-check was built: no dispatch per call; any other ``q`` is checked and converted first): a
+        configuration it certifies is free without coal, one with an inner ball deep in an obstacle or in
+        another link's is in collision without coal; otherwise coal checks the pairs the spheres do not
+        certify - carried by the verdict when there are at most three
+        (:func:`~.precheck_kernels.classify_configuration`), and then only those the hulls' distances leave
+        open (:func:`~.hull_verdict.hull_verdict`, a second compiled call: free when each pair is apart, in
+        collision when one pair's cores overlap deeper than the tolerance), else listed by a second compiled
+        call (``pinocchio.computeCollision`` each, or the broad phase over all pairs when more than
+        :data:`~.configuration_checks.PAIRWISE_MAX` are left: the workspace's
         :func:`~.configuration_checks.pair_test`), with only their obstacles placed in coal
-        (:meth:`~.collision_layout.SceneLayout.pair_workspace`).
+        (:meth:`~.collision_layout.SceneLayout.pair_workspace`). The pre-check checks ``q`` itself (one entry
+        per joint, ``q·q < MAX_ABS**2``) and leaves any other ``q`` undecided: every configuration that
+        reaches coal without a pair-carrying verdict is checked first (:func:`~.validation.as_vector`).
         """
+        if type(q) is not _NDARRAY or q.dtype is not _FLOAT64 or q.ndim != 1:
+            q = as_vector(q, self._nq)  # the kernels' entry points read a float64 vector only
         classify = self._classify
-        pairs = None
-        # the kernels' entry points read a float64 vector only (:func:`~.kernel_cache.entry_point`): anything
-        # else goes to coal, which decides (and raises on what it cannot read)
-        if classify is not None and type(q) is _NDARRAY and q.dtype is _FLOAT64 and q.ndim == 1:
-            verdict = classify(self._floats, self._ints, q, self._tolerance)
-            if verdict == FREE:
-                return False
-            if verdict == COLLIDING:
-                return True
-            if verdict > UNDECIDED and self._hull_verdict is not None:
-                verdict = self._hull_verdict(self._floats, self._ints, *self._hull_arguments, q, verdict,
-                                             self._tolerance)
-                if verdict == FREE or verdict == COLLIDING:
-                    return verdict == COLLIDING
-            pairs = undecided_pairs(verdict, self._uncertified, self._floats, self._ints, q, self._tolerance)
-        if pairs is None:
+        if classify is None:
+            q = as_vector(q, self._nq)
             ws = self.layout.workspace(self.obstacles)
             return False if ws.check is None else ws.hits(q)
+        verdict = classify(self._floats, self._ints, q, self._tolerance)
+        if verdict == FREE:
+            return False
+        if verdict == COLLIDING:
+            return True
+        if verdict > UNDECIDED and self._hull_verdict is not None:
+            verdict = self._hull_verdict(self._floats, self._ints, *self._hull_arguments, q, verdict,
+                                         self._tolerance)
+            if verdict == FREE or verdict == COLLIDING:
+                return verdict == COLLIDING
+        elif verdict == UNDECIDED:  # the pre-check judged nothing: q may be malformed
+            q = as_vector(q, self._nq)
+        pairs = undecided_pairs(verdict, self._uncertified, self._floats, self._ints, q, self._tolerance)
         ws = self.layout.pair_workspace(self.obstacles, pairs)  # the obstacles of these pairs placed
         return False if ws.check is None else ws.pair_hits(q, pairs)
 
     def first_collision(self, qs: Sequence[np.ndarray], uncertified: int | None = None) -> int:
-        """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order)
-        in collision, -1 when none is: the sphere pre-check (rows stacked in a float ``(N, nq)`` array in one
-        compiled call; a sequence: the first configuration alone, the rest in one call), and
-        :meth:`in_collision`'s coal check of each uncertified one, in order, stopping at the first hit
-        (:func:`~.configuration_checks.check_configurations`). ``uncertified``: for stacked rows, the index
-        the caller's own pre-check call returned (the rows before it are certified; not certified again)."""
+        """Index of the first configuration of ``qs`` (float ``(nq,)`` arrays, checked in the given order) in
+        collision, -1 when none is (:class:`~.errors.ShapeError` / :class:`~.errors.NonFiniteError` for rows
+        that are not ``nq`` finite numbers each: :func:`~.validation.as_rows`); the sphere pre-check (rows
+        stacked in a float ``(N, nq)`` array in one compiled call; a sequence: the first configuration alone,
+        the rest in one call), and :meth:`in_collision`'s coal check of each uncertified one, in order,
+        stopping at the first hit (:func:`~.configuration_checks.check_configurations`). ``uncertified``: for
+        stacked rows, the index the caller's own pre-check call returned (the rows before it are certified;
+        not certified again)."""
+        if type(qs) is np.ndarray:
+            qs = as_rows(qs, self._nq)
+        else:
+            try:
+                qs = [as_vector(q, self._nq, f"qs[{k}]") for k, q in enumerate(qs)]
+            except TypeError:  # (not iterable)
+                raise ShapeError(f"qs must be a sequence of configurations or a float (N, {self._nq}) array, "
+                                 f"got {type(qs).__name__}") from None
         pre = self.precheck()
         if pre is not None and type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64:
             # stacked rows (the IK's runs): one compiled call; coal only from the first uncertified row on
@@ -267,7 +285,8 @@ class CollisionScene:
         return -1 if check is None else check_configurations(check, qs, pre)
 
     def colliding(self, q: np.ndarray) -> list[int]:
-        """Indices (into :attr:`pairs`) of every intersecting pair at ``q``."""
+        """Indices (into :attr:`pairs`) of every intersecting pair at ``q`` (``nq`` finite numbers)."""
+        q = as_vector(q, self._nq)
         ws = self.workspace()
         if not len(self.pairs):
             return []
@@ -277,7 +296,8 @@ class CollisionScene:
 
     def distance_arrays(self, q: np.ndarray) -> DistanceArrays:
         """The :class:`DistanceArrays` of every pair at ``q``: shapes ``(P,)``, ``(P, 3)``, ``(P, 3)``,
-        ``(P, 3)``."""
+        ``(P, 3)``. ``q``: ``nq`` finite numbers."""
+        q = as_vector(q, self._nq)
         ws = self.workspace()
         P = len(self.pairs)
         d = np.empty(P)
@@ -295,7 +315,8 @@ class CollisionScene:
     def min_distance(self, q: np.ndarray) -> ClosestPair:
         """The :class:`ClosestPair` at ``q``: the smallest signed distance (m) and its pair index
         (``(inf, -1)`` without pairs). One ``pinocchio.computeDistances`` (it returns the index of the closest
-        pair)."""
+        pair). ``q``: ``nq`` finite numbers."""
+        q = as_vector(q, self._nq)
         if not len(self.pairs):
             return ClosestPair(float("inf"), -1)
         ws = self.workspace()
@@ -319,6 +340,7 @@ class CollisionScene:
         geometry = ws.geometry
         gd, bpm, collect = self.layout.margin_workspace(threshold)
         if data is None:
+            q = as_vector(q, self._nq)
             data = ws.data
             pin.forwardKinematics(self.model, data, q)
         pin.updateGeometryPlacements(self.model, data, geometry, gd)

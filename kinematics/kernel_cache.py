@@ -46,11 +46,12 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "planners/motion/extend_kernel.py",
     "planners/motion/search_kernel.py",
     # read by the kernels above: the obstacle table's encoding, the hull table's kinds, the pre-check's
-    # verdicts, the packed arrays' header and pair kinds, the joint kinds of the chain encoding, the LM's
-    # status codes
+    # verdicts, the bound of every input number, the packed arrays' header and pair kinds, the joint kinds
+    # of the chain encoding, the LM's status codes
     "kinematics/obstacle_table.py",
     "kinematics/hull_table.py",
     "kinematics/precheck_verdicts.py",
+    "kinematics/magnitude.py",
     "kinematics/precheck_packing.py",
     "kinematics/serial_chain.py",
     "ik/lm/status.py",

@@ -66,6 +66,7 @@ import numpy as np
 
 from .kernel_cache import F1, F1_ANY, F2, F2_ANY, I1, I2, compiled, inline, jit, leaf
 from .kernel_primitives import float_rows_view, rows_view, tree_placements_into
+from .magnitude import MAX_ABS
 from .obstacle_table import BALL, BOX, CAPSULE, CYLINDER, EXACT, KIND, OBSTACLE_COLUMNS
 from .precheck_packing import HEADER, OBSTACLE_PAIR, SELF_PAIR
 from .precheck_verdicts import COLLIDING, FREE, PACKED_PAIRS, PAIR_BITS, UNDECIDED
@@ -694,6 +695,16 @@ def pairs_to_check(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, keep: fl
                             pairs.shape[0])
 
 
+@_inline
+def _bounded(q: np.ndarray) -> bool:
+    """Whether ``q·q < MAX_ABS**2`` (:data:`~.magnitude.MAX_ABS`): then every entry is finite with ``|q_i| <=
+    MAX_ABS`` (NaN and inf fail it), the sufficient test of :func:`~.validation.as_vector`."""
+    s = 0.0
+    for i in range(q.shape[0]):
+        s += q[i] * q[i]
+    return s < MAX_ABS * MAX_ABS
+
+
 @compiled(_CLASSIFY_SIGNATURE)
 def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, tol: float) -> int:
     """:data:`FREE` when :func:`certify_configuration` certifies ``q``, else :data:`COLLIDING` when
@@ -702,13 +713,13 @@ def classify_configuration(floats: np.ndarray, ints: np.ndarray, q: np.ndarray, 
     :data:`~.precheck_verdicts.PACKED_PAIRS` of them: ``UNDECIDED + sum_k (p_k + 1) << (2 + 20 k)`` over the
     scene indices ``p_k`` of :func:`uncertified_pairs`'s list (read with
     :func:`~.precheck_verdicts.carried_pairs`); it is exactly :data:`UNDECIDED` when there are more, when the
-    scene has ``2**20 - 1`` pairs or more (ask :func:`uncertified_pairs` then) and when ``q`` has not one
-    entry per joint. The list starts at the pair the certificate failed on (the rows before it are
-    certified: not tested again), skips the obstacle blocks the group sphere certifies, and stops at the
-    fourth uncertified pair."""
+    scene has ``2**20 - 1`` pairs or more (ask :func:`uncertified_pairs` then), and when ``q`` has not one
+    entry per joint or is not surely bounded (:func:`_bounded`: the caller's input check decides it). The list
+    starts at the pair the certificate failed on (the rows before it are certified: not tested again), skips
+    the obstacle blocks the group sphere certifies, and stops at the fourth uncertified pair."""
     tree, joints, spheres, geoms, pairs, obstacles = unpack(floats, ints)
     n = joints.shape[0]
-    if q.shape[0] != n:
+    if q.shape[0] != n or not _bounded(q):
         return UNDECIDED
     X, W, placed = workspace(n, spheres.shape[0], geoms.shape[0])
     m = _configuration_margin(tree, joints, spheres, geoms, pairs, obstacles, q, tol, X, W, placed, 0)

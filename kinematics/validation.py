@@ -19,11 +19,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from .errors import InputError, JointLimitError, NonFiniteError, RotationError, ShapeError
+from .magnitude import MAX_ABS
 from .se3 import matrix_from_quat, matrix_from_rpy
 from .types import ArrayLike, PoseLike
-
-#: Magnitudes beyond this are rejected as non-physical (metres or radians).
-MAX_ABS = 1e6
 
 _hypot = math.hypot
 #: NumPy's float64 dtype: an array of native float64 holds this very object (another float64 dtype object,
@@ -103,6 +101,17 @@ def as_matrix(value: ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray
         raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
     check_bounded(arr, name)
     return arr
+
+
+def as_rows(value: ArrayLike, n: int, name: str = "qs") -> np.ndarray:
+    """Return ``value`` (stacked vectors, a float ``(N, n)`` array or a sequence of length-``n`` vectors) as
+    a finite float64 ``(N, n)`` array or raise, as :func:`as_vector` does for one vector. Fast path for a
+    float64 ``(N, n)`` array: ``v·v < MAX_ABS**2`` over all its entries (returned as it is)."""
+    if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.ndim == 2 and value.shape[1] == n:
+        flat = value.reshape(-1)
+        if flat.dot(flat) < MAX_ABS * MAX_ABS:
+            return value
+    return as_matrix(value, (-1, n), name)
 
 
 def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:

@@ -233,6 +233,76 @@ def test_bad_obstacles_and_q_are_named():
         robot.in_collision(np.full(6, np.nan))
 
 
+_BAD_Q = [  # (q of the Panda's 7 entries, or the wrong length; the error; its words)
+    (np.zeros(3), errors.ShapeError, r"q must have shape \(7,\), got shape \(3,\)"),
+    ([0.0] * 10, errors.ShapeError, r"q must have shape \(7,\), got shape \(10,\)"),
+    ("abc", errors.ShapeError, "q must be a sequence of 7 numbers"),
+    (np.full(7, np.nan), errors.NonFiniteError, r"q must hold finite numbers .* \[0\]=nan"),
+    (np.r_[np.zeros(6), np.inf], errors.NonFiniteError, r"bad entries: \[6\]=inf"),
+    (np.full(7, 1e300), errors.NonFiniteError, r"magnitude <= 1e\+06; bad entries: \[0\]=1e\+300"),
+]
+
+
+@pytest.mark.parametrize("query", ["in_collision", "colliding", "distance_arrays", "min_distance", "near"])
+def test_scene_queries_name_a_bad_q(query):
+    """A scene's queries (a public object: ``robot.collision_scene``) check ``q`` as the robot's do: a wrong
+    length or a non-numeric ``q`` is a ShapeError, NaN, inf or a huge entry a NonFiniteError - never
+    Pinocchio's exception, and never an answer (the pre-check certified ``1e300`` free before)."""
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    call = (lambda q: scene.near(0.01, q)) if query == "near" else getattr(scene, query)
+    for q, error, words in _BAD_Q:
+        with pytest.raises(error, match=words):
+            call(q)
+    q = robot.neutral()
+    if query == "distance_arrays":  # (coal's GJK starts from its last guess: equal to its tolerance)
+        np.testing.assert_allclose(call(q.tolist()).distance, call(q).distance, atol=1e-5)
+    elif query == "min_distance":
+        (d_list, k_list), (d, k) = call(q.tolist()), call(q)
+        assert k_list == k and d_list == pytest.approx(d, abs=1e-5)
+    else:
+        assert call(q.tolist()) == call(q)
+
+
+def test_scene_pre_check_leaves_an_unbounded_q_undecided():
+    """The compiled pre-check judges only a ``q`` with one entry per joint and ``q·q < MAX_ABS**2``: any other
+    is exactly UNDECIDED (the scene's input check then words the error); a large but valid ``q`` is judged."""
+    robot = robots.load("panda")
+    pre = robot.collision_scene(SCENE).precheck()
+    classify = lambda q: pre.classify(pre.floats, pre.ints, q, pre.tolerance)  # noqa: E731
+    for q, _, _ in _BAD_Q:
+        if isinstance(q, np.ndarray):
+            assert classify(q) == UNDECIDED
+    q = robot.neutral().copy()
+    assert classify(q) != UNDECIDED or carried_pairs(classify(q))
+    q[0] = 2 * np.pi * 1e4  # the same pose as q, 10^4 turns away: valid, and judged alike
+    assert classify(q) == classify(robot.neutral())
+    assert robot.collision_scene(SCENE).in_collision(q) == robot.in_collision(robot.neutral(), SCENE)
+
+
+def test_scene_first_collision_names_a_bad_row():
+    robot = robots.load("panda")
+    scene = robot.collision_scene(SCENE)
+    rows = np.repeat(robot.neutral()[None], 4, axis=0)
+    expected = scene.first_collision(rows)
+    assert scene.first_collision(list(rows)) == expected
+    assert scene.first_collision([]) == -1
+    bad = rows.copy()
+    bad[2, 4] = np.nan
+    with pytest.raises(errors.NonFiniteError, match=r"qs must hold finite numbers .* \[18\]=nan"):
+        scene.first_collision(bad)
+    with pytest.raises(errors.NonFiniteError, match=r"qs\[2\] must hold finite numbers"):
+        scene.first_collision(list(bad))
+    with pytest.raises(errors.ShapeError, match=r"qs must have shape \(N, 7\), got shape \(4, 6\)"):
+        scene.first_collision(rows[:, :6])
+    with pytest.raises(errors.ShapeError, match=r"qs\[1\] must have shape \(7,\)"):
+        scene.first_collision([rows[0], rows[1, :3]])
+    assert scene.first_collision(q for q in rows) == expected
+    with pytest.raises(errors.ShapeError,
+                       match=r"qs must be a sequence of configurations or a float \(N, 7\) array, got float"):
+        scene.first_collision(3.0)
+
+
 def test_open_mesh_obstacle_is_a_named_error(tmp_path: Path):
     stl = tmp_path / "open.obj"
     # tetrahedron missing a face

@@ -26,6 +26,7 @@ from kinserve.kinematics import collision_layout
 from kinserve.kinematics import precheck_kernels as pk
 from kinserve.kinematics.collision_layout import SceneLayout
 from kinserve.kinematics.collision_scene import CollisionScene
+from kinserve.kinematics.errors import ShapeError
 from kinserve.kinematics.obstacle_table import obstacle_row
 from kinserve.kinematics.precheck_packing import pack, robot_floats_of, robot_floats_span, table_capacity
 from kinserve.kinematics.precheck_verdicts import PACKED_PAIRS, carried_pairs
@@ -227,17 +228,17 @@ def test_first_collision_on_threads_matches_serial():
     assert parallel == serial and len(set(serial)) > 2
 
 
-def test_inputs_that_are_not_configurations_reach_coal():
-    """Wrong sizes and types are not certified: coal answers or raises as it did without the pre-check."""
+def test_inputs_that_are_not_configurations_are_named_and_numbers_are_converted():
+    """Wrong sizes are not certified, nor given to coal: the scene names them (ShapeError); a list, a float32
+    or an int64 configuration is converted and answered as its float64 twin."""
     robot = robots.load("panda")
     scene = robot.collision_scene(SCENE)
-    with pytest.raises((ValueError, RuntimeError)):
+    with pytest.raises(ShapeError, match=r"q must have shape \(7,\), got shape \(6,\)"):
         scene.in_collision(np.zeros(6))
-    with pytest.raises((ValueError, RuntimeError)):
+    with pytest.raises(ShapeError, match=r"qs\[0\] must have shape \(7,\), got shape \(8,\)"):
         scene.first_collision([np.zeros(8)])
-    with pytest.raises(Exception):
-        scene.in_collision([0.0] * 7)  # a list: Pinocchio's own argument error, as before
     q = np.zeros(7)
+    assert scene.in_collision([0.0] * 7) == scene.in_collision(q)
     assert scene.in_collision(q.astype(np.float32)) == scene.in_collision(q)
     assert scene.first_collision([]) == -1
     assert scene.first_collision(iter([q, q])) == scene.first_collision([q, q])
@@ -376,7 +377,7 @@ def test_the_scenes_kernel_entry_points_answer_as_the_dispatchers_and_read_float
     """A scene calls the pre-check's kernels through their entry points (no dispatch per call): they give the
     dispatchers' verdicts, and a configuration that is not a float64 vector never reaches them (an entry
     point would read an int64 array's bits as floats): coal decides it, so an int64 configuration gets its
-    float twin's answer, and a matrix or a list raises as coal does."""
+    float twin's answer, as does a list, and a matrix is a named ShapeError."""
     from kinserve.kinematics.kernel_cache import entry_point
 
     robot = robots.load("panda")
@@ -391,9 +392,9 @@ def test_the_scenes_kernel_entry_points_answer_as_the_dispatchers_and_read_float
     answers = [scene.in_collision(q) for q in whole]
     assert answers == [scene.in_collision(q.astype(float)) for q in whole] == coal_hits(scene, whole).tolist()
     assert any(answers) and not all(answers)  # (the entry point, reading the bits, would see q ~ 0 each time)
-    for bad in (np.stack([Q[0], Q[0]]), list(Q[0])):
-        with pytest.raises(Exception, match="forwardKinematics"):
-            scene.in_collision(bad)
+    assert scene.in_collision(list(Q[0])) == scene.in_collision(Q[0])
+    with pytest.raises(ShapeError, match=r"q must have shape \(7,\), got shape \(2, 7\)"):
+        scene.in_collision(np.stack([Q[0], Q[0]]))
 
 
 def test_a_scenes_floats_are_each_shapes_row_and_the_robots_floats_are_in_the_packings_words():
