@@ -254,18 +254,54 @@ def is_pose_fast(T: np.ndarray) -> bool:
     )
 
 
-def as_positive(value: object, name: str) -> float:
-    """``value`` as a float if it is a finite real number > 0 (not a bool); else the error naming ``name``."""
-    if type(value) is float and 0.0 < value < math.inf:  # the common case without the abstract-class checks
+def as_positive(value: object, name: str, maximum: float = MAX_ABS) -> float:
+    """``value`` as a float if it is a finite real number in ``(0, maximum]`` (not a bool; ``maximum``
+    defaults to :data:`MAX_ABS`); else the error naming ``name``."""
+    if type(value) is float and 0.0 < value <= maximum:  # the common case without the abstract-class checks
         return value
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{name} must be a positive number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise NonFiniteError(f"{name} must be finite, got {value!r}")
+    v = as_real(value, name)
     if v <= 0:
         raise InputError(f"{name} must be positive, got {value!r}")
+    if v > maximum:
+        raise InputError(f"{name} must be at most {maximum:g}, got {value!r}")
     return v
+
+
+def as_nonnegative(value: object, name: str, maximum: float = MAX_ABS) -> float:
+    """``value`` as a float if it is a finite real number in ``[0, maximum]`` (not a bool); else the error
+    naming ``name``."""
+    v = as_real(value, name)
+    if v < 0:
+        raise InputError(f"{name} must be zero or positive, got {value!r}")
+    if v > maximum:
+        raise InputError(f"{name} must be at most {maximum:g}, got {value!r}")
+    return v
+
+
+def as_real(value: object, name: str) -> float:
+    """``value`` as a float if it is a real number (not a bool, not complex) that is finite with ``|x| <=``
+    :data:`MAX_ABS`; else :class:`InputError` / :class:`NonFiniteError` naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} must be a number, got {_describe(value)}")
+    v = float(value)
+    if not math.isfinite(v) or abs(v) > MAX_ABS:
+        raise NonFiniteError(f"{name} must be finite with magnitude <= {MAX_ABS:g}, got {value!r}")
+    return v
+
+
+def as_count(value: object, name: str, minimum: int = 1, maximum: int = 10**7) -> int:
+    """``value`` as an int if it is an integer (a Python or NumPy integer, not a bool, or a float with an
+    integer value) in ``[minimum, maximum]``; else :class:`InputError` naming ``name`` and the range. The
+    default ``maximum`` (10**7) bounds what a count may allocate or loop over."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} must be an integer, got {_describe(value)}")
+    if not isinstance(value, numbers.Integral):
+        if not (math.isfinite(value) and float(value).is_integer()):
+            raise InputError(f"{name} must be an integer, got {value!r}")
+    n = int(value)
+    if not minimum <= n <= maximum:
+        raise InputError(f"{name} must be an integer from {minimum} to {maximum:,}, got {value!r}")
+    return n
 
 
 def check_rotation(R: np.ndarray, name: str = "rotation") -> None:
