@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from kinserve.ik.constraints import as_sphere
+from kinserve.ik.constraints.obstacle_arguments import non_negative
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance, as_obstacle
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot
@@ -31,7 +32,8 @@ def link_obstacles(robot: Robot, spheres: Any, obstacles: Any, link_radius: Any,
     """One :class:`ObstacleAvoidance` of ``spheres`` (``ik.Sphere`` or ``(center, radius)``) and ``obstacles``
     (any shape or its ``to_dict()`` form) bound to ``robot``, keeping them clear of the link capsules of
     radius
-    ``link_radius`` (m) up to ``frame``; None when there is no obstacle."""
+    ``link_radius`` (m) up to ``frame``; None when there is no obstacle. ``link_radius`` is checked
+    (a finite number in ``[0, 1e6]``) even then."""
     if type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
             and type(link_radius) in (float, int) and link_radius == 0:
         return None
@@ -39,7 +41,7 @@ def link_obstacles(robot: Robot, spheres: Any, obstacles: Any, link_radius: Any,
     items += [ob if isinstance(ob, Shape) else as_obstacle(ob, f"obstacles[{i}]")
               for i, ob in enumerate(_group("obstacles", obstacles))]
     if not items:
-        if link_radius not in (0, 0.0):
-            ObstacleAvoidance([], link_radius=link_radius)  # validates the value
+        if not (type(link_radius) in (float, int) and link_radius == 0):
+            non_negative(link_radius, "link_radius")  # validated even without obstacles
         return None
     return ObstacleAvoidance(items, link_radius=link_radius, tool_frames=(frame,)).bind(robot)

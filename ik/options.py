@@ -8,20 +8,25 @@ worker starts):
 ======================  ==========================================  ==============================
 option                  meaning                                     accepted values
 ======================  ==========================================  ==============================
-``max_iter``            iteration cap of one start                  integer >= 1
-``iteration_budget``    total iterations over all starts; the       integer >= 1
+``max_iter``            iteration cap of one start                  integer in [1, 10**5]
+``iteration_budget``    total iterations over all starts; the       integer in [1, 10**6]
                         clock is not read without ``max_time``
-``damping``             damping ``lambda_0`` (LM / QP / DLS)        finite number > 0
-``max_starts``          cap on the number of starts                 integer >= 1 or None
+``damping``             damping ``lambda_0`` (LM / QP / DLS)        finite number in (0, 1e6]
+``max_starts``          cap on the number of starts                 integer in [1, 10**7] or None
 ``prefer_q0``           start from ``q0`` first                     bool
 ``seed_table``          use the table of starts (:mod:`ik.starts.seed_table`)   bool
-``max_step``            bound on each joint step (QP, rad or m)     finite number > 0
+``max_step``            bound on each joint step (QP, rad or m)     finite number in (0, 1e6]
 ``shortcut``            skip the QP when the free step is feasible  bool
 ``lazy``                add obstacle rows only when a step needs    bool
-``gain``                step gain of the classical methods          finite number > 0
-``samples``             samples of a closed-form family             integer >= 2
+``gain``                step gain of the classical methods          finite number in (0, 1e6]
+``samples``             samples of a closed-form family             integer in [2, 10**4]
 ``choose``              chooser criteria (:mod:`ik.closed_form.chooser`)        name or sequence of names
 ======================  ==========================================  ==============================
+
+The upper bounds (:data:`MAX_ITER_CAP`, :data:`MAX_ITERATION_BUDGET`, :data:`MAX_STARTS_CAP`,
+:data:`MAX_SAMPLES`) keep a call from allocating or looping without limit: ``max_iter`` sizes the
+history of a start, ``iteration_budget`` is the only bound of a solve without ``max_time``, ``samples``
+the number of branches built and verified. Larger values are refused, not clipped.
 
 Accepted names per method are :data:`OPTIONS`; ``"auto"`` accepts the union
 of the methods it may pick (``qp``, ``lm``, ``analytic``).
@@ -68,6 +73,12 @@ MAX_STEP = 1.0
 #: they get at most this share of the time budget.
 CHECKED_ATTEMPTS = 12
 CHECKED_BUDGET_SHARE = 0.5
+#: Upper bounds of the integer options (module docstring): ``max_iter``, ``iteration_budget``,
+#: ``max_starts``, ``samples`` (also ``ik.solve_all``'s).
+MAX_ITER_CAP = 10**5
+MAX_ITERATION_BUDGET = 10**6
+MAX_STARTS_CAP = 10**7
+MAX_SAMPLES = 10**4
 
 
 _LM = ("max_iter", "iteration_budget", "damping", "max_starts", "prefer_q0", "seed_table")
@@ -88,12 +99,16 @@ OPTIONS: dict[str, tuple[str, ...]] = {
 }
 
 
-def _integer(name, value, minimum, allow_none=False):
+def _integer(name: str, value: Any, minimum: int, maximum: int, allow_none: bool = False) -> None:
+    """:class:`InputError` unless ``value`` is an integer in ``[minimum, maximum]`` (or None when allowed)."""
     if value is None and allow_none:
         return
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
         extra = " or None" if allow_none else ""
         raise InputError(f"option {name} must be an integer >= {minimum}{extra}, got {value!r}")
+    if value > maximum:
+        raise InputError(f"option {name} must be at most {maximum:,} (accepted: an integer from {minimum} to "
+                         f"{maximum:,}), got {value!r}")
 
 
 def _positive(name, value):
@@ -116,10 +131,10 @@ def _criteria(name, value):
 
 
 _CHECKS = {
-    "max_iter": lambda n, v: _integer(n, v, 1),
-    "iteration_budget": lambda n, v: _integer(n, v, 1),
-    "max_starts": lambda n, v: _integer(n, v, 1, allow_none=True),
-    "samples": lambda n, v: _integer(n, v, 2),
+    "max_iter": lambda n, v: _integer(n, v, 1, MAX_ITER_CAP),
+    "iteration_budget": lambda n, v: _integer(n, v, 1, MAX_ITERATION_BUDGET),
+    "max_starts": lambda n, v: _integer(n, v, 1, MAX_STARTS_CAP, allow_none=True),
+    "samples": lambda n, v: _integer(n, v, 2, MAX_SAMPLES),
     "damping": _positive,
     "max_step": _positive,
     "gain": _positive,
@@ -132,7 +147,8 @@ _CHECKS = {
 
 
 def check_options(method: str, options: dict) -> None:
-    """Raise :class:`InputError` for an option ``method`` does not accept or a value out of range."""
+    """Raise :class:`InputError` for an option ``method`` does not accept or a value out of range (the table
+    of the module docstring: non-finite, absurdly large or wrongly typed values are refused)."""
     allowed = OPTIONS.get(method)
     if allowed is None:
         raise InputError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")

@@ -8,7 +8,6 @@ so the one-time set-up never counts against the solve's time budget.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping
 from types import MappingProxyType
 from typing import Any, NamedTuple
@@ -16,6 +15,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from kinserve.ik.arguments import (
+    MAX_SEED,
+    MAX_TIME,
     check_backend,
     check_max_time,
     check_method,
@@ -27,6 +28,8 @@ from kinserve.ik.arguments import (
 )
 from kinserve.ik.collision.request import CollisionRequest, collision_request
 from kinserve.ik.constraints.base import Constraint
+from kinserve.ik.constraints.collision import check_length
+from kinserve.ik.constraints.obstacle_arguments import non_negative
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.link_obstacles import link_obstacles
 from kinserve.ik.options import (
@@ -94,18 +97,19 @@ def pose_request(robot: Robot, target: Any, q0: Any = None, frame: str | None = 
     if type(robot) is not Robot:
         check_robot(robot)
     tgt = target if isinstance(target, Target) else Target(robot, target, frame, relax, relax_frame)
-    if tol_pos != DEFAULT_TOL_POS or tol_rot != DEFAULT_TOL_ROT:
+    if type(tol_pos) is not float or type(tol_rot) is not float or tol_pos != DEFAULT_TOL_POS \
+            or tol_rot != DEFAULT_TOL_ROT:
         tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
-    if method != "auto":
+    if type(method) is not str or method != "auto":
         check_method(method)
     if options:
         check_options(method, options)
         options = MappingProxyType(dict(options))
     else:
         options = _NO_OPTIONS
-    if max_time is not None and not (type(max_time) is float and 0.0 < max_time < math.inf):
-        max_time = check_max_time(max_time)
-    if seed is not None and not (type(seed) is int and seed >= 0):
+    if max_time is not None and not (type(max_time) is float and 0.0 < max_time <= MAX_TIME):
+        max_time = check_max_time(max_time)  # (the fast test above accepts exactly what this accepts)
+    if seed is not None and not (type(seed) is int and 0 <= seed <= MAX_SEED):
         seed = check_seed(seed)
     q0 = None if q0 is None else check_q0(robot, q0)
     state = robot.extensions.ik
@@ -154,7 +158,12 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
     if weights is not None and method in NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     collision, bound, avoid = None, None, None
+    if not isinstance(self_collision, (bool, np.bool_)):
+        raise InputError(f"self_collision must be True or False, got {self_collision!r}")
+    if not (type(collision_margin) is float and collision_margin == 0.0):
+        collision_margin = check_length(collision_margin, "collision margin")
     if self_collision or collision_margin:
+        non_negative(link_radius, "link_radius")  # (checked; the collision geometry replaces the capsules)
         collision, bound, avoid = _collision_part(robot, tgt.frame, self_collision, obstacles,
                                                   collision_margin, spheres)
     else:
@@ -176,7 +185,7 @@ def task_request(robot: Robot, tasks: Any, constraints: Any = None, q0: Any = No
                  options: Mapping[str, Any] = _NO_OPTIONS) -> SolveRequest:
     """The request of ``ik.solve(robot, tasks=[...], constraints=[...])``: the tasks and constraints bound."""
     check_robot(robot)
-    if method not in ("auto", "qp"):
+    if not (type(method) is str and method in ("auto", "qp")):
         raise InputError(f"method must be 'auto' or 'qp' for a composition of tasks, got {method!r}")
     tol_pos, tol_rot = check_tolerances(tol_pos, tol_rot)
     problem = Problem(robot, tasks, constraints)

@@ -12,10 +12,10 @@ and ``Result.message`` the reason.
 
 from __future__ import annotations
 
-import numbers
 from collections.abc import Iterable
 from typing import Any
 
+from kinserve.ik.options import MAX_SAMPLES
 from kinserve.ik.plan import choose_strategy
 from kinserve.ik.request import (
     SolveRequest,
@@ -30,6 +30,13 @@ from kinserve.ik.targets import Target
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.types import PoseLike, VectorLike
+from kinserve.kinematics.validation import as_count
+
+
+def _is_zero(value: Any) -> bool:
+    """True for a plain ``0`` / ``0.0`` (the defaults of the fast routes); anything else, arrays included,
+    goes to the path that validates it."""
+    return type(value) in (float, int) and value == 0
 
 
 def run(req: SolveRequest) -> Result:
@@ -149,6 +156,15 @@ def solve(
     Returns
     -------
     :class:`ik.Result`
+
+    Raises
+    ------
+    :class:`~kinserve.kinematics.errors.InputError` (or a subclass), naming the argument, before any solve
+    starts: a malformed pose or ``q0``, an unknown frame / method / backend / option, ``tol_pos``,
+    ``tol_rot`` or ``max_time`` that is not a finite number in ``(0, 1e6]``, ``link_radius`` or
+    ``centring`` that is not finite in ``[0, 1e6]``, ``collision_margin`` outside ``[0, 1000]`` m, a
+    ``seed`` that is not an integer in ``[0, 2**64 - 1]``, option counts above their bounds
+    (:mod:`kinserve.ik.options`), arrays where a number or a flag is expected.
     """
     if tasks is not None:
         if target is not None:
@@ -160,12 +176,13 @@ def solve(
     if target is None:
         raise InputError("target (a 4x4 pose of the frame) is required, or tasks=[...]")
     if type(spheres) is tuple and not spheres and type(obstacles) is tuple and not obstacles \
-            and link_radius == 0.0 and type(centring) is float and centring == 0.0 and backend is None \
-            and constraints is None and self_collision is False and collision_margin == 0.0:
+            and _is_zero(link_radius) and type(centring) is float and centring == 0.0 and backend is None \
+            and constraints is None and self_collision is False and _is_zero(collision_margin):
         req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
                            seed, options)
-    elif (self_collision is True or collision_margin) and type(centring) is float and centring == 0.0 \
-            and backend is None and constraints is None:  # the common collision-aware call (no link_radius)
+    elif (self_collision is True or (type(collision_margin) is float and collision_margin > 0.0)) \
+            and type(self_collision) is bool and type(centring) is float and centring == 0.0 \
+            and _is_zero(link_radius) and backend is None and constraints is None:  # (common collision call)
         req = pose_request(robot, target, q0, frame, relax, relax_frame, method, tol_pos, tol_rot, max_time,
                            seed, options, (self_collision, obstacles, collision_margin, spheres))
     else:
@@ -189,12 +206,16 @@ def solve_all(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = N
     joint limits (front / back, elbow up / down). Only branches inside the
     joint limits are returned. Robots without a closed form raise
     :class:`InputError`.
+
+    Refused (:class:`InputError`, before any work): ``samples`` that is not an integer from 2 to
+    :data:`~kinserve.ik.options.MAX_SAMPLES` (10**4; each sample is two branches built and verified),
+    ``tol_pos`` / ``tol_rot`` that are not finite numbers in ``(0, 1e6]``, and every invalid pose, frame
+    or ``q0`` as in :func:`solve`.
     """
     from kinserve.ik.closed_form import branches
 
     req = pose_request(robot, target, q0, frame, relax, relax_frame, "analytic", tol_pos, tol_rot)
-    if isinstance(samples, bool) or not isinstance(samples, numbers.Integral) or samples < 2:
-        raise InputError(f"samples must be an integer >= 2, got {samples!r}")
+    samples = as_count(samples, "samples", 2, MAX_SAMPLES)
     tgt = req.target
     solver = closed_form_solver(robot, tgt.frame)
     if solver is None:
@@ -202,4 +223,4 @@ def solve_all(robot: Robot, target: PoseLike | Target, q0: VectorLike | None = N
     if not solver.supports(tgt.relaxed):
         raise InputError(f"the closed-form solver of {robot.name!r} does not handle relaxing "
                          f"{relaxed_names(tgt.relaxed)}")
-    return branches(robot, solver, tgt, tol_pos=req.tol_pos, tol_rot=req.tol_rot, samples=int(samples))
+    return branches(robot, solver, tgt, tol_pos=req.tol_pos, tol_rot=req.tol_rot, samples=samples)

@@ -35,6 +35,7 @@ from kinserve.ik.constraints.robot_skeleton import RobotSkeleton, build_robot_sk
 from kinserve.ik.lm.chains import CompiledChain, compiled_chain, compiled_chains
 from kinserve.ik.starts.seed_table import SeedTable
 from kinserve.ik.step_problems import StepProblems
+from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot
 
 if TYPE_CHECKING:
@@ -224,16 +225,42 @@ def warm(robot: Robot, frames: str | Iterable[str] | None = None, *, self_collis
     ``ik.solve`` does the same for its own request before its clock starts, so calling this is never needed
     for correct answers; it moves the one-time cost (a fraction of a second per frame; seconds for the first
     collision model of a large robot) to a moment of the caller's choosing.
+
+    Every argument is checked before anything is built. Refused (:class:`InputError` and its subclasses):
+    ``frames`` that is not a frame name, None or a sequence of names (an unknown name: :class:`FrameError`),
+    ``self_collision`` that is not a bool, ``obstacles`` that are not shapes, ``collision_margin`` that is
+    not a finite length in ``[0, 1000]`` m.
     """
+    if not (hasattr(robot, "model") and hasattr(robot, "frame_id") and hasattr(robot, "tip")):
+        raise InputError(f"robot must be a kinserve.kinematics.Robot, got {type(robot).__name__}")
+    names = _frame_names(robot, frames)
+    req = collision_request(self_collision, obstacles, collision_margin)
     state = ik_state(robot)
     compiled_chains(robot)  # the compiled LM's chains of every frame (robot.lm_chains)
-    names = [robot.tip] if frames is None else [frames] if isinstance(frames, str) else list(frames)
     for frame in names:
-        state.frame(frame)  # (a clear FrameError for an unknown name)
-    if self_collision or len(obstacles):
-        req = collision_request(self_collision, obstacles, collision_margin)
+        state.frame(frame)
+    if req.self_collision or req.obstacles:
         state.collision_checker(req.obstacles, req.self_collision, req.margin)  # bound with its checker
     return state
+
+
+def _frame_names(robot: Robot, frames: Any) -> list[str]:
+    """``frames`` of :func:`warm` as a list of known frame names (:class:`FrameError` for an unknown one,
+    :class:`InputError` for anything that is not a name or a sequence of names)."""
+    if frames is None:
+        return [robot.tip]
+    if isinstance(frames, str):
+        names = [frames]
+    elif isinstance(frames, (bytes, dict)) or not hasattr(frames, "__iter__"):
+        raise InputError(f"frames must be a frame name, a sequence of frame names or None (the robot's tip), "
+                         f"got {frames!r}")
+    else:
+        names = list(frames)
+    for i, name in enumerate(names):
+        if not isinstance(name, str):
+            raise InputError(f"frames[{i}] must be a frame name (str), got {name!r}")
+        robot.frame_id(name)  # (a clear FrameError for an unknown name)
+    return names
 
 
 def frame_state(robot: Robot, frame: str) -> FrameState:

@@ -23,6 +23,7 @@ and bound again.
 from __future__ import annotations
 
 import math
+import numbers
 from itertools import chain
 from typing import TYPE_CHECKING, Any
 
@@ -35,12 +36,17 @@ from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
 from kinserve.ik.qp.hierarchy import hierarchical_step
 from kinserve.ik.state import ik_state
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.shapes import Shape
+from kinserve.kinematics.validation import MAX_ABS, as_nonnegative, as_positive
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
 #: Floor of the Levenberg-Marquardt damping of ``ik.step``.
 STEP_DAMPING = 1e-6
+#: Accepted control periods ``dt`` (s): from 1 ns (below it ``dq / dt`` loses all meaning) to 1e6 s.
+MIN_DT = 1e-9
+MAX_DT = MAX_ABS
 _clip = numpy_fast.clip
 
 
@@ -67,18 +73,35 @@ def _check_backend(backend: Any) -> str:
                      f"got {backend!r}")
 
 
-def _check_robot_and_numbers(robot: Any, dt: Any, damping: Any) -> None:
-    """:class:`InputError` unless ``robot`` is a Robot, ``dt`` a positive finite number of seconds and
-    ``damping`` a finite number >= 0."""
+def _check_robot_and_numbers(robot: Any, dt: Any, damping: Any) -> float:
+    """``dt`` as a float; :class:`InputError` unless ``robot`` is a Robot, ``dt`` a number of seconds in
+    ``[MIN_DT, MAX_DT]`` and ``damping`` a finite number in ``[0, 1e6]``."""
     if not (hasattr(robot, "model") and hasattr(robot, "check_q")):
         raise InputError(f"robot must be a kinserve.kinematics.Robot, got {type(robot).__name__}")
-    if type(dt) is not float and (isinstance(dt, bool) or not isinstance(dt, (int, float))):
-        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
-    if not 0.0 < dt < math.inf:  # NaN fails too
-        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
-    if damping is not STEP_DAMPING and (isinstance(damping, bool) or not isinstance(damping, (int, float))
-                                        or not 0.0 <= damping < math.inf):
-        raise InputError(f"damping must be a finite number >= 0, got {damping!r}")
+    if not (type(dt) is float and MIN_DT <= dt <= MAX_DT):  # (the common case in one test)
+        if isinstance(dt, bool) or not isinstance(dt, numbers.Real):
+            raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+        dt = as_positive(dt, "dt", MAX_DT)
+        if dt < MIN_DT:
+            raise InputError(f"dt must be at least {MIN_DT:g} s (the control period), got {dt!r}")
+    if damping is not STEP_DAMPING:
+        as_nonnegative(damping, "damping")
+    return dt
+
+
+def _objects(value: Any, name: str, protocol: str) -> list:
+    """``value`` as a list: one object with the method ``protocol`` or a sequence of them (checked later by
+    :class:`~kinserve.ik.problem.Problem`); :class:`InputError` for None, text or a non-sequence."""
+    if hasattr(value, protocol) or isinstance(value, Shape):  # (one task, one constraint or one obstacle)
+        return [value]
+    if value is None or isinstance(value, (str, bytes, dict)):
+        raise InputError(f"{name} must be a sequence of ik.{'Task' if name == 'tasks' else 'Constraint'} "
+                         f"objects, got {value!r}")
+    try:
+        return list(value)
+    except TypeError:
+        raise InputError(f"{name} must be a sequence of ik.{'Task' if name == 'tasks' else 'Constraint'} "
+                         f"objects, got {value!r}") from None
 
 
 def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None = None, dt: float = 0.01, *,
@@ -90,18 +113,19 @@ def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None =
     floor of the Levenberg-Marquardt damping, ``backend`` the QP solver used
     when the closed forms do not apply. Raises :class:`InputError` when an
     argument is invalid or the constraints leave no feasible velocity.
+
+    Refused: ``tasks`` that is None, text or not a sequence of tasks; ``dt`` outside
+    ``[MIN_DT, MAX_DT]`` (1e-9 s to 1e6 s), NaN or not a number; ``damping`` negative, non-finite or
+    above 1e6; ``q`` missing, of the wrong length or non-finite; an unknown ``backend``.
     """
-    _check_robot_and_numbers(robot, dt, damping)
+    dt = _check_robot_and_numbers(robot, dt, damping)
     if backend is not DEFAULT_BACKEND:
         backend = _check_backend(backend)
     if q is None:
         raise InputError("q (the current configuration) is required")
     q = robot.check_q(q, "q")
-    tasks = list(tasks) if not hasattr(tasks, "compute") else [tasks]
-    if constraints is None:
-        constraints = []
-    else:
-        constraints = list(constraints) if not hasattr(constraints, "rows") else [constraints]
+    tasks = _objects(tasks, "tasks", "compute")
+    constraints = [] if constraints is None else _objects(constraints, "constraints", "rows")
     pb = _problem(robot, tasks, constraints)
     q = _clip(q, robot.lower, robot.upper)
     levels, pe, re, _ = pb.evaluate(q)

@@ -139,10 +139,10 @@ class Target:
         self._p = T[:3, 3]
         self.frame = robot.tip if frame is None else frame
         self.frame_id = robot.frame_id(self.frame)
-        if relax_frame != "world" and relax_frame not in RELAX_FRAMES:
+        if not (type(relax_frame) is str and relax_frame in RELAX_FRAMES):
             raise InputError(f"relax_frame must be one of {RELAX_FRAMES}, got {relax_frame!r}")
         self.relax_frame = relax_frame
-        self.relaxed = parse_relax(relax) if relax else ()
+        self.relaxed = () if relax is None or (type(relax) is tuple and not relax) else parse_relax(relax)
         if not self.relaxed:
             self.kept, self.pos_rows, self.rot_rows = _ALL6, _ALL3, _ALL3
             self.full = True

@@ -30,6 +30,9 @@ from kinserve.kinematics import Robot, as_matrix
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import check_rotation
 
+#: Most target poses a reachability map samples (each one a 4x4 target and an IK solve).
+MAX_SAMPLES = 10**7
+
 _POSITION_AXES = ("x", "y", "z")
 _ROTATION_AXES = ("roll", "pitch", "yaw")
 
@@ -131,9 +134,13 @@ def reachability_map(
 
 
 def _check_counts(samples: int, resolution: int) -> None:
-    """:class:`InputError` unless ``samples`` is a positive integer and ``resolution`` one in [1, 100]."""
+    """:class:`InputError` unless ``samples`` is an integer in [1, :data:`MAX_SAMPLES`] (each sample is a
+    4x4 target and an IK solve: a larger count would allocate and run without bound) and ``resolution`` one
+    in [1, 100]."""
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError(f"samples must be a positive integer, got {samples!r}")
+    if samples > MAX_SAMPLES:
+        raise InputError(f"samples must be at most {MAX_SAMPLES:,} (one IK solve each), got {samples:,}")
     if (isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer))
             or not 1 <= resolution <= 100):
         raise InputError(f"resolution must be an integer in [1, 100], got {resolution!r}")

@@ -57,6 +57,10 @@ __all__ = ["solve_many", "shutdown_pool", "checked_poses", "chunk_bounds", "BACK
 PROGRESS_THRESHOLD = 500
 #: Largest chunk of the compiled batch (targets solved in one call).
 VECTOR_CHUNK = 1000
+#: Largest ``processes`` accepted; no more workers than this machine's cores are started on it anyway.
+MAX_PROCESSES = 1024
+#: Largest ``chunksize`` accepted (a chunk is never longer than the batch).
+MAX_CHUNKSIZE = 10**7
 
 
 def _cpu_count() -> int:
@@ -154,9 +158,22 @@ def _checked_q0s(robot, q0, n: int) -> np.ndarray | None:
     return arr
 
 
-def _check_count(value, name: str) -> None:
-    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
-        raise InputError(f"{name} must be a positive integer or None, got {value!r}")
+def _check_count(value: Any, name: str, maximum: int) -> int | None:
+    """None, or ``value`` as an int in ``[1, maximum]``; else :class:`InputError` naming ``name``."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= maximum:
+        raise InputError(f"{name} must be an integer from 1 to {maximum} or None, got {value!r}")
+    return int(value)
+
+
+def worker_count(processes: int | None, n: int, local: bool = True) -> int:
+    """Workers to start for ``n`` targets: ``processes`` (default: every available core), at most one per
+    target and, for workers on this machine (``local``), at most its cores (:func:`_cpu_count`)."""
+    wanted = _cpu_count() if processes is None else processes
+    if local:
+        wanted = min(wanted, _cpu_count())
+    return max(1, min(wanted, n))
 
 
 def _check_timeout(timeout) -> float | None:
@@ -213,10 +230,14 @@ def solve_many(
     q0:
         None, one configuration for every target, or ``(N, nq)`` configurations.
     processes:
-        Worker processes (default: every available core). ``1`` solves in
-        this process.
+        Worker processes (default: every available core), an integer from 1 to
+        :data:`MAX_PROCESSES` (1024); larger values, 0, negatives and non-integers are refused
+        (:class:`InputError`). No more workers than targets are started, nor, on this machine (the
+        ``"processes"`` backend, or ``"ray"`` without ``ray_address``), more than its cores
+        (``os.sched_getaffinity`` / ``os.cpu_count()``). ``1`` solves in this process.
     chunksize:
-        Targets per chunk (default: see :func:`chunk_bounds`).
+        Targets per chunk (default: see :func:`chunk_bounds`), an integer from 1 to
+        :data:`MAX_CHUNKSIZE` or None.
     progress:
         Show a tqdm bar (default: for batches of at least 500 targets when stderr is a terminal).
     backend:
@@ -231,12 +252,14 @@ def solve_many(
         :mod:`ik.batch.runners`). When it expires, or a worker stalls,
         :class:`~kinserve.kinematics.errors.WorkerTimeoutError` is raised and
         the workers are terminated.
-    The remaining keywords are those of :func:`ik.solve`, shared by every target.
+    The remaining keywords are those of :func:`ik.solve`, shared by every target, validated as ``ik.solve``
+    validates them (e.g. ``tol_pos``, ``tol_rot`` and ``max_time`` finite and at most 1e6) once, before any
+    worker starts.
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}")
-    _check_count(processes, "processes")
-    _check_count(chunksize, "chunksize")
+    processes = _check_count(processes, "processes", MAX_PROCESSES)
+    chunksize = _check_count(chunksize, "chunksize", MAX_CHUNKSIZE)
     timeout = _check_timeout(timeout)
     kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, obstacles=obstacles,
                   link_radius=link_radius, centring=centring, method=method, backend=qp_backend,
@@ -246,7 +269,7 @@ def solve_many(
     if job is None:
         return []
     n = len(job.poses)
-    processes = min(_cpu_count() if processes is None else processes, n)
+    processes = worker_count(processes, n, local=backend != "ray" or ray_address is None)
     job.ray_address = ray_address
     chunks = chunk_bounds(n, processes, chunksize, job.vectorised)
     runner = run_serial if processes == 1 and backend == "processes" else BACKENDS[backend]

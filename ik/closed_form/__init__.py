@@ -13,6 +13,7 @@ kept components, ``success`` against the tolerances).
 
 from __future__ import annotations
 
+import bisect
 import time
 from typing import TYPE_CHECKING, Union
 
@@ -36,6 +37,8 @@ __all__ = ["build_closed_form_solver", "branches", "raw_branches", "branch_resul
            "YouBotArm", "YOUBOT_DH", "two_link", "wrap_into"]
 
 _SOLVERS = (PlanarChain, YouBotArm)
+#: Branches closer than this (max abs joint difference) are one branch.
+DUPLICATE_TOL = 1e-9
 
 
 def build_closed_form_solver(robot: Robot, frame: str) -> ClosedFormSolver | None:
@@ -61,12 +64,35 @@ def raw_branches(robot: Robot, solver: ClosedFormSolver, target: Target,
     """
     raw, note, extra = solver.solve_all(target.T, target.relaxed, samples=samples)
     out = []
+    seen = _Distinct()
     for q, label, free, *own in raw:
         q = np.clip(np.asarray(q, dtype=float), robot.lower, robot.upper)
-        if any(np.abs(q - s[0]).max() < 1e-9 for s in out):
+        if seen.known(q):
             continue  # branches that coincide (stretched / folded arm)
         out.append((q, label, free, own[0] if own else note))
     return out, note, extra
+
+
+class _Distinct:
+    """The configurations seen so far; :meth:`known` tells whether one lies within ``DUPLICATE_TOL`` (max
+    norm) of them. Only those whose first joint is that close are compared (a sorted index on it), so a
+    sampled family of many branches is sifted in about ``n log n``, not ``n^2``."""
+
+    def __init__(self) -> None:
+        self.keys: list[float] = []  # first joint values, sorted
+        self.rows: list[np.ndarray] = []  # the configurations in the same order
+
+    def known(self, q: np.ndarray) -> bool:
+        """True when ``q`` is within the tolerance of a configuration seen before; else remember it."""
+        key = float(q[0])
+        lo = bisect.bisect_left(self.keys, key - DUPLICATE_TOL)
+        hi = bisect.bisect_right(self.keys, key + DUPLICATE_TOL)
+        if any(np.abs(self.rows[j] - q).max() < DUPLICATE_TOL for j in range(lo, hi)):
+            return True
+        i = bisect.bisect_left(self.keys, key)
+        self.keys.insert(i, key)
+        self.rows.insert(i, q)
+        return False
 
 
 def branch_result(robot: Robot, target: Target, branch: Branch, note: str | None, extra: dict, tol_pos: float,

@@ -29,6 +29,7 @@ from kinserve.ik.result import Result
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.types import VectorLike
+from kinserve.kinematics.validation import as_rows, as_vector
 
 CRITERIA = ("joint_limit_distance", "displacement", "manipulability", "no_self_overlap")
 FILTERS = ("no_self_overlap",)
@@ -63,14 +64,33 @@ def self_overlap(robot: Robot, q: VectorLike, frame: str | None = None) -> bool:
     return bool(np.min(np.linalg.norm(X - Y, axis=1)) < OVERLAP_TOL)
 
 
-def _as_q(c):
-    return np.asarray(c.q if hasattr(c, "q") else c, dtype=float)
+def _as_q(robot: Robot, c: Result | VectorLike, name: str) -> np.ndarray:
+    """The joint vector of a candidate (a ``Result``'s ``q`` or a vector), checked: ``nq`` finite numbers
+    (:class:`ShapeError` / :class:`NonFiniteError` naming ``name`` otherwise)."""
+    return as_vector(c.q if isinstance(c, Result) else c, robot.nq, name)
+
+
+def checked_candidates(robot: Robot, candidates: Sequence[Result | VectorLike]) -> list[np.ndarray]:
+    """The joint vectors of ``candidates`` (a sequence of ``Result`` or of joint vectors, or an ``(N, nq)``
+    array), each checked; :class:`InputError` naming the argument (and the index) otherwise."""
+    if not (hasattr(robot, "nq") and hasattr(robot, "lower") and hasattr(robot, "copy")):
+        raise InputError(f"robot must be a kinserve.kinematics.Robot, got {type(robot).__name__}")
+    if isinstance(candidates, np.ndarray):
+        return list(as_rows(candidates, robot.nq, "candidates"))
+    if candidates is None or isinstance(candidates, (str, bytes, dict)) \
+            or not hasattr(candidates, "__iter__"):
+        raise InputError(f"candidates must be a sequence of ik.Result or joint vectors ({robot.nq} numbers "
+                         f"each), got {candidates!r}"[:300])
+    return [_as_q(robot, c, f"candidates[{i}]") for i, c in enumerate(candidates)]
 
 
 def scores(robot: Robot, candidates: Sequence[Result | VectorLike], criterion: str,
            q_current: VectorLike | None = None, frame: str | None = None) -> np.ndarray:
-    """Score of every candidate for one criterion (higher is better; filters give 1 = keep, 0 = drop)."""
-    qs = [_as_q(c) for c in candidates]
+    """Score of every candidate for one criterion (higher is better; filters give 1 = keep, 0 = drop).
+
+    Refused (:class:`InputError`): candidates that are not ``nq`` finite numbers each (see
+    :func:`checked_candidates`), an unknown criterion, ``displacement`` without a valid ``q_current``."""
+    qs = checked_candidates(robot, candidates)
     if criterion == "joint_limit_distance":
         return np.array([joint_limit_distance(robot, q) for q in qs])
     if criterion == "displacement":
@@ -89,22 +109,34 @@ def scores(robot: Robot, candidates: Sequence[Result | VectorLike], criterion: s
 def choose(robot: Robot, candidates: Sequence[Result | VectorLike],
            criteria: str | Sequence[str] = ("joint_limit_distance",), q_current: VectorLike | None = None,
            frame: str | None = None) -> int | None:
-    """Index of the best candidate (a list of ``Result`` or joint vectors), or None if the filters drop all.
+    """Index of the best candidate (a list of ``Result`` or joint vectors), or None if the filters drop all
+    (or there is no candidate).
 
-    See the module docstring for the criteria and how they combine.
+    See the module docstring for the criteria and how they combine. Refused (:class:`InputError` and its
+    subclasses, naming the argument): ``candidates`` that is not a sequence (or ``(N, nq)`` array) of
+    ``Result`` / joint vectors of ``nq`` finite numbers (``candidates[i]`` names the bad one),
+    ``criteria`` that is not one name or a non-empty sequence of names of :data:`CRITERIA`, a ``frame``
+    that is not a frame name of the robot, a ``q_current`` that is not ``nq`` finite numbers.
     """
     criteria = _checked_criteria(criteria)
-    if not candidates:
+    qs = checked_candidates(robot, candidates)
+    if frame is not None:
+        if not isinstance(frame, str):
+            raise InputError(f"frame must be a frame name or None (the robot's tip), got {frame!r}")
+        robot.frame_id(frame)  # (FrameError naming close matches)
+    if not qs:
         return None
-    idx = list(range(len(candidates)))
+    if q_current is not None:
+        q_current = robot.check_q(q_current, "q_current")
+    idx = list(range(len(qs)))
     for c in criteria:
         if c in FILTERS:
-            keep = scores(robot, [candidates[i] for i in idx], c, q_current, frame)
+            keep = scores(robot, [qs[i] for i in idx], c, q_current, frame)
             idx = [i for i, k in zip(idx, keep) if k > 0]
             if not idx:
                 return None
     for c in (c for c in criteria if c not in FILTERS):  # ranked by the first score, ties by the next ones
-        s = scores(robot, [candidates[i] for i in idx], c, q_current, frame)
+        s = scores(robot, [qs[i] for i in idx], c, q_current, frame)
         best = s.max()
         idx = [i for i, v in zip(idx, s) if v >= best - 1e-9]
         if len(idx) == 1:
@@ -114,10 +146,16 @@ def choose(robot: Robot, candidates: Sequence[Result | VectorLike],
 
 def _checked_criteria(criteria: str | Sequence[str]) -> tuple[str, ...]:
     """``criteria`` as a non-empty tuple of names of :data:`CRITERIA`; :class:`InputError` otherwise."""
-    criteria = (criteria,) if isinstance(criteria, str) else tuple(criteria)
+    if isinstance(criteria, str):
+        criteria = (criteria,)
+    elif criteria is None or isinstance(criteria, (bytes, dict)) or not hasattr(criteria, "__iter__"):
+        raise InputError(f"criteria must be one name or a sequence of names from {CRITERIA}, "
+                         f"got {criteria!r}")
+    else:
+        criteria = tuple(criteria)
     if not criteria:
         raise InputError(f"criteria must name at least one of {CRITERIA}")
     for c in criteria:
-        if c not in CRITERIA:
+        if not isinstance(c, str) or c not in CRITERIA:
             raise InputError(f"unknown criterion {c!r}; expected one of {CRITERIA}")
     return criteria

@@ -35,6 +35,7 @@ no row and could be crossed in one long step).
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 
 import numpy as np
@@ -52,14 +53,19 @@ INFLUENCE = 0.05
 _LWA = pin.LOCAL_WORLD_ALIGNED
 
 
+#: Largest accepted collision margin / influence distance (m).
+MAX_LENGTH = 1e3
+
+
 def check_length(value: object, name: str, positive: bool = False) -> float:
-    """``value`` as a finite length in metres (>= 0, or > 0 with ``positive``); errors name ``name``."""
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number (m), got {value!r}") from None
-    if not math.isfinite(v) or abs(v) > 1e3:
-        raise NonFiniteError(f"{name} must be finite (m), got {value!r}")
+    """``value`` as a finite length in metres (>= 0, or > 0 with ``positive``; at most :data:`MAX_LENGTH`);
+    errors name ``name``. Refused: text, bools and other non-numbers (:class:`InputError`), NaN, infinities
+    and lengths above :data:`MAX_LENGTH` (:class:`NonFiniteError`), negative (or zero) values."""
+    if isinstance(value, (bool, str, bytes)) or not isinstance(value, numbers.Real):
+        raise InputError(f"{name} must be a number (m), got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or abs(v) > MAX_LENGTH:
+        raise NonFiniteError(f"{name} must be finite with magnitude <= {MAX_LENGTH:g} (m), got {value!r}")
     if v < 0.0 or (positive and v == 0.0):
         raise InputError(f"{name} must be {'positive' if positive else '>= 0'} (m), got {v!r}")
     return v

@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.shapes import Shape, Sphere, as_shape
+from kinserve.kinematics.validation import MAX_ABS
 
 #: The kinds an obstacle dict may name.
 OBSTACLE_KINDS = ("sphere", "box", "capsule", "cylinder", "mesh")
@@ -56,13 +57,17 @@ def obstacle_list(obstacles: Any, name: str = "obstacles") -> list[Shape]:
 
 
 def non_negative(value: Any, name: str) -> float:
-    """``value`` as a float, checked finite and ``>= 0`` (a length in m)."""
-    if type(value) is float and 0.0 <= value < math.inf:  # the common case, checked in one test
+    """``value`` as a float, checked finite, ``>= 0`` and at most :data:`MAX_ABS` (a length in m).
+    Refused: non-numbers and bools (:class:`InputError`), NaN, infinities and larger values
+    (:class:`NonFiniteError`), negative values."""
+    if type(value) is float and 0.0 <= value <= MAX_ABS:  # the common case, checked in one test
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise InputError(f"{name} must be a number >= 0 (m), got {value!r}")
     v = float(value)
-    if not math.isfinite(v) or v < 0.0:
+    if not math.isfinite(v) or v > MAX_ABS:
+        raise NonFiniteError(f"{name} must be a finite number >= 0 (m) at most {MAX_ABS:g}, got {value!r}")
+    if v < 0.0:
         raise InputError(f"{name} must be a finite number >= 0 (m), got {value!r}")
     return v
 

@@ -17,7 +17,9 @@ Attributes every task has
 -------------------------
 ``weight``
     A positive number or ``m`` numbers: the weight of the task's rows inside
-    its priority level (the cost is ``1/2 |sqrt(w) (e + J dq)|^2``).
+    its priority level (the cost is ``1/2 |sqrt(w) (e + J dq)|^2``). A vector of
+    another length is refused when the task is made (rows known then, e.g.
+    ``FrameTask``) or bound (rows depending on the robot, e.g. ``PostureTask``).
 ``priority``
     An integer ``>= 1``; level 1 is the highest. A lower level moves only in
     the freedom the higher ones leave.
@@ -79,8 +81,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError, NonFiniteError
-from kinserve.kinematics.validation import as_positive
+from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
+from kinserve.kinematics.validation import MAX_ABS, as_positive, is_bounded
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -88,27 +90,44 @@ if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
 
 
-def check_weight(weight: float | Sequence[float], name: str = "weight") -> float | np.ndarray:
-    """A positive finite number (float) or a 1-D array of them (validated task weight)."""
+def check_weight(weight: float | Sequence[float], name: str = "weight",
+                 rows: int | None = None) -> float | np.ndarray:
+    """A positive finite number (float) or a 1-D array of them (validated task weight).
+
+    Refused (:class:`InputError` naming ``name``): a number not in ``(0, 1e6]``, a vector with a NaN,
+    infinite, negative or larger than 1e6 entry or without a positive one, and a vector whose length is
+    not ``rows`` (the task's number of error rows) when ``rows`` is given.
+    """
     if isinstance(weight, numbers.Real) and not isinstance(weight, bool):
         return as_positive(weight, name)
     try:
+        if weight is None or isinstance(weight, (str, bytes, dict)):
+            raise TypeError
         w = np.array(weight, dtype=float)
     except (TypeError, ValueError):
         raise InputError(f"{name} must be a positive number or a sequence of them, got {weight!r}") from None
     if w.ndim != 1 or w.size == 0:
         raise InputError(f"{name} must be a positive number or a 1-D sequence of them, got shape {w.shape}")
-    if not np.all(np.isfinite(w)):
-        raise NonFiniteError(f"{name} must be finite, got {w.tolist()}")
+    if rows is not None and w.size != rows:
+        raise ShapeError(f"{name} must be a number or {rows} numbers (one per error row of the task), "
+                         f"got {w.size}")
+    if not is_bounded(w):
+        raise NonFiniteError(f"{name} must be finite with entries at most {MAX_ABS:g}, got {w.tolist()}")
     if np.any(w < 0.0) or not np.any(w > 0.0):
         raise InputError(f"{name} entries must be >= 0 with at least one > 0, got {w.tolist()}")
     return w
 
 
+#: Largest accepted priority level (levels are integers from 1 to this).
+MAX_PRIORITY = 10**6
+
+
 def check_priority(priority: int, name: str = "priority") -> int:
-    """An integer ``>= 1`` (1 = highest level)."""
-    if isinstance(priority, bool) or not isinstance(priority, numbers.Integral) or priority < 1:
-        raise InputError(f"{name} must be an integer >= 1 (1 = highest level), got {priority!r}")
+    """An integer from 1 (the highest level) to :data:`MAX_PRIORITY`; :class:`InputError` otherwise."""
+    if isinstance(priority, bool) or not isinstance(priority, numbers.Integral) \
+            or not 1 <= priority <= MAX_PRIORITY:
+        raise InputError(f"{name} must be an integer >= 1 (1 = highest level) and at most {MAX_PRIORITY:,}, "
+                         f"got {priority!r}")
     return int(priority)
 
 
@@ -138,8 +157,21 @@ class Task:
 
     @weight.setter
     def weight(self, value: float | Sequence[float]) -> None:
-        self._weight = check_weight(value, f"{type(self).__name__} weight")
+        self._weight = check_weight(value, f"{type(self).__name__} weight", self.weight_rows())
         self._version += 1
+
+    def weight_rows(self) -> int | None:
+        """The number of error rows a vector ``weight`` must have, when known before :meth:`bind` (None:
+        not known yet; a task whose rows depend on the robot checks its weight in :meth:`bind` with
+        :meth:`check_weight_rows`)."""
+        return None
+
+    def check_weight_rows(self, rows: int) -> None:
+        """:class:`ShapeError` unless the weight is a number or ``rows`` numbers (one per error row)."""
+        w = self._weight
+        if type(w) is not float and len(w) != rows:
+            raise ShapeError(f"{type(self).__name__} weight must be a number or {rows} numbers (one per "
+                             f"error row of the task), got {len(w)}")
 
     @property
     def priority(self) -> int:

@@ -60,7 +60,9 @@ class CentringTask(Task):
         return task
 
     def bind(self, robot: Robot) -> "CentringTask":
-        """Scale the weights by ``1 / r_i^2`` for ``robot``; :class:`InputError` if none is positive."""
+        """Scale the weights by ``1 / r_i^2`` for ``robot``; :class:`InputError` if none is positive or a
+        vector ``weight`` (the task's, not the per-joint ``weights``) has not ``nq`` entries."""
+        self.check_weight_rows(robot.nq)
         if self._model is not robot.model:
             w = centring_weights(robot, self.weights)
             if w is None:

@@ -44,6 +44,7 @@ from scipy.linalg import get_lapack_funcs
 
 from kinserve.ik.tasks.null_space_kernel import certified_null_space
 from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.validation import MAX_ABS, is_bounded
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -53,20 +54,29 @@ if TYPE_CHECKING:  # annotations only
 def centring_weights(robot: Robot, centring: float | VectorLike | None) -> np.ndarray | None:
     """Per-joint weights ``w / r^2`` (``(nq,)``) or None when centring is off.
 
-    ``centring`` is a number or a sequence of ``nq`` numbers, all finite and ``>= 0``.
-    Joints with a zero range (locked) get weight 0.
+    ``centring`` is a number or a sequence of ``nq`` numbers, all finite, ``>= 0`` and at most
+    :data:`~kinserve.kinematics.validation.MAX_ABS` (1e6). Joints with a zero range (locked) get weight 0.
+    Refused: another shape, text or None entries (:class:`InputError`), NaN, infinite or larger entries
+    (:class:`NonFiniteError`), negative entries.
     """
     if centring is None or (type(centring) in (int, float) and centring == 0):
         return None
-    w = (np.asarray(centring, dtype=float) if not isinstance(centring, (int, float))
-         else np.full(robot.nq, float(centring)))
+    if isinstance(centring, (bool, str, bytes, dict)):
+        raise InputError(f"centring must be a number or {robot.nq} numbers (one per joint), got {centring!r}")
+    try:
+        w = (np.asarray(centring, dtype=float) if not isinstance(centring, (int, float))
+             else np.full(robot.nq, float(centring)))
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(f"centring must be a number or {robot.nq} numbers (one per joint), "
+                         f"got {centring!r}") from None
     if w.ndim == 0:
         w = np.full(robot.nq, float(w))
     if w.shape != (robot.nq,):
         raise InputError(f"centring must be a number or {robot.nq} numbers (one per joint), "
                          f"got shape {w.shape}")
-    if not np.all(np.isfinite(w)):
-        raise NonFiniteError(f"centring weights must be finite, got {w.tolist()}")
+    if not is_bounded(w):
+        raise NonFiniteError(f"centring weights must be finite with magnitude <= {MAX_ABS:g}, "
+                             f"got {w.tolist()}")
     if np.any(w < 0):
         raise InputError(f"centring weights must be >= 0, got {w.tolist()}")
     if not np.any(w > 0):

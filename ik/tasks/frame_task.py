@@ -48,6 +48,9 @@ class FrameTask(Task):
     ``yaw``) measured along ``relax_frame`` axes (``"world"`` or ``"target"``).
     ``T`` is the (validated, private copy of the) target pose; move it with
     :meth:`set_target`. ``components`` names the kept rows of the error.
+    ``weight`` is a number or one number per kept component (6 for a full pose); another length, an
+    unknown frame name type, an unknown relaxed component or relaxing all six raise
+    :class:`~kinserve.kinematics.errors.InputError` here, when the task is made.
     """
 
     def __init__(self, frame: str | None, target: np.ndarray | pin.SE3, relax: Sequence[str] | str = (),
@@ -55,21 +58,26 @@ class FrameTask(Task):
                  priority: int = 1, name: str | None = None):
         if frame is not None and not isinstance(frame, str):
             raise InputError(f"frame must be a frame name or None (the robot's tip), got {frame!r}")
-        if relax_frame not in RELAX_FRAMES:
+        if not (type(relax_frame) is str and relax_frame in RELAX_FRAMES):
             raise InputError(f"relax_frame must be one of {RELAX_FRAMES}, got {relax_frame!r}")
-        relaxed = parse_relax(relax) if relax else ()
+        relaxed = () if relax is None or (type(relax) is tuple and not relax) else parse_relax(relax)
         if len(relaxed) == 6:
             raise InputError("relax: every component is relaxed - there is nothing left to solve")
+        self.kept = np.array([i for i in range(6) if i not in relaxed], dtype=int)  # (the weight's rows)
         super().__init__(weight, priority, name if name is not None else f"frame {frame or 'tip'}")
         self.frame = frame
         self.relax_frame = relax_frame
         self.relaxed = relaxed
-        self.kept = np.array([i for i in range(6) if i not in relaxed], dtype=int)
         self.n_pos = int((self.kept < 3).sum())
         self.components = tuple(TASK_AXES[i] for i in self.kept)
         self.set_target(target)
         self._model = None
         self.frame_id = -1
+
+    def weight_rows(self) -> int | None:
+        """A vector weight has one entry per kept component (6 for a full pose)."""
+        kept = getattr(self, "kept", None)
+        return None if kept is None else len(kept)
 
     def set_target(self, target: np.ndarray | pin.SE3) -> None:
         """Move the target (validated 4x4 pose or ``SE3``); cheap enough for a control loop."""

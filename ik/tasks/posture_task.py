@@ -46,8 +46,10 @@ class PostureTask(Task):
         self._version += 1  # the length is checked against the robot by the next bind
 
     def bind(self, robot: Robot) -> "PostureTask":
-        """Check ``q_ref`` against ``robot`` (``nq`` finite values; the named error otherwise)."""
+        """Check ``q_ref`` against ``robot`` (``nq`` finite values) and a vector ``weight`` (``nq`` entries);
+        the named error otherwise."""
         robot.check_q(self._q_ref, "q_ref")
+        self.check_weight_rows(robot.nq)
         if self._I is None or self._I.shape[0] != robot.nq:
             self._I = np.eye(robot.nq)
             self._I.flags.writeable = False
