@@ -79,6 +79,18 @@ def _frame_link(model: Any, frame_id: int, links: list[str]) -> str | None:
         fid = frame.parentFrame
 
 
+def self_collision_flag(value: object) -> bool:
+    """``self_collision`` as a bool: True, False (or a NumPy bool); :class:`InputError` for anything else
+    (``"yes"``, None, 1, NaN - no truthiness: ``"no"`` would mean True)."""
+    if value is True or value is False:
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    text = repr(value)
+    text = text if len(text) < 60 else text[:57] + "..."
+    raise InputError(f"self_collision must be True or False, got {text}")
+
+
 class CollisionQueries:
     """Mixin of :class:`~.robot.Robot`: ``in_collision``, ``collisions``, ``distances``, ``min_distance``."""
 
@@ -240,8 +252,9 @@ class CollisionQueries:
     def collision_scene(self, obstacles: Any = (), self_collision: bool = True) -> "CollisionScene":
         """The :class:`~.collision_scene.CollisionScene` of this robot with ``obstacles``: the collision
         model's last scene when they are its very objects, else a new one that replaces it
-        (:meth:`~.collision_model.CollisionModel.scene`)."""
-        return self.collision.scene_of(obstacles, self_collision is True or bool(self_collision))
+        (:meth:`~.collision_model.CollisionModel.scene`). ``self_collision``: True or False
+        (:class:`~.errors.InputError` otherwise)."""
+        return self.collision.scene_of(obstacles, self_collision_flag(self_collision))
 
     def collision_geometry(self, q: VectorLike) -> list[dict]:
         """Plain data of the robot's collision shapes at ``q``: :meth:`CollisionModel.shape_data` with
@@ -263,10 +276,14 @@ class CollisionQueries:
 
         One broad-phase pass in C++ (see :meth:`CollisionScene.in_collision`); the
         scene of the same obstacle objects is reused, so a repeated call costs
-        the validation of ``q``, a dictionary lookup and that pass.
+        the validation of ``q``, a dictionary lookup and that pass. ``self_collision``: True or False
+        (:class:`~.errors.InputError` for anything else, e.g. ``"yes"`` or None; here and in
+        :meth:`collisions`, :meth:`distances`, :meth:`min_distance`).
         """
         q = as_vector(q, self.nq)
-        scene = self.collision.scene_of(obstacles, self_collision is True or bool(self_collision))
+        if not (self_collision is True or self_collision is False):
+            self_collision = self_collision_flag(self_collision)
+        scene = self.collision.scene_of(obstacles, self_collision)
         return scene.in_collision(q)
 
     def collisions(self, q: VectorLike, obstacles: Any = (), *,

@@ -77,9 +77,9 @@ import pinocchio as pin
 
 from .collision_layout import SceneLayout, Workspace
 from .configuration_checks import check_configurations, undecided_pairs
-from .errors import ShapeError
+from .errors import InputError, ShapeError
 from .precheck_verdicts import COLLIDING, FREE, UNDECIDED
-from .validation import as_rows, as_vector
+from .validation import MAX_ABS, as_count, as_nonnegative, as_rows, as_vector
 
 if TYPE_CHECKING:
     from .scene_precheck import PrecheckArguments
@@ -335,7 +335,13 @@ class CollisionScene:
         two shapes closer than ``threshold`` always qualify, since an AABB gap is
         never larger than the shapes' distance); GJK with the security margin then
         runs on the candidates only: the same pairs as GJK on every pair.
+
+        ``threshold``: a number in ``[0, 1e6]`` m (:class:`~.errors.InputError` /
+        :class:`~.errors.NonFiniteError` for NaN, a negative, huge or non-numeric one); ``q``: ``nq`` finite
+        numbers.
         """
+        if type(threshold) is not float or not 0.0 <= threshold <= MAX_ABS:
+            threshold = as_nonnegative(threshold, "threshold")
         ws = self.workspace()
         geometry = ws.geometry
         gd, bpm, collect = self.layout.margin_workspace(threshold)
@@ -353,7 +359,15 @@ class CollisionScene:
     def near_distance(self, threshold: float, k: int) -> PairWitness:
         """The :class:`PairWitness` of pair ``k`` at the placements of the last :meth:`near` call with
         ``threshold`` on this thread (by any scene of the layout: call it right after this scene's
-        :meth:`near`)."""
+        :meth:`near`). ``threshold`` as for :meth:`near`; ``k``: an integer pair index from 0 to ``len(self) -
+        1`` (:class:`~.errors.InputError` otherwise)."""
+        if type(threshold) is not float or not 0.0 <= threshold <= MAX_ABS:
+            threshold = as_nonnegative(threshold, "threshold")
+        n_pairs = len(self.layout.pairs)
+        if type(k) is not int or not 0 <= k < n_pairs:
+            if not n_pairs:
+                raise InputError(f"k: this scene has no checked pairs, so there is no pair {k!r}")
+            k = as_count(k, "k (a pair index)", minimum=0, maximum=n_pairs - 1)
         ws = self.workspace()
         gd = self.layout.margin_workspace(threshold).geometry_data
         res = pin.computeDistance(ws.geometry, gd, k)

@@ -36,10 +36,10 @@ import pinocchio as pin
 from . import singularity
 from .batch_fk import ChainFK
 from .collision_queries import CollisionQueries
-from .errors import FrameError, ModelError, ShapeError, SingularityError, suggest
+from .errors import FrameError, InputError, ModelError, ShapeError, SingularityError, suggest
 from .extensions import Extensions
 from .types import MatrixLike, VectorLike
-from .validation import MAX_ABS, as_matrix, as_vector, check_limits
+from .validation import MAX_ABS, as_count, as_matrix, as_nonnegative, as_positive, as_vector, check_limits
 
 #: Names of the six task components, in the row order of ``Robot.jacobian``.
 TASK_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
@@ -73,15 +73,54 @@ class _PerThreadData(threading.local):
         self.data = model.createData()
 
 
-def axis_rows(axes: Iterable[str]) -> list[int]:
-    """Row indices (into ``TASK_AXES``) of task component names; ``phi`` = ``yaw``."""
-    rows = []
-    for a in axes:
+def axis_rows(axes: Iterable[str], name: str = "axes") -> list[int]:
+    """Row indices (into ``TASK_AXES``) of task component names; ``phi`` = ``yaw``.
+
+    :class:`ShapeError` naming ``name`` for a bare string (``"xyz"``: pass ``["x", "y", "z"]``), something
+    that is not a sequence, an unknown component, a component given twice (``["x", "x"]``, ``["yaw",
+    "phi"]``: the rows would be linearly dependent, so every measure would call it singular) or no
+    component at all.
+    """
+    if isinstance(axes, (str, bytes)):
+        raise ShapeError(f"{name} must be a sequence of task component names such as ['x', 'y', 'z'], got "
+                         f"the string {axes!r}")
+    try:
+        items = list(axes)
+    except TypeError:
+        raise ShapeError(f"{name} must be a sequence of task component names from {TASK_AXES}, got "
+                         f"{type(axes).__name__}") from None
+    rows: list[int] = []
+    for a in items:
         key = "yaw" if a == "phi" else a
-        if key not in TASK_AXES:
-            raise ShapeError(f"unknown task component {a!r}; expected some of {TASK_AXES} (or 'phi' for yaw)")
-        rows.append(TASK_AXES.index(key))
+        if type(key) is not str or key not in TASK_AXES:
+            raise ShapeError(f"unknown task component {a!r} in {name}; expected some of {TASK_AXES} "
+                             "(or 'phi' for yaw)")
+        row = TASK_AXES.index(key)
+        if row in rows:
+            raise ShapeError(f"{name} names task component {key!r} twice ({items!r}); give each component "
+                             "once")
+        rows.append(row)
+    if not rows:
+        raise ShapeError(f"{name} must name at least one task component of {TASK_AXES}, got none")
     return rows
+
+
+#: Largest integer seed of :meth:`Robot.random_q` (NumPy takes any integer >= 0; this bounds the text).
+MAX_SEED = 2**128 - 1
+
+
+def _seed(rng: object) -> object:
+    """``rng`` for ``numpy.random.default_rng``: None, a ``BitGenerator`` / ``SeedSequence``, or an integer
+    seed in ``[0, MAX_SEED]``; :class:`InputError` naming ``rng`` otherwise."""
+    if rng is None or isinstance(rng, (np.random.BitGenerator, np.random.SeedSequence)):
+        return rng
+    try:
+        return as_count(rng, "rng", minimum=0, maximum=MAX_SEED)
+    except InputError:
+        text = repr(rng)
+        text = text if len(text) < 60 else text[:57] + "..."
+        raise InputError(f"rng must be a numpy.random.Generator, an integer seed from 0 to 2**128 - 1 or "
+                         f"None, got {text}") from None
 
 
 class Robot(CollisionQueries):
@@ -270,11 +309,14 @@ class Robot(CollisionQueries):
     def random_q(self, rng: np.random.Generator | int | None = None, n: int | None = None) -> np.ndarray:
         """Uniform random configuration(s) within the joint limits.
 
-        ``rng`` is a ``numpy.random.Generator``, an int seed or None. With
-        ``n`` given, returns an ``(n, nq)`` array.
+        ``rng`` is a ``numpy.random.Generator`` (or ``BitGenerator`` / ``SeedSequence``), an integer seed
+        ``>= 0`` or None. With ``n`` given (an integer from 0 to 10**7), returns an ``(n, nq)`` array.
+        :class:`InputError` naming the argument for anything else (a negative or fractional seed, text, NaN,
+        a count beyond 10**7 that would allocate without bound).
         """
-        rng = np.random.default_rng(rng) if not isinstance(rng, np.random.Generator) else rng
-        size = self._shape if n is None else (int(n), self.nq)
+        if not isinstance(rng, np.random.Generator):
+            rng = np.random.default_rng(_seed(rng))
+        size = self._shape if n is None else (as_count(n, "n", minimum=0), self.nq)
         # ``rng.uniform(lower, upper, size)`` computes ``lower + (upper - lower) * u`` from the same doubles
         # ``u``: the same values, bit for bit, at a sixth of its cost (~1.4 instead of ~8 us per draw)
         return self.lower + self._span * rng.random(size)
@@ -296,12 +338,23 @@ class Robot(CollisionQueries):
             self.check_limits(q, name)
         return q
 
-    def check_limits(self, q: np.ndarray, name: str = "q") -> None:
-        """Raise :class:`JointLimitError` naming each joint outside its limits."""
-        check_limits(q, self.lower, self.upper, self.joint_names, name)
+    def check_limits(self, q: VectorLike, name: str = "q") -> None:
+        """Raise :class:`JointLimitError` naming each joint outside its limits.
 
-    def within_limits(self, q: np.ndarray, tol: float = 1e-9) -> bool:
-        """True when ``lower - tol <= q <= upper + tol`` for every joint."""
+        ``q``: ``nq`` finite real numbers (:class:`ShapeError` / :class:`NonFiniteError` naming ``name``
+        otherwise: a NaN is never "within" the limits).
+        """
+        check_limits(as_vector(q, self.nq, name), self.lower, self.upper, self.joint_names, name)
+
+    def within_limits(self, q: VectorLike, tol: float = 1e-9) -> bool:
+        """True when ``lower - tol <= q <= upper + tol`` for every joint.
+
+        ``q``: ``nq`` finite real numbers (:class:`ShapeError` / :class:`NonFiniteError` otherwise); ``tol``:
+        a number in ``[0, 1e6]`` (joint units; :class:`InputError` / :class:`NonFiniteError` otherwise).
+        """
+        q = as_vector(q, self.nq)
+        if type(tol) is not float or not 0.0 <= tol <= MAX_ABS:
+            tol = as_nonnegative(tol, "tol")
         return bool(np.all(q >= self.lower - tol) and np.all(q <= self.upper + tol))
 
     # ------------------------------------------------------------- kinematics
@@ -394,10 +447,14 @@ class Robot(CollisionQueries):
 
         With ``R = Rz(yaw) Ry(pitch) Rx(roll)`` and ``w = E(rpy) rpy_dot``
         (world axes), ``J_A = blockdiag(I, E^-1) J``. ``E`` is singular at
-        ``pitch = +-pi/2`` (gimbal lock): then :class:`SingularityError`.
+        ``pitch = +-pi/2`` (gimbal lock): then :class:`SingularityError`, raised when
+        ``|cos pitch| < singular_tol``. ``singular_tol`` must be a number in ``(0, 1]``
+        (:class:`InputError` / :class:`NonFiniteError` otherwise: 0, a negative number or NaN would let
+        the gimbal lock through as a Jacobian of huge entries).
         """
         if rotation != "rpy":
             raise ShapeError(f"rotation must be 'rpy', got {rotation!r}")
+        singular_tol = as_positive(singular_tol, "singular_tol", maximum=1.0)
         J = self.jacobian(q, frame)
         R = self._tls.data.oMf[self._tip_id if frame is None else self.frame_id(frame)].rotation
         rpy = pin.rpy.matrixToRpy(R)
@@ -413,12 +470,17 @@ class Robot(CollisionQueries):
 
     # ------------------------------------------------------------ singularity
     def _task_jacobian(self, q, frame, axes) -> np.ndarray:
-        J = self.jacobian(q, frame)
-        return J[axis_rows(self.task_axes if axes is None else axes)]
+        rows = axis_rows(self.task_axes if axes is None else axes)
+        return self.jacobian(q, frame)[rows]
 
     def singular_values(self, q: VectorLike, frame: str | None = None,
                         axes: Sequence[str] | None = None) -> np.ndarray:
-        """Singular values (descending) of the Jacobian rows ``axes`` (default ``task_axes``)."""
+        """Singular values (descending) of the Jacobian rows ``axes`` (default ``task_axes``).
+
+        ``axes`` (here and in :meth:`manipulability`, :meth:`condition_number`, :meth:`is_singular`): a
+        non-empty sequence of distinct names of :data:`TASK_AXES` (:func:`axis_rows`; :class:`ShapeError`
+        for an empty, repeated, unknown or bare-string ``axes``).
+        """
         return singularity.singular_values(self._task_jacobian(q, frame, axes))
 
     def manipulability(self, q: VectorLike, frame: str | None = None,
@@ -433,5 +495,10 @@ class Robot(CollisionQueries):
 
     def is_singular(self, q: VectorLike, tol: float = 1e-6, frame: str | None = None,
                     axes: Sequence[str] | None = None) -> bool:
-        """True when the task Jacobian loses rank: ``sigma_min <= tol * max(1, sigma_max)``."""
+        """True when the task Jacobian loses rank: ``sigma_min <= tol * max(1, sigma_max)``.
+
+        ``tol``: a number in ``[0, 1]`` (:class:`InputError` / :class:`NonFiniteError` otherwise: NaN,
+        negative or huge tolerances give meaningless answers).
+        """
+        tol = singularity.check_tol(tol)
         return singularity.is_singular(self._task_jacobian(q, frame, axes), tol)

@@ -35,6 +35,8 @@ robot (its links, or its collision geometry when it has one).
 from __future__ import annotations
 
 import math
+import numbers
+import os
 import struct
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -68,6 +70,18 @@ def _positive(value: Any, name: str) -> float:
     if v <= 0.0:
         raise InputError(f"{name} must be positive (m), got {v!r}")
     return v
+
+
+def _mesh_scale(scale: Any) -> tuple[float, float, float]:
+    """A mesh's ``scale``: one positive number (the same on every axis) or three, each finite, positive and
+    at most :data:`MAX_ABS`; the error naming ``mesh scale`` otherwise."""
+    if isinstance(scale, numbers.Real) and not isinstance(scale, bool):
+        v = _positive(scale, "mesh scale")
+        return (v, v, v)
+    if isinstance(scale, (bool, str, bytes)) or scale is None or np.ndim(scale) == 0:
+        raise ShapeError(f"mesh scale must be a positive number or three of them, got {scale!r}")
+    s = as_vector(scale, 3, "mesh scale")
+    return tuple(_positive(v, "mesh scale entries") for v in s.tolist())
 
 
 def _frames(frames: Any, kind: str) -> tuple[str, ...] | None:
@@ -431,6 +445,10 @@ class Mesh(Shape):
     for concave ones; split a concave obstacle into convex parts for tighter
     clearance. The mesh must be a closed surface (watertight), otherwise "inside"
     has no meaning and :class:`~kinserve.kinematics.errors.ModelError` is raised.
+
+    ``path``: a non-empty ``str`` or ``os.PathLike`` naming a readable file; ``scale``: one positive number
+    or three (each finite, at most 1e6). :class:`~kinserve.kinematics.errors.InputError` (or its
+    ``ShapeError`` / ``NonFiniteError``) naming the argument otherwise.
     """
 
     __slots__ = ("path", "scale", "hull_vertices", "hull_planes", "_geometry")
@@ -441,10 +459,11 @@ class Mesh(Shape):
 
     def __init__(self, path: str | Path, pose: Any = None, scale: float | Sequence[float] = 1.0,
                  frames: Iterable[str] | None = None) -> None:
+        if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)) or not str(path):
+            given = repr(path) if isinstance(path, (str, bytes)) or path is None else type(path).__name__
+            raise InputError(f"mesh path must be a file path (a non-empty str or pathlib.Path), got {given}")
         T = np.eye(4) if pose is None else as_pose(pose, "mesh pose")
-        s = np.broadcast_to(np.asarray(scale, dtype=float), (3,)) if np.ndim(scale) == 0 \
-            else as_vector(scale, 3, "mesh scale")
-        sc = tuple(_positive(v, "mesh scale entries") for v in s)
+        sc = _mesh_scale(scale)
         vertices, planes = _load_hull(Path(path), np.asarray(sc))
         self._set(path=str(path), pose=T, scale=sc, frames=_frames(frames, "mesh"),
                   hull_vertices=vertices, hull_planes=planes)

@@ -47,8 +47,8 @@ POSE_FORMS = ("a 4x4 homogeneous matrix (shape (4, 4)), a pinocchio.SE3, a pair 
 def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     """Return ``value`` as a finite float64 vector of length ``n`` or raise.
 
-    Accepts any sequence of numbers. Raises :class:`ShapeError` for wrong
-    length/shape or non-numeric entries and :class:`NonFiniteError` for NaN,
+    Accepts any sequence of real numbers. Raises :class:`ShapeError` for wrong
+    length/shape, non-numeric or complex entries and :class:`NonFiniteError` for NaN,
     infinities or entries with magnitude above :data:`MAX_ABS`.
     """
     if type(value) is np.ndarray and value.dtype is _FLOAT64 and value.shape == (n,):
@@ -66,7 +66,9 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     try:
         if value is None or isinstance(value, (str, bytes, dict)):
             raise TypeError
-        arr = np.asarray(value, dtype=np.float64)
+        arr = _real_float64(value, name)
+    except ShapeError:  # complex numbers: named as such
+        raise
     except (TypeError, ValueError):
         raise ShapeError(
             f"{name} must be a sequence of {n} numbers, got {_describe(value)}"
@@ -81,19 +83,31 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
     return arr
 
 
-def _float_array(value: object) -> np.ndarray | None:
-    """``value`` as a float64 array, or None when it is not numeric (None, text, a mapping, ragged lists)."""
+def _real_float64(value: object, name: str) -> np.ndarray:
+    """``value`` as a float64 array: :class:`ShapeError` naming ``name`` for complex numbers (NumPy would drop
+    their imaginary part with a mere warning); TypeError / ValueError when it is not numeric."""
+    arr = np.asarray(value)
+    if arr.dtype.kind == "c":
+        raise ShapeError(f"{name} must hold real numbers, got complex numbers (dtype {arr.dtype})")
+    return arr.astype(np.float64, copy=False)
+
+
+def _float_array(value: object, name: str = "value") -> np.ndarray | None:
+    """``value`` as a float64 array, or None when it is not numeric (None, text, a mapping, ragged lists);
+    :class:`ShapeError` naming ``name`` for complex numbers."""
     if value is None or isinstance(value, (str, bytes, dict)):
         return None
     try:
-        return np.asarray(value, dtype=np.float64)
+        return _real_float64(value, name)
+    except ShapeError:
+        raise
     except (TypeError, ValueError):
         return None
 
 
 def as_matrix(value: ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a finite float64 array of exactly ``shape`` (-1 = any)."""
-    arr = _float_array(value)
+    arr = _float_array(value, name)
     if arr is None:
         raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {_describe(value)}")
     if arr.ndim != len(shape) or any(s != -1 and s != a for s, a in zip(shape, arr.shape)):
@@ -140,7 +154,7 @@ def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
     T = _position_quaternion_pair(value, name)
     if T is not None:
         return T
-    arr = _float_array(value)
+    arr = _float_array(value, name)
     if arr is None:
         raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got {_describe(value)}")
     if arr.shape == (7,):

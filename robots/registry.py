@@ -46,7 +46,7 @@ from . import paths
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
 from .srdf import SrdfWarning, attach_srdf, detach_srdf, find_srdf, read_srdf
 from .urdf_loader import is_xml_text, load_urdf
-from .xacro_loader import declared_args, load_xacro
+from .xacro_loader import declared_args, load_xacro, xacro_time_limit
 
 PLANAR_XY_YAW = ("x", "y", "yaw")
 
@@ -386,22 +386,28 @@ def load(
       default: the SRDF found beside the model file; ``False``: none.
     * ``allow_outside``: let the model read mesh files outside its own
       folders and the package folders (refused by default).
-    * ``time_limit``: seconds a xacro expansion may take.
+    * ``time_limit``: seconds a xacro expansion may take (default 20, at most 3600; checked on every load,
+      xacro or not).
 
     Raises :class:`UnknownRobotError` (with suggestions) for an unknown name
-    and :class:`ModelError` for a bad parameter or an unusable model.
+    and :class:`ModelError` for a bad parameter or option (``package_dirs`` not folders, ``time_limit`` not a
+    number of seconds in ``(0, 3600]``) or an unusable model.
     """
     params = _merge_params(params, legacy_params)
     if locks is not None and not isinstance(locks, Mapping):
         raise ModelError(f"locks must be a mapping joint name -> value, got {type(locks).__name__}")
     locks = dict(locks or {})
+    time_limit = xacro_time_limit(time_limit)  # every load: a bad one is refused, xacro or not
     if package_dirs is None:
         package_dirs = ()
-    elif isinstance(package_dirs, (str, Path)):
+    elif isinstance(package_dirs, (str, os.PathLike)):
         package_dirs = (package_dirs,)
+    elif isinstance(package_dirs, bytes) or not isinstance(package_dirs, Iterable):
+        raise ModelError(f"package_dirs must be a folder or a list of folders, got "
+                         f"{type(package_dirs).__name__} {str(package_dirs)[:60]!r}")
     dirs = []
     for d in package_dirs:
-        if not isinstance(d, (str, Path)) or not Path(d).expanduser().is_dir():
+        if not isinstance(d, (str, os.PathLike)) or not Path(d).expanduser().is_dir():
             raise ModelError(f"package_dirs: {d!r} is not a folder")
         dirs.append(str(Path(d).expanduser().resolve()))
     opts = LoadOptions(tip, bool(geometry), tuple(dirs), bool(allow_outside), time_limit)

@@ -8,7 +8,9 @@ Pipeline
    malformed XML, a joint whose parent/child link does not exist, duplicate
    names, a kinematic graph that is not one tree, unsupported joint types
    (``floating``/``planar``), malformed ``origin``/``axis``/``limit``
-   attributes, leftover xacro markup. When meshes are wanted
+   attributes, malformed ``<collision>`` / ``<visual>`` geometry (a shape
+   urdfdom does not know, sizes not positive or not finite, a bad ``origin``:
+   :mod:`~robots.urdf_geometry`), leftover xacro markup. When meshes are wanted
    (``geometry=True``), every mesh URI is resolved by the model's
    :class:`~robots.mesh_resolver.MeshResolver` and a path outside the model's
    folders and the package folders is refused unless ``allow_outside``; a
@@ -59,6 +61,7 @@ from kinserve.kinematics.task_axes import detect_task_axes
 
 from .mesh_resolver import PLACEHOLDER_RADIUS, MeshResolver, MissingMeshWarning
 from .urdf_elements import attribute_floats, describe, where
+from .urdf_geometry import validate_geometry
 
 #: Limits (rad) given to a ``continuous`` joint when it is turned into a revolute one.
 CONTINUOUS_LIMIT = 2.0 * math.pi
@@ -135,7 +138,9 @@ def parse_xml(text: str, label: str) -> etree._Element:
 def validate_urdf(root: etree._Element, label: str) -> None:
     """Check a parsed URDF tree; raise :class:`ModelError` naming file, element and line.
 
-    Mesh elements are checked by :meth:`MeshResolver.check_meshes` (only when meshes are wanted).
+    Every ``<collision>`` / ``<visual>`` element's origin and shape are checked by
+    :func:`~robots.urdf_geometry.validate_geometry` (urdfdom would drop a bad one silently); mesh files by
+    :meth:`MeshResolver.check_meshes` (only when meshes are wanted).
     """
     if not isinstance(root.tag, str) or root.tag != "robot":
         raise ModelError(f"{where(label, root)}: the root element must be <robot>, got <{root.tag}>")
@@ -158,6 +163,7 @@ def validate_urdf(root: etree._Element, label: str) -> None:
         links[name] = link
     if not links:
         raise ModelError(f"{label}: the URDF defines no <link>")
+    validate_geometry(root, label)
 
     joints: dict[str, etree._Element] = {}
     parent_of: dict[str, str] = {}

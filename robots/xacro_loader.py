@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import json
 import math
+import numbers
 import os
 import subprocess
 import sys
@@ -54,6 +55,8 @@ XACRO_NS = "http://www.ros.org/wiki/xacro"
 
 #: Wall-clock limit (s) of one xacro expansion.
 XACRO_TIME_LIMIT = 20.0
+#: Longest accepted ``time_limit`` (s) of a xacro expansion.
+MAX_XACRO_TIME_LIMIT = 3600.0
 
 #: Address-space cap (bytes) of the xacro process (POSIX only).
 XACRO_MEMORY_LIMIT = 2 * 1024**3
@@ -138,15 +141,28 @@ def check_args(path: str | os.PathLike, args: Mapping | None) -> dict[str, str]:
     return mappings
 
 
+def xacro_time_limit(time_limit: object) -> float:
+    """The seconds a xacro expansion may take: :data:`XACRO_TIME_LIMIT` for None, else ``time_limit`` if it
+    is a number in ``(0, MAX_XACRO_TIME_LIMIT]``; :class:`ModelError` naming ``time_limit`` otherwise (NaN,
+    zero, negative, huge, text, a bool)."""
+    if time_limit is None:
+        return XACRO_TIME_LIMIT
+    if (isinstance(time_limit, bool) or not isinstance(time_limit, numbers.Real)
+            or not 0.0 < float(time_limit) <= MAX_XACRO_TIME_LIMIT):  # NaN fails the comparison
+        raise ModelError(f"time_limit must be a positive number of seconds, at most {MAX_XACRO_TIME_LIMIT:g} "
+                         f"(None: {XACRO_TIME_LIMIT:g} s), got {time_limit!r}")
+    return float(time_limit)
+
+
 def process_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
                   package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
                   allow_outside: bool = False) -> str:
     """URDF text of a xacro file expanded with ``args`` (``{name: value}``).
 
     ``package_dirs`` resolve ``$(find PKG)`` (see :mod:`robots.packages`);
-    ``time_limit`` (s, default :data:`XACRO_TIME_LIMIT`) bounds the expansion.
-    Files it includes or loads must lie in the model's folders or the
-    package folders unless ``allow_outside``.
+    ``time_limit`` (s, default :data:`XACRO_TIME_LIMIT`, at most :data:`MAX_XACRO_TIME_LIMIT`:
+    :func:`xacro_time_limit`) bounds the expansion. Files it includes or loads must lie in the model's
+    folders or the package folders unless ``allow_outside``.
     """
     text, _ = expand_xacro(path, args, package_dirs=package_dirs, time_limit=time_limit,
                            allow_outside=allow_outside)
@@ -160,9 +176,7 @@ def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
     :func:`process_xacro`)."""
     p = _existing(path)
     mappings = check_args(p, args)
-    limit = XACRO_TIME_LIMIT if time_limit is None else float(time_limit)
-    if not (math.isfinite(limit) and limit > 0):
-        raise ModelError(f"xacro time_limit must be a positive number of seconds, got {time_limit!r}")
+    limit = xacro_time_limit(time_limit)
     if isinstance(package_dirs, (str, Path)):
         package_dirs = [package_dirs]
     request = {
