@@ -38,6 +38,7 @@ cut short holds the poses attempted so far (the failed one last);
 
 from __future__ import annotations
 
+import numbers
 import time
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
@@ -49,7 +50,9 @@ from kinserve import ik
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.types import PoseLike, VectorLike
+from kinserve.kinematics.validation import as_nonnegative, as_positive
 
+from .checks import MAX_SAMPLES
 from .joint_trajectory import JointTrajectory
 from .se3_interpolation import interpolate_checkpoints
 
@@ -226,21 +229,32 @@ class CartesianPlan:
 
 
 def _checked_arguments(poses: Any, steps: Any, dt: Any, interpolation: Any, total_time: Any) -> list:
-    """``poses`` as a list, after checking the arguments of :func:`cartesian_to_joint` named here."""
+    """``poses`` as a list, after checking the arguments of :func:`cartesian_to_joint` named here (``steps``
+    an integer >= 1 making at most :data:`~kinserve.planners.checks.MAX_SAMPLES` poses in all)."""
     if isinstance(poses, np.ndarray) and poses.ndim == 3:
         poses = list(poses)
     if not isinstance(poses, (list, tuple)) or len(poses) < 2:
         raise ShapeError("poses must be a list of at least two 4x4 poses")
-    if not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise InputError(f"steps must be a positive integer, got {steps!r}")
-    if not np.isfinite(dt) or dt <= 0:
-        raise InputError(f"dt must be a positive number of seconds, got {dt!r}")
+    most = (MAX_SAMPLES - 1) // (len(poses) - 1) - 1
+    if not (isinstance(steps, numbers.Integral) and not isinstance(steps, bool)) or not 1 <= steps <= most:
+        raise InputError(f"steps must be an integer from 1 to {most:,} ({MAX_SAMPLES:,} poses at most over "
+                         f"{len(poses) - 1} segments), got {steps!r}")
+    as_positive(dt, "dt")
     if interpolation not in ("decoupled", "screw"):
         raise InputError(f"interpolation must be 'decoupled' or 'screw', got {interpolation!r}")
-    if (total_time is not None
-        and not (isinstance(total_time, (int, float)) and np.isfinite(total_time) and total_time > 0)):
-        raise InputError(f"total_time must be a positive number of seconds or None, got {total_time!r}")
+    if total_time is not None:
+        as_positive(total_time, "total_time")
     return list(poses)
+
+
+def _checked_thresholds(max_time: Any, jump_threshold: Any, limit_margin: Any,
+                        singular_tol: Any) -> tuple[float | None, float, float, float]:
+    """``max_time`` (None or a number of seconds in ``(0, 1e6]``), ``jump_threshold`` (> 0),
+    ``limit_margin`` and ``singular_tol`` (>= 0), each finite and at most 1e6, as floats (a NaN threshold
+    would switch its check off silently)."""
+    return (None if max_time is None else as_positive(max_time, "max_time"),
+            as_positive(jump_threshold, "jump_threshold"), as_nonnegative(limit_margin, "limit_margin"),
+            as_nonnegative(singular_tol, "singular_tol"))
 
 
 def _plan_of(robot: Robot, path: np.ndarray, q0: np.ndarray, track: PoseTrack, solving: PoseSolving,
@@ -303,8 +317,16 @@ def cartesian_to_joint(
     ``iteration_budget`` (None = none) is each pose's IK option of that name;
     with ``max_time=None`` and no ``total_time`` the clock then decides nothing.
     The poses are solved by :func:`follow_poses`.
+
+    Refused (:class:`InputError` / :class:`ShapeError` naming the argument): fewer than two poses; ``steps``
+    not an integer from 1 to the bound that keeps the path within
+    :data:`~kinserve.planners.checks.MAX_SAMPLES` poses; ``dt``, ``total_time``, ``max_time`` (when not
+    None) or ``jump_threshold`` not finite numbers in ``(0, 1e6]``; ``limit_margin`` or ``singular_tol``
+    not finite numbers in ``[0, 1e6]``; an unknown ``interpolation``.
     """
     poses = _checked_arguments(poses, steps, dt, interpolation, total_time)
+    max_time, jump_threshold, limit_margin, singular_tol = _checked_thresholds(max_time, jump_threshold,
+                                                                               limit_margin, singular_tol)
     deadline = None if total_time is None else time.monotonic() + float(total_time)
     q = robot.neutral() if q0 is None else robot.check_q(q0, "q0")
     path = interpolate_checkpoints(poses, steps, method=interpolation)  # validates every pose

@@ -51,7 +51,6 @@ millimetres apart, so the rounding is far below ``max_step``).
 
 from __future__ import annotations
 
-import math
 import numbers
 import time
 from collections.abc import Sequence
@@ -68,9 +67,10 @@ from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import Shape
 from kinserve.kinematics.types import ArrayLike, PoseLike
-from kinserve.kinematics.validation import as_pose, as_positive
+from kinserve.kinematics.validation import as_nonnegative, as_pose, as_positive
 
 from .cartesian import PoseSolving, PoseTrack, follow_poses
+from .checks import step_count
 from .joint_trajectory import JointTrajectory
 from .motion.blended_path import corner_directions, distinct_points
 from .motion.clearance import CLEARANCE_FLOOR, Clearance, ClearanceOracle
@@ -134,7 +134,8 @@ def line_steps(T0: PoseLike, T1: PoseLike, max_step: float, max_rotation_step: f
                interpolation: str = "decoupled") -> int:
     """The least ``n >= 1`` such that each of ``n`` equal steps of ``s`` moves the frame's origin by at most
     ``max_step`` (m) along its path and turns the frame by at most ``max_rotation_step`` (rad) (module
-    docstring)."""
+    docstring). A step so small that ``n`` would exceed :data:`~kinserve.planners.checks.MAX_SAMPLES` is
+    refused (:class:`InputError` naming it and the smallest step accepted)."""
     A, B = as_pose(T0, "T0"), as_pose(T1, "T1")
     if interpolation == "screw":
         X = pin.log6(se3.to_se3(A).actInv(se3.to_se3(B))).vector
@@ -142,14 +143,9 @@ def line_steps(T0: PoseLike, T1: PoseLike, max_step: float, max_rotation_step: f
     else:
         length = float(np.linalg.norm(B[:3, 3] - A[:3, 3]))
         angle = float(np.linalg.norm(se3.log3(A[:3, :3].T @ B[:3, :3])))
-    ratio = max(length / max_step, angle / max_rotation_step)
-    return max(1, math.ceil(ratio - 1e-9))
-
-
-def _nonnegative(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (0.0 <= float(value) < math.inf):
-        raise InputError(f"{name} must be a finite number >= 0, got {value!r}")
-    return float(value)
+    if length / max_step >= angle / max_rotation_step:
+        return step_count(length, max_step, "max_step", "m", "path")
+    return step_count(angle, max_rotation_step, "max_rotation_step", "rad", "turn")
 
 
 def _budgets(max_time: Any, iteration_budget: Any) -> tuple[float | None, int | None]:
@@ -251,7 +247,8 @@ def _solving(frame: str | None, relax: Sequence[str], method: str, tol_pos: floa
     budget = iteration_budget if "iteration_budget" in accepted else None
     return PoseSolving(frame, tuple(relax) if not isinstance(relax, str) else relax, (), 0.0, method, None,
                        tol_pos, tol_rot, seed, budget, as_positive(jump_threshold, "jump_threshold"),
-                       _nonnegative(limit_margin, "limit_margin"), _nonnegative(singular_tol, "singular_tol"),
+                       as_nonnegative(limit_margin, "limit_margin"),
+                       as_nonnegative(singular_tol, "singular_tol"),
                        options)
 
 
@@ -351,7 +348,9 @@ def plan_cartesian(robot: Robot, start: ArrayLike, T_goal: PoseLike, *, frame: s
     """Move ``frame`` (default ``robot.tip``) on the straight line in SE(3) from its pose at ``start`` to
     ``T_goal``, as far as it can go (module docstring).
 
-    ``max_step`` (m) and ``max_rotation_step`` (rad) bound each step of the line; ``interpolation``:
+    ``max_step`` (m) and ``max_rotation_step`` (rad) bound each step of the line (a step so small that the
+    line would need more than :data:`~kinserve.planners.checks.MAX_SAMPLES` steps is refused);
+    ``interpolation``:
     ``"decoupled"`` (straight origin, slerp) or ``"screw"``. Stops: ``jump_threshold`` (rad or m, on the
     largest joint change of a step), ``limit_margin`` (rad or m), ``singular_tol`` (on the smallest singular
     value of the task Jacobian), collisions with ``obstacles`` (shapes of :mod:`kinserve.kinematics.shapes`)

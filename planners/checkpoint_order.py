@@ -10,8 +10,12 @@ visits every point once and
 * returns to the start (``return_to_start=True``, a tour).
 
 Up to ``exact_limit`` points (default 12) the answer is exact: Held-Karp
-dynamic programming over subsets, ``O(2^N N^2)`` time
-(``D[S, j] = min_k D[S - {j}, k] + c(k, j)``), vectorised over ``k``.
+dynamic programming over subsets, ``O(2^N N^2)`` time and ``O(2^N N)`` memory
+(``D[S, j] = min_k D[S - {j}, k] + c(k, j)``), vectorised over ``k``. It is
+refused above :data:`HELD_KARP_LIMIT` points (16 points take a few seconds, each
+further point doubles that), and ``exact_limit`` may not exceed it.
+
+At most :data:`MAX_POINTS` points are ordered (the cost matrix is ``N x N``).
 
 Above that: nearest-neighbour construction followed by 2-opt (segment
 reversals, Or-style, until no improving move remains). The result carries a
@@ -39,6 +43,14 @@ from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import minimum_spanning_tree
 
 from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_count
+
+from .checks import as_index, as_numbers
+
+#: Most points :func:`held_karp` accepts (and the largest ``exact_limit`` of :func:`shortest_order`).
+HELD_KARP_LIMIT = 16
+#: Most points :func:`shortest_order` orders.
+MAX_POINTS = 1000
 
 
 @dataclass(frozen=True)
@@ -68,13 +80,20 @@ class OrderResult:
 
 
 def positions_of(points: ArrayLike) -> np.ndarray:
-    """Positions ``(N, d)`` of points given as positions ``(N, d)`` or poses ``(N, 4, 4)``."""
-    P = np.asarray(points, dtype=float)
+    """Positions ``(N, d)`` of points given as positions ``(N, d)`` or poses ``(N, 4, 4)``; finite numbers
+    only, at most :data:`MAX_POINTS` points (:class:`InputError` / :class:`ShapeError` otherwise)."""
+    P = as_numbers(points, "points")
     if P.ndim == 3 and P.shape[1:] == (4, 4):
-        return P[:, :3, 3].copy()
-    if P.ndim == 2:
-        return P
-    raise ShapeError(f"points must be positions (N, d) or poses (N, 4, 4), got shape {P.shape}")
+        P = P[:, :3, 3].copy()
+    elif P.ndim != 2:
+        raise ShapeError(f"points must be positions (N, d) or poses (N, 4, 4), got shape {P.shape}")
+    _check_size(len(P))
+    return P
+
+
+def _check_size(n: int) -> None:
+    if n > MAX_POINTS:
+        raise InputError(f"at most {MAX_POINTS} points can be ordered, got {n}")
 
 
 def euclidean_cost_matrix(points: ArrayLike) -> np.ndarray:
@@ -83,31 +102,65 @@ def euclidean_cost_matrix(points: ArrayLike) -> np.ndarray:
     return np.linalg.norm(P[:, None, :] - P[None, :, :], axis=-1)
 
 
+def as_cost_matrix(C: ArrayLike, name: str = "cost matrix") -> np.ndarray:
+    """``C`` as a square float ``(N, N)`` array of costs ``>= 0`` (``inf`` allowed: a forbidden move);
+    :class:`ShapeError` / :class:`InputError` for another shape, non-numbers, NaN or negative costs."""
+    if C is None or isinstance(C, (str, bytes, dict)):
+        raise ShapeError(f"{name} must be a square (N, N) array of numbers, got {C!r:.60}")
+    try:
+        C = np.asarray(C, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be a square (N, N) array of numbers") from None
+    if C.ndim != 2 or C.shape[0] != C.shape[1]:
+        raise ShapeError(f"{name} must be square (N, N), got shape {C.shape}")
+    if np.any(np.isnan(C)) or np.any(C < 0):
+        raise InputError(f"{name}: costs must be >= 0 and not NaN (use inf for a forbidden move)")
+    return C
+
+
+def _call_cost(cost: Callable[[Any, Any], float], points: Any, i: int, j: int) -> float:
+    """``cost(points[i], points[j])`` as a float; :class:`InputError` naming the pair when the cost function
+    fails or does not return a number."""
+    try:
+        return float(cost(points[i], points[j]))
+    except Exception as exc:  # the user's function: its failure is reported as bad input, with the pair
+        raise InputError(f"the cost function failed on points {i} and {j}: "
+                         f"{type(exc).__name__}: {exc}") from exc
+
+
 def _cost_matrix(points, cost) -> np.ndarray:
     if cost is None:
         if points is None:
             raise InputError("give points, or a cost matrix / function with n")
-        C = euclidean_cost_matrix(points)
-    elif callable(cost):
-        if points is None:
-            raise InputError("a cost function needs the points it is evaluated on")
+        return as_cost_matrix(euclidean_cost_matrix(points))
+    if callable(cost):
+        if points is None or isinstance(points, (str, bytes, dict)) or not hasattr(points, "__len__"):
+            raise InputError("a cost function needs the sequence of points it is evaluated on")
         n = len(points)
-        C = np.array([[0.0 if i == j else float(cost(points[i], points[j])) for j in range(n)]
-                      for i in range(n)])
-    else:
-        C = np.asarray(cost, dtype=float)
-        if C.ndim != 2 or C.shape[0] != C.shape[1]:
-            raise ShapeError(f"cost matrix must be square (N, N), got shape {C.shape}")
-        if points is not None and len(points) != C.shape[0]:
-            raise ShapeError(f"cost matrix is {C.shape} but {len(points)} points were given")
-    if np.any(np.isnan(C)) or np.any(C < 0):
-        raise InputError("costs must be >= 0 and not NaN (use inf for a forbidden move)")
+        _check_size(n)
+        return as_cost_matrix([[0.0 if i == j else _call_cost(cost, points, i, j) for j in range(n)]
+                               for i in range(n)], "costs of the cost function")
+    C = as_cost_matrix(cost)
+    _check_size(C.shape[0])
+    if points is not None and len(points) != C.shape[0]:
+        raise ShapeError(f"cost matrix is {C.shape} but {len(points)} points were given")
     return C
 
 
 def path_cost(C: np.ndarray, order: Sequence[int], return_to_start: bool = False) -> float:
-    """Sum of ``C[order[k], order[k+1]]`` (plus the closing edge for a tour)."""
-    o = list(order)
+    """Sum of ``C[order[k], order[k+1]]`` (plus the closing edge for a tour).
+
+    Refused (:class:`InputError` / :class:`ShapeError`): ``C`` not a square matrix of costs >= 0 (NaN,
+    negative), ``order`` holding an index outside ``[0, N - 1]`` (negative ones included) or an index
+    twice.
+    """
+    C = as_cost_matrix(C)
+    if order is None or isinstance(order, (str, bytes, dict)) or not hasattr(order, "__iter__"):
+        raise InputError(f"order must be a sequence of indices into the cost matrix, got {order!r:.60}")
+    o = [as_index(v, C.shape[0], f"order[{k}]") for k, v in enumerate(order)]
+    if len(set(o)) != len(o):
+        raise InputError(f"order must visit each point at most once, got {o!r:.200} (close a tour with "
+                         "return_to_start=True)")
     total = float(sum(C[a, b] for a, b in zip(o[:-1], o[1:])))
     if return_to_start and len(o) > 1:
         total += float(C[o[-1], o[0]])
@@ -116,8 +169,21 @@ def path_cost(C: np.ndarray, order: Sequence[int], return_to_start: bool = False
 
 def held_karp(C: np.ndarray, start: int = 0, end: int | None = None,
               return_to_start: bool = False) -> tuple[list[int], float]:
-    """Exact optimal order by dynamic programming over subsets; returns ``(order, cost)``."""
+    """Exact optimal order by dynamic programming over subsets; returns ``(order, cost)``.
+
+    Refused (:class:`InputError` / :class:`ShapeError`): ``C`` not a square matrix of costs >= 0 (NaN,
+    negative), more than :data:`HELD_KARP_LIMIT` points (the work doubles with each point), ``start`` /
+    ``end`` not an index of ``C``.
+    """
+    C = as_cost_matrix(C)
     n = C.shape[0]
+    if n == 0:
+        raise InputError("no points to order: the cost matrix is empty")
+    if n > HELD_KARP_LIMIT:
+        raise InputError(f"held_karp takes at most {HELD_KARP_LIMIT} points (O(2^N N^2) time, O(2^N N) "
+                         f"memory), got {n}; use shortest_order for more")
+    start = as_index(start, n, "start")
+    end = None if end is None else as_index(end, n, "end")
     if n == 1:
         return [start], 0.0
     others = [i for i in range(n) if i != start and (end is None or i != end or return_to_start)]
@@ -247,14 +313,19 @@ def shortest_order(
     point; ``return_to_start`` closes the tour. Exact (Held-Karp) for
     ``N <= exact_limit``, nearest neighbour + 2-opt above (see the module
     docstring for the bound reported).
+
+    Refused (:class:`InputError` / :class:`ShapeError` naming the argument): points that are not finite
+    positions or poses, more than :data:`MAX_POINTS` of them, NaN or negative costs, ``start`` / ``end``
+    not an index of the points (None, NaN, out of range), ``exact_limit`` not an integer in
+    ``[0, HELD_KARP_LIMIT]``.
     """
+    exact_limit = as_count(exact_limit, "exact_limit", 0, HELD_KARP_LIMIT)
     C = _cost_matrix(points, cost)
     n = C.shape[0]
     if n == 0:
         raise InputError("no points to order")
-    for name, v in (("start", start), ("end", end)):
-        if v is not None and (int(v) != v or not 0 <= v < n):
-            raise InputError(f"{name} must be an index in [0, {n - 1}], got {v!r}")
+    start = as_index(start, n, "start")
+    end = None if end is None else as_index(end, n, "end")
     if end is not None and return_to_start:
         raise InputError("give either end (an open path ending there) or return_to_start (a tour), not both")
     if end is not None and end == start and not return_to_start:

@@ -28,7 +28,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix
+from kinserve.kinematics.validation import as_matrix, as_positive
+
+from .checks import as_times
 
 
 def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *,
@@ -39,11 +41,16 @@ def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *,
     ``numpy.gradient``; the ends use one-sided second-order differences (or
     zero when ``zero_ends``, for a trajectory that starts and ends at rest).
     Exact for quadratics in ``t``.
+
+    Refused (:class:`InputError` / :class:`ShapeError`): positions not a finite ``(N, nq)`` array, times
+    not finite ``(N,)``, times not strictly increasing (a repeated time has no velocity).
     """
-    Q = np.asarray(positions, dtype=float)
-    t = np.asarray(times, dtype=float)
-    if Q.ndim != 2 or t.shape != (Q.shape[0],):
-        raise ShapeError(f"positions must be (N, nq) and times (N,), got {Q.shape} and {t.shape}")
+    Q = as_matrix(positions, (-1, -1), "positions")
+    t = as_matrix(times, (Q.shape[0],), "times")
+    if np.any(np.diff(t) <= 0):
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0])
+        raise InputError(f"times must be strictly increasing, got times[{k}] = {float(t[k])!r} and "
+                         f"times[{k + 1}] = {float(t[k + 1])!r}")
     if Q.shape[0] < 2:
         return np.zeros_like(Q)
     V = np.gradient(Q, t, axis=0, edge_order=2 if Q.shape[0] >= 3 else 1)
@@ -53,12 +60,22 @@ def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *,
     return V
 
 
+def joint_name_list(joint_names: object) -> list:
+    """``joint_names`` (a list or tuple, or another iterable that is not text) as a list;
+    :class:`InputError` for None, a string or anything not iterable."""
+    if joint_names is None or isinstance(joint_names, (str, bytes, dict)) or not hasattr(joint_names,
+                                                                                         "__iter__"):
+        raise InputError(f"joint_names must be a sequence of joint names (strings), got {joint_names!r:.80}")
+    return list(joint_names)
+
+
 @dataclass
 class JointTrajectory:
     """Joint names, ``times (N,)`` strictly increasing from >= 0, ``positions (N, nq)``.
 
     ``velocities`` and ``accelerations`` are optional ``(N, nq)`` arrays.
-    Construction validates shapes, finiteness and the time order.
+    Construction validates shapes, finiteness and the time order; ``joint_names`` must be a sequence
+    of distinct non-empty strings (None or a single string is refused).
     """
 
     joint_names: list[str]
@@ -68,7 +85,7 @@ class JointTrajectory:
     accelerations: np.ndarray | None = None
 
     def __post_init__(self):
-        names = list(self.joint_names)
+        names = joint_name_list(self.joint_names)
         if not all(isinstance(n, str) and n for n in names):
             raise InputError(f"joint_names must be non-empty strings, got {names!r}")
         if len(set(names)) != len(names):
@@ -93,10 +110,10 @@ class JointTrajectory:
                        velocities: str | None = "finite_difference",
                        zero_end_velocities: bool = False) -> JointTrajectory:
         """Points at ``time_from_start = i * dt``; velocities by finite differences unless
-        ``velocities=None``."""
-        if not (isinstance(dt, (int, float)) and np.isfinite(dt) and dt > 0):
-            raise InputError(f"dt must be a finite number > 0, got {dt!r}")
-        Q = as_matrix(positions, (-1, len(list(joint_names))), "positions")
+        ``velocities=None``. ``dt`` must be a finite number in ``(0, 1e6]`` s."""
+        dt = as_positive(dt, "dt")
+        joint_names = joint_name_list(joint_names)
+        Q = as_matrix(positions, (-1, len(joint_names)), "positions")
         t = dt * np.arange(Q.shape[0])
         V = None
         if velocities == "finite_difference":
@@ -135,8 +152,11 @@ class JointTrajectory:
         return out
 
     def position_at(self, t: ArrayLike) -> np.ndarray:
-        """Positions at times ``t`` by linear interpolation between points (clamped at the ends)."""
-        t = np.atleast_1d(np.asarray(t, dtype=float))
+        """Positions at times ``t`` by linear interpolation between points (clamped at the ends).
+
+        ``t`` (s): a number or an array; NaN, infinite, None or text times are refused
+        (:class:`InputError`), never answered with NaN positions."""
+        t = np.atleast_1d(as_times(t))
         return np.stack([np.interp(t, self.times, self.positions[:, j]) for j in range(self.nq)], axis=-1)
 
     # ------------------------------------------------------------------ JSON

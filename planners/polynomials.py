@@ -12,14 +12,35 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_real
+
+from .checks import as_numbers
+
+#: Shortest segment duration (s) accepted: ``T**5`` stays far above the smallest float.
+MIN_DURATION = 1e-6
+#: Longest segment duration (s) accepted.
+MAX_DURATION = 1e6
 
 
-def _duration(T) -> float:
-    T = float(T)
-    if not np.isfinite(T) or T <= 0.0:
-        raise InputError(f"duration T must be a finite number > 0, got {T!r}")
-    return T
+def _duration(T: object) -> float:
+    """``T`` as a float in ``[MIN_DURATION, MAX_DURATION]`` (:class:`InputError` naming ``T`` otherwise)."""
+    v = as_real(T, "duration T")
+    if not MIN_DURATION <= v <= MAX_DURATION:
+        raise InputError(f"duration T must be a number of seconds in [{MIN_DURATION:g}, {MAX_DURATION:g}], "
+                         f"got {T!r}")
+    return v
+
+
+def _boundary(values: dict[str, object]) -> list[np.ndarray]:
+    """The boundary values (finite numbers or arrays, |x| <= 1e6) broadcast to one shape; errors name the
+    argument (a NaN, None or text boundary value is refused, never turned into NaN coefficients)."""
+    arrays = [as_numbers(v, k) for k, v in values.items()]
+    try:
+        return np.broadcast_arrays(*arrays)
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in zip(values, arrays))
+        raise ShapeError(f"boundary values must broadcast to one shape, got {shapes}") from None
 
 
 def cubic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike = 0.0,
@@ -29,9 +50,13 @@ def cubic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike = 0
     ``c0 = x0, c1 = v0``,
     ``c2 = 3 (x1 - x0)/T^2 - (2 v0 + v1)/T``,
     ``c3 = -2 (x1 - x0)/T^3 + (v0 + v1)/T^2``.
+
+    Refused (:class:`InputError` naming the argument): ``T`` outside ``[MIN_DURATION, MAX_DURATION]`` s or
+    not a number; boundary values that are None, text, NaN, infinite or above 1e6 in magnitude, or that do
+    not broadcast to one shape.
     """
     T = _duration(T)
-    x0, x1, v0, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (x0, x1, v0, v1)))
+    x0, x1, v0, v1 = _boundary({"x0": x0, "x1": x1, "v0": v0, "v1": v1})
     dx = x1 - x0
     return np.stack([x0, v0, 3.0 * dx / T**2 - (2.0 * v0 + v1) / T, -2.0 * dx / T**3 + (v0 + v1) / T**2])
 
@@ -46,10 +71,11 @@ def quintic_coefficients(T: float, x0: ArrayLike, x1: ArrayLike, v0: ArrayLike =
     ``c3 = (20 dx - (8 v1 + 12 v0) T - (3 a0 - a1) T^2) / (2 T^3)``
     ``c4 = (-30 dx + (14 v1 + 16 v0) T + (3 a0 - 2 a1) T^2) / (2 T^4)``
     ``c5 = (12 dx - 6 (v1 + v0) T - (a0 - a1) T^2) / (2 T^5)``
+
+    Refused as by :func:`cubic_coefficients`.
     """
     T = _duration(T)
-    x0, x1, v0, v1, a0, a1 = np.broadcast_arrays(*(np.asarray(a, dtype=float)
-                                                   for a in (x0, x1, v0, v1, a0, a1)))
+    x0, x1, v0, v1, a0, a1 = _boundary({"x0": x0, "x1": x1, "v0": v0, "v1": v1, "a0": a0, "a1": a1})
     dx = x1 - x0
     c3 = (20.0 * dx - (8.0 * v1 + 12.0 * v0) * T - (3.0 * a0 - a1) * T**2) / (2.0 * T**3)
     c4 = (-30.0 * dx + (14.0 * v1 + 16.0 * v0) * T + (3.0 * a0 - 2.0 * a1) * T**2) / (2.0 * T**4)

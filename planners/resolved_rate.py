@@ -55,9 +55,11 @@ from typing import Any
 import numpy as np
 
 from kinserve.kinematics import Robot, axis_rows
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.types import VectorLike
-from kinserve.kinematics.validation import as_vector
+from kinserve.kinematics.validation import as_count, as_matrix, as_nonnegative, as_positive, as_vector
+
+from .checks import MAX_SAMPLES
 
 #: A reference trajectory: ``t -> (x_ref(t), xdot_ref(t))`` in the task axes.
 Reference = Callable[[float], tuple[np.ndarray, np.ndarray]]
@@ -145,8 +147,11 @@ class ResolvedRateResult:
 
 
 def _check_axes(robot: Robot, axes) -> tuple[str, ...]:
-    axes = tuple("yaw" if a == "phi" else a for a in (robot.task_axes if axes is None else axes))
-    axis_rows(axes)
+    """The task axes (``robot.task_axes`` for None), ``phi`` read as ``yaw``: names among x, y, z, yaw, each
+    once (:class:`InputError` / :class:`ShapeError` otherwise)."""
+    raw = robot.task_axes if axes is None else axes
+    axis_rows(raw)  # a sequence of known names, each once (a bare string or an unknown name is refused)
+    axes = tuple("yaw" if a == "phi" else a for a in raw)
     bad = [a for a in axes if a in ("roll", "pitch")]
     if bad:
         raise InputError(
@@ -160,7 +165,12 @@ def _check_axes(robot: Robot, axes) -> tuple[str, ...]:
 
 def task_coordinates(robot: Robot, q: VectorLike, axes: Sequence[str],
                      frame: str | None = None) -> np.ndarray:
-    """Task coordinates ``x(q)``: tool position components and/or yaw (see module docstring)."""
+    """Task coordinates ``x(q)``: tool position components and/or yaw (see module docstring).
+
+    ``axes``: names among ``x``, ``y``, ``z``, ``yaw`` (``phi``), each once; an unknown name, ``roll`` /
+    ``pitch`` or an empty list is refused (:class:`InputError`), never read as yaw.
+    """
+    axes = _check_axes(robot, axes)
     T = robot.fk(q, frame)
     out = np.empty(len(axes))
     for i, a in enumerate(axes):
@@ -180,7 +190,15 @@ def damped_pseudo_inverse(J: np.ndarray, damping: float = 0.0,
 
     With ``damping = 0`` singular values below ``rcond * sigma_max`` are
     dropped (Moore-Penrose pseudo-inverse).
+
+    Refused (:class:`InputError` / :class:`ShapeError`): ``J`` not a non-empty 2-D array of finite
+    numbers; ``damping`` not a finite number in ``[0, 1e6]``; ``rcond`` not in ``[0, 1]``.
     """
+    J = as_matrix(J, (-1, -1), "J")
+    if J.size == 0:
+        raise ShapeError(f"J must have at least one row and one column, got shape {J.shape}")
+    damping = as_nonnegative(damping, "damping")
+    rcond = as_nonnegative(rcond, "rcond", maximum=1.0)
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     return _pinv_from_svd(U, s, Vt, damping, rcond), s
 
@@ -205,16 +223,17 @@ def adaptive_damping(sigma_min: float, sigma_threshold: float, lambda_max: float
 
 def _checked_run_arguments(n, dt, gain, damping) -> int:
     """The step count ``n`` as an int, after checking :func:`track_reference`'s ``n``, ``dt``, ``gain``
-    and ``damping`` (:class:`InputError` naming the argument)."""
-    if int(n) != n or n < 0:
-        raise InputError(f"n (number of steps) must be an integer >= 0, got {n!r}")
-    if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
-        raise InputError(f"dt must be a finite number > 0, got {dt!r}")
-    if not (0.0 < gain <= 1.0):
-        raise InputError(f"gain must be in (0, 1], got {gain!r}")
-    if not (isinstance(damping, (int, float)) and damping >= 0) and damping != "adaptive":
-        raise InputError(f"damping must be 'adaptive' or a number >= 0, got {damping!r}")
-    return int(n)
+    and ``damping`` (:class:`InputError` naming the argument): ``n`` an integer from 0 to
+    :data:`~kinserve.planners.checks.MAX_SAMPLES`, ``dt`` in ``(0, 1e6]``, ``gain`` in ``(0, 1]``, ``damping``
+    ``"adaptive"`` or a number in ``[0, 1e6]``."""
+    n = as_count(n, "n (number of steps)", 0, MAX_SAMPLES)
+    as_positive(dt, "dt")
+    as_positive(gain, "gain", maximum=1.0)
+    if not (isinstance(damping, str) and damping == "adaptive"):
+        if isinstance(damping, str):
+            raise InputError(f"damping must be 'adaptive' or a number >= 0, got {damping!r}")
+        as_nonnegative(damping, "damping")
+    return n
 
 
 def track_reference(

@@ -47,17 +47,19 @@ from scipy.spatial.transform import Rotation
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.types import ArrayLike, PoseLike, VectorLike
-from kinserve.kinematics.validation import as_pose, as_vector
+from kinserve.kinematics.validation import as_count, as_pose, as_positive, as_vector
 
 from . import polynomials
+from .checks import MAX_SAMPLES, as_times, sample_count
 
 METHODS = ("decoupled", "screw")
 
 
 def _progress(s):
-    s = np.asarray(s, dtype=float)
-    if not np.all(np.isfinite(s)):
-        raise InputError("s must hold finite numbers (progress, normally in [0, 1])")
+    """``s`` as finite numbers (progress, normally in ``[0, 1]``), at most :data:`MAX_SAMPLES` of them."""
+    s = as_times(s, "s (progress, normally in [0, 1])")
+    if s.size > MAX_SAMPLES:
+        raise InputError(f"s holds {s.size:,} progress values; at most {MAX_SAMPLES:,} are accepted")
     return s
 
 
@@ -99,11 +101,10 @@ def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoup
     """``n`` poses strictly between ``T0`` and ``T1`` at ``s = k/(n+1)``, ``k = 1..n``.
 
     With ``include_ends`` the result also starts with ``T0`` and ends with ``T1``
-    (``n + 2`` poses).
+    (``n + 2`` poses). ``n`` must be an integer from 0 to ``MAX_SAMPLES - 2``
+    (:data:`~kinserve.planners.checks.MAX_SAMPLES`), else :class:`InputError`.
     """
-    if int(n) != n or n < 0:
-        raise InputError(f"n must be an integer >= 0, got {n!r}")
-    n = int(n)
+    n = as_count(n, "n", 0, MAX_SAMPLES - 2)
     s = np.linspace(0.0, 1.0, n + 2)
     if not include_ends:
         s = s[1:-1]
@@ -116,11 +117,19 @@ def interpolate_checkpoints(poses: Sequence[PoseLike], n: int, method: str = "de
     """Poses through consecutive checkpoints: ``P0, n poses, P1, n poses, ..., P_last``.
 
     Returns ``((K - 1)(n + 1) + 1, 4, 4)`` for ``K`` checkpoints; every
-    checkpoint appears exactly once, at index ``k (n + 1)``.
+    checkpoint appears exactly once, at index ``k (n + 1)``. Refused (:class:`InputError`): no poses, or
+    ``n`` not an integer >= 0, or a total above :data:`~kinserve.planners.checks.MAX_SAMPLES` poses.
     """
-    P = [as_pose(p, f"poses[{i}]") for i, p in enumerate(poses)]
-    if len(P) < 1:
+    if poses is None or isinstance(poses, (str, bytes, dict)) or not hasattr(poses, "__len__"):
+        raise InputError(f"poses must be a sequence of poses, got {poses!r:.80}")
+    if len(poses) < 1:
         raise InputError("poses must hold at least one pose")
+    n = as_count(n, "n", 0, MAX_SAMPLES - 2)
+    if (len(poses) - 1) * (n + 1) + 1 > MAX_SAMPLES:
+        raise InputError(f"n = {n} poses per segment over {len(poses) - 1} segments make "
+                         f"{(len(poses) - 1) * (n + 1) + 1:,} poses; at most {MAX_SAMPLES:,} are accepted "
+                         f"(n <= {(MAX_SAMPLES - 1) // max(1, len(poses) - 1) - 1})")
+    P = [as_pose(p, f"poses[{i}]") for i, p in enumerate(poses)]
     out = [P[0][None]]
     for a, b in zip(P[:-1], P[1:]):
         out.append(intermediate_poses(a, b, n, method, include_ends=True)[1:])
@@ -138,25 +147,30 @@ class SE3PolynomialTrajectory:
     order: str
 
     def _xi(self, t):
-        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
+        t = np.clip(np.atleast_1d(as_times(t)), 0.0, self.duration)
+        if t.size > MAX_SAMPLES:
+            raise InputError(f"t holds {t.size:,} times; at most {MAX_SAMPLES:,} are accepted")
         return polynomials.evaluate(self.coefficients, t, 1)
 
     def pose(self, t: ArrayLike) -> np.ndarray:
-        """Pose(s) at time(s) ``t``: ``(4, 4)`` or ``(N, 4, 4)``."""
+        """Pose(s) at time(s) ``t``: ``(4, 4)`` or ``(N, 4, 4)``; NaN, infinite or non-numeric times are
+        refused (:class:`InputError`), times outside ``[0, duration]`` clamped."""
         xi, _ = self._xi(t)
         A = se3.to_se3(self.T0)
         out = np.array([(A * pin.exp6(pin.Motion(x))).homogeneous for x in xi])
         return out[0] if np.ndim(t) == 0 else out
 
     def body_twist(self, t: ArrayLike) -> np.ndarray:
-        """Body twist ``V = Jr(xi) xi'`` (``[v; w]`` in the moving frame) at time(s) ``t``."""
+        """Body twist ``V = Jr(xi) xi'`` (``[v; w]`` in the moving frame) at time(s) ``t``; times refused as
+        by :meth:`pose`."""
         xi, dxi = self._xi(t)
         out = np.array([pin.Jexp6(pin.Motion(x)) @ d for x, d in zip(xi, dxi)])
         return out[0] if np.ndim(t) == 0 else out
 
     def sample(self, n: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(t, poses)`` at ``n`` evenly spaced times including both ends."""
-        t = np.linspace(0.0, self.duration, int(n))
+        """``(t, poses)`` at ``n`` evenly spaced times including both ends (``n`` an integer from 2 to
+        :data:`~kinserve.planners.checks.MAX_SAMPLES`, else :class:`InputError`)."""
+        t = np.linspace(0.0, self.duration, sample_count(n, "n"))
         return t, self.pose(t)
 
 
@@ -188,14 +202,15 @@ def se3_polynomial_trajectory(
     and goal (default rest); ``order="quintic"`` also meets the body
     accelerations ``acceleration0/1`` (default zero), ``"cubic"`` only the
     twists. See the module docstring for the construction and for the one
-    approximation (the goal acceleration of the quintic).
+    approximation (the goal acceleration of the quintic). ``duration`` must be a number of seconds in
+    ``[1e-6, 1e6]`` (:class:`InputError` otherwise).
     """
     if order not in ("cubic", "quintic"):
         raise InputError(f"order must be 'cubic' or 'quintic', got {order!r}")
     A, B = as_pose(T0, "T0"), as_pose(T1, "T1")
-    tf = float(duration)
-    if not np.isfinite(tf) or tf <= 0:
-        raise InputError(f"duration must be a finite number > 0, got {duration!r}")
+    tf = as_positive(duration, "duration")
+    if tf < polynomials.MIN_DURATION:
+        raise InputError(f"duration must be at least {polynomials.MIN_DURATION:g} s, got {duration!r}")
     V0 = np.zeros(6) if twist0 is None else as_vector(twist0, 6, "twist0")
     V1 = np.zeros(6) if twist1 is None else as_vector(twist1, 6, "twist1")
     X = np.array(pin.log6(se3.to_se3(A).actInv(se3.to_se3(B))).vector)
@@ -219,5 +234,8 @@ def poses_along(T0: PoseLike, T1: PoseLike, scaling: Callable[[np.ndarray], Arra
     ``ScrewTrajectory`` (``method="screw"``) or ``CartesianTrajectory``
     (``method="decoupled"``).
     """
-    s = np.atleast_1d(scaling(np.asarray(times, dtype=float)))
+    if not callable(scaling):
+        raise InputError(f"scaling must be a time scaling t -> s(t) (e.g. quintic_time_scaling(T)), got "
+                         f"{scaling!r:.60}")
+    s = np.atleast_1d(scaling(as_times(times, "times")))
     return interpolate(T0, T1, s, method)

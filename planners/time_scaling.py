@@ -30,28 +30,26 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_positive, as_real
 
 from . import polynomials
+from .checks import as_numbers, as_times, sample_count
 
 _KINDS = ("cubic", "quintic", "trapezoidal")
 
 
-def _positive(value, name: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number > 0, got {value!r}") from None
-    if not math.isfinite(v) or v <= 0.0:
-        raise InputError(f"{name} must be a finite number > 0, got {value!r}")
-    return v
+def _positive(value: object, name: str) -> float:
+    """``value`` as a finite float in ``(0, 1e6]`` (:func:`~kinserve.kinematics.validation.as_positive`)."""
+    return as_positive(value, name)
 
 
 class TimeScaling:
     """Base class: a map ``t -> s`` on ``[0, duration]`` with ``s(0) = 0``, ``s(duration) = 1``.
 
     Times outside ``[0, duration]`` are clamped (the motion is at rest before
-    and after, if the boundary rates are zero).
+    and after, if the boundary rates are zero). Times that are NaN, infinite, above
+    1e6 in magnitude or not numbers are refused (:class:`InputError`).
     """
 
     duration: float
@@ -77,8 +75,9 @@ class TimeScaling:
         return self.evaluate(t)[2]
 
     def sample(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(t, s, s', s'')`` at ``n`` evenly spaced times including both ends."""
-        t = np.linspace(0.0, self.duration, int(n))
+        """``(t, s, s', s'')`` at ``n`` evenly spaced times including both ends (``n`` an integer from 2 to
+        :data:`~kinserve.planners.checks.MAX_SAMPLES`, else :class:`InputError`)."""
+        t = np.linspace(0.0, self.duration, sample_count(n, "n"))
         return (t, *self.evaluate(t))
 
 
@@ -92,20 +91,26 @@ class PolynomialTimeScaling(TimeScaling):
 
     def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(s, s', s'')`` of the polynomial at times ``t`` (s), clamped to ``[0, T]``."""
-        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
+        t = np.clip(as_times(t), 0.0, self.duration)
         return tuple(polynomials.evaluate(self.coefficients, t, 2))
 
 
 def cubic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0) -> PolynomialTimeScaling:
-    """Cubic ``s(t)`` with ``s(0)=0, s(T)=1, s'(0)=v0, s'(T)=v1`` (rates in 1/s)."""
+    """Cubic ``s(t)`` with ``s(0)=0, s(T)=1, s'(0)=v0, s'(T)=v1`` (rates in 1/s).
+
+    Refused (:class:`InputError` naming the argument): ``T`` not a number in ``[1e-6, 1e6]`` s; ``v0``,
+    ``v1`` not single finite numbers with magnitude <= 1e6 (None, NaN, text, arrays)."""
     T = _positive(T, "T")
+    v0, v1 = as_real(v0, "v0"), as_real(v1, "v1")
     return PolynomialTimeScaling(polynomials.cubic_coefficients(T, 0.0, 1.0, v0, v1), T, "cubic")
 
 
 def quintic_time_scaling(T: float, v0: float = 0.0, v1: float = 0.0, a0: float = 0.0,
                          a1: float = 0.0) -> PolynomialTimeScaling:
-    """Quintic ``s(t)`` meeting ``s, s', s''`` at both ends (zero rates by default)."""
+    """Quintic ``s(t)`` meeting ``s, s', s''`` at both ends (zero rates by default); refused as by
+    :func:`cubic_time_scaling` (also ``a0``, ``a1``)."""
     T = _positive(T, "T")
+    v0, v1, a0, a1 = (as_real(v, k) for k, v in (("v0", v0), ("v1", v1), ("a0", a0), ("a1", a1)))
     return PolynomialTimeScaling(polynomials.quintic_coefficients(T, 0.0, 1.0, v0, v1, a0, a1), T, "quintic")
 
 
@@ -131,7 +136,7 @@ class TrapezoidalTimeScaling(TimeScaling):
 
     def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(s, s', s'')`` at times ``t`` (s), clamped: ``a_max`` up to ``t_a``, cruise, mirror image."""
-        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
+        t = np.clip(as_times(t), 0.0, self.duration)
         a, ta, vp, T = self.a_max, self.t_a, self.v_peak, self.duration
         td = T - t
         s = np.where(t <= ta, 0.5 * a * t**2,
@@ -146,7 +151,8 @@ def trapezoidal_time_scaling(v_max: float, a_max: float, distance: float = 1.0) 
 
     The limits are in the path's units (units/s, units/s^2); they act on ``s``
     as ``v_max/distance`` and ``a_max/distance``. Trapezoidal when
-    ``v^2/a <= 1`` (in ``s`` units), else triangular.
+    ``v^2/a <= 1`` (in ``s`` units), else triangular. Each of ``v_max``, ``a_max`` and ``distance`` must
+    be a finite number in ``(0, 1e6]`` (:class:`InputError` naming it).
     """
     L = _positive(distance, "distance")
     v = _positive(v_max, "v_max") / L
@@ -173,24 +179,25 @@ def minimum_time(kind: str, distance: ArrayLike, v_max: ArrayLike, a_max: ArrayL
     * cubic: ``T = max(1.5 D / v, sqrt(6 D / a))``
     * quintic: ``T = max(15 D / (8 v), sqrt(10 D / (sqrt(3) a)))``
     * trapezoidal: ``T = D/v + v/a`` if ``D >= v^2/a``, else ``2 sqrt(D/a)`` (triangular)
+
+    Refused (:class:`InputError` / :class:`ShapeError` naming the argument): an unknown ``kind``; values
+    that are not finite numbers with magnitude <= 1e6; limits <= 0; vectors of different lengths (each
+    argument is one number or a vector of the common length; none is stretched to another's length).
     """
     if kind not in _KINDS:
         raise InputError(f"kind must be one of {_KINDS}, got {kind!r}")
-    D = np.abs(np.asarray(distance, dtype=float))
-    v = np.asarray(v_max, dtype=float)
-    a = np.asarray(a_max, dtype=float)
-    for arr, name in ((D, "distance"), (v, "v_max"), (a, "a_max")):
-        if not np.all(np.isfinite(arr)):
-            raise InputError(f"{name} must be finite, got {arr}")
+    D = np.abs(as_numbers(distance, "distance"))
+    v = as_numbers(v_max, "v_max")
+    a = as_numbers(a_max, "a_max")
+    shapes = {arr.shape for arr in (D, v, a) if arr.ndim > 0}
+    if any(arr.ndim > 1 for arr in (D, v, a)) or len(shapes) > 1:
+        raise ShapeError(
+            "distance, v_max and a_max must each be one number or a vector of the same length, got shapes "
+            f"{D.shape}, {v.shape}, {a.shape}"
+        )
     if np.any(v <= 0) or np.any(a <= 0):
         raise InputError(f"v_max and a_max must be > 0, got v_max={v_max!r}, a_max={a_max!r}")
-    try:
-        D, v, a = np.broadcast_arrays(D, v, a)
-    except ValueError:
-        raise InputError(
-            f"distance, v_max and a_max must have compatible shapes, got {np.shape(distance)}, "
-            f"{np.shape(v_max)}, {np.shape(a_max)}"
-        ) from None
+    D, v, a = np.broadcast_arrays(D, v, a)
     if kind == "trapezoidal":
         T = np.where(D >= v * v / a, D / v + v / a, 2.0 * np.sqrt(D / a))
         T = np.where(D == 0.0, 0.0, T)
@@ -206,7 +213,8 @@ def time_scaling(kind: str, T: float | None = None, *, distance: ArrayLike | Non
     ``time_scaling("quintic", T=2.0)``; or with limits instead of ``T``:
     ``time_scaling("cubic", distance=D, v_max=v, a_max=a)`` uses
     :func:`minimum_time`; ``"trapezoidal"`` always needs the limits (a scalar
-    ``distance``, the path length).
+    ``distance``, the path length). ``T`` is refused as by :func:`cubic_time_scaling`, the limits as by
+    :func:`minimum_time`.
     """
     if kind not in _KINDS:
         raise InputError(f"kind must be one of {_KINDS}, got {kind!r}")

@@ -30,9 +30,10 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix
+from kinserve.kinematics.validation import as_matrix, as_positive, as_real
 
 from . import polynomials
+from .checks import MAX_SAMPLES, as_numbers, as_times, step_count
 from .time_scaling import minimum_time
 
 if TYPE_CHECKING:
@@ -46,7 +47,8 @@ class ViaPointTrajectory:
     """A C2 trajectory ``q(t)`` through ``points`` at ``times``.
 
     ``evaluate(t)`` returns ``(q, qd, qdd)``, each of shape ``(len(t), n)``
-    (or ``(n,)`` for a scalar ``t``); times outside ``[t_0, t_end]`` are clamped.
+    (or ``(n,)`` for a scalar ``t``); times outside ``[t_0, t_end]`` are clamped; NaN,
+    infinite or non-numeric times are refused (:class:`InputError`).
     """
 
     times: np.ndarray
@@ -68,7 +70,9 @@ class ViaPointTrajectory:
     def evaluate(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(q, qd, qdd)`` at times ``t`` (see the class docstring)."""
         scalar = np.ndim(t) == 0
-        t = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), self.times[0], self.times[-1])
+        t = np.clip(np.atleast_1d(as_times(t)).ravel(), self.times[0], self.times[-1])
+        if t.size > MAX_SAMPLES:
+            raise InputError(f"t holds {t.size:,} times; at most {MAX_SAMPLES:,} are accepted")
         if self._spline is not None:
             out = [self._spline(t, k) for k in range(3)]
         else:
@@ -90,9 +94,13 @@ class ViaPointTrajectory:
         return tuple(out)
 
     def sample(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(t, q, qd, qdd)`` at ``t_0, t_0 + dt, ...`` up to and including the end time."""
-        if not dt > 0:
-            raise InputError(f"dt must be > 0, got {dt!r}")
+        """``(t, q, qd, qdd)`` at ``t_0, t_0 + dt, ...`` up to and including the end time.
+
+        ``dt`` (s) must be a finite number in ``(0, 1e6]`` making at most
+        :data:`~kinserve.planners.checks.MAX_SAMPLES` steps over the duration (:class:`InputError` naming
+        the smallest ``dt`` accepted)."""
+        dt = as_positive(dt, "dt")
+        step_count(self.duration, dt, "dt", "s", "trajectory")
         n = int(np.floor(self.duration / dt + 1e-9))
         t = self.times[0] + dt * np.arange(n + 1)
         if self.times[-1] - t[-1] > 1e-9 * max(1.0, self.duration):
@@ -100,11 +108,18 @@ class ViaPointTrajectory:
         return (t, *self.evaluate(t))
 
     def to_joint_trajectory(self, dt: float, joint_names: Iterable[str]) -> JointTrajectory:
-        """Sample every ``dt`` into a :class:`planners.joint_trajectory.JointTrajectory`."""
-        from .joint_trajectory import JointTrajectory
+        """Sample every ``dt`` into a :class:`planners.joint_trajectory.JointTrajectory`.
 
+        ``dt`` is refused as by :meth:`sample`; ``joint_names`` must be a sequence of :attr:`dim` distinct
+        names (:class:`InputError` / :class:`ShapeError` otherwise)."""
+        from .joint_trajectory import JointTrajectory, joint_name_list
+
+        names = joint_name_list(joint_names)
+        if len(names) != self.dim:
+            raise ShapeError(f"joint_names must name the trajectory's {self.dim} components, got "
+                             f"{len(names)} names: {names!r:.120}")
         t, q, qd, qdd = self.sample(dt)
-        return JointTrajectory(list(joint_names), t - t[0], q, qd, qdd)
+        return JointTrajectory(names, t - t[0], q, qd, qdd)
 
 
 def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0: ArrayLike,
@@ -116,6 +131,14 @@ def heuristic_via_velocities(times: np.ndarray, points: np.ndarray, v0: ArrayLik
     left, right = slopes[:-1], slopes[1:]
     v[1:-1] = np.where(np.sign(left) * np.sign(right) > 0, 0.5 * (left + right), 0.0)
     return v
+
+
+def _boundary_velocity(value: ArrayLike, n: int, name: str) -> np.ndarray:
+    """A boundary velocity: one finite number for every component, or a finite ``(n,)`` vector."""
+    v = as_numbers(value, name)
+    if v.shape not in ((), (1,), (n,)):
+        raise ShapeError(f"{name} must be one number or a vector of {n} numbers, got shape {v.shape}")
+    return np.broadcast_to(v.reshape(-1) if v.ndim else v, (n,)).copy()
 
 
 def via_point_trajectory(
@@ -134,10 +157,15 @@ def via_point_trajectory(
     Without ``times``, ``v_max`` and ``a_max`` (scalars or per-component) set
     each segment's duration (see the module docstring); the trajectory starts
     at ``t0``. ``v0``/``v1`` are the boundary velocities (default rest).
+
+    Refused (:class:`InputError` / :class:`ShapeError` naming the argument): an unknown ``method``; points
+    or times that are not finite numbers of the right shape; times not strictly increasing or closer than
+    1e-6 s; ``v0``, ``v1`` not one finite number or an ``(n,)`` vector of them; ``t0`` not a finite number;
+    limits refused by :func:`~kinserve.planners.time_scaling.minimum_time`.
     """
     if method not in METHODS:
         raise InputError(f"method must be one of {METHODS}, got {method!r}")
-    P = np.asarray(points, dtype=float)
+    P = as_numbers(points, "points")
     if P.ndim == 1:
         P = P[:, None]
     P = as_matrix(P, (-1, -1), "points")
@@ -147,14 +175,15 @@ def via_point_trajectory(
     if times is None:
         if v_max is None or a_max is None:
             raise InputError("give the via times, or v_max and a_max to choose them")
-        seg = [max(minimum_time("cubic", P[k + 1] - P[k], v_max, a_max), 1e-6) for k in range(K - 1)]
-        t = t0 + np.concatenate([[0.0], np.cumsum(seg)])
+        seg = [max(minimum_time("cubic", P[k + 1] - P[k], v_max, a_max), polynomials.MIN_DURATION)
+               for k in range(K - 1)]
+        t = as_real(t0, "t0") + np.concatenate([[0.0], np.cumsum(seg)])
     else:
         t = as_matrix(times, (K,), "times")
-        if np.any(np.diff(t) <= 0):
-            raise InputError(f"times must be strictly increasing, got {t.tolist()}")
-    v0 = np.broadcast_to(np.asarray(v0, dtype=float), (n,))
-    v1 = np.broadcast_to(np.asarray(v1, dtype=float), (n,))
+        if np.any(np.diff(t) < polynomials.MIN_DURATION):
+            raise InputError(f"times must be strictly increasing, at least {polynomials.MIN_DURATION:g} s "
+                             f"apart, got {t.tolist()!r:.200}")
+    v0, v1 = _boundary_velocity(v0, n, "v0"), _boundary_velocity(v1, n, "v1")
     if method == "cubic_spline":
         spline = CubicSpline(t, P, axis=0, bc_type=((1, v0), (1, v1)))
         return ViaPointTrajectory(t, P, method, _spline=spline)

@@ -47,9 +47,11 @@ from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_nonnegative, as_positive
 
 from ..errors import BlockedPointError, NoPathError
-from .maps import OccupancyGrid
+from ._checks import as_point
+from .maps import OccupancyGrid, check_grid
 
 SQRT2 = math.sqrt(2.0)
 HEURISTICS = ("octile", "euclidean")
@@ -146,10 +148,9 @@ def _describe_block(grid: OccupancyGrid, p: np.ndarray) -> str:
 
 
 def snap(grid: OccupancyGrid, point: ArrayLike, name: str) -> tuple[int, int]:
-    """Nearest lattice ``(i, j)`` of a world point; :class:`BlockedPointError` if it is not free."""
-    p = np.asarray(point, dtype=float)
-    if p.shape != (2,) or not np.all(np.isfinite(p)):
-        raise InputError(f"{name} must be a finite (x, y) point, got {point!r}")
+    """Nearest lattice ``(i, j)`` of a world point; :class:`BlockedPointError` if it is not free,
+    :class:`ShapeError` / :class:`NonFiniteError` if it is not a finite ``(x, y)`` with ``|x| <= 1e6``."""
+    p = as_point(point, name)
     i, j = (int(v[0]) for v in grid.world_to_index(p))
     ny, nx = grid.free.shape
     if not (0 <= i < ny and 0 <= j < nx) or not grid.free[i, j]:
@@ -180,14 +181,23 @@ def astar(
     ``method``: ``"auto"`` (jump point search for the pure distance cost,
     plain A* otherwise), ``"jps"`` or ``"plain"``. See the module docstring
     for the costs and the heuristics.
+
+    Refused (:class:`InputError` and subclasses): ``grid`` not an
+    :class:`OccupancyGrid`; ``start`` / ``goal`` not finite ``(x, y)`` points
+    with ``|x| <= 1e6`` (:class:`BlockedPointError` when outside the map or
+    blocked); unknown ``heuristic`` / ``method``; ``turn_penalty`` /
+    ``proximity_weight`` negative, non-finite or above 1e6;
+    ``proximity_range`` not in ``(0, 1e6]``.
     """
-    if heuristic not in HEURISTICS:
+    check_grid(grid)
+    if not isinstance(heuristic, str) or heuristic not in HEURISTICS:
         raise InputError(f"heuristic must be one of {HEURISTICS}, got {heuristic!r}")
-    if method not in ("auto", "jps", "plain"):
+    if not isinstance(method, str) or method not in ("auto", "jps", "plain"):
         raise InputError(f"method must be 'auto', 'jps' or 'plain', got {method!r}")
-    for name, v in (("turn_penalty", turn_penalty), ("proximity_weight", proximity_weight)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-            raise InputError(f"{name} must be a finite number >= 0, got {v!r}")
+    turn_penalty = as_nonnegative(turn_penalty, "turn_penalty")
+    proximity_weight = as_nonnegative(proximity_weight, "proximity_weight")
+    if proximity_range is not None:
+        proximity_range = as_positive(proximity_range, "proximity_range")
     plain_cost = turn_penalty == 0 and proximity_weight == 0
     if method == "jps" and not plain_cost:
         raise InputError("jump point search needs the pure distance cost (turn_penalty = proximity_weight "
@@ -213,7 +223,7 @@ def astar(
         if proximity_weight > 0:
             rng = (proximity_range if proximity_range is not None
                    else max(3.0 * grid.inflation, 5.0 * grid.resolution))
-            if not (math.isfinite(rng) and rng > 0):
+            if not rng > 0:  # the default is positive: resolution > 0
                 raise InputError(f"proximity_range must be a finite number > 0, got {proximity_range!r}")
             d = grid.distance_field()
             pen = 1.0 + proximity_weight * np.clip(1.0 - d / rng, 0.0, None) ** 2
@@ -229,7 +239,10 @@ def astar(
 
 
 def path_length_lower_bound(grid: OccupancyGrid, start: ArrayLike, goal: ArrayLike) -> float:
-    """Octile distance between the snapped points: no 8-connected path is shorter."""
+    """Octile distance between the snapped points: no 8-connected path is shorter.
+
+    Refuses what :func:`astar` refuses for ``grid``, ``start`` and ``goal``."""
+    check_grid(grid)
     si, sj = snap(grid, start, "start")
     gi, gj = snap(grid, goal, "goal")
     return grid.resolution * octile(gi - si, gj - sj)

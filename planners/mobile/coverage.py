@@ -39,11 +39,39 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_count, as_positive, as_real
 
+from ._checks import MAX_SAMPLES, as_point, as_points, check_samples
 from .astar import astar
-from .maps import OccupancyGrid
+from .maps import OccupancyGrid, check_grid
 from .smoothing import smooth_path
+
+#: Most pixel offsets of the footprint stencil of :func:`swept_coverage` (``(2 R + 1)^2``).
+MAX_FOOTPRINT_PIXELS = 10**6
+#: Most entries of one chunk of :func:`swept_coverage` (poses x footprint pixels).
+_CHUNK_ENTRIES = 2_000_000
+
+
+def _robot_width(grid: OccupancyGrid, robot_width: object, name: str = "robot_width") -> float:
+    """``robot_width`` in ``(0, 1e6]`` whose footprint stencil has at most :data:`MAX_FOOTPRINT_PIXELS`."""
+    width = as_positive(robot_width, name)
+    R = int(math.ceil(0.5 * width * math.sqrt(2.0) / grid.resolution)) + 1
+    if (2 * R + 1) ** 2 > MAX_FOOTPRINT_PIXELS:
+        largest = ((math.isqrt(MAX_FOOTPRINT_PIXELS) - 1) // 2 - 1) * grid.resolution * math.sqrt(2.0)
+        raise InputError(f"{name} must be at most {largest:.6g} ({MAX_FOOTPRINT_PIXELS:,} footprint pixels "
+                         f"of side {grid.resolution:g} at most), got {robot_width!r}")
+    return width
+
+
+def _lane_spacing(grid: OccupancyGrid, spacing: object, name: str = "lane_spacing") -> float:
+    """``spacing`` in ``(0, 1e6]`` and a whole multiple of the grid's resolution (lanes on the lattice)."""
+    sp = as_positive(spacing, name)
+    k = sp / grid.resolution
+    if k < 1.0 - 1e-6 or abs(k - round(k)) > 1e-6 * max(1.0, k):
+        raise InputError(f"{name} must be a whole multiple (>= 1) of the grid resolution {grid.resolution:g} "
+                         f"(lanes lie on the lattice), got {spacing!r}")
+    return sp
 
 
 @dataclass(frozen=True)
@@ -103,7 +131,15 @@ def _segment(a, b, step: float) -> np.ndarray:
 
 
 def lane_intervals(grid: OccupancyGrid, y_start: float, spacing: float) -> list[list[Interval]]:
-    """Free intervals of every lane ``y_start + k spacing`` inside the map, bottom to top."""
+    """Free intervals of every lane ``y_start + k spacing`` inside the map, bottom to top.
+
+    Refused: ``grid`` not an :class:`OccupancyGrid`; ``y_start`` not a finite
+    number with ``|x| <= 1e6``; ``spacing`` not a positive whole multiple of the
+    resolution (at most 1e6); lanes off the lattice.
+    """
+    check_grid(grid)
+    y_start = as_real(y_start, "y_start")
+    spacing = _lane_spacing(grid, spacing, "spacing")
     res = grid.resolution
     y_min, y_max = grid.bounds[1], grid.bounds[3]
     k_lo = -int(math.floor((y_start - y_min) / spacing + 1e-9))
@@ -195,7 +231,17 @@ def _overlap(a: Interval, b: Interval) -> bool:
 
 
 def decompose(lanes: list[list[Interval]]) -> list[list[Interval]]:
-    """Boustrophedon cells: chains of intervals in consecutive lanes with one-to-one overlap."""
+    """Boustrophedon cells: chains of intervals in consecutive lanes with one-to-one overlap.
+
+    ``lanes`` is what :func:`lane_intervals` returns: a list of non-empty lists of
+    :class:`Interval` (anything else is refused with :class:`InputError`).
+    """
+    if not isinstance(lanes, (list, tuple)):
+        raise InputError(f"lanes must be a list of lanes (lists of Interval), got {type(lanes).__name__}")
+    for k, lane in enumerate(lanes):
+        if (not isinstance(lane, (list, tuple)) or not lane
+                or not all(isinstance(iv, Interval) for iv in lane)):
+            raise InputError(f"lanes[{k}] must be a non-empty list of Interval (from lane_intervals)")
     cells: list[list[Interval]] = []
     cell_of: dict[Interval, int] = {}
     for k, lane in enumerate(lanes):
@@ -240,8 +286,29 @@ def _corners(cell: list[Interval]):
 def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray,
                    robot_width: float) -> np.ndarray:
     """Pixels (side ``resolution``, shape ``(ny - 1, nx - 1)``) whose centre the rotating square footprint
-    covers."""
+    covers.
+
+    Refused: ``grid`` not an :class:`OccupancyGrid`; ``path`` not finite ``(N >= 1, 2)`` points;
+    ``heading`` not ``N`` finite angles; ``robot_width`` not in ``(0, 1e6]`` or wider than
+    :data:`MAX_FOOTPRINT_PIXELS` pixels allow; a path so long that sampling it every
+    ``resolution / 2`` would exceed 10**7 samples.
+    """
+    check_grid(grid)
+    path = as_points(path, "path")
+    try:
+        heading = np.asarray(heading, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"heading must be {len(path)} angles (rad), got {heading!r:.60}") from None
+    if heading.shape != (len(path),):
+        raise ShapeError(f"heading must have shape ({len(path)},) like the path, got {heading.shape}")
+    if not np.all(np.abs(heading) <= 1e6):
+        raise InputError("heading must hold finite angles with magnitude <= 1e6")
+    robot_width = _robot_width(grid, robot_width)
     res = grid.resolution
+    length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))
+    if length / (0.5 * res) + 1.0 > MAX_SAMPLES:
+        raise InputError(f"path of length {length:.6g} is too long to sample every resolution / 2 = "
+                         f"{0.5 * res:g} ({MAX_SAMPLES:,} samples at most)")
     ny, nx = grid.free.shape
     cov = np.zeros((ny - 1, nx - 1), dtype=bool)
     half = robot_width / 2.0
@@ -268,7 +335,7 @@ def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray,
         if j0 <= j1 and i0 <= i1:
             cov[i0 : i1 + 1, j0 : j1 + 1] = True
     path, heading = path[~aligned], heading[~aligned]
-    chunk = 256
+    chunk = max(1, min(256, _CHUNK_ENTRIES // len(ox)))
     for s in range(0, len(path), chunk):
         P = path[s : s + chunk]
         H = heading[s : s + chunk]
@@ -288,7 +355,11 @@ def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray,
 
 
 def coverable_pixels(grid: OccupancyGrid, robot_width: float) -> np.ndarray:
-    """Pixels whose centre lies within ``robot_width / 2`` (Chebyshev) of a free centre lattice point."""
+    """Pixels whose centre lies within ``robot_width / 2`` (Chebyshev) of a free centre lattice point.
+
+    Refused: ``grid`` not an :class:`OccupancyGrid`; ``robot_width`` not in ``(0, 1e6]``."""
+    check_grid(grid)
+    robot_width = as_positive(robot_width, "robot_width")
     res = grid.resolution
     F = grid.free.astype(np.int64)
     ny, nx = F.shape
@@ -320,15 +391,29 @@ def boustrophedon_coverage(
     ``lane_spacing`` is the distance between lanes (the robot width for full
     coverage without overlap); ``robot_width`` (default ``lane_spacing``) is
     the footprint used to measure coverage; ``step`` (default
-    ``resolution / 2``) the spacing of the output path samples.
+    ``resolution / 2``) the spacing of the output path samples; ``candidates``
+    how many nearest cell corners are compared by A* when choosing the next cell.
+
+    Refused (:class:`InputError` and subclasses): ``grid`` not an
+    :class:`OccupancyGrid`; ``start`` not a free finite ``(x, y)`` point of the
+    map; ``lane_spacing`` not a whole multiple (>= 1) of the resolution, at most
+    1e6; ``robot_width`` not in ``(0, 1e6]`` or with a footprint of more than
+    :data:`MAX_FOOTPRINT_PIXELS` pixels; ``step`` not in ``(0, 1e6]``, or so
+    small that the lanes alone would take more than 10**7 samples;
+    ``candidates`` not an integer in ``[1, 1000]``.
     """
-    if not (isinstance(lane_spacing, (int, float)) and math.isfinite(lane_spacing) and lane_spacing > 0):
-        raise InputError(f"lane_spacing must be a finite number > 0, got {lane_spacing!r}")
-    width = float(lane_spacing if robot_width is None else robot_width)
-    step = grid.resolution / 2.0 if step is None else float(step)
-    p0 = np.asarray(start, dtype=float)
-    if p0.shape != (2,) or not bool(grid.is_free(p0)[0]):
-        raise InputError(f"start {tuple(np.atleast_1d(p0).tolist())} must be a free (x, y) point of the map")
+    check_grid(grid)
+    p0 = as_point(start, "start")
+    lane_spacing = _lane_spacing(grid, lane_spacing)
+    width = _robot_width(grid, lane_spacing if robot_width is None else robot_width)
+    step = grid.resolution / 2.0 if step is None else as_positive(step, "step")
+    candidates = as_count(candidates, "candidates", minimum=1, maximum=1000)
+    b = grid.bounds
+    n_lanes = math.floor((b[3] - b[1]) / lane_spacing) + 1
+    check_samples(n_lanes * ((b[2] - b[0]) / step + 1.0), "step", step,
+                  f"the {n_lanes} lanes of this {b[2] - b[0]:g} wide map")
+    if not bool(grid.is_free(p0)[0]):
+        raise InputError(f"start {tuple(p0.tolist())} must be a free (x, y) point of the map")
     lanes = lane_intervals(grid, float(p0[1]), float(lane_spacing))
     cells = decompose(lanes)
     b = _Builder(grid, float(lane_spacing), step)

@@ -23,33 +23,57 @@ from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_positive
+
+from ._checks import simulation_arguments
+
+
+def _finite_array(value: object, name: str) -> np.ndarray:
+    """``value`` as a float array of finite numbers with ``|x| <= 1e6`` (:class:`InputError` naming it)."""
+    try:
+        if value is None or isinstance(value, (str, bytes, dict)):
+            raise TypeError
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a number or an array of numbers, got {value!r:.60}") from None
+    if not np.all(np.abs(arr) <= 1e6):
+        raise InputError(f"{name} must hold finite numbers with magnitude <= 1e6")
+    return arr
+
+
+def _pair(a: np.ndarray, b: np.ndarray, names: str) -> tuple[np.ndarray, np.ndarray]:
+    """``a, b`` broadcast together (:class:`InputError` naming ``names`` when they cannot be)."""
+    try:
+        return np.broadcast_arrays(a, b)
+    except ValueError:
+        raise InputError(f"{names} must have broadcastable shapes, got {a.shape} and {b.shape}") from None
 
 
 @dataclass(frozen=True)
 class DiffDrive:
-    """A differential-drive base: ``wheel_radius`` and ``track`` (same length unit, e.g. m)."""
+    """A differential-drive base: ``wheel_radius`` and ``track`` (same length unit, e.g. m), each in
+    ``(0, 1e6]`` (else :class:`InputError`)."""
 
     wheel_radius: float
     track: float
 
     def __post_init__(self):
         for name in ("wheel_radius", "track"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be a finite number > 0, got {v!r}")
+            object.__setattr__(self, name, as_positive(getattr(self, name), name))
 
     def wheel_speeds(self, v: ArrayLike, omega: ArrayLike) -> np.ndarray:
         """``[phi_L, phi_R]`` (rad/s) for forward speed ``v`` and turn rate ``omega``; broadcasts
-        (``(..., 2)``)."""
-        v = np.asarray(v, dtype=float)
-        w = np.asarray(omega, dtype=float)
+        (``(..., 2)``). Refuses non-numeric, non-finite or huge (``|x| > 1e6``) values and shapes that do
+        not broadcast."""
+        v, w = _pair(_finite_array(v, "v"), _finite_array(omega, "omega"), "v and omega")
         half = 0.5 * self.track
         return np.stack([(v - w * half) / self.wheel_radius, (v + w * half) / self.wheel_radius], axis=-1)
 
     def body_velocity(self, phi_left: ArrayLike, phi_right: ArrayLike) -> np.ndarray:
-        """``[v, omega]`` from the wheel speeds (rad/s); broadcasts (``(..., 2)``)."""
-        L = np.asarray(phi_left, dtype=float)
-        R = np.asarray(phi_right, dtype=float)
+        """``[v, omega]`` from the wheel speeds (rad/s); broadcasts (``(..., 2)``). Refuses non-numeric,
+        non-finite or huge (``|x| > 1e6``) values and shapes that do not broadcast."""
+        L, R = _pair(_finite_array(phi_left, "phi_left"), _finite_array(phi_right, "phi_right"),
+                     "phi_left and phi_right")
         r = self.wheel_radius
         return np.stack([0.5 * r * (R + L), r * (R - L) / self.track], axis=-1)
 
@@ -60,13 +84,22 @@ class DiffDrive:
         ``t``).
 
         Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp``.
+
+        Refused (:class:`InputError` and subclasses): wheel speeds (or a
+        callable's value) not 2 finite numbers with ``|x| <= 1e6``; ``pose0`` not
+        3 such numbers; ``t_span`` not 2 distinct such times; ``t_eval`` not a
+        1-D array of at most 10**6 times within ``t_span``; ``rtol`` not in
+        ``(0, 1]``; ``atol`` not in ``(0, 1e6]``.
         """
-        f = (wheel_speeds if callable(wheel_speeds)
-             else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w))
+        f, p0, t_span, t_eval, rtol, atol = simulation_arguments(wheel_speeds, 2, pose0, t_span, t_eval,
+                                                                 rtol, atol)
+
+        r, track = self.wheel_radius, self.track
 
         def rhs(t, s):
-            v, w = self.body_velocity(*np.asarray(f(t), dtype=float))
+            phi_l, phi_r = f(t).tolist()  # checked by f
+            v, w = 0.5 * r * (phi_r + phi_l), r * (phi_r - phi_l) / track
             return [v * math.cos(s[2]), v * math.sin(s[2]), w]
 
-        sol = solve_ivp(rhs, t_span, np.asarray(pose0, dtype=float), t_eval=t_eval, rtol=rtol, atol=atol)
+        sol = solve_ivp(rhs, t_span, p0, t_eval=t_eval, rtol=rtol, atol=atol)
         return sol.t, sol.y.T

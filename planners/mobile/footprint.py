@@ -29,8 +29,17 @@ from typing import Any
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_positive, as_vector, check_bounded
 
+from ._checks import MAX_SAMPLES, as_points, check_samples
 from .shapes import Circle, Polygon, Rectangle
+
+#: Most outline points of :func:`footprint_outline`.
+MAX_OUTLINE_POINTS = 10**6
+#: Most (pose, outline point) pairs :func:`footprint_penetration` evaluates per obstacle.
+MAX_EVALUATIONS = 10**8
+#: Most entries of one chunk of placed outline points.
+_CHUNK_ENTRIES = 4_000_000
 
 
 @dataclass(frozen=True)
@@ -62,8 +71,16 @@ class Penetration:
 
 def footprint_outline(length: float, width: float, spacing: float) -> np.ndarray:
     """``(K, 2)`` points of a ``length x width`` rectangle's outline centred on the origin, x forward:
-    the four corners first, then points at most ``spacing`` apart along the edges."""
-    hl, hw = 0.5 * float(length), 0.5 * float(width)
+    the four corners first, then points at most ``spacing`` apart along the edges.
+
+    Refused: ``length``, ``width``, ``spacing`` not in ``(0, 1e6]``; a ``spacing`` so small that the
+    outline would exceed :data:`MAX_OUTLINE_POINTS` points."""
+    length = as_positive(length, "length")
+    width = as_positive(width, "width")
+    spacing = as_positive(spacing, "spacing")
+    check_samples(2.0 * (length + width) / spacing + 4.0, "spacing", spacing,
+                  f"the outline of this {length:g} x {width:g} footprint", MAX_OUTLINE_POINTS)
+    hl, hw = 0.5 * length, 0.5 * width
     corners = np.array([[hl, hw], [-hl, hw], [-hl, -hw], [hl, -hw]])
     pts = [corners]
     for a, b in zip(corners, np.roll(corners, -1, axis=0)):
@@ -80,26 +97,45 @@ def _shape_name(s, k: int) -> str:
 def _checked_arguments(path, heading, shapes, length, width, spacing, turn_step):
     """``(P, H, L, W)``: :func:`footprint_penetration`'s path, headings, length and width, checked
     (:class:`ShapeError` / :class:`InputError` naming the argument), with the other arguments."""
-    P = np.asarray(path, dtype=float)
-    H = np.asarray(heading, dtype=float)
-    if P.ndim != 2 or P.shape[1] != 2 or len(P) == 0:
-        raise ShapeError(f"path must have shape (N >= 1, 2), got {P.shape}")
+    P = as_points(path, "path")
+    try:
+        H = np.asarray(heading, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"heading must be {len(P)} angles (rad), got {heading!r:.60}") from None
     if H.shape != (len(P),):
         raise ShapeError(f"heading must have shape ({len(P)},) like the path, got {H.shape}")
-    if not (np.isfinite(P).all() and np.isfinite(H).all()):
-        raise InputError("path and heading must be finite")
-    L = float(length)
-    W = L if width is None else float(width)
-    if not (math.isfinite(L) and math.isfinite(W) and L > 0 and W > 0):
-        raise InputError(f"footprint length and width must be finite and > 0, got {length!r} x {width!r}")
-    if not (math.isfinite(spacing) and spacing > 0):
-        raise InputError(f"spacing must be a finite number > 0, got {spacing!r}")
+    check_bounded(H, "heading")
+    L = as_positive(length, "length")
+    W = L if width is None else as_positive(width, "width")
+    spacing = as_positive(spacing, "spacing")
+    if shapes is None or isinstance(shapes, (str, bytes, dict)) or not isinstance(shapes, Sequence):
+        raise InputError(f"shapes must be a list of Rectangle, Circle or Polygon, got {shapes!r:.60}")
     for k, s in enumerate(shapes):
         if not isinstance(s, (Rectangle, Circle, Polygon)):
             raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, got {type(s).__name__}")
-    if not (math.isfinite(turn_step) and turn_step > 0):
-        raise InputError(f"turn_step must be a finite angle > 0 (rad), got {turn_step!r}")
-    return P, H, L, W
+    turn_step = as_positive(turn_step, "turn_step", maximum=math.pi)
+    n_outline = 2.0 * (L + W) / spacing + 4.0
+    check_samples(n_outline, "spacing", spacing, f"the outline of this {L:g} x {W:g} footprint",
+                  MAX_OUTLINE_POINTS)
+    dh = np.abs(np.angle(np.exp(1j * np.diff(H))))
+    n_turn = float(np.sum(np.ceil(dh[dh > turn_step] / turn_step)))
+    check_samples(n_turn + 1.0, "turn_step", turn_step, "the turns in place of this path", MAX_SAMPLES)
+    poses = len(P) + n_turn
+    if poses * n_outline > MAX_EVALUATIONS:
+        raise InputError(f"{poses:.0f} poses x {n_outline:.0f} outline points is more than "
+                         f"{MAX_EVALUATIONS:.0e} evaluations per obstacle: use a larger spacing (got "
+                         f"{spacing!r}) or turn_step (got {turn_step!r}), or fewer path samples")
+    return P, H, L, W, spacing, turn_step
+
+
+def _bounds(bounds: object) -> tuple[float, float, float, float] | None:
+    """``bounds`` ``(x_min, y_min, x_max, y_max)`` with min < max (finite, ``|x| <= 1e6``) or None."""
+    if bounds is None:
+        return None
+    b = tuple(as_vector(bounds, 4, "bounds").tolist())
+    if not (b[0] < b[2] and b[1] < b[3]):
+        raise InputError(f"bounds must be (x_min, y_min, x_max, y_max) with min < max, got {bounds!r}")
+    return b
 
 
 def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, length: float,
@@ -113,8 +149,16 @@ def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, len
     a differential drive turns in place), the intermediate headings are swept too, at most
     ``turn_step`` apart (so a depth can be missed by at most ``R (1 - cos(turn_step / 2))``, ``R`` the
     half diagonal: 0.002 for a 20 x 20 footprint at 2 deg). ``index`` in the
-    result is the path sample (of a turn: the sample where it happens). See the module docstring."""
-    P, H, L, W = _checked_arguments(path, heading, shapes, length, width, spacing, turn_step)
+    result is the path sample (of a turn: the sample where it happens). See the module docstring.
+
+    Refused (:class:`InputError` and subclasses, naming the argument): ``path`` not finite
+    ``(N >= 1, 2)`` points with ``|x| <= 1e6``; ``heading`` not ``N`` such angles; ``length``,
+    ``width``, ``spacing`` not in ``(0, 1e6]``; ``turn_step`` not in ``(0, pi]``; ``shapes`` not a list
+    of shapes; ``bounds`` not ``(x_min, y_min, x_max, y_max)`` with min < max; a ``spacing`` or
+    ``turn_step`` so small that the sweep would exceed 10**8 evaluations per obstacle."""
+    P, H, L, W, spacing, turn_step = _checked_arguments(path, heading, shapes, length, width, spacing,
+                                                        turn_step)
+    bounds = _bounds(bounds)
     outline = footprint_outline(L, W, spacing)
     reach = 0.5 * math.hypot(L, W)
     src, P, H = _with_turns_in_place(P, H, turn_step)
@@ -136,8 +180,9 @@ def footprint_penetration(path: Any, heading: Any, shapes: Sequence[Any], *, len
     for name, sd in obstacles:
         near = np.flatnonzero(sd(P[:, 0], P[:, 1]) < reach + 1e-9)  # only these poses can reach the obstacle
         per_shape[name] = 0.0
-        for start in range(0, len(near), 4096):
-            idx = near[start:start + 4096]
+        chunk = max(1, min(4096, _CHUNK_ENTRIES // len(outline)))
+        for start in range(0, len(near), chunk):
+            idx = near[start:start + chunk]
             X, Y = placed(idx)
             D = sd(X, Y)
             k = np.argmin(D, axis=1)

@@ -16,8 +16,9 @@ import math
 from typing import TYPE_CHECKING
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_positive
 
-from .maps import OccupancyGrid
+from .maps import MIN_RESOLUTION, OccupancyGrid
 from .shapes import Circle, Rectangle
 
 if TYPE_CHECKING:
@@ -93,8 +94,9 @@ PADDINGS = {"width": HALF_FOOTPRINT, "diagonal": HALF_FOOTPRINT * math.sqrt(2.0)
 
 
 def s8_padding(padding: str = "width") -> float:
-    """The clearance (u) of a padding choice: ``"width"`` 10 (half the width), ``"diagonal"`` 10 sqrt(2)."""
-    if padding not in PADDINGS:
+    """The clearance (u) of a padding choice: ``"width"`` 10 (half the width), ``"diagonal"`` 10 sqrt(2).
+    Any other value (or a non-string) is refused with :class:`InputError`."""
+    if not isinstance(padding, str) or padding not in PADDINGS:
         raise InputError(f"padding must be one of {sorted(PADDINGS)}, got {padding!r}")
     return PADDINGS[padding]
 
@@ -119,8 +121,12 @@ def s8_map(resolution: float = 1.0, padding: str = "width") -> OccupancyGrid:
 
 def s8_start(padding: str = "width", resolution: float = 1.0) -> tuple[float, float]:
     """The start of the coverage path: ``S8_START`` (10, 10) for the width padding; for the diagonal
-    one the nearest lattice corner point ``(c, c)`` with ``c`` = the clearance rounded up to the lattice."""
+    one the nearest lattice corner point ``(c, c)`` with ``c`` = the clearance rounded up to the lattice.
+    Refuses an unknown ``padding`` and a ``resolution`` not in ``[1e-6, 1e6]``."""
     c = s8_padding(padding)
+    resolution = as_positive(resolution, "resolution")
+    if resolution < MIN_RESOLUTION:
+        raise InputError(f"resolution must be at least {MIN_RESOLUTION:g}, got {resolution!r}")
     if padding == "width":
         return S8_START
     k = math.ceil(c / resolution - 1e-9) * resolution

@@ -35,15 +35,67 @@ from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import _describe, as_nonnegative, as_positive, as_vector
 
+from ._checks import as_point, as_points, check_samples, describe_length, polyline_samples
 from .shapes import Circle, Polygon, Rectangle, Shape
 
 _TOL = 1e-9
+#: Most lattice points of a map (bounds / resolution): a bound on the memory of a grid.
+MAX_LATTICE_POINTS = 50_000_000
+#: Smallest accepted resolution (map units); with coordinates bounded by 1e6 it keeps lattice indices exact.
+MIN_RESOLUTION = 1e-6
+#: Largest lattice index accepted by :meth:`OccupancyGrid.index_to_world`.
+MAX_INDEX = 10**8
+
+
+def _bounds(bounds: object) -> tuple[float, float, float, float]:
+    """``bounds`` ``(x_min, y_min, x_max, y_max)`` or ``(width, height)`` as four floats, checked."""
+    try:
+        n = len(bounds)  # type: ignore[arg-type]
+    except TypeError:
+        n = -1
+    if n not in (2, 4) or isinstance(bounds, (str, bytes, dict)):
+        raise ShapeError(f"bounds must be (x_min, y_min, x_max, y_max) or (width, height), got {bounds!r}")
+    b = tuple(as_vector(bounds, n, "bounds").tolist())
+    if n == 2:
+        b = (0.0, 0.0, b[0], b[1])
+    if not (b[0] < b[2] and b[1] < b[3]):
+        raise InputError(f"bounds must be (x_min, y_min, x_max, y_max) with min < max, got {bounds!r}")
+    return b
+
+
+def _shapes(shapes: object) -> tuple:
+    """``shapes`` as a tuple of Rectangle / Circle / Polygon (an iterator is read once)."""
+    if shapes is None or isinstance(shapes, (str, bytes, dict)) or not isinstance(shapes, Iterable):
+        raise InputError(f"shapes must be a sequence of Rectangle, Circle or Polygon, got {shapes!r:.60}")
+    shapes = tuple(shapes)
+    for k, s in enumerate(shapes):
+        if not isinstance(s, (Rectangle, Circle, Polygon)):
+            raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, got {type(s).__name__}")
+    return shapes
+
+
+def _lattice_size(b: tuple[float, float, float, float], res: float) -> tuple[int, int]:
+    """``(nx, ny)`` lattice points of the map; :class:`InputError` above :data:`MAX_LATTICE_POINTS`."""
+    nx = int(round((b[2] - b[0]) / res)) + 1
+    ny = int(round((b[3] - b[1]) / res)) + 1
+    if nx * ny > MAX_LATTICE_POINTS:
+        smallest = math.sqrt((b[2] - b[0]) * (b[3] - b[1]) / MAX_LATTICE_POINTS)
+        raise InputError(f"resolution {res!r} gives a {nx} x {ny} lattice ({nx * ny:.3g} points) over the "
+                         f"bounds {b}; at most {MAX_LATTICE_POINTS:,} points are allowed: resolution must be "
+                         f"at least about {smallest:.3g} for these bounds")
+    return nx, ny
 
 
 @dataclass
 class OccupancyGrid:
-    """A boolean lattice ``free[i, j]`` plus the shapes it was made of (see module docstring)."""
+    """A boolean lattice ``free[i, j]`` plus the shapes it was made of (see module docstring).
+
+    Build one with :meth:`from_shapes`. Direct construction is checked too:
+    refused are bounds / resolution as :meth:`from_shapes` refuses them, and a
+    ``free`` that is not a 2-D boolean array of the lattice's shape ``(ny, nx)``.
+    """
 
     bounds: tuple[float, float, float, float]
     resolution: float
@@ -52,6 +104,21 @@ class OccupancyGrid:
     inflation: float = 0.0
     border_clearance: float = 0.0
     _distance: np.ndarray | None = field(default=None, repr=False)
+
+    def __post_init__(self):
+        self.bounds = _bounds(self.bounds)
+        self.resolution = as_positive(self.resolution, "resolution")
+        if self.resolution < MIN_RESOLUTION:
+            raise InputError(f"resolution must be at least {MIN_RESOLUTION:g}, got {self.resolution!r}")
+        nx, ny = _lattice_size(self.bounds, self.resolution)
+        F = self.free
+        if not (isinstance(F, np.ndarray) and F.dtype == bool and F.shape == (ny, nx)):
+            raise ShapeError(f"free must be a boolean array of shape ({ny}, {nx}) (the lattice of the bounds "
+                             f"and resolution), got {type(self.free).__name__} "
+                             f"{getattr(self.free, 'shape', '')} {getattr(self.free, 'dtype', '')}")
+        self.inflation = as_nonnegative(self.inflation, "inflation")
+        self.border_clearance = as_nonnegative(self.border_clearance, "border_clearance")
+        self.shapes = _shapes(self.shapes)
 
     # ---------------------------------------------------------- construction
     @classmethod
@@ -69,29 +136,22 @@ class OccupancyGrid:
         ``bounds`` is ``(x_min, y_min, x_max, y_max)`` or ``(width, height)``
         (then the map starts at the origin). Only the lattice points within
         each shape's inflated bounding box are evaluated.
+
+        Refused (:class:`InputError` and subclasses, naming the argument):
+        bounds not 2 or 4 finite numbers with ``|x| <= 1e6`` and min < max;
+        ``resolution`` not in ``[1e-6, 1e6]``, or so fine that the lattice
+        would exceed :data:`MAX_LATTICE_POINTS` points; ``inflation`` /
+        ``border_clearance`` negative, non-finite or above 1e6; ``shapes``
+        not an iterable of Rectangle / Circle / Polygon.
         """
-        b = tuple(float(v) for v in bounds)
-        if len(b) == 2:
-            b = (0.0, 0.0, b[0], b[1])
-        if len(b) != 4 or not all(math.isfinite(v) for v in b) or not (b[0] < b[2] and b[1] < b[3]):
-            raise InputError(f"bounds must be (x_min, y_min, x_max, y_max) with min < max, got {bounds!r}")
-        res = float(resolution)
-        if not (math.isfinite(res) and res > 0):
-            raise InputError(f"resolution must be a finite number > 0, got {resolution!r}")
-        r = float(inflation)
-        if not (math.isfinite(r) and r >= 0):
-            raise InputError(f"inflation must be a finite number >= 0, got {inflation!r}")
-        c = r if border_clearance is None else float(border_clearance)
-        if not (math.isfinite(c) and c >= 0):
-            raise InputError(f"border_clearance must be a finite number >= 0, got {border_clearance!r}")
-        for k, s in enumerate(shapes):
-            if not isinstance(s, (Rectangle, Circle, Polygon)):
-                raise InputError(f"shapes[{k}] must be a Rectangle, Circle or Polygon, "
-                                 f"got {type(s).__name__}")
-        nx = int(round((b[2] - b[0]) / res)) + 1
-        ny = int(round((b[3] - b[1]) / res)) + 1
-        if nx * ny > 50_000_000:
-            raise InputError(f"map of {nx} x {ny} lattice points is too large; use a coarser resolution")
+        b = _bounds(bounds)
+        res = as_positive(resolution, "resolution")
+        if res < MIN_RESOLUTION:
+            raise InputError(f"resolution must be at least {MIN_RESOLUTION:g}, got {resolution!r}")
+        r = as_nonnegative(inflation, "inflation")
+        c = r if border_clearance is None else as_nonnegative(border_clearance, "border_clearance")
+        shapes = _shapes(shapes)
+        nx, ny = _lattice_size(b, res)
         xs = b[0] + res * np.arange(nx)
         ys = b[1] + res * np.arange(ny)
         free = np.ones((ny, nx), dtype=bool)
@@ -132,14 +192,9 @@ class OccupancyGrid:
         return float(self.free.mean())
 
     def _points(self, points, name="points") -> np.ndarray:
-        P = np.asarray(points, dtype=float)
-        if P.shape == (2,):
-            P = P[None]
-        if P.ndim != 2 or P.shape[1] != 2:
-            raise ShapeError(f"{name} must be an (x, y) point or an (N, 2) array, got shape {P.shape}")
-        if not np.all(np.isfinite(P)):
-            raise InputError(f"{name} must be finite")
-        return P
+        """``points`` (one ``(x, y)`` or ``(N, 2)``) as a finite ``(N, 2)`` array with ``|x| <= 1e6``
+        (:class:`ShapeError` / :class:`NonFiniteError` naming ``name``)."""
+        return as_points(points, name, min_rows=0, single=True)
 
     def contains(self, points: ArrayLike) -> np.ndarray:
         """True where a point lies within the map bounds (inclusive)."""
@@ -149,21 +204,31 @@ class OccupancyGrid:
                 & (P[:, 1] <= b[3] + _TOL))
 
     def world_to_index(self, points: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-        """Nearest lattice ``(row i, column j)`` of world points (not clipped: check :meth:`contains`)."""
+        """Nearest lattice ``(row i, column j)`` of world points (not clipped: check :meth:`contains`).
+
+        Points must be finite with ``|x| <= 1e6`` (else :class:`NonFiniteError`), so indices are exact."""
         P = self._points(points)
         j = np.rint((P[:, 0] - self.bounds[0]) / self.resolution).astype(np.int64)
         i = np.rint((P[:, 1] - self.bounds[1]) / self.resolution).astype(np.int64)
         return i, j
 
     def index_to_world(self, i: ArrayLike, j: ArrayLike) -> np.ndarray:
-        """World ``(N, 2)`` coordinates of lattice points ``(i, j)``."""
-        i = np.atleast_1d(np.asarray(i))
-        j = np.atleast_1d(np.asarray(j))
+        """World ``(N, 2)`` coordinates of lattice points ``(i, j)`` (integer arrays of one shape, or
+        broadcastable; refused: non-integers, NaN, ``|index| > 1e8``)."""
+        i = _index_array(i, "i")
+        j = _index_array(j, "j")
+        try:
+            i, j = np.broadcast_arrays(i, j)
+        except ValueError:
+            raise ShapeError(f"i and j must have the same length, got shapes {i.shape} and "
+                             f"{j.shape}") from None
         return np.stack([self.bounds[0] + self.resolution * j,
                          self.bounds[1] + self.resolution * i], axis=-1).astype(float)
 
     def on_lattice(self, points: ArrayLike, tol: float = 1e-6) -> np.ndarray:
-        """True where a point coincides with a lattice point."""
+        """True where a point coincides with a lattice point (within ``tol`` resolutions, ``tol`` in
+        ``[0, 0.5]``)."""
+        tol = as_nonnegative(tol, "tol", maximum=0.5)
         P = self._points(points)
         i, j = self.world_to_index(P)
         return np.all(np.abs(self.index_to_world(i, j) - P) <= tol * self.resolution, axis=1)
@@ -187,18 +252,29 @@ class OccupancyGrid:
         return inside & F[i0, j0] & F[i0, j1] & F[i1, j0] & F[i1, j1]
 
     def segment_is_free(self, a: ArrayLike, b: ArrayLike, step: float | None = None) -> bool:
-        """True when points every ``step`` (default ``resolution / 4``) along ``a -> b`` are all free."""
-        a = np.asarray(a, dtype=float)
-        b = np.asarray(b, dtype=float)
-        step = self.resolution / 4.0 if step is None else step
+        """True when points every ``step`` (default ``resolution / 4``) along ``a -> b`` are all free.
+
+        Refused: ``a`` / ``b`` not finite ``(x, y)`` points with ``|x| <= 1e6``; ``step`` not in
+        ``(0, 1e6]``, or so small that the segment would take more than 10**7 samples."""
+        a = as_point(a, "a")
+        b = as_point(b, "b")
+        step = self._step(step)
+        check_samples(np.linalg.norm(b - a) / step + 1.0, "step", step, describe_length(np.stack([a, b])))
         n = max(2, int(math.ceil(np.linalg.norm(b - a) / step)) + 1)
         s = np.linspace(0.0, 1.0, n)[:, None]
         return bool(np.all(self.is_free(a + s * (b - a))))
 
     def path_is_free(self, points: ArrayLike, step: float | None = None) -> bool:
-        """Every segment of a polyline ``(N, 2)`` is free (dense sampling, raster rule)."""
+        """Every segment of a polyline ``(N, 2)`` is free (dense sampling every ``step``, default
+        ``resolution / 4``, raster rule).
+
+        Refused: an empty or non-finite path, ``step`` not in ``(0, 1e6]``, or so small that the
+        path would take more than 10**7 samples."""
         P = self._points(points, "path")
-        step = self.resolution / 4.0 if step is None else step
+        if len(P) == 0:
+            raise ShapeError("path must hold at least one (x, y) point, got shape (0, 2)")
+        step = self._step(step)
+        check_samples(polyline_samples(P, step), "step", step, describe_length(P))
         if len(P) == 1:
             return bool(self.is_free(P)[0])
         seg = np.diff(P, axis=0)
@@ -208,6 +284,10 @@ class OccupancyGrid:
         for p, d, c in zip(P[:-1], seg, counts):
             samples.append(p + (np.arange(1, c + 1) / c)[:, None] * d)
         return bool(np.all(self.is_free(np.concatenate(samples))))
+
+    def _step(self, step: object) -> float:
+        """A sampling step: ``resolution / 4`` when None, else a number in ``(0, 1e6]``."""
+        return self.resolution / 4.0 if step is None else as_positive(step, "step")
 
     def clearance(self, points: ArrayLike) -> np.ndarray:
         """Exact margin: ``min(sd_shape - inflation, border distance - border_clearance)`` (>= 0 is free)."""
@@ -235,3 +315,26 @@ class OccupancyGrid:
         """Index of the first point that is not free, or None."""
         bad = np.flatnonzero(~self.is_free(points))
         return int(bad[0]) if bad.size else None
+
+
+def check_grid(grid: object, name: str = "grid") -> None:
+    """:class:`InputError` unless ``grid`` is an :class:`OccupancyGrid`."""
+    if not isinstance(grid, OccupancyGrid):
+        raise InputError(f"{name} must be an OccupancyGrid (OccupancyGrid.from_shapes(...)), "
+                         f"got {_describe(grid)}")
+
+
+def _index_array(value: object, name: str) -> np.ndarray:
+    """``value`` as a 1-D int64 array of lattice indices (integers with ``|k| <= MAX_INDEX``)."""
+    if value is None or isinstance(value, (str, bytes, dict)):
+        raise InputError(f"{name} must be integer lattice indices, got {value!r}")
+    try:
+        arr = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be integer lattice indices, got {value!r}") from None
+    if arr.ndim != 1:
+        raise ShapeError(f"{name} must be a 1-D array of lattice indices, got shape {arr.shape}")
+    if not np.all(np.abs(arr) <= MAX_INDEX) or not np.all(arr == np.round(arr)):
+        raise InputError(f"{name} must be integer lattice indices with |{name}| <= {MAX_INDEX:g}, got "
+                         f"{arr[:5].tolist()}")
+    return arr.astype(np.int64)

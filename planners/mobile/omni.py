@@ -35,7 +35,25 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_positive, as_real, as_vector
+
+from ._checks import simulation_arguments
+
+
+def _vectors(value: object, name: str) -> np.ndarray:
+    """``value`` as a ``(3,)`` or ``(N, 3)`` array of finite numbers with ``|x| <= 1e6``."""
+    try:
+        if value is None or isinstance(value, (str, bytes, dict)):
+            raise TypeError
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"{name} must be 3 numbers or an (N, 3) array, got {value!r:.60}") from None
+    if arr.ndim not in (1, 2) or arr.shape[-1] != 3:
+        raise ShapeError(f"{name} must be 3 numbers or an (N, 3) array, got shape {arr.shape}")
+    if not np.all(np.abs(arr) <= 1e6):
+        raise InputError(f"{name} must hold finite numbers with magnitude <= 1e6")
+    return arr
 
 
 @dataclass(frozen=True)
@@ -44,6 +62,7 @@ class OmniBase:
 
     ``first_wheel_angle`` is ``b_0`` (rad) in the body frame; the seed's figure
     puts wheel A at 60 degrees, B at 180 degrees and C at 300 degrees (``b_0 = pi/3``).
+    Refused: ``wheel_radius`` / ``center_distance`` not in ``(0, 1e6]``; a non-finite angle.
     """
 
     wheel_radius: float
@@ -52,11 +71,8 @@ class OmniBase:
 
     def __post_init__(self):
         for name in ("wheel_radius", "center_distance"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be a finite number > 0, got {v!r}")
-        if not math.isfinite(self.first_wheel_angle):
-            raise InputError("first_wheel_angle must be finite")
+            object.__setattr__(self, name, as_positive(getattr(self, name), name))
+        object.__setattr__(self, "first_wheel_angle", as_real(self.first_wheel_angle, "first_wheel_angle"))
 
     @property
     def wheel_angles(self) -> np.ndarray:
@@ -64,30 +80,34 @@ class OmniBase:
         return self.first_wheel_angle + 2.0 * math.pi / 3.0 * np.arange(3)
 
     def wheel_positions(self, pose: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
-        """World positions ``(3, 2)`` of the wheel contact points at ``pose = (x, y, theta)``."""
-        x, y, th = (float(v) for v in pose)
+        """World positions ``(3, 2)`` of the wheel contact points at ``pose = (x, y, theta)`` (3 finite
+        numbers with ``|x| <= 1e6``)."""
+        x, y, th = as_vector(pose, 3, "pose").tolist()
         a = self.wheel_angles + th
         D = self.center_distance
         return np.stack([x + D * np.cos(a), y + D * np.sin(a)], axis=1)
 
     def jacobian(self, theta: float) -> np.ndarray:
-        """``H(theta)`` (3x3) with ``phi = H(theta) [xdot, ydot, thetadot]`` (world-frame twist)."""
-        a = self.wheel_angles + float(theta)
+        """``H(theta)`` (3x3) with ``phi = H(theta) [xdot, ydot, thetadot]`` (world-frame twist); ``theta``
+        a finite number with ``|theta| <= 1e6``."""
+        return self._jacobian(as_real(theta, "theta"))
+
+    def _jacobian(self, theta: float) -> np.ndarray:
+        """:meth:`jacobian` of a checked heading."""
+        a = self.wheel_angles + theta
         R, D = self.wheel_radius, self.center_distance
         return -np.stack([-np.sin(a), np.cos(a), np.full(3, D)], axis=1) / R
 
     def wheel_speeds(self, twist: ArrayLike, theta: float) -> np.ndarray:
-        """Inverse kinematics: wheel speeds (rad/s) for the world twist ``(xdot, ydot, thetadot)``."""
-        t = np.asarray(twist, dtype=float)
-        if t.shape[-1] != 3:
-            raise InputError(f"twist must be (xdot, ydot, thetadot), got shape {t.shape}")
+        """Inverse kinematics: wheel speeds (rad/s) for the world twist ``(xdot, ydot, thetadot)`` (or
+        ``(N, 3)`` twists); refuses other shapes and non-finite or huge (``|x| > 1e6``) values."""
+        t = _vectors(twist, "twist (xdot, ydot, thetadot)")
         return t @ self.jacobian(theta).T
 
     def twist(self, wheel_speeds: ArrayLike, theta: float) -> np.ndarray:
-        """Forward kinematics: world twist ``(xdot, ydot, thetadot)`` from the wheel speeds (rad/s)."""
-        w = np.asarray(wheel_speeds, dtype=float)
-        if w.shape[-1] != 3:
-            raise InputError(f"wheel_speeds must hold 3 values, got shape {w.shape}")
+        """Forward kinematics: world twist ``(xdot, ydot, thetadot)`` from the wheel speeds (rad/s; 3 values
+        or ``(N, 3)``); refuses other shapes and non-finite or huge (``|x| > 1e6``) values."""
+        w = _vectors(wheel_speeds, "wheel_speeds")
         return np.linalg.solve(self.jacobian(theta), w.T).T
 
     def body_twist(self, wheel_speeds: ArrayLike) -> np.ndarray:
@@ -100,15 +120,22 @@ class OmniBase:
         """Integrate the pose ``(x, y, theta)`` under wheel speeds (3 values or a function of ``t``).
 
         Returns ``(t, poses (N, 3))`` from ``scipy.integrate.solve_ivp`` (RK45).
+
+        Refused (:class:`InputError` and subclasses): wheel speeds (or a
+        callable's value) not 3 finite numbers with ``|x| <= 1e6``; ``pose0`` not
+        3 such numbers ``(x, y, theta)``; ``t_span`` not 2 distinct such times;
+        ``t_eval`` not a 1-D array of at most 10**6 times within ``t_span``;
+        ``rtol`` not in ``(0, 1]``; ``atol`` not in ``(0, 1e6]``.
         """
-        f = (wheel_speeds if callable(wheel_speeds)
-             else (lambda t, _w=np.asarray(wheel_speeds, dtype=float): _w))
-        p0 = np.asarray(pose0, dtype=float)
-        if p0.shape != (3,):
-            raise InputError(f"pose0 must be (x, y, theta), got shape {p0.shape}")
+        f, p0, t_span, t_eval, rtol, atol = simulation_arguments(wheel_speeds, 3, pose0, t_span, t_eval,
+                                                                 rtol, atol)
+
+        H0_inv = np.linalg.inv(self._jacobian(0.0))  # H(theta) q = H(0) [Rot(-theta) v, thetadot]
 
         def rhs(t, s):
-            return self.twist(np.asarray(f(t), dtype=float), s[2])
+            bx, by, bw = (H0_inv @ f(t)).tolist()
+            c, sn = math.cos(s[2]), math.sin(s[2])
+            return [c * bx - sn * by, sn * bx + c * by, bw]
 
         sol = solve_ivp(rhs, t_span, p0, t_eval=t_eval, rtol=rtol, atol=atol)
         return sol.t, sol.y.T

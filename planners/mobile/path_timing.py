@@ -40,8 +40,10 @@ import numpy as np
 from scipy import ndimage
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_positive, as_real
 
 from ..time_scaling import minimum_time, quintic_time_scaling
+from ._checks import MAX_SAMPLES, check_samples
 from .smoothing import SmoothPath
 
 
@@ -90,7 +92,14 @@ class DriveTrajectory:
 
     @staticmethod
     def concatenate(parts: list["DriveTrajectory"]) -> "DriveTrajectory":
-        """Join trajectories end to start (each next one shifted to begin where the last ended)."""
+        """Join trajectories end to start (each next one shifted to begin where the last ended).
+
+        Refuses anything but a non-empty list of :class:`DriveTrajectory` (None entries are skipped)."""
+        if not isinstance(parts, (list, tuple)):
+            raise InputError(f"parts must be a list of DriveTrajectory, got {type(parts).__name__}")
+        for k, p in enumerate(parts):
+            if p is not None and not isinstance(p, DriveTrajectory):
+                raise InputError(f"parts[{k}] must be a DriveTrajectory, got {type(p).__name__}")
         parts = [p for p in parts if p is not None and len(p.t)]
         if not parts:
             raise InputError("nothing to concatenate")
@@ -109,20 +118,34 @@ class DriveTrajectory:
         return DriveTrajectory(phases=phases, **cat)
 
 
-def _positive(v, name):
-    if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-        raise InputError(f"{name} must be a finite number > 0, got {v!r}")
-    return float(v)
+def _positive(v: object, name: str) -> float:
+    """``v`` as a float in ``(0, 1e6]`` (:func:`as_positive`: refuses bools, non-numbers, NaN, inf, huge)."""
+    return as_positive(v, name)
+
+
+def _check_dt(duration: float, dt: float, what: str) -> None:
+    """:class:`InputError` when sampling ``duration`` seconds every ``dt`` exceeds 10**7 samples."""
+    check_samples(duration / dt + 1.0, "dt", dt, f"{what} of {duration:.6g} s")
 
 
 def turn_in_place(x: float, y: float, heading0: float, heading1: float, *, omega_max: float, alpha_max: float,
                   dt: float = 0.01) -> DriveTrajectory | None:
     """Rotate at ``(x, y)`` from ``heading0`` to ``heading1`` (shortest way) with a quintic; None if
-    aligned."""
+    aligned.
+
+    Refused: ``x``, ``y``, headings not finite numbers with ``|x| <= 1e6``;
+    ``omega_max``, ``alpha_max``, ``dt`` not in ``(0, 1e6]``; a ``dt`` so small
+    that the turn would take more than 10**7 samples."""
+    x, y = as_real(x, "x"), as_real(y, "y")
+    heading0, heading1 = as_real(heading0, "heading0"), as_real(heading1, "heading1")
+    omega_max = _positive(omega_max, "omega_max")
+    alpha_max = _positive(alpha_max, "alpha_max")
+    dt = _positive(dt, "dt")
     d = (heading1 - heading0 + math.pi) % (2.0 * math.pi) - math.pi
     if abs(d) < 1e-9:
         return None
     T = minimum_time("quintic", abs(d), omega_max, alpha_max)
+    _check_dt(T, dt, "this turn in place")
     sc = quintic_time_scaling(T)
     n = max(2, int(math.ceil(T / dt)) + 1)
     t = np.linspace(0.0, T, n)
@@ -152,7 +175,7 @@ def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max,
     with np.errstate(divide="ignore"):
         cap = np.minimum(v_max, np.where(kmax > 1e-12, omega_max / kmax, np.inf))
     delta = v_max * tau
-    w = 2 * int(math.ceil(delta / ds)) + 1
+    w = min(2 * int(math.ceil(delta / ds)) + 1, 2 * n_s + 1)  # a wider window sees no other value
     cap = ndimage.minimum_filter1d(cap, size=w, mode="nearest")
     v = cap.copy()
     v[0] = v[-1] = 0.0
@@ -165,9 +188,14 @@ def _drive_piece(path: SmoothPath, s_a: float, s_b: float, v_max, a_max,
     if not np.isfinite(t_nodes[-1]) or t_nodes[-1] <= 0:
         raise InputError("speed profile degenerate (zero speed cap inside a path piece)")
     T = t_nodes[-1]
-    n_t = int(math.ceil(T / dt))
+    _check_dt(T, dt, "this drive")
+    n_t = max(8, int(math.ceil(T / dt)))  # a dt longer than the drive still gives a few samples
     tt = np.linspace(0.0, T, n_t + 1)
     h = T / n_t
+    if tau / h > MAX_SAMPLES:
+        raise InputError(f"smoothing_time = {tau:.6g} s spans more than {MAX_SAMPLES:,} samples of this "
+                         f"{T:.6g} s drive (sampled every {h:.3g} s): give a shorter smoothing_time or a "
+                         "larger a_max")
     v_t = np.interp(tt, t_nodes, v)
     m = max(1, int(round(tau / h)))
     kernel = np.full(m, 1.0 / m)
@@ -206,13 +234,29 @@ def time_scale_path(
     ``<= a_max / smoothing_time``). With ``initial_heading`` the robot first
     turns in place to the path's initial tangent. Polyline corners become
     turns in place. Output sampled every ``dt`` seconds (or finer).
+
+    Refused (:class:`InputError` and subclasses): ``path`` not a
+    :class:`SmoothPath`; limits, ``dt`` or ``smoothing_time`` not in
+    ``(0, 1e6]``; a smoothing window longer than 10**7 ``dt``; a ``dt`` so
+    small that the trajectory would take more than 10**7 samples;
+    ``initial_heading`` not a finite number with ``|x| <= 1e6``.
     """
+    if not isinstance(path, SmoothPath):
+        raise InputError(f"path must be a SmoothPath (from smooth_path or polyline_path), got "
+                         f"{type(path).__name__}")
+    if initial_heading is not None:
+        initial_heading = as_real(initial_heading, "initial_heading")
     v_max = _positive(v_max, "v_max")
     a_max = _positive(a_max, "a_max")
     omega_max = _positive(omega_max, "omega_max")
     alpha_max = 2.0 * omega_max if alpha_max is None else _positive(alpha_max, "alpha_max")
     dt = _positive(dt, "dt")
     tau = 0.25 * v_max / a_max if smoothing_time is None else _positive(smoothing_time, "smoothing_time")
+    if tau / dt > MAX_SAMPLES:
+        what = ("smoothing_time" if smoothing_time is not None
+                else "the default smoothing_time 0.25 v_max / a_max")
+        raise InputError(f"{what} = {tau:.6g} s is more than {MAX_SAMPLES:,} time steps dt = {dt!r}: raise "
+                         "a_max or dt, or give a shorter smoothing_time")
     parts: list[DriveTrajectory | None] = []
     stops = np.asarray(path.stops, dtype=float)
     heading = initial_heading
@@ -245,7 +289,13 @@ def drive_through(
     initial_heading: float | None = None,
 ) -> DriveTrajectory:
     """Drive consecutive paths (e.g. the legs between waypoints), stopping and turning in place between
-    them."""
+    them. Refuses an empty ``paths`` or entries that are not :class:`SmoothPath`, and what
+    :func:`time_scale_path` refuses."""
+    if not isinstance(paths, (list, tuple)) or not paths:
+        raise InputError(f"paths must be a non-empty list of SmoothPath, got {paths!r:.60}")
+    for k, p in enumerate(paths):
+        if not isinstance(p, SmoothPath):
+            raise InputError(f"paths[{k}] must be a SmoothPath, got {type(p).__name__}")
     parts = []
     heading = initial_heading
     for p in paths:

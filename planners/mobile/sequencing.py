@@ -19,12 +19,36 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, suggest
 
 from ..checkpoint_order import shortest_order
 from ..errors import NoPathError
+from ._checks import as_points
 from .astar import GridPath, astar
-from .maps import OccupancyGrid
+from .maps import OccupancyGrid, check_grid
+
+#: Keyword arguments passed on to :func:`astar`.
+ASTAR_OPTIONS = ("heuristic", "turn_penalty", "proximity_weight", "proximity_range", "method")
+#: Most waypoints of :func:`pairwise_costs` (one A* search per pair).
+MAX_PAIRWISE = 200
+#: Most waypoints of :func:`plan_waypoints` in the given order (one A* search per leg).
+MAX_WAYPOINTS = 10_000
+
+
+def _check_astar_options(options: dict[str, Any]) -> None:
+    """:class:`InputError` naming an unknown :func:`astar` option (with close matches)."""
+    for key in options:
+        if key not in ASTAR_OPTIONS:
+            raise InputError(f"unknown A* option {key!r}; accepted: {', '.join(ASTAR_OPTIONS)}."
+                             + suggest(key, ASTAR_OPTIONS))
+
+
+def _waypoints(waypoints: ArrayLike, maximum: int) -> np.ndarray:
+    """``waypoints`` as finite ``(K, 2)`` points with ``2 <= K <= maximum``."""
+    P = as_points(waypoints, "waypoints", min_rows=2)
+    if len(P) > maximum:
+        raise InputError(f"waypoints: at most {maximum:,} points, got {len(P):,}")
+    return P
 
 
 @dataclass(frozen=True)
@@ -56,8 +80,14 @@ def pairwise_costs(grid: OccupancyGrid, waypoints: ArrayLike,
 
     Costs are symmetric for the distance and proximity costs (one search per
     unordered pair); with a turn penalty both directions are searched.
+
+    Refused: ``grid`` not an :class:`OccupancyGrid`; ``waypoints`` not finite
+    ``(K, 2)`` points with ``2 <= K <= 200``; unknown A* options; what
+    :func:`astar` refuses.
     """
-    P = np.asarray(waypoints, dtype=float)
+    check_grid(grid)
+    _check_astar_options(astar_kwargs)
+    P = _waypoints(waypoints, MAX_PAIRWISE)
     n = len(P)
     C = np.zeros((n, n))
     paths: dict[tuple[int, int], GridPath] = {}
@@ -88,11 +118,21 @@ def plan_waypoints(grid: OccupancyGrid, waypoints: ArrayLike, *, order: str = "g
     ``order="optimal"`` keeps the first and the last waypoint and reorders the
     rest (see the module docstring). ``astar_kwargs`` go to :func:`astar`.
     Raises :class:`NoPathError` when some required leg has no path.
+
+    Refused (:class:`InputError` and subclasses): ``grid`` not an
+    :class:`OccupancyGrid`; ``waypoints`` not finite ``(K, 2)`` points with
+    ``2 <= K`` (at most 10,000; 200 with ``order="optimal"``); ``names`` not a
+    sequence of ``K`` names; an unknown ``order``; unknown A* options; what
+    :func:`astar` refuses.
     """
-    P = np.asarray(waypoints, dtype=float)
-    if P.ndim != 2 or P.shape[1] != 2 or len(P) < 2:
-        raise InputError(f"waypoints must be (K >= 2, 2) world points, got shape {P.shape}")
+    check_grid(grid)
+    if not isinstance(order, str) or order not in ("given", "optimal"):
+        raise InputError(f"order must be 'given' or 'optimal', got {order!r}")
+    _check_astar_options(astar_kwargs)
+    P = _waypoints(waypoints, MAX_WAYPOINTS if order == "given" else MAX_PAIRWISE)
     K = len(P)
+    if names is not None and (isinstance(names, (str, bytes, dict)) or not isinstance(names, Sequence)):
+        raise InputError(f"names must be a sequence of {K} names, got {names!r}")
     names = [str(i) for i in range(K)] if names is None else [str(n) for n in names]
     if len(names) != K:
         raise InputError(f"names must have one entry per waypoint ({K}), got {len(names)}")

@@ -13,18 +13,31 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_positive, as_real, as_rows
+
+#: Most vertices of a :class:`Polygon` (its signed distance costs points x vertices).
+MAX_VERTICES = 10_000
 
 
-def _finite(*vals, what: str):
-    for v in vals:
-        if not np.isfinite(v):
-            raise InputError(f"{what}: coordinates must be finite numbers, got {vals}")
+def _finite(shape: object, fields: tuple[str, ...], what: str) -> None:
+    """Check (and store as floats) the numeric ``fields`` of the frozen dataclass ``shape``: each a finite
+    real with ``|x| <= 1e6`` (:func:`as_real`; :class:`InputError` / :class:`NonFiniteError` naming it)."""
+    for f in fields:
+        object.__setattr__(shape, f, as_real(getattr(shape, f), f"{what} {f}"))
+
+
+def _check_name(name: object, what: str) -> None:
+    if not isinstance(name, str):
+        raise InputError(f"{what}: name must be a string, got {type(name).__name__}")
 
 
 @dataclass(frozen=True)
 class Rectangle:
-    """Axis-aligned rectangle ``[x_min, x_max] x [y_min, y_max]``."""
+    """Axis-aligned rectangle ``[x_min, x_max] x [y_min, y_max]``.
+
+    Refuses non-numeric, non-finite or huge (``|x| > 1e6``) coordinates and an empty rectangle.
+    """
 
     x_min: float
     y_min: float
@@ -33,7 +46,8 @@ class Rectangle:
     name: str = ""
 
     def __post_init__(self):
-        _finite(self.x_min, self.y_min, self.x_max, self.y_max, what=f"rectangle {self.name!r}")
+        _check_name(self.name, "rectangle")
+        _finite(self, ("x_min", "y_min", "x_max", "y_max"), f"rectangle {self.name!r}")
         if not (self.x_min < self.x_max and self.y_min < self.y_max):
             raise InputError(
                 f"rectangle {self.name!r} needs x_min < x_max and y_min < y_max, got ({self.x_min}, "
@@ -59,7 +73,10 @@ class Rectangle:
 
 @dataclass(frozen=True)
 class Circle:
-    """Disc of ``radius`` around ``(cx, cy)``."""
+    """Disc of ``radius`` around ``(cx, cy)``.
+
+    Refuses non-numeric, non-finite or huge (``|x| > 1e6``) numbers and a radius ``<= 0``.
+    """
 
     cx: float
     cy: float
@@ -67,9 +84,9 @@ class Circle:
     name: str = ""
 
     def __post_init__(self):
-        _finite(self.cx, self.cy, self.radius, what=f"circle {self.name!r}")
-        if self.radius <= 0:
-            raise InputError(f"circle {self.name!r} needs radius > 0, got {self.radius}")
+        _check_name(self.name, "circle")
+        _finite(self, ("cx", "cy"), f"circle {self.name!r}")
+        object.__setattr__(self, "radius", as_positive(self.radius, f"circle {self.name!r} radius"))
 
     def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
         """Signed distance (negative inside) of the points ``(x, y)`` to the circle."""
@@ -89,20 +106,28 @@ class Circle:
 
 @dataclass(frozen=True)
 class Polygon:
-    """Simple polygon with vertices ``(k, 2)`` (either orientation, ``k >= 3``)."""
+    """Simple polygon with vertices ``(k, 2)`` (either orientation, ``3 <= k <= 10000``).
+
+    Refuses other shapes, non-numeric, non-finite or huge (``|x| > 1e6``) vertices, and a zero area
+    (collinear vertices). Self-intersection is not checked.
+    """
 
     vertices: tuple
     name: str = ""
     _v: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        V = np.asarray(self.vertices, dtype=float)
-        if V.ndim != 2 or V.shape[1] != 2 or V.shape[0] < 3:
-            raise InputError(f"polygon {self.name!r} needs vertices of shape (k >= 3, 2), got {V.shape}")
-        if not np.all(np.isfinite(V)):
-            raise InputError(f"polygon {self.name!r}: vertices must be finite")
+        _check_name(self.name, "polygon")
+        V = np.array(as_rows(self.vertices, 2, f"polygon {self.name!r} vertices"), dtype=float)
+        if not 3 <= V.shape[0] <= MAX_VERTICES:
+            raise ShapeError(f"polygon {self.name!r} needs vertices of shape (k, 2) with 3 <= k <= "
+                             f"{MAX_VERTICES}, got {V.shape}")
         object.__setattr__(self, "vertices", tuple(map(tuple, V.tolist())))
         object.__setattr__(self, "_v", V)
+        extent = float(np.ptp(V, axis=0).max())
+        if not self.area > 1e-12 * extent * extent:
+            raise InputError(f"polygon {self.name!r} has zero area (collinear vertices "
+                             f"{self.vertices[:4]}...): it needs at least three vertices not on one line")
 
     def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
         """Distance from the points ``(x, y)`` (broadcast together) to the boundary, negative inside."""
@@ -115,7 +140,8 @@ class Polygon:
         ex, ey = (B - A)[:, 0], (B - A)[:, 1]
         wx = px[:, None] - A[None, :, 0]
         wy = py[:, None] - A[None, :, 1]
-        t = np.clip((wx * ex + wy * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+        den = ex * ex + ey * ey  # 0 for a repeated vertex: then t = 0 (the distance to that vertex)
+        t = np.clip((wx * ex + wy * ey) / np.where(den > 0.0, den, 1.0), 0.0, 1.0)
         d = np.hypot(wx - t * ex, wy - t * ey).min(axis=1)
         # even-odd rule: count edges crossed by a ray towards +x
         ay, by = A[None, :, 1], B[None, :, 1]

@@ -40,8 +40,13 @@ from scipy import ndimage
 from scipy.interpolate import CubicSpline
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_count, as_nonnegative, as_positive
 
-from .maps import OccupancyGrid
+from ._checks import as_indices, as_points, check_samples, describe_length, polyline_samples
+from .maps import OccupancyGrid, check_grid
+
+#: Most relaxation iterations of :func:`smooth_path`.
+MAX_ITERATIONS = 10_000
 
 
 @dataclass(frozen=True)
@@ -70,8 +75,15 @@ class SmoothPath:
         return float(self.s[-1])
 
     def at(self, s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(x, y, heading, curvature)`` at arc lengths ``s`` (linear interpolation of the samples)."""
-        s = np.clip(np.asarray(s, dtype=float), 0.0, self.length)
+        """``(x, y, heading, curvature)`` at arc lengths ``s`` (linear interpolation of the samples;
+        clipped to ``[0, length]``). Refuses non-numeric, NaN or infinite ``s``."""
+        try:
+            s = np.asarray(s, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"s must be arc lengths (numbers), got {s!r}") from None
+        if not np.all(np.isfinite(s)):
+            raise InputError("s must hold finite arc lengths")
+        s = np.clip(s, 0.0, self.length)
         x = np.interp(s, self.s, self.points[:, 0])
         y = np.interp(s, self.s, self.points[:, 1])
         h = np.interp(s, self.s, np.unwrap(self.heading))
@@ -97,12 +109,20 @@ def shortcut(grid: OccupancyGrid, points: ArrayLike, *, margin: float = 0.0,
 
     ``keep``: indices that must stay vertices (e.g. waypoints in the middle of a path).
     Consecutive path points are always connected (the input path is assumed free).
+
+    Refused: ``grid`` not an :class:`OccupancyGrid`; ``points`` not finite
+    ``(N >= 1, 2)`` points inside the map; ``margin`` negative or above 1e6;
+    ``keep`` entries that are not indices of ``points``.
     """
-    P = np.asarray(points, dtype=float)
+    check_grid(grid)
+    P = as_points(points, "points")
+    _inside(grid, P, "points")
+    margin = as_nonnegative(margin, "margin")
     n = len(P)
+    keep = as_indices(keep, "keep", n)
     if n <= 2:
         return np.arange(n)
-    must = sorted(set(int(k) for k in keep) | {0, n - 1})
+    must = sorted(set(keep) | {0, n - 1})
     step = grid.resolution / 4.0
     out = [0]
     i = 0
@@ -114,6 +134,14 @@ def shortcut(grid: OccupancyGrid, points: ArrayLike, *, margin: float = 0.0,
         out.append(j)
         i = j
     return np.array(out)
+
+
+def _inside(grid: OccupancyGrid, P: np.ndarray, name: str) -> None:
+    """:class:`InputError` naming the first point of ``P`` outside the map."""
+    out = np.flatnonzero(~grid.contains(P))
+    if out.size:
+        k = int(out[0])
+        raise InputError(f"{name}[{k}] = {P[k].tolist()} lies outside the map bounds {grid.bounds}")
 
 
 def _dedupe(P: np.ndarray) -> np.ndarray:
@@ -151,8 +179,17 @@ def _geometry(pts, d1, d2):
 
 
 def polyline_path(points: ArrayLike, step: float = 0.25) -> SmoothPath:
-    """A polyline as a :class:`SmoothPath` (zero curvature on each piece, stops at the corners)."""
-    V = _dedupe(np.asarray(points, dtype=float))
+    """A polyline as a :class:`SmoothPath` (zero curvature on each piece, stops at the corners),
+    sampled at most ``step`` apart.
+
+    Refused: ``points`` not finite ``(N >= 1, 2)`` points with ``|x| <= 1e6``;
+    ``step`` not in ``(0, 1e6]`` or so small that the path would take more than
+    10**7 samples.
+    """
+    P = as_points(points, "points")
+    step = as_positive(step, "step")
+    check_samples(polyline_samples(P, step), "step", step, describe_length(P))
+    V = _dedupe(P)
     if len(V) < 2:
         p = V[:1]
         return SmoothPath(p, np.zeros(1), np.zeros(1), np.zeros(1), V, "polyline", np.zeros(1), True)
@@ -239,17 +276,31 @@ def smooth_path(
     ``4 * resolution``) the spacing of the spline's knots; ``keep`` lists
     path indices that must stay on the path (e.g. waypoints). See the module
     docstring for the steps and the fallback.
+
+    Refused (:class:`InputError` and subclasses): ``grid`` not an
+    :class:`OccupancyGrid`; ``points`` not finite ``(N >= 1, 2)`` points, or
+    a path that leaves the map or is not free; ``margin`` negative or above
+    1e6; ``iterations`` not an integer in ``[0, 10000]``; ``knot_spacing``
+    not in ``(0, 1e6]``; ``keep`` entries that are not indices of ``points``.
     """
-    P = np.asarray(points, dtype=float)
-    if P.ndim != 2 or P.shape[1] != 2 or len(P) < 1:
-        raise InputError(f"points must be an (N >= 1, 2) path, got shape {P.shape}")
+    check_grid(grid)
+    P = as_points(points, "points")
+    m = 3.0 * grid.resolution if margin is None else as_nonnegative(margin, "margin")
+    iterations = as_count(iterations, "iterations", minimum=0, maximum=MAX_ITERATIONS)
+    spacing = 4.0 * grid.resolution if knot_spacing is None else as_positive(knot_spacing, "knot_spacing")
+    keep = as_indices(keep, "keep", len(P))
     res = grid.resolution
     step = res / 4.0
+    outside = np.flatnonzero(~grid.contains(P))
+    if outside.size:
+        k = int(outside[0])
+        raise InputError(f"the path to smooth is not free (point {k} {P[k].tolist()} lies outside the map "
+                         f"bounds {grid.bounds})")
     if not grid.path_is_free(P, step):
         bad = grid.first_blocked(P)
         where = f"point {bad} {P[bad].tolist()}" if bad is not None else "a segment between its points"
         raise InputError(f"the path to smooth is not free ({where} is blocked)")
-    keep = sorted(set(int(k) for k in keep))
+    keep = sorted(set(keep))
     if len(P) >= 2:
         mask = np.ones(len(P), dtype=bool)
         mask[1:] = np.linalg.norm(np.diff(P, axis=0), axis=1) > 1e-12
@@ -263,11 +314,9 @@ def smooth_path(
     taut = P[vidx]
     if len(vidx) == 2:
         return polyline_path(taut, step)
-    m = 3.0 * res if margin is None else float(margin)
     fixed_vertices = {k for k, v in enumerate(vidx) if v in set(keep)}
     dense, fixed = _resample(taut, res, fixed_vertices)
     relaxed = relax(grid, dense, fixed, m, iterations)
-    spacing = 4.0 * res if knot_spacing is None else float(knot_spacing)
     k = max(1, int(round(spacing / res)))
     tries = 0
     while True:

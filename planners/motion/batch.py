@@ -20,6 +20,7 @@ Design (that of :func:`kinserve.ik.solve_many`):
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import time
@@ -46,6 +47,10 @@ __all__ = ["plan_many", "MotionProblem", "motion_chunks", "BACKENDS"]
 BACKENDS = ("local", "ray")
 #: Budget (s) a chunk limit assumes per problem when ``max_time`` is None (iteration budgets only).
 UNTIMED_BUDGET = 10.0
+#: Largest ``processes`` accepted; on this machine no more workers than its cores are started anyway.
+MAX_PROCESSES = 1024
+#: The arguments of the planner that ``plan_many`` sets itself (not shared keywords).
+_PER_PROBLEM = ("robot", "start", "goal", "obstacles", "seed")
 
 
 def _cpu_count() -> int:
@@ -95,9 +100,45 @@ def motion_chunks(n: int, processes: int, chunksize: int | None = None) -> list[
     return [(s, min(n, s + chunksize)) for s in range(0, n, chunksize)]
 
 
-def _check_count(value: Any, name: str) -> None:
-    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1):
-        raise InputError(f"{name} must be a positive integer or None, got {value!r}")
+def _check_count(value: Any, name: str, maximum: int | None = None) -> None:
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 1
+                              or (maximum is not None and value > maximum)):
+        bound = "a positive integer" if maximum is None else f"an integer from 1 to {maximum}"
+        raise InputError(f"{name} must be {bound} or None, got {value!r}")
+
+
+def _checked_planner(planner: Any, plan_kwargs: dict) -> Callable[..., Any]:
+    """The planner (``plan_motion`` for None), after checking it is callable and takes every shared keyword
+    (:class:`InputError` naming the unknown ones; a planner with ``**kwargs`` takes any)."""
+    if planner is None:
+        from .plan import plan_motion as planner
+    elif not callable(planner):
+        raise InputError(f"planner must be a function planning one problem (default plan_motion), got "
+                         f"{planner!r:.80}")
+    try:
+        params = inspect.signature(planner).parameters
+    except (TypeError, ValueError):  # a builtin without a signature: nothing to check
+        return planner
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        return planner
+    named = [k for k, p in params.items() if p.kind in (inspect.Parameter.POSITIONAL_OR_KEYWORD,
+                                                       inspect.Parameter.KEYWORD_ONLY)]
+    accepted = [k for k in named if k not in _PER_PROBLEM]
+    unknown = sorted(k for k in plan_kwargs if k not in accepted)
+    if unknown:
+        name = getattr(planner, "__name__", "the planner")
+        raise InputError(f"plan_many: unknown keyword(s) {', '.join(unknown)} for {name}; accepted: "
+                         f"{', '.join(accepted)}")
+    return planner
+
+
+def worker_count(processes: int | None, n: int, local: bool = True) -> int:
+    """Workers to start for ``n`` problems: ``processes`` (default: every available core), at most one per
+    problem and, for workers on this machine (``local``), at most its cores."""
+    wanted = _cpu_count() if processes is None else processes
+    if local:
+        wanted = min(wanted, _cpu_count())
+    return max(1, min(wanted, n))
 
 
 def _seed(seed: Any) -> int:
@@ -127,7 +168,8 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
         ``plan_motion`` takes it, ``obstacles`` a sequence of shapes (default: none).
     processes:
         Worker processes (default: every available core, at most one per problem); ``1`` plans in this
-        process.
+        process. At most :data:`MAX_PROCESSES`; no more workers than this machine's cores are started
+        (except Ray actors on a cluster joined by ``ray_address``).
     backend:
         ``"local"`` (worker processes of this machine) or ``"ray"`` (Ray actors; ``ray_address`` joins a
         running cluster, else a local Ray with ``processes`` CPUs is started and left running).
@@ -145,23 +187,26 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
     plan_kwargs:
         The keywords of ``plan_motion`` shared by every problem (``max_time``, ``max_iterations``,
         ``self_collision``, ``simplify``, ``acceleration_limits``, ...).
+
+    Refused before any work starts (:class:`InputError` naming the argument): an unknown ``backend``;
+    ``processes`` not an integer from 1 to :data:`MAX_PROCESSES`; ``chunksize`` not a positive integer;
+    ``planner`` not callable; a shared keyword the planner does not take; a malformed problem.
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
-    _check_count(processes, "processes")
+    _check_count(processes, "processes", MAX_PROCESSES)
     _check_count(chunksize, "chunksize")
     deadline = None if timeout is None else time.monotonic() + as_positive(timeout, "timeout")
     if "obstacles" in plan_kwargs:
         raise InputError("plan_many: obstacles belong to each problem, (start, goal, obstacles), not to "
                          "the shared keywords")
-    if planner is None:
-        from .plan import plan_motion as planner
+    planner = _checked_planner(planner, plan_kwargs)
     job = MotionJob(robot, checked_problems(robot, problems), plan_kwargs, _seed(seed), planner)
     n = len(job.problems)
     if n == 0:
         return []
     job.prepare()  # here, once, whatever the backend: a forked worker inherits the collision model
-    processes = min(_cpu_count() if processes is None else processes, n)
+    processes = worker_count(processes, n, local=backend == "local" or ray_address is None)
     chunks = motion_chunks(n, processes, chunksize)
     plans: list = [None] * n
 

@@ -12,7 +12,8 @@ trajectory's geometric path are certified collision free as continuous motions.
 An answer depends only on the inputs and ``seed`` when the budget is
 ``max_iterations`` alone (``max_time=None``); with ``max_time`` the search stops
 on the clock, so a loaded machine may find a different path or none. A pose goal's
-IK runs on iteration budgets alone: its goal set never depends on the clock.
+IK solves run on iteration budgets; with ``max_time`` the goal-set search also stops
+once that time is spent (with ``max_time=None`` the goal set never depends on the clock).
 """
 
 from __future__ import annotations
@@ -156,8 +157,10 @@ def plan_motion(robot: Robot, start: ArrayLike, goal: ArrayLike | pin.SE3, *,
     ``obstacles``: shapes of :mod:`kinserve.kinematics.shapes` (``ik.Box``, ``ik.Sphere``, ``ik.Cylinder``,
     ...); ``self_collision``: check the robot's self pairs too. ``max_time`` (s) and ``max_iterations``
     (RRT-Connect samples) bound the search (at least one; with ``max_iterations`` alone the result depends
-    only on the inputs and ``seed``); the pose goal's IK runs on iteration budgets, its time
-    (``stats["ik_time"]``) is taken from ``max_time`` before the search starts. ``acceleration_limits``: per
+    only on the inputs and ``seed``); the pose goal's IK runs on iteration budgets and stops once
+    ``max_time`` is spent, its time (``stats["ik_time"]``) is taken from ``max_time`` before the search
+    starts. ``goal_count``: an integer from 1 to
+    :data:`~kinserve.planners.motion.request.MAX_GOAL_COUNT`. ``acceleration_limits``: per
     joint or one value (rad/s^2; default: 2 x the URDF velocity limits). ``simplify``: shortcut the path.
 
     A start or goal in collision (the message names the pairs), closer than the clearance floor to one, a

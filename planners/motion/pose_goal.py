@@ -12,12 +12,14 @@ A solution joins the set when the IK converged (``tol_pos`` 1e-4 m, ``tol_rot`` 
 components), it lies more than :data:`GOAL_SEPARATION` (rad, Euclidean joint-space distance) from every
 member so far - on another branch of the pose's solutions - and the planner accepts it as a path's end
 (``admit``: free, at least the clearance floor from every checked pair). The search stops at
-``goal_count`` members or after ``STARTS_PER_GOAL * goal_count`` starts.
+``goal_count`` members, after ``STARTS_PER_GOAL * goal_count`` starts, or - when the request has a
+``max_time`` - once that time is spent (checked before each start; one solve is bounded by its iteration
+budget, so the overrun is at most one solve). A set left empty by the clock says so in its ``reason``.
 
-Each solve has an iteration budget of :data:`IK_ITERATIONS` and no clock: the goal set depends only on
-the inputs and the seed (with ``seed=None`` the starts are drawn from fresh entropy, as the search's
-samples are). The one-time IK set-up of the frame and scene is :func:`warm_pose_goal`, done before any
-clock starts.
+Each solve has an iteration budget of :data:`IK_ITERATIONS` and no clock: with ``max_time=None`` the
+goal set depends only on the inputs and the seed (with ``seed=None`` the starts are drawn from fresh
+entropy, as the search's samples are); with ``max_time`` a loaded machine may try fewer starts. The
+one-time IK set-up of the frame and scene is :func:`warm_pose_goal`, done before any clock starts.
 """
 
 from __future__ import annotations
@@ -90,22 +92,33 @@ def _separated(q: np.ndarray, members: list[np.ndarray]) -> bool:
     return all(float(np.linalg.norm(q - m)) > GOAL_SEPARATION for m in members)
 
 
-def _failure_reason(starts: int, best: tuple[float, float] | None, last: str) -> str:
+def _failure_reason(starts: int, best: tuple[float, float] | None, last: str,
+                    max_time: float | None = None) -> str:
     residual = "none" if best is None else f"{best[0]:.3g} m / {best[1]:.3g} rad"
+    if max_time is not None:
+        return (f"no collision-free IK solution of the goal pose found before the time budget max_time = "
+                f"{max_time:g} s was spent ({starts} starts tried; best residual {residual}; last reason: "
+                f"{last or 'none'})")
     return (f"no collision-free IK solution reaches the goal pose ({starts} starts tried; best residual "
             f"{residual}; last reason: {last or 'none'})")
 
 
 def pose_goal_set(robot: Robot, request: MotionRequest, admit: Admit) -> GoalSet:
     """Up to ``request.goal_count`` collision-free IK solutions of ``request.goal_pose``, pairwise more than
-    :data:`GOAL_SEPARATION` apart, each accepted by ``admit`` (module docstring)."""
+    :data:`GOAL_SEPARATION` apart, each accepted by ``admit``, found within ``request.budget.max_time``
+    when it is set (module docstring)."""
     rng = np.random.default_rng(None if request.seed is None else [request.seed, _STREAM])
     members: list[np.ndarray] = []
     clearances: list = []
     best, last, iterations, starts = None, "", 0, 0
+    max_time = request.budget.max_time
     t0 = time.perf_counter()
+    timed_out = False
     for k in range(STARTS_PER_GOAL * request.goal_count):
         if len(members) == request.goal_count:
+            break
+        if max_time is not None and time.perf_counter() - t0 >= max_time:
+            timed_out = True
             break
         q0 = request.start if k == 0 else robot.lower + (robot.upper - robot.lower) * rng.random(robot.nq)
         res = _solve(robot, request, q0, k == 0, int(rng.integers(2**31)))
@@ -124,7 +137,7 @@ def pose_goal_set(robot: Robot, request: MotionRequest, admit: Admit) -> GoalSet
         members.append(res.q.copy())
         clearances.append(c)
     goals = np.array(members).reshape(len(members), robot.nq)
-    reason = "" if members else _failure_reason(starts, best, last)
+    reason = "" if members else _failure_reason(starts, best, last, max_time if timed_out else None)
     return GoalSet(goals, clearances, starts, iterations, time.perf_counter() - t0, reason)
 
 

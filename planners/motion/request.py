@@ -43,6 +43,9 @@ DEFAULT_VELOCITY_LIMIT = 1.0
 DEFAULT_ACCELERATION_FACTOR = 2.0
 #: Default cap on the size of a pose goal's goal set (``goal_count``).
 GOAL_COUNT = 4
+#: Largest ``goal_count`` accepted (each member costs up to ``STARTS_PER_GOAL`` IK solves; the HTTP
+#: service caps it lower still).
+MAX_GOAL_COUNT = 1000
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,7 @@ class MotionRequest:
     was one configuration; ``(0, nq)`` for a pose goal), ``obstacles`` (shapes), ``self_collision``, the
     search ``budget``, ``seed``, ``velocity_limits`` and ``acceleration_limits`` ``(nq,)``, ``simplify``,
     ``goal_pose`` (the pose goal with its frame and relaxed components, None for joint goals) and
-    ``goal_count`` (cap on a pose goal's goal set)."""
+    ``goal_count`` (cap on a pose goal's goal set, 1 to :data:`MAX_GOAL_COUNT`)."""
 
     start: np.ndarray
     goals: np.ndarray
@@ -173,8 +176,9 @@ def _accelerations(value: Any, v_max: np.ndarray) -> np.ndarray:
 
 
 def _goal_count(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise InputError(f"goal_count must be an integer >= 1, got {value!r}")
+    """``goal_count`` as an int from 1 to :data:`MAX_GOAL_COUNT` (:class:`InputError` otherwise)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not 1 <= value <= MAX_GOAL_COUNT:
+        raise InputError(f"goal_count must be an integer from 1 to {MAX_GOAL_COUNT}, got {value!r}")
     return int(value)
 
 
@@ -198,5 +202,5 @@ def motion_request(robot: Robot, start: Any, goal: Any, obstacles: Any, self_col
                          _flag(simplify, "simplify"), pose, _goal_count(goal_count))
 
 
-__all__ = ["DEFAULT_ACCELERATION_FACTOR", "DEFAULT_VELOCITY_LIMIT", "GOAL_COUNT", "MotionRequest",
-           "goal_kind", "motion_request", "velocity_limits"]
+__all__ = ["DEFAULT_ACCELERATION_FACTOR", "DEFAULT_VELOCITY_LIMIT", "GOAL_COUNT", "MAX_GOAL_COUNT",
+           "MotionRequest", "goal_kind", "motion_request", "velocity_limits"]

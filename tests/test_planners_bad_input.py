@@ -1,0 +1,327 @@
+"""Bad input to the planners (outside ``planners.mobile``): refused with kinserve's own errors, before any
+work - never a hang, an unbounded allocation, a silent NaN or a raw third-party exception.
+
+Each test also runs a valid neighbouring input, so a check cannot be too strict. No test reads the real
+clock: the pose goal's time budget is tested on a fake clock that jumps past it at the first reading.
+"""
+
+from __future__ import annotations
+
+import os
+import types
+
+import numpy as np
+import pytest
+
+import kinserve
+from kinserve import planners, robots
+from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
+from kinserve.planners import (
+    JointTrajectory,
+    cartesian_to_joint,
+    cubic_coefficients,
+    cubic_time_scaling,
+    damped_pseudo_inverse,
+    finite_difference_velocities,
+    held_karp,
+    intermediate_poses,
+    interpolate_checkpoints,
+    minimum_time,
+    path_cost,
+    plan_cartesian,
+    plan_many,
+    se3_polynomial_trajectory,
+    shortest_order,
+    task_coordinates,
+    time_scaling,
+    via_point_trajectory,
+)
+from kinserve.planners.checkpoint_order import HELD_KARP_LIMIT
+from kinserve.planners.checks import MAX_SAMPLES
+from kinserve.planners.motion import batch, pose_goal
+from kinserve.planners.motion.request import MAX_GOAL_COUNT
+
+Q0 = np.array([0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8])
+NO_CLOCK = dict(max_time=None, iteration_budget=300)
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return robots.load("panda", geometry=False)
+
+
+@pytest.fixture(scope="module")
+def panda_geometry():
+    return robots.load("panda")
+
+
+@pytest.fixture(scope="module")
+def line(panda):
+    T0 = panda.fk(Q0, "panda_link8").copy()
+    T1 = T0.copy()
+    T1[:3, 3] += [0.02, 0.0, 0.0]
+    return T0, T1
+
+
+def _trajectory() -> JointTrajectory:
+    return JointTrajectory(["a", "b"], np.array([0.0, 1.0]), np.array([[0.0, 0.0], [1.0, 2.0]]))
+
+
+# ------------------------------------------------------------------ 1. pose goals: bounded and timed
+def test_goal_count_is_bounded_before_any_work(panda):
+    goal = kinserve.pose([0.45, -0.35, 0.3], quat=[1, 0, 0, 0])
+    for bad in (10**9, MAX_GOAL_COUNT + 1, 0):
+        with pytest.raises(InputError, match=rf"goal_count must be an integer from 1 to {MAX_GOAL_COUNT}"):
+            planners.plan_motion(panda, Q0, goal, goal_count=bad, max_time=1.0)
+
+
+def test_pose_goal_search_stops_when_max_time_is_spent(panda_geometry, monkeypatch):
+    clock = iter(np.arange(0.0, 1e6, 10.0))  # every reading 10 s after the one before
+    monkeypatch.setattr(pose_goal, "time", types.SimpleNamespace(perf_counter=lambda: float(next(clock))))
+    goal = kinserve.pose([0.45, -0.35, 0.3], quat=[1, 0, 0, 0])
+    plan = planners.plan_motion(panda_geometry, Q0, goal, goal_count=MAX_GOAL_COUNT, max_time=1.0, seed=0)
+    assert not plan.success
+    assert "time budget max_time = 1 s was spent (0 starts tried" in plan.message
+    assert plan.stats["ik_starts"] == 0
+
+
+# ------------------------------------------------------------------ 2. no unbounded allocation
+def test_plan_cartesian_refuses_a_step_that_makes_too_many_poses(panda, line):
+    with pytest.raises(InputError, match=r"max_step must be at least 2e-08 m \(1,000,000 steps at most over "
+                                         r"this 0.02 m path\), got 1e-12"):
+        plan_cartesian(panda, Q0, line[1], frame="panda_link8", max_step=1e-12, self_collision=False)
+    move = plan_cartesian(panda, Q0, line[1], frame="panda_link8", max_step=0.01, self_collision=False)
+    assert move.success and len(move.poses) == 3
+
+
+def test_cartesian_to_joint_refuses_too_many_steps(panda, line):
+    with pytest.raises(InputError, match=r"steps must be an integer from 1 to 999,998 \(1,000,000 poses"):
+        cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=10**9, **NO_CLOCK)
+    plan = cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=1, **NO_CLOCK)
+    assert plan.success and len(plan.poses) == 3
+
+
+def test_pose_sampling_counts_are_bounded(line):
+    T0, T1 = line
+    with pytest.raises(InputError, match=r"n must be an integer from 0 to 999,998, got 1000000000000"):
+        intermediate_poses(T0, T1, 10**12)
+    with pytest.raises(InputError, match=r"n must be an integer from 0 to 999,998"):
+        interpolate_checkpoints([T0, T1], 10**12)
+    with pytest.raises(InputError, match=r"make 1,000,003 poses; at most 1,000,000 are accepted "
+                                         r"\(n <= 499998\)"):
+        interpolate_checkpoints([T0, T1, T0], MAX_SAMPLES // 2)
+    assert intermediate_poses(T0, T1, 3).shape == (3, 4, 4)
+    assert interpolate_checkpoints([T0, T1, T0], 2).shape == (7, 4, 4)
+    tr = se3_polynomial_trajectory(T0, T1, 1.0)
+    with pytest.raises(InputError, match=r"n must be an integer from 2 to 1,000,000"):
+        tr.sample(10**12)
+    assert tr.sample(5)[1].shape == (5, 4, 4)
+    scaling = cubic_time_scaling(1.0)
+    with pytest.raises(InputError, match=r"n must be an integer from 2 to 1,000,000"):
+        scaling.sample(10**12)
+    assert scaling.sample(4)[0].shape == (4,)
+
+
+def test_via_point_sampling_step_is_bounded():
+    traj = via_point_trajectory([[0.0, 0.0], [1.0, 2.0]], [0.0, 2.0])
+    with pytest.raises(InputError, match=r"dt must be at least 2e-06 s \(1,000,000 steps at most over this "
+                                         r"2 s trajectory\), got 1e-12"):
+        traj.sample(1e-12)
+    with pytest.raises(InputError, match=r"dt must be at least 2e-06 s"):
+        traj.to_joint_trajectory(1e-12, ["a", "b"])
+    assert len(traj.sample(0.5)[0]) == 5
+    assert traj.to_joint_trajectory(0.5, ["a", "b"]).n_points == 5
+
+
+def test_exact_ordering_is_bounded():
+    pts = np.random.default_rng(0).random((30, 2))
+    with pytest.raises(InputError, match=rf"exact_limit must be an integer from 0 to {HELD_KARP_LIMIT}"):
+        shortest_order(pts, exact_limit=10**6)
+    with pytest.raises(InputError, match=rf"held_karp takes at most {HELD_KARP_LIMIT} points .* got 40"):
+        held_karp(np.ones((40, 40)))
+    assert shortest_order(pts[:6], exact_limit=HELD_KARP_LIMIT).optimal
+    assert held_karp(np.ones((4, 4)))[1] == 3.0
+
+
+# ------------------------------------------------------------------ 3. no silent wrong answers
+@pytest.mark.parametrize("t", [np.nan, None, "a", [0.5, np.inf]])
+def test_trajectory_times_must_be_finite_numbers(t, line):
+    traj = _trajectory()
+    with pytest.raises(InputError, match=r"t must be a number or an array of numbers|t must hold finite"):
+        traj.position_at(t)
+    tr = se3_polynomial_trajectory(*line, 1.0)
+    with pytest.raises(InputError, match=r"t must"):
+        tr.pose(t)
+    with pytest.raises(InputError, match=r"t must"):
+        tr.body_twist(t)
+    with pytest.raises(InputError, match=r"t must"):
+        cubic_time_scaling(1.0).s(t)
+    via = via_point_trajectory([[0.0], [1.0]], [0.0, 1.0])
+    with pytest.raises(InputError, match=r"t must"):
+        via.evaluate(t)
+
+
+def test_valid_times_are_still_evaluated(line):
+    np.testing.assert_allclose(_trajectory().position_at(0.5), [[0.5, 1.0]])
+    tr = se3_polynomial_trajectory(*line, 1.0)
+    np.testing.assert_allclose(tr.pose(1.0), line[1], atol=1e-12)
+    assert tr.body_twist([0.0, 0.5]).shape == (2, 6)
+    assert cubic_time_scaling(1.0).s(0.5) == pytest.approx(0.5)
+    q, _, _ = via_point_trajectory([[0.0], [1.0]], [0.0, 1.0]).evaluate(1.0)
+    np.testing.assert_allclose(q, [1.0])
+
+
+@pytest.mark.parametrize("v0", [np.nan, None, "fast"])
+def test_boundary_values_must_be_finite_numbers(v0):
+    with pytest.raises(InputError, match=r"v0 must"):
+        cubic_time_scaling(1.0, v0=v0)
+    with pytest.raises(InputError, match=r"x0 must"):
+        cubic_coefficients(1.0, x0=v0, x1=1.0)
+    with pytest.raises(InputError, match=r"v0 must"):
+        via_point_trajectory([[0.0], [1.0]], [0.0, 1.0], v0=v0)
+    assert cubic_time_scaling(1.0, v0=0.5).s(1.0) == pytest.approx(1.0)
+    np.testing.assert_allclose(cubic_coefficients(1.0, x0=0.0, x1=1.0), [0, 0, 3, -2])
+
+
+def test_time_scaling_rates_are_single_numbers():
+    with pytest.raises(InputError, match=r"v0 must be a number, got \[\]"):
+        cubic_time_scaling(1.0, v0=[])
+    with pytest.raises(InputError, match=r"a1 must be a number"):
+        planners.quintic_time_scaling(1.0, a1=[1.0, 2.0])
+    assert planners.quintic_time_scaling(1.0, a1=0.5).s(1.0) == pytest.approx(1.0)
+
+
+def test_resolved_rate_step_count_is_bounded(panda):
+    with pytest.raises(InputError, match=r"n \(number of steps\) must be an integer from 0 to 1,000,000"):
+        planners.resolved_rate(panda, [0.01, 0.0, 0.0], Q0, 10**12, 0.01, axes=["x", "y", "z"])
+    result = planners.resolved_rate(panda, [0.01, 0.0, 0.0], Q0, 2, 0.01, axes=["x", "y", "z"])
+    assert len(result.times) == 3
+
+
+def test_poses_along_and_cost_functions_fail_cleanly(line):
+    with pytest.raises(InputError, match=r"scaling must be a time scaling"):
+        planners.poses_along(*line, None, [0.0, 1.0])
+    assert planners.poses_along(*line, cubic_time_scaling(1.0), [0.0, 1.0]).shape == (2, 4, 4)
+    pts = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+    with pytest.raises(InputError, match=r"the cost function failed on points 0 and 1: ZeroDivisionError"):
+        shortest_order(pts, cost=lambda a, b: 1 / 0)
+    assert shortest_order(pts, cost=lambda a, b: 1.0).cost == 2.0
+
+
+def test_finite_differences_refuse_repeated_times():
+    with pytest.raises(InputError, match=r"times must be strictly increasing, got times\[0\] = 0.0"):
+        finite_difference_velocities(np.zeros((3, 2)), [0.0, 0.0, 1.0])
+    V = finite_difference_velocities(np.array([[0.0], [1.0], [2.0]]), [0.0, 1.0, 2.0])
+    np.testing.assert_allclose(V, [[1.0], [1.0], [1.0]])
+
+
+@pytest.mark.parametrize("name", ["jump_threshold", "limit_margin", "singular_tol"])
+def test_cartesian_thresholds_must_be_finite(panda, line, name):
+    with pytest.raises(NonFiniteError, match=rf"{name} must be finite"):
+        cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=1, **{name: np.nan}, **NO_CLOCK)
+
+
+def test_held_karp_and_path_cost_refuse_bad_costs_and_orders():
+    with pytest.raises(InputError, match=r"costs must be >= 0 and not NaN"):
+        held_karp(np.full((4, 4), np.nan))
+    C = np.ones((3, 3))
+    with pytest.raises(InputError, match=r"order\[1\] must be an index in \[0, 2\], got -1"):
+        path_cost(C, [0, -1])
+    with pytest.raises(InputError, match=r"order must visit each point at most once"):
+        path_cost(C, [0, 0, 0])
+    with pytest.raises(InputError, match=r"order\[1\] must be an index in \[0, 2\], got 3"):
+        path_cost(C, [0, 3])
+    assert path_cost(C, [0, 2, 1], return_to_start=True) == 3.0
+
+
+def test_task_coordinates_refuse_unknown_axes(panda):
+    with pytest.raises(ShapeError, match=r"unknown task component 'nope' in axes"):
+        task_coordinates(panda, Q0, ["nope"])
+    with pytest.raises(InputError, match=r"resolved-rate task axes must be among x, y, z, yaw"):
+        task_coordinates(panda, Q0, ["roll"])
+    x = task_coordinates(panda, Q0, ["x", "yaw"])
+    assert x[0] == pytest.approx(panda.fk(Q0)[0, 3])
+
+
+# ------------------------------------------------------------------ 4. kinserve errors, not raw ones
+def test_cartesian_to_joint_negative_max_time(panda, line):
+    with pytest.raises(InputError, match=r"max_time must be positive, got -1.0"):
+        cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=1, max_time=-1.0)
+
+
+def test_plan_many_refuses_bad_planner_keywords_and_processes(panda):
+    problems = [(Q0, Q0)]
+    with pytest.raises(InputError, match=r"planner must be a function planning one problem"):
+        plan_many(panda, problems, processes=1, planner="x")
+    with pytest.raises(InputError, match=r"unknown keyword\(s\) bogus_kw for plan_motion; "
+                                         r"accepted: .*max_time"):
+        plan_many(panda, problems, processes=1, bogus_kw=1)
+    with pytest.raises(InputError, match=r"processes must be an integer from 1 to 1024 or None, got 1000000"):
+        plan_many(panda, problems, processes=10**6)
+
+    def stand_in(robot, start, goal, *, obstacles=(), seed=None, **kwargs):
+        return os.getpid()
+
+    assert plan_many(panda, problems, processes=1024, planner=stand_in, self_collision=False) == [os.getpid()]
+    assert batch.worker_count(1024, 50) <= (os.cpu_count() or 1)
+    assert batch.worker_count(1, 50) == 1
+
+
+def test_joint_names_must_be_a_sequence():
+    with pytest.raises(InputError, match=r"joint_names must be a sequence of joint names"):
+        JointTrajectory(None, [0.0], [[0.0]])
+    via = via_point_trajectory([[0.0], [1.0]], [0.0, 1.0])
+    with pytest.raises(InputError, match=r"joint_names must be a sequence of joint names"):
+        via.to_joint_trajectory(0.1, None)
+    with pytest.raises(ShapeError, match=r"joint_names must name the trajectory's 1 components, got 2"):
+        via.to_joint_trajectory(0.1, ["a", "b"])
+    assert via.to_joint_trajectory(0.5, ["a"]).joint_names == ["a"]
+
+
+@pytest.mark.parametrize("T", [1e300, "long", None, np.nan])
+def test_durations_must_be_bounded_numbers(T, line):
+    with pytest.raises(InputError, match=r"T must|duration must"):
+        cubic_time_scaling(T)
+    with pytest.raises(InputError, match=r"T must|duration must|needs T"):
+        time_scaling("quintic", T)
+    with pytest.raises(InputError, match=r"duration must"):
+        se3_polynomial_trajectory(*line, T)
+    assert time_scaling("quintic", 1e6).duration == 1e6
+
+
+def test_minimum_time_refuses_mismatched_lengths_and_non_numbers():
+    with pytest.raises(ShapeError, match=r"distance, v_max and a_max must each be one number or a vector of "
+                                         r"the same length, got shapes \(1,\), \(2,\), \(2,\)"):
+        minimum_time("trapezoidal", [1.0], [1.0, 1.0], [1.0, 1.0])
+    with pytest.raises(ShapeError, match=r"distance must be a number or an array of numbers, got 'far'"):
+        minimum_time("cubic", "far", 1.0, 1.0)
+    with pytest.raises(InputError, match=r"distance must"):
+        time_scaling("trapezoidal", v_max=1.0, a_max=1.0, distance="far")
+    assert minimum_time("trapezoidal", [1.0, 2.0], [1.0, 1.0], 1.0) == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize("start", [np.nan, None, 9, 1.5, True])
+def test_ordering_indices_are_checked(start):
+    pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])
+    with pytest.raises(InputError, match=r"start must be an index"):
+        shortest_order(pts, start=start)
+    with pytest.raises(InputError, match=r"start must be an index"):
+        held_karp(np.ones((3, 3)), start=start)
+    assert shortest_order(pts, start=2).order[0] == 2
+
+
+def test_held_karp_takes_a_list():
+    assert held_karp([[0, 1], [1, 0]]) == ([0, 1], 1.0)
+    with pytest.raises(ShapeError, match=r"cost matrix must be square"):
+        held_karp([[0, 1, 2], [1, 0, 2]])
+
+
+def test_damped_pseudo_inverse_refuses_non_finite_matrices():
+    with pytest.raises(NonFiniteError, match=r"J must hold finite numbers"):
+        damped_pseudo_inverse(np.full((2, 2), np.nan))
+    with pytest.raises(ShapeError, match=r"J must be a numeric array"):
+        damped_pseudo_inverse("abc")
+    with pytest.raises(InputError, match=r"damping must be zero or positive, got -1"):
+        damped_pseudo_inverse(np.eye(2), damping=-1)
+    Jp, s = damped_pseudo_inverse(np.diag([2.0, 4.0]))
+    np.testing.assert_allclose(Jp, np.diag([0.5, 0.25]))
