@@ -71,7 +71,7 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
         raise
     except (TypeError, ValueError):
         raise ShapeError(
-            f"{name} must be a sequence of {n} numbers, got {_describe(value)}"
+            f"{name} must be a sequence of {n} numbers, got {describe(value)}"
         ) from None
     if arr.ndim == 2 and 1 in arr.shape and arr.size == n:
         arr = arr.reshape(n)
@@ -105,11 +105,22 @@ def _float_array(value: object, name: str = "value") -> np.ndarray | None:
         return None
 
 
+def as_numbers(value: ArrayLike, name: str) -> np.ndarray:
+    """``value`` (a number or an array of any shape) as a float64 array of finite numbers with ``|x| <=``
+    :data:`MAX_ABS`; :class:`ShapeError` for None, text, a mapping, bools or anything not numeric,
+    :class:`NonFiniteError` for NaN, infinities or huge entries."""
+    arr = None if isinstance(value, (bool, np.bool_)) else _float_array(value)
+    if arr is None:
+        raise ShapeError(f"{name} must be a number or an array of numbers, got {describe(value)}")
+    check_bounded(arr, name)
+    return arr
+
+
 def as_matrix(value: ArrayLike, shape: tuple[int, ...], name: str) -> np.ndarray:
     """Return ``value`` as a finite float64 array of exactly ``shape`` (-1 = any)."""
     arr = _float_array(value, name)
     if arr is None:
-        raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {_describe(value)}")
+        raise ShapeError(f"{name} must be a numeric array of shape {shape}, got {describe(value)}")
     if arr.ndim != len(shape) or any(s != -1 and s != a for s, a in zip(shape, arr.shape)):
         want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
         raise ShapeError(f"{name} must have shape {want}, got shape {arr.shape}")
@@ -156,7 +167,7 @@ def as_pose(value: PoseLike, name: str = "target") -> np.ndarray:
         return T
     arr = _float_array(value, name)
     if arr is None:
-        raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got {_describe(value)}")
+        raise ShapeError(f"{name} must be a pose: {POSE_FORMS}; got {describe(value)}")
     if arr.shape == (7,):
         check_bounded(arr, name)
         quat = unit_quaternion(arr[3:], f"{name}[3:7] (a 7-vector pose is [x, y, z, qx, qy, qz, qw])")
@@ -296,7 +307,7 @@ def as_real(value: object, name: str) -> float:
     """``value`` as a float if it is a real number (not a bool, not complex) that is finite with ``|x| <=``
     :data:`MAX_ABS`; else :class:`InputError` / :class:`NonFiniteError` naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{name} must be a number, got {_describe(value)}")
+        raise InputError(f"{name} must be a number, got {describe(value)}")
     v = float(value)
     if not math.isfinite(v) or abs(v) > MAX_ABS:
         raise NonFiniteError(f"{name} must be finite with magnitude <= {MAX_ABS:g}, got {value!r}")
@@ -308,7 +319,7 @@ def as_count(value: object, name: str, minimum: int = 1, maximum: int = 10**7) -
     integer value) in ``[minimum, maximum]``; else :class:`InputError` naming ``name`` and the range. The
     default ``maximum`` (10**7) bounds what a count may allocate or loop over."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{name} must be an integer, got {_describe(value)}")
+        raise InputError(f"{name} must be an integer, got {describe(value)}")
     if not isinstance(value, numbers.Integral):
         if not (math.isfinite(value) and float(value).is_integer()):
             raise InputError(f"{name} must be an integer, got {value!r}")
@@ -359,6 +370,7 @@ def _raise_non_finite(arr: np.ndarray, name: str):
     )
 
 
-def _describe(value) -> str:
+def describe(value: object) -> str:
+    """``repr(value)``, cut to 60 characters: how a message shows what it was given."""
     text = repr(value)
     return text if len(text) < 60 else text[:57] + "..."

@@ -43,9 +43,9 @@ from numpy.typing import ArrayLike
 from scipy.sparse.csgraph import minimum_spanning_tree
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_count
+from kinserve.kinematics.validation import as_count, as_numbers
 
-from .checks import as_index, as_numbers
+from .checks import as_index
 
 #: Most points :func:`held_karp` accepts (and the largest ``exact_limit`` of :func:`shortest_order`).
 HELD_KARP_LIMIT = 16

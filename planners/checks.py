@@ -14,30 +14,11 @@ from typing import Any
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_count, check_bounded
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_count, as_numbers, describe
 
 #: Most points a planner samples on one call (poses of a path, points of a trajectory, times of a scaling).
 MAX_SAMPLES = 10**6
-
-
-def _describe(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) < 60 else text[:57] + "..."
-
-
-def as_numbers(value: Any, name: str) -> np.ndarray:
-    """``value`` (a number or an array of any shape) as a float64 array of finite numbers with ``|x| <=
-    1e6``; :class:`ShapeError` for None, text, bools or anything not numeric, :class:`NonFiniteError` for
-    NaN, infinities or huge entries."""
-    if value is None or isinstance(value, (str, bytes, dict, bool, np.bool_)):
-        raise ShapeError(f"{name} must be a number or an array of numbers, got {_describe(value)}")
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be a number or an array of numbers, got {_describe(value)}") from None
-    check_bounded(arr, name)
-    return arr
 
 
 def as_times(t: Any, name: str = "t") -> np.ndarray:
@@ -66,7 +47,7 @@ def as_index(value: Any, n: int, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         if not (isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
                 and float(value).is_integer()):
-            raise InputError(f"{name} must be an index (an integer in [0, {n - 1}]), got {_describe(value)}")
+            raise InputError(f"{name} must be an index (an integer in [0, {n - 1}]), got {describe(value)}")
     i = int(value)
     if not 0 <= i < n:
         raise InputError(f"{name} must be an index in [0, {n - 1}], got {value!r}")

@@ -13,9 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_real
-
-from .checks import as_numbers
+from kinserve.kinematics.validation import as_numbers, as_real
 
 #: Shortest segment duration (s) accepted: ``T**5`` stays far above the smallest float.
 MIN_DURATION = 1e-6

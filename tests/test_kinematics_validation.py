@@ -131,3 +131,43 @@ def test_one_per_entry_bound_whatever_the_container(panda):
     for bad in ([5e5] * 6 + [1.5e6], np.array([5e5] * 6 + [1.5e6])):
         with pytest.raises(NonFiniteError, match=r"\[6\]=1500000.0"):
             panda.fk(bad)
+
+
+def test_the_scalar_checks_bound_every_number():
+    """``as_positive`` / ``as_nonnegative`` / ``as_real`` take finite reals within 1e6 only (bools, text,
+    complex, NaN, inf and 1e300 named), ``as_count`` an integer in its range, ``as_numbers`` any numeric
+    array of bounded entries; each returns plain floats / ints / a float64 array."""
+    from kinserve.kinematics.validation import as_count, as_nonnegative, as_numbers, as_positive, as_real
+
+    assert as_positive(2, "t") == 2.0 and type(as_positive(2, "t")) is float
+    assert as_positive(1e6, "t") == 1e6 and as_positive(0.5, "t", maximum=1.0) == 0.5
+    assert as_nonnegative(0, "x") == 0.0 and as_real(-3, "x") == -3.0
+    for bad, error, words in [(1e300, NonFiniteError, "t must be finite with magnitude <= 1e\\+06"),
+                              (float("nan"), NonFiniteError, "t must be finite"),
+                              (True, InputError, "t must be a number, got True"),
+                              ("1", InputError, "t must be a number, got '1'"),
+                              (1j, InputError, "t must be a number"),
+                              (-1, InputError, "t must be positive, got -1"),
+                              (0.0, InputError, "t must be positive, got 0.0"),
+                              (2e6, NonFiniteError, "t must be finite with magnitude")]:
+        with pytest.raises(error, match=words):
+            as_positive(bad, "t")
+    with pytest.raises(InputError, match="t must be at most 1, got 1.5"):
+        as_positive(1.5, "t", maximum=1.0)
+    with pytest.raises(InputError, match="x must be zero or positive, got -0.1"):
+        as_nonnegative(-0.1, "x")
+    assert as_count(3, "n") == 3 and as_count(3.0, "n") == 3 and as_count(np.int64(0), "n", minimum=0) == 0
+    for bad, words in [(1.5, "n must be an integer, got 1.5"), (True, "n must be an integer, got True"),
+                       (float("inf"), "n must be an integer, got inf"), (None, "n must be an integer"),
+                       (0, "n must be an integer from 1 to 10,000,000, got 0"),
+                       (10**12, "from 1 to 10,000,000, got 1000000000000")]:
+        with pytest.raises(InputError, match=words):
+            as_count(bad, "n")
+    np.testing.assert_array_equal(as_numbers([[1, 2], [3, 4]], "a"), [[1.0, 2.0], [3.0, 4.0]])
+    assert as_numbers(2, "a").shape == ()
+    for bad, error, words in [(None, ShapeError, "a must be a number or an array of numbers, got None"),
+                              ("ab", ShapeError, "got 'ab'"), (True, ShapeError, "got True"),
+                              ([1, [2, 3]], ShapeError, "a must be a number or an array"),
+                              ([1.0, np.nan], NonFiniteError, r"bad entries: \[1\]=nan")]:
+        with pytest.raises(error, match=words):
+            as_numbers(bad, "a")

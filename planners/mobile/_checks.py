@@ -12,7 +12,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import _describe, as_count, as_positive, as_rows, as_vector, check_bounded
+from kinserve.kinematics.validation import as_count, as_positive, as_rows, as_vector, check_bounded, describe
 
 #: Most samples a step size may produce along a path (or a time step along a trajectory).
 MAX_SAMPLES = 10**7
@@ -51,7 +51,7 @@ def check_samples(count: float, name: str, value: float, what: str, maximum: int
 def as_indices(values: Iterable[object] | None, name: str, size: int) -> list[int]:
     """``values`` as a list of indices in ``[0, size)`` (each an integer; :class:`InputError` naming it)."""
     if values is None or isinstance(values, (str, bytes, dict)) or not isinstance(values, Iterable):
-        raise InputError(f"{name} must be a sequence of indices, got {_describe(values)}")
+        raise InputError(f"{name} must be a sequence of indices, got {describe(values)}")
     out = []
     for k, v in enumerate(values):
         if size == 0:
@@ -125,7 +125,7 @@ def simulation_arguments(wheel_speeds: object, n_wheels: int, pose0: object, t_s
                 raise TypeError
             te = np.asarray(t_eval, dtype=float)
         except (TypeError, ValueError):
-            raise ShapeError(f"t_eval must be a 1-D array of times, got {_describe(t_eval)}") from None
+            raise ShapeError(f"t_eval must be a 1-D array of times, got {describe(t_eval)}") from None
         if te.ndim != 1:
             raise ShapeError(f"t_eval must be a 1-D array of times, got shape {te.shape}")
         check_bounded(te, "t_eval")

@@ -23,22 +23,9 @@ from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_positive
+from kinserve.kinematics.validation import as_numbers, as_positive
 
 from ._checks import simulation_arguments
-
-
-def _finite_array(value: object, name: str) -> np.ndarray:
-    """``value`` as a float array of finite numbers with ``|x| <= 1e6`` (:class:`InputError` naming it)."""
-    try:
-        if value is None or isinstance(value, (str, bytes, dict)):
-            raise TypeError
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number or an array of numbers, got {value!r:.60}") from None
-    if not np.all(np.abs(arr) <= 1e6):
-        raise InputError(f"{name} must hold finite numbers with magnitude <= 1e6")
-    return arr
 
 
 def _pair(a: np.ndarray, b: np.ndarray, names: str) -> tuple[np.ndarray, np.ndarray]:
@@ -65,14 +52,14 @@ class DiffDrive:
         """``[phi_L, phi_R]`` (rad/s) for forward speed ``v`` and turn rate ``omega``; broadcasts
         (``(..., 2)``). Refuses non-numeric, non-finite or huge (``|x| > 1e6``) values and shapes that do
         not broadcast."""
-        v, w = _pair(_finite_array(v, "v"), _finite_array(omega, "omega"), "v and omega")
+        v, w = _pair(as_numbers(v, "v"), as_numbers(omega, "omega"), "v and omega")
         half = 0.5 * self.track
         return np.stack([(v - w * half) / self.wheel_radius, (v + w * half) / self.wheel_radius], axis=-1)
 
     def body_velocity(self, phi_left: ArrayLike, phi_right: ArrayLike) -> np.ndarray:
         """``[v, omega]`` from the wheel speeds (rad/s); broadcasts (``(..., 2)``). Refuses non-numeric,
         non-finite or huge (``|x| > 1e6``) values and shapes that do not broadcast."""
-        L, R = _pair(_finite_array(phi_left, "phi_left"), _finite_array(phi_right, "phi_right"),
+        L, R = _pair(as_numbers(phi_left, "phi_left"), as_numbers(phi_right, "phi_right"),
                      "phi_left and phi_right")
         r = self.wheel_radius
         return np.stack([0.5 * r * (R + L), r * (R - L) / self.track], axis=-1)

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike
 from scipy import ndimage
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import _describe, as_nonnegative, as_positive, as_vector
+from kinserve.kinematics.validation import as_nonnegative, as_positive, as_vector, describe
 
 from ._checks import as_point, as_points, check_samples, describe_length, polyline_samples
 from .shapes import Circle, Polygon, Rectangle, Shape
@@ -321,7 +321,7 @@ def check_grid(grid: object, name: str = "grid") -> None:
     """:class:`InputError` unless ``grid`` is an :class:`OccupancyGrid`."""
     if not isinstance(grid, OccupancyGrid):
         raise InputError(f"{name} must be an OccupancyGrid (OccupancyGrid.from_shapes(...)), "
-                         f"got {_describe(grid)}")
+                         f"got {describe(grid)}")
 
 
 def _index_array(value: object, name: str) -> np.ndarray:

@@ -35,24 +35,18 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
-from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_positive, as_real, as_vector
+from kinserve.kinematics.errors import ShapeError
+from kinserve.kinematics.validation import as_numbers, as_positive, as_real, as_vector
 
 from ._checks import simulation_arguments
 
 
 def _vectors(value: object, name: str) -> np.ndarray:
-    """``value`` as a ``(3,)`` or ``(N, 3)`` array of finite numbers with ``|x| <= 1e6``."""
-    try:
-        if value is None or isinstance(value, (str, bytes, dict)):
-            raise TypeError
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ShapeError(f"{name} must be 3 numbers or an (N, 3) array, got {value!r:.60}") from None
+    """``value`` as a ``(3,)`` or ``(N, 3)`` array of finite numbers with ``|x| <= 1e6``
+    (:func:`~kinserve.kinematics.validation.as_numbers`, then the shape)."""
+    arr = as_numbers(value, name)
     if arr.ndim not in (1, 2) or arr.shape[-1] != 3:
         raise ShapeError(f"{name} must be 3 numbers or an (N, 3) array, got shape {arr.shape}")
-    if not np.all(np.abs(arr) <= 1e6):
-        raise InputError(f"{name} must hold finite numbers with magnitude <= 1e6")
     return arr
 
 
