@@ -13,7 +13,7 @@ from kinserve.ik.qp.backends import available_backends
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
 from kinserve.kinematics.errors import InputError, KinserveError
 from kinserve.kinematics.robot import Robot
-from kinserve.kinematics.validation import MAX_ABS, as_positive
+from kinserve.kinematics.validation import MAX_ABS, as_positive, describe
 
 #: Largest accepted ``max_time`` (s): the bound on every number of an input (:data:`MAX_ABS`).
 MAX_TIME = MAX_ABS
@@ -49,8 +49,8 @@ def check_seed(seed: Any) -> int | None:
         raise InputError("seed is the random seed (a non-negative integer); pass the start configuration "
                          f"as q0=, got seed={seed!r}")
     if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or not 0 <= seed <= MAX_SEED:
-        text = repr(seed) if len(repr(seed)) <= 40 else repr(seed)[:37] + "..."
-        raise InputError(f"seed must be a non-negative integer (at most 2**64 - 1) or None, got {text}")
+        raise InputError(f"seed must be a non-negative integer (at most 2**64 - 1) or None, got "
+                         f"{describe(seed)}")
     return int(seed)
 
 

@@ -30,7 +30,7 @@ from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
 from .extensions import Extensions
 from .types import VectorLike
-from .validation import as_vector
+from .validation import as_vector, describe
 
 if TYPE_CHECKING:  # annotations only (collision_model imports pinocchio/coal)
     from .collision_model import CollisionModel
@@ -86,9 +86,7 @@ def self_collision_flag(value: object) -> bool:
         return value
     if isinstance(value, np.bool_):
         return bool(value)
-    text = repr(value)
-    text = text if len(text) < 60 else text[:57] + "..."
-    raise InputError(f"self_collision must be True or False, got {text}")
+    raise InputError(f"self_collision must be True or False, got {describe(value)}")
 
 
 class CollisionQueries:

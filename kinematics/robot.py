@@ -39,7 +39,16 @@ from .collision_queries import CollisionQueries
 from .errors import FrameError, InputError, ModelError, ShapeError, SingularityError, suggest
 from .extensions import Extensions
 from .types import MatrixLike, VectorLike
-from .validation import MAX_ABS, as_count, as_matrix, as_nonnegative, as_positive, as_vector, check_limits
+from .validation import (
+    MAX_ABS,
+    as_count,
+    as_matrix,
+    as_nonnegative,
+    as_positive,
+    as_vector,
+    check_limits,
+    describe,
+)
 
 #: Names of the six task components, in the row order of ``Robot.jacobian``.
 TASK_AXES = ("x", "y", "z", "roll", "pitch", "yaw")
@@ -117,10 +126,8 @@ def _seed(rng: object) -> object:
     try:
         return as_count(rng, "rng", minimum=0, maximum=MAX_SEED)
     except InputError:
-        text = repr(rng)
-        text = text if len(text) < 60 else text[:57] + "..."
         raise InputError(f"rng must be a numpy.random.Generator, an integer seed from 0 to 2**128 - 1 or "
-                         f"None, got {text}") from None
+                         f"None, got {describe(rng)}") from None
 
 
 class Robot(CollisionQueries):
