@@ -66,6 +66,9 @@ _DEFAULT_GUESS = coal.GJKInitialGuess.DefaultGuess
 
 #: GJK tolerance (m) of the near-pair distances used by the IK rows (coal's default is 1e-6).
 GJK_TOLERANCE = 1e-9
+#: Margin workspaces a thread keeps per layout (:meth:`SceneLayout.margin_workspace`): one per threshold,
+#: the oldest replaced beyond this many.
+MARGIN_WORKSPACES = 8
 
 
 @dataclass(frozen=True)
@@ -321,13 +324,17 @@ class SceneLayout:
         """This thread's :class:`MarginWorkspace` over its workspace's geometry whose collision requests use
         ``security_margin = threshold``, otherwise as :func:`exact_requests` makes them (the manager inflates
         every AABB by half of it; GJK distances to
-        :data:`GJK_TOLERANCE`); made on a thread's first query with that threshold.
+        :data:`GJK_TOLERANCE`); made on a thread's first query with that threshold. A thread keeps those of
+        its last :data:`MARGIN_WORKSPACES` thresholds (a new one replaces the oldest made), so callers that
+        vary the threshold do not grow memory without bound.
         Call :meth:`workspace` first: the placements are the workspace's."""
         by_margin = getattr(self._threads, "margin", None)
         if by_margin is None:
             by_margin = self._threads.margin = {}
         entry = by_margin.get(threshold)
         if entry is None:
+            if len(by_margin) >= MARGIN_WORKSPACES:  # the oldest goes: memory stays bounded
+                del by_margin[next(iter(by_margin))]
             gm = self._threads.workspace.geometry
             gd = pin.GeometryData(gm)
             exact_requests(gd.collisionRequests)  # contacts on, no cached guess: see exact_requests
@@ -340,6 +347,6 @@ class SceneLayout:
         return entry
 
 
-__all__ = ["GJK_TOLERANCE", "NAIVE_MAX_GEOMETRIES", "SPHERE_PRECHECK", "MarginWorkspace",
+__all__ = ["GJK_TOLERANCE", "MARGIN_WORKSPACES", "NAIVE_MAX_GEOMETRIES", "SPHERE_PRECHECK", "MarginWorkspace",
            "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class",
            "exact_requests", "obstacle_name"]

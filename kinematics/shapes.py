@@ -60,7 +60,9 @@ __all__ = ["Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", 
 
 
 def _positive(value: Any, name: str) -> float:
-    """A finite, strictly positive length in metres."""
+    """A finite, strictly positive length in metres (a number: text and bools are refused, not read)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise ShapeError(f"{name} must be a number (m), got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):

@@ -57,7 +57,14 @@ import numpy as np
 from kinserve.kinematics import Robot, axis_rows
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.types import VectorLike
-from kinserve.kinematics.validation import as_count, as_matrix, as_nonnegative, as_positive, as_vector
+from kinserve.kinematics.validation import (
+    as_count,
+    as_matrix,
+    as_nonnegative,
+    as_positive,
+    as_real,
+    as_vector,
+)
 
 from .checks import MAX_SAMPLES
 
@@ -260,12 +267,21 @@ def track_reference(
     reference point and the feedback ``gain`` (see the module docstring).
     ``damping``: ``"adaptive"`` (default), a fixed ``lambda >= 0``, or 0.
     With ``stop_on_singularity`` the run ends at the first event.
+
+    Refused (:class:`InputError` naming the argument, before any step): ``n``, ``dt``, ``gain`` and
+    ``damping`` as :func:`_checked_run_arguments` says; ``sigma_threshold``, ``max_step_error`` and
+    ``max_joint_rate`` (when given) not in ``(0, 1e6]``; ``lambda_max`` not in ``[0, 1e6]``.
     """
     axes = _check_axes(robot, axes)
     rows = axis_rows(axes)
     yaw_index = [i for i, a in enumerate(axes) if a == "yaw"]
     q = robot.check_q(q0, "q0").astype(float).copy()
     n = _checked_run_arguments(n, dt, gain, damping)
+    sigma_threshold = as_positive(sigma_threshold, "sigma_threshold")
+    lambda_max = as_nonnegative(lambda_max, "lambda_max")
+    max_step_error = as_positive(max_step_error, "max_step_error")
+    if max_joint_rate is not None:
+        max_joint_rate = as_positive(max_joint_rate, "max_joint_rate")
     m = len(axes)
 
     def ref(t):
@@ -417,7 +433,8 @@ def follow_circle(
     The circle starts at the point nearest the tool's initial position
     (phase ``atan2(y0 - cy, x0 - cx)``), counter-clockwise for ``w > 0``; the
     initial error is the tool's distance from the circle. Open loop is the
-    seed document's scheme (commanded tangent velocity only).
+    seed document's scheme (commanded tangent velocity only). ``radius`` must be in ``(0, 1e6]`` and
+    ``angular_velocity`` a non-zero number of magnitude at most 1e6 (:class:`InputError` otherwise).
     """
     axes = _check_axes(robot, kwargs.pop("axes", None))
     if len(axes) != 2:
@@ -426,8 +443,9 @@ def follow_circle(
         raise InputError(f"n must be an integer > 0, got {n!r}")
     x0 = task_coordinates(robot, robot.check_q(q0, "q0"), axes, kwargs.get("frame"))
     c = as_vector(centre, 2, "centre")
+    radius = as_positive(radius, "radius")
     phase = math.atan2(x0[1] - c[1], x0[0] - c[0])
-    if not (math.isfinite(angular_velocity) and angular_velocity != 0):
+    if as_real(angular_velocity, "angular_velocity") == 0:
         raise InputError("angular_velocity must be a finite non-zero number (rad/s), "
                          f"got {angular_velocity!r}")
     ref = circle_reference(c, radius, 2.0 * math.pi / angular_velocity, phase)

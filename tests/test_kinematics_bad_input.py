@@ -300,6 +300,29 @@ def test_near_distance_refuses_a_pair_index_out_of_range(arm, k, message):
     assert math.isfinite(scene.near_distance(0.1, len(scene) - 1).distance)
 
 
+def test_a_thread_keeps_a_bounded_number_of_margin_workspaces(arm):
+    """Each new ``near`` threshold makes a margin workspace (a GeometryData and a broad phase); a thread keeps
+    at most MARGIN_WORKSPACES of them, and a threshold whose workspace was replaced answers as before."""
+    from kinserve.kinematics.collision_layout import MARGIN_WORKSPACES
+
+    scene = arm.collision_scene([ik.Sphere([1.5, 0.0, 0.0], 0.05)])
+    q = [0.0, 0.0]
+    first = scene.near(0.02, q)
+    assert first  # (the sphere sits inside l2's box)
+    for k in range(3 * MARGIN_WORKSPACES):
+        scene.near(0.03 + 0.01 * k, q)
+    assert len(scene.layout._threads.margin) == MARGIN_WORKSPACES
+    assert 0.02 not in scene.layout._threads.margin
+    assert scene.near(0.02, q) == first
+
+
+@pytest.mark.parametrize("size", [True, "0.1", b"0.1", np.bool_(True)])
+def test_shape_sizes_are_numbers_not_text_or_bools(size):
+    with pytest.raises(ShapeError, match=r"sphere radius must be a number \(m\), got"):
+        ik.Sphere([0.0, 0.0, 0.0], size)
+    assert ik.Sphere([0.0, 0.0, 0.0], 0.1).radius == 0.1
+
+
 # --------------------------------------------------------------------------------------- 10. loaders
 def test_load_refuses_package_dirs_that_are_not_folders():
     with pytest.raises(ModelError, match=r"package_dirs must be a folder or a list of folders, got int '3'"):

@@ -325,3 +325,29 @@ def test_damped_pseudo_inverse_refuses_non_finite_matrices():
         damped_pseudo_inverse(np.eye(2), damping=-1)
     Jp, s = damped_pseudo_inverse(np.diag([2.0, 4.0]))
     np.testing.assert_allclose(Jp, np.diag([0.5, 0.25]))
+
+
+def test_resolved_rate_thresholds_and_circle_are_checked():
+    """track_reference's thresholds and follow_circle's radius and angular velocity: NaN, infinities, zero
+    or negative values (where they make no sense) and text are named before any step; valid ones run."""
+    from kinserve.planners.resolved_rate import follow_circle, track_reference
+
+    robot = robots.load("planar4r")
+    q0 = robot.neutral() + 0.3
+    ref = lambda t: (np.zeros(2), np.zeros(2))  # noqa: E731
+    cases = [("sigma_threshold", 0.0, InputError, "sigma_threshold must be positive"),
+             ("sigma_threshold", float("nan"), NonFiniteError, "sigma_threshold must be"),
+             ("lambda_max", -1.0, InputError, "lambda_max must be zero or positive"),
+             ("max_step_error", float("inf"), NonFiniteError, "max_step_error must be"),
+             ("max_joint_rate", "fast", InputError, "max_joint_rate must be a number")]
+    for key, value, error, words in cases:
+        with pytest.raises(error, match=words):
+            track_reference(robot, ref, q0, 3, 0.01, axes=["x", "y"], **{key: value})
+    for radius, error, words in [(0.0, InputError, "radius must be positive"),
+                                 (float("nan"), NonFiniteError, "radius must be finite"),
+                                 ("a", InputError, "radius must be a number")]:
+        with pytest.raises(error, match=words):
+            follow_circle(robot, [0.5, 0.0], radius, q0, 3, 0.01, axes=["x", "y"])
+    with pytest.raises(InputError, match="angular_velocity must be a number"):
+        follow_circle(robot, [0.5, 0.0], 0.1, q0, 3, 0.01, axes=["x", "y"], angular_velocity="a")
+    assert len(follow_circle(robot, [0.5, 0.0], 0.1, q0, 3, 0.01, axes=["x", "y"]).q) == 4
