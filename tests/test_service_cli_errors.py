@@ -74,7 +74,9 @@ BAD = {
     "reach": [(["pr", "--samples", "0"], "argument --samples"),
               (["pr", "--resolution", "x"], "argument --resolution"),
               (["pr", "--max-time", "inf"], "argument --max-time"),
-              (["pr", "--orientation", "up"], "invalid choice")],
+              (["pr", "--orientation", "up"], "invalid choice"),
+              (["pr", "--out", "/nonexistent/dir/stem"], "'/nonexistent/dir' does not exist"),
+              (["pr", "--samples", "1000000000000"], "samples must be at most 10,000,000")],
 }
 
 
