@@ -56,7 +56,8 @@ if TYPE_CHECKING:
     import coal
     import pinocchio as pin
 
-__all__ = ["Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "as_obstacles", "SHAPE_KINDS"]
+__all__ = ["MAX_EXTENT", "Shape", "Sphere", "Box", "Capsule", "Cylinder", "Mesh", "as_shape", "as_obstacles",
+           "SHAPE_KINDS"]
 
 
 def _positive(value: Any, name: str) -> float:
@@ -142,6 +143,23 @@ def _fields_of(cls: type) -> tuple[str, ...]:
     return tuple(k for k in slots if k not in _DERIVED)
 
 
+#: Farthest a shape may reach from the world origin (m): its bounding ball lies within this distance. coal's
+#: distances lose precision on larger shapes (a sphere of radius 1e5 m beside the Panda is misjudged by 7 cm,
+#: a box of 2e5 m by 1 cm; at 1e4 m they agree with those of a 10 m sphere or box to 0.1 mm).
+MAX_EXTENT = 1e4
+
+
+def _check_extent(kind: str, ball: tuple[float, float, float, float]) -> None:
+    """:class:`ShapeError` unless the bounding ball ``(x, y, z, r)`` lies within :data:`MAX_EXTENT` of the
+    origin."""
+    x, y, z, r = ball
+    reach = math.sqrt(x * x + y * y + z * z) + r
+    if not reach <= MAX_EXTENT:
+        raise ShapeError(f"{kind}: a shape must lie within {MAX_EXTENT:g} m of the world origin (coal's "
+                         f"distances lose precision beyond), this one reaches {reach:.3g} m (bounding ball "
+                         f"centre ({x:.3g}, {y:.3g}, {z:.3g}), radius {r:.3g})")
+
+
 class Shape:
     """Common behaviour of the solid shapes (not instantiated directly).
 
@@ -181,7 +199,9 @@ class Shape:
         geometry = self._make_geometry()
         if self._keeps_geometry:
             object.__setattr__(self, "_geometry", geometry)
-        object.__setattr__(self, "_ball", _BALL.pack(*self._world_ball()))
+        ball = self._world_ball()
+        _check_extent(self.kind, ball)
+        object.__setattr__(self, "_ball", _BALL.pack(*ball))
         plain = _plain_bytes(self.kind, self.frames, self._fields().values())
         object.__setattr__(self, "_plain", plain)
         object.__setattr__(self, "_hash", hash(plain))

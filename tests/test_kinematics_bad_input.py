@@ -356,3 +356,30 @@ def test_mesh_refuses_a_path_that_is_not_a_path_and_a_bad_scale(tmp_path):
         ik.Mesh(stl, scale=-1)
     assert ik.Mesh(stl, scale=2.0).scale == (2.0, 2.0, 2.0)
     assert ik.Mesh(str(stl), scale=[1, 2, 3]).scale == (1.0, 2.0, 3.0)
+
+
+def test_shapes_beyond_the_extent_coal_measures_precisely_are_refused():
+    """A shape must lie within MAX_EXTENT (1e4 m) of the world origin: beyond, coal misjudges distances by
+    centimetres without a word. Within it, a sphere of radius c - 0.2 centred at (c, 0, 0) - nearly the
+    half-space x >= 0.2 - and a box filling that half-space give the Panda's links the same distances."""
+    from kinserve.kinematics.shapes import MAX_EXTENT
+
+    with pytest.raises(ShapeError, match=r"sphere: a shape must lie within 10000 m of the world origin"):
+        ik.Sphere([1e5, 0.0, 0.0], 1e5 - 0.2)
+    with pytest.raises(ShapeError, match=r"box: a shape must lie within 10000 m .* reaches 1.5e\+04 m"):
+        ik.Box(np.eye(4), (3e4, 1.0, 1.0))
+    with pytest.raises(ShapeError, match="cylinder: a shape must lie within"):
+        ik.Cylinder(np.diag([1.0, 1.0, 1.0, 1.0]) + np.eye(4, k=3) * 9999.0, 5.0, 1.0)
+    panda = robots.load("panda")
+    q = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+    c = MAX_EXTENT / 2 - 1.0
+    wall = np.eye(4)
+    wall[0, 3] = 0.2 + 50.0
+    sphere = {link: d.distance for (link, _), d in
+              panda.distances(q, [ik.Sphere([c, 0.0, 0.0], c - 0.2)], self_collision=False).items()}
+    box = {link: d.distance for (link, _), d in
+           panda.distances(q, [ik.Box(wall, (100.0, 100.0, 100.0))], self_collision=False).items()}
+    near = [link for link, d in box.items() if d < 0.5]
+    assert len(near) >= 3
+    for link in near:
+        assert sphere[link] == pytest.approx(box[link], abs=2e-3)
