@@ -59,15 +59,15 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
         return value
     if type(value) is list and len(value) == n:
         try:  # a list of plain numbers (a parsed JSON array): same sufficient test, no NumPy call
-            if _hypot(*value) < MAX_ABS:
+            if _hypot(*value) < MAX_ABS and bool not in map(type, value):  # (hypot takes bools as 0 / 1)
                 return np.array(value, dtype=np.float64)
-        except TypeError:
+        except (TypeError, OverflowError):
             pass
     try:
         if value is None or isinstance(value, (str, bytes, dict)):
             raise TypeError
         arr = _real_float64(value, name)
-    except ShapeError:  # complex numbers: named as such
+    except InputError:  # complex numbers, huge integers: named as such
         raise
     except (TypeError, ValueError):
         raise ShapeError(
@@ -85,11 +85,20 @@ def as_vector(value: ArrayLike, n: int, name: str = "q") -> np.ndarray:
 
 def _real_float64(value: object, name: str) -> np.ndarray:
     """``value`` as a float64 array: :class:`ShapeError` naming ``name`` for complex numbers (NumPy would drop
-    their imaginary part with a mere warning); TypeError / ValueError when it is not numeric."""
+    their imaginary part with a mere warning), :class:`NonFiniteError` for an integer too large for a float;
+    TypeError / ValueError when it is not numeric (text and bools included: NumPy would read ``"1"`` as 1.0
+    and ``True`` as 1.0)."""
     arr = np.asarray(value)
-    if arr.dtype.kind == "c":
+    kind = arr.dtype.kind
+    if kind == "c":
         raise ShapeError(f"{name} must hold real numbers, got complex numbers (dtype {arr.dtype})")
-    return arr.astype(np.float64, copy=False)
+    if kind in "USb":
+        raise TypeError(f"{name}: text or bools, not numbers")
+    try:
+        return arr.astype(np.float64, copy=False)
+    except OverflowError:
+        raise NonFiniteError(f"{name} must hold finite numbers with magnitude <= {MAX_ABS:g}; got an integer "
+                             "too large for a float") from None
 
 
 def _float_array(value: object, name: str = "value") -> np.ndarray | None:
@@ -99,7 +108,7 @@ def _float_array(value: object, name: str = "value") -> np.ndarray | None:
         return None
     try:
         return _real_float64(value, name)
-    except ShapeError:
+    except InputError:
         raise
     except (TypeError, ValueError):
         return None

@@ -171,3 +171,19 @@ def test_the_scalar_checks_bound_every_number():
                               ([1.0, np.nan], NonFiniteError, r"bad entries: \[1\]=nan")]:
         with pytest.raises(error, match=words):
             as_numbers(bad, "a")
+
+
+@pytest.mark.parametrize("value, error, words", [
+    (["1", "2", "3"], ShapeError, r"q must be a sequence of 3 numbers, got \['1', '2', '3'\]"),
+    ([True, False, True], ShapeError, "q must be a sequence of 3 numbers, got \\[True, False, True\\]"),
+    (np.array([True, False, True]), ShapeError, "q must be a sequence of 3 numbers"),
+    ([10**400, 0, 0], NonFiniteError, "an integer too large for a float"),
+    ((10**400, 0, 0), NonFiniteError, "an integer too large for a float"),
+])
+def test_text_bools_and_huge_integers_are_not_read_as_numbers(value, error, words):
+    """NumPy reads ``"1"`` and ``True`` as 1.0 and overflows on 10**400: the checks refuse them by name, on
+    the list fast path and on the general one; plain integers still pass."""
+    with pytest.raises(error, match=words):
+        as_vector(value, 3)
+    np.testing.assert_array_equal(as_vector([1, 2, 3], 3), [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(as_vector((1, 2, 3), 3), [1.0, 2.0, 3.0])
