@@ -87,8 +87,11 @@ def attached_object(name: Any, shape: Any, frame: str, pose_in_frame: Any, touch
         touch = () if default_touch is None else (default_touch,)
     elif isinstance(touch_links, str):
         touch = (touch_links,)
-    else:
+    elif isinstance(touch_links, (list, tuple, set, frozenset)):
         touch = tuple(touch_links)
+    else:
+        raise InputError(f"attach({name!r}): touch_links must be a link name or a list of link names, "
+                         f"got {type(touch_links).__name__} {touch_links!r}")
     for link in touch:
         if not isinstance(link, str) or link not in known:
             raise InputError(f"attach({name!r}): touch link {link!r} is not a collision link of the robot; "

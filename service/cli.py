@@ -75,8 +75,23 @@ def load_robot(args, *, geometry: bool | None = None, task_axes=None):
     )
 
 
+def robot_frame(robot, args) -> str:
+    """``--frame`` checked against ``robot`` (an unknown or empty name is a :class:`FrameError` naming it and
+    suggesting close names), or the robot's tool frame when the option is absent."""
+    frame = getattr(args, "frame", None)
+    if frame is None:
+        return robot.tip
+    robot.frame_id(frame)
+    return frame
+
+
 def robot_q(robot, args) -> np.ndarray:
-    """``--q`` checked against ``robot`` (length, limits), or the robot's neutral configuration."""
+    """``--q`` checked against ``robot`` (length, limits), or the robot's neutral configuration.
+
+    ``--frame``, when the sub-command has it, is checked here too (:func:`robot_frame`), so every
+    sub-command refuses an unknown or empty frame name even when it does not use the frame.
+    """
+    robot_frame(robot, args)
     q = parse_vector(args.q)
     return robot.neutral() if q is None else robot.check_q(q)
 
@@ -128,7 +143,7 @@ def cmd_fk(args) -> int:
     """``kinserve fk``: the 4x4 pose of a frame at ``--q``; returns 0."""
     robot = load_robot(args)
     q = robot_q(robot, args)
-    frame = args.frame or robot.tip
+    frame = robot_frame(robot, args)
     T = robot.fk(q, frame)
     text = f"{robot.name}  frame {frame}  q = {np.array2string(q, precision=4)}\npose (4x4):\n{fmt_matrix(T)}"
     emit(args, {"robot": robot.name, "frame": frame, "q": q.tolist(), "pose": T.tolist()}, text)
@@ -151,7 +166,7 @@ def cmd_jacobian(args) -> int:
     """``kinserve jacobian``: the frame Jacobian at ``--q``, singular values, manipulability; returns 0."""
     robot = load_robot(args, task_axes=args.axes)
     q = robot_q(robot, args)
-    frame = args.frame or robot.tip
+    frame = robot_frame(robot, args)
     J = robot.jacobian(q, frame, reference=args.reference)
     sv = robot.singular_values(q, frame)
     manip = float(np.prod(sv))

@@ -44,17 +44,17 @@ def pose_label(success: bool) -> str:
 def cmd_ik(args: argparse.Namespace) -> int:
     """``kinserve ik``: solve for the target pose; returns 0 when it is reached, 1 otherwise."""
     from kinserve import ik
-    from kinserve.service.cli import emit, fmt_matrix, load_robot, parse_vector
+    from kinserve.service.cli import emit, fmt_matrix, load_robot, parse_vector, robot_frame
 
     robot = load_robot(args)
+    frame = robot_frame(robot, args)
     T, relax_extra = parse_target(args)
     relax = tuple(dict.fromkeys(tuple(args.relax or ()) + relax_extra))
     q0 = parse_vector(args.q0, "--q0")
     obstacles = obstacles_from_args(args)
-    res = ik.solve(robot, T, q0, frame=args.frame, relax=relax, obstacles=tuple(obstacles),
+    res = ik.solve(robot, T, q0, frame=frame, relax=relax, obstacles=tuple(obstacles),
                    centring=args.centring, method=args.method, max_time=args.max_time, seed=args.seed,
                    self_collision=args.self_collision)
-    frame = args.frame or robot.tip
     checks = f"{len(obstacles)} obstacle(s)" + (", self-collision" if args.self_collision else "")
     text = (
         f"{robot.name}  frame {frame}  method {res.method}  relax {list(relax) or 'none'}  {checks}\n"

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .cli_obstacles import add_obstacle_args, obstacles_from_args
-from .cli_types import file_in_existing_folder, positive_float, positive_int
+from .cli_types import file_in_existing_folder, positive_float, positive_int, seed_number
 
 
 def cmd_reach(args: argparse.Namespace) -> int:
@@ -60,7 +60,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="worker processes of the pool (default: every available core)")
     p.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local Ray)")
     p.add_argument("--max-time", type=positive_float, default=0.05, help="IK time budget per sample (s)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sampled poses and of the solves")
+    p.add_argument("--seed", type=seed_number, default=0, help="seed of the sampled poses and of the solves")
     p.add_argument("--out", type=file_in_existing_folder, default="reach",
                    help="output path stem in an existing folder: writes STEM.npz and STEM.png")
     p.add_argument("--self-collision", action="store_true",

@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import socket
 import sys
 from typing import TYPE_CHECKING
 
-from .cli_types import port_number, positive_float, positive_int
+from .cli_types import number_up_to, port_number, whole_number
 
 if TYPE_CHECKING:
     from .settings import ServiceSettings
+
+#: Most worker processes ``kinserve serve --workers`` starts.
+MAX_WORKERS = 1024
 
 
 def tcp_listener(config) -> socket.socket:
@@ -122,46 +126,65 @@ def cmd_serve(args) -> int:
 
 
 def _size(text: str) -> int:
-    """Bytes from ``1048576``, ``512k``, ``1M``, ``1MiB`` (k/M/G are powers of 1024)."""
+    """Bytes from ``1048576``, ``512k``, ``1M``, ``1MiB`` (k/M/G are powers of 1024).
+
+    Refused: text that is not a size, NaN, infinite sizes, sizes below 1 byte or above
+    ``MAXIMUM["max_body"]`` (1 GiB).
+    """
+    from kinserve.service.settings import MAXIMUM
+
+    most = int(MAXIMUM["max_body"])
     t = text.strip().lower().removesuffix("ib").removesuffix("b")
     scale = {"k": 1 << 10, "m": 1 << 20, "g": 1 << 30}.get(t[-1:], 1)
     try:
-        return int(float(t[:-1] if scale > 1 else t) * scale)
+        value = float(t[:-1] if scale > 1 else t) * scale
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a size like 1048576, 512k or 1M, got {text!r}") from None
+    if not (math.isfinite(value) and 1 <= value <= most):
+        raise argparse.ArgumentTypeError(f"expected a size from 1 byte to {most} bytes (1G), got {text!r}")
+    return int(value)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``serve`` sub-command to ``sub``."""
+    from kinserve.service.settings import MAXIMUM
     from kinserve.service.settings import ServiceSettings as D
+
+    def seconds(name: str):
+        return number_up_to(MAXIMUM[name], unit=" s")
+
+    def count(name: str, minimum: int = 1):
+        return whole_number(minimum, int(MAXIMUM[name]))
 
     p = sub.add_parser("serve", help="run the HTTP kinematics service (FastAPI + uvicorn)")
     p.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (0.0.0.0: every interface; the service has no authentication)")
     p.add_argument("--port", type=port_number, default=8000, help="TCP port 1..65535, or 0 for any free port")
-    p.add_argument("--workers", type=positive_int, default=1,
-                   help="worker processes (each with its own robot cache)")
-    p.add_argument("--max-time-cap", type=positive_float, default=D.max_time_cap,
+    p.add_argument("--workers", type=whole_number(1, MAX_WORKERS), default=1,
+                   help=f"worker processes, 1..{MAX_WORKERS} (each with its own robot cache)")
+    p.add_argument("--max-time-cap", type=seconds("max_time_cap"), default=D.max_time_cap,
                    help="upper bound on any IK request's max_time (s)")
-    p.add_argument("--request-time-cap", type=float, default=D.request_time_cap,
+    p.add_argument("--request-time-cap", type=seconds("request_time_cap"), default=D.request_time_cap,
                    help="upper bound on a whole /ik/batch or /plan/cartesian request, queueing included (s)")
     p.add_argument("--max-body", type=_size, default=D.max_body,
                    help="largest request body accepted (bytes; 413 above)")
-    p.add_argument("--body-timeout", type=float, default=D.body_timeout,
+    p.add_argument("--body-timeout", type=seconds("body_timeout"), default=D.body_timeout,
                    help="time to receive a whole body (s; 408 after)")
-    p.add_argument("--header-timeout", type=float, default=D.header_timeout,
+    p.add_argument("--header-timeout", type=seconds("header_timeout"), default=D.header_timeout,
                    help="time for a connection to send complete request headers (s; closed after)")
-    p.add_argument("--keep-alive", type=float, default=D.keep_alive,
+    p.add_argument("--keep-alive", type=seconds("keep_alive"), default=D.keep_alive,
                    help="idle keep-alive connections are closed after this (s)")
-    p.add_argument("--max-connections", type=int, default=D.max_connections,
+    p.add_argument("--max-connections", type=count("max_connections"), default=D.max_connections,
                    help="open connections beyond this are closed at accept; requests beyond it get 503")
-    p.add_argument("--solver-threads", type=int, default=D.solver_threads,
+    p.add_argument("--solver-threads", type=count("solver_threads", 0), default=D.solver_threads,
                    help="IK/plan solver processes per worker (0 = the cores divided among the workers)")
-    p.add_argument("--queue", type=int, default=D.queue,
+    p.add_argument("--queue", type=count("queue", 0), default=D.queue,
                    help="heavy requests waiting for a solver process (503 beyond)")
-    p.add_argument("--robot-cache", type=int, default=D.robot_cache,
+    p.add_argument("--robot-cache", type=count("robot_cache"), default=D.robot_cache,
                    help="robot variants (name + params) kept loaded")
-    p.add_argument("--robot-cache-mb", type=float, default=D.robot_cache_bytes / (1 << 20),
+    p.add_argument("--robot-cache-mb",
+                   type=number_up_to(MAXIMUM["robot_cache_bytes"] / (1 << 20), unit=" MiB"),
+                   default=D.robot_cache_bytes / (1 << 20),
                    help="estimated memory of the cached robot variants, seed tables included (MiB)")
     p.add_argument("--access-log", action="store_true", help="log every request")
     p.add_argument("--log-level", default="info", choices=["critical", "error", "warning", "info", "debug"],

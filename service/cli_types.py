@@ -13,6 +13,8 @@ import math
 from pathlib import Path
 
 MAX_PORT = 65535
+#: Largest magnitude of a number given to a :class:`Numbers` option (the library's bound too).
+MAX_ABS = 1e6
 
 
 def port_number(text: str) -> int:
@@ -96,7 +98,8 @@ class Numbers(argparse.Action):
     appends ``(kind, values)`` to a list shared by several options - ``dest`` - so the items keep the
     order of the command line; otherwise the option stores its ``numpy`` array). The values may also be
     one token separated by commas (``0.5,0,0.3,0.1``) or a JSON list (brackets are ignored). A wrong count
-    or a value that is not a finite number is a usage error naming the option and the form.
+    or a value that is not a finite number (or above 1e6 in magnitude, :data:`MAX_ABS`) is a usage error
+    naming the option and the form.
     """
 
     def __init__(self, option_strings, dest, *, counts: tuple[int, ...], form: str, kind: str | None = None,
@@ -123,6 +126,9 @@ class Numbers(argparse.Action):
         if not np.all(np.isfinite(values)):
             raise argparse.ArgumentError(self, f"expected finite numbers {self.form}, "
                                                f"got {' '.join(tokens)!r}")
+        if np.any(np.abs(values) > MAX_ABS):
+            raise argparse.ArgumentError(self, f"expected numbers {self.form} with |x| <= {MAX_ABS:g}, "
+                                               f"got {' '.join(tokens)!r}")
         return values
 
     def __call__(self, parser, namespace, values, option_string=None) -> None:
@@ -133,3 +139,45 @@ class Numbers(argparse.Action):
             return
         items = list(getattr(namespace, self.dest, None) or [])
         setattr(namespace, self.dest, [*items, (self.kind, array)])
+
+
+def number_up_to(maximum: float, *, above: float = 0.0, unit: str = ""):
+    """A converter to a finite number in ``(above, maximum]`` (a time in seconds, a size in MiB, ...).
+
+    NaN, infinite values and numbers above ``maximum`` are refused with a message giving the range.
+    """
+    def convert(text: str) -> float:
+        accepted = f"a finite number > {above:g} and <= {maximum:g}{unit}"
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {accepted}, got {text!r}") from None
+        if not (math.isfinite(value) and above < value <= maximum):
+            raise argparse.ArgumentTypeError(f"expected {accepted}, got {text}")
+        return value
+
+    return convert
+
+
+def whole_number(minimum: int, maximum: int):
+    """A converter to an integer in ``minimum..maximum`` (a count, a seed, ...); anything else is refused."""
+    def convert(text: str) -> int:
+        accepted = f"a whole number {minimum}..{maximum}"
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {accepted}, got {text!r}") from None
+        if not minimum <= value <= maximum:
+            raise argparse.ArgumentTypeError(f"expected {accepted}, got {value}")
+        return value
+
+    return convert
+
+
+#: Largest seed accepted by ``--seed`` (numpy accepts any integer >= 0; 2**63 - 1 keeps it one word).
+MAX_SEED = 2**63 - 1
+
+
+def seed_number(text: str) -> int:
+    """A random seed: an integer >= 0 (and at most 2**63 - 1)."""
+    return whole_number(0, MAX_SEED)(text)

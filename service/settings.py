@@ -29,6 +29,10 @@ access_log             ``--access-log``           one log line per request (off 
 With ``--workers N`` each worker process reads the settings from the
 environment variable :data:`ENV_VAR` (JSON), since uvicorn imports
 ``kinserve.service.app:app`` afresh in every worker.
+
+Every field has an upper bound (:data:`MAXIMUM`): times at most one day, ``max_body`` at most 1 GiB,
+``robot_cache_bytes`` at most 64 GiB, counts at most 10**6 (``solver_threads`` 1024, ``robot_cache``
+10**4). A value above it, NaN, infinite, negative, a bool or text is refused with ``ValueError``.
 """
 
 from __future__ import annotations
@@ -39,6 +43,20 @@ from dataclasses import asdict, dataclass, fields
 
 #: Environment variable carrying :class:`ServiceSettings` as JSON to worker processes.
 ENV_VAR = "KINSERVE_SERVICE_SETTINGS"
+
+
+#: Largest accepted value of each numeric setting.
+MAXIMUM: dict[str, float] = {
+    "max_time_cap": 86400.0, "request_time_cap": 86400.0, "body_timeout": 86400.0,
+    "header_timeout": 86400.0, "keep_alive": 86400.0,
+    "max_body": 1 << 30, "max_connections": 10**6, "solver_threads": 1024, "queue": 10**6,
+    "robot_cache": 10**4, "robot_cache_bytes": 64 << 30,
+}
+
+#: Unit of each setting in messages.
+UNIT: dict[str, str] = {name: " s" for name in ("max_time_cap", "request_time_cap", "body_timeout",
+                                                 "header_timeout", "keep_alive")}
+UNIT.update(max_body=" bytes", robot_cache_bytes=" bytes")
 
 
 @dataclass(frozen=True)
@@ -63,8 +81,12 @@ class ServiceSettings:
             v = getattr(self, f.name)
             if f.type == "bool":
                 continue
-            if not (isinstance(v, (int, float)) and v == v and v >= 0 and v != float("inf")):
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and v == v and v >= 0
+                                           and v != float("inf")):
                 raise ValueError(f"service setting {f.name} must be a finite number >= 0, got {v!r}")
+            if v > MAXIMUM[f.name]:
+                raise ValueError(f"service setting {f.name} must be at most {MAXIMUM[f.name]:g}"
+                                 f"{UNIT.get(f.name, '')}, got {v!r}")
         for name in ("max_time_cap", "request_time_cap", "body_timeout", "header_timeout", "keep_alive"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"service setting {name} must be > 0 s, got {getattr(self, name)!r}")

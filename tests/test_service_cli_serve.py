@@ -57,7 +57,7 @@ def test_bad_limits_are_one_error_line_and_exit_2():
     import subprocess
     import sys
 
-    for args, word in ((["--max-body", "0"], "max_body"), (["--keep-alive", "0"], "keep_alive")):
+    for args, word in ((["--max-body", "0"], "--max-body"), (["--keep-alive", "0"], "--keep-alive")):
         proc = subprocess.run([sys.executable, "-m", "kinserve.service.cli", "serve", "--port", "1", *args],
                               capture_output=True, text=True, timeout=60)
         assert proc.returncode == 2 and proc.stderr.startswith("error: ") and word in proc.stderr

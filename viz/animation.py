@@ -34,9 +34,14 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_matrix, as_pose
+from kinserve.kinematics.validation import as_count, as_matrix, as_pose, as_positive
 
 from .scene import Scene
+
+#: Largest accepted frame rate (frames per second) of an animation.
+MAX_FPS = 240.0
+#: Most frames one animation may hold; frame indices are below it.
+MAX_FRAMES = 10**5
 
 
 def _quat_xyzw(R: np.ndarray) -> np.ndarray:
@@ -61,15 +66,15 @@ class Animation:
     scene:
         The scene whose nodes are animated (nodes must exist when keyed).
     fps:
-        Frames per second of playback; frame ``k`` is shown at ``k / fps`` s.
+        Frames per second of playback; frame ``k`` is shown at ``k / fps`` s. Refused outside
+        (0, :data:`MAX_FPS` = 240]; frames are below :data:`MAX_FRAMES` (10**5) and an empty
+        trajectory is refused.
     """
 
     def __init__(self, scene: Scene, fps: float = 30.0):
         if not isinstance(scene, Scene):
             raise InputError(f"Animation needs a viz.Scene, got {type(scene).__name__}")
-        fps = float(fps)
-        if not (np.isfinite(fps) and fps > 0):
-            raise InputError(f"fps must be a positive number, got {fps!r}")
+        fps = as_positive(fps, "fps (frames per second)", maximum=MAX_FPS)
         self.scene = scene
         self.fps = fps
         self._keys: dict[str, dict[int, np.ndarray]] = {}
@@ -93,9 +98,17 @@ class Animation:
         return list(self._keys)
 
     def _frames(self, n: int, start: int, step: int) -> np.ndarray:
-        if int(start) < 0 or int(step) < 1:
-            raise InputError(f"start must be >= 0 and step >= 1, got start={start}, step={step}")
-        return int(start) + int(step) * np.arange(n)
+        """Frames ``start + i*step`` of ``n`` samples; refused: ``n == 0``, ``start < 0``, ``step < 1``, or a
+        last frame beyond :data:`MAX_FRAMES` - 1."""
+        start = as_count(start, "start", minimum=0, maximum=MAX_FRAMES - 1)
+        step = as_count(step, "step", minimum=1, maximum=MAX_FRAMES)
+        if n == 0:
+            raise InputError("need at least one sample to key (got an empty trajectory, 0 rows)")
+        last = start + step * (n - 1)
+        if last >= MAX_FRAMES:
+            raise InputError(f"an animation holds at most {MAX_FRAMES:,} frames; {n} samples from frame "
+                             f"{start} every {step} end at frame {last}")
+        return start + step * np.arange(n)
 
     def _node(self, name: str) -> str:
         path = Scene.path(name)
@@ -105,9 +118,7 @@ class Animation:
 
     def key(self, name: str, frame: int, pose) -> None:
         """Key one pose (4x4, relative to the node's parent) at ``frame``."""
-        frame = int(frame)
-        if frame < 0:
-            raise InputError(f"frame must be >= 0, got {frame}")
+        frame = as_count(frame, "frame", minimum=0, maximum=MAX_FRAMES - 1)
         self._keys.setdefault(self._node(name), {})[frame] = as_pose(pose, "pose").copy()
 
     def poses(self, name: str, poses, start: int = 0, step: int = 1) -> None:

@@ -38,9 +38,9 @@ import numpy as np
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import Shape, as_shape
-from kinserve.kinematics.validation import as_matrix
+from kinserve.kinematics.validation import as_matrix, as_positive
 
-from .animation import Animation
+from .animation import MAX_FPS, MAX_FRAMES, Animation
 from .collision_drawing import draw_shape
 from .scene import Scene
 
@@ -76,19 +76,24 @@ def sample_motion(plan: Any, fps: float = 30.0, *, path_speed: float = 0.5) -> t
     trajectory itself, anything with a ``.path (N, nq)`` (timed at ``path_speed`` rad/s), or a
     ``(times, positions)`` pair. ``t_k = min(t_0 + k / fps, t_N)``; ``Q[k]`` interpolates the positions
     linearly at ``t_k``. :class:`InputError` / :class:`ShapeError` for times that are not strictly
-    increasing, positions whose row count differs from the times', a bad ``fps`` or ``path_speed``.
+    increasing, positions whose row count differs from the times', an ``fps`` outside (0, 240]
+    (:data:`MAX_FPS`), a ``path_speed`` outside (0, 1e6], or a motion needing more than
+    :data:`MAX_FRAMES` (10**5) frames at this ``fps``.
     """
-    fps, path_speed = float(fps), float(path_speed)
-    if not (math.isfinite(fps) and fps > 0):
-        raise InputError(f"fps must be a positive number (frames per second), got {fps!r}")
-    if not (math.isfinite(path_speed) and path_speed > 0):
-        raise InputError(f"path_speed must be a positive number (rad/s), got {path_speed!r}")
+    fps = as_positive(fps, "fps (frames per second)", maximum=MAX_FPS)
+    path_speed = as_positive(path_speed, "path_speed (rad/s)")
     times, positions = _plan_arrays(plan, path_speed)
     times = as_matrix(times, (-1,), "times")
     positions = as_matrix(positions, (len(times), -1), "positions")
     if len(times) == 0 or np.any(np.diff(times) <= 0):
         raise InputError(f"times must be non-empty and strictly increasing (s), got {len(times)} times")
-    n = int(math.ceil((times[-1] - times[0]) * fps - 1e-9)) + 1
+    duration = float(times[-1] - times[0])
+    frames = math.ceil(duration * fps - 1e-9) + 1 if math.isfinite(duration * fps) else math.inf
+    if frames > MAX_FRAMES:
+        raise InputError(f"the motion lasts {duration:g} s: at fps={fps:g} it needs {frames:g} frames, "
+                         f"more than the {MAX_FRAMES:,} allowed; lower fps to at most "
+                         f"{(MAX_FRAMES - 1) / duration:.3g}")
+    n = int(frames)
     t = np.minimum(times[0] + np.arange(n) / fps, times[-1])
     Q = np.column_stack([np.interp(t, times, positions[:, j]) for j in range(positions.shape[1])])
     return t, Q

@@ -489,7 +489,13 @@ class Scene:
         ``base`` (4x4) poses the robot's root node in the world; ``collisions``
         also records the (hidden) collision geometry; ``color`` (RGBA or any
         colour) overrides the visual colours.
+
+        ``q`` and ``base`` are checked before anything is drawn or registered: a bad ``q`` (wrong
+        shape, NaN, beyond the joint limits' checks of ``robot.check_q``) or ``base`` raises and leaves
+        the scene unchanged, so a retry under the same name works.
         """
+        q = robot.neutral() if q is None else robot.check_q(q)
+        base = None if base is None else as_pose(base, "base")
         name = name or getattr(robot, "name", "robot")
         root = self.path(name)
         if not root.startswith(ROOT + "/"):
@@ -525,9 +531,9 @@ class Scene:
                             scene=self, missing=missing, local_boxes=_local_boxes(visual, nodes))
         self.robots[name] = handle
         if base is not None:
-            handle.base = as_pose(base, "base")
+            handle.base = base
         self[root].set_transform(handle.base)
-        handle.set_q(robot.neutral() if q is None else q)
+        handle.set_q(q)
         return handle
 
     # ------------------------------------------------------------ primitives

@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from kinserve.ik.batch.solve_many import solve_many
 from kinserve.kinematics import Robot, as_matrix
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import check_rotation
+from kinserve.kinematics.validation import as_count, check_rotation
 
 #: Most target poses a reachability map samples (each one a 4x4 target and an IK solve).
 MAX_SAMPLES = 10**7
@@ -105,7 +105,11 @@ def reachability_map(
 
     With ``self_collision`` / ``obstacles`` (:func:`ik.solve`'s collision options) a
     pose counts as reached only by a collision-free solution.
+
+    ``seed`` must be an integer from 0 to 2**63 - 1 (a bool, a float with a fraction or a negative
+    seed is refused with :class:`InputError`).
     """
+    seed = as_count(seed, "seed", minimum=0, maximum=2**63 - 1)
     _check_counts(samples, resolution)
     frame = frame or robot.tip
     robot.frame_id(frame)

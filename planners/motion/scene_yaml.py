@@ -26,7 +26,9 @@ into a robot's ``q`` (names the robot lacks, such as gripper fingers, are ignore
 from __future__ import annotations
 
 import math
+import numbers
 import os
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,6 +40,7 @@ import yaml
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.se3 import matrix_from_quat, quat_from_matrix
 from kinserve.kinematics.shapes import Box, Cylinder, Shape, Sphere
+from kinserve.kinematics.validation import MAX_ABS
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -67,6 +70,10 @@ class MotionRequest:
     group: str = ""
 
 
+#: A number in exponent form without a dot (``1e-3``): text to YAML 1.1, a float to YAML 1.2 and MoveIt.
+_EXPONENT = re.compile(r"[-+]?\d+[eE][-+]?\d+")
+
+
 def _names_a_file(text: str) -> bool:
     """Whether a string is read as a file path: one line ending in .yaml / .yml, or an existing file."""
     if "\n" in text or len(text) > 4096:
@@ -77,15 +84,32 @@ def _names_a_file(text: str) -> bool:
         return False
 
 
+def _is_dir(path: str | os.PathLike) -> bool:
+    """Whether ``path`` names an existing directory (False for a name the system cannot use)."""
+    try:
+        return Path(path).is_dir()
+    except (OSError, ValueError):
+        return False
+
+
 def _load_yaml(source: str | os.PathLike, what: str) -> Any:
-    """The parsed document of a YAML file path or YAML text (:class:`InputError` on a read/parse error)."""
+    """The parsed document of a YAML file path or YAML text (:class:`InputError` on a read/parse error).
+
+    Refused: a directory, a file that is not UTF-8 text, text that is not YAML or not a mapping.
+    """
     text, label = source, what
+    if isinstance(source, str) and "\n" not in source and len(source) <= 4096 and _is_dir(source):
+        source = Path(source)
     if isinstance(source, os.PathLike) or (isinstance(source, str) and _names_a_file(source)):
         label = f"{what} file {str(source)!r}"
+        if _is_dir(source):
+            raise InputError(f"{label} is a directory, expected a YAML file")
         try:
-            text = Path(source).read_text()
+            text = Path(source).read_text(encoding="utf-8")
         except OSError as exc:
             raise InputError(f"{label} cannot be read: {exc.strerror or exc}") from None
+        except UnicodeDecodeError as exc:
+            raise InputError(f"{label} is not UTF-8 text (byte {exc.start}): expected a YAML file") from None
     elif not isinstance(source, str):
         raise InputError(f"{what} must be a YAML file path or YAML text, got {type(source).__name__}")
     try:
@@ -101,16 +125,23 @@ def _load_yaml(source: str | os.PathLike, what: str) -> Any:
 
 
 def _numbers(value: Any, n: int | None, label: str) -> list[float]:
-    """``value`` as a list of finite floats (of length ``n`` when given)."""
+    """``value`` as a list of finite floats (of length ``n`` when given).
+
+    Refused: booleans (YAML ``yes``/``no``/``true``), text, NaN, infinities and |x| > 1e6. Accepted as
+    numbers besides YAML's: exponent forms without a dot (``1e-3``), which YAML 1.1 reads as text.
+    """
     if not isinstance(value, (list, tuple)) or (n is not None and len(value) != n):
         want = f"a list of {n} numbers" if n is not None else "a list of numbers"
         raise InputError(f"{label} must be {want}, got {value!r}")
+    value = [float(v) if isinstance(v, str) and _EXPONENT.fullmatch(v.strip()) else v for v in value]
+    if any(isinstance(v, bool) or not isinstance(v, numbers.Real) for v in value):
+        raise InputError(f"{label} must hold numbers (not true/false/yes/no or text), got {value!r}")
     try:
         out = [float(v) for v in value]
-    except (TypeError, ValueError):
-        raise InputError(f"{label} must hold numbers, got {value!r}") from None
-    if not all(math.isfinite(v) for v in out):
-        raise InputError(f"{label} must hold finite numbers, got {value!r}")
+    except OverflowError:  # an integer beyond float range
+        out = [math.inf]
+    if not all(math.isfinite(v) and abs(v) <= MAX_ABS for v in out):
+        raise InputError(f"{label} must hold finite numbers with |x| <= {MAX_ABS:g}, got {value!r}")
     return out
 
 
