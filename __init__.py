@@ -29,8 +29,8 @@ from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
-if TYPE_CHECKING:
-    from numpy.typing import ArrayLike
+if TYPE_CHECKING:  # kinserve.pose, imported on first use (see __getattr__)
+    from kinserve.kinematics.validation import make_pose as pose
 
 try:
     __version__: str = version("kinserve")
@@ -69,64 +69,13 @@ def clear_caches(*robots: object) -> None:
         robot.forget_collision_scenes()
 
 
-#: Integers beyond this are refused by :func:`pose` before NumPy turns them into an ``OverflowError``.
-MAX_INT = 10**6
-
-
-def _plain_numbers(value: object, name: str) -> None:
-    """Raise :class:`~kinserve.kinematics.errors.ShapeError` when ``value`` holds text or booleans
-    (:class:`~kinserve.kinematics.errors.NonFiniteError` for an integer above :data:`MAX_INT`).
-
-    (``numpy`` would read ``"1"`` as 1.0 and ``True`` as 1.0: a silent wrong pose.)
-    """
-    import numpy as np
-
-    from kinserve.kinematics.errors import NonFiniteError, ShapeError
-
-    if isinstance(value, np.ndarray):
-        if value.dtype.kind in "biufc":
-            if value.dtype.kind == "b":
-                raise ShapeError(f"pose: {name} must hold numbers, got booleans {value.tolist()!r}")
-            return
-        items = value.ravel().tolist()
-    elif isinstance(value, (list, tuple)):
-        items = list(value)
-    else:
-        items = [value]
-    for item in items:
-        if isinstance(item, (list, tuple, np.ndarray)):
-            _plain_numbers(item, name)
-        elif isinstance(item, (bool, np.bool_, str, bytes)):
-            raise ShapeError(f"pose: {name} must hold numbers, not text or true/false; got {item!r} in "
-                             f"{value!r}"[:200])
-        elif isinstance(item, int) and abs(item) > MAX_INT:
-            raise NonFiniteError(f"pose: {name} entries must be finite numbers with |x| <= 1e6, got an "
-                                 f"integer of about 10**{int(item.bit_length() * 0.30103)}")
-
-
-def pose(xyz: ArrayLike, quat: ArrayLike | None = None, rpy: ArrayLike | None = None,
-         R: ArrayLike | None = None) -> Any:
-    """The 4x4 pose from a position and at most one orientation (as ``kinematics.validation.make_pose``).
-
-    Besides ``make_pose``'s checks, refuses text (``["1", "2", "3"]``) and booleans in any argument, and
-    integers beyond float range (``10**400``), with a :class:`~kinserve.kinematics.errors.ShapeError` or
-    :class:`~kinserve.kinematics.errors.NonFiniteError` naming the argument.
-    """
-    from kinserve.kinematics.errors import NonFiniteError
-    from kinserve.kinematics.validation import make_pose
-
-    for name, value in (("xyz", xyz), ("quat", quat), ("rpy", rpy), ("R", R)):
-        if value is not None:
-            _plain_numbers(value, name)
-    try:
-        return make_pose(xyz, quat=quat, rpy=rpy, R=R)
-    except OverflowError:
-        raise NonFiniteError("pose: a number is beyond float range (expected finite numbers with "
-                             "|x| <= 1e6)") from None
-
-
 def __getattr__(name: str) -> ModuleType | Any:
-    """``kinserve.ik`` and friends without importing every subpackage up front (PEP 562)."""
+    """``kinserve.ik`` and friends without importing every subpackage up front (PEP 562); ``kinserve.pose``
+    is :func:`kinserve.kinematics.validation.make_pose`."""
     if name in SUBPACKAGES:
         return importlib.import_module(f"{__name__}.{name}")
+    if name == "pose":
+        from kinserve.kinematics.validation import make_pose
+
+        return make_pose
     raise AttributeError(f"module 'kinserve' has no attribute {name!r}")
