@@ -327,8 +327,21 @@ def _numbers(label: str, values: Mapping) -> dict:
     return _locks(label, dict.fromkeys(values), dict(values)) if values else {}
 
 
+def _short(path: Path, limit: int = 200) -> str:
+    """``repr`` of ``path``, cut to ``limit`` characters for a message."""
+    text = str(path)
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text)} characters)"
+
+
 def _looks_like_path(s: str) -> bool:
-    return "/" in s or "\\" in s or s.endswith((".urdf", ".xacro", ".xml")) or Path(s).expanduser().is_file()
+    """Whether ``s`` names a file rather than a registry entry (False for a name the OS cannot look up,
+    e.g. longer than the file-system limit or holding a NUL: it is then reported as an unknown robot)."""
+    if "/" in s or "\\" in s or s.endswith((".urdf", ".xacro", ".xml")):
+        return True
+    try:
+        return Path(s).expanduser().is_file()
+    except (OSError, ValueError):
+        return False
 
 
 def _merge_params(params: Mapping | None, legacy: dict) -> dict:
@@ -444,10 +457,14 @@ def _load(name_or_path, opts: LoadOptions, params: dict, locks: dict, auto_srdf:
 
 
 def _load_file(path: Path, opts: LoadOptions, params: dict, locks: dict, auto_srdf: bool) -> Robot:
-    if not path.is_file():
-        raise ModelError(f"robot model file {str(path)!r} does not exist")
-    path = path.resolve()
-    st = path.stat()
+    try:
+        if not path.is_file():
+            raise ModelError(f"robot model file {_short(path)} does not exist")
+        path = path.resolve()
+        st = path.stat()
+    except (OSError, ValueError) as exc:  # a name too long for the file system, a NUL byte, ...
+        raise ModelError(f"robot model file {_short(path)} cannot be opened: "
+                         f"{getattr(exc, 'strerror', None) or exc}") from None
     stamp = (str(path), st.st_mtime_ns, st.st_size)
     attach = (lambda r: _auto_srdf(r, path)) if auto_srdf else (lambda r: r)
     if path.name.endswith(".xacro"):

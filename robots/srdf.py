@@ -20,7 +20,8 @@ What is read
 
 Checks (each a :class:`ModelError` naming the SRDF file, the element and its
 line): malformed XML, a joint, link or group the URDF does not define, a
-value that is not one finite number, a value outside the joint's limits (a
+value that is not one finite number or exceeds 1e6 in magnitude, a group nested
+more than 100 subgroups deep, a value outside the joint's limits (a
 revolute value is first moved by whole turns into the limits: example-robot-data's
 Kinova SRDF gives ``-1.5707`` for a joint limited to ``[0.33, 5.95]``, the
 same angle as ``4.7124``).
@@ -51,6 +52,12 @@ from kinserve.kinematics.robot import Robot
 
 #: Tolerance (rad / m) on a named-state value outside the joint limits.
 LIMIT_TOL = 1e-6
+
+#: Largest accepted magnitude of a ``<group_state>`` joint value (rad / m).
+MAX_VALUE = 1e6
+
+#: Deepest accepted nesting of ``<group>`` subgroups.
+MAX_GROUP_DEPTH = 100
 
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False)
 
@@ -183,6 +190,10 @@ def _groups(root, label: str, urdf: _UrdfTree, robot: Robot) -> dict[str, tuple[
         if name in stack:
             raise ModelError(f"{_where(label, elements[name])}: group {name!r} contains itself "
                              f"({' -> '.join((*stack, name))})")
+        if len(stack) > MAX_GROUP_DEPTH:
+            raise ModelError(f"{_where(label, elements[name])}: group {name!r} is nested more than "
+                             f"{MAX_GROUP_DEPTH} subgroups deep (via {stack[0]!r}; at most "
+                             f"{MAX_GROUP_DEPTH} levels are accepted)")
         joints: list[str] = []
         for el in elements[name]:
             if el.tag == "joint":
@@ -202,6 +213,7 @@ def _groups(root, label: str, urdf: _UrdfTree, robot: Robot) -> dict[str, tuple[
                     raise ModelError(f"{_where(label, el)}: "
                                      f"subgroup {sub!r} is not defined.{suggest(str(sub), elements)}")
                 joints += resolve(sub, (*stack, name))
+        joints = list(dict.fromkeys(joints))  # each joint once: repeated subgroups do not multiply
         resolved[name] = joints
         return joints
 
@@ -218,6 +230,9 @@ def _value(el, label: str, joint: str) -> float:
                          "(rad or m)") from None
     if not math.isfinite(v):
         raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be finite")
+    if abs(v) > MAX_VALUE:
+        raise ModelError(f"{_where(label, el)}: joint {joint!r} value {text!r} must be at most "
+                         f"{MAX_VALUE:g} in magnitude (rad or m)")
     return v
 
 

@@ -18,6 +18,11 @@ the line, the link, the element and the attribute:
   :data:`MAX_ABS` (a negative factor mirrors the mesh, as URDFs do for left / right parts).
 
 The mesh file itself is checked by the mesh resolver, when meshes are wanted.
+
+:func:`validate_inertial` checks each ``<link>/<inertial>`` the same way (urdfdom prints an error on
+stderr and Pinocchio takes the numbers as they are): ``<origin xyz rpy>`` as above, ``<mass value>``
+finite, ``>= 0`` and ``<=`` :data:`MAX_ABS`, ``<inertia ixx ixy ixz iyy iyz izz>`` each finite with
+``|x| <=`` :data:`MAX_ABS`.
 """
 
 from __future__ import annotations
@@ -53,6 +58,33 @@ def validate_geometry(root: etree._Element, label: str) -> None:
                 _check_element(element, link, label)
 
 
+#: The attributes of ``<inertial>/<inertia>``, all required by urdfdom.
+INERTIA_ATTRIBUTES = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+
+
+def validate_inertial(root: etree._Element, label: str) -> None:
+    """Check every ``<link>/<inertial>`` of ``root`` (see the module docstring); :class:`ModelError` for the
+    first bad origin, mass (not finite, negative or above :data:`MAX_ABS`) or inertia entry (not finite or
+    of magnitude above :data:`MAX_ABS`), naming the file, the line, the link and the attribute."""
+    for link in root.findall("link"):
+        for inertial in link.findall("inertial"):
+            owner = f"{describe(inertial)} of {describe(link)}"
+            origin = inertial.find("origin")
+            if origin is not None:
+                for attr in ("xyz", "rpy"):
+                    _numbers(origin, attr, 3, label, owner, positive=False, required=False)
+            mass = inertial.find("mass")
+            if mass is not None:
+                value = _numbers(mass, "value", 1, label, owner, positive=False, required=True)
+                if value[0] < 0:
+                    raise ModelError(f"{where(label, mass)}: {owner}: <mass value={mass.get('value')!r}> "
+                                     "must be >= 0 (kg)")
+            inertia = inertial.find("inertia")
+            if inertia is not None:
+                for attr in INERTIA_ATTRIBUTES:
+                    _numbers(inertia, attr, 1, label, owner, positive=False, required=True)
+
+
 def _check_element(element: etree._Element, link: etree._Element, label: str) -> None:
     owner = f"{describe(element)} of {describe(link)}"
     origin = element.find("origin")
@@ -86,7 +118,8 @@ def _numbers(el: etree._Element, attr: str, n: int, label: str, owner: str, *, p
     place = f"{where(label, el)}: {owner}"
     if text is None:
         if required:
-            raise ModelError(f"{place}: <{el.tag}> needs a {attr}= attribute ({n} positive number(s))")
+            kind = "positive" if positive else "finite"
+            raise ModelError(f"{place}: <{el.tag}> needs a {attr}= attribute ({n} {kind} number(s))")
         return None
     try:
         values = [float(v) for v in text.split()]

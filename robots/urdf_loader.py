@@ -61,7 +61,7 @@ from kinserve.kinematics.task_axes import detect_task_axes
 
 from .mesh_resolver import PLACEHOLDER_RADIUS, MeshResolver, MissingMeshWarning
 from .urdf_elements import attribute_floats, describe, where
-from .urdf_geometry import validate_geometry
+from .urdf_geometry import validate_geometry, validate_inertial
 
 #: Limits (rad) given to a ``continuous`` joint when it is turned into a revolute one.
 CONTINUOUS_LIMIT = 2.0 * math.pi
@@ -73,6 +73,14 @@ UNSPECIFIED_RATE_LIMIT = 1.0e9
 #: Joint types kinserve accepts (configuration space is a vector space).
 SUPPORTED_JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
 _UNSUPPORTED_JOINT_TYPES = ("floating", "planar", "spherical")
+
+#: Most ``<link>`` (and most ``<joint>``) elements a URDF may have. The largest model of example-robot-data
+#: (TIAGo dual) has 130 links; Pinocchio crashes on a chain of 10**4 links and spends minutes on 10**5.
+MAX_LINKS = 2000
+
+#: Most movable (non-``fixed``) joints a URDF may have. TIAGo dual, the largest of example-robot-data, has
+#: 101; building a :class:`Robot` needs memory growing about as nq**3 (2.8 GB for 300 joints, 20 GB for 600).
+MAX_MOVABLE_JOINTS = 200
 
 #: Tolerance on a locked joint value outside its limits.
 LOCK_TOL = 1e-9
@@ -140,10 +148,22 @@ def validate_urdf(root: etree._Element, label: str) -> None:
 
     Every ``<collision>`` / ``<visual>`` element's origin and shape are checked by
     :func:`~robots.urdf_geometry.validate_geometry` (urdfdom would drop a bad one silently); mesh files by
-    :meth:`MeshResolver.check_meshes` (only when meshes are wanted).
+    :meth:`MeshResolver.check_meshes` (only when meshes are wanted); every ``<inertial>`` by
+    :func:`~robots.urdf_geometry.validate_inertial`. Refused besides: more than :data:`MAX_LINKS` links or
+    joints or more than :data:`MAX_MOVABLE_JOINTS` movable joints, a negative ``<limit velocity=>`` or
+    ``effort=``.
     """
     if not isinstance(root.tag, str) or root.tag != "robot":
         raise ModelError(f"{where(label, root)}: the root element must be <robot>, got <{root.tag}>")
+    for tag in ("link", "joint"):
+        count = sum(1 for _ in root.iterchildren(tag))
+        if count > MAX_LINKS:
+            raise ModelError(f"{label}: the URDF has {count} <{tag}> elements; at most {MAX_LINKS} are "
+                             "accepted")
+    movable = sum(1 for joint in root.iterchildren("joint") if joint.get("type") != "fixed")
+    if movable > MAX_MOVABLE_JOINTS:
+        raise ModelError(f"{label}: the URDF has {movable} movable (non-fixed) joints; at most "
+                         f"{MAX_MOVABLE_JOINTS} are accepted")
     for el in root.iter():
         if not isinstance(el.tag, str):
             continue
@@ -164,6 +184,7 @@ def validate_urdf(root: etree._Element, label: str) -> None:
     if not links:
         raise ModelError(f"{label}: the URDF defines no <link>")
     validate_geometry(root, label)
+    validate_inertial(root, label)
 
     joints: dict[str, etree._Element] = {}
     parent_of: dict[str, str] = {}
@@ -228,7 +249,10 @@ def validate_urdf(root: etree._Element, label: str) -> None:
                     if limit.get(attr) is None and jtype != "continuous":
                         raise ModelError(f"{where(label, limit)}: {describe(joint)}: "
                                          f"<limit> needs a {attr}= attribute (URDF requires it)")
-                    attribute_floats(limit, attr, 1, label, joint)
+                    value = attribute_floats(limit, attr, 1, label, joint)
+                    if value is not None and value[0] < 0:
+                        raise ModelError(f"{where(label, limit)}: {describe(joint)}: <limit {attr}="
+                                         f"{limit.get(attr)!r}> must be >= 0")
                 if jtype != "continuous" and lo[0] > hi[0]:
                     raise ModelError(f"{where(label, limit)}: {describe(joint)}: "
                                      f"lower limit {lo[0]} > upper limit {hi[0]}")
