@@ -69,10 +69,7 @@ def validate_inertial(root: etree._Element, label: str) -> None:
     for link in root.findall("link"):
         for inertial in link.findall("inertial"):
             owner = f"{describe(inertial)} of {describe(link)}"
-            origin = inertial.find("origin")
-            if origin is not None:
-                for attr in ("xyz", "rpy"):
-                    _numbers(origin, attr, 3, label, owner, positive=False, required=False)
+            _check_origin(inertial, label, owner)
             mass = inertial.find("mass")
             if mass is not None:
                 value = _numbers(mass, "value", 1, label, owner, positive=False, required=True)
@@ -87,10 +84,7 @@ def validate_inertial(root: etree._Element, label: str) -> None:
 
 def _check_element(element: etree._Element, link: etree._Element, label: str) -> None:
     owner = f"{describe(element)} of {describe(link)}"
-    origin = element.find("origin")
-    if origin is not None:
-        for attr in ("xyz", "rpy"):
-            _numbers(origin, attr, 3, label, owner, positive=False, required=False)
+    _check_origin(element, label, owner)
     geometries = element.findall("geometry")
     if len(geometries) != 1:
         raise ModelError(f"{where(label, element)}: {owner} must hold one <geometry> element, found "
@@ -108,6 +102,15 @@ def _check_element(element: etree._Element, link: etree._Element, label: str) ->
         if scale is not None and 0.0 in scale:
             raise ModelError(f"{where(label, shape)}: {owner}: <mesh scale={shape.get('scale')!r}> must be 3 "
                              "non-zero numbers (a zero factor flattens the mesh)")
+
+
+def _check_origin(element: etree._Element, label: str, owner: str) -> None:
+    """``element``'s ``<origin xyz rpy>`` (optional, each optional): 3 finite numbers of magnitude at most
+    :data:`MAX_ABS` each; else :class:`ModelError` naming ``owner``."""
+    origin = element.find("origin")
+    if origin is not None:
+        for attr in ("xyz", "rpy"):
+            _numbers(origin, attr, 3, label, owner, positive=False, required=False)
 
 
 def _numbers(el: etree._Element, attr: str, n: int, label: str, owner: str, *, positive: bool,
