@@ -1,8 +1,8 @@
 """Pydantic request/response schemas of the HTTP service (they are the OpenAPI document).
 
-Numbers are finite and bounded (|x| <= 1e6, the library's one bound
-``kinematics.validation.MAX_ABS``): NaN, infinities and absurd magnitudes are
-rejected with a 422 naming the field before any solver runs. String model
+Numbers are JSON numbers (text such as ``"0.1"`` and ``true`` are refused), finite and bounded
+(|x| <= 1e6, the library's one bound ``kinematics.validation.MAX_ABS``): NaN, infinities and absurd
+magnitudes are rejected with a 422 naming the field before any solver runs. String model
 parameters are bounded the same way when the model is built.
 """
 
@@ -17,7 +17,8 @@ from kinserve.kinematics.errors import KinserveError
 from kinserve.kinematics.validation import MAX_ABS, make_pose, unit_quaternion
 
 BOUND = MAX_ABS
-Number = Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
+#: A JSON number (an integer is taken as a float; text and true / false are refused, not read as numbers).
+Number = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-BOUND, le=BOUND)]
 Row4 = Annotated[list[Number], Field(min_length=4, max_length=4)]
 JointVector = Annotated[list[Number], Field(min_length=1, max_length=64,
                                             description="joint values (rad / m)")]

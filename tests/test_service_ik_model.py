@@ -143,3 +143,16 @@ def test_not_attempted_frame_targets_report_the_largest_error_at_the_start():
     assert out["success"] is False and out["message"] == "skipped" and out["q"] == q0.tolist()
     assert out["position_error"] == pytest.approx(max(pos), abs=1e-12)
     assert out["orientation_error"] == pytest.approx(max(rot), abs=1e-9)
+
+
+@pytest.mark.parametrize("q", [["0.1"] * 7, [True] * 7, [0, "1", 0, 0, 0, 0, 0]])
+def test_text_and_booleans_are_not_numbers(client, q):
+    """A joint value written as text or true / false is a 422 naming the field (pydantic's lax float would
+    read "0.1" as 0.1 and true as 1.0); integers are JSON numbers and pass."""
+    r = client.post("/fk", content=json.dumps({"robot": "panda", "q": q}),
+                    headers={"content-type": "application/json"})
+    assert r.status_code == 422, r.text
+    assert "q" in r.text and "valid number" in r.text
+    ok = client.post("/fk", content=json.dumps({"robot": "panda", "q": [0, 0, 0, -1, 0, 1, 0]}),
+                     headers={"content-type": "application/json"})
+    assert ok.status_code == 200, ok.text
