@@ -232,11 +232,11 @@ class CollisionScene:
         per joint, ``q·q < MAX_ABS**2``) and leaves any other ``q`` undecided: every configuration that
         reaches coal without a pair-carrying verdict is checked first (:func:`~.validation.as_vector`).
         """
-        if type(q) is not _NDARRAY or q.dtype is not _FLOAT64 or q.ndim != 1:
-            q = as_vector(q, self._nq)  # the kernels' entry points read a float64 vector only
         classify = self._classify
-        if classify is None:
+        # the kernels' entry points read a float64 vector only; without them coal needs a checked q
+        if classify is None or type(q) is not _NDARRAY or q.dtype is not _FLOAT64 or q.ndim != 1:
             q = as_vector(q, self._nq)
+        if classify is None:
             ws = self.layout.workspace(self.obstacles)
             return False if ws.check is None else ws.hits(q)
         verdict = classify(self._floats, self._ints, q, self._tolerance)
