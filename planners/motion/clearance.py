@@ -35,6 +35,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
+from kinserve.kinematics.collision_layout import repeatable_distances
 from kinserve.kinematics.precheck_kernels import TOLERANCE, pair_lower_bounds
 
 from .extend_kernel import UNCERTAIN
@@ -139,6 +140,7 @@ class ClearanceOracle:
         #: queries): no other call can move the placements between a clearance and its refinement.
         self.data = scene.model.createData()
         self.geometry_data = pin.GeometryData(scene.geometry)
+        repeatable_distances(self.geometry_data.distanceRequests)  # same q, same distances
         self.checks = 0
         self.distance_checks = 0
         self.pair_distances = 0
