@@ -17,7 +17,7 @@ either finds in collision for certain is one coal finds in collision.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -104,10 +104,12 @@ def _is_stacked(qs: Any) -> bool:
     return type(qs) is np.ndarray and qs.ndim == 2 and qs.dtype == np.float64
 
 
-def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
+def check_configurations(check: CoalCheck, qs: Sequence[np.ndarray] | np.ndarray,
                          precheck: PrecheckArguments | None = None, uncertified: int | None = None) -> int:
-    """Index of the first configuration of ``qs`` (an iterable of ``(nq,)`` float arrays, taken in order)
-    in collision, or -1 (``check``: :func:`collision_check`).
+    """Index of the first configuration of ``qs`` in collision, taken in order, or -1 (``check``:
+    :func:`collision_check`). ``qs``: a float ``(N, nq)`` array or a sequence of float ``(nq,)`` arrays,
+    checked by the caller (:meth:`~.collision_scene.CollisionScene.first_collision`: ``nq`` finite numbers
+    each).
 
     With ``precheck`` (the scene's :class:`~.scene_precheck.PrecheckArguments`), the sphere pre-check runs
     first and coal only on the configurations it cannot certify free, in order: a stacked ``(K, nq)`` float
@@ -128,28 +130,15 @@ def check_configurations(check: CoalCheck, qs: Iterable[np.ndarray],
     if _is_stacked(qs):  # rows already stacked: one call
         k = first(floats, ints, qs, 0, tol) if uncertified is None else uncertified
         return _first_hit_after(hits, precheck, qs, qs, k)
-    qs = qs if isinstance(qs, (list, tuple, np.ndarray)) else list(qs)
     if not len(qs):
         return -1
-    try:
-        verdict = precheck.classify(floats, ints, qs[0], tol)
-    except TypeError:  # not a float vector: coal decides (and raises as before)
-        verdict = None
-    if verdict is None:
-        hit = hits(qs[0])
-    else:  # (the verdict in hand: an undecided one goes to coal without a second compiled call)
-        hit = verdict == COLLIDING or (verdict >= UNDECIDED and decide(qs[0], verdict))
-    if hit:
+    verdict = precheck.classify(floats, ints, qs[0], tol)  # in hand: an undecided one goes to coal at once
+    if verdict == COLLIDING or (verdict >= UNDECIDED and decide(qs[0], verdict)):
         return 0
     if len(qs) == 1:
         return -1
-    try:
-        Q = np.asarray(qs, dtype=float)
-    except (TypeError, ValueError):  # not configurations of one size: coal decides (and raises)
-        Q = None
-    if Q is not None and Q.ndim == 2:
-        return _first_hit_after(hits, precheck, Q, qs, first(floats, ints, Q, 1, tol))
-    return next((k for k in range(1, len(qs)) if hits(qs[k])), -1)
+    Q = np.stack(qs)
+    return _first_hit_after(hits, precheck, Q, qs, first(floats, ints, Q, 1, tol))
 
 
 def undecided_pairs(verdict: int, uncertified_pairs: Callable[..., np.ndarray], floats: np.ndarray,
