@@ -52,7 +52,7 @@ from .collision_pairs import (
 )
 from .collision_scene import CollisionScene
 from .errors import ModelError
-from .mesh_hulls import HullFallback, convex_hulls
+from .mesh_hulls import HullFallback, coal_message, convex_hulls
 from .shapes import Shape, as_obstacles
 
 #: Scene layouts (obstacle shapes, poses aside) kept per model, least recently used dropped first.
@@ -184,7 +184,8 @@ class CollisionModel:
                                              package_dirs=list(package_dirs))
         except (ValueError, RuntimeError, OSError) as exc:
             name = kw.get("name", "robot")
-            raise ModelError(f"robot {name!r}: cannot build the collision geometry: {exc}") from None
+            raise ModelError(f"robot {name!r}: cannot build the collision geometry: {coal_message(exc)}") \
+                from None
         return cls(model, gm, lower, upper, model_text=kw.pop("model_text", urdf), **kw)
 
     def _assemble(self, gm: pin.GeometryModel, self_pairs: list[tuple[int, int]]) -> None:

@@ -74,8 +74,10 @@ def mesh_label(obj: pin.GeometryObject, link: str) -> str:
 
 
 def coal_message(exc: Exception) -> str:
-    """The message part of a coal exception (its text after ``message:``, without the source location)."""
-    return str(exc).rsplit("message:", 1)[-1].strip()
+    """The message part of a coal exception: its text after ``message:``, without the source location
+    (``From file: ... in function: ... at line: ...``), its lines joined by ``"; "``. Any other text whole."""
+    lines = str(exc).rsplit("message:", 1)[-1].strip().splitlines()
+    return "; ".join(line.strip() for line in lines if line.strip())
 
 
 def convex_hulls(geometry: pin.GeometryModel, links: Sequence[str],

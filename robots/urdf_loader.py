@@ -56,6 +56,7 @@ import pinocchio as pin
 from lxml import etree
 
 from kinserve.kinematics.errors import InputError, ModelError, suggest
+from kinserve.kinematics.mesh_hulls import coal_message
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.task_axes import detect_task_axes
 
@@ -374,7 +375,8 @@ def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
             collision = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=dirs,
                                                     mesh_loader=_MESH_LOADER)
         except (ValueError, RuntimeError, OSError) as exc:
-            raise ModelError(f"{label}: cannot build the visual/collision geometry: {exc}") from None
+            raise ModelError(f"{label}: cannot build the visual/collision geometry: {coal_message(exc)}") \
+                from None
     return visual, collision
 
 

@@ -3,6 +3,7 @@ SRDF group nesting, too many links / DH rows, bad <inertial>, a negative velocit
 
 from __future__ import annotations
 
+import re
 import tracemalloc
 
 import numpy as np
@@ -164,3 +165,16 @@ def test_overlong_name_is_an_unknown_robot_and_overlong_path_a_model_error():
             robots.load(path)
     with pytest.raises(ModelError, match="robot model file 'nope.urdf' does not exist"):
         robots.load("nope.urdf")
+
+
+def test_a_file_that_is_not_a_mesh_is_a_model_error_naming_it(tmp_path):
+    """A collision mesh coal cannot read: a ModelError naming the file, without coal's source location."""
+    (tmp_path / "part.stl").write_text("not a mesh\n")
+    (tmp_path / "r.urdf").write_text(
+        '<robot name="b"><link name="a"/><link name="b"><collision><geometry><mesh filename="part.stl"/>'
+        '</geometry></collision></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
+    words = re.escape(f"Could not load resource {tmp_path / 'part.stl'}")
+    with pytest.raises(ModelError, match=words) as info:
+        robots.load(tmp_path / "r.urdf")
+    assert "From file" not in str(info.value) and "\n" not in str(info.value)

@@ -184,3 +184,20 @@ def test_serve_on_a_busy_port_or_unknown_host_is_one_line_exit_2(tmp_path):
                                   f"cannot listen on 127.0.0.1:{port}")
     out = kinserve("serve", "--host", "no-such-host.invalid", "--port", "0", cwd=tmp_path)
     assert_one_line_error(out.returncode, out.stdout, out.stderr, "cannot listen on no-such-host.invalid:0")
+
+
+_NOT_A_MESH_URDF = """<robot name="b"><link name="a"/><link name="b"><collision><geometry>
+<mesh filename="part.stl"/></geometry></collision></link><joint name="j" type="revolute"><parent link="a"/>
+<child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
+
+
+@pytest.mark.parametrize("command", ["collide", "view"])
+def test_a_file_that_is_not_a_mesh_is_one_line_naming_it(command, tmp_path, capsys):
+    """coal's exception text (its source file, function and line) is cut to its message: one line naming
+    the file."""
+    (tmp_path / "part.stl").write_text("not a mesh\n")
+    (tmp_path / "r.urdf").write_text(_NOT_A_MESH_URDF)
+    extra = ["--html", str(tmp_path / "v.html")] if command == "view" else []
+    code, out, err = run_main([command, str(tmp_path / "r.urdf"), *extra], capsys)
+    assert_one_line_error(code, out, err, f"Could not load resource {tmp_path / 'part.stl'}")
+    assert "From file" not in err and "in function" not in err and "at line" not in err
