@@ -44,7 +44,8 @@ __all__ = ["__version__", "clear_caches", "pose", *SUBPACKAGES]
 def clear_caches(*robots: object) -> None:
     """Forget what kinserve keeps between calls, so the next call builds it again.
 
-    Process-wide: the registry's parsed models (:func:`kinserve.robots.registry.clear_cache`). Per robot,
+    Process-wide: the registry's parsed models (:func:`kinserve.robots.registry.clear_cache`) and the meshes
+    read for them (:func:`kinserve.robots.urdf_loader.clear_mesh_cache`). Per robot,
     for each robot given: its IK state (seed tables, closed-form solvers, bound collision constraints; shared
     with its copies) and its collision models' scene layouts and last scene
     (:meth:`~kinserve.kinematics.robot.Robot.forget_collision_scenes`; a model not built yet is not built).
@@ -57,6 +58,7 @@ def clear_caches(*robots: object) -> None:
     from kinserve.kinematics.errors import InputError
     from kinserve.kinematics.robot import Robot
     from kinserve.robots.registry import clear_cache
+    from kinserve.robots.urdf_loader import clear_mesh_cache
 
     for i, robot in enumerate(robots):
         if not isinstance(robot, Robot):
@@ -64,6 +66,7 @@ def clear_caches(*robots: object) -> None:
             raise InputError(f"clear_caches: argument {i + 1} must be a kinserve Robot, got "
                              f"{type(robot).__name__} {robot!r}{hint}")
     clear_cache()
+    clear_mesh_cache()
     for robot in robots:
         clear(robot)
         robot.forget_collision_scenes()

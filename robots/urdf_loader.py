@@ -361,6 +361,14 @@ def build_model(xml: str, label: str) -> pin.Model:
         raise ModelError(f"{label}: Pinocchio could not build a model from the URDF: {exc}") from None
 
 
+def clear_mesh_cache() -> None:
+    """Forget the meshes :func:`build_geometry` read (coal's ``CachedMeshLoader``, which reloads a file only
+    when its modification time changes); the next build reads them again (:func:`kinserve.clear_caches`)."""
+    global _MESH_LOADER
+    with _MESH_LOCK:
+        _MESH_LOADER = None
+
+
 def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
                    label: str) -> tuple[pin.GeometryModel, pin.GeometryModel]:
     """Visual and collision ``GeometryModel`` s of ``xml`` (meshes cached across calls)."""

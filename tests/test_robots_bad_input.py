@@ -178,3 +178,41 @@ def test_a_file_that_is_not_a_mesh_is_a_model_error_naming_it(tmp_path):
     with pytest.raises(ModelError, match=words) as info:
         robots.load(tmp_path / "r.urdf")
     assert "From file" not in str(info.value) and "\n" not in str(info.value)
+
+
+def _cube_stl(half: float) -> str:
+    """An ASCII STL of the cube [-half, half]^3 (12 triangles)."""
+    v = np.array([[x, y, z] for x in (-half, half) for y in (-half, half) for z in (-half, half)])
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6),
+             (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    corners = ("".join(f"vertex {a} {b} {c}\n" for a, b, c in v[list(f)]) for f in faces)
+    body = "".join(f"facet normal 0 0 0\nouter loop\n{c}endloop\nendfacet\n" for c in corners)
+    return f"solid cube\n{body}endsolid cube\n"
+
+
+def test_clear_caches_forgets_the_meshes_read(tmp_path):
+    """A mesh replaced on disk with its modification time kept is still the one read before (coal's mesh
+    cache), until kinserve.clear_caches()."""
+    import os
+
+    import kinserve
+
+    mesh, urdf = tmp_path / "cube.stl", tmp_path / "r.urdf"
+    mesh.write_text(_cube_stl(0.05))
+    urdf.write_text(
+        '<robot name="c"><link name="a"/><link name="b"><collision><geometry><mesh filename="cube.stl"/>'
+        '</geometry></collision></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
+
+    def extent() -> float:
+        kinserve.robots.registry.clear_cache()  # the parsed model: read the file again
+        robot = robots.load(urdf)
+        return float(np.max(robot.collision_model.geometryObjects[0].geometry.vertices()))
+
+    assert extent() == pytest.approx(0.05)
+    stamp = mesh.stat()
+    mesh.write_text(_cube_stl(0.2))
+    os.utime(mesh, ns=(stamp.st_atime_ns, stamp.st_mtime_ns))
+    assert extent() == pytest.approx(0.05)  # cached: same file name, same time
+    kinserve.clear_caches()
+    assert extent() == pytest.approx(0.2)
