@@ -6,6 +6,7 @@ to kill or stop its own worker), so they check the pool and not the planner; the
 """
 
 import os
+import re
 import signal
 import time
 from pathlib import Path
@@ -233,3 +234,24 @@ def test_ray_backend_equals_local(panda_problems):
     for a, b in zip(remote, local):
         assert (a.success, a.goal_index) == (b.success, b.goal_index)
         np.testing.assert_array_equal(a.path, b.path)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    ({"max_time": -1.0}, "max_time"), ({"max_time": None}, "max_iterations"),
+    ({"goal_count": 0}, "goal_count"), ({"simplify": "yes"}, "simplify"),
+    ({"acceleration_limits": [1.0, 2.0]}, "acceleration_limits"),
+    ({"self_collision": None}, "self_collision"),
+])
+def test_shared_keyword_values_are_checked_before_any_worker(arm, kwargs, word):
+    """plan_motion's shared keywords are checked in the caller: no worker is started for a value every
+    problem would refuse."""
+    before = set(batch_workers_children())
+    words = re.escape("plan_many (shared keywords of plan_motion): ") + f".*{word}"
+    with pytest.raises(InputError, match=words):
+        plan_many(arm, _problems(arm, 4), processes=2, **kwargs)
+    assert set(batch_workers_children()) == before
+
+
+def test_valid_shared_keywords_still_plan(arm):
+    plans = plan_many(arm, _problems(arm, 2), processes=1, max_time=None, max_iterations=200, simplify=False)
+    assert len(plans) == 2 and all(p.success in (True, False) for p in plans)

@@ -107,11 +107,17 @@ def _check_count(value: Any, name: str, maximum: int | None = None) -> None:
         raise InputError(f"{name} must be {bound} or None, got {value!r}")
 
 
+def _plan_motion() -> Callable[..., Any]:
+    from .plan import plan_motion
+
+    return plan_motion
+
+
 def _checked_planner(planner: Any, plan_kwargs: dict) -> Callable[..., Any]:
     """The planner (``plan_motion`` for None), after checking it is callable and takes every shared keyword
     (:class:`InputError` naming the unknown ones; a planner with ``**kwargs`` takes any)."""
     if planner is None:
-        from .plan import plan_motion as planner
+        planner = _plan_motion()
     elif not callable(planner):
         raise InputError(f"planner must be a function planning one problem (default plan_motion), got "
                          f"{planner!r:.80}")
@@ -130,6 +136,25 @@ def _checked_planner(planner: Any, plan_kwargs: dict) -> Callable[..., Any]:
         raise InputError(f"plan_many: unknown keyword(s) {', '.join(unknown)} for {name}; accepted: "
                          f"{', '.join(accepted)}")
     return planner
+
+
+def check_shared_values(robot: Robot, problem: MotionProblem, plan_kwargs: dict) -> None:
+    """Check the values of ``plan_motion``'s shared keywords in the caller, before any worker starts: the
+    request ``plan_motion`` would build for ``problem``'s goal with them (from the robot's middle
+    configuration: the start of each problem is checked on its own). Its :class:`InputError` names the
+    keyword; the message says it is a shared one."""
+    from .plan import plan_motion
+    from .request import motion_request
+
+    given = {k: p.default for k, p in inspect.signature(plan_motion).parameters.items()
+             if p.default is not inspect.Parameter.empty}
+    given.update(plan_kwargs)
+    try:
+        motion_request(robot, robot.middle(), problem.goal, (), given["self_collision"], given["max_time"],
+                       None, given["acceleration_limits"], given["simplify"], given["max_iterations"],
+                       given["frame"], given["relax"], given["goal_count"])
+    except InputError as exc:
+        raise type(exc)(f"plan_many (shared keywords of plan_motion): {exc}") from None
 
 
 def worker_count(processes: int | None, n: int, local: bool = True) -> int:
@@ -190,7 +215,8 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
 
     Refused before any work starts (:class:`InputError` naming the argument): an unknown ``backend``;
     ``processes`` not an integer from 1 to :data:`MAX_PROCESSES`; ``chunksize`` not a positive integer;
-    ``planner`` not callable; a shared keyword the planner does not take; a malformed problem.
+    ``planner`` not callable; a shared keyword the planner does not take (and, for ``plan_motion``, a shared
+    keyword's value it would refuse: :func:`check_shared_values`); a malformed problem.
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
@@ -205,6 +231,8 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
     n = len(job.problems)
     if n == 0:
         return []
+    if planner is _plan_motion():
+        check_shared_values(robot, job.problems[0], plan_kwargs)
     job.prepare()  # here, once, whatever the backend: a forked worker inherits the collision model
     processes = worker_count(processes, n, local=backend == "local" or ray_address is None)
     chunks = motion_chunks(n, processes, chunksize)
