@@ -252,37 +252,40 @@ def two_opt(C: np.ndarray, order: Sequence[int], fixed_end: bool, return_to_star
     plus (backward - forward) cost of the segment's inner edges, O(1) from
     prefix sums.
     """
-    o = list(order)
+    o = np.array(order, dtype=np.int64)
     n = len(o)
     closed = return_to_start
     last = n - 1 if (fixed_end and not closed) else n  # segment ends k < last
-
-    def succ(k):
-        if k + 1 < n:
-            return o[k + 1]
-        return o[0] if closed else None
-
     for _ in range(max_rounds):
-        arr = np.array(o)
-        fwd = np.concatenate([[0.0], np.cumsum(C[arr[:-1], arr[1:]])])
-        bwd = np.concatenate([[0.0], np.cumsum(C[arr[1:], arr[:-1]])])
-        improved = False
-        for i in range(1, last - 1):
-            a, b = o[i - 1], o[i]
-            for k in range(i + 1, last):
-                c, d = o[k], succ(k)
-                delta = C[a, c] - C[a, b] + (bwd[k] - bwd[i]) - (fwd[k] - fwd[i])
-                if d is not None:
-                    delta += C[b, d] - C[c, d]
-                if delta < -1e-12:
-                    o[i : k + 1] = o[i : k + 1][::-1]
-                    improved = True
-                    break
-            if improved:
-                break
-        if not improved:
+        move = _first_improving_reversal(C, o, last, closed)
+        if move is None:
             break
+        i, k = move
+        o[i:k + 1] = o[i:k + 1][::-1].copy()
+    o = o.tolist()
     return o, path_cost(C, o, closed)
+
+
+def _first_improving_reversal(C: np.ndarray, o: np.ndarray, last: int,
+                              closed: bool) -> tuple[int, int] | None:
+    """The first ``(i, k)`` (``i`` ascending, then ``k``) whose reversal of ``o[i..k]`` lowers the cost by
+    more than 1e-12, or None: for each ``i``, the changes of every ``k`` in one NumPy expression, evaluated
+    in the same order of operations as one at a time (so the same move is found)."""
+    fwd = np.concatenate([[0.0], np.cumsum(C[o[:-1], o[1:]])])
+    bwd = np.concatenate([[0.0], np.cumsum(C[o[1:], o[:-1]])])
+    succ = np.append(o[1:], o[0]) if closed else o[1:]  # o[k + 1]; none after the last point of a path
+    for i in range(1, last - 1):
+        a, b = o[i - 1], o[i]
+        ks = np.arange(i + 1, last)
+        c = o[ks]
+        delta = C[a, c] - C[a, b] + (bwd[ks] - bwd[i]) - (fwd[ks] - fwd[i])
+        inner = ks < len(succ)
+        d = succ[ks[inner]]
+        delta[inner] += C[b, d] - C[c[inner], d]
+        hit = np.flatnonzero(delta < -1e-12)
+        if len(hit):
+            return i, int(ks[hit[0]])
+    return None
 
 
 def spanning_tree_bound(C: np.ndarray) -> float:

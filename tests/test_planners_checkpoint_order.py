@@ -100,3 +100,38 @@ def test_bad_inputs():
         shortest_order(np.zeros((3, 2)), end=2, return_to_start=True)
     with pytest.raises(InputError, match=">= 0"):
         shortest_order(cost=-np.ones((3, 3)))
+
+
+def _reference_two_opt(C, order, last, closed):
+    """First-improvement 2-opt written one move at a time, each move's change from whole path costs."""
+    o = list(order)
+    while True:
+        base = path_cost(C, o, closed)
+        move = next(((i, k) for i in range(1, last - 1) for k in range(i + 1, last)
+                     if path_cost(C, o[:i] + o[i:k + 1][::-1] + o[k + 1:], closed) < base - 1e-9), None)
+        if move is None:
+            return o
+        i, k = move
+        o[i:k + 1] = o[i:k + 1][::-1]
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("mode", ["open", "closed", "fixed_end"])
+def test_two_opt_leaves_no_improving_reversal_and_matches_one_move_at_a_time(seed, mode):
+    """two_opt (one NumPy expression per segment start) finds the same moves as the one-at-a-time
+    reference, and no reversal of its answer lowers the path cost (checked from whole path costs)."""
+    from kinserve.planners.checkpoint_order import _nearest_neighbour, two_opt
+
+    rng = np.random.default_rng(seed)
+    n = 9 + seed
+    C = euclidean_cost_matrix(rng.uniform(0, 10, (n, 2))) + (rng.uniform(0, 1, (n, n)) if seed % 2 else 0.0)
+    closed, fixed = mode == "closed", mode == "fixed_end"
+    last = n - 1 if fixed else n
+    start = _nearest_neighbour(C, 0, n - 1 if fixed else None, closed)
+    order, cost = two_opt(C, start, fixed, closed)
+    assert sorted(order) == list(range(n)) and order[0] == 0 and (not fixed or order[-1] == n - 1)
+    assert cost == pytest.approx(path_cost(C, order, closed), abs=1e-12)
+    base = path_cost(C, order, closed)
+    for i, k in itertools.combinations(range(1, last), 2):
+        assert path_cost(C, order[:i] + order[i:k + 1][::-1] + order[k + 1:], closed) >= base - 1e-9
+    assert order == _reference_two_opt(C, start, last, closed)
