@@ -1,7 +1,9 @@
 """Bad input to ``planners.mobile``: refused with kinserve's own errors, naming the argument, before any
 unbounded allocation or loop; a valid neighbouring input still works."""
 
+import dataclasses
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -9,7 +11,7 @@ import pytest
 from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
 from kinserve.planners import mobile as m
 from kinserve.planners.errors import BlockedPointError
-from kinserve.planners.mobile import _checks
+from kinserve.planners.mobile import _checks, shapes
 
 BOX = m.Rectangle(2, 2, 3, 3, "box")
 
@@ -52,9 +54,11 @@ def test_circle_and_polygon_refuse_bad_numbers():
     assert m.Circle(0, 0, 1).area == pytest.approx(math.pi)
 
 
-def test_polygon_with_a_repeated_vertex_gives_a_finite_distance():
-    sd = m.Polygon([(0, 0), (0, 0), (1, 0), (0, 1)]).signed_distance(2.0, 2.0)
-    assert sd == pytest.approx(math.hypot(1.5, 1.5))
+def test_polygon_closed_by_repeating_its_first_vertex_gives_a_finite_distance():
+    closed = m.Polygon([(0, 0), (1, 0), (0, 1), (0, 0)])  # a closed ring: its last edge has zero length
+    assert len(closed.vertices) == 4 and closed.area == pytest.approx(0.5)
+    assert closed.signed_distance(2.0, 2.0) == pytest.approx(math.hypot(1.5, 1.5))
+    assert closed.signed_distance(0.25, 0.25) == pytest.approx(-0.25)
 
 
 # -------------------------------------------------------------------- maps
@@ -393,3 +397,167 @@ def test_polygon_with_collinear_vertices_is_refused():
     with pytest.raises(InputError, match="polygon 'line' has zero area"):
         m.Polygon([(0, 0), (1, 0), (2, 0)], "line")
     assert m.Polygon([(0, 0), (1, 0), (2, 1e-3)]).area > 0
+
+
+# ------------------------------------------------------- simple polygons
+SQUARE = [(0, 0), (1, 0), (1, 1), (0, 1)]
+SIMPLE = "expected a simple polygon: edges meet only at shared corners"
+#: Every way a polygon reaches planners.mobile: the check runs when the Polygon is built, so a map or a
+#: footprint test never sees a self-crossing one.
+POLYGON_ENTRY_POINTS = {
+    "Polygon": lambda V: m.Polygon(V, "p"),
+    "Polygon(vertices=array)": lambda V: shapes.Polygon(vertices=np.array(V, dtype=float), name="p"),
+    "Polygon closed ring": lambda V: m.Polygon(list(V) + [V[0]], "p"),
+    "dataclasses.replace": lambda V: dataclasses.replace(m.Polygon(SQUARE, "p"), vertices=V),
+    "OccupancyGrid.from_shapes": lambda V: m.OccupancyGrid.from_shapes((0, 0, 10, 10), [m.Polygon(V, "p")]),
+    "footprint_penetration": lambda V: m.footprint_penetration([(5, 5), (6, 5)], [0, 0], [m.Polygon(V, "p")],
+                                                               length=1.0),
+}
+NOT_SIMPLE = {
+    "bow-tie": ([(0, 0), (1, 1), (1, 0), (0, 1)], r"edges 0 \(0.0, 0.0\)-\(1.0, 1.0\) and 2 \(1.0, 0.0\)-"
+                                                   r"\(0.0, 1.0\) cross or touch"),
+    # vertex 4 (2, 0) lies on edge 0, which does not end there
+    "vertex on a non-adjacent edge": ([(0, 0), (4, 0), (4, 3), (3, 3), (2, 0), (1, 3), (0, 3)],
+                                      r"edges 0 \(0.0, 0.0\)-\(4.0, 0.0\) and 3 \(3.0, 3.0\)-\(2.0, 0.0\)"),
+    # edge 0 runs back along edge 4 (no other pair touches before it)
+    "collinear overlap": ([(3, 0), (1, 0), (1, 2), (0, 2), (0, 0), (4, 0), (4, 1), (3, 1)],
+                          r"edges 0 \(3.0, 0.0\)-\(1.0, 0.0\) and 4 \(0.0, 0.0\)-\(4.0, 0.0\)"),
+    # consecutive edges 0 and 1 fold back onto each other at vertex 1
+    "spike": ([(0, 0), (2, 0), (1, 0), (1, 1)], r"edges 0 \(0.0, 0.0\)-\(2.0, 0.0\) and 1 "),
+    # vertices 1 and 3 coincide: the outline touches itself at a corner that is not shared by
+    # consecutive edges (a figure of eight)
+    "figure of eight": ([(0, 0), (1, 1), (2, 0), (2, 2), (1, 1), (0, 2)], r"edges 0 .* and 3 "),
+}
+
+
+@pytest.mark.parametrize("entry", POLYGON_ENTRY_POINTS.values(), ids=POLYGON_ENTRY_POINTS)
+@pytest.mark.parametrize("case", NOT_SIMPLE.values(), ids=NOT_SIMPLE)
+def test_self_crossing_or_touching_polygon_is_refused_naming_the_edges(entry, case):
+    V, edges = case
+    with pytest.raises(InputError, match=rf"polygon 'p' vertices: {edges}.*{SIMPLE}"):
+        entry(V)
+
+
+@pytest.mark.parametrize("entry", POLYGON_ENTRY_POINTS.values(), ids=POLYGON_ENTRY_POINTS)
+def test_collinear_or_repeated_vertices_are_refused(entry):
+    with pytest.raises(InputError, match=r"polygon 'p' has zero area \(collinear vertices"):
+        entry([(0, 0), (1, 1), (3, 3), (2, 2)])
+    with pytest.raises(InputError, match=rf"polygon 'p' vertices: vertex 2 \(1.0, 0.0\) repeats vertex 1; "
+                                         rf"{SIMPLE} \(no repeated consecutive vertices"):
+        entry([(0, 0), (1, 0), (1, 0), (0, 1)])
+
+
+STAR = [(math.cos(math.pi / 2 + k * math.pi / 5) * (1.0 if k % 2 == 0 else 0.4),
+         math.sin(math.pi / 2 + k * math.pi / 5) * (1.0 if k % 2 == 0 else 0.4)) for k in range(10)]
+L_SHAPE = [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]
+SIMPLE_POLYGONS = {
+    "convex hexagon": ([(math.cos(k * math.pi / 3), math.sin(k * math.pi / 3)) for k in range(6)],
+                       1.5 * math.sqrt(3.0), (0.0, 0.0)),
+    "L shape": (L_SHAPE, 3.0, (0.5, 1.5)),
+    "clockwise L shape": (L_SHAPE[::-1], 3.0, (1.5, 0.5)),
+    "star": (STAR, 10 * 0.5 * 1.0 * 0.4 * math.sin(math.pi / 5), (0.0, 0.0)),
+    "straight corner": ([(0, 0), (1, 0), (2, 0), (2, 1), (0, 1)], 2.0, (1.0, 0.5)),
+}
+
+
+@pytest.mark.parametrize("entry", POLYGON_ENTRY_POINTS.values(), ids=POLYGON_ENTRY_POINTS)
+@pytest.mark.parametrize("case", SIMPLE_POLYGONS.values(), ids=SIMPLE_POLYGONS)
+def test_simple_polygons_are_accepted(entry, case):
+    V, area, inside = case
+    entry(V)
+    poly = m.Polygon(V)
+    assert poly.area == pytest.approx(area)
+    assert poly.signed_distance(*inside) < 0 < poly.signed_distance(5.0, 5.0)
+
+
+def test_a_vertex_on_a_non_adjacent_edge_up_to_rounding_is_refused_and_one_1e9_off_is_not():
+    W = np.array(NOT_SIMPLE["vertex on a non-adjacent edge"][0], dtype=float)
+    c, s = math.cos(0.5), math.sin(0.5)
+    W = W @ np.array([[c, s], [-s, c]]) + (123.0, -45.0)  # rotated: vertex 4 on edge 0 only up to rounding
+    with pytest.raises(InputError, match="edges 0 .* and 3 .* cross or touch"):
+        m.Polygon(W, "w")
+    W[4] += (-1e-13 * s, 1e-13 * c)  # 1e-13 off edge 0, inwards: within the tolerance, still touching
+    with pytest.raises(InputError, match="edges 0 .* and 3 .* cross or touch"):
+        m.Polygon(W, "w")
+    W[4] += (-1e-9 * s, 1e-9 * c)
+    assert m.Polygon(W, "w").area > 0
+
+
+def test_polygon_vertex_count_is_bounded_and_a_large_one_is_tested_across_chunks():
+    with pytest.raises(ShapeError, match=r"polygon 'big' needs vertices of shape \(k, 2\) with "
+                                         r"3 <= k <= 10000, got \(10001, 2\)"):
+        m.Polygon(np.ones((10_001, 2)), "big")
+    t = np.linspace(0.0, 2.0 * math.pi, 10_000, endpoint=False)
+    r = 1.0 + 0.3 * np.sin(7.0 * t)
+    V = np.c_[r * np.cos(t), r * np.sin(t)]
+    assert m.Polygon(V).area > 0
+    V[[9000, 9001]] = V[[9001, 9000]]  # swapped: edges 8999 and 9001 now cross (far past the first chunk)
+    with pytest.raises(InputError, match="edges 8999 .* and 9001 .* cross or touch"):
+        m.Polygon(V)
+
+
+def _orient(a, b, c):
+    v = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    return (v > 0) - (v < 0)
+
+
+def _on_segment(p, a, b):
+    return (_orient(a, b, p) == 0 and min(a[0], b[0]) <= p[0] <= max(a[0], b[0])
+            and min(a[1], b[1]) <= p[1] <= max(a[1], b[1]))
+
+
+def _edges_touch(n, E, i, j):
+    """Exact: edges i < j of a ring of n edges E meet other than at a corner shared by consecutive edges."""
+    if j == i + 1 or (i == 0 and j == n - 1):  # consecutive: touching elsewhere means one end on the other
+        (a, b), (c, d) = (E[i], E[j]) if j == i + 1 else (E[j], E[i])
+        return _on_segment(a, c, d) or _on_segment(d, a, b)
+    (p1, p2), (p3, p4) = E[i], E[j]
+    if _orient(p3, p4, p1) * _orient(p3, p4, p2) < 0 and _orient(p1, p2, p3) * _orient(p1, p2, p4) < 0:
+        return True
+    return (_on_segment(p1, p3, p4) or _on_segment(p2, p3, p4) or _on_segment(p3, p1, p2)
+            or _on_segment(p4, p1, p2))
+
+
+def _exact_touching_pairs(V):
+    """Brute force in exact rational arithmetic: every pair of edges that touches."""
+    P = [(Fraction(x), Fraction(y)) for x, y in V]
+    n = len(P)
+    E = [(P[i], P[(i + 1) % n]) for i in range(n)]
+    return {(i, j) for i in range(n) for j in range(i + 1, n) if _edges_touch(n, E, i, j)}
+
+
+def _random_polygons(seed, count=300):
+    """Random rings of 3 to 9 vertices without repeated consecutive vertices: a third on a small integer
+    grid, a third on a grid of 1/8 far from the origin (both exact in floats, with many collinear and
+    touching cases), a third Gaussian."""
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < count:
+        n = int(rng.integers(3, 10))
+        kind = len(out) % 3
+        V = (rng.integers(-3, 4, (n, 2)).astype(float) if kind == 0
+             else rng.integers(0, 5, (n, 2)) / 8.0 + 1e5 if kind == 1 else rng.normal(size=(n, 2)))
+        if not np.any(np.all(V == np.roll(V, -1, axis=0), axis=1)):
+            out.append(V)
+    return out
+
+
+def test_crossing_test_matches_an_exact_rational_brute_force():
+    refused = 0
+    for V in _random_polygons(7):
+        exact = _exact_touching_pairs(V.tolist())
+        found = _checks._touching_edges(V)
+        assert (found is None) == (not exact), V.tolist()
+        assert found is None or found in exact, V.tolist()  # the pair named really touches
+        refused += found is not None
+    assert 50 < refused < 250  # both outcomes are well represented
+
+
+def test_crossing_test_matches_shapely():
+    geometry = pytest.importorskip("shapely.geometry")
+    refused = 0
+    for V in _random_polygons(11):
+        simple = geometry.LinearRing(V).is_simple
+        assert (_checks._touching_edges(V) is None) == simple, V.tolist()
+        refused += not simple
+    assert 50 < refused < 250

@@ -13,10 +13,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_positive, as_real, as_rows
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_positive, as_real
 
-#: Most vertices of a :class:`Polygon` (its signed distance costs points x vertices).
+from ._checks import as_polygon, shoelace_area
+
+#: Most vertices of a :class:`Polygon` (its signed distance costs points x vertices, its simplicity test
+#: vertices^2).
 MAX_VERTICES = 10_000
 
 
@@ -108,8 +111,13 @@ class Circle:
 class Polygon:
     """Simple polygon with vertices ``(k, 2)`` (either orientation, ``3 <= k <= 10000``).
 
-    Refuses other shapes, non-numeric, non-finite or huge (``|x| > 1e6``) vertices, and a zero area
-    (collinear vertices). Self-intersection is not checked.
+    Its edges may meet only at the corners shared by consecutive edges; a last vertex equal to the
+    first (a closed ring) is accepted and kept. Refuses other shapes, non-numeric, non-finite or huge
+    (``|x| > 1e6``) vertices, a vertex repeating the one before it, a zero area (collinear vertices) and
+    a self-crossing or self-touching outline (a bow-tie, a vertex on a non-adjacent edge, overlapping
+    collinear edges; the message names the two edges), all with kinserve's errors naming
+    ``vertices``. The test and its tolerance (angles within 1e-12 rad of 0 or pi count as collinear)
+    are those of :func:`planners.mobile._checks.as_polygon`.
     """
 
     vertices: tuple
@@ -118,16 +126,9 @@ class Polygon:
 
     def __post_init__(self):
         _check_name(self.name, "polygon")
-        V = np.array(as_rows(self.vertices, 2, f"polygon {self.name!r} vertices"), dtype=float)
-        if not 3 <= V.shape[0] <= MAX_VERTICES:
-            raise ShapeError(f"polygon {self.name!r} needs vertices of shape (k, 2) with 3 <= k <= "
-                             f"{MAX_VERTICES}, got {V.shape}")
+        V = as_polygon(self.vertices, f"polygon {self.name!r}", MAX_VERTICES)
         object.__setattr__(self, "vertices", tuple(map(tuple, V.tolist())))
         object.__setattr__(self, "_v", V)
-        extent = float(np.ptp(V, axis=0).max())
-        if not self.area > 1e-12 * extent * extent:
-            raise InputError(f"polygon {self.name!r} has zero area (collinear vertices "
-                             f"{self.vertices[:4]}...): it needs at least three vertices not on one line")
 
     def signed_distance(self, x: ArrayLike, y: ArrayLike) -> np.ndarray:
         """Distance from the points ``(x, y)`` (broadcast together) to the boundary, negative inside."""
@@ -159,8 +160,7 @@ class Polygon:
     @property
     def area(self) -> float:
         """Area by the shoelace formula (map units squared)."""
-        V = self._v
-        return float(0.5 * abs(np.dot(V[:, 0], np.roll(V[:, 1], -1)) - np.dot(V[:, 1], np.roll(V[:, 0], -1))))
+        return shoelace_area(self._v)
 
 
 Shape = Rectangle | Circle | Polygon
