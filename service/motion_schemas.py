@@ -1,8 +1,8 @@
 """Request/response schemas of ``POST /plan/motion`` (:func:`kinserve.planners.plan_motion` over HTTP).
 
-Bounded like every request (:mod:`.schemas`): finite numbers, at most
-:data:`MAX_GOALS` goals in a goal set, 32 obstacles (the ``/ik`` shapes),
-:data:`MAX_ATTACHED` carried objects, :data:`MAX_ITERATIONS` search samples; the
+Bounded like every request (:mod:`.schemas`): JSON numbers only (text and true / false refused,
+an integer field refuses 2.5), finite, at most :data:`MAX_GOALS` goals in a goal set, 32 obstacles
+(the ``/ik`` shapes), :data:`MAX_ATTACHED` carried objects, :data:`MAX_ITERATIONS` search samples; the
 answer's trajectory holds at most :data:`MAX_TRAJECTORY_POINTS` samples (above,
 it is left out and the message says so; the path is always there).
 """
@@ -14,7 +14,6 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
 from .schemas import (
-    BOUND,
     JointTrajectoryOut,
     JointVector,
     Name,
@@ -25,7 +24,11 @@ from .schemas import (
     PositionRPY,
     RelaxName,
     RobotRef,
+    Seconds,
+    Seed,
     Strict,
+    integer,
+    real,
 )
 
 #: Most configurations in a goal set.
@@ -62,7 +65,7 @@ MotionGoal = Annotated[
                       "\"quaternion\" [qx, qy, qz, qw]} or {\"position\", \"rpy\"}"),
 ]
 
-Positive = Annotated[float, Field(allow_inf_nan=False, ge=1e-2, le=1e4)]
+Positive = real(ge=1e-2, le=1e4)
 Accelerations = Positive | Annotated[list[Positive], Field(min_length=1, max_length=64)]
 
 
@@ -106,18 +109,18 @@ class MotionPlanRequest(RobotRef):
                                description="frame of a pose goal; default the robot's tool frame")
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(
         default_factory=list, description="components of a pose goal left free")
-    goal_count: Annotated[int, Field(ge=1, le=16)] = Field(
+    goal_count: integer(1, 16) = Field(
         default=4, description="a pose goal becomes a goal set of up to this many IK solutions")
     obstacles: Obstacles = Field(default_factory=list,
                                  description="shapes the robot and carried objects keep clear of")
     attached: Annotated[list[AttachedSpec], Field(max_length=MAX_ATTACHED)] = Field(
         default_factory=list, description="objects carried by the robot during this plan")
     self_collision: bool = Field(default=True, description="check the robot's own link pairs too")
-    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = None
-    max_iterations: Annotated[int, Field(ge=1, le=MAX_ITERATIONS)] | None = Field(
+    seed: Seed | None = None
+    max_iterations: integer(1, MAX_ITERATIONS) | None = Field(
         default=None, description="RRT-Connect samples; with a seed and a max_time that does not run out, "
                                   "the answer depends only on the request")
-    max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
+    max_time: Seconds | None = Field(
         default=None, description="seconds for the plan (a pose goal's IK included, not the one-time set-up "
                                   "of a robot); default 1 s, capped server-side (--max-time-cap)")
     acceleration_limits: Accelerations | None = Field(

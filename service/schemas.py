@@ -1,9 +1,11 @@
 """Pydantic request/response schemas of the HTTP service (they are the OpenAPI document).
 
-Numbers are JSON numbers (text such as ``"0.1"`` and ``true`` are refused), finite and bounded
-(|x| <= 1e6, the library's one bound ``kinematics.validation.MAX_ABS``): NaN, infinities and absurd
-magnitudes are rejected with a 422 naming the field before any solver runs. String model
-parameters are bounded the same way when the model is built.
+Every number of every request model is a JSON number, built by :func:`real` (a float field; an integer is
+taken as a float) or :func:`integer` (an integer field: 2.5 and 2.0 are refused): text such as ``"0.1"`` and
+``true`` / ``false`` are refused, not read as numbers. Numbers are finite and bounded (|x| <= 1e6, the
+library's one bound ``kinematics.validation.MAX_ABS``, or the field's own tighter bounds): NaN, infinities
+and absurd magnitudes are rejected with a 422 naming the field before any solver runs. String model
+parameters are bounded the same way when the model is built. Response models are not affected.
 """
 
 from __future__ import annotations
@@ -17,14 +19,37 @@ from kinserve.kinematics.errors import KinserveError
 from kinserve.kinematics.validation import MAX_ABS, make_pose, unit_quaternion
 
 BOUND = MAX_ABS
+
+
+def real(*, gt: float | None = None, ge: float | None = None, le: float = BOUND) -> Any:
+    """The type of a request's float field: a finite JSON number ``> gt`` / ``>= ge`` (when given) and
+    ``<= le`` (default :data:`BOUND`). An integer is taken as a float; text (``"0.1"``) and ``true`` /
+    ``false`` are refused (pydantic's strict mode), a 422 naming the field."""
+    lower = {name: value for name, value in (("gt", gt), ("ge", ge)) if value is not None}
+    return Annotated[float, Field(strict=True, allow_inf_nan=False, le=le, **lower)]
+
+
+def integer(ge: int, le: int) -> Any:
+    """The type of a request's integer field: a JSON integer in ``[ge, le]``. A number with a fraction part
+    (``2.5``, and ``2.0`` too), text (``"5"``) and ``true`` / ``false`` are refused (pydantic's strict mode),
+    a 422 naming the field."""
+    return Annotated[int, Field(strict=True, ge=ge, le=le)]
+
+
 #: A JSON number (an integer is taken as a float; text and true / false are refused, not read as numbers).
-Number = Annotated[float, Field(strict=True, allow_inf_nan=False, ge=-BOUND, le=BOUND)]
+Number = real(ge=-BOUND)
+#: A size (m): a JSON number in (0, 1e6].
+Length = real(gt=0)
+#: A time budget (s): a JSON number in (0, 1e6].
+Seconds = real(gt=0)
+#: A seed of random restarts or samples.
+Seed = integer(0, 2**32 - 1)
 Row4 = Annotated[list[Number], Field(min_length=4, max_length=4)]
 JointVector = Annotated[list[Number], Field(min_length=1, max_length=64,
                                             description="joint values (rad / m)")]
 Name = Annotated[str, Field(min_length=1, max_length=200)]
-ParamValue = (Annotated[float, Field(allow_inf_nan=False, ge=-BOUND, le=BOUND)]
-              | Annotated[str, Field(max_length=200)])
+#: A model parameter: a JSON number, or text (a xacro argument; a number written as text stays text).
+ParamValue = Number | Annotated[str, Field(max_length=200)]
 RelaxName = Literal["x", "y", "z", "roll", "pitch", "yaw", "phi"]
 Method = Literal["auto", "qp", "lm", "dls", "pseudo_inverse", "jacobian_inverse", "jacobian_transpose",
                  "analytic"]
@@ -182,11 +207,10 @@ class SphereSpec(Strict):
     """A sphere obstacle (m) for the link capsules, optionally for some frames only."""
 
     center: Annotated[list[Number], Field(min_length=3, max_length=3)]
-    radius: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
+    radius: Length
     frames: Annotated[list[Name], Field(max_length=64)] | None = None
 
 
-Length = Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)]
 Frames = Annotated[list[Name], Field(max_length=64)] | None
 
 
@@ -243,15 +267,15 @@ class IKOptions(Strict):
     frame: Name | None = None
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
     spheres: Annotated[list[SphereSpec], Field(max_length=32)] = Field(default_factory=list)
-    centring: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e3)] = 0.0
+    centring: real(ge=0, le=1e3) = 0.0
     method: Method = "auto"
-    max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
+    max_time: Seconds | None = Field(
         default=None, description=f"time budget (s) of one solve (each target of a batch); default "
                                   f"{MAX_TIME_QP:g} s whichever solver runs, capped by the server's "
                                   "--max-time-cap (ik.solve in Python: 0.1 s when LM alone answers, "
                                   f"{MAX_TIME_QP:g} s when the QP may run)"
     )
-    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] | None = Field(
+    seed: Seed | None = Field(
         default=None, description="seed of the random restarts (none: 0); the same seed gives the same "
                                   "answer unless the time budget cut the solve")
     self_collision: bool = Field(
@@ -262,11 +286,11 @@ class IKOptions(Strict):
         default_factory=list,
         description="shapes kept clear of the robot's links (kind: sphere, box, capsule, cylinder)"
     )
-    collision_margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+    collision_margin: real(ge=0, le=1.0) = Field(
         default=0.0, description="clearance (m) kept from obstacles and between checked link pairs")
-    tol_pos: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1.0)] = 1e-4
-    tol_rot: Annotated[float, Field(allow_inf_nan=False, gt=0, le=3.2)] = 1e-3
-    link_radius: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1.0)] = Field(
+    tol_pos: real(gt=0, le=1.0) = 1e-4
+    tol_rot: real(gt=0, le=3.2) = 1e-3
+    link_radius: real(ge=0, le=1.0) = Field(
         default=0.0, description="radius (m) of the capsules around the link segments"
     )
 
@@ -362,6 +386,13 @@ class IKBatchResponse(BaseModel):
     stop_reason: Literal["completed", "time_cap"]
 
 
+#: The shortest ``dt`` (s) of ``POST /plan/cartesian``. ``planners.cartesian_to_joint`` takes any dt in
+#: (0, 1e6], but its finite-difference velocities (at most 2 x joint range / dt) must stay within 1e6, or the
+#: plan fails after the solves: 1e-4 s keeps them within for joint ranges up to 50 rad or m, those of every
+#: built-in robot with its default parameters.
+MIN_DT = 1e-4
+
+
 class CartesianPlanRequest(RobotRef):
     """Body of ``POST /plan/cartesian``: poses to pass through and the interpolation.
 
@@ -387,19 +418,20 @@ class CartesianPlanRequest(RobotRef):
                                                    "interpolated mode)")]
     q0: JointVector | None = None
     frame: Name | None = None
-    steps: Annotated[int, Field(ge=1, le=200)] = Field(default=10,
-                                                       description="interpolated poses per segment")
-    dt: Annotated[float, Field(allow_inf_nan=False, gt=0, le=60)] = 0.1
+    steps: integer(1, 200) = Field(default=10, description="interpolated poses per segment")
+    dt: real(ge=MIN_DT, le=60) = Field(
+        default=0.1, description=f"seconds between consecutive points, from {MIN_DT:g} (a shorter step "
+                                 "would make the finite-difference joint velocities overflow) to 60")
     interpolation: Literal["decoupled", "screw"] = "decoupled"
     relax: Annotated[list[RelaxName], Field(max_length=6)] = Field(default_factory=list)
-    max_time: Annotated[float, Field(allow_inf_nan=False, gt=0, le=BOUND)] | None = Field(
+    max_time: Seconds | None = Field(
         default=None,
         description="seconds for the whole plan; default and upper bound: the server's request time cap"
     )
     stop_on_failure: bool = Field(default=True,
                                   description="stop at the first pose not reached (false: try every pose)")
     # the line mode (planners.plan_cartesian), chosen by giving any of these
-    jump_threshold: Annotated[float, Field(allow_inf_nan=False, gt=0, le=10)] | None = Field(
+    jump_threshold: real(gt=0, le=10) | None = Field(
         default=None, description="line mode: stop where a step moves a joint by more than this (rad or m; "
                                   "default 0.25)")
     obstacles: Obstacles = Field(default_factory=list,
@@ -407,9 +439,9 @@ class CartesianPlanRequest(RobotRef):
     self_collision: bool | None = Field(default=None,
                                         description="line mode: check the robot's own link pairs (default "
                                                     "true)")
-    max_step: Annotated[float, Field(allow_inf_nan=False, ge=1e-3, le=1.0)] | None = Field(
+    max_step: real(ge=1e-3, le=1.0) | None = Field(
         default=None, description="line mode: largest move of the frame's origin per step (m; default 0.01)")
-    max_rotation_step: Annotated[float, Field(allow_inf_nan=False, ge=5e-3, le=1.0)] | None = Field(
+    max_rotation_step: real(ge=5e-3, le=1.0) | None = Field(
         default=None, description="line mode: largest turn of the frame per step (rad; default 0.05)")
 
 

@@ -1,18 +1,27 @@
 """Bad input to the service settings, the CLI's frames and seeds, scene YAML, viz animations and the
-top-level helpers: each is a kinserve error (or a one-line CLI error) naming what was wrong."""
+top-level helpers: each is a kinserve error (or a one-line CLI error) naming what was wrong; and over HTTP
+(a real server on loopback), numbers of every request field that are not JSON numbers: a 422 naming the
+field."""
 
 from __future__ import annotations
 
+import json
+from typing import Annotated
+
 import numpy as np
 import pytest
+from pydantic import BaseModel, Field
 
 import kinserve
 from kinserve import robots, viz
 from kinserve.ik.batch.reachability import reachability_map
 from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
 from kinserve.planners.motion.scene_yaml import read_planning_scene
-from kinserve.service import cli
+from kinserve.service import cli, collision_schemas, motion_schemas, schemas
+from kinserve.service.schemas import Number, integer, real
 from kinserve.service.settings import ServiceSettings
+
+from service_server import client_of, running
 
 SCENE = """world:
   collision_objects:
@@ -202,3 +211,206 @@ def test_attach_refuses_touch_links_that_are_not_names():
         panda.attach("ball", sphere, panda.tip, touch_links=5)
     panda.attach("ball", sphere, panda.tip)
     assert "ball" in panda.attached
+
+
+# ---------------------------------------------------------------- HTTP: request numbers are JSON numbers
+Q = [0.3, 0.6, -0.4, 0.2]  # planar4r; P0 is (about) the tool's pose there, P1 a nearby one
+P0 = {"position": [2.2851, 1.4675, 0.0], "rpy": [0.0, 0.0, 0.7]}
+P1 = {"position": [2.1922, 1.6418, 0.0], "rpy": [0.0, 0.0, 0.8]}
+FAR = [50.0, 50.0, 50.0]
+SPHERE = {"kind": "sphere", "center": FAR, "radius": 0.1}
+BOX = {"kind": "box", "pose": {"position": FAR, "rpy": [0.0, 0.0, 0.0]}, "size": [0.1, 0.1, 0.1]}
+CYLINDER = {"kind": "cylinder", "pose": {"position": FAR, "rpy": [0.0, 0.0, 0.0]}, "radius": 0.1,
+            "length": 0.1}
+BODIES = {
+    "/fk": {"robot": "planar4r", "q": Q, "params": {"l1": 1.2}},
+    "/ik": {"robot": "planar4r", "target": P0, "q0": Q, "seed": 0, "max_time": 0.2,
+            "spheres": [{"center": FAR, "radius": 0.1}], "obstacles": [SPHERE, BOX, CYLINDER]},
+    "/ik/batch": {"robot": "planar4r", "targets": [P0, P1], "q0": Q, "seed": 0, "max_time": 0.2},
+    "/plan/cartesian": {"robot": "planar4r", "q0": Q, "poses": [P0, P1], "steps": 2, "dt": 0.1,
+                        "max_time": 5.0},
+    "line": {"robot": "planar4r", "q0": Q, "poses": [P1], "jump_threshold": 0.5, "max_step": 0.05,
+             "max_rotation_step": 0.05, "self_collision": False},
+    "/plan/motion": {"robot": "planar4r", "start": [0.0, 0.0, 0.0, 0.0], "goal": [0.5, 0.5, 0.5, 0.5],
+                     "seed": 1, "max_iterations": 2000, "max_time": 1.0, "goal_count": 2,
+                     "acceleration_limits": [2.0, 2.0, 2.0, 2.0],
+                     "attached": [{"name": "ball", "shape": {"kind": "sphere", "center": [0.0, 0.0, 0.0],
+                                                             "radius": 0.01}, "frame": "tool"}]},
+    "/collision": {"robot": "planar4r", "q": Q, "obstacles": [SPHERE, BOX, CYLINDER]},
+}
+#: (body, path of the field in it, kind, a valid JSON integer for it): every scalar number field of the
+#: request models, by route (the shared models once), and a centre (a list of numbers, as q and the poses).
+FIELDS = [
+    ("/fk", ("params", "l1"), "param", 1),
+    ("/ik", ("centring",), "float", 1),
+    ("/ik", ("max_time",), "float", 1),
+    ("/ik", ("collision_margin",), "float", 0),
+    ("/ik", ("tol_pos",), "float", 1),
+    ("/ik", ("tol_rot",), "float", 1),
+    ("/ik", ("link_radius",), "float", 0),
+    ("/ik", ("seed",), "int", 2),
+    ("/ik", ("spheres", 0, "radius"), "float", 1),
+    ("/ik", ("spheres", 0, "center", 0), "float", 50),
+    ("/ik", ("obstacles", 0, "radius"), "float", 1),
+    ("/ik", ("obstacles", 1, "size", 0), "float", 1),
+    ("/ik", ("obstacles", 2, "radius"), "float", 1),
+    ("/ik", ("obstacles", 2, "length"), "float", 1),
+    ("/ik/batch", ("max_time",), "float", 1),
+    ("/ik/batch", ("seed",), "int", 2),
+    ("/plan/cartesian", ("steps",), "int", 2),
+    ("/plan/cartesian", ("dt",), "float", 1),
+    ("/plan/cartesian", ("max_time",), "float", 5),
+    ("line", ("jump_threshold",), "float", 1),
+    ("line", ("max_step",), "float", 1),
+    ("line", ("max_rotation_step",), "float", 1),
+    ("/plan/motion", ("goal_count",), "int", 2),
+    ("/plan/motion", ("seed",), "int", 2),
+    ("/plan/motion", ("max_iterations",), "int", 2000),
+    ("/plan/motion", ("max_time",), "float", 1),
+    ("/plan/motion", ("acceleration_limits",), "float", 2),
+    ("/plan/motion", ("acceleration_limits", 0), "float", 2),
+    ("/plan/motion", ("attached", 0, "shape", "radius"), "float", 1),
+    ("/collision", ("obstacles", 0, "radius"), "float", 1),
+]
+#: Values pydantic's lax mode would read as numbers (each within the field's bounds once read): text, true,
+#: and for an integer field a float, with or without a fraction part. A model parameter may be text (a xacro
+#: argument: "0.1" is a string parameter), not true.
+BAD = {"float": ["0.1", True], "int": ["2", True, 2.5, 2.0], "param": [True]}
+EXPECTED = {"float": "Input should be a valid number", "int": "Input should be a valid integer",
+            "param": "Input should be a valid number"}
+
+
+@pytest.fixture(scope="module")
+def server():
+    yield from running(max_time_cap=1.0)
+
+
+@pytest.fixture(scope="module")
+def client(server):
+    yield from client_of(server, timeout=60)
+
+
+def with_value(body: dict, path: tuple, value) -> dict:
+    """A copy of ``body`` with ``value`` at ``path`` (keys and indices); the copy shares no list."""
+    body = json.loads(json.dumps(body))
+    node = body
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = value
+    return body
+
+
+def post(client, name: str, body: dict):
+    route = "/plan/cartesian" if name == "line" else name
+    return client.post(route, content=json.dumps(body), headers={"content-type": "application/json"})
+
+
+def names_the_field(loc: list, path: tuple) -> bool:
+    """``loc`` is ``["body", *path]``, with the tags of unions / tagged unions (e.g. ``"sphere"``) between."""
+    keys = iter(loc[1:])
+    return loc[0] == "body" and all(any(k == key for k in keys) for key in path)
+
+
+def assert_names_the_field(detail: list, path: tuple) -> None:
+    """Every error of ``detail`` is on the field ``path[0]`` and one names the whole ``path`` (the other
+    branches of a union, e.g. a number or a list of numbers, may stop higher)."""
+    assert detail and all(d["loc"][:2] == ["body", path[0]] for d in detail), detail
+    assert any(names_the_field(d["loc"], path) for d in detail), detail
+
+
+@pytest.mark.parametrize("name, path, kind, value", [
+    (name, path, kind, value) for name, path, kind, _ in FIELDS for value in BAD[kind]],
+    ids=lambda v: v if isinstance(v, str) else None)
+def test_request_numbers_refuse_text_bools_and_fractions(client, name, path, kind, value):
+    """Text, true and (for an integer field) 2.5 or 2.0 are a 422 naming the field and saying a number (an
+    integer) was expected: pydantic's lax mode would have read each as a number within the field's
+    bounds."""
+    r = post(client, name, with_value(BODIES[name], path, value))
+    assert r.status_code == 422, r.text
+    detail = r.json()["detail"]
+    assert_names_the_field(detail, path)
+    assert any(EXPECTED[kind] in d["msg"] for d in detail), detail
+
+
+@pytest.mark.parametrize("name, path, kind, value", FIELDS, ids=lambda v: v if isinstance(v, str) else None)
+def test_request_numbers_take_json_numbers(client, name, path, kind, value):
+    """The neighbouring valid request still works: a JSON integer in a float field is a float."""
+    r = post(client, name, with_value(BODIES[name], path, value))
+    assert r.status_code == 200, r.text
+
+
+@pytest.mark.parametrize("dt", [1e-300, 1e-5, 0.0, -0.1])
+def test_cartesian_dt_below_its_least_names_dt(client, dt):
+    """A dt too short for finite-difference velocities (1e-300 gave a 422 on `poses`: the velocities overflow
+    inside the planner) is a 422 on `dt` saying its least value."""
+    r = post(client, "/plan/cartesian", with_value(BODIES["/plan/cartesian"], ("dt",), dt))
+    assert r.status_code == 422, r.text
+    detail = r.json()["detail"]
+    assert [d["loc"] for d in detail] == [["body", "dt"]], detail
+    assert "greater than or equal to 0.0001" in detail[0]["msg"], detail
+    ok = post(client, "/plan/cartesian", with_value(BODIES["/plan/cartesian"], ("dt",), 1e-4))
+    assert ok.status_code == 200 and ok.json()["trajectory"]["times"][1] == pytest.approx(1e-4), ok.text
+
+
+# ---------------------------------------------------------------- request models: every number is strict
+NUMBER_TYPES = ("float", "int", "decimal", "complex")
+
+
+def lax_numbers(node, where: str = "") -> list[str]:
+    """Where a pydantic core schema holds a number that is not strict (lax mode reads "5" and true as 5
+    and 1)."""
+    found = []
+    if isinstance(node, dict):
+        if node.get("type") in NUMBER_TYPES and not node.get("strict"):
+            found.append(where)
+        for key, value in node.items():
+            found += lax_numbers(value, f"{where}/{key}")
+    elif isinstance(node, list):
+        for i, value in enumerate(node):
+            found += lax_numbers(value, f"{where}/{i}")
+    return found
+
+
+def request_models() -> list[type]:
+    """Every request model of the service: the subclasses of ``schemas.Strict`` at any depth, and the models
+    of the schema modules that refuse unknown fields as requests do."""
+    found, todo = [], [schemas.Strict]
+    while todo:
+        model = todo.pop()
+        found.append(model)
+        todo += model.__subclasses__()
+    found += [m for module in (schemas, motion_schemas, collision_schemas) for m in vars(module).values()
+              if isinstance(m, type) and issubclass(m, BaseModel) and m.model_config.get("extra") == "forbid"]
+    return list(dict.fromkeys(found))
+
+
+def test_every_numeric_field_of_every_request_model_is_strict():
+    models = {m.__name__: m for m in request_models()}
+    assert {"IKRequest", "IKBatchRequest", "CartesianPlanRequest", "MotionPlanRequest", "CollisionRequest",
+            "FKRequest", "JacobianRequest"} <= set(models)
+    lax = {name: where for name, m in models.items() if (where := lax_numbers(m.__pydantic_core_schema__))}
+    assert not lax, lax
+
+
+def test_every_request_body_is_a_request_model(client):
+    """The models walked above are the served ones: every route's body is one of them."""
+    bodies = [op["requestBody"]["content"]["application/json"]["schema"]["$ref"].rsplit("/", 1)[1]
+              for path in client.get("/openapi.json").json()["paths"].values()
+              for op in path.values() if "requestBody" in op]
+    assert len(bodies) >= 7 and set(bodies) <= {m.__name__ for m in request_models()}, bodies
+
+
+def test_the_strictness_check_finds_a_lax_field():
+    class Lax(BaseModel):
+        fine: Number
+        also: integer(0, 3) | None = None
+        lax: list[Annotated[float, Field(allow_inf_nan=False, ge=0)]] | None = None
+        count: Annotated[int, Field(ge=1)] = 1
+
+    class Strictish(BaseModel):
+        x: real(gt=0, le=1)
+        n: integer(0, 3)
+
+    assert [w.rsplit("/fields/", 1)[1].split("/")[0] for w in lax_numbers(Lax.__pydantic_core_schema__)] == [
+        "lax", "count"]
+    assert lax_numbers(Strictish.__pydantic_core_schema__) == []
