@@ -11,14 +11,14 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
-from .schemas import PANDA_READY, JointVector, Obstacles, RobotRef, Strict, examples
+from .schemas import PANDA_READY, Flag, JointVector, Obstacles, RobotRef, Strict, examples
 
 
 class CollisionOptions(Strict):
     """Collision options shared by ``/collision`` and ``/ik``."""
 
     obstacles: Obstacles = Field(default_factory=list)
-    self_collision: bool = Field(default=True,
+    self_collision: Flag = Field(default=True,
                                  description="check the robot's own link pairs (SRDF / MoveIt-style)")
 
 
@@ -32,7 +32,7 @@ class CollisionRequest(RobotRef, CollisionOptions):
              "size": [1.0, 1.0, 0.1]}]})
 
     q: JointVector
-    distances: bool = Field(default=False,
+    distances: Flag = Field(default=False,
                             description="also return every checked pair's distance and witness points")
 
 

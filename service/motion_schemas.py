@@ -14,6 +14,7 @@ from typing import Annotated, Any
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, Tag
 
 from .schemas import (
+    Flag,
     JointTrajectoryOut,
     JointVector,
     Name,
@@ -115,7 +116,7 @@ class MotionPlanRequest(RobotRef):
                                  description="shapes the robot and carried objects keep clear of")
     attached: Annotated[list[AttachedSpec], Field(max_length=MAX_ATTACHED)] = Field(
         default_factory=list, description="objects carried by the robot during this plan")
-    self_collision: bool = Field(default=True, description="check the robot's own link pairs too")
+    self_collision: Flag = Field(default=True, description="check the robot's own link pairs too")
     seed: Seed | None = None
     max_iterations: integer(1, MAX_ITERATIONS) | None = Field(
         default=None, description="RRT-Connect samples; with a seed and a max_time that does not run out, "
@@ -126,7 +127,7 @@ class MotionPlanRequest(RobotRef):
     acceleration_limits: Accelerations | None = Field(
         default=None, description="rad/s^2 (m/s^2), one for every joint or one per joint; default 2 x the "
                                   "URDF velocity limits")
-    simplify: bool = Field(default=True, description="shortcut the path")
+    simplify: Flag = Field(default=True, description="shortcut the path")
 
 
 class MotionTrajectoryOut(JointTrajectoryOut):

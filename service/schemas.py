@@ -2,7 +2,8 @@
 
 Every number of every request model is a JSON number, built by :func:`real` (a float field; an integer is
 taken as a float) or :func:`integer` (an integer field: 2.5 and 2.0 are refused): text such as ``"0.1"`` and
-``true`` / ``false`` are refused, not read as numbers. Numbers are finite and bounded (|x| <= 1e6, the
+``true`` / ``false`` are refused, not read as numbers; a yes / no field (:data:`Flag`) takes ``true`` or
+``false`` only. Numbers are finite and bounded (|x| <= 1e6, the
 library's one bound ``kinematics.validation.MAX_ABS``, or the field's own tighter bounds): NaN, infinities
 and absurd magnitudes are rejected with a 422 naming the field before any solver runs. String model
 parameters are bounded the same way when the model is built. Response models are not affected.
@@ -44,6 +45,9 @@ Length = real(gt=0)
 Seconds = real(gt=0)
 #: A seed of random restarts or samples.
 Seed = integer(0, 2**32 - 1)
+#: A request's yes / no field: JSON ``true`` or ``false`` only (pydantic's lax mode read ``"yes"``, ``"true"``
+#: and ``1`` as true).
+Flag = Annotated[bool, Field(strict=True)]
 Row4 = Annotated[list[Number], Field(min_length=4, max_length=4)]
 JointVector = Annotated[list[Number], Field(min_length=1, max_length=64,
                                             description="joint values (rad / m)")]
@@ -278,7 +282,7 @@ class IKOptions(Strict):
     seed: Seed | None = Field(
         default=None, description="seed of the random restarts (none: 0); the same seed gives the same "
                                   "answer unless the time budget cut the solve")
-    self_collision: bool = Field(
+    self_collision: Flag = Field(
         default=False,
         description="keep the robot's collision geometry free of self-collision; obstacles are then "
                                    "kept clear of that geometry (not of the link capsules)")
@@ -428,7 +432,7 @@ class CartesianPlanRequest(RobotRef):
         default=None,
         description="seconds for the whole plan; default and upper bound: the server's request time cap"
     )
-    stop_on_failure: bool = Field(default=True,
+    stop_on_failure: Flag = Field(default=True,
                                   description="stop at the first pose not reached (false: try every pose)")
     # the line mode (planners.plan_cartesian), chosen by giving any of these
     jump_threshold: real(gt=0, le=10) | None = Field(
@@ -436,7 +440,7 @@ class CartesianPlanRequest(RobotRef):
                                   "default 0.25)")
     obstacles: Obstacles = Field(default_factory=list,
                                  description="line mode: stop before the robot would touch one of these")
-    self_collision: bool | None = Field(default=None,
+    self_collision: Flag | None = Field(default=None,
                                         description="line mode: check the robot's own link pairs (default "
                                                     "true)")
     max_step: real(ge=1e-3, le=1.0) | None = Field(

@@ -271,13 +271,20 @@ FIELDS = [
     ("/plan/motion", ("acceleration_limits", 0), "float", 2),
     ("/plan/motion", ("attached", 0, "shape", "radius"), "float", 1),
     ("/collision", ("obstacles", 0, "radius"), "float", 1),
+    ("/ik", ("self_collision",), "bool", False),
+    ("/plan/cartesian", ("stop_on_failure",), "bool", True),
+    ("line", ("self_collision",), "bool", False),
+    ("/plan/motion", ("self_collision",), "bool", True),
+    ("/plan/motion", ("simplify",), "bool", False),
+    ("/collision", ("self_collision",), "bool", False),
+    ("/collision", ("distances",), "bool", True),
 ]
 #: Values pydantic's lax mode would read as numbers (each within the field's bounds once read): text, true,
 #: and for an integer field a float, with or without a fraction part. A model parameter may be text (a xacro
 #: argument: "0.1" is a string parameter), not true.
-BAD = {"float": ["0.1", True], "int": ["2", True, 2.5, 2.0], "param": [True]}
+BAD = {"float": ["0.1", True], "int": ["2", True, 2.5, 2.0], "param": [True], "bool": ["true", "yes", 1, 0]}
 EXPECTED = {"float": "Input should be a valid number", "int": "Input should be a valid integer",
-            "param": "Input should be a valid number"}
+            "param": "Input should be a valid number", "bool": "Input should be a valid boolean"}
 
 
 @pytest.fixture(scope="module")
@@ -353,12 +360,12 @@ def test_cartesian_dt_below_its_least_names_dt(client, dt):
 
 
 # ---------------------------------------------------------------- request models: every number is strict
-NUMBER_TYPES = ("float", "int", "decimal", "complex")
+NUMBER_TYPES = ("float", "int", "decimal", "complex", "bool")
 
 
 def lax_numbers(node, where: str = "") -> list[str]:
-    """Where a pydantic core schema holds a number that is not strict (lax mode reads "5" and true as 5
-    and 1)."""
+    """Where a pydantic core schema holds a number or a bool that is not strict (lax mode reads "5" and true
+    as 5 and 1, and "yes" and 1 as true)."""
     found = []
     if isinstance(node, dict):
         if node.get("type") in NUMBER_TYPES and not node.get("strict"):
@@ -406,11 +413,12 @@ def test_the_strictness_check_finds_a_lax_field():
         also: integer(0, 3) | None = None
         lax: list[Annotated[float, Field(allow_inf_nan=False, ge=0)]] | None = None
         count: Annotated[int, Field(ge=1)] = 1
+        flag: bool = True
 
     class Strictish(BaseModel):
         x: real(gt=0, le=1)
         n: integer(0, 3)
 
     assert [w.rsplit("/fields/", 1)[1].split("/")[0] for w in lax_numbers(Lax.__pydantic_core_schema__)] == [
-        "lax", "count"]
+        "lax", "count", "flag"]
     assert lax_numbers(Strictish.__pydantic_core_schema__) == []
