@@ -19,6 +19,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -28,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix, as_positive
+from kinserve.kinematics.validation import MAX_ABS, as_matrix, as_positive
 
 from .checks import as_times
 
@@ -67,6 +68,23 @@ def joint_name_list(joint_names: object) -> list:
                                                                                          "__iter__"):
         raise InputError(f"joint_names must be a sequence of joint names (strings), got {joint_names!r:.80}")
     return list(joint_names)
+
+
+def _check_velocity_bound(V: np.ndarray, Q: np.ndarray, dt: float, zero_ends: bool) -> None:
+    """:class:`InputError` naming ``dt`` when the finite-difference velocities ``V`` of positions ``Q`` at a
+    step of ``dt`` s are not within :data:`~kinserve.kinematics.validation.MAX_ABS`. The message gives the
+    least step that keeps them within: the velocities at a step of 1 s over ``MAX_ABS`` (they scale as
+    ``1 / dt``), rounded up to four digits."""
+    if np.all(np.abs(V) <= MAX_ABS):
+        return
+    unit = finite_difference_velocities(Q, np.arange(Q.shape[0], dtype=float), zero_ends=zero_ends)
+    least = float(np.max(np.abs(unit))) / MAX_ABS * (1 + 1e-9)
+    scale = 10.0 ** (math.floor(math.log10(least)) - 3)
+    least = math.ceil(least / scale) * scale
+    exc = InputError(f"dt = {dt:g} s is too short for these positions: their finite-difference velocities "
+                     f"exceed {MAX_ABS:g} rad/s or m/s; dt must be at least {least:.4g} s")
+    exc.argument = "dt"  # (a front end points at its dt field)
+    raise exc
 
 
 @dataclass
@@ -117,7 +135,9 @@ class JointTrajectory:
         t = dt * np.arange(Q.shape[0])
         V = None
         if velocities == "finite_difference":
-            V = finite_difference_velocities(Q, t, zero_ends=zero_end_velocities)
+            with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # judged just below
+                V = finite_difference_velocities(Q, t, zero_ends=zero_end_velocities)
+            _check_velocity_bound(V, Q, dt, zero_end_velocities)
         elif velocities is not None:
             raise InputError(f"velocities must be 'finite_difference' or None, got {velocities!r}")
         return cls(list(joint_names), t, Q, V)

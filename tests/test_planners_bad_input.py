@@ -351,3 +351,29 @@ def test_resolved_rate_thresholds_and_circle_are_checked():
     with pytest.raises(InputError, match="angular_velocity must be a number"):
         follow_circle(robot, [0.5, 0.0], 0.1, q0, 3, 0.01, axes=["x", "y"], angular_velocity="a")
     assert len(follow_circle(robot, [0.5, 0.0], 0.1, q0, 3, 0.01, axes=["x", "y"]).q) == 4
+
+
+@pytest.mark.parametrize("dt", [1e-300, 1e-9])
+def test_cartesian_to_joint_names_a_dt_too_short_for_its_velocities(panda, line, dt):
+    """The finite-difference velocities overflow or pass the 1e6 bound: an InputError naming dt and the least
+    dt for these positions (it said 'velocities must hold finite numbers' after the solves); that dt works."""
+    with pytest.raises(InputError, match=r"dt = .* s is too short .* dt must be at least") as info:
+        cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=3, dt=dt, **NO_CLOCK)
+    least = float(str(info.value).rsplit("at least ", 1)[1].split(" s")[0])
+    plan = cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=3, dt=least, **NO_CLOCK)
+    assert np.all(np.isfinite(plan.trajectory.velocities))
+    assert np.max(np.abs(plan.trajectory.velocities)) <= 1e6
+
+
+def test_from_positions_velocity_bound_is_the_documented_one():
+    """Positions 0, 0.3, 0.5: the second-order one-sided difference at the start is (4 x 0.3 - 0.5) / (2 dt)
+    = 0.35 / dt, the largest, so dt = 3.5e-7 s is the least (given as 3.501e-07, rounded up); 1 % less is
+    refused, and the velocities at the least dt are within 1e6."""
+    from kinserve.planners.joint_trajectory import JointTrajectory
+
+    Q = [[0.0, 0.0], [0.3, 0.1], [0.5, 0.2]]
+    with pytest.raises(InputError, match=r"dt must be at least 3\.501e-07 s"):
+        JointTrajectory.from_positions(["a", "b"], Q, 0.99 * 3.5e-7)
+    trajectory = JointTrajectory.from_positions(["a", "b"], Q, 3.501e-7)
+    assert np.max(np.abs(trajectory.velocities)) <= 1e6
+    assert np.max(np.abs(trajectory.velocities)) == pytest.approx(0.35 / 3.501e-7)
