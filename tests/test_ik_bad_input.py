@@ -352,3 +352,17 @@ def test_warm_refuses_bad_arguments_before_building(panda, monkeypatch, kwargs, 
 def test_warm_accepts_frames(panda):
     assert ik.warm(panda, "panda_hand", collision_margin=0.0) is not None
     assert ik.warm(panda, ("panda_hand", panda.tip)) is not None
+
+
+@pytest.mark.parametrize("backend", ["processes", "serial"])
+def test_ray_address_with_another_backend_is_refused_not_ignored(backend):
+    """ik.solve_many and plan_many refuse a ray_address their backend would ignore (before any worker)."""
+    from kinserve import ik, robots
+    from kinserve.planners.motion import plan_many
+
+    arm = robots.load("planar4r", geometry=False)
+    Q = arm.random_q(0, n=2)
+    with pytest.raises(InputError, match=f"ray_address is for backend='ray' only \\(backend='{backend}'"):
+        ik.solve_many(arm, arm.fk_batch(Q), backend=backend, ray_address="127.0.0.1:1")
+    with pytest.raises(InputError, match="ray_address is for backend='ray' only \\(backend='local'"):
+        plan_many(arm, [(Q[0], Q[1])], backend="local", ray_address="127.0.0.1:1")

@@ -213,7 +213,8 @@ def test_the_cli_exits_2_with_one_line_naming_the_address(tmp_path):
     assert "Traceback" not in done.stdout + done.stderr
     assert done.stderr.strip().splitlines() == [
         "error: no Ray cluster answers at 127.0.0.1:1 (connection refused); start one with "
-        "`ray start --head` or leave ray_address unset (None) to start a local Ray"]
+        "`ray start --head`, or give no address (ray_address=None; no --ray-address on the command line) to "
+        "start a local Ray"]
     assert not list(tmp_path.iterdir())  # nothing written
 
 
@@ -234,3 +235,4 @@ def test_a_running_cluster_is_joined():
                 assert run_child("ensure_ray(sys.argv[1])", address) == "joined True 1.0"
         finally:
             ray.shutdown()
+

@@ -66,7 +66,8 @@ def _ray():
 
 TCP_LIMIT = 5.0  #: seconds a cluster's host has to accept a TCP connection
 JOIN_LIMIT = 30.0  #: seconds a Ray GCS has to answer (:func:`ensure_ray`)
-_HINT = "start one with `ray start --head` or leave ray_address unset (None) to start a local Ray"
+_HINT = ("start one with `ray start --head`, or give no address (ray_address=None; no --ray-address on the "
+         "command line) to start a local Ray")
 # run by a child process: connect to the GCS at argv[1] as Ray's own client does, and ask its cluster id
 _GCS_PROBE = """import sys
 from ray import _raylet

@@ -258,6 +258,9 @@ def solve_many(
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}")
+    if ray_address is not None and backend != "ray":
+        raise InputError(f"ray_address is for backend='ray' only (backend={backend!r} would ignore it), got "
+                         f"ray_address={ray_address!r:.80}")
     processes = _check_count(processes, "processes", MAX_PROCESSES)
     chunksize = _check_count(chunksize, "chunksize", MAX_CHUNKSIZE)
     timeout = _check_timeout(timeout)

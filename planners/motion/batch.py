@@ -220,6 +220,9 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    if ray_address is not None and backend != "ray":
+        raise InputError(f"ray_address is for backend='ray' only (backend={backend!r} would ignore it), got "
+                         f"ray_address={ray_address!r:.80}")
     _check_count(processes, "processes", MAX_PROCESSES)
     _check_count(chunksize, "chunksize")
     deadline = None if timeout is None else time.monotonic() + as_positive(timeout, "timeout")
