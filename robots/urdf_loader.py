@@ -81,8 +81,8 @@ MAX_LINKS = 2000
 
 #: Most movable (non-``fixed``) joints a URDF may have. TIAGo dual, the largest of example-robot-data, has
 #: 101. Every ``pinocchio.Data`` holds second-order derivative tensors of nv x nv x nv floats (about 40 nv**3
-#: bytes in all: 43 MB at nv = 100, 320 MB at 200, 1.1 GB at 300), and a robot makes several (its own, each
-#: thread's collision workspace, ...).
+#: bytes in all: 43 MB at nv = 100, 320 MB at 200, 1.1 GB at 300), and a robot makes several (its own, one
+#: per thread for its collision queries, one per motion plan, ...).
 MAX_MOVABLE_JOINTS = 200
 
 #: Tolerance on a locked joint value outside its limits.
