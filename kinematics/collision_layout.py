@@ -296,6 +296,11 @@ class SceneLayout:
                     else placements[k]
         return gm
 
+    def thread_data(self) -> pin.Data:
+        """This thread's ``pinocchio.Data`` for forward kinematics right before placing geometries, shared
+        by every layout of the robot (:meth:`RobotCollisionGeometry.thread_data`)."""
+        return self._robot.thread_data()
+
     def _new_workspace(self) -> Workspace:
         gm = self.geometry.copy()  # the thread's own placements; shares the coal shapes
         gd = pin.GeometryData(gm)
