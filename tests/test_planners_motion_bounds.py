@@ -106,6 +106,7 @@ def test_the_oracle_radius_is_the_exact_one_and_its_bounds_are_lower_bounds(pand
     W = pair_reach(panda.model, scene)
     oracle = ClearanceOracle(scene)
     assert oracle.precheck is not None
+    assert oracle.data is scene.workspace().data  # the thread's shared Data: the scene's queries run between
     rng = np.random.default_rng(3)
     tested = 0
     while tested < 25:
