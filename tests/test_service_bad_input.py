@@ -21,6 +21,7 @@ from kinserve.service import cli, collision_schemas, motion_schemas, schemas
 from kinserve.service.schemas import Number, integer, real
 from kinserve.service.settings import ServiceSettings
 
+from cli_runs import assert_one_line_error, run_main
 from service_server import client_of, running
 
 SCENE = """world:
@@ -36,21 +37,9 @@ def planar():
     return robots.load("planar4r")
 
 
-def run_main(argv, capsys):
-    try:
-        code = cli.main(argv)
-    except SystemExit as exc:
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
 def one_line_error(argv, capsys, needle):
-    code, out, err = run_main(argv, capsys)
-    assert code == 2, (code, out, err)
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, err
-    assert needle in err, err
+    """``kinserve <argv>`` in-process fails in one line holding ``needle`` (:mod:`cli_runs`)."""
+    assert_one_line_error(*run_main(argv, capsys), needle)
 
 
 # ---------------------------------------------------------------- service settings
@@ -66,19 +55,6 @@ def test_settings_refuse_absurd_values(field, value, needle):
     with pytest.raises(ValueError, match=needle):
         ServiceSettings(**{field: value})
     ServiceSettings(**{field: 2 if field != "queue" else 0})  # a sane value still works
-
-
-@pytest.mark.parametrize("args, needle", [
-    (["--max-body", "inf"], "argument --max-body: expected a size"),
-    (["--max-body", "1e30k"], "argument --max-body: expected a size"),
-    (["--robot-cache-mb", "inf"], "argument --robot-cache-mb"),
-    (["--robot-cache-mb", "nan"], "argument --robot-cache-mb"),
-    (["--robot-cache-mb", "1e300"], "argument --robot-cache-mb"),
-    (["--request-time-cap", "1e300"], "argument --request-time-cap"),
-    (["--keep-alive", "1e300"], "argument --keep-alive"),
-])
-def test_serve_refuses_absurd_options_while_parsing(args, needle, capsys):
-    one_line_error(["serve", *args], capsys, needle)  # refused by argparse: no server is started
 
 
 def test_serve_accepts_sane_options_when_parsing():

@@ -18,6 +18,8 @@ import pytest
 from kinserve import __version__
 from kinserve.service import cli
 
+from cli_runs import assert_one_line_error, run_main
+
 
 def subcommands() -> dict[str, argparse.ArgumentParser]:
     parser = cli.build_parser()
@@ -91,24 +93,6 @@ BAD = {
               (["pr", "--seed", "-1"], "argument --seed: expected a whole number 0.."),
               (["pr", "--seed", "1.5"], "argument --seed")],
 }
-
-
-def run_main(argv: list[str], capsys) -> tuple[int, str, str]:
-    try:
-        code = cli.main(argv)
-    except SystemExit as exc:  # argparse
-        code = exc.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-def assert_one_line_error(code, out, err, needle=None):
-    assert code == 2, (code, out, err)
-    assert "Traceback" not in out + err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), err
-    if needle:
-        assert needle in err, err
 
 
 def test_every_registered_subcommand_has_bad_argument_cases():
