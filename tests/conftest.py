@@ -54,6 +54,17 @@ def rng():
     return np.random.default_rng(12345)
 
 
+@pytest.fixture
+def fresh_registry():
+    """The robot registry's parsed models dropped before and after the test (each load parses again).
+    A module takes it for every test with ``pytestmark = pytest.mark.usefixtures("fresh_registry")``."""
+    from kinserve import robots
+
+    robots.clear_cache()
+    yield
+    robots.clear_cache()
+
+
 
 # ------------------------------------------------------------ no process left behind
 # A per-session tag in the environment: every process started by this pytest process (or by an

@@ -81,11 +81,7 @@ def numpy_rank_deficient(J, tol=1e-6) -> bool:
     return bool(np.sum(s > tol * max(1.0, s[0])) < min(J.shape))
 
 
-@pytest.fixture(autouse=True)
-def fresh_cache():
-    robots.clear_cache()
-    yield
-    robots.clear_cache()
+pytestmark = pytest.mark.usefixtures("fresh_registry")  # each test parses its models (conftest)
 
 
 def test_planar_arm_gets_x_y_yaw_and_its_singularities_match_an_independent_svd():

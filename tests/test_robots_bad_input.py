@@ -28,11 +28,7 @@ URDF = """<robot name="two">
 """
 
 
-@pytest.fixture(autouse=True)
-def fresh_cache():
-    robots.clear_cache()
-    yield
-    robots.clear_cache()
+pytestmark = pytest.mark.usefixtures("fresh_registry")  # each test parses its models (conftest)
 
 
 def _srdf(tmp_path, body: str):

@@ -39,11 +39,7 @@ SRDF = """<?xml version="1.0"?>
 """
 
 
-@pytest.fixture(autouse=True)
-def fresh_cache():
-    robots.clear_cache()
-    yield
-    robots.clear_cache()
+pytestmark = pytest.mark.usefixtures("fresh_registry")  # each test parses its models (conftest)
 
 
 def test_panda_named_state_matches_the_srdf_file_text():
