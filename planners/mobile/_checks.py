@@ -39,6 +39,20 @@ def as_points(value: object, name: str, min_rows: int = 1, single: bool = False)
     return P
 
 
+def as_headings(value: object, n: int) -> np.ndarray:
+    """``value`` as the ``n`` headings (rad) of a path of ``n`` points: :class:`ShapeError` when it is not
+    ``n`` numbers (the message says "like the path"), :class:`NonFiniteError` naming the entries that are
+    not finite or exceed 1e6 in magnitude."""
+    try:
+        heading = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ShapeError(f"heading must be {n} angles (rad), got {value!r:.60}") from None
+    if heading.shape != (n,):
+        raise ShapeError(f"heading must have shape ({n},) like the path, got {heading.shape}")
+    check_bounded(heading, "heading")
+    return heading
+
+
 #: Relative tolerance of the orientation predicate of :func:`as_polygon` (an angle in radians; see there).
 POLYGON_TOL = 1e-12
 #: Most (edge, edge) pairs :func:`as_polygon` tests at once (bounds its memory to a few tens of MB).

@@ -39,10 +39,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.validation import as_count, as_positive, as_real
 
-from ._checks import MAX_SAMPLES, as_point, as_points, check_samples
+from ._checks import MAX_SAMPLES, as_headings, as_point, as_points, check_samples
 from .astar import astar
 from .maps import OccupancyGrid, check_grid
 from .smoothing import smooth_path
@@ -295,14 +295,7 @@ def swept_coverage(grid: OccupancyGrid, path: np.ndarray, heading: np.ndarray,
     """
     check_grid(grid)
     path = as_points(path, "path")
-    try:
-        heading = np.asarray(heading, dtype=float)
-    except (TypeError, ValueError):
-        raise ShapeError(f"heading must be {len(path)} angles (rad), got {heading!r:.60}") from None
-    if heading.shape != (len(path),):
-        raise ShapeError(f"heading must have shape ({len(path)},) like the path, got {heading.shape}")
-    if not np.all(np.abs(heading) <= 1e6):
-        raise InputError("heading must hold finite angles with magnitude <= 1e6")
+    heading = as_headings(heading, len(path))
     robot_width = _robot_width(grid, robot_width)
     res = grid.resolution
     length = float(np.sum(np.linalg.norm(np.diff(path, axis=0), axis=1)))

@@ -28,10 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_positive, as_vector, check_bounded
+from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_positive, as_vector
 
-from ._checks import MAX_SAMPLES, as_points, check_samples
+from ._checks import MAX_SAMPLES, as_headings, as_points, check_samples
 from .shapes import Circle, Polygon, Rectangle
 
 #: Most outline points of :func:`footprint_outline`.
@@ -98,13 +98,7 @@ def _checked_arguments(path, heading, shapes, length, width, spacing, turn_step)
     """``(P, H, L, W)``: :func:`footprint_penetration`'s path, headings, length and width, checked
     (:class:`ShapeError` / :class:`InputError` naming the argument), with the other arguments."""
     P = as_points(path, "path")
-    try:
-        H = np.asarray(heading, dtype=float)
-    except (TypeError, ValueError):
-        raise ShapeError(f"heading must be {len(P)} angles (rad), got {heading!r:.60}") from None
-    if H.shape != (len(P),):
-        raise ShapeError(f"heading must have shape ({len(P)},) like the path, got {H.shape}")
-    check_bounded(H, "heading")
+    H = as_headings(heading, len(P))
     L = as_positive(length, "length")
     W = L if width is None else as_positive(width, "width")
     spacing = as_positive(spacing, "spacing")
