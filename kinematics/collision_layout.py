@@ -167,26 +167,23 @@ def exact_requests(requests: Iterable[Any]) -> None:
     * ``enable_contact = True`` (Pinocchio's ``GeometryData`` turns it off): coal 3's GJK without it reports
       some pairs of hulls free while they overlap by millimetres (13 of 700 000 MotionBenchMaker
       configurations, up to 7.4 mm deep, that a fresh request and ``coal.distance`` find in collision);
-    * GJK starts every call from its default guess, not the cached one of the call before (Pinocchio enables
-      the cache): with it a contact within a few times GJK's relative tolerance got either answer depending
-      on which configurations were checked before (1.5e-5 m of penetration between two Panda hulls). Both of
-      coal's switches: ``gjk_initial_guess`` and the deprecated ``enable_cached_gjk_guess``, which coal 3
-      still honours on its own.
+    * GJK starts every call from its default guess (:func:`default_gjk_start`): with the cached one a contact
+      within a few times GJK's relative tolerance got either answer depending on which configurations were
+      checked before (1.5e-5 m of penetration between two Panda hulls).
     """
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)
-        for req in requests:
-            req.security_margin = 0.0
-            req.enable_contact = True
-            req.gjk_initial_guess = _DEFAULT_GUESS
-            req.enable_cached_gjk_guess = False
+    requests = list(requests)
+    for req in requests:
+        req.security_margin = 0.0
+        req.enable_contact = True
+    default_gjk_start(requests)
 
 
-def repeatable_distances(requests: Iterable[Any]) -> None:
-    """Make these ``coal.DistanceRequest`` (a workspace's distance queries) start GJK from its default guess
-    every call, not from the cached one of the call before (Pinocchio enables the cache): with it the same
-    ``q`` asked twice gave distances up to 1.7e-6 m apart, depending on the configurations asked in between.
-    Both of coal's switches, as :func:`exact_requests`."""
+def default_gjk_start(requests: Iterable[Any]) -> None:
+    """Make these coal requests (collision or distance) start GJK from its default guess every call, not
+    from the cached one of the call before, which Pinocchio enables: an answer then depends on the
+    configurations asked before (a distance asked twice differed by up to 1.7e-6 m; a contact's verdict
+    could flip, :func:`exact_requests`). Both of coal's switches: ``gjk_initial_guess`` and the deprecated
+    ``enable_cached_gjk_guess``, which coal 3 still honours on its own."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         for req in requests:
@@ -305,7 +302,7 @@ class SceneLayout:
         gm = self.geometry.copy()  # the thread's own placements; shares the coal shapes
         gd = pin.GeometryData(gm)
         exact_requests(gd.collisionRequests)
-        repeatable_distances(gd.distanceRequests)
+        default_gjk_start(gd.distanceRequests)
         data = self._robot.thread_data()
         bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
         check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
@@ -373,7 +370,7 @@ class SceneLayout:
             exact_requests(gd.collisionRequests)  # contacts on, no cached guess: see exact_requests
             for req in gd.collisionRequests:
                 req.security_margin = threshold
-            repeatable_distances(gd.distanceRequests)
+            default_gjk_start(gd.distanceRequests)
             for req in gd.distanceRequests:  # GJK to 1e-9 m (default 1e-6): smooth enough for step rows
                 req.gjk_tolerance = GJK_TOLERANCE
             bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
@@ -383,4 +380,4 @@ class SceneLayout:
 
 __all__ = ["GJK_TOLERANCE", "MARGIN_WORKSPACES", "NAIVE_MAX_GEOMETRIES", "SPHERE_PRECHECK", "MarginWorkspace",
            "RobotCollisionGeometry", "SceneLayout", "Workspace", "broad_phase_manager_class",
-           "exact_requests", "obstacle_name", "repeatable_distances"]
+           "default_gjk_start", "exact_requests", "obstacle_name"]

@@ -35,7 +35,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from kinserve.kinematics.collision_layout import repeatable_distances
+from kinserve.kinematics.collision_layout import default_gjk_start
 from kinserve.kinematics.precheck_kernels import TOLERANCE, pair_lower_bounds
 
 from .extend_kernel import UNCERTAIN
@@ -142,7 +142,7 @@ class ClearanceOracle:
         #: (a ``Data`` of its own cost 44 MB per plan on TIAGo dual: nv^3 tensors).
         self.data = scene.layout.thread_data()
         self.geometry_data = pin.GeometryData(scene.geometry)
-        repeatable_distances(self.geometry_data.distanceRequests)  # same q, same distances
+        default_gjk_start(self.geometry_data.distanceRequests)  # same q, same distances
         self.checks = 0
         self.distance_checks = 0
         self.pair_distances = 0
