@@ -117,7 +117,6 @@ class RobotCollisionGeometry:
             packings = {True: own, False: RobotPacking(self.spheres, (), self.moving, self.inner_radii)}
         object.__setattr__(self, "packings", packings)
 
-
     def thread_data(self) -> pin.Data:
         """This thread's ``pinocchio.Data`` for the workspaces of every layout of the robot (made on the
         thread's first workspace). Sharing it is sound: every query runs forward kinematics on it and places
@@ -128,6 +127,7 @@ class RobotCollisionGeometry:
         if data is None:
             data = self._threads.data = self.model.createData()
         return data
+
 
 @dataclass(eq=False)
 class Workspace:
@@ -303,7 +303,7 @@ class SceneLayout:
         gd = pin.GeometryData(gm)
         exact_requests(gd.collisionRequests)
         default_gjk_start(gd.distanceRequests)
-        data = self._robot.thread_data()
+        data = self.thread_data()
         bpm = self.broad_phase(self.model, gm, gd) if len(self.pairs) else None
         check = None if bpm is None else collision_check(self.model, data, gm, gd, bpm)
         placed = list(self.obstacles)

@@ -177,6 +177,14 @@ def check_cluster(address: str, limit: float = JOIN_LIMIT) -> None:
         _check_gcs(shown, target, limit)
 
 
+def refuse_unused_address(ray_address: object, backend: str) -> None:
+    """:class:`InputError` when a ``ray_address`` is given with a ``backend`` other than ``"ray"``, which
+    would ignore it (``ik.solve_many``, ``plan_many``)."""
+    if ray_address is not None and backend != "ray":
+        raise InputError(f"ray_address is for backend='ray' only (backend={backend!r} would ignore it), got "
+                         f"ray_address={ray_address!r:.80}")
+
+
 def ensure_ray(address: str | None = None, num_cpus: int | None = None,
                join_limit: float = JOIN_LIMIT) -> ModuleType:
     """Connect to Ray (``address``) or start a local instance with ``num_cpus`` CPUs; return the module.

@@ -39,6 +39,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.ik.batch.pool import shutdown_pool
+from kinserve.ik.batch.ray_backend import refuse_unused_address
 from kinserve.ik.batch.runners import BACKENDS, TimeLimits, run_serial
 from kinserve.ik.batch.worker import Job
 from kinserve.ik.request import target_request
@@ -258,9 +259,7 @@ def solve_many(
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}")
-    if ray_address is not None and backend != "ray":
-        raise InputError(f"ray_address is for backend='ray' only (backend={backend!r} would ignore it), got "
-                         f"ray_address={ray_address!r:.80}")
+    refuse_unused_address(ray_address, backend)
     processes = _check_count(processes, "processes", MAX_PROCESSES)
     chunksize = _check_count(chunksize, "chunksize", MAX_CHUNKSIZE)
     timeout = _check_timeout(timeout)

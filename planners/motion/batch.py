@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from kinserve.ik.batch.ray_actors import BatchLabels, run_on_new_actors
-from kinserve.ik.batch.ray_backend import ensure_ray
+from kinserve.ik.batch.ray_backend import ensure_ray, refuse_unused_address
 from kinserve.ik.batch.runners import CHUNK_FACTOR, CHUNK_SLACK
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
 from kinserve.kinematics.shapes import as_obstacles
@@ -143,10 +143,9 @@ def check_shared_values(robot: Robot, problem: MotionProblem, plan_kwargs: dict)
     request ``plan_motion`` would build for ``problem``'s goal with them (from the robot's middle
     configuration: the start of each problem is checked on its own). Its :class:`InputError` names the
     keyword; the message says it is a shared one."""
-    from .plan import plan_motion
     from .request import motion_request
 
-    given = {k: p.default for k, p in inspect.signature(plan_motion).parameters.items()
+    given = {k: p.default for k, p in inspect.signature(_plan_motion()).parameters.items()
              if p.default is not inspect.Parameter.empty}
     given.update(plan_kwargs)
     try:
@@ -220,9 +219,7 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
     """
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
-    if ray_address is not None and backend != "ray":
-        raise InputError(f"ray_address is for backend='ray' only (backend={backend!r} would ignore it), got "
-                         f"ray_address={ray_address!r:.80}")
+    refuse_unused_address(ray_address, backend)
     _check_count(processes, "processes", MAX_PROCESSES)
     _check_count(chunksize, "chunksize")
     deadline = None if timeout is None else time.monotonic() + as_positive(timeout, "timeout")
