@@ -237,6 +237,8 @@ class SceneLayout:
 
     def __init__(self, robot: RobotCollisionGeometry, obstacles: tuple, self_collision: bool) -> None:
         self.model = robot.model
+        #: The model's ``nq``, a Python int (a new scene reads it without a call into Pinocchio's bindings).
+        self.nq: int = robot.model.nq
         self._robot = robot  # its thread_data() serves the workspaces
         self.obstacles = obstacles
         self.self_collision = bool(self_collision)

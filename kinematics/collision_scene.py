@@ -134,7 +134,7 @@ class CollisionScene:
         self.obstacles = obstacles
         #: Whether the robot's self pairs are checked (the layout's choice, a bool).
         self.self_collision: bool = layout.self_collision
-        self._nq: int = layout.model.nq
+        self._nq: int = layout.nq
         self._geometry: pin.GeometryModel | None = None  # made on its first read (:attr:`geometry`)
         # the pre-check's packed floats: all a new scene computes (read by in_collision without a look-up)
         check = self._layout_check = layout.sphere_precheck
