@@ -116,7 +116,6 @@ class Problem:
         self.robot = robot
         self.model = robot.model
         self.data = robot.data
-        self._check_data = None
         self.tasks = [t.bind(robot) for t in tasks]
         self.constraints = _bound_constraints(robot, constraints, self.tasks)
         self.box_constraints = []
@@ -199,6 +198,10 @@ class Problem:
             out.append((pe, re))
         return out
 
+    def error_index(self, task: Task) -> int:
+        """Where ``task`` (one of :attr:`tasks`) has its error in :meth:`evaluate`'s ``es``."""
+        return self._es_index[next(k for k, t in enumerate(self.tasks) if t is task)]
+
     def task_errors(self, es: list) -> list[dict]:
         """Per-task report for :attr:`Result.task_errors`."""
         out = []
@@ -241,13 +244,6 @@ class Problem:
         if len(Gs) == 1:
             return lb, ub, Gs[0], ls[0], us[0]
         return lb, ub, np.concatenate(Gs), np.concatenate(ls), np.concatenate(us)
-
-    @property
-    def check_data(self) -> pin.Data:
-        """A second Pinocchio ``Data`` (made on first use) for checks that must not disturb :attr:`data`."""
-        if self._check_data is None:
-            self._check_data = self.model.createData()
-        return self._check_data
 
     def margin(self, q: np.ndarray) -> float:
         """Smallest margin of the checked constraints at ``q`` (``inf`` without any); forward kinematics

@@ -122,6 +122,25 @@ def test_user_task_centre_of_mass_is_reached(panda):
             and not res.task_errors[1]["goal"])
 
 
+@pytest.mark.parametrize("frame_priority", [1, 2])
+def test_history_names_a_user_tasks_rows_by_its_error_at_the_answer(panda, frame_priority):
+    """A user task without ``components``: the history names its rows by their index, counted from its error
+    at the answer (no extra kinematics in the solve), in the goals' given order whatever the priorities."""
+    q = panda.random_q(np.random.default_rng(8))
+    com = pin.centerOfMass(panda.model, panda.model.createData(), q)
+    frame = ik.FrameTask(panda.tip, panda.fk(q).copy(), priority=frame_priority)
+    alone = ik.solve(panda, tasks=[CoMTask(com)], seed=0, iteration_budget=2000)
+    assert alone.history.components == ("0", "1", "2")
+    assert alone.history.task_error.shape[1] == 3
+    both = ik.solve(panda, tasks=[frame, CoMTask(com)], seed=0, iteration_budget=4000)
+    assert both.success, both.message
+    frame_rows = tuple(f"{frame.name}:{c}" for c in ("x", "y", "z", "roll", "pitch", "yaw"))
+    assert both.history.components == frame_rows + ("com:0", "com:1", "com:2")
+    assert both.history.task_error.shape[1] == 9
+    last = both.history.task_error[-1]
+    assert np.allclose(last[6:], com - pin.centerOfMass(panda.model, panda.model.createData(), both.q))
+
+
 def test_baxter_reaches_a_pose_with_each_hand_at_once():
     baxter = robots.load("baxter", geometry=False)
     assert baxter.nq == 14

@@ -311,23 +311,29 @@ def solve_problem(
     if defer_starts > 0:
         sequence = _deferred(sequence, int(defer_starts), DEFER_BY)
     tried = _run_starts(run, sequence, max_starts)
-    report = _Report(method, components if components is not None else _components(pb),
-                     evaluate if evaluate is not None else goal_evaluator(pb), _frame_of(pb), note, t0)
+    report = _Report(method, components, evaluate if evaluate is not None else goal_evaluator(pb),
+                     _frame_of(pb), note, t0)
     if tried.best is None:
         return _no_start_result(pb, q0, report)
     return _best_result(run, tried, report)
 
 
 class _Report(NamedTuple):
-    """How a solve reports its answer: the method's name, the history's components and evaluator
-    (:meth:`History.from_lists`), the goal frames, a note on ``q0`` ("" = none), the solve's start time."""
+    """How a solve reports its answer: the method's name, the history's components (None: the goal tasks',
+    :meth:`components_of`) and evaluator (:meth:`History.from_lists`), the goal frames, a note on ``q0``
+    ("" = none), the solve's start time."""
 
     method: str
-    components: tuple
+    components: tuple | None
     evaluate: Callable[[np.ndarray], np.ndarray]
     frame: str
     note: str
     t0: float
+
+    def components_of(self, pb: Problem, es: list) -> tuple:
+        """The history's components: the given ones, else :func:`goal_components` of ``pb`` with the task
+        errors ``es`` of the answer."""
+        return self.components if self.components is not None else goal_components(pb, es)
 
 
 def _checked_q0(pb: Problem, q0: np.ndarray | None) -> tuple[np.ndarray | None, str]:
@@ -346,12 +352,12 @@ def _no_start_result(pb: Problem, q0: np.ndarray | None, report: _Report) -> Res
     configuration) with its residual."""
     robot = pb.robot
     q = np.clip(robot.neutral() if q0 is None else q0, robot.lower, robot.upper)
-    _, pe, re, _ = pb.evaluate(q)  # the residual at the returned q: finite, never NaN (no null over HTTP)
+    _, pe, re, es = pb.evaluate(q)  # the residual at the returned q: finite, never NaN (no null over HTTP)
     message = "no start configuration satisfying the constraints was found"
     return Result(q=q, success=False, position_error=float(pe), orientation_error=float(re),
                   elapsed=_now() - report.t0, message=f"{message}; {report.note}" if report.note else message,
                   method=report.method, frame=report.frame,
-                  history=History.empty(robot.nq, report.components))
+                  history=History.empty(robot.nq, report.components_of(pb, es)))
 
 
 def _best_result(run: _Run, tried: _Starts, report: _Report) -> Result:
@@ -370,8 +376,8 @@ def _best_result(run: _Run, tried: _Starts, report: _Report) -> Result:
                    f"{pes[k]:.3g} m / {res[k]:.3g} rad")
     if report.note:
         message = f"{message}; {report.note}"
-    hist = History.from_lists(qs[: k + 1], pes[: k + 1], res[: k + 1], components=report.components,
-                              evaluate=report.evaluate)
+    hist = History.from_lists(qs[: k + 1], pes[: k + 1], res[: k + 1],
+                              components=report.components_of(pb, es), evaluate=report.evaluate)
     return Result(q=q, success=ok, position_error=float(pes[k]), orientation_error=float(res[k]),
                   iterations=tried.iterations, restarts=tried.n_starts - 1, elapsed=_now() - report.t0,
                   message=message, history=hist, method=report.method, frame=report.frame,
@@ -435,24 +441,19 @@ def _frame_of(pb: Problem) -> str:
     return ",".join(frames)
 
 
-def _components(pb: Problem) -> tuple:
+def goal_components(pb: Problem, es: list) -> tuple:
+    """The names of the goal errors' components (:attr:`History.components`): each goal task's own
+    ``components``, else its rows' indices, counted from its error in ``es`` (every task's error at one
+    configuration, in :meth:`Problem.evaluate`'s order); prefixed with the task's name when there are several
+    goals."""
     comps = []
     many = len(pb.goals) > 1
     for t in pb.goals:
         names = getattr(t, "components", None)
         if names is None:
-            e, _ = t.compute(pb.robot, _kinematics(pb, pb.robot.neutral()), pb.robot.neutral())
-            names = tuple(str(i) for i in range(len(e)))
+            names = tuple(str(i) for i in range(len(es[pb.error_index(t)])))
         comps.extend(f"{t.name}:{c}" if many else c for c in names)
     return tuple(comps)
-
-
-def _kinematics(pb: Problem, q):
-    import pinocchio as pin
-
-    d = pb.check_data
-    pin.computeJointJacobians(pb.model, d, q)
-    return d
 
 
 def goal_evaluator(pb: Problem) -> Callable[[np.ndarray], np.ndarray]:
