@@ -31,7 +31,7 @@ from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from itertools import repeat
 from operator import attrgetter, is_
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import coal
 import numpy as np
@@ -54,6 +54,9 @@ from .collision_scene import CollisionScene
 from .errors import ModelError
 from .mesh_hulls import HullFallback, coal_message, convex_hulls
 from .shapes import Shape, as_obstacles
+
+if TYPE_CHECKING:
+    from .sphere_cover import GeometrySpheres
 
 #: Scene layouts (obstacle shapes, poses aside) kept per model, least recently used dropped first.
 LAYOUT_CACHE_SIZE = 32
@@ -188,9 +191,13 @@ class CollisionModel:
                 from None
         return cls(model, gm, lower, upper, model_text=kw.pop("model_text", urdf), **kw)
 
-    def _assemble(self, gm: pin.GeometryModel, self_pairs: list[tuple[int, int]]) -> None:
+    def _assemble(self, gm: pin.GeometryModel, self_pairs: list[tuple[int, int]],
+                  bare: CollisionModel | None = None) -> None:
         """Set the self pairs of ``gm`` (hulls, no pairs yet) and make everything derived from the geometry:
-        the sphere model, the layouts' robot geometry, the viewer data, the base spheres, empty caches."""
+        the sphere model, the layouts' robot geometry, the viewer data, the base spheres, empty caches.
+        ``bare``: the model without carried objects whose geometries are the first ones of ``gm``
+        (:meth:`with_attached`): their sphere covers, inner radii and viewer data are its own, reused; only
+        the carried objects' are computed."""
         model = self.model
         self.self_pairs: list[tuple[int, int]] = self_pairs
         for i, j in self.self_pairs:
@@ -200,14 +207,25 @@ class CollisionModel:
         self.geometry_joints: list[int] = [int(g.parentJoint) for g in gm.geometryObjects]
         self.model_pairs: list[tuple[int, int]] = [(int(cp.first), int(cp.second))
                                                    for cp in gm.collisionPairs]
+        #: The sphere cover of each geometry (:func:`~.sphere_cover.geometry_spheres`, in its own frame), or
+        #: None when the tree has no sphere model.
+        self.sphere_covers: list[GeometrySpheres] | None = _sphere_covers(
+            model, gm, bare.sphere_covers or () if bare is not None else ())
         #: The robot's sphere model (:func:`~.robot_spheres.robot_spheres`; None when its tree has other
         #: joints than one-DoF revolute / prismatic ones), built with the model, as is the compiled pre-check.
-        self.spheres = _sphere_model(model, gm)
+        self.spheres = _sphere_model(model, gm, self.sphere_covers)
+        from .inner_balls import robot_inner_radii  # (scipy's qhull: imported with the first model)
+
+        known = bare.robot_geometry.inner_radii if bare is not None else None
+        radii = None if self.spheres is None else robot_inner_radii(gm, self.spheres.inner,
+                                                                    self.spheres.inner_ranges, known)
         #: What every scene layout of this model reads (:class:`~.collision_layout.RobotCollisionGeometry`).
         self.robot_geometry = RobotCollisionGeometry(model, gm, tuple(self.links),
                                                      tuple(self.geometry_joints), tuple(self.model_pairs),
-                                                     self.spheres)
-        self._shape_data = [_shape_dict(g, link) for g, link in zip(gm.geometryObjects, self.links)]
+                                                     self.spheres, radii)
+        known_data = bare._shape_data if bare is not None else []
+        self._shape_data = [*known_data, *(_shape_dict(gm.geometryObjects[k], self.links[k])
+                                           for k in range(len(known_data), len(self.links)))]
         self._base_spheres = _base_spheres(gm, self.geometry_joints)
         #: (self_collision, the shapes' signature keys joined) -> SceneLayout
         self._layouts: OrderedDict = OrderedDict()
@@ -256,7 +274,8 @@ class CollisionModel:
         out.geometry_names = [g.name for g in gm.geometryObjects]
         out.attached = tuple(objects)
         out.bare = self
-        out._assemble(gm, list(self.self_pairs) + _attached_pairs(gm, links, out.attached, len(self.links)))
+        out._assemble(gm, list(self.self_pairs) + _attached_pairs(gm, links, out.attached, len(self.links)),
+                      self)
         return out
 
     @staticmethod
@@ -372,14 +391,29 @@ class CollisionModel:
         return layout
 
 
-def _sphere_model(model: pin.Model, geometry: pin.GeometryModel) -> Any:
-    """:func:`~.robot_spheres.robot_spheres` of the hull geometry; the scenes' pre-check and its compiled
-    kernels (Numba) are loaded now too, so no scene of the model loads them (imported here, not with this
-    module: ``import kinserve`` does not pay for them)."""
+def _sphere_covers(model: pin.Model, geometry: pin.GeometryModel,
+                   known: Sequence[GeometrySpheres]) -> list[GeometrySpheres] | None:
+    """The sphere cover of each geometry of ``geometry`` (``known``'s for the first ones), or None when the
+    model's tree has no sphere model (:func:`~.robot_spheres.robot_spheres` would answer None). Imported
+    here, as in :func:`_sphere_model`: the covers' kernels are compiled code."""
+    from .serial_chain import kinematic_tree
+    from .sphere_cover import geometry_spheres
+
+    if kinematic_tree(model) is None:
+        return None
+    objects = geometry.geometryObjects
+    return [*known, *(geometry_spheres(objects[k].geometry) for k in range(len(known), len(objects)))]
+
+
+def _sphere_model(model: pin.Model, geometry: pin.GeometryModel,
+                  covers: list[GeometrySpheres] | None) -> Any:
+    """:func:`~.robot_spheres.robot_spheres` of the hull geometry with its ``covers`` (None: no sphere
+    model); the scenes' pre-check and its compiled kernels (Numba) are loaded now too, so no scene of the
+    model loads them (imported here, not with this module: ``import kinserve`` does not pay for them)."""
     from . import scene_precheck  # noqa: F401 - its kernels compile (or load from Numba's cache) on import
     from .robot_spheres import robot_spheres
 
-    return robot_spheres(model, geometry)
+    return None if covers is None else robot_spheres(model, geometry, covers)
 
 
 def _attached_pairs(gm: pin.GeometryModel, links: list[str], objects: tuple,

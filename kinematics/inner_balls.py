@@ -63,15 +63,19 @@ def inner_radii(geometry: coal.CollisionGeometry, points: np.ndarray) -> np.ndar
     return np.maximum(r * (1.0 - INNER_PAD) - INNER_PAD, 0.0)
 
 
-def robot_inner_radii(geometry: pin.GeometryModel, inner: np.ndarray, inner_ranges: np.ndarray) -> np.ndarray:
+def robot_inner_radii(geometry: pin.GeometryModel, inner: np.ndarray, inner_ranges: np.ndarray,
+                      known: np.ndarray | None = None) -> np.ndarray:
     """``(I,)``: :func:`inner_radii` of the inner points ``inner`` ``(I, 3)`` (in their joint frames; rows
     ``inner_ranges[g]`` belong to geometry ``g`` of ``geometry``, as in
     :class:`~.robot_spheres.RobotSpheres`), each taken back to its geometry's frame by the geometry's
-    placement."""
+    placement. ``known``: the radii of the first rows, when the caller has them (the geometries whose rows
+    they cover are not measured again; a model with carried objects reuses its bare model's)."""
     out = np.zeros(len(inner))
+    done = 0 if known is None else len(known)
+    out[:done] = known if known is not None else ()
     for g, obj in enumerate(geometry.geometryObjects):
         first, end = int(inner_ranges[g, 0]), int(inner_ranges[g, 1])
-        if end > first:
+        if end > first and end > done:  # (rows all known: measured already)
             M = obj.placement
             local = (inner[first:end] - M.translation) @ M.rotation
             out[first:end] = inner_radii(obj.geometry, local)

@@ -369,6 +369,32 @@ def test_every_primitive_kind_is_carried(panda):
         assert ("attached:thing", "obstacle[0]:sphere") in robot.collisions(q, ahead)
 
 
+def test_carrying_reuses_the_bare_models_spheres_and_equals_a_model_built_whole(panda):
+    """Attaching computes the carried objects' sphere covers, inner radii and viewer data only (the robot's
+    are its bare model's); the result equals the sphere model and inner radii computed from nothing over the
+    whole geometry, and the viewer data lists every geometry, the carried ones last."""
+    import dataclasses
+
+    from kinserve.kinematics.inner_balls import robot_inner_radii
+    from kinserve.kinematics.robot_spheres import robot_spheres
+
+    robot = panda.copy().attach("box", BOX, FRAME, IN_FRAME)
+    robot.attach("ball", Sphere((0.0, 0.0, 0.05), 0.04), "panda_link5")
+    cm, bare = robot.collision, panda.collision
+    whole = robot_spheres(cm.model, cm.geometry)
+    for f in dataclasses.fields(whole):
+        assert np.array_equal(getattr(cm.spheres, f.name), getattr(whole, f.name)), f.name
+    radii = robot_inner_radii(cm.geometry, whole.inner, whole.inner_ranges)
+    assert np.array_equal(cm.robot_geometry.inner_radii, radii) and len(radii) > len(
+        bare.robot_geometry.inner_radii)
+    assert np.any(radii[len(bare.robot_geometry.inner_radii):] > 0.0)  # the box and ball hold inner balls
+    data = cm.shape_data()
+    assert len(data) == cm.geometry.ngeoms == len(bare.shape_data()) + 2
+    assert [d["name"] for d in data[-2:]] == ["attached:box", "attached:ball"]
+    assert data[-2]["kind"] == "box" and np.allclose(data[-2]["size"], BOX.size)
+    assert data[-1]["kind"] == "sphere" and data[-1]["radius"] == pytest.approx(0.04)
+
+
 def _free_targets(robot, carrying, rng, n: int) -> list:
     """``n`` configurations where the bare arm is free and the carried bar hits the arm, none of its links
     0-2 (near the base the hand's pose may leave the bar no way out)."""
