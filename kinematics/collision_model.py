@@ -210,7 +210,7 @@ class CollisionModel:
         #: The sphere cover of each geometry (:func:`~.sphere_cover.geometry_spheres`, in its own frame), or
         #: None when the tree has no sphere model.
         self.sphere_covers: list[GeometrySpheres] | None = _sphere_covers(
-            model, gm, bare.sphere_covers or () if bare is not None else ())
+            model, gm, (bare.sphere_covers or ()) if bare is not None else ())
         #: The robot's sphere model (:func:`~.robot_spheres.robot_spheres`; None when its tree has other
         #: joints than one-DoF revolute / prismatic ones), built with the model, as is the compiled pre-check.
         self.spheres = _sphere_model(model, gm, self.sphere_covers)
@@ -413,7 +413,9 @@ def _sphere_model(model: pin.Model, geometry: pin.GeometryModel,
     from . import scene_precheck  # noqa: F401 - its kernels compile (or load from Numba's cache) on import
     from .robot_spheres import robot_spheres
 
-    return None if covers is None else robot_spheres(model, geometry, covers)
+    if covers is None:
+        return None
+    return robot_spheres(model, geometry, covers)
 
 
 def _attached_pairs(gm: pin.GeometryModel, links: list[str], objects: tuple,
