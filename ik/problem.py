@@ -27,7 +27,7 @@ from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
 from kinserve.ik.constraints.joint_limits import JointLimits
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.qp.hierarchy import stack_level
-from kinserve.ik.tasks.base import Task
+from kinserve.ik.tasks.base import Task, checked_output, is_users_task
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Shape
 
@@ -130,7 +130,10 @@ class Problem:
         # per level: the single task whose rows are used as they are, or None (stack the level's tasks)
         self._single = [lvl[0] if len(lvl) == 1 and ws[0] is None else None
                         for lvl, ws in zip(self.levels, self.level_weights)]
-        self._only_single = all(t is not None for t in self._single)
+        # per level: which tasks are a user's (their (e, J) checked on every evaluation, so never unstacked)
+        self._users = [[is_users_task(t) for t in lvl] for lvl in self.levels]
+        self._checks_users = any(map(any, self._users))
+        self._only_single = all(t is not None for t in self._single) and not self._checks_users
         # the tasks in level order (the order of evaluate()'s errors), and where user task i's error is
         self._ordered = [t for lvl in self.levels for t in lvl]
         self._es_index = _positions(self.tasks, self._ordered)
@@ -169,8 +172,11 @@ class Problem:
                 levels.append((J, e))
                 es.append(e)
         else:
-            for lvl, ws in zip(self.levels, self.level_weights):
+            for lvl, ws, users in zip(self.levels, self.level_weights, self._users):
                 pairs = [t.compute(robot, data, q) for t in lvl]
+                if self._checks_users:
+                    nv = self.nv
+                    pairs = [checked_output(t, p, nv) if user else p for t, p, user in zip(lvl, pairs, users)]
                 es.extend([e for e, _ in pairs])
                 levels.append(stack_level(pairs, ws))
         pe = re = 0.0  # the largest position / orientation error of the goal tasks

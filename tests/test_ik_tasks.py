@@ -5,6 +5,7 @@ import pinocchio as pin
 import pytest
 
 from kinserve import ik, robots
+from kinserve.kinematics import errors
 from kinserve.kinematics.errors import FrameError, InputError, NonFiniteError
 
 
@@ -139,6 +140,52 @@ def test_history_names_a_user_tasks_rows_by_its_error_at_the_answer(panda, frame
     assert both.history.task_error.shape[1] == 9
     last = both.history.task_error[-1]
     assert np.allclose(last[6:], com - pin.centerOfMass(panda.model, panda.model.createData(), both.q))
+
+
+def _com_output(robot, data, q):
+    J = pin.jacobianCenterOfMass(robot.model, data, q, False)
+    return data.com[0] - np.array([0.1, 0.0, 0.4]), J
+
+
+@pytest.mark.parametrize("output,weight,error,words", [
+    (lambda e, J: None, 1.0, errors.InputError, "must return a pair (e, J), got NoneType"),
+    (lambda e, J: (e, J, J), 1.0, errors.InputError, "must return a pair (e, J), got tuple"),
+    (lambda e, J: ("e", J), 1.0, errors.InputError, "must return numbers"),
+    (lambda e, J: (e[:, None], J), 1.0, errors.ShapeError, "must be a vector of m numbers, got shape (3, 1)"),
+    (lambda e, J: (e, J[:2]), 1.0, errors.ShapeError, "must be 3 x 7"),
+    (lambda e, J: (e, J[:, :5]), 1.0, errors.ShapeError, "got shape (3, 5)"),
+    (lambda e, J: (e * np.nan, J), 1.0, errors.NonFiniteError, "the error e must hold finite numbers"),
+    (lambda e, J: (e, J + np.inf), 1.0, errors.NonFiniteError, "the Jacobian J must hold finite numbers"),
+    (lambda e, J: (e, J), [1.0, 2.0], errors.ShapeError, "weight must be a number or 3 numbers"),
+])
+@pytest.mark.parametrize("with_posture", [False, True])
+def test_a_user_tasks_bad_output_is_named_not_solved(panda, output, weight, error, words, with_posture):
+    """A user's compute that breaks the protocol raises kinserve's error naming the task's class - never a
+    NumPy error, nor a solve that converges on NaN - alone (the unstacked level) and with another task."""
+
+    class Broken(ik.Task):
+        def compute(self, robot, data, q):
+            return output(*_com_output(robot, data, q))
+
+    tasks = [Broken(weight=weight)] + ([ik.PostureTask(panda.neutral(), priority=2)] if with_posture else [])
+    with pytest.raises(error) as info:
+        ik.solve(panda, tasks=tasks, seed=0, iteration_budget=200)
+    assert words in str(info.value) and "Broken" in str(info.value)
+
+
+def test_a_user_task_may_return_lists():
+    """Lists are numbers too: a user task returning plain lists solves like one returning arrays."""
+    panda = robots.load("panda", geometry=False)
+
+    class Listed(ik.Task):
+        def compute(self, robot, data, q):
+            e, J = _com_output(robot, data, q)
+            return e.tolist(), J.tolist()
+
+    res = ik.solve(panda, tasks=[Listed()], seed=0, iteration_budget=2000)
+    assert res.success, res.message
+    reached = pin.centerOfMass(panda.model, panda.model.createData(), res.q)
+    assert np.linalg.norm(reached - [0.1, 0.0, 0.4]) < 1e-4
 
 
 def test_baxter_reaches_a_pose_with_each_hand_at_once():

@@ -49,7 +49,11 @@ Methods a task implements
     placements ``data.oMi`` and joint Jacobians ``data.J``), frame placements
     are **not** updated - call ``pinocchio.updateFramePlacement`` for the
     frames you use. Do not run other algorithms that overwrite ``data`` with
-    another configuration.
+    another configuration. The outputs of a user's ``compute`` (one written
+    outside kinserve) are checked on every evaluation: a pair, ``e`` of ``m``
+    finite numbers, ``J`` of ``m x nv``, a vector ``weight`` of ``m`` numbers
+    (:func:`checked_output`); anything else raises an error naming the task's
+    class, never a NumPy error or a solve that "converges" on NaN.
 ``errors(e) -> (position, orientation)``
     Norms used for the success test (m, rad). The default treats the whole
     error as a position-like quantity: ``(|e|, 0)``.
@@ -198,3 +202,40 @@ class Task:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r}, weight={self.weight!r}, priority={self.priority})"
+
+
+def is_users_task(task: Task) -> bool:
+    """Whether ``task``'s :meth:`~Task.compute` is written outside kinserve (a user's task, or a user's
+    subclass overriding a kinserve task's ``compute``): its outputs are checked on every evaluation
+    (:func:`checked_output`); kinserve's own tasks are not."""
+    return not getattr(type(task).compute, "__module__", "").startswith("kinserve.")
+
+
+def checked_output(task: Task, output: object, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(e, J)`` of a user task's :meth:`~Task.compute` ``output`` as float arrays, after checking the
+    protocol: a pair, ``e`` a vector of ``m`` numbers, ``J`` ``m x nv``, every entry finite with magnitude
+    at most :data:`~kinserve.kinematics.validation.MAX_ABS`, and a vector ``weight`` of ``m`` numbers.
+    :class:`InputError` (not a pair, or not numbers), :class:`ShapeError` (shapes, weight length) or
+    :class:`NonFiniteError`, each naming the task's class."""
+    name = type(task).__name__
+    try:
+        e, J = output  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise InputError(f"{name}.compute(robot, data, q) must return a pair (e, J), got "
+                         f"{type(output).__name__}") from None
+    try:
+        e, J = np.asarray(e, dtype=float), np.asarray(J, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}.compute(robot, data, q) must return numbers: an error vector e and a "
+                         f"Jacobian J") from None
+    if e.ndim != 1:
+        raise ShapeError(f"{name}.compute: the error e must be a vector of m numbers, got shape {e.shape}")
+    if J.shape != (len(e), nv):
+        raise ShapeError(f"{name}.compute: the Jacobian J must be {len(e)} x {nv} (one row per error row, "
+                         f"one column per joint velocity), got shape {J.shape}")
+    for value, what in ((e, "error e"), (J, "Jacobian J")):
+        if not is_bounded(value):
+            raise NonFiniteError(f"{name}.compute: the {what} must hold finite numbers with magnitude <= "
+                                 f"{MAX_ABS:g}, got {value.tolist()}")
+    task.check_weight_rows(len(e))
+    return e, J
