@@ -9,8 +9,9 @@ worker starts):
 option                  meaning                                     accepted values
 ======================  ==========================================  ==============================
 ``max_iter``            iteration cap of one start                  integer in [1, 10**5]
-``iteration_budget``    total iterations over all starts; the       integer in [1, 10**6]
-                        clock is not read without ``max_time``
+``iteration_budget``    total iterations over all starts (a start   integer in [1, 10**6]
+                        counts at least one); the clock is not
+                        read without ``max_time``
 ``damping``             damping ``lambda_0`` (LM / QP / DLS)        finite number in (0, 1e6]
 ``max_starts``          cap on the number of starts                 integer in [1, 10**7] or None
 ``prefer_q0``           start from ``q0`` first                     bool

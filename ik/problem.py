@@ -18,12 +18,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pinocchio as pin
 
-from kinserve.ik.constraints.base import DAMPER_GAIN, Constraint
+from kinserve.ik.constraints.base import (
+    DAMPER_GAIN,
+    Constraint,
+    checked_margin,
+    checked_rows,
+    is_users_constraint,
+)
 from kinserve.ik.constraints.joint_limits import JointLimits
 from kinserve.ik.constraints.obstacles import ObstacleAvoidance
 from kinserve.ik.qp.hierarchy import stack_level
@@ -108,6 +115,11 @@ def _positions(tasks: list[Task], ordered: list[Task]) -> list[int]:
     return [position[id(t)] for t in tasks]
 
 
+def _users_margin(constraint: Constraint, robot: Robot, data: pin.Data, q: np.ndarray) -> float:
+    """A user constraint's margin at ``q``, checked (:func:`~.constraints.base.checked_margin`)."""
+    return checked_margin(constraint, constraint.margin(robot, data, q))
+
+
 class Problem:
     """Bound tasks and constraints of one robot (see the module docstring)."""
 
@@ -122,7 +134,11 @@ class Problem:
         self.row_constraints = []
         # constraints with a true check (JointLimits excluded: iterates are clipped)
         self.checked = [c for c in self.constraints if not isinstance(c, JointLimits) and _is_checked(c)]
-        self._plan = [(c, c in self.checked) for c in self.constraints]
+        # per constraint: whether it has a true check, and whether it is a user's (outputs checked per call)
+        self._plan = [(c, c in self.checked, is_users_constraint(c)) for c in self.constraints]
+        # the margin of each checked constraint, a user's checked on each call (:func:`_users_margin`)
+        self._margins = [partial(_users_margin, c) if is_users_constraint(c) else c.margin
+                         for c in self.checked]
         self.priorities = sorted({t.priority for t in self.tasks})
         self.levels = [[t for t in self.tasks if t.priority == p] for p in self.priorities]
         # sqrt(weight) of every task, None for weight 1 (rows used as they are)
@@ -154,8 +170,8 @@ class Problem:
         if not self.checked:
             return levels, pe, re, es, math.inf
         robot, data = self.robot, self.data
-        m = min(c.margin(robot, data, q) for c in self.checked) if len(self.checked) > 1 else \
-            self.checked[0].margin(robot, data, q)
+        m = min(f(robot, data, q) for f in self._margins) if len(self._margins) > 1 else \
+            self._margins[0](robot, data, q)
         return levels, pe, re, es, m
 
     def evaluate(self, q: np.ndarray) -> tuple[list, float, float, list]:
@@ -229,10 +245,11 @@ class Problem:
             self.q_in_data = q
         lb = ub = None
         Gs, ls, us = [], [], []
-        for c, checked in self._plan:
+        for c, checked, users in self._plan:
             if checked and not with_checked_rows:
                 continue
-            G, lo, hi = c.rows(robot, data, q, dt)
+            G, lo, hi = checked_rows(c, c.rows(robot, data, q, dt), self.nv) if users else \
+                c.rows(robot, data, q, dt)
             if G is None:
                 if lb is None:  # JointLimits' arrays are fresh; copy anyone else's before writing into them
                     lb, ub = (lo, hi) if type(c) is JointLimits else \
@@ -259,9 +276,9 @@ class Problem:
         d = self.data
         _fk(self.model, d, q)
         self.q_in_data = None
-        if len(self.checked) == 1:
-            return self.checked[0].margin(self.robot, d, q)
-        return min(c.margin(self.robot, d, q) for c in self.checked)
+        if len(self._margins) == 1:
+            return self._margins[0](self.robot, d, q)
+        return min(f(self.robot, d, q) for f in self._margins)
 
     def describe(self, q: np.ndarray) -> str:
         """Violations at ``q`` in words (forward kinematics on the main ``Data``, as :meth:`margin`)."""

@@ -44,6 +44,12 @@ Methods a constraint implements
 ``describe(robot, data, q) -> str``
     The violations at ``q`` in words (after forward kinematics), "" if none.
 
+The outputs of a user's ``rows`` and ``margin`` (written outside kinserve) are
+checked on every call (:func:`checked_rows`, :func:`checked_margin`): wrong
+shapes, NaN or entries of magnitude above
+:data:`~kinserve.kinematics.validation.MAX_ABS` (``lower`` / ``upper`` may be
+infinite) raise an error naming the constraint's class.
+
 Example (a user constraint: keep the tool above a table at height ``h``)::
 
     class AboveTable(ik.Constraint):
@@ -66,9 +72,13 @@ Example (a user constraint: keep the tool above a table at height ``h``)::
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
+from kinserve.kinematics.validation import MAX_ABS, is_bounded
 
 #: Fraction of the current clearance one step may use up (velocity damper gain ``xi``).
 DAMPER_GAIN = 0.5
@@ -111,3 +121,66 @@ class Constraint:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"
+
+
+def is_users_constraint(constraint: Constraint) -> bool:
+    """Whether ``constraint``'s ``rows`` or ``margin`` is written outside kinserve (a user's constraint, or a
+    user's subclass overriding either): its outputs are checked on every call; kinserve's own are not."""
+    return not all(getattr(getattr(type(constraint), method), "__module__", "").startswith("kinserve.")
+                   for method in ("rows", "margin"))
+
+
+def _bounds_ok(values: np.ndarray) -> bool:
+    """No NaN, and every finite entry of magnitude at most ``MAX_ABS`` (infinities allowed)."""
+    return bool(np.all((np.abs(values) <= MAX_ABS) | np.isinf(values)))
+
+
+def checked_rows(constraint: Constraint, output: object, nv: int) -> tuple:
+    """``(G, lower, upper)`` of a user constraint's ``rows`` ``output`` as float arrays (``G`` None: a box),
+    after checking the protocol: a triple; ``G`` ``k x nv`` of numbers of magnitude at most ``MAX_ABS`` and
+    ``lower`` / ``upper`` of ``k`` entries, or ``G`` None and ``nv`` entries each; no NaN in the bounds
+    (infinities allowed). :class:`InputError`, :class:`ShapeError` or :class:`NonFiniteError`, naming the
+    constraint's class."""
+    name = type(constraint).__name__
+    try:
+        G, lower, upper = output  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise InputError(f"{name}.rows(robot, data, q, dt) must return a triple (G, lower, upper), got "
+                         f"{type(output).__name__}") from None
+    try:
+        lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+        G = None if G is None else np.asarray(G, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}.rows must return numbers: G (or None), lower and upper") from None
+    if G is not None and (G.ndim != 2 or G.shape[1] != nv):
+        raise ShapeError(f"{name}.rows: G must be k x {nv} (one column per joint velocity) or None (a box), "
+                         f"got shape {G.shape}")
+    k = nv if G is None else G.shape[0]
+    if lower.shape != (k,) or upper.shape != (k,):
+        raise ShapeError(f"{name}.rows: lower and upper must hold {k} numbers each ("
+                         f"{'one per joint velocity: G is None' if G is None else 'one per row of G'}), got "
+                         f"shapes {lower.shape} and {upper.shape}")
+    if G is not None and not is_bounded(G):
+        raise NonFiniteError(f"{name}.rows: G must hold finite numbers with magnitude <= {MAX_ABS:g}")
+    if not (_bounds_ok(lower) and _bounds_ok(upper)):
+        raise NonFiniteError(f"{name}.rows: lower and upper must be numbers (infinite allowed, no NaN) with "
+                             f"finite magnitude <= {MAX_ABS:g}, got {lower.tolist()} and {upper.tolist()}")
+    return G, lower, upper
+
+
+def checked_margin(constraint: Constraint, value: object) -> float:
+    """A user constraint's ``margin`` ``value`` as a float, after checking it is one number, not NaN
+    (infinite allowed). :class:`InputError` or :class:`NonFiniteError`, naming the constraint's class."""
+    name = type(constraint).__name__
+    if isinstance(value, (bool, np.bool_, str, bytes)) or np.ndim(value) != 0:
+        raise InputError(f"{name}.margin(robot, data, q) must return one number (>= 0: satisfied), got "
+                         f"{type(value).__name__}")
+    try:
+        m = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise InputError(f"{name}.margin(robot, data, q) must return one number (>= 0: satisfied), got "
+                         f"{type(value).__name__}") from None
+    if math.isnan(m):
+        raise NonFiniteError(f"{name}.margin(robot, data, q) returned NaN; it must be a number (>= 0: "
+                             f"satisfied; infinite allowed)")
+    return m

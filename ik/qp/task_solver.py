@@ -412,8 +412,8 @@ def _run_starts(run: _Run, sequence, max_starts: int | None) -> _Starts:
         record = ([], [], [])
         ok, it, reason, k, es = _run_start(run, q, record, st)
         iterations += it
-        if run.left is not None:
-            run.left -= it
+        if run.left is not None:  # a start costs at least one iteration: one ended at once (an infeasible
+            run.left -= max(it, 1)  # QP, a blocked step) still bounds the starts an iteration budget allows
         qs, pes, res = record
         if k is None:
             k = int(np.argmin(np.square(pes) + np.square(res)))
