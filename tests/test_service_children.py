@@ -3,7 +3,8 @@
 A real ``kinserve serve`` is killed while busy - SIGTERM then SIGKILL 2 s later, or SIGKILL alone - right
 after it answers ``/health`` (its solver processes are then still starting: the race that left orphans)
 and while slow plans run; every process that descended from it (seen in ``/proc`` while it lived) must
-be gone within 5 s. A server stopped with SIGTERM prints no warning (issue 24: no "leaked semaphore").
+be gone within :data:`GONE_WITHIN`. A server stopped with SIGTERM prints no warning (issue 24: no "leaked
+semaphore").
 """
 
 from __future__ import annotations
@@ -20,6 +21,12 @@ from process_leaks import alive, command_line, parent_of, wait_gone
 from service_scenes import ASIDE, READY, cage
 from service_server import Server
 
+#: Seconds the server's descendants get to end after it. A solver process spawned just before the kill ends
+#: when its interpreter reaches its first line (:func:`service.lifeline.follow_parent`), after importing
+#: kinserve, NumPy, Pinocchio and Numba: about a second on a quiet host, several on a loaded one, and
+#: multiprocessing's resource tracker ends with it. The orphans of the bug this guards against lived for ever;
+#: a bound of seconds made the test depend on how busy the machine was (a fresh clone's CI failed on it).
+GONE_WITHIN = 60.0
 #: A plan that searches for its whole max_time (the hand is caged).
 SLOW_PLAN = {"robot": "panda", "start": READY, "goal": ASIDE, "obstacles": cage(), "max_time": 1.0}
 
@@ -113,7 +120,7 @@ def test_no_process_outlives_a_killed_server(how, when):
         kill_server(srv, how)
     seen = watcher.stop()
     assert seen, "the server started no child process: nothing was tested"
-    left = wait_gone(seen, 5.0)
+    left = wait_gone(seen, GONE_WITHIN)
     leftovers = {p: command_line(p) for p in left}
     for p in left:  # the test leaves nothing behind either way
         os.kill(p, signal.SIGKILL)
@@ -135,5 +142,5 @@ def test_sigterm_stops_cleanly_without_warnings():
     assert srv.proc.returncode is not None
     assert "leaked semaphore" not in out and "resource_tracker" not in out, out
     assert "Traceback" not in out and "Warning" not in out, out
-    left = wait_gone(seen, 5.0)
+    left = wait_gone(seen, GONE_WITHIN)
     assert not left, {p: command_line(p) for p in left}
