@@ -137,8 +137,8 @@ class Problem:
         # per constraint: whether it has a true check, and whether it is a user's (outputs checked per call)
         self._plan = [(c, c in self.checked, is_users_constraint(c)) for c in self.constraints]
         # the margin of each checked constraint, a user's checked on each call (:func:`_users_margin`)
-        self._margins = [partial(_users_margin, c) if is_users_constraint(c) else c.margin
-                         for c in self.checked]
+        self._margins = [partial(_users_margin, c) if users else c.margin
+                         for c, checked, users in self._plan if checked]
         self.priorities = sorted({t.priority for t in self.tasks})
         self.levels = [[t for t in self.tasks if t.priority == p] for p in self.priorities]
         # sqrt(weight) of every task, None for weight 1 (rows used as they are)

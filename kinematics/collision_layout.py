@@ -81,7 +81,7 @@ class RobotCollisionGeometry:
     base); ``model_pairs``: the self pairs in model order; ``spheres``: the robot's sphere model
     (:func:`~.robot_spheres.robot_spheres`; None when its tree has none); ``inner_radii``: the radius (m)
     of the ball about each of its inner points inside its geometry (:func:`~.inner_balls.robot_inner_radii`,
-    made with this object when not given; None without spheres); ``hulls``: the cores of its geometries in
+    made by the collision model; None without spheres); ``hulls``: the cores of its geometries in
     their joints' frames (:func:`~.hull_table.hull_table`, for the motion certificates' compiled distances;
     made with this object when not given; None without spheres); ``moving``: the geometries on a moving joint
     (each is paired with every obstacle), made with this object; ``packings``: the pre-check's arrays that do
@@ -104,11 +104,6 @@ class RobotCollisionGeometry:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "moving", tuple(i for i, j in enumerate(self.geometry_joints) if j != 0))
-        if self.inner_radii is None and self.spheres is not None:
-            from .inner_balls import robot_inner_radii
-
-            radii = robot_inner_radii(self.geometry, self.spheres.inner, self.spheres.inner_ranges)
-            object.__setattr__(self, "inner_radii", radii)
         if self.hulls is None and self.spheres is not None:
             object.__setattr__(self, "hulls", hull_table(self.geometry.geometryObjects))
         packings = None
