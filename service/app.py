@@ -51,6 +51,7 @@ from .offline_docs import add_redoc
 from .responses import error_body, json_response, json_safe
 from .robot_pool import RobotPool
 from .settings import ServiceSettings
+from .solver_start import start_solver
 
 log = logging.getLogger("kinserve.service")
 
@@ -78,13 +79,14 @@ __all__ = ["create_app", "app", "FieldError", "field"]
 def solver_executor(settings: ServiceSettings) -> BoundedExecutor:
     """``settings.threads`` solver processes (spawned: no fork of a running event loop) and their queue.
 
-    Each process follows the server process that made the pool (:func:`service.lifeline.follow_parent`):
-    it ends when the server does, even when the server dies while the process is still starting.
+    Each process follows the server process that made the pool (:func:`service.solver_start.start_solver`,
+    before it imports the solvers): it ends when the server does, even when the server dies while the
+    process is still starting.
     """
     def factory():
         return ProcessPoolExecutor(max_workers=settings.threads,
                                    mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=jobs.init_worker, initargs=(os.getpid(), settings.to_env()))
+                                   initializer=start_solver, initargs=(os.getpid(), settings.to_env()))
 
     return BoundedExecutor(factory, settings.threads, settings.queue, name="solver")
 

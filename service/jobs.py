@@ -20,7 +20,6 @@ from kinserve.kinematics.errors import FrameError, InputError, KinserveError
 from . import schemas as S
 from .executor import Deadline
 from .fields import FieldError, field
-from .lifeline import follow_parent
 from .robot_pool import RobotPool
 from .settings import ServiceSettings
 
@@ -39,11 +38,10 @@ _pool: RobotPool | None = None
 _settings = ServiceSettings()
 
 
-def init_worker(parent_pid: int, settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
-    """Set up a solver process started by the server of pid ``parent_pid``: follow that parent first (end
-    with it, :func:`service.lifeline.follow_parent`), then its settings, its robot pool and its niceness."""
+def init_worker(settings_json: str | None = None, niceness: int = SOLVER_NICENESS) -> None:
+    """Set up a solver process (called by :func:`service.solver_start.start_solver` once the process
+    follows its server): its settings, its robot pool, its compiled kernels and its niceness."""
     global _pool, _settings
-    follow_parent(parent_pid)
     _settings = (ServiceSettings(**__import__("json").loads(settings_json)) if settings_json
                  else ServiceSettings())
     _pool = RobotPool(_settings.robot_cache, _settings.robot_cache_bytes)

@@ -1,13 +1,16 @@
 """Solver processes that end with the server that started them.
 
 A solver process is spawned (:mod:`service.executor`): a fresh interpreter that
-imports kinserve, NumPy, Pinocchio and Numba before it runs its initializer, a
-second or more. If the server dies in that window (``kill -9``, or SIGTERM and
-then SIGKILL while requests arrive), the process is re-parented (to ``init`` or a
-sub-reaper) before it could set up any watch, and a watch that took "my parent"
-from ``os.getppid()`` at that point watched the new parent for ever: the
-process lived on as an orphan (and with it multiprocessing's resource tracker,
-whose pipe it holds). So the server passes its own pid, and
+imports the server's main module (the command line) and its initializer's module
+(:mod:`service.solver_start`) before it runs the initializer; both are light
+(NumPy, no Pinocchio or Numba), so that takes a few hundred milliseconds, and
+the solvers are imported after :func:`follow_parent`. If the server dies in that
+window (``kill -9``, or SIGTERM and then SIGKILL while requests arrive), the
+process is re-parented (to ``init`` or a sub-reaper) before it could set up any
+watch, and a watch that took "my parent" from ``os.getppid()`` at that point
+watched the new parent for ever: the process lived on as an orphan (and with it
+multiprocessing's resource tracker, whose pipe it holds).
+So the server passes its own pid, and
 :func:`follow_parent`, the first thing a solver process runs:
 
 1. asks Linux to SIGKILL it when its parent dies (``prctl(PR_SET_PDEATHSIG)``;

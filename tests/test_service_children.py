@@ -23,7 +23,8 @@ from service_server import Server
 
 #: Seconds the server's descendants get to end after it. A solver process spawned just before the kill ends
 #: when its interpreter reaches its first line (:func:`service.lifeline.follow_parent`), after importing
-#: kinserve, NumPy, Pinocchio and Numba: about a second on a quiet host, several on a loaded one, and
+#: the command line and NumPy (not the solvers: see the last test of this file): a fraction of a second on a
+#: quiet host, seconds on a loaded one, and
 #: multiprocessing's resource tracker ends with it. The orphans of the bug this guards against lived for ever;
 #: a bound of seconds made the test depend on how busy the machine was (a fresh clone's CI failed on it).
 GONE_WITHIN = 60.0
@@ -144,3 +145,35 @@ def test_sigterm_stops_cleanly_without_warnings():
     assert "Traceback" not in out and "Warning" not in out, out
     left = wait_gone(seen, GONE_WITHIN)
     assert not left, {p: command_line(p) for p in left}
+
+
+#: Modules a solver process must not have imported when it starts following its server: the solvers and
+#: what they import (seconds of imports on a loaded host, during which an orphan would live on).
+SOLVER_IMPORTS = ("numba", "pinocchio", "scipy", "kinserve.service.jobs", "kinserve.kinematics.robot",
+                  "kinserve.ik")
+
+
+def test_a_solver_follows_its_server_before_importing_the_solvers():
+    """A spawned solver process runs what multiprocessing's spawn runs before the initializer: the server's
+    main module prepared as ``__mp_main__`` (``python -m kinserve.service.cli serve``), then the initializer
+    unpickled. Neither may import the solvers; the initializer imports them after it follows the server."""
+    import json
+    import pickle
+    import subprocess
+    import sys
+
+    from kinserve.service.solver_start import start_solver  # the server's pool's initializer (app.py)
+
+    code = (
+        "import json, pickle, sys\n"
+        "import multiprocessing.spawn as spawn\n"
+        "spawn.prepare({'init_main_from_name': 'kinserve.service.cli'})\n"
+        f"pickle.loads(bytes.fromhex({pickle.dumps(start_solver).hex()!r}))\n"
+        "print(json.dumps({'main': sys.modules['__mp_main__'].__spec__.name,\n"
+        f"                  'solvers': [m for m in {SOLVER_IMPORTS!r} if m in sys.modules]}}))\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    seen = json.loads(run.stdout)
+    assert seen["main"] == "kinserve.service.cli", seen  # the main module was prepared: the test tested it
+    assert seen["solvers"] == [], f"imported before the solver follows its server: {seen['solvers']}"

@@ -73,28 +73,29 @@ def test_unknown_robot_and_bad_params_raise_library_errors():
     assert len(pool) == 0
 
 
-def test_300_distinct_params_leave_the_rss_bounded():
+def test_distinct_params_leave_the_rss_bounded():
     """The issue's leak: variants of a parametric robot, each with its IK seed table (the issue used 1,000;
-    300 keep the test under a minute and the bound as sharp: unbounded, they would hold ~160 MB).
+    a pool of 16 and 140 variants keep the bound as sharp in a third of the time: unbounded, the 100 variants
+    after the first 40 would hold ~63 MB).
 
     The planar PR robot (two joints, a xacro model like planar4r's) keeps the test fast.
     """
-    pool = RobotPool(max_entries=32)
+    pool = RobotPool(max_entries=16)
 
     def use(i):
         r = pool.get("pr", {"d2": 1.0 + 1e-4 * i})
         seed_table(r, r.tip)  # what /ik builds on first use (~0.4 MB)
 
-    for i in range(50):
+    for i in range(40):  # the pool full and evicting: its steady state
         use(i)
-    rss50 = rss_mb()
-    for i in range(50, 300):
+    rss40 = rss_mb()
+    for i in range(40, 140):
         use(i)
-    growth = rss_mb() - rss50
-    assert len(pool) == 32 and pool.evictions == 300 - 32
-    assert pool.nbytes() < 32 << 20
-    # unbounded, the 250 further variants would hold ~160 MB (measured: 0.63 MB each)
-    assert growth < 40, f"RSS grew {growth:.0f} MB over 250 further variants"
+    growth = rss_mb() - rss40
+    assert len(pool) == 16 and pool.evictions == 140 - 16
+    assert pool.nbytes() < 16 << 20
+    # unbounded, the 100 further variants would hold ~63 MB (measured: 0.63 MB each)
+    assert growth < 20, f"RSS grew {growth:.0f} MB over 100 further variants"
 
 
 def test_names_ignore_case_and_share_one_model():
