@@ -34,13 +34,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import coal
 import numpy as np
 import pinocchio as pin
-from scipy.spatial import ConvexHull, QhullError
 
 from .errors import ModelError
+
+if TYPE_CHECKING:
+    from scipy.spatial import ConvexHull
 
 #: Largest number of neighbours coal can store for one hull vertex (an unsigned char).
 MAX_NEIGHBOURS = 255
@@ -145,6 +148,8 @@ def qhull_convex(points: np.ndarray) -> coal.Convex:
     """The convex hull of ``points`` ``(n, 3)`` as a coal ``Convex`` (scipy's qhull, facets
     strip-triangulated, module docstring). :class:`ModelError` when the points span no volume (flat,
     collinear, non-finite) or a hull vertex has more than :data:`MAX_NEIGHBOURS` neighbours."""
+    from scipy.spatial import ConvexHull, QhullError  # (a model build, only when coal's hull failed)
+
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     if not np.all(np.isfinite(points)):
         raise ModelError("the mesh has non-finite vertices")

@@ -37,6 +37,25 @@ def test_fk_json_matches_library():
     assert np.allclose(pose, robots.load("panda").fk(np.array(q), "panda_link8"), atol=1e-12)
 
 
+#: What ``kinserve fk`` / ``jacobian`` / ``frames`` never need: the compiled collision core (Numba), scipy
+#: (its qhull is a collision model's fallback), the IK package. Importing them took about 1.5 s per call.
+NOT_FOR_FK = ("numba", "scipy", "kinserve.kinematics.collision_model", "kinserve.ik")
+
+
+@pytest.mark.parametrize("command", [["fk", "panda", "--q", "0", "0", "0", "-1", "0", "1", "0"],
+                                     ["jacobian", "ur5"], ["frames", "panda"]])
+def test_fk_jacobian_and_frames_import_no_solver(command):
+    code = ("import json, sys\n"
+            f"sys.argv = ['kinserve', *{command!r}]\n"
+            "from kinserve.service.cli import main\n"
+            "try:\n    main()\nexcept SystemExit as exc:\n    assert not exc.code, exc.code\n"
+            f"print(json.dumps([m for m in {NOT_FOR_FK!r} if m in sys.modules]))\n")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "pose" in out.stdout or "panda" in out.stdout or "ur5" in out.stdout  # it answered
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == []
+
+
 def test_fk_with_xacro_param():
     out = kinserve("fk", "planar4r", "--q", "0", "0", "0", "0", "--param", "l1=2.0", "--json")
     assert out.returncode == 0, out.stderr
