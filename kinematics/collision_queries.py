@@ -30,7 +30,7 @@ from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
 from .extensions import Extensions
 from .types import VectorLike
-from .validation import as_vector, describe
+from .validation import describe
 
 if TYPE_CHECKING:  # annotations only (collision_model imports pinocchio/coal)
     from .collision_model import CollisionModel
@@ -274,15 +274,15 @@ class CollisionQueries:
 
         One broad-phase pass in C++ (see :meth:`CollisionScene.in_collision`); the
         scene of the same obstacle objects is reused, so a repeated call costs
-        the validation of ``q``, a dictionary lookup and that pass. ``self_collision``: True or False
-        (:class:`~.errors.InputError` for anything else, e.g. ``"yes"`` or None; here and in
+        the scene's look-up and that pass. ``q`` is checked by the scene's call
+        (:meth:`CollisionScene.in_collision`: the same errors as :func:`~.validation.as_vector`, and no
+        second check of a float vector the compiled pre-check reads and bounds itself). ``self_collision``:
+        True or False (:class:`~.errors.InputError` for anything else, e.g. ``"yes"`` or None; here and in
         :meth:`collisions`, :meth:`distances`, :meth:`min_distance`).
         """
-        q = as_vector(q, self.nq)
         if not (self_collision is True or self_collision is False):
             self_collision = self_collision_flag(self_collision)
-        scene = self.collision.scene_of(obstacles, self_collision)
-        return scene.in_collision(q)
+        return self.collision.scene_of(obstacles, self_collision).in_collision(q)
 
     def collisions(self, q: VectorLike, obstacles: Any = (), *,
                    self_collision: bool = True) -> list[tuple[str, str]]:

@@ -261,6 +261,25 @@ def test_scene_queries_name_a_bad_q(query):
         assert call(q.tolist()) == call(q)
 
 
+@pytest.mark.parametrize("query", ["in_collision", "collisions", "distances", "min_distance"])
+def test_robot_queries_name_a_bad_q(query):
+    """The front door (``robot.in_collision(q, shapes)`` and friends) words a bad ``q`` as the scene does;
+    ``in_collision`` leaves the check to the scene's call (the compiled pre-check bounds a float vector
+    itself), so it must raise the same errors, in a new scene and in the one it just built."""
+    robot = robots.load("panda")
+    call = getattr(robot, query)
+    for q, error, words in _BAD_Q:
+        for shapes in (list(SCENE), SCENE):  # a new list each time (a new scene), then the same objects
+            with pytest.raises(error, match=words):
+                call(q, shapes)
+    q = robot.neutral()
+    if query == "distances":
+        a, b = call(q.tolist(), SCENE), call(q, SCENE)
+        assert list(a) == list(b) and [d.distance for d in a.values()] == [d.distance for d in b.values()]
+    else:
+        assert call(q.tolist(), SCENE) == call(q, SCENE)
+
+
 def test_scene_distances_do_not_depend_on_the_queries_before():
     """Same ``q``, same distances, to the bit, whatever was asked in between: the workspaces' GJK starts from
     its default guess (Pinocchio's cached guess made the same ``q`` answer up to 1.7e-6 m apart)."""
