@@ -9,6 +9,7 @@ core. The compiled kernels still load when the module that needs them is importe
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -60,11 +61,14 @@ __all__ = [
 
 
 def __getattr__(name: str) -> Any:
-    """A public name, imported from its submodule on first use (then kept in the package's namespace)."""
-    if name in _SUBMODULES:
-        value: Any = importlib.import_module(f"{__name__}.{name}")
-    elif name in _HOMES:
-        value = getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+    """A public name, imported from its submodule on first use (then kept in the package's namespace); any
+    other submodule (``kinserve.kinematics.robot``) is imported too, as the package's eager imports made it
+    an attribute before."""
+    if name in _HOMES:
+        value: Any = getattr(importlib.import_module(f"{__name__}.{_HOMES[name]}"), name)
+    elif name in _SUBMODULES or (not name.startswith("_")
+                                 and importlib.util.find_spec(f"{__name__}.{name}") is not None):
+        value = importlib.import_module(f"{__name__}.{name}")
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value
