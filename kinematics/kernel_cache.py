@@ -45,6 +45,7 @@ KERNEL_FILES = tuple(str(_ROOT / p) for p in (
     "ik/tasks/null_space_kernel.py",
     "planners/motion/extend_kernel.py",
     "planners/motion/search_kernel.py",
+    "planners/two_opt_kernel.py",
     # read by the kernels above: the obstacle table's encoding, the hull table's kinds, the pre-check's
     # verdicts, the bound of every input number, the packed arrays' header and pair kinds, the joint kinds
     # of the chain encoding, the LM's status codes

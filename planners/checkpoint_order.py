@@ -46,6 +46,7 @@ from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.validation import as_count, as_numbers
 
 from .checks import as_index
+from .two_opt_kernel import reverse_while_improving
 
 #: Most points :func:`held_karp` accepts (and the largest ``exact_limit`` of :func:`shortest_order`).
 HELD_KARP_LIMIT = 16
@@ -244,7 +245,8 @@ def _nearest_neighbour(C, start, end, return_to_start):
 
 def two_opt(C: np.ndarray, order: Sequence[int], fixed_end: bool, return_to_start: bool = False,
             max_rounds: int = 1000) -> tuple[list[int], float]:
-    """Improve ``order`` by reversing segments while that lowers the cost (first improvement).
+    """Improve ``order`` by reversing segments while that lowers the cost (first improvement, at most
+    ``max_rounds`` reversals; compiled: :func:`~.two_opt_kernel.reverse_while_improving`).
 
     The first point always stays first; the last stays last when ``fixed_end``.
     Works for asymmetric costs: the change of reversing ``o[i..k]`` is
@@ -253,39 +255,11 @@ def two_opt(C: np.ndarray, order: Sequence[int], fixed_end: bool, return_to_star
     prefix sums.
     """
     o = np.array(order, dtype=np.int64)
-    n = len(o)
     closed = return_to_start
-    last = n - 1 if (fixed_end and not closed) else n  # segment ends k < last
-    for _ in range(max_rounds):
-        move = _first_improving_reversal(C, o, last, closed)
-        if move is None:
-            break
-        i, k = move
-        o[i:k + 1] = o[i:k + 1][::-1].copy()
+    last = len(o) - 1 if (fixed_end and not closed) else len(o)  # segment ends k < last
+    reverse_while_improving(np.ascontiguousarray(C, dtype=float), o, last, closed, int(max_rounds))
     o = o.tolist()
     return o, path_cost(C, o, closed)
-
-
-def _first_improving_reversal(C: np.ndarray, o: np.ndarray, last: int,
-                              closed: bool) -> tuple[int, int] | None:
-    """The first ``(i, k)`` (``i`` ascending, then ``k``) whose reversal of ``o[i..k]`` lowers the cost by
-    more than 1e-12, or None: for each ``i``, the changes of every ``k`` in one NumPy expression, evaluated
-    in the same order of operations as one at a time (so the same move is found)."""
-    fwd = np.concatenate([[0.0], np.cumsum(C[o[:-1], o[1:]])])
-    bwd = np.concatenate([[0.0], np.cumsum(C[o[1:], o[:-1]])])
-    succ = np.append(o[1:], o[0]) if closed else o[1:]  # o[k + 1]; none after the last point of a path
-    for i in range(1, last - 1):
-        a, b = o[i - 1], o[i]
-        ks = np.arange(i + 1, last)
-        c = o[ks]
-        delta = C[a, c] - C[a, b] + (bwd[ks] - bwd[i]) - (fwd[ks] - fwd[i])
-        inner = ks < len(succ)
-        d = succ[ks[inner]]
-        delta[inner] += C[b, d] - C[c[inner], d]
-        hit = np.flatnonzero(delta < -1e-12)
-        if len(hit):
-            return i, int(ks[hit[0]])
-    return None
 
 
 def spanning_tree_bound(C: np.ndarray) -> float:

@@ -102,10 +102,11 @@ def test_bad_inputs():
         shortest_order(cost=-np.ones((3, 3)))
 
 
-def _reference_two_opt(C, order, last, closed):
-    """First-improvement 2-opt written one move at a time, each move's change from whole path costs."""
+def _reference_two_opt(C, order, last, closed, max_moves=None):
+    """First-improvement 2-opt written one move at a time, each move's change from whole path costs (at most
+    ``max_moves`` moves)."""
     o = list(order)
-    while True:
+    for _ in itertools.count() if max_moves is None else range(max_moves):
         base = path_cost(C, o, closed)
         move = next(((i, k) for i in range(1, last - 1) for k in range(i + 1, last)
                      if path_cost(C, o[:i] + o[i:k + 1][::-1] + o[k + 1:], closed) < base - 1e-9), None)
@@ -113,6 +114,24 @@ def _reference_two_opt(C, order, last, closed):
             return o
         i, k = move
         o[i:k + 1] = o[i:k + 1][::-1]
+    return o
+
+
+@pytest.mark.parametrize("max_rounds", [0, 1, 2, 5])
+def test_two_opt_makes_at_most_max_rounds_moves_the_reference_makes_first(max_rounds):
+    """``max_rounds`` bounds the reversals (the compiled loop's count); the moves made are the reference's
+    first ones, on asymmetric integer costs (many equal changes: the first in (i, k) order is taken)."""
+    from kinserve.planners.checkpoint_order import two_opt
+
+    rng = np.random.default_rng(11)
+    n = 14
+    C = rng.integers(1, 6, (n, n)).astype(float)
+    start = list(range(n))
+    full = _reference_two_opt(C, start, n, False)
+    assert full != start  # the instance has moves to make
+    order, _ = two_opt(C, start, False, False, max_rounds=max_rounds)
+    assert order == _reference_two_opt(C, start, n, False, max_moves=max_rounds)
+    assert two_opt(C, start, False, False)[0] == full
 
 
 @pytest.mark.parametrize("seed", range(6))
