@@ -9,9 +9,8 @@ window (``kill -9``, or SIGTERM and then SIGKILL while requests arrive), the
 process is re-parented (to ``init`` or a sub-reaper) before it could set up any
 watch, and a watch that took "my parent" from ``os.getppid()`` at that point
 watched the new parent for ever: the process lived on as an orphan (and with it
-multiprocessing's resource tracker, whose pipe it holds).
-So the server passes its own pid, and
-:func:`follow_parent`, the first thing a solver process runs:
+multiprocessing's resource tracker, whose pipe it holds). So the server passes
+its own pid, and :func:`follow_parent`, the first thing a solver process runs:
 
 1. asks Linux to SIGKILL it when its parent dies (``prctl(PR_SET_PDEATHSIG)``;
    the kernel sends it when the *thread* that started the process ends: the

@@ -10,6 +10,7 @@ semaphore").
 from __future__ import annotations
 
 import os
+import pickle
 import signal
 import threading
 import time
@@ -17,6 +18,7 @@ import time
 import httpx
 import pytest
 
+from import_probe import imported_after
 from process_leaks import alive, command_line, parent_of, wait_gone
 from service_scenes import ASIDE, READY, cage
 from service_server import Server
@@ -157,23 +159,13 @@ def test_a_solver_follows_its_server_before_importing_the_solvers():
     """A spawned solver process runs what multiprocessing's spawn runs before the initializer: the server's
     main module prepared as ``__mp_main__`` (``python -m kinserve.service.cli serve``), then the initializer
     unpickled. Neither may import the solvers; the initializer imports them after it follows the server."""
-    import json
-    import pickle
-    import subprocess
-    import sys
-
     from kinserve.service.solver_start import start_solver  # the server's pool's initializer (app.py)
 
-    code = (
-        "import json, pickle, sys\n"
-        "import multiprocessing.spawn as spawn\n"
-        "spawn.prepare({'init_main_from_name': 'kinserve.service.cli'})\n"
-        f"pickle.loads(bytes.fromhex({pickle.dumps(start_solver).hex()!r}))\n"
-        "print(json.dumps({'main': sys.modules['__mp_main__'].__spec__.name,\n"
-        f"                  'solvers': [m for m in {SOLVER_IMPORTS!r} if m in sys.modules]}}))\n"
-    )
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
-    assert run.returncode == 0, run.stderr
-    seen = json.loads(run.stdout)
-    assert seen["main"] == "kinserve.service.cli", seen  # the main module was prepared: the test tested it
-    assert seen["solvers"] == [], f"imported before the solver follows its server: {seen['solvers']}"
+    code = ("import pickle\n"
+            "import multiprocessing.spawn as spawn\n"
+            "spawn.prepare({'init_main_from_name': 'kinserve.service.cli'})\n"
+            f"pickle.loads(bytes.fromhex({pickle.dumps(start_solver).hex()!r}))\n"
+            "print(sys.modules['__mp_main__'].__spec__.name)")
+    imported, printed = imported_after("import sys\n" + code, SOLVER_IMPORTS)
+    assert printed == "kinserve.service.cli", printed  # the main module was prepared: the test tested it
+    assert imported == [], f"imported before the solver follows its server: {imported}"
