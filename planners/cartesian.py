@@ -53,7 +53,7 @@ from kinserve.kinematics.types import PoseLike, VectorLike
 from kinserve.kinematics.validation import as_nonnegative, as_positive
 
 from .checks import MAX_SAMPLES
-from .joint_trajectory import JointTrajectory
+from .joint_trajectory import JointTrajectory, check_last_time
 from .se3_interpolation import interpolate_checkpoints
 
 #: A pose's IK is not started with less than this much of the plan's time left (s).
@@ -239,7 +239,7 @@ def _checked_arguments(poses: Any, steps: Any, dt: Any, interpolation: Any, tota
     if not (isinstance(steps, numbers.Integral) and not isinstance(steps, bool)) or not 1 <= steps <= most:
         raise InputError(f"steps must be an integer from 1 to {most:,} ({MAX_SAMPLES:,} poses at most over "
                          f"{len(poses) - 1} segments), got {steps!r}")
-    as_positive(dt, "dt")
+    check_last_time(as_positive(dt, "dt"), (steps + 1) * (len(poses) - 1) + 1)  # before any pose is solved
     if interpolation not in ("decoupled", "screw"):
         raise InputError(f"interpolation must be 'decoupled' or 'screw', got {interpolation!r}")
     if total_time is not None:
@@ -322,7 +322,8 @@ def cartesian_to_joint(
     not an integer from 1 to the bound that keeps the path within
     :data:`~kinserve.planners.checks.MAX_SAMPLES` poses; ``dt``, ``total_time``, ``max_time`` (when not
     None) or ``jump_threshold`` not finite numbers in ``(0, 1e6]``; ``limit_margin`` or ``singular_tol``
-    not finite numbers in ``[0, 1e6]``; an unknown ``interpolation``.
+    not finite numbers in ``[0, 1e6]``; an unknown ``interpolation``; a ``dt`` whose path's last time,
+    ``dt`` times the number of poses less one, would pass 1e6 s.
     """
     poses = _checked_arguments(poses, steps, dt, interpolation, total_time)
     max_time, jump_threshold, limit_margin, singular_tol = _checked_thresholds(max_time, jump_threshold,

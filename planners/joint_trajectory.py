@@ -70,6 +70,21 @@ def joint_name_list(joint_names: object) -> list:
     return list(joint_names)
 
 
+def check_last_time(dt: float, n_points: int) -> None:
+    """:class:`InputError` naming ``dt`` when ``n_points`` points at a step of ``dt`` s end later than
+    :data:`~kinserve.kinematics.validation.MAX_ABS` s (``(n_points - 1) * dt``, the last ``time_from_start``,
+    would be refused as a time; the message gives the largest step that fits, rounded down to four digits)."""
+    last = (n_points - 1) * dt
+    if last <= MAX_ABS:
+        return
+    most = MAX_ABS / (n_points - 1)
+    scale = 10.0 ** (math.floor(math.log10(most)) - 3)
+    exc = InputError(f"dt = {dt:g} s over {n_points} points ends at {last:g} s, beyond the {MAX_ABS:g} s a "
+                     f"time may take; dt must be at most {math.floor(most / scale) * scale:.4g} s")
+    exc.argument = "dt"  # (a front end points at its dt field)
+    raise exc
+
+
 def _check_velocity_bound(V: np.ndarray, Q: np.ndarray, dt: float, zero_ends: bool) -> None:
     """:class:`InputError` naming ``dt`` when the finite-difference velocities ``V`` of positions ``Q`` at a
     step of ``dt`` s are not within :data:`~kinserve.kinematics.validation.MAX_ABS`. The message gives the
@@ -128,10 +143,12 @@ class JointTrajectory:
                        velocities: str | None = "finite_difference",
                        zero_end_velocities: bool = False) -> JointTrajectory:
         """Points at ``time_from_start = i * dt``; velocities by finite differences unless
-        ``velocities=None``. ``dt`` must be a finite number in ``(0, 1e6]`` s."""
+        ``velocities=None``. ``dt`` must be a finite number in ``(0, 1e6]`` s, and the last time
+        ``(N - 1) * dt`` at most 1e6 s (:func:`check_last_time`)."""
         dt = as_positive(dt, "dt")
         joint_names = joint_name_list(joint_names)
         Q = as_matrix(positions, (-1, len(joint_names)), "positions")
+        check_last_time(dt, Q.shape[0])
         t = dt * np.arange(Q.shape[0])
         V = None
         if velocities == "finite_difference":

@@ -365,6 +365,37 @@ def test_cartesian_to_joint_names_a_dt_too_short_for_its_velocities(panda, line,
     assert np.max(np.abs(plan.trajectory.velocities)) <= 1e6
 
 
+def test_cartesian_to_joint_names_a_dt_whose_last_time_passes_the_bound(panda, line, monkeypatch):
+    """3 steps over one segment: 5 points, the last at 4 dt. dt = 2.5e5 s ends at 1e6 s, the bound, and is
+    planned; 2.6e5 s ends at 1.04e6 s: an InputError naming dt and its largest value, raised before any
+    pose is solved (it was 'times must hold finite numbers' with no argument, after the solves)."""
+    from kinserve.planners import cartesian
+
+    solved = []
+    with monkeypatch.context() as patch:
+        patch.setattr(cartesian, "follow_poses", lambda *a, **k: solved.append(a))
+        with pytest.raises(InputError, match=r"dt = 260000 s over 5 points ends at 1\.04e\+06 s, .* dt must "
+                                             r"be at most 2\.5e\+05 s") as info:
+            cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=3, dt=2.6e5, **NO_CLOCK)
+    assert info.value.argument == "dt" and solved == []
+    plan = cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=3, dt=2.5e5, **NO_CLOCK)
+    assert plan.success and plan.trajectory.times[-1] == 1e6
+
+
+def test_from_positions_last_time_bound():
+    """N points at a step of dt end at (N - 1) dt, which must be at most 1e6 s: 3 points at 5e5 s end on the
+    bound; one step more is refused, naming dt and the largest dt (rounded down to four digits)."""
+    from kinserve.planners.joint_trajectory import JointTrajectory
+
+    Q = [[0.0], [1.0], [2.0]]
+    assert JointTrajectory.from_positions(["a"], Q, 5e5).times.tolist() == [0.0, 5e5, 1e6]
+    with pytest.raises(InputError, match=r"dt = 500001 s over 3 points .* at most 5e\+05 s") as info:
+        JointTrajectory.from_positions(["a"], Q, 500001.0)
+    assert info.value.argument == "dt"
+    with pytest.raises(InputError, match=r"dt must be at most 3\.333e\+05 s"):
+        JointTrajectory.from_positions(["a"], Q + [[3.0]], 5e5)
+
+
 def test_from_positions_velocity_bound_is_the_documented_one():
     """Positions 0, 0.3, 0.5: the second-order one-sided difference at the start is (4 x 0.3 - 0.5) / (2 dt)
     = 0.35 / dt, the largest, so dt = 3.5e-7 s is the least (given as 3.501e-07, rounded up); 1 % less is

@@ -335,6 +335,22 @@ def test_cartesian_dt_below_its_least_names_dt(client, dt):
     assert ok.status_code == 200 and ok.json()["trajectory"]["times"][1] == pytest.approx(1e-4), ok.text
 
 
+def test_cartesian_dt_whose_last_time_passes_the_bound_names_dt(client):
+    """200 poses, 200 steps per segment and dt = 60 s (each within its field's bounds) make 40,000 points, the
+    last at 2.4e6 s, beyond the 1e6 s a time may take: a 422 on `dt` giving its largest value for this path,
+    before any pose is solved (it was a 422 on `poses` after the solves); that dt is answered."""
+    poses = [P0 if k % 2 == 0 else P1 for k in range(200)]
+    body = dict(BODIES["/plan/cartesian"], poses=poses, steps=200, dt=60.0, stop_on_failure=False)
+    r = post(client, "/plan/cartesian", body)
+    assert r.status_code == 422, r.text
+    detail = r.json()["detail"]
+    assert [d["loc"] for d in detail] == [["body", "dt"]], detail
+    assert "dt = 60 s over 40000 points ends at 2.39994e+06 s" in detail[0]["msg"], detail
+    assert "dt must be at most 25 s" in detail[0]["msg"], detail
+    ok = post(client, "/plan/cartesian", dict(body, poses=poses[:3], steps=2, dt=25.0))
+    assert ok.status_code == 200 and ok.json()["trajectory"]["times"][-1] == pytest.approx(150.0), ok.text
+
+
 # ---------------------------------------------------------------- request models: every number is strict
 NUMBER_TYPES = ("float", "int", "decimal", "complex", "bool")
 
