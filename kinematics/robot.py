@@ -38,6 +38,7 @@ from .batch_fk import ChainFK
 from .collision_queries import CollisionQueries
 from .errors import FrameError, InputError, ModelError, ShapeError, SingularityError, suggest
 from .extensions import Extensions
+from .geometry_reader import GeometryReader
 from .types import MatrixLike, VectorLike
 from .validation import (
     MAX_ABS,
@@ -143,7 +144,9 @@ class Robot(CollisionQueries):
     name, description:
         Registry name and one-line description.
     visual_model, collision_model:
-        Optional ``pinocchio.GeometryModel`` objects (meshes) for viewers.
+        Optional ``pinocchio.GeometryModel`` objects (meshes) for viewers and the
+        collision model, or :class:`~.geometry_reader.GeometryReader` s that read
+        them on first use (what the loader passes: see :attr:`visual_model`).
     task_axes:
         The task components the mechanism can act on (``("x", "y", "yaw")``
         for a planar arm). Singularity measures use these rows by default.
@@ -187,8 +190,8 @@ class Robot(CollisionQueries):
         tip: str | None = None,
         name: str = "robot",
         description: str = "",
-        visual_model: pin.GeometryModel | None = None,
-        collision_model: pin.GeometryModel | None = None,
+        visual_model: pin.GeometryModel | GeometryReader | None = None,
+        collision_model: pin.GeometryModel | GeometryReader | None = None,
         task_axes: Sequence[str] = TASK_AXES,
         source: str | None = None,
         package_dirs: Sequence[str] = (),
@@ -207,8 +210,8 @@ class Robot(CollisionQueries):
         self._tls = _PerThreadData(model)
         self.name = name
         self.description = description
-        self.visual_model = visual_model
-        self.collision_model = collision_model
+        self._visual_model = visual_model
+        self._collision_model = collision_model
         self.source = source
         self.package_dirs = tuple(package_dirs)
         self.resolve_meshes = resolve_meshes
@@ -246,6 +249,31 @@ class Robot(CollisionQueries):
         return f"Robot({self.name!r}, nq={self.nq}, tip={self.tip!r})"
 
     @property
+    def visual_model(self) -> pin.GeometryModel | None:
+        """The visual ``pinocchio.GeometryModel`` (meshes and primitives for viewers), or None. A robot
+        loaded with its geometry reads it here the first time it is asked for (a viewer drawing the robot;
+        :mod:`.geometry_reader`), once for the robot and its copies; a mesh file coal cannot parse is then a
+        :class:`ModelError`. Setting it replaces this robot's (not its copies')."""
+        model = self._visual_model
+        return model.get() if type(model) is GeometryReader else model
+
+    @visual_model.setter
+    def visual_model(self, model: pin.GeometryModel | GeometryReader | None) -> None:
+        self._visual_model = model
+
+    @property
+    def collision_model(self) -> pin.GeometryModel | None:
+        """The collision ``pinocchio.GeometryModel`` of the URDF's ``<collision>`` elements (the meshes as
+        the files give them), or None; read on first use as :attr:`visual_model` is - when the robot's
+        collision model (:attr:`collision`) is built from it, or a viewer draws it."""
+        model = self._collision_model
+        return model.get() if type(model) is GeometryReader else model
+
+    @collision_model.setter
+    def collision_model(self, model: pin.GeometryModel | GeometryReader | None) -> None:
+        self._collision_model = model
+
+    @property
     def data(self) -> pin.Data:
         """The calling thread's Pinocchio ``Data`` workspace (created on the thread's first use).
 
@@ -280,7 +308,7 @@ class Robot(CollisionQueries):
         """
         state = dict(self.__dict__)
         del state["_tls"]
-        for key in ("visual_model", "collision_model"):
+        for key in ("_visual_model", "_collision_model"):
             state[key] = None
         state["_chains"] = {}
         state["_collision_holder"] = [None]
@@ -290,6 +318,8 @@ class Robot(CollisionQueries):
         return state
 
     def __setstate__(self, state: dict) -> None:
+        state.setdefault("_visual_model", state.pop("visual_model", None))
+        state.setdefault("_collision_model", state.pop("collision_model", None))
         state.setdefault("srdf", None)
         state.setdefault("resolve_meshes", None)
         state.setdefault("_collision_holder", [None])

@@ -43,6 +43,7 @@ the normalised XML that was actually built.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import threading
@@ -56,6 +57,7 @@ import pinocchio as pin
 from lxml import etree
 
 from kinserve.kinematics.errors import InputError, ModelError, suggest
+from kinserve.kinematics.geometry_reader import GeometryReader
 from kinserve.kinematics.mesh_hulls import coal_message
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.task_axes import detect_task_axes
@@ -362,32 +364,36 @@ def build_model(xml: str, label: str) -> pin.Model:
 
 
 def clear_mesh_cache() -> None:
-    """Forget the meshes :func:`build_geometry` read (coal's ``CachedMeshLoader``, which reloads a file only
+    """Forget the meshes :func:`read_geometry` read (coal's ``CachedMeshLoader``, which reloads a file only
     when its modification time changes); the next build reads them again (:func:`kinserve.clear_caches`)."""
     global _MESH_LOADER
     with _MESH_LOCK:
         _MESH_LOADER = None
 
 
-def build_geometry(model: pin.Model, xml: str, package_dirs: Iterable[Path],
-                   label: str) -> tuple[pin.GeometryModel, pin.GeometryModel]:
-    """Visual and collision ``GeometryModel`` s of ``xml`` (meshes cached across calls)."""
+def read_geometry(model: pin.Model, xml: str, kind: str, label: str) -> pin.GeometryModel:
+    """The ``kind`` (``"visual"`` or ``"collision"``) ``GeometryModel`` of ``xml``, whose mesh URIs the loader
+    made absolute (meshes cached across calls); a failure (a mesh file coal cannot parse) is a
+    :class:`ModelError` naming ``label``."""
     global _MESH_LOADER
-    dirs = [str(d) for d in package_dirs]
+    geometry_type = pin.GeometryType.VISUAL if kind == "visual" else pin.GeometryType.COLLISION
     with _MESH_LOCK:
         if _MESH_LOADER is None:
             import coal
 
             _MESH_LOADER = coal.CachedMeshLoader()
         try:
-            visual = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.VISUAL, package_dirs=dirs,
-                                                 mesh_loader=_MESH_LOADER)
-            collision = pin.buildGeomFromUrdfString(model, xml, pin.GeometryType.COLLISION, package_dirs=dirs,
-                                                    mesh_loader=_MESH_LOADER)
+            return pin.buildGeomFromUrdfString(model, xml, geometry_type, package_dirs=[],
+                                               mesh_loader=_MESH_LOADER)
         except (ValueError, RuntimeError, OSError) as exc:
-            raise ModelError(f"{label}: cannot build the visual/collision geometry: {coal_message(exc)}") \
-                from None
-    return visual, collision
+            raise ModelError(f"{label}: cannot build the {kind} geometry: {coal_message(exc)}") from None
+
+
+def geometry_readers(model: pin.Model, xml: str, label: str) -> tuple[GeometryReader, GeometryReader]:
+    """The visual and collision :class:`~kinserve.kinematics.geometry_reader.GeometryReader` s of ``xml``
+    (:func:`read_geometry` on first use)."""
+    return tuple(GeometryReader(functools.partial(read_geometry, model, xml, kind, label))
+                 for kind in ("visual", "collision"))
 
 
 @dataclass
@@ -485,9 +491,13 @@ def load_urdf(
         the folders holding the file, ``$ROS_PACKAGE_PATH``,
         ``$AMENT_PREFIX_PATH`` and example-robot-data (see :mod:`robots.mesh_resolver`).
     geometry:
-        Build the visual and collision geometry (meshes) for viewers. A mesh
-        file that cannot be found is a :class:`MissingMeshWarning` and a
-        placeholder (see :meth:`MeshResolver.geometry_xml`); with
+        Resolve the visual and collision meshes now (a mesh file that cannot be
+        found is a :class:`MissingMeshWarning` and a placeholder, see
+        :meth:`MeshResolver.geometry_xml`) and read them on first use: the
+        visual ``GeometryModel`` when a viewer draws the robot, the collision
+        one when its collision model is built (``Robot.visual_model``,
+        :mod:`kinserve.kinematics.geometry_reader`); a mesh file coal cannot
+        parse is a :class:`ModelError` then. With
         ``geometry=False`` no mesh file is read now, and a collision model
         built later (``robot.in_collision``) resolves its meshes with the
         same resolver (``Robot.resolve_meshes``).
@@ -509,7 +519,7 @@ def load_urdf(
         for message in prep.missing_meshes:
             warnings.warn(f"{message}; drawing a {PLACEHOLDER_RADIUS} m sphere instead (no collision shape)",
                           MissingMeshWarning, stacklevel=2)
-        visual, collision = build_geometry(model, prep.geometry_xml, (), prep.label)
+        visual, collision = geometry_readers(model, prep.geometry_xml, prep.label)  # read on first use
     if task_axes is None:
         task_axes = detect_task_axes(model).axes
     try:

@@ -164,16 +164,21 @@ def test_overlong_name_is_an_unknown_robot_and_overlong_path_a_model_error():
 
 
 def test_a_file_that_is_not_a_mesh_is_a_model_error_naming_it(tmp_path):
-    """A collision mesh coal cannot read: a ModelError naming the file, without coal's source location."""
+    """A collision mesh coal cannot read: the load reads no mesh and succeeds (kinematics needs none); the
+    first use of the collision geometry is a ModelError naming the model and the file, without coal's source
+    location, and so is the next (nothing half-read is kept)."""
     (tmp_path / "part.stl").write_text("not a mesh\n")
     (tmp_path / "r.urdf").write_text(
         '<robot name="b"><link name="a"/><link name="b"><collision><geometry><mesh filename="part.stl"/>'
         '</geometry></collision></link><joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
         '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>')
     words = re.escape(f"Could not load resource {tmp_path / 'part.stl'}")
-    with pytest.raises(ModelError, match=words) as info:
-        robots.load(tmp_path / "r.urdf")
-    assert "From file" not in str(info.value) and "\n" not in str(info.value)
+    robot = robots.load(tmp_path / "r.urdf")
+    assert robot.fk(np.zeros(1)).shape == (4, 4) and robot.visual_model.ngeoms == 0
+    for use in (lambda: robot.in_collision(np.zeros(1)), lambda: robot.collision_model):
+        with pytest.raises(ModelError, match=f"r.urdf: cannot build the collision geometry: {words}") as info:
+            use()
+        assert "From file" not in str(info.value) and "\n" not in str(info.value)
 
 
 def _cube_stl(half: float) -> str:

@@ -175,13 +175,24 @@ _NOT_A_MESH_URDF = """<robot name="b"><link name="a"/><link name="b"><collision>
 <child link="b"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>"""
 
 
-@pytest.mark.parametrize("command", ["collide", "view"])
-def test_a_file_that_is_not_a_mesh_is_one_line_naming_it(command, tmp_path, capsys):
+@pytest.mark.parametrize("command, element", [("collide", "collision"), ("view --collision", "collision"),
+                                              ("view", "visual")])
+def test_a_file_that_is_not_a_mesh_is_one_line_naming_it(command, element, tmp_path, capsys):
     """coal's exception text (its source file, function and line) is cut to its message: one line naming
-    the file."""
+    the file, from each command that reads the mesh (`view` reads the collision meshes only with
+    --collision)."""
+    (tmp_path / "part.stl").write_text("not a mesh\n")
+    (tmp_path / "r.urdf").write_text(_NOT_A_MESH_URDF.replace("collision>", f"{element}>"))
+    extra = ["--html", str(tmp_path / "v.html")] if command.startswith("view") else []
+    code, out, err = run_main([*command.split(), str(tmp_path / "r.urdf"), *extra], capsys)
+    assert_one_line_error(code, out, err, f"cannot build the {element} geometry: Could not load resource "
+                                          f"{tmp_path / 'part.stl'}")
+    assert "From file" not in err and "in function" not in err and "at line" not in err
+
+
+def test_view_without_collision_does_not_read_the_collision_meshes(tmp_path, capsys):
+    """The viewer draws the visual model; a collision mesh it does not draw is not read (nor its error)."""
     (tmp_path / "part.stl").write_text("not a mesh\n")
     (tmp_path / "r.urdf").write_text(_NOT_A_MESH_URDF)
-    extra = ["--html", str(tmp_path / "v.html")] if command == "view" else []
-    code, out, err = run_main([command, str(tmp_path / "r.urdf"), *extra], capsys)
-    assert_one_line_error(code, out, err, f"Could not load resource {tmp_path / 'part.stl'}")
-    assert "From file" not in err and "in function" not in err and "at line" not in err
+    code, out, err = run_main(["view", str(tmp_path / "r.urdf"), "--html", str(tmp_path / "v.html")], capsys)
+    assert code == 0 and (tmp_path / "v.html").stat().st_size > 0, (code, out, err)
