@@ -40,7 +40,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.sparse.csgraph import minimum_spanning_tree
 
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.validation import as_count, as_numbers
@@ -227,18 +226,22 @@ def held_karp(C: np.ndarray, start: int = 0, end: int | None = None,
     return order, best
 
 
-def _nearest_neighbour(C, start, end, return_to_start):
-    n = C.shape[0]
-    unvisited = set(range(n)) - {start}
-    if end is not None and not return_to_start:
-        unvisited.discard(end)
+def _nearest_neighbour(C: np.ndarray, start: int, end: int | None, return_to_start: bool) -> list[int]:
+    """The greedy order from ``start``: each step goes to the cheapest point not yet visited, the lowest index
+    among equal costs; ``end``, when fixed on an open path, comes last. One row's minimum per step over the
+    points left (O(N) in NumPy; O(N^2) in all)."""
+    open_end = end is not None and not return_to_start
+    left = np.ones(C.shape[0], dtype=bool)
+    left[start] = False
+    if open_end:
+        left[end] = False
     order = [start]
-    while unvisited:
-        cur = order[-1]
-        nxt = min(unvisited, key=lambda j: (C[cur, j], j))
+    for _ in range(int(np.count_nonzero(left))):
+        candidates = np.flatnonzero(left)
+        nxt = int(candidates[np.argmin(C[order[-1], candidates])])  # (argmin: the first of equal costs)
         order.append(nxt)
-        unvisited.remove(nxt)
-    if end is not None and not return_to_start:
+        left[nxt] = False
+    if open_end:
         order.append(end)
     return order
 
@@ -263,14 +266,25 @@ def two_opt(C: np.ndarray, order: Sequence[int], fixed_end: bool, return_to_star
 
 
 def spanning_tree_bound(C: np.ndarray) -> float:
-    """Weight of a minimum spanning tree of ``min(C, C^T)``: a lower bound on any path through all points."""
+    """Weight of a minimum spanning tree of ``min(C, C^T)``: a lower bound on any path through all points
+    (0 when a cost between two points is infinite). Prim's algorithm on the dense matrix: each step adds the
+    point nearest the tree and lowers the others' distances to the tree by its row (O(N^2))."""
     S = np.minimum(C, C.T)
-    if np.any(~np.isfinite(S[~np.eye(len(S), dtype=bool)])):
+    n = len(S)
+    if n < 2 or np.any(~np.isfinite(S[~np.eye(n, dtype=bool)])):
         return 0.0
-    S = S.copy()
-    S[S == 0] = 1e-300  # csgraph treats 0 as "no edge"
-    np.fill_diagonal(S, 0.0)
-    return float(minimum_spanning_tree(S).sum())
+    inside = np.zeros(n, dtype=bool)
+    inside[0] = True
+    to_tree = S[0].copy()  # the cheapest edge from each point to the tree
+    to_tree[0] = np.inf
+    total = 0.0
+    for _ in range(n - 1):
+        j = int(np.argmin(to_tree))
+        total += float(to_tree[j])
+        inside[j] = True
+        np.minimum(to_tree, S[j], out=to_tree)
+        to_tree[inside] = np.inf
+    return total
 
 
 def shortest_order(
