@@ -41,7 +41,7 @@ from typing import Any
 
 from kinserve.ik.closed_form.chooser import CRITERIA
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_positive
+from kinserve.kinematics.validation import as_flag, as_positive
 
 #: Every IK method ``ik.solve(method=...)`` names; the last four are the classical iterations.
 CLASSICAL_METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
@@ -117,8 +117,7 @@ def _positive(name, value):
 
 
 def _flag(name, value):
-    if not isinstance(value, bool):
-        raise InputError(f"option {name} must be True or False, got {value!r}")
+    as_flag(value, f"option {name}")
 
 
 def _criteria(name, value):

@@ -47,6 +47,7 @@ from kinserve.ik.tasks.centring_weights import centring_weights
 from kinserve.kinematics.errors import InputError, KinserveError, ModelError
 from kinserve.kinematics.robot import TASK_AXES, Robot
 from kinserve.kinematics.shapes import Shape
+from kinserve.kinematics.validation import as_flag
 
 _NO_OPTIONS: Mapping[str, Any] = MappingProxyType({})
 
@@ -158,8 +159,7 @@ def target_request(robot: Robot, target: Any, q0: Any = None, *, frame: str | No
     if weights is not None and method in NO_CENTRING_METHODS:
         raise InputError(f"method {method!r} cannot honour centring; use 'qp' (or 'pseudo_inverse' / 'dls')")
     collision, bound, avoid = None, None, None
-    if not isinstance(self_collision, (bool, np.bool_)):
-        raise InputError(f"self_collision must be True or False, got {self_collision!r}")
+    as_flag(self_collision, "self_collision")
     if not (type(collision_margin) is float and collision_margin == 0.0):
         collision_margin = check_length(collision_margin, "collision margin")
     if self_collision or collision_margin:

@@ -30,7 +30,7 @@ from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
 from .extensions import Extensions
 from .types import VectorLike
-from .validation import describe
+from .validation import as_flag
 
 if TYPE_CHECKING:  # annotations only (collision_model imports pinocchio/coal)
     from .collision_model import CollisionModel
@@ -82,11 +82,7 @@ def _frame_link(model: Any, frame_id: int, links: list[str]) -> str | None:
 def self_collision_flag(value: object) -> bool:
     """``self_collision`` as a bool: True, False (or a NumPy bool); :class:`InputError` for anything else
     (``"yes"``, None, 1, NaN - no truthiness: ``"no"`` would mean True)."""
-    if value is True or value is False:
-        return value
-    if isinstance(value, np.bool_):
-        return bool(value)
-    raise InputError(f"self_collision must be True or False, got {describe(value)}")
+    return as_flag(value, "self_collision")
 
 
 class CollisionQueries:

@@ -43,6 +43,7 @@ from .types import MatrixLike, VectorLike
 from .validation import (
     MAX_ABS,
     as_count,
+    as_flag,
     as_matrix,
     as_nonnegative,
     as_positive,
@@ -371,7 +372,7 @@ class Robot(CollisionQueries):
     def check_q(self, q: VectorLike, name: str = "q", check_limits: bool = False) -> np.ndarray:
         """Validate a joint vector: shape ``(nq,)``, finite; optionally within limits."""
         q = as_vector(q, self.nq, name)
-        if check_limits:
+        if check_limits is not False and as_flag(check_limits, "check_limits"):
             self.check_limits(q, name)
         return q
 
@@ -403,7 +404,7 @@ class Robot(CollisionQueries):
         else falls through to the exact per-entry validation (``check_q``), which
         accepts e.g. ``[5e5] * 7`` and names the bad entries otherwise.
         """
-        if check_limits:
+        if check_limits is not False and as_flag(check_limits, "check_limits"):
             q = self.check_q(q, check_limits=True)
         try:
             if not _hypot(*q.tolist()) < MAX_ABS:
@@ -420,7 +421,7 @@ class Robot(CollisionQueries):
         if fid is None:
             fid = self.frame_id(frame)  # raises FrameError naming the frame
         model, data = self.model, self._tls.data
-        if check_limits:
+        if check_limits is not False and as_flag(check_limits, "check_limits"):
             q = self.check_q(q, check_limits=True)
         try:  # fast path, see _forward
             if _hypot(*q.tolist()) < MAX_ABS:
@@ -469,7 +470,7 @@ class Robot(CollisionQueries):
         ref = _LWA if reference == "world" else _REFERENCES.get(reference)
         if ref is None:
             raise ShapeError(f"reference must be one of {sorted(_REFERENCES)}, got {reference!r}")
-        if check_limits:
+        if check_limits is not False and as_flag(check_limits, "check_limits"):
             q = self.check_q(q, check_limits=True)
         try:  # fast path, see _forward
             if _hypot(*q.tolist()) < MAX_ABS:

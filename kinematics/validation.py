@@ -379,6 +379,16 @@ def _raise_non_finite(arr: np.ndarray, name: str):
     )
 
 
+def as_flag(value: object, name: str) -> bool:
+    """``value`` if it is True or False (a NumPy bool as a bool); else :class:`InputError` naming ``name``. No
+    truthiness: ``"no"``, 0, 1, None or NaN would each be read as a choice they do not state."""
+    if value is True or value is False:
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    raise InputError(f"{name} must be True or False, got {describe(value)}")
+
+
 def describe(value: object) -> str:
     """``repr(value)``, cut to 60 characters: how a message shows what it was given."""
     text = repr(value)

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_count, as_numbers
+from kinserve.kinematics.validation import as_count, as_flag, as_numbers
 
 from .checks import as_index
 from .two_opt_kernel import reverse_while_improving
@@ -152,9 +152,10 @@ def path_cost(C: np.ndarray, order: Sequence[int], return_to_start: bool = False
 
     Refused (:class:`InputError` / :class:`ShapeError`): ``C`` not a square matrix of costs >= 0 (NaN,
     negative), ``order`` holding an index outside ``[0, N - 1]`` (negative ones included) or an index
-    twice.
+    twice, ``return_to_start`` not True or False.
     """
     C = as_cost_matrix(C)
+    return_to_start = as_flag(return_to_start, "return_to_start")
     if order is None or isinstance(order, (str, bytes, dict)) or not hasattr(order, "__iter__"):
         raise InputError(f"order must be a sequence of indices into the cost matrix, got {order!r:.60}")
     o = [as_index(v, C.shape[0], f"order[{k}]") for k, v in enumerate(order)]
@@ -173,9 +174,10 @@ def held_karp(C: np.ndarray, start: int = 0, end: int | None = None,
 
     Refused (:class:`InputError` / :class:`ShapeError`): ``C`` not a square matrix of costs >= 0 (NaN,
     negative), more than :data:`HELD_KARP_LIMIT` points (the work doubles with each point), ``start`` /
-    ``end`` not an index of ``C``.
+    ``end`` not an index of ``C``, ``return_to_start`` not True or False.
     """
     C = as_cost_matrix(C)
+    return_to_start = as_flag(return_to_start, "return_to_start")
     n = C.shape[0]
     if n == 0:
         raise InputError("no points to order: the cost matrix is empty")
@@ -308,9 +310,11 @@ def shortest_order(
     Refused (:class:`InputError` / :class:`ShapeError` naming the argument): points that are not finite
     positions or poses, more than :data:`MAX_POINTS` of them, NaN or negative costs, ``start`` / ``end``
     not an index of the points (None, NaN, out of range), ``exact_limit`` not an integer in
-    ``[0, HELD_KARP_LIMIT]``.
+    ``[0, HELD_KARP_LIMIT]``, ``return_to_start`` not True or False (no truthiness: it was passed to the
+    compiled 2-opt, which refused it with Numba's own TypeError).
     """
     exact_limit = as_count(exact_limit, "exact_limit", 0, HELD_KARP_LIMIT)
+    return_to_start = as_flag(return_to_start, "return_to_start")
     C = _cost_matrix(points, cost)
     n = C.shape[0]
     if n == 0:

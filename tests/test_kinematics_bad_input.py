@@ -383,3 +383,32 @@ def test_shapes_beyond_the_extent_coal_measures_precisely_are_refused():
     assert len(near) >= 3
     for link in near:
         assert sphere[link] == pytest.approx(box[link], abs=2e-3)
+
+
+FLAG_NOT_STATED = ["no", "False", 0, 1, 0.0, None, float("nan"), [], [True]]
+
+
+@pytest.mark.parametrize("value", FLAG_NOT_STATED)
+def test_as_flag_takes_true_or_false_only(value):
+    """No truthiness: "no", "False" or [True] would each be read as something they do not say."""
+    from kinserve.kinematics.validation import as_flag
+
+    with pytest.raises(InputError, match=r"^simplify must be True or False, got "):
+        as_flag(value, "simplify")
+    assert as_flag(True, "x") is True and as_flag(np.bool_(False), "x") is False
+
+
+@pytest.mark.parametrize("value", FLAG_NOT_STATED)
+def test_check_limits_must_be_true_or_false(arm, value):
+    """``check_limits="no"`` checked the limits, and ``check_limits=0`` or None did not, silently; each is now
+    an InputError naming check_limits, from every call that takes it. NumPy's bools are flags."""
+    q = np.asarray(arm.upper) + 0.1  # beyond every limit
+    calls = {"check_q": lambda v: arm.check_q(q, check_limits=v), "fk": lambda v: arm.fk(q, check_limits=v),
+             "fk_all": lambda v: arm.fk_all(q, check_limits=v),
+             "jacobian": lambda v: arm.jacobian(q, check_limits=v)}
+    for name, call in calls.items():
+        with pytest.raises(InputError, match="check_limits must be True or False"):
+            call(value)
+        call(np.bool_(False))
+        with pytest.raises(JointLimitError):
+            call(np.bool_(True))

@@ -221,3 +221,23 @@ def test_the_bound_holds_with_repeated_points(seed):
     assert exact.method == "held-karp" and heuristic.method == "nn+2opt"
     assert heuristic.lower_bound <= exact.cost + 1e-12
     assert heuristic.cost <= exact.cost * heuristic.gap_bound + 1e-12
+
+
+@pytest.mark.parametrize("value", ["no", 0, 1, None, float("nan")])
+def test_return_to_start_must_be_true_or_false(value):
+    """Above the exact limit the flag reached the compiled 2-opt, which raised Numba's TypeError ("No matching
+    definition for argument type(s) ..."); below it any truthy value closed the tour. Each entry point now
+    names the argument; NumPy's bools are flags."""
+    from kinserve.kinematics.errors import InputError
+    from kinserve.planners.checkpoint_order import held_karp
+
+    points = np.random.default_rng(0).uniform(0, 1, (15, 2))
+    C = euclidean_cost_matrix(points)
+    calls = (lambda v: shortest_order(points, return_to_start=v),
+             lambda v: shortest_order(points[:5], return_to_start=v),
+             lambda v: path_cost(C, [0, 1, 2], v), lambda v: held_karp(C[:5, :5], 0, None, v))
+    for call in calls:
+        with pytest.raises(InputError, match="return_to_start must be True or False"):
+            call(value)
+    closed = shortest_order(points, return_to_start=True)
+    assert shortest_order(points, return_to_start=np.bool_(True)).cost == closed.cost

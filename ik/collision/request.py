@@ -6,11 +6,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
-import numpy as np
-
 from kinserve.ik.constraints.collision import check_length
-from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.shapes import Shape, as_obstacles
+from kinserve.kinematics.validation import as_flag
 
 
 class CollisionRequest(NamedTuple):
@@ -32,8 +30,7 @@ def collision_request(self_collision: Any = False, obstacles: Sequence[Any] = ()
     obs = as_obstacles(obstacles)
     if spheres is not None and (type(spheres) is not tuple or spheres):
         obs += as_obstacles(spheres, "spheres")
-    if not isinstance(self_collision, (bool, np.bool_)):
-        raise InputError(f"self_collision must be True or False, got {self_collision!r}")
+    as_flag(self_collision, "self_collision")
     margin = 0.0 if type(collision_margin) is float and collision_margin == 0.0 \
         else check_length(collision_margin, "collision margin")
     return CollisionRequest(bool(self_collision), tuple(obs), margin)

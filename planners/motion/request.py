@@ -33,7 +33,7 @@ from kinserve.ik.targets import Target
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import as_obstacles
-from kinserve.kinematics.validation import as_matrix, as_pose, check_limits
+from kinserve.kinematics.validation import as_flag, as_matrix, as_pose, check_limits
 
 from .rrt_connect import SearchBudget
 
@@ -71,9 +71,7 @@ class MotionRequest:
 
 
 def _flag(value: Any, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise InputError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
+    return as_flag(value, name)
 
 
 def _given(relax: Any) -> bool:
