@@ -50,7 +50,7 @@ from kinserve import ik
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.types import PoseLike, VectorLike
-from kinserve.kinematics.validation import as_nonnegative, as_positive
+from kinserve.kinematics.validation import as_flag, as_nonnegative, as_positive
 
 from .checks import MAX_SAMPLES
 from .joint_trajectory import JointTrajectory, check_last_time
@@ -322,10 +322,11 @@ def cartesian_to_joint(
     not an integer from 1 to the bound that keeps the path within
     :data:`~kinserve.planners.checks.MAX_SAMPLES` poses; ``dt``, ``total_time``, ``max_time`` (when not
     None) or ``jump_threshold`` not finite numbers in ``(0, 1e6]``; ``limit_margin`` or ``singular_tol``
-    not finite numbers in ``[0, 1e6]``; an unknown ``interpolation``; a ``dt`` whose path's last time,
-    ``dt`` times the number of poses less one, would pass 1e6 s.
+    not finite numbers in ``[0, 1e6]``; an unknown ``interpolation``; ``stop_on_failure`` not True or False;
+    a ``dt`` whose path's last time, ``dt`` times the number of poses less one, would pass 1e6 s.
     """
     poses = _checked_arguments(poses, steps, dt, interpolation, total_time)
+    stop_on_failure = as_flag(stop_on_failure, "stop_on_failure")
     max_time, jump_threshold, limit_margin, singular_tol = _checked_thresholds(max_time, jump_threshold,
                                                                                limit_margin, singular_tol)
     deadline = None if total_time is None else time.monotonic() + float(total_time)

@@ -59,6 +59,7 @@ from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.types import VectorLike
 from kinserve.kinematics.validation import (
     as_count,
+    as_flag,
     as_matrix,
     as_nonnegative,
     as_positive,
@@ -270,8 +271,14 @@ def track_reference(
 
     Refused (:class:`InputError` naming the argument, before any step): ``n``, ``dt``, ``gain`` and
     ``damping`` as :func:`_checked_run_arguments` says; ``sigma_threshold``, ``max_step_error`` and
-    ``max_joint_rate`` (when given) not in ``(0, 1e6]``; ``lambda_max`` not in ``[0, 1e6]``.
+    ``max_joint_rate`` (when given) not in ``(0, 1e6]``; ``lambda_max`` not in ``[0, 1e6]``; ``reference`` not
+    callable; ``closed_loop`` or ``stop_on_singularity`` not True or False.
     """
+    if not callable(reference):
+        raise InputError("reference must be a function t -> (x_ref, xdot_ref), got "
+                         f"{type(reference).__name__}")
+    closed_loop = as_flag(closed_loop, "closed_loop")
+    stop_on_singularity = as_flag(stop_on_singularity, "stop_on_singularity")
     axes = _check_axes(robot, axes)
     rows = axis_rows(axes)
     yaw_index = [i for i, a in enumerate(axes) if a == "yaw"]

@@ -41,6 +41,7 @@ from typing import Any
 
 from kinserve.kinematics.errors import ModelError, ShapeError, UnknownRobotError, suggest
 from kinserve.kinematics.robot import TASK_AXES, Robot, axis_rows
+from kinserve.kinematics.validation import as_flag
 
 from . import paths
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
@@ -398,7 +399,8 @@ def load(
     * ``srdf``: SRDF path or text for ``robot.named_states`` / ``robot.groups``;
       default: the SRDF found beside the model file; ``False``: none.
     * ``allow_outside``: let the model read mesh files outside its own
-      folders and the package folders (refused by default).
+      folders and the package folders (refused by default). It and ``geometry``
+      are True or False: ``allow_outside="no"`` is refused, not read as a yes.
     * ``time_limit``: seconds a xacro expansion may take (default 20, at most 3600; checked on every load,
       xacro or not).
 
@@ -423,7 +425,8 @@ def load(
         if not isinstance(d, (str, os.PathLike)) or not Path(d).expanduser().is_dir():
             raise ModelError(f"package_dirs: {d!r} is not a folder")
         dirs.append(str(Path(d).expanduser().resolve()))
-    opts = LoadOptions(tip, bool(geometry), tuple(dirs), bool(allow_outside), time_limit)
+    geometry, allow_outside = as_flag(geometry, "geometry"), as_flag(allow_outside, "allow_outside")
+    opts = LoadOptions(tip, geometry, tuple(dirs), allow_outside, time_limit)
     robot = _load(name_or_path, opts, params, locks, auto_srdf=srdf is None)
     return _apply(robot, task_axes, srdf)
 

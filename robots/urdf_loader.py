@@ -61,6 +61,7 @@ from kinserve.kinematics.geometry_reader import GeometryReader
 from kinserve.kinematics.mesh_hulls import coal_message
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.task_axes import detect_task_axes
+from kinserve.kinematics.validation import as_flag
 
 from .mesh_resolver import PLACEHOLDER_RADIUS, MeshResolver, MissingMeshWarning
 from .urdf_elements import attribute_floats, describe, where
@@ -509,8 +510,10 @@ def load_urdf(
         (refused by default: a model file from elsewhere could name any file).
 
     Every problem with the model is a :class:`ModelError` naming the file and
-    the offending element (with its line number).
+    the offending element (with its line number); ``geometry`` or
+    ``allow_outside`` not True or False is an :class:`InputError`.
     """
+    geometry, allow_outside = as_flag(geometry, "geometry"), as_flag(allow_outside, "allow_outside")
     prep = prepare_urdf(source, locked_joints=locked_joints, package_dirs=package_dirs, check_meshes=geometry,
                         allow_outside=allow_outside)
     model = build_model(prep.xml, prep.label)

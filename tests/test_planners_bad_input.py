@@ -408,3 +408,24 @@ def test_from_positions_velocity_bound_is_the_documented_one():
     trajectory = JointTrajectory.from_positions(["a", "b"], Q, 3.501e-7)
     assert np.max(np.abs(trajectory.velocities)) <= 1e6
     assert np.max(np.abs(trajectory.velocities)) == pytest.approx(0.35 / 3.501e-7)
+
+
+@pytest.mark.parametrize("value", ["no", 0, None])
+def test_planner_flags_must_be_true_or_false(panda, line, value):
+    """``stop_on_failure``, ``closed_loop`` and ``stop_on_singularity`` were read by truthiness ("no" meant
+    yes); a reference that is not a function was Python's "'numpy.ndarray' object is not callable"."""
+    from kinserve.planners import track_reference
+
+    with pytest.raises(InputError, match="stop_on_failure must be True or False"):
+        cartesian_to_joint(panda, list(line), Q0, frame="panda_link8", steps=1, stop_on_failure=value,
+                           **NO_CLOCK)
+
+    def ref(t):
+        return np.zeros(3), np.zeros(3)
+
+    for flag in ("closed_loop", "stop_on_singularity"):
+        with pytest.raises(InputError, match=f"{flag} must be True or False"):
+            track_reference(panda, ref, Q0, 2, 0.01, axes=["x", "y", "z"], **{flag: value})
+    with pytest.raises(InputError, match="reference must be a function t -> .*, got ndarray"):
+        track_reference(panda, np.zeros((3, 3)), Q0, 2, 0.01, axes=["x", "y", "z"])
+    assert len(track_reference(panda, ref, Q0, 2, 0.01, axes=["x", "y", "z"], closed_loop=np.True_).q) == 3

@@ -217,3 +217,19 @@ def test_clear_caches_forgets_the_meshes_read(tmp_path):
     assert extent() == pytest.approx(0.05)  # cached: same file name, same time
     kinserve.clear_caches()
     assert extent() == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("value", ["no", 0, None, float("nan")])
+def test_geometry_and_allow_outside_must_be_true_or_false(value):
+    """``allow_outside="no"`` let a model read files outside its folders (bool("no") is True); each loader now
+    names the flag it was given."""
+    from kinserve.kinematics.errors import InputError
+    from kinserve.robots import load_urdf
+
+    path = robots.ENTRIES["panda"].path()
+    for flag in ("geometry", "allow_outside"):
+        with pytest.raises(InputError, match=f"{flag} must be True or False"):
+            robots.load("panda", **{flag: value})
+        with pytest.raises(InputError, match=f"{flag} must be True or False"):
+            load_urdf(path, **{flag: value})
+    assert robots.load("panda", geometry=np.bool_(False), allow_outside=np.False_).nq == 7

@@ -374,3 +374,25 @@ def test_sweep_points_frames_a_moving_node_at_every_pose():
         assert np.min(np.linalg.norm(drawn - p, axis=1)) < 1e-12
     assert np.min(np.linalg.norm(drawn - [5.0, 0.0, 0.0], axis=1)) < 0.2  # other nodes untouched
     assert len(drawn) == before - 8 + 3 * 8  # the box's 8 corners became 8 per pose
+
+
+@pytest.mark.parametrize("value", ["no", 0, None])
+def test_viz_flags_must_be_true_or_false(value):
+    """The scene's switches, the export's compression and the plots' log axis were read by truthiness
+    (``grid="no"`` showed the grid); each now names the flag."""
+    import numpy as np
+
+    from kinserve import robots, viz
+    from kinserve.kinematics.errors import InputError
+
+    arm = robots.load("planar4r", geometry=False)
+    calls = {"grid": lambda v: viz.Scene(grid=v), "axes": lambda v: viz.Scene(axes=v),
+             "tool_frame": lambda v: viz.Scene.for_robot(arm, tool_frame=v),
+             "collision": lambda v: viz.Scene.for_robot(arm, collision=v),
+             "collisions": lambda v: viz.Scene().add_robot(arm, collisions=v),
+             "compress": lambda v: viz.static_html(viz.Scene(), compress=v),
+             "logy": lambda v: viz.errors_figure(np.arange(3), {"e": np.ones(3)}, logy=v)}
+    for flag, call in calls.items():
+        with pytest.raises(InputError, match=f"{flag} must be True or False"):
+            call(value)
+    assert viz.Scene(grid=np.False_).grid is False

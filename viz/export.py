@@ -33,6 +33,7 @@ import meshcat
 import umsgpack
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_flag
 
 from .scene import Scene
 
@@ -164,7 +165,7 @@ def static_html(scene: Scene, *, title: str | None = None, compress: bool = True
         raise InputError(f"static_html needs a viz.Scene, got {type(scene).__name__}")
     commands = scene.commands()
     blob = pack_commands(commands)
-    if compress:
+    if as_flag(compress, "compress"):
         blob = gzip.compress(blob, compresslevel=6, mtime=0)
     payload = base64.b64encode(blob).decode("ascii")
     payload = "\n".join(payload[i:i + 4096] for i in range(0, len(payload), 4096))

@@ -28,7 +28,7 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix
+from kinserve.kinematics.validation import as_flag, as_matrix
 
 from . import colors
 from .map2d import Rect, as_grid, as_polyline, as_shape
@@ -84,6 +84,7 @@ def _series(series, name: str) -> list[tuple[str, np.ndarray]]:
 
 
 def _plot_series(ax, x, series, *, logy: bool, name: str):
+    logy = as_flag(logy, "logy")
     items = _series(series, name)
     if not items:
         raise InputError(f"{name}: nothing to plot")

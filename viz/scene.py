@@ -36,7 +36,7 @@ import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_pose, as_vector
+from kinserve.kinematics.validation import as_flag, as_pose, as_vector
 
 from . import colors
 from .camera import CAMERA_FOV_DEG, box_corners, frame_points, view_commands  # noqa: F401 (CAMERA_FOV_DEG re-exported)
@@ -185,8 +185,8 @@ class Scene:
         self._extent: dict[str, list[np.ndarray]] = {}
         self.robots: dict[str, SceneRobot] = {}
         self.visualizer = meshcat.Visualizer(window=self)
-        self.grid = bool(grid)
-        self.axes = bool(axes)
+        self.grid = as_flag(grid, "grid")
+        self.axes = as_flag(axes, "axes")
 
     @classmethod
     def for_robot(cls, robot, q=None, *, tool_frame: bool = True, frame_length: float = 0.1,
@@ -200,6 +200,7 @@ class Scene:
         (shapes, node ``obstacles/<k>``), bodies in collision in red
         (:mod:`viz.collision_drawing`).
         """
+        tool_frame, collision = as_flag(tool_frame, "tool_frame"), as_flag(collision, "collision")
         scene = cls(getattr(robot, "name", "robot"))
         handle = scene.add_robot(robot, q, **kwargs)
         if tool_frame:
@@ -505,7 +506,7 @@ class Scene:
         visual = robot.visual_model
         if visual is None or visual.ngeoms == 0:
             visual = skeleton_geometry(robot.model, frames=[robot.tip], radius=skeleton_radius)
-        collision = robot.collision_model if collisions else None
+        collision = robot.collision_model if as_flag(collisions, "collisions") else None
         rgba = None
         if color is not None:
             rgba = list(colors.to_rgb(color)) + [float(color[3])
