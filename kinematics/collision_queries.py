@@ -79,12 +79,6 @@ def _frame_link(model: Any, frame_id: int, links: list[str]) -> str | None:
         fid = frame.parentFrame
 
 
-def self_collision_flag(value: object) -> bool:
-    """``self_collision`` as a bool: True, False (or a NumPy bool); :class:`InputError` for anything else
-    (``"yes"``, None, 1, NaN - no truthiness: ``"no"`` would mean True)."""
-    return as_flag(value, "self_collision")
-
-
 class CollisionQueries:
     """Mixin of :class:`~.robot.Robot`: ``in_collision``, ``collisions``, ``distances``, ``min_distance``."""
 
@@ -248,7 +242,7 @@ class CollisionQueries:
         model's last scene when they are its very objects, else a new one that replaces it
         (:meth:`~.collision_model.CollisionModel.scene`). ``self_collision``: True or False
         (:class:`~.errors.InputError` otherwise)."""
-        return self.collision.scene_of(obstacles, self_collision_flag(self_collision))
+        return self.collision.scene_of(obstacles, as_flag(self_collision, "self_collision"))
 
     def collision_geometry(self, q: VectorLike) -> list[dict]:
         """Plain data of the robot's collision shapes at ``q``: :meth:`CollisionModel.shape_data` with
@@ -277,7 +271,7 @@ class CollisionQueries:
         :meth:`collisions`, :meth:`distances`, :meth:`min_distance`).
         """
         if not (self_collision is True or self_collision is False):
-            self_collision = self_collision_flag(self_collision)
+            self_collision = as_flag(self_collision, "self_collision")
         return self.collision.scene_of(obstacles, self_collision).in_collision(q)
 
     def collisions(self, q: VectorLike, obstacles: Any = (), *,

@@ -70,6 +70,19 @@ def joint_name_list(joint_names: object) -> list:
     return list(joint_names)
 
 
+def _four_digits(value: float, rounding) -> float:
+    """``value`` rounded to four significant digits by ``rounding`` (``math.floor`` or ``math.ceil``)."""
+    scale = 10.0 ** (math.floor(math.log10(value)) - 3)
+    return rounding(value / scale) * scale
+
+
+def _dt_error(message: str) -> InputError:
+    """The :class:`InputError` of a bad ``dt``, with ``argument`` set (a front end points at its dt field)."""
+    exc = InputError(message)
+    exc.argument = "dt"
+    return exc
+
+
 def check_last_time(dt: float, n_points: int) -> None:
     """:class:`InputError` naming ``dt`` when ``n_points`` points at a step of ``dt`` s end later than
     :data:`~kinserve.kinematics.validation.MAX_ABS` s (``(n_points - 1) * dt``, the last ``time_from_start``,
@@ -77,12 +90,9 @@ def check_last_time(dt: float, n_points: int) -> None:
     last = (n_points - 1) * dt
     if last <= MAX_ABS:
         return
-    most = MAX_ABS / (n_points - 1)
-    scale = 10.0 ** (math.floor(math.log10(most)) - 3)
-    exc = InputError(f"dt = {dt:g} s over {n_points} points ends at {last:g} s, beyond the {MAX_ABS:g} s a "
-                     f"time may take; dt must be at most {math.floor(most / scale) * scale:.4g} s")
-    exc.argument = "dt"  # (a front end points at its dt field)
-    raise exc
+    most = _four_digits(MAX_ABS / (n_points - 1), math.floor)
+    raise _dt_error(f"dt = {dt:g} s over {n_points} points ends at {last:g} s, beyond the {MAX_ABS:g} s a "
+                    f"time may take; dt must be at most {most:.4g} s")
 
 
 def _check_velocity_bound(V: np.ndarray, Q: np.ndarray, dt: float, zero_ends: bool) -> None:
@@ -93,13 +103,9 @@ def _check_velocity_bound(V: np.ndarray, Q: np.ndarray, dt: float, zero_ends: bo
     if np.all(np.abs(V) <= MAX_ABS):
         return
     unit = finite_difference_velocities(Q, np.arange(Q.shape[0], dtype=float), zero_ends=zero_ends)
-    least = float(np.max(np.abs(unit))) / MAX_ABS * (1 + 1e-9)
-    scale = 10.0 ** (math.floor(math.log10(least)) - 3)
-    least = math.ceil(least / scale) * scale
-    exc = InputError(f"dt = {dt:g} s is too short for these positions: their finite-difference velocities "
-                     f"exceed {MAX_ABS:g} rad/s or m/s; dt must be at least {least:.4g} s")
-    exc.argument = "dt"  # (a front end points at its dt field)
-    raise exc
+    least = _four_digits(float(np.max(np.abs(unit))) / MAX_ABS * (1 + 1e-9), math.ceil)
+    raise _dt_error(f"dt = {dt:g} s is too short for these positions: their finite-difference velocities "
+                    f"exceed {MAX_ABS:g} rad/s or m/s; dt must be at least {least:.4g} s")
 
 
 @dataclass

@@ -70,10 +70,6 @@ class MotionRequest:
     goal_count: int = GOAL_COUNT
 
 
-def _flag(value: Any, name: str) -> bool:
-    return as_flag(value, name)
-
-
 def _given(relax: Any) -> bool:
     """Whether ``relax`` names any component (None and empty sequences name none)."""
     if relax is None:
@@ -195,9 +191,9 @@ def motion_request(robot: Robot, start: Any, goal: Any, obstacles: Any, self_col
         goals, single = _goals(robot, goal)
     v_max = velocity_limits(robot)
     return MotionRequest(q0, goals, single, as_obstacles(obstacles, "obstacles"),
-                         _flag(self_collision, "self_collision"), _budget(max_time, max_iterations),
+                         as_flag(self_collision, "self_collision"), _budget(max_time, max_iterations),
                          _seed(seed), v_max, _accelerations(acceleration_limits, v_max),
-                         _flag(simplify, "simplify"), pose, _goal_count(goal_count))
+                         as_flag(simplify, "simplify"), pose, _goal_count(goal_count))
 
 
 __all__ = ["DEFAULT_ACCELERATION_FACTOR", "DEFAULT_VELOCITY_LIMIT", "GOAL_COUNT", "MAX_GOAL_COUNT",
