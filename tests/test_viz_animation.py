@@ -136,3 +136,23 @@ def test_invalid_animation_input(panda):
     scene.add_sphere("s", [0, 0, 0], 0.01)
     with pytest.raises(InputError, match="grasp"):
         anim.attach("s", "panda", grasp=4, release=2)
+
+
+@pytest.mark.parametrize("play, repetitions, message", [
+    ("no", 1, "play must be True or False"), (0, 1, "play must be True or False"),
+    (True, 0, "repetitions must be an integer from 1"), (True, 2.5, "repetitions must be an integer"),
+    (True, "3", "repetitions must be an integer"), (True, 10**7, "repetitions must be an integer from 1"),
+])
+def test_apply_refuses_a_play_or_repetitions_it_would_misread(play, repetitions, message):
+    """``play="no"`` played the animation and ``repetitions=2.5`` repeated it twice (``bool`` / ``int``
+    casts); each is now refused by name, and nothing is recorded."""
+    scene = viz.Scene()
+    scene.add_box("box", [0.1, 0.1, 0.1])
+    anim = viz.Animation(scene)
+    anim.key("box", 0, np.eye(4))
+    anim.key("box", 3, se3.pose(np.eye(3), [0.5, 0.0, 0.0]))
+    with pytest.raises(InputError, match=message):
+        anim.apply(play=play, repetitions=repetitions)
+    assert scene.animation is None
+    anim.apply(play=np.False_, repetitions=np.int64(3))
+    assert scene.animation["options"] == {"play": False, "repetitions": 3}

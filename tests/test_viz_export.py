@@ -1,5 +1,6 @@
 """kinserve.viz.export_html: one self-contained, offline HTML file holding meshcat's viewer and the scene."""
 
+import importlib
 import re
 
 import numpy as np
@@ -124,3 +125,31 @@ def test_caption_is_readable_over_the_scene_background(panda_scene, tmp_path):
     assert contrast_ratio([0, 0, 0], [255, 255, 255]) == pytest.approx(21.0)
     assert contrast_ratio([51, 51, 51], [51, 51, 51]) == pytest.approx(1.0)
     assert contrast_ratio([0x33, 0x33, 0x33], gradient["bottom_color"]) < 4.5
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"size": (800,)}, r"size must be \(width, height\)"), ({"size": "800x600"}, r"size must be \(width"),
+    ({"size": (800.5, 600)}, "size width must be an integer"), ({"size": (800, 0)}, "size height must be an"),
+    ({"size": (10**5, 600)}, "size width must be an integer from 16 to 8,192"),
+    ({"play": "no"}, "play must be True or False"), ({"capture": 0}, "capture must be True or False"),
+    ({"settle_ms": -5}, "settle_ms must be zero or positive"),
+    ({"settle_ms": float("nan")}, "settle_ms must be finite"),
+    ({"timeout": 0}, "timeout must be positive"), ({"timeout": 1e5}, "timeout must be at most 3600"),
+])
+def test_render_refuses_bad_arguments_before_it_starts_a_browser(tmp_path, monkeypatch, kwargs, message):
+    """Each argument of the headless render is checked first: ``size=(800.5, 600)`` was cut to 800,
+    ``play="no"`` played the animation, ``settle_ms=-5`` raised Python's ``sleep length must be
+    non-negative`` after the page had loaded. ``screenshot`` and ``page_status`` pass theirs on."""
+    module = importlib.import_module("kinserve.viz.screenshot")
+    page = viz.export_html(viz.Scene(), tmp_path / "page.html")
+    started = []
+    monkeypatch.setattr(module, "find_browser", lambda: started.append(1))
+    with pytest.raises(InputError, match=message):
+        module.render(page, **kwargs)
+    if "capture" not in kwargs:
+        with pytest.raises(InputError, match=message):
+            viz.screenshot(page, tmp_path / "page.png", **kwargs)
+    if set(kwargs) <= {"play", "timeout"}:
+        with pytest.raises(InputError, match=message):
+            viz.page_status(page, **kwargs)
+    assert started == []

@@ -36,6 +36,8 @@ def test_live_viewer_serves_the_scene(scene):
     with viz.LiveViewer() as viewer:
         assert viewer.running
         assert re.fullmatch(r"http://127\.0\.0\.1:\d+/static/", viewer.url)
+        with pytest.raises(InputError, match="clear must be True or False"):
+            viewer.show(scene, clear="no")
         n = viewer.show(scene)
         assert n == len(scene.commands())
         page = urllib.request.urlopen(viewer.url, timeout=10).read().decode()

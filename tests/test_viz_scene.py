@@ -378,20 +378,24 @@ def test_sweep_points_frames_a_moving_node_at_every_pose():
 
 @pytest.mark.parametrize("value", ["no", 0, None])
 def test_viz_flags_must_be_true_or_false(value):
-    """The scene's switches, the export's compression and the plots' log axis were read by truthiness
-    (``grid="no"`` showed the grid); each now names the flag."""
+    """The scene's switches, the export's compression, the plots' log axis and a drawn robot's ``world``
+    were read by truthiness (``grid="no"`` showed the grid); each now names the flag."""
     import numpy as np
 
     from kinserve import robots, viz
     from kinserve.kinematics.errors import InputError
 
     arm = robots.load("planar4r", geometry=False)
+    scene = viz.Scene()
+    scene.add_robot(arm, name="arm")
+    drawn = scene.robots["arm"]
     calls = {"grid": lambda v: viz.Scene(grid=v), "axes": lambda v: viz.Scene(axes=v),
              "tool_frame": lambda v: viz.Scene.for_robot(arm, tool_frame=v),
              "collision": lambda v: viz.Scene.for_robot(arm, collision=v),
              "collisions": lambda v: viz.Scene().add_robot(arm, collisions=v),
              "compress": lambda v: viz.static_html(viz.Scene(), compress=v),
-             "logy": lambda v: viz.errors_figure(np.arange(3), {"e": np.ones(3)}, logy=v)}
+             "logy": lambda v: viz.errors_figure(np.arange(3), {"e": np.ones(3)}, logy=v),
+             "world": lambda v: drawn.geometry_poses(arm.neutral(), world=v)}
     for flag, call in calls.items():
         with pytest.raises(InputError, match=f"{flag} must be True or False"):
             call(value)

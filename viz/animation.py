@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_count, as_matrix, as_pose, as_positive
+from kinserve.kinematics.validation import as_count, as_flag, as_matrix, as_pose, as_positive
 
 from .scene import Scene
 
@@ -42,6 +42,8 @@ from .scene import Scene
 MAX_FPS = 240.0
 #: Most frames one animation may hold; frame indices are below it.
 MAX_FRAMES = 10**5
+#: Most times an applied animation may repeat.
+MAX_REPETITIONS = 10**6
 
 
 def _quat_xyzw(R: np.ndarray) -> np.ndarray:
@@ -263,11 +265,16 @@ class Animation:
         return self.to_meshcat().lower()
 
     def apply(self, play: bool = True, repetitions: int = 1) -> None:
-        """Record this animation in its scene (a scene holds one animation; the last applied wins)."""
+        """Record this animation in its scene (a scene holds one animation; the last applied wins).
+
+        ``play``: start it when the page opens (True or False); ``repetitions``: how many times it runs,
+        an integer from 1 to :data:`MAX_REPETITIONS`.
+        """
+        play = as_flag(play, "play")
+        repetitions = as_count(repetitions, "repetitions", minimum=1, maximum=MAX_REPETITIONS)
         if self.n_frames == 0:
             raise InputError("the animation has no keyframes")
-        self.scene.send(meshcat.commands.SetAnimation(self.to_meshcat(), play=bool(play),
-                                                      repetitions=int(repetitions)))
+        self.scene.send(meshcat.commands.SetAnimation(self.to_meshcat(), play=play, repetitions=repetitions))
 
 
 def pose_at(animation_command: dict, path: str, frame: int) -> np.ndarray:

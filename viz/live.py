@@ -49,6 +49,7 @@ import meshcat.path
 import meshcat.visualizer
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_flag
 
 from .scene import ROOT, Scene
 
@@ -272,7 +273,7 @@ class LiveViewer:
         """
         if not isinstance(scene, Scene):
             raise InputError(f"LiveViewer.show needs a viz.Scene, got {type(scene).__name__}")
-        if clear:
+        if as_flag(clear, "clear"):
             self.send({"type": "delete", "path": ROOT})
         commands = scene.commands()
         for cmd in commands:

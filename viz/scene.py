@@ -122,6 +122,7 @@ class SceneRobot:
         ``world=True`` includes the base pose (``base @ oMg``); otherwise the
         poses are relative to the robot's root node (``oMg``).
         """
+        world = as_flag(world, "world")
         q = self.robot.check_q(q)
         v = self.visualizer
         pin.forwardKinematics(v.model, v.data, q)

@@ -31,7 +31,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from kinserve.kinematics.errors import KinserveError
+from kinserve.kinematics.errors import InputError, KinserveError
+from kinserve.kinematics.validation import as_count, as_flag, as_nonnegative, as_positive, describe
+
+#: Largest page width or height, in pixels.
+MAX_PIXELS = 8192
+#: Longest ``timeout`` or ``settle_ms`` wait, in seconds.
+MAX_SECONDS = 3600.0
 
 #: Binaries tried in order (after ``$KINSERVE_CHROMIUM``).
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
@@ -190,16 +196,29 @@ class _DevTools:
         self._profile.cleanup()
 
 
+def _page_size(size: object) -> tuple[int, int]:
+    """``size`` as ``(width, height)`` in pixels, each an integer from 16 to :data:`MAX_PIXELS`."""
+    if isinstance(size, (str, bytes)) or not hasattr(size, "__len__") or len(size) != 2:
+        raise InputError(f"size must be (width, height) in pixels, got {describe(size)}")
+    return (as_count(size[0], "size width", minimum=16, maximum=MAX_PIXELS),
+            as_count(size[1], "size height", minimum=16, maximum=MAX_PIXELS))
+
+
 def render(html_path, *, size=(800, 600), capture: bool = True, play: bool = False, settle_ms: int = 0,
            timeout: float = 60.0) -> PageResult:
     """Open an exported page headless, wait until its scene is replayed, and optionally capture it.
 
     ``play=False`` opens ``page.html#paused`` (the animation is loaded, not
     played: the first frame). ``settle_ms`` waits that long (real time) after
-    the scene is ready, e.g. to let an animation run. Raises
-    :class:`BrowserUnavailable` without Chromium, ``TimeoutError`` when the
-    page is not ready within ``timeout`` seconds.
+    the scene is ready, e.g. to let an animation run. ``size`` is
+    ``(width, height)`` in pixels (16 to :data:`MAX_PIXELS`), ``timeout`` in
+    seconds (at most :data:`MAX_SECONDS`). Raises :class:`InputError` for a
+    bad argument, :class:`BrowserUnavailable` without Chromium,
+    ``TimeoutError`` when the page is not ready within ``timeout`` seconds.
     """
+    (w, h), capture, play = _page_size(size), as_flag(capture, "capture"), as_flag(play, "play")
+    settle_ms = as_nonnegative(settle_ms, "settle_ms", maximum=MAX_SECONDS * 1000.0)
+    timeout = as_positive(timeout, "timeout", maximum=MAX_SECONDS)
     browser = find_browser()
     if browser is None:
         raise BrowserUnavailable("no Chromium found (tried $KINSERVE_CHROMIUM, " + ", ".join(CANDIDATES)
@@ -208,7 +227,6 @@ def render(html_path, *, size=(800, 600), capture: bool = True, play: bool = Fal
     if not path.is_file():
         raise FileNotFoundError(f"no such HTML file: {path}")
     url = path.as_uri() + ("" if play else "#paused")
-    w, h = (int(v) for v in size)
     dt = _DevTools(browser, (w, h), timeout)
     try:
         dt.attach_page()
