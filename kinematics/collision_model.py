@@ -54,6 +54,7 @@ from .collision_scene import CollisionScene
 from .errors import ModelError
 from .mesh_hulls import HullFallback, coal_message, convex_hulls
 from .shapes import Shape, as_obstacles
+from .validation import as_flag
 
 if TYPE_CHECKING:
     from .sphere_cover import GeometrySpheres
@@ -361,7 +362,7 @@ class CollisionModel:
         few microseconds and allocates nothing in Pinocchio or coal.
         """
         obs = obstacles if type(obstacles) is tuple else tuple(obstacles)
-        self_collision = self_collision is True or bool(self_collision)
+        self_collision = as_flag(self_collision, "self_collision")
         last = self._last_scene
         if _same_objects(last, obs, self_collision):
             return last

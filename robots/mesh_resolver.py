@@ -42,6 +42,7 @@ from urllib.parse import unquote
 from lxml import etree
 
 from kinserve.kinematics.errors import ModelError
+from kinserve.kinematics.validation import as_flag
 
 from . import paths
 from .packages import PackageFinder, is_within
@@ -114,6 +115,9 @@ class MeshResolver:
     #: collision mesh URIs the load reported missing and left out; a later build leaves them out too
     dropped: frozenset[str] = frozenset()
 
+    def __post_init__(self) -> None:
+        self.allow_outside = as_flag(self.allow_outside, "allow_outside")
+
     @classmethod
     def for_model(cls, base_dir: Path | None, package_dirs: Iterable[str | os.PathLike] = (), *,
                   allow_outside: bool = False, label: str = "<URDF string>") -> "MeshResolver":
@@ -125,7 +129,7 @@ class MeshResolver:
         if isinstance(package_dirs, (str, os.PathLike)):
             package_dirs = [package_dirs]
         finder = PackageFinder(tuple(Path(d) for d in package_dirs), base_dir, tuple(default_package_dirs()))
-        return cls(finder, base_dir, bool(allow_outside), label)
+        return cls(finder, base_dir, allow_outside, label)
 
     # ------------------------------------------------------------ one filename
     def candidates(self, uri: str) -> list[Path]:

@@ -44,7 +44,7 @@ from lxml import etree
 
 from kinserve.kinematics.errors import ModelError, suggest
 from kinserve.kinematics.robot import Robot
-from kinserve.kinematics.validation import MAX_ABS
+from kinserve.kinematics.validation import MAX_ABS, as_flag
 
 from . import packages
 from .mesh_resolver import default_package_dirs
@@ -174,6 +174,7 @@ def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
                  allow_outside: bool = False) -> tuple[str, list[Path]]:
     """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see
     :func:`process_xacro`)."""
+    allow_outside = as_flag(allow_outside, "allow_outside")
     p = _existing(path)
     mappings = check_args(p, args)
     limit = xacro_time_limit(time_limit)
@@ -184,7 +185,7 @@ def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
         "package_dirs": [str(Path(d).expanduser().resolve()) for d in package_dirs],
         "model_dir": str(p.parent), "extra_dirs": [str(d) for d in default_package_dirs()],
         "environ": {k: os.environ[k] for k in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH) if k in os.environ},
-        "memory_limit": XACRO_MEMORY_LIMIT, "allow_outside": bool(allow_outside),
+        "memory_limit": XACRO_MEMORY_LIMIT, "allow_outside": allow_outside,
     }
     try:
         done = subprocess.run([sys.executable, "-I", str(_WORKER)], input=json.dumps(request),

@@ -412,3 +412,27 @@ def test_check_limits_must_be_true_or_false(arm, value):
         call(np.bool_(False))
         with pytest.raises(JointLimitError):
             call(np.bool_(True))
+
+
+@pytest.mark.parametrize("value", ["no", 0, None])
+def test_collision_and_file_flags_must_be_true_or_false(tmp_path, value):
+    """Five more flags that were read by truthiness: ``CollisionModel.scene(self_collision="no")`` checked the
+    robot's own pairs, ``ik.CollisionConstraint`` and ``reachability_map`` the same, and
+    ``allow_outside="no"`` let a xacro file or a mesh resolver read files outside the model's folders."""
+    from kinserve.robots.mesh_resolver import MeshResolver
+
+    panda = robots.load("panda")
+    xacro = tmp_path / "arm.urdf.xacro"
+    xacro.write_text('<robot name="a" xmlns:xacro="http://www.ros.org/wiki/xacro"><link name="l"/></robot>')
+    ball = ik.Sphere([1.0, 0.0, 0.0], 0.1)
+    calls = {"self_collision": [lambda v: panda.collision.scene((), self_collision=v),
+                                lambda v: ik.CollisionConstraint([ball], self_collision=v),
+                                lambda v: reachability_map(panda, samples=4, resolution=2, self_collision=v)],
+             "allow_outside": [lambda v: robots.load_xacro(xacro, allow_outside=v),
+                               lambda v: MeshResolver.for_model(tmp_path, allow_outside=v)]}
+    for flag, makers in calls.items():
+        for call in makers:
+            with pytest.raises(InputError, match=f"{flag} must be True or False"):
+                call(value)
+    assert panda.collision.scene((), self_collision=np.False_).self_collision is False
+    assert MeshResolver.for_model(tmp_path, allow_outside=np.True_).allow_outside is True

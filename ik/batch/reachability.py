@@ -28,7 +28,8 @@ from numpy.typing import ArrayLike
 from kinserve.ik.batch.solve_many import solve_many
 from kinserve.kinematics import Robot, as_matrix
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_count, check_rotation
+from kinserve.kinematics.shapes import as_obstacles
+from kinserve.kinematics.validation import as_count, as_flag, check_rotation
 
 #: Most target poses a reachability map samples (each one a 4x4 target and an IK solve).
 MAX_SAMPLES = 10**7
@@ -110,6 +111,7 @@ def reachability_map(
     seed is refused with :class:`InputError`).
     """
     seed = as_count(seed, "seed", minimum=0, maximum=2**63 - 1)
+    self_collision, obstacles = as_flag(self_collision, "self_collision"), as_obstacles(obstacles)
     _check_counts(samples, resolution)
     frame = frame or robot.tip
     robot.frame_id(frame)
@@ -126,9 +128,7 @@ def reachability_map(
     targets[:, :3, 3] = P
     targets[:, 3, 3] = 1.0
     extra = {"ray_address": ray_address} if backend == "ray" else {}
-    if self_collision or obstacles or collision_margin:
-        extra.update(self_collision=bool(self_collision), obstacles=list(obstacles),
-                     collision_margin=collision_margin)
+    extra.update(self_collision=self_collision, obstacles=obstacles, collision_margin=collision_margin)
     results = solve_many(robot, targets, frame=frame, relax=relax, backend=backend, processes=processes,
                          max_time=max_time, seed=seed, progress=progress, **extra)
     reached = np.array([r.success for r in results], dtype=bool)

@@ -30,7 +30,7 @@ def collision_request(self_collision: Any = False, obstacles: Sequence[Any] = ()
     obs = as_obstacles(obstacles)
     if spheres is not None and (type(spheres) is not tuple or spheres):
         obs += as_obstacles(spheres, "spheres")
-    as_flag(self_collision, "self_collision")
+    self_collision = as_flag(self_collision, "self_collision")
     margin = 0.0 if type(collision_margin) is float and collision_margin == 0.0 \
         else check_length(collision_margin, "collision margin")
-    return CollisionRequest(bool(self_collision), tuple(obs), margin)
+    return CollisionRequest(self_collision, tuple(obs), margin)

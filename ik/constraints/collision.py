@@ -47,6 +47,7 @@ from kinserve.kinematics.collision_scene import CollisionScene
 from kinserve.kinematics.errors import InputError, NonFiniteError
 from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.shapes import as_obstacles
+from kinserve.kinematics.validation import as_flag
 
 #: Pairs closer than ``margin + INFLUENCE`` (m) contribute rows.
 INFLUENCE = 0.05
@@ -88,9 +89,10 @@ class CollisionConstraint(Constraint):
 
     def __init__(self, obstacles: Sequence = (), *, self_collision: bool = True, margin: float = 0.0,
                  influence: float = INFLUENCE, name: str | None = None) -> None:
+        self_collision = as_flag(self_collision, "self_collision")
         super().__init__(name=name or ("self-collision" if self_collision and not obstacles else "collision"))
         self.obstacles = as_obstacles(obstacles)
-        self.self_collision = bool(self_collision)
+        self.self_collision = self_collision
         self.clearance = check_length(margin, "collision margin")
         self.influence = check_length(influence, "collision influence", positive=True)
         self.scene = None
