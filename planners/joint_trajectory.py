@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import MAX_ABS, as_matrix, as_positive
+from kinserve.kinematics.validation import MAX_ABS, as_flag, as_matrix, as_positive
 
 from .checks import as_times
 
@@ -48,6 +48,7 @@ def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *,
     """
     Q = as_matrix(positions, (-1, -1), "positions")
     t = as_matrix(times, (Q.shape[0],), "times")
+    zero_ends = as_flag(zero_ends, "zero_ends")
     if np.any(np.diff(t) <= 0):
         k = int(np.flatnonzero(np.diff(t) <= 0)[0])
         raise InputError(f"times must be strictly increasing, got times[{k}] = {float(t[k])!r} and "
@@ -152,6 +153,7 @@ class JointTrajectory:
         ``velocities=None``. ``dt`` must be a finite number in ``(0, 1e6]`` s, and the last time
         ``(N - 1) * dt`` at most 1e6 s (:func:`check_last_time`)."""
         dt = as_positive(dt, "dt")
+        zero_end_velocities = as_flag(zero_end_velocities, "zero_end_velocities")
         joint_names = joint_name_list(joint_names)
         Q = as_matrix(positions, (-1, len(joint_names)), "positions")
         check_last_time(dt, Q.shape[0])

@@ -47,7 +47,7 @@ from scipy.spatial.transform import Rotation
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.types import ArrayLike, PoseLike, VectorLike
-from kinserve.kinematics.validation import as_count, as_pose, as_positive, as_vector
+from kinserve.kinematics.validation import as_count, as_flag, as_pose, as_positive, as_vector
 
 from . import polynomials
 from .checks import MAX_SAMPLES, as_times, sample_count
@@ -106,7 +106,7 @@ def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoup
     """
     n = as_count(n, "n", 0, MAX_SAMPLES - 2)
     s = np.linspace(0.0, 1.0, n + 2)
-    if not include_ends:
+    if not as_flag(include_ends, "include_ends"):
         s = s[1:-1]
     if s.size == 0:
         return np.zeros((0, 4, 4))

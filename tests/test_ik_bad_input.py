@@ -177,6 +177,9 @@ def targets(target):
     ({"centring": 1e300}, NonFiniteError, r"centring weights must be finite"),
     ({"seed": 2**70}, InputError, r"seed must be a non-negative integer \(at most 2\*\*64 - 1\)"),
     ({"max_iter": 10**12}, InputError, r"option max_iter must be at most 100,000"),
+    ({"keep_history": "no"}, InputError, r"keep_history must be True or False, got 'no'"),
+    ({"progress": "no"}, InputError, r"progress \(or None\) must be True or False, got 'no'"),
+    ({"progress": 0}, InputError, r"progress \(or None\) must be True or False, got 0"),
 ])
 def test_solve_many_refuses_absurd_keywords_before_any_worker(panda, targets, monkeypatch, kwargs, error,
                                                               message):

@@ -429,3 +429,21 @@ def test_planner_flags_must_be_true_or_false(panda, line, value):
     with pytest.raises(InputError, match="reference must be a function t -> .*, got ndarray"):
         track_reference(panda, np.zeros((3, 3)), Q0, 2, 0.01, axes=["x", "y", "z"])
     assert len(track_reference(panda, ref, Q0, 2, 0.01, axes=["x", "y", "z"], closed_loop=np.True_).q) == 3
+
+
+@pytest.mark.parametrize("value", ["no", 0, None])
+def test_trajectory_and_interpolation_flags_must_be_true_or_false(value):
+    """``zero_ends="no"`` zeroed the end velocities, ``include_ends="no"`` returned the two ends too; each
+    flag is now refused by name, from every call that takes it."""
+    Q, t = np.linspace(0.0, 1.0, 5)[:, None] * np.ones(2), np.linspace(0.0, 1.0, 5)
+    T1 = np.eye(4)
+    T1[:3, 3] = [1.0, 0.0, 0.0]
+    calls = {"zero_ends": lambda v: planners.finite_difference_velocities(Q, t, zero_ends=v),
+             "zero_end_velocities": lambda v: planners.JointTrajectory.from_positions(
+                 ["a", "b"], Q, 0.25, zero_end_velocities=v),
+             "include_ends": lambda v: planners.intermediate_poses(np.eye(4), T1, 3, include_ends=v)}
+    for flag, call in calls.items():
+        with pytest.raises(InputError, match=f"{flag} must be True or False"):
+            call(value)
+    assert np.all(planners.finite_difference_velocities(Q, t, zero_ends=np.False_)[0] != 0.0)
+    assert len(planners.intermediate_poses(np.eye(4), T1, 3, include_ends=np.True_)) == 5

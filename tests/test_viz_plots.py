@@ -157,3 +157,22 @@ def test_layout_checks_catch_a_cut_title_and_a_legend_on_the_curves():
     titles_inside(fig)
     legends_clear_of_data(fig)
     axis_labels(fig.axes[0])
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"count_in_label": "no"}, "count_in_label must be True or False"),
+    ({"max_per_branch": 2.5}, "max_per_branch must be an integer"),
+    ({"max_per_branch": -1}, "max_per_branch must be an integer from 1"),
+    ({"target": "no"}, "target must"), ({"target": (1.0, 0.0, float("nan"))}, "target must"),
+    ({"base": (0.0, 0.0, 0.0)}, r"base must have shape \(2"), ({"link_lengths": "ab"}, "link_lengths must"),
+    ({"branches": {"up": [[float("nan")] * 2]}}, r"branches\['up'\] must"),
+])
+def test_planar_arm_figure_refuses_what_it_would_misdraw(kwargs, message):
+    """``count_in_label="no"`` put the count in the label, ``max_per_branch=2.5`` drew 2, a NaN angle drew
+    nothing, and a bad target, base or link length raised NumPy's errors; each now names the argument."""
+    args = {"link_lengths": [1.0, 1.0], "branches": {"up": [[0.1, 0.2], [0.3, 0.4]]}}
+    args.update(kwargs)
+    with pytest.raises((InputError, ShapeError), match=message):
+        viz.planar_arm_figure(args.pop("link_lengths"), args.pop("branches"), **args)
+    with pytest.raises((InputError, ShapeError), match="q"):
+        viz.planar_chain([1.0, 1.0], [float("nan"), 0.0])

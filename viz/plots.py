@@ -28,7 +28,7 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_flag, as_matrix
+from kinserve.kinematics.validation import as_count, as_flag, as_matrix
 
 from . import colors
 from .map2d import Rect, as_grid, as_polyline, as_shape
@@ -280,15 +280,12 @@ def planar_chain(link_lengths, q, base=(0.0, 0.0)) -> np.ndarray:
 
     ``p_0 = base``, ``p_i = p_{i-1} + l_i (cos(q_1+...+q_i), sin(q_1+...+q_i))``.
     """
-    lengths = np.asarray(link_lengths, dtype=float)
-    q = np.asarray(q, dtype=float)
-    if lengths.ndim != 1 or q.shape != lengths.shape:
-        raise ShapeError(f"q must have one angle per link: {lengths.shape[0] if lengths.ndim == 1 else '?'} "
-                         f"links, q shape {q.shape}")
+    lengths = as_matrix(link_lengths, (-1,), "link_lengths")
+    q = as_matrix(q, lengths.shape, "q (one angle per link)")
+    p0 = as_matrix(base, (2,), "base")
     phi = np.cumsum(q)
     steps = lengths[:, None] * np.c_[np.cos(phi), np.sin(phi)]
-    return np.vstack([np.asarray(base, dtype=float),
-                      np.asarray(base, dtype=float) + np.cumsum(steps, axis=0)])
+    return np.vstack([p0, p0 + np.cumsum(steps, axis=0)])
 
 
 def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0),
@@ -305,14 +302,17 @@ def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0),
     """
     if not isinstance(branches, dict) or not branches:
         raise InputError("branches must be a non-empty dict {label: (M, n) joint angles}")
-    lengths = np.asarray(link_lengths, dtype=float)
+    lengths = as_matrix(link_lengths, (-1,), "link_lengths")
+    max_per_branch = as_count(max_per_branch, "max_per_branch", minimum=1, maximum=10**4)
+    count_in_label = as_flag(count_in_label, "count_in_label")
+    base = tuple(as_matrix(base, (2,), "base"))
+    target = None if target is None else as_matrix(target, (3,), "target")
     fig, (ax,) = _figure(size=(6.4, 6.4))
     for i, (label, Q) in enumerate(branches.items()):
-        Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        if Q.size == 0:
-            continue
+        if (isinstance(Q, np.ndarray) and Q.size == 0) or (isinstance(Q, (list, tuple)) and len(Q) == 0):
+            continue  # a branch with no configuration (e.g. no solution on that branch)
         Q = as_matrix(Q, (-1, len(lengths)), f"branches[{label!r}]")
-        idx = np.unique(np.linspace(0, len(Q) - 1, min(len(Q), int(max_per_branch))).round().astype(int))
+        idx = np.unique(np.linspace(0, len(Q) - 1, min(len(Q), max_per_branch)).round().astype(int))
         c = colors.to_rgb(colors.cycle(i))
         for j, k in enumerate(idx):
             P = planar_chain(lengths, Q[k], base)

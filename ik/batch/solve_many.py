@@ -46,7 +46,7 @@ from kinserve.ik.request import target_request
 from kinserve.ik.result import Result
 from kinserve.ik.targets import Target
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_positive
+from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_flag, as_positive
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -263,6 +263,8 @@ def solve_many(
     processes = _check_count(processes, "processes", MAX_PROCESSES)
     chunksize = _check_count(chunksize, "chunksize", MAX_CHUNKSIZE)
     timeout = _check_timeout(timeout)
+    keep_history = as_flag(keep_history, "keep_history")
+    progress = None if progress is None else as_flag(progress, "progress (or None)")
     kwargs = dict(frame=frame, relax=relax, relax_frame=relax_frame, spheres=spheres, obstacles=obstacles,
                   link_radius=link_radius, centring=centring, method=method, backend=qp_backend,
                   tol_pos=tol_pos, tol_rot=tol_rot, max_time=max_time, seed=seed,
