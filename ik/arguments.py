@@ -12,7 +12,7 @@ from kinserve.ik.options import DEFAULT_TOL_POS, DEFAULT_TOL_ROT, METHODS
 from kinserve.ik.qp.backends import available_backends
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
 from kinserve.kinematics.errors import InputError, KinserveError
-from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.robot import Robot, as_robot
 from kinserve.kinematics.validation import MAX_ABS, as_positive, describe
 
 #: Largest accepted ``max_time`` (s): the bound on every number of an input (:data:`MAX_ABS`).
@@ -22,12 +22,9 @@ MAX_SEED = 2**64 - 1
 
 
 def check_robot(robot: Any) -> None:
-    """InputError unless ``robot`` is a :class:`kinserve.kinematics.Robot` (or quacks like one)."""
-    if type(robot) is Robot:
-        return
-    if not (hasattr(robot, "model") and hasattr(robot, "frame_id") and hasattr(robot, "nq")):
-        raise InputError(f"robot must be a kinserve.kinematics.Robot (e.g. robots.load('panda')), "
-                         f"got {type(robot).__name__}")
+    """InputError unless ``robot`` is a :class:`kinserve.kinematics.Robot` (:func:`~.robot.as_robot`)."""
+    if type(robot) is not Robot:
+        as_robot(robot)
 
 
 def check_method(method: Any) -> str:

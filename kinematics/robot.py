@@ -540,3 +540,12 @@ class Robot(CollisionQueries):
         """
         tol = singularity.check_tol(tol)
         return singularity.is_singular(self._task_jacobian(q, frame, axes), tol)
+
+
+def as_robot(value: object, name: str = "robot") -> Robot:
+    """``value`` if it is a :class:`Robot`; else :class:`~.errors.InputError` naming ``name`` and how to make
+    one (a robot's name is not a robot: ``robots.load(name)`` loads it)."""
+    if isinstance(value, Robot):
+        return value
+    hint = f" (robots.load({value!r}) loads it)" if isinstance(value, str) else ""
+    raise InputError(f"{name} must be a kinserve Robot (robots.load(...)), got {describe(value)}{hint}")

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -387,6 +388,16 @@ def as_flag(value: object, name: str) -> bool:
     if isinstance(value, np.bool_):
         return bool(value)
     raise InputError(f"{name} must be True or False, got {describe(value)}")
+
+
+def as_choice(value: object, name: str, choices: Sequence[object]) -> Any:
+    """The entry of ``choices`` (strings, None, ...) that ``value`` is - equal and of the same type, so an
+    array, a list or ``1`` for ``True`` is never compared by ``==`` or hashed - else :class:`InputError`
+    naming ``name`` and the choices."""
+    for choice in choices:
+        if type(value) is type(choice) and value == choice:
+            return choice
+    raise InputError(f"{name} must be one of {', '.join(map(repr, choices))}, got {describe(value)}")
 
 
 def describe(value: object) -> str:

@@ -187,3 +187,27 @@ def test_text_bools_and_huge_integers_are_not_read_as_numbers(value, error, word
         as_vector(value, 3)
     np.testing.assert_array_equal(as_vector([1, 2, 3], 3), [1.0, 2.0, 3.0])
     np.testing.assert_array_equal(as_vector((1, 2, 3), 3), [1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize("value", [np.zeros(0), np.array(["a"]), [], ["a"], {"a": 1}, np.str_("a"), 1, True,
+                                   None, "A", "ab"])
+def test_as_choice_matches_by_type_and_value_only(value):
+    """No ``==`` on arrays (NumPy's "truth value ... is ambiguous"), no hashing of lists ("unhashable
+    type"), no ``1 == True``: anything else is an InputError naming the argument and the choices."""
+    from kinserve.kinematics.validation import as_choice
+
+    with pytest.raises(InputError, match=r"^method must be one of 'a', 'b', False, got "):
+        as_choice(value, "method", ("a", "b", False))
+    assert as_choice("b", "method", ("a", "b")) == "b" and as_choice(None, "x", ("a", None)) is None
+
+
+def test_as_robot_names_what_it_got_and_how_to_load_it():
+    from kinserve import robots
+    from kinserve.kinematics.robot import as_robot
+
+    arm = robots.load("planar4r", geometry=False)
+    assert as_robot(arm) is arm
+    with pytest.raises(InputError, match=r"^robot must be a kinserve Robot .*\(robots.load\('panda'\) loads"):
+        as_robot("panda")
+    with pytest.raises(InputError, match=r"^arm must be a kinserve Robot .*got None$"):
+        as_robot(None, "arm")

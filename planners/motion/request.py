@@ -31,7 +31,7 @@ import pinocchio as pin
 
 from kinserve.ik.targets import Target
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.robot import Robot, as_robot
 from kinserve.kinematics.shapes import as_obstacles
 from kinserve.kinematics.validation import as_flag, as_matrix, as_pose, check_limits
 
@@ -180,8 +180,7 @@ def motion_request(robot: Robot, start: Any, goal: Any, obstacles: Any, self_col
                    seed: Any, acceleration_limits: Any, simplify: Any, max_iterations: Any, frame: Any = None,
                    relax: Any = (), goal_count: Any = GOAL_COUNT) -> MotionRequest:
     """The :class:`MotionRequest` of :func:`~kinserve.planners.motion.plan.plan_motion`'s arguments."""
-    if not isinstance(robot, Robot):
-        raise InputError(f"robot must be a kinserve Robot (robots.load(...)), got {type(robot).__name__}")
+    as_robot(robot)
     q0 = robot.check_q(start, "start", check_limits=True).copy()
     pose = None
     if goal_kind(robot, goal, frame, relax) == "pose":
