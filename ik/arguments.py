@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from kinserve.ik.options import DEFAULT_TOL_POS, DEFAULT_TOL_ROT, METHODS
+from kinserve.ik.options import DEFAULT_TOL_POS, DEFAULT_TOL_ROT
+from kinserve.ik.options import check_method as check_method  # (one check of the method name, re-exported)
 from kinserve.ik.qp.backends import available_backends
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
 from kinserve.kinematics.errors import InputError, KinserveError
@@ -25,13 +26,6 @@ def check_robot(robot: Any) -> None:
     """InputError unless ``robot`` is a :class:`kinserve.kinematics.Robot` (:func:`~.robot.as_robot`)."""
     if type(robot) is not Robot:
         as_robot(robot)
-
-
-def check_method(method: Any) -> str:
-    """``method`` if it names an IK method (:data:`kinserve.ik.options.METHODS`)."""
-    if not isinstance(method, str) or method not in METHODS:
-        raise InputError(f"method must be one of {METHODS}, got {method!r}")
-    return method
 
 
 def check_seed(seed: Any) -> int | None:
@@ -51,19 +45,19 @@ def check_seed(seed: Any) -> int | None:
     return int(seed)
 
 
-def check_backend(backend: Any) -> str:
-    """The QP backend's name (default :data:`~kinserve.ik.qp.dense_qp.DEFAULT_BACKEND`)."""
-    if backend is not None and not isinstance(backend, str):
-        raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, "
-                         f"got {backend!r}")
-    if backend is None or backend == DEFAULT_BACKEND:
+def check_backend(backend: Any, none_is_default: bool = True) -> str:
+    """The QP backend's name: :data:`~kinserve.ik.qp.dense_qp.DEFAULT_BACKEND` for None (unless
+    ``none_is_default`` is False), else ``backend`` (any case) if it names one of the installed QP solvers
+    (:func:`~kinserve.ik.qp.backends.available_backends`); :class:`InputError` naming them otherwise
+    (for ``ik.solve``, ``ik.solve_many``'s ``qp_backend`` and ``ik.step``)."""
+    if (backend is None and none_is_default) or backend is DEFAULT_BACKEND:
         return DEFAULT_BACKEND
-    if backend == "osqp":
-        return backend
-    if not isinstance(backend, str) or backend.lower() not in available_backends():
-        raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, "
-                         f"got {backend!r}")
-    return backend.lower()
+    if isinstance(backend, str):
+        name = backend.lower()
+        if name == DEFAULT_BACKEND or name == "osqp" or name in available_backends():
+            return name
+    raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, "
+                     f"got {describe(backend)}")
 
 
 def tag(exc: KinserveError, name: str) -> None:

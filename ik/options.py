@@ -41,7 +41,7 @@ from typing import Any
 
 from kinserve.ik.closed_form.chooser import CRITERIA
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_flag, as_positive
+from kinserve.kinematics.validation import as_flag, as_positive, describe
 
 #: Every IK method ``ik.solve(method=...)`` names; the last four are the classical iterations.
 CLASSICAL_METHODS = ("jacobian_inverse", "jacobian_transpose", "pseudo_inverse", "dls")
@@ -146,12 +146,18 @@ _CHECKS = {
 }
 
 
+def check_method(method: Any) -> str:
+    """``method`` if it names an IK method (:data:`METHODS`); else :class:`InputError` naming them."""
+    if not isinstance(method, str) or method not in METHODS:  # (a str first: no array compared or hashed)
+        raise InputError(f"method must be one of {METHODS}, got {describe(method)}")
+    return method
+
+
 def check_options(method: str, options: dict) -> None:
-    """Raise :class:`InputError` for an option ``method`` does not accept or a value out of range (the table
-    of the module docstring: non-finite, absurdly large or wrongly typed values are refused)."""
-    allowed = OPTIONS.get(method)
-    if allowed is None:
-        raise InputError(f"method must be one of {tuple(OPTIONS)}, got {method!r}")
+    """Raise :class:`InputError` for an unknown ``method`` (:func:`check_method`), an option ``method`` does
+    not accept or a value out of range (the table of the module docstring: non-finite, absurdly large or
+    wrongly typed values are refused)."""
+    allowed = OPTIONS[check_method(method)]
     for name in options:
         if name not in allowed:
             bad = [k for k in options if k not in allowed]

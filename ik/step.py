@@ -30,8 +30,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from kinserve.ik import numpy_fast
+from kinserve.ik.arguments import check_backend
 from kinserve.ik.problem import Problem
-from kinserve.ik.qp.backends import available_backends
 from kinserve.ik.qp.dense_qp import DEFAULT_BACKEND
 from kinserve.ik.qp.hierarchy import hierarchical_step
 from kinserve.ik.state import ik_state
@@ -63,14 +63,6 @@ def _problem(robot: Robot, tasks: list, constraints: list) -> Problem:
         pb = Problem(robot, tasks, constraints)
         store.keep(robot, tasks, constraints, versions, pb)
     return pb
-
-
-def _check_backend(backend: Any) -> str:
-    """A QP backend name installed on this machine (:func:`kinserve.ik.qp.backends.available_backends`)."""
-    if isinstance(backend, str) and backend.lower() in available_backends():
-        return backend.lower()
-    raise InputError(f"backend must be one of the installed QP solvers {available_backends()}, "
-                     f"got {backend!r}")
 
 
 def _check_robot_and_numbers(robot: Any, dt: Any, damping: Any) -> float:
@@ -116,11 +108,12 @@ def step(robot: Robot, tasks: Any, constraints: Any = (), q: np.ndarray | None =
 
     Refused: ``tasks`` that is None, text or not a sequence of tasks; ``dt`` outside
     ``[MIN_DT, MAX_DT]`` (1e-9 s to 1e6 s), NaN or not a number; ``damping`` negative, non-finite or
-    above 1e6; ``q`` missing, of the wrong length or non-finite; an unknown ``backend``.
+    above 1e6; ``q`` missing, of the wrong length or non-finite; a ``backend`` that is not one of the
+    installed QP solvers (any case).
     """
     dt = _check_robot_and_numbers(robot, dt, damping)
     if backend is not DEFAULT_BACKEND:
-        backend = _check_backend(backend)
+        backend = check_backend(backend, none_is_default=False)
     if q is None:
         raise InputError("q (the current configuration) is required")
     q = robot.check_q(q, "q")

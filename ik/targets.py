@@ -42,9 +42,9 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.robot import TASK_AXES, Robot
+from kinserve.kinematics.robot import TASK_AXES, Robot, as_robot
 from kinserve.kinematics.types import PoseLike
-from kinserve.kinematics.validation import as_pose, is_pose_fast
+from kinserve.kinematics.validation import as_choice, as_pose, is_pose_fast
 
 #: Accepted names of relaxable components (``phi`` = ``yaw``).
 RELAX_NAMES = TASK_AXES + ("phi",)
@@ -75,6 +75,13 @@ def checked_pose(pose: object) -> np.ndarray:
         if is_pose_fast(pose):
             return pose
     return np.array(as_pose(pose, "target"), dtype=np.float64)
+
+
+def check_relax_frame(relax_frame: object) -> str:
+    """``relax_frame`` if it is one of :data:`RELAX_FRAMES`; else :class:`InputError` naming the choices."""
+    if type(relax_frame) is str and relax_frame in RELAX_FRAMES:  # (the common case, no loop)
+        return relax_frame
+    return as_choice(relax_frame, "relax_frame", RELAX_FRAMES)
 
 
 def parse_relax(relax: str | Iterable[str] | None) -> tuple[int, ...]:
@@ -113,7 +120,8 @@ class Target:
     Parameters
     ----------
     robot:
-        The :class:`kinserve.kinematics.Robot` (only used to resolve the frame).
+        The :class:`kinserve.kinematics.Robot` (only used to resolve the frame; anything else, e.g. a
+        robot's name, raises :class:`InputError`).
     pose:
         4x4 homogeneous pose, ``pinocchio.SE3``, ``(position, quaternion)`` or
         ``[x, y, z, qx, qy, qz, qw]`` (quaternion scalar last; checked: finite,
@@ -133,15 +141,15 @@ class Target:
 
     def __init__(self, robot: Robot, pose: PoseLike, frame: str | None = None,
                  relax: str | Iterable[str] | None = (), relax_frame: str = "world") -> None:
+        if type(robot) is not Robot:
+            robot = as_robot(robot)
         T = checked_pose(pose)
         self.T = T
         self._R = T[:3, :3]
         self._p = T[:3, 3]
         self.frame = robot.tip if frame is None else frame
         self.frame_id = robot.frame_id(self.frame)
-        if not (type(relax_frame) is str and relax_frame in RELAX_FRAMES):
-            raise InputError(f"relax_frame must be one of {RELAX_FRAMES}, got {relax_frame!r}")
-        self.relax_frame = relax_frame
+        self.relax_frame = check_relax_frame(relax_frame)
         self.relaxed = () if relax is None or (type(relax) is tuple and not relax) else parse_relax(relax)
         if not self.relaxed:
             self.kept, self.pos_rows, self.rot_rows = _ALL6, _ALL3, _ALL3

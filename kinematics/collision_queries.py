@@ -30,7 +30,7 @@ from .attached import AttachedObject, attached_object
 from .errors import InputError, ModelError
 from .extensions import Extensions
 from .types import VectorLike
-from .validation import as_flag
+from .validation import as_flag, describe
 
 if TYPE_CHECKING:  # annotations only (collision_model imports pinocchio/coal)
     from .collision_model import CollisionModel
@@ -204,7 +204,9 @@ class CollisionQueries:
 
     def detach(self, name: str) -> "AttachedObject":
         """Stop carrying ``name``; returns its :class:`~.attached.AttachedObject`. :class:`InputError` when
-        nothing of that name is attached."""
+        ``name`` is not a str or nothing of that name is attached."""
+        if not isinstance(name, str):
+            raise InputError(f"detach: name must be a str (the name given to attach), got {describe(name)}")
         for obj in self._attached:
             if obj.name == name:
                 self._set_attached(tuple(o for o in self._attached if o is not obj))

@@ -42,6 +42,7 @@ from .geometry_reader import GeometryReader
 from .types import MatrixLike, VectorLike
 from .validation import (
     MAX_ABS,
+    as_choice,
     as_count,
     as_flag,
     as_matrix,
@@ -62,6 +63,10 @@ _REFERENCES = {
     "body": pin.LOCAL,
     "spatial": pin.WORLD,
 }
+
+#: The default ``reference`` of :meth:`Robot.jacobian` (the same interned string as the default argument:
+#: compared by identity first).
+_WORLD = "world"
 
 _hypot = math.hypot
 # bound once: the hot paths below skip the module attribute lookups
@@ -463,13 +468,19 @@ class Robot(CollisionQueries):
         * ``"local"`` (alias ``"body"``): the same twist in the frame's own axes;
         * ``"spatial"``: the spatial twist (velocity of the body point at the
           world origin, world axes; Pinocchio's WORLD).
+
+        (``"local_world_aligned"`` is an alias of ``"world"``.) Any other value, a name or not, raises
+        :class:`ShapeError` naming the choices.
         """
         fid = self._tip_id if frame is None else self._frame_ids.get(frame) if type(frame) is str else None
         if fid is None:
             fid = self.frame_id(frame)  # raises FrameError naming the frame
-        ref = _LWA if reference == "world" else _REFERENCES.get(reference)
-        if ref is None:
-            raise ShapeError(f"reference must be one of {sorted(_REFERENCES)}, got {reference!r}")
+        if reference is _WORLD:
+            ref = _LWA
+        else:
+            ref = _REFERENCES.get(reference) if type(reference) is str else None
+            if ref is None:
+                ref = _REFERENCES[_name_choice(reference, "reference", tuple(_REFERENCES))]
         if check_limits is not False and as_flag(check_limits, "check_limits"):
             q = self.check_q(q, check_limits=True)
         try:  # fast path, see _forward
@@ -488,10 +499,11 @@ class Robot(CollisionQueries):
         ``pitch = +-pi/2`` (gimbal lock): then :class:`SingularityError`, raised when
         ``|cos pitch| < singular_tol``. ``singular_tol`` must be a number in ``(0, 1]``
         (:class:`InputError` / :class:`NonFiniteError` otherwise: 0, a negative number or NaN would let
-        the gimbal lock through as a Jacobian of huge entries).
+        the gimbal lock through as a Jacobian of huge entries). ``rotation``: ``"rpy"`` only
+        (:class:`ShapeError` for anything else).
         """
-        if rotation != "rpy":
-            raise ShapeError(f"rotation must be 'rpy', got {rotation!r}")
+        if not (type(rotation) is str and rotation == "rpy"):
+            _name_choice(rotation, "rotation", ("rpy",))
         singular_tol = as_positive(singular_tol, "singular_tol", maximum=1.0)
         J = self.jacobian(q, frame)
         R = self._tls.data.oMf[self._tip_id if frame is None else self.frame_id(frame)].rotation
@@ -540,6 +552,15 @@ class Robot(CollisionQueries):
         """
         tol = singularity.check_tol(tol)
         return singularity.is_singular(self._task_jacobian(q, frame, axes), tol)
+
+
+def _name_choice(value: object, name: str, choices: tuple[str, ...]) -> str:
+    """:func:`~.validation.as_choice`, its error raised as the :class:`ShapeError` these methods have always
+    raised for an unknown name."""
+    try:
+        return as_choice(value, name, choices)
+    except InputError as exc:
+        raise ShapeError(str(exc)) from None
 
 
 def as_robot(value: object, name: str = "robot") -> Robot:

@@ -109,7 +109,7 @@ def test_solve_all_refuses_huge_tolerances(arm, arm_target):
     ({"seed": 10**300}, InputError, r"seed must be a non-negative integer .*got 1000000000.*\.\.\.$"),
     ({"method": np.array([1, 2])}, InputError, r"method must be one of"),
     ({"backend": np.array([1, 2])}, InputError, r"backend must be one of the installed QP solvers"),
-    ({"relax_frame": np.array([1, 2])}, InputError, r"relax_frame must be one of \('world', 'target'\)"),
+    ({"relax_frame": np.array([1, 2])}, InputError, r"relax_frame must be one of 'world', 'target', got a"),
     ({"relax": np.array([1.0, 2.0])}, InputError, r"relax: component names must be strings"),
     ({"max_iter": 10**12}, InputError,
      r"option max_iter must be at most 100,000 \(accepted: an integer from 1"),
@@ -180,6 +180,18 @@ def targets(target):
     ({"keep_history": "no"}, InputError, r"keep_history must be True or False, got 'no'"),
     ({"progress": "no"}, InputError, r"progress \(or None\) must be True or False, got 'no'"),
     ({"progress": 0}, InputError, r"progress \(or None\) must be True or False, got 0"),
+    ({"q0": "no"}, ShapeError,
+     r"^q0 must be None, one configuration \(7 numbers\) or one per target \(shape \(3, 7\)\), got 'no'$"),
+    ({"q0": [[True] * 7] * 3}, ShapeError, r"^q0 must be None, one configuration .*, got \[\[True"),
+    ({"q0": [[0.0] * 7, [0.0] * 6]}, ShapeError, r"^q0 must be None, one configuration \(7 numbers\)"),
+    ({"q0": np.zeros((2, 7))}, ShapeError, r"^q0 must be None, .* \(shape \(3, 7\)\), got shape \(2, 7\)$"),
+    ({"q0": [[0.0] * 7] * 2 + [[0.0] * 6 + [np.nan]]}, NonFiniteError, r"^q0 must hold finite numbers"),
+    ({"q0": np.zeros(6)}, ShapeError, r"^q0 must have shape \(7,\), got shape \(6,\)"),
+    ({"backend": []}, InputError,
+     r"^backend \(the execution backend; qp_backend names the QP solver\) must be one of 'processes', "
+     r"'serial', 'ray', got \[\]$"),
+    ({"backend": np.zeros(0)}, InputError, r"^backend \(the execution backend.* got array"),
+    ({"backend": "daqp"}, InputError, r"^backend \(the execution backend.* got 'daqp'$"),
 ])
 def test_solve_many_refuses_absurd_keywords_before_any_worker(panda, targets, monkeypatch, kwargs, error,
                                                               message):
@@ -216,7 +228,105 @@ def test_solve_many_accepts_the_neighbouring_values(panda, targets):
     assert len(res) == 3 and all(r.success for r in res)
 
 
+def test_solve_many_takes_q0_as_one_configuration_or_one_per_target(arm, arm_target):
+    targets = np.stack([arm_target, arm_target])
+    q = np.array([0.4, 0.5, -0.3, 0.6])
+    for q0 in (q, q.tolist(), [q.tolist(), q.tolist()], np.stack([q, q]).astype(np.float32)):
+        res = ik.solve_many(arm, targets, q0=q0, processes=1, seed=0)
+        assert [r.success for r in res] == [True, True]
+
+
 # ----------------------------------------------------------------------------- tasks
+
+
+@pytest.mark.parametrize("name", [math.nan, object(), "", 3, b"tool", np.array(["a"]), ["a"]])
+@pytest.mark.parametrize("owner, make", [
+    ("FrameTask", lambda name, T: ik.FrameTask(None, T, name=name)),
+    ("PostureTask", lambda name, T: ik.PostureTask([0.0] * 4, name=name)),
+    ("CentringTask", lambda name, T: ik.CentringTask(name=name)),
+    ("CollisionConstraint", lambda name, T: ik.CollisionConstraint([ik.Sphere([0, 0, 0], 0.1)], name=name)),
+    ("Constraint", lambda name, T: ik.Constraint(name=name)),
+])
+def test_task_and_constraint_names_are_none_or_a_non_empty_str(arm_target, owner, make, name):
+    """name=nan or object() was stored and printed in messages; CollisionConstraint(name="") fell back to its
+    default and an array raised NumPy's "truth value ... is ambiguous"."""
+    with pytest.raises(InputError, match=rf"^{owner} name must be None or a non-empty str, got "):
+        make(name, arm_target)
+    assert make("mine", arm_target).name == "mine"
+    assert isinstance(make(None, arm_target).name, str)
+
+
+@pytest.mark.parametrize("v_max, error, message", [
+    (1e300, NonFiniteError, r"^v_max must hold finite numbers with magnitude <= 1e\+06; bad entries: \[0\]="),
+    ([1.0, math.inf], NonFiniteError, r"^v_max must hold finite numbers .*\[1\]=inf"),
+    (math.nan, NonFiniteError, r"^v_max must hold finite numbers"),
+    (True, ShapeError, r"^v_max must be a number or an array of numbers, got True$"),
+    (np.array([True, False]), ShapeError, r"^v_max must be a number or an array of numbers"),
+    ("2", ShapeError, r"^v_max must be a number or an array of numbers, got '2'$"),
+    (None, ShapeError, r"^v_max must be a number or an array of numbers, got None$"),
+    ([], ShapeError, r"^v_max must be a number or a 1-D sequence of numbers \(one per joint\), got shape"),
+    ([[1.0, 2.0]], ShapeError, r"^v_max must be a number or a 1-D sequence .*got shape \(1, 2\)"),
+    (0.0, InputError, r"^v_max must be positive, got 0.0"),
+    ([1.0, -1.0], InputError, r"^v_max must be positive"),
+])
+def test_velocity_limits_are_positive_bounded_numbers(v_max, error, message):
+    """VelocityLimits(1e300) was accepted, True read as 1.0 and "2" as 2.0."""
+    with pytest.raises(error, match=message):
+        ik.VelocityLimits(v_max)
+    limits = ik.VelocityLimits(1.0)
+    with pytest.raises(error, match=message):
+        limits.v_max = v_max
+    assert limits.v_max == 1.0  # unchanged by the refused assignment
+
+
+def test_velocity_limits_take_a_number_or_one_per_joint(arm, arm_target):
+    q = np.array([0.4, 0.5, -0.3, 0.6])
+    task = ik.FrameTask(None, arm_target)
+    for v_max in (1e6, np.float32(2.0), 3, [1.0, 2.0, 3.0, 4.0], np.array([1, 2, 3, 4])):
+        assert ik.step(arm, [task], [ik.VelocityLimits(v_max)], q=q).shape == (4,)
+    mine = np.array([1.0, 2.0, 3.0, 4.0])
+    ik.VelocityLimits(mine)
+    assert mine.flags.writeable  # the caller's array is copied, not frozen
+
+
+@pytest.mark.parametrize("robot", ["planar4r", None, 3, np.zeros(4)])
+def test_target_refuses_what_is_not_a_robot(arm_target, robot):
+    """ik.Target("planar4r", T) was "'str' object has no attribute 'tip'"."""
+    with pytest.raises(InputError, match=r"^robot must be a kinserve Robot \(robots.load\(\.\.\.\)\), got "):
+        ik.Target(robot, arm_target)
+
+
+def test_target_takes_a_robot(arm, arm_target):
+    assert ik.Target(arm, arm_target).frame == arm.tip
+
+
+@pytest.mark.parametrize("relax_frame", [[], np.zeros(2), np.array(["world"]), None, "World"])
+@pytest.mark.parametrize("make", [
+    lambda arm, T, rf: ik.Target(arm, T, relax_frame=rf),
+    lambda arm, T, rf: ik.FrameTask(None, T, relax_frame=rf),
+])
+def test_relax_frame_is_one_of_its_names(arm, arm_target, make, relax_frame):
+    with pytest.raises(InputError, match=r"^relax_frame must be one of 'world', 'target', got "):
+        make(arm, arm_target, relax_frame)
+    assert make(arm, arm_target, "target").relax_frame == "target"
+
+
+@pytest.mark.parametrize("method", [[], np.zeros(2), None, "frob"])
+def test_check_options_refuses_a_method_that_is_not_a_name(method):
+    """check_options([], {}) was "unhashable type: 'list'"."""
+    from kinserve.ik.options import check_options
+
+    with pytest.raises(InputError, match=r"^method must be one of \('auto', 'qp', "):
+        check_options(method, {})
+    check_options("lm", {"max_iter": 10})
+
+
+@pytest.mark.parametrize("backend", [None, [], np.zeros(2), "no-such-solver"])
+def test_step_backend_is_an_installed_qp_solver(arm, arm_target, backend):
+    q = np.array([0.4, 0.5, -0.3, 0.6])
+    with pytest.raises(InputError, match=r"^backend must be one of the installed QP solvers \["):
+        ik.step(arm, [ik.FrameTask(None, arm_target)], q=q, backend=backend)
+    assert ik.step(arm, [ik.FrameTask(None, arm_target)], q=q, backend="OSQP").shape == (4,)
 
 
 def test_frame_task_refuses_a_weight_of_the_wrong_length(target):

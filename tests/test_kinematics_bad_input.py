@@ -436,3 +436,42 @@ def test_collision_and_file_flags_must_be_true_or_false(tmp_path, value):
                 call(value)
     assert panda.collision.scene((), self_collision=np.False_).self_collision is False
     assert MeshResolver.for_model(tmp_path, allow_outside=np.True_).allow_outside is True
+
+
+# ---------------------------------------------------------------- names given as arrays, lists, numbers
+REFERENCES = r"'world', 'local_world_aligned', 'local', 'body', 'spatial'"
+
+
+@pytest.mark.parametrize("method, value, error, message", [
+    ("jacobian", [], ShapeError, rf"^reference must be one of {REFERENCES}, got \[\]$"),
+    ("jacobian", np.zeros(0), ShapeError, rf"^reference must be one of {REFERENCES}, got array"),
+    ("jacobian", np.array(["world"]), ShapeError, r"^reference must be one of .*, got array"),
+    ("jacobian", None, ShapeError, r"^reference must be one of .*, got None$"),
+    ("jacobian", "globe", ShapeError, r"^reference must be one of .*, got 'globe'$"),
+    ("analytic_jacobian", np.zeros(0), ShapeError, r"^rotation must be one of 'rpy', got array"),
+    ("analytic_jacobian", ["rpy"], ShapeError, r"^rotation must be one of 'rpy', got \["),
+    ("analytic_jacobian", "RPY", ShapeError, r"^rotation must be one of 'rpy', got 'RPY'$"),
+    ("detach", np.zeros(0), InputError, r"^detach: name must be a str .*, got array"),
+    ("detach", 3, InputError, r"^detach: name must be a str .*, got 3$"),
+    ("detach", None, InputError, r"^detach: name must be a str .*, got None$"),
+])
+def test_reference_rotation_and_detach_names_are_checked_by_type(arm, method, value, error, message):
+    """reference=[] was "unhashable type: 'list'", an array NumPy's "truth value of an empty array is
+    ambiguous" (np.array(["world"]) was read as "world"), detach(array) compared the array with each name."""
+    q = np.array([0.1, 0.2])
+    calls = {"jacobian": lambda: arm.jacobian(q, reference=value),
+             "analytic_jacobian": lambda: arm.analytic_jacobian(q, rotation=value),
+             "detach": lambda: arm.copy().detach(value)}
+    with pytest.raises(error, match=message):
+        calls[method]()
+
+
+def test_reference_rotation_and_detach_still_take_their_names(arm):
+    q = np.array([0.1, 0.2])
+    world = "".join(["wor", "ld"])  # a "world" that is not the interned literal: compared by value
+    assert np.array_equal(arm.jacobian(q, reference=world), arm.jacobian(q))
+    assert np.array_equal(arm.jacobian(q, reference="local_world_aligned"), arm.jacobian(q))
+    assert not np.allclose(arm.jacobian(q, reference="local"), arm.jacobian(q))
+    assert arm.analytic_jacobian(q, rotation="rpy").shape == (6, 2)
+    carrier = arm.copy().attach("box", ik.Sphere([0.0, 0.0, 0.0], 0.05), "tool")
+    assert carrier.detach("box").name == "box" and not carrier.attached

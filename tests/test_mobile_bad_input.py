@@ -204,7 +204,7 @@ def test_polyline_path_refuses_bad_step_and_empty_points(path):
 
 
 def test_smooth_path_at_refuses_nan(polyline):
-    with pytest.raises(InputError, match="s must hold finite arc lengths"):
+    with pytest.raises(InputError, match="s must hold finite numbers"):
         polyline.at(np.nan)
     assert polyline.at(0.0)[0] == pytest.approx(0.5)
 
@@ -374,6 +374,65 @@ def test_omni_base_refuses_bad_shapes_and_numbers():
     _, poses = ob.simulate(w, (0, 0, 0.7), (0, 1))
     assert ob.twist(w, 0.7) == pytest.approx([0.2, -0.1, 0.3])
     assert poses[-1][2] == pytest.approx(1.0)
+
+
+BASES = {"diff_drive": (m.DiffDrive(0.1, 0.5), [1.0, 1.0]), "omni": (m.OmniBase(0.1, 0.3), [1.0, 1.0, 1.0])}
+
+
+@pytest.mark.parametrize("base", sorted(BASES))
+@pytest.mark.parametrize("t_eval, t_span, error, message", [
+    ([], (0, 1), ShapeError, r"^t_eval must be a 1-D array of 1 to 1,000,000 times, got shape \(0,\)"),
+    (np.zeros(0), (0, 1), ShapeError, r"^t_eval must be a 1-D array of 1 to 1,000,000 times"),
+    (0.5, (0, 1), ShapeError, r"^t_eval must be a 1-D array .*got shape \(\)"),
+    ([True, False], (0, 1), ShapeError, r"^t_eval must be a number or an array of numbers, got \[True"),
+    (["0", "1"], (0, 1), ShapeError, r"^t_eval must be a number or an array of numbers"),
+    ([0.5, 0.2], (0, 1), InputError, r"^t_eval must be strictly increasing; t_eval\[0\] = 0.5 and t_eval"),
+    ([0.0, 0.0, 0.5], (0, 1), InputError, r"^t_eval must be strictly increasing; t_eval\[0\] = 0 and"),
+    ([0.2, 0.5], (1, 0), InputError, r"^t_eval must be strictly decreasing \(t_span runs backwards\)"),
+    ([1e300], (0, 1), NonFiniteError, r"^t_eval must hold finite numbers with magnitude <= 1e\+06"),
+])
+def test_simulate_refuses_empty_unsorted_or_non_numeric_t_eval(base, t_eval, t_span, error, message):
+    """t_eval=[] was "'list' object has no attribute 'T'" (scipy), unsorted times scipy's ValueError, bools
+    were read as 0 / 1 s."""
+    drive, speeds = BASES[base]
+    with pytest.raises(error, match=message):
+        drive.simulate(speeds, (0, 0, 0), t_span, t_eval=t_eval)
+    t, poses = drive.simulate(speeds, (0, 0, 0), t_span, t_eval=[0.5] if t_span == (0, 1) else [0.5, 0.2])
+    assert poses.shape == (len(t), 3)
+
+
+@pytest.mark.parametrize("base", sorted(BASES))
+@pytest.mark.parametrize("function, error, message", [
+    (lambda t: [1.0], ShapeError, r"^wheel_speeds\(0\) must have shape"),
+    (lambda t: None, ShapeError, r"^wheel_speeds\(0\) must be a sequence of \d numbers, got None"),
+    (lambda t: "ab", ShapeError, r"^wheel_speeds\(0\) must be a sequence of \d numbers, got 'ab'"),
+    (lambda t: [math.inf] * 3, (ShapeError, NonFiniteError), r"^wheel_speeds\(0\) must"),
+])
+def test_simulate_refuses_a_wheel_speed_function_of_the_wrong_shape_or_value(base, function, error, message):
+    drive, _ = BASES[base]
+    with pytest.raises(error, match=message):
+        drive.simulate(function, (0, 0, 0), (0, 1))
+
+
+def test_simulate_lets_the_wheel_speed_functions_own_errors_through():
+    with pytest.raises(ZeroDivisionError):
+        m.DiffDrive(0.1, 0.5).simulate(lambda t: 1 / 0, (0, 0, 0), (0, 1))
+
+
+@pytest.mark.parametrize("s, error, message", [
+    (1e300, NonFiniteError, r"^s must hold finite numbers with magnitude <= 1e\+06; bad entries: \[0\]=1e"),
+    ([0.0, -1e7], NonFiniteError, r"^s must hold finite numbers .*bad entries: \[1\]=-1"),
+    (True, ShapeError, r"^s must be a number or an array of numbers, got True"),
+    (np.array([True]), ShapeError, r"^s must be a number or an array of numbers"),
+    ("1", ShapeError, r"^s must be a number or an array of numbers, got '1'"),
+    (None, ShapeError, r"^s must be a number or an array of numbers, got None"),
+])
+def test_smooth_path_at_refuses_bools_text_and_huge_arc_lengths(polyline, s, error, message):
+    """at(1e300) was clipped to the end and at(True) read as s = 1.0."""
+    with pytest.raises(error, match=message):
+        polyline.at(s)
+    x, _, _, _ = polyline.at([-1.0, 1e6])  # ordinary out-of-range s: clipped to [0, length] (documented)
+    assert x.tolist() == pytest.approx([polyline.points[0, 0], polyline.points[-1, 0]])
 
 
 def test_mall_refuses_unhashable_padding_and_bad_resolution():

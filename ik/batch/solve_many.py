@@ -45,8 +45,16 @@ from kinserve.ik.batch.worker import Job
 from kinserve.ik.request import target_request
 from kinserve.ik.result import Result
 from kinserve.ik.targets import Target
-from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import MAX_ABS, ROTATION_TOL, as_flag, as_positive
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import (
+    MAX_ABS,
+    ROTATION_TOL,
+    as_choice,
+    as_flag,
+    as_numbers,
+    as_positive,
+    describe,
+)
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.kinematics.robot import Robot
@@ -143,14 +151,23 @@ def _one_pose(robot, i, pose, frame, relax, relax_frame) -> np.ndarray:
 
 
 def _checked_q0s(robot, q0, n: int) -> np.ndarray | None:
-    """``(n, nq)`` start configurations from None, one configuration, or ``(n, nq)`` (each validated)."""
+    """``(n, nq)`` start configurations from None, one configuration, or ``(n, nq)`` (each validated).
+
+    :class:`ShapeError` for anything that is not numbers (text, bools, None inside, ragged lists) or of
+    another shape; :class:`NonFiniteError` naming the row and joint (a float array) or the entries."""
     if q0 is None:
         return None
-    arr = np.asarray(q0, dtype=float) if not isinstance(q0, np.ndarray) else q0
+    forms = f"None, one configuration ({robot.nq} numbers) or one per target (shape ({n}, {robot.nq}))"
+    arr = q0
+    if not (type(q0) is np.ndarray and q0.dtype == np.float64):  # (a float array: rows named below)
+        try:
+            arr = as_numbers(q0, "q0")
+        except ShapeError:
+            raise ShapeError(f"q0 must be {forms}, got {describe(q0)}") from None
     if arr.ndim == 1:
         return np.repeat(robot.check_q(arr, "q0")[None, :], n, axis=0)
     if arr.shape != (n, robot.nq):
-        raise InputError(f"q0 must have shape ({robot.nq},) or ({n}, {robot.nq}), got shape {arr.shape}")
+        raise ShapeError(f"q0 must be {forms}, got shape {arr.shape}")
     arr = np.array(arr, dtype=np.float64)
     with np.errstate(invalid="ignore"):
         bad = ~(np.isfinite(arr).all(axis=1) & (np.abs(arr) <= MAX_ABS).all(axis=1))
@@ -229,7 +246,8 @@ def solve_many(
     targets:
         ``(N, 4, 4)`` array or sequence of poses (``pinocchio.SE3`` accepted).
     q0:
-        None, one configuration for every target, or ``(N, nq)`` configurations.
+        None, one configuration for every target, or ``(N, nq)`` configurations: finite numbers with
+        ``|x| <= 1e6`` (:class:`ShapeError` for text, bools or another shape, :class:`NonFiniteError`).
     processes:
         Worker processes (default: every available core), an integer from 1 to
         :data:`MAX_PROCESSES` (1024); larger values, 0, negatives and non-integers are refused
@@ -257,8 +275,8 @@ def solve_many(
     validates them (e.g. ``tol_pos``, ``tol_rot`` and ``max_time`` finite and at most 1e6) once, before any
     worker starts.
     """
-    if backend not in BACKENDS:
-        raise InputError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}")
+    backend = as_choice(backend, "backend (the execution backend; qp_backend names the QP solver)",
+                        tuple(BACKENDS))
     refuse_unused_address(ray_address, backend)
     processes = _check_count(processes, "processes", MAX_PROCESSES)
     chunksize = _check_count(chunksize, "chunksize", MAX_CHUNKSIZE)

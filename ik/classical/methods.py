@@ -46,6 +46,7 @@ import pinocchio as pin
 from kinserve.ik.result import History, Result
 from kinserve.ik.tasks.centring_weights import null_space_basis, null_space_correction
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.validation import as_choice
 
 if TYPE_CHECKING:  # annotations only
     from kinserve.ik.targets import Target
@@ -149,8 +150,7 @@ def _check_arguments(robot: Robot, target: Target, method: str, gain: float | No
                      weights: np.ndarray | None) -> None:
     """:class:`InputError` unless the method, its gain and damping, the task's shape (square for the
     inverse) and the centring (null-space methods only) fit together."""
-    if method not in METHODS:
-        raise InputError(f"classical method must be one of {METHODS}, got {method!r}")
+    as_choice(method, "classical method", METHODS)
     if gain is not None and not (isinstance(gain, (int, float)) and math.isfinite(gain) and gain > 0):
         raise InputError(f"gain must be a positive number, got {gain!r}")
     if not (isinstance(damping, (int, float)) and math.isfinite(damping) and damping >= 0):

@@ -77,6 +77,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from kinserve.ik.tasks.base import check_name
 from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
 from kinserve.kinematics.validation import MAX_ABS, is_bounded
 
@@ -98,7 +99,9 @@ class Constraint:
     _version: int = 0
 
     def __init__(self, name: str | None = None):
-        self.name = name if name is not None else type(self).__name__
+        """``name``: the label in messages, a non-empty str or None for the class name
+        (:func:`~kinserve.ik.tasks.base.check_name`; :class:`InputError` otherwise)."""
+        self.name = check_name(name, type(self).__name__)
 
     def bind(self, robot: Robot) -> "Constraint":
         """Validate against ``robot``; return the constraint to evaluate (default ``self``)."""

@@ -85,13 +85,19 @@ class CollisionConstraint(Constraint):
         Required clearance (m), ``>= 0``.
     influence:
         Pairs closer than ``margin + influence`` (m) get QP rows.
+    name:
+        The label in messages: a non-empty str, or None for ``"self-collision"`` (no obstacles) /
+        ``"collision"``.
     """
 
     def __init__(self, obstacles: Sequence = (), *, self_collision: bool = True, margin: float = 0.0,
                  influence: float = INFLUENCE, name: str | None = None) -> None:
         self_collision = as_flag(self_collision, "self_collision")
-        super().__init__(name=name or ("self-collision" if self_collision and not obstacles else "collision"))
-        self.obstacles = as_obstacles(obstacles)
+        obstacles = as_obstacles(obstacles)
+        if name is None:
+            name = "self-collision" if self_collision and not obstacles else "collision"
+        super().__init__(name=name)
+        self.obstacles = obstacles
         self.self_collision = self_collision
         self.clearance = check_length(margin, "collision margin")
         self.influence = check_length(influence, "collision influence", positive=True)

@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from kinserve.ik.constraints.base import Constraint
-from kinserve.kinematics.errors import InputError, NonFiniteError
+from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.validation import as_numbers
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -22,7 +23,13 @@ if TYPE_CHECKING:  # annotations only
 
 
 class VelocityLimits(Constraint):
-    """Joint speed limits ``v_max`` (rad/s or m/s): one positive number for every joint or one per joint."""
+    """Joint speed limits ``v_max`` (rad/s or m/s): one positive number for every joint or one per joint.
+
+    Refused (here and on assignment to :attr:`v_max`): bools, text and other non-numbers, and other
+    shapes (:class:`ShapeError`); NaN, infinities and magnitudes above 1e6 (:class:`NonFiniteError`);
+    zero or negative limits (:class:`InputError`). A vector of another length than ``nv`` is refused
+    when the constraint is bound to a robot.
+    """
 
     def __init__(self, v_max: float | Sequence[float]) -> None:
         super().__init__(name="velocity limits")
@@ -38,16 +45,13 @@ class VelocityLimits(Constraint):
 
     @v_max.setter
     def v_max(self, v_max: float | Sequence[float]) -> None:
-        try:
-            v = np.array(v_max, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"v_max must be a positive number or one per joint, got {v_max!r}") from None
-        if v.ndim > 1:
-            raise InputError(f"v_max must be a number or a 1-D sequence, got shape {v.shape}")
-        if not np.all(np.isfinite(v)):
-            raise NonFiniteError(f"v_max must be finite, got {v.tolist()}")
+        v = as_numbers(v_max, "v_max")  # (no bools, text; finite, |x| <= 1e6)
+        if v.ndim > 1 or v.size == 0:
+            raise ShapeError("v_max must be a number or a 1-D sequence of numbers (one per joint), got "
+                             f"shape {v.shape}")
         if np.any(v <= 0.0):
             raise InputError(f"v_max must be positive, got {v.tolist()}")
+        v = np.array(v, dtype=float)  # (a copy: the caller's array stays writeable and unchanged)
         v.flags.writeable = False  # change the limits by assignment (validated, and the solvers re-bind)
         self._v_max = v
         self._v = None

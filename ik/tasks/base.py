@@ -29,7 +29,8 @@ Attributes every task has
     improved (posture, joint-limit centring). :func:`kinserve.ik.solve`
     reports success when every goal task is within tolerance.
 ``name``
-    A short label used in :attr:`Result.task_errors` and in messages.
+    A short label used in :attr:`Result.task_errors` and in messages: a non-empty
+    str, or None for the class's default (:func:`check_name`).
 
 Methods a task implements
 -------------------------
@@ -86,7 +87,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
-from kinserve.kinematics.validation import MAX_ABS, as_positive, is_bounded
+from kinserve.kinematics.validation import MAX_ABS, as_positive, describe, is_bounded
 
 if TYPE_CHECKING:  # annotations only
     import pinocchio as pin
@@ -122,6 +123,17 @@ def check_weight(weight: float | Sequence[float], name: str = "weight",
     return w
 
 
+def check_name(name: object, owner: str) -> str:
+    """The label of a task or constraint: ``name`` if it is a non-empty str, ``owner`` (the class name, the
+    default) for None; else :class:`InputError` naming ``owner``. Labels appear in messages and in
+    :attr:`Result.task_errors`: NaN or an arbitrary object would be kept and printed."""
+    if name is None:
+        return owner
+    if isinstance(name, str) and name:
+        return name
+    raise InputError(f"{owner} name must be None or a non-empty str, got {describe(name)}")
+
+
 #: Largest accepted priority level (levels are integers from 1 to this).
 MAX_PRIORITY = 10**6
 
@@ -152,7 +164,7 @@ class Task:
     def __init__(self, weight: float | Sequence[float] = 1.0, priority: int = 1, name: str | None = None):
         self.weight = weight
         self.priority = priority
-        self.name = name if name is not None else type(self).__name__
+        self.name = check_name(name, type(self).__name__)
 
     @property
     def weight(self) -> float | np.ndarray:

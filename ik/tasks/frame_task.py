@@ -27,7 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from kinserve.ik.targets import RELAX_FRAMES, Target, checked_pose, parse_relax
+from kinserve.ik.targets import Target, check_relax_frame, checked_pose, parse_relax
 from kinserve.ik.tasks.base import Task
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import TASK_AXES, Robot
@@ -58,8 +58,7 @@ class FrameTask(Task):
                  priority: int = 1, name: str | None = None):
         if frame is not None and not isinstance(frame, str):
             raise InputError(f"frame must be a frame name or None (the robot's tip), got {frame!r}")
-        if not (type(relax_frame) is str and relax_frame in RELAX_FRAMES):
-            raise InputError(f"relax_frame must be one of {RELAX_FRAMES}, got {relax_frame!r}")
+        check_relax_frame(relax_frame)
         relaxed = () if relax is None or (type(relax) is tuple and not relax) else parse_relax(relax)
         if len(relaxed) == 6:
             raise InputError("relax: every component is relaxed - there is nothing left to solve")

@@ -12,7 +12,15 @@ from collections.abc import Callable, Iterable
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_count, as_positive, as_rows, as_vector, check_bounded, describe
+from kinserve.kinematics.validation import (
+    as_count,
+    as_numbers,
+    as_positive,
+    as_rows,
+    as_vector,
+    check_bounded,
+    describe,
+)
 
 #: Most samples a step size may produce along a path (or a time step along a trajectory).
 MAX_SAMPLES = 10**7
@@ -256,8 +264,8 @@ def simulation_arguments(wheel_speeds: object, n_wheels: int, pose0: object, t_s
     ``f(t)`` returns the wheel speeds as a finite vector of ``n_wheels`` numbers
     (a callable's output is checked at every call). Refused: wheel speeds,
     ``pose0`` (3 numbers), ``t_span`` (2 distinct times) not finite with
-    ``|x| <= 1e6``; ``t_eval`` not a 1-D array of at most 10**6 times inside
-    ``t_span``; ``rtol`` not in ``(0, 1]``; ``atol`` not in ``(0, 1e6]``.
+    ``|x| <= 1e6``; ``t_eval`` not None or 1 to 10**6 times as :func:`as_times`
+    accepts them; ``rtol`` not in ``(0, 1]``; ``atol`` not in ``(0, 1e6]``.
     ``f`` raises :class:`InputError` once called more than
     :data:`MAX_RHS_EVALUATIONS` times (a span too long for the motion and
     tolerance: the integration would not end in reasonable time).
@@ -286,22 +294,27 @@ def simulation_arguments(wheel_speeds: object, n_wheels: int, pose0: object, t_s
     span = as_vector(t_span, 2, "t_span")
     if span[0] == span[1]:
         raise InputError(f"t_span must be (t0, t1) with t0 != t1, got {span.tolist()}")
-    if t_eval is not None:
-        try:
-            if isinstance(t_eval, (str, bytes, dict)):
-                raise TypeError
-            te = np.asarray(t_eval, dtype=float)
-        except (TypeError, ValueError):
-            raise ShapeError(f"t_eval must be a 1-D array of times, got {describe(t_eval)}") from None
-        if te.ndim != 1:
-            raise ShapeError(f"t_eval must be a 1-D array of times, got shape {te.shape}")
-        check_bounded(te, "t_eval")
-        if len(te) > MAX_EVAL_TIMES:
-            raise InputError(f"t_eval: at most {MAX_EVAL_TIMES:,} times, got {len(te):,}")
-        lo, hi = min(span), max(span)
-        if np.any((te < lo) | (te > hi)):
-            raise InputError(f"t_eval must lie within t_span {span.tolist()}")
-        t_eval = te
+    t_eval = None if t_eval is None else as_times(t_eval, span)
     rtol = as_positive(rtol, "rtol", maximum=1.0)
     atol = as_positive(atol, "atol")
     return f, p0, (float(span[0]), float(span[1])), t_eval, rtol, atol
+
+
+def as_times(t_eval: object, span: np.ndarray) -> np.ndarray:
+    """``t_eval`` as the output times of a simulation over ``span = (t0, t1)``: a 1-D array of 1 to
+    :data:`MAX_EVAL_TIMES` finite numbers (not bools; :class:`ShapeError` / :class:`NonFiniteError`) inside
+    ``span``, strictly increasing when ``t0 < t1`` and strictly decreasing when ``t0 > t1`` (the direction
+    of the integration, as ``scipy.integrate.solve_ivp`` needs; :class:`InputError`)."""
+    te = as_numbers(t_eval, "t_eval")
+    if te.ndim != 1 or not 1 <= len(te) <= MAX_EVAL_TIMES:
+        raise ShapeError(f"t_eval must be a 1-D array of 1 to {MAX_EVAL_TIMES:,} times, got shape {te.shape}")
+    lo, hi = min(span), max(span)
+    if np.any((te < lo) | (te > hi)):
+        raise InputError(f"t_eval must lie within t_span {span.tolist()}")
+    step = np.diff(te) if span[1] > span[0] else -np.diff(te)
+    if np.any(step <= 0):
+        k = int(np.argmax(step <= 0))
+        order = "increasing" if span[1] > span[0] else "decreasing (t_span runs backwards)"
+        raise InputError(f"t_eval must be strictly {order}; t_eval[{k}] = {te[k]:g} and t_eval[{k + 1}] = "
+                         f"{te[k + 1]:g}")
+    return te

@@ -74,9 +74,11 @@ class DiffDrive:
 
         Refused (:class:`InputError` and subclasses): wheel speeds (or a
         callable's value) not 2 finite numbers with ``|x| <= 1e6``; ``pose0`` not
-        3 such numbers; ``t_span`` not 2 distinct such times; ``t_eval`` not a
-        1-D array of at most 10**6 times within ``t_span``; ``rtol`` not in
-        ``(0, 1]``; ``atol`` not in ``(0, 1e6]``.
+        3 such numbers; ``t_span`` not 2 distinct such times; ``t_eval`` not None
+        or a 1-D array of 1 to 10**6 times within ``t_span``, strictly
+        increasing (decreasing when ``t_span`` runs backwards); ``rtol`` not
+        in ``(0, 1]``; ``atol`` not in ``(0, 1e6]``. A callable's own
+        exceptions propagate unchanged.
         """
         f, p0, t_span, t_eval, rtol, atol = simulation_arguments(wheel_speeds, 2, pose0, t_span, t_eval,
                                                                  rtol, atol)

@@ -40,7 +40,7 @@ from scipy import ndimage
 from scipy.interpolate import CubicSpline
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_count, as_nonnegative, as_positive
+from kinserve.kinematics.validation import as_count, as_nonnegative, as_numbers, as_positive
 
 from ._checks import as_indices, as_points, check_samples, describe_length, polyline_samples
 from .maps import OccupancyGrid, check_grid
@@ -76,14 +76,10 @@ class SmoothPath:
 
     def at(self, s: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(x, y, heading, curvature)`` at arc lengths ``s`` (linear interpolation of the samples;
-        clipped to ``[0, length]``). Refuses non-numeric, NaN or infinite ``s``."""
-        try:
-            s = np.asarray(s, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"s must be arc lengths (numbers), got {s!r}") from None
-        if not np.all(np.isfinite(s)):
-            raise InputError("s must hold finite arc lengths")
-        s = np.clip(s, 0.0, self.length)
+        clipped to ``[0, length]``). ``s`` is a number or an array of numbers, each finite with
+        ``|s| <= 1e6``; refused: bools, text, anything non-numeric (:class:`ShapeError`), NaN, infinities
+        and larger magnitudes (:class:`NonFiniteError`)."""
+        s = np.clip(as_numbers(s, "s"), 0.0, self.length)
         x = np.interp(s, self.s, self.points[:, 0])
         y = np.interp(s, self.s, self.points[:, 1])
         h = np.interp(s, self.s, np.unwrap(self.heading))
