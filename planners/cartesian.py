@@ -49,12 +49,13 @@ import numpy as np
 from kinserve import ik
 from kinserve.kinematics import Robot
 from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.robot import as_robot
 from kinserve.kinematics.types import PoseLike, VectorLike
-from kinserve.kinematics.validation import as_flag, as_nonnegative, as_positive
+from kinserve.kinematics.validation import as_choice, as_flag, as_nonnegative, as_positive
 
 from .checks import MAX_SAMPLES
 from .joint_trajectory import JointTrajectory, check_last_time
-from .se3_interpolation import interpolate_checkpoints
+from .se3_interpolation import METHODS, interpolate_checkpoints
 
 #: A pose's IK is not started with less than this much of the plan's time left (s).
 MIN_POSE_TIME = 1e-3
@@ -240,8 +241,7 @@ def _checked_arguments(poses: Any, steps: Any, dt: Any, interpolation: Any, tota
         raise InputError(f"steps must be an integer from 1 to {most:,} ({MAX_SAMPLES:,} poses at most over "
                          f"{len(poses) - 1} segments), got {steps!r}")
     check_last_time(as_positive(dt, "dt"), (steps + 1) * (len(poses) - 1) + 1)  # before any pose is solved
-    if interpolation not in ("decoupled", "screw"):
-        raise InputError(f"interpolation must be 'decoupled' or 'screw', got {interpolation!r}")
+    as_choice(interpolation, "interpolation", METHODS)
     if total_time is not None:
         as_positive(total_time, "total_time")
     return list(poses)
@@ -318,13 +318,15 @@ def cartesian_to_joint(
     with ``max_time=None`` and no ``total_time`` the clock then decides nothing.
     The poses are solved by :func:`follow_poses`.
 
-    Refused (:class:`InputError` / :class:`ShapeError` naming the argument): fewer than two poses; ``steps``
+    Refused (:class:`InputError` / :class:`ShapeError` naming the argument): ``robot`` not a
+    :class:`~kinserve.kinematics.Robot`; fewer than two poses; ``steps``
     not an integer from 1 to the bound that keeps the path within
     :data:`~kinserve.planners.checks.MAX_SAMPLES` poses; ``dt``, ``total_time``, ``max_time`` (when not
     None) or ``jump_threshold`` not finite numbers in ``(0, 1e6]``; ``limit_margin`` or ``singular_tol``
     not finite numbers in ``[0, 1e6]``; an unknown ``interpolation``; ``stop_on_failure`` not True or False;
     a ``dt`` whose path's last time, ``dt`` times the number of poses less one, would pass 1e6 s.
     """
+    robot = as_robot(robot)
     poses = _checked_arguments(poses, steps, dt, interpolation, total_time)
     stop_on_failure = as_flag(stop_on_failure, "stop_on_failure")
     max_time, jump_threshold, limit_margin, singular_tol = _checked_thresholds(max_time, jump_threshold,

@@ -61,13 +61,15 @@ import numpy as np
 import pinocchio as pin
 
 from kinserve import ik
+from kinserve.ik.arguments import check_method
 from kinserve.ik.options import OPTIONS
+from kinserve.ik.targets import parse_relax
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.robot import TASK_AXES, Robot
 from kinserve.kinematics.shapes import Shape
 from kinserve.kinematics.types import ArrayLike, PoseLike
-from kinserve.kinematics.validation import as_nonnegative, as_pose, as_positive
+from kinserve.kinematics.validation import as_choice, as_nonnegative, as_pose, as_positive
 
 from .cartesian import PoseSolving, PoseTrack, follow_poses
 from .checks import step_count
@@ -135,9 +137,12 @@ def line_steps(T0: PoseLike, T1: PoseLike, max_step: float, max_rotation_step: f
     """The least ``n >= 1`` such that each of ``n`` equal steps of ``s`` moves the frame's origin by at most
     ``max_step`` (m) along its path and turns the frame by at most ``max_rotation_step`` (rad) (module
     docstring). A step so small that ``n`` would exceed :data:`~kinserve.planners.checks.MAX_SAMPLES` is
-    refused (:class:`InputError` naming it and the smallest step accepted)."""
+    refused (:class:`InputError` naming it and the smallest step accepted), as are steps that are not numbers
+    in ``(0, 1e6]`` and an ``interpolation`` other than ``"decoupled"`` or ``"screw"``."""
     A, B = as_pose(T0, "T0"), as_pose(T1, "T1")
-    if interpolation == "screw":
+    max_step = as_positive(max_step, "max_step")
+    max_rotation_step = as_positive(max_rotation_step, "max_rotation_step")
+    if as_choice(interpolation, "interpolation", METHODS) == "screw":
         X = pin.log6(se3.to_se3(A).actInv(se3.to_se3(B))).vector
         length, angle = float(np.linalg.norm(X[:3])), float(np.linalg.norm(X[3:]))
     else:
@@ -227,8 +232,7 @@ def line_poses(robot: Robot, start: np.ndarray, T_goal: PoseLike, frame: str | N
     """The poses ``(n + 1, 4, 4)`` of the line from ``frame``'s pose at ``start`` to ``T_goal`` at
     ``s = i / n`` (:func:`line_steps`), after checking ``T_goal``, ``frame``, ``relax`` and the steps."""
     goal = as_pose(T_goal, "T_goal")
-    if interpolation not in METHODS:
-        raise InputError(f"interpolation must be one of {METHODS}, got {interpolation!r}")
+    as_choice(interpolation, "interpolation", METHODS)
     step = as_positive(max_step, "max_step")
     turn = as_positive(max_rotation_step, "max_rotation_step")
     ik.Target(robot, goal, frame, relax)  # checks frame and relax
@@ -241,12 +245,15 @@ def _solving(frame: str | None, relax: Sequence[str], method: str, tol_pos: floa
              seed: int | None, iteration_budget: int | None, jump_threshold: Any, limit_margin: Any,
              singular_tol: Any) -> PoseSolving:
     """The :class:`~kinserve.planners.cartesian.PoseSolving` of a move: no per-pose clock (the move's
-    deadline bounds each pose), warm starts preferred, the thresholds checked."""
+    deadline bounds each pose), warm starts preferred, ``method``, ``relax`` (as :func:`ik.solve` takes them)
+    and the thresholds checked."""
+    method = check_method(method)
+    relax = tuple(TASK_AXES[i] for i in parse_relax(relax))  # checked; as the component names
     accepted = OPTIONS.get(method, ())
     options = {"prefer_q0": True} if "prefer_q0" in accepted else {}
     budget = iteration_budget if "iteration_budget" in accepted else None
-    return PoseSolving(frame, tuple(relax) if not isinstance(relax, str) else relax, (), 0.0, method, None,
-                       tol_pos, tol_rot, seed, budget, as_positive(jump_threshold, "jump_threshold"),
+    return PoseSolving(frame, relax, (), 0.0, method, None, tol_pos, tol_rot, seed, budget,
+                       as_positive(jump_threshold, "jump_threshold"),
                        as_nonnegative(limit_margin, "limit_margin"),
                        as_nonnegative(singular_tol, "singular_tol"),
                        options)
@@ -362,7 +369,8 @@ def plan_cartesian(robot: Robot, start: ArrayLike, T_goal: PoseLike, *, frame: s
     bound the trajectory.
 
     A move cut short is a :class:`CartesianMove` with ``success=False``, its ``stop`` and reason; invalid
-    arguments raise :class:`InputError` / :class:`ShapeError` naming the argument.
+    arguments raise :class:`InputError` / :class:`ShapeError` naming the argument (``relax``: component
+    names as :func:`ik.solve` reads them; ``method``: one of :data:`kinserve.ik.options.METHODS`).
     """
     # start, obstacles, self_collision and the limits, checked as plan_motion checks them
     request = motion_request(robot, start, start, obstacles, self_collision, None, None, acceleration_limits,
@@ -370,7 +378,8 @@ def plan_cartesian(robot: Robot, start: ArrayLike, T_goal: PoseLike, *, frame: s
     max_time, iteration_budget = _budgets(max_time, iteration_budget)
     solving = _solving(frame, relax, method, tol_pos, tol_rot, seed, iteration_budget, jump_threshold,
                        limit_margin, singular_tol)
-    poses = line_poses(robot, request.start, T_goal, frame, relax, max_step, max_rotation_step, interpolation)
+    poses = line_poses(robot, request.start, T_goal, frame, solving.relax, max_step, max_rotation_step,
+                       interpolation)
     certifier = _certifier(robot, request)
     toppra = load_toppra()
     watch = None

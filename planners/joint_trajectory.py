@@ -29,9 +29,20 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import MAX_ABS, as_flag, as_matrix, as_positive
+from kinserve.kinematics.validation import (
+    MAX_ABS,
+    as_choice,
+    as_count,
+    as_flag,
+    as_matrix,
+    as_positive,
+    describe,
+)
 
 from .checks import as_times
+
+#: Largest JSON ``indent`` accepted (spaces per level).
+MAX_INDENT = 16
 
 
 def finite_difference_velocities(positions: ArrayLike, times: ArrayLike, *,
@@ -69,6 +80,31 @@ def joint_name_list(joint_names: object) -> list:
                                                                                          "__iter__"):
         raise InputError(f"joint_names must be a sequence of joint names (strings), got {joint_names!r:.80}")
     return list(joint_names)
+
+
+def _file_path(path: object, name: str = "path") -> Path:
+    """``path`` (a ``str`` or ``os.PathLike``) as a :class:`Path`; :class:`InputError` naming ``name`` for
+    anything else (a number, None, bytes)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"{name} must be a file path (str or os.PathLike), got {describe(path)}")
+    return Path(path)
+
+
+def _source_text(source: object, kinds: tuple[type, ...], what: str, is_text) -> str | bytes:
+    """The text of ``source``: itself when it is of one of ``kinds`` and ``is_text(source)``, else the
+    contents of the file it names (a ``str`` or ``os.PathLike``); :class:`InputError` for another type, a
+    file that cannot be read or that is not UTF-8 text."""
+    if not isinstance(source, (os.PathLike, *kinds)):
+        raise InputError(f"source must be {what} text or a path to a file of it (str or os.PathLike), got "
+                         f"{describe(source)}")
+    if not isinstance(source, os.PathLike) and is_text(source):
+        return source
+    try:
+        return Path(source).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(f"cannot read trajectory file {str(source)!r}: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"trajectory file {str(source)!r} is not UTF-8 text (byte {exc.start})") from None
 
 
 def _four_digits(value: float, rounding) -> float:
@@ -150,10 +186,12 @@ class JointTrajectory:
                        velocities: str | None = "finite_difference",
                        zero_end_velocities: bool = False) -> JointTrajectory:
         """Points at ``time_from_start = i * dt``; velocities by finite differences unless
-        ``velocities=None``. ``dt`` must be a finite number in ``(0, 1e6]`` s, and the last time
-        ``(N - 1) * dt`` at most 1e6 s (:func:`check_last_time`)."""
+        ``velocities=None`` (anything but ``"finite_difference"`` or None is refused). ``dt`` must be a
+        finite number in ``(0, 1e6]`` s, and the last time ``(N - 1) * dt`` at most 1e6 s
+        (:func:`check_last_time`)."""
         dt = as_positive(dt, "dt")
         zero_end_velocities = as_flag(zero_end_velocities, "zero_end_velocities")
+        velocities = as_choice(velocities, "velocities", ("finite_difference", None))
         joint_names = joint_name_list(joint_names)
         Q = as_matrix(positions, (-1, len(joint_names)), "positions")
         check_last_time(dt, Q.shape[0])
@@ -163,8 +201,6 @@ class JointTrajectory:
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # judged just below
                 V = finite_difference_velocities(Q, t, zero_ends=zero_end_velocities)
             _check_velocity_bound(V, Q, dt, zero_end_velocities)
-        elif velocities is not None:
-            raise InputError(f"velocities must be 'finite_difference' or None, got {velocities!r}")
         return cls(list(joint_names), t, Q, V)
 
     # ------------------------------------------------------------- accessors
@@ -210,15 +246,22 @@ class JointTrajectory:
         return {"joint_names": list(self.joint_names), "points": self.points()}
 
     def to_json(self, path: str | os.PathLike | None = None, indent: int | None = None) -> str:
-        """JSON text (see the module docstring); also written to ``path`` if given."""
+        """JSON text (see the module docstring); also written to ``path`` if given.
+
+        ``path``: None, a ``str`` or an ``os.PathLike``; ``indent``: None (one line) or an integer from 0 to
+        :data:`MAX_INDENT` (spaces per level). Anything else is refused (:class:`InputError`)."""
+        indent = None if indent is None else as_count(indent, "indent", 0, MAX_INDENT)
+        file = None if path is None else _file_path(path)
         text = json.dumps(self.to_dict(), indent=indent)
-        if path is not None:
-            Path(path).write_text(text)
+        if file is not None:
+            file.write_text(text)
         return text
 
     @classmethod
     def from_dict(cls, d: dict) -> "JointTrajectory":
-        """The trajectory of a document as :meth:`to_dict` writes it (:class:`InputError` if malformed)."""
+        """The trajectory of a document as :meth:`to_dict` writes it (:class:`InputError` /
+        :class:`ShapeError` if malformed: positions, velocities and accelerations are checked as the
+        constructor checks them)."""
         if not isinstance(d, dict) or "joint_names" not in d or "points" not in d:
             raise InputError("a trajectory document needs 'joint_names' and 'points'")
         pts = d["points"]
@@ -232,28 +275,25 @@ class JointTrajectory:
                              f"({exc!r})") from None
         V = [p["velocities"] for p in pts] if all("velocities" in p for p in pts) else None
         A = [p["accelerations"] for p in pts] if all("accelerations" in p for p in pts) else None
-        return cls(list(d["joint_names"]), np.array(t), np.array(Q, dtype=float),
-                   None if V is None else np.array(V, dtype=float),
-                   None if A is None else np.array(A, dtype=float))
+        return cls(d["joint_names"], np.array(t), Q, V, A)
 
     @classmethod
     def from_json(cls, source: str | os.PathLike) -> JointTrajectory:
-        """From JSON text or a path to a ``.json`` file."""
-        text = source
-        if isinstance(source, Path) or (isinstance(source, str) and not source.lstrip().startswith("{")):
-            try:
-                text = Path(source).read_text()
-            except OSError as exc:
-                raise InputError(f"cannot read trajectory file {str(source)!r}: {exc}") from None
+        """From JSON text (``str`` or ``bytes``) or a path to a ``.json`` file (``str`` or ``os.PathLike``);
+        :class:`InputError` for anything else."""
+        text = _source_text(source, (str, bytes, bytearray), "JSON",
+                            lambda s: not isinstance(s, str) or s.lstrip().startswith("{"))
         try:
             d = json.loads(text)
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise InputError(f"trajectory JSON is malformed: {exc}") from None
         return cls.from_dict(d)
 
     # ------------------------------------------------------------------- CSV
     def to_csv(self, path: str | os.PathLike | None = None) -> str:
-        """CSV text (see the module docstring); also written to ``path`` if given."""
+        """CSV text (see the module docstring); also written to ``path`` (None, a ``str`` or an
+        ``os.PathLike``; :class:`InputError` otherwise) if given."""
+        file = None if path is None else _file_path(path)
         header = ["time_from_start"] + [f"position:{n}" for n in self.joint_names]
         blocks = [self.times[:, None], self.positions]
         if self.velocities is not None:
@@ -269,31 +309,28 @@ class JointTrajectory:
         for row in data:
             w.writerow([repr(float(v)) for v in row])
         text = buf.getvalue()
-        if path is not None:
-            Path(path).write_text(text)
+        if file is not None:
+            file.write_text(text)
         return text
 
     @classmethod
     def from_csv(cls, source: str | os.PathLike) -> JointTrajectory:
-        """From CSV text or a path to a ``.csv`` file."""
-        text = source
-        if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
-            try:
-                text = Path(source).read_text()
-            except OSError as exc:
-                raise InputError(f"cannot read trajectory file {str(source)!r}: {exc}") from None
-        rows = list(csv.reader(io.StringIO(text)))
+        """From CSV text (``str``) or a path to a ``.csv`` file (``str`` or ``os.PathLike``);
+        :class:`InputError` for anything else."""
+        text = _source_text(source, (str,), "CSV", lambda s: "\n" in s)
+        rows = [r for r in csv.reader(io.StringIO(text)) if r]  # blank lines are no rows
         if len(rows) < 2:
             raise InputError("trajectory CSV needs a header row and at least one data row")
         header = [h.strip() for h in rows[0]]
         if header[0] != "time_from_start":
             raise InputError(f"trajectory CSV must start with a 'time_from_start' column, got {header[0]!r}")
+        widths = sorted({len(r) for r in rows[1:]} - {len(header)})
+        if widths:
+            raise ShapeError(f"trajectory CSV rows have {widths[0]} values for {len(header)} columns")
         try:
-            data = np.array([[float(v) for v in r] for r in rows[1:] if r], dtype=float)
+            data = np.array([[float(v) for v in r] for r in rows[1:]], dtype=float)
         except ValueError as exc:
             raise InputError(f"trajectory CSV holds a non-numeric value: {exc}") from None
-        if data.shape[1] != len(header):
-            raise ShapeError(f"trajectory CSV rows have {data.shape[1]} values for {len(header)} columns")
         cols = {"position": [], "velocity": [], "acceleration": []}
         for k, h in enumerate(header[1:], start=1):
             kind, _, name = h.partition(":")
@@ -314,8 +351,8 @@ class JointTrajectory:
 
     # ------------------------------------------------------------- save/load
     def save(self, path: str | os.PathLike) -> Path:
-        """Write ``.json`` or ``.csv`` by the file's extension."""
-        path = Path(path)
+        """Write ``.json`` or ``.csv`` by the file's extension (``path``: a ``str`` or ``os.PathLike``)."""
+        path = _file_path(path)
         if path.suffix.lower() == ".json":
             self.to_json(path, indent=1)
         elif path.suffix.lower() == ".csv":
@@ -326,8 +363,9 @@ class JointTrajectory:
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> JointTrajectory:
-        """Read a ``.json`` or ``.csv`` file written by :meth:`save` (or by hand)."""
-        path = Path(path)
+        """Read a ``.json`` or ``.csv`` file written by :meth:`save` (or by hand); ``path``: a ``str`` or
+        ``os.PathLike``."""
+        path = _file_path(path)
         if path.suffix.lower() == ".json":
             return cls.from_json(path)
         if path.suffix.lower() == ".csv":

@@ -56,6 +56,7 @@ import numpy as np
 
 from kinserve.kinematics import Robot, axis_rows
 from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.robot import as_robot
 from kinserve.kinematics.types import VectorLike
 from kinserve.kinematics.validation import (
     as_count,
@@ -65,6 +66,7 @@ from kinserve.kinematics.validation import (
     as_positive,
     as_real,
     as_vector,
+    describe,
 )
 
 from .checks import MAX_SAMPLES
@@ -176,9 +178,10 @@ def task_coordinates(robot: Robot, q: VectorLike, axes: Sequence[str],
     """Task coordinates ``x(q)``: tool position components and/or yaw (see module docstring).
 
     ``axes``: names among ``x``, ``y``, ``z``, ``yaw`` (``phi``), each once; an unknown name, ``roll`` /
-    ``pitch`` or an empty list is refused (:class:`InputError`), never read as yaw.
+    ``pitch`` or an empty list is refused (:class:`InputError`), never read as yaw; so is a ``robot`` that
+    is not a :class:`~kinserve.kinematics.Robot`.
     """
-    axes = _check_axes(robot, axes)
+    axes = _check_axes(as_robot(robot), axes)
     T = robot.fk(q, frame)
     out = np.empty(len(axes))
     for i, a in enumerate(axes):
@@ -269,11 +272,16 @@ def track_reference(
     ``damping``: ``"adaptive"`` (default), a fixed ``lambda >= 0``, or 0.
     With ``stop_on_singularity`` the run ends at the first event.
 
-    Refused (:class:`InputError` naming the argument, before any step): ``n``, ``dt``, ``gain`` and
-    ``damping`` as :func:`_checked_run_arguments` says; ``sigma_threshold``, ``max_step_error`` and
-    ``max_joint_rate`` (when given) not in ``(0, 1e6]``; ``lambda_max`` not in ``[0, 1e6]``; ``reference`` not
-    callable; ``closed_loop`` or ``stop_on_singularity`` not True or False.
+    Refused (:class:`InputError` naming the argument, before any step): ``robot`` not a
+    :class:`~kinserve.kinematics.Robot`; ``n``, ``dt``, ``gain`` and ``damping`` as
+    :func:`_checked_run_arguments` says; ``sigma_threshold``, ``max_step_error`` and ``max_joint_rate`` (when
+    given) not in ``(0, 1e6]``; ``lambda_max`` not in ``[0, 1e6]``; ``reference`` not callable;
+    ``closed_loop`` or ``stop_on_singularity`` not True or False. ``reference(t)`` must return a pair
+    ``(x_ref, xdot_ref)`` of vectors of one finite number per task axis (:class:`InputError` /
+    :class:`ShapeError` at the step that gets anything else); an exception raised by ``reference`` itself
+    propagates unchanged (it is the caller's code, not a refusal of an argument).
     """
+    robot = as_robot(robot)
     if not callable(reference):
         raise InputError("reference must be a function t -> (x_ref, xdot_ref), got "
                          f"{type(reference).__name__}")
@@ -292,8 +300,11 @@ def track_reference(
     m = len(axes)
 
     def ref(t):
-        x, xd = reference(t)
-        return as_vector(x, m, "reference position"), as_vector(xd, m, "reference velocity")
+        pair = reference(t)
+        if not (isinstance(pair, (tuple, list)) and len(pair) == 2):
+            raise InputError(f"reference(t) must return a pair (x_ref, xdot_ref) of {m} numbers each (one "
+                             f"per axis of {axes}), got {describe(pair)} at t = {t:g}")
+        return as_vector(pair[0], m, "reference position"), as_vector(pair[1], m, "reference velocity")
 
     times = dt * np.arange(n + 1)
     Q = np.empty((n + 1, robot.nq))
@@ -394,8 +405,9 @@ def resolved_rate(robot: Robot, velocity: VectorLike, q0: VectorLike, n: int, dt
 
     Open loop by default (``q_{k+1} = q_k + J^+ v dt``, the seed's scheme);
     the reference is the straight line ``x(q0) + v t``. Keyword arguments as
-    :func:`track_reference`.
+    :func:`track_reference` (``robot`` not a :class:`~kinserve.kinematics.Robot` is refused, as there).
     """
+    robot = as_robot(robot)
     axes = _check_axes(robot, kwargs.pop("axes", None))
     frame = kwargs.get("frame")
     v = as_vector(velocity, len(axes), "velocity")
@@ -441,13 +453,14 @@ def follow_circle(
     (phase ``atan2(y0 - cy, x0 - cx)``), counter-clockwise for ``w > 0``; the
     initial error is the tool's distance from the circle. Open loop is the
     seed document's scheme (commanded tangent velocity only). ``radius`` must be in ``(0, 1e6]`` and
-    ``angular_velocity`` a non-zero number of magnitude at most 1e6 (:class:`InputError` otherwise).
+    ``angular_velocity`` a non-zero number of magnitude at most 1e6 and ``robot`` a
+    :class:`~kinserve.kinematics.Robot` (:class:`InputError` otherwise).
     """
+    robot = as_robot(robot)
     axes = _check_axes(robot, kwargs.pop("axes", None))
     if len(axes) != 2:
         raise InputError(f"circle following needs exactly two task axes, got {axes}")
-    if not (isinstance(n, (int, np.integer)) and n > 0):
-        raise InputError(f"n must be an integer > 0, got {n!r}")
+    as_count(n, "n (number of steps)", 1, MAX_SAMPLES)
     x0 = task_coordinates(robot, robot.check_q(q0, "q0"), axes, kwargs.get("frame"))
     c = as_vector(centre, 2, "centre")
     radius = as_positive(radius, "radius")

@@ -47,12 +47,14 @@ from scipy.spatial.transform import Rotation
 from kinserve.kinematics import se3
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.types import ArrayLike, PoseLike, VectorLike
-from kinserve.kinematics.validation import as_count, as_flag, as_pose, as_positive, as_vector
+from kinserve.kinematics.validation import as_choice, as_count, as_flag, as_pose, as_positive, as_vector
 
 from . import polynomials
 from .checks import MAX_SAMPLES, as_times, sample_count
 
 METHODS = ("decoupled", "screw")
+#: The polynomial orders of :func:`se3_polynomial_trajectory`.
+ORDERS = ("cubic", "quintic")
 
 
 def _progress(s):
@@ -88,12 +90,11 @@ def screw_interpolation(T0: PoseLike, T1: PoseLike, s: ArrayLike) -> np.ndarray:
 
 
 def interpolate(T0: PoseLike, T1: PoseLike, s: ArrayLike, method: str = "decoupled") -> np.ndarray:
-    """Dispatch to :func:`decoupled_interpolation` or :func:`screw_interpolation`."""
-    if method == "decoupled":
+    """Dispatch to :func:`decoupled_interpolation` or :func:`screw_interpolation` by ``method``, one of
+    :data:`METHODS` (:class:`InputError` otherwise)."""
+    if as_choice(method, "method", METHODS) == "decoupled":
         return decoupled_interpolation(T0, T1, s)
-    if method == "screw":
-        return screw_interpolation(T0, T1, s)
-    raise InputError(f"method must be one of {METHODS}, got {method!r}")
+    return screw_interpolation(T0, T1, s)
 
 
 def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoupled",
@@ -102,9 +103,11 @@ def intermediate_poses(T0: PoseLike, T1: PoseLike, n: int, method: str = "decoup
 
     With ``include_ends`` the result also starts with ``T0`` and ends with ``T1``
     (``n + 2`` poses). ``n`` must be an integer from 0 to ``MAX_SAMPLES - 2``
-    (:data:`~kinserve.planners.checks.MAX_SAMPLES`), else :class:`InputError`.
+    (:data:`~kinserve.planners.checks.MAX_SAMPLES`) and ``method`` one of :data:`METHODS`, else
+    :class:`InputError`.
     """
     n = as_count(n, "n", 0, MAX_SAMPLES - 2)
+    as_choice(method, "method", METHODS)
     s = np.linspace(0.0, 1.0, n + 2)
     if not as_flag(include_ends, "include_ends"):
         s = s[1:-1]
@@ -203,10 +206,9 @@ def se3_polynomial_trajectory(
     accelerations ``acceleration0/1`` (default zero), ``"cubic"`` only the
     twists. See the module docstring for the construction and for the one
     approximation (the goal acceleration of the quintic). ``duration`` must be a number of seconds in
-    ``[1e-6, 1e6]`` (:class:`InputError` otherwise).
+    ``[1e-6, 1e6]`` and ``order`` one of :data:`ORDERS` (:class:`InputError` otherwise).
     """
-    if order not in ("cubic", "quintic"):
-        raise InputError(f"order must be 'cubic' or 'quintic', got {order!r}")
+    order = as_choice(order, "order", ORDERS)
     A, B = as_pose(T0, "T0"), as_pose(T1, "T1")
     tf = as_positive(duration, "duration")
     if tf < polynomials.MIN_DURATION:

@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_positive, as_real
+from kinserve.kinematics.validation import as_choice, as_positive, as_real
 
 from . import polynomials
 from .checks import as_numbers, as_times, sample_count
@@ -184,8 +184,7 @@ def minimum_time(kind: str, distance: ArrayLike, v_max: ArrayLike, a_max: ArrayL
     that are not finite numbers with magnitude <= 1e6; limits <= 0; vectors of different lengths (each
     argument is one number or a vector of the common length; none is stretched to another's length).
     """
-    if kind not in _KINDS:
-        raise InputError(f"kind must be one of {_KINDS}, got {kind!r}")
+    kind = as_choice(kind, "kind", _KINDS)
     D = np.abs(as_numbers(distance, "distance"))
     v = as_numbers(v_max, "v_max")
     a = as_numbers(a_max, "a_max")
@@ -216,8 +215,7 @@ def time_scaling(kind: str, T: float | None = None, *, distance: ArrayLike | Non
     ``distance``, the path length). ``T`` is refused as by :func:`cubic_time_scaling`, the limits as by
     :func:`minimum_time`.
     """
-    if kind not in _KINDS:
-        raise InputError(f"kind must be one of {_KINDS}, got {kind!r}")
+    kind = as_choice(kind, "kind", _KINDS)
     if kind == "trapezoidal":
         if v_max is None or a_max is None:
             raise InputError("a trapezoidal time scaling needs v_max and a_max")

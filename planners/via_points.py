@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 from scipy.interpolate import CubicSpline
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix, as_positive, as_real
+from kinserve.kinematics.validation import as_choice, as_matrix, as_positive, as_real
 
 from . import polynomials
 from .checks import MAX_SAMPLES, as_numbers, as_times, step_count
@@ -156,15 +156,16 @@ def via_point_trajectory(
 
     Without ``times``, ``v_max`` and ``a_max`` (scalars or per-component) set
     each segment's duration (see the module docstring); the trajectory starts
-    at ``t0``. ``v0``/``v1`` are the boundary velocities (default rest).
+    at ``t0`` (given times are used as they are: ``t0`` is then unused, but checked all the same).
+    ``v0``/``v1`` are the boundary velocities (default rest).
 
     Refused (:class:`InputError` / :class:`ShapeError` naming the argument): an unknown ``method``; points
     or times that are not finite numbers of the right shape; times not strictly increasing or closer than
     1e-6 s; ``v0``, ``v1`` not one finite number or an ``(n,)`` vector of them; ``t0`` not a finite number;
     limits refused by :func:`~kinserve.planners.time_scaling.minimum_time`.
     """
-    if method not in METHODS:
-        raise InputError(f"method must be one of {METHODS}, got {method!r}")
+    method = as_choice(method, "method", METHODS)
+    t0 = as_real(t0, "t0")
     P = as_numbers(points, "points")
     if P.ndim == 1:
         P = P[:, None]
@@ -177,7 +178,7 @@ def via_point_trajectory(
             raise InputError("give the via times, or v_max and a_max to choose them")
         seg = [max(minimum_time("cubic", P[k + 1] - P[k], v_max, a_max), polynomials.MIN_DURATION)
                for k in range(K - 1)]
-        t = as_real(t0, "t0") + np.concatenate([[0.0], np.cumsum(seg)])
+        t = t0 + np.concatenate([[0.0], np.cumsum(seg)])
     else:
         t = as_matrix(times, (K,), "times")
         if np.any(np.diff(t) < polynomials.MIN_DURATION):

@@ -447,3 +447,200 @@ def test_trajectory_and_interpolation_flags_must_be_true_or_false(value):
             call(value)
     assert np.all(planners.finite_difference_velocities(Q, t, zero_ends=np.False_)[0] != 0.0)
     assert len(planners.intermediate_poses(np.eye(4), T1, 3, include_ends=np.True_)) == 5
+
+
+# ------------------------------------------------------------------ 3. robots, choices, budgets, files
+@pytest.fixture(scope="module")
+def p4():
+    return robots.load("planar4r")
+
+
+def _ref(t):
+    return np.zeros(2), np.zeros(2)
+
+
+Q4 = np.full(4, 0.3)
+ROBOT_CALLS = {
+    "cartesian_to_joint": lambda r, line: cartesian_to_joint(r, list(line), Q0, frame="panda_link8", steps=1,
+                                                             **NO_CLOCK),
+    "resolved_rate": lambda r, line: planners.resolved_rate(r, [0.01, 0.0], Q4, 3, 0.01, axes=["x", "y"]),
+    "track_reference": lambda r, line: planners.track_reference(r, _ref, Q4, 3, 0.01, axes=["x", "y"]),
+    "follow_circle": lambda r, line: planners.follow_circle(r, [0.5, 0.0], 0.1, Q4, 3, 0.01, axes=["x", "y"]),
+    "task_coordinates": lambda r, line: task_coordinates(r, Q0, ["x"]),
+    "plan_many": lambda r, line: plan_many(r, [(Q4, Q4 + 0.2)], processes=1),
+    "joint_vector": lambda r, line: planners.motion.joint_vector(r, {"j": 0.0}),
+}
+
+
+@pytest.mark.parametrize("robot", ["panda", None])
+@pytest.mark.parametrize("call", list(ROBOT_CALLS), ids=list(ROBOT_CALLS))
+def test_robot_must_be_a_robot(panda, line, robot, call):
+    """A robot's name or None was Python's "'str' object has no attribute 'check_q'" (or 'fk')."""
+    with pytest.raises(InputError, match=r"^robot must be a kinserve Robot \(robots.load\(\.\.\.\)\), got "):
+        ROBOT_CALLS[call](robot, line)
+    assert task_coordinates(panda, Q0, ["x"]).shape == (1,)
+
+
+def test_plan_max_time_is_bounded(p4):
+    """max_time=1e300 was accepted by plan_motion and plan_many (inf was refused); it is bounded by 1e6 s as
+    ik.solve bounds its own."""
+    from kinserve.planners.motion import request
+
+    with pytest.raises(NonFiniteError, match=r"^max_time must be finite with magnitude <= 1e\+06, got "
+                                             r"1e\+300"):
+        planners.plan_motion(p4, Q4, Q4 + 0.2, max_time=1e300)
+    with pytest.raises(NonFiniteError, match=r"shared keywords of plan_motion\): max_time must be finite"):
+        plan_many(p4, [(Q4, Q4 + 0.2)], processes=1, max_time=1e300)
+    assert request._budget(1e6, None).max_time == 1e6
+
+
+EMPTY = np.zeros(0)
+CHOICE_CALLS = [
+    ("interpolate", lambda r, L: planners.interpolate(*L, [0.5], method=EMPTY), r"^method must be one of "
+     r"'decoupled', 'screw', got array\("),
+    ("intermediate_poses", lambda r, L: intermediate_poses(*L, 0, method=EMPTY), r"^method must be one of"),
+    ("time_scaling", lambda r, L: time_scaling(EMPTY, 1.0), r"^kind must be one of 'cubic', 'quintic', "
+     r"'trapezoidal', got array"),
+    ("minimum_time", lambda r, L: minimum_time(EMPTY, 1.0, 1.0, 1.0), r"^kind must be one of"),
+    ("se3 order", lambda r, L: se3_polynomial_trajectory(*L, 1.0, order=EMPTY), r"^order must be one of "
+     r"'cubic', 'quintic'"),
+    ("via method", lambda r, L: via_point_trajectory([[0.0], [1.0]], [0, 1], method=EMPTY),
+     r"^method must be one of 'cubic_spline', 'quintic'"),
+    ("from_positions", lambda r, L: JointTrajectory.from_positions(["a"], [[0.0], [1.0]], 1.0,
+                                                                   velocities=EMPTY),
+     r"^velocities must be one of 'finite_difference', None"),
+    ("cartesian_to_joint", lambda r, L: cartesian_to_joint(r, list(L), Q0, steps=1, interpolation=EMPTY),
+     r"^interpolation must be one of"),
+    ("line_steps", lambda r, L: planners.cartesian_move.line_steps(*L, 0.01, 0.05, []),
+     r"^interpolation must be one of"),
+    ("plan_many backend", lambda r, L: plan_many(r, [], processes=1, backend=EMPTY),
+     r"^backend must be one of 'local', 'ray', got array"),
+]
+
+
+@pytest.mark.parametrize("call, regex", [c[1:] for c in CHOICE_CALLS], ids=[c[0] for c in CHOICE_CALLS])
+def test_names_given_as_arrays_or_lists_are_refused(panda, line, call, regex):
+    """A method / kind / order / backend given as an array was NumPy's "truth value of an empty array is
+    ambiguous" (a list: "unhashable type"); each is now refused by name with the choices."""
+    with pytest.raises(InputError, match=regex):
+        call(panda, line)
+    assert planners.interpolate(*line, [0.5], method="screw").shape == (1, 4, 4)
+    assert time_scaling("quintic", 1.0).duration == 1.0
+
+
+@pytest.mark.parametrize("kw, regex", [
+    ({"relax": 0}, r"^relax must be a sequence of component names"),
+    ({"relax": 2.5}, r"^relax must be a sequence of component names"),
+    ({"relax": np.nan}, r"^relax must be a sequence of component names"),
+    ({"relax": ["bogus"]}, r"^relax: unknown component 'bogus'"),
+    ({"method": []}, r"^method must be one of \('auto'"),
+    ({"method": "nope"}, r"^method must be one of \('auto'"),
+    ({"interpolation": EMPTY}, r"^interpolation must be one of 'decoupled', 'screw'"),
+])
+def test_plan_cartesian_checks_relax_and_method(panda, line, kw, regex):
+    """relax=0 was Python's "'int' object is not iterable", method=[] "unhashable type: 'list'"."""
+    with pytest.raises(InputError, match=regex):
+        plan_cartesian(panda, Q0, line[1], frame="panda_link8", self_collision=False, **kw)
+    move = plan_cartesian(panda, Q0, line[1], frame="panda_link8", self_collision=False, relax=None,
+                          method="auto")
+    assert move.success
+
+
+@pytest.mark.parametrize("call, exc, regex", [
+    (lambda jt: jt.to_json(indent=17), InputError, r"^indent must be an integer from 0 to 16, got 17$"),
+    (lambda jt: jt.to_json(indent="no"), InputError, r"^indent must be an integer, got 'no'"),
+    (lambda jt: jt.to_json(indent=2.5), InputError, r"^indent must be an integer, got 2.5"),
+    (lambda jt: jt.to_json(path=0), InputError, r"^path must be a file path \(str or os.PathLike\), got 0"),
+    (lambda jt: jt.to_csv(path=0), InputError, r"^path must be a file path"),
+    (lambda jt: jt.save(0), InputError, r"^path must be a file path"),
+    (lambda jt: JointTrajectory.load(None), InputError, r"^path must be a file path"),
+    (lambda jt: JointTrajectory.from_json(0), InputError, r"^source must be JSON text or a path"),
+    (lambda jt: JointTrajectory.from_json(b"\x80{}"), InputError, r"^trajectory JSON is malformed"),
+    (lambda jt: JointTrajectory.from_csv(0), InputError, r"^source must be CSV text or a path"),
+    (lambda jt: JointTrajectory.from_csv("time_from_start,position:a\n0,1\n2\n"), ShapeError,
+     r"^trajectory CSV rows have 1 values for 2 columns"),
+    (lambda jt: JointTrajectory.from_csv("time_from_start,position:a\n\n\n"), InputError,
+     r"needs a header row and at least one data row"),
+    (lambda jt: JointTrajectory.from_dict({"joint_names": ["a"], "points": [
+        {"positions": "x", "time_from_start": 0}]}), ShapeError, r"^positions must be a numeric array"),
+    (lambda jt: JointTrajectory.from_dict({"joint_names": 0, "points": [
+        {"positions": [0.0], "time_from_start": 0}]}), InputError, r"^joint_names must be a sequence"),
+], ids=["indent 17", "indent text", "indent float", "json path", "csv path", "save", "load", "from_json",
+        "json bytes", "from_csv", "csv ragged", "csv blank", "from_dict positions", "from_dict names"])
+def test_trajectory_files_check_their_arguments(tmp_path, call, exc, regex):
+    """indent=10**9 wrote for minutes and gigabytes (tested with 17, the least refused, to stay cheap if the
+    check is lost), indent='no' wrote 'no' as the indent, 2.5 / a path 0 / a source 0 were Python's
+    TypeErrors, a text position NumPy's ValueError, a blank CSV a raw IndexError."""
+    with pytest.raises(exc, match=regex):
+        call(_trajectory())
+    jt = _trajectory()
+    assert JointTrajectory.from_json(jt.to_json(tmp_path / "t.json", indent=16)).n_points == 2
+    assert JointTrajectory.from_csv(jt.to_csv(str(tmp_path / "t.csv")) + "\n\n").n_points == 2
+
+
+def test_a_scene_document_must_be_a_planning_scene(tmp_path):
+    """A file holding another message (here a trajectory, named 'no') was read as an empty scene: no
+    obstacle, silently; a bare value ('yes', 'no' with no such file, 3) is refused alike."""
+    path = tmp_path / "no"
+    path.write_text(_trajectory().to_json())
+    for source in (path, "{}"):
+        with pytest.raises(InputError, match=r"is not a MoveIt PlanningScene: it has none of the fields "):
+            planners.read_planning_scene(source)
+    for text, kind in (("yes", "bool"), ("no", "bool"), ("3", "int")):
+        with pytest.raises(InputError, match=rf"^planning scene must be a YAML mapping .*, got {kind}$"):
+            planners.read_planning_scene(text)
+    assert planners.read_planning_scene("name: empty\nworld: {}") == []
+
+
+@pytest.mark.parametrize("kw, regex", [
+    ({"shapes": 0}, r"^shapes must be a sequence of shapes \(boxes, spheres, cylinders\), got 0"),
+    ({"shapes": kinserve.ik.Sphere([0, 0, 0], 0.1)}, r"^shapes must be a sequence of shapes"),
+    ({"name": object()}, r"^name must be the scene's name \(a string\), got <object"),
+    ({"name": np.nan}, r"^name must be the scene's name \(a string\), got nan"),
+])
+def test_write_planning_scene_checks_shapes_and_name(kw, regex):
+    """shapes=0 was "'int' object is not iterable", name=object() yaml's RepresenterError, name=nan was
+    written as '.nan'."""
+    args = {"shapes": [kinserve.ik.Sphere([0, 0, 0], 0.1)], **kw}
+    with pytest.raises(InputError, match=regex):
+        planners.write_planning_scene(**args)
+    assert len(planners.read_planning_scene(planners.write_planning_scene((), name="x"))) == 0
+
+
+@pytest.mark.parametrize("kw, regex", [
+    ({"start": np.nan}, r"^MotionRequest.start must be a mapping joint name \(str\) -> value, got nan"),
+    ({"goal": "no"}, r"^MotionRequest.goal must be a mapping joint name"),
+    ({"goal": {1: 0.0}}, r"^MotionRequest.goal must be a mapping joint name"),
+    ({"start": {"j1": True}}, r"^MotionRequest.start must hold numbers \(not true/false/yes/no or text\)"),
+    ({"start": {"j1": np.nan}}, r"^MotionRequest.start must hold finite numbers with \|x\| <= 1e\+06"),
+    ({"group": object()}, r"^MotionRequest.group must be a planning group name \(str, '' for none\)"),
+])
+def test_motion_request_checks_its_fields(kw, regex):
+    """MotionRequest(start=nan, goal='no', group=object()) was accepted; construction checks what the
+    reader checks."""
+    args = {"start": {"j1": 0.1}, "goal": {"j1": 0.2}, **kw}
+    with pytest.raises(InputError, match=regex):
+        planners.MotionRequest(**args)
+    request = planners.MotionRequest({"j1": 1}, {"j1": np.float32(0.5)}, "arm")
+    assert request.start == {"j1": 1.0} and type(request.goal["j1"]) is float
+
+
+def test_reference_must_return_a_pair_and_its_own_errors_propagate(p4):
+    """A reference returning one number was Python's "cannot unpack non-iterable float object"; an
+    exception raised by the reference itself is the caller's and propagates unchanged."""
+    with pytest.raises(InputError, match=r"^reference\(t\) must return a pair \(x_ref, xdot_ref\) of 2 "
+                                         r"numbers each \(one per axis of \('x', 'y'\)\), got 0.0 at t = 0"):
+        planners.track_reference(p4, lambda t: 0.0, Q4, 3, 0.01, axes=["x", "y"])
+    with pytest.raises(ZeroDivisionError):
+        planners.track_reference(p4, lambda t: 1 / 0, Q4, 3, 0.01, axes=["x", "y"])
+    assert len(planners.track_reference(p4, lambda t: [np.zeros(2), np.zeros(2)], Q4, 3, 0.01,
+                                        axes=["x", "y"]).q) == 4
+
+
+def test_via_point_t0_and_circle_steps_are_always_checked(p4):
+    """t0='no' was ignored when the times were given; follow_circle took n=True as one step."""
+    with pytest.raises(InputError, match=r"^t0 must be a number, got 'no'"):
+        via_point_trajectory([[0.0], [1.0], [2.0]], [0, 1, 2], t0="no")
+    with pytest.raises(InputError, match=r"^n \(number of steps\) must be an integer, got True"):
+        planners.follow_circle(p4, [0.5, 0.0], 0.1, Q4, True, 0.01, axes=["x", "y"])
+    assert via_point_trajectory([[0.0], [1.0], [2.0]], [0, 1, 2], t0=5.0).times[0] == 0.0

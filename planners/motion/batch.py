@@ -29,12 +29,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from kinserve.ik.arguments import check_max_time
 from kinserve.ik.batch.ray_actors import BatchLabels, run_on_new_actors
 from kinserve.ik.batch.ray_backend import ensure_ray, refuse_unused_address
 from kinserve.ik.batch.runners import CHUNK_FACTOR, CHUNK_SLACK
 from kinserve.kinematics.errors import InputError, WorkerTimeoutError
+from kinserve.kinematics.robot import as_robot
 from kinserve.kinematics.shapes import as_obstacles
-from kinserve.kinematics.validation import as_positive
+from kinserve.kinematics.validation import as_choice, as_positive
 
 from .batch_workers import ChunkPool, MotionJob, MotionProblem
 
@@ -175,7 +177,7 @@ def _seed(seed: Any) -> int:
 
 def _chunk_limit(kwargs: dict) -> Callable[[int], float]:
     max_time = kwargs.get("max_time", 1.0)
-    budget = UNTIMED_BUDGET if max_time is None else as_positive(max_time, "max_time")
+    budget = UNTIMED_BUDGET if max_time is None else check_max_time(max_time)
     return lambda n: CHUNK_FACTOR * n * budget + CHUNK_SLACK
 
 
@@ -212,13 +214,14 @@ def plan_many(robot: Robot, problems: Any, processes: int | None = None, backend
         The keywords of ``plan_motion`` shared by every problem (``max_time``, ``max_iterations``,
         ``self_collision``, ``simplify``, ``acceleration_limits``, ...).
 
-    Refused before any work starts (:class:`InputError` naming the argument): an unknown ``backend``;
+    Refused before any work starts (:class:`InputError` naming the argument): ``robot`` not a
+    :class:`~kinserve.kinematics.Robot`; a ``backend`` other than ``"local"`` or ``"ray"``;
     ``processes`` not an integer from 1 to :data:`MAX_PROCESSES`; ``chunksize`` not a positive integer;
     ``planner`` not callable; a shared keyword the planner does not take (and, for ``plan_motion``, a shared
     keyword's value it would refuse: :func:`check_shared_values`); a malformed problem.
     """
-    if backend not in BACKENDS:
-        raise InputError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    robot = as_robot(robot)
+    backend = as_choice(backend, "backend", BACKENDS)
     refuse_unused_address(ray_address, backend)
     _check_count(processes, "processes", MAX_PROCESSES)
     _check_count(chunksize, "chunksize")

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from kinserve.ik.arguments import check_max_time
 from kinserve.ik.targets import Target
 from kinserve.kinematics.errors import InputError, ShapeError
 from kinserve.kinematics.robot import Robot, as_robot
@@ -133,17 +134,16 @@ def _goals(robot: Robot, goal: Any) -> tuple[np.ndarray, bool]:
 
 
 def _budget(max_time: Any, max_iterations: Any) -> SearchBudget:
-    if max_time is not None and (isinstance(max_time, bool) or not isinstance(max_time, numbers.Real)
-                                 or not np.isfinite(max_time) or max_time <= 0):
-        raise InputError(f"max_time must be None or a finite number of seconds > 0, got {max_time!r}")
+    """The search budget: ``max_time`` None or a number of seconds in ``(0, 1e6]`` (as :func:`ik.solve`
+    bounds it), ``max_iterations`` None or an integer >= 1, not both None."""
+    max_time = check_max_time(max_time)
     if max_iterations is not None and (isinstance(max_iterations, bool)
                                        or not isinstance(max_iterations, numbers.Integral)
                                        or max_iterations < 1):
         raise InputError(f"max_iterations must be None or an integer >= 1, got {max_iterations!r}")
     if max_time is None and max_iterations is None:
         raise InputError("max_time and max_iterations are both None: give at least one budget")
-    return SearchBudget(None if max_iterations is None else int(max_iterations),
-                        None if max_time is None else float(max_time))
+    return SearchBudget(None if max_iterations is None else int(max_iterations), max_time)
 
 
 def _seed(seed: Any) -> int | None:

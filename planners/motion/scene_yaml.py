@@ -29,27 +29,28 @@ import math
 import numbers
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import yaml
 
 from kinserve.kinematics.errors import InputError
+from kinserve.kinematics.robot import Robot, as_robot
 from kinserve.kinematics.se3 import matrix_from_quat, quat_from_matrix
 from kinserve.kinematics.shapes import Box, Cylinder, Shape, Sphere
-from kinserve.kinematics.validation import MAX_ABS
-
-if TYPE_CHECKING:  # annotations only
-    from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.validation import MAX_ABS, describe
 
 __all__ = ["MotionRequest", "read_planning_scene", "write_planning_scene", "read_motion_request",
            "joint_vector"]
 
 #: MoveIt's ``shape_msgs/SolidPrimitive`` type codes of the primitives read here.
 PRIMITIVE_CODES = {1: "box", 2: "sphere", 3: "cylinder"}
+#: The fields of MoveIt's ``moveit_msgs/PlanningScene``: a scene document names at least one of them.
+SCENE_FIELDS = ("name", "robot_state", "robot_model_name", "fixed_frame_transforms",
+                "allowed_collision_matrix", "link_padding", "link_scale", "object_colors", "world", "is_diff")
 #: How far a quaternion's norm may be from 1 before it is refused (it is normalised otherwise).
 QUATERNION_TOL = 1e-3
 
@@ -63,11 +64,21 @@ class MotionRequest:
     """A joint-space motion request: ``start`` and ``goal`` as ``{joint name: value}`` (rad or m).
 
     ``group`` is MoveIt's planning group (``group_name``), ``""`` when the request has none.
+    Construction checks what :func:`read_motion_request` checks (:class:`InputError` naming the field):
+    ``start`` and ``goal`` mappings of joint names (str) to finite numbers with ``|x| <= 1e6`` (not
+    bools; kept as floats, in a dict), ``group`` a string.
     """
 
     start: dict[str, float]
     goal: dict[str, float]
     group: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "start", _joint_values(self.start, "MotionRequest.start"))
+        object.__setattr__(self, "goal", _joint_values(self.goal, "MotionRequest.goal"))
+        if not isinstance(self.group, str):
+            raise InputError(f"MotionRequest.group must be a planning group name (str, '' for none), got "
+                             f"{describe(self.group)}")
 
 
 #: A number in exponent form without a dot (``1e-3``): text to YAML 1.1, a float to YAML 1.2 and MoveIt.
@@ -92,8 +103,9 @@ def _is_dir(path: str | os.PathLike) -> bool:
         return False
 
 
-def _load_yaml(source: str | os.PathLike, what: str) -> Any:
-    """The parsed document of a YAML file path or YAML text (:class:`InputError` on a read/parse error).
+def _load_yaml(source: str | os.PathLike, what: str) -> tuple[dict, str]:
+    """``(document, label)``: the parsed document of a YAML file path or YAML text (:class:`InputError` on a
+    read/parse error) and how messages name it (``what``, with the file's path when it was read from one).
 
     Refused: a directory, a file that is not UTF-8 text, text that is not YAML or not a mapping.
     """
@@ -121,7 +133,7 @@ def _load_yaml(source: str | os.PathLike, what: str) -> Any:
         raise InputError(f"{label} is not valid YAML{where}: {problem}") from None
     if not isinstance(doc, dict):
         raise InputError(f"{label} must be a YAML mapping (a MoveIt message), got {type(doc).__name__}")
-    return doc
+    return doc, label
 
 
 def _numbers(value: Any, n: int | None, label: str) -> list[float]:
@@ -143,6 +155,13 @@ def _numbers(value: Any, n: int | None, label: str) -> list[float]:
     if not all(math.isfinite(v) and abs(v) <= MAX_ABS for v in out):
         raise InputError(f"{label} must hold finite numbers with |x| <= {MAX_ABS:g}, got {value!r}")
     return out
+
+
+def _joint_values(values: Any, label: str) -> dict[str, float]:
+    """``{joint name: value}`` as a dict of floats (each value as :func:`_numbers` accepts it)."""
+    if not isinstance(values, Mapping) or not all(isinstance(name, str) for name in values):
+        raise InputError(f"{label} must be a mapping joint name (str) -> value, got {describe(values)}")
+    return dict(zip(values, _numbers(list(values.values()), None, label)))
 
 
 def _xyz(value: Any, keys: str, label: str) -> list[float]:
@@ -225,9 +244,14 @@ def read_planning_scene(source: str | os.PathLike) -> list[Shape]:
 
     Every primitive of ``world.collision_objects[]`` in order (module docstring for the formats and the
     pose composition). :class:`InputError` naming the object for meshes, planes, cones, an octomap, a
-    malformed entry, or a file that is not YAML.
+    malformed entry, or a file that is not YAML; also for a document that is not a mapping (a bare value
+    such as ``no`` or ``3``) or a mapping with none of a ``PlanningScene``'s fields (:data:`SCENE_FIELDS`;
+    another message, such as a trajectory, is not an empty scene).
     """
-    doc = _load_yaml(source, "planning scene")
+    doc, label = _load_yaml(source, "planning scene")
+    if not any(field in doc for field in SCENE_FIELDS):
+        raise InputError(f"{label} is not a MoveIt PlanningScene: it has none of the fields "
+                         f"{', '.join(SCENE_FIELDS)} (got {describe(sorted(map(str, doc)))})")
     world = doc.get("world") or {}
     if not isinstance(world, Mapping):
         raise InputError(f"planning scene: world must be a mapping, got {world!r}")
@@ -261,7 +285,15 @@ def _primitive_yaml(shape: Shape, k: int) -> tuple[dict, np.ndarray]:
 def write_planning_scene(shapes: Sequence[Shape], name: str = "") -> str:
     """YAML text of a MoveIt ``PlanningScene`` whose world holds ``shapes`` (one object each, ids
     ``<kind>_<index>``); :func:`read_planning_scene` of it gives the same shapes back (up to rounding
-    of the rotation through a quaternion)."""
+    of the rotation through a quaternion).
+
+    Refused (:class:`InputError`): ``shapes`` not a sequence (list, tuple, ...) of boxes, spheres and
+    cylinders; ``name`` (the scene's name) not a string."""
+    if isinstance(shapes, (str, bytes, Mapping, Shape)) or not isinstance(shapes, Iterable):
+        raise InputError(f"shapes must be a sequence of shapes (boxes, spheres, cylinders), got "
+                         f"{describe(shapes)}")
+    if not isinstance(name, str):
+        raise InputError(f"name must be the scene's name (a string), got {describe(name)}")
     objects = []
     for k, shape in enumerate(shapes):
         primitive, T = _primitive_yaml(shape, k)
@@ -311,7 +343,7 @@ def read_motion_request(source: str | os.PathLike) -> MotionRequest:
     ``start`` from ``start_state.joint_state``, ``goal`` from ``goal_constraints[0].joint_constraints``
     (a pose goal is refused); MoveIt's planner settings are ignored. :class:`InputError` when malformed.
     """
-    doc = _load_yaml(source, "motion request")
+    doc, _ = _load_yaml(source, "motion request")
     group = doc.get("group_name") or ""
     return MotionRequest(_joint_state(doc), _joint_goal(doc), group if isinstance(group, str) else "")
 
@@ -320,8 +352,10 @@ def joint_vector(robot: Robot, values: Mapping[str, float], name: str = "q") -> 
     """The robot's configuration ``q`` (nq,) from ``{joint name: value}``.
 
     Names the robot does not have (gripper fingers fixed in the model, other groups) are ignored; a joint
-    of the robot missing from ``values`` raises :class:`InputError` naming it and ``name``.
+    of the robot missing from ``values`` raises :class:`InputError` naming it and ``name``, as does a
+    ``robot`` that is not a :class:`~kinserve.kinematics.Robot`.
     """
+    robot = as_robot(robot)
     if not isinstance(values, Mapping):
         raise InputError(f"{name} must be a mapping joint name -> value, got {type(values).__name__}")
     missing = [j for j in robot.joint_names if j not in values]
