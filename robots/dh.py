@@ -33,16 +33,28 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
 from lxml import etree
 
-from kinserve.kinematics.errors import InputError, ModelError
+from kinserve.kinematics.errors import InputError, ModelError, NonFiniteError
 from kinserve.kinematics.robot import TASK_AXES, Robot
 from kinserve.kinematics.types import ArrayLike, PoseLike, VectorLike
-from kinserve.kinematics.validation import as_pose
+from kinserve.kinematics.validation import (
+    MAX_ABS,
+    as_flag,
+    as_numbers,
+    as_pose,
+    as_positive,
+    as_real,
+    as_vector,
+    describe,
+)
+
+from .urdf_loader import UrdfSource, check_task_axes, check_text, load_urdf, parse_xml, validate_urdf
 
 #: Default limits of a revolute joint when none are given (rad).
 DEFAULT_REVOLUTE_LIMITS = (-math.pi, math.pi)
@@ -56,7 +68,15 @@ DEFAULT_EFFORT = 100.0
 #: growing faster than n**2 (0.76 GB for 200 rows, about 24 GB for 1000).
 MAX_DH_ROWS = 200
 
+#: Largest ``radius`` of :func:`dh_to_urdf` (m): its largest drawn shape (a prismatic joint's block, a
+#: revolute joint's drum) is 3 radii long, and every URDF size is at most ``MAX_ABS``.
+MAX_RADIUS = MAX_ABS / 3.0
+
+#: How :func:`dh_to_urdf` names its output in the messages of the final check.
+GENERATED = "DH table (generated URDF)"
+
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.\-]*$")
+_COLUMNS = ("a", "alpha", "d", "theta")
 
 _COLORS = {
     "kinserve_link": "0.70 0.72 0.76 1",
@@ -67,7 +87,19 @@ _COLORS = {
 
 
 def dh_matrix(a: float, alpha: float, d: float, theta: float) -> np.ndarray:
-    """``A = Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 array."""
+    """``A = Rz(theta) Tz(d) Tx(a) Rx(alpha)`` as a 4x4 array.
+
+    Each parameter (m or rad) must be a real number, finite with magnitude at most
+    :data:`~kinserve.kinematics.validation.MAX_ABS` (:class:`InputError` / :class:`NonFiniteError` naming it).
+    """
+    values = (a, alpha, d, theta)
+    if not all(type(v) is float and abs(v) <= MAX_ABS for v in values):  # (NaN fails the comparison)
+        values = [as_real(v, name) for v, name in zip(values, _COLUMNS)]
+    return _dh_matrix(*values)
+
+
+def _dh_matrix(a: float, alpha: float, d: float, theta: float) -> np.ndarray:
+    """:func:`dh_matrix` of checked numbers."""
     ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
     return np.array(
         [
@@ -79,32 +111,75 @@ def dh_matrix(a: float, alpha: float, d: float, theta: float) -> np.ndarray:
     )
 
 
-def _vector(value, n: int, name: str, default) -> np.ndarray:
-    if value is None:
-        return np.asarray(default, dtype=float)
+def _dh(check, *args):
+    """``check(*args)`` (a :mod:`kinserve.kinematics.validation` check) with its :class:`InputError` as a
+    :class:`ModelError` ``"DH table: ..."``: every problem of a DH table is one."""
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"DH table: {name} must be a number or {n} numbers, got {value!r}") from None
+        return check(*args)
+    except InputError as exc:
+        raise ModelError(f"DH table: {exc}") from None
+
+
+def _numbers(value, name: str, table: bool = False) -> np.ndarray:
+    """``value`` as a float array of real numbers, finite with magnitude <= ``MAX_ABS`` (``as_numbers``);
+    :class:`ModelError` naming ``name`` and, for a number out of bounds, its place (row and column when
+    ``table``)."""
+    try:
+        return as_numbers(value, name)
+    except NonFiniteError as exc:
+        try:
+            arr = np.asarray(value, dtype=float)  # numbers (as_numbers read them), some out of bounds
+        except OverflowError:  # an integer too large for a float
+            raise ModelError(f"DH table: {name}: {exc}") from None
+        where = _place(arr.reshape(-1, 4) if table and arr.size % 4 == 0 else arr)
+        raise ModelError(f"DH table: {name}: {where} is {float(arr.flat[_flat_bad(arr)])!r}; entries must be "
+                         f"finite with magnitude <= {MAX_ABS:g}") from None
+    except InputError as exc:
+        raise ModelError(f"DH table: {exc}") from None
+
+
+def _flat_bad(arr: np.ndarray) -> int:
+    """Flat index of the first entry of ``arr`` that is not finite or has magnitude above ``MAX_ABS``."""
+    return int(np.flatnonzero(~(np.abs(arr) <= MAX_ABS))[0])
+
+
+def _place(arr: np.ndarray) -> str:
+    """Where :func:`_flat_bad` is, in words: row and column of an ``(n, 4)`` table, else the entry."""
+    i = _flat_bad(arr)
+    if arr.ndim == 2 and arr.shape[1] == 4:
+        return f"entry row {i // 4 + 1}, column {_COLUMNS[i % 4]}"
+    return f"entry {i + 1}" if arr.ndim else "the value"
+
+
+def _vector(value, n: int, name: str, default=None) -> np.ndarray:
+    """One number per row: ``value`` (a number for all rows, or ``n`` numbers; ``default`` when None and a
+    default is given) as an ``(n,)`` float array, or :class:`ModelError` naming ``name``."""
+    if value is None and default is not None:
+        return np.array(default, dtype=float)
+    arr = _numbers(value, name)
     if arr.ndim == 0:
         arr = np.full(n, float(arr))
     if arr.shape != (n,):
         raise ModelError(f"DH table: {name} must have {n} entries (one per row), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f"DH table: {name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def _rates(value, n: int, name: str) -> np.ndarray:
+    """``velocity`` / ``effort`` of the URDF ``<limit>``: :func:`_vector` of numbers >= 0."""
+    arr = _vector(value, n, name)
+    if (arr < 0).any():
+        raise ModelError(f"DH table: {name} must be >= 0 (the URDF <limit {name}=>), got {arr.tolist()}")
     return arr
 
 
 def check_dh_rows(rows: ArrayLike, joint_types: str | None = None) -> tuple[np.ndarray, str]:
     """Validate the rows ``(n, 4)`` and the ``R``/``P`` letters (default all ``R``).
 
-    Refused (:class:`ModelError`): a shape other than ``(n, 4)``, more than :data:`MAX_DH_ROWS` rows,
-    entries that are not finite, letters other than ``R``/``P`` or not one per row.
+    Refused (:class:`ModelError`): entries that are not real numbers (text, bools, None), not finite or of
+    magnitude above :data:`~kinserve.kinematics.validation.MAX_ABS`, a shape other than ``(n, 4)``, more than
+    :data:`MAX_DH_ROWS` rows, letters other than ``R``/``P`` or not one per row.
     """
-    try:
-        table = np.asarray(rows, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError("DH table: rows must be numbers (a, alpha, d, theta) per joint") from None
+    table = _numbers(rows, "rows", table=True)
     if table.ndim == 1 and table.size == 4:
         table = table.reshape(1, 4)
     if table.ndim != 2 or table.shape[1] != 4 or table.shape[0] == 0:
@@ -113,10 +188,6 @@ def check_dh_rows(rows: ArrayLike, joint_types: str | None = None) -> tuple[np.n
     if table.shape[0] > MAX_DH_ROWS:
         raise ModelError(f"DH table: at most {MAX_DH_ROWS} rows (joints) are accepted, got "
                          f"{table.shape[0]}")
-    if not np.all(np.isfinite(table)):
-        r, c = np.argwhere(~np.isfinite(table))[0]
-        raise ModelError(f"DH table: entry row {r + 1}, column {'a alpha d theta'.split()[c]} is "
-                         f"{table[r, c]}; entries must be finite")
     n = table.shape[0]
     if joint_types is None:
         joint_types = "R" * n
@@ -140,10 +211,11 @@ def check_dh_table(rows: ArrayLike, joint_types: str | None = None, lower: Vecto
                    upper: VectorLike | None = None) -> tuple[np.ndarray, str, np.ndarray, np.ndarray]:
     """Validate a DH table; return ``(rows (n, 4), joint_types "RP..", lower (n,), upper (n,))``.
 
-    ``joint_types`` defaults to all revolute. Revolute limits default to
-    ``[-pi, pi]``; prismatic joints need explicit limits. Raises
-    :class:`ModelError` naming the problem (shape, non-finite entries, joint
-    type letters, lengths, ``lower > upper``).
+    ``joint_types`` defaults to all revolute. ``lower`` / ``upper``: a number for every joint or one per
+    row (rad or m), finite with magnitude at most ``MAX_ABS``; revolute limits default to ``[-pi, pi]``,
+    prismatic joints need explicit limits. Raises :class:`ModelError` naming the problem (shape, entries
+    that are not numbers - text, bools - or not finite or too large, joint type letters, lengths,
+    ``lower > upper``).
     """
     table, types = check_dh_rows(rows, joint_types)
     n = len(types)
@@ -163,15 +235,25 @@ def check_dh_table(rows: ArrayLike, joint_types: str | None = None, lower: Vecto
 
 def dh_fk(rows: ArrayLike, joint_types: str | None, q: VectorLike, base: PoseLike | None = None,
           tool: PoseLike | None = None) -> np.ndarray:
-    """Reference DH product ``base * prod A_i(q_i) * tool`` (4x4) with NumPy."""
+    """Reference DH product ``base * prod A_i(q_i) * tool`` (4x4) with NumPy.
+
+    The table, joint types, ``base`` and ``tool`` are checked as :func:`dh_to_urdf` checks them
+    (:class:`ModelError`); ``q`` (one value per row, rad or m) by
+    :func:`~kinserve.kinematics.validation.as_vector` (:class:`InputError`).
+    """
     table, types = check_dh_rows(rows, joint_types)
-    q = np.asarray(q, dtype=float)
-    if q.shape != (len(types),):
-        raise InputError(f"q must have shape ({len(types)},), got shape {q.shape}")
-    T = np.eye(4) if base is None else np.asarray(base, dtype=float).copy()
-    for (a, alpha, d, theta), kind, qi in zip(table, types, q):
-        T = T @ (dh_matrix(a, alpha, d, theta + qi) if kind == "R" else dh_matrix(a, alpha, d + qi, theta))
-    return T if tool is None else T @ np.asarray(tool, dtype=float)
+    base_T, tool_T = _pose(base, "base"), _pose(tool, "tool")
+    q = as_vector(q, len(types), "q")
+    T = base_T
+    for (a, alpha, d, theta), kind, qi in zip(table.tolist(), types, q.tolist()):
+        T = T @ (_dh_matrix(a, alpha, d, theta + qi) if kind == "R" else _dh_matrix(a, alpha, d + qi, theta))
+    return T @ tool_T
+
+
+def _pose(value: PoseLike | None, name: str) -> np.ndarray:
+    """``base`` / ``tool`` of a DH chain: the identity for None, else a pose (``as_pose``: orthonormal
+    rotation, bounded translation) or :class:`ModelError`."""
+    return np.eye(4) if value is None else _dh(as_pose, value, name)
 
 
 # ---------------------------------------------------------------------- URDF writing
@@ -276,38 +358,86 @@ def dh_to_urdf(
     joint_names:
         Names of the ``n`` joints (default ``joint1..jointn``).
     velocity, effort:
-        Values for ``<limit velocity= effort=>`` (scalar or ``n`` values).
+        Values for ``<limit velocity= effort=>`` (scalar or ``n`` values, >= 0).
     radius:
-        Radius (m) of the visual cylinders; default 3.5 % of the summed ``|a| + |d|``.
+        Radius (m) of the visual cylinders, a positive number up to :data:`MAX_RADIUS`; default (None)
+        3.5 % of the summed ``|a| + |d|``.
+
+    Every number must be finite with magnitude at most ``MAX_ABS`` (1e6), every name a str of letters,
+    digits, ``_``, ``-``, ``.``; anything else is a :class:`ModelError` naming the argument. The text is
+    checked as :func:`from_dh` loads it (:func:`~robots.urdf_loader.validate_urdf`), so what one refuses
+    the other refuses too.
     """
+    chain = _check_chain(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names, velocity,
+                         effort, radius)
+    xml = _urdf_text(chain)
+    validate_urdf(parse_xml(xml, GENERATED), GENERATED)  # what from_dh loads (sizes of the drawn shapes too)
+    return xml
+
+
+class _Chain(NamedTuple):
+    """The checked arguments of :func:`dh_to_urdf`."""
+
+    table: np.ndarray
+    types: str
+    lower: np.ndarray
+    upper: np.ndarray
+    name: str
+    base: np.ndarray
+    tool: np.ndarray
+    tip_name: str
+    joint_names: list[str]
+    velocity: np.ndarray
+    effort: np.ndarray
+    radius: float
+
+
+def _check_chain(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names, velocity, effort,
+                 radius) -> _Chain:
+    """Every argument of :func:`dh_to_urdf` checked (:class:`ModelError` naming it)."""
     table, types, lo, hi = check_dh_table(rows, joint_types, lower, upper)
     n = len(types)
     _check_name(name, "name")
     _check_name(tip_name, "tip_name")
-    base_T = np.eye(4) if base is None else _as_pose(base, "base")
-    tool_T = np.eye(4) if tool is None else _as_pose(tool, "tool")
-    names = [f"joint{i + 1}" for i in range(n)] if joint_names is None else list(joint_names)
+    base_T, tool_T = _pose(base, "base"), _pose(tool, "tool")
+    names = _joint_names(joint_names, n, tip_name)
+    vel, eff = _rates(velocity, n, "velocity"), _rates(effort, n, "effort")
+    if radius is None:
+        reach = float(np.abs(table[:, 0]).sum() + np.abs(table[:, 2]).sum() + np.abs(tool_T[:3, 3]).sum())
+        r = max(0.035 * reach, 0.005)
+    else:
+        r = _dh(as_positive, radius, "radius", MAX_RADIUS)
+    return _Chain(table, types, lo, hi, name, base_T, tool_T, tip_name, names, vel, eff, r)
+
+
+def _joint_names(joint_names, n: int, tip_name: str) -> list[str]:
+    """The ``n`` joint names (default ``joint1..jointn``): unique names that no generated name takes; a
+    ``tip_name`` that is no generated link name."""
+    if joint_names is None:
+        names = [f"joint{i + 1}" for i in range(n)]
+    elif isinstance(joint_names, (str, bytes)) or not isinstance(joint_names, Iterable):
+        raise ModelError(f"DH table: joint_names must be a list of {n} names (one per row), got "
+                         f"{describe(joint_names)}")
+    else:
+        names = list(joint_names)
     if len(names) != n:
         raise ModelError(f"DH table: joint_names has {len(names)} names for {n} rows")
     for jn in names:
         _check_name(jn, "joint name")
     links = ["world"] + [f"link{i}" for i in range(n + 1)] + [f"joint{i + 1}_link" for i in range(n)]
-    all_names = links + names + [f"joint{i + 1}_dh" for i in range(n)] + ["base_joint", "tool_joint"]
+    generated = links + [f"joint{i + 1}_dh" for i in range(n)] + ["base_joint", "tool_joint"]
     if tip_name in links:
         raise ModelError(f"DH table: tip_name {tip_name!r} collides with a generated link name "
                          f"({', '.join(links)})")
-    if len(set(names)) != n or set(names) & (set(all_names) - set(names)):
+    if len(set(names)) != n or set(names) & set(generated):
         raise ModelError("DH table: joint_names must be unique and differ from the generated names, "
                          f"got {names}")
-    vel = _vector(velocity, n, "velocity", None)
-    eff = _vector(effort, n, "effort", None)
-    if radius is None:
-        reach = float(np.abs(table[:, 0]).sum() + np.abs(table[:, 2]).sum() + np.abs(tool_T[:3, 3]).sum())
-        radius = max(0.035 * reach, 0.005)
-    r = float(radius)
-    if not (math.isfinite(r) and r > 0):
-        raise ModelError(f"DH table: radius must be a positive number, got {radius!r}")
+    return names
 
+
+def _urdf_text(chain: _Chain) -> str:
+    """The URDF text of a checked chain (layout: the module docstring)."""
+    table, types, lo, hi, name, base_T, tool_T, tip_name, names, vel, eff, r = chain
     robot = etree.Element("robot", name=name)
     robot.append(etree.Comment(
         " Generated by kinserve robots.dh.dh_to_urdf from a standard DH table: "
@@ -361,13 +491,6 @@ def dh_to_urdf(
     return '<?xml version="1.0"?>\n' + etree.tostring(robot, encoding="unicode") + "\n"
 
 
-def _as_pose(value, name: str) -> np.ndarray:
-    try:
-        return as_pose(value, name)
-    except InputError as exc:
-        raise ModelError(f"DH table: {exc}") from None
-
-
 def from_dh(
     rows: ArrayLike,
     joint_types: str | None = None,
@@ -386,15 +509,19 @@ def from_dh(
     radius: float | None = None,
     geometry: bool = True,
 ) -> Robot:
-    """A :class:`Robot` from a standard DH table, built through :func:`dh_to_urdf`.
+    """A :class:`Robot` from a standard DH table: the URDF text of :func:`dh_to_urdf` (the same checks of the
+    table arguments: :class:`ModelError`) loaded by :func:`~robots.urdf_loader.load_urdf`.
 
     ``robot.source`` is the generated URDF, so saving it and loading it again
     gives the same model. The default tool frame is ``tip_name``; the DH
-    frames are ``link0`` ... ``link{n}``.
+    frames are ``link0`` ... ``link{n}``. ``description`` is a str, ``task_axes`` names task components
+    (:func:`~robots.urdf_loader.check_task_axes`), ``geometry`` is True or False (:class:`InputError`
+    otherwise, before anything is built).
     """
-    from .urdf_loader import load_urdf
-
-    xml = dh_to_urdf(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names,
-                     velocity=velocity, effort=effort, radius=radius)
-    return load_urdf(xml, tip=tip_name, name=name, description=description, task_axes=task_axes,
-                     geometry=geometry)
+    description, geometry = check_text(description, "description"), as_flag(geometry, "geometry")
+    task_axes = check_task_axes(task_axes)
+    xml = _urdf_text(_check_chain(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names,
+                                  velocity, effort, radius))
+    # load_urdf checks the text with validate_urdf, as dh_to_urdf does (messages name GENERATED alike)
+    return load_urdf(UrdfSource(xml, GENERATED), tip=tip_name, name=name, description=description,
+                     task_axes=task_axes, geometry=geometry)

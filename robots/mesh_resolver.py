@@ -91,6 +91,26 @@ def default_package_dirs() -> list[Path]:
         return []
 
 
+def check_package_dirs(package_dirs: object) -> tuple[str, ...]:
+    """The ``package_dirs=`` of every loader (``robots.load``, :func:`~robots.urdf_loader.load_urdf`,
+    :func:`~robots.xacro_loader.load_xacro`) as absolute folder paths: None (none), one folder (a str or
+    ``os.PathLike``) or an iterable of folders. :class:`ModelError` naming ``package_dirs`` for anything else
+    and for an entry that is not an existing folder."""
+    if package_dirs is None:
+        return ()
+    if isinstance(package_dirs, (str, os.PathLike)):
+        package_dirs = (package_dirs,)
+    elif isinstance(package_dirs, bytes) or not isinstance(package_dirs, Iterable):
+        raise ModelError(f"package_dirs must be a folder or a list of folders, got "
+                         f"{type(package_dirs).__name__} {str(package_dirs)[:60]!r}")
+    dirs = []
+    for d in package_dirs:
+        if not isinstance(d, (str, os.PathLike)) or not Path(d).expanduser().is_dir():
+            raise ModelError(f"package_dirs: {d!r} is not a folder")
+        dirs.append(str(Path(d).expanduser().resolve()))
+    return tuple(dirs)
+
+
 def mesh_elements(root: etree._Element, kinds: Iterable[str] = GEOMETRY_KINDS) -> Iterator[MeshElement]:
     """Every ``<link>/<kind>/<geometry>/<mesh>`` of a parsed URDF, link by link."""
     for link in root.findall("link"):
@@ -121,14 +141,14 @@ class MeshResolver:
     @classmethod
     def for_model(cls, base_dir: Path | None, package_dirs: Iterable[str | os.PathLike] = (), *,
                   allow_outside: bool = False, label: str = "<URDF string>") -> "MeshResolver":
-        """The resolver of a model in ``base_dir``: ``package_dirs`` first, example-robot-data last.
+        """The resolver of a model in ``base_dir``: ``package_dirs`` (:func:`check_package_dirs`) first,
+        example-robot-data last.
 
         ``$ROS_PACKAGE_PATH`` and ``$AMENT_PREFIX_PATH`` are read now: a later
         build searches the folders this load searched.
         """
-        if isinstance(package_dirs, (str, os.PathLike)):
-            package_dirs = [package_dirs]
-        finder = PackageFinder(tuple(Path(d) for d in package_dirs), base_dir, tuple(default_package_dirs()))
+        dirs = check_package_dirs(package_dirs)
+        finder = PackageFinder(tuple(map(Path, dirs)), base_dir, tuple(default_package_dirs()))
         return cls(finder, base_dir, allow_outside, label)
 
     # ------------------------------------------------------------ one filename

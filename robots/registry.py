@@ -39,14 +39,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from kinserve.kinematics.errors import ModelError, ShapeError, UnknownRobotError, suggest
-from kinserve.kinematics.robot import TASK_AXES, Robot, axis_rows
+from kinserve.kinematics.errors import ModelError, UnknownRobotError, suggest
+from kinserve.kinematics.robot import TASK_AXES, Robot
 from kinserve.kinematics.validation import as_flag
 
 from . import paths
+from .mesh_resolver import check_package_dirs
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
 from .srdf import SrdfWarning, attach_srdf, detach_srdf, find_srdf, read_srdf
-from .urdf_loader import is_xml_text, load_urdf
+from .urdf_loader import check_joint_values, check_task_axes, check_tip, is_xml_text, load_urdf
 from .xacro_loader import declared_args, load_xacro, xacro_time_limit
 
 PLANAR_XY_YAW = ("x", "y", "yaw")
@@ -388,14 +389,15 @@ def load(
       an option name below is always the option.
     * ``locks``: ``{joint: value}`` to freeze, for every form (also after a
       xacro expansion).
-    * ``tip``: default tool frame; ``geometry``: build the meshes for viewers
+    * ``tip``: default tool frame, a frame name of the model (None: the built-in's, else the model's last
+      frame); ``geometry``: build the meshes for viewers
       (kinematics never needs them; a missing mesh is then a warning and a
-      placeholder); ``package_dirs``: folders resolving ``package://`` URIs
+      placeholder); ``package_dirs``: existing folders (one or a list) resolving ``package://`` URIs
       and ``$(find)``, searched before the model's own folders,
       ``$ROS_PACKAGE_PATH`` and ``$AMENT_PREFIX_PATH`` (:mod:`robots.mesh_resolver`).
-    * ``task_axes``: the task components singularity measures use (e.g.
-      ``("x", "y", "z")`` or ``"x,y,z"``); default: the built-in's, or
-      detected from the model (:mod:`kinematics.task_axes`).
+    * ``task_axes``: the task components singularity measures use, each at most once (e.g.
+      ``("x", "y", "z")`` or ``"x,y,z"``: :func:`robots.urdf_loader.check_task_axes`); default: the
+      built-in's, or detected from the model (:mod:`kinematics.task_axes`).
     * ``srdf``: SRDF path or text for ``robot.named_states`` / ``robot.groups``;
       default: the SRDF found beside the model file; ``False``: none.
     * ``allow_outside``: let the model read mesh files outside its own
@@ -406,40 +408,26 @@ def load(
 
     Raises :class:`UnknownRobotError` (with suggestions) for an unknown name
     and :class:`ModelError` for a bad parameter or option (``package_dirs`` not folders, ``time_limit`` not a
-    number of seconds in ``(0, 3600]``) or an unusable model.
+    number of seconds in ``(0, 3600]``) or an unusable model; :class:`InputError` for an option of the wrong
+    kind (``geometry`` / ``allow_outside`` not True or False, ``tip`` not a str, bad ``task_axes``) and
+    :class:`FrameError` for a ``tip`` the model does not have.
     """
     params = _merge_params(params, legacy_params)
-    if locks is not None and not isinstance(locks, Mapping):
-        raise ModelError(f"locks must be a mapping joint name -> value, got {type(locks).__name__}")
-    locks = dict(locks or {})
+    locks = dict(check_joint_values(locks, "locks") or {})
     time_limit = xacro_time_limit(time_limit)  # every load: a bad one is refused, xacro or not
-    if package_dirs is None:
-        package_dirs = ()
-    elif isinstance(package_dirs, (str, os.PathLike)):
-        package_dirs = (package_dirs,)
-    elif isinstance(package_dirs, bytes) or not isinstance(package_dirs, Iterable):
-        raise ModelError(f"package_dirs must be a folder or a list of folders, got "
-                         f"{type(package_dirs).__name__} {str(package_dirs)[:60]!r}")
-    dirs = []
-    for d in package_dirs:
-        if not isinstance(d, (str, os.PathLike)) or not Path(d).expanduser().is_dir():
-            raise ModelError(f"package_dirs: {d!r} is not a folder")
-        dirs.append(str(Path(d).expanduser().resolve()))
+    dirs = check_package_dirs(package_dirs)
     geometry, allow_outside = as_flag(geometry, "geometry"), as_flag(allow_outside, "allow_outside")
-    opts = LoadOptions(tip, geometry, tuple(dirs), allow_outside, time_limit)
+    tip, task_axes = check_tip(tip), check_task_axes(task_axes)
+    opts = LoadOptions(tip, geometry, dirs, allow_outside, time_limit)
     robot = _load(name_or_path, opts, params, locks, auto_srdf=srdf is None)
     return _apply(robot, task_axes, srdf)
 
 
-def _apply(robot: Robot, task_axes, srdf) -> Robot:
-    """Per-call options applied to the (fresh) copy: task axes and an explicit SRDF."""
+def _apply(robot: Robot, task_axes: tuple[str, ...] | None, srdf) -> Robot:
+    """Per-call options applied to the (fresh) copy: task axes (checked: :func:`check_task_axes`) and an
+    explicit SRDF."""
     if task_axes is not None:
-        axes = (tuple(a.strip() for a in task_axes.split(",")) if isinstance(task_axes, str)
-                else tuple(task_axes))
-        if not axes:
-            raise ShapeError("task_axes must name at least one of x, y, z, roll, pitch, yaw")
-        axis_rows(axes)  # ShapeError naming an unknown component
-        robot.task_axes = tuple("yaw" if a == "phi" else a for a in axes)
+        robot.task_axes = task_axes
     if srdf is False:
         detach_srdf(robot)
     elif srdf is not None:

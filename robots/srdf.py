@@ -47,8 +47,8 @@ import numpy as np
 from lxml import etree
 
 from kinserve.kinematics.collision_pairs import srdf_disabled_pairs
-from kinserve.kinematics.errors import ModelError, suggest
-from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.errors import InputError, ModelError, suggest
+from kinserve.kinematics.robot import Robot, as_robot
 
 #: Tolerance (rad / m) on a named-state value outside the joint limits.
 LIMIT_TOL = 1e-6
@@ -127,7 +127,12 @@ class _UrdfTree:
 
 
 def read_srdf(source: str | os.PathLike, robot: Robot) -> Srdf:
-    """Parse an SRDF (path or XML text) and resolve it against ``robot`` (see the module docstring)."""
+    """Parse an SRDF (path or XML text) and resolve it against ``robot`` (see the module docstring).
+
+    ``robot`` must be a loaded :class:`Robot` (:class:`InputError` otherwise, saying so when the two
+    arguments seem swapped).
+    """
+    robot = _check_robot(source, robot)
     if isinstance(source, (str, Path)) and not str(source).lstrip().startswith("<"):
         path = Path(source).expanduser()
         if not path.is_file():
@@ -152,6 +157,25 @@ def read_srdf(source: str | os.PathLike, robot: Robot) -> Srdf:
     # unknown links in <disable_collisions>: ModelError
     srdf_disabled_pairs(text.decode("utf-8"), frame_names, label)
     return Srdf(label, groups, states, state_groups, text.decode("utf-8"))
+
+
+def _check_robot(source: object, robot: object) -> Robot:
+    """``robot`` if it is a :class:`Robot`; :class:`InputError` otherwise, naming the argument order when the
+    SRDF seems to be given second (the robot first, or an SRDF path / text as ``robot``)."""
+    if not isinstance(robot, Robot) and (isinstance(source, Robot) or _looks_like_srdf(robot)):
+        raise InputError("read_srdf takes (source, robot): the SRDF path or XML text first, then the loaded "
+                         f"Robot; got source={_short(source)}, robot={_short(robot)} - swapped?")
+    return as_robot(robot)
+
+
+def _looks_like_srdf(value: object) -> bool:
+    """Whether ``value`` is SRDF text or a path to a ``.srdf`` file (what ``source`` takes)."""
+    text = str(value) if isinstance(value, (str, Path)) else ""
+    return text.lstrip().startswith("<") or text.endswith(".srdf")
+
+
+def _short(value: object) -> str:
+    return f"Robot {value.name!r}" if isinstance(value, Robot) else repr(value)[:60]
 
 
 def _check_joint(name, el, label: str, urdf: _UrdfTree) -> str:

@@ -59,11 +59,12 @@ from lxml import etree
 from kinserve.kinematics.errors import InputError, ModelError, suggest
 from kinserve.kinematics.geometry_reader import GeometryReader
 from kinserve.kinematics.mesh_hulls import coal_message
-from kinserve.kinematics.robot import Robot
+from kinserve.kinematics.robot import Robot, axis_rows
 from kinserve.kinematics.task_axes import detect_task_axes
 from kinserve.kinematics.validation import as_flag
+from kinserve.kinematics.validation import describe as describe_value
 
-from .mesh_resolver import PLACEHOLDER_RADIUS, MeshResolver, MissingMeshWarning
+from .mesh_resolver import PLACEHOLDER_RADIUS, MeshResolver, MissingMeshWarning, check_package_dirs
 from .urdf_elements import attribute_floats, describe, where
 from .urdf_geometry import validate_geometry, validate_inertial
 
@@ -275,6 +276,57 @@ def validate_urdf(root: etree._Element, label: str) -> None:
         raise ModelError(f"{label}: the links must form one tree, found {what}; connect them with joints")
 
 
+# ------------------------------------------------------------------ loader arguments
+def check_tip(tip: object) -> str | None:
+    """``tip`` if it is None or a frame name (a str; the robot refuses a name it does not have, listing
+    close matches); else :class:`InputError`."""
+    if tip is None or isinstance(tip, str):
+        return tip
+    raise InputError(f"tip must be None or the name of a frame (a str), got {describe_value(tip)}")
+
+
+def check_text(value: object, name: str, optional: bool = False) -> str | None:
+    """``value`` if it is a str (or None when ``optional``); else :class:`InputError` naming ``name``."""
+    if isinstance(value, str) or (optional and value is None):
+        return value
+    raise InputError(f"{name} must be a str{' or None' if optional else ''}, got {describe_value(value)}")
+
+
+def check_task_axes(task_axes: object) -> tuple[str, ...] | None:
+    """``task_axes`` as a tuple of task component names (``phi`` read as ``yaw``), or None (detect them).
+
+    Accepted: None, a sequence of names from :data:`kinserve.kinematics.robot.TASK_AXES` (``("x", "y",
+    "yaw")``) or one comma-separated str (``"x,y,yaw"``); each component at most once.
+    :class:`ShapeError` (:func:`kinserve.kinematics.robot.axis_rows`) naming ``task_axes`` otherwise.
+    """
+    if task_axes is None:
+        return None
+    if isinstance(task_axes, str):
+        task_axes = [a.strip() for a in task_axes.split(",")]
+    elif isinstance(task_axes, Iterable) and not isinstance(task_axes, bytes):
+        task_axes = list(task_axes)  # (an iterator is read once)
+    axis_rows(task_axes, "task_axes")  # anything else (a number, bytes, an unknown name) is named there
+    return tuple("yaw" if a == "phi" else a for a in task_axes)
+
+
+def check_joint_values(values: object, name: str = "locked_joints") -> Mapping | None:
+    """``values`` if it is None or a mapping ``{joint name: value}`` (the values are checked where the
+    joints are known); else :class:`ModelError` naming ``name``."""
+    if values is None or isinstance(values, Mapping):
+        return values
+    raise ModelError(f"{name} must be a mapping joint name -> value, got {type(values).__name__}")
+
+
+def check_loader_options(tip, name, description, locked_joints, package_dirs, task_axes, geometry,
+                         allow_outside) -> tuple:
+    """The options of :func:`load_urdf` and :func:`~robots.xacro_loader.load_xacro`, checked (in this order)
+    before any model is read: :func:`check_tip`, :func:`check_text`, :func:`check_joint_values`,
+    :func:`~robots.mesh_resolver.check_package_dirs`, :func:`check_task_axes`, ``as_flag``."""
+    return (check_tip(tip), check_text(name, "name", optional=True), check_text(description, "description"),
+            check_joint_values(locked_joints), check_package_dirs(package_dirs), check_task_axes(task_axes),
+            as_flag(geometry, "geometry"), as_flag(allow_outside, "allow_outside"))
+
+
 # -------------------------------------------------------------------- normalisation
 def continuous_to_revolute(root: etree._Element) -> list[str]:
     """Turn every ``continuous`` joint into ``revolute`` with limits +-2 pi; return their names."""
@@ -432,6 +484,7 @@ def prepare_urdf(
     looked at (kinematics never needs them); only the folders of the packages
     the mesh URIs name are looked up, for ``package_dirs`` and a later build.
     """
+    locked_joints = check_joint_values(locked_joints)
     src = read_urdf(source)
     root = parse_xml(src.text, src.label)
     resolver = MeshResolver.for_model(src.base_dir, package_dirs, allow_outside=allow_outside,
@@ -444,9 +497,6 @@ def prepare_urdf(
         resolver.find_packages(root)
     continuous = continuous_to_revolute(root)
     if locked_joints:
-        if not isinstance(locked_joints, Mapping):
-            raise ModelError("locked_joints must be a mapping joint name -> value, "
-                             f"got {type(locked_joints).__name__}")
         lock_joints(root, locked_joints, src.label)
     changed = bool(continuous or locked_joints)
     if check_meshes:
@@ -470,7 +520,7 @@ def load_urdf(
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs: Iterable[str | os.PathLike] = (),
+    package_dirs: str | os.PathLike | Iterable[str | os.PathLike] | None = (),
     geometry: bool = True,
     task_axes: str | Sequence[str] | None = None,
     allow_outside: bool = False,
@@ -482,13 +532,14 @@ def load_urdf(
     source:
         Path to a ``.urdf`` file, the URDF XML text itself, or a :class:`UrdfSource`.
     tip:
-        Default tool frame (the model's last frame if omitted).
+        Default tool frame, a frame name (the model's last frame if None).
     name, description:
-        Registry name (default: the ``<robot name=...>``) and one-line description.
+        Registry name (a str; default: the ``<robot name=...>``) and one-line description (a str).
     locked_joints:
-        ``{joint name: value}`` (rad or m) of joints to freeze, e.g. gripper fingers.
+        ``{joint name: value}`` (rad or m) of joints to freeze, e.g. gripper fingers (a mapping or None).
     package_dirs:
-        Folders resolving ``package://<pkg>/...`` mesh URIs, searched before
+        Existing folders (one, a list, or None: :func:`~robots.mesh_resolver.check_package_dirs`)
+        resolving ``package://<pkg>/...`` mesh URIs, searched before
         the folders holding the file, ``$ROS_PACKAGE_PATH``,
         ``$AMENT_PREFIX_PATH`` and example-robot-data (see :mod:`robots.mesh_resolver`).
     geometry:
@@ -503,17 +554,21 @@ def load_urdf(
         built later (``robot.in_collision``) resolves its meshes with the
         same resolver (``Robot.resolve_meshes``).
     task_axes:
-        Task components the mechanism can act on (see :class:`Robot`); None
-        detects them from the model (:func:`kinematics.task_axes.detect_task_axes`).
+        Task components the mechanism can act on (see :class:`Robot`), names or one comma-separated str
+        (:func:`check_task_axes`); None detects them from the model
+        (:func:`kinematics.task_axes.detect_task_axes`).
     allow_outside:
         Read mesh files outside the model's folders and the package folders
         (refused by default: a model file from elsewhere could name any file).
 
     Every problem with the model is a :class:`ModelError` naming the file and
-    the offending element (with its line number); ``geometry`` or
-    ``allow_outside`` not True or False is an :class:`InputError`.
+    the offending element (with its line number); an argument of the wrong kind (``geometry`` or
+    ``allow_outside`` not True or False, ``tip``, ``name`` or ``description`` not a str, bad ``task_axes``) is
+    an :class:`InputError`, bad ``package_dirs`` or ``locked_joints`` a :class:`ModelError`.
     """
-    geometry, allow_outside = as_flag(geometry, "geometry"), as_flag(allow_outside, "allow_outside")
+    tip, name, description, locked_joints, package_dirs, task_axes, geometry, allow_outside = \
+        check_loader_options(tip, name, description, locked_joints, package_dirs, task_axes, geometry,
+                             allow_outside)
     prep = prepare_urdf(source, locked_joints=locked_joints, package_dirs=package_dirs, check_meshes=geometry,
                         allow_outside=allow_outside)
     model = build_model(prep.xml, prep.label)

@@ -47,9 +47,9 @@ from kinserve.kinematics.robot import Robot
 from kinserve.kinematics.validation import MAX_ABS, as_flag
 
 from . import packages
-from .mesh_resolver import default_package_dirs
+from .mesh_resolver import check_package_dirs, default_package_dirs
 from .packages import AMENT_PREFIX_PATH, ROS_PACKAGE_PATH
-from .urdf_loader import UrdfSource, load_urdf
+from .urdf_loader import UrdfSource, check_loader_options, load_urdf
 
 XACRO_NS = "http://www.ros.org/wiki/xacro"
 
@@ -155,11 +155,12 @@ def xacro_time_limit(time_limit: object) -> float:
 
 
 def process_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
-                  package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
-                  allow_outside: bool = False) -> str:
+                  package_dirs: str | os.PathLike | Iterable[str | os.PathLike] | None = (),
+                  time_limit: float | None = None, allow_outside: bool = False) -> str:
     """URDF text of a xacro file expanded with ``args`` (``{name: value}``).
 
-    ``package_dirs`` resolve ``$(find PKG)`` (see :mod:`robots.packages`);
+    ``package_dirs`` (existing folders: :func:`~robots.mesh_resolver.check_package_dirs`) resolve
+    ``$(find PKG)`` (see :mod:`robots.packages`);
     ``time_limit`` (s, default :data:`XACRO_TIME_LIMIT`, at most :data:`MAX_XACRO_TIME_LIMIT`:
     :func:`xacro_time_limit`) bounds the expansion. Files it includes or loads must lie in the model's
     folders or the package folders unless ``allow_outside``.
@@ -170,19 +171,18 @@ def process_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
 
 
 def expand_xacro(path: str | os.PathLike, args: Mapping | None = None, *,
-                 package_dirs: Iterable[str | os.PathLike] = (), time_limit: float | None = None,
-                 allow_outside: bool = False) -> tuple[str, list[Path]]:
+                 package_dirs: str | os.PathLike | Iterable[str | os.PathLike] | None = (),
+                 time_limit: float | None = None, allow_outside: bool = False) -> tuple[str, list[Path]]:
     """``(URDF text, folders of the packages $(find) resolved)`` of a xacro file (see
     :func:`process_xacro`)."""
     allow_outside = as_flag(allow_outside, "allow_outside")
+    dirs = check_package_dirs(package_dirs)
     p = _existing(path)
     mappings = check_args(p, args)
     limit = xacro_time_limit(time_limit)
-    if isinstance(package_dirs, (str, Path)):
-        package_dirs = [package_dirs]
     request = {
         "path": str(p), "mappings": mappings, "packages_module": packages.__file__,
-        "package_dirs": [str(Path(d).expanduser().resolve()) for d in package_dirs],
+        "package_dirs": list(dirs),
         "model_dir": str(p.parent), "extra_dirs": [str(d) for d in default_package_dirs()],
         "environ": {k: os.environ[k] for k in (ROS_PACKAGE_PATH, AMENT_PREFIX_PATH) if k in os.environ},
         "memory_limit": XACRO_MEMORY_LIMIT, "allow_outside": allow_outside,
@@ -226,19 +226,21 @@ def load_xacro(
     name: str | None = None,
     description: str = "",
     locked_joints: Mapping[str, float] | None = None,
-    package_dirs: Iterable[str | os.PathLike] = (),
+    package_dirs: str | os.PathLike | Iterable[str | os.PathLike] | None = (),
     geometry: bool = True,
     task_axes: str | Sequence[str] | None = None,
     allow_outside: bool = False,
     time_limit: float | None = None,
 ) -> Robot:
-    """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`)."""
+    """Expand a xacro file with ``args`` and load the result (see :func:`robots.urdf_loader.load_urdf`, which
+    takes the other arguments; they are checked before xacro runs)."""
+    tip, name, description, locked_joints, package_dirs, task_axes, geometry, allow_outside = \
+        check_loader_options(tip, name, description, locked_joints, package_dirs, task_axes, geometry,
+                             allow_outside)
     p = _existing(path)
     text, found = expand_xacro(p, args, package_dirs=package_dirs, time_limit=time_limit,
                                allow_outside=allow_outside)
     label = f"{p} (expanded xacro)"
-    if isinstance(package_dirs, (str, Path)):
-        package_dirs = [package_dirs]
     # the packages $(find) resolved may hold the meshes the expanded text names by absolute path
     dirs = [*package_dirs, *found]
     return load_urdf(

@@ -1,5 +1,6 @@
 """kinserve.robots refuses absurd models and names what was wrong: huge SRDF values, exploding or deep
-SRDF group nesting, too many links / DH rows, bad <inertial>, a negative velocity limit, an unusable path."""
+SRDF group nesting, too many links / DH rows, bad <inertial>, a negative velocity limit, an unusable path;
+DH tables and loader options of the wrong kind (task_axes, tip, package_dirs, ...), read_srdf's robot."""
 
 from __future__ import annotations
 
@@ -10,7 +11,14 @@ import numpy as np
 import pytest
 
 from kinserve import robots
-from kinserve.kinematics.errors import ModelError, UnknownRobotError
+from kinserve.kinematics.errors import (
+    FrameError,
+    InputError,
+    ModelError,
+    NonFiniteError,
+    ShapeError,
+    UnknownRobotError,
+)
 from kinserve.robots.dh import MAX_DH_ROWS
 from kinserve.robots.srdf import MAX_GROUP_DEPTH, read_srdf
 from kinserve.robots.urdf_loader import MAX_LINKS, MAX_MOVABLE_JOINTS
@@ -233,3 +241,210 @@ def test_geometry_and_allow_outside_must_be_true_or_false(value):
         with pytest.raises(InputError, match=f"{flag} must be True or False"):
             load_urdf(path, **{flag: value})
     assert robots.load("panda", geometry=np.bool_(False), allow_outside=np.False_).nq == 7
+
+
+# ------------------------------------------------------------------------------------------ DH tables
+ROWS = np.array([[0.0, np.pi / 2, 0.3, 0.0], [0.4, 0.0, 0.0, 0.0], [0.3, 0.0, 0.0, 0.0]])
+NON_ORTHONORMAL = np.eye(4)
+NON_ORTHONORMAL[0, 1] = 0.2
+FAR_TOOL = np.eye(4)
+FAR_TOOL[:2, 3] = 1e6  # a bounded pose, but the drawn segment to it is 1.41e6 m long
+
+
+@pytest.mark.parametrize("args, error, message", [
+    ((0.1, 0.2, "no", 0.4), InputError, r"^d must be a number, got 'no'"),
+    ((np.nan, 0.2, 0.3, 0.4), NonFiniteError, r"^a must be finite with magnitude <= 1e\+06, got nan"),
+    ((0.1, 1e300, 0.3, 0.4), NonFiniteError, r"^alpha must be finite with magnitude <= 1e\+06, got 1e\+300"),
+    ((0.1, 0.2, 0.3, None), InputError, r"^theta must be a number, got None"),
+    ((0.1, 0.2, 0.3, True), InputError, r"^theta must be a number, got True"),
+])
+def test_dh_matrix_takes_four_finite_numbers(args, error, message):
+    with pytest.raises(error, match=message):
+        robots.dh_matrix(*args)
+    A = robots.dh_matrix(0.1, 0.2, 0.3, np.float64(0.4))
+    assert A.dtype == np.float64 and A[2, 3] == 0.3
+
+
+@pytest.mark.parametrize("kwargs, error, message", [
+    (dict(q=[np.nan, 0, 0]), NonFiniteError,
+     r"^q must hold finite numbers with magnitude <= 1e\+06; bad entries: \[0\]=nan"),
+    (dict(q=[1e300, 0, 0]), NonFiniteError, r"^q must hold finite numbers .*\[0\]=1e\+300"),
+    (dict(q=[0, 0]), ShapeError, r"^q must have shape \(3,\)"),
+    (dict(base=NON_ORTHONORMAL), ModelError, r"^DH table: base: rotation block is not a rotation matrix"),
+    (dict(base="no"), ModelError, r"^DH table: base must be a pose"),
+    (dict(tool="no"), ModelError, r"^DH table: tool must be a pose"),
+    (dict(rows=ROWS * [1, 1, 1, np.nan]), ModelError, r"^DH table: rows: entry row 1, column theta is nan"),
+])
+def test_dh_fk_checks_its_arguments_as_from_dh_does(kwargs, error, message):
+    args = {"rows": ROWS, "joint_types": "RRR", "q": [0.1, 0.2, 0.3], **kwargs}
+    with pytest.raises(error, match=message) as fk_error:
+        robots.dh_fk(**args)
+    if error is ModelError:  # the table, base and tool: the one check from_dh makes too
+        del args["q"]
+        with pytest.raises(ModelError) as dh_error:
+            robots.from_dh(**args, geometry=False)
+        assert str(dh_error.value) == str(fk_error.value)
+    robot = robots.from_dh(ROWS, "RRR", base=np.eye(4), geometry=False)
+    np.testing.assert_allclose(robots.dh_fk(ROWS, "RRR", [0.1, 0.2, 0.3], base=np.eye(4)),
+                               robot.fk([0.1, 0.2, 0.3]), atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(velocity=-1.0), r"^DH table: velocity must be >= 0 \(the URDF <limit velocity=>\), got \[-1.0"),
+    (dict(effort=[1.0, -2.0, 1.0]), r"^DH table: effort must be >= 0"),
+    (dict(rows=np.full((3, 4), 1e300)), r"^DH table: rows: entry row 1, column a is 1e\+300; entries must be "
+                                        r"finite with magnitude <= 1e\+06"),
+    (dict(rows=ROWS * [1, 1, 1e7, 1]), r"^DH table: rows: entry row 1, column d is 3000000.0"),
+    (dict(lower=[-1.0] * 3, upper=[1e300] * 3), r"^DH table: upper: entry 1 is 1e\+300"),
+    (dict(effort=[1.0, 1e7, 1.0]), r"^DH table: effort: entry 2 is 10000000.0"),
+    (dict(radius=1e6), r"^DH table: radius must be at most 333333"),
+    (dict(tool=FAR_TOOL), r"^DH table \(generated URDF\), line \d+: <collision> of <link name='link3'>: "
+                          r"<cylinder length='1414213.56'> must be 1 positive number"),
+])
+def test_dh_to_urdf_refuses_what_from_dh_refuses(kwargs, message):
+    """dh_to_urdf wrote URDF text that from_dh then refused (or, for a negative velocity, that every loader
+    refuses); both now refuse it with the same message naming the argument."""
+    args = {"rows": ROWS, "joint_types": "RRR", **kwargs}
+    with pytest.raises(ModelError, match=message) as text_error:
+        robots.dh_to_urdf(**args)
+    with pytest.raises(ModelError) as robot_error:
+        robots.from_dh(**args, geometry=False)
+    assert str(robot_error.value) == str(text_error.value)
+    fine = robots.from_dh(ROWS, "RRR", [-1.0] * 3, [1e6] * 3, velocity=0.0, effort=[1, 2, 3], radius=3e5,
+                          geometry=False)
+    assert fine.upper.tolist() == [1e6] * 3 and 'velocity="0"' in fine.source
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(effort=None), r"^DH table: effort must be a number or an array of numbers, got None"),
+    (dict(velocity=None), r"^DH table: velocity must be a number or an array of numbers, got None"),
+    (dict(velocity="1"), r"^DH table: velocity must be a number or an array of numbers, got '1'"),
+    (dict(joint_names=0), r"^DH table: joint_names must be a list of 3 names \(one per row\), got 0"),
+    (dict(joint_names="abc"), r"^DH table: joint_names must be a list of 3 names \(one per row\), got 'abc'"),
+    (dict(joint_names=["a", "link1", "c"]), r"^DH table: joint_names must be unique and differ from the "
+                                            r"generated names"),
+    (dict(radius="no"), r"^DH table: radius must be a number, got 'no'"),
+    (dict(radius=True), r"^DH table: radius must be a number, got True"),
+    (dict(radius=-0.1), r"^DH table: radius must be positive, got -0.1"),
+])
+def test_dh_options_of_the_wrong_kind_are_named(kwargs, message):
+    for build in (robots.dh_to_urdf, lambda **k: robots.from_dh(**k, geometry=False)):
+        with pytest.raises(ModelError, match=message):
+            build(rows=ROWS, joint_types="RRR", **kwargs)
+    robot = robots.from_dh(ROWS, "RRR", joint_names=("a", "b", "c"), radius=0.01, geometry=False)
+    assert robot.joint_names == ["a", "b", "c"]
+
+
+@pytest.mark.parametrize("lower, upper, message", [
+    (True, [1, 1, 1], r"^DH table: lower must be a number or an array of numbers, got True"),
+    ([-1, -1, -1], "1", r"^DH table: upper must be a number or an array of numbers, got '1'"),
+    ([-1, -1, -1], [1, np.nan, 1], r"^DH table: upper: entry 2 is nan"),
+    pytest.param([-1, -1, -1], 10**400, r"^DH table: upper: .*an integer too large for a float",
+                 id="10**400"),
+])
+def test_check_dh_table_limits_are_numbers(lower, upper, message):
+    with pytest.raises(ModelError, match=message):
+        robots.check_dh_table(ROWS, "RRR", lower=lower, upper=upper)
+    assert robots.check_dh_table(ROWS, "RRR", lower=-1, upper=[1, 1, 1])[2].tolist() == [-1.0] * 3
+
+
+# ------------------------------------------------------------------------------------- loader options
+def _loaders(tmp_path):
+    """Each loader with its model: robots.load (built-in and URDF text), load_urdf, load_xacro, from_dh."""
+    (tmp_path / "two.urdf").write_text(URDF)
+    xacro = robots.ENTRIES["planar4r"].path()
+    return {
+        "load": lambda **k: robots.load("planar4r", **k),
+        "load text": lambda **k: robots.load(URDF, geometry=False, **k),
+        "load_urdf": lambda **k: robots.load_urdf(tmp_path / "two.urdf", geometry=False, **k),
+        "load_xacro": lambda **k: robots.load_xacro(xacro, geometry=False, **k),
+        "from_dh": lambda **k: robots.from_dh(ROWS, "RRR", geometry=False, **k),
+    }
+
+
+@pytest.mark.parametrize("task_axes, message", [
+    (0, r"^task_axes must be a sequence of task component names .* got int"),
+    (3.5, r"^task_axes must be a sequence of task component names .* got float"),
+    (b"x,y", r"^task_axes must be a sequence of task component names .* got the string b'x,y'"),
+    (["x", "x"], r"^task_axes names task component 'x' twice"),
+    ("x, w", r"^unknown task component 'w' in task_axes"),
+    ([], r"^task_axes must name at least one task component"),
+])
+def test_task_axes_are_checked_by_every_loader(tmp_path, task_axes, message):
+    for name, load in _loaders(tmp_path).items():
+        with pytest.raises(ShapeError, match=message):
+            load(task_axes=task_axes)
+    loaders = _loaders(tmp_path)
+    assert loaders["load_urdf"](task_axes="x, phi").task_axes == ("x", "yaw")
+    assert loaders["from_dh"](task_axes=["x", "y", "z"]).task_axes == ("x", "y", "z")
+
+
+@pytest.mark.parametrize("tip", [0, np.zeros(0), b"tool", ["tool"]])
+def test_tip_must_be_a_frame_name(tmp_path, tip):
+    """``tip=0`` was read as "no tip" by robots.load (the built-in's 'tool'); an empty array raised NumPy's
+    truth-value error."""
+    for name, load in _loaders(tmp_path).items():
+        if name == "from_dh":
+            continue  # its tool frame is tip_name
+        with pytest.raises(InputError, match=r"^tip must be None or the name of a frame \(a str\), got "):
+            load(tip=tip)
+    with pytest.raises(FrameError, match=r"unknown frame 'nope' for robot 'planar4r'"):
+        robots.load("planar4r", tip="nope")
+    assert robots.load("planar4r", tip="link2").tip == "link2"
+
+
+@pytest.mark.parametrize("option, value, error, message", [
+    ("locked_joints", 0, ModelError, r"^locked_joints must be a mapping joint name -> value, got int"),
+    ("locked_joints", [], ModelError, r"^locked_joints must be a mapping joint name -> value, got list"),
+    ("name", np.nan, InputError, r"^name must be a str or None, got nan"),
+    ("name", 3, InputError, r"^name must be a str or None, got 3"),
+    ("description", None, InputError, r"^description must be a str, got None"),
+])
+def test_urdf_and_xacro_loader_options_of_the_wrong_kind(tmp_path, option, value, error, message):
+    loaders = _loaders(tmp_path)
+    for name in ("load_urdf", "load_xacro"):
+        with pytest.raises(error, match=message):
+            loaders[name](**{option: value})
+    robot = loaders["load_urdf"](name="mine", description="two joints", locked_joints={"j2": 0.1})
+    assert (robot.name, robot.description, robot.nq) == ("mine", "two joints", 1)
+
+
+@pytest.mark.parametrize("package_dirs, message", [
+    (["{tmp}/missing"], r"^package_dirs: '.*/missing' is not a folder"),
+    ("no", r"^package_dirs: 'no' is not a folder"),
+    (["{tmp}/two.urdf"], r"^package_dirs: '.*/two.urdf' is not a folder"),
+    (0, r"^package_dirs must be a folder or a list of folders, got int '0'"),
+    ([0], r"^package_dirs: 0 is not a folder"),
+])
+def test_package_dirs_are_checked_alike_by_every_loader(tmp_path, monkeypatch, package_dirs, message):
+    """load_urdf and load_xacro took folders that do not exist (and raised TypeError for 0), where
+    robots.load refused them; all share robots.load's check now."""
+    monkeypatch.chdir(tmp_path)  # (no folder named "no" here)
+    if isinstance(package_dirs, list) and isinstance(package_dirs[0], str):
+        package_dirs = [package_dirs[0].format(tmp=tmp_path)]
+    loaders = _loaders(tmp_path)
+    xacro = robots.ENTRIES["planar4r"].path()
+    for call in (loaders["load"], loaders["load text"], loaders["load_urdf"], loaders["load_xacro"],
+                 lambda **k: robots.process_xacro(xacro, **k)):
+        with pytest.raises(ModelError, match=message):
+            call(package_dirs=package_dirs)
+    assert loaders["load_urdf"](package_dirs=tmp_path).nq == 2
+    assert loaders["load_urdf"](package_dirs=[str(tmp_path)]).nq == 2
+
+
+# ----------------------------------------------------------------------------------------- read_srdf
+@pytest.mark.parametrize("source, robot, message", [
+    ("<robot name='two'/>", "panda", r"^robot must be a kinserve Robot \(robots.load\(...\)\), got 'panda' "
+                                     r"\(robots.load\('panda'\) loads it\)"),
+    ("<robot name='two'/>", None, r"^robot must be a kinserve Robot \(robots.load\(...\)\), got None"),
+    ("ROBOT", "<robot name='two'/>", r"^read_srdf takes \(source, robot\): the SRDF path or XML text first, "
+                                     r"then the loaded Robot; got source=Robot 'two', .* - swapped\?"),
+    ("two", "two.srdf", r"^read_srdf takes \(source, robot\).* - swapped\?"),
+])
+def test_read_srdf_wants_a_robot_second(source, robot, message):
+    two = robots.load(URDF, geometry=False)
+    source = two if source == "ROBOT" else source
+    with pytest.raises(InputError, match=message):
+        read_srdf(source, robot)
+    srdf = read_srdf("<robot name='two'><group name='arm'><joint name='j1'/></group></robot>", two)
+    assert srdf.groups == {"arm": ("j1",)}
