@@ -317,8 +317,9 @@ def check_joint_values(values: object, name: str = "locked_joints") -> Mapping |
     raise ModelError(f"{name} must be a mapping joint name -> value, got {type(values).__name__}")
 
 
-def check_loader_options(tip, name, description, locked_joints, package_dirs, task_axes, geometry,
-                         allow_outside) -> tuple:
+def check_loader_options(tip: object, name: object, description: object, locked_joints: object,
+                         package_dirs: object, task_axes: object, geometry: object, allow_outside: object
+                         ) -> tuple:
     """The options of :func:`load_urdf` and :func:`~robots.xacro_loader.load_xacro`, checked (in this order)
     before any model is read: :func:`check_tip`, :func:`check_text`, :func:`check_joint_values`,
     :func:`~robots.mesh_resolver.check_package_dirs`, :func:`check_task_axes`, ``as_flag``."""
