@@ -235,3 +235,26 @@ def test_the_browser_draws_the_robot_where_fk_puts_it_mid_motion(planned):
     assert share(orange(middle) & changed, uv(part_mid), half=6) > 0.5
     assert share(orange(start), uv(part_mid), half=6) < 0.05  # the part was not there at the start
     assert share(orange(middle), uv(part_start), half=6) < 0.05  # nor is it still where it started
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"robot": "planar4r"}, r"robot must be a kinserve Robot .*robots.load\('planar4r'\)"),
+    ({"obstacles": 2.5}, "obstacles must be a sequence of shapes"),
+    ({"obstacle_opacity": "no"}, r"obstacle_opacity must be a number in \(0, 1\]"),
+    ({"obstacle_opacity": True}, r"obstacle_opacity must be a number in \(0, 1\]"),
+    ({"obstacle_opacity": 0.0}, r"obstacle_opacity must be a number in \(0, 1\]"),
+])
+def test_motion_plan_scene_names_a_bad_argument(kwargs, message):
+    """A robot's name raised "'str' object has no attribute 'nq'", ``obstacle_opacity="no"`` Python's
+    float() error and ``True`` was drawn as opaque; each is refused by name before anything is drawn. None
+    means no obstacles."""
+    from kinserve.kinematics.errors import InputError
+
+    arm = robots.load("planar4r", geometry=False)
+    Q = np.linspace(0.0, 0.5, 4)[:, None] * np.ones(arm.nq)
+    plan = (np.linspace(0.0, 1.0, 4), Q)
+    args = {"robot": arm, "plan": plan, "obstacles": ()}
+    args.update(kwargs)
+    with pytest.raises(InputError, match=message):
+        viz.motion_plan_scene(args.pop("robot"), args.pop("plan"), **args)
+    assert viz.motion_plan_scene(arm, plan, obstacles=None).animation is not None

@@ -176,3 +176,60 @@ def test_planar_arm_figure_refuses_what_it_would_misdraw(kwargs, message):
         viz.planar_arm_figure(args.pop("link_lengths"), args.pop("branches"), **args)
     with pytest.raises((InputError, ShapeError), match="q"):
         viz.planar_chain([1.0, 1.0], [float("nan"), 0.0])
+
+
+def _fig():
+    return viz.series_figure(None, {"a": np.arange(3.0)})
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda p: viz.save_png(_fig(), p / "o.png", dpi=0), "dpi must be an integer from 10 to 1,200"),
+    (lambda p: viz.save_png(_fig(), p / "o.png", dpi=10**6), "dpi must be an integer from 10 to 1,200"),
+    (lambda p: viz.save_png(_fig(), p / "o.png", dpi=2.5), "dpi must be an integer"),
+    (lambda p: viz.save_png(_fig(), p / "o.png", dpi=float("nan")), "dpi must be an integer"),
+    (lambda p: viz.save_png(_fig(), 3), "path must be a file path"),
+    (lambda p: viz.map_figure([], (0, 0, float("nan"), 1)), "bounds"),
+    (lambda p: viz.map_figure([], (0, 0, -1, 1)), "xmin < xmax"),
+    (lambda p: viz.map_figure(2.5), "obstacles must be a list"),
+    (lambda p: viz.map_figure([], paths=2.5), "paths must be"),
+    (lambda p: viz.map_figure([], waypoints=2.5), "waypoints must be"),
+    (lambda p: viz.map_figure([], waypoints=[(1.0, float("nan"))]), r"waypoints\[0\]"),
+    (lambda p: viz.map_figure([], inflate=float("nan")), "inflate must be finite"),
+    (lambda p: viz.map_figure([], inflate="no"), "inflate must be a number"),
+    (lambda p: viz.map_figure([], inflate=1e300), "inflate must be finite"),
+    (lambda p: viz.Circle(float("nan"), 0.0, 1.0), "Circle cx must be finite"),
+    (lambda p: viz.Circle(0.0, 0.0, float("inf")), "Circle radius must be finite"),
+    (lambda p: viz.Rect(0.0, 0.0, float("inf"), 1.0), "Rect xmax must be finite"),
+    (lambda p: viz.Rect("no", 0.0, 1.0, 1.0), "Rect xmin must be a number"),
+    (lambda p: viz.Rect(0.0, 0.0, 1.0, 1.0, name=3), "Rect name must be a str"),
+    (lambda p: viz.Grid(np.zeros(4)), "grid mask must be a 2-D boolean grid"),
+    (lambda p: viz.Grid(np.zeros((2, 2)), cell=0.0), "Grid cell must be positive"),
+    (lambda p: viz.errors_figure(None, {"a": np.ones(3)}, tolerance=np.nan), "tolerance must be finite"),
+    (lambda p: viz.errors_figure(None, {"a": np.ones(3)}, tolerance="no"), "tolerance must be a number"),
+    (lambda p: viz.errors_figure(None, {"a": [1.0, np.nan]}), r"error\['a'\] must hold finite numbers"),
+    (lambda p: viz.manipulability_figure(None, np.ones(3), threshold="no"), "threshold must be a number"),
+    (lambda p: viz.manipulability_figure(None, np.ones(3), threshold=np.nan), "threshold must be finite"),
+    (lambda p: viz.joints_figure(None, np.zeros((3, 2)), limits=0), "limits must be"),
+    (lambda p: viz.joints_figure(None, np.zeros((3, 2)), names=0), "names must be a sequence of 2"),
+    (lambda p: viz.joints_figure(None, np.zeros((3, 2)), limits=([0, 0], [1, "x"])), "limits upper"),
+    (lambda p: viz.xy_figure({"c": np.zeros((3, 2))}, points=2.5), "points must be a dict"),
+    (lambda p: viz.series_figure(["a", "b"], np.zeros(2)), "x must be a number or an array"),
+])
+def test_plots_and_map_shapes_name_a_bad_argument(tmp_path, call, message):
+    """Found by feeding bad values to every plotting argument: a NaN bound raised matplotlib's "Axis limits
+    cannot be NaN or Inf", dpi=10**6 ran out of memory, ``Rect("no", ...)`` a TypeError, a NaN tolerance or
+    radius was drawn as nothing; each is now refused by name (InputError or one of its subclasses)."""
+    with pytest.raises(InputError, match=message):
+        call(tmp_path)
+
+
+def test_plots_still_take_their_ordinary_arguments(tmp_path):
+    fig = viz.map_figure([viz.Rect(0, 0, 1, 1), {"circle": [3, 3, 1]}], (-1, -1, 5, 5),
+                         paths=[np.zeros((2, 2))], waypoints={"a": (1, 2)},
+                         coverage=np.zeros((2, 2), dtype=bool), inflate=0.5)
+    assert viz.save_png(fig, tmp_path / "m.png", dpi=50.0).stat().st_size > 0
+    viz.errors_figure(None, {"a": np.ones(3)}, tolerance=1e-3)
+    viz.manipulability_figure(None, np.ones(3), threshold=0.0)
+    viz.joints_figure(None, np.zeros((3, 2)), names=("a", "b"), limits=([-1, -1], [1, 1]))
+    viz.xy_figure({"c": np.zeros((3, 2))}, points={"p": (0.0, 1.0)})
+    assert viz.Grid([[True, False]], origin=(1, 2), cell=2).extent == (1.0, 5.0, 2.0, 4.0)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix
+from kinserve.kinematics.validation import as_matrix, as_numbers, as_positive, as_real, describe
 
 
 @dataclass(frozen=True)
@@ -36,6 +36,9 @@ class Rect:
     name: str = ""
 
     def __post_init__(self):
+        for field in ("xmin", "ymin", "xmax", "ymax"):
+            object.__setattr__(self, field, as_real(getattr(self, field), f"Rect {field}"))
+        _check_name(self.name, "Rect")
         if not (self.xmin < self.xmax and self.ymin < self.ymax):
             raise InputError(f"Rect needs xmin < xmax and ymin < ymax, got ({self.xmin}, "
                              f"{self.ymin})-({self.xmax}, {self.ymax})")
@@ -61,8 +64,10 @@ class Circle:
     name: str = ""
 
     def __post_init__(self):
-        if not self.r > 0:
-            raise InputError(f"Circle radius must be > 0, got {self.r}")
+        object.__setattr__(self, "cx", as_real(self.cx, "Circle cx"))
+        object.__setattr__(self, "cy", as_real(self.cy, "Circle cy"))
+        object.__setattr__(self, "r", as_positive(self.r, "Circle radius"))
+        _check_name(self.name, "Circle")
 
     @property
     def center(self) -> tuple[float, float]:
@@ -81,6 +86,14 @@ class Grid:
     mask: np.ndarray
     origin: tuple[float, float] = (0.0, 0.0)
     cell: float = 1.0
+
+    def __post_init__(self):
+        """``mask``: a 2-D array (read as bools); ``origin``: two finite numbers; ``cell``: a positive number
+        (:class:`InputError` / :class:`ShapeError` otherwise, here rather than when the grid is drawn)."""
+        object.__setattr__(self, "mask", _mask(self.mask))
+        origin = as_matrix(self.origin, (2,), "Grid origin")
+        object.__setattr__(self, "origin", (float(origin[0]), float(origin[1])))
+        object.__setattr__(self, "cell", as_positive(self.cell, "Grid cell"))
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
@@ -105,6 +118,25 @@ class Grid:
             for s, e in zip(starts, ends):
                 out.append(Rect(x0 + s * c, y0 + i * c, x0 + e * c, y0 + (i + 1) * c))
         return out
+
+
+def _mask(value: object) -> np.ndarray:
+    """``value`` (a 2-D array or nested lists of bools or numbers) as a 2-D bool array, else
+    :class:`ShapeError`."""
+    mask = None
+    if isinstance(value, (np.ndarray, list, tuple)):
+        try:
+            mask = np.asarray(value)
+        except ValueError:  # ragged rows
+            mask = None
+    if mask is None or mask.ndim != 2 or mask.dtype.kind not in "biuf":
+        raise ShapeError(f"a grid mask must be a 2-D boolean grid (rows along y), got {describe(value)}")
+    return mask.astype(bool)
+
+
+def _check_name(name: object, owner: str) -> None:
+    if not isinstance(name, str):
+        raise InputError(f"{owner} name must be a str, got {describe(name)}")
 
 
 def as_shape(obj) -> Rect | Circle:
@@ -135,7 +167,7 @@ def as_shape(obj) -> Rect | Circle:
                 return Circle(float(cx), float(cy), float(obj.radius), name)
             if all(hasattr(obj, a) for a in ("cx", "cy", "r")):
                 return Circle(float(obj.cx), float(obj.cy), float(obj.r), name)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, InputError):
         pass
     raise ShapeError(
         f"cannot read obstacle {obj!r}: expected a viz.Rect / viz.Circle, a dict with 'rect' / 'min'+'max' / "
@@ -148,21 +180,16 @@ def as_grid(obj) -> Grid:
     ``(mask, origin, cell)``."""
     if isinstance(obj, Grid):
         return obj
-    if isinstance(obj, dict):
-        return Grid(np.asarray(obj["mask"], dtype=bool), tuple(obj.get("origin", (0.0, 0.0))),
-                    float(obj.get("cell", 1.0)))
+    if isinstance(obj, dict) and "mask" in obj:
+        return Grid(obj["mask"], obj.get("origin", (0.0, 0.0)), obj.get("cell", 1.0))
     if isinstance(obj, tuple) and len(obj) == 3:
-        mask, origin, cell = obj
-        return Grid(np.asarray(mask, dtype=bool), (float(origin[0]), float(origin[1])), float(cell))
-    mask = np.asarray(obj)
-    if mask.ndim != 2:
-        raise ShapeError(f"coverage must be a 2-D boolean grid (rows along y), got shape {mask.shape}")
-    return Grid(mask.astype(bool))
+        return Grid(*obj)
+    return Grid(obj)
 
 
 def as_polyline(points, name: str = "path", dims=(2, 3)) -> np.ndarray:
     """An ``(N, d)`` float array of points (``d`` in ``dims``), ``N >= 1``."""
-    arr = np.asarray(points, dtype=float) if not isinstance(points, np.ndarray) else points.astype(float)
+    arr = as_numbers(points, name)
     if arr.ndim != 2 or arr.shape[1] not in dims or arr.shape[0] < 1:
         raise ShapeError(f"{name} must be an (N, {' or '.join(map(str, dims))}) array of points, "
                          f"got shape {arr.shape}")

@@ -36,13 +36,13 @@ from typing import Any
 import numpy as np
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.robot import Robot
-from kinserve.kinematics.shapes import Shape, as_shape
+from kinserve.kinematics.robot import Robot, as_robot
+from kinserve.kinematics.shapes import Shape, as_obstacles
 from kinserve.kinematics.validation import as_matrix, as_positive
 
 from .animation import MAX_FPS, MAX_FRAMES, Animation
 from .collision_drawing import draw_shape
-from .scene import Scene
+from .scene import Scene, check_opacity
 
 #: Samples of the motion (at most) whose carried-object poses enter the scene's extent (camera framing).
 _EXTENT_SAMPLES = 40
@@ -147,11 +147,11 @@ def motion_plan_scene(robot: Robot, plan: Any, obstacles: Any = (), frame: str |
     Node names and the poses keyed: the module docstring. The scene opens on the whole motion; export it
     with :func:`viz.export_html` (the page plays the animation) or show it with :class:`viz.LiveViewer`.
     """
+    robot = as_robot(robot)
+    shapes = as_obstacles(obstacles)
+    obstacle_opacity = check_opacity(obstacle_opacity, "obstacle_opacity")
     t, Q = sample_motion(plan, fps, path_speed=path_speed)
     Q = as_matrix(Q, (-1, robot.nq), "plan positions")
-    if isinstance(obstacles, (Shape, dict)):
-        obstacles = [obstacles]
-    shapes = [as_shape(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)]
     scene = Scene(title or f"{getattr(robot, 'name', 'robot')} motion plan ({t[-1] - t[0]:.2f} s)")
     handle = scene.add_robot(robot, Q[0], name=name)
     for i, shape in enumerate(shapes):

@@ -19,6 +19,7 @@ Figures:
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -28,13 +29,23 @@ from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_count, as_flag, as_matrix
+from kinserve.kinematics.validation import (
+    as_count,
+    as_flag,
+    as_matrix,
+    as_nonnegative,
+    as_numbers,
+    as_positive,
+    describe,
+)
 
 from . import colors
 from .map2d import Rect, as_grid, as_polyline, as_shape
 
 #: Smallest value drawn on a log axis (exact zeros would vanish).
 LOG_FLOOR = 1e-16
+#: The range of :func:`save_png`'s ``dpi`` (dots per inch).
+MIN_DPI, MAX_DPI = 10, 1200
 
 
 def _figure(rows: int = 1, size=(7.0, 4.2)):
@@ -44,22 +55,27 @@ def _figure(rows: int = 1, size=(7.0, 4.2)):
     return fig, axes
 
 
-def save_png(fig: Figure, path, dpi: int = 120) -> Path:
-    """Write ``fig`` as a PNG at ``path`` (parent folders created); returns the path."""
+def save_png(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
+    """Write ``fig`` as a PNG at ``path`` (a ``str`` or ``os.PathLike`` ending in ``.png``; parent folders
+    created) at ``dpi`` dots per inch, an integer from :data:`MIN_DPI` to :data:`MAX_DPI`; returns the
+    path. :class:`InputError` for anything else."""
     if not isinstance(fig, Figure):
         raise InputError(f"save_png needs a matplotlib Figure, got {type(fig).__name__}")
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"save_png: path must be a file path (str or os.PathLike), got {describe(path)}")
+    dpi = as_count(dpi, "dpi", minimum=MIN_DPI, maximum=MAX_DPI)
     path = Path(path)
     if path.suffix.lower() != ".png":
         raise InputError(f"save_png writes PNG files; the path must end in .png, got {str(path)!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=int(dpi), format="png")
+    fig.savefig(path, dpi=dpi, format="png")
     return path
 
 
 def _xvalues(x, n: int, name: str = "x") -> np.ndarray:
     if x is None:
         return np.arange(n, dtype=float)
-    xs = np.asarray(x, dtype=float)
+    xs = as_numbers(x, name)
     if xs.shape != (n,):
         raise ShapeError(f"{name} must have shape ({n},) to match the data, got {xs.shape}")
     return xs
@@ -70,12 +86,12 @@ def _series(series, name: str) -> list[tuple[str, np.ndarray]]:
     if isinstance(series, dict):
         out = []
         for label, v in series.items():
-            arr = np.asarray(v, dtype=float)
+            arr = as_numbers(v, f"{name}[{label!r}]")
             if arr.ndim != 1:
                 raise ShapeError(f"{name}[{label!r}] must be 1-D, got shape {arr.shape}")
             out.append((str(label), arr))
         return out
-    arr = np.asarray(series, dtype=float)
+    arr = as_numbers(series, name)
     if arr.ndim == 1:
         return [(name, arr)]
     if arr.ndim == 2:
@@ -115,22 +131,32 @@ def series_figure(x, series, *, xlabel: str = "iteration", ylabel: str = "", tit
 def _joints(ax, x, Q, names, limits):
     Q = as_matrix(Q, (-1, -1), "Q")
     n, k = Q.shape
-    names = list(names) if names is not None else [f"q{j + 1}" for j in range(k)]
-    if len(names) != k:
-        raise ShapeError(f"names has {len(names)} entries for {k} joints")
+    names = _names(names, k)
     xs = _xvalues(x, n)
     for j in range(k):
         ax.plot(xs, Q[:, j], label=names[j], color=colors.to_rgb(colors.cycle(j)), linewidth=1.6)
     if limits is not None:
-        lower, upper = (np.asarray(v, dtype=float) for v in limits)
-        if lower.shape != (k,) or upper.shape != (k,):
-            raise ShapeError(f"limits must be (lower, upper), each of shape ({k},)")
+        if not (isinstance(limits, (tuple, list, np.ndarray)) and len(limits) == 2):
+            raise ShapeError(f"limits must be (lower, upper), each of shape ({k},), got {describe(limits)}")
+        lower, upper = as_matrix(limits[0], (k,), "limits lower"), as_matrix(limits[1], (k,), "limits upper")
         for j in range(k):
             c = colors.to_rgb(colors.cycle(j))
             ax.axhline(lower[j], color=c, linestyle=":", linewidth=0.9)
             ax.axhline(upper[j], color=c, linestyle=":", linewidth=0.9)
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8, ncol=2 if k > 4 else 1)
+
+
+def _names(names: object, k: int) -> list[str]:
+    """The ``k`` joint names of a legend: ``names`` (a sequence of ``k`` strings) or ``q1..qk`` for None."""
+    if names is None:
+        return [f"q{j + 1}" for j in range(k)]
+    if isinstance(names, (str, bytes)) or not isinstance(names, (list, tuple, np.ndarray)) \
+            or not all(isinstance(v, str) for v in names):
+        raise InputError(f"names must be a sequence of {k} joint names (str), got {describe(names)}")
+    if len(names) != k:
+        raise ShapeError(f"names has {len(names)} entries for {k} joints")
+    return list(names)
 
 
 def joints_figure(x, Q, names=None, *, limits=None, xlabel: str = "iteration",
@@ -149,10 +175,11 @@ def errors_figure(x, errors, *, xlabel: str = "iteration", ylabel: str = "error 
                   title: str = "Task errors", logy: bool = True, tolerance: float | None = None) -> Figure:
     """Task errors (``{label: (N,)}``) against ``x``; ``|e|`` on a log axis by default; ``tolerance`` as a
     dashed line."""
+    tolerance = None if tolerance is None else as_positive(tolerance, "tolerance")
     fig, (ax,) = _figure()
     _plot_series(ax, x, errors, logy=logy, name="error")
     if tolerance is not None:
-        ax.axhline(float(tolerance), color="black", linestyle="--", linewidth=1.0, label="tolerance")
+        ax.axhline(tolerance, color="black", linestyle="--", linewidth=1.0, label="tolerance")
         ax.legend(loc="best", fontsize=8)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
@@ -179,15 +206,15 @@ def manipulability_figure(x, manipulability, *, threshold: float | None = None, 
 
     ``threshold`` draws the singularity warning level and shades the samples below it.
     """
+    threshold = None if threshold is None else as_nonnegative(threshold, "threshold")
     fig, (ax,) = _figure()
-    _plot_series(ax, x, manipulability if isinstance(manipulability, dict) else {"w": manipulability},
-                 logy=False, name="w")
+    series = manipulability if isinstance(manipulability, dict) else {"w": manipulability}
+    _plot_series(ax, x, series, logy=False, name="w")
     if threshold is not None:
-        ax.axhline(float(threshold), color="red", linestyle="--", linewidth=1.0, label="threshold")
-        first = next(iter(manipulability.values())) if isinstance(manipulability, dict) else manipulability
-        w = np.asarray(first, dtype=float)
+        ax.axhline(threshold, color="red", linestyle="--", linewidth=1.0, label="threshold")
+        w = _series(series, "w")[0][1]
         xs = _xvalues(x, len(w))
-        ax.fill_between(xs, 0, 1, where=w < float(threshold), color="red", alpha=0.12,
+        ax.fill_between(xs, 0, 1, where=w < threshold, color="red", alpha=0.12,
                         transform=ax.get_xaxis_transform(), label="below threshold")
         ax.legend(loc="best", fontsize=8)
     ax.set_xlabel(xlabel)
@@ -205,10 +232,9 @@ def xy_figure(curves, *, points=None, title: str = "", xlabel: str = "x (m)",
     for i, (label, pts) in enumerate(curves.items()):
         P = as_polyline(pts, f"curves[{label!r}]", dims=(2,))
         ax.plot(P[:, 0], P[:, 1], label=str(label), color=colors.to_rgb(colors.cycle(i)), linewidth=1.6)
-    for label, p in (points or {}).items():
-        ax.plot([float(p[0])], [float(p[1])], marker="o", linestyle="none", color="black")
-        ax.annotate(str(label), (float(p[0]), float(p[1])), textcoords="offset points",
-                    xytext=(4, 4), fontsize=8)
+    for label, (px, py) in _points(points, "points"):
+        ax.plot([px], [py], marker="o", linestyle="none", color="black")
+        ax.annotate(str(label), (px, py), textcoords="offset points", xytext=(4, 4), fontsize=8)
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
@@ -218,16 +244,72 @@ def xy_figure(curves, *, points=None, title: str = "", xlabel: str = "x (m)",
     return fig
 
 
+def _points(points: object, name: str) -> list[tuple[object, tuple[float, float]]]:
+    """``[(label, (x, y))]`` of labelled markers: ``points`` None, ``{label: (x, y)}`` or a sequence of
+    ``(x, y)`` (labelled by index); :class:`InputError` / :class:`ShapeError` naming ``name`` otherwise."""
+    if points is None:
+        return []
+    if isinstance(points, dict):
+        items = list(points.items())
+    elif isinstance(points, (list, tuple, np.ndarray)):
+        items = list(enumerate(points))
+    else:
+        raise InputError(f"{name} must be a dict {{label: (x, y)}} or a sequence of (x, y), got "
+                         f"{describe(points)}")
+    out = []
+    for label, p in items:
+        xy = as_matrix(p, (-1,), f"{name}[{label!r}]")
+        if len(xy) < 2:
+            raise ShapeError(f"{name}[{label!r}] must be a point (x, y), got shape {xy.shape}")
+        out.append((label, (float(xy[0]), float(xy[1]))))
+    return out
+
+
+def _paths(paths: object) -> list[tuple[object, np.ndarray]]:
+    """``[(label, (N, 2) points)]`` of :func:`map_figure`'s ``paths``: None, ``{label: (N, 2)}``, one
+    ``(N, 2)`` array, or a sequence of them."""
+    if paths is None:
+        return []
+    if isinstance(paths, dict):
+        items = list(paths.items())
+    elif isinstance(paths, np.ndarray) and paths.ndim == 2:
+        items = [("path", paths)]
+    elif isinstance(paths, (list, tuple, np.ndarray)):
+        items = list(enumerate(paths))
+    else:
+        raise InputError(f"paths must be a dict {{label: (N, 2) points}}, an (N, 2) array or a sequence of "
+                         f"them, got {describe(paths)}")
+    return [(label, as_polyline(pts, f"paths[{label!r}]", dims=(2,))) for label, pts in items]
+
+
+def _bounds(bounds: object) -> tuple[float, float, float, float] | None:
+    """``(xmin, ymin, xmax, ymax)`` of :func:`map_figure` (finite, ``min < max``), or None."""
+    if bounds is None:
+        return None
+    x0, y0, x1, y1 = (float(v) for v in as_matrix(bounds, (4,), "bounds (xmin, ymin, xmax, ymax)"))
+    if not (x0 < x1 and y0 < y1):
+        raise InputError(f"bounds must be (xmin, ymin, xmax, ymax) with xmin < xmax and ymin < ymax, got "
+                         f"{(x0, y0, x1, y1)}")
+    return x0, y0, x1, y1
+
+
 def map_figure(obstacles=(), bounds=None, *, paths=None, waypoints=None, coverage=None, inflate: float = 0.0,
                title: str = "", units: str = "map units") -> Figure:
     """A 2-D map: obstacles (filled), their ``inflate`` margin (hatched outline), the
     coverage grid (green cells), paths (``{label: (N, 2)}``, one line each) and
     waypoints (``{label: (x, y)}``, labelled dots). ``bounds = (xmin, ymin, xmax, ymax)``.
     """
-    fig, (ax,) = _figure(size=(6.4, 6.4))
+    if obstacles is None:
+        obstacles = ()
+    if not isinstance(obstacles, (list, tuple)):
+        raise InputError(f"obstacles must be a list of shapes (viz.Rect, viz.Circle, dicts), got "
+                         f"{describe(obstacles)}")
     shapes = [as_shape(o) for o in obstacles]
-    if coverage is not None:
-        grid = as_grid(coverage)
+    inflate = as_nonnegative(inflate, "inflate")
+    path_items, marks, limits = _paths(paths), _points(waypoints, "waypoints"), _bounds(bounds)
+    grid = None if coverage is None else as_grid(coverage)
+    fig, (ax,) = _figure(size=(6.4, 6.4))
+    if grid is not None:
         ax.imshow(np.where(grid.mask, 1.0, np.nan), origin="lower", extent=grid.extent, cmap="Greens",
                   vmin=0.0, vmax=1.6, alpha=0.55, interpolation="nearest", zorder=0)
     for s in shapes:
@@ -247,20 +329,14 @@ def map_figure(obstacles=(), bounds=None, *, paths=None, waypoints=None, coverag
             ax.add_patch(grown)
         if s.name:
             ax.annotate(s.name, s.center, ha="center", va="center", fontsize=7, color="white", zorder=3)
-    items = paths.items() if isinstance(paths, dict) else (
-        [("path", paths)] if isinstance(paths, np.ndarray) and paths.ndim == 2 else enumerate(paths or []))
-    for i, (label, pts) in enumerate(items):
-        P = as_polyline(pts, f"paths[{label!r}]", dims=(2,))
+    for i, (label, P) in enumerate(path_items):
         ax.plot(P[:, 0], P[:, 1], color=colors.to_rgb(colors.cycle(i)), linewidth=1.5, zorder=4,
                 label=str(label) if isinstance(paths, dict) else None)
-    wp = waypoints.items() if isinstance(waypoints, dict) else enumerate(waypoints or [])
-    for label, p in wp:
-        ax.plot([float(p[0])], [float(p[1])], marker="o", markersize=6, color="black",
-                linestyle="none", zorder=5)
-        ax.annotate(str(label), (float(p[0]), float(p[1])), textcoords="offset points", xytext=(5, 5),
-                    fontsize=8, zorder=5)
-    if bounds is not None:
-        x0, y0, x1, y1 = (float(v) for v in bounds)
+    for label, (px, py) in marks:
+        ax.plot([px], [py], marker="o", markersize=6, color="black", linestyle="none", zorder=5)
+        ax.annotate(str(label), (px, py), textcoords="offset points", xytext=(5, 5), fontsize=8, zorder=5)
+    if limits is not None:
+        x0, y0, x1, y1 = limits
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
     else:

@@ -23,6 +23,7 @@ names are paths relative to ``/meshcat`` unless they start with ``/``.
 
 from __future__ import annotations
 
+import numbers
 import uuid
 import warnings
 from dataclasses import dataclass, field
@@ -36,7 +37,7 @@ import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_flag, as_pose, as_vector
+from kinserve.kinematics.validation import as_flag, as_pose, as_vector, describe
 
 from . import colors
 from .camera import CAMERA_FOV_DEG, box_corners, frame_points, view_commands  # noqa: F401 (CAMERA_FOV_DEG re-exported)
@@ -62,9 +63,18 @@ class _ZCylinder(mg.Cylinder):
 
 
 def _material(color, opacity: float = 1.0, kind=mg.MeshLambertMaterial):
-    if not 0.0 < float(opacity) <= 1.0:
-        raise InputError(f"opacity must be in (0, 1], got {opacity!r}")
-    return kind(color=colors.to_int(color), opacity=float(opacity), transparent=float(opacity) < 1.0)
+    opacity = check_opacity(opacity)
+    return kind(color=colors.to_int(color), opacity=opacity, transparent=opacity < 1.0)
+
+
+def check_opacity(opacity: object, name: str = "opacity") -> float:
+    """``opacity`` as a float if it is a number in ``(0, 1]`` (not a bool); else :class:`InputError` naming
+    ``name``."""
+    if type(opacity) is float and 0.0 < opacity <= 1.0:
+        return opacity
+    if isinstance(opacity, bool) or not isinstance(opacity, numbers.Real) or not 0.0 < opacity <= 1.0:
+        raise InputError(f"{name} must be a number in (0, 1], got {describe(opacity)}")
+    return float(opacity)
 
 
 def _positive(value, name: str) -> float:
