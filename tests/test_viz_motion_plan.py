@@ -258,3 +258,26 @@ def test_motion_plan_scene_names_a_bad_argument(kwargs, message):
     with pytest.raises(InputError, match=message):
         viz.motion_plan_scene(args.pop("robot"), args.pop("plan"), **args)
     assert viz.motion_plan_scene(arm, plan, obstacles=None).animation is not None
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"title": np.zeros(0)}, "title must be a str or None"),
+    ({"title": 3}, "title must be a str or None, got 3"),
+    ({"name": np.zeros(0)}, "name must be a str or None"),
+    ({"name": 0}, "name must be a str or None, got 0"),
+    ({"attached_color": "nocolor"}, "attached_color: unknown color 'nocolor'"),
+    ({"obstacle_color": (1, 2)}, "obstacle_color: color sequence"),
+    ({"path_color": None}, "path_color: color must be"),
+])
+def test_motion_plan_scene_checks_title_name_and_colours_first(kwargs, message):
+    """``title`` / ``name`` given an empty array raised NumPy's ambiguous-truth error (``0`` fell back to the
+    default name), and a colour the scene would not use (nothing carried, no obstacle) was never read; each is
+    refused by name before anything is drawn."""
+    from kinserve.kinematics.errors import InputError
+
+    arm = robots.load("planar4r", geometry=False)
+    plan = (np.linspace(0.0, 1.0, 3), np.zeros((3, arm.nq)))
+    with pytest.raises(InputError, match=message):
+        viz.motion_plan_scene(arm, plan, **kwargs)
+    scene = viz.motion_plan_scene(arm, plan, title="t", name="arm", attached_color="#00ff00")
+    assert scene.title == "t" and list(scene.robots) == ["arm"]

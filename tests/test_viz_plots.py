@@ -206,7 +206,7 @@ def _fig():
     (lambda p: viz.Grid(np.zeros((2, 2)), cell=0.0), "Grid cell must be positive"),
     (lambda p: viz.errors_figure(None, {"a": np.ones(3)}, tolerance=np.nan), "tolerance must be finite"),
     (lambda p: viz.errors_figure(None, {"a": np.ones(3)}, tolerance="no"), "tolerance must be a number"),
-    (lambda p: viz.errors_figure(None, {"a": [1.0, np.nan]}), r"error\['a'\] must hold finite numbers"),
+    (lambda p: viz.errors_figure(None, {"a": [1.0, np.inf]}), r"error\['a'\] must hold finite numbers"),
     (lambda p: viz.manipulability_figure(None, np.ones(3), threshold="no"), "threshold must be a number"),
     (lambda p: viz.manipulability_figure(None, np.ones(3), threshold=np.nan), "threshold must be finite"),
     (lambda p: viz.joints_figure(None, np.zeros((3, 2)), limits=0), "limits must be"),
@@ -228,8 +228,33 @@ def test_plots_still_take_their_ordinary_arguments(tmp_path):
                          paths=[np.zeros((2, 2))], waypoints={"a": (1, 2)},
                          coverage=np.zeros((2, 2), dtype=bool), inflate=0.5)
     assert viz.save_png(fig, tmp_path / "m.png", dpi=50.0).stat().st_size > 0
-    viz.errors_figure(None, {"a": np.ones(3)}, tolerance=1e-3)
+    fig = viz.errors_figure(None, {"a": np.ones(3), "b": [1.0, np.nan, np.nan]}, tolerance=1e-3)  # NaN: gaps
+    assert np.isnan(fig.axes[0].lines[1].get_ydata()).sum() == 2
     viz.manipulability_figure(None, np.ones(3), threshold=0.0)
     viz.joints_figure(None, np.zeros((3, 2)), names=("a", "b"), limits=([-1, -1], [1, 1]))
     viz.xy_figure({"c": np.zeros((3, 2))}, points={"p": (0.0, 1.0)})
     assert viz.Grid([[True, False]], origin=(1, 2), cell=2).extent == (1.0, 5.0, 2.0, 4.0)
+
+
+_E = {"e": np.ones(3)}
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: viz.series_figure(None, _E, xlabel=3), "xlabel must be a str, got 3"),
+    (lambda: viz.series_figure(None, _E, ylabel=np.zeros(0)), "ylabel must be a str"),
+    (lambda: viz.series_figure(None, _E, title=None), "title must be a str, got None"),
+    (lambda: viz.joints_figure(None, np.zeros((3, 2)), ylabel=float("nan")), "ylabel must be a str"),
+    (lambda: viz.errors_figure(None, _E, title=True), "title must be a str, got True"),
+    (lambda: viz.joints_and_errors_figure(None, np.zeros((3, 2)), _E, title=np.zeros(0)),
+     "title must be a str"),
+    (lambda: viz.manipulability_figure(None, np.ones(3), xlabel=object()), "xlabel must be a str"),
+    (lambda: viz.xy_figure({"c": np.zeros((3, 2))}, ylabel=1e300), "ylabel must be a str"),
+    (lambda: viz.map_figure([], units=0), "units must be a str, got 0"),
+    (lambda: viz.map_figure([], title=["t"]), "title must be a str"),
+])
+def test_plot_labels_must_be_text(call, message):
+    """Axis labels, titles and units were drawn whatever they were (``title=True`` read "True", ``units=0``
+    "x (0)") and an empty array raised NumPy's ambiguous-truth error; each is now refused by name."""
+    with pytest.raises(InputError, match=message):
+        call()
+    assert viz.series_figure(None, _E, xlabel="", ylabel="y", title="t").axes[0].get_title() == "t"

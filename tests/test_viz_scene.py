@@ -400,3 +400,18 @@ def test_viz_flags_must_be_true_or_false(value):
         with pytest.raises(InputError, match=f"{flag} must be True or False"):
             call(value)
     assert viz.Scene(grid=np.False_).grid is False
+
+
+@pytest.mark.parametrize("name, message", [
+    (np.zeros(0), "name must be a str or None"), (0, "name must be a str or None, got 0"),
+    (3.5, "name must be a str or None, got 3.5"),
+])
+def test_add_robot_name_must_be_text(name, message):
+    """``add_robot(name=np.zeros(0))`` raised NumPy's ambiguous-truth error and ``name=0`` drew the robot
+    under its own name; a name that is not a str is refused and the scene is left unchanged."""
+    arm = robots.load("planar4r", geometry=False)
+    scene = viz.Scene()
+    with pytest.raises(InputError, match=message):
+        scene.add_robot(arm, name=name)
+    assert scene.robots == {}
+    assert scene.add_robot(arm, name="arm").name == "arm"

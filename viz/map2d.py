@@ -38,7 +38,7 @@ class Rect:
     def __post_init__(self):
         for field in ("xmin", "ymin", "xmax", "ymax"):
             object.__setattr__(self, field, as_real(getattr(self, field), f"Rect {field}"))
-        _check_name(self.name, "Rect")
+        check_text(self.name, "Rect name")
         if not (self.xmin < self.xmax and self.ymin < self.ymax):
             raise InputError(f"Rect needs xmin < xmax and ymin < ymax, got ({self.xmin}, "
                              f"{self.ymin})-({self.xmax}, {self.ymax})")
@@ -67,7 +67,7 @@ class Circle:
         object.__setattr__(self, "cx", as_real(self.cx, "Circle cx"))
         object.__setattr__(self, "cy", as_real(self.cy, "Circle cy"))
         object.__setattr__(self, "r", as_positive(self.r, "Circle radius"))
-        _check_name(self.name, "Circle")
+        check_text(self.name, "Circle name")
 
     @property
     def center(self) -> tuple[float, float]:
@@ -134,9 +134,12 @@ def _mask(value: object) -> np.ndarray:
     return mask.astype(bool)
 
 
-def _check_name(name: object, owner: str) -> None:
-    if not isinstance(name, str):
-        raise InputError(f"{owner} name must be a str, got {describe(name)}")
+def check_text(value: object, name: str, optional: bool = False) -> str | None:
+    """``value`` if it is a str (or None when ``optional``); else :class:`InputError` naming ``name``. The one
+    check of viz's text arguments: shape names, axis labels, titles, units, node names."""
+    if isinstance(value, str) or (optional and value is None):
+        return value
+    raise InputError(f"{name} must be a str{' or None' if optional else ''}, got {describe(value)}")
 
 
 def as_shape(obj) -> Rect | Circle:

@@ -40,8 +40,10 @@ from kinserve.kinematics.robot import Robot, as_robot
 from kinserve.kinematics.shapes import Shape, as_obstacles
 from kinserve.kinematics.validation import as_matrix, as_positive
 
+from . import colors
 from .animation import MAX_FPS, MAX_FRAMES, Animation
 from .collision_drawing import draw_shape
+from .map2d import check_text
 from .scene import Scene, check_opacity
 
 #: Samples of the motion (at most) whose carried-object poses enter the scene's extent (camera framing).
@@ -134,6 +136,14 @@ def _draw_carried(scene: Scene, node: str, shape: Shape, poses: np.ndarray, colo
     scene.sweep_points(f"{node}/shape", poses[picks])
 
 
+def _check_color(color: Any, name: str) -> None:
+    """:func:`viz.colors.to_int`'s :class:`InputError` for a colour it cannot read, prefixed with ``name``."""
+    try:
+        colors.to_int(color)
+    except InputError as exc:
+        raise InputError(f"{name}: {exc}") from None
+
+
 def motion_plan_scene(robot: Robot, plan: Any, obstacles: Any = (), frame: str | None = None, *,
                       fps: float = 30.0, title: str | None = None, name: str | None = None,
                       path_speed: float = 0.5, obstacle_color: Any = "purple", obstacle_opacity: float = 0.6,
@@ -146,10 +156,18 @@ def motion_plan_scene(robot: Robot, plan: Any, obstacles: Any = (), frame: str |
     is drawn in ``attached_color`` and moves with its frame. ``name``: the robot's node (default its name).
     Node names and the poses keyed: the module docstring. The scene opens on the whole motion; export it
     with :func:`viz.export_html` (the page plays the animation) or show it with :class:`viz.LiveViewer`.
+
+    Checked before anything is drawn: ``robot`` a Robot, ``obstacles`` (None for none), ``title`` and
+    ``name`` None or a str, the three colours (:mod:`viz.colors` forms, even one not used), and
+    ``obstacle_opacity`` a number in (0, 1]; a kinserve error names the argument.
     """
     robot = as_robot(robot)
     shapes = as_obstacles(obstacles)
     obstacle_opacity = check_opacity(obstacle_opacity, "obstacle_opacity")
+    title, name = check_text(title, "title", optional=True), check_text(name, "name", optional=True)
+    for color, argument in ((obstacle_color, "obstacle_color"), (path_color, "path_color"),
+                            (attached_color, "attached_color")):
+        _check_color(color, argument)
     t, Q = sample_motion(plan, fps, path_speed=path_speed)
     Q = as_matrix(Q, (-1, robot.nq), "plan positions")
     scene = Scene(title or f"{getattr(robot, 'name', 'robot')} motion plan ({t[-1] - t[0]:.2f} s)")

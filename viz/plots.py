@@ -28,8 +28,9 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle as CirclePatch
 from matplotlib.patches import Rectangle
 
-from kinserve.kinematics.errors import InputError, ShapeError
+from kinserve.kinematics.errors import InputError, NonFiniteError, ShapeError
 from kinserve.kinematics.validation import (
+    MAX_ABS,
     as_count,
     as_flag,
     as_matrix,
@@ -40,12 +41,19 @@ from kinserve.kinematics.validation import (
 )
 
 from . import colors
-from .map2d import Rect, as_grid, as_polyline, as_shape
+from .map2d import Rect, as_grid, as_polyline, as_shape, check_text
 
 #: Smallest value drawn on a log axis (exact zeros would vanish).
 LOG_FLOOR = 1e-16
 #: The range of :func:`save_png`'s ``dpi`` (dots per inch).
 MIN_DPI, MAX_DPI = 10, 1200
+
+
+def _check_labels(**labels: object) -> None:
+    """Each keyword argument (an axis label, a title, the units) must be a str: :class:`InputError` naming
+    it (matplotlib would draw ``3``, ``nan`` or ``True`` as the text)."""
+    for name, value in labels.items():
+        check_text(value, name)
 
 
 def _figure(rows: int = 1, size=(7.0, 4.2)):
@@ -81,17 +89,30 @@ def _xvalues(x, n: int, name: str = "x") -> np.ndarray:
     return xs
 
 
+def _samples(values: object, name: str) -> np.ndarray:
+    """``values`` as a float array of numbers with magnitude at most ``MAX_ABS``, where NaN marks a missing
+    sample (drawn as a gap: e.g. a method that stopped earlier than the others); :class:`ShapeError` /
+    :class:`NonFiniteError` naming ``name`` for anything else (text, infinities, huge numbers)."""
+    try:
+        return as_numbers(values, name)
+    except NonFiniteError:
+        arr = np.asarray(values, dtype=float)  # numbers (as_numbers read them), some NaN or out of bounds
+        if np.all(np.isnan(arr) | (np.abs(arr) <= MAX_ABS)):
+            return arr
+        raise
+
+
 def _series(series, name: str) -> list[tuple[str, np.ndarray]]:
     """``[(label, 1-D array)]`` from a dict of arrays or a single ``(N,)``/``(N, k)`` array."""
     if isinstance(series, dict):
         out = []
         for label, v in series.items():
-            arr = as_numbers(v, f"{name}[{label!r}]")
+            arr = _samples(v, f"{name}[{label!r}]")
             if arr.ndim != 1:
                 raise ShapeError(f"{name}[{label!r}] must be 1-D, got shape {arr.shape}")
             out.append((str(label), arr))
         return out
-    arr = as_numbers(series, name)
+    arr = _samples(series, name)
     if arr.ndim == 1:
         return [(name, arr)]
     if arr.ndim == 2:
@@ -119,7 +140,9 @@ def _plot_series(ax, x, series, *, logy: bool, name: str):
 
 def series_figure(x, series, *, xlabel: str = "iteration", ylabel: str = "", title: str = "",
                   logy: bool = False) -> Figure:
-    """Named series (``{label: (N,)}`` or an ``(N, k)`` array) against ``x`` (``(N,)``; default 0..N-1)."""
+    """Named series (``{label: (N,)}`` or an ``(N, k)`` array) against ``x`` (``(N,)``; default 0..N-1).
+    Labels and title are str."""
+    _check_labels(xlabel=xlabel, ylabel=ylabel, title=title)
     fig, (ax,) = _figure()
     _plot_series(ax, x, series, logy=logy, name=ylabel or "y")
     ax.set_xlabel(xlabel)
@@ -162,7 +185,8 @@ def _names(names: object, k: int) -> list[str]:
 def joints_figure(x, Q, names=None, *, limits=None, xlabel: str = "iteration",
                   ylabel: str = "joint value (rad or m)", title: str = "Joint variables") -> Figure:
     """One line per joint of ``Q`` (``(N, nq)``) against ``x``; ``limits=(lower, upper)`` adds dotted
-    lines."""
+    lines. Labels and title are str."""
+    _check_labels(xlabel=xlabel, ylabel=ylabel, title=title)
     fig, (ax,) = _figure()
     _joints(ax, x, Q, names, limits)
     ax.set_xlabel(xlabel)
@@ -174,7 +198,8 @@ def joints_figure(x, Q, names=None, *, limits=None, xlabel: str = "iteration",
 def errors_figure(x, errors, *, xlabel: str = "iteration", ylabel: str = "error (m or rad)",
                   title: str = "Task errors", logy: bool = True, tolerance: float | None = None) -> Figure:
     """Task errors (``{label: (N,)}``) against ``x``; ``|e|`` on a log axis by default; ``tolerance`` as a
-    dashed line."""
+    dashed line (a positive number). Labels and title are str."""
+    _check_labels(xlabel=xlabel, ylabel=ylabel, title=title)
     tolerance = None if tolerance is None else as_positive(tolerance, "tolerance")
     fig, (ax,) = _figure()
     _plot_series(ax, x, errors, logy=logy, name="error")
@@ -189,7 +214,9 @@ def errors_figure(x, errors, *, xlabel: str = "iteration", ylabel: str = "error 
 
 def joints_and_errors_figure(x, Q, errors, names=None, *, limits=None, xlabel: str = "iteration",
                              title: str = "", logy: bool = True) -> Figure:
-    """Two stacked panels sharing ``x``: joint variables (top) and task errors (bottom)."""
+    """Two stacked panels sharing ``x``: joint variables (top) and task errors (bottom). ``xlabel`` and
+    ``title`` are str."""
+    _check_labels(xlabel=xlabel, title=title)
     fig, (top, bottom) = _figure(rows=2, size=(7.0, 6.4))
     _joints(top, x, Q, names, limits)
     top.set_ylabel("joint value (rad or m)")
@@ -204,8 +231,10 @@ def manipulability_figure(x, manipulability, *, threshold: float | None = None, 
                           title: str = "Manipulability along the trajectory") -> Figure:
     """Yoshikawa manipulability ``w = sqrt(det(J J^T))`` (``(N,)`` or ``{label: (N,)}``) against ``x``.
 
-    ``threshold`` draws the singularity warning level and shades the samples below it.
+    ``threshold`` (a number >= 0) draws the singularity warning level and shades the samples below it.
+    ``xlabel`` and ``title`` are str.
     """
+    _check_labels(xlabel=xlabel, title=title)
     threshold = None if threshold is None else as_nonnegative(threshold, "threshold")
     fig, (ax,) = _figure()
     series = manipulability if isinstance(manipulability, dict) else {"w": manipulability}
@@ -225,10 +254,12 @@ def manipulability_figure(x, manipulability, *, threshold: float | None = None, 
 
 def xy_figure(curves, *, points=None, title: str = "", xlabel: str = "x (m)",
               ylabel: str = "y (m)") -> Figure:
-    """Planar curves ``{label: (N, 2)}`` on equal axes; ``points``: ``{label: (x, y)}`` markers."""
-    fig, (ax,) = _figure(size=(6.0, 6.0))
+    """Planar curves ``{label: (N, 2)}`` on equal axes; ``points``: ``{label: (x, y)}`` markers. Labels and
+    title are str."""
+    _check_labels(xlabel=xlabel, ylabel=ylabel, title=title)
     if not isinstance(curves, dict) or not curves:
         raise InputError("curves must be a non-empty dict {label: (N, 2) points}")
+    fig, (ax,) = _figure(size=(6.0, 6.0))
     for i, (label, pts) in enumerate(curves.items()):
         P = as_polyline(pts, f"curves[{label!r}]", dims=(2,))
         ax.plot(P[:, 0], P[:, 1], label=str(label), color=colors.to_rgb(colors.cycle(i)), linewidth=1.6)
@@ -298,7 +329,14 @@ def map_figure(obstacles=(), bounds=None, *, paths=None, waypoints=None, coverag
     """A 2-D map: obstacles (filled), their ``inflate`` margin (hatched outline), the
     coverage grid (green cells), paths (``{label: (N, 2)}``, one line each) and
     waypoints (``{label: (x, y)}``, labelled dots). ``bounds = (xmin, ymin, xmax, ymax)``.
+
+    Accepted: ``obstacles`` None or a list / tuple of shapes (:func:`viz.map2d.as_shape`); ``bounds`` None
+    or four finite numbers with ``xmin < xmax``, ``ymin < ymax``; ``paths`` None, a dict, one ``(N, 2)``
+    array or a sequence of them; ``waypoints`` None, a dict or a sequence of points; ``coverage`` None or a
+    grid (:func:`viz.map2d.as_grid`); ``inflate`` a number in ``[0, 1e6]``; ``title`` and ``units`` str.
+    Anything else raises a kinserve error naming the argument, before anything is drawn.
     """
+    _check_labels(title=title, units=units)
     if obstacles is None:
         obstacles = ()
     if not isinstance(obstacles, (list, tuple)):

@@ -41,7 +41,7 @@ from kinserve.kinematics.validation import as_flag, as_pose, as_vector, describe
 
 from . import colors
 from .camera import CAMERA_FOV_DEG, box_corners, frame_points, view_commands  # noqa: F401 (CAMERA_FOV_DEG re-exported)
-from .map2d import Circle, Rect, as_grid, as_polyline, as_shape
+from .map2d import Circle, Rect, as_grid, as_polyline, as_shape, check_text
 from .skeleton import skeleton_geometry
 
 ROOT = "/meshcat"
@@ -502,13 +502,14 @@ class Scene:
         also records the (hidden) collision geometry; ``color`` (RGBA or any
         colour) overrides the visual colours.
 
-        ``q`` and ``base`` are checked before anything is drawn or registered: a bad ``q`` (wrong
-        shape, NaN, beyond the joint limits' checks of ``robot.check_q``) or ``base`` raises and leaves
-        the scene unchanged, so a retry under the same name works.
+        ``name`` (a str; None for the robot's own name), ``q`` and ``base`` are checked before anything is
+        drawn or registered: a bad ``name``, ``q`` (wrong shape, NaN, beyond the joint limits' checks of
+        ``robot.check_q``) or ``base`` raises and leaves the scene unchanged, so a retry under the same name
+        works.
         """
         q = robot.neutral() if q is None else robot.check_q(q)
         base = None if base is None else as_pose(base, "base")
-        name = name or getattr(robot, "name", "robot")
+        name = check_text(name, "name", optional=True) or getattr(robot, "name", "robot")
         root = self.path(name)
         if not root.startswith(ROOT + "/"):
             raise InputError(f"robot name must be relative to {ROOT} (no leading '/'), got {name!r}")
