@@ -153,3 +153,17 @@ def test_render_refuses_bad_arguments_before_it_starts_a_browser(tmp_path, monke
         with pytest.raises(InputError, match=message):
             viz.page_status(page, **kwargs)
     assert started == []
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda p: viz.Scene(title=3), "title must be a str, got 3"),
+    (lambda p: viz.static_html(viz.Scene(), title=np.zeros(0)), "title must be a str or None"),
+    (lambda p: viz.export_html(viz.Scene(), 3), "path must be a file path"),
+    (lambda p: viz.planar_arm_figure([1.0], {"a": [[0.0]]}, title=True), "title must be a str"),
+])
+def test_titles_and_the_export_path_are_checked(tmp_path, call, message):
+    """``Scene(title=3)`` was shown as "3", an array title raised NumPy's ambiguous-truth error, a number as
+    the export path Python's TypeError."""
+    with pytest.raises(InputError, match=message):
+        call(tmp_path)
+    assert "<title>t &amp; u</title>" in viz.static_html(viz.Scene(), title="t & u")

@@ -33,8 +33,9 @@ import meshcat
 import umsgpack
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_flag
+from kinserve.kinematics.validation import as_flag, describe
 
+from .map2d import check_text
 from .scene import Scene
 
 #: Caption (the page title, then the load status) at the bottom left: near-black text on a
@@ -163,6 +164,7 @@ def static_html(scene: Scene, *, title: str | None = None, compress: bool = True
     """The HTML text of the static export (see the module docstring)."""
     if not isinstance(scene, Scene):
         raise InputError(f"static_html needs a viz.Scene, got {type(scene).__name__}")
+    title = check_text(title, "title", optional=True)
     commands = scene.commands()
     blob = pack_commands(commands)
     if as_flag(compress, "compress"):
@@ -187,8 +189,11 @@ def export_html(scene: Scene, path, *, title: str | None = None, compress: bool 
     """Write the scene as a self-contained static HTML file at ``path``; returns the path.
 
     The file opens offline in a browser (``file://``), shows the scene with
-    meshcat's orbit controls, and plays the scene's animation.
+    meshcat's orbit controls, and plays the scene's animation. ``path``: a ``str`` or ``os.PathLike``;
+    ``title``: None (the scene's) or a str (:class:`InputError` otherwise).
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(f"export_html: path must be a file path (str or os.PathLike), got {describe(path)}")
     path = Path(path)
     if path.parent and not path.parent.exists():
         os.makedirs(path.parent, exist_ok=True)

@@ -414,6 +414,7 @@ def planar_arm_figure(link_lengths, branches, *, target=None, base=(0.0, 0.0),
     Legend entries read ``label (M)``, ``M`` the branch's number of configurations;
     ``count_in_label=False`` keeps the labels as given (they state their own counts).
     """
+    _check_labels(title=title)
     if not isinstance(branches, dict) or not branches:
         raise InputError("branches must be a non-empty dict {label: (M, n) joint angles}")
     lengths = as_matrix(link_lengths, (-1,), "link_lengths")

@@ -189,7 +189,7 @@ class Scene:
     """
 
     def __init__(self, title: str = "kinserve", *, grid: bool = True, axes: bool = False):
-        self.title = str(title)
+        self.title = check_text(title, "title")
         self._tree = _Node()
         self._animation: dict | None = None
         self._camera: tuple[np.ndarray, np.ndarray] | None = None
