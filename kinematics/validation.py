@@ -390,6 +390,14 @@ def as_flag(value: object, name: str) -> bool:
     raise InputError(f"{name} must be True or False, got {describe(value)}")
 
 
+def as_text(value: object, name: str, optional: bool = False) -> str | None:
+    """``value`` if it is a str (or None when ``optional``); else :class:`InputError` naming ``name``: names,
+    labels and titles (a number or an array would be shown as its ``str`` or fail in the caller)."""
+    if isinstance(value, str) or (optional and value is None):
+        return value
+    raise InputError(f"{name} must be a str{' or None' if optional else ''}, got {describe(value)}")
+
+
 def as_choice(value: object, name: str, choices: Sequence[object]) -> Any:
     """The entry of ``choices`` (strings, None, ...) that ``value`` is - equal and of the same type, so an
     array, a list or ``1`` for ``True`` is never compared by ``==`` or hashed - else :class:`InputError`

@@ -50,11 +50,12 @@ from kinserve.kinematics.validation import (
     as_pose,
     as_positive,
     as_real,
+    as_text,
     as_vector,
     describe,
 )
 
-from .urdf_loader import UrdfSource, check_task_axes, check_text, load_urdf, parse_xml, validate_urdf
+from .urdf_loader import UrdfSource, check_task_axes, load_urdf, parse_xml, validate_urdf
 
 #: Default limits of a revolute joint when none are given (rad).
 DEFAULT_REVOLUTE_LIMITS = (-math.pi, math.pi)
@@ -518,7 +519,7 @@ def from_dh(
     (:func:`~robots.urdf_loader.check_task_axes`), ``geometry`` is True or False (:class:`InputError`
     otherwise, before anything is built).
     """
-    description, geometry = check_text(description, "description"), as_flag(geometry, "geometry")
+    description, geometry = as_text(description, "description"), as_flag(geometry, "geometry")
     task_axes = check_task_axes(task_axes)
     xml = _urdf_text(_check_chain(rows, joint_types, lower, upper, name, base, tool, tip_name, joint_names,
                                   velocity, effort, radius))

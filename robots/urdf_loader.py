@@ -61,7 +61,7 @@ from kinserve.kinematics.geometry_reader import GeometryReader
 from kinserve.kinematics.mesh_hulls import coal_message
 from kinserve.kinematics.robot import Robot, axis_rows
 from kinserve.kinematics.task_axes import detect_task_axes
-from kinserve.kinematics.validation import as_flag
+from kinserve.kinematics.validation import as_flag, as_text
 from kinserve.kinematics.validation import describe as describe_value
 
 from .mesh_resolver import PLACEHOLDER_RADIUS, MeshResolver, MissingMeshWarning, check_package_dirs
@@ -285,13 +285,6 @@ def check_tip(tip: object) -> str | None:
     raise InputError(f"tip must be None or the name of a frame (a str), got {describe_value(tip)}")
 
 
-def check_text(value: object, name: str, optional: bool = False) -> str | None:
-    """``value`` if it is a str (or None when ``optional``); else :class:`InputError` naming ``name``."""
-    if isinstance(value, str) or (optional and value is None):
-        return value
-    raise InputError(f"{name} must be a str{' or None' if optional else ''}, got {describe_value(value)}")
-
-
 def check_task_axes(task_axes: object) -> tuple[str, ...] | None:
     """``task_axes`` as a tuple of task component names (``phi`` read as ``yaw``), or None (detect them).
 
@@ -321,9 +314,9 @@ def check_loader_options(tip: object, name: object, description: object, locked_
                          package_dirs: object, task_axes: object, geometry: object, allow_outside: object
                          ) -> tuple:
     """The options of :func:`load_urdf` and :func:`~robots.xacro_loader.load_xacro`, checked (in this order)
-    before any model is read: :func:`check_tip`, :func:`check_text`, :func:`check_joint_values`,
+    before any model is read: :func:`check_tip`, ``as_text``, :func:`check_joint_values`,
     :func:`~robots.mesh_resolver.check_package_dirs`, :func:`check_task_axes`, ``as_flag``."""
-    return (check_tip(tip), check_text(name, "name", optional=True), check_text(description, "description"),
+    return (check_tip(tip), as_text(name, "name", optional=True), as_text(description, "description"),
             check_joint_values(locked_joints), check_package_dirs(package_dirs), check_task_axes(task_axes),
             as_flag(geometry, "geometry"), as_flag(allow_outside, "allow_outside"))
 

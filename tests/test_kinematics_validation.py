@@ -211,3 +211,12 @@ def test_as_robot_names_what_it_got_and_how_to_load_it():
         as_robot("panda")
     with pytest.raises(InputError, match=r"^arm must be a kinserve Robot .*got None$"):
         as_robot(None, "arm")
+
+
+@pytest.mark.parametrize("value", [3, None, np.zeros(0), b"x", ["a"]])
+def test_as_text_takes_a_str_only(value):
+    from kinserve.kinematics.validation import as_text
+
+    with pytest.raises(InputError, match=r"^title must be a str, got "):
+        as_text(value, "title")
+    assert as_text("", "title") == "" and as_text(None, "title", optional=True) is None

@@ -33,9 +33,8 @@ import meshcat
 import umsgpack
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_flag, describe
+from kinserve.kinematics.validation import as_flag, as_text, describe
 
-from .map2d import check_text
 from .scene import Scene
 
 #: Caption (the page title, then the load status) at the bottom left: near-black text on a
@@ -164,7 +163,7 @@ def static_html(scene: Scene, *, title: str | None = None, compress: bool = True
     """The HTML text of the static export (see the module docstring)."""
     if not isinstance(scene, Scene):
         raise InputError(f"static_html needs a viz.Scene, got {type(scene).__name__}")
-    title = check_text(title, "title", optional=True)
+    title = as_text(title, "title", optional=True)
     commands = scene.commands()
     blob = pack_commands(commands)
     if as_flag(compress, "compress"):

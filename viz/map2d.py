@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from kinserve.kinematics.errors import InputError, ShapeError
-from kinserve.kinematics.validation import as_matrix, as_numbers, as_positive, as_real, describe
+from kinserve.kinematics.validation import as_matrix, as_numbers, as_positive, as_real, as_text, describe
 
 
 @dataclass(frozen=True)
@@ -38,7 +38,7 @@ class Rect:
     def __post_init__(self):
         for field in ("xmin", "ymin", "xmax", "ymax"):
             object.__setattr__(self, field, as_real(getattr(self, field), f"Rect {field}"))
-        check_text(self.name, "Rect name")
+        as_text(self.name, "Rect name")
         if not (self.xmin < self.xmax and self.ymin < self.ymax):
             raise InputError(f"Rect needs xmin < xmax and ymin < ymax, got ({self.xmin}, "
                              f"{self.ymin})-({self.xmax}, {self.ymax})")
@@ -67,7 +67,7 @@ class Circle:
         object.__setattr__(self, "cx", as_real(self.cx, "Circle cx"))
         object.__setattr__(self, "cy", as_real(self.cy, "Circle cy"))
         object.__setattr__(self, "r", as_positive(self.r, "Circle radius"))
-        check_text(self.name, "Circle name")
+        as_text(self.name, "Circle name")
 
     @property
     def center(self) -> tuple[float, float]:
@@ -132,14 +132,6 @@ def _mask(value: object) -> np.ndarray:
     if mask is None or mask.ndim != 2 or mask.dtype.kind not in "biuf":
         raise ShapeError(f"a grid mask must be a 2-D boolean grid (rows along y), got {describe(value)}")
     return mask.astype(bool)
-
-
-def check_text(value: object, name: str, optional: bool = False) -> str | None:
-    """``value`` if it is a str (or None when ``optional``); else :class:`InputError` naming ``name``. The one
-    check of viz's text arguments: shape names, axis labels, titles, units, node names."""
-    if isinstance(value, str) or (optional and value is None):
-        return value
-    raise InputError(f"{name} must be a str{' or None' if optional else ''}, got {describe(value)}")
 
 
 def as_shape(obj) -> Rect | Circle:

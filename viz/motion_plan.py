@@ -38,12 +38,11 @@ import numpy as np
 from kinserve.kinematics.errors import InputError
 from kinserve.kinematics.robot import Robot, as_robot
 from kinserve.kinematics.shapes import Shape, as_obstacles
-from kinserve.kinematics.validation import as_matrix, as_positive
+from kinserve.kinematics.validation import as_matrix, as_positive, as_text
 
 from . import colors
 from .animation import MAX_FPS, MAX_FRAMES, Animation
 from .collision_drawing import draw_shape
-from .map2d import check_text
 from .scene import Scene, check_opacity
 
 #: Samples of the motion (at most) whose carried-object poses enter the scene's extent (camera framing).
@@ -164,7 +163,7 @@ def motion_plan_scene(robot: Robot, plan: Any, obstacles: Any = (), frame: str |
     robot = as_robot(robot)
     shapes = as_obstacles(obstacles)
     obstacle_opacity = check_opacity(obstacle_opacity, "obstacle_opacity")
-    title, name = check_text(title, "title", optional=True), check_text(name, "name", optional=True)
+    title, name = as_text(title, "title", optional=True), as_text(name, "name", optional=True)
     for color, argument in ((obstacle_color, "obstacle_color"), (path_color, "path_color"),
                             (attached_color, "attached_color")):
         _check_color(color, argument)

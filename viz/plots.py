@@ -37,11 +37,12 @@ from kinserve.kinematics.validation import (
     as_nonnegative,
     as_numbers,
     as_positive,
+    as_text,
     describe,
 )
 
 from . import colors
-from .map2d import Rect, as_grid, as_polyline, as_shape, check_text
+from .map2d import Rect, as_grid, as_polyline, as_shape
 
 #: Smallest value drawn on a log axis (exact zeros would vanish).
 LOG_FLOOR = 1e-16
@@ -53,7 +54,7 @@ def _check_labels(**labels: object) -> None:
     """Each keyword argument (an axis label, a title, the units) must be a str: :class:`InputError` naming
     it (matplotlib would draw ``3``, ``nan`` or ``True`` as the text)."""
     for name, value in labels.items():
-        check_text(value, name)
+        as_text(value, name)
 
 
 def _figure(rows: int = 1, size=(7.0, 4.2)):

@@ -37,11 +37,11 @@ import pinocchio as pin
 from pinocchio.visualize import MeshcatVisualizer
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_flag, as_pose, as_vector, describe
+from kinserve.kinematics.validation import as_flag, as_pose, as_text, as_vector, describe
 
 from . import colors
 from .camera import CAMERA_FOV_DEG, box_corners, frame_points, view_commands  # noqa: F401 (CAMERA_FOV_DEG re-exported)
-from .map2d import Circle, Rect, as_grid, as_polyline, as_shape, check_text
+from .map2d import Circle, Rect, as_grid, as_polyline, as_shape
 from .skeleton import skeleton_geometry
 
 ROOT = "/meshcat"
@@ -189,7 +189,7 @@ class Scene:
     """
 
     def __init__(self, title: str = "kinserve", *, grid: bool = True, axes: bool = False):
-        self.title = check_text(title, "title")
+        self.title = as_text(title, "title")
         self._tree = _Node()
         self._animation: dict | None = None
         self._camera: tuple[np.ndarray, np.ndarray] | None = None
@@ -509,7 +509,7 @@ class Scene:
         """
         q = robot.neutral() if q is None else robot.check_q(q)
         base = None if base is None else as_pose(base, "base")
-        name = check_text(name, "name", optional=True) or getattr(robot, "name", "robot")
+        name = as_text(name, "name", optional=True) or getattr(robot, "name", "robot")
         root = self.path(name)
         if not root.startswith(ROOT + "/"):
             raise InputError(f"robot name must be relative to {ROOT} (no leading '/'), got {name!r}")
