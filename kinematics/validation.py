@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -396,6 +398,14 @@ def as_text(value: object, name: str, optional: bool = False) -> str | None:
     if isinstance(value, str) or (optional and value is None):
         return value
     raise InputError(f"{name} must be a str{' or None' if optional else ''}, got {describe(value)}")
+
+
+def as_path(value: object, name: str = "path") -> Path:
+    """``value`` (a ``str`` or ``os.PathLike``) as a :class:`~pathlib.Path`; :class:`InputError` naming
+    ``name`` for anything else (a number, None, bytes)."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise InputError(f"{name} must be a file path (str or os.PathLike), got {describe(value)}")
+    return Path(value)
 
 
 def as_choice(value: object, name: str, choices: Sequence[object]) -> Any:

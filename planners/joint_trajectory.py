@@ -35,6 +35,7 @@ from kinserve.kinematics.validation import (
     as_count,
     as_flag,
     as_matrix,
+    as_path,
     as_positive,
     describe,
 )
@@ -80,14 +81,6 @@ def joint_name_list(joint_names: object) -> list:
                                                                                          "__iter__"):
         raise InputError(f"joint_names must be a sequence of joint names (strings), got {joint_names!r:.80}")
     return list(joint_names)
-
-
-def _file_path(path: object, name: str = "path") -> Path:
-    """``path`` (a ``str`` or ``os.PathLike``) as a :class:`Path`; :class:`InputError` naming ``name`` for
-    anything else (a number, None, bytes)."""
-    if not isinstance(path, (str, os.PathLike)):
-        raise InputError(f"{name} must be a file path (str or os.PathLike), got {describe(path)}")
-    return Path(path)
 
 
 def _source_text(source: object, kinds: tuple[type, ...], what: str, is_text) -> str | bytes:
@@ -251,7 +244,7 @@ class JointTrajectory:
         ``path``: None, a ``str`` or an ``os.PathLike``; ``indent``: None (one line) or an integer from 0 to
         :data:`MAX_INDENT` (spaces per level). Anything else is refused (:class:`InputError`)."""
         indent = None if indent is None else as_count(indent, "indent", 0, MAX_INDENT)
-        file = None if path is None else _file_path(path)
+        file = None if path is None else as_path(path)
         text = json.dumps(self.to_dict(), indent=indent)
         if file is not None:
             file.write_text(text)
@@ -293,7 +286,7 @@ class JointTrajectory:
     def to_csv(self, path: str | os.PathLike | None = None) -> str:
         """CSV text (see the module docstring); also written to ``path`` (None, a ``str`` or an
         ``os.PathLike``; :class:`InputError` otherwise) if given."""
-        file = None if path is None else _file_path(path)
+        file = None if path is None else as_path(path)
         header = ["time_from_start"] + [f"position:{n}" for n in self.joint_names]
         blocks = [self.times[:, None], self.positions]
         if self.velocities is not None:
@@ -352,7 +345,7 @@ class JointTrajectory:
     # ------------------------------------------------------------- save/load
     def save(self, path: str | os.PathLike) -> Path:
         """Write ``.json`` or ``.csv`` by the file's extension (``path``: a ``str`` or ``os.PathLike``)."""
-        path = _file_path(path)
+        path = as_path(path)
         if path.suffix.lower() == ".json":
             self.to_json(path, indent=1)
         elif path.suffix.lower() == ".csv":
@@ -365,7 +358,7 @@ class JointTrajectory:
     def load(cls, path: str | os.PathLike) -> JointTrajectory:
         """Read a ``.json`` or ``.csv`` file written by :meth:`save` (or by hand); ``path``: a ``str`` or
         ``os.PathLike``."""
-        path = _file_path(path)
+        path = as_path(path)
         if path.suffix.lower() == ".json":
             return cls.from_json(path)
         if path.suffix.lower() == ".csv":

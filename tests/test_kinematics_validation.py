@@ -220,3 +220,12 @@ def test_as_text_takes_a_str_only(value):
     with pytest.raises(InputError, match=r"^title must be a str, got "):
         as_text(value, "title")
     assert as_text("", "title") == "" and as_text(None, "title", optional=True) is None
+
+
+@pytest.mark.parametrize("value", [3, None, b"/tmp/x", ["a"]])
+def test_as_path_takes_a_str_or_a_path_like(value, tmp_path):
+    from kinserve.kinematics.validation import as_path
+
+    with pytest.raises(InputError, match=r"^out must be a file path \(str or os.PathLike\), got "):
+        as_path(value, "out")
+    assert as_path(str(tmp_path), "out") == tmp_path and as_path(tmp_path / "a.json") == tmp_path / "a.json"

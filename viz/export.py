@@ -33,7 +33,7 @@ import meshcat
 import umsgpack
 
 from kinserve.kinematics.errors import InputError
-from kinserve.kinematics.validation import as_flag, as_text, describe
+from kinserve.kinematics.validation import as_flag, as_path, as_text
 
 from .scene import Scene
 
@@ -191,9 +191,7 @@ def export_html(scene: Scene, path, *, title: str | None = None, compress: bool 
     meshcat's orbit controls, and plays the scene's animation. ``path``: a ``str`` or ``os.PathLike``;
     ``title``: None (the scene's) or a str (:class:`InputError` otherwise).
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise InputError(f"export_html: path must be a file path (str or os.PathLike), got {describe(path)}")
-    path = Path(path)
+    path = as_path(path, "export_html: path")
     if path.parent and not path.parent.exists():
         os.makedirs(path.parent, exist_ok=True)
     text = static_html(scene, title=title, compress=compress)

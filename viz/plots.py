@@ -36,6 +36,7 @@ from kinserve.kinematics.validation import (
     as_matrix,
     as_nonnegative,
     as_numbers,
+    as_path,
     as_positive,
     as_text,
     describe,
@@ -70,10 +71,8 @@ def save_png(fig: Figure, path: str | os.PathLike, dpi: int = 120) -> Path:
     path. :class:`InputError` for anything else."""
     if not isinstance(fig, Figure):
         raise InputError(f"save_png needs a matplotlib Figure, got {type(fig).__name__}")
-    if not isinstance(path, (str, os.PathLike)):
-        raise InputError(f"save_png: path must be a file path (str or os.PathLike), got {describe(path)}")
+    path = as_path(path, "save_png: path")
     dpi = as_count(dpi, "dpi", minimum=MIN_DPI, maximum=MAX_DPI)
-    path = Path(path)
     if path.suffix.lower() != ".png":
         raise InputError(f"save_png writes PNG files; the path must end in .png, got {str(path)!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
